@@ -1,0 +1,327 @@
+//! Differentiation, substitution, expansion and reference evaluation on the DAG.
+//!
+//! Each traversal memoises per node, so shared subterms are visited once and results stay shared.
+
+use crate::number::Number;
+use crate::pool::{Id, Node, Pool, Symbol};
+use crate::rules::{Func, Func2};
+use std::collections::HashMap;
+use thiserror::Error;
+
+/// Evaluation failed because a symbol had no value.
+#[derive(Debug, Clone, PartialEq, Eq, Error)]
+#[error("no value for symbol `{0}`")]
+pub struct UnboundSymbol(pub String);
+
+/// Result of [`Pool::expand`] when the expansion would exceed its term limit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Error)]
+#[error("expansion exceeds {0} terms")]
+pub struct ExpansionTooLarge(pub usize);
+
+/// Hard limit on the number of terms [`Pool::expand`] may produce.
+pub const EXPAND_TERM_LIMIT: usize = 20_000;
+
+impl Pool {
+    /// d e / d x, by the rules of differential calculus applied node by node (chain rule):
+    ///
+    /// * (Σ uᵢ)' = Σ uᵢ',  (Π uᵢ)' = Σᵢ uᵢ' Πⱼ≠ᵢ uⱼ;
+    /// * (u^c)' = c u^(c−1) u' for u-free c; (c^v)' = c^v log(c) v'; in general
+    ///   (u^v)' = u^v (v' log u + v u'/u);
+    /// * exp' = exp, log' = 1/u, sin' = cos, cos' = −sin, tan' = 1 + tan², sinh' = cosh, cosh' = sinh,
+    ///   tanh' = 1 − tanh², atan' = 1/(1 + u²), abs' = sign, sign' = 0 (almost everywhere);
+    /// * min(a, b) = (a + b − |a − b|)/2 and max(a, b) = (a + b + |a − b|)/2 differentiated as such.
+    pub fn diff(&mut self, e: Id, x: Symbol) -> Id {
+        let mut memo = HashMap::new();
+        self.diff_memo(e, x, &mut memo)
+    }
+
+    fn diff_memo(&mut self, e: Id, x: Symbol, memo: &mut HashMap<Id, Id>) -> Id {
+        if !self.depends_on(e, x) {
+            return self.zero();
+        }
+        if let Some(&d) = memo.get(&e) {
+            return d;
+        }
+        let d = match self.node(e).clone() {
+            Node::Num(_) | Node::Pi => self.zero(),
+            Node::Sym(s) => {
+                if s == x {
+                    self.one()
+                } else {
+                    self.zero()
+                }
+            }
+            Node::Add(ts) => {
+                let ds: Vec<Id> = ts.iter().map(|&t| self.diff_memo(t, x, memo)).collect();
+                self.add(&ds)
+            }
+            Node::Mul(fs) => {
+                let mut terms = Vec::with_capacity(fs.len());
+                for i in 0..fs.len() {
+                    if !self.depends_on(fs[i], x) {
+                        continue;
+                    }
+                    let di = self.diff_memo(fs[i], x, memo);
+                    let mut prod: Vec<Id> = Vec::with_capacity(fs.len());
+                    prod.push(di);
+                    prod.extend(fs.iter().enumerate().filter(|(j, _)| *j != i).map(|(_, &f)| f));
+                    terms.push(self.mul(&prod));
+                }
+                self.add(&terms)
+            }
+            Node::Pow(b, p) => {
+                let db = self.diff_memo(b, x, memo);
+                if !self.depends_on(p, x) {
+                    // c u^(c−1) u'
+                    let m1 = self.int(-1);
+                    let pm1 = self.add(&[p, m1]);
+                    let bp = self.pow(b, pm1);
+                    self.mul(&[p, bp, db])
+                } else {
+                    let dp = self.diff_memo(p, x, memo);
+                    let lb = self.call(Func::Log, b);
+                    let t1 = self.mul(&[dp, lb]);
+                    let rb = self.recip(b);
+                    let t2 = self.mul(&[p, db, rb]);
+                    let s = self.add(&[t1, t2]);
+                    self.mul(&[e, s])
+                }
+            }
+            Node::Call(f, a) => {
+                let da = self.diff_memo(a, x, memo);
+                let outer = match f {
+                    Func::Exp => e,
+                    Func::Log => self.recip(a),
+                    Func::Sin => self.call(Func::Cos, a),
+                    Func::Cos => {
+                        let s = self.call(Func::Sin, a);
+                        self.neg(s)
+                    }
+                    Func::Tan => {
+                        let one = self.one();
+                        let t2 = self.powi(e, 2);
+                        self.add(&[one, t2])
+                    }
+                    Func::Sinh => self.call(Func::Cosh, a),
+                    Func::Cosh => self.call(Func::Sinh, a),
+                    Func::Tanh => {
+                        let one = self.one();
+                        let t2 = self.powi(e, 2);
+                        let mt2 = self.neg(t2);
+                        self.add(&[one, mt2])
+                    }
+                    Func::Atan => {
+                        let one = self.one();
+                        let a2 = self.powi(a, 2);
+                        let s = self.add(&[one, a2]);
+                        self.recip(s)
+                    }
+                    Func::Abs => self.call(Func::Sign, a),
+                    Func::Sign => self.zero(),
+                };
+                self.mul(&[outer, da])
+            }
+            Node::Call2(f, a, b) => {
+                let da = self.diff_memo(a, x, memo);
+                let db = self.diff_memo(b, x, memo);
+                let amb = self.sub(a, b);
+                let sg = self.call(Func::Sign, amb);
+                let dd = self.sub(da, db);
+                let sdd = self.mul(&[sg, dd]);
+                let s = self.add(&[da, db]);
+                let half = self.rational(1, 2);
+                let r = match f {
+                    Func2::Min => self.sub(s, sdd),
+                    Func2::Max => self.add(&[s, sdd]),
+                };
+                self.mul(&[half, r])
+            }
+        };
+        memo.insert(e, d);
+        d
+    }
+
+    /// Simultaneous substitution of symbols by expressions, rebuilt in canonical form.
+    pub fn substitute(&mut self, e: Id, map: &HashMap<Symbol, Id>) -> Id {
+        let keys: Vec<Symbol> = map.keys().copied().collect();
+        let mut memo = HashMap::new();
+        self.subs_memo(e, map, &keys, &mut memo)
+    }
+
+    fn subs_memo(&mut self, e: Id, map: &HashMap<Symbol, Id>, keys: &[Symbol], memo: &mut HashMap<Id, Id>) -> Id {
+        if !self.depends_on_any(e, keys) {
+            return e;
+        }
+        if let Some(&r) = memo.get(&e) {
+            return r;
+        }
+        let node = self.node(e).clone();
+        let r = match node {
+            Node::Sym(s) => map.get(&s).copied().unwrap_or(e),
+            _ => {
+                let kids: Vec<Id> = self.children(e).into_iter().map(|c| self.subs_memo(c, map, keys, memo)).collect();
+                self.rebuild(&node, &kids)
+            }
+        };
+        memo.insert(e, r);
+        r
+    }
+
+    /// Distribute products over sums and expand positive integer powers of sums (up to
+    /// [`EXPAND_TERM_LIMIT`] terms). Function arguments are expanded too.
+    pub fn expand(&mut self, e: Id) -> Result<Id, ExpansionTooLarge> {
+        let mut memo = HashMap::new();
+        self.expand_memo(e, &mut memo)
+    }
+
+    fn terms_of(&self, e: Id) -> Vec<Id> {
+        match self.node(e) {
+            Node::Add(ts) => ts.to_vec(),
+            _ => vec![e],
+        }
+    }
+
+    fn expand_product(&mut self, a: Id, b: Id) -> Result<Id, ExpansionTooLarge> {
+        let (ta, tb) = (self.terms_of(a), self.terms_of(b));
+        if ta.len() * tb.len() > EXPAND_TERM_LIMIT {
+            return Err(ExpansionTooLarge(EXPAND_TERM_LIMIT));
+        }
+        let mut out = Vec::with_capacity(ta.len() * tb.len());
+        for &x in &ta {
+            for &y in &tb {
+                out.push(self.mul(&[x, y]));
+            }
+        }
+        Ok(self.add(&out))
+    }
+
+    fn expand_memo(&mut self, e: Id, memo: &mut HashMap<Id, Id>) -> Result<Id, ExpansionTooLarge> {
+        if let Some(&r) = memo.get(&e) {
+            return Ok(r);
+        }
+        let node = self.node(e).clone();
+        let r = match node {
+            Node::Num(_) | Node::Pi | Node::Sym(_) => e,
+            Node::Add(ts) => {
+                let mut out = Vec::with_capacity(ts.len());
+                for &t in ts.iter() {
+                    out.push(self.expand_memo(t, memo)?);
+                }
+                self.add(&out)
+            }
+            Node::Mul(fs) => {
+                let mut acc = self.one();
+                for &f in fs.iter() {
+                    let ef = self.expand_memo(f, memo)?;
+                    acc = self.expand_product(acc, ef)?;
+                }
+                acc
+            }
+            Node::Pow(b, p) => {
+                let eb = self.expand_memo(b, memo)?;
+                let ep = self.expand_memo(p, memo)?;
+                match self.as_number(ep).and_then(|n| n.as_integer()) {
+                    Some(k) if (2..=32).contains(&k) && matches!(self.node(eb), Node::Add(_)) => {
+                        let mut acc = eb;
+                        for _ in 1..k {
+                            acc = self.expand_product(acc, eb)?;
+                        }
+                        acc
+                    }
+                    _ => self.pow(eb, ep),
+                }
+            }
+            Node::Call(f, a) => {
+                let ea = self.expand_memo(a, memo)?;
+                self.call(f, ea)
+            }
+            Node::Call2(f, a, b) => {
+                let (ea, eb) = (self.expand_memo(a, memo)?, self.expand_memo(b, memo)?);
+                self.call2(f, ea, eb)
+            }
+        };
+        memo.insert(e, r);
+        Ok(r)
+    }
+
+    /// Evaluate in f64 with `value(symbol)` giving every free symbol's value. A reference implementation
+    /// (memoised recursion), independent of the [`crate::Tape`].
+    pub fn eval_with(&self, e: Id, value: &dyn Fn(Symbol) -> Option<f64>) -> Result<f64, UnboundSymbol> {
+        let mut memo: HashMap<Id, f64> = HashMap::new();
+        for id in self.topological(&[e]) {
+            let v = match self.node(id) {
+                Node::Num(n) => n.to_f64(),
+                Node::Pi => std::f64::consts::PI,
+                Node::Sym(s) => value(*s).ok_or_else(|| UnboundSymbol(self.symbol_name(*s).to_string()))?,
+                Node::Add(ts) => ts.iter().map(|t| memo[t]).sum(),
+                Node::Mul(fs) => fs.iter().map(|f| memo[f]).product(),
+                Node::Pow(b, p) => pow_f64(memo[b], self.as_number(*p), memo[p]),
+                Node::Call(f, a) => f.eval(memo[a]),
+                Node::Call2(f, a, b) => f.eval(memo[a], memo[b]),
+            };
+            memo.insert(id, v);
+        }
+        Ok(memo[&e])
+    }
+
+    /// Evaluate with symbol values from a map.
+    pub fn eval(&self, e: Id, values: &HashMap<Symbol, f64>) -> Result<f64, UnboundSymbol> {
+        self.eval_with(e, &|s| values.get(&s).copied())
+    }
+}
+
+/// b^p in f64 as every evaluator in invsim computes it: integer exponents by `powi`, ½ by `sqrt`,
+/// anything else by `powf`.
+pub fn pow_f64(b: f64, exact: Option<Number>, p: f64) -> f64 {
+    match exact {
+        Some(n) if n.as_integer().is_some_and(|k| k.abs() <= i32::MAX as i128) => b.powi(p as i32),
+        Some(n) if n == Number::ratio(1, 2) => b.sqrt(),
+        Some(n) if n == Number::ratio(-1, 2) => 1.0 / b.sqrt(),
+        _ => b.powf(p),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn derivatives_of_known_functions() {
+        let mut p = Pool::new();
+        let x = p.symbol("x");
+        for (f, d) in [
+            ("x^3", "3*x^2"),
+            ("sin(x)^2", "2*cos(x)*sin(x)"),
+            ("exp(2*x)", "2*exp(2*x)"),
+            ("log(x)", "1/x"),
+            ("atan(x)", "1/(1 + x^2)"),
+            ("x^1.8", "1.8*x^0.8"),
+            ("a^x", "a^x*log(a)"),
+        ] {
+            let e = p.parse(f).unwrap();
+            let de = p.diff(e, x);
+            let want = p.parse(d).unwrap();
+            assert_eq!(de, want, "d/dx {f} = {} (want {d})", p.display(de));
+        }
+    }
+
+    #[test]
+    fn expansion_cancels() {
+        let mut p = Pool::new();
+        let e = p.parse("(x + 1)^2 - x^2 - 2*x - 1").unwrap();
+        assert!(!p.is_zero(e));
+        let ex = p.expand(e).unwrap();
+        assert!(p.is_zero(ex), "{}", p.display(ex));
+    }
+
+    #[test]
+    fn substitution_is_simultaneous() {
+        let mut p = Pool::new();
+        let e = p.parse("x + 2*y").unwrap();
+        let (x, y) = (p.symbol("x"), p.symbol("y"));
+        let (sx, sy) = (p.var(x), p.var(y));
+        let map = HashMap::from([(x, sy), (y, sx)]);
+        let r = p.substitute(e, &map);
+        assert_eq!(r, p.parse("y + 2*x").unwrap());
+    }
+}

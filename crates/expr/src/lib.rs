@@ -1,0 +1,30 @@
+//! invsim's symbolic expression engine: a hash-consed DAG of canonical expressions with a parser and
+//! printers for the model-file language, symbolic differentiation, substitution, a zero test and a
+//! compiler to a flat evaluation tape.
+//!
+//! ```
+//! use invsim_expr::{Pool, Tape};
+//! let mut pool = Pool::new();
+//! let e = pool.parse("c1*v^2 + c3*p_i").unwrap();
+//! let v = pool.symbol("v");
+//! let dv = pool.diff(e, v);
+//! assert_eq!(pool.display(dv), "2*c1*v");
+//! ```
+
+pub mod calculus;
+pub mod number;
+pub mod parse;
+pub mod pool;
+pub mod print;
+pub mod rules;
+pub mod tape;
+pub mod zero;
+
+pub use calculus::{pow_f64, ExpansionTooLarge, UnboundSymbol, EXPAND_TERM_LIMIT};
+pub use number::Number;
+pub use parse::{parse, Ast, AstKind, BinOp, ParseError, FUNCTIONS, NON_SMOOTH_FUNCTIONS};
+pub use pool::{Id, Node, Pool, Symbol};
+pub use print::latex_symbol;
+pub use rules::{Func, Func2, FunctionRule, Rewrite, FUNCTION_RULES};
+pub use tape::{Instr, Tape};
+pub use zero::{zero_test, DecidedBy, Rng, ZeroVerdict};

@@ -1,0 +1,625 @@
+//! The hash-consed expression DAG and its canonicalising constructors.
+//!
+//! Every expression lives in a [`Pool`] as an interned [`Node`]; an [`Id`] names it. Structurally equal
+//! expressions get the same `Id` (O(1) equality), and shared subterms are stored once. Construction goes
+//! through canonicalising constructors (`add`, `mul`, `pow`, `call`) in the style of Cohen's *automatic
+//! simplification* (Cohen, *Computer Algebra and Symbolic Computation: Mathematical Methods*, 2003, ch. 3):
+//!
+//! * sums and products are flattened and sorted, with at most one numeric term / coefficient (exact rationals);
+//! * like terms are merged (`2x + 3x → 5x`) and like powers combined (`x·x → x^2`, `x^a·x^b → x^(a+b)`);
+//! * identities: `x + 0`, `1·x`, `0·x`, `x^0`, `x^1`, `1^x`, `(x^a)^n → x^(a·n)` for integer n,
+//!   `(x·y)^n → x^n·y^n` for integer n, numeric coefficients distributed over sums (`2(x+y) → 2x + 2y`);
+//! * the function identities in [`crate::rules::FUNCTION_RULES`] (kept as data).
+//!
+//! Nothing here expands products of sums, so expressions never blow up; see [`Pool::expand`] for that.
+
+use crate::number::Number;
+use crate::rules::{self, Func, Func2};
+use std::cmp::Ordering;
+use std::collections::HashMap;
+
+/// Handle of an interned expression in a [`Pool`].
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, PartialOrd, Ord)]
+pub struct Id(pub(crate) u32);
+
+impl Id {
+    /// Position of the node in the pool (creation order).
+    pub fn index(self) -> usize {
+        self.0 as usize
+    }
+}
+
+/// Handle of an interned symbol name.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, PartialOrd, Ord)]
+pub struct Symbol(pub(crate) u32);
+
+/// One node of the DAG. Children are [`Id`]s into the same pool.
+#[derive(Clone, PartialEq, Eq, Hash, Debug)]
+pub enum Node {
+    Num(Number),
+    /// The constant π.
+    Pi,
+    Sym(Symbol),
+    /// n-ary sum, n ≥ 2, canonical order, numeric term (if any) first.
+    Add(Box<[Id]>),
+    /// n-ary product, n ≥ 2, canonical order, numeric coefficient (if any) first.
+    Mul(Box<[Id]>),
+    Pow(Id, Id),
+    Call(Func, Id),
+    Call2(Func2, Id, Id),
+}
+
+/// An arena of interned expressions and symbols.
+#[derive(Clone, Default)]
+pub struct Pool {
+    nodes: Vec<Node>,
+    /// Sorted, deduplicated free symbols of each node.
+    free: Vec<Box<[Symbol]>>,
+    index: HashMap<Node, Id>,
+    symbols: Vec<String>,
+    symbol_index: HashMap<String, Symbol>,
+}
+
+impl std::fmt::Debug for Pool {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Pool({} nodes, {} symbols)", self.nodes.len(), self.symbols.len())
+    }
+}
+
+impl Pool {
+    pub fn new() -> Pool {
+        Pool::default()
+    }
+
+    /// Number of distinct nodes ever interned.
+    pub fn len(&self) -> usize {
+        self.nodes.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.nodes.is_empty()
+    }
+
+    /// The node behind an id.
+    pub fn node(&self, id: Id) -> &Node {
+        &self.nodes[id.index()]
+    }
+
+    /// The free symbols of an expression, sorted by symbol id.
+    pub fn free_symbols(&self, id: Id) -> &[Symbol] {
+        &self.free[id.index()]
+    }
+
+    /// Does `id` depend on symbol `s`?
+    pub fn depends_on(&self, id: Id, s: Symbol) -> bool {
+        self.free[id.index()].binary_search(&s).is_ok()
+    }
+
+    /// Does `id` depend on any of `syms`?
+    pub fn depends_on_any(&self, id: Id, syms: &[Symbol]) -> bool {
+        syms.iter().any(|&s| self.depends_on(id, s))
+    }
+
+    fn intern(&mut self, node: Node) -> Id {
+        if let Some(&id) = self.index.get(&node) {
+            return id;
+        }
+        let free = self.collect_free(&node);
+        let id = Id(u32::try_from(self.nodes.len()).expect("expression pool exceeded 2^32 nodes"));
+        self.nodes.push(node.clone());
+        self.free.push(free);
+        self.index.insert(node, id);
+        id
+    }
+
+    fn collect_free(&self, node: &Node) -> Box<[Symbol]> {
+        let mut v: Vec<Symbol> = match node {
+            Node::Num(_) | Node::Pi => Vec::new(),
+            Node::Sym(s) => vec![*s],
+            Node::Add(c) | Node::Mul(c) => c.iter().flat_map(|&c| self.free[c.index()].iter().copied()).collect(),
+            Node::Pow(a, b) | Node::Call2(_, a, b) => {
+                self.free[a.index()].iter().chain(self.free[b.index()].iter()).copied().collect()
+            }
+            Node::Call(_, a) => self.free[a.index()].to_vec(),
+        };
+        v.sort_unstable();
+        v.dedup();
+        v.into_boxed_slice()
+    }
+
+    // ----- leaves -------------------------------------------------------------------------------------
+
+    pub fn num(&mut self, n: Number) -> Id {
+        let n = match n {
+            Number::Float(x) => Number::from_f64(x),
+            r => r,
+        };
+        self.intern(Node::Num(n))
+    }
+    pub fn int(&mut self, i: i128) -> Id {
+        self.num(Number::int(i))
+    }
+    pub fn rational(&mut self, n: i128, d: i128) -> Id {
+        self.num(Number::ratio(n, d))
+    }
+    pub fn float(&mut self, x: f64) -> Id {
+        self.num(Number::from_f64(x))
+    }
+    pub fn zero(&mut self) -> Id {
+        self.int(0)
+    }
+    pub fn one(&mut self) -> Id {
+        self.int(1)
+    }
+    pub fn pi(&mut self) -> Id {
+        self.intern(Node::Pi)
+    }
+
+    /// Intern a symbol name.
+    pub fn symbol(&mut self, name: &str) -> Symbol {
+        if let Some(&s) = self.symbol_index.get(name) {
+            return s;
+        }
+        let s = Symbol(self.symbols.len() as u32);
+        self.symbols.push(name.to_string());
+        self.symbol_index.insert(name.to_string(), s);
+        s
+    }
+    /// Look up a symbol without creating it.
+    pub fn find_symbol(&self, name: &str) -> Option<Symbol> {
+        self.symbol_index.get(name).copied()
+    }
+    pub fn symbol_name(&self, s: Symbol) -> &str {
+        &self.symbols[s.0 as usize]
+    }
+    /// The expression consisting of symbol `s`.
+    pub fn var(&mut self, s: Symbol) -> Id {
+        self.intern(Node::Sym(s))
+    }
+    /// Shorthand: intern `name` and return it as an expression.
+    pub fn sym(&mut self, name: &str) -> Id {
+        let s = self.symbol(name);
+        self.var(s)
+    }
+
+    /// The numeric value of a number node.
+    pub fn as_number(&self, id: Id) -> Option<Number> {
+        match self.node(id) {
+            Node::Num(n) => Some(*n),
+            _ => None,
+        }
+    }
+    pub fn is_zero(&self, id: Id) -> bool {
+        matches!(self.node(id), Node::Num(n) if n.is_zero())
+    }
+    pub fn is_one(&self, id: Id) -> bool {
+        matches!(self.node(id), Node::Num(n) if n.is_one())
+    }
+    pub fn as_symbol(&self, id: Id) -> Option<Symbol> {
+        match self.node(id) {
+            Node::Sym(s) => Some(*s),
+            _ => None,
+        }
+    }
+
+    // ----- canonical order ----------------------------------------------------------------------------
+
+    fn rank(node: &Node) -> u8 {
+        match node {
+            Node::Num(_) => 0,
+            Node::Pi => 1,
+            Node::Sym(_) => 2,
+            Node::Pow(..) => 3,
+            Node::Mul(_) => 4,
+            Node::Add(_) => 5,
+            Node::Call(..) => 6,
+            Node::Call2(..) => 7,
+        }
+    }
+
+    /// The canonical total order on expressions: structural, independent of creation order, so printed and
+    /// generated output is deterministic. Numbers first, then π, symbols by name, powers (by base, then
+    /// exponent), products, sums and function calls.
+    pub fn cmp_expr(&self, a: Id, b: Id) -> Ordering {
+        if a == b {
+            return Ordering::Equal;
+        }
+        let (na, nb) = (self.node(a), self.node(b));
+        // A power sorts next to its base: x < x^2 < y.
+        let base = |n: &Node, id: Id| match n {
+            Node::Pow(b, _) => *b,
+            _ => id,
+        };
+        let (ba, bb) = (base(na, a), base(nb, b));
+        if ba != bb && (matches!(na, Node::Pow(..)) || matches!(nb, Node::Pow(..))) {
+            return self.cmp_expr(ba, bb);
+        }
+        Self::rank(na).cmp(&Self::rank(nb)).then_with(|| match (na, nb) {
+            (Node::Num(x), Node::Num(y)) => x.cmp_value(y),
+            (Node::Sym(x), Node::Sym(y)) => self.symbol_name(*x).cmp(self.symbol_name(*y)),
+            (Node::Pow(b1, e1), Node::Pow(b2, e2)) => self.cmp_expr(*b1, *b2).then_with(|| self.cmp_expr(*e1, *e2)),
+            (Node::Add(x), Node::Add(y)) | (Node::Mul(x), Node::Mul(y)) => {
+                // Compare from the most significant (last) term, like polynomial degree order.
+                for (p, q) in x.iter().rev().zip(y.iter().rev()) {
+                    let o = self.cmp_expr(*p, *q);
+                    if o != Ordering::Equal {
+                        return o;
+                    }
+                }
+                x.len().cmp(&y.len())
+            }
+            (Node::Call(f, x), Node::Call(g, y)) => f.cmp(g).then_with(|| self.cmp_expr(*x, *y)),
+            (Node::Call2(f, x1, x2), Node::Call2(g, y1, y2)) => f
+                .cmp(g)
+                .then_with(|| self.cmp_expr(*x1, *y1))
+                .then_with(|| self.cmp_expr(*x2, *y2)),
+            _ => Ordering::Equal,
+        })
+        .then_with(|| {
+            // A power of a base after the base itself.
+            match (na, nb) {
+                (Node::Pow(..), _) if ba == b => Ordering::Greater,
+                (_, Node::Pow(..)) if bb == a => Ordering::Less,
+                _ => Ordering::Equal,
+            }
+        })
+        .then(a.cmp(&b))
+    }
+
+    // ----- sums ---------------------------------------------------------------------------------------
+
+    /// Split a term into numeric coefficient and the rest: `3*x*y → (3, x*y)`, `x → (1, x)`.
+    pub fn split_coefficient(&mut self, t: Id) -> (Number, Id) {
+        match self.node(t) {
+            Node::Num(n) => {
+                let n = *n;
+                (n, self.one())
+            }
+            Node::Mul(fs) => {
+                if let Node::Num(c) = self.node(fs[0]) {
+                    let c = *c;
+                    let rest: Vec<Id> = fs[1..].to_vec();
+                    let rest = if rest.len() == 1 { rest[0] } else { self.intern(Node::Mul(rest.into())) };
+                    (c, rest)
+                } else {
+                    (Number::ONE, t)
+                }
+            }
+            _ => (Number::ONE, t),
+        }
+    }
+
+    /// Canonical n-ary sum.
+    pub fn add(&mut self, terms: &[Id]) -> Id {
+        let mut constant = Number::ZERO;
+        let mut order: Vec<Id> = Vec::new();
+        let mut coeff: HashMap<Id, Number> = HashMap::new();
+        let mut stack: Vec<Id> = terms.iter().rev().copied().collect();
+        while let Some(t) = stack.pop() {
+            match self.node(t) {
+                Node::Add(ts) => stack.extend(ts.iter().rev().copied()),
+                Node::Num(n) => constant = constant.add(*n),
+                _ => {
+                    let (c, rest) = self.split_coefficient(t);
+                    match coeff.get_mut(&rest) {
+                        Some(acc) => *acc = acc.add(c),
+                        None => {
+                            coeff.insert(rest, c);
+                            order.push(rest);
+                        }
+                    }
+                }
+            }
+        }
+        let mut out: Vec<Id> = Vec::with_capacity(order.len() + 1);
+        order.sort_by(|a, b| self.cmp_expr(*a, *b));
+        for rest in order {
+            let c = coeff[&rest];
+            if c.is_zero() {
+                continue;
+            }
+            out.push(self.scale(c, rest));
+        }
+        // Scaling can produce numbers only if rest was 1, which split_coefficient never yields for non-numbers.
+        if !constant.is_zero() {
+            let k = self.num(constant);
+            out.insert(0, k);
+        }
+        match out.len() {
+            0 => self.zero(),
+            1 => out[0],
+            _ => self.intern(Node::Add(out.into())),
+        }
+    }
+
+    /// c · rest for a coefficient-free `rest` (no distribution needed).
+    fn scale(&mut self, c: Number, rest: Id) -> Id {
+        if c.is_one() {
+            return rest;
+        }
+        if self.is_one(rest) {
+            return self.num(c);
+        }
+        let k = self.num(c);
+        let mut fs = vec![k];
+        match self.node(rest) {
+            Node::Mul(rs) => fs.extend(rs.iter().copied()),
+            _ => fs.push(rest),
+        }
+        self.intern(Node::Mul(fs.into()))
+    }
+
+    pub fn add2(&mut self, a: Id, b: Id) -> Id {
+        self.add(&[a, b])
+    }
+    pub fn sub(&mut self, a: Id, b: Id) -> Id {
+        let nb = self.neg(b);
+        self.add(&[a, nb])
+    }
+    pub fn neg(&mut self, a: Id) -> Id {
+        let m = self.int(-1);
+        self.mul(&[m, a])
+    }
+
+    // ----- products -----------------------------------------------------------------------------------
+
+    /// Canonical n-ary product.
+    pub fn mul(&mut self, factors: &[Id]) -> Id {
+        let mut coeff = Number::ONE;
+        let mut order: Vec<Id> = Vec::new();
+        let mut exps: HashMap<Id, Vec<Id>> = HashMap::new();
+        let mut stack: Vec<Id> = factors.iter().rev().copied().collect();
+        while let Some(f) = stack.pop() {
+            match self.node(f) {
+                Node::Mul(fs) => stack.extend(fs.iter().rev().copied()),
+                Node::Num(n) => coeff = coeff.mul(*n),
+                Node::Pow(b, e) => {
+                    let (b, e) = (*b, *e);
+                    exps.entry(b).or_insert_with(|| {
+                        order.push(b);
+                        Vec::new()
+                    });
+                    exps.get_mut(&b).map(|v| v.push(e));
+                }
+                _ => {
+                    let one = self.one();
+                    exps.entry(f).or_insert_with(|| {
+                        order.push(f);
+                        Vec::new()
+                    });
+                    exps.get_mut(&f).map(|v| v.push(one));
+                }
+            }
+        }
+        if coeff.is_zero() {
+            return self.zero();
+        }
+        let mut out: Vec<Id> = Vec::with_capacity(order.len() + 1);
+        let mut refold = false;
+        for b in order {
+            let es = exps.remove(&b).unwrap_or_default();
+            let e = if es.len() == 1 { es[0] } else { self.add(&es) };
+            let p = self.pow(b, e);
+            match self.node(p) {
+                Node::Num(n) => coeff = coeff.mul(*n),
+                Node::Mul(_) => {
+                    refold = true;
+                    out.push(p)
+                }
+                _ => out.push(p),
+            }
+        }
+        if refold {
+            let k = self.num(coeff);
+            out.push(k);
+            return self.mul(&out);
+        }
+        if coeff.is_zero() {
+            return self.zero();
+        }
+        out.sort_by(|a, b| self.cmp_expr(*a, *b));
+        // Distribute a numeric coefficient over a single sum: 2(x + y) → 2x + 2y.
+        if out.len() == 1 && !coeff.is_one() {
+            if let Node::Add(ts) = self.node(out[0]) {
+                let ts = ts.to_vec();
+                let k = self.num(coeff);
+                let scaled: Vec<Id> = ts.iter().map(|&t| self.mul(&[k, t])).collect();
+                return self.add(&scaled);
+            }
+        }
+        if !coeff.is_one() {
+            let k = self.num(coeff);
+            out.insert(0, k);
+        }
+        match out.len() {
+            0 => self.one(),
+            1 => out[0],
+            _ => self.intern(Node::Mul(out.into())),
+        }
+    }
+
+    pub fn mul2(&mut self, a: Id, b: Id) -> Id {
+        self.mul(&[a, b])
+    }
+    pub fn div(&mut self, a: Id, b: Id) -> Id {
+        let r = self.recip(b);
+        self.mul(&[a, r])
+    }
+    pub fn recip(&mut self, a: Id) -> Id {
+        let m = self.int(-1);
+        self.pow(a, m)
+    }
+
+    // ----- powers -------------------------------------------------------------------------------------
+
+    /// Canonical power b^e.
+    pub fn pow(&mut self, b: Id, e: Id) -> Id {
+        let en = self.as_number(e);
+        if let Some(en) = en {
+            if en.is_zero() {
+                return self.one();
+            }
+            if en.is_one() {
+                return b;
+            }
+        }
+        if self.is_one(b) {
+            return b;
+        }
+        match (self.node(b).clone(), en) {
+            (Node::Num(bn), Some(en)) => {
+                if bn.is_zero() && !en.is_negative() {
+                    return self.zero();
+                }
+                if let Some(k) = en.as_integer() {
+                    // Exact integer powers of numbers, kept small so that coefficients stay readable.
+                    if k.abs() <= 64 {
+                        if let Some(r) = bn.powi(k) {
+                            if r.is_exact() || !bn.is_exact() {
+                                return self.num(r);
+                            }
+                        }
+                    }
+                }
+                if let (Number::Float(x), Number::Float(_) | Number::Rational(..)) = (bn, en) {
+                    if x > 0.0 {
+                        return self.float(x.powf(en.to_f64()));
+                    }
+                }
+            }
+            (Node::Pow(bb, be), Some(en)) if en.as_integer().is_some() => {
+                // (x^a)^n = x^(a n) for integer n.
+                let ne = self.mul(&[be, e]);
+                return self.pow(bb, ne);
+            }
+            (Node::Pow(bb, be), Some(_)) => {
+                // (x^a)^c = x^(a c) when a is not an integer: x^a is then real only for x ≥ 0, where the
+                // identity holds. ((x^2)^(1/2) = |x| is deliberately left alone.)
+                if matches!(self.as_number(be), Some(an) if an.as_integer().is_none()) {
+                    let ne = self.mul(&[be, e]);
+                    return self.pow(bb, ne);
+                }
+            }
+            (Node::Mul(fs), Some(en)) if en.as_integer().is_some() => {
+                // (x y)^n = x^n y^n for integer n.
+                let fs = fs.to_vec();
+                let ps: Vec<Id> = fs.iter().map(|&f| self.pow(f, e)).collect();
+                return self.mul(&ps);
+            }
+            (Node::Mul(fs), Some(_)) => {
+                // (c·rest)^p = c^p · rest^p for a positive numeric coefficient c (both sides real on the same
+                // domain, rest ≥ 0).
+                if let Node::Num(c) = self.node(fs[0]) {
+                    if !c.is_negative() {
+                        let fs = fs.to_vec();
+                        let rest = if fs.len() == 2 { fs[1] } else { self.intern(Node::Mul(fs[1..].into())) };
+                        let c = fs[0];
+                        let cp = self.pow(c, e);
+                        let rp = self.pow(rest, e);
+                        return self.mul(&[cp, rp]);
+                    }
+                }
+            }
+            (Node::Call(Func::Exp, a), _) => {
+                // exp(a)^e = exp(a e).
+                let ae = self.mul(&[a, e]);
+                return self.call(Func::Exp, ae);
+            }
+            _ => {}
+        }
+        self.intern(Node::Pow(b, e))
+    }
+
+    pub fn powi(&mut self, b: Id, k: i128) -> Id {
+        let e = self.int(k);
+        self.pow(b, e)
+    }
+    pub fn sqrt(&mut self, a: Id) -> Id {
+        let h = self.rational(1, 2);
+        self.pow(a, h)
+    }
+
+    // ----- functions ----------------------------------------------------------------------------------
+
+    /// Canonical one-argument function call, applying [`rules::FUNCTION_RULES`].
+    pub fn call(&mut self, f: Func, a: Id) -> Id {
+        if let Some(r) = rules::apply_function_rules(self, f, a) {
+            return r;
+        }
+        self.intern(Node::Call(f, a))
+    }
+
+    /// Canonical two-argument call (`min`, `max`).
+    pub fn call2(&mut self, f: Func2, a: Id, b: Id) -> Id {
+        if a == b {
+            return a;
+        }
+        if let (Some(x), Some(y)) = (self.as_number(a), self.as_number(b)) {
+            let o = x.cmp_value(&y);
+            return match (f, o) {
+                (Func2::Min, Ordering::Greater) | (Func2::Max, Ordering::Less) => b,
+                _ => a,
+            };
+        }
+        let (a, b) = if self.cmp_expr(a, b) == Ordering::Greater { (b, a) } else { (a, b) };
+        self.intern(Node::Call2(f, a, b))
+    }
+
+    /// Rebuild a node from (possibly new) children through the canonical constructors.
+    pub fn rebuild(&mut self, node: &Node, children: &[Id]) -> Id {
+        match node {
+            Node::Num(_) | Node::Pi | Node::Sym(_) => self.intern(node.clone()),
+            Node::Add(_) => self.add(children),
+            Node::Mul(_) => self.mul(children),
+            Node::Pow(..) => self.pow(children[0], children[1]),
+            Node::Call(f, _) => self.call(*f, children[0]),
+            Node::Call2(f, ..) => self.call2(*f, children[0], children[1]),
+        }
+    }
+
+    /// The children of a node, in order.
+    pub fn children(&self, id: Id) -> Vec<Id> {
+        match self.node(id) {
+            Node::Num(_) | Node::Pi | Node::Sym(_) => Vec::new(),
+            Node::Add(c) | Node::Mul(c) => c.to_vec(),
+            Node::Pow(a, b) | Node::Call2(_, a, b) => vec![*a, *b],
+            Node::Call(_, a) => vec![*a],
+        }
+    }
+
+    /// Number of distinct nodes in the DAG below `roots` (shared subterms counted once).
+    pub fn dag_size(&self, roots: &[Id]) -> usize {
+        let mut seen = std::collections::HashSet::new();
+        let mut stack: Vec<Id> = roots.to_vec();
+        while let Some(id) = stack.pop() {
+            if seen.insert(id) {
+                stack.extend(self.children(id));
+            }
+        }
+        seen.len()
+    }
+
+    /// Every node below `roots` in post-order (children before parents), each once.
+    pub fn topological(&self, roots: &[Id]) -> Vec<Id> {
+        let mut out = Vec::new();
+        let mut seen = std::collections::HashSet::new();
+        for &r in roots {
+            let mut stack: Vec<(Id, bool)> = vec![(r, false)];
+            while let Some((id, done)) = stack.pop() {
+                if done {
+                    out.push(id);
+                    continue;
+                }
+                if !seen.insert(id) {
+                    continue;
+                }
+                stack.push((id, true));
+                for c in self.children(id).into_iter().rev() {
+                    if !seen.contains(&c) {
+                        stack.push((c, false));
+                    }
+                }
+            }
+        }
+        out
+    }
+}

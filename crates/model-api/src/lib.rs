@@ -1,0 +1,127 @@
+//! The interface between a derived model and the invsim runtime.
+//!
+//! Both the Rust code that `invsim-codegen` emits and the interpreter tape in `invsim-inversion` implement
+//! [`InverseModel`]; the runtime drives either through it. This crate is deliberately tiny so that generated
+//! model crates depend on it alone, not on the whole runtime.
+//!
+//! Notation (Isidori, *Nonlinear Control Systems*, 3rd ed., §4.1; Fröberg & Nielsen 2004, eq. 24–32):
+//! for x' = f(x) + g(x)u, y = h(x) with relative degree r, the normal-form coordinates are
+//! ξ = (h, L_f h, …, L_f^{r-1} h) and η (n − r internal coordinates); then
+//! y^(r) = α(ξ, η) + β(ξ, η) u, so the input that makes y follow y_d is u = (y_d^(r) − α) / β.
+
+use thiserror::Error;
+
+/// Static description of a model: names, sizes, bounds. Order of every list is the model file's order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModelInfo {
+    /// Model name (the TOML's `name`, or its file stem).
+    pub name: String,
+    /// SHA-256 of the model file's bytes, lower-case hex, if known.
+    pub source_hash: Option<String>,
+    /// State names x_1 … x_n.
+    pub states: Vec<String>,
+    /// Input name.
+    pub input: String,
+    /// Tracked output name (y = h(x)).
+    pub output: String,
+    /// Relative degree r.
+    pub relative_degree: usize,
+    /// Number of internal coordinates η (n − r).
+    pub n_eta: usize,
+    /// Input bounds (reported, never clipped).
+    pub input_min: Option<f64>,
+    pub input_max: Option<f64>,
+    /// Extra outputs reported per sample.
+    pub outputs: Vec<OutputInfo>,
+    /// Parameter names, in declaration order (the order of [`InverseModel::params`]).
+    pub parameters: Vec<String>,
+}
+
+impl ModelInfo {
+    /// Number of states n.
+    pub fn n_states(&self) -> usize {
+        self.states.len()
+    }
+}
+
+/// One entry of the model's `[outputs]` table.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OutputInfo {
+    pub name: String,
+    pub unit: Option<String>,
+    /// Integrate this output over the run and report the integral.
+    pub accumulate: bool,
+}
+
+/// Errors a model can report while being evaluated.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum ModelError {
+    #[error("unknown parameter `{name}` (the model declares: {known})")]
+    UnknownParameter { name: String, known: String },
+    #[error("parameter `{name}` must be finite, got {value}")]
+    NonFiniteParameter { name: String, value: f64 },
+    #[error(
+        "Newton's method for ψ⁻¹ did not converge in {iterations} iterations (residual {residual:e}); \
+         state guess may be far from the solution or the Jacobian singular"
+    )]
+    NewtonDidNotConverge { iterations: usize, residual: f64 },
+}
+
+/// A derived model: α, β, ψ, ψ⁻¹, the zero dynamics, the original right-hand side and the extra outputs.
+///
+/// Slices have the lengths given by [`ModelInfo`]: `xi` has r entries, `eta` n − r, `x` n, `outputs` the
+/// number of `[outputs]`. Implementations may panic on wrong lengths (a programming error, not user data).
+pub trait InverseModel: Send + Sync {
+    /// Names, sizes and bounds.
+    fn info(&self) -> &ModelInfo;
+    /// Current parameter values, in [`ModelInfo::parameters`] order.
+    fn params(&self) -> &[f64];
+    /// Override one parameter by name (`--set NAME=VALUE`).
+    fn set_param(&mut self, name: &str, value: f64) -> Result<(), ModelError>;
+
+    /// The tracked output y = h(x).
+    fn h(&self, x: &[f64]) -> f64;
+    /// Normal-form coordinates (ξ, η) = ψ(x).
+    fn psi(&self, x: &[f64], xi: &mut [f64], eta: &mut [f64]);
+    /// x = ψ⁻¹(ξ, η). On entry `x` holds a guess, used only where ψ⁻¹ is solved numerically.
+    fn psi_inv(&self, xi: &[f64], eta: &[f64], x: &mut [f64]) -> Result<(), ModelError>;
+    /// α(ξ, η) = L_f^r h ∘ ψ⁻¹.
+    fn alpha(&self, xi: &[f64], eta: &[f64]) -> f64;
+    /// β(ξ, η) = L_g L_f^{r−1} h ∘ ψ⁻¹.
+    fn beta(&self, xi: &[f64], eta: &[f64]) -> f64;
+    /// dη/dt = q(ξ, η, y^(r)) = L_f η + L_g η · (y^(r) − α)/β, written into `deta`.
+    fn zero_dynamics(&self, xi: &[f64], eta: &[f64], yr: f64, deta: &mut [f64]);
+    /// The original model dx/dt = f(x) + g(x) u, written into `dx`.
+    fn rhs(&self, x: &[f64], u: f64, dx: &mut [f64]);
+    /// The extra outputs of `[outputs]` at (x, u), written into `out`.
+    fn outputs(&self, x: &[f64], u: f64, out: &mut [f64]);
+
+    /// Inverse at one point: x = ψ⁻¹(ξ, η) into `x` and u = (y^(r) − α)/β returned (paper eq. 26).
+    fn invert(&self, xi: &[f64], eta: &[f64], yr: f64, x: &mut [f64]) -> Result<f64, ModelError> {
+        self.psi_inv(xi, eta, x)?;
+        Ok((yr - self.alpha(xi, eta)) / self.beta(xi, eta))
+    }
+}
+
+/// Look up a parameter index by name, with an error listing the known names.
+pub fn param_index(info: &ModelInfo, name: &str) -> Result<usize, ModelError> {
+    info.parameters.iter().position(|p| p == name).ok_or_else(|| ModelError::UnknownParameter {
+        name: name.to_string(),
+        known: info.parameters.join(", "),
+    })
+}
+
+/// Check an override value and store it (shared by every implementation of `set_param`).
+pub fn set_param_checked(
+    info: &ModelInfo,
+    params: &mut [f64],
+    name: &str,
+    value: f64,
+) -> Result<(), ModelError> {
+    if !value.is_finite() {
+        return Err(ModelError::NonFiniteParameter { name: name.to_string(), value });
+    }
+    let i = param_index(info, name)?;
+    params[i] = value;
+    Ok(())
+}

@@ -1,0 +1,649 @@
+//! Drive cycles: the built-in NEDC, ECE-15 and EUDC, and CSV cycle files (interface contract, section 4).
+//!
+//! A cycle is a speed trace `y_c(t)` given at strictly increasing times and linear between them, as the
+//! regulations define it; before the first and after the last sample it is held constant. This is the
+//! input `y_c` that the smoother convolves with the paper's kernel (Fröberg & Nielsen 2004, eq. 33).
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// A drive cycle: speed (m/s) against time (s), optionally with road grade (decimal, rise/run).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Cycle {
+    /// Built-in name or the file stem of the CSV file.
+    pub name: String,
+    /// Sample times in seconds, strictly increasing.
+    pub time: Vec<f64>,
+    /// Speed in m/s at each sample time, finite and non-negative.
+    pub speed: Vec<f64>,
+    /// Road grade (decimal) at each sample time, when the file has a grade column.
+    pub grade: Option<Vec<f64>>,
+}
+
+/// Errors from loading or checking a drive cycle. Every message names the file (or the cycle) and, where it
+/// applies, the line (1-based, the header is line 1), the data row (1-based, first row after the header)
+/// and the column, and says what was expected.
+#[derive(Debug, thiserror::Error)]
+pub enum CycleError {
+    /// The file could not be read.
+    #[error(
+        "cannot read cycle file `{file}`: {source} (expected a CSV file or one of the built-in cycles {})",
+        builtin_list()
+    )]
+    Io {
+        file: String,
+        #[source]
+        source: std::io::Error,
+    },
+    /// The file is not UTF-8 text.
+    #[error("{file}: line {line}: not valid UTF-8 text (expected a CSV text file)")]
+    NotUtf8 { file: String, line: u64 },
+    /// Nothing but white space (or a byte-order mark).
+    #[error(
+        "{file}: the file is empty (expected a header row such as `time_s,speed_mps` followed by at least \
+         two data rows)"
+    )]
+    Empty { file: String },
+    /// The first row holds numbers, not column names.
+    #[error(
+        "{file}: line {line} looks like data, not a header (expected a header row naming the columns, such \
+         as `time_s,speed_mps`)"
+    )]
+    NoHeader { file: String, line: u64 },
+    /// No recognised time column.
+    #[error(
+        "{file}: line {line}: no time column in the header (found {found}; expected one of `time_s`, \
+         `time_seconds`, `cycSecs`, `t`)"
+    )]
+    NoTimeColumn { file: String, line: u64, found: String },
+    /// No recognised speed column.
+    #[error(
+        "{file}: line {line}: no speed column in the header (found {found}; expected one of `speed_mps`, \
+         `mps`, `cycMps`, `speed_meters_per_second` (m/s), `speed_kmh` (km/h), `speed_mph` (mph))"
+    )]
+    NoSpeedColumn { file: String, line: u64, found: String },
+    /// Two columns of the same kind (time, speed or grade).
+    #[error(
+        "{file}: line {line}: two {kind} columns, `{first}` (column {first_index}) and `{second}` (column \
+         {second_index}); expected exactly one"
+    )]
+    DuplicateColumn {
+        file: String,
+        line: u64,
+        kind: &'static str,
+        first: String,
+        first_index: usize,
+        second: String,
+        second_index: usize,
+    },
+    /// The CSV reader rejected the text.
+    #[error("{file}: line {line}: malformed CSV ({message}); expected comma-separated fields")]
+    Csv { file: String, line: u64, message: String },
+    /// A data row with a different number of fields than the header.
+    #[error(
+        "{file}: line {line} (data row {row}): {found} field(s), expected {expected} as in the header"
+    )]
+    Ragged {
+        file: String,
+        line: u64,
+        row: usize,
+        found: usize,
+        expected: usize,
+    },
+    /// A field that is not a number.
+    #[error("{file}: line {line} (data row {row}), column `{column}`: expected a number, found `{text}`")]
+    BadNumber {
+        file: String,
+        line: u64,
+        row: usize,
+        column: String,
+        text: String,
+    },
+    /// An infinite or NaN field.
+    #[error(
+        "{file}: line {line} (data row {row}), column `{column}`: expected a finite number, found `{text}`"
+    )]
+    NonFinite {
+        file: String,
+        line: u64,
+        row: usize,
+        column: String,
+        text: String,
+    },
+    /// A time not greater than the one before it.
+    #[error(
+        "{file}: line {line} (data row {row}), column `{column}`: time {time} s is not after the previous \
+         row's {previous} s; expected strictly increasing times"
+    )]
+    TimeNotIncreasing {
+        file: String,
+        line: u64,
+        row: usize,
+        column: String,
+        time: f64,
+        previous: f64,
+    },
+    /// A negative speed.
+    #[error(
+        "{file}: line {line} (data row {row}), column `{column}`: speed {value} is negative; expected a \
+         speed ≥ 0"
+    )]
+    NegativeSpeed {
+        file: String,
+        line: u64,
+        row: usize,
+        column: String,
+        value: f64,
+    },
+    /// Fewer than two data rows.
+    #[error("{file}: {found} data row(s); expected at least 2 (a cycle needs a start and an end)")]
+    TooFewRows { file: String, found: usize },
+    /// An in-memory cycle that breaks the invariants documented on [`Cycle`].
+    #[error("cycle `{name}`: {reason}")]
+    Invalid { name: String, reason: String },
+}
+
+/// Unit of a recognised speed column.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum SpeedUnit {
+    MetresPerSecond,
+    KilometresPerHour,
+    MilesPerHour,
+}
+
+impl SpeedUnit {
+    fn to_mps(self, v: f64) -> f64 {
+        match self {
+            SpeedUnit::MetresPerSecond => v,
+            SpeedUnit::KilometresPerHour => v / 3.6,
+            SpeedUnit::MilesPerHour => v * 0.44704,
+        }
+    }
+}
+
+/// Recognised time column names (matched after trimming, ignoring ASCII case).
+pub const TIME_COLUMNS: &[&str] = &["time_s", "time_seconds", "cycSecs", "t"];
+/// Recognised speed column names in m/s.
+pub const SPEED_MPS_COLUMNS: &[&str] = &["speed_mps", "mps", "cycMps", "speed_meters_per_second"];
+/// Recognised speed column name in km/h.
+pub const SPEED_KMH_COLUMN: &str = "speed_kmh";
+/// Recognised speed column name in mph (0.44704 m/s).
+pub const SPEED_MPH_COLUMN: &str = "speed_mph";
+/// Recognised grade column names (decimal rise/run).
+pub const GRADE_COLUMNS: &[&str] = &["grade", "cycGrade"];
+
+const BUILTIN_NAMES: &[&str] = &["nedc", "ece", "eudc"];
+
+fn builtin_list() -> String {
+    BUILTIN_NAMES.join(", ")
+}
+
+/// ECE-15 urban cycle (UNECE R83 / 70/220/EEC): (time s, speed km/h) waypoints, linear in between.
+const ECE15: [(f64, f64); 26] = [
+    (0.0, 0.0),
+    (11.0, 0.0),
+    (15.0, 15.0),
+    (23.0, 15.0),
+    (25.0, 10.0),
+    (28.0, 0.0),
+    (49.0, 0.0),
+    (54.0, 15.0),
+    (56.0, 15.0),
+    (61.0, 32.0),
+    (85.0, 32.0),
+    (93.0, 10.0),
+    (96.0, 0.0),
+    (117.0, 0.0),
+    (122.0, 15.0),
+    (124.0, 15.0),
+    (133.0, 35.0),
+    (135.0, 35.0),
+    (143.0, 50.0),
+    (155.0, 50.0),
+    (163.0, 35.0),
+    (176.0, 35.0),
+    (178.0, 32.0),
+    (185.0, 10.0),
+    (188.0, 0.0),
+    (195.0, 0.0),
+];
+
+/// EUDC extra-urban cycle: (time s, speed km/h) waypoints, linear in between.
+const EUDC: [(f64, f64); 22] = [
+    (0.0, 0.0),
+    (20.0, 0.0),
+    (25.0, 15.0),
+    (27.0, 15.0),
+    (36.0, 35.0),
+    (38.0, 35.0),
+    (46.0, 50.0),
+    (48.0, 50.0),
+    (61.0, 70.0),
+    (111.0, 70.0),
+    (119.0, 50.0),
+    (188.0, 50.0),
+    (201.0, 70.0),
+    (251.0, 70.0),
+    (286.0, 100.0),
+    (316.0, 100.0),
+    (336.0, 120.0),
+    (346.0, 120.0),
+    (362.0, 80.0),
+    (370.0, 50.0),
+    (380.0, 0.0),
+    (400.0, 0.0),
+];
+
+/// Concatenates waypoint lists at the given offsets, converting km/h to m/s and merging a point that
+/// repeats the previous one (the end of one part is the start of the next).
+fn from_waypoints(name: &str, parts: &[(f64, &[(f64, f64)])]) -> Cycle {
+    let mut time: Vec<f64> = Vec::new();
+    let mut speed: Vec<f64> = Vec::new();
+    for &(offset, points) in parts {
+        for &(t, kmh) in points {
+            let t = offset + t;
+            let v = kmh / 3.6;
+            if time.last() == Some(&t) {
+                debug_assert_eq!(speed.last(), Some(&v), "waypoints disagree at {t} s");
+                continue;
+            }
+            time.push(t);
+            speed.push(v);
+        }
+    }
+    Cycle {
+        name: name.to_string(),
+        time,
+        speed,
+        grade: None,
+    }
+}
+
+impl Cycle {
+    /// A built-in cycle by name, ignoring ASCII case: `nedc` (4 × ECE-15 + EUDC, 1180 s), `ece` (one ECE-15,
+    /// 195 s) or `eudc` (400 s). Speeds in m/s, no grade.
+    pub fn builtin(name: &str) -> Option<Cycle> {
+        let lower = name.trim().to_ascii_lowercase();
+        match lower.as_str() {
+            "ece" => Some(from_waypoints("ece", &[(0.0, &ECE15)])),
+            "eudc" => Some(from_waypoints("eudc", &[(0.0, &EUDC)])),
+            "nedc" => Some(from_waypoints(
+                "nedc",
+                &[
+                    (0.0, &ECE15),
+                    (195.0, &ECE15),
+                    (390.0, &ECE15),
+                    (585.0, &ECE15),
+                    (780.0, &EUDC),
+                ],
+            )),
+            _ => None,
+        }
+    }
+
+    /// Names accepted by [`Cycle::builtin`].
+    pub fn builtin_names() -> &'static [&'static str] {
+        BUILTIN_NAMES
+    }
+
+    /// Loads a CSV cycle file (section 4 of the contract); the cycle is named after the file stem.
+    pub fn from_csv_path(path: &Path) -> Result<Cycle, CycleError> {
+        let file = path.display().to_string();
+        let bytes = std::fs::read(path).map_err(|source| CycleError::Io {
+            file: file.clone(),
+            source,
+        })?;
+        let text = std::str::from_utf8(&bytes).map_err(|e| CycleError::NotUtf8 {
+            file: file.clone(),
+            line: 1 + bytes[..e.valid_up_to()].iter().filter(|&&b| b == b'\n').count() as u64,
+        })?;
+        let name = path
+            .file_stem()
+            .map_or_else(|| "cycle".to_string(), |s| s.to_string_lossy().into_owned());
+        parse_csv(name, &file, text)
+    }
+
+    /// Parses CSV text; `name` is both the cycle's name and the file name used in error messages.
+    ///
+    /// The first non-blank row is the header (an optional UTF-8 byte-order mark is skipped; names are trimmed
+    /// and matched ignoring ASCII case). Recognised columns: time `time_s`, `time_seconds`, `cycSecs`, `t`;
+    /// speed `speed_mps`, `mps`, `cycMps`, `speed_meters_per_second` (m/s), `speed_kmh` (km/h), `speed_mph`
+    /// (mph); optional grade `grade`, `cycGrade`. Other columns are ignored, blank lines skipped. Every data
+    /// row must have as many fields as the header.
+    pub fn from_csv_str(name: &str, text: &str) -> Result<Cycle, CycleError> {
+        parse_csv(name.to_string(), name, text)
+    }
+
+    /// A built-in cycle name (see [`Cycle::builtin`]) or else a path to a CSV cycle file. A built-in name
+    /// wins over a file of the same name in the working directory; write `./nedc` for the file.
+    pub fn load(spec: &str) -> Result<Cycle, CycleError> {
+        match Cycle::builtin(spec) {
+            Some(cycle) => Ok(cycle),
+            None => Cycle::from_csv_path(Path::new(spec)),
+        }
+    }
+
+    /// Checks the invariants documented on the fields: at least two samples, equal lengths, finite strictly
+    /// increasing times, finite non-negative speeds, finite grades. Cycles from the constructors above
+    /// always pass; use this for cycles built by hand.
+    pub fn validate(&self) -> Result<(), CycleError> {
+        let invalid = |reason: String| CycleError::Invalid {
+            name: self.name.clone(),
+            reason,
+        };
+        if self.time.len() != self.speed.len() {
+            return Err(invalid(format!(
+                "{} times but {} speeds; expected one speed per time",
+                self.time.len(),
+                self.speed.len()
+            )));
+        }
+        if let Some(grade) = &self.grade {
+            if grade.len() != self.time.len() {
+                return Err(invalid(format!(
+                    "{} times but {} grades; expected one grade per time",
+                    self.time.len(),
+                    grade.len()
+                )));
+            }
+            if let Some(i) = grade.iter().position(|g| !g.is_finite()) {
+                return Err(invalid(format!("grade {} at sample {i} is not finite", grade[i])));
+            }
+        }
+        if self.time.len() < 2 {
+            return Err(invalid(format!(
+                "{} sample(s); expected at least 2",
+                self.time.len()
+            )));
+        }
+        for (i, (&t, &v)) in self.time.iter().zip(&self.speed).enumerate() {
+            if !t.is_finite() {
+                return Err(invalid(format!("time {t} at sample {i} is not finite")));
+            }
+            if !v.is_finite() || v < 0.0 {
+                return Err(invalid(format!(
+                    "speed {v} at sample {i}; expected a finite speed ≥ 0"
+                )));
+            }
+            if i > 0 && t <= self.time[i - 1] {
+                return Err(invalid(format!(
+                    "time {t} at sample {i} is not after {}; expected strictly increasing times",
+                    self.time[i - 1]
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// Last time minus first time, in seconds (0 for an empty cycle).
+    pub fn duration(&self) -> f64 {
+        match (self.time.first(), self.time.last()) {
+            (Some(first), Some(last)) => last - first,
+            _ => 0.0,
+        }
+    }
+
+    /// Distance in metres: the exact integral of the piecewise-linear speed (trapezoidal rule).
+    pub fn distance(&self) -> f64 {
+        self.time
+            .windows(2)
+            .zip(self.speed.windows(2))
+            .map(|(t, v)| 0.5 * (v[0] + v[1]) * (t[1] - t[0]))
+            .sum()
+    }
+
+    /// Highest speed in m/s (0 for an empty cycle).
+    pub fn max_speed(&self) -> f64 {
+        self.speed.iter().copied().fold(0.0, f64::max)
+    }
+
+    /// Speed at time `t` (m/s): linear between samples, held at the first/last value outside the cycle.
+    /// NaN for NaN or for an empty cycle.
+    pub fn speed_at(&self, t: f64) -> f64 {
+        interpolate(&self.time, &self.speed, t)
+    }
+
+    /// Grade at time `t`, interpolated like [`Cycle::speed_at`]; 0 when the cycle has no grade.
+    pub fn grade_at(&self, t: f64) -> f64 {
+        match &self.grade {
+            Some(grade) => interpolate(&self.time, grade, t),
+            None => 0.0,
+        }
+    }
+}
+
+/// Piecewise-linear interpolation of `values` over strictly increasing `time`, held constant outside.
+pub(crate) fn interpolate(time: &[f64], values: &[f64], t: f64) -> f64 {
+    let n = time.len().min(values.len());
+    if n == 0 || t.is_nan() {
+        return f64::NAN;
+    }
+    let i = time[..n].partition_point(|&x| x <= t);
+    if i == 0 {
+        values[0]
+    } else if i == n {
+        values[n - 1]
+    } else {
+        let (t0, t1) = (time[i - 1], time[i]);
+        let (v0, v1) = (values[i - 1], values[i]);
+        v0 + (v1 - v0) * ((t - t0) / (t1 - t0))
+    }
+}
+
+/// Which recognised column a header field is.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Role {
+    Time,
+    Speed(SpeedUnit),
+    Grade,
+}
+
+fn role_of(name: &str) -> Option<Role> {
+    let is = |candidates: &[&str]| candidates.iter().any(|c| c.eq_ignore_ascii_case(name));
+    if is(TIME_COLUMNS) {
+        Some(Role::Time)
+    } else if is(SPEED_MPS_COLUMNS) {
+        Some(Role::Speed(SpeedUnit::MetresPerSecond))
+    } else if name.eq_ignore_ascii_case(SPEED_KMH_COLUMN) {
+        Some(Role::Speed(SpeedUnit::KilometresPerHour))
+    } else if name.eq_ignore_ascii_case(SPEED_MPH_COLUMN) {
+        Some(Role::Speed(SpeedUnit::MilesPerHour))
+    } else if is(GRADE_COLUMNS) {
+        Some(Role::Grade)
+    } else {
+        None
+    }
+}
+
+/// A chosen column: index in the record and its trimmed header name.
+struct Column {
+    index: usize,
+    name: String,
+}
+
+fn parse_csv(name: String, file: &str, text: &str) -> Result<Cycle, CycleError> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let mut reader = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .flexible(true)
+        .from_reader(text.as_bytes());
+    let mut records = reader.records();
+    let is_blank = |r: &csv::StringRecord| r.iter().all(|f| f.trim().is_empty());
+    // 1-based line of a record, from its byte offset (the reader's own line count skips some blank lines).
+    let newlines: Vec<usize> = text.match_indices('\n').map(|(i, _)| i).collect();
+    let line_at = |byte: usize| 1 + newlines.partition_point(|&i| i < byte) as u64;
+    let line_of = |r: &csv::StringRecord| r.position().map_or(0, |p| line_at(p.byte() as usize));
+    let csv_error = |e: csv::Error| CycleError::Csv {
+        file: file.to_string(),
+        line: e.position().map_or(0, |p| line_at(p.byte() as usize)),
+        message: e.to_string(),
+    };
+
+    // Header: the first non-blank record.
+    let header = loop {
+        match records.next() {
+            None => {
+                return Err(CycleError::Empty {
+                    file: file.to_string(),
+                })
+            }
+            Some(Err(e)) => return Err(csv_error(e)),
+            Some(Ok(r)) if is_blank(&r) => continue,
+            Some(Ok(r)) => break r,
+        }
+    };
+    let header_line = line_of(&header);
+    let names: Vec<String> = header.iter().map(|f| f.trim().to_string()).collect();
+    if names
+        .iter()
+        .all(|n| n.is_empty() || n.parse::<f64>().is_ok())
+    {
+        return Err(CycleError::NoHeader {
+            file: file.to_string(),
+            line: header_line,
+        });
+    }
+
+    let mut time_col: Option<Column> = None;
+    let mut speed_col: Option<(Column, SpeedUnit)> = None;
+    let mut grade_col: Option<Column> = None;
+    for (index, n) in names.iter().enumerate() {
+        let Some(role) = role_of(n) else { continue };
+        let (slot_name, kind) = match role {
+            Role::Time => (time_col.as_ref().map(|c| (c.index, &c.name)), "time"),
+            Role::Speed(_) => (speed_col.as_ref().map(|(c, _)| (c.index, &c.name)), "speed"),
+            Role::Grade => (grade_col.as_ref().map(|c| (c.index, &c.name)), "grade"),
+        };
+        if let Some((first_index, first)) = slot_name {
+            return Err(CycleError::DuplicateColumn {
+                file: file.to_string(),
+                line: header_line,
+                kind,
+                first: first.clone(),
+                first_index: first_index + 1,
+                second: n.clone(),
+                second_index: index + 1,
+            });
+        }
+        let column = Column {
+            index,
+            name: n.clone(),
+        };
+        match role {
+            Role::Time => time_col = Some(column),
+            Role::Speed(unit) => speed_col = Some((column, unit)),
+            Role::Grade => grade_col = Some(column),
+        }
+    }
+    let found = || {
+        let mut s = String::new();
+        for (i, n) in names.iter().enumerate() {
+            if i > 0 {
+                s.push_str(", ");
+            }
+            let _ = write!(s, "`{n}`");
+        }
+        if s.is_empty() {
+            s.push_str("no names");
+        }
+        s
+    };
+    let Some(time_col) = time_col else {
+        return Err(CycleError::NoTimeColumn {
+            file: file.to_string(),
+            line: header_line,
+            found: found(),
+        });
+    };
+    let Some((speed_col, unit)) = speed_col else {
+        return Err(CycleError::NoSpeedColumn {
+            file: file.to_string(),
+            line: header_line,
+            found: found(),
+        });
+    };
+
+    let mut time = Vec::new();
+    let mut speed = Vec::new();
+    let mut grade = grade_col.as_ref().map(|_| Vec::new());
+    let mut row = 0usize;
+    for record in records {
+        let record = record.map_err(csv_error)?;
+        if is_blank(&record) {
+            continue;
+        }
+        row += 1;
+        let line = line_of(&record);
+        if record.len() != names.len() {
+            return Err(CycleError::Ragged {
+                file: file.to_string(),
+                line,
+                row,
+                found: record.len(),
+                expected: names.len(),
+            });
+        }
+        let number = |col: &Column| -> Result<f64, CycleError> {
+            let text = record.get(col.index).unwrap_or("").trim();
+            let value: f64 = text.parse().map_err(|_| CycleError::BadNumber {
+                file: file.to_string(),
+                line,
+                row,
+                column: col.name.clone(),
+                text: text.to_string(),
+            })?;
+            if value.is_finite() {
+                Ok(value)
+            } else {
+                Err(CycleError::NonFinite {
+                    file: file.to_string(),
+                    line,
+                    row,
+                    column: col.name.clone(),
+                    text: text.to_string(),
+                })
+            }
+        };
+        let t = number(&time_col)?;
+        let v = number(&speed_col)?;
+        let g = grade_col.as_ref().map(&number).transpose()?;
+        if let Some(&previous) = time.last() {
+            if t <= previous {
+                return Err(CycleError::TimeNotIncreasing {
+                    file: file.to_string(),
+                    line,
+                    row,
+                    column: time_col.name.clone(),
+                    time: t,
+                    previous,
+                });
+            }
+        }
+        if v < 0.0 {
+            return Err(CycleError::NegativeSpeed {
+                file: file.to_string(),
+                line,
+                row,
+                column: speed_col.name.clone(),
+                value: v,
+            });
+        }
+        time.push(t);
+        speed.push(unit.to_mps(v));
+        if let (Some(grades), Some(g)) = (grade.as_mut(), g) {
+            grades.push(g);
+        }
+    }
+    if time.len() < 2 {
+        return Err(CycleError::TooFewRows {
+            file: file.to_string(),
+            found: time.len(),
+        });
+    }
+    Ok(Cycle {
+        name,
+        time,
+        speed,
+        grade,
+    })
+}

@@ -1,0 +1,1126 @@
+//! The inverse-simulation driver: the model's input and state along a smoothed drive cycle (Fröberg & Nielsen
+//! 2004, eq. 24–32; Isidori, *Nonlinear Control Systems*, §4.1 and §4.3).
+//!
+//! For x' = f(x) + g(x)u, y = h(x) with relative degree r the normal form is
+//!
+//! ```text
+//! ξ̇_i = ξ_{i+1} (i < r),   y^(r) = α(ξ, η) + β(ξ, η) u,   η̇ = q(ξ, η, y^(r)),   x = ψ⁻¹(ξ, η)
+//! ```
+//!
+//! so with the reference y_d and its exact derivatives from the [`Smoother`] (paper eq. 33–35),
+//! ξ = (y_d, ẏ_d, …, y_d^(r−1)) and the input that makes y follow y_d is u = (y_d^(r) − α) / β (eq. 26).
+//! If r < n the internal coordinates η follow the zero dynamics η̇ = q(ξ(t), η, y_d^(r)(t)), which are
+//! integrated here with an adaptive, error-controlled Dormand–Prince 5(4) method. This causal inversion is only
+//! possible for minimum-phase systems (stable zero dynamics); non-minimum-phase systems need stable (non-causal)
+//! inversion and are rejected with [`SimulateError::UnstableZeroDynamics`].
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+
+use invsim_model_api::{InverseModel, ModelError};
+use nalgebra::{DMatrix, DVector};
+use serde::Serialize;
+use thiserror::Error;
+
+use crate::cycle::Cycle;
+use crate::smoother::{Smoother, SmootherError};
+
+/// How many derivatives (orders 0 … 9) the smoother delivers per evaluation; bounds the relative degree (≤ 9).
+pub const MAX_DERIVATIVES: usize = 10;
+
+/// |η| above this means the internal dynamics have blown up.
+pub const ETA_BLOWUP: f64 = 1e12;
+
+/// Largest number of output samples a run may produce (guards against absurd `--dt`).
+pub const MAX_SAMPLES: usize = 50_000_000;
+
+/// Options of [`simulate`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimulationOptions {
+    /// Kernel half-width a in seconds, the driver's look-ahead (paper eq. 33; default 5 s).
+    pub lookahead: f64,
+    /// Output step in seconds (default 0.1 s). The grid is t_k = t_0 + k·dt, k = 0 … round(duration/dt).
+    pub dt: f64,
+    /// Which implementation of the model is being driven (`"compiled"` or `"interpreted"`); only reported.
+    pub engine: String,
+    /// Initial internal state η(t_0), used as given. `None`: the equilibrium q(ξ(t_0), η, y_d^(r)(t_0)) = 0,
+    /// found by Newton's method from η = 0.
+    pub eta0: Option<Vec<f64>>,
+    /// Relative tolerance of the zero-dynamics integrator (default 1e-10).
+    pub rtol: f64,
+    /// Absolute tolerance of the zero-dynamics integrator (default 1e-12).
+    pub atol: f64,
+    /// Seconds between two checks of the eigenvalues of ∂q/∂η along the run (default 1 s; the check is also
+    /// made at t_0).
+    pub stability_check_interval: f64,
+    /// Verify the inverse: simulate the original model dx/dt = f(x) + g(x)u forward from x(t_0) with the
+    /// computed input (re-evaluated exactly at every integrator stage) and report how far h(x) strays from
+    /// y_d (`max_abs_tracking_error`, `rms_tracking_error`).
+    pub verify: bool,
+}
+
+impl Default for SimulationOptions {
+    fn default() -> Self {
+        SimulationOptions {
+            lookahead: 5.0,
+            dt: 0.1,
+            engine: "compiled".to_string(),
+            eta0: None,
+            rtol: 1e-10,
+            atol: 1e-12,
+            stability_check_interval: 1.0,
+            verify: false,
+        }
+    }
+}
+
+/// Why a simulation could not be run or was stopped.
+#[derive(Debug, Error)]
+pub enum SimulateError {
+    #[error("invalid output step dt = {0} s: it must be a positive, finite number of seconds")]
+    InvalidDt(f64),
+    #[error("invalid look-ahead a = {0} s: the kernel half-width must be a positive, finite number of seconds")]
+    InvalidLookahead(f64),
+    #[error(
+        "invalid zero-dynamics tolerances rtol = {rtol}, atol = {atol}: both must be positive and finite"
+    )]
+    InvalidTolerance { rtol: f64, atol: f64 },
+    #[error("invalid stability check interval {0} s: it must be a positive, finite number of seconds")]
+    InvalidCheckInterval(f64),
+    #[error("invalid initial internal state eta0: {reason}")]
+    InvalidEta0 { reason: String },
+    #[error(
+        "relative degree {relative_degree} is too high: the smoother provides y_d and its derivatives up to \
+         order {max}"
+    )]
+    RelativeDegreeTooHigh { relative_degree: usize, max: usize },
+    #[error("cannot simulate cycle `{cycle}`: {reason}")]
+    InvalidCycle { cycle: String, reason: String },
+    #[error(
+        "{samples} output samples (duration {duration} s at dt = {dt} s) exceed the limit of {max}; use a larger \
+         --dt"
+    )]
+    TooManySamples { samples: f64, duration: f64, dt: f64, max: usize },
+    #[error("cannot smooth the drive cycle: {0}")]
+    Smoother(#[from] SmootherError),
+    #[error("the model failed at t = {t} s: {source}")]
+    Model {
+        t: f64,
+        #[source]
+        source: ModelError,
+    },
+    #[error("{quantity} is not finite ({value}) at t = {t} s")]
+    NonFinite { t: f64, quantity: String, value: f64 },
+    #[error(
+        "the decoupling coefficient β(ξ, η) = L_g L_f^(r−1) h is {beta} at t = {t} s, so the input \
+         u = (y^(r) − α)/β is undefined there: the relative degree is not well defined at this operating point"
+    )]
+    SingularDecoupling { t: f64, beta: f64 },
+    #[error(
+        "cannot find the initial internal state: Newton's method for the equilibrium q(ξ(t0), η, y_d^(r)(t0)) = 0 \
+         at t0 = {t} s {reason}; give eta0 explicitly"
+    )]
+    ZeroDynamicsEquilibrium { t: f64, reason: String },
+    #[error(
+        "unstable zero dynamics at t = {t} s: {detail}; eigenvalues of ∂q/∂η: {eigs}. The system is non-minimum \
+         phase for this output, so causal inverse simulation diverges; stable (non-causal) inversion is needed",
+        eigs = format_eigenvalues(.eigenvalues)
+    )]
+    UnstableZeroDynamics { t: f64, eigenvalues: Vec<[f64; 2]>, detail: String },
+    #[error("integrating the zero dynamics failed at t = {t} s: {reason}")]
+    Integration { t: f64, reason: String },
+}
+
+/// "0.5, -2 ± 1i" style list of complex numbers given as [re, im].
+fn format_eigenvalues(eigs: &[[f64; 2]]) -> String {
+    if eigs.is_empty() {
+        return "not computable (∂q/∂η is not finite)".to_string();
+    }
+    let mut s = String::new();
+    let mut i = 0;
+    while i < eigs.len() {
+        if !s.is_empty() {
+            s.push_str(", ");
+        }
+        let [re, im] = eigs[i];
+        // Conjugate pairs are listed together.
+        let paired = im != 0.0 && i + 1 < eigs.len() && eigs[i + 1][0] == re && eigs[i + 1][1] == -im;
+        if paired {
+            let _ = write!(s, "{} ± {}i", fmt_sig(re, 6), fmt_sig(im.abs(), 6));
+            i += 2;
+        } else if im == 0.0 {
+            let _ = write!(s, "{}", fmt_sig(re, 6));
+            i += 1;
+        } else {
+            let sign = if im < 0.0 { '-' } else { '+' };
+            let _ = write!(s, "{} {} {}i", fmt_sig(re, 6), sign, fmt_sig(im.abs(), 6));
+            i += 1;
+        }
+    }
+    s
+}
+
+/// Result of a run: the summary and the time series, stored column by column.
+#[derive(Debug, Clone)]
+pub struct SimulationResult {
+    pub summary: Summary,
+    /// Column names: `t`, `yd_0` … `yd_r`, the input, the states, `eta1` …, the `[outputs]`.
+    pub columns: Vec<String>,
+    /// One vector per column, each with `summary.samples` entries.
+    pub data: Vec<Vec<f64>>,
+    /// Index of the input's column in `columns`/`data`.
+    pub input_column: usize,
+    /// The input's bounds [min, max] as declared by the model (reported, never clipped).
+    pub input_bounds: [Option<f64>; 2],
+}
+
+impl SimulationResult {
+    /// The column called `name`, if any.
+    pub fn column(&self, name: &str) -> Option<&[f64]> {
+        self.columns.iter().position(|c| c == name).map(|i| self.data[i].as_slice())
+    }
+    /// Sample times t_k.
+    pub fn time(&self) -> &[f64] {
+        &self.data[0]
+    }
+    /// y_d^(k) at the samples, k = 0 … r.
+    pub fn yd(&self, k: usize) -> Option<&[f64]> {
+        (k <= self.summary.relative_degree).then(|| self.data[1 + k].as_slice())
+    }
+    /// The computed input u at the samples.
+    pub fn input(&self) -> &[f64] {
+        &self.data[self.input_column]
+    }
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.data[0].len()
+    }
+    /// True if there are no samples (never the case for a successful run).
+    pub fn is_empty(&self) -> bool {
+        self.data[0].is_empty()
+    }
+}
+
+/// What `invsim simulate` prints and writes with `--summary-json`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Summary {
+    pub model: String,
+    pub cycle: String,
+    /// Cycle duration (last minus first time stamp), s.
+    pub duration_s: f64,
+    /// Distance of the (raw, piecewise-linear) cycle, m.
+    pub distance_m: f64,
+    pub relative_degree: usize,
+    pub engine: String,
+    pub samples: usize,
+    pub lookahead_s: f64,
+    pub dt_s: f64,
+    /// Accumulated output → its integral over the run (trapezoidal rule on the output grid).
+    pub integrals: BTreeMap<String, f64>,
+    /// Accumulated output → integral · 1e5 / distance_m (per 100 km); empty if the cycle covers no distance.
+    pub integrals_per_100km: BTreeMap<String, f64>,
+    /// Accumulated output → unit of its integral (e.g. `kg` for an output in `kg/s`), where the unit is known.
+    pub integral_units: BTreeMap<String, String>,
+    /// The input's name.
+    pub input: String,
+    /// Smallest and largest input reached over the run.
+    pub input_min: f64,
+    pub input_max: f64,
+    /// The model's input bounds (reported, never clipped).
+    pub input_lower_bound: Option<f64>,
+    pub input_upper_bound: Option<f64>,
+    /// Maximal time intervals [t_start, t_end] of consecutive samples with the input outside its bounds.
+    pub input_bound_violations: Vec<[f64; 2]>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_abs_tracking_error: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rms_tracking_error: Option<f64>,
+    pub warnings: Vec<String>,
+}
+
+impl Summary {
+    /// Human-readable summary, one line per field (what `invsim simulate` prints).
+    pub fn to_text(&self) -> String {
+        let mut s = String::new();
+        let _ = writeln!(s, "model: {}", self.model);
+        let _ = writeln!(s, "engine: {}", self.engine);
+        let _ = writeln!(s, "cycle: {}", self.cycle);
+        let _ = writeln!(s, "duration: {} s", fmt_sig(self.duration_s, 6));
+        let _ = writeln!(s, "distance: {} m", fmt_sig(self.distance_m, 6));
+        let _ = writeln!(s, "relative degree: {}", self.relative_degree);
+        let _ = writeln!(s, "samples: {}", self.samples);
+        let _ = writeln!(s, "dt: {} s", fmt_sig(self.dt_s, 6));
+        let _ = writeln!(s, "look-ahead: {} s", fmt_sig(self.lookahead_s, 6));
+        for (name, value) in &self.integrals {
+            let unit = self.integral_units.get(name);
+            let _ = write!(s, "{name}: {}", fmt_sig(*value, 4));
+            if let Some(u) = unit {
+                let _ = write!(s, " {u}");
+            }
+            s.push_str(" (integral)");
+            if let Some(p) = self.integrals_per_100km.get(name) {
+                let _ = write!(s, ", {} ", fmt_sig(*p, 4));
+                if let Some(u) = unit {
+                    let _ = write!(s, "{u}/");
+                }
+                s.push_str("per 100 km");
+            }
+            s.push('\n');
+        }
+        let _ = write!(
+            s,
+            "{}: min {}, max {}",
+            self.input,
+            fmt_sig(self.input_min, 4),
+            fmt_sig(self.input_max, 4)
+        );
+        if self.input_lower_bound.is_some() || self.input_upper_bound.is_some() {
+            let b = |v: Option<f64>, inf: &str| v.map_or(inf.to_string(), |v| fmt_sig(v, 6));
+            let _ = write!(
+                s,
+                " (bounds [{}, {}])",
+                b(self.input_lower_bound, "-inf"),
+                b(self.input_upper_bound, "inf")
+            );
+        }
+        s.push('\n');
+        if self.input_bound_violations.is_empty() {
+            s.push_str("input bound violations: none\n");
+        } else {
+            let total: f64 = self.input_bound_violations.iter().map(|[a, b]| b - a).sum();
+            let list: Vec<String> = self
+                .input_bound_violations
+                .iter()
+                .map(|[a, b]| format!("[{}, {}]", fmt_sig(*a, 6), fmt_sig(*b, 6)))
+                .collect();
+            let _ = writeln!(
+                s,
+                "input bound violations: {} intervals, {} s: {}",
+                list.len(),
+                fmt_sig(total, 4),
+                list.join(" ")
+            );
+        }
+        if let Some(e) = self.max_abs_tracking_error {
+            let _ = writeln!(s, "max abs tracking error: {}", fmt_sig(e, 3));
+        }
+        if let Some(e) = self.rms_tracking_error {
+            let _ = writeln!(s, "rms tracking error: {}", fmt_sig(e, 3));
+        }
+        for w in &self.warnings {
+            let _ = writeln!(s, "warning: {w}");
+        }
+        s
+    }
+}
+
+/// `v` with `digits` significant digits, in positional notation for moderate magnitudes.
+pub(crate) fn fmt_sig(v: f64, digits: usize) -> String {
+    if !v.is_finite() {
+        return format!("{v}");
+    }
+    if v == 0.0 {
+        return "0".to_string();
+    }
+    let mag = v.abs().log10().floor() as i32;
+    if !(-4..15).contains(&mag) {
+        return format!("{:.*e}", digits.saturating_sub(1), v);
+    }
+    let decimals = (digits as i32 - 1 - mag).max(0) as usize;
+    let s = format!("{v:.decimals$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
+}
+
+/// The output grid t_k = t_0 + k·dt, k = 0 … n.
+#[derive(Debug, Clone, Copy)]
+struct Grid {
+    t0: f64,
+    dt: f64,
+    n: usize,
+    /// 1/dt when that is an integer: then t_k = t_0 + k/(1/dt) is the correctly rounded k·dt (0.3, not
+    /// 0.30000000000000004, at dt = 0.1).
+    per_second: Option<f64>,
+}
+
+impl Grid {
+    fn time(&self, k: usize) -> f64 {
+        match self.per_second {
+            Some(m) => self.t0 + k as f64 / m,
+            None => self.t0 + k as f64 * self.dt,
+        }
+    }
+}
+
+/// Simulate `model` inversely along `cycle`: at every grid time the smoothed reference y_d … y_d^(r), the input,
+/// the state, η and the extra outputs (see the module docs and contract §3).
+///
+/// Accumulated outputs are integrated over the output grid with the trapezoidal rule,
+/// ∫ o dt ≈ Σ_k dt·(o_k + o_{k+1})/2; input-bound violations are reported, never clipped.
+pub fn simulate<M: InverseModel + ?Sized>(
+    model: &M,
+    cycle: &Cycle,
+    opts: &SimulationOptions,
+) -> Result<SimulationResult, SimulateError> {
+    // --- validation -------------------------------------------------------------------------------------
+    if !(opts.dt > 0.0 && opts.dt.is_finite()) {
+        return Err(SimulateError::InvalidDt(opts.dt));
+    }
+    if !(opts.lookahead > 0.0 && opts.lookahead.is_finite()) {
+        return Err(SimulateError::InvalidLookahead(opts.lookahead));
+    }
+    let tol_ok = |v: f64| v > 0.0 && v.is_finite();
+    if !(tol_ok(opts.rtol) && tol_ok(opts.atol)) {
+        return Err(SimulateError::InvalidTolerance { rtol: opts.rtol, atol: opts.atol });
+    }
+    if !tol_ok(opts.stability_check_interval) {
+        return Err(SimulateError::InvalidCheckInterval(opts.stability_check_interval));
+    }
+    let info = model.info();
+    let r = info.relative_degree;
+    let n = info.n_states();
+    let ne = info.n_eta;
+    let no = info.outputs.len();
+    if r + 1 > MAX_DERIVATIVES {
+        return Err(SimulateError::RelativeDegreeTooHigh {
+            relative_degree: r,
+            max: MAX_DERIVATIVES - 1,
+        });
+    }
+    let bad_cycle = |reason: String| SimulateError::InvalidCycle { cycle: cycle.name.clone(), reason };
+    if cycle.time.is_empty() || cycle.time.len() != cycle.speed.len() {
+        return Err(bad_cycle(format!(
+            "it has {} time stamps and {} speeds (need at least one of each, equally many)",
+            cycle.time.len(),
+            cycle.speed.len()
+        )));
+    }
+    let t0 = cycle.time[0];
+    let duration = cycle.duration();
+    if !(t0.is_finite() && duration.is_finite() && duration >= 0.0) {
+        return Err(bad_cycle(format!("start time {t0} s and duration {duration} s must be finite, duration ≥ 0")));
+    }
+    let steps = (duration / opts.dt).round();
+    if steps + 1.0 > MAX_SAMPLES as f64 {
+        return Err(SimulateError::TooManySamples {
+            samples: steps + 1.0,
+            duration,
+            dt: opts.dt,
+            max: MAX_SAMPLES,
+        });
+    }
+    let per_second = {
+        let m = (1.0 / opts.dt).round();
+        (m >= 1.0 && (1.0 / opts.dt - m).abs() <= 1e-9 * m).then_some(m)
+    };
+    let grid = Grid { t0, dt: opts.dt, n: steps as usize, per_second };
+    let eta0 = match &opts.eta0 {
+        Some(e) if e.len() != ne => {
+            return Err(SimulateError::InvalidEta0 {
+                reason: format!("model `{}` has {ne} internal coordinates, {} values were given", info.name, e.len()),
+            })
+        }
+        Some(e) if e.iter().any(|v| !v.is_finite()) => {
+            return Err(SimulateError::InvalidEta0 { reason: format!("values must be finite, got {e:?}") })
+        }
+        other => other.clone(),
+    };
+
+    let smoother = Smoother::new(cycle, opts.lookahead)?;
+
+    // --- columns ------------------------------------------------------------------------------------------
+    let mut columns = Vec::with_capacity(2 + r + 1 + n + ne + no);
+    columns.push("t".to_string());
+    columns.extend((0..=r).map(|k| format!("yd_{k}")));
+    let input_column = columns.len();
+    columns.push(info.input.clone());
+    let state_column = columns.len();
+    columns.extend(info.states.iter().cloned());
+    let eta_column = columns.len();
+    columns.extend((1..=ne).map(|k| format!("eta{k}")));
+    let output_column = columns.len();
+    columns.extend(info.outputs.iter().map(|o| o.name.clone()));
+    let samples = grid.n + 1;
+    let mut data: Vec<Vec<f64>> = (0..columns.len()).map(|_| Vec::with_capacity(samples)).collect();
+
+    // --- work space (allocated once; the per-sample loop below allocates nothing) -------------------------
+    let mut yd = [0.0_f64; MAX_DERIVATIVES];
+    let mut x = vec![0.0; n];
+    let mut eta = vec![0.0; ne];
+    let mut outs = vec![0.0; no];
+    let mut row = vec![0.0; columns.len()];
+    let accumulate: Vec<usize> = (0..no).filter(|&i| info.outputs[i].accumulate).collect();
+    let mut integrals = vec![0.0; accumulate.len()];
+    let mut prev_outs = vec![0.0; no];
+    let mut warnings = Vec::new();
+
+    // --- initial internal state and its stability (Isidori §4.3: minimum phase) ---------------------------
+    let mut zd_ws = ZeroDynamicsWorkspace::new(ne);
+    if ne > 0 {
+        smoother.eval(t0, &mut yd[..=r]);
+        let (xi, yr) = (&yd[..r], yd[r]);
+        match eta0 {
+            Some(e) => eta.copy_from_slice(&e),
+            None => equilibrium(model, xi, yr, &mut eta, &mut zd_ws)
+                .map_err(|reason| SimulateError::ZeroDynamicsEquilibrium { t: t0, reason })?,
+        }
+        check_stability(model, t0, xi, &eta, yr, &mut zd_ws)?;
+    }
+    let eta_start = eta.clone();
+    let check_every = ((opts.stability_check_interval / opts.dt).round() as usize).max(1);
+    let mut integrator = Dopri5::new(ne, opts.rtol, opts.atol, opts.dt);
+
+    // --- bookkeeping of the input ----------------------------------------------------------------------
+    let (umin_bound, umax_bound) = (info.input_min, info.input_max);
+    let mut u_min = f64::INFINITY;
+    let mut u_max = f64::NEG_INFINITY;
+    let mut violations: Vec<[f64; 2]> = Vec::new();
+    let mut open_violation: Option<[f64; 2]> = None;
+    let mut x_start: Vec<f64> = Vec::new();
+
+    // --- the run ---------------------------------------------------------------------------------------
+    for k in 0..samples {
+        let t = grid.time(k);
+        if k > 0 && ne > 0 {
+            let t_prev = grid.time(k - 1);
+            let mut q = |s: f64, e: &[f64], de: &mut [f64]| {
+                let mut yd_s = [0.0_f64; MAX_DERIVATIVES];
+                smoother.eval(s, &mut yd_s[..=r]);
+                model.zero_dynamics(&yd_s[..r], e, yd_s[r], de);
+                Ok(())
+            };
+            if let Err(err) = integrator.advance(t_prev, t, &mut eta, &mut q) {
+                // A failing integrator usually means that η is running away; say so if it is.
+                let (t_fail, eta_fail) = (integrator.t_fail, &integrator.y_fail);
+                smoother.eval(t_fail, &mut yd[..=r]);
+                let (xi, yr) = (&yd[..r], yd[r]);
+                if let Some(i) = eta_fail.iter().position(|v| !v.is_finite() || v.abs() > ETA_BLOWUP) {
+                    return Err(SimulateError::UnstableZeroDynamics {
+                        t: t_fail,
+                        eigenvalues: eigenvalues_at(model, xi, eta_fail, yr, &mut zd_ws),
+                        detail: format!("eta{} = {} has blown up", i + 1, eta_fail[i]),
+                    });
+                }
+                check_stability(model, t_fail, xi, eta_fail, yr, &mut zd_ws)?;
+                return Err(err);
+            }
+        }
+        smoother.eval(t, &mut yd[..=r]);
+        if let Some(i) = yd[..=r].iter().position(|v| !v.is_finite()) {
+            return Err(SimulateError::NonFinite { t, quantity: format!("yd_{i}"), value: yd[i] });
+        }
+        let (xi, yr) = (&yd[..r], yd[r]);
+        if ne > 0 {
+            if let Some(i) = eta.iter().position(|v| !v.is_finite() || v.abs() > ETA_BLOWUP) {
+                let eigenvalues = eigenvalues_at(model, xi, &eta, yr, &mut zd_ws);
+                return Err(SimulateError::UnstableZeroDynamics {
+                    t,
+                    eigenvalues,
+                    detail: format!("eta{} = {} has blown up", i + 1, eta[i]),
+                });
+            }
+            if k % check_every == 0 && k > 0 {
+                check_stability(model, t, xi, &eta, yr, &mut zd_ws)?;
+            }
+        }
+
+        // x = ψ⁻¹(ξ, η) (previous x as the guess), u = (y_d^(r) − α)/β (paper eq. 26).
+        let u = model.invert(xi, &eta, yr, &mut x).map_err(|source| SimulateError::Model { t, source })?;
+        if !u.is_finite() {
+            let beta = model.beta(xi, &eta);
+            if beta == 0.0 || !beta.is_finite() {
+                return Err(SimulateError::SingularDecoupling { t, beta });
+            }
+            return Err(SimulateError::NonFinite { t, quantity: info.input.clone(), value: u });
+        }
+        if let Some(i) = x.iter().position(|v| !v.is_finite()) {
+            return Err(SimulateError::NonFinite { t, quantity: info.states[i].clone(), value: x[i] });
+        }
+        model.outputs(&x, u, &mut outs);
+        if let Some(i) = outs.iter().position(|v| !v.is_finite()) {
+            return Err(SimulateError::NonFinite { t, quantity: info.outputs[i].name.clone(), value: outs[i] });
+        }
+        if k == 0 {
+            x_start.extend_from_slice(&x);
+        }
+
+        // Trapezoidal rule over the grid.
+        if k > 0 {
+            for (acc, &i) in integrals.iter_mut().zip(&accumulate) {
+                *acc += 0.5 * grid.dt * (prev_outs[i] + outs[i]);
+            }
+        }
+        prev_outs.copy_from_slice(&outs);
+
+        // Input range and bound violations (maximal runs of consecutive samples outside the bounds).
+        u_min = u_min.min(u);
+        u_max = u_max.max(u);
+        let outside = umin_bound.is_some_and(|b| u < b) || umax_bound.is_some_and(|b| u > b);
+        match (&mut open_violation, outside) {
+            (Some(v), true) => v[1] = t,
+            (None, true) => open_violation = Some([t, t]),
+            (Some(v), false) => {
+                violations.push(*v);
+                open_violation = None;
+            }
+            (None, false) => {}
+        }
+
+        row[0] = t;
+        row[1..=r + 1].copy_from_slice(&yd[..=r]);
+        row[input_column] = u;
+        row[state_column..eta_column].copy_from_slice(&x);
+        row[eta_column..output_column].copy_from_slice(&eta);
+        row[output_column..].copy_from_slice(&outs);
+        for (col, &v) in data.iter_mut().zip(&row) {
+            col.push(v);
+        }
+    }
+    if let Some(v) = open_violation {
+        violations.push(v);
+    }
+
+    // --- summary ---------------------------------------------------------------------------------------
+    let distance = cycle.distance();
+    let mut integral_map = BTreeMap::new();
+    let mut per_100km = BTreeMap::new();
+    let mut integral_units = BTreeMap::new();
+    for (acc, &i) in integrals.iter().zip(&accumulate) {
+        let o = &info.outputs[i];
+        integral_map.insert(o.name.clone(), *acc);
+        if distance > 0.0 && distance.is_finite() {
+            per_100km.insert(o.name.clone(), acc * 1e5 / distance);
+        }
+        if let Some(unit) = o.unit.as_deref().and_then(integral_unit) {
+            integral_units.insert(o.name.clone(), unit);
+        }
+    }
+    if !accumulate.is_empty() && !(distance > 0.0 && distance.is_finite()) {
+        warnings.push(format!("the cycle covers no distance ({distance} m): no per-100-km figures"));
+    }
+    if cycle.grade.as_ref().is_some_and(|g| g.iter().any(|&v| v != 0.0)) {
+        warnings.push("the cycle's road grade is ignored (the model has no grade input)".to_string());
+    }
+    if !violations.is_empty() {
+        let total: f64 = violations.iter().map(|[a, b]| b - a).sum();
+        let bounds = format!(
+            "[{}, {}]",
+            umin_bound.map_or("-inf".to_string(), |b| fmt_sig(b, 6)),
+            umax_bound.map_or("inf".to_string(), |b| fmt_sig(b, 6))
+        );
+        warnings.push(format!(
+            "input {} leaves its bounds {bounds} in {} interval(s), {} s in total (reached {} … {}); not clipped",
+            info.input,
+            violations.len(),
+            fmt_sig(total, 4),
+            fmt_sig(u_min, 4),
+            fmt_sig(u_max, 4)
+        ));
+    }
+
+    let (max_abs_tracking_error, rms_tracking_error) = if opts.verify {
+        let yd0 = &data[1];
+        let (max_abs, rms, warning) =
+            verify_forward(model, &smoother, &grid, &eta_start, &x_start, yd0, opts);
+        if let Some(w) = warning {
+            warnings.push(w);
+        }
+        (Some(max_abs), Some(rms))
+    } else {
+        (None, None)
+    };
+
+    let summary = Summary {
+        model: info.name.clone(),
+        cycle: cycle.name.clone(),
+        duration_s: duration,
+        distance_m: distance,
+        relative_degree: r,
+        engine: opts.engine.clone(),
+        samples,
+        lookahead_s: opts.lookahead,
+        dt_s: opts.dt,
+        integrals: integral_map,
+        integrals_per_100km: per_100km,
+        integral_units,
+        input: info.input.clone(),
+        input_min: u_min,
+        input_max: u_max,
+        input_lower_bound: umin_bound,
+        input_upper_bound: umax_bound,
+        input_bound_violations: violations,
+        max_abs_tracking_error,
+        rms_tracking_error,
+        warnings,
+    };
+    Ok(SimulationResult {
+        summary,
+        columns,
+        data,
+        input_column,
+        input_bounds: [umin_bound, umax_bound],
+    })
+}
+
+/// The unit of ∫ o dt for an output in `unit`: `kg/s` → `kg`, `W` → `J`; `None` if not obvious.
+fn integral_unit(unit: &str) -> Option<String> {
+    let unit = unit.trim();
+    if let Some(base) = unit.strip_suffix("/s") {
+        return (!base.is_empty()).then(|| base.to_string());
+    }
+    match unit {
+        "W" => Some("J".to_string()),
+        "kW" => Some("kJ".to_string()),
+        _ => None,
+    }
+}
+
+// --- zero dynamics: equilibrium, linearisation, eigenvalues --------------------------------------------------
+
+/// Scratch space for Jacobians of q(ξ, η, y^(r)) with respect to η.
+struct ZeroDynamicsWorkspace {
+    n: usize,
+    eta: Vec<f64>,
+    q: Vec<f64>,
+    qp: Vec<f64>,
+    qm: Vec<f64>,
+    /// ∂q/∂η, column major (n × n).
+    jac: Vec<f64>,
+}
+
+impl ZeroDynamicsWorkspace {
+    fn new(n: usize) -> Self {
+        ZeroDynamicsWorkspace {
+            n,
+            eta: vec![0.0; n],
+            q: vec![0.0; n],
+            qp: vec![0.0; n],
+            qm: vec![0.0; n],
+            jac: vec![0.0; n * n],
+        }
+    }
+
+    /// ∂q/∂η at (ξ, η, y^(r)) by central differences (step 1e-6·max(1, |η_j|)).
+    fn jacobian<M: InverseModel + ?Sized>(&mut self, model: &M, xi: &[f64], eta: &[f64], yr: f64) {
+        let n = self.n;
+        self.eta.copy_from_slice(eta);
+        for j in 0..n {
+            let h = 1e-6 * eta[j].abs().max(1.0);
+            self.eta[j] = eta[j] + h;
+            model.zero_dynamics(xi, &self.eta, yr, &mut self.qp);
+            self.eta[j] = eta[j] - h;
+            model.zero_dynamics(xi, &self.eta, yr, &mut self.qm);
+            self.eta[j] = eta[j];
+            for i in 0..n {
+                self.jac[j * n + i] = (self.qp[i] - self.qm[i]) / (2.0 * h);
+            }
+        }
+    }
+
+    fn jac_matrix(&self) -> DMatrix<f64> {
+        DMatrix::from_column_slice(self.n, self.n, &self.jac)
+    }
+}
+
+/// Eigenvalues [re, im] of ∂q/∂η at (ξ, η, y^(r)); empty if the Jacobian is not finite.
+fn eigenvalues_at<M: InverseModel + ?Sized>(
+    model: &M,
+    xi: &[f64],
+    eta: &[f64],
+    yr: f64,
+    ws: &mut ZeroDynamicsWorkspace,
+) -> Vec<[f64; 2]> {
+    ws.jacobian(model, xi, eta, yr);
+    eigenvalues(ws)
+}
+
+fn eigenvalues(ws: &ZeroDynamicsWorkspace) -> Vec<[f64; 2]> {
+    if ws.jac.iter().any(|v| !v.is_finite()) {
+        return Vec::new();
+    }
+    if ws.n == 1 {
+        return vec![[ws.jac[0], 0.0]];
+    }
+    match nalgebra::Schur::try_new(ws.jac_matrix(), f64::EPSILON, 10_000) {
+        Some(schur) => {
+            let mut eigs: Vec<[f64; 2]> = schur.complex_eigenvalues().iter().map(|c| [c.re, c.im]).collect();
+            eigs.sort_by(|a, b| b[0].total_cmp(&a[0]).then(b[1].total_cmp(&a[1])));
+            eigs
+        }
+        None => Vec::new(),
+    }
+}
+
+/// Stop with [`SimulateError::UnstableZeroDynamics`] if ∂q/∂η has an eigenvalue with positive real part
+/// (beyond finite-difference noise, 1e-9 + 1e-7·‖∂q/∂η‖_max): the zero dynamics are then locally unstable and
+/// the system non-minimum phase (Isidori §4.3).
+fn check_stability<M: InverseModel + ?Sized>(
+    model: &M,
+    t: f64,
+    xi: &[f64],
+    eta: &[f64],
+    yr: f64,
+    ws: &mut ZeroDynamicsWorkspace,
+) -> Result<(), SimulateError> {
+    ws.jacobian(model, xi, eta, yr);
+    let scale = ws.jac.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    // One internal coordinate: the Jacobian is the eigenvalue; no allocation needed on the stable path.
+    if ws.n == 1 && ws.jac[0].is_finite() && ws.jac[0] <= 1e-9 + 1e-7 * scale {
+        return Ok(());
+    }
+    let eigs = eigenvalues(ws);
+    if eigs.is_empty() {
+        return Err(SimulateError::UnstableZeroDynamics {
+            t,
+            eigenvalues: eigs,
+            detail: "the linearisation ∂q/∂η is not finite".to_string(),
+        });
+    }
+    if let Some(e) = eigs.iter().find(|e| e[0] > 1e-9 + 1e-7 * scale) {
+        return Err(SimulateError::UnstableZeroDynamics {
+            t,
+            detail: format!("∂q/∂η has an eigenvalue with positive real part {}", fmt_sig(e[0], 6)),
+            eigenvalues: eigs,
+        });
+    }
+    Ok(())
+}
+
+/// η with q(ξ, η, y^(r)) = 0 by Newton's method from the value in `eta`… (zero on entry) with the
+/// finite-difference Jacobian and a backtracking line search. The error is a phrase for
+/// [`SimulateError::ZeroDynamicsEquilibrium`].
+fn equilibrium<M: InverseModel + ?Sized>(
+    model: &M,
+    xi: &[f64],
+    yr: f64,
+    eta: &mut [f64],
+    ws: &mut ZeroDynamicsWorkspace,
+) -> Result<(), String> {
+    const MAX_ITER: usize = 100;
+    let n = ws.n;
+    eta.fill(0.0);
+    let norm = |v: &[f64]| v.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+    let mut q = vec![0.0; n];
+    let mut trial = vec![0.0; n];
+    let mut q_trial = vec![0.0; n];
+    model.zero_dynamics(xi, eta, yr, &mut q);
+    for _ in 0..MAX_ITER {
+        let res = norm(&q);
+        if !res.is_finite() {
+            return Err(format!("met a non-finite q at η = {eta:?}"));
+        }
+        if res == 0.0 {
+            return Ok(());
+        }
+        ws.jacobian(model, xi, eta, yr);
+        let step = DMatrix::from_column_slice(n, n, &ws.jac)
+            .lu()
+            .solve(&DVector::from_column_slice(&q))
+            .filter(|s| s.iter().all(|v| v.is_finite()))
+            .ok_or_else(|| format!("met a singular Jacobian ∂q/∂η at η = {eta:?}"))?;
+        // Backtracking: halve the step until the residual decreases.
+        let mut lambda = 1.0;
+        let mut accepted = false;
+        for _ in 0..30 {
+            for i in 0..n {
+                trial[i] = eta[i] - lambda * step[i];
+            }
+            model.zero_dynamics(xi, &trial, yr, &mut q_trial);
+            if norm(&q_trial) < res || norm(&q_trial) == 0.0 {
+                accepted = true;
+                break;
+            }
+            lambda *= 0.5;
+        }
+        let step_norm = lambda * norm(step.as_slice());
+        let eta_norm = norm(eta);
+        if !accepted {
+            // No decrease possible: converged to rounding level if the step is negligible.
+            if step_norm <= 1e-10 * (1.0 + eta_norm) {
+                return Ok(());
+            }
+            return Err(format!("stalled at η = {eta:?} with residual {res:e}"));
+        }
+        eta.copy_from_slice(&trial);
+        q.copy_from_slice(&q_trial);
+        if step_norm <= 1e-14 * (1.0 + eta_norm) {
+            return Ok(());
+        }
+    }
+    Err(format!("did not converge in {MAX_ITER} iterations (residual {:e})", norm(&q)))
+}
+
+// --- forward verification -------------------------------------------------------------------------------
+
+/// Simulate the original model dx/dt = f(x) + g(x)u forward from x(t_0), integrating η alongside so that the
+/// input u(t) = (y_d^(r) − α)/β (paper eq. 26) is re-evaluated exactly at every stage, and compare h(x) with
+/// y_d on the grid. Returns (max |e|, rms e, warning if the forward run failed).
+fn verify_forward<M: InverseModel + ?Sized>(
+    model: &M,
+    smoother: &Smoother,
+    grid: &Grid,
+    eta_start: &[f64],
+    x_start: &[f64],
+    yd0: &[f64],
+    opts: &SimulationOptions,
+) -> (f64, f64, Option<String>) {
+    let info = model.info();
+    let (r, ne, n) = (info.relative_degree, info.n_eta, info.n_states());
+    let mut z = Vec::with_capacity(ne + n);
+    z.extend_from_slice(eta_start);
+    z.extend_from_slice(x_start);
+    let mut guess = x_start.to_vec();
+    let mut integrator = Dopri5::new(ne + n, opts.rtol, opts.atol, opts.dt);
+    let mut rhs = |s: f64, z: &[f64], dz: &mut [f64]| -> Result<(), SimulateError> {
+        let mut yd = [0.0_f64; MAX_DERIVATIVES];
+        smoother.eval(s, &mut yd[..=r]);
+        let (xi, yr) = (&yd[..r], yd[r]);
+        let (eta, x) = z.split_at(ne);
+        let u = model.invert(xi, eta, yr, &mut guess).map_err(|source| SimulateError::Model { t: s, source })?;
+        let (deta, dx) = dz.split_at_mut(ne);
+        model.zero_dynamics(xi, eta, yr, deta);
+        model.rhs(x, u, dx);
+        Ok(())
+    };
+    let mut max_abs = 0.0_f64;
+    let mut sum_sq = 0.0;
+    for k in 0..=grid.n {
+        if k > 0 {
+            if let Err(e) = integrator.advance(grid.time(k - 1), grid.time(k), &mut z, &mut rhs) {
+                return (
+                    f64::INFINITY,
+                    f64::INFINITY,
+                    Some(format!("verification: the forward simulation of the original model failed: {e}")),
+                );
+            }
+        }
+        let err = model.h(&z[ne..]) - yd0[k];
+        if !err.is_finite() {
+            return (
+                f64::INFINITY,
+                f64::INFINITY,
+                Some(format!(
+                    "verification: the forward simulation diverged at t = {} s (h(x) is not finite)",
+                    grid.time(k)
+                )),
+            );
+        }
+        max_abs = max_abs.max(err.abs());
+        sum_sq += err * err;
+    }
+    (max_abs, (sum_sq / (grid.n + 1) as f64).sqrt(), None)
+}
+
+// --- Dormand–Prince 5(4) ------------------------------------------------------------------------------
+
+/// Adaptive Dormand–Prince 5(4) (Hairer, Nørsett & Wanner, *Solving ODEs I*, §II.5) with FSAL, the
+/// standard error norm ‖e_i / (atol + rtol·max(|y_i|, |ŷ_i|))‖_rms ≤ 1 and the step size carried over from one
+/// output interval to the next. All buffers are allocated once.
+struct Dopri5 {
+    rtol: f64,
+    atol: f64,
+    h: f64,
+    k: [Vec<f64>; 7],
+    y_stage: Vec<f64>,
+    y_new: Vec<f64>,
+    fsal: bool,
+    /// Where and with which state the last failure happened (for diagnostics).
+    t_fail: f64,
+    y_fail: Vec<f64>,
+}
+
+const C2: f64 = 1.0 / 5.0;
+const C3: f64 = 3.0 / 10.0;
+const C4: f64 = 4.0 / 5.0;
+const C5: f64 = 8.0 / 9.0;
+const A21: f64 = 1.0 / 5.0;
+const A31: f64 = 3.0 / 40.0;
+const A32: f64 = 9.0 / 40.0;
+const A41: f64 = 44.0 / 45.0;
+const A42: f64 = -56.0 / 15.0;
+const A43: f64 = 32.0 / 9.0;
+const A51: f64 = 19372.0 / 6561.0;
+const A52: f64 = -25360.0 / 2187.0;
+const A53: f64 = 64448.0 / 6561.0;
+const A54: f64 = -212.0 / 729.0;
+const A61: f64 = 9017.0 / 3168.0;
+const A62: f64 = -355.0 / 33.0;
+const A63: f64 = 46732.0 / 5247.0;
+const A64: f64 = 49.0 / 176.0;
+const A65: f64 = -5103.0 / 18656.0;
+const A71: f64 = 35.0 / 384.0;
+const A73: f64 = 500.0 / 1113.0;
+const A74: f64 = 125.0 / 192.0;
+const A75: f64 = -2187.0 / 6784.0;
+const A76: f64 = 11.0 / 84.0;
+// Error coefficients b − b̂.
+const E1: f64 = 71.0 / 57600.0;
+const E3: f64 = -71.0 / 16695.0;
+const E4: f64 = 71.0 / 1920.0;
+const E5: f64 = -17253.0 / 339200.0;
+const E6: f64 = 22.0 / 525.0;
+const E7: f64 = -1.0 / 40.0;
+
+impl Dopri5 {
+    fn new(n: usize, rtol: f64, atol: f64, h0: f64) -> Self {
+        Dopri5 {
+            rtol,
+            atol,
+            h: h0,
+            k: std::array::from_fn(|_| vec![0.0; n]),
+            y_stage: vec![0.0; n],
+            y_new: vec![0.0; n],
+            fsal: false,
+            t_fail: 0.0,
+            y_fail: vec![0.0; n],
+        }
+    }
+
+    /// Integrate y from `t0` to `t1` (> t0) in place.
+    fn advance<F>(&mut self, t0: f64, t1: f64, y: &mut [f64], f: &mut F) -> Result<(), SimulateError>
+    where
+        F: FnMut(f64, &[f64], &mut [f64]) -> Result<(), SimulateError>,
+    {
+        const MAX_STEPS: usize = 1_000_000;
+        let n = y.len();
+        let mut t = t0;
+        if !self.fsal {
+            f(t, y, &mut self.k[0])?;
+            self.fsal = true;
+        }
+        let mut rejected_last = false;
+        for _ in 0..MAX_STEPS {
+            let remaining = t1 - t;
+            if remaining <= 0.0 {
+                return Ok(());
+            }
+            let h_min = 16.0 * f64::EPSILON * t.abs().max(1.0);
+            if self.h < h_min {
+                self.t_fail = t;
+                self.y_fail.copy_from_slice(y);
+                return Err(SimulateError::Integration {
+                    t,
+                    reason: format!(
+                        "the step size fell below {h_min:e} s (the internal dynamics are not finite or too stiff \
+                         here)"
+                    ),
+                });
+            }
+            // Land exactly on t1 (and avoid a sliver of a last step).
+            let clipped = self.h >= remaining * (1.0 - 1e-12) || self.h * 1.01 >= remaining;
+            let h = if clipped { remaining } else { self.h };
+            let err = self.step(t, h, y, f)?;
+            if err <= 1.0 {
+                // Accepted: t += h, y = ŷ, FSAL (k7 = f(t + h, ŷ) is the next k1).
+                t = if clipped { t1 } else { t + h };
+                y.copy_from_slice(&self.y_new[..n]);
+                self.k.swap(0, 6);
+                let grow = if rejected_last { 1.0 } else { 5.0 };
+                let factor = if err == 0.0 { grow } else { (0.9 * err.powf(-0.2)).clamp(0.2, grow) };
+                let proposed = h * factor;
+                // A step shortened to land on t1 says little about the step size the solution allows.
+                self.h = if clipped { proposed.max(self.h) } else { proposed };
+                rejected_last = false;
+            } else {
+                let factor = if err.is_finite() { (0.9 * err.powf(-0.2)).clamp(0.1, 0.9) } else { 0.1 };
+                self.h = h * factor;
+                rejected_last = true;
+            }
+        }
+        self.t_fail = t;
+        self.y_fail.copy_from_slice(y);
+        Err(SimulateError::Integration {
+            t,
+            reason: format!("more than {MAX_STEPS} steps in one output interval"),
+        })
+    }
+
+    /// One step of size h from (t, y) with k1 = f(t, y) in k[0]; fills ŷ (5th order) and k[1..7], returns the
+    /// error norm (NaN → rejected).
+    fn step<F>(&mut self, t: f64, h: f64, y: &[f64], f: &mut F) -> Result<f64, SimulateError>
+    where
+        F: FnMut(f64, &[f64], &mut [f64]) -> Result<(), SimulateError>,
+    {
+        let n = y.len();
+        let [k1, k2, k3, k4, k5, k6, k7] = &mut self.k;
+        let ys = &mut self.y_stage;
+        for i in 0..n {
+            ys[i] = y[i] + h * A21 * k1[i];
+        }
+        f(t + C2 * h, ys, k2)?;
+        for i in 0..n {
+            ys[i] = y[i] + h * (A31 * k1[i] + A32 * k2[i]);
+        }
+        f(t + C3 * h, ys, k3)?;
+        for i in 0..n {
+            ys[i] = y[i] + h * (A41 * k1[i] + A42 * k2[i] + A43 * k3[i]);
+        }
+        f(t + C4 * h, ys, k4)?;
+        for i in 0..n {
+            ys[i] = y[i] + h * (A51 * k1[i] + A52 * k2[i] + A53 * k3[i] + A54 * k4[i]);
+        }
+        f(t + C5 * h, ys, k5)?;
+        for i in 0..n {
+            ys[i] = y[i] + h * (A61 * k1[i] + A62 * k2[i] + A63 * k3[i] + A64 * k4[i] + A65 * k5[i]);
+        }
+        f(t + h, ys, k6)?;
+        let yn = &mut self.y_new;
+        for i in 0..n {
+            yn[i] = y[i] + h * (A71 * k1[i] + A73 * k3[i] + A74 * k4[i] + A75 * k5[i] + A76 * k6[i]);
+        }
+        f(t + h, yn, k7)?;
+        let mut sum = 0.0;
+        for i in 0..n {
+            let e = h * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i]);
+            let sc = self.atol + self.rtol * y[i].abs().max(yn[i].abs());
+            sum += (e / sc) * (e / sc);
+        }
+        let err = (sum / n.max(1) as f64).sqrt();
+        Ok(if err.is_finite() { err } else { f64::NAN })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn significant_digits() {
+        assert_eq!(fmt_sig(0.345_612, 4), "0.3456");
+        assert_eq!(fmt_sig(5.666_3, 3), "5.67");
+        assert_eq!(fmt_sig(11_013.3, 6), "11013.3");
+        assert_eq!(fmt_sig(1180.0, 6), "1180");
+        assert_eq!(fmt_sig(-2.0e-9, 3), "-2.00e-9");
+        assert_eq!(fmt_sig(0.0, 3), "0");
+    }
+
+    #[test]
+    fn eigenvalue_list() {
+        assert_eq!(format_eigenvalues(&[[0.5, 0.0], [-2.0, 1.0], [-2.0, -1.0]]), "0.5, -2 ± 1i");
+    }
+
+    #[test]
+    fn dopri_exponential() {
+        // y' = -2 y, y(0) = 1 → y(1) = e^-2.
+        let mut ode = Dopri5::new(1, 1e-10, 1e-12, 0.1);
+        let mut y = [1.0];
+        let mut f = |_t: f64, y: &[f64], dy: &mut [f64]| {
+            dy[0] = -2.0 * y[0];
+            Ok(())
+        };
+        for k in 0..10 {
+            ode.advance(k as f64 * 0.1, (k + 1) as f64 * 0.1, &mut y, &mut f).unwrap();
+        }
+        assert!((y[0] - (-2.0_f64).exp()).abs() < 1e-10, "{}", y[0]);
+    }
+
+    #[test]
+    fn integral_units() {
+        assert_eq!(integral_unit("kg/s").as_deref(), Some("kg"));
+        assert_eq!(integral_unit("W").as_deref(), Some("J"));
+        assert_eq!(integral_unit("Pa"), None);
+    }
+}
