@@ -1,1 +1,181 @@
-fn main() {}
+//! The `invsim` command line: `derive` prints a model's inversion, `simulate` runs it along a drive cycle.
+//!
+//! Exit status (contract §3): 0 on success, 2 on a user error (bad model or cycle file, bad option, a model
+//! the method cannot invert, a simulation that had to stop), with a one-paragraph message on stderr.
+
+mod engine;
+
+use clap::{Parser, Subcommand, ValueEnum};
+use invsim_model_api::InverseModel;
+use invsim_runtime::{output, plot, simulate, Cycle, SimulationOptions};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+#[derive(Parser, Debug)]
+#[command(name = "invsim", version, about = "Inverse dynamic simulation of vehicle powertrains", long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Derive the relative degree, normal form, ψ⁻¹, α, β and zero dynamics of a model file.
+    Derive {
+        /// The model file (TOML).
+        model: PathBuf,
+        /// Output format.
+        #[arg(long, value_enum, default_value_t = Format::Text)]
+        format: Format,
+    },
+    /// Run the inverse simulation of a model along a drive cycle.
+    Simulate(SimulateArgs),
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+enum Format {
+    Text,
+    Json,
+    Markdown,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum EngineChoice {
+    /// Compiled code when the model file matches a built-in model, else the interpreter.
+    Auto,
+    /// Compiled code; an error if the model is not built in.
+    Compiled,
+    /// The interpreter tape.
+    Interpreted,
+}
+
+#[derive(clap::Args, Debug)]
+struct SimulateArgs {
+    /// The model file (TOML).
+    model: PathBuf,
+    /// A built-in cycle (nedc, ece, eudc) or the path of a cycle CSV file.
+    #[arg(long)]
+    cycle: String,
+    /// Kernel half-width a in seconds: the driver's look-ahead.
+    #[arg(long, default_value_t = 5.0)]
+    lookahead: f64,
+    /// Output step in seconds.
+    #[arg(long, default_value_t = 0.1)]
+    dt: f64,
+    /// Override a parameter: NAME=VALUE (repeatable).
+    #[arg(long = "set", value_name = "NAME=VALUE")]
+    set: Vec<String>,
+    /// Write the time series as CSV.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Write the summary as JSON.
+    #[arg(long)]
+    summary_json: Option<PathBuf>,
+    /// Draw the cycle, y_d and the input as SVG.
+    #[arg(long)]
+    plot: Option<PathBuf>,
+    /// Replay the computed input through the original model and report the tracking error.
+    #[arg(long)]
+    verify: bool,
+    /// Which implementation of the model to run.
+    #[arg(long, value_enum, default_value_t = EngineChoice::Auto)]
+    engine: EngineChoice,
+}
+
+/// A user-facing failure: the message and the exit status.
+struct Failure {
+    message: String,
+    code: u8,
+}
+
+impl Failure {
+    fn user(message: impl Into<String>) -> Failure {
+        Failure { message: message.into(), code: 2 }
+    }
+    fn io(message: impl Into<String>) -> Failure {
+        Failure { message: message.into(), code: 1 }
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Derive { model, format } => derive(&model, format),
+        Command::Simulate(args) => run_simulate(&args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(f) => {
+            eprintln!("invsim: error: {}", f.message);
+            ExitCode::from(f.code)
+        }
+    }
+}
+
+fn derive(path: &Path, format: Format) -> Result<(), Failure> {
+    let d = invsim_inversion::derive_file(path).map_err(|e| Failure::user(e.to_string()))?;
+    let text = match format {
+        Format::Text => d.to_text(),
+        Format::Json => {
+            let mut s = serde_json::to_string_pretty(&d.to_json()).map_err(|e| Failure::io(e.to_string()))?;
+            s.push('\n');
+            s
+        }
+        Format::Markdown => d.to_markdown(),
+    };
+    let mut out = std::io::stdout().lock();
+    out.write_all(text.as_bytes()).map_err(|e| Failure::io(format!("cannot write to stdout: {e}")))?;
+    Ok(())
+}
+
+/// Parse `NAME=VALUE`.
+fn parse_set(s: &str) -> Result<(String, f64), Failure> {
+    let (name, value) = s
+        .split_once('=')
+        .ok_or_else(|| Failure::user(format!("--set `{s}`: expected NAME=VALUE, e.g. --set m=1500")))?;
+    let v: f64 = value.trim().parse().map_err(|_| {
+        Failure::user(format!("--set `{s}`: `{}` is not a number", value.trim()))
+    })?;
+    if !v.is_finite() {
+        return Err(Failure::user(format!("--set `{s}`: the value must be finite")));
+    }
+    Ok((name.trim().to_string(), v))
+}
+
+fn run_simulate(args: &SimulateArgs) -> Result<(), Failure> {
+    let sets: Vec<(String, f64)> = args.set.iter().map(|s| parse_set(s)).collect::<Result<_, _>>()?;
+    let cycle = Cycle::load(&args.cycle).map_err(|e| Failure::user(e.to_string()))?;
+    let mut model = engine::load(&args.model, args.engine)?;
+    for (name, value) in &sets {
+        model.set_param(name, *value).map_err(|e| Failure::user(format!("--set {name}: {e}")))?;
+    }
+    let opts = SimulationOptions {
+        lookahead: args.lookahead,
+        dt: args.dt,
+        engine: model.engine_name().to_string(),
+        verify: args.verify,
+        ..SimulationOptions::default()
+    };
+    let result = simulate(model.as_model(), &cycle, &opts).map_err(|e| {
+        Failure::user(format!("simulation of `{}` on `{}` stopped: {e}", args.model.display(), cycle.name))
+    })?;
+    if let Some(path) = &args.out {
+        let file = std::fs::File::create(path)
+            .map_err(|e| Failure::io(format!("cannot create {}: {e}", path.display())))?;
+        output::write_csv(&result, file).map_err(|e| Failure::io(format!("cannot write {}: {e}", path.display())))?;
+    }
+    if let Some(path) = &args.summary_json {
+        let file = std::fs::File::create(path)
+            .map_err(|e| Failure::io(format!("cannot create {}: {e}", path.display())))?;
+        output::write_summary_json(&result.summary, file)
+            .map_err(|e| Failure::io(format!("cannot write {}: {e}", path.display())))?;
+    }
+    if let Some(path) = &args.plot {
+        plot::plot_svg(&result, &cycle, path).map_err(|e| Failure::io(e.to_string()))?;
+    }
+    let mut out = std::io::stdout().lock();
+    out.write_all(result.summary.to_text().as_bytes())
+        .map_err(|e| Failure::io(format!("cannot write to stdout: {e}")))?;
+    Ok(())
+}

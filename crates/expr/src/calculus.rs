@@ -167,6 +167,189 @@ impl Pool {
         r
     }
 
+    /// Replace every occurrence of the subexpression `from` by `to`, rebuilt in canonical form.
+    pub fn replace(&mut self, e: Id, from: Id, to: Id) -> Id {
+        let mut memo = HashMap::new();
+        self.replace_memo(e, from, to, &mut memo)
+    }
+
+    fn replace_memo(&mut self, e: Id, from: Id, to: Id, memo: &mut HashMap<Id, Id>) -> Id {
+        if e == from {
+            return to;
+        }
+        if let Some(&r) = memo.get(&e) {
+            return r;
+        }
+        let node = self.node(e).clone();
+        let kids = self.children(e);
+        let r = if kids.is_empty() {
+            e
+        } else {
+            let new: Vec<Id> = kids.iter().map(|&c| self.replace_memo(c, from, to, memo)).collect();
+            if new == kids {
+                e
+            } else {
+                self.rebuild(&node, &new)
+            }
+        };
+        memo.insert(e, r);
+        r
+    }
+
+    /// The factors of a product as (base, numeric exponent); `None` if an exponent is symbolic.
+    fn factor_powers(&self, e: Id) -> Option<Vec<(Id, Number)>> {
+        let fs: Vec<Id> = match self.node(e) {
+            Node::Mul(fs) => fs.to_vec(),
+            _ => vec![e],
+        };
+        let mut out = Vec::with_capacity(fs.len());
+        for f in fs {
+            match self.node(f) {
+                Node::Pow(b, p) => out.push((*b, self.as_number(*p)?)),
+                Node::Num(_) => out.push((f, Number::ONE)),
+                _ => out.push((f, Number::ONE)),
+            }
+        }
+        Some(out)
+    }
+
+    /// Replace a product `target` by `to` wherever all of its factors occur inside a larger product:
+    /// with target = N·M⁻¹, the product A·N·M⁻² becomes A·M⁻¹·to. A factor b^k of the target matches b^j
+    /// in the product when k and j are integers of the same sign with |k| ≤ |j| (or k = j); a numeric
+    /// coefficient of the target must divide the product's. Sums equal to `target` are replaced whole.
+    pub fn replace_product(&mut self, e: Id, target: Id, to: Id) -> Id {
+        let Some(tf) = self.factor_powers(target) else { return self.replace(e, target, to) };
+        let mut memo = HashMap::new();
+        self.replace_product_memo(e, target, &tf, to, &mut memo)
+    }
+
+    fn replace_product_memo(
+        &mut self,
+        e: Id,
+        target: Id,
+        tf: &[(Id, Number)],
+        to: Id,
+        memo: &mut HashMap<Id, Id>,
+    ) -> Id {
+        if e == target {
+            return to;
+        }
+        if let Some(&r) = memo.get(&e) {
+            return r;
+        }
+        let node = self.node(e).clone();
+        let kids = self.children(e);
+        let mut r = if kids.is_empty() {
+            e
+        } else {
+            let new: Vec<Id> = kids.iter().map(|&c| self.replace_product_memo(c, target, tf, to, memo)).collect();
+            if new == kids {
+                e
+            } else {
+                self.rebuild(&node, &new)
+            }
+        };
+        if matches!(self.node(r), Node::Mul(_)) {
+            if let Some(mut have) = self.factor_powers(r) {
+                let mut ok = true;
+                for &(b, k) in tf {
+                    if let Node::Num(c) = self.node(b) {
+                        // Numeric coefficient: divide it out.
+                        let c = *c;
+                        match have.iter_mut().find(|(hb, _)| matches!(self.node(*hb), Node::Num(_))) {
+                            Some(entry) => {
+                                let hc = self.as_number(entry.0).unwrap_or(Number::ONE);
+                                let q = c.recip().map(|ci| hc.mul(ci)).unwrap_or(hc);
+                                entry.0 = self.num(q);
+                            }
+                            None => {
+                                let q = c.recip().unwrap_or(Number::ONE);
+                                let qn = self.num(q);
+                                have.push((qn, Number::ONE));
+                            }
+                        }
+                        continue;
+                    }
+                    let Some(entry) = have.iter_mut().find(|(hb, _)| *hb == b) else {
+                        ok = false;
+                        break;
+                    };
+                    let j = entry.1;
+                    let fits = k == j
+                        || match (k.as_integer(), j.as_integer()) {
+                            (Some(ki), Some(ji)) => ki.signum() == ji.signum() && ki.abs() <= ji.abs(),
+                            _ => false,
+                        };
+                    if !fits {
+                        ok = false;
+                        break;
+                    }
+                    entry.1 = j.add(k.neg());
+                }
+                if ok {
+                    let mut parts: Vec<Id> = Vec::with_capacity(have.len() + 1);
+                    for (b, k) in have {
+                        let kk = self.num(k);
+                        parts.push(self.pow(b, kk));
+                    }
+                    parts.push(to);
+                    r = self.mul(&parts);
+                }
+            }
+        }
+        memo.insert(e, r);
+        r
+    }
+
+    /// A size-reducing tidy-up: bottom-up, a product with a sum factor is distributed over that sum when
+    /// the printed result is shorter (`J*(xi3 - X/J)/K → J*xi3/K - X/K`). Never grows an expression.
+    pub fn tidy(&mut self, e: Id) -> Id {
+        let mut memo = HashMap::new();
+        self.tidy_memo(e, &mut memo)
+    }
+
+    fn tidy_memo(&mut self, e: Id, memo: &mut HashMap<Id, Id>) -> Id {
+        if let Some(&r) = memo.get(&e) {
+            return r;
+        }
+        let node = self.node(e).clone();
+        let kids = self.children(e);
+        let mut r = if kids.is_empty() {
+            e
+        } else {
+            let new: Vec<Id> = kids.iter().map(|&c| self.tidy_memo(c, memo)).collect();
+            if new == kids {
+                e
+            } else {
+                self.rebuild(&node, &new)
+            }
+        };
+        if let Node::Mul(fs) = self.node(r).clone() {
+            let mut best = self.display(r).len();
+            for (i, &f) in fs.iter().enumerate() {
+                let Node::Add(ts) = self.node(f).clone() else { continue };
+                let others: Vec<Id> = fs.iter().enumerate().filter(|(j, _)| *j != i).map(|(_, &x)| x).collect();
+                let terms: Vec<Id> = ts
+                    .iter()
+                    .map(|&t| {
+                        let mut v = others.clone();
+                        v.push(t);
+                        self.mul(&v)
+                    })
+                    .collect();
+                let cand = self.add(&terms);
+                let size = self.display(cand).len();
+                if size < best {
+                    best = size;
+                    r = self.tidy_memo(cand, memo);
+                    break;
+                }
+            }
+        }
+        memo.insert(e, r);
+        r
+    }
+
     /// Distribute products over sums and expand positive integer powers of sums (up to
     /// [`EXPAND_TERM_LIMIT`] terms). Function arguments are expanded too.
     pub fn expand(&mut self, e: Id) -> Result<Id, ExpansionTooLarge> {

@@ -470,6 +470,12 @@ impl Pool {
                 if bn.is_zero() && !en.is_negative() {
                     return self.zero();
                 }
+                if bn.is_zero() && !en.is_minus_one() {
+                    // 0^(−p) is a division by zero whatever p > 0 is; one form, 1/0, so that it prints and
+                    // parses back to itself (`1/0^2` would parse as 1/(0^2) = 1/0).
+                    let m = self.int(-1);
+                    return self.intern(Node::Pow(b, m));
+                }
                 if let Some(k) = en.as_integer() {
                     // Exact integer powers of numbers, kept small so that coefficients stay readable.
                     if k.abs() <= 64 {
@@ -493,8 +499,9 @@ impl Pool {
             }
             (Node::Pow(bb, be), Some(_)) => {
                 // (x^a)^c = x^(a c) when a is not an integer: x^a is then real only for x ≥ 0, where the
-                // identity holds. ((x^2)^(1/2) = |x| is deliberately left alone.)
-                if matches!(self.as_number(be), Some(an) if an.as_integer().is_none()) {
+                // identity holds; likewise for a = −1 ((1/x)^c and x^(−c) are both real exactly for x > 0
+                // when c is not an integer). ((x^2)^(1/2) = |x| is deliberately left alone.)
+                if matches!(self.as_number(be), Some(an) if an.as_integer().is_none() || an.is_minus_one()) {
                     let ne = self.mul(&[be, e]);
                     return self.pow(bb, ne);
                 }

@@ -154,14 +154,13 @@ impl Printer<'_> {
             Node::Add(ts) => {
                 let mut out = String::new();
                 for (i, &t) in ts.iter().enumerate() {
-                    let (neg, body) = self.signed_term(t);
                     if i == 0 {
-                        if neg {
-                            out.push('-');
-                        }
-                    } else {
-                        out.push_str(if neg { " - " } else { " + " });
+                        // The leading term keeps its own sign (a unary minus), printed like a lone product.
+                        out.push_str(&self.expr(t, P_ADD + 1));
+                        continue;
                     }
+                    let (neg, body) = self.signed_term(t);
+                    out.push_str(if neg { " - " } else { " + " });
                     out.push_str(&body);
                 }
                 self.wrap(out, P_ADD, ctx)
@@ -301,6 +300,24 @@ impl Printer<'_> {
     }
 
     fn print_fraction(&self, frac: &Fraction) -> (u8, String) {
+        // `c*(a + b)*d` and `-(a + b)*d` would parse as (c·(a + b))·d, and c·(a + b) distributes to c·a + c·b:
+        // a different canonical form. When the numerator starts with a sum, the rest of the product is
+        // parenthesised so that the coefficient (or sign) applies to it as a whole: `c*((a + b)*d)`.
+        let sum_first = frac.num.first().is_some_and(|f| {
+            f.exp.is_none() && f.sym_exp.is_none() && matches!(self.pool.node(f.base), Node::Add(_))
+        });
+        if !self.latex() && sum_first && (frac.negative || frac.num_coeff.is_some()) {
+            let (_, num) = self.product(None, &frac.num);
+            let (nd, den) = self.product(frac.den_coeff, &frac.den);
+            let body = match nd {
+                0 => num,
+                1 => format!("{num}/{den}"),
+                _ => format!("{num}/({den})"),
+            };
+            let sign = if frac.negative { "-" } else { "" };
+            let coeff = frac.num_coeff.map(|c| format!("{}*", self.number(c, P_MUL + 1))).unwrap_or_default();
+            return (if frac.negative { P_NEG } else { P_MUL }, format!("{sign}{coeff}({body})"));
+        }
         let (nn, num) = self.product(frac.num_coeff, &frac.num);
         let (nd, den) = self.product(frac.den_coeff, &frac.den);
         let num = if nn == 0 { "1".to_string() } else { num };

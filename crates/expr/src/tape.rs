@@ -49,6 +49,8 @@ struct Builder<'p> {
     memo: HashMap<Id, u32>,
     /// base slot → (exponent, slot) of non-integer powers already computed.
     powers: HashMap<u32, Vec<(Number, u32)>>,
+    /// (base, fractional part of the exponent) → the smallest |exponent| with that fractional part.
+    min_power: HashMap<(Id, Number), Number>,
     /// Instructions are emitted before constants are known; they are renumbered at the end.
     pending_consts: bool,
 }
@@ -227,6 +229,22 @@ impl Builder<'_> {
         Ok((negative && split_sign, slot))
     }
 
+    /// s · b^j for an integer j ≥ 0 (`j` exact; anything else falls back to powf of the difference).
+    fn times_integer_power(&mut self, s: u32, sb: u32, j: Number) -> u32 {
+        match j.as_integer() {
+            Some(0) => s,
+            Some(1) => self.emit(Instr::Mul(s, sb)),
+            Some(i) if i > 0 && i <= i32::MAX as i128 => {
+                let p = self.emit(Instr::Powi(sb, i as i32));
+                self.emit(Instr::Mul(s, p))
+            }
+            _ => {
+                let p = self.emit(Instr::Powf(sb, j.to_f64()));
+                self.emit(Instr::Mul(s, p))
+            }
+        }
+    }
+
     /// b^k for a positive number k: `powi`, `sqrt`, or one shared `powf` per base and fractional part.
     fn lower_power(&mut self, b: Id, k: Number) -> Result<u32, UnboundSymbol> {
         let sb = self.lower(b)?;
@@ -241,30 +259,18 @@ impl Builder<'_> {
         let base_frac = if frac == half {
             self.emit(Instr::Sqrt(sb))
         } else {
-            // Reuse b^q computed earlier with q − k an integer.
+            // Powers of one base whose exponents differ by an integer share one `powf`: the one with the
+            // smallest exponent (found in a pre-pass), so the others are products b^q·b^j, never quotients
+            // (which would give 0/0 at b = 0).
+            let q = self.min_power.get(&(b, frac)).copied().unwrap_or(k);
             if let Some(list) = self.powers.get(&sb) {
-                for &(q, s) in list {
-                    let d = k.add(q.neg());
-                    if let Some(di) = d.as_integer().filter(|d| d.abs() <= 4) {
-                        let di = di as i32;
-                        let out = match di {
-                            0 => s,
-                            d if d > 0 => {
-                                let bd = if d == 1 { sb } else { self.emit(Instr::Powi(sb, d)) };
-                                self.emit(Instr::Mul(s, bd))
-                            }
-                            d => {
-                                let bd = if d == -1 { sb } else { self.emit(Instr::Powi(sb, -d)) };
-                                self.emit(Instr::Div(s, bd))
-                            }
-                        };
-                        return Ok(out);
-                    }
+                if let Some(&(_, s)) = list.iter().find(|(e, _)| *e == q) {
+                    return Ok(self.times_integer_power(s, sb, k.add(q.neg())));
                 }
             }
-            let s = self.emit(Instr::Powf(sb, kf));
-            self.powers.entry(sb).or_default().push((k, s));
-            return Ok(s);
+            let s = self.emit(Instr::Powf(sb, q.to_f64()));
+            self.powers.entry(sb).or_default().push((q, s));
+            return Ok(self.times_integer_power(s, sb, k.add(q.neg())));
         };
         let mi = m as i32;
         Ok(match mi {
@@ -294,8 +300,24 @@ impl Tape {
             instrs: Vec::new(),
             memo: HashMap::new(),
             powers: HashMap::new(),
+            min_power: HashMap::new(),
             pending_consts: false,
         };
+        for id in pool.topological(outputs) {
+            if let Node::Pow(base, p) = pool.node(id) {
+                if let Some(k) = pool.as_number(*p) {
+                    let k = if k.is_negative() { k.neg() } else { k };
+                    if k.as_integer().is_some() {
+                        continue;
+                    }
+                    let frac = k.add(Number::from_f64(-k.to_f64().floor()));
+                    let e = b.min_power.entry((*base, frac)).or_insert(k);
+                    if k.cmp_value(e) == std::cmp::Ordering::Less {
+                        *e = k;
+                    }
+                }
+            }
+        }
         let mut outs = Vec::with_capacity(outputs.len());
         for &o in outputs {
             outs.push(b.lower(o)?);
@@ -369,6 +391,12 @@ impl Tape {
         assert_eq!(inputs.len(), self.n_inputs, "tape input count");
         assert!(buf.len() >= self.n_slots(), "tape buffer too small");
         buf[..self.n_inputs].copy_from_slice(inputs);
+        self.run(buf, out);
+    }
+
+    /// Execute the instructions on a buffer whose input and constant slots are filled.
+    #[inline]
+    fn run(&self, buf: &mut [f64], out: &mut [f64]) {
         let base = self.n_inputs + self.consts.len();
         for (i, ins) in self.instrs.iter().enumerate() {
             let g = |s: u32| buf[s as usize];
@@ -391,6 +419,27 @@ impl Tape {
         for (o, &s) in out.iter_mut().zip(&self.outputs) {
             *o = buf[s as usize];
         }
+    }
+
+    /// Evaluate with the inputs given as consecutive slices (e.g. `&[xi, eta, params]`), using a
+    /// per-thread scratch buffer: no allocation after the first call on a thread.
+    pub fn eval_parts(&self, parts: &[&[f64]], out: &mut [f64]) {
+        SCRATCH.with(|cell| {
+            let mut buf = cell.borrow_mut();
+            let n = self.n_slots();
+            if buf.len() < n {
+                buf.resize(n, 0.0);
+            }
+            let mut at = 0;
+            for p in parts {
+                buf[at..at + p.len()].copy_from_slice(p);
+                at += p.len();
+            }
+            assert_eq!(at, self.n_inputs, "tape input count");
+            let c0 = self.n_inputs;
+            buf[c0..c0 + self.consts.len()].copy_from_slice(&self.consts);
+            self.run(&mut buf, out);
+        })
     }
 
     /// Evaluate into `out` with a per-thread scratch buffer (allocated once per thread, then reused).

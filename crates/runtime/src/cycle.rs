@@ -55,13 +55,21 @@ pub enum CycleError {
         "{file}: line {line}: no time column in the header (found {found}; expected one of `time_s`, \
          `time_seconds`, `cycSecs`, `t`)"
     )]
-    NoTimeColumn { file: String, line: u64, found: String },
+    NoTimeColumn {
+        file: String,
+        line: u64,
+        found: String,
+    },
     /// No recognised speed column.
     #[error(
         "{file}: line {line}: no speed column in the header (found {found}; expected one of `speed_mps`, \
          `mps`, `cycMps`, `speed_meters_per_second` (m/s), `speed_kmh` (km/h), `speed_mph` (mph))"
     )]
-    NoSpeedColumn { file: String, line: u64, found: String },
+    NoSpeedColumn {
+        file: String,
+        line: u64,
+        found: String,
+    },
     /// Two columns of the same kind (time, speed or grade).
     #[error(
         "{file}: line {line}: two {kind} columns, `{first}` (column {first_index}) and `{second}` (column \
@@ -78,7 +86,11 @@ pub enum CycleError {
     },
     /// The CSV reader rejected the text.
     #[error("{file}: line {line}: malformed CSV ({message}); expected comma-separated fields")]
-    Csv { file: String, line: u64, message: String },
+    Csv {
+        file: String,
+        line: u64,
+        message: String,
+    },
     /// A data row with a different number of fields than the header.
     #[error(
         "{file}: line {line} (data row {row}): {found} field(s), expected {expected} as in the header"
@@ -295,7 +307,10 @@ impl Cycle {
         })?;
         let text = std::str::from_utf8(&bytes).map_err(|e| CycleError::NotUtf8 {
             file: file.clone(),
-            line: 1 + bytes[..e.valid_up_to()].iter().filter(|&&b| b == b'\n').count() as u64,
+            line: 1 + bytes[..e.valid_up_to()]
+                .iter()
+                .filter(|&&b| b == b'\n')
+                .count() as u64,
         })?;
         let name = path
             .file_stem()
@@ -347,7 +362,10 @@ impl Cycle {
                 )));
             }
             if let Some(i) = grade.iter().position(|g| !g.is_finite()) {
-                return Err(invalid(format!("grade {} at sample {i} is not finite", grade[i])));
+                return Err(invalid(format!(
+                    "grade {} at sample {i} is not finite",
+                    grade[i]
+                )));
             }
         }
         if self.time.len() < 2 {
@@ -413,7 +431,7 @@ impl Cycle {
 }
 
 /// Piecewise-linear interpolation of `values` over strictly increasing `time`, held constant outside.
-pub(crate) fn interpolate(time: &[f64], values: &[f64], t: f64) -> f64 {
+fn interpolate(time: &[f64], values: &[f64], t: f64) -> f64 {
     let n = time.len().min(values.len());
     if n == 0 || t.is_nan() {
         return f64::NAN;
@@ -469,9 +487,17 @@ fn parse_csv(name: String, file: &str, text: &str) -> Result<Cycle, CycleError> 
         .from_reader(text.as_bytes());
     let mut records = reader.records();
     let is_blank = |r: &csv::StringRecord| r.iter().all(|f| f.trim().is_empty());
-    // 1-based line of a record, from its byte offset (the reader's own line count skips some blank lines).
+    // 1-based line of a record. The reader reports where a record's text begins *including* preceding
+    // blank lines, so skip line breaks from that byte offset and count the newlines before it.
     let newlines: Vec<usize> = text.match_indices('\n').map(|(i, _)| i).collect();
-    let line_at = |byte: usize| 1 + newlines.partition_point(|&i| i < byte) as u64;
+    let line_at = |byte: usize| {
+        let skipped = text.as_bytes().get(byte..).map_or(0, |rest| {
+            rest.iter()
+                .take_while(|&&b| b == b'\n' || b == b'\r')
+                .count()
+        });
+        1 + newlines.partition_point(|&i| i < byte + skipped) as u64
+    };
     let line_of = |r: &csv::StringRecord| r.position().map_or(0, |p| line_at(p.byte() as usize));
     let csv_error = |e: csv::Error| CycleError::Csv {
         file: file.to_string(),

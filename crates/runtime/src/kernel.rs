@@ -94,7 +94,10 @@ impl Kernel {
     /// Kernel of half-width `a` seconds. `a` must be finite and positive; callers validate it (the smoother
     /// returns an error for other values), this constructor only checks it in debug builds.
     pub fn new(a: f64) -> Kernel {
-        debug_assert!(a > 0.0 && a.is_finite(), "kernel half-width must be finite and positive, got {a}");
+        debug_assert!(
+            a > 0.0 && a.is_finite(),
+            "kernel half-width must be finite and positive, got {a}"
+        );
         Kernel {
             a,
             inv_a: 1.0 / a,
@@ -496,7 +499,11 @@ mod tests {
     #[test]
     fn table_is_consistent_at_the_centre() {
         let k = Kernel::new(1.0);
-        assert!((k.integral(0.0) - 0.5).abs() < 2e-16, "{}", k.integral(0.0) - 0.5);
+        assert!(
+            (k.integral(0.0) - 0.5).abs() < 2e-16,
+            "{}",
+            k.integral(0.0) - 0.5
+        );
         assert!((k.integral(-1e-300) - 0.5).abs() < 2e-16);
     }
 
@@ -507,9 +514,19 @@ mod tests {
             let left = &tables.pieces[j - 1];
             let right = &tables.pieces[j];
             let kl: f64 = left.k.iter().sum();
-            let kr: f64 = right.k.iter().enumerate().map(|(i, c)| if i % 2 == 0 { *c } else { -c }).sum();
+            let kr: f64 = right
+                .k
+                .iter()
+                .enumerate()
+                .map(|(i, c)| if i % 2 == 0 { *c } else { -c })
+                .sum();
             let rl: f64 = left.r.iter().sum();
-            let rr: f64 = right.r.iter().enumerate().map(|(i, c)| if i % 2 == 0 { *c } else { -c }).sum();
+            let rr: f64 = right
+                .r
+                .iter()
+                .enumerate()
+                .map(|(i, c)| if i % 2 == 0 { *c } else { -c })
+                .sum();
             assert!((kl - kr).abs() < 3e-16, "K jump at piece {j}: {}", kl - kr);
             assert!((rl - rr).abs() < 3e-16, "R jump at piece {j}: {}", rl - rr);
         }

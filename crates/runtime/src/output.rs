@@ -70,9 +70,23 @@ mod tests {
 
     #[test]
     fn numbers_round_trip() {
-        for v in [0.1, 0.3, 1.0 / 3.0, 1180.0, -2.5e-9, 1e300, 5e-324, 123_456_789.123_456_78, -0.0] {
+        for v in [
+            0.1,
+            0.3,
+            1.0 / 3.0,
+            1180.0,
+            -2.5e-9,
+            1e300,
+            5e-324,
+            123_456_789.123_456_78,
+            -0.0,
+        ] {
             let s = fmt(v);
-            assert_eq!(s.parse::<f64>().unwrap().to_bits(), v.to_bits(), "{v} → {s}");
+            assert_eq!(
+                s.parse::<f64>().unwrap().to_bits(),
+                v.to_bits(),
+                "{v} → {s}"
+            );
         }
         assert_eq!(fmt(0.1), "0.1");
         assert_eq!(fmt(1180.0), "1180");

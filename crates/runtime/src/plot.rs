@@ -34,7 +34,10 @@ pub fn plot_svg(result: &SimulationResult, cycle: &Cycle, path: &Path) -> Result
     if result.is_empty() {
         return Err(PlotError::Empty);
     }
-    let fail = |e: &dyn std::fmt::Display| PlotError::Draw { path: path.display().to_string(), message: e.to_string() };
+    let fail = |e: &dyn std::fmt::Display| PlotError::Draw {
+        path: path.display().to_string(),
+        message: e.to_string(),
+    };
     let t = result.time();
     let (t0, t1) = (t[0], t[t.len() - 1]);
     let t1 = if t1 > t0 { t1 } else { t0 + 1.0 };
@@ -59,7 +62,12 @@ pub fn plot_svg(result: &SimulationResult, cycle: &Cycle, path: &Path) -> Result
         }
         v
     };
-    let yd_kmh: Vec<f64> = result.yd(0).unwrap_or(&[]).iter().map(|v| v * MPS_TO_KMH).collect();
+    let yd_kmh: Vec<f64> = result
+        .yd(0)
+        .unwrap_or(&[])
+        .iter()
+        .map(|v| v * MPS_TO_KMH)
+        .collect();
     let yd_pts = thin(t, &yd_kmh);
     let (lo, hi) = range(raw.iter().map(|p| p.1).chain(yd_pts.iter().map(|p| p.1)));
     let (lo, hi) = pad(lo.min(0.0), hi);
@@ -114,13 +122,21 @@ pub fn plot_svg(result: &SimulationResult, cycle: &Cycle, path: &Path) -> Result
         .map_err(|e| fail(&e))?;
 
     let mut chart = ChartBuilder::on(&bottom)
-        .caption(format!("input {input} (bounds reported, not clipped)"), ("sans-serif", 18))
+        .caption(
+            format!("input {input} (bounds reported, not clipped)"),
+            ("sans-serif", 18),
+        )
         .margin(10)
         .x_label_area_size(35)
         .y_label_area_size(60)
         .build_cartesian_2d(t0..t1, ulo..uhi)
         .map_err(|e| fail(&e))?;
-    chart.configure_mesh().x_desc("t [s]").y_desc(input.as_str()).draw().map_err(|e| fail(&e))?;
+    chart
+        .configure_mesh()
+        .x_desc("t [s]")
+        .y_desc(input.as_str())
+        .draw()
+        .map_err(|e| fail(&e))?;
     chart
         .draw_series(LineSeries::new(u_pts, BLUE.stroke_width(1)))
         .map_err(|e| fail(&e))?
@@ -150,7 +166,9 @@ pub fn plot_svg(result: &SimulationResult, cycle: &Cycle, path: &Path) -> Result
 fn range(values: impl Iterator<Item = f64>) -> (f64, f64) {
     let (lo, hi) = values
         .filter(|v| v.is_finite())
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        });
     if lo <= hi {
         (lo, hi)
     } else {
@@ -186,7 +204,11 @@ fn thin(t: &[f64], v: &[f64]) -> Vec<(f64, f64)> {
                 imax = i;
             }
         }
-        let (i, j) = if imin <= imax { (imin, imax) } else { (imax, imin) };
+        let (i, j) = if imin <= imax {
+            (imin, imax)
+        } else {
+            (imax, imin)
+        };
         out.push((t[i], v[i]));
         if j != i {
             out.push((t[j], v[j]));

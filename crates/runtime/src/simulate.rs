@@ -85,7 +85,9 @@ pub enum SimulateError {
         "invalid zero-dynamics tolerances rtol = {rtol}, atol = {atol}: both must be positive and finite"
     )]
     InvalidTolerance { rtol: f64, atol: f64 },
-    #[error("invalid stability check interval {0} s: it must be a positive, finite number of seconds")]
+    #[error(
+        "invalid stability check interval {0} s: it must be a positive, finite number of seconds"
+    )]
     InvalidCheckInterval(f64),
     #[error("invalid initial internal state eta0: {reason}")]
     InvalidEta0 { reason: String },
@@ -100,7 +102,12 @@ pub enum SimulateError {
         "{samples} output samples (duration {duration} s at dt = {dt} s) exceed the limit of {max}; use a larger \
          --dt"
     )]
-    TooManySamples { samples: f64, duration: f64, dt: f64, max: usize },
+    TooManySamples {
+        samples: f64,
+        duration: f64,
+        dt: f64,
+        max: usize,
+    },
     #[error("cannot smooth the drive cycle: {0}")]
     Smoother(#[from] SmootherError),
     #[error("the model failed at t = {t} s: {source}")]
@@ -110,7 +117,11 @@ pub enum SimulateError {
         source: ModelError,
     },
     #[error("{quantity} is not finite ({value}) at t = {t} s")]
-    NonFinite { t: f64, quantity: String, value: f64 },
+    NonFinite {
+        t: f64,
+        quantity: String,
+        value: f64,
+    },
     #[error(
         "the decoupling coefficient β(ξ, η) = L_g L_f^(r−1) h is {beta} at t = {t} s, so the input \
          u = (y^(r) − α)/β is undefined there: the relative degree is not well defined at this operating point"
@@ -126,7 +137,11 @@ pub enum SimulateError {
          phase for this output, so causal inverse simulation diverges; stable (non-causal) inversion is needed",
         eigs = format_eigenvalues(.eigenvalues)
     )]
-    UnstableZeroDynamics { t: f64, eigenvalues: Vec<[f64; 2]>, detail: String },
+    UnstableZeroDynamics {
+        t: f64,
+        eigenvalues: Vec<[f64; 2]>,
+        detail: String,
+    },
     #[error("integrating the zero dynamics failed at t = {t} s: {reason}")]
     Integration { t: f64, reason: String },
 }
@@ -144,7 +159,8 @@ fn format_eigenvalues(eigs: &[[f64; 2]]) -> String {
         }
         let [re, im] = eigs[i];
         // Conjugate pairs are listed together.
-        let paired = im != 0.0 && i + 1 < eigs.len() && eigs[i + 1][0] == re && eigs[i + 1][1] == -im;
+        let paired =
+            im != 0.0 && i + 1 < eigs.len() && eigs[i + 1][0] == re && eigs[i + 1][1] == -im;
         if paired {
             let _ = write!(s, "{} ± {}i", fmt_sig(re, 6), fmt_sig(im.abs(), 6));
             i += 2;
@@ -177,7 +193,10 @@ pub struct SimulationResult {
 impl SimulationResult {
     /// The column called `name`, if any.
     pub fn column(&self, name: &str) -> Option<&[f64]> {
-        self.columns.iter().position(|c| c == name).map(|i| self.data[i].as_slice())
+        self.columns
+            .iter()
+            .position(|c| c == name)
+            .map(|i| self.data[i].as_slice())
     }
     /// Sample times t_k.
     pub fn time(&self) -> &[f64] {
@@ -259,11 +278,10 @@ impl Summary {
             }
             s.push_str(" (integral)");
             if let Some(p) = self.integrals_per_100km.get(name) {
-                let _ = write!(s, ", {} ", fmt_sig(*p, 4));
-                if let Some(u) = unit {
-                    let _ = write!(s, "{u}/");
-                }
-                s.push_str("per 100 km");
+                let _ = match unit {
+                    Some(u) => write!(s, ", {} {u}/100 km", fmt_sig(*p, 4)),
+                    None => write!(s, ", {} per 100 km", fmt_sig(*p, 4)),
+                };
             }
             s.push('\n');
         }
@@ -365,6 +383,27 @@ pub fn simulate<M: InverseModel + ?Sized>(
     cycle: &Cycle,
     opts: &SimulationOptions,
 ) -> Result<SimulationResult, SimulateError> {
+    run(model, cycle, opts, Vec::new())
+}
+
+/// [`simulate`], reusing the column buffers of an earlier result: for repeated runs (parameter sweeps,
+/// benchmarks) this saves allocating and first touching fresh memory, which costs about as much as the whole
+/// inversion of a cheap model.
+pub fn simulate_reusing<M: InverseModel + ?Sized>(
+    model: &M,
+    cycle: &Cycle,
+    opts: &SimulationOptions,
+    previous: SimulationResult,
+) -> Result<SimulationResult, SimulateError> {
+    run(model, cycle, opts, previous.data)
+}
+
+fn run<M: InverseModel + ?Sized>(
+    model: &M,
+    cycle: &Cycle,
+    opts: &SimulationOptions,
+    mut spare: Vec<Vec<f64>>,
+) -> Result<SimulationResult, SimulateError> {
     // --- validation -------------------------------------------------------------------------------------
     if !(opts.dt > 0.0 && opts.dt.is_finite()) {
         return Err(SimulateError::InvalidDt(opts.dt));
@@ -374,10 +413,15 @@ pub fn simulate<M: InverseModel + ?Sized>(
     }
     let tol_ok = |v: f64| v > 0.0 && v.is_finite();
     if !(tol_ok(opts.rtol) && tol_ok(opts.atol)) {
-        return Err(SimulateError::InvalidTolerance { rtol: opts.rtol, atol: opts.atol });
+        return Err(SimulateError::InvalidTolerance {
+            rtol: opts.rtol,
+            atol: opts.atol,
+        });
     }
     if !tol_ok(opts.stability_check_interval) {
-        return Err(SimulateError::InvalidCheckInterval(opts.stability_check_interval));
+        return Err(SimulateError::InvalidCheckInterval(
+            opts.stability_check_interval,
+        ));
     }
     let info = model.info();
     let r = info.relative_degree;
@@ -390,7 +434,10 @@ pub fn simulate<M: InverseModel + ?Sized>(
             max: MAX_DERIVATIVES - 1,
         });
     }
-    let bad_cycle = |reason: String| SimulateError::InvalidCycle { cycle: cycle.name.clone(), reason };
+    let bad_cycle = |reason: String| SimulateError::InvalidCycle {
+        cycle: cycle.name.clone(),
+        reason,
+    };
     if cycle.time.is_empty() || cycle.time.len() != cycle.speed.len() {
         return Err(bad_cycle(format!(
             "it has {} time stamps and {} speeds (need at least one of each, equally many)",
@@ -401,7 +448,9 @@ pub fn simulate<M: InverseModel + ?Sized>(
     let t0 = cycle.time[0];
     let duration = cycle.duration();
     if !(t0.is_finite() && duration.is_finite() && duration >= 0.0) {
-        return Err(bad_cycle(format!("start time {t0} s and duration {duration} s must be finite, duration ≥ 0")));
+        return Err(bad_cycle(format!(
+            "start time {t0} s and duration {duration} s must be finite, duration ≥ 0"
+        )));
     }
     let steps = (duration / opts.dt).round();
     if steps + 1.0 > MAX_SAMPLES as f64 {
@@ -416,15 +465,26 @@ pub fn simulate<M: InverseModel + ?Sized>(
         let m = (1.0 / opts.dt).round();
         (m >= 1.0 && (1.0 / opts.dt - m).abs() <= 1e-9 * m).then_some(m)
     };
-    let grid = Grid { t0, dt: opts.dt, n: steps as usize, per_second };
+    let grid = Grid {
+        t0,
+        dt: opts.dt,
+        n: steps as usize,
+        per_second,
+    };
     let eta0 = match &opts.eta0 {
         Some(e) if e.len() != ne => {
             return Err(SimulateError::InvalidEta0 {
-                reason: format!("model `{}` has {ne} internal coordinates, {} values were given", info.name, e.len()),
+                reason: format!(
+                    "model `{}` has {ne} internal coordinates, {} values were given",
+                    info.name,
+                    e.len()
+                ),
             })
         }
         Some(e) if e.iter().any(|v| !v.is_finite()) => {
-            return Err(SimulateError::InvalidEta0 { reason: format!("values must be finite, got {e:?}") })
+            return Err(SimulateError::InvalidEta0 {
+                reason: format!("values must be finite, got {e:?}"),
+            })
         }
         other => other.clone(),
     };
@@ -437,24 +497,25 @@ pub fn simulate<M: InverseModel + ?Sized>(
     columns.extend((0..=r).map(|k| format!("yd_{k}")));
     let input_column = columns.len();
     columns.push(info.input.clone());
-    let state_column = columns.len();
     columns.extend(info.states.iter().cloned());
-    let eta_column = columns.len();
     columns.extend((1..=ne).map(|k| format!("eta{k}")));
     let output_column = columns.len();
     columns.extend(info.outputs.iter().map(|o| o.name.clone()));
     let samples = grid.n + 1;
-    let mut data: Vec<Vec<f64>> = (0..columns.len()).map(|_| Vec::with_capacity(samples)).collect();
+    spare.truncate(columns.len());
+    spare.resize_with(columns.len(), Vec::new);
+    let mut data = spare;
+    for column in &mut data {
+        column.clear();
+        column.reserve_exact(samples);
+    }
 
     // --- work space (allocated once; the per-sample loop below allocates nothing) -------------------------
     let mut yd = [0.0_f64; MAX_DERIVATIVES];
     let mut x = vec![0.0; n];
     let mut eta = vec![0.0; ne];
     let mut outs = vec![0.0; no];
-    let mut row = vec![0.0; columns.len()];
     let accumulate: Vec<usize> = (0..no).filter(|&i| info.outputs[i].accumulate).collect();
-    let mut integrals = vec![0.0; accumulate.len()];
-    let mut prev_outs = vec![0.0; no];
     let mut warnings = Vec::new();
 
     // --- initial internal state and its stability (Isidori §4.3: minimum phase) ---------------------------
@@ -475,10 +536,6 @@ pub fn simulate<M: InverseModel + ?Sized>(
 
     // --- bookkeeping of the input ----------------------------------------------------------------------
     let (umin_bound, umax_bound) = (info.input_min, info.input_max);
-    let mut u_min = f64::INFINITY;
-    let mut u_max = f64::NEG_INFINITY;
-    let mut violations: Vec<[f64; 2]> = Vec::new();
-    let mut open_violation: Option<[f64; 2]> = None;
     let mut x_start: Vec<f64> = Vec::new();
 
     // --- the run ---------------------------------------------------------------------------------------
@@ -497,7 +554,10 @@ pub fn simulate<M: InverseModel + ?Sized>(
                 let (t_fail, eta_fail) = (integrator.t_fail, &integrator.y_fail);
                 smoother.eval(t_fail, &mut yd[..=r]);
                 let (xi, yr) = (&yd[..r], yd[r]);
-                if let Some(i) = eta_fail.iter().position(|v| !v.is_finite() || v.abs() > ETA_BLOWUP) {
+                if let Some(i) = eta_fail
+                    .iter()
+                    .position(|v| !v.is_finite() || v.abs() > ETA_BLOWUP)
+                {
                     return Err(SimulateError::UnstableZeroDynamics {
                         t: t_fail,
                         eigenvalues: eigenvalues_at(model, xi, eta_fail, yr, &mut zd_ws),
@@ -509,12 +569,12 @@ pub fn simulate<M: InverseModel + ?Sized>(
             }
         }
         smoother.eval(t, &mut yd[..=r]);
-        if let Some(i) = yd[..=r].iter().position(|v| !v.is_finite()) {
-            return Err(SimulateError::NonFinite { t, quantity: format!("yd_{i}"), value: yd[i] });
-        }
         let (xi, yr) = (&yd[..r], yd[r]);
         if ne > 0 {
-            if let Some(i) = eta.iter().position(|v| !v.is_finite() || v.abs() > ETA_BLOWUP) {
+            if let Some(i) = eta
+                .iter()
+                .position(|v| !v.is_finite() || v.abs() > ETA_BLOWUP)
+            {
                 let eigenvalues = eigenvalues_at(model, xi, &eta, yr, &mut zd_ws);
                 return Err(SimulateError::UnstableZeroDynamics {
                     t,
@@ -528,36 +588,54 @@ pub fn simulate<M: InverseModel + ?Sized>(
         }
 
         // x = ψ⁻¹(ξ, η) (previous x as the guess), u = (y_d^(r) − α)/β (paper eq. 26).
-        let u = model.invert(xi, &eta, yr, &mut x).map_err(|source| SimulateError::Model { t, source })?;
-        if !u.is_finite() {
-            let beta = model.beta(xi, &eta);
-            if beta == 0.0 || !beta.is_finite() {
-                return Err(SimulateError::SingularDecoupling { t, beta });
-            }
-            return Err(SimulateError::NonFinite { t, quantity: info.input.clone(), value: u });
-        }
-        if let Some(i) = x.iter().position(|v| !v.is_finite()) {
-            return Err(SimulateError::NonFinite { t, quantity: info.states[i].clone(), value: x[i] });
-        }
+        let u = model
+            .invert(xi, &eta, yr, &mut x)
+            .map_err(|source| SimulateError::Model { t, source })?;
         model.outputs(&x, u, &mut outs);
-        if let Some(i) = outs.iter().position(|v| !v.is_finite()) {
-            return Err(SimulateError::NonFinite { t, quantity: info.outputs[i].name.clone(), value: outs[i] });
+        // v·0 is NaN exactly when v is not finite: one test for the whole sample.
+        let mut probe = u * 0.0;
+        for &v in yd[..=r].iter().chain(&x).chain(&outs) {
+            probe += v * 0.0;
+        }
+        if probe.is_nan() {
+            return Err(non_finite(model, t, &yd[..=r], &eta, u, &x, &outs));
         }
         if k == 0 {
             x_start.extend_from_slice(&x);
         }
 
-        // Trapezoidal rule over the grid.
-        if k > 0 {
-            for (acc, &i) in integrals.iter_mut().zip(&accumulate) {
-                *acc += 0.5 * grid.dt * (prev_outs[i] + outs[i]);
-            }
+        // Columns were allocated with capacity for every sample: these pushes never reallocate.
+        let mut c = 0;
+        for v in std::iter::once(t)
+            .chain(yd[..=r].iter().copied())
+            .chain(std::iter::once(u))
+        {
+            data[c].push(v);
+            c += 1;
         }
-        prev_outs.copy_from_slice(&outs);
+        for &v in x.iter().chain(&eta).chain(&outs) {
+            data[c].push(v);
+            c += 1;
+        }
+    }
+    let time = &data[0];
+    let input = &data[input_column];
 
-        // Input range and bound violations (maximal runs of consecutive samples outside the bounds).
-        u_min = u_min.min(u);
-        u_max = u_max.max(u);
+    // Trapezoidal rule over the grid: ∫ o dt ≈ Σ_k dt·(o_k + o_{k+1})/2.
+    let integrals: Vec<f64> = accumulate
+        .iter()
+        .map(|&i| {
+            let o = &data[output_column + i];
+            o.windows(2).map(|w| 0.5 * grid.dt * (w[0] + w[1])).sum()
+        })
+        .collect();
+
+    // Input range and bound violations: maximal runs of consecutive samples outside the bounds.
+    let u_min = input.iter().copied().fold(f64::INFINITY, f64::min);
+    let u_max = input.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let mut violations: Vec<[f64; 2]> = Vec::new();
+    let mut open_violation: Option<[f64; 2]> = None;
+    for (&t, &u) in time.iter().zip(input) {
         let outside = umin_bound.is_some_and(|b| u < b) || umax_bound.is_some_and(|b| u > b);
         match (&mut open_violation, outside) {
             (Some(v), true) => v[1] = t,
@@ -568,16 +646,6 @@ pub fn simulate<M: InverseModel + ?Sized>(
             }
             (None, false) => {}
         }
-
-        row[0] = t;
-        row[1..=r + 1].copy_from_slice(&yd[..=r]);
-        row[input_column] = u;
-        row[state_column..eta_column].copy_from_slice(&x);
-        row[eta_column..output_column].copy_from_slice(&eta);
-        row[output_column..].copy_from_slice(&outs);
-        for (col, &v) in data.iter_mut().zip(&row) {
-            col.push(v);
-        }
     }
     if let Some(v) = open_violation {
         violations.push(v);
@@ -585,24 +653,32 @@ pub fn simulate<M: InverseModel + ?Sized>(
 
     // --- summary ---------------------------------------------------------------------------------------
     let distance = cycle.distance();
+    let has_distance = distance > 0.0 && distance.is_finite();
     let mut integral_map = BTreeMap::new();
     let mut per_100km = BTreeMap::new();
     let mut integral_units = BTreeMap::new();
     for (acc, &i) in integrals.iter().zip(&accumulate) {
         let o = &info.outputs[i];
         integral_map.insert(o.name.clone(), *acc);
-        if distance > 0.0 && distance.is_finite() {
+        if has_distance {
             per_100km.insert(o.name.clone(), acc * 1e5 / distance);
         }
         if let Some(unit) = o.unit.as_deref().and_then(integral_unit) {
             integral_units.insert(o.name.clone(), unit);
         }
     }
-    if !accumulate.is_empty() && !(distance > 0.0 && distance.is_finite()) {
-        warnings.push(format!("the cycle covers no distance ({distance} m): no per-100-km figures"));
+    if !accumulate.is_empty() && !has_distance {
+        warnings.push(format!(
+            "the cycle covers no distance ({distance} m): no per-100-km figures"
+        ));
     }
-    if cycle.grade.as_ref().is_some_and(|g| g.iter().any(|&v| v != 0.0)) {
-        warnings.push("the cycle's road grade is ignored (the model has no grade input)".to_string());
+    if cycle
+        .grade
+        .as_ref()
+        .is_some_and(|g| g.iter().any(|&v| v != 0.0))
+    {
+        warnings
+            .push("the cycle's road grade is ignored (the model has no grade input)".to_string());
     }
     if !violations.is_empty() {
         let total: f64 = violations.iter().map(|[a, b]| b - a).sum();
@@ -665,6 +741,39 @@ pub fn simulate<M: InverseModel + ?Sized>(
     })
 }
 
+/// The first non-finite quantity of a sample, in column order, as an error; a non-finite input is blamed on a
+/// vanishing β(ξ, η) if that is the cause.
+fn non_finite<M: InverseModel + ?Sized>(
+    model: &M,
+    t: f64,
+    yd: &[f64],
+    eta: &[f64],
+    u: f64,
+    x: &[f64],
+    outs: &[f64],
+) -> SimulateError {
+    let info = model.info();
+    let error = |quantity: String, value: f64| SimulateError::NonFinite { t, quantity, value };
+    if let Some(i) = yd.iter().position(|v| !v.is_finite()) {
+        return error(format!("yd_{i}"), yd[i]);
+    }
+    if !u.is_finite() {
+        let r = info.relative_degree;
+        let beta = model.beta(&yd[..r], eta);
+        if beta == 0.0 || !beta.is_finite() {
+            return SimulateError::SingularDecoupling { t, beta };
+        }
+        return error(info.input.clone(), u);
+    }
+    if let Some(i) = x.iter().position(|v| !v.is_finite()) {
+        return error(info.states[i].clone(), x[i]);
+    }
+    match outs.iter().position(|v| !v.is_finite()) {
+        Some(i) => error(info.outputs[i].name.clone(), outs[i]),
+        None => error("a value".to_string(), f64::NAN),
+    }
+}
+
 /// The unit of ∫ o dt for an output in `unit`: `kg/s` → `kg`, `W` → `J`; `None` if not obvious.
 fn integral_unit(unit: &str) -> Option<String> {
     let unit = unit.trim();
@@ -684,7 +793,6 @@ fn integral_unit(unit: &str) -> Option<String> {
 struct ZeroDynamicsWorkspace {
     n: usize,
     eta: Vec<f64>,
-    q: Vec<f64>,
     qp: Vec<f64>,
     qm: Vec<f64>,
     /// ∂q/∂η, column major (n × n).
@@ -696,7 +804,6 @@ impl ZeroDynamicsWorkspace {
         ZeroDynamicsWorkspace {
             n,
             eta: vec![0.0; n],
-            q: vec![0.0; n],
             qp: vec![0.0; n],
             qm: vec![0.0; n],
             jac: vec![0.0; n * n],
@@ -707,15 +814,16 @@ impl ZeroDynamicsWorkspace {
     fn jacobian<M: InverseModel + ?Sized>(&mut self, model: &M, xi: &[f64], eta: &[f64], yr: f64) {
         let n = self.n;
         self.eta.copy_from_slice(eta);
-        for j in 0..n {
-            let h = 1e-6 * eta[j].abs().max(1.0);
-            self.eta[j] = eta[j] + h;
+        for (j, &eta_j) in eta.iter().enumerate() {
+            let h = 1e-6 * eta_j.abs().max(1.0);
+            self.eta[j] = eta_j + h;
             model.zero_dynamics(xi, &self.eta, yr, &mut self.qp);
-            self.eta[j] = eta[j] - h;
+            self.eta[j] = eta_j - h;
             model.zero_dynamics(xi, &self.eta, yr, &mut self.qm);
-            self.eta[j] = eta[j];
-            for i in 0..n {
-                self.jac[j * n + i] = (self.qp[i] - self.qm[i]) / (2.0 * h);
+            self.eta[j] = eta_j;
+            let column = &mut self.jac[j * n..(j + 1) * n];
+            for ((d, p), m) in column.iter_mut().zip(&self.qp).zip(&self.qm) {
+                *d = (p - m) / (2.0 * h);
             }
         }
     }
@@ -746,7 +854,11 @@ fn eigenvalues(ws: &ZeroDynamicsWorkspace) -> Vec<[f64; 2]> {
     }
     match nalgebra::Schur::try_new(ws.jac_matrix(), f64::EPSILON, 10_000) {
         Some(schur) => {
-            let mut eigs: Vec<[f64; 2]> = schur.complex_eigenvalues().iter().map(|c| [c.re, c.im]).collect();
+            let mut eigs: Vec<[f64; 2]> = schur
+                .complex_eigenvalues()
+                .iter()
+                .map(|c| [c.re, c.im])
+                .collect();
             eigs.sort_by(|a, b| b[0].total_cmp(&a[0]).then(b[1].total_cmp(&a[1])));
             eigs
         }
@@ -782,7 +894,10 @@ fn check_stability<M: InverseModel + ?Sized>(
     if let Some(e) = eigs.iter().find(|e| e[0] > 1e-9 + 1e-7 * scale) {
         return Err(SimulateError::UnstableZeroDynamics {
             t,
-            detail: format!("∂q/∂η has an eigenvalue with positive real part {}", fmt_sig(e[0], 6)),
+            detail: format!(
+                "∂q/∂η has an eigenvalue with positive real part {}",
+                fmt_sig(e[0], 6)
+            ),
             eigenvalues: eigs,
         });
     }
@@ -850,7 +965,10 @@ fn equilibrium<M: InverseModel + ?Sized>(
             return Ok(());
         }
     }
-    Err(format!("did not converge in {MAX_ITER} iterations (residual {:e})", norm(&q)))
+    Err(format!(
+        "did not converge in {MAX_ITER} iterations (residual {:e})",
+        norm(&q)
+    ))
 }
 
 // --- forward verification -------------------------------------------------------------------------------
@@ -879,7 +997,9 @@ fn verify_forward<M: InverseModel + ?Sized>(
         smoother.eval(s, &mut yd[..=r]);
         let (xi, yr) = (&yd[..r], yd[r]);
         let (eta, x) = z.split_at(ne);
-        let u = model.invert(xi, eta, yr, &mut guess).map_err(|source| SimulateError::Model { t: s, source })?;
+        let u = model
+            .invert(xi, eta, yr, &mut guess)
+            .map_err(|source| SimulateError::Model { t: s, source })?;
         let (deta, dx) = dz.split_at_mut(ne);
         model.zero_dynamics(xi, eta, yr, deta);
         model.rhs(x, u, dx);
@@ -887,17 +1007,19 @@ fn verify_forward<M: InverseModel + ?Sized>(
     };
     let mut max_abs = 0.0_f64;
     let mut sum_sq = 0.0;
-    for k in 0..=grid.n {
+    for (k, &yd0_k) in yd0.iter().enumerate().take(grid.n + 1) {
         if k > 0 {
             if let Err(e) = integrator.advance(grid.time(k - 1), grid.time(k), &mut z, &mut rhs) {
                 return (
                     f64::INFINITY,
                     f64::INFINITY,
-                    Some(format!("verification: the forward simulation of the original model failed: {e}")),
+                    Some(format!(
+                        "verification: the forward simulation of the original model failed: {e}"
+                    )),
                 );
             }
         }
-        let err = model.h(&z[ne..]) - yd0[k];
+        let err = model.h(&z[ne..]) - yd0_k;
         if !err.is_finite() {
             return (
                 f64::INFINITY,
@@ -980,7 +1102,13 @@ impl Dopri5 {
     }
 
     /// Integrate y from `t0` to `t1` (> t0) in place.
-    fn advance<F>(&mut self, t0: f64, t1: f64, y: &mut [f64], f: &mut F) -> Result<(), SimulateError>
+    fn advance<F>(
+        &mut self,
+        t0: f64,
+        t1: f64,
+        y: &mut [f64],
+        f: &mut F,
+    ) -> Result<(), SimulateError>
     where
         F: FnMut(f64, &[f64], &mut [f64]) -> Result<(), SimulateError>,
     {
@@ -1019,13 +1147,25 @@ impl Dopri5 {
                 y.copy_from_slice(&self.y_new[..n]);
                 self.k.swap(0, 6);
                 let grow = if rejected_last { 1.0 } else { 5.0 };
-                let factor = if err == 0.0 { grow } else { (0.9 * err.powf(-0.2)).clamp(0.2, grow) };
+                let factor = if err == 0.0 {
+                    grow
+                } else {
+                    (0.9 * err.powf(-0.2)).clamp(0.2, grow)
+                };
                 let proposed = h * factor;
                 // A step shortened to land on t1 says little about the step size the solution allows.
-                self.h = if clipped { proposed.max(self.h) } else { proposed };
+                self.h = if clipped {
+                    proposed.max(self.h)
+                } else {
+                    proposed
+                };
                 rejected_last = false;
             } else {
-                let factor = if err.is_finite() { (0.9 * err.powf(-0.2)).clamp(0.1, 0.9) } else { 0.1 };
+                let factor = if err.is_finite() {
+                    (0.9 * err.powf(-0.2)).clamp(0.1, 0.9)
+                } else {
+                    0.1
+                };
                 self.h = h * factor;
                 rejected_last = true;
             }
@@ -1064,17 +1204,20 @@ impl Dopri5 {
         }
         f(t + C5 * h, ys, k5)?;
         for i in 0..n {
-            ys[i] = y[i] + h * (A61 * k1[i] + A62 * k2[i] + A63 * k3[i] + A64 * k4[i] + A65 * k5[i]);
+            ys[i] =
+                y[i] + h * (A61 * k1[i] + A62 * k2[i] + A63 * k3[i] + A64 * k4[i] + A65 * k5[i]);
         }
         f(t + h, ys, k6)?;
         let yn = &mut self.y_new;
         for i in 0..n {
-            yn[i] = y[i] + h * (A71 * k1[i] + A73 * k3[i] + A74 * k4[i] + A75 * k5[i] + A76 * k6[i]);
+            yn[i] =
+                y[i] + h * (A71 * k1[i] + A73 * k3[i] + A74 * k4[i] + A75 * k5[i] + A76 * k6[i]);
         }
         f(t + h, yn, k7)?;
         let mut sum = 0.0;
         for i in 0..n {
-            let e = h * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i]);
+            let e =
+                h * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i]);
             let sc = self.atol + self.rtol * y[i].abs().max(yn[i].abs());
             sum += (e / sc) * (e / sc);
         }
@@ -1099,7 +1242,10 @@ mod tests {
 
     #[test]
     fn eigenvalue_list() {
-        assert_eq!(format_eigenvalues(&[[0.5, 0.0], [-2.0, 1.0], [-2.0, -1.0]]), "0.5, -2 ± 1i");
+        assert_eq!(
+            format_eigenvalues(&[[0.5, 0.0], [-2.0, 1.0], [-2.0, -1.0]]),
+            "0.5, -2 ± 1i"
+        );
     }
 
     #[test]
@@ -1112,7 +1258,8 @@ mod tests {
             Ok(())
         };
         for k in 0..10 {
-            ode.advance(k as f64 * 0.1, (k + 1) as f64 * 0.1, &mut y, &mut f).unwrap();
+            ode.advance(k as f64 * 0.1, (k + 1) as f64 * 0.1, &mut y, &mut f)
+                .unwrap();
         }
         assert!((y[0] - (-2.0_f64).exp()).abs() < 1e-10, "{}", y[0]);
     }

@@ -29,11 +29,12 @@
 //! where `s(t − a)` is the cycle's slope just after `t − a`. Only corners within `±a` of `t` contribute, so
 //! `y_d = y_c` exactly wherever the cycle is linear on `[t − a, t + a]` (the paper's "exact tracking at
 //! distance a from corners"). [`Smoother::new`] precomputes the corners and slope changes (dropping zero
-//! changes); [`Smoother::eval`] costs a binary search plus work proportional to the number of corners
-//! within `±a`. Nothing is differenced numerically: `K` and `R` come from the kernel's tables (accurate to
+//! changes) and a bucket index over the corners; [`Smoother::eval`] costs an O(1) look-up (a binary search
+//! within one bucket) plus work proportional to the number of corners within `±a`. `y_c(t)` itself is
+//! the line through the last corner at or before `t`. Nothing is differenced numerically: `K` and `R` come from the kernel's tables (accurate to
 //! about 10⁻¹⁶ relative to `a`), the derivatives from its closed form.
 
-use crate::cycle::{interpolate, Cycle, CycleError};
+use crate::cycle::{Cycle, CycleError};
 use crate::kernel::Kernel;
 
 /// Errors from [`Smoother::new`].
@@ -51,13 +52,19 @@ pub enum SmootherError {
 #[derive(Debug, Clone)]
 pub struct Smoother {
     kernel: Kernel,
-    /// The cycle's samples, for `y_c(t)` itself.
-    time: Vec<f64>,
-    speed: Vec<f64>,
-    /// Corner times `t_j` (increasing), slope changes `Δs_j ≠ 0` and the slope just after each corner.
+    /// `y_c` before the first corner (the cycle's first speed).
+    first_value: f64,
+    /// Corner times `t_j` (strictly increasing), slope changes `Δs_j ≠ 0`, and the cycle's value and
+    /// slope just after each corner, from which `y_c(t) = y_c(t_j) + s_j (t − t_j)` up to the next corner.
     corners: Vec<f64>,
     jumps: Vec<f64>,
+    value_at: Vec<f64>,
     slope_after: Vec<f64>,
+    /// Bucket index over the corners: `bucket_start[b]` is the first corner at or after
+    /// `origin + b / inv_width`, so a look-up is O(1) plus a search inside one bucket.
+    origin: f64,
+    inv_width: f64,
+    bucket_start: Vec<usize>,
 }
 
 impl Smoother {
@@ -69,8 +76,7 @@ impl Smoother {
             return Err(SmootherError::InvalidLookahead(lookahead));
         }
         cycle.validate()?;
-        let time = cycle.time.clone();
-        let speed = cycle.speed.clone();
+        let (time, speed) = (&cycle.time, &cycle.speed);
         let n = time.len();
         // s_i = slope on [t_i, t_{i+1}]; 0 after the last sample (the cycle is held there).
         let slope = |i: usize| {
@@ -82,6 +88,7 @@ impl Smoother {
         };
         let mut corners = Vec::new();
         let mut jumps = Vec::new();
+        let mut value_at = Vec::new();
         let mut slope_after = Vec::new();
         let mut before = 0.0;
         for (i, &t) in time.iter().enumerate() {
@@ -90,18 +97,58 @@ impl Smoother {
             if jump != 0.0 {
                 corners.push(t);
                 jumps.push(jump);
+                value_at.push(speed[i]);
                 slope_after.push(after);
             }
             before = after;
         }
+        // About two buckets per corner.
+        let (origin, span) = match (corners.first(), corners.last()) {
+            (Some(&first), Some(&last)) => (first, last - first),
+            _ => (0.0, 0.0),
+        };
+        let width = if span > 0.0 {
+            span / (2 * corners.len()) as f64
+        } else {
+            1.0
+        };
+        let buckets = (span / width) as usize + 2;
+        let bucket_start = (0..=buckets)
+            .map(|b| corners.partition_point(|&c| c < origin + b as f64 * width))
+            .collect();
         Ok(Smoother {
             kernel: Kernel::new(lookahead),
-            time,
-            speed,
+            first_value: speed[0],
             corners,
             jumps,
+            value_at,
             slope_after,
+            origin,
+            inv_width: 1.0 / width,
+            bucket_start,
         })
+    }
+
+    /// Index of the first corner after `x` (`t_j > x`).
+    #[inline]
+    fn first_corner_after(&self, x: f64) -> usize {
+        let n = self.corners.len();
+        let pos = (x - self.origin) * self.inv_width;
+        if pos.is_nan() || pos < 0.0 {
+            return 0; // x before every corner
+        }
+        // Truncation is the intended floor; the float-to-int cast saturates for huge x.
+        let b = (pos as usize).min(self.bucket_start.len() - 2);
+        let (lo, hi) = (self.bucket_start[b], self.bucket_start[b + 1]);
+        let mut i = lo + self.corners[lo..hi].partition_point(|&c| c <= x);
+        // Rounding in the bucket index can be off by one bucket: settle the boundary exactly.
+        while i > 0 && self.corners[i - 1] > x {
+            i -= 1;
+        }
+        while i < n && self.corners[i] <= x {
+            i += 1;
+        }
+        i
     }
 
     /// The look-ahead time `a` (kernel half-width) in seconds.
@@ -120,12 +167,13 @@ impl Smoother {
         (&self.corners, &self.jumps)
     }
 
-    /// Time span `[first, last]` over which `y_d` differs from a constant: the cycle widened by `a`.
-    pub fn support(&self) -> (f64, f64) {
+    /// Time span outside which `y_d` is constant: from the first corner − `a` to the last corner + `a`
+    /// (`None` for a constant cycle).
+    pub fn support(&self) -> Option<(f64, f64)> {
         let a = self.lookahead();
         match (self.corners.first(), self.corners.last()) {
-            (Some(&first), Some(&last)) => (first - a, last + a),
-            _ => (self.time[0], self.time[self.time.len() - 1]),
+            (Some(&first), Some(&last)) => Some((first - a, last + a)),
+            _ => None,
         }
     }
 
@@ -142,12 +190,28 @@ impl Smoother {
             return;
         }
         let a = self.kernel.half_width();
-        // Corners with |t − t_j| < a: a binary search for the first, then a scan.
-        let lo = self.corners.partition_point(|&c| c <= t - a);
-        let hi = lo + self.corners[lo..].iter().take_while(|&&c| c < t + a).count();
-
-        let mut y = interpolate(&self.time, &self.speed, t);
-        let mut dy = if lo == 0 { 0.0 } else { self.slope_after[lo - 1] };
+        // Corners with |t − t_j| < a: an O(1) bucket look-up for the first, then a scan that also finds
+        // the last corner at or before t (for y_c).
+        let lo = self.first_corner_after(t - a);
+        let mut hi = lo;
+        let mut last_passed = lo; // one past the last corner ≤ t
+        while hi < self.corners.len() && self.corners[hi] < t + a {
+            if self.corners[hi] <= t {
+                last_passed = hi + 1;
+            }
+            hi += 1;
+        }
+        let mut y = match last_passed.checked_sub(1) {
+            // (the slope after the last corner is 0; skipping it keeps y finite for t = ±∞)
+            Some(i) if self.slope_after[i] == 0.0 => self.value_at[i],
+            Some(i) => self.value_at[i] + self.slope_after[i] * (t - self.corners[i]),
+            None => self.first_value,
+        };
+        let mut dy = if lo == 0 {
+            0.0
+        } else {
+            self.slope_after[lo - 1]
+        };
         let (first_derivative, derivs) = match higher.split_first_mut() {
             Some((d, rest)) => (Some(d), rest),
             None => (None, &mut [][..]),
@@ -177,6 +241,51 @@ impl Smoother {
             let mut v = vec![0.0; order + 1];
             self.eval(t, &mut v);
             v[order]
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The bucket look-up agrees with a plain binary search everywhere, including at and next to every
+    /// corner and every bucket boundary, where rounding of the bucket index matters.
+    #[test]
+    fn bucket_lookup_matches_binary_search() {
+        let mut time = vec![10.0];
+        let mut speed = vec![0.0];
+        // Irregular spacing: clusters of close samples and long gaps, alternating slopes.
+        let mut t: f64 = 10.0;
+        for i in 1..400 {
+            t += match i % 7 {
+                0 => 37.3,
+                1 | 2 => 1e-3,
+                3 => 0.1,
+                _ => 1.7,
+            };
+            time.push(t);
+            speed.push(((i * 37) % 11) as f64);
+        }
+        let cycle = Cycle {
+            name: "irregular".into(),
+            time,
+            speed,
+            grade: None,
+        };
+        let s = Smoother::new(&cycle, 1.0).unwrap();
+        let width = 1.0 / s.inv_width;
+        let mut probes: Vec<f64> = vec![-1e300, -1.0, 1e300, f64::INFINITY, f64::NEG_INFINITY];
+        let boundaries = (0..s.bucket_start.len()).map(|b| s.origin + b as f64 * width);
+        for x in s.corners.iter().copied().chain(boundaries) {
+            // neighbouring doubles (all probes here are positive and finite)
+            let up = f64::from_bits(x.to_bits() + 1);
+            let down = f64::from_bits(x.to_bits() - 1);
+            probes.extend([x, up, down, x + 1e-9, x - 1e-9]);
+        }
+        for x in probes {
+            let expected = s.corners.partition_point(|&c| c <= x);
+            assert_eq!(s.first_corner_after(x), expected, "x = {x}");
         }
     }
 }

@@ -10,7 +10,10 @@ const KMH: f64 = 1.0 / 3.6;
 
 fn parse_err(text: &str) -> CycleError {
     match Cycle::from_csv_str("bad.csv", text) {
-        Ok(c) => panic!("expected an error, got a cycle with {} samples", c.time.len()),
+        Ok(c) => panic!(
+            "expected an error, got a cycle with {} samples",
+            c.time.len()
+        ),
         Err(e) => e,
     }
 }
@@ -59,7 +62,10 @@ fn nedc_checksums() {
     assert_eq!(c.duration(), 1180.0);
     assert!((c.distance() - 11013.0).abs() < 1.0, "{}", c.distance());
     assert!((c.max_speed() * 3.6 - 120.0).abs() < 1e-9);
-    assert!(strictly_increasing(&c.time), "duplicate boundary points must be merged");
+    assert!(
+        strictly_increasing(&c.time),
+        "duplicate boundary points must be merged"
+    );
     // 4 × 26 ECE points + 22 EUDC points, minus the 4 merged boundaries.
     assert_eq!(c.time.len(), 4 * 26 + 22 - 4);
     assert_eq!(c.speed.len(), c.time.len());
@@ -118,7 +124,10 @@ fn speed_at_is_linear_and_held_outside() {
 
 #[test]
 fn load_prefers_builtin_names_then_paths() {
-    assert_eq!(Cycle::load("EUDC").unwrap(), Cycle::builtin("eudc").unwrap());
+    assert_eq!(
+        Cycle::load("EUDC").unwrap(),
+        Cycle::builtin("eudc").unwrap()
+    );
     let path = temp_file("load.csv", b"time_s,speed_kmh\n0,0\n10,36\n");
     let c = Cycle::load(path.to_str().unwrap()).unwrap();
     assert_eq!(c.name, "load");
@@ -144,7 +153,8 @@ fn every_time_and_speed_column_name_is_accepted() {
             ("speed_mph", 0.44704),
         ] {
             let text = format!("{time},{speed}\n0,0\n1,10\n2,20\n");
-            let c = Cycle::from_csv_str("x", &text).unwrap_or_else(|e| panic!("{time},{speed}: {e}"));
+            let c =
+                Cycle::from_csv_str("x", &text).unwrap_or_else(|e| panic!("{time},{speed}: {e}"));
             assert_eq!(c.time, vec![0.0, 1.0, 2.0]);
             for (v, raw) in c.speed.iter().zip([0.0, 10.0, 20.0]) {
                 assert!((v - raw * factor).abs() < 1e-14, "{speed}: {v}");
@@ -207,7 +217,15 @@ fn error_no_time_column_lists_accepted_names() {
     assert!(matches!(e, CycleError::NoTimeColumn { .. }), "{e:?}");
     assert_message(
         &e,
-        &["bad.csv", "no time column", "`seconds`", "`time_s`", "`time_seconds`", "`cycSecs`", "`t`"],
+        &[
+            "bad.csv",
+            "no time column",
+            "`seconds`",
+            "`time_s`",
+            "`time_seconds`",
+            "`cycSecs`",
+            "`t`",
+        ],
     );
 }
 
@@ -236,7 +254,11 @@ fn error_unparsable_number_names_row_column_and_text() {
     let e = parse_err("time_s,speed_mps\n0,0\n1,1\n2,fast\n");
     match &e {
         CycleError::BadNumber {
-            line, row, column, text, ..
+            line,
+            row,
+            column,
+            text,
+            ..
         } => {
             assert_eq!((*line, *row), (4, 3));
             assert_eq!(column, "speed_mps");
@@ -244,7 +266,17 @@ fn error_unparsable_number_names_row_column_and_text() {
         }
         other => panic!("{other:?}"),
     }
-    assert_message(&e, &["bad.csv", "line 4", "data row 3", "`speed_mps`", "`fast`", "expected a number"]);
+    assert_message(
+        &e,
+        &[
+            "bad.csv",
+            "line 4",
+            "data row 3",
+            "`speed_mps`",
+            "`fast`",
+            "expected a number",
+        ],
+    );
     // An empty field is not a number either.
     let e = parse_err("t,mps\n0,0\n,1\n");
     assert_message(&e, &["line 3", "data row 2", "column `t`", "found ``"]);
@@ -257,7 +289,14 @@ fn error_non_finite_values() {
         assert!(matches!(e, CycleError::NonFinite { .. }), "{bad}: {e:?}");
         assert_message(
             &e,
-            &["bad.csv", &format!("line {line}"), "data row 2", "`mps`", bad, "finite"],
+            &[
+                "bad.csv",
+                &format!("line {line}"),
+                "data row 2",
+                "`mps`",
+                bad,
+                "finite",
+            ],
         );
     }
     let e = parse_err("t,mps,grade\n0,0,0\n1,1,nan\n");
@@ -269,23 +308,59 @@ fn error_time_not_strictly_increasing() {
     let e = parse_err("cycSecs,cycMps\n0,0\n1,1\n1,2\n");
     match &e {
         CycleError::TimeNotIncreasing {
-            line, row, time, previous, ..
+            line,
+            row,
+            time,
+            previous,
+            ..
         } => {
             assert_eq!((*line, *row), (4, 3));
             assert_eq!((*time, *previous), (1.0, 1.0));
         }
         other => panic!("{other:?}"),
     }
-    assert_message(&e, &["bad.csv", "line 4", "data row 3", "`cycSecs`", "strictly increasing"]);
+    assert_message(
+        &e,
+        &[
+            "bad.csv",
+            "line 4",
+            "data row 3",
+            "`cycSecs`",
+            "strictly increasing",
+        ],
+    );
     let e = parse_err("t,mps\n0,0\n5,1\n6,1\n4,0\n");
-    assert_message(&e, &["line 5", "data row 4", "time 4 s", "previous row's 6 s"]);
+    assert_message(
+        &e,
+        &["line 5", "data row 4", "time 4 s", "previous row's 6 s"],
+    );
 }
 
 #[test]
 fn error_negative_speed() {
     let e = parse_err("t,speed_kmh\n0,0\n1,-3\n");
-    assert!(matches!(e, CycleError::NegativeSpeed { line: 3, row: 2, .. }), "{e:?}");
-    assert_message(&e, &["bad.csv", "line 3", "data row 2", "`speed_kmh`", "-3", "negative"]);
+    assert!(
+        matches!(
+            e,
+            CycleError::NegativeSpeed {
+                line: 3,
+                row: 2,
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+    assert_message(
+        &e,
+        &[
+            "bad.csv",
+            "line 3",
+            "data row 2",
+            "`speed_kmh`",
+            "-3",
+            "negative",
+        ],
+    );
 }
 
 #[test]
@@ -304,10 +379,22 @@ fn error_fewer_than_two_rows() {
 fn error_ragged_rows() {
     let e = parse_err("t,mps,grade\n0,0,0\n1,1\n");
     assert!(
-        matches!(e, CycleError::Ragged { line: 3, row: 2, found: 2, expected: 3, .. }),
+        matches!(
+            e,
+            CycleError::Ragged {
+                line: 3,
+                row: 2,
+                found: 2,
+                expected: 3,
+                ..
+            }
+        ),
         "{e:?}"
     );
-    assert_message(&e, &["bad.csv", "line 3", "data row 2", "2 field(s), expected 3"]);
+    assert_message(
+        &e,
+        &["bad.csv", "line 3", "data row 2", "2 field(s), expected 3"],
+    );
     let e = parse_err("t,mps\n0,0\n1,1\n2,2,2\n");
     assert_message(&e, &["line 4", "data row 3", "3 field(s), expected 2"]);
 }
@@ -317,13 +404,29 @@ fn error_line_numbers_count_blank_lines_and_header() {
     // Blank lines are skipped but the line number still points into the file.
     let e = parse_err("\nt,mps\n\n0,0\n\n1,x\n");
     assert_message(&e, &["line 6", "data row 2", "`x`"]);
+    let e = parse_err("t,mps\r\n\r\n0,0\r\n\r\n1,x\r\n");
+    assert_message(&e, &["line 5", "data row 2", "`x`"]);
+    let e = parse_err("\n\n1,2\n");
+    assert_message(&e, &["line 3", "looks like data"]);
 }
 
 #[test]
 fn error_duplicate_columns() {
     let e = parse_err("t,time_s,mps\n0,0,0\n1,1,1\n");
-    assert!(matches!(e, CycleError::DuplicateColumn { kind: "time", .. }), "{e:?}");
-    assert_message(&e, &["bad.csv", "line 1", "two time columns", "`t` (column 1)", "`time_s` (column 2)"]);
+    assert!(
+        matches!(e, CycleError::DuplicateColumn { kind: "time", .. }),
+        "{e:?}"
+    );
+    assert_message(
+        &e,
+        &[
+            "bad.csv",
+            "line 1",
+            "two time columns",
+            "`t` (column 1)",
+            "`time_s` (column 2)",
+        ],
+    );
     let e = parse_err("t,mps,speed_kmh\n0,0,0\n1,1,1\n");
     assert_message(&e, &["two speed columns", "`mps`", "`speed_kmh`"]);
 }
@@ -350,7 +453,15 @@ fn errors_from_files_name_the_path() {
     let path = temp_file("negative.csv", b"t,mps\n0,0\n1,-1\n");
     let e = Cycle::from_csv_path(&path).unwrap_err();
     remove(&path);
-    assert_message(&e, &[&path.display().to_string(), "line 3", "data row 2", "negative"]);
+    assert_message(
+        &e,
+        &[
+            &path.display().to_string(),
+            "line 3",
+            "data row 2",
+            "negative",
+        ],
+    );
 }
 
 #[test]
@@ -361,7 +472,10 @@ fn validate_rejects_hand_built_cycles() {
     assert_message(&c.validate().unwrap_err(), &["cycle `ece`", "speeds"]);
     let mut c = base.clone();
     c.time[3] = c.time[2];
-    assert_message(&c.validate().unwrap_err(), &["sample 3", "strictly increasing"]);
+    assert_message(
+        &c.validate().unwrap_err(),
+        &["sample 3", "strictly increasing"],
+    );
     let mut c = base.clone();
     c.speed[1] = f64::NAN;
     assert_message(&c.validate().unwrap_err(), &["sample 1"]);
@@ -429,9 +543,21 @@ fn check_shared(file: &str, duration: f64, distance: f64, top: f64) {
     let Some(dir) = shared_cycles() else { return };
     let c = Cycle::from_csv_path(&dir.join(file)).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(c.name, file.trim_end_matches(".csv"));
-    assert!((c.duration() - duration).abs() < 1e-9, "{file}: {}", c.duration());
-    assert!((c.distance() - distance).abs() < 1.0, "{file}: {}", c.distance());
-    assert!((c.max_speed() - top).abs() < 0.006, "{file}: {}", c.max_speed());
+    assert!(
+        (c.duration() - duration).abs() < 1e-9,
+        "{file}: {}",
+        c.duration()
+    );
+    assert!(
+        (c.distance() - distance).abs() < 1.0,
+        "{file}: {}",
+        c.distance()
+    );
+    assert!(
+        (c.max_speed() - top).abs() < 0.006,
+        "{file}: {}",
+        c.max_speed()
+    );
     assert!(c.grade.is_some());
     assert!(c.validate().is_ok());
     assert_eq!(Cycle::load(dir.join(file).to_str().unwrap()).unwrap(), c);
@@ -451,7 +577,10 @@ fn shared_hwfet() {
 fn shared_wltc_3b_with_bom() {
     let Some(dir) = shared_cycles() else { return };
     let bytes = std::fs::read(dir.join("wltc_3b.csv")).unwrap();
-    assert!(bytes.starts_with(&[0xEF, 0xBB, 0xBF]), "the file is expected to keep its BOM");
+    assert!(
+        bytes.starts_with(&[0xEF, 0xBB, 0xBF]),
+        "the file is expected to keep its BOM"
+    );
     check_shared("wltc_3b.csv", 1800.0, 23266.0, 36.47);
 }
 

@@ -101,20 +101,40 @@ impl SiEngine {
             input_min: Some(0.0),
             input_max: Some(0.08),
             outputs: vec![
-                OutputInfo { name: "fuel".into(), unit: Some("kg/s".into()), accumulate: true },
-                OutputInfo { name: "fuel_l".into(), unit: Some("l/s".into()), accumulate: true },
+                OutputInfo {
+                    name: "fuel".into(),
+                    unit: Some("kg/s".into()),
+                    accumulate: true,
+                },
+                OutputInfo {
+                    name: "fuel_l".into(),
+                    unit: Some("l/s".into()),
+                    accumulate: true,
+                },
             ],
             parameters: SI_PARAMS.iter().map(|(n, _)| n.to_string()).collect(),
         };
         let params: Vec<f64> = SI_PARAMS.iter().map(|(_, v)| *v).collect();
-        let mut model = SiEngine { info, params, c: [0.0; 7], fuel_per_air: 0.0 };
+        let mut model = SiEngine {
+            info,
+            params,
+            c: [0.0; 7],
+            fuel_per_air: 0.0,
+        };
         model.update();
         model
     }
 
     fn update(&mut self) {
         self.c = si_coefficients(&self.params);
-        let param = |name: &str| self.params[self.info.parameters.iter().position(|p| p == name).expect("known")];
+        let param = |name: &str| {
+            self.params[self
+                .info
+                .parameters
+                .iter()
+                .position(|p| p == name)
+                .expect("known")]
+        };
         self.fuel_per_air = 1.0 / (param("lambda") * param("AFs"));
     }
 
@@ -160,7 +180,8 @@ impl InverseModel for SiEngine {
     fn alpha(&self, xi: &[f64], _eta: &[f64]) -> f64 {
         let [c1, c2, c3, _, c5, c6, _] = self.c;
         let x2 = self.p_i(xi);
-        (1.8 * c2 * xi[0].abs().powf(0.8) + 2.0 * c1 * xi[0]) * xi[1] + c3 * (c5 * xi[0] + c6 * xi[0] * x2)
+        (1.8 * c2 * xi[0].abs().powf(0.8) + 2.0 * c1 * xi[0]) * xi[1]
+            + c3 * (c5 * xi[0] + c6 * xi[0] * x2)
     }
     /// β = c3 c7 (paper eq. 28).
     fn beta(&self, _xi: &[f64], _eta: &[f64]) -> f64 {
@@ -216,10 +237,20 @@ impl LinearR2 {
             n_eta: 1,
             input_min: None,
             input_max: None,
-            outputs: vec![OutputInfo { name: "u2".into(), unit: None, accumulate: true }],
-            parameters: ["a0", "a1", "k", "b", "c"].iter().map(|s| s.to_string()).collect(),
+            outputs: vec![OutputInfo {
+                name: "u2".into(),
+                unit: None,
+                accumulate: true,
+            }],
+            parameters: ["a0", "a1", "k", "b", "c"]
+                .iter()
+                .map(|s| s.to_string())
+                .collect(),
         };
-        LinearR2 { info, params: [a0, a1, k, b, c] }
+        LinearR2 {
+            info,
+            params: [a0, a1, k, b, c],
+        }
     }
     /// Minimum phase: zero at −(k + c) = −1.5.
     pub fn minimum_phase() -> Self {
@@ -295,7 +326,11 @@ impl NanOutput {
         let inner = SiEngine::new();
         let mut info = inner.info().clone();
         info.name = "si_engine_nan".into();
-        info.outputs.push(OutputInfo { name: "bad".into(), unit: None, accumulate: false });
+        info.outputs.push(OutputInfo {
+            name: "bad".into(),
+            unit: None,
+            accumulate: false,
+        });
         NanOutput { inner, info, v_max }
     }
 }

@@ -1,0 +1,279 @@
+//! Rendering a [`Derivation`] as JSON (the contract's `derive --format json`), plain text and Markdown
+//! (the derived-equation documents in `docs/models/`).
+
+use crate::derive::{Derivation, Solution};
+use invsim_expr::{latex_symbol, DecidedBy, Id};
+use serde_json::{json, Map, Value};
+use std::fmt::Write as _;
+
+fn decided(d: DecidedBy) -> &'static str {
+    match d {
+        DecidedBy::Canonical => "canonical form",
+        DecidedBy::Expanded => "expansion",
+        DecidedBy::Probing => "numeric probing",
+    }
+}
+
+impl Derivation {
+    fn show(&self, e: Id) -> String {
+        self.pool().display(e)
+    }
+    fn tex(&self, e: Id) -> String {
+        self.pool().latex(e)
+    }
+
+    /// The contract's JSON form of `invsim derive` (section 3), plus `domain` and `lie_zero_tests`.
+    pub fn to_json(&self) -> Value {
+        let m = &self.model;
+        let mut params = Map::new();
+        for p in &m.parameters {
+            params.insert(p.name.clone(), json!(p.value));
+        }
+        let mut psi_inv = Map::new();
+        for (s, sol) in m.states.iter().zip(&self.psi_inv) {
+            psi_inv.insert(
+                s.name.clone(),
+                match sol {
+                    Solution::Closed(e) => Value::String(self.show(*e)),
+                    Solution::Numeric => Value::Null,
+                },
+            );
+        }
+        let r = self.relative_degree;
+        json!({
+            "name": m.name,
+            "states": m.states.iter().map(|s| s.name.clone()).collect::<Vec<_>>(),
+            "input": m.input.name,
+            "output": m.output.name,
+            "parameters": params,
+            "relative_degree": r,
+            "lie_derivatives": self.lie.iter().map(|&e| self.show(e)).collect::<Vec<_>>(),
+            "decoupling": self.show(self.beta_x),
+            "xi": self.psi[..r].iter().map(|&e| self.show(e)).collect::<Vec<_>>(),
+            "eta": self.psi[r..].iter().map(|&e| self.show(e)).collect::<Vec<_>>(),
+            "psi_inv": psi_inv,
+            "alpha": self.show(self.alpha),
+            "beta": self.show(self.beta),
+            "zero_dynamics": self.zero_dynamics.iter().map(|&e| self.show(e)).collect::<Vec<_>>(),
+            "singular": self.singular,
+            "domain": self.domain,
+            "lie_zero_tests": self.lg_lie.iter().zip(&self.lg_decided_by).enumerate().map(|(k, (&e, &d))| json!({
+                "k": k, "lg_lf_k_h": self.show(e), "decided_by": decided(d)
+            })).collect::<Vec<_>>(),
+            "warnings": self.warnings,
+        })
+    }
+
+    /// A plain-text report of the derivation.
+    pub fn to_text(&self) -> String {
+        let m = &self.model;
+        let r = self.relative_degree;
+        let mut s = String::new();
+        let _ = writeln!(s, "model {} ({})", m.name, m.file.display());
+        let names: Vec<&str> = m.states.iter().map(|s| s.name.as_str()).collect();
+        let _ = writeln!(s, "states x = ({}), input {}, output y = {}", names.join(", "), m.input.name, self.show(m.output.h));
+        let _ = writeln!(s, "\nvector fields (definitions inlined):");
+        for st in &m.states {
+            let _ = writeln!(s, "  f_{} = {}", st.name, self.show(st.f));
+            let _ = writeln!(s, "  g_{} = {}", st.name, self.show(st.g));
+        }
+        let _ = writeln!(s, "\nLie derivatives:");
+        for (k, &e) in self.lie.iter().enumerate() {
+            let _ = writeln!(s, "  L_f^{k} h = {}", self.show(e));
+        }
+        for (k, (&e, &d)) in self.lg_lie.iter().zip(&self.lg_decided_by).enumerate() {
+            let _ = writeln!(s, "  L_g L_f^{k} h = {}   [{}]", self.show(e), decided(d));
+        }
+        let _ = writeln!(s, "\nrelative degree r = {r} (n = {})", self.n());
+        for k in 0..r {
+            let _ = writeln!(s, "  xi{} = {}", k + 1, self.show(self.psi[k]));
+        }
+        for j in 0..self.eta.len() {
+            let _ = writeln!(s, "  eta{} = {}", j + 1, self.show(self.psi[r + j]));
+        }
+        let _ = writeln!(s, "\ninverse coordinate change x = psi_inv(xi, eta):");
+        for (st, sol) in m.states.iter().zip(&self.psi_inv) {
+            match sol {
+                Solution::Closed(e) => {
+                    let _ = writeln!(s, "  {} = {}", st.name, self.show(*e));
+                }
+                Solution::Numeric => {
+                    let _ = writeln!(s, "  {} = (solved numerically by Newton's method)", st.name);
+                }
+            }
+        }
+        let _ = writeln!(s, "\ny^(r) = alpha + beta*u:");
+        let _ = writeln!(s, "  alpha = {}", self.show(self.alpha));
+        let _ = writeln!(s, "  beta  = {}", self.show(self.beta));
+        if !self.zero_dynamics.is_empty() {
+            let _ = writeln!(s, "\nzero dynamics:");
+            for (j, &q) in self.zero_dynamics.iter().enumerate() {
+                let _ = writeln!(s, "  d(eta{})/dt = {}", j + 1, self.show(q));
+            }
+        }
+        for d in &self.domain {
+            let _ = writeln!(s, "domain: {d}");
+        }
+        for w in &self.warnings {
+            let _ = writeln!(s, "warning: {w}");
+        }
+        s
+    }
+
+    /// The derived-equation document: the model as written and every step of the derivation, in Markdown
+    /// with math GitHub renders.
+    pub fn to_markdown(&self) -> String {
+        let m = &self.model;
+        let r = self.relative_degree;
+        let n = self.n();
+        let mut s = String::new();
+        let _ = writeln!(s, "# `{}` — derived equations\n", m.name);
+        if let Some(d) = &m.description {
+            let _ = writeln!(s, "{d}\n");
+        }
+        let file = m.file.file_name().map(|f| f.to_string_lossy().to_string()).unwrap_or_default();
+        let _ = writeln!(
+            s,
+            "Generated by `invsim` from `{file}` (sha256 `{}`). Regenerate with `cargo xtask docs`.\n",
+            &m.source_hash
+        );
+        let _ = writeln!(s, "## The model as written\n");
+        let _ = writeln!(s, "| state | unit | description |\n|---|---|---|");
+        for st in &m.states {
+            let _ = writeln!(
+                s,
+                "| ${}$ | {} | {} |",
+                latex_symbol(&st.name),
+                st.unit.as_deref().unwrap_or("–"),
+                st.doc.as_deref().unwrap_or("")
+            );
+        }
+        let bounds = match (m.input.min, m.input.max) {
+            (Some(a), Some(b)) => format!(", bounds [{a}, {b}]"),
+            (Some(a), None) => format!(", lower bound {a}"),
+            (None, Some(b)) => format!(", upper bound {b}"),
+            (None, None) => String::new(),
+        };
+        let _ = writeln!(
+            s,
+            "\nInput $u = {}$ ({}{}){}. Output $y = {} = {}$ ({}).\n",
+            latex_symbol(&m.input.name),
+            m.input.unit.as_deref().unwrap_or("–"),
+            bounds,
+            m.input.doc.as_deref().map(|d| format!(": {d}")).unwrap_or_default(),
+            latex_symbol(&m.output.name),
+            self.tex(m.output.h),
+            m.output.unit.as_deref().unwrap_or("–"),
+        );
+        if !m.parameters.is_empty() {
+            let _ = writeln!(s, "| parameter | value | unit | description |\n|---|---|---|---|");
+            for p in &m.parameters {
+                let _ = writeln!(
+                    s,
+                    "| ${}$ | {} | {} | {} |",
+                    latex_symbol(&p.name),
+                    p.value,
+                    p.unit.as_deref().unwrap_or("–"),
+                    p.doc.as_deref().unwrap_or("")
+                );
+            }
+            s.push('\n');
+        }
+        if !m.definitions.is_empty() {
+            let _ = writeln!(s, "Definitions (inlined before any derivation):\n\n$$\n\\begin{{aligned}}");
+            for d in &m.definitions {
+                let _ = writeln!(s, "{} &= {} \\\\", latex_symbol(&d.name), self.tex(d.expr));
+            }
+            let _ = writeln!(s, "\\end{{aligned}}\n$$\n");
+        }
+        let _ = writeln!(s, "## Vector fields\n\n$\\dot x = f(x) + g(x)\\,u$ with definitions inlined:\n\n$$\n\\begin{{aligned}}");
+        for st in &m.states {
+            let _ = writeln!(s, "f_{{{}}} &= {} \\\\", latex_symbol(&st.name), self.tex(st.f));
+            let _ = writeln!(s, "g_{{{}}} &= {} \\\\", latex_symbol(&st.name), self.tex(st.g));
+        }
+        let _ = writeln!(s, "h &= {}\n\\end{{aligned}}\n$$\n", self.tex(m.output.h));
+        let _ = writeln!(s, "## Lie derivatives and relative degree\n\n$$\n\\begin{{aligned}}");
+        for (k, &e) in self.lie.iter().enumerate() {
+            let _ = writeln!(s, "L_f^{{{k}}} h &= {} \\\\", self.tex(e));
+        }
+        for (k, &e) in self.lg_lie.iter().enumerate() {
+            let _ = writeln!(s, "L_g L_f^{{{k}}} h &= {} \\\\", self.tex(e));
+        }
+        let _ = writeln!(s, "\\end{{aligned}}\n$$\n");
+        let why: Vec<String> = self
+            .lg_decided_by
+            .iter()
+            .enumerate()
+            .map(|(k, d)| {
+                let z = if k + 1 < r { "is identically zero" } else { "is not identically zero" };
+                format!("$L_g L_f^{{{k}}} h$ {z} (decided by {})", decided(*d))
+            })
+            .collect();
+        let _ = writeln!(
+            s,
+            "The relative degree is **r = {r}** (n = {n}): {}.\n",
+            why.join("; ")
+        );
+        let _ = writeln!(s, "## Normal-form coordinates\n\n$$\n\\begin{{aligned}}");
+        for k in 0..r {
+            let _ = writeln!(s, "\\xi_{{{}}} &= {} \\\\", k + 1, self.tex(self.psi[k]));
+        }
+        for j in 0..self.eta.len() {
+            let _ = writeln!(s, "\\eta_{{{}}} &= {} \\\\", j + 1, self.tex(self.psi[r + j]));
+        }
+        let _ = writeln!(s, "\\end{{aligned}}\n$$\n");
+        let _ = writeln!(s, "Inverse coordinate change $x = \\psi^{{-1}}(\\xi, \\eta)$:\n\n$$\n\\begin{{aligned}}");
+        for (st, sol) in m.states.iter().zip(&self.psi_inv) {
+            match sol {
+                Solution::Closed(e) => {
+                    let _ = writeln!(s, "{} &= {} \\\\", latex_symbol(&st.name), self.tex(*e));
+                }
+                Solution::Numeric => {
+                    let _ = writeln!(s, "{} &: \\text{{solved numerically (Newton)}} \\\\", latex_symbol(&st.name));
+                }
+            }
+        }
+        let _ = writeln!(s, "\\end{{aligned}}\n$$\n");
+        if !self.domain.is_empty() {
+            let _ = writeln!(s, "Valid where:\n");
+            for d in &self.domain {
+                let _ = writeln!(s, "- `{d}`");
+            }
+            s.push('\n');
+        }
+        let _ = writeln!(
+            s,
+            "## Input–output form\n\n$y^{{(r)}} = \\alpha(\\xi, \\eta) + \\beta(\\xi, \\eta)\\,u$, so \
+             $u = (y^{{(r)}} - \\alpha)/\\beta$:\n\n$$\n\\begin{{aligned}}\n\\alpha &= {} \\\\\n\\beta &= {}\n\\end{{aligned}}\n$$\n",
+            self.tex(self.alpha),
+            self.tex(self.beta)
+        );
+        if self.singular.is_empty() {
+            let _ = writeln!(s, "β does not vanish: the inverse exists everywhere ψ⁻¹ is defined.\n");
+        } else {
+            let _ = writeln!(s, "Singular set (β = 0):\n");
+            for x in &self.singular {
+                let _ = writeln!(s, "- {x}");
+            }
+            s.push('\n');
+        }
+        if self.zero_dynamics.is_empty() {
+            let _ = writeln!(s, "## Zero dynamics\n\nNone: r = n.\n");
+        } else {
+            let _ = writeln!(s, "## Zero dynamics\n\n$$\n\\begin{{aligned}}");
+            for (j, &q) in self.zero_dynamics.iter().enumerate() {
+                let _ = writeln!(s, "\\dot\\eta_{{{}}} &= {} \\\\", j + 1, self.tex(q));
+            }
+            let _ = writeln!(s, "\\end{{aligned}}\n$$\n");
+        }
+        if !self.warnings.is_empty() {
+            let _ = writeln!(s, "## Notes\n");
+            for w in &self.warnings {
+                let _ = writeln!(s, "- {w}");
+            }
+            s.push('\n');
+        }
+        let _ = writeln!(s, "## Plain form\n\n```text\n{}```", self.to_text());
+        s
+    }
+}
