@@ -6,7 +6,6 @@
 mod engine;
 
 use clap::{Parser, Subcommand, ValueEnum};
-use invsim_model_api::InverseModel;
 use invsim_runtime::{output, plot, simulate, Cycle, SimulationOptions};
 use std::io::Write;
 use std::path::{Path, PathBuf};

@@ -325,7 +325,7 @@ impl Pool {
             }
         };
         if let Node::Mul(fs) = self.node(r).clone() {
-            let mut best = self.display(r).len();
+            let best = self.display(r).len();
             for (i, &f) in fs.iter().enumerate() {
                 let Node::Add(ts) = self.node(f).clone() else { continue };
                 let others: Vec<Id> = fs.iter().enumerate().filter(|(j, _)| *j != i).map(|(_, &x)| x).collect();
@@ -340,7 +340,6 @@ impl Pool {
                 let cand = self.add(&terms);
                 let size = self.display(cand).len();
                 if size < best {
-                    best = size;
                     r = self.tidy_memo(cand, memo);
                     break;
                 }

@@ -405,7 +405,16 @@ impl Pool {
                     refold = true;
                     out.push(p)
                 }
-                _ => out.push(p),
+                node => {
+                    // The power rules can change the base ((x^2)^(−1) → x^(−2), exp(a)^2 → exp(2a)); the new
+                    // base may meet another factor with that base, so combine again.
+                    let new_base = match node {
+                        Node::Pow(pb, _) => *pb,
+                        _ => p,
+                    };
+                    refold |= new_base != b;
+                    out.push(p)
+                }
             }
         }
         if refold {

@@ -300,15 +300,19 @@ impl Printer<'_> {
     }
 
     fn print_fraction(&self, frac: &Fraction) -> (u8, String) {
-        // `c*(a + b)*d` and `-(a + b)*d` would parse as (c·(a + b))·d, and c·(a + b) distributes to c·a + c·b:
-        // a different canonical form. When the numerator starts with a sum, the rest of the product is
-        // parenthesised so that the coefficient (or sign) applies to it as a whole: `c*((a + b)*d)`.
-        let sum_first = frac.num.first().is_some_and(|f| {
-            f.exp.is_none() && f.sym_exp.is_none() && matches!(self.pool.node(f.base), Node::Add(_))
-        });
-        if !self.latex() && sum_first && (frac.negative || frac.num_coeff.is_some()) {
+        // A numeric coefficient (or a unary minus) next to a lone sum would be distributed when the text is
+        // parsed back (`c*(a + b)*d` parses as (c·(a + b))·d, and c·(a + b) → c·a + c·b): a different
+        // canonical form. So when the numerator starts with a sum, the rest of the product is parenthesised,
+        // `c*((a + b)*d)`, and a denominator coefficient before a sum is divided out last, `x/(a + b)/2`.
+        let is_sum = |f: &Factor| f.exp.is_none() && f.sym_exp.is_none() && matches!(self.pool.node(f.base), Node::Add(_));
+        let text = !self.latex();
+        let (den_coeff, trailing) = match frac.den_coeff {
+            Some(c) if text && frac.den.first().is_some_and(is_sum) => (None, format!("/{}", self.number(c, P_MUL + 1))),
+            c => (c, String::new()),
+        };
+        if text && frac.num.first().is_some_and(is_sum) && (frac.negative || frac.num_coeff.is_some()) {
             let (_, num) = self.product(None, &frac.num);
-            let (nd, den) = self.product(frac.den_coeff, &frac.den);
+            let (nd, den) = self.product(den_coeff, &frac.den);
             let body = match nd {
                 0 => num,
                 1 => format!("{num}/{den}"),
@@ -316,10 +320,10 @@ impl Printer<'_> {
             };
             let sign = if frac.negative { "-" } else { "" };
             let coeff = frac.num_coeff.map(|c| format!("{}*", self.number(c, P_MUL + 1))).unwrap_or_default();
-            return (if frac.negative { P_NEG } else { P_MUL }, format!("{sign}{coeff}({body})"));
+            return (if frac.negative { P_NEG } else { P_MUL }, format!("{sign}{coeff}({body}){trailing}"));
         }
         let (nn, num) = self.product(frac.num_coeff, &frac.num);
-        let (nd, den) = self.product(frac.den_coeff, &frac.den);
+        let (nd, den) = self.product(den_coeff, &frac.den);
         let num = if nn == 0 { "1".to_string() } else { num };
         let sign = if frac.negative { "-" } else { "" };
         if nd == 0 {
@@ -341,7 +345,7 @@ impl Printer<'_> {
         }
         // A single denominator factor binds tighter than `/` (atoms and `^`); a product needs parentheses.
         let den = if nd > 1 { format!("({den})") } else { den };
-        (if frac.negative { P_NEG } else { P_MUL }, format!("{sign}{num}/{den}"))
+        (if frac.negative { P_NEG } else { P_MUL }, format!("{sign}{num}/{den}{trailing}"))
     }
 }
 

@@ -161,6 +161,7 @@ impl Derivation {
         let f: Vec<Id> = model.states.iter().map(|s| s.f).collect();
         let g: Vec<Id> = model.states.iter().map(|s| s.g).collect();
         let file = model.file.display().to_string();
+        let params: Vec<Symbol> = model.parameters.iter().map(|p| p.symbol).collect();
         let pool = &mut model.pool;
         let mut warnings = Vec::new();
 
@@ -250,7 +251,7 @@ impl Derivation {
             let e = pool.var(eta[j]);
             known.insert(states[c], e);
         }
-        let mut domain = Vec::new();
+        let mut domain: Vec<(Id, String)> = Vec::new();
         let mut eqs: Vec<Id> = (0..r)
             .map(|k| {
                 let x = pool.var(xi[k]);
@@ -378,9 +379,13 @@ impl Derivation {
         for s in &singular {
             warnings.push(format!("β vanishes: {s}"));
         }
-        // Conditions on parameters alone that hold at the nominal values are not worth reporting.
-        let coords: Vec<&str> = xi.iter().chain(&eta).map(|&s| pool.symbol_name(s)).collect::<Vec<_>>();
-        domain.retain(|c| coords.iter().any(|name| c.contains(name)));
+        // Conditions on parameters alone (true at the nominal values, or the model would not derive) are not
+        // worth reporting; the others are stated in (ξ, η) or, for branches, in the states.
+        let mut domain: Vec<String> = domain
+            .into_iter()
+            .filter(|(e, _)| pool.free_symbols(*e).iter().any(|s| !params.contains(s)))
+            .map(|(_, text)| text)
+            .collect();
         domain.dedup();
 
         Ok(Derivation {
@@ -440,7 +445,7 @@ fn combinations(items: &[usize], k: usize) -> Vec<Vec<usize>> {
 
 /// Solve `e = 0` for `x`, if `x` can be isolated: `e` linear in `x`, or linear in a subterm K(x) that an
 /// invertible function chain leads to. Returns the solution and the conditions it needs.
-pub fn isolate(pool: &mut Pool, e: Id, x: Symbol) -> Option<(Id, Vec<String>)> {
+pub fn isolate(pool: &mut Pool, e: Id, x: Symbol) -> Option<(Id, Vec<(Id, String)>)> {
     let mut conds = Vec::new();
     // Candidate kernels: subterms containing x, smallest first (x itself first).
     let mut kernels: Vec<Id> = pool
@@ -466,7 +471,7 @@ pub fn isolate(pool: &mut Pool, e: Id, x: Symbol) -> Option<(Id, Vec<String>)> {
         let nb = pool.neg(b);
         let rhs = pool.div(nb, a);
         if pool.as_number(a).is_none() {
-            conds.push(format!("{} ≠ 0", pool.display(a)));
+            conds.push((a, format!("{} ≠ 0", pool.display(a))));
         }
         if let Some(sol) = invert_kernel(pool, k, rhs, x, &mut conds) {
             return Some((sol, conds));
@@ -477,7 +482,7 @@ pub fn isolate(pool: &mut Pool, e: Id, x: Symbol) -> Option<(Id, Vec<String>)> {
 }
 
 /// Solve K(x) = rhs for x by undoing the outermost invertible operation of K repeatedly.
-fn invert_kernel(pool: &mut Pool, k: Id, rhs: Id, x: Symbol, conds: &mut Vec<String>) -> Option<Id> {
+fn invert_kernel(pool: &mut Pool, k: Id, rhs: Id, x: Symbol, conds: &mut Vec<(Id, String)>) -> Option<Id> {
     if pool.as_symbol(k) == Some(x) {
         return Some(rhs);
     }
@@ -489,9 +494,10 @@ fn invert_kernel(pool: &mut Pool, k: Id, rhs: Id, x: Symbol, conds: &mut Vec<Str
             match pool.as_number(p) {
                 Some(n) if n.as_integer().is_some_and(|i| i % 2 != 0) => {}
                 Some(n) if n.as_integer().is_some() => {
-                    conds.push(format!("{} ≥ 0 (positive root taken)", pool.display(b)));
+                    conds.push((rhs, format!("{} ≥ 0", pool.display(rhs))));
+                    conds.push((b, format!("{} ≥ 0 (the positive root is taken)", pool.display(b))));
                 }
-                _ => conds.push(format!("{} ≥ 0", pool.display(rhs))),
+                _ => conds.push((rhs, format!("{} ≥ 0", pool.display(rhs)))),
             }
             invert_kernel(pool, b, s, x, conds)
         }
@@ -500,7 +506,7 @@ fn invert_kernel(pool: &mut Pool, k: Id, rhs: Id, x: Symbol, conds: &mut Vec<Str
             let l = pool.call(Func::Log, rhs);
             let lb = pool.call(Func::Log, b);
             let s = pool.div(l, lb);
-            conds.push(format!("{} > 0", pool.display(rhs)));
+            conds.push((rhs, format!("{} > 0", pool.display(rhs))));
             invert_kernel(pool, p, s, x, conds)
         }
         Node::Call(f, a) => {
@@ -508,13 +514,13 @@ fn invert_kernel(pool: &mut Pool, k: Id, rhs: Id, x: Symbol, conds: &mut Vec<Str
             let one = pool.one();
             let s = match f {
                 Func::Exp => {
-                    conds.push(format!("{} > 0", pool.display(rhs)));
+                    conds.push((rhs, format!("{} > 0", pool.display(rhs))));
                     pool.call(Func::Log, rhs)
                 }
                 Func::Log => pool.call(Func::Exp, rhs),
                 Func::Atan => pool.call(Func::Tan, rhs),
                 Func::Tan => {
-                    conds.push(format!("|{}| < pi/2 (principal branch)", pool.display(a)));
+                    conds.push((a, format!("|{}| < pi/2 (principal branch)", pool.display(a))));
                     pool.call(Func::Atan, rhs)
                 }
                 Func::Sinh => {
@@ -527,7 +533,7 @@ fn invert_kernel(pool: &mut Pool, k: Id, rhs: Id, x: Symbol, conds: &mut Vec<Str
                 }
                 Func::Cosh => {
                     // acosh y = log(y + sqrt(y² − 1)), branch a ≥ 0
-                    conds.push(format!("{} ≥ 0 (branch of acosh)", pool.display(a)));
+                    conds.push((a, format!("{} ≥ 0 (branch of acosh)", pool.display(a))));
                     let y2 = pool.powi(rhs, 2);
                     let m1 = pool.int(-1);
                     let s1 = pool.add(&[y2, m1]);
@@ -537,7 +543,7 @@ fn invert_kernel(pool: &mut Pool, k: Id, rhs: Id, x: Symbol, conds: &mut Vec<Str
                 }
                 Func::Tanh => {
                     // atanh y = log((1 + y)/(1 − y))/2
-                    conds.push(format!("|{}| < 1", pool.display(rhs)));
+                    conds.push((rhs, format!("|{}| < 1", pool.display(rhs))));
                     let p = pool.add(&[one, rhs]);
                     let q = pool.sub(one, rhs);
                     let frac = pool.div(p, q);
@@ -546,17 +552,17 @@ fn invert_kernel(pool: &mut Pool, k: Id, rhs: Id, x: Symbol, conds: &mut Vec<Str
                 }
                 Func::Sin | Func::Cos => {
                     // asin y = atan(y/sqrt(1 − y²)); acos y = pi/2 − asin y
-                    conds.push(format!("|{}| < 1", pool.display(rhs)));
+                    conds.push((rhs, format!("|{}| < 1", pool.display(rhs))));
                     let y2 = pool.powi(rhs, 2);
                     let s1 = pool.sub(one, y2);
                     let sq = pool.sqrt(s1);
                     let ratio = pool.div(rhs, sq);
                     let asin = pool.call(Func::Atan, ratio);
                     if f == Func::Sin {
-                        conds.push(format!("|{}| ≤ pi/2 (principal branch)", pool.display(a)));
+                        conds.push((a, format!("|{}| ≤ pi/2 (principal branch)", pool.display(a))));
                         asin
                     } else {
-                        conds.push(format!("0 ≤ {} ≤ pi (principal branch)", pool.display(a)));
+                        conds.push((a, format!("0 ≤ {} ≤ pi (principal branch)", pool.display(a))));
                         let pi = pool.pi();
                         let hp = pool.mul(&[half, pi]);
                         pool.sub(hp, asin)
@@ -583,7 +589,7 @@ fn invert_kernel(pool: &mut Pool, k: Id, rhs: Id, x: Symbol, conds: &mut Vec<Str
             }
             let others = pool.mul(&without);
             if pool.as_number(others).is_none() {
-                conds.push(format!("{} ≠ 0", pool.display(others)));
+                conds.push((others, format!("{} ≠ 0", pool.display(others))));
             }
             let s = pool.div(rhs, others);
             invert_kernel(pool, with[0], s, x, conds)

@@ -2,7 +2,7 @@
 //!
 //! A cycle is a speed trace `y_c(t)` given at strictly increasing times and linear between them, as the
 //! regulations define it; before the first and after the last sample it is held constant. This is the
-//! input `y_c` that the smoother convolves with the paper's kernel (Fröberg & Nielsen 2004, eq. 33).
+//! input `y_c` that the smoother convolves with the paper's kernel (Fröberg & Nielsen 2004, eq. 33–35).
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -486,7 +486,8 @@ fn parse_csv(name: String, file: &str, text: &str) -> Result<Cycle, CycleError> 
         .flexible(true)
         .from_reader(text.as_bytes());
     let mut records = reader.records();
-    let is_blank = |r: &csv::StringRecord| r.iter().all(|f| f.trim().is_empty());
+    // A blank (or white-space-only) line; a row of empty fields such as `,,` is not blank but malformed.
+    let is_blank = |r: &csv::StringRecord| r.len() <= 1 && r.iter().all(|f| f.trim().is_empty());
     // 1-based line of a record. The reader reports where a record's text begins *including* preceding
     // blank lines, so skip line breaks from that byte offset and count the newlines before it.
     let newlines: Vec<usize> = text.match_indices('\n').map(|(i, _)| i).collect();

@@ -16,7 +16,8 @@
 //!
 //! # Derivatives in closed form
 //!
-//! In the variable `t` the derivatives have the form (the paper's "derivatives come from the kernel")
+//! The derivatives of the smoothed cycle come from the kernel, never from differencing. In the variable `t`
+//! they have the form
 //!
 //! ```text
 //! g^(n)(t) = g(t) · P_n(t) / (a² − t²)^(2n),
@@ -54,7 +55,7 @@ use std::f64::consts::PI;
 use std::fmt;
 use std::sync::OnceLock;
 
-/// `C₀ = ∫_{−1}^{1} exp(−1/(1 − u²)) du`: the paper's normalisation constant is `C = C₀·a` (eq. 34).
+/// `C₀ = ∫_{−1}^{1} exp(−1/(1 − u²)) du`: the paper's normalisation constant is `C = C₀·a` (eq. 33–35).
 pub const UNIT_NORMALISATION: f64 = 0.443_993_816_168_079_4;
 
 /// Number of table pieces on `[−1, 0]`.
@@ -76,6 +77,7 @@ pub struct Kernel {
     a: f64,
     inv_a: f64,
     tables: &'static UnitTables,
+    polys: &'static [Vec<f64>],
 }
 
 impl fmt::Debug for Kernel {
@@ -102,6 +104,7 @@ impl Kernel {
             a,
             inv_a: 1.0 / a,
             tables: unit_tables(),
+            polys: derivative_polys(),
         }
     }
 
@@ -110,19 +113,22 @@ impl Kernel {
         self.a
     }
 
-    /// The normalisation constant `C = ∫ g = C₀·a` (eq. 34).
+    /// The normalisation constant `C = ∫ g = C₀·a` (eq. 33–35).
     pub fn normalisation(&self) -> f64 {
         UNIT_NORMALISATION * self.a
     }
 
-    /// The normalised kernel `k(t) = g(t)/C` (eq. 33–34).
+    /// The normalised kernel `k(t) = g(t)/C` (eq. 33–35).
     pub fn value(&self, t: f64) -> f64 {
         self.derivative(0, t)
     }
 
-    /// `k^(order)(t)` in closed form (see the module documentation). Any order is accepted; orders up to 32
-    /// use precomputed polynomials, higher ones build theirs on each call. Returns 0 for `|t| ≥ a` and NaN
-    /// for NaN.
+    /// `k^(order)(t)` in closed form (see the module documentation). Returns 0 for `|t| ≥ a`, NaN for NaN.
+    ///
+    /// Any order is accepted; orders up to 32 use precomputed polynomials, higher ones build theirs on each
+    /// call. Rounding of `t/a` is amplified by the growth of the derivatives, so the error relative to the
+    /// order's peak value is about 10⁻¹⁵ up to order 3, 6·10⁻¹⁴ at order 8, 4·10⁻¹² at 12, 3·10⁻¹⁰ at 16
+    /// and 2·10⁻⁸ at 20 (measured against 80-digit arithmetic).
     pub fn derivative(&self, order: usize, t: f64) -> f64 {
         if t.is_nan() {
             return f64::NAN;
@@ -130,7 +136,7 @@ impl Kernel {
         let u = t * self.inv_a;
         let scale = self.inv_a.powi(order as i32 + 1) / UNIT_NORMALISATION;
         if order < TABULATED_ORDERS {
-            unit_derivative(&derivative_polys()[order], order, u) * scale
+            unit_derivative(&self.polys[order], order, u) * scale
         } else {
             let poly = build_derivative_polys(order + 1).pop().unwrap_or_default();
             unit_derivative(&poly, order, u) * scale
@@ -143,7 +149,7 @@ impl Kernel {
         self.add_derivatives(t, 1.0, out);
     }
 
-    /// Adds `weight · k^(n)(t)` to `out[n]` for `n = 0..out.len()`. Used by the smoother, eq. 35.
+    /// Adds `weight · k^(n)(t)` to `out[n]` for `n = 0..out.len()`. Used by the smoother (eq. 33–35).
     pub fn add_derivatives(&self, t: f64, weight: f64, out: &mut [f64]) {
         if out.is_empty() {
             return;
@@ -164,11 +170,16 @@ impl Kernel {
             return;
         }
         let w = 1.0 / q;
-        let polys = derivative_polys();
+        let polys = self.polys;
         // c = weight · e^(−w) w^(2n) / (C₀ a^(n+1)), updated from order to order.
         let mut c = weight * self.inv_a / UNIT_NORMALISATION;
         if w <= W_LOG_SPACE {
             c *= (-w).exp();
+            if let [only] = out {
+                // k(t) alone (the smoother's y_d'' term): S̃_0 = 1.
+                *only += c;
+                return;
+            }
             let w2 = w * w;
             for (n, o) in out.iter_mut().enumerate() {
                 let v = c * horner(&polys[n], q);
@@ -234,7 +245,7 @@ impl Kernel {
         }
     }
 
-    /// `(K(t), R(t) − max(t, 0))` from one table look-up (the smoother needs both, eq. 35).
+    /// `(K(t), R(t) − max(t, 0))` from one table look-up (the smoother needs both).
     pub fn integral_and_ramp_offset(&self, t: f64) -> (f64, f64) {
         let u = t * self.inv_a;
         if u.is_nan() {
@@ -324,11 +335,9 @@ struct UnitTables {
     pieces: Vec<Piece>,
 }
 
-#[derive(Clone, Copy)]
-struct Piece {
-    k: [f64; COEFFS],
-    r: [f64; COEFFS],
-}
+/// Coefficient `i` of a piece is the pair `[K-coefficient, R-coefficient]`, so both polynomials are
+/// evaluated together, two lanes at a time.
+type Piece = [[f64; 2]; COEFFS];
 
 impl UnitTables {
     /// `(K₁(u), R₁(u))` for `u ∈ (−1, 0]`.
@@ -340,28 +349,34 @@ impl UnitTables {
         let j = (x as usize).min(PIECES - 1);
         let centre = -1.0 + (j as f64 + 0.5) / n;
         let s = (u - centre) * (2.0 * n);
-        let p = &self.pieces[j];
+        let [k, r] = estrin12(&self.pieces[j], s);
         // Near u = −1 both are below 10⁻²⁰; the clamp keeps rounding there from giving tiny negatives.
-        (estrin12(&p.k, s).max(0.0), estrin12(&p.r, s).max(0.0))
+        (k.max(0.0), r.max(0.0))
     }
 }
 
-/// Degree-11 polynomial by Estrin's scheme (shorter dependency chains than Horner).
+/// `[a₀ + a₁x, b₀ + b₁x]`: one step of the two-lane polynomial evaluation.
+#[inline(always)]
+fn lin2(c0: [f64; 2], c1: [f64; 2], x: f64) -> [f64; 2] {
+    [c0[0] + c1[0] * x, c0[1] + c1[1] * x]
+}
+
+/// The two degree-11 polynomials of a piece by Estrin's scheme (shorter dependency chains than Horner).
 #[inline]
-fn estrin12(c: &[f64; COEFFS], s: f64) -> f64 {
+fn estrin12(c: &Piece, s: f64) -> [f64; 2] {
     let s2 = s * s;
     let s4 = s2 * s2;
     let s8 = s4 * s4;
-    let p01 = c[0] + c[1] * s;
-    let p23 = c[2] + c[3] * s;
-    let p45 = c[4] + c[5] * s;
-    let p67 = c[6] + c[7] * s;
-    let p89 = c[8] + c[9] * s;
-    let pab = c[10] + c[11] * s;
-    let lo = p01 + p23 * s2;
-    let mid = p45 + p67 * s2;
-    let hi = p89 + pab * s2;
-    lo + mid * s4 + hi * s8
+    let p01 = lin2(c[0], c[1], s);
+    let p23 = lin2(c[2], c[3], s);
+    let p45 = lin2(c[4], c[5], s);
+    let p67 = lin2(c[6], c[7], s);
+    let p89 = lin2(c[8], c[9], s);
+    let pab = lin2(c[10], c[11], s);
+    let lo = lin2(p01, p23, s2);
+    let mid = lin2(p45, p67, s2);
+    let hi = lin2(p89, pab, s2);
+    lin2(lin2(lo, mid, s4), hi, s8)
 }
 
 fn unit_tables() -> &'static UnitTables {
@@ -428,10 +443,8 @@ fn build_unit_tables() -> UnitTables {
         let mut r_series = g_series.clone();
         r_series[0] += r_left.value() + half * k0;
         r_series[1] += half * k0;
-        pieces.push(Piece {
-            k: cheb_to_monomial(&k_series),
-            r: cheb_to_monomial(&r_series),
-        });
+        let (k, r) = (cheb_to_monomial(&k_series), cheb_to_monomial(&r_series));
+        pieces.push(std::array::from_fn(|i| [k[i], r[i]]));
         // Advance the running integrals to the right end (s = 1, where T_k = 1).
         k_left.add(f_series.iter().sum());
         r_left.add(2.0 * half * k0);
@@ -511,24 +524,11 @@ mod tests {
     fn pieces_join_continuously() {
         let tables = unit_tables();
         for j in 1..PIECES {
-            let left = &tables.pieces[j - 1];
-            let right = &tables.pieces[j];
-            let kl: f64 = left.k.iter().sum();
-            let kr: f64 = right
-                .k
-                .iter()
-                .enumerate()
-                .map(|(i, c)| if i % 2 == 0 { *c } else { -c })
-                .sum();
-            let rl: f64 = left.r.iter().sum();
-            let rr: f64 = right
-                .r
-                .iter()
-                .enumerate()
-                .map(|(i, c)| if i % 2 == 0 { *c } else { -c })
-                .sum();
-            assert!((kl - kr).abs() < 3e-16, "K jump at piece {j}: {}", kl - kr);
-            assert!((rl - rr).abs() < 3e-16, "R jump at piece {j}: {}", rl - rr);
+            // left piece at s = 1, right piece at s = −1
+            let left = estrin12(&tables.pieces[j - 1], 1.0);
+            let right = estrin12(&tables.pieces[j], -1.0);
+            assert!((left[0] - right[0]).abs() < 3e-16, "K jump at piece {j}");
+            assert!((left[1] - right[1]).abs() < 3e-16, "R jump at piece {j}");
         }
     }
 

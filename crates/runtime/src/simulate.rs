@@ -506,8 +506,16 @@ fn run<M: InverseModel + ?Sized>(
     spare.resize_with(columns.len(), Vec::new);
     let mut data = spare;
     for column in &mut data {
-        column.clear();
-        column.reserve_exact(samples);
+        // Fresh columns come zeroed from the allocator without being touched; every entry is overwritten.
+        if column.capacity() < samples {
+            *column = vec![0.0; samples];
+        } else {
+            column.resize(samples, 0.0);
+        }
+    }
+    // t_k for the whole grid up front (keeps the division off the per-sample path).
+    for (k, t) in data[0].iter_mut().enumerate() {
+        *t = grid.time(k);
     }
 
     // --- work space (allocated once; the per-sample loop below allocates nothing) -------------------------
@@ -539,10 +547,13 @@ fn run<M: InverseModel + ?Sized>(
     let mut x_start: Vec<f64> = Vec::new();
 
     // --- the run ---------------------------------------------------------------------------------------
+    let (time_column, value_columns) = data.split_at_mut(1);
+    let time = time_column[0].as_slice();
+    let mut values: Vec<&mut [f64]> = value_columns.iter_mut().map(|c| c.as_mut_slice()).collect();
     for k in 0..samples {
-        let t = grid.time(k);
+        let t = time[k];
         if k > 0 && ne > 0 {
-            let t_prev = grid.time(k - 1);
+            let t_prev = time[k - 1];
             let mut q = |s: f64, e: &[f64], de: &mut [f64]| {
                 let mut yd_s = [0.0_f64; MAX_DERIVATIVES];
                 smoother.eval(s, &mut yd_s[..=r]);
@@ -604,20 +615,20 @@ fn run<M: InverseModel + ?Sized>(
             x_start.extend_from_slice(&x);
         }
 
-        // Columns were allocated with capacity for every sample: these pushes never reallocate.
+        // Row k of the preallocated columns (after `t`): y_d … y_d^(r), u, x, η, outputs.
         let mut c = 0;
-        for v in std::iter::once(t)
-            .chain(yd[..=r].iter().copied())
-            .chain(std::iter::once(u))
-        {
-            data[c].push(v);
+        for &v in &yd[..=r] {
+            values[c][k] = v;
             c += 1;
         }
+        values[c][k] = u;
+        c += 1;
         for &v in x.iter().chain(&eta).chain(&outs) {
-            data[c].push(v);
+            values[c][k] = v;
             c += 1;
         }
     }
+    drop(values);
     let time = &data[0];
     let input = &data[input_column];
 

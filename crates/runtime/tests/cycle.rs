@@ -408,6 +408,17 @@ fn error_line_numbers_count_blank_lines_and_header() {
     assert_message(&e, &["line 5", "data row 2", "`x`"]);
     let e = parse_err("\n\n1,2\n");
     assert_message(&e, &["line 3", "looks like data"]);
+    // A row of empty fields is reported, not skipped.
+    let e = parse_err("t,mps\n0,0\n,\n2,0\n");
+    assert_message(
+        &e,
+        &[
+            "line 3",
+            "data row 2",
+            "column `t`",
+            "expected a number, found ``",
+        ],
+    );
 }
 
 #[test]
