@@ -33,6 +33,8 @@ pub enum Instr {
 /// Compiled expressions: slots are `[inputs | constants | instruction results]`.
 #[derive(Clone, Debug)]
 pub struct Tape {
+    /// Identifies the constants of this tape in a per-thread scratch buffer (see [`Tape::eval`]).
+    id: u64,
     n_inputs: usize,
     consts: Vec<f64>,
     instrs: Vec<Instr>,
@@ -285,7 +287,69 @@ impl Builder<'_> {
 }
 
 thread_local! {
-    static SCRATCH: RefCell<Vec<f64>> = const { RefCell::new(Vec::new()) };
+    /// Per-thread scratch buffer and the id of the tape whose constants it holds.
+    static SCRATCH: RefCell<(u64, Vec<f64>)> = const { RefCell::new((0, Vec::new())) };
+}
+
+thread_local! {
+    /// Per-thread column buffer of [`Tape::eval_batch`].
+    static BATCH_SCRATCH: RefCell<Vec<f64>> = const { RefCell::new(Vec::new()) };
+}
+
+/// Points per block in [`Tape::eval_batch`].
+pub const BATCH: usize = 64;
+
+#[inline(always)]
+fn zip2(dst: &mut [f64], a: &[f64], b: &[f64], f: impl Fn(f64, f64) -> f64) {
+    for ((d, &x), &y) in dst.iter_mut().zip(a).zip(b) {
+        *d = f(x, y);
+    }
+}
+
+#[inline(always)]
+fn map1(dst: &mut [f64], a: &[f64], f: impl Fn(f64) -> f64) {
+    for (d, &x) in dst.iter_mut().zip(a) {
+        *d = f(x);
+    }
+}
+
+static NEXT_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+
+fn next_id() -> u64 {
+    NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+}
+
+impl Instr {
+    fn operands(&self) -> [Option<u32>; 2] {
+        match *self {
+            Instr::Add(x, y)
+            | Instr::Sub(x, y)
+            | Instr::Mul(x, y)
+            | Instr::Div(x, y)
+            | Instr::PowVar(x, y)
+            | Instr::Call2(_, x, y) => [Some(x), Some(y)],
+            Instr::Neg(x) | Instr::Recip(x) | Instr::Powi(x, _) | Instr::Sqrt(x) | Instr::Powf(x, _) | Instr::Call(_, x) => {
+                [Some(x), None]
+            }
+        }
+    }
+
+    fn remap(&self, m: impl Fn(u32) -> u32) -> Instr {
+        match *self {
+            Instr::Add(x, y) => Instr::Add(m(x), m(y)),
+            Instr::Sub(x, y) => Instr::Sub(m(x), m(y)),
+            Instr::Mul(x, y) => Instr::Mul(m(x), m(y)),
+            Instr::Div(x, y) => Instr::Div(m(x), m(y)),
+            Instr::Neg(x) => Instr::Neg(m(x)),
+            Instr::Recip(x) => Instr::Recip(m(x)),
+            Instr::Powi(x, k) => Instr::Powi(m(x), k),
+            Instr::Sqrt(x) => Instr::Sqrt(m(x)),
+            Instr::Powf(x, k) => Instr::Powf(m(x), k),
+            Instr::PowVar(x, y) => Instr::PowVar(m(x), m(y)),
+            Instr::Call(f, x) => Instr::Call(f, m(x)),
+            Instr::Call2(f, x, y) => Instr::Call2(f, m(x), m(y)),
+        }
+    }
 }
 
 impl Tape {
@@ -335,25 +399,103 @@ impl Tape {
                 s
             }
         };
-        let instrs = b
-            .instrs
-            .iter()
-            .map(|i| match *i {
-                Instr::Add(x, y) => Instr::Add(map(x), map(y)),
-                Instr::Sub(x, y) => Instr::Sub(map(x), map(y)),
-                Instr::Mul(x, y) => Instr::Mul(map(x), map(y)),
-                Instr::Div(x, y) => Instr::Div(map(x), map(y)),
-                Instr::Neg(x) => Instr::Neg(map(x)),
-                Instr::Recip(x) => Instr::Recip(map(x)),
-                Instr::Powi(x, k) => Instr::Powi(map(x), k),
-                Instr::Sqrt(x) => Instr::Sqrt(map(x)),
-                Instr::Powf(x, k) => Instr::Powf(map(x), k),
-                Instr::PowVar(x, y) => Instr::PowVar(map(x), map(y)),
-                Instr::Call(f, x) => Instr::Call(f, map(x)),
-                Instr::Call2(f, x, y) => Instr::Call2(f, map(x), map(y)),
-            })
-            .collect();
-        Ok(Tape { n_inputs: b.n_inputs, consts: b.consts, instrs, outputs: outs.into_iter().map(map).collect() })
+        let instrs = b.instrs.iter().map(|i| i.remap(map)).collect();
+        let tape = Tape {
+            id: next_id(),
+            n_inputs: b.n_inputs,
+            consts: b.consts,
+            instrs,
+            outputs: outs.into_iter().map(map).collect(),
+        };
+        tape.validate();
+        Ok(tape)
+    }
+
+    /// Partial evaluation: fix the last `values.len()` inputs (the parameters) to `values`, evaluate every
+    /// instruction that depends on them and constants only, and return a tape over the remaining inputs whose
+    /// constants include those results. Per-point work is then only what depends on the varying inputs.
+    pub fn specialize(&self, values: &[f64]) -> Tape {
+        let nv = self.n_inputs - values.len();
+        let base = self.n_inputs + self.consts.len();
+        let mut buf = self.new_buffer();
+        buf[nv..self.n_inputs].copy_from_slice(values);
+        let total = self.n_slots();
+        let mut invariant = vec![true; total];
+        for flag in invariant.iter_mut().take(nv) {
+            *flag = false;
+        }
+        for (i, ins) in self.instrs.iter().enumerate() {
+            let inv = ins.operands().iter().flatten().all(|&o| invariant[o as usize]);
+            invariant[base + i] = inv;
+            if inv {
+                let mut one = [0.0];
+                // Evaluate this single instruction on the buffer.
+                let g = |s: u32| buf[s as usize];
+                one[0] = exec(ins, g);
+                buf[base + i] = one[0];
+            }
+        }
+        // New layout: varying inputs, then constants (old constants and needed invariant results), then the
+        // varying instructions.
+        let mut used = vec![false; total];
+        for ins in self.instrs.iter().enumerate().filter(|(i, _)| !invariant[base + i]).map(|(_, x)| x) {
+            for &o in ins.operands().iter().flatten() {
+                used[o as usize] = true;
+            }
+        }
+        for &o in &self.outputs {
+            used[o as usize] = true;
+        }
+        let mut map = vec![u32::MAX; total];
+        for (s, m) in map.iter_mut().enumerate().take(nv) {
+            *m = s as u32;
+        }
+        // x / c for an invariant c becomes x · (1/c): a multiplication instead of a division per point.
+        let mut recip_of: std::collections::HashMap<u32, f64> = std::collections::HashMap::new();
+        for (i, ins) in self.instrs.iter().enumerate() {
+            if let Instr::Div(_, y) = ins {
+                if !invariant[base + i] && invariant[*y as usize] {
+                    recip_of.insert(*y, 1.0 / buf[*y as usize]);
+                }
+            }
+        }
+        let mut consts = Vec::new();
+        let mut recip_slot: std::collections::HashMap<u32, u32> = std::collections::HashMap::new();
+        for (&y, &r) in {
+            let mut v: Vec<(&u32, &f64)> = recip_of.iter().collect();
+            v.sort_by_key(|(k, _)| **k);
+            v
+        } {
+            recip_slot.insert(y, (nv + consts.len()) as u32);
+            consts.push(r);
+        }
+        for s in nv..total {
+            if invariant[s] && used[s] {
+                map[s] = (nv + consts.len()) as u32;
+                consts.push(buf[s]);
+            }
+        }
+        let first = (nv + consts.len()) as u32;
+        let mut instrs = Vec::new();
+        for (i, ins) in self.instrs.iter().enumerate() {
+            if !invariant[base + i] {
+                map[base + i] = first + instrs.len() as u32;
+                let new = match ins {
+                    Instr::Div(x, y) if recip_slot.contains_key(y) => Instr::Mul(map[*x as usize], recip_slot[y]),
+                    _ => ins.remap(|o| map[o as usize]),
+                };
+                instrs.push(new);
+            }
+        }
+        let tape = Tape {
+            id: next_id(),
+            n_inputs: nv,
+            consts,
+            instrs,
+            outputs: self.outputs.iter().map(|&o| map[o as usize]).collect(),
+        };
+        tape.validate();
+        tape
     }
 
     pub fn n_inputs(&self) -> usize {
@@ -398,37 +540,101 @@ impl Tape {
     #[inline]
     fn run(&self, buf: &mut [f64], out: &mut [f64]) {
         let base = self.n_inputs + self.consts.len();
+        assert!(buf.len() >= base + self.instrs.len(), "tape buffer too small");
+        let ptr = buf.as_mut_ptr();
         for (i, ins) in self.instrs.iter().enumerate() {
-            let g = |s: u32| buf[s as usize];
-            let v = match *ins {
-                Instr::Add(x, y) => g(x) + g(y),
-                Instr::Sub(x, y) => g(x) - g(y),
-                Instr::Mul(x, y) => g(x) * g(y),
-                Instr::Div(x, y) => g(x) / g(y),
-                Instr::Neg(x) => -g(x),
-                Instr::Recip(x) => 1.0 / g(x),
-                Instr::Powi(x, k) => g(x).powi(k),
-                Instr::Sqrt(x) => g(x).sqrt(),
-                Instr::Powf(x, k) => g(x).powf(k),
-                Instr::PowVar(x, y) => g(x).powf(g(y)),
-                Instr::Call(f, x) => f.eval(g(x)),
-                Instr::Call2(f, x, y) => f.eval(g(x), g(y)),
-            };
-            buf[base + i] = v;
+            // SAFETY: every tape is built (by `compile` or `specialize`, the only constructors) so that each
+            // operand of instruction i names a slot below `base + i` (checked by `debug_validate`), and the
+            // buffer holds at least `base + instrs.len()` slots (asserted above). Reads and the write are
+            // therefore in bounds, and the write slot is never read by this instruction.
+            let v = exec(ins, |s: u32| unsafe { *ptr.add(s as usize) });
+            unsafe { *ptr.add(base + i) = v };
         }
         for (o, &s) in out.iter_mut().zip(&self.outputs) {
             *o = buf[s as usize];
         }
     }
 
+    /// Check the invariant `run` relies on: operands of instruction i are slots below `base + i`.
+    fn validate(&self) {
+        let base = self.n_inputs + self.consts.len();
+        for (i, ins) in self.instrs.iter().enumerate() {
+            for &o in ins.operands().iter().flatten() {
+                assert!((o as usize) < base + i, "tape operand {o} of instruction {i} is not an earlier slot");
+            }
+        }
+        for &o in &self.outputs {
+            assert!((o as usize) < base + self.instrs.len(), "tape output slot {o} out of range");
+        }
+    }
+
+    /// Evaluate many points at once, column-wise: `inputs[j][k]` is input j at point k, and
+    /// `outputs[o][k]` receives output o at point k. Instructions run over blocks of [`BATCH`] points, so
+    /// the per-instruction dispatch is paid once per block and the arithmetic vectorises.
+    pub fn eval_batch(&self, inputs: &[&[f64]], outputs: &mut [&mut [f64]]) {
+        assert_eq!(inputs.len(), self.n_inputs, "tape input count");
+        let points = inputs.first().map(|c| c.len()).or_else(|| outputs.first().map(|c| c.len())).unwrap_or(0);
+        assert!(inputs.iter().all(|c| c.len() == points), "input columns differ in length");
+        assert!(outputs.len() >= self.outputs.len(), "too few output columns");
+        assert!(outputs.iter().all(|c| c.len() >= points), "output column too short");
+        BATCH_SCRATCH.with(|cell| {
+            let mut buf = cell.borrow_mut();
+            let n = self.n_slots() * BATCH;
+            if buf.len() < n {
+                buf.resize(n, 0.0);
+            }
+            for (c, &v) in self.consts.iter().enumerate() {
+                buf[(self.n_inputs + c) * BATCH..(self.n_inputs + c + 1) * BATCH].fill(v);
+            }
+            let base = self.n_inputs + self.consts.len();
+            let mut start = 0;
+            while start < points {
+                let len = BATCH.min(points - start);
+                for (j, col) in inputs.iter().enumerate() {
+                    buf[j * BATCH..j * BATCH + len].copy_from_slice(&col[start..start + len]);
+                }
+                for (i, ins) in self.instrs.iter().enumerate() {
+                    let (done, rest) = buf.split_at_mut((base + i) * BATCH);
+                    let dst = &mut rest[..len];
+                    let col = |s: u32| &done[s as usize * BATCH..s as usize * BATCH + len];
+                    match *ins {
+                        Instr::Add(x, y) => zip2(dst, col(x), col(y), |a, b| a + b),
+                        Instr::Sub(x, y) => zip2(dst, col(x), col(y), |a, b| a - b),
+                        Instr::Mul(x, y) => zip2(dst, col(x), col(y), |a, b| a * b),
+                        Instr::Div(x, y) => zip2(dst, col(x), col(y), |a, b| a / b),
+                        Instr::PowVar(x, y) => zip2(dst, col(x), col(y), f64::powf),
+                        Instr::Call2(f, x, y) => zip2(dst, col(x), col(y), |a, b| f.eval(a, b)),
+                        Instr::Neg(x) => map1(dst, col(x), |a| -a),
+                        Instr::Recip(x) => map1(dst, col(x), |a| 1.0 / a),
+                        Instr::Powi(x, k) => map1(dst, col(x), |a| a.powi(k)),
+                        Instr::Sqrt(x) => map1(dst, col(x), f64::sqrt),
+                        Instr::Powf(x, k) => map1(dst, col(x), |a| a.powf(k)),
+                        Instr::Call(f, x) => map1(dst, col(x), |a| f.eval(a)),
+                    }
+                }
+                for (o, &sl) in self.outputs.iter().enumerate() {
+                    let sl = sl as usize;
+                    outputs[o][start..start + len].copy_from_slice(&buf[sl * BATCH..sl * BATCH + len]);
+                }
+                start += len;
+            }
+        })
+    }
+
     /// Evaluate with the inputs given as consecutive slices (e.g. `&[xi, eta, params]`), using a
     /// per-thread scratch buffer: no allocation after the first call on a thread.
     pub fn eval_parts(&self, parts: &[&[f64]], out: &mut [f64]) {
         SCRATCH.with(|cell| {
-            let mut buf = cell.borrow_mut();
+            let mut guard = cell.borrow_mut();
+            let (owner, buf) = &mut *guard;
             let n = self.n_slots();
             if buf.len() < n {
                 buf.resize(n, 0.0);
+            }
+            if *owner != self.id {
+                let c0 = self.n_inputs;
+                buf[c0..c0 + self.consts.len()].copy_from_slice(&self.consts);
+                *owner = self.id;
             }
             let mut at = 0;
             for p in parts {
@@ -436,24 +642,32 @@ impl Tape {
                 at += p.len();
             }
             assert_eq!(at, self.n_inputs, "tape input count");
-            let c0 = self.n_inputs;
-            buf[c0..c0 + self.consts.len()].copy_from_slice(&self.consts);
-            self.run(&mut buf, out);
+            self.run(buf, out);
         })
     }
 
     /// Evaluate into `out` with a per-thread scratch buffer (allocated once per thread, then reused).
     pub fn eval(&self, inputs: &[f64], out: &mut [f64]) {
-        SCRATCH.with(|cell| {
-            let mut buf = cell.borrow_mut();
-            let n = self.n_slots();
-            if buf.len() < n {
-                buf.resize(n, 0.0);
-            }
-            let c0 = self.n_inputs;
-            buf[c0..c0 + self.consts.len()].copy_from_slice(&self.consts);
-            self.eval_in(&mut buf, inputs, out);
-        })
+        self.eval_parts(&[inputs], out)
+    }
+}
+
+/// Execute one instruction with operand values from `g`.
+#[inline(always)]
+fn exec(ins: &Instr, g: impl Fn(u32) -> f64) -> f64 {
+    match *ins {
+        Instr::Add(x, y) => g(x) + g(y),
+        Instr::Sub(x, y) => g(x) - g(y),
+        Instr::Mul(x, y) => g(x) * g(y),
+        Instr::Div(x, y) => g(x) / g(y),
+        Instr::Neg(x) => -g(x),
+        Instr::Recip(x) => 1.0 / g(x),
+        Instr::Powi(x, k) => g(x).powi(k),
+        Instr::Sqrt(x) => g(x).sqrt(),
+        Instr::Powf(x, k) => g(x).powf(k),
+        Instr::PowVar(x, y) => g(x).powf(g(y)),
+        Instr::Call(f, x) => f.eval(g(x)),
+        Instr::Call2(f, x, y) => f.eval(g(x), g(y)),
     }
 }
 
@@ -489,6 +703,49 @@ mod tests {
         // v^1.8 and v^0.8 share one powf.
         let powfs = tape.instructions().iter().filter(|i| matches!(i, Instr::Powf(..))).count();
         assert_eq!(powfs, 1);
+    }
+
+    #[test]
+    fn specialization_matches_the_full_tape() {
+        let mut p = Pool::new();
+        let e = p.parse("(1 + sqrt(a)/b)*x^1.8 + exp(a*b)*y - a/(1 + b)").unwrap();
+        let syms: Vec<Symbol> = ["x", "y", "a", "b"].iter().map(|n| p.symbol(n)).collect();
+        let full = Tape::compile(&p, &[e], &syms).unwrap();
+        let spec = full.specialize(&[2.0, 3.0]);
+        assert_eq!(spec.n_inputs(), 2);
+        assert!(spec.len() < full.len(), "{} vs {}", spec.len(), full.len());
+        let (mut a, mut b) = ([0.0], [0.0]);
+        full.eval(&[1.3, -0.4, 2.0, 3.0], &mut a);
+        spec.eval(&[1.3, -0.4], &mut b);
+        assert_eq!(a, b);
+        // Alternating between tapes on one thread keeps each one's constants right.
+        full.eval(&[0.7, 0.1, 2.0, 3.0], &mut a);
+        spec.eval(&[0.7, 0.1], &mut b);
+        assert_eq!(a, b);
+    }
+
+    #[test]
+    fn batch_evaluation_matches_pointwise() {
+        let mut p = Pool::new();
+        let srcs = ["a*x^1.8 + b/x - sqrt(y)", "exp(-x*y)*sin(a) + min(x, y)", "x^y", "-x - y"];
+        let es: Vec<Id> = srcs.iter().map(|s| p.parse(s).unwrap()).collect();
+        let syms: Vec<Symbol> = ["x", "y", "a", "b"].iter().map(|n| p.symbol(n)).collect();
+        let tape = Tape::compile(&p, &es, &syms).unwrap().specialize(&[1.5, -0.25]);
+        let n = 150; // more than two blocks
+        let xs: Vec<f64> = (0..n).map(|k| 0.1 + 0.05 * k as f64).collect();
+        let ys: Vec<f64> = (0..n).map(|k| 2.0 - 0.01 * k as f64).collect();
+        let mut cols = vec![vec![0.0; n]; es.len()];
+        {
+            let mut outs: Vec<&mut [f64]> = cols.iter_mut().map(|c| c.as_mut_slice()).collect();
+            tape.eval_batch(&[&xs, &ys], &mut outs);
+        }
+        for k in 0..n {
+            let mut one = vec![0.0; es.len()];
+            tape.eval(&[xs[k], ys[k]], &mut one);
+            for o in 0..es.len() {
+                assert_eq!(cols[o][k].to_bits(), one[o].to_bits(), "{} at point {k}", srcs[o]);
+            }
+        }
     }
 
     #[test]

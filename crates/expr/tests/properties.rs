@@ -301,6 +301,19 @@ fn dag_eval(pool: &Pool, root: Id, env: &HashMap<Symbol, (f64, f64)>) -> Option<
     Some(memo[&root])
 }
 
+/// Does evaluating `root` overflow (an infinite intermediate) or underflow (a product or power of nonzero
+/// numbers that rounds to zero) anywhere?
+fn overflows(pool: &Pool, root: Id, env: &HashMap<Symbol, f64>) -> bool {
+    pool.topological(&[root]).into_iter().any(|id| {
+        let Ok(v) = pool.eval(id, env) else { return false };
+        let nonzero_factors = match pool.node(id) {
+            Node::Mul(_) | Node::Pow(..) => pool.children(id).iter().all(|&c| pool.eval(c, env).is_ok_and(|c| c != 0.0)),
+            _ => false,
+        };
+        v.is_infinite() || (v == 0.0 && nonzero_factors)
+    })
+}
+
 fn exact_env(env: &HashMap<Symbol, f64>) -> HashMap<Symbol, (f64, f64)> {
     env.iter().map(|(&s, &v)| (s, (v, 0.0))).collect()
 }
@@ -761,16 +774,53 @@ fn rewritable() -> impl Strategy<Value = R> {
     .prop_filter("moderate magnitude", |r| r.bound() <= 1e4)
 }
 
+/// Points of the zero test's probing region: every symbol in ±[0.2, 3], the first half positive, and the
+/// region's corners.
+fn probe_points() -> impl Strategy<Value = Vec<[f64; 5]>> {
+    let positive = prop::array::uniform5(0.2f64..3.0);
+    let mixed = prop::array::uniform5(prop_oneof![0.2f64..3.0, -3.0f64..-0.2]);
+    (prop::collection::vec(positive, 12), prop::collection::vec(mixed, 12)).prop_map(|(mut a, b)| {
+        a.extend(b);
+        a.extend([[0.2; 5], [3.0; 5], [-0.2; 5], [-3.0; 5]]);
+        a
+    })
+}
+
+/// Is `e` numerically well-conditioned on `pts` in the zero test's sense: is its rounding error (first
+/// order, see [`Val`]) far below 1e-10 of the magnitude of its terms, the tolerance [`zero_test`] documents?
+fn well_conditioned(pool: &mut Pool, e: Id, pts: &[[f64; 5]]) -> bool {
+    let probe = pool.expand(e).unwrap_or(e);
+    let terms: Vec<Id> = match pool.node(probe) {
+        Node::Add(ts) => ts.to_vec(),
+        _ => vec![probe],
+    };
+    pts.iter().all(|p| {
+        let env = exact_env(&env_of(pool, p));
+        let Some(v) = dag_eval(pool, probe, &env) else { return true };
+        let mag: f64 = terms.iter().map(|&t| dag_eval(pool, t, &env).map_or(0.0, |t| t.v.abs())).sum();
+        f64::EPSILON * v.s <= 1e-11 * mag
+    })
+}
+
 /// `zero_test(e − e')` is Zero for an equivalent rewriting e' of e, and NonZero once 1e-3·x is added.
+/// Identities whose difference is ill-conditioned on the probing region (rounding beyond the zero test's
+/// documented tolerance, e.g. `log(1 + x^12)` near x = 0.2) are outside its contract and skipped; see
+/// `zero_test_ill_conditioned_identity` for one.
 #[test]
 fn zero_test_on_equivalent_rewritings() {
     let nominal = HashMap::new();
-    check("zero test", 256, rewritable(), |r| {
+    let (cases, skipped) = (Cell::new(0usize), Cell::new(0usize));
+    check("zero test", 256, (rewritable(), probe_points()), |(r, pts)| {
+        cases.set(cases.get() + 1);
         let (src, alt) = (r.src(), r.alt());
         let mut pool = Pool::new();
         let e = pool.parse(&src).map_err(|err| fail(format!("`{src}` does not parse: {err}")))?;
         let e2 = pool.parse(&alt).map_err(|err| fail(format!("`{alt}` does not parse: {err}")))?;
         let diff = pool.sub(e, e2);
+        if !well_conditioned(&mut pool, diff, &pts) {
+            skipped.set(skipped.get() + 1);
+            return Ok(());
+        }
         let verdict = zero_test(&mut pool, diff, &nominal);
         if !verdict.is_zero() {
             return Err(fail(format!("`{src}` − `{alt}`: {verdict:?}, difference `{}`", pool.display(diff))));
@@ -785,6 +835,19 @@ fn zero_test_on_equivalent_rewritings() {
         }
         Ok(())
     });
+    eprintln!("zero test: {} of {} cases ill-conditioned, skipped", skipped.get(), cases.get());
+    assert!(skipped.get() * 8 <= cases.get(), "{} of {} cases skipped", skipped.get(), cases.get());
+}
+
+/// A known limitation of the zero test: its tolerance is relative to the magnitude of the terms, not to the
+/// rounding error of computing them, so an identity that is ill-conditioned somewhere on the probing
+/// region is reported as nonzero. Here log(1 + x^12) loses about eps/x^12 ≈ 5e-8 (relative) at x = 0.2.
+#[test]
+#[ignore = "known limitation of zero_test: tolerance does not account for ill-conditioning"]
+fn zero_test_ill_conditioned_identity() {
+    let mut pool = Pool::new();
+    let e = pool.parse("log(1 + x^12) + log(1/(1 + x^12))").unwrap();
+    assert!(zero_test(&mut pool, e, &HashMap::new()).is_zero());
 }
 
 /// The examples of the specification, spelled out.
@@ -841,6 +904,10 @@ fn substitution_commutes_with_evaluation() {
             }
             let plain: HashMap<Symbol, f64> = env2.iter().map(|(&s, &(v, _))| (s, v)).collect();
             let want_v = pool.eval(e, &plain).map_err(|err| fail(err.to_string()))?;
+            if overflows(&pool, sub, &env) {
+                // e.g. (x·y)^625 → x^625·y^625: equal, but one side leaves the range of f64.
+                continue;
+            }
             let got = pool.eval(sub, &env).map_err(|err| fail(err.to_string()))?;
             let got_scale = dag_eval(&pool, sub, &exact).map_or(0.0, |v| v.s);
             let tol = 1e-9 * (want.s + got_scale);

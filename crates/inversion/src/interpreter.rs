@@ -1,5 +1,10 @@
 //! The interpreted engine: a [`Derivation`] compiled to instruction tapes, implementing
 //! [`InverseModel`] for any model file without generating Rust code.
+//!
+//! Each function is one tape over its varying inputs and the parameters. Because parameters change only
+//! through [`InverseModel::set_param`], every tape is *specialised* to the current parameter values
+//! ([`Tape::specialize`]): all parameter-only subexpressions (m_eff, the friction constants, …) are evaluated
+//! once, and per-point evaluation runs only what depends on ξ, η, x or u.
 
 use crate::derive::{Derivation, Solution};
 use invsim_expr::{Id, Symbol, Tape};
@@ -18,34 +23,10 @@ pub struct InterpretError {
 
 /// Maximum Newton iterations for a numerically solved ψ⁻¹.
 pub const NEWTON_MAX_ITER: usize = 50;
-/// Newton stops when the scaled residual is below this.
+/// Newton stops when every residual, relative to max(|target|, 1), is below this.
 pub const NEWTON_TOL: f64 = 1e-13;
-
-/// Interpreted model: every function of [`InverseModel`] evaluated from a tape.
-#[derive(Debug, Clone)]
-pub struct Interpreter {
-    info: ModelInfo,
-    params: Vec<f64>,
-    n: usize,
-    r: usize,
-    closed: bool,
-    /// (ξ, η, p) → (x, α, β) when ψ⁻¹ is closed-form.
-    invert: Tape,
-    /// (x, p) → (ψ, ∂ψ/∂x row-major, α_x, β_x): Newton's method and the numeric path.
-    newton: Tape,
-    /// (x, p) → h.
-    h: Tape,
-    /// (ξ, η, yr, p) → dη/dt (closed form) or (x, yr, p) → dη/dt (numeric ψ⁻¹).
-    zero: Tape,
-    /// (x, u, p) → f + g u.
-    rhs: Tape,
-    /// (x, u, p) → outputs.
-    outputs: Tape,
-}
-
-fn compile(d: &Derivation, what: &'static str, exprs: &[Id], inputs: &[Symbol]) -> Result<Tape, InterpretError> {
-    Tape::compile(d.pool(), exprs, inputs).map_err(|source| InterpretError { what, source })
-}
+/// Largest state dimension evaluated with stack buffers (larger models use the heap).
+const STACK: usize = 16;
 
 /// The model's static description (shared with generated code, which builds the same struct).
 pub fn model_info(d: &Derivation) -> ModelInfo {
@@ -69,34 +50,84 @@ pub fn model_info(d: &Derivation) -> ModelInfo {
     }
 }
 
+/// The tapes of one model, over (varying inputs, parameters).
+#[derive(Debug, Clone)]
+struct Tapes {
+    /// (ξ, η) → (x, α, β); empty when ψ⁻¹ is not closed-form.
+    invert: Tape,
+    /// (ξ, η) → (α, β); empty when ψ⁻¹ is not closed-form.
+    alpha_beta: Tape,
+    /// x → (ψ, ∂ψ/∂x row-major, α_x, β_x).
+    newton: Tape,
+    /// x → h.
+    h: Tape,
+    /// (ξ, η, yr) → dη/dt when ψ⁻¹ is closed-form, else (x, yr) → dη/dt.
+    zero: Tape,
+    /// (x, u) → f + g u.
+    rhs: Tape,
+    /// (x, u) → the `[outputs]`.
+    outputs: Tape,
+}
+
+impl Tapes {
+    fn specialize(&self, p: &[f64]) -> Tapes {
+        Tapes {
+            invert: self.invert.specialize(p),
+            alpha_beta: self.alpha_beta.specialize(p),
+            newton: self.newton.specialize(p),
+            h: self.h.specialize(p),
+            zero: self.zero.specialize(p),
+            rhs: self.rhs.specialize(p),
+            outputs: self.outputs.specialize(p),
+        }
+    }
+}
+
+/// Interpreted model: every function of [`InverseModel`] evaluated from a tape.
+#[derive(Debug, Clone)]
+pub struct Interpreter {
+    info: ModelInfo,
+    params: Vec<f64>,
+    n: usize,
+    r: usize,
+    closed: bool,
+    generic: Tapes,
+    special: Tapes,
+}
+
+fn compile(d: &Derivation, what: &'static str, exprs: &[Id], inputs: &[Symbol]) -> Result<Tape, InterpretError> {
+    Tape::compile(d.pool(), exprs, inputs).map_err(|source| InterpretError { what, source })
+}
+
+fn cat(parts: &[&[Symbol]]) -> Vec<Symbol> {
+    parts.iter().flat_map(|p| p.iter().copied()).collect()
+}
+
 impl Interpreter {
     pub fn new(d: &Derivation) -> Result<Interpreter, InterpretError> {
         let m = &d.model;
         let params: Vec<Symbol> = m.parameters.iter().map(|p| p.symbol).collect();
         let states = m.state_symbols();
         let u = m.input.symbol;
-        let n = states.len();
-        let r = d.relative_degree;
         let closed = d.psi_inv_closed();
-        let cat = |parts: &[&[Symbol]]| -> Vec<Symbol> { parts.iter().flat_map(|p| p.iter().copied()).collect() };
         let xi_eta_p = cat(&[&d.xi, &d.eta, &params]);
         let x_p = cat(&[&states, &params]);
         let x_u_p = cat(&[&states, &[u], &params]);
 
-        let invert = if closed {
+        let (invert, alpha_beta) = if closed {
             let mut exprs: Vec<Id> = d
                 .psi_inv
                 .iter()
-                .map(|s| match s {
-                    Solution::Closed(e) => *e,
-                    Solution::Numeric => unreachable!("closed() checked"),
+                .filter_map(|s| match s {
+                    Solution::Closed(e) => Some(*e),
+                    Solution::Numeric => None,
                 })
                 .collect();
             exprs.push(d.alpha);
             exprs.push(d.beta);
-            compile(d, "ψ⁻¹, α, β", &exprs, &xi_eta_p)?
+            (compile(d, "ψ⁻¹, α, β", &exprs, &xi_eta_p)?, compile(d, "α, β", &[d.alpha, d.beta], &xi_eta_p)?)
         } else {
-            compile(d, "ψ⁻¹, α, β", &[], &xi_eta_p)?
+            (compile(d, "ψ⁻¹, α, β", &[], &xi_eta_p)?, compile(d, "α, β", &[], &xi_eta_p)?)
         };
         let mut newton_exprs: Vec<Id> = d.psi.clone();
         for row in &d.jacobian {
@@ -115,32 +146,35 @@ impl Interpreter {
         let rhs = compile(d, "f + g u", &rhs, &x_u_p)?;
         let outs: Vec<Id> = m.outputs.iter().map(|o| o.expr).collect();
         let outputs = compile(d, "outputs", &outs, &x_u_p)?;
+        let generic = Tapes { invert, alpha_beta, newton, h, zero, rhs, outputs };
+        let values: Vec<f64> = m.parameters.iter().map(|p| p.value).collect();
+        let special = generic.specialize(&values);
         Ok(Interpreter {
             info: model_info(d),
-            params: m.parameters.iter().map(|p| p.value).collect(),
-            n,
-            r,
+            params: values,
+            n: states.len(),
+            r: d.relative_degree,
             closed,
-            invert,
-            newton,
-            h,
-            zero,
-            rhs,
-            outputs,
+            generic,
+            special,
         })
     }
 
-    /// Newton's method on ψ(x) = (ξ, η) from the guess in `x` (the analytic Jacobian, LU-solved).
+    /// Number of per-point instructions of the fused (x, α, β) tape (after parameter hoisting).
+    pub fn invert_cost(&self) -> usize {
+        self.special.invert.len()
+    }
+
+    /// Newton's method on ψ(x) = (ξ, η) from the guess in `x`, with the analytic Jacobian (LU-solved).
     fn newton(&self, xi: &[f64], eta: &[f64], x: &mut [f64]) -> Result<(), ModelError> {
         let n = self.n;
         let mut buf = vec![0.0; n + n * n + 2];
         let mut residual = f64::INFINITY;
         for _ in 0..NEWTON_MAX_ITER {
-            self.newton.eval_parts(&[x, &self.params], &mut buf);
+            self.special.newton.eval(x, &mut buf);
             let target = |i: usize| if i < self.r { xi[i] } else { eta[i - self.r] };
             let res = nalgebra::DVector::from_fn(n, |i, _| buf[i] - target(i));
-            let scale = nalgebra::DVector::from_fn(n, |i, _| target(i).abs().max(1e-12));
-            residual = res.component_div(&scale).amax();
+            residual = (0..n).map(|i| res[i].abs() / target(i).abs().max(1.0)).fold(0.0, f64::max);
             if residual < NEWTON_TOL {
                 return Ok(());
             }
@@ -156,16 +190,42 @@ impl Interpreter {
         Err(ModelError::NewtonDidNotConverge { iterations: NEWTON_MAX_ITER, residual })
     }
 
+    /// (α, β) in the original states (the numeric-ψ⁻¹ path).
+    fn alpha_beta_x(&self, x: &[f64]) -> (f64, f64) {
+        let n = self.n;
+        let mut buf = vec![0.0; n + n * n + 2];
+        self.special.newton.eval(x, &mut buf);
+        (buf[n + n * n], buf[n + n * n + 1])
+    }
+
+    /// (α, β) at (ξ, η), from the closed form or via Newton from x = 1.
     fn alpha_beta(&self, xi: &[f64], eta: &[f64]) -> (f64, f64) {
-        let mut x = vec![1.0; self.n];
-        match self.invert(xi, eta, 0.0, &mut x) {
-            Ok(_) => {
-                let n = self.n;
-                let mut buf = vec![0.0; n + n * n + 2];
-                self.newton.eval_parts(&[&x, &self.params], &mut buf);
-                (buf[n + n * n], buf[n + n * n + 1])
+        if self.closed {
+            let mut ab = [0.0; 2];
+            self.special.alpha_beta.eval_parts(&[xi, eta], &mut ab);
+            (ab[0], ab[1])
+        } else {
+            let mut x = vec![1.0; self.n];
+            match self.newton(xi, eta, &mut x) {
+                Ok(()) => self.alpha_beta_x(&x),
+                Err(_) => (f64::NAN, f64::NAN),
             }
-            Err(_) => (f64::NAN, f64::NAN),
+        }
+    }
+
+    /// Closed-form (x, α, β) into `x`, returning (α, β).
+    fn invert_closed(&self, xi: &[f64], eta: &[f64], x: &mut [f64]) -> (f64, f64) {
+        let n = self.n;
+        if n + 2 <= STACK {
+            let mut buf = [0.0; STACK];
+            self.special.invert.eval_parts(&[xi, eta], &mut buf[..n + 2]);
+            x.copy_from_slice(&buf[..n]);
+            (buf[n], buf[n + 1])
+        } else {
+            let mut v = vec![0.0; n + 2];
+            self.special.invert.eval_parts(&[xi, eta], &mut v);
+            x.copy_from_slice(&v[..n]);
+            (v[n], v[n + 1])
         }
     }
 }
@@ -178,93 +238,106 @@ impl InverseModel for Interpreter {
         &self.params
     }
     fn set_param(&mut self, name: &str, value: f64) -> Result<(), ModelError> {
-        set_param_checked(&self.info, &mut self.params, name, value)
+        set_param_checked(&self.info, &mut self.params, name, value)?;
+        self.special = self.generic.specialize(&self.params);
+        Ok(())
     }
     fn h(&self, x: &[f64]) -> f64 {
         let mut out = [0.0];
-        self.h.eval_parts(&[x, &self.params], &mut out);
+        self.special.h.eval(x, &mut out);
         out[0]
     }
     fn psi(&self, x: &[f64], xi: &mut [f64], eta: &mut [f64]) {
         let n = self.n;
         let mut buf = vec![0.0; n + n * n + 2];
-        self.newton.eval_parts(&[x, &self.params], &mut buf);
+        self.special.newton.eval(x, &mut buf);
         xi.copy_from_slice(&buf[..self.r]);
         eta.copy_from_slice(&buf[self.r..n]);
     }
     fn psi_inv(&self, xi: &[f64], eta: &[f64], x: &mut [f64]) -> Result<(), ModelError> {
         if self.closed {
-            let n = self.n;
-            let mut buf = [0.0; 64];
-            if n + 2 <= buf.len() {
-                self.invert.eval_parts(&[xi, eta, &self.params], &mut buf[..n + 2]);
-                x.copy_from_slice(&buf[..n]);
-            } else {
-                let mut v = vec![0.0; n + 2];
-                self.invert.eval_parts(&[xi, eta, &self.params], &mut v);
-                x.copy_from_slice(&v[..n]);
-            }
+            self.invert_closed(xi, eta, x);
             Ok(())
         } else {
             self.newton(xi, eta, x)
         }
     }
     fn alpha(&self, xi: &[f64], eta: &[f64]) -> f64 {
-        if self.closed {
-            let mut buf = vec![0.0; self.n + 2];
-            self.invert.eval_parts(&[xi, eta, &self.params], &mut buf);
-            buf[self.n]
-        } else {
-            self.alpha_beta(xi, eta).0
-        }
+        self.alpha_beta(xi, eta).0
     }
     fn beta(&self, xi: &[f64], eta: &[f64]) -> f64 {
-        if self.closed {
-            let mut buf = vec![0.0; self.n + 2];
-            self.invert.eval_parts(&[xi, eta, &self.params], &mut buf);
-            buf[self.n + 1]
-        } else {
-            self.alpha_beta(xi, eta).1
-        }
+        self.alpha_beta(xi, eta).1
     }
     fn zero_dynamics(&self, xi: &[f64], eta: &[f64], yr: f64, deta: &mut [f64]) {
         if self.closed {
-            self.zero.eval_parts(&[xi, eta, &[yr], &self.params], deta);
+            self.special.zero.eval_parts(&[xi, eta, &[yr]], deta);
         } else {
             let mut x = vec![1.0; self.n];
             if self.newton(xi, eta, &mut x).is_err() {
                 deta.fill(f64::NAN);
                 return;
             }
-            self.zero.eval_parts(&[&x, &[yr], &self.params], deta);
+            self.special.zero.eval_parts(&[&x, &[yr]], deta);
         }
     }
     fn rhs(&self, x: &[f64], u: f64, dx: &mut [f64]) {
-        self.rhs.eval_parts(&[x, &[u], &self.params], dx);
+        self.special.rhs.eval_parts(&[x, &[u]], dx);
     }
     fn outputs(&self, x: &[f64], u: f64, out: &mut [f64]) {
-        self.outputs.eval_parts(&[x, &[u], &self.params], out);
+        self.special.outputs.eval_parts(&[x, &[u]], out);
     }
+    /// Closed-form ψ⁻¹: one batched evaluation of the fused (x, α, β) tape over all points.
+    fn invert_batch(
+        &self,
+        xi: &[&[f64]],
+        eta: &[&[f64]],
+        yr: &[f64],
+        x: &mut [&mut [f64]],
+        u: &mut [f64],
+    ) -> Result<(), (usize, ModelError)> {
+        if !self.closed {
+            // Newton point by point (the trait's default), warm-started from the previous point.
+            let mut xi_k = vec![0.0; xi.len()];
+            let mut eta_k = vec![0.0; eta.len()];
+            let mut x_k: Vec<f64> = x.iter().map(|c| c.first().copied().unwrap_or(1.0)).collect();
+            for k in 0..yr.len() {
+                for (v, c) in xi_k.iter_mut().zip(xi) {
+                    *v = c[k];
+                }
+                for (v, c) in eta_k.iter_mut().zip(eta) {
+                    *v = c[k];
+                }
+                u[k] = self.invert(&xi_k, &eta_k, yr[k], &mut x_k).map_err(|e| (k, e))?;
+                for (c, &v) in x.iter_mut().zip(&x_k) {
+                    c[k] = v;
+                }
+            }
+            return Ok(());
+        }
+        let m = yr.len();
+        let mut alpha = vec![0.0; m];
+        let mut beta = vec![0.0; m];
+        {
+            let inputs: Vec<&[f64]> = xi.iter().chain(eta).copied().collect();
+            let mut outs: Vec<&mut [f64]> = x.iter_mut().map(|c| &mut c[..m]).collect();
+            outs.push(&mut alpha);
+            outs.push(&mut beta);
+            self.special.invert.eval_batch(&inputs, &mut outs);
+        }
+        for k in 0..m {
+            u[k] = (yr[k] - alpha[k]) / beta[k];
+        }
+        Ok(())
+    }
+
     /// One fused tape evaluation for (x, α, β) in the closed-form case; Newton from the guess otherwise.
     fn invert(&self, xi: &[f64], eta: &[f64], yr: f64, x: &mut [f64]) -> Result<f64, ModelError> {
-        let n = self.n;
         if self.closed {
-            let mut buf = [0.0; 64];
-            let (a, b) = if n + 2 <= buf.len() {
-                self.invert.eval_parts(&[xi, eta, &self.params], &mut buf[..n + 2]);
-                x.copy_from_slice(&buf[..n]);
-                (buf[n], buf[n + 1])
-            } else {
-                let mut v = vec![0.0; n + 2];
-                self.invert.eval_parts(&[xi, eta, &self.params], &mut v);
-                x.copy_from_slice(&v[..n]);
-                (v[n], v[n + 1])
-            };
+            let (a, b) = self.invert_closed(xi, eta, x);
             return Ok((yr - a) / b);
         }
         self.newton(xi, eta, x)?;
-        let mut buf = vec![0.0; n + n * n + 2];
-        self.newton.eval_parts(&[x, &self.params], &mut buf);
-        Ok((yr - buf[n + n * n]) / buf[n + n * n + 1])
+        let (a, b) = self.alpha_beta_x(x);
+        Ok((yr - a) / b)
     }
 }

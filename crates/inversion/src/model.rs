@@ -9,10 +9,19 @@
 //! 2. the structure: known top-level keys and section keys, value types, required sections and keys,
 //!    finite numbers, `min <= max` for the input bounds;
 //! 3. declared names: identifiers, not reserved, unique across parameters, definitions, states and input;
-//! 4. each expression (in file order): syntax, finite number literals, known names;
+//!    extra outputs may not take the name of a state, the input or another result column (`t`, `yd_N`,
+//!    `etaN`);
+//! 4. each expression (in file order): not empty, at most [`MAX_EXPRESSION_LEN`] bytes and
+//!    [`MAX_EXPRESSION_NESTING`] levels deep, syntax, finite number literals, known names;
 //! 5. definitions: no cycles, and only earlier definitions used;
 //! 6. `abs`, `sign`, `min`, `max` only where they cannot reach f, g or h;
-//! 7. symbolic: `h` free of the input, given `f`/`g` free of the input, each `rhs` affine in the input.
+//! 7. symbolic: `h` free of the input, given `f`/`g` free of the input, each `rhs` affine in the input
+//!    (∂²rhs/∂u² identically zero by [`invsim_expr::zero_test`] at the nominal parameter values).
+//!
+//! Besides the forms of the contract, the reader accepts: a definition as a table
+//! `{ expr = "…", unit = "…", doc = "…" }`; an extra output as a plain string (`p = "u*v"`, not
+//! accumulated); a plain number where an expression is expected (`g = 1`); states as `[states.NAME]`
+//! tables. The model's `name` defaults to the file stem.
 
 use invsim_expr::{
     parse, zero_test, Ast, AstKind, Id, Pool, Symbol, FUNCTIONS, NON_SMOOTH_FUNCTIONS,
@@ -557,16 +566,28 @@ struct Src {
     text: String,
     /// Span of the TOML value (quotes included).
     span: Option<Range<usize>>,
-    /// File offset of the expression's first byte, when the string maps byte for byte onto the file (no
-    /// escapes).
-    content: Option<usize>,
+    /// Where the expression's bytes are in the file, when the string is written without escapes.
+    content: Option<Content>,
+}
+
+/// The position of a string's content in the file.
+#[derive(Debug, Clone)]
+struct Content {
+    /// File offset of the content's first byte.
+    start: usize,
+    /// Offsets (in the value) of line feeds that the file writes as CR LF: TOML reads a multi-line
+    /// string's CR LF as LF, which shifts every later byte by one.
+    crlf: Vec<usize>,
 }
 
 impl Src {
     /// File offset of byte `i` of the expression (or of the string value when it has escapes).
     fn at(&self, i: usize) -> Option<usize> {
-        match self.content {
-            Some(c) => Some(c + i.min(self.text.len())),
+        match &self.content {
+            Some(c) => {
+                let i = i.min(self.text.len());
+                Some(c.start + i + c.crlf.iter().filter(|&&p| p <= i).count())
+            }
             None => self.span.as_ref().map(|s| s.start),
         }
     }
@@ -576,8 +597,9 @@ impl Src {
     }
 }
 
-/// The file offset of a string value's content when the content is written verbatim (no escapes).
-fn string_content(text: &str, span: &Range<usize>, value: &str) -> Option<usize> {
+/// Where a string value's content is in the file, when the content is written verbatim (no escapes, no
+/// line-ending backslashes).
+fn string_content(text: &str, span: &Range<usize>, value: &str) -> Option<Content> {
     let raw = text.get(span.clone())?;
     let delim = if raw.starts_with("\"\"\"") || raw.starts_with("'''") {
         3
@@ -591,6 +613,7 @@ fn string_content(text: &str, span: &Range<usize>, value: &str) -> Option<usize>
     }
     let mut start = delim;
     if delim == 3 {
+        // A newline right after the opening delimiter is not part of the string.
         if raw[3..].starts_with("\r\n") {
             start += 2;
         } else if raw[3..].starts_with('\n') {
@@ -598,7 +621,22 @@ fn string_content(text: &str, span: &Range<usize>, value: &str) -> Option<usize>
         }
     }
     let inner = raw.get(start..raw.len() - delim)?;
-    (inner == value).then_some(span.start + start)
+    let start = span.start + start;
+    if inner == value {
+        return Some(Content {
+            start,
+            crlf: Vec::new(),
+        });
+    }
+    if delim == 3 && inner.replace("\r\n", "\n") == value {
+        let crlf = inner
+            .match_indices("\r\n")
+            .enumerate()
+            .map(|(k, (r, _))| r - k)
+            .collect();
+        return Some(Content { start, crlf });
+    }
+    None
 }
 
 #[derive(Debug)]
@@ -655,6 +693,7 @@ struct RawOutput {
 #[derive(Debug)]
 struct RawExtra {
     name: String,
+    at: Option<usize>,
     src: Src,
     unit: Option<String>,
     doc: Option<String>,
@@ -1128,7 +1167,9 @@ impl<'a> Reader<'a> {
         };
         let name = self.string(name_v, "the input's `name`")?;
         let at = match (&name_v.kind, &name_v.span) {
-            (Kind::Str(s), Some(span)) => string_content(self.text, span, s).or(Some(span.start)),
+            (Kind::Str(s), Some(span)) => string_content(self.text, span, s)
+                .map(|c| c.start)
+                .or(Some(span.start)),
             _ => tv_at(name_v),
         };
         let min = get(t, "min")
@@ -1230,6 +1271,7 @@ impl<'a> Reader<'a> {
             };
             out.push(RawExtra {
                 name: k.name.clone(),
+                at: key_at(k),
                 src,
                 unit,
                 doc,
@@ -1316,11 +1358,17 @@ impl<'a> Reader<'a> {
                 Some((_, NameRef::State(_))) => Some("a state"),
                 Some((_, NameRef::Input)) => Some("the input"),
                 _ if e.name == "t" => Some("the time column `t`"),
+                _ if is_indexed(&e.name, "yd_") => {
+                    Some("a column of output derivatives (yd_0, yd_1, …)")
+                }
+                _ if is_indexed(&e.name, "eta") => {
+                    Some("a column of internal states (eta1, eta2, …)")
+                }
                 _ => None,
             };
             if let Some(clash) = clash {
                 return Err(self.err(
-                    e.src.value_start(),
+                    e.at,
                     ModelErrorKind::DuplicateName,
                     format!(
                         "output `{}` has the same name as {clash}; results are reported in columns by name, \
@@ -1486,7 +1534,7 @@ impl<'a> Reader<'a> {
             ));
         }
 
-        // Symbols, in declaration order so that the pool is deterministic.
+        // Symbols in a fixed order: parameters, definitions, states, input.
         let mut pool = Pool::new();
         let parameters: Vec<Parameter> = raw
             .parameters
@@ -1501,6 +1549,12 @@ impl<'a> Reader<'a> {
             .collect();
         let nominal: HashMap<Symbol, f64> =
             parameters.iter().map(|p| (p.symbol, p.value)).collect();
+        for d in &raw.definitions {
+            pool.symbol(&d.name);
+        }
+        for s in &raw.states {
+            pool.symbol(&s.name);
+        }
         let u = pool.symbol(&input.name);
         let u_var = pool.var(u);
         let zero = pool.zero();
@@ -1588,7 +1642,7 @@ impl<'a> Reader<'a> {
                                 s.name,
                                 input.name,
                                 input.name,
-                                pool.display(g2),
+                                abbreviate(pool.display(g2)),
                                 input.name
                             ),
                         ));
@@ -1711,7 +1765,7 @@ impl<'a> Reader<'a> {
         };
         let rest = &message[i + MARK.len()..];
         let digits = rest.bytes().take_while(u8::is_ascii_digit).count();
-        match (rest[..digits].parse::<usize>(), src.content) {
+        match (rest[..digits].parse::<usize>(), &src.content) {
             (Ok(n), Some(_)) => {
                 format!(
                     "{}at {}{}",
@@ -1852,6 +1906,15 @@ fn tv_at(v: &Tv) -> Option<usize> {
     v.span.as_ref().map(|s| s.start)
 }
 
+/// An expression for a message, cut to a readable length.
+fn abbreviate(text: String) -> String {
+    const MAX: usize = 200;
+    match text.char_indices().nth(MAX) {
+        Some((i, _)) => format!("{} …", &text[..i]),
+        None => text,
+    }
+}
+
 /// A declared name close to an unknown one, if exactly one is closest.
 fn suggestion<'n>(unknown: &str, names: impl Iterator<Item = &'n str>) -> Option<&'n str> {
     let limit = if unknown.chars().count() <= 3 { 1 } else { 2 };
@@ -1935,9 +1998,22 @@ mod tests {
 b = "x\ty"
 c = 'lit'
 "#;
-        assert_eq!(string_content(text, &(4..11), "x + y"), Some(5));
-        assert_eq!(string_content(text, &(16..22), "x\ty"), None);
-        assert_eq!(string_content(text, &(27..32), "lit"), Some(28));
+        let at =
+            |span: Range<usize>, value: &str| string_content(text, &span, value).map(|c| c.start);
+        assert_eq!(at(4..11, "x + y"), Some(5));
+        assert_eq!(at(16..22, "x\ty"), None);
+        assert_eq!(at(27..32, "lit"), Some(28));
+
+        let text = "a = '''\r\nx +\r\n y'''";
+        let c = string_content(text, &(4..text.len()), "x +\n y").expect("verbatim but for CR LF");
+        let src = Src {
+            text: "x +\n y".into(),
+            span: Some(4..text.len()),
+            content: Some(c),
+        };
+        assert_eq!(src.at(0), Some(9));
+        assert_eq!(src.at(3), Some(13));
+        assert_eq!(src.at(5).and_then(|o| text.get(o..o + 1)), Some("y"));
     }
 
     #[test]

@@ -129,6 +129,34 @@ fn malformed_files_fail_where_their_header_says() {
     );
 }
 
+#[test]
+fn crlf_line_endings_give_the_same_positions() {
+    let dir = manifest_dir().join("tests/malformed");
+    let mut checked = 0;
+    for entry in std::fs::read_dir(&dir)
+        .expect("tests/malformed exists")
+        .filter_map(Result::ok)
+    {
+        let path = entry.path();
+        let Ok(text) = std::fs::read_to_string(&path) else {
+            continue;
+        };
+        let Some((pos, substring)) = expectation(&text) else {
+            continue;
+        };
+        let crlf = text.replace('\n', "\r\n");
+        let err = Model::from_str(&path, &crlf).expect_err("still malformed");
+        assert_eq!(err.line.zip(err.column), pos, "{}: {err}", path.display());
+        assert!(
+            err.message.contains(&substring),
+            "{}: {err}",
+            path.display()
+        );
+        checked += 1;
+    }
+    assert!(checked >= 24);
+}
+
 // ----- the shared acceptance models ----------------------------------------------------------------------
 
 #[test]

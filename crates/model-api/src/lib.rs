@@ -101,6 +101,38 @@ pub trait InverseModel: Send + Sync {
         self.psi_inv(xi, eta, x)?;
         Ok((yr - self.alpha(xi, eta)) / self.beta(xi, eta))
     }
+
+    /// The inverse at many points, stored column-wise: ξ_i at point k is `xi[i][k]`, η_j is `eta[j][k]`,
+    /// y^(r) is `yr[k]`; x_s is written to `x[s][k]` and u to `u[k]`. On entry `x[s][0]` is the guess for the
+    /// first point (where ψ⁻¹ is numeric); each later point starts from its predecessor.
+    ///
+    /// Returns the index of the first point that fails, with its error. The default calls
+    /// [`InverseModel::invert`] point by point; an interpreter overrides it to amortise its dispatch.
+    fn invert_batch(
+        &self,
+        xi: &[&[f64]],
+        eta: &[&[f64]],
+        yr: &[f64],
+        x: &mut [&mut [f64]],
+        u: &mut [f64],
+    ) -> Result<(), (usize, ModelError)> {
+        let mut xi_k = vec![0.0; xi.len()];
+        let mut eta_k = vec![0.0; eta.len()];
+        let mut x_k: Vec<f64> = x.iter().map(|c| c.first().copied().unwrap_or(0.0)).collect();
+        for k in 0..yr.len() {
+            for (v, c) in xi_k.iter_mut().zip(xi) {
+                *v = c[k];
+            }
+            for (v, c) in eta_k.iter_mut().zip(eta) {
+                *v = c[k];
+            }
+            u[k] = self.invert(&xi_k, &eta_k, yr[k], &mut x_k).map_err(|e| (k, e))?;
+            for (c, &v) in x.iter_mut().zip(&x_k) {
+                c[k] = v;
+            }
+        }
+        Ok(())
+    }
 }
 
 /// Look up a parameter index by name, with an error listing the known names.

@@ -21,8 +21,8 @@ pub struct Cycle {
 }
 
 /// Errors from loading or checking a drive cycle. Every message names the file (or the cycle) and, where it
-/// applies, the line (1-based, the header is line 1), the data row (1-based, first row after the header)
-/// and the column, and says what was expected.
+/// applies, the line in the file (1-based, counting the header and blank lines), the data row (1-based,
+/// counting only data rows) and the column, and says what was expected.
 #[derive(Debug, thiserror::Error)]
 pub enum CycleError {
     /// The file could not be read.

@@ -515,6 +515,16 @@ fn stable_zero_dynamics_match_the_analytic_transient() {
     }
     assert!(max_err < 2e-9, "max |η − η_exact| = {max_err:e}");
     assert!(max_err > 0.0);
+    // Accumulated output u² by the trapezoidal rule (the end values differ: 23² vs about 10²).
+    let trapezoid: f64 = u
+        .windows(2)
+        .map(|w| 0.025 * (w[0] * w[0] + w[1] * w[1]))
+        .sum();
+    assert!(
+        (res.summary.integrals["u2"] - trapezoid).abs() <= 1e-12 * trapezoid,
+        "{trapezoid}"
+    );
+    assert!((u[0] - 23.0).abs() < 1e-9 && u[u.len() - 1] < 10.1);
 
     // Without eta0 the run starts in the equilibrium and stays there.
     let res = simulate(&model, &constant_speed(36.0, 20.0), &opts(0.05)).unwrap();
@@ -591,6 +601,34 @@ fn verification_tracks_the_reference() {
         assert!(json.get("max_abs_tracking_error").is_some());
         assert!(res.summary.to_text().contains("max abs tracking error: "));
     }
+}
+
+/// With v^1.8 undefined for v < 0 (as in generated code), the forward run cannot continue at standstills where
+/// rounding makes the simulated speed slightly negative: it is restarted from the inverse's state, reported.
+#[test]
+fn verification_restarts_where_the_original_model_is_undefined() {
+    let mut model = SiEngine::new();
+    model.strict_domain = true;
+    let o = SimulationOptions {
+        verify: true,
+        ..opts(0.1)
+    };
+    let res = simulate(&model, &nedc(), &o).unwrap();
+    let max = res.summary.max_abs_tracking_error.unwrap();
+    assert!(max < 1e-6, "{max:e}");
+    let w = res
+        .summary
+        .warnings
+        .iter()
+        .find(|w| w.starts_with("verification:"))
+        .expect("a restart warning");
+    assert!(
+        w.contains("restarted from the inverse's state") && w.contains("of 11800 output intervals"),
+        "{w}"
+    );
+    // The inverse itself is unaffected.
+    let plain = simulate(&SiEngine::new(), &nedc(), &opts(0.1)).unwrap();
+    assert_eq!(res.data, plain.data);
 }
 
 #[test]

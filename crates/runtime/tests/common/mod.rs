@@ -86,6 +86,8 @@ pub struct SiEngine {
     pub c: [f64; 7],
     /// 1/(λ AFs): fuel per air mass.
     fuel_per_air: f64,
+    /// Evaluate v^1.8 in [`InverseModel::rhs`] as `powf`, NaN for v < 0, as generated code does.
+    pub strict_domain: bool,
 }
 
 impl SiEngine {
@@ -120,6 +122,7 @@ impl SiEngine {
             params,
             c: [0.0; 7],
             fuel_per_air: 0.0,
+            strict_domain: false,
         };
         model.update();
         model
@@ -202,7 +205,12 @@ impl InverseModel for SiEngine {
     }
     fn rhs(&self, x: &[f64], u: f64, dx: &mut [f64]) {
         let [c1, c2, c3, c4, c5, c6, c7] = self.c;
-        dx[0] = c1 * x[0] * x[0] + c2 * spow(x[0], 1.8) + c3 * x[1] + c4;
+        let v18 = if self.strict_domain {
+            x[0].powf(1.8)
+        } else {
+            spow(x[0], 1.8)
+        };
+        dx[0] = c1 * x[0] * x[0] + c2 * v18 + c3 * x[1] + c4;
         dx[1] = c5 * x[0] + c6 * x[0] * x[1] + c7 * u;
     }
     /// fuel = ṁ_at / (λ AFs) in kg/s, and its volume in l/s.
