@@ -20,12 +20,14 @@ use crate::rules::{Func, Func2};
 use std::ops::Range;
 use thiserror::Error;
 
-/// A parse error: what was expected and where (byte range in the parsed text).
+/// A parse error: what was expected and where (byte range in the parsed text). `opened` is the span of an
+/// unclosed `(` when the error is a missing `)`, so a caller can point at both places.
 #[derive(Debug, Clone, PartialEq, Eq, Error)]
 #[error("{message}")]
 pub struct ParseError {
     pub span: Range<usize>,
     pub message: String,
+    pub opened: Option<Range<usize>>,
 }
 
 /// Binary operators.
@@ -141,7 +143,7 @@ fn describe(t: &Tok) -> String {
 
 impl<'s> Parser<'s> {
     fn err<T>(&self, span: Range<usize>, message: impl Into<String>) -> Result<T, ParseError> {
-        Err(ParseError { span, message: message.into() })
+        Err(ParseError { span, message: message.into(), opened: None })
     }
 
     fn advance(&mut self) -> Result<(), ParseError> {
@@ -186,7 +188,7 @@ impl<'s> Parser<'s> {
             }
             let text = &self.src[start..i];
             let n = Number::parse_decimal(text)
-                .ok_or_else(|| ParseError { span: start..i, message: format!("malformed number `{text}`") })?;
+                .ok_or_else(|| ParseError { span: start..i, message: format!("malformed number `{text}`"), opened: None })?;
             self.tok = Tok::Num(n);
             self.tok_span = start..i;
             self.pos = i;
@@ -326,10 +328,11 @@ impl<'s> Parser<'s> {
                 let inner = self.expr()?;
                 let close = self.tok_span.clone();
                 if self.tok != Tok::Op(')') {
-                    return self.err(
-                        close,
-                        format!("expected `)` to close the `(` at offset {}, found {}", span.start, describe(&self.tok)),
-                    );
+                    return Err(ParseError {
+                        span: close,
+                        message: format!("expected `)` to close the `(`, found {}", describe(&self.tok)),
+                        opened: Some(span.start..span.start + 1),
+                    });
                 }
                 self.advance()?;
                 Ok(Ast { kind: inner.kind, span: span.start..close.end })
@@ -342,7 +345,7 @@ impl<'s> Parser<'s> {
 /// Parse an expression of the contract's language into a syntax tree.
 pub fn parse(src: &str) -> Result<Ast, ParseError> {
     if src.trim().is_empty() {
-        return Err(ParseError { span: 0..src.len(), message: "empty expression".into() });
+        return Err(ParseError { span: 0..src.len(), message: "empty expression".into(), opened: None });
     }
     let mut p = Parser { src, pos: 0, tok: Tok::End, tok_span: 0..0 };
     p.advance()?;

@@ -1756,28 +1756,6 @@ impl<'a> Reader<'a> {
         })
     }
 
-    /// Rewrite "at offset N" (a byte offset into the expression, as the parser reports it) as a place in
-    /// the file.
-    fn file_offsets(&self, message: &str, src: &Src) -> String {
-        const MARK: &str = "at offset ";
-        let Some(i) = message.find(MARK) else {
-            return message.to_string();
-        };
-        let rest = &message[i + MARK.len()..];
-        let digits = rest.bytes().take_while(u8::is_ascii_digit).count();
-        match (rest[..digits].parse::<usize>(), &src.content) {
-            (Ok(n), Some(_)) => {
-                format!(
-                    "{}at {}{}",
-                    &message[..i],
-                    self.place(src.at(n)),
-                    &rest[digits..]
-                )
-            }
-            _ => message.to_string(),
-        }
-    }
-
     /// Parse one expression: not empty, not too large, valid syntax, finite number literals.
     fn parse_expression(&self, src: &Src, what: &str) -> Result<Ast, ModelError> {
         if src.text.trim().is_empty() {
@@ -1809,7 +1787,12 @@ impl<'a> Reader<'a> {
             ));
         }
         let ast = parse(&src.text).map_err(|e| {
-            let message = self.file_offsets(&e.message, src);
+            let message = match &e.opened {
+                Some(open) if src.content.is_some() => {
+                    format!("{} (opened at {})", e.message, self.place(src.at(open.start)))
+                }
+                _ => e.message.clone(),
+            };
             self.err(
                 src.at(e.span.start),
                 ModelErrorKind::Expression,

@@ -1,8 +1,9 @@
 //! Benchmark: the hand-written SI engine (Fröberg & Nielsen 2004, eq. 22–32) inverted along the NEDC at
 //! dt = 0.01 s (118 001 samples), one core; criterion reports the time per cycle and samples per second.
 //!
-//! `fresh` allocates the result columns anew (as one `invsim simulate` run does), `reused` recycles the previous
-//! result's columns (repeated runs), `smoother_only` evaluates y_d, ẏ_d, ÿ_d at every sample and nothing else.
+//! `fresh` allocates the result columns anew (as one `invsim simulate --out` run does), `reused` recycles the
+//! previous result's columns (repeated runs), `summary_only` keeps no time series (`keep_series: false`, as
+//! without `--out`), `smoother_only` evaluates y_d, ẏ_d, ÿ_d at every sample and nothing else.
 
 use std::time::{Duration, Instant};
 
@@ -43,6 +44,13 @@ fn nedc_si_engine(c: &mut Criterion) {
             previous = Some(prev);
             elapsed
         })
+    });
+    let lean = SimulationOptions {
+        keep_series: false,
+        ..opts.clone()
+    };
+    group.bench_function("si_engine_summary_only", |b| {
+        b.iter(|| simulate(std::hint::black_box(&model), &cycle, &lean).expect("simulation"))
     });
     let smoother = Smoother::new(&cycle, opts.lookahead).expect("smoother");
     group.bench_function("smoother_only", |b| {

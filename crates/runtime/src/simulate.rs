@@ -57,6 +57,10 @@ pub struct SimulationOptions {
     /// computed input (re-evaluated exactly at every integrator stage) and report how far h(x) strays from
     /// y_d (`max_abs_tracking_error`, `rms_tracking_error`).
     pub verify: bool,
+    /// Keep the time series (default). `false` computes every sample but stores none (`data` has empty
+    /// columns): enough for the summary of `invsim simulate` without `--out`/`--plot`, and it saves the memory
+    /// traffic of the columns. `verify` needs the series and keeps it regardless.
+    pub keep_series: bool,
 }
 
 impl Default for SimulationOptions {
@@ -70,6 +74,7 @@ impl Default for SimulationOptions {
             atol: 1e-12,
             stability_check_interval: 1.0,
             verify: false,
+            keep_series: true,
         }
     }
 }
@@ -499,18 +504,19 @@ fn run<M: InverseModel + ?Sized>(
     columns.push(info.input.clone());
     columns.extend(info.states.iter().cloned());
     columns.extend((1..=ne).map(|k| format!("eta{k}")));
-    let output_column = columns.len();
     columns.extend(info.outputs.iter().map(|o| o.name.clone()));
     let samples = grid.n + 1;
+    let keep = opts.keep_series || opts.verify;
+    let stored = if keep { samples } else { 0 };
     spare.truncate(columns.len());
     spare.resize_with(columns.len(), Vec::new);
     let mut data = spare;
     for column in &mut data {
         // Fresh columns come zeroed from the allocator without being touched; every entry is overwritten.
-        if column.capacity() < samples {
-            *column = vec![0.0; samples];
+        if column.capacity() < stored {
+            *column = vec![0.0; stored];
         } else {
-            column.resize(samples, 0.0);
+            column.resize(stored, 0.0);
         }
     }
     // t_k for the whole grid up front (keeps the division off the per-sample path).
@@ -524,6 +530,8 @@ fn run<M: InverseModel + ?Sized>(
     let mut eta = vec![0.0; ne];
     let mut outs = vec![0.0; no];
     let accumulate: Vec<usize> = (0..no).filter(|&i| info.outputs[i].accumulate).collect();
+    let mut integrals = vec![0.0; accumulate.len()];
+    let mut previous = vec![0.0; accumulate.len()];
     let mut warnings = Vec::new();
 
     // --- initial internal state and its stability (Isidori §4.3: minimum phase) ---------------------------
@@ -543,15 +551,18 @@ fn run<M: InverseModel + ?Sized>(
 
     // --- bookkeeping of the input ----------------------------------------------------------------------
     let (umin_bound, umax_bound) = (info.input_min, info.input_max);
+    let (mut u_min, mut u_max) = (f64::INFINITY, f64::NEG_INFINITY);
+    let mut violations: Vec<[f64; 2]> = Vec::new();
+    let mut open_violation: Option<[f64; 2]> = None;
 
     // --- the run ---------------------------------------------------------------------------------------
     let (time_column, value_columns) = data.split_at_mut(1);
     let time = time_column[0].as_slice();
     let mut values: Vec<&mut [f64]> = value_columns.iter_mut().map(|c| c.as_mut_slice()).collect();
     for k in 0..samples {
-        let t = time[k];
+        let t = if keep { time[k] } else { grid.time(k) };
         if k > 0 && ne > 0 {
-            let t_prev = time[k - 1];
+            let t_prev = grid.time(k - 1);
             let mut q = |s: f64, e: &[f64], de: &mut [f64]| {
                 let mut yd_s = [0.0_f64; MAX_DERIVATIVES];
                 smoother.eval(s, &mut yd_s[..=r]);
@@ -610,38 +621,17 @@ fn run<M: InverseModel + ?Sized>(
             return Err(non_finite(model, t, &yd[..=r], &eta, u, &x, &outs));
         }
 
-        // Row k of the preallocated columns (after `t`): y_d … y_d^(r), u, x, η, outputs.
-        let mut c = 0;
-        for &v in &yd[..=r] {
-            values[c][k] = v;
-            c += 1;
+        // Trapezoidal rule over the grid: ∫ o dt ≈ Σ_k dt·(o_k + o_{k+1})/2.
+        for ((acc, prev), &i) in integrals.iter_mut().zip(&mut previous).zip(&accumulate) {
+            if k > 0 {
+                *acc += 0.5 * grid.dt * (*prev + outs[i]);
+            }
+            *prev = outs[i];
         }
-        values[c][k] = u;
-        c += 1;
-        for &v in x.iter().chain(&eta).chain(&outs) {
-            values[c][k] = v;
-            c += 1;
-        }
-    }
-    drop(values);
-    let time = &data[0];
-    let input = &data[input_column];
 
-    // Trapezoidal rule over the grid: ∫ o dt ≈ Σ_k dt·(o_k + o_{k+1})/2.
-    let integrals: Vec<f64> = accumulate
-        .iter()
-        .map(|&i| {
-            let o = &data[output_column + i];
-            o.windows(2).map(|w| 0.5 * grid.dt * (w[0] + w[1])).sum()
-        })
-        .collect();
-
-    // Input range and bound violations: maximal runs of consecutive samples outside the bounds.
-    let u_min = input.iter().copied().fold(f64::INFINITY, f64::min);
-    let u_max = input.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    let mut violations: Vec<[f64; 2]> = Vec::new();
-    let mut open_violation: Option<[f64; 2]> = None;
-    for (&t, &u) in time.iter().zip(input) {
+        // Input range and bound violations: maximal runs of consecutive samples outside the bounds.
+        u_min = u_min.min(u);
+        u_max = u_max.max(u);
         let outside = umin_bound.is_some_and(|b| u < b) || umax_bound.is_some_and(|b| u > b);
         match (&mut open_violation, outside) {
             (Some(v), true) => v[1] = t,
@@ -652,7 +642,23 @@ fn run<M: InverseModel + ?Sized>(
             }
             (None, false) => {}
         }
+
+        // Row k of the preallocated columns (after `t`): y_d … y_d^(r), u, x, η, outputs.
+        if keep {
+            let mut c = 0;
+            for &v in &yd[..=r] {
+                values[c][k] = v;
+                c += 1;
+            }
+            values[c][k] = u;
+            c += 1;
+            for &v in x.iter().chain(&eta).chain(&outs) {
+                values[c][k] = v;
+                c += 1;
+            }
+        }
     }
+    drop(values);
     if let Some(v) = open_violation {
         violations.push(v);
     }

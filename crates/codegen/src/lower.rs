@@ -1,0 +1,435 @@
+//! Lowering expression DAGs to straight-line code: one SSA value per operation, parameter-only work hoisted.
+//!
+//! The lowering follows the interpreter's tape (`invsim_expr::tape`) so that generated code and the tape
+//! perform the same operations: sums become chains of `+`/`−` (negative coefficients as subtraction),
+//! products become coefficient · numerator / denominator (negative exponents as division), integer powers
+//! `powi`, ½-powers `sqrt`, and powers of one base whose exponents differ by an integer share one `powf` taken
+//! at the *smallest* exponent (`v^1.8 = v^0.8 · v`, so nothing divides by a power that may be 0).
+//!
+//! One difference serves speed: every operation whose operands depend only on parameters and constants goes
+//! to a separate *invariant* arena shared by all functions of a model. Its values are computed once per
+//! parameter set (the generated `Precomputed::new`), so per-point code does only state-dependent work. To
+//! give that hoisting whole groups to work on, the factors of a product and the terms of a sum are ordered
+//! parameter-only first (keeping canonical order within each group): `V_d·i_t·s_i·ξ1·(…)/(4π·V_i·r_w)`
+//! becomes `k · ξ1 · (…)` with `k = V_d·i_t·s_i/(4π·V_i·r_w)`. Reordering changes rounding only at the level
+//! of single roundings of the terms involved.
+//!
+//! Both arenas are value-numbered: an operation on the same operands is emitted once. Together with the
+//! memo per DAG node this is the common-subexpression elimination; the printer (`emit`) binds every value
+//! used more than once to a `let`.
+
+use invsim_expr::{Func, Func2, Id, Node, Number, Pool, Symbol};
+use std::cmp::Ordering;
+use std::collections::HashMap;
+
+/// An operand: a symbol, a constant, or the result of an operation in one of the two arenas.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub(crate) enum Val {
+    Sym(Symbol),
+    Num(Number),
+    Pi,
+    /// Value `i` of the invariant (parameter-only) arena.
+    Inv(usize),
+    /// Value `i` of the current function's arena.
+    Loc(usize),
+}
+
+/// One operation. `Powf` keeps the exact exponent.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub(crate) enum Op {
+    Add(Val, Val),
+    Sub(Val, Val),
+    Mul(Val, Val),
+    Div(Val, Val),
+    Neg(Val),
+    Recip(Val),
+    Powi(Val, i32),
+    Sqrt(Val),
+    Powf(Val, Number),
+    PowVar(Val, Val),
+    Call(Func, Val),
+    Call2(Func2, Val, Val),
+}
+
+impl Op {
+    /// Operands, with multiplicity (`Powi(v, 2)` is printed `v * v` and uses `v` twice).
+    pub fn operands(&self) -> Vec<Val> {
+        match *self {
+            Op::Add(a, b) | Op::Sub(a, b) | Op::Mul(a, b) | Op::Div(a, b) | Op::PowVar(a, b) | Op::Call2(_, a, b) => {
+                vec![a, b]
+            }
+            Op::Powi(a, 2) => vec![a, a],
+            Op::Powi(a, 3) => vec![a, a, a],
+            Op::Neg(a) | Op::Recip(a) | Op::Powi(a, _) | Op::Sqrt(a) | Op::Powf(a, _) | Op::Call(_, a) => vec![a],
+        }
+    }
+}
+
+/// A value-numbered list of operations.
+#[derive(Default, Debug, Clone)]
+pub(crate) struct Arena {
+    pub ops: Vec<Op>,
+    index: HashMap<Op, usize>,
+}
+
+impl Arena {
+    fn push(&mut self, op: Op) -> usize {
+        if let Some(&i) = self.index.get(&op) {
+            return i;
+        }
+        self.ops.push(op);
+        self.index.insert(op, self.ops.len() - 1);
+        self.ops.len() - 1
+    }
+}
+
+/// A symbol the lowering may meet: a parameter (invariant) or a per-point input.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(crate) enum SymKind {
+    Param,
+    Varying,
+}
+
+/// An expression referred to a symbol that is neither a parameter nor an input of the function.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(crate) struct Unbound(pub String);
+
+/// The invariant arena and the classification of symbols, shared by all functions of a model.
+pub(crate) struct Invariants<'p> {
+    pub pool: &'p Pool,
+    pub params: HashMap<Symbol, usize>,
+    pub arena: Arena,
+}
+
+impl<'p> Invariants<'p> {
+    pub fn new(pool: &'p Pool, params: &[Symbol]) -> Invariants<'p> {
+        Invariants { pool, params: params.iter().enumerate().map(|(i, &s)| (s, i)).collect(), arena: Arena::default() }
+    }
+}
+
+/// One function's lowering: its arena, its inputs and the roots it computes.
+pub(crate) struct Lowered {
+    pub arena: Arena,
+    pub roots: Vec<Val>,
+}
+
+struct FnLowering<'a, 'p> {
+    inv: &'a mut Invariants<'p>,
+    inputs: &'a HashMap<Symbol, ()>,
+    arena: Arena,
+    memo: HashMap<Id, Val>,
+    /// (base, fractional part of the exponent) → smallest exponent with that fractional part.
+    min_power: HashMap<(Id, Number), Number>,
+}
+
+/// Lower `roots`, whose free symbols must be parameters or `inputs`.
+pub(crate) fn lower(inv: &mut Invariants<'_>, roots: &[Id], inputs: &[Symbol]) -> Result<Lowered, Unbound> {
+    let input_set: HashMap<Symbol, ()> = inputs.iter().map(|&s| (s, ())).collect();
+    let pool = inv.pool;
+    let mut l = FnLowering { inv, inputs: &input_set, arena: Arena::default(), memo: HashMap::new(), min_power: HashMap::new() };
+    for id in pool.topological(roots) {
+        if let Node::Pow(base, p) = pool.node(id) {
+            if let Some(k) = pool.as_number(*p) {
+                let k = if k.is_negative() { k.neg() } else { k };
+                if k.as_integer().is_some() {
+                    continue;
+                }
+                let frac = k.add(Number::from_f64(-k.to_f64().floor()));
+                let e = l.min_power.entry((*base, frac)).or_insert(k);
+                if k.cmp_value(e) == Ordering::Less {
+                    *e = k;
+                }
+            }
+        }
+    }
+    let mut out = Vec::with_capacity(roots.len());
+    for &r in roots {
+        out.push(l.lower(r)?);
+    }
+    Ok(Lowered { arena: l.arena, roots: out })
+}
+
+impl FnLowering<'_, '_> {
+    fn pool(&self) -> &Pool {
+        self.inv.pool
+    }
+
+    fn kind(&self, s: Symbol) -> Option<SymKind> {
+        if self.inputs.contains_key(&s) {
+            Some(SymKind::Varying)
+        } else if self.inv.params.contains_key(&s) {
+            Some(SymKind::Param)
+        } else {
+            None
+        }
+    }
+
+    /// Emit `op` into the invariant arena when all its operands are invariant, else into this function's.
+    fn emit(&mut self, op: Op) -> Val {
+        if op.operands().into_iter().all(|v| self.is_param(v)) {
+            Val::Inv(self.inv.arena.push(op))
+        } else {
+            Val::Loc(self.arena.push(op))
+        }
+    }
+
+    fn is_param(&self, v: Val) -> bool {
+        match v {
+            Val::Sym(s) => self.kind(s) == Some(SymKind::Param),
+            Val::Num(_) | Val::Pi | Val::Inv(_) => true,
+            Val::Loc(_) => false,
+        }
+    }
+
+    fn lower(&mut self, e: Id) -> Result<Val, Unbound> {
+        if let Some(&v) = self.memo.get(&e) {
+            return Ok(v);
+        }
+        let v = match self.pool().node(e).clone() {
+            Node::Num(n) => Val::Num(n),
+            Node::Pi => Val::Pi,
+            Node::Sym(s) => {
+                if self.kind(s).is_none() {
+                    return Err(Unbound(self.pool().symbol_name(s).to_string()));
+                }
+                Val::Sym(s)
+            }
+            Node::Add(ts) => {
+                let mut terms = Vec::with_capacity(ts.len());
+                for &t in ts.iter() {
+                    terms.push(self.lower_signed(t)?);
+                }
+                // Parameter-only terms first, so that their partial sum is hoisted.
+                let (mut first, rest): (Vec<_>, Vec<_>) = terms.into_iter().partition(|&(_, v)| self.is_param(v));
+                first.extend(rest);
+                self.sum(&first)
+            }
+            Node::Mul(_) | Node::Pow(..) => {
+                let (neg, v) = self.lower_product(e, false)?;
+                if neg {
+                    self.emit(Op::Neg(v))
+                } else {
+                    v
+                }
+            }
+            Node::Call(f, a) => {
+                let a = self.lower(a)?;
+                self.emit(Op::Call(f, a))
+            }
+            Node::Call2(f, a, b) => {
+                let (a, b) = (self.lower(a)?, self.lower(b)?);
+                self.emit(Op::Call2(f, a, b))
+            }
+        };
+        self.memo.insert(e, v);
+        Ok(v)
+    }
+
+    /// Σ ±t as a chain of additions and subtractions, left to right; leading negative terms are subtracted
+    /// from the first positive one, and an all-negative sum is −(t1 + t2 + …).
+    fn sum(&mut self, terms: &[(bool, Val)]) -> Val {
+        let mut acc: Option<Val> = None;
+        let mut negs: Vec<Val> = Vec::new();
+        for &(neg, v) in terms {
+            if neg {
+                match acc {
+                    Some(a) => acc = Some(self.emit(Op::Sub(a, v))),
+                    None => negs.push(v),
+                }
+            } else {
+                let mut a = match acc {
+                    Some(a) => self.emit(Op::Add(a, v)),
+                    None => v,
+                };
+                for n in std::mem::take(&mut negs) {
+                    a = self.emit(Op::Sub(a, n));
+                }
+                acc = Some(a);
+            }
+        }
+        match acc {
+            Some(a) => a,
+            None => {
+                let mut s = negs[0];
+                for &n in &negs[1..] {
+                    s = self.emit(Op::Add(s, n));
+                }
+                self.emit(Op::Neg(s))
+            }
+        }
+    }
+
+    /// A sum's term as (negative?, magnitude).
+    fn lower_signed(&mut self, t: Id) -> Result<(bool, Val), Unbound> {
+        match self.pool().node(t) {
+            Node::Num(n) if n.is_negative() => Ok((true, Val::Num(n.neg()))),
+            Node::Mul(_) => self.lower_product(t, true),
+            _ => Ok((false, self.lower(t)?)),
+        }
+    }
+
+    /// A product (or a lone power) as coefficient · numerator / denominator, parameter-only factors first:
+    /// `(c · n_inv / d_inv) · n_var / d_var`. With `split_sign`, a negative coefficient is returned as a flag.
+    fn lower_product(&mut self, e: Id, split_sign: bool) -> Result<(bool, Val), Unbound> {
+        if !split_sign {
+            if let Some(&v) = self.memo.get(&e) {
+                return Ok((false, v));
+            }
+        }
+        let factors: Vec<Id> = match self.pool().node(e) {
+            Node::Mul(fs) => fs.to_vec(),
+            _ => vec![e],
+        };
+        let mut coeff = Number::ONE;
+        let mut num: Vec<Val> = Vec::new();
+        let mut den: Vec<Val> = Vec::new();
+        for f in factors {
+            match self.pool().node(f).clone() {
+                Node::Num(n) => coeff = coeff.mul(n),
+                Node::Pow(b, p) => match self.pool().as_number(p) {
+                    Some(k) if k.is_negative() => {
+                        let v = self.lower_power(b, k.neg())?;
+                        den.push(v)
+                    }
+                    Some(k) => {
+                        let v = self.lower_power(b, k)?;
+                        num.push(v)
+                    }
+                    None => {
+                        let (vb, vp) = (self.lower(b)?, self.lower(p)?);
+                        let v = self.emit(Op::PowVar(vb, vp));
+                        num.push(v)
+                    }
+                },
+                _ => {
+                    let v = self.lower(f)?;
+                    num.push(v)
+                }
+            }
+        }
+        let (num_inv, num_var): (Vec<Val>, Vec<Val>) = num.iter().partition(|&&v| self.is_param(v));
+        let (den_inv, den_var): (Vec<Val>, Vec<Val>) = den.iter().partition(|&&v| self.is_param(v));
+        let negative = coeff.is_negative();
+        let mag = if negative { coeff.neg() } else { coeff };
+        let sign_applied = negative && !split_sign;
+        let mut acc: Option<Val> = None;
+        if !mag.is_one() || (num.is_empty() && !sign_applied) {
+            acc = Some(Val::Num(if sign_applied { mag.neg() } else { mag }));
+        } else if sign_applied && num.is_empty() {
+            acc = Some(Val::Num(Number::MINUS_ONE));
+        }
+        let applied = !mag.is_one() || num.is_empty();
+        for group in [(num_inv, den_inv), (num_var, den_var)] {
+            for v in group.0 {
+                acc = Some(match acc {
+                    Some(a) => self.emit(Op::Mul(a, v)),
+                    None => v,
+                });
+            }
+            if let Some((&first, others)) = group.1.split_first() {
+                let mut d = first;
+                for &v in others {
+                    d = self.emit(Op::Mul(d, v));
+                }
+                acc = Some(match acc {
+                    Some(a) => self.emit(Op::Div(a, d)),
+                    None => self.emit(Op::Recip(d)),
+                });
+            }
+        }
+        let mut v = acc.unwrap_or(Val::Num(Number::ONE));
+        if sign_applied && !applied {
+            v = self.emit(Op::Neg(v));
+        }
+        if !split_sign {
+            self.memo.insert(e, v);
+        }
+        Ok((negative && split_sign, v))
+    }
+
+    /// s · b^j for an exact j ≥ 0.
+    fn times_integer_power(&mut self, s: Val, vb: Val, j: Number) -> Val {
+        match j.as_integer() {
+            Some(0) => s,
+            Some(1) => self.emit(Op::Mul(s, vb)),
+            Some(i) if i > 0 && i <= i32::MAX as i128 => {
+                let p = self.emit(Op::Powi(vb, i as i32));
+                self.emit(Op::Mul(s, p))
+            }
+            _ => {
+                let p = self.emit(Op::Powf(vb, j));
+                self.emit(Op::Mul(s, p))
+            }
+        }
+    }
+
+    /// b^k for k > 0: `powi`, `sqrt` (times an integer power), or one shared `powf` per base and
+    /// fractional part of the exponent, taken at the smallest such exponent.
+    fn lower_power(&mut self, b: Id, k: Number) -> Result<Val, Unbound> {
+        let vb = self.lower(b)?;
+        if let Some(i) = k.as_integer().filter(|i| *i <= i32::MAX as i128) {
+            return Ok(if i == 1 { vb } else { self.emit(Op::Powi(vb, i as i32)) });
+        }
+        let m = k.to_f64().floor();
+        let frac = k.add(Number::from_f64(-m));
+        if frac == Number::ratio(1, 2) {
+            let root = self.emit(Op::Sqrt(vb));
+            return Ok(match m as i32 {
+                0 => root,
+                1 => self.emit(Op::Mul(root, vb)),
+                mi => {
+                    let p = self.emit(Op::Powi(vb, mi));
+                    self.emit(Op::Mul(root, p))
+                }
+            });
+        }
+        let q = self.min_power.get(&(b, frac)).copied().unwrap_or(k);
+        let s = self.emit(Op::Powf(vb, q));
+        Ok(self.times_integer_power(s, vb, k.add(q.neg())))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn lower_src(src: &[&str], params: &[&str], inputs: &[&str]) -> (usize, usize) {
+        let mut pool = Pool::new();
+        let roots: Vec<Id> = src.iter().map(|s| pool.parse(s).unwrap()).collect();
+        let ps: Vec<Symbol> = params.iter().map(|n| pool.symbol(n)).collect();
+        let is: Vec<Symbol> = inputs.iter().map(|n| pool.symbol(n)).collect();
+        let mut inv = Invariants::new(&pool, &ps);
+        let l = lower(&mut inv, &roots, &is).unwrap();
+        (inv.arena.ops.len(), l.arena.ops.len())
+    }
+
+    #[test]
+    fn parameter_groups_are_hoisted() {
+        // a*b*x/(c*d): a*b/(c*d) is invariant (3 ops), then one multiplication per point.
+        let (inv, loc) = lower_src(&["a*b*x/(c*d)"], &["a", "b", "c", "d"], &["x"]);
+        assert_eq!((inv, loc), (3, 1));
+        // a + b - x + c: (a + b + c) - x.
+        let (inv, loc) = lower_src(&["a + b - x + c"], &["a", "b", "c"], &["x"]);
+        assert_eq!((inv, loc), (2, 1));
+    }
+
+    #[test]
+    fn powers_share_one_powf() {
+        let mut pool = Pool::new();
+        let e = pool.parse("v^1.8 + v^0.8 + sqrt(v)*v").unwrap();
+        let v = pool.symbol("v");
+        let mut inv = Invariants::new(&pool, &[]);
+        let l = lower(&mut inv, &[e], &[v]).unwrap();
+        let powf: Vec<&Op> = l.arena.ops.iter().filter(|o| matches!(o, Op::Powf(..))).collect();
+        assert_eq!(powf, vec![&Op::Powf(Val::Sym(v), Number::ratio(4, 5))]);
+    }
+
+    #[test]
+    fn unbound_symbols_are_reported() {
+        let mut pool = Pool::new();
+        let e = pool.parse("x + y").unwrap();
+        let x = pool.symbol("x");
+        let mut inv = Invariants::new(&pool, &[]);
+        assert_eq!(lower(&mut inv, &[e], &[x]).err(), Some(Unbound("y".into())));
+    }
+}
