@@ -503,7 +503,8 @@ const FD8: [f64; 4] = [4.0 / 5.0, -1.0 / 5.0, 4.0 / 105.0, -1.0 / 280.0];
 
 /// `diff(e, v)` evaluated at a point agrees with an 8th-order central difference of `e`. A point is used only
 /// where `e` is smooth on the stencil: finite, every `abs`/`sign`/`min`/`max` on one side of its kink, and the
-/// differences with steps h and h/2 agree (which also rules out poles and branch points nearby).
+/// differences with three incommensurate steps agree (which also rules out poles, branch points and fast
+/// oscillation nearby).
 #[test]
 fn derivative_matches_finite_differences() {
     let (cases, cases_compared, compared) =
@@ -529,9 +530,11 @@ fn derivative_matches_finite_differences() {
                     if ast_eval(&src, &ast, &names_env(p), &mut centre_kinks).is_none() {
                         continue;
                     }
-                    let mut fd = [0.0; 2];
-                    let mut noise = [0.0; 2];
-                    for (level, h) in [5e-3, 2.5e-3].into_iter().enumerate() {
+                    // Three incommensurate steps, so that an oscillation cannot alias into agreement.
+                    let steps = [4e-3, 1.7e-3, 6.1e-4];
+                    let mut fd = [0.0; 3];
+                    let mut noise = [0.0; 3];
+                    for (level, h) in steps.into_iter().enumerate() {
                         for (i, &c) in FD8.iter().enumerate() {
                             for side in [-1.0, 1.0] {
                                 let mut q = *p;
@@ -556,21 +559,20 @@ fn derivative_matches_finite_differences() {
                             }
                         }
                     }
-                    if !noise[1].is_finite()
-                        || (fd[0] - fd[1]).abs() > 1e-6 * fd[1].abs() + 8.0 * noise[1]
-                    {
-                        continue; // not smooth enough here for the difference to be trusted
+                    let smooth = noise[2].is_finite()
+                        && (0..2)
+                            .all(|l| (fd[l] - fd[2]).abs() <= 1e-6 * fd[2].abs() + 8.0 * noise[2]);
+                    if !smooth {
+                        continue; // the differences disagree: not smooth enough here to be trusted
                     }
                     let d = pool.eval(de, &env).map_err(|err| fail(err.to_string()))?;
                     let d_scale = dag_eval(&pool, de, &exact_env(&env)).map_or(0.0, |v| v.s);
-                    let tol = 1e-6 * fd[1].abs() + 16.0 * noise[1] + 1e-9 * d_scale;
-                    if !d.is_finite() || (d - fd[1]).abs() > tol {
+                    let tol = 1e-6 * fd[2].abs() + 16.0 * noise[2] + 1e-9 * d_scale;
+                    if !d.is_finite() || (d - fd[2]).abs() > tol {
                         return Err(fail(format!(
-                        "d/d{var} `{src}` at {p:?}: diff gives `{}` = {d}, finite difference {} (h/2) {} (h), \
-                         tolerance {tol:e}",
+                        "d/d{var} `{src}` at {p:?}: diff gives `{}` = {d}, finite differences {fd:?} \
+                         (steps {steps:?}), tolerance {tol:e}",
                         pool.display(de),
-                        fd[1],
-                        fd[0]
                     )));
                     }
                     compared.set(compared.get() + 1);

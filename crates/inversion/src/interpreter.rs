@@ -330,6 +330,16 @@ impl InverseModel for Interpreter {
         Ok(())
     }
 
+    fn outputs_batch(&self, x: &[&[f64]], u: &[f64], out: &mut [&mut [f64]]) {
+        if out.is_empty() {
+            return;
+        }
+        let mut inputs: Vec<&[f64]> = x.iter().map(|c| &c[..u.len()]).collect();
+        inputs.push(u);
+        let mut cols: Vec<&mut [f64]> = out.iter_mut().map(|c| &mut c[..u.len()]).collect();
+        self.special.outputs.eval_batch(&inputs, &mut cols);
+    }
+
     /// One fused tape evaluation for (x, α, β) in the closed-form case; Newton from the guess otherwise.
     fn invert(&self, xi: &[f64], eta: &[f64], yr: f64, x: &mut [f64]) -> Result<f64, ModelError> {
         if self.closed {

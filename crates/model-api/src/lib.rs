@@ -133,6 +133,22 @@ pub trait InverseModel: Send + Sync {
         }
         Ok(())
     }
+
+    /// The extra outputs at many points, column-wise: `x[s][k]`, `u[k]` in, `out[o][k]` out. The default
+    /// calls [`InverseModel::outputs`] point by point.
+    fn outputs_batch(&self, x: &[&[f64]], u: &[f64], out: &mut [&mut [f64]]) {
+        let mut x_k = vec![0.0; x.len()];
+        let mut o_k = vec![0.0; out.len()];
+        for k in 0..u.len() {
+            for (v, c) in x_k.iter_mut().zip(x) {
+                *v = c[k];
+            }
+            self.outputs(&x_k, u[k], &mut o_k);
+            for (c, &v) in out.iter_mut().zip(&o_k) {
+                c[k] = v;
+            }
+        }
+    }
 }
 
 /// Look up a parameter index by name, with an error listing the known names.

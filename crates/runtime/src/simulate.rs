@@ -31,6 +31,9 @@ pub const MAX_DERIVATIVES: usize = 10;
 /// |η| above this means the internal dynamics have blown up.
 pub const ETA_BLOWUP: f64 = 1e12;
 
+/// Samples per block of the run (see `run`).
+const BLOCK: usize = 4096;
+
 /// Largest number of output samples a run may produce (guards against absurd `--dt`).
 pub const MAX_SAMPLES: usize = 50_000_000;
 
@@ -528,7 +531,6 @@ fn run<M: InverseModel + ?Sized>(
     let mut yd = [0.0_f64; MAX_DERIVATIVES];
     let mut x = vec![0.0; n];
     let mut eta = vec![0.0; ne];
-    let mut outs = vec![0.0; no];
     let accumulate: Vec<usize> = (0..no).filter(|&i| info.outputs[i].accumulate).collect();
     let mut integrals = vec![0.0; accumulate.len()];
     let mut previous = vec![0.0; accumulate.len()];
@@ -555,110 +557,142 @@ fn run<M: InverseModel + ?Sized>(
     let mut violations: Vec<[f64; 2]> = Vec::new();
     let mut open_violation: Option<[f64; 2]> = None;
 
-    // --- the run ---------------------------------------------------------------------------------------
-    let (time_column, value_columns) = data.split_at_mut(1);
-    let time = time_column[0].as_slice();
-    let mut values: Vec<&mut [f64]> = value_columns.iter_mut().map(|c| c.as_mut_slice()).collect();
-    for k in 0..samples {
-        let t = if keep { time[k] } else { grid.time(k) };
-        if k > 0 && ne > 0 {
-            let t_prev = grid.time(k - 1);
-            let mut q = |s: f64, e: &[f64], de: &mut [f64]| {
-                let mut yd_s = [0.0_f64; MAX_DERIVATIVES];
-                smoother.eval(s, &mut yd_s[..=r]);
-                model.zero_dynamics(&yd_s[..r], e, yd_s[r], de);
-                Ok(())
-            };
-            if let Err(err) = integrator.advance(t_prev, t, &mut eta, &mut q) {
-                // A failing integrator usually means that η is running away; say so if it is.
-                let (t_fail, eta_fail) = (integrator.t_fail, &integrator.y_fail);
-                smoother.eval(t_fail, &mut yd[..=r]);
+    // --- the run, block by block -------------------------------------------------------------------------
+    // Per block of samples: y_d … y_d^(r) on the grid at once (Smoother::eval_grid); then the inverse, for
+    // r = n the whole block at once (every sample is independent: InverseModel::invert_batch), for r < n
+    // sample by sample with the zero dynamics integrated in between; then the extra outputs
+    // (InverseModel::outputs_batch) and the per-sample bookkeeping. With `keep` a block is a view into the
+    // result's columns, without it into block-sized scratch columns.
+    let width = columns.len();
+    let mut scratch: Vec<Vec<f64>> = if keep { Vec::new() } else { vec![vec![0.0; BLOCK]; width] };
+    let mut k0 = 0;
+    while k0 < samples {
+        let k1 = (k0 + BLOCK).min(samples);
+        let len = k1 - k0;
+        let mut cols: Vec<&mut [f64]> = if keep {
+            data.iter_mut().map(|c| &mut c[k0..k1]).collect()
+        } else {
+            scratch.iter_mut().map(|c| &mut c[..len]).collect()
+        };
+        if !keep {
+            for (i, t) in cols[0].iter_mut().enumerate() {
+                *t = grid.time(k0 + i);
+            }
+        }
+        let (time_col, rest) = cols.split_at_mut(1);
+        let time: &[f64] = time_col[0];
+        let (yd_cols, rest) = rest.split_at_mut(r + 1);
+        let (u_col, rest) = rest.split_at_mut(1);
+        let (x_cols, rest) = rest.split_at_mut(n);
+        let (eta_cols, out_cols) = rest.split_at_mut(ne);
+        smoother.eval_grid(time, Some(grid.dt), yd_cols);
+
+        if ne == 0 {
+            let xi: Vec<&[f64]> = yd_cols[..r].iter().map(|c| &**c).collect();
+            for (c, &v) in x_cols.iter_mut().zip(&x) {
+                c[0] = v; // the guess for a numerically solved ψ⁻¹
+            }
+            model
+                .invert_batch(&xi, &[], yd_cols[r], x_cols, u_col[0])
+                .map_err(|(i, source)| SimulateError::Model { t: time[i], source })?;
+            for (v, c) in x.iter_mut().zip(x_cols.iter()) {
+                *v = c[len - 1];
+            }
+        } else {
+            for i in 0..len {
+                let (k, t) = (k0 + i, time[i]);
+                if k > 0 {
+                    let t_prev = grid.time(k - 1);
+                    let mut q = |s: f64, e: &[f64], de: &mut [f64]| {
+                        let mut yd_s = [0.0_f64; MAX_DERIVATIVES];
+                        smoother.eval(s, &mut yd_s[..=r]);
+                        model.zero_dynamics(&yd_s[..r], e, yd_s[r], de);
+                        Ok(())
+                    };
+                    if let Err(err) = integrator.advance(t_prev, t, &mut eta, &mut q) {
+                        // A failing integrator usually means that η is running away; say so if it is.
+                        let (t_fail, eta_fail) = (integrator.t_fail, &integrator.y_fail);
+                        smoother.eval(t_fail, &mut yd[..=r]);
+                        let (xi, yr) = (&yd[..r], yd[r]);
+                        if let Some(i) = eta_fail.iter().position(|v| !v.is_finite() || v.abs() > ETA_BLOWUP) {
+                            return Err(SimulateError::UnstableZeroDynamics {
+                                t: t_fail,
+                                eigenvalues: eigenvalues_at(model, xi, eta_fail, yr, &mut zd_ws),
+                                detail: format!("eta{} = {} has blown up", i + 1, eta_fail[i]),
+                            });
+                        }
+                        check_stability(model, t_fail, xi, eta_fail, yr, &mut zd_ws)?;
+                        return Err(err);
+                    }
+                }
+                for (o, c) in yd[..=r].iter_mut().zip(yd_cols.iter()) {
+                    *o = c[i];
+                }
                 let (xi, yr) = (&yd[..r], yd[r]);
-                if let Some(i) = eta_fail
-                    .iter()
-                    .position(|v| !v.is_finite() || v.abs() > ETA_BLOWUP)
-                {
+                if let Some(j) = eta.iter().position(|v| !v.is_finite() || v.abs() > ETA_BLOWUP) {
+                    let eigenvalues = eigenvalues_at(model, xi, &eta, yr, &mut zd_ws);
                     return Err(SimulateError::UnstableZeroDynamics {
-                        t: t_fail,
-                        eigenvalues: eigenvalues_at(model, xi, eta_fail, yr, &mut zd_ws),
-                        detail: format!("eta{} = {} has blown up", i + 1, eta_fail[i]),
+                        t,
+                        eigenvalues,
+                        detail: format!("eta{} = {} has blown up", j + 1, eta[j]),
                     });
                 }
-                check_stability(model, t_fail, xi, eta_fail, yr, &mut zd_ws)?;
-                return Err(err);
+                if k % check_every == 0 && k > 0 {
+                    check_stability(model, t, xi, &eta, yr, &mut zd_ws)?;
+                }
+                // x = ψ⁻¹(ξ, η) (previous x as the guess), u = (y_d^(r) − α)/β (paper eq. 26).
+                let u = model.invert(xi, &eta, yr, &mut x).map_err(|source| SimulateError::Model { t, source })?;
+                u_col[0][i] = u;
+                for (c, &v) in x_cols.iter_mut().zip(&x) {
+                    c[i] = v;
+                }
+                for (c, &v) in eta_cols.iter_mut().zip(&eta) {
+                    c[i] = v;
+                }
             }
         }
-        smoother.eval(t, &mut yd[..=r]);
-        let (xi, yr) = (&yd[..r], yd[r]);
-        if ne > 0 {
-            if let Some(i) = eta
-                .iter()
-                .position(|v| !v.is_finite() || v.abs() > ETA_BLOWUP)
-            {
-                let eigenvalues = eigenvalues_at(model, xi, &eta, yr, &mut zd_ws);
-                return Err(SimulateError::UnstableZeroDynamics {
-                    t,
-                    eigenvalues,
-                    detail: format!("eta{} = {} has blown up", i + 1, eta[i]),
-                });
-            }
-            if k % check_every == 0 && k > 0 {
-                check_stability(model, t, xi, &eta, yr, &mut zd_ws)?;
-            }
+        {
+            let xs: Vec<&[f64]> = x_cols.iter().map(|c| &**c).collect();
+            model.outputs_batch(&xs, u_col[0], out_cols);
         }
 
-        // x = ψ⁻¹(ξ, η) (previous x as the guess), u = (y_d^(r) − α)/β (paper eq. 26).
-        let u = model
-            .invert(xi, &eta, yr, &mut x)
-            .map_err(|source| SimulateError::Model { t, source })?;
-        model.outputs(&x, u, &mut outs);
-        // v·0 is NaN exactly when v is not finite: one test for the whole sample.
-        let mut probe = u * 0.0;
-        for &v in yd[..=r].iter().chain(&x).chain(&outs) {
-            probe += v * 0.0;
-        }
-        if probe.is_nan() {
-            return Err(non_finite(model, t, &yd[..=r], &eta, u, &x, &outs));
-        }
-
-        // Trapezoidal rule over the grid: ∫ o dt ≈ Σ_k dt·(o_k + o_{k+1})/2.
-        for ((acc, prev), &i) in integrals.iter_mut().zip(&mut previous).zip(&accumulate) {
-            if k > 0 {
-                *acc += 0.5 * grid.dt * (*prev + outs[i]);
+        // Per-sample bookkeeping.
+        for i in 0..len {
+            let (k, t, u) = (k0 + i, time[i], u_col[0][i]);
+            // v·0 is NaN exactly when v is not finite: one test for the whole sample.
+            let mut probe = u * 0.0;
+            for c in yd_cols.iter().chain(x_cols.iter()).chain(out_cols.iter()) {
+                probe += c[i] * 0.0;
             }
-            *prev = outs[i];
-        }
-
-        // Input range and bound violations: maximal runs of consecutive samples outside the bounds.
-        u_min = u_min.min(u);
-        u_max = u_max.max(u);
-        let outside = umin_bound.is_some_and(|b| u < b) || umax_bound.is_some_and(|b| u > b);
-        match (&mut open_violation, outside) {
-            (Some(v), true) => v[1] = t,
-            (None, true) => open_violation = Some([t, t]),
-            (Some(v), false) => {
-                violations.push(*v);
-                open_violation = None;
+            if probe.is_nan() {
+                let at = |cs: &[&mut [f64]]| cs.iter().map(|c| c[i]).collect::<Vec<f64>>();
+                let (yd_i, x_i, eta_i, outs_i) = (at(yd_cols), at(x_cols), at(eta_cols), at(out_cols));
+                return Err(non_finite(model, t, &yd_i, &eta_i, u, &x_i, &outs_i));
             }
-            (None, false) => {}
-        }
-
-        // Row k of the preallocated columns (after `t`): y_d … y_d^(r), u, x, η, outputs.
-        if keep {
-            let mut c = 0;
-            for &v in &yd[..=r] {
-                values[c][k] = v;
-                c += 1;
+            // Trapezoidal rule over the grid: ∫ o dt ≈ Σ_k dt·(o_k + o_{k+1})/2.
+            for ((acc, prev), &o) in integrals.iter_mut().zip(&mut previous).zip(&accumulate) {
+                let v = out_cols[o][i];
+                if k > 0 {
+                    *acc += 0.5 * grid.dt * (*prev + v);
+                }
+                *prev = v;
             }
-            values[c][k] = u;
-            c += 1;
-            for &v in x.iter().chain(&eta).chain(&outs) {
-                values[c][k] = v;
-                c += 1;
+            // Input range and bound violations: maximal runs of consecutive samples outside the bounds.
+            u_min = u_min.min(u);
+            u_max = u_max.max(u);
+            let outside = umin_bound.is_some_and(|b| u < b) || umax_bound.is_some_and(|b| u > b);
+            match (&mut open_violation, outside) {
+                (Some(v), true) => v[1] = t,
+                (None, true) => open_violation = Some([t, t]),
+                (Some(v), false) => {
+                    violations.push(*v);
+                    open_violation = None;
+                }
+                (None, false) => {}
             }
         }
+        k0 = k1;
     }
-    drop(values);
     if let Some(v) = open_violation {
         violations.push(v);
     }

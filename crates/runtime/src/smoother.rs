@@ -235,6 +235,108 @@ impl Smoother {
         }
     }
 
+    /// y_d and its derivatives on a whole grid of increasing times: `out[n][k] = y_d^(n)(times[k])` for
+    /// n = 0 … out.len() − 1. Same values as [`Smoother::eval`] at each time (to rounding), computed corner
+    /// by corner instead of time by time:
+    ///
+    /// ```text
+    /// y_d(t)     = y_c(t) + Σ_{|u|<a} Δs_j [R(u) − u₊],   y_d'(t) = s(t) + Σ_{|u|<a} Δs_j [K(u) − H(u)],
+    /// y_d^(n)(t) = Σ_{|u|<a} Δs_j k^(n−2)(u),             u = t − t_j,  H(u) = 1 for u ≥ 0,
+    /// ```
+    ///
+    /// with s(t) the slope of the cycle at t. When `dt` is given and a corner lies on the grid
+    /// (t_j − times[0] a whole number of steps), its offsets u are whole multiples of dt, and the kernel terms
+    /// come from a table over ±a built once per call: the cost is then O(samples + corners·a/dt) additions
+    /// instead of one kernel evaluation per corner and sample.
+    pub fn eval_grid(&self, times: &[f64], dt: Option<f64>, out: &mut [&mut [f64]]) {
+        let orders = out.len();
+        if orders == 0 || times.is_empty() {
+            return;
+        }
+        for col in out.iter_mut() {
+            assert!(col.len() >= times.len(), "output column shorter than the grid");
+        }
+        // Base: y_c(t) and s(t), walking the corners along the increasing grid.
+        let mut next = 0; // first corner > t
+        for (k, &t) in times.iter().enumerate() {
+            while next < self.corners.len() && self.corners[next] <= t {
+                next += 1;
+            }
+            let (y, s) = match next.checked_sub(1) {
+                Some(i) if self.slope_after[i] == 0.0 => (self.value_at[i], 0.0),
+                Some(i) => (self.value_at[i] + self.slope_after[i] * (t - self.corners[i]), self.slope_after[i]),
+                None => (self.first_value, 0.0),
+            };
+            out[0][k] = y;
+            if orders > 1 {
+                out[1][k] = s;
+            }
+            for col in out.iter_mut().skip(2) {
+                col[k] = 0.0;
+            }
+        }
+        let a = self.kernel.half_width();
+        let t0 = times[0];
+        let mut terms = vec![0.0; orders.max(2)];
+        // c_n(u) for one offset: [R(u) − u₊, K(u) − H(u), k(u), k'(u), …].
+        let corner_terms = |u: f64, terms: &mut [f64]| {
+            let (k, r) = self.kernel.integral_and_ramp_offset(u);
+            terms[0] = r;
+            terms[1] = k - if u >= 0.0 { 1.0 } else { 0.0 };
+            if terms.len() > 2 {
+                self.kernel.derivatives(u, &mut terms[2..]);
+            }
+        };
+        // Table of c_n(i·dt), |i·dt| < a, for corners on the grid.
+        let table = dt.filter(|&h| h > 0.0 && h.is_finite() && a / h < 1e7).map(|h| {
+            let m = (a / h).ceil() as i64;
+            let mut rows = vec![0.0; (2 * m as usize + 1) * orders.max(2)];
+            for i in -m..=m {
+                let u = i as f64 * h;
+                let at = (i + m) as usize * orders.max(2);
+                if u.abs() < a {
+                    corner_terms(u, &mut rows[at..at + orders.max(2)]);
+                }
+            }
+            (h, m, rows)
+        });
+        let width = orders.max(2);
+        for (&tj, &jump) in self.corners.iter().zip(&self.jumps) {
+            // Grid points with |t_k − t_j| < a.
+            let lo = times.partition_point(|&t| t <= tj - a);
+            let hi = times.partition_point(|&t| t < tj + a);
+            if lo >= hi {
+                continue;
+            }
+            let aligned = table.as_ref().and_then(|(h, m, rows)| {
+                let steps = (tj - t0) / h;
+                let mj = steps.round();
+                ((steps - mj).abs() <= 1e-9 * steps.abs().max(1.0)).then_some((mj as i64, *m, rows))
+            });
+            for k in lo..hi {
+                let src: &[f64] = match aligned {
+                    Some((mj, m, rows)) => {
+                        let i = k as i64 - mj;
+                        if i.abs() > m {
+                            corner_terms(times[k] - tj, &mut terms);
+                            &terms
+                        } else {
+                            let at = (i + m) as usize * width;
+                            &rows[at..at + width]
+                        }
+                    }
+                    None => {
+                        corner_terms(times[k] - tj, &mut terms);
+                        &terms
+                    }
+                };
+                for (n, col) in out.iter_mut().enumerate() {
+                    col[k] += jump * src[n];
+                }
+            }
+        }
+    }
+
     /// `y_d^(order)(t)` alone; see [`Smoother::eval`].
     pub fn derivative(&self, order: usize, t: f64) -> f64 {
         let mut buf = [0.0; 8];

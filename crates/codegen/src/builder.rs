@@ -1,0 +1,210 @@
+//! The build-script API, in the style of `prost-build`: generate Rust modules for model files into a
+//! directory, rewriting a file only when its contents change, and tell Cargo which files to watch.
+//!
+//! ```no_run
+//! // build.rs
+//! fn main() -> Result<(), invsim_codegen::Error> {
+//!     invsim_codegen::Builder::new().model("model.toml").compile()?;
+//!     Ok(())
+//! }
+//! // src/lib.rs: include!(concat!(env!("OUT_DIR"), "/<model name>.rs"));
+//! ```
+
+use crate::{generate, header, source_name, CodegenError, Error};
+use proc_macro2::TokenStream;
+use quote::{format_ident, quote};
+use std::path::{Path, PathBuf};
+
+/// Generates one Rust module per model file.
+#[derive(Debug, Clone)]
+pub struct Builder {
+    models: Vec<PathBuf>,
+    out_dir: Option<PathBuf>,
+    cargo_metadata: bool,
+}
+
+impl Default for Builder {
+    fn default() -> Builder {
+        Builder::new()
+    }
+}
+
+/// What [`Builder::compile`] wrote for one model.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Generated {
+    /// The model's name (its `name`, or the file stem).
+    pub name: String,
+    /// The module the file defines (`pub mod <module>`), also the file stem of [`Generated::path`].
+    pub module: String,
+    /// The model file.
+    pub source: PathBuf,
+    /// SHA-256 of the model file (lower-case hex).
+    pub source_hash: String,
+    /// The generated Rust file.
+    pub path: PathBuf,
+    /// Was the file (re)written? False when its contents were already up to date.
+    pub written: bool,
+}
+
+impl Builder {
+    /// A builder with no models, writing to `$OUT_DIR` and printing `cargo:rerun-if-changed` lines.
+    pub fn new() -> Builder {
+        Builder { models: Vec::new(), out_dir: None, cargo_metadata: true }
+    }
+
+    /// Add a model file.
+    pub fn model(mut self, path: impl AsRef<Path>) -> Builder {
+        self.models.push(path.as_ref().to_path_buf());
+        self
+    }
+
+    /// Add several model files.
+    pub fn models<P: AsRef<Path>>(mut self, paths: impl IntoIterator<Item = P>) -> Builder {
+        self.models.extend(paths.into_iter().map(|p| p.as_ref().to_path_buf()));
+        self
+    }
+
+    /// Where to write `<module>.rs` (default: the `OUT_DIR` Cargo gives build scripts).
+    pub fn out_dir(mut self, dir: impl AsRef<Path>) -> Builder {
+        self.out_dir = Some(dir.as_ref().to_path_buf());
+        self
+    }
+
+    /// Print `cargo:rerun-if-changed=<model file>` for every model read (default: on).
+    pub fn cargo_metadata(mut self, on: bool) -> Builder {
+        self.cargo_metadata = on;
+        self
+    }
+
+    /// Generate every model; stops at the first error (whose message for a bad model is the one
+    /// `invsim derive` prints).
+    pub fn compile(self) -> Result<Vec<Generated>, Error> {
+        let out_dir = match self.out_dir {
+            Some(d) => d,
+            None => std::env::var_os("OUT_DIR").map(PathBuf::from).ok_or(Error::NoOutDir)?,
+        };
+        std::fs::create_dir_all(&out_dir).map_err(|source| Error::Write { path: out_dir.clone(), source })?;
+        let mut done: Vec<Generated> = Vec::new();
+        for path in &self.models {
+            if self.cargo_metadata {
+                println!("cargo:rerun-if-changed={}", path.display());
+            }
+            let d = invsim_inversion::derive_file(path)?;
+            let module = crate::module_name(&d.model.name);
+            if let Some(first) = done.iter().find(|g| g.module == module) {
+                return Err(Error::DuplicateModule { module, first: first.source.clone(), second: path.clone() });
+            }
+            let rust = generate(&d, &source_name(path))?;
+            let target = out_dir.join(format!("{module}.rs"));
+            let written = write_if_changed(&target, &rust)?;
+            done.push(Generated {
+                name: d.model.name.clone(),
+                module,
+                source: path.clone(),
+                source_hash: d.model.source_hash.clone(),
+                path: target,
+                written,
+            });
+        }
+        Ok(done)
+    }
+}
+
+/// Write `text` to `path` unless the file already holds exactly that (keeps timestamps, so Cargo does not
+/// rebuild needlessly). Returns whether it wrote.
+pub(crate) fn write_if_changed(path: &Path, text: &str) -> Result<bool, Error> {
+    if std::fs::read(path).is_ok_and(|old| old == text.as_bytes()) {
+        return Ok(false);
+    }
+    std::fs::write(path, text).map_err(|source| Error::Write { path: path.to_path_buf(), source })?;
+    Ok(true)
+}
+
+/// Source of a registry over generated modules: `include!`s each file (by absolute path) and defines
+/// `NAMES`, `MODELS` (name, SHA-256, model file name), `names()`, `builtin(name)` and `by_hash(sha256)`,
+/// the last two returning the model at its default parameters as a boxed `InverseModel`.
+pub fn registry(models: &[Generated]) -> Result<String, CodegenError> {
+    let mut sorted: Vec<&Generated> = models.iter().collect();
+    sorted.sort_by(|a, b| a.name.cmp(&b.name));
+    let includes = sorted.iter().map(|g| {
+        let p = g.path.display().to_string();
+        quote!(include!(#p);)
+    });
+    let names: Vec<&str> = sorted.iter().map(|g| g.name.as_str()).collect();
+    let rows = sorted.iter().map(|g| {
+        let (n, h, f) = (&g.name, &g.source_hash, source_name(&g.source));
+        quote!((#n, #h, #f))
+    });
+    let ctor = |g: &Generated| -> TokenStream {
+        let m = format_ident!("{}", g.module);
+        quote!(Some(Box::new(#m::Model::default())))
+    };
+    let by_name = sorted.iter().map(|g| {
+        let (n, c) = (&g.name, ctor(g));
+        quote!(#n => #c,)
+    });
+    let mut seen = std::collections::HashSet::new();
+    let by_hash: Vec<TokenStream> = sorted
+        .iter()
+        .filter(|g| seen.insert(g.source_hash.clone()))
+        .map(|g| {
+            let (h, c) = (&g.source_hash, ctor(g));
+            quote!(#h => #c,)
+        })
+        .collect();
+    let (builtin, by_hash) = if sorted.is_empty() {
+        (
+            quote! {
+                pub fn builtin(_name: &str) -> Option<Box<dyn invsim_model_api::InverseModel>> {
+                    None
+                }
+            },
+            quote! {
+                pub fn by_hash(_sha256: &str) -> Option<Box<dyn invsim_model_api::InverseModel>> {
+                    None
+                }
+            },
+        )
+    } else {
+        (
+            quote! {
+                pub fn builtin(name: &str) -> Option<Box<dyn invsim_model_api::InverseModel>> {
+                    match name {
+                        #(#by_name)*
+                        _ => None,
+                    }
+                }
+            },
+            quote! {
+                pub fn by_hash(sha256: &str) -> Option<Box<dyn invsim_model_api::InverseModel>> {
+                    match sha256 {
+                        #(#by_hash)*
+                        _ => None,
+                    }
+                }
+            },
+        )
+    };
+    let tokens = quote! {
+        #(#includes)*
+
+        /// Names of the compiled models, sorted.
+        pub const NAMES: &[&str] = &[#(#names),*];
+
+        /// (name, SHA-256 of the model file, model file name) of every compiled model, sorted by name.
+        pub const MODELS: &[(&str, &str, &str)] = &[#(#rows),*];
+
+        /// Names of the compiled models, sorted.
+        pub fn names() -> &'static [&'static str] {
+            NAMES
+        }
+
+        /// The compiled model called `name`, at its default parameters.
+        #builtin
+
+        /// The compiled model generated from a model file with this SHA-256 (lower-case hex), at its default
+        /// parameters.
+        #by_hash
+    };
+    crate::format::format_file(tokens, "// @generated by invsim: registry of compiled models; do not edit\n", &[], "the registry")
+}
