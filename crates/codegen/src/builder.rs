@@ -10,7 +10,7 @@
 //! // src/lib.rs: include!(concat!(env!("OUT_DIR"), "/<model name>.rs"));
 //! ```
 
-use crate::{generate, header, source_name, CodegenError, Error};
+use crate::{generate, source_name, CodegenError, Error};
 use proc_macro2::TokenStream;
 use quote::{format_ident, quote};
 use std::path::{Path, PathBuf};

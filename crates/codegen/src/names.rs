@@ -37,13 +37,6 @@ pub(crate) const RESERVED_LOCALS: &[&str] = &[
     "foo", "baz", "quux",
 ];
 
-/// Is `s` an identifier of the model language (and of Rust, modulo keywords)?
-pub(crate) fn is_identifier(s: &str) -> bool {
-    let mut chars = s.chars();
-    matches!(chars.next(), Some(c) if c.is_ascii_alphabetic() || c == '_')
-        && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
-}
-
 pub(crate) fn is_keyword(s: &str) -> bool {
     KEYWORDS.contains(&s)
 }
