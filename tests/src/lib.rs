@@ -1,1 +1,17 @@
-//! (in progress)
+//! Workspace-level acceptance tests (in `tests/`), and the compiled test models they use.
+//!
+//! The build script compiles `../shared/models/*.toml` (when that directory exists) into [`shared`] and this
+//! crate's `models/*.toml` into [`extra`], each with a registry like `invsim-models`' (`builtin`, `by_hash`,
+//! `MODELS`) plus `SKIPPED`, the model files that did not derive.
+#![deny(clippy::all)]
+
+/// The compiled acceptance models of `../shared/models`.
+#[cfg(has_shared)]
+pub mod shared {
+    include!(concat!(env!("OUT_DIR"), "/shared/registry.rs"));
+}
+
+/// The compiled models of `tests/models`.
+pub mod extra {
+    include!(concat!(env!("OUT_DIR"), "/extra/registry.rs"));
+}

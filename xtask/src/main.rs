@@ -1,1 +1,72 @@
-fn main() {}
+//! `cargo xtask`: the workspace's developer tasks (see the library's documentation).
+
+use clap::{Parser, Subcommand};
+use std::path::PathBuf;
+use std::process::ExitCode;
+use xtask::{docs, gen, golden, workspace_root, Failure};
+
+#[derive(Parser, Debug)]
+#[command(name = "xtask", about = "invsim developer tasks", long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    task: Task,
+}
+
+#[derive(Subcommand, Debug)]
+enum Task {
+    /// Write the Rust source (<name>.rs) and Markdown derivation (<name>.md) of one model file.
+    Gen {
+        /// The model file (TOML).
+        model: PathBuf,
+        /// Output directory [default: target/invsim-gen/ under the workspace root].
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// Regenerate docs/models/<name>.md for every models/*.toml, and docs/README.md.
+    Docs {
+        /// Write nothing; fail listing the stale files.
+        #[arg(long)]
+        check: bool,
+    },
+    /// Check the golden generated source crates/codegen/tests/golden/si_engine.rs.
+    Golden {
+        /// Overwrite the golden file with the current output.
+        #[arg(long)]
+        bless: bool,
+    },
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let root = workspace_root();
+    let result: Result<(), Failure> = match cli.task {
+        Task::Gen { model, out } => gen::run(&root, &model, out.as_deref()).map(|w| {
+            println!("wrote {}\nwrote {}", w.rust.display(), w.markdown.display());
+        }),
+        Task::Docs { check } => docs::run(&root, check).map(|written| {
+            if check {
+                println!("docs are up to date");
+            } else if written.is_empty() {
+                println!("docs are up to date");
+            } else {
+                for w in written {
+                    println!("updated {}", w.display());
+                }
+            }
+        }),
+        Task::Golden { bless } => golden::run(&root, bless).map(|path| {
+            if bless {
+                println!("blessed {}", path.display());
+            } else {
+                println!("{} is up to date", path.display());
+            }
+        }),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(f) => {
+            eprintln!("invsim: error: {}", f.message);
+            ExitCode::from(f.code)
+        }
+    }
+}

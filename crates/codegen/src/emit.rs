@@ -183,7 +183,10 @@ pub(crate) fn float_tokens(x: f64, receiver: bool) -> TokenStream {
     }
     let neg = x.is_sign_negative() && x != 0.0;
     let mag = x.abs();
-    let body = if let Some((name, _)) = STD_CONSTS.iter().find(|(_, v)| *v == mag) {
+    let body = if mag == std::f64::consts::PI {
+        // The module imports `std::f64::consts::PI`.
+        quote!(PI)
+    } else if let Some((name, _)) = STD_CONSTS.iter().find(|(_, v)| *v == mag) {
         let id = Ident::new(name, Span::call_site());
         quote!(std::f64::consts::#id)
     } else {
@@ -236,7 +239,12 @@ pub(crate) struct Block {
     pub roots: Vec<Ex>,
     /// Does the code call the module's `sign` helper?
     pub uses_sign: bool,
+    /// Does it contain `x.max(a).min(b)` or `x.min(b).max(a)` (which clippy would have written `clamp`)?
+    pub clamp_like: bool,
 }
+
+const USES_SIGN: u8 = 1;
+const CLAMP_LIKE: u8 = 2;
 
 /// Print `roots` (values of `arena` or atoms) with common subexpressions bound.
 ///
@@ -278,7 +286,7 @@ pub(crate) fn render(
     }
     let mut names: Vec<Option<Ident>> = vec![None; n];
     let mut lets = Vec::new();
-    let mut uses_sign = false;
+    let mut flags = 0u8;
     let mut counter = 0;
     for i in 0..n {
         if !reachable[i] || (uses[i] < 2 && !fixed.contains_key(&i)) {
@@ -289,13 +297,13 @@ pub(crate) fn render(
             counter += 1;
             id
         });
-        let ex = op_ex(arena.ops[i], arena, &names, index, atom, &mut uses_sign);
+        let ex = op_ex(arena.ops[i], arena, &names, index, atom, &mut flags);
         let t = ex.tokens(0);
         lets.push(quote!(let #name = #t;));
         names[i] = Some(name);
     }
-    let roots = roots.iter().map(|&v| val_ex(v, arena, &names, index, atom, &mut uses_sign)).collect();
-    Block { lets, roots, uses_sign }
+    let roots = roots.iter().map(|&v| val_ex(v, arena, &names, index, atom, &mut flags)).collect();
+    Block { lets, roots, uses_sign: flags & USES_SIGN != 0, clamp_like: flags & CLAMP_LIKE != 0 }
 }
 
 fn val_ex(
@@ -304,12 +312,12 @@ fn val_ex(
     names: &[Option<Ident>],
     index: &dyn Fn(Val) -> Option<usize>,
     atom: &dyn Fn(Val) -> Ex,
-    uses_sign: &mut bool,
+    flags: &mut u8,
 ) -> Ex {
     match index(v) {
         Some(i) => match &names[i] {
             Some(name) => Ex::Atom(name.to_token_stream()),
-            None => op_ex(arena.ops[i], arena, names, index, atom, uses_sign),
+            None => op_ex(arena.ops[i], arena, names, index, atom, flags),
         },
         None => atom(v),
     }
@@ -321,9 +329,9 @@ fn op_ex(
     names: &[Option<Ident>],
     index: &dyn Fn(Val) -> Option<usize>,
     atom: &dyn Fn(Val) -> Ex,
-    uses_sign: &mut bool,
+    flags: &mut u8,
 ) -> Ex {
-    let mut e = |v: Val| val_ex(v, arena, names, index, atom, uses_sign);
+    let mut e = |v: Val| val_ex(v, arena, names, index, atom, flags);
     match op {
         Op::Add(a, b) => Ex::bin(BinOp::Add, e(a), e(b)),
         Op::Sub(a, b) => Ex::bin(BinOp::Sub, e(a), e(b)),
@@ -353,16 +361,21 @@ fn op_ex(
         }
         Op::Call(Func::Sign, a) => {
             let a = e(a);
-            *uses_sign = true;
+            *flags |= USES_SIGN;
             Ex::Call("sign", vec![a])
         }
         Op::Call(f, a) => Ex::Method(Box::new(e(a)), method(f), vec![]),
         Op::Call2(f, a, b) => {
+            // min and max are symmetric: a constant goes in the argument (`v.max(0.0)`, not `0.0_f64.max(v)`).
+            let (a, b) = if matches!(a, Val::Num(_) | Val::Pi) { (b, a) } else { (a, b) };
             let (a, b) = (e(a), e(b));
-            let m = match f {
-                Func2::Min => "min",
-                Func2::Max => "max",
+            let (m, other) = match f {
+                Func2::Min => ("min", "max"),
+                Func2::Max => ("max", "min"),
             };
+            if matches!(&a, Ex::Method(_, inner, _) if *inner == other) {
+                *flags |= CLAMP_LIKE;
+            }
             Ex::Method(Box::new(a), m, vec![b])
         }
     }
@@ -405,7 +418,8 @@ mod tests {
         assert_eq!(float_text(1300.0), "1300.0");
         assert_eq!(float_text(0.075), "0.075");
         assert_eq!(float_text(1e30), "1e30");
-        assert_eq!(float_tokens(std::f64::consts::PI, false).to_string(), "std :: f64 :: consts :: PI");
+        assert_eq!(float_tokens(std::f64::consts::PI, false).to_string(), "PI");
+        assert_eq!(float_tokens(std::f64::consts::E, true).to_string(), "std :: f64 :: consts :: E");
         assert_eq!(float_tokens(-0.5, false).to_string(), "- 0.5");
         assert!(looks_like_std_constant("3.14") && looks_like_std_constant("0.7071"));
         assert!(!looks_like_std_constant("3.1") && !looks_like_std_constant("0.32") && !looks_like_std_constant("9.81"));

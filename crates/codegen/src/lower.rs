@@ -118,6 +118,8 @@ struct FnLowering<'a, 'p> {
     inputs: &'a HashMap<Symbol, ()>,
     arena: Arena,
     memo: HashMap<Id, Val>,
+    /// Sums as (negative?, magnitude), see `lower_sum`.
+    signed_memo: HashMap<Id, (bool, Val)>,
     /// (base, fractional part of the exponent) → smallest exponent with that fractional part.
     min_power: HashMap<(Id, Number), Number>,
 }
@@ -126,7 +128,7 @@ struct FnLowering<'a, 'p> {
 pub(crate) fn lower(inv: &mut Invariants<'_>, roots: &[Id], inputs: &[Symbol]) -> Result<Lowered, Unbound> {
     let input_set: HashMap<Symbol, ()> = inputs.iter().map(|&s| (s, ())).collect();
     let pool = inv.pool;
-    let mut l = FnLowering { inv, inputs: &input_set, arena: Arena::default(), memo: HashMap::new(), min_power: HashMap::new() };
+    let mut l = FnLowering { inv, inputs: &input_set, arena: Arena::default(), memo: HashMap::new(), signed_memo: HashMap::new(), min_power: HashMap::new() };
     for id in pool.topological(roots) {
         if let Node::Pow(base, p) = pool.node(id) {
             if let Some(k) = pool.as_number(*p) {
@@ -194,15 +196,13 @@ impl FnLowering<'_, '_> {
                 }
                 Val::Sym(s)
             }
-            Node::Add(ts) => {
-                let mut terms = Vec::with_capacity(ts.len());
-                for &t in ts.iter() {
-                    terms.push(self.lower_signed(t)?);
+            Node::Add(_) => {
+                let (neg, v) = self.lower_sum(e)?;
+                if neg {
+                    self.emit(Op::Neg(v))
+                } else {
+                    v
                 }
-                // Parameter-only terms first, so that their partial sum is hoisted.
-                let (mut first, rest): (Vec<_>, Vec<_>) = terms.into_iter().partition(|&(_, v)| self.is_param(v));
-                first.extend(rest);
-                self.sum(&first)
             }
             Node::Mul(_) | Node::Pow(..) => {
                 let (neg, v) = self.lower_product(e, false)?;
@@ -223,6 +223,35 @@ impl FnLowering<'_, '_> {
         };
         self.memo.insert(e, v);
         Ok(v)
+    }
+
+    /// A sum as (negative?, magnitude): when every term comes out negative, −(|t1| + |t2| + …) is returned as
+    /// the sum of the magnitudes with the sign separate, so that a product or a sum around it can absorb
+    /// the sign (`k·(−a − b)` becomes `−k·(a + b)`).
+    fn lower_sum(&mut self, e: Id) -> Result<(bool, Val), Unbound> {
+        if let Some(&r) = self.signed_memo.get(&e) {
+            return Ok(r);
+        }
+        let ts: Vec<Id> = match self.pool().node(e) {
+            Node::Add(ts) => ts.to_vec(),
+            _ => vec![e],
+        };
+        let mut terms = Vec::with_capacity(ts.len());
+        for t in ts {
+            terms.push(self.lower_signed(t)?);
+        }
+        let all_negative = terms.iter().all(|&(neg, _)| neg);
+        if all_negative {
+            for t in terms.iter_mut() {
+                t.0 = false;
+            }
+        }
+        // Parameter-only terms first, so that their partial sum is hoisted.
+        let (mut first, rest): (Vec<_>, Vec<_>) = terms.into_iter().partition(|&(_, v)| self.is_param(v));
+        first.extend(rest);
+        let r = (all_negative, self.sum(&first));
+        self.signed_memo.insert(e, r);
+        Ok(r)
     }
 
     /// Σ ±t as a chain of additions and subtractions, left to right; leading negative terms are subtracted
@@ -264,6 +293,7 @@ impl FnLowering<'_, '_> {
         match self.pool().node(t) {
             Node::Num(n) if n.is_negative() => Ok((true, Val::Num(n.neg()))),
             Node::Mul(_) => self.lower_product(t, true),
+            Node::Add(_) => self.lower_sum(t),
             _ => Ok((false, self.lower(t)?)),
         }
     }
@@ -301,6 +331,14 @@ impl FnLowering<'_, '_> {
                         num.push(v)
                     }
                 },
+                Node::Add(_) => {
+                    // A sum that came out negative gives its sign to the coefficient.
+                    let (neg, v) = self.lower_sum(f)?;
+                    if neg {
+                        coeff = coeff.neg();
+                    }
+                    num.push(v)
+                }
                 _ => {
                     let v = self.lower(f)?;
                     num.push(v)

@@ -493,6 +493,8 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
     let no = m.outputs.len();
     let param_syms: Vec<Symbol> = m.parameters.iter().map(|p| p.symbol).collect();
     let module_ident = format_ident!("{}", names::module_name(&m.name));
+    let lit = |i: usize| proc_macro2::Literal::usize_unsuffixed(i);
+    let (n_lit, r_lit, ne_lit, np_lit, no_lit) = (lit(n), lit(r), lit(ne), lit(np), lit(no));
 
     // ----- lower every function; parameter-only work lands in one shared arena ------------------------
     let mut inv = Invariants::new(pool, &param_syms);
@@ -605,6 +607,11 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
         let lets = &block.lets;
         let name = format_ident!("{}", f.name);
         let doc = doc_attrs(&f.doc);
+        let allow_clamp = if block.clamp_like {
+            quote!(#[allow(clippy::manual_clamp)])
+        } else {
+            quote!()
+        };
         let (ret_ty, result) = if f.name == "invert" {
             // (x, α, β) → (x, (y^(r) − α)/β), with α and β named when they are not single tokens.
             let mut items: Vec<Ex> = block.roots.clone();
@@ -638,6 +645,7 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
         };
         methods.push(quote! {
             #doc
+            #allow_clamp
             pub fn #name(&self, #(#params_sig),*) -> #ret_ty {
                 #p_let
                 #(#destructure)*
@@ -664,8 +672,14 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
     let mut helpers: Vec<TokenStream> = Vec::new();
     if !g.closed {
         let target: Vec<TokenStream> = (0..r)
-            .map(|i| quote!(xi[#i]))
-            .chain((0..ne).map(|j| quote!(eta[#j])))
+            .map(|i| {
+                let i = lit(i);
+                quote!(xi[#i])
+            })
+            .chain((0..ne).map(|j| {
+                let j = lit(j);
+                quote!(eta[#j])
+            }))
             .collect();
         let xi_name = if r > 0 { quote!(xi) } else { quote!(_xi) };
         let eta_name = if ne > 0 { quote!(eta) } else { quote!(_eta) };
@@ -831,7 +845,7 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
                 true
             }
         });
-        let iter = NEWTON_MAX_ITER;
+        let iter = lit(NEWTON_MAX_ITER);
         helpers.push(quote! {
             /// Largest number of Newton iterations for ψ⁻¹ (the interpreter's limit).
             pub const NEWTON_MAX_ITER: usize = #iter;
@@ -907,7 +921,7 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
             },
         )
     };
-    let idx: Vec<usize> = (0..np).collect();
+    let idx: Vec<proc_macro2::Literal> = (0..np).map(lit).collect();
     let (get_fn, set_fn, from_array_fn) = if np == 0 {
         (
             quote! {
@@ -1076,7 +1090,8 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
             quote!(OutputInfo { name: #name.to_string(), unit: #unit, accumulate: #acc })
         })
         .collect();
-    let outputs_vec = if outputs_info.is_empty() { quote!(Vec::new()) } else { quote!(vec![#(#outputs_info),*]) };
+    let outputs_vec =
+        if outputs_info.is_empty() { quote!(Vec::new()) } else { quote!(Vec::from([#(#outputs_info),*])) };
     let (input_min, input_max) = (opt_f64(m.input.min), opt_f64(m.input.max));
 
     // ----- module doc and attributes ------------------------------------------------------------------------
@@ -1106,8 +1121,13 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
     mod_doc.push(String::new());
     mod_doc.push(format!("Generated from `{source_name}` (sha256 `{hash}`)."));
     let mod_doc = doc_attrs(&mod_doc);
-    let mut comments = Vec::new();
+    let mut comments: Vec<(String, String)> = Vec::new();
     let mut attrs = TokenStream::new();
+    comments.push((
+        "#[allow(clippy::manual_clamp)]".to_string(),
+        "min(max(x, a), b) as the model language defines it: NaN gives a bound, where `clamp` would give NaN."
+            .to_string(),
+    ));
     if g.non_snake {
         attrs.extend(quote!(#[allow(non_snake_case)]));
         comments.push((
@@ -1117,8 +1137,13 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
     }
 
     let description_lit = lit_str(&description);
+    let imports = if has_outputs {
+        quote!(use invsim_model_api::{InverseModel, ModelError, ModelInfo, OutputInfo};)
+    } else {
+        quote!(use invsim_model_api::{InverseModel, ModelError, ModelInfo};)
+    };
     let body = quote! {
-        use invsim_model_api::{InverseModel, ModelError, ModelInfo, OutputInfo};
+        #imports
 
         /// Model name.
         pub const NAME: &str = #name;
@@ -1129,15 +1154,15 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
         /// SHA-256 of the model file's bytes (lower-case hex).
         pub const SOURCE_HASH: &str = #hash;
         /// Number of states n.
-        pub const N: usize = #n;
+        pub const N: usize = #n_lit;
         /// Relative degree r.
-        pub const R: usize = #r;
+        pub const R: usize = #r_lit;
         /// Number of internal coordinates η (n − r).
-        pub const N_ETA: usize = #ne;
+        pub const N_ETA: usize = #ne_lit;
         /// Number of parameters.
-        pub const N_PARAMS: usize = #np;
+        pub const N_PARAMS: usize = #np_lit;
         /// Number of extra outputs.
-        pub const N_OUTPUTS: usize = #no;
+        pub const N_OUTPUTS: usize = #no_lit;
         /// State names, in the model file's order.
         pub const STATES: [&str; N] = [#(#state_names),*];
         /// The input's name.
@@ -1294,6 +1319,11 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
                 .to_string(),
         ));
     }
+    let body = if uses_pi(body.clone(), None) {
+        quote!(use std::f64::consts::PI; #body)
+    } else {
+        body
+    };
     let tokens = quote! {
         #mod_doc
         #attrs
@@ -1335,6 +1365,29 @@ fn resembles_std_constant(tokens: TokenStream) -> bool {
         }
         _ => false,
     })
+}
+
+/// Does the code use `PI` as a name of its own (not as a field `p.PI` or a path segment)?
+fn uses_pi(tokens: TokenStream, mut prev: Option<char>) -> bool {
+    for t in tokens {
+        match t {
+            proc_macro2::TokenTree::Group(g) => {
+                if uses_pi(g.stream(), None) {
+                    return true;
+                }
+                prev = None;
+            }
+            proc_macro2::TokenTree::Ident(i) => {
+                if i == "PI" && !matches!(prev, Some('.' | ':')) {
+                    return true;
+                }
+                prev = None;
+            }
+            proc_macro2::TokenTree::Punct(p) => prev = Some(p.as_char()),
+            proc_macro2::TokenTree::Literal(_) => prev = None,
+        }
+    }
+    false
 }
 
 /// Brackets in doc text would read as intra-doc links.

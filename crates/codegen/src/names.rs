@@ -30,9 +30,9 @@ pub(crate) const RESERVED_LOCALS: &[&str] = &[
     "invert", "zero_dynamics", "zero_dynamics_x", "rhs", "outputs", "lu_solve", "sign", "arr",
     // imports and the prelude's patterns
     "InverseModel", "ModelError", "ModelInfo", "OutputInfo", "None", "Some", "Ok", "Err", "Option", "Result",
-    "String", "Vec", "Box", "std", "core", "f64", "serde",
+    "String", "Vec", "Box", "std", "core", "f64", "serde", "PI",
     // argument and local names of generated functions
-    "p", "x", "xi", "eta", "u", "yr", "guess", "target", "value", "jacobian", "step", "residual",
+    "p", "x", "xi", "eta", "yr", "alpha", "beta", "guess", "target", "value", "jacobian", "step", "residual",
     // names clippy's `disallowed_names` rejects by default
     "foo", "baz", "quux",
 ];

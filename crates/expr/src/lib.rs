@@ -27,4 +27,4 @@ pub use pool::{Id, Node, Pool, Symbol};
 pub use print::latex_symbol;
 pub use rules::{Func, Func2, FunctionRule, Rewrite, FUNCTION_RULES};
 pub use tape::{Instr, Tape};
-pub use zero::{zero_test, DecidedBy, Rng, ZeroVerdict};
+pub use zero::{eval_with_error, zero_test, DecidedBy, Rng, ZeroVerdict};

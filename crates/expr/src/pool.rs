@@ -18,6 +18,17 @@ use crate::rules::{self, Func, Func2};
 use std::cmp::Ordering;
 use std::collections::HashMap;
 
+fn gcd_i128(mut a: i128, mut b: i128) -> i128 {
+    a = a.abs();
+    b = b.abs();
+    while b != 0 {
+        let t = a % b;
+        a = b;
+        b = t;
+    }
+    a
+}
+
 /// Handle of an interned expression in a [`Pool`].
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, PartialOrd, Ord)]
 pub struct Id(pub(crate) u32);
@@ -288,6 +299,42 @@ impl Pool {
         }
     }
 
+    /// The numeric content of a sum: `6a − 4b → (2, 3a − 2b)`, `−a − b → (−1, a + b)`; the primitive part
+    /// has coprime integer-or-rational coefficients and a positive first non-numeric term. `None` when the
+    /// content is 1, the expression is not a sum, or a coefficient is inexact.
+    pub fn content(&mut self, e: Id) -> Option<(Number, Id)> {
+        let Node::Add(ts) = self.node(e) else { return None };
+        let ts = ts.to_vec();
+        let mut g: i128 = 0;
+        let mut l: i128 = 1;
+        let mut sign_negative = None;
+        for &t in &ts {
+            let c = match self.node(t) {
+                Node::Num(n) => *n,
+                _ => {
+                    let c = self.split_coefficient(t).0;
+                    if sign_negative.is_none() {
+                        sign_negative = Some(c.is_negative());
+                    }
+                    c
+                }
+            };
+            let Number::Rational(p, q) = c else { return None };
+            g = gcd_i128(g, p);
+            l = l.checked_div(gcd_i128(l, q))?.checked_mul(q)?;
+        }
+        if g == 0 {
+            return None;
+        }
+        let content = Number::ratio(if sign_negative == Some(true) { -g } else { g }, l);
+        if content.is_one() {
+            return None;
+        }
+        let inv = self.num(content.recip()?);
+        let scaled: Vec<Id> = ts.iter().map(|&t| self.mul(&[inv, t])).collect();
+        Some((content, self.add(&scaled)))
+    }
+
     /// Canonical n-ary sum.
     pub fn add(&mut self, terms: &[Id]) -> Id {
         let mut constant = Number::ZERO;
@@ -378,15 +425,28 @@ impl Pool {
                         order.push(b);
                         Vec::new()
                     });
-                    exps.get_mut(&b).map(|v| v.push(e));
+                    if let Some(v) = exps.get_mut(&b) {
+                        v.push(e);
+                    }
                 }
                 _ => {
+                    // A sum factor contributes its numeric content to the coefficient, so that
+                    // 3(a + b)c and (a + b)c·3 meet the same canonical form.
+                    let f = match self.content(f) {
+                        Some((c, primitive)) => {
+                            coeff = coeff.mul(c);
+                            primitive
+                        }
+                        None => f,
+                    };
                     let one = self.one();
                     exps.entry(f).or_insert_with(|| {
                         order.push(f);
                         Vec::new()
                     });
-                    exps.get_mut(&f).map(|v| v.push(one));
+                    if let Some(v) = exps.get_mut(&f) {
+                        v.push(one);
+                    }
                 }
             }
         }
@@ -532,6 +592,17 @@ impl Pool {
                         let cp = self.pow(c, e);
                         let rp = self.pow(rest, e);
                         return self.mul(&[cp, rp]);
+                    }
+                }
+            }
+            (Node::Add(_), Some(en)) => {
+                // (c·P)^e = c^e·P^e for the content c of a sum, when e is an integer or c > 0.
+                if let Some((c, primitive)) = self.content(b) {
+                    if en.as_integer().is_some() || !c.is_negative() {
+                        let cn = self.num(c);
+                        let ce = self.pow(cn, e);
+                        let pe = self.pow(primitive, e);
+                        return self.mul(&[ce, pe]);
                     }
                 }
             }

@@ -299,31 +299,111 @@ impl Printer<'_> {
         (parts.len(), parts.join(sep))
     }
 
-    fn print_fraction(&self, frac: &Fraction) -> (u8, String) {
-        // A numeric coefficient (or a unary minus) next to a lone sum would be distributed when the text is
-        // parsed back (`c*(a + b)*d` parses as (c·(a + b))·d, and c·(a + b) → c·a + c·b): a different
-        // canonical form. So when the numerator starts with a sum, the rest of the product is parenthesised,
-        // `c*((a + b)*d)`, and a denominator coefficient before a sum is divided out last, `x/(a + b)/2`.
-        let is_sum = |f: &Factor| f.exp.is_none() && f.sym_exp.is_none() && matches!(self.pool.node(f.base), Node::Add(_));
-        let text = !self.latex();
-        let (den_coeff, trailing) = match frac.den_coeff {
-            Some(c) if text && frac.den.first().is_some_and(is_sum) => (None, format!("/{}", self.number(c, P_MUL + 1))),
-            c => (c, String::new()),
-        };
-        if text && frac.num.first().is_some_and(is_sum) && (frac.negative || frac.num_coeff.is_some()) {
-            let (_, num) = self.product(None, &frac.num);
-            let (nd, den) = self.product(den_coeff, &frac.den);
-            let body = match nd {
-                0 => num,
-                1 => format!("{num}/{den}"),
-                _ => format!("{num}/({den})"),
+    /// The numeric coefficient of a term, and the term's fraction with that coefficient replaced by `k`.
+    fn scaled_fraction(&self, t: Id, k: Number) -> Fraction {
+        let mut frac = self.fraction(t);
+        let (neg, mag) = if k.is_negative() { (true, k.neg()) } else { (false, k) };
+        frac.negative = neg;
+        frac.num_coeff = None;
+        frac.den_coeff = None;
+        match mag {
+            // A terminating decimal prints as one number (0.2*c4, not c4/5).
+            Number::Rational(_, q) if q != 1 && !mag.to_string().contains('/') => frac.num_coeff = Some(mag),
+            Number::Rational(p, q) => {
+                if p != 1 {
+                    frac.num_coeff = Some(Number::int(p));
+                }
+                if q != 1 {
+                    frac.den_coeff = Some(Number::int(q));
+                }
+            }
+            Number::Float(_) => frac.num_coeff = Some(mag),
+        }
+        frac
+    }
+
+    fn coefficient(&self, t: Id) -> Number {
+        match self.pool.node(t) {
+            Node::Num(n) => *n,
+            Node::Mul(fs) => self.pool.as_number(fs[0]).unwrap_or(Number::ONE),
+            _ => Number::ONE,
+        }
+    }
+
+    /// Display only: a product c·(s1 + s2 + …)·rest with a non-integer rational c prints with c multiplied
+    /// into the sum when every coefficient then is a terminating decimal, so `(580 + 9*x^1.8)/1250` reads
+    /// `(0.464 + 0.0072*x^1.8)`. (The canonical form is independent of such grouping, so it parses back.)
+    fn scaled_sum(&self, frac: &Fraction) -> Option<(u8, String)> {
+        let den = frac.den_coeff?;
+        let mut c = frac.num_coeff.unwrap_or(Number::ONE).mul(den.recip()?);
+        if frac.negative {
+            c = c.neg();
+        }
+        // The sum factor whose scaled coefficients print shortest (all must be terminating decimals).
+        let mut best: Option<(usize, usize, Vec<Number>)> = None;
+        for (i, f) in frac.num.iter().enumerate() {
+            if f.exp.is_some() || f.sym_exp.is_some() {
+                continue;
+            }
+            let Node::Add(ts) = self.pool.node(f.base) else { continue };
+            let scaled: Vec<Number> = ts.iter().map(|&t| self.coefficient(t).mul(c)).collect();
+            let texts: Vec<String> = scaled.iter().map(|k| k.to_string()).collect();
+            if scaled.iter().any(|k| !k.is_exact()) || texts.iter().any(|t| t.contains('/')) {
+                continue;
+            }
+            let score: usize = texts.iter().map(|t| t.len()).sum();
+            if best.as_ref().is_none_or(|b| score < b.1) {
+                best = Some((i, score, scaled));
+            }
+        }
+        let (index, _, scaled) = best?;
+        let Node::Add(ts) = self.pool.node(frac.num[index].base) else { return None };
+        let mut sum = String::new();
+        for (i, (&t, &k)) in ts.iter().zip(&scaled).enumerate() {
+            let body = if self.pool.as_number(t).is_some() {
+                let mag = if k.is_negative() { k.neg() } else { k };
+                (k.is_negative(), self.number(mag, P_ADD + 1))
+            } else {
+                let mut f = self.scaled_fraction(t, k);
+                let neg = f.negative;
+                f.negative = false;
+                let (own, s) = self.print_fraction(&f);
+                (neg, self.wrap(s, own, P_ADD + 1))
             };
-            let sign = if frac.negative { "-" } else { "" };
-            let coeff = frac.num_coeff.map(|c| format!("{}*", self.number(c, P_MUL + 1))).unwrap_or_default();
-            return (if frac.negative { P_NEG } else { P_MUL }, format!("{sign}{coeff}({body}){trailing}"));
+            match (i, body.0) {
+                (0, true) => sum.push('-'),
+                (0, false) => {}
+                (_, true) => sum.push_str(" - "),
+                (_, false) => sum.push_str(" + "),
+            }
+            sum.push_str(&body.1);
+        }
+        let sum = if self.latex() { format!("\\left({sum}\\right)") } else { format!("({sum})") };
+        let others: Vec<Factor> = frac
+            .num
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| *i != index)
+            .map(|(_, f)| Factor { base: f.base, exp: f.exp, sym_exp: f.sym_exp })
+            .collect();
+        let (nn, rest) = self.product(None, &others);
+        let (nd, den) = self.product(None, &frac.den);
+        let sep = if self.latex() { " \\, " } else { "*" };
+        let num = if nn == 0 { sum } else { format!("{sum}{sep}{rest}") };
+        Some(match nd {
+            0 => (if nn == 0 { P_ATOM } else { P_MUL }, num),
+            _ if self.latex() => (P_ATOM, format!("\\frac{{{num}}}{{{den}}}")),
+            1 => (P_MUL, format!("{num}/{den}")),
+            _ => (P_MUL, format!("{num}/({den})")),
+        })
+    }
+
+    fn print_fraction(&self, frac: &Fraction) -> (u8, String) {
+        if let Some(scaled) = self.scaled_sum(frac) {
+            return scaled;
         }
         let (nn, num) = self.product(frac.num_coeff, &frac.num);
-        let (nd, den) = self.product(den_coeff, &frac.den);
+        let (nd, den) = self.product(frac.den_coeff, &frac.den);
         let num = if nn == 0 { "1".to_string() } else { num };
         let sign = if frac.negative { "-" } else { "" };
         if nd == 0 {
@@ -345,7 +425,7 @@ impl Printer<'_> {
         }
         // A single denominator factor binds tighter than `/` (atoms and `^`); a product needs parentheses.
         let den = if nd > 1 { format!("({den})") } else { den };
-        (if frac.negative { P_NEG } else { P_MUL }, format!("{sign}{num}/{den}{trailing}"))
+        (if frac.negative { P_NEG } else { P_MUL }, format!("{sign}{num}/{den}"))
     }
 }
 
@@ -376,7 +456,7 @@ mod tests {
         assert_eq!(round_trip("(a+b)^(1/3)"), "(a + b)^(1/3)");
         assert_eq!(round_trip("x^-2"), "1/x^2");
         assert_eq!(round_trip("(x^y)^z"), "(x^y)^z");
-        assert_eq!(round_trip("-(a+b)*c"), "c*(-a - b)");
+        assert_eq!(round_trip("-(a+b)*c"), "-c*(a + b)");
         round_trip("exp(-x)*sin(2*pi*t)/(1 + x^2)^1.5");
         round_trip("min(a, b) + max(-a, 3)");
         round_trip("1e-300*x + 2.5E+4");

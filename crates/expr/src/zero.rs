@@ -3,10 +3,12 @@
 //!
 //! Probing (Schwartz–Zippel in spirit: a nonzero analytic function vanishes on a measure-zero set) evaluates
 //! the expression at random points around the nominal parameter values and random values of every other
-//! symbol. A sum is taken as zero at a point when its value is below 1e-10 of the sum of its terms'
-//! magnitudes, which absorbs rounding.
+//! symbol. A point is consistent with zero when the computed value is within a small multiple of its own
+//! rounding-error bound (running error analysis, [`eval_with_error`]), so ill-conditioned identities such
+//! as log(1 + x^12) + log(1/(1 + x^12)) are not mistaken for nonzero.
 
 use crate::pool::{Id, Node, Pool, Symbol};
+use crate::rules::Func;
 use std::collections::HashMap;
 
 /// Which step of the zero test decided.
@@ -40,8 +42,6 @@ impl ZeroVerdict {
 
 /// Number of random points probed.
 pub const PROBES: usize = 24;
-/// Relative tolerance of a probe (against the magnitude of the expression's terms).
-pub const PROBE_RTOL: f64 = 1e-10;
 
 /// A small deterministic generator (SplitMix64), so that verdicts are reproducible.
 #[derive(Debug, Clone)]
@@ -65,20 +65,82 @@ impl Rng {
     }
 }
 
-/// Value and magnitude scale (sum of absolute values of a sum's terms) at a point.
-fn value_and_scale(pool: &Pool, e: Id, values: &HashMap<Symbol, f64>) -> Option<(f64, f64)> {
-    let v = pool.eval(e, values).ok()?;
-    let scale = match pool.node(e) {
-        Node::Add(ts) => {
-            let mut s = 0.0;
-            for &t in ts.iter() {
-                s += pool.eval(t, values).ok()?.abs();
+/// Unit roundoff of f64.
+const U: f64 = f64::EPSILON / 2.0;
+
+/// A probe is taken as zero when |value| ≤ this multiple of its rounding-error bound.
+pub const PROBE_SAFETY: f64 = 16.0;
+
+/// Value and a bound on its rounding error, by running error analysis over the DAG (Higham, *Accuracy and
+/// Stability of Numerical Algorithms*, 2nd ed., §3.3): inputs are exact, every operation adds one rounding
+/// relative to its result, and errors propagate through the first-order sensitivity of each operation
+/// (|∂f/∂a|·err(a)). `None` if a symbol has no value.
+pub fn eval_with_error(pool: &Pool, e: Id, values: &HashMap<Symbol, f64>) -> Option<(f64, f64)> {
+    let mut memo: HashMap<Id, (f64, f64)> = HashMap::new();
+    for id in pool.topological(&[e]) {
+        let ve = match pool.node(id) {
+            Node::Num(n) => {
+                let v = n.to_f64();
+                (v, if n.as_integer().is_some_and(|i| i.abs() < 1 << 53) { 0.0 } else { U * v.abs() })
             }
-            s
-        }
-        _ => v.abs(),
-    };
-    Some((v, scale))
+            Node::Pi => (std::f64::consts::PI, U * std::f64::consts::PI),
+            Node::Sym(s) => (*values.get(s)?, 0.0),
+            Node::Add(ts) => {
+                let (mut v, mut err, mut mag) = (0.0, 0.0, 0.0);
+                for t in ts.iter() {
+                    let (tv, te) = memo[t];
+                    v += tv;
+                    err += te;
+                    mag += tv.abs();
+                }
+                (v, err + ts.len() as f64 * U * mag)
+            }
+            Node::Mul(fs) => {
+                let vals: Vec<(f64, f64)> = fs.iter().map(|f| memo[f]).collect();
+                let v: f64 = vals.iter().map(|x| x.0).product();
+                let mut err = 0.0;
+                for (i, &(_, ei)) in vals.iter().enumerate() {
+                    if ei > 0.0 {
+                        let others: f64 =
+                            vals.iter().enumerate().filter(|(j, _)| *j != i).map(|(_, x)| x.0.abs()).product();
+                        err += ei * others;
+                    }
+                }
+                (v, err + fs.len() as f64 * U * v.abs())
+            }
+            Node::Pow(b, p) => {
+                let ((bv, be), (pv, pe)) = (memo[b], memo[p]);
+                let v = crate::calculus::pow_f64(bv, pool.as_number(*p), pv);
+                let db = if bv != 0.0 { (pv * v / bv).abs() } else { 0.0 };
+                let dp = if bv > 0.0 { (v * bv.ln()).abs() } else { 0.0 };
+                (v, db * be + dp * pe + (2.0 + pv.abs().min(64.0)) * U * v.abs())
+            }
+            Node::Call(f, a) => {
+                let (av, ae) = memo[a];
+                let v = f.eval(av);
+                let slope = match f {
+                    Func::Exp => v.abs(),
+                    Func::Log => 1.0 / av.abs(),
+                    Func::Sin => av.cos().abs(),
+                    Func::Cos => av.sin().abs(),
+                    Func::Tan => 1.0 + v * v,
+                    Func::Sinh => av.cosh(),
+                    Func::Cosh => av.sinh().abs(),
+                    Func::Tanh => 1.0 - v * v,
+                    Func::Atan => 1.0 / (1.0 + av * av),
+                    Func::Abs => 1.0,
+                    Func::Sign => 0.0,
+                };
+                (v, slope * ae + 2.0 * U * v.abs())
+            }
+            Node::Call2(f, a, b) => {
+                let ((av, ae), (bv, be)) = (memo[a], memo[b]);
+                (f.eval(av, bv), ae.max(be))
+            }
+        };
+        memo.insert(id, ve);
+    }
+    memo.get(&e).copied()
 }
 
 /// Is `e` identically zero? Symbols in `nominal` (parameters) are probed within ±20 % of their value,
@@ -122,12 +184,12 @@ pub fn zero_test(pool: &mut Pool, e: Id, nominal: &HashMap<Symbol, f64>) -> Zero
             };
             values.insert(s, v);
         }
-        let Some((v, scale)) = value_and_scale(pool, probe, &values) else { continue };
-        if !v.is_finite() || !scale.is_finite() {
+        let Some((v, err)) = eval_with_error(pool, probe, &values) else { continue };
+        if !v.is_finite() || !err.is_finite() {
             continue;
         }
         finite_probes += 1;
-        if v.abs() > PROBE_RTOL * scale.max(f64::MIN_POSITIVE) && v != 0.0 {
+        if v.abs() > PROBE_SAFETY * err {
             return ZeroVerdict::NonZero(DecidedBy::Probing);
         }
     }
