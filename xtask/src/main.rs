@@ -39,14 +39,14 @@ enum Task {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let root = workspace_root();
+    // `gen` reports a bad model exactly as `invsim derive` does.
+    let prefix = if matches!(cli.task, Task::Gen { .. }) { "invsim" } else { "xtask" };
     let result: Result<(), Failure> = match cli.task {
         Task::Gen { model, out } => gen::run(&root, &model, out.as_deref()).map(|w| {
             println!("wrote {}\nwrote {}", w.rust.display(), w.markdown.display());
         }),
         Task::Docs { check } => docs::run(&root, check).map(|written| {
-            if check {
-                println!("docs are up to date");
-            } else if written.is_empty() {
+            if check || written.is_empty() {
                 println!("docs are up to date");
             } else {
                 for w in written {
@@ -65,7 +65,7 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(f) => {
-            eprintln!("invsim: error: {}", f.message);
+            eprintln!("{prefix}: error: {}", f.message);
             ExitCode::from(f.code)
         }
     }

@@ -5,6 +5,7 @@
 
 pub mod cycle;
 pub mod kernel;
+pub mod ode;
 pub mod smoother;
 pub mod simulate;
 pub mod output;
