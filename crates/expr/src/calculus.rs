@@ -64,7 +64,12 @@ impl Pool {
                     let di = self.diff_memo(fs[i], x, memo);
                     let mut prod: Vec<Id> = Vec::with_capacity(fs.len());
                     prod.push(di);
-                    prod.extend(fs.iter().enumerate().filter(|(j, _)| *j != i).map(|(_, &f)| f));
+                    prod.extend(
+                        fs.iter()
+                            .enumerate()
+                            .filter(|(j, _)| *j != i)
+                            .map(|(_, &f)| f),
+                    );
                     terms.push(self.mul(&prod));
                 }
                 self.add(&terms)
@@ -148,7 +153,13 @@ impl Pool {
         self.subs_memo(e, map, &keys, &mut memo)
     }
 
-    fn subs_memo(&mut self, e: Id, map: &HashMap<Symbol, Id>, keys: &[Symbol], memo: &mut HashMap<Id, Id>) -> Id {
+    fn subs_memo(
+        &mut self,
+        e: Id,
+        map: &HashMap<Symbol, Id>,
+        keys: &[Symbol],
+        memo: &mut HashMap<Id, Id>,
+    ) -> Id {
         if !self.depends_on_any(e, keys) {
             return e;
         }
@@ -159,7 +170,11 @@ impl Pool {
         let r = match node {
             Node::Sym(s) => map.get(&s).copied().unwrap_or(e),
             _ => {
-                let kids: Vec<Id> = self.children(e).into_iter().map(|c| self.subs_memo(c, map, keys, memo)).collect();
+                let kids: Vec<Id> = self
+                    .children(e)
+                    .into_iter()
+                    .map(|c| self.subs_memo(c, map, keys, memo))
+                    .collect();
                 self.rebuild(&node, &kids)
             }
         };
@@ -185,7 +200,10 @@ impl Pool {
         let r = if kids.is_empty() {
             e
         } else {
-            let new: Vec<Id> = kids.iter().map(|&c| self.replace_memo(c, from, to, memo)).collect();
+            let new: Vec<Id> = kids
+                .iter()
+                .map(|&c| self.replace_memo(c, from, to, memo))
+                .collect();
             if new == kids {
                 e
             } else {
@@ -218,7 +236,9 @@ impl Pool {
     /// in the product when k and j are integers of the same sign with |k| ≤ |j| (or k = j); a numeric
     /// coefficient of the target must divide the product's. Sums equal to `target` are replaced whole.
     pub fn replace_product(&mut self, e: Id, target: Id, to: Id) -> Id {
-        let Some(tf) = self.factor_powers(target) else { return self.replace(e, target, to) };
+        let Some(tf) = self.factor_powers(target) else {
+            return self.replace(e, target, to);
+        };
         let mut memo = HashMap::new();
         self.replace_product_memo(e, target, &tf, to, &mut memo)
     }
@@ -242,7 +262,10 @@ impl Pool {
         let mut r = if kids.is_empty() {
             e
         } else {
-            let new: Vec<Id> = kids.iter().map(|&c| self.replace_product_memo(c, target, tf, to, memo)).collect();
+            let new: Vec<Id> = kids
+                .iter()
+                .map(|&c| self.replace_product_memo(c, target, tf, to, memo))
+                .collect();
             if new == kids {
                 e
             } else {
@@ -256,7 +279,10 @@ impl Pool {
                     if let Node::Num(c) = self.node(b) {
                         // Numeric coefficient: divide it out.
                         let c = *c;
-                        match have.iter_mut().find(|(hb, _)| matches!(self.node(*hb), Node::Num(_))) {
+                        match have
+                            .iter_mut()
+                            .find(|(hb, _)| matches!(self.node(*hb), Node::Num(_)))
+                        {
                             Some(entry) => {
                                 let hc = self.as_number(entry.0).unwrap_or(Number::ONE);
                                 let q = c.recip().map(|ci| hc.mul(ci)).unwrap_or(hc);
@@ -277,7 +303,9 @@ impl Pool {
                     let j = entry.1;
                     let fits = k == j
                         || match (k.as_integer(), j.as_integer()) {
-                            (Some(ki), Some(ji)) => ki.signum() == ji.signum() && ki.abs() <= ji.abs(),
+                            (Some(ki), Some(ji)) => {
+                                ki.signum() == ji.signum() && ki.abs() <= ji.abs()
+                            }
                             _ => false,
                         };
                     if !fits {
@@ -327,8 +355,15 @@ impl Pool {
         if let Node::Mul(fs) = self.node(r).clone() {
             let best = self.display(r).len();
             for (i, &f) in fs.iter().enumerate() {
-                let Node::Add(ts) = self.node(f).clone() else { continue };
-                let others: Vec<Id> = fs.iter().enumerate().filter(|(j, _)| *j != i).map(|(_, &x)| x).collect();
+                let Node::Add(ts) = self.node(f).clone() else {
+                    continue;
+                };
+                let others: Vec<Id> = fs
+                    .iter()
+                    .enumerate()
+                    .filter(|(j, _)| *j != i)
+                    .map(|(_, &x)| x)
+                    .collect();
                 let terms: Vec<Id> = ts
                     .iter()
                     .map(|&t| {
@@ -428,13 +463,19 @@ impl Pool {
 
     /// Evaluate in f64 with `value(symbol)` giving every free symbol's value. A reference implementation
     /// (memoised recursion), independent of the [`crate::Tape`].
-    pub fn eval_with(&self, e: Id, value: &dyn Fn(Symbol) -> Option<f64>) -> Result<f64, UnboundSymbol> {
+    pub fn eval_with(
+        &self,
+        e: Id,
+        value: &dyn Fn(Symbol) -> Option<f64>,
+    ) -> Result<f64, UnboundSymbol> {
         let mut memo: HashMap<Id, f64> = HashMap::new();
         for id in self.topological(&[e]) {
             let v = match self.node(id) {
                 Node::Num(n) => n.to_f64(),
                 Node::Pi => std::f64::consts::PI,
-                Node::Sym(s) => value(*s).ok_or_else(|| UnboundSymbol(self.symbol_name(*s).to_string()))?,
+                Node::Sym(s) => {
+                    value(*s).ok_or_else(|| UnboundSymbol(self.symbol_name(*s).to_string()))?
+                }
                 Node::Add(ts) => ts.iter().map(|t| memo[t]).sum(),
                 Node::Mul(fs) => fs.iter().map(|f| memo[f]).product(),
                 Node::Pow(b, p) => pow_f64(memo[b], self.as_number(*p), memo[p]),

@@ -75,13 +75,21 @@ impl Number {
         if int_part.is_empty() && frac_part.is_empty() {
             return None;
         }
-        if !int_part.chars().chain(frac_part.chars()).all(|c| c.is_ascii_digit()) {
+        if !int_part
+            .chars()
+            .chain(frac_part.chars())
+            .all(|c| c.is_ascii_digit())
+        {
             return None;
         }
         let exact = (|| {
             let digits = format!("{int_part}{frac_part}");
             let digits = digits.trim_start_matches('0');
-            let mut num: i128 = if digits.is_empty() { 0 } else { digits.parse().ok()? };
+            let mut num: i128 = if digits.is_empty() {
+                0
+            } else {
+                digits.parse().ok()?
+            };
             let scale = exp - frac_part.len() as i32;
             let mut den: i128 = 1;
             if scale >= 0 {
@@ -141,6 +149,7 @@ impl Number {
         matches!(self, Number::Rational(..))
     }
 
+    #[allow(clippy::should_implement_trait)] // the operator traits below delegate here
     pub fn add(self, o: Number) -> Number {
         if let (Number::Rational(a, b), Number::Rational(c, d)) = (self, o) {
             let g = gcd(b, d);
@@ -155,6 +164,7 @@ impl Number {
         }
         Number::Float(self.to_f64() + o.to_f64())
     }
+    #[allow(clippy::should_implement_trait)] // the operator traits below delegate here
     pub fn mul(self, o: Number) -> Number {
         if let (Number::Rational(a, b), Number::Rational(c, d)) = (self, o) {
             let g1 = gcd(a, d).max(1);
@@ -170,6 +180,7 @@ impl Number {
         }
         Number::Float(self.to_f64() * o.to_f64())
     }
+    #[allow(clippy::should_implement_trait)] // the operator traits below delegate here
     pub fn neg(self) -> Number {
         match self {
             Number::Rational(n, d) => match n.checked_neg() {
@@ -207,6 +218,27 @@ impl Number {
     }
 }
 
+impl std::ops::Add for Number {
+    type Output = Number;
+    fn add(self, o: Number) -> Number {
+        Number::add(self, o)
+    }
+}
+
+impl std::ops::Mul for Number {
+    type Output = Number;
+    fn mul(self, o: Number) -> Number {
+        Number::mul(self, o)
+    }
+}
+
+impl std::ops::Neg for Number {
+    type Output = Number;
+    fn neg(self) -> Number {
+        Number::neg(self)
+    }
+}
+
 impl PartialEq for Number {
     fn eq(&self, o: &Number) -> bool {
         match (self, o) {
@@ -237,11 +269,16 @@ impl Number {
     /// Total order by value (exact comparison for rationals).
     pub fn cmp_value(&self, o: &Number) -> Ordering {
         match (self, o) {
-            (Number::Rational(a, b), Number::Rational(c, d)) => match (a.checked_mul(*d), c.checked_mul(*b)) {
-                (Some(l), Some(r)) => l.cmp(&r),
-                _ => self.to_f64().total_cmp(&o.to_f64()),
-            },
-            _ => self.to_f64().total_cmp(&o.to_f64()).then(self.is_exact().cmp(&o.is_exact())),
+            (Number::Rational(a, b), Number::Rational(c, d)) => {
+                match (a.checked_mul(*d), c.checked_mul(*b)) {
+                    (Some(l), Some(r)) => l.cmp(&r),
+                    _ => self.to_f64().total_cmp(&o.to_f64()),
+                }
+            }
+            _ => self
+                .to_f64()
+                .total_cmp(&o.to_f64())
+                .then(self.is_exact().cmp(&o.is_exact())),
         }
     }
 }
@@ -268,8 +305,9 @@ impl fmt::Display for Number {
                     let digits = twos.max(fives);
                     if digits <= 30 {
                         // n/d = n * (10^digits / d) / 10^digits
-                        if let Some(scaled) =
-                            10i128.checked_pow(digits).and_then(|p| n.checked_mul(p / d))
+                        if let Some(scaled) = 10i128
+                            .checked_pow(digits)
+                            .and_then(|p| n.checked_mul(p / d))
                         {
                             let neg = scaled < 0;
                             let s = scaled.unsigned_abs().to_string();
@@ -316,23 +354,42 @@ mod tests {
     fn decimals_are_exact() {
         assert_eq!(Number::parse_decimal("0.1").unwrap(), Number::ratio(1, 10));
         assert_eq!(Number::parse_decimal("2.5E+4").unwrap(), Number::int(25000));
-        assert_eq!(Number::parse_decimal("1e-3").unwrap(), Number::ratio(1, 1000));
         assert_eq!(
-            Number::parse_decimal("0.1").unwrap().add(Number::parse_decimal("0.2").unwrap()),
+            Number::parse_decimal("1e-3").unwrap(),
+            Number::ratio(1, 1000)
+        );
+        assert_eq!(
+            Number::parse_decimal("0.1")
+                .unwrap()
+                .add(Number::parse_decimal("0.2").unwrap()),
             Number::ratio(3, 10)
         );
-        assert!(matches!(Number::parse_decimal("1e-300").unwrap(), Number::Float(_)));
+        assert!(matches!(
+            Number::parse_decimal("1e-300").unwrap(),
+            Number::Float(_)
+        ));
     }
 
     #[test]
     fn display_round_trips() {
-        for s in ["0.5", "-0.0072", "44000000", "1/3", "-2/7", "0.4439938161680794"] {
+        for s in [
+            "0.5",
+            "-0.0072",
+            "44000000",
+            "1/3",
+            "-2/7",
+            "0.4439938161680794",
+        ] {
             let n = if let Some((a, b)) = s.split_once('/') {
                 Number::ratio(a.parse().unwrap(), b.parse().unwrap())
             } else {
                 Number::parse_decimal(s.trim_start_matches('-')).unwrap()
             };
-            let n = if s.starts_with('-') && !s.contains('/') { n.neg() } else { n };
+            let n = if s.starts_with('-') && !s.contains('/') {
+                n.neg()
+            } else {
+                n
+            };
             assert_eq!(n.to_string(), s);
         }
     }

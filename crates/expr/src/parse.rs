@@ -143,7 +143,11 @@ fn describe(t: &Tok) -> String {
 
 impl<'s> Parser<'s> {
     fn err<T>(&self, span: Range<usize>, message: impl Into<String>) -> Result<T, ParseError> {
-        Err(ParseError { span, message: message.into(), opened: None })
+        Err(ParseError {
+            span,
+            message: message.into(),
+            opened: None,
+        })
     }
 
     fn advance(&mut self) -> Result<(), ParseError> {
@@ -158,7 +162,9 @@ impl<'s> Parser<'s> {
             return Ok(());
         }
         let c = self.src[start..].chars().next().unwrap_or('\0');
-        if c.is_ascii_digit() || (c == '.' && bytes.get(start + 1).is_some_and(|b| b.is_ascii_digit())) {
+        if c.is_ascii_digit()
+            || (c == '.' && bytes.get(start + 1).is_some_and(|b| b.is_ascii_digit()))
+        {
             let mut i = start;
             while i < bytes.len() && bytes[i].is_ascii_digit() {
                 i += 1;
@@ -180,15 +186,26 @@ impl<'s> Parser<'s> {
                     }
                     i = j;
                 } else {
-                    return self.err(start..j, "malformed number: expected digits after the exponent `e`");
+                    return self.err(
+                        start..j,
+                        "malformed number: expected digits after the exponent `e`",
+                    );
                 }
             }
-            if i < bytes.len() && (bytes[i].is_ascii_alphabetic() || bytes[i] == b'_' || bytes[i] == b'.') {
-                return self.err(start..i + 1, "malformed number: expected an operator after it");
+            if i < bytes.len()
+                && (bytes[i].is_ascii_alphabetic() || bytes[i] == b'_' || bytes[i] == b'.')
+            {
+                return self.err(
+                    start..i + 1,
+                    "malformed number: expected an operator after it",
+                );
             }
             let text = &self.src[start..i];
-            let n = Number::parse_decimal(text)
-                .ok_or_else(|| ParseError { span: start..i, message: format!("malformed number `{text}`"), opened: None })?;
+            let n = Number::parse_decimal(text).ok_or_else(|| ParseError {
+                span: start..i,
+                message: format!("malformed number `{text}`"),
+                opened: None,
+            })?;
             self.tok = Tok::Num(n);
             self.tok_span = start..i;
             self.pos = i;
@@ -224,7 +241,10 @@ impl<'s> Parser<'s> {
         if self.tok == Tok::Op(op) {
             self.advance()
         } else {
-            self.err(self.tok_span.clone(), format!("expected `{op}` {context}, found {}", describe(&self.tok)))
+            self.err(
+                self.tok_span.clone(),
+                format!("expected `{op}` {context}, found {}", describe(&self.tok)),
+            )
         }
     }
 
@@ -235,7 +255,10 @@ impl<'s> Parser<'s> {
             let rhs = self.term()?;
             let op = if c == '+' { BinOp::Add } else { BinOp::Sub };
             let span = lhs.span.start..rhs.span.end;
-            lhs = Ast { kind: AstKind::Binary(op, Box::new(lhs), Box::new(rhs)), span };
+            lhs = Ast {
+                kind: AstKind::Binary(op, Box::new(lhs), Box::new(rhs)),
+                span,
+            };
         }
         Ok(lhs)
     }
@@ -245,12 +268,18 @@ impl<'s> Parser<'s> {
         while let Tok::Op(c @ ('*' | '/')) = self.tok {
             self.advance()?;
             if self.tok == Tok::Op('*') {
-                return self.err(self.tok_span.clone(), "`**` is not an operator here: write powers as `a^b`");
+                return self.err(
+                    self.tok_span.clone(),
+                    "`**` is not an operator here: write powers as `a^b`",
+                );
             }
             let rhs = self.unary()?;
             let op = if c == '*' { BinOp::Mul } else { BinOp::Div };
             let span = lhs.span.start..rhs.span.end;
-            lhs = Ast { kind: AstKind::Binary(op, Box::new(lhs), Box::new(rhs)), span };
+            lhs = Ast {
+                kind: AstKind::Binary(op, Box::new(lhs), Box::new(rhs)),
+                span,
+            };
         }
         Ok(lhs)
     }
@@ -261,7 +290,14 @@ impl<'s> Parser<'s> {
             self.advance()?;
             let inner = self.unary()?;
             let span = start..inner.span.end;
-            return Ok(if c == '-' { Ast { kind: AstKind::Neg(Box::new(inner)), span } } else { inner });
+            return Ok(if c == '-' {
+                Ast {
+                    kind: AstKind::Neg(Box::new(inner)),
+                    span,
+                }
+            } else {
+                inner
+            });
         }
         self.power()
     }
@@ -272,7 +308,10 @@ impl<'s> Parser<'s> {
             self.advance()?;
             let exp = self.unary()?;
             let span = base.span.start..exp.span.end;
-            return Ok(Ast { kind: AstKind::Binary(BinOp::Pow, Box::new(base), Box::new(exp)), span });
+            return Ok(Ast {
+                kind: AstKind::Binary(BinOp::Pow, Box::new(base), Box::new(exp)),
+                span,
+            });
         }
         Ok(base)
     }
@@ -282,19 +321,34 @@ impl<'s> Parser<'s> {
         match self.tok.clone() {
             Tok::Num(n) => {
                 self.advance()?;
-                Ok(Ast { kind: AstKind::Num(n), span })
+                Ok(Ast {
+                    kind: AstKind::Num(n),
+                    span,
+                })
             }
             Tok::Ident(name) => {
                 self.advance()?;
                 if self.tok != Tok::Op('(') {
                     if FUNCTIONS.iter().any(|(f, _)| *f == name) {
-                        return self.err(span, format!("function `{name}` must be called with parentheses"));
+                        return self.err(
+                            span,
+                            format!("function `{name}` must be called with parentheses"),
+                        );
                     }
-                    return Ok(Ast { kind: AstKind::Ident(name), span });
+                    return Ok(Ast {
+                        kind: AstKind::Ident(name),
+                        span,
+                    });
                 }
                 let Some(&(_, arity)) = FUNCTIONS.iter().find(|(f, _)| *f == name) else {
                     let known: Vec<&str> = FUNCTIONS.iter().map(|(f, _)| *f).collect();
-                    return self.err(span, format!("unknown function `{name}`; expected one of {}", known.join(", ")));
+                    return self.err(
+                        span,
+                        format!(
+                            "unknown function `{name}`; expected one of {}",
+                            known.join(", ")
+                        ),
+                    );
                 };
                 self.advance()?;
                 let mut args = Vec::new();
@@ -318,26 +372,44 @@ impl<'s> Parser<'s> {
                         ),
                     );
                 }
-                Ok(Ast { kind: AstKind::Call(name, args), span: full })
+                Ok(Ast {
+                    kind: AstKind::Call(name, args),
+                    span: full,
+                })
             }
             Tok::Op('(') => {
                 self.advance()?;
                 if self.tok == Tok::Op(')') {
-                    return self.err(self.tok_span.clone(), "empty parentheses: expected an expression");
+                    return self.err(
+                        self.tok_span.clone(),
+                        "empty parentheses: expected an expression",
+                    );
                 }
                 let inner = self.expr()?;
                 let close = self.tok_span.clone();
                 if self.tok != Tok::Op(')') {
                     return Err(ParseError {
                         span: close,
-                        message: format!("expected `)` to close the `(`, found {}", describe(&self.tok)),
+                        message: format!(
+                            "expected `)` to close the `(`, found {}",
+                            describe(&self.tok)
+                        ),
                         opened: Some(span.start..span.start + 1),
                     });
                 }
                 self.advance()?;
-                Ok(Ast { kind: inner.kind, span: span.start..close.end })
+                Ok(Ast {
+                    kind: inner.kind,
+                    span: span.start..close.end,
+                })
             }
-            other => self.err(span, format!("expected a number, a name or `(`, found {}", describe(&other))),
+            other => self.err(
+                span,
+                format!(
+                    "expected a number, a name or `(`, found {}",
+                    describe(&other)
+                ),
+            ),
         }
     }
 }
@@ -345,15 +417,27 @@ impl<'s> Parser<'s> {
 /// Parse an expression of the contract's language into a syntax tree.
 pub fn parse(src: &str) -> Result<Ast, ParseError> {
     if src.trim().is_empty() {
-        return Err(ParseError { span: 0..src.len(), message: "empty expression".into(), opened: None });
+        return Err(ParseError {
+            span: 0..src.len(),
+            message: "empty expression".into(),
+            opened: None,
+        });
     }
-    let mut p = Parser { src, pos: 0, tok: Tok::End, tok_span: 0..0 };
+    let mut p = Parser {
+        src,
+        pos: 0,
+        tok: Tok::End,
+        tok_span: 0..0,
+    };
     p.advance()?;
     let ast = p.expr()?;
     if p.tok != Tok::End {
         let msg = match &p.tok {
             Tok::Op(')') => "unmatched `)`".to_string(),
-            t => format!("expected an operator or the end of the expression, found {}", describe(t)),
+            t => format!(
+                "expected an operator or the end of the expression, found {}",
+                describe(t)
+            ),
         };
         return p.err(p.tok_span.clone(), msg);
     }
@@ -429,7 +513,11 @@ mod tests {
         let e = parse("a + * b").unwrap_err();
         assert_eq!(e.span, 4..5);
         let e = parse("foo(x)").unwrap_err();
-        assert!(e.message.contains("unknown function `foo`"), "{}", e.message);
+        assert!(
+            e.message.contains("unknown function `foo`"),
+            "{}",
+            e.message
+        );
         assert_eq!(e.span, 0..3);
         let e = parse("sin(x, y)").unwrap_err();
         assert!(e.message.contains("takes 1 argument"), "{}", e.message);

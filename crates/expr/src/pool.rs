@@ -73,7 +73,12 @@ pub struct Pool {
 
 impl std::fmt::Debug for Pool {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "Pool({} nodes, {} symbols)", self.nodes.len(), self.symbols.len())
+        write!(
+            f,
+            "Pool({} nodes, {} symbols)",
+            self.nodes.len(),
+            self.symbols.len()
+        )
     }
 }
 
@@ -126,10 +131,15 @@ impl Pool {
         let mut v: Vec<Symbol> = match node {
             Node::Num(_) | Node::Pi => Vec::new(),
             Node::Sym(s) => vec![*s],
-            Node::Add(c) | Node::Mul(c) => c.iter().flat_map(|&c| self.free[c.index()].iter().copied()).collect(),
-            Node::Pow(a, b) | Node::Call2(_, a, b) => {
-                self.free[a.index()].iter().chain(self.free[b.index()].iter()).copied().collect()
-            }
+            Node::Add(c) | Node::Mul(c) => c
+                .iter()
+                .flat_map(|&c| self.free[c.index()].iter().copied())
+                .collect(),
+            Node::Pow(a, b) | Node::Call2(_, a, b) => self.free[a.index()]
+                .iter()
+                .chain(self.free[b.index()].iter())
+                .copied()
+                .collect(),
             Node::Call(_, a) => self.free[a.index()].to_vec(),
         };
         v.sort_unstable();
@@ -244,36 +254,42 @@ impl Pool {
         if ba != bb && (matches!(na, Node::Pow(..)) || matches!(nb, Node::Pow(..))) {
             return self.cmp_expr(ba, bb);
         }
-        Self::rank(na).cmp(&Self::rank(nb)).then_with(|| match (na, nb) {
-            (Node::Num(x), Node::Num(y)) => x.cmp_value(y),
-            (Node::Sym(x), Node::Sym(y)) => self.symbol_name(*x).cmp(self.symbol_name(*y)),
-            (Node::Pow(b1, e1), Node::Pow(b2, e2)) => self.cmp_expr(*b1, *b2).then_with(|| self.cmp_expr(*e1, *e2)),
-            (Node::Add(x), Node::Add(y)) | (Node::Mul(x), Node::Mul(y)) => {
-                // Compare from the most significant (last) term, like polynomial degree order.
-                for (p, q) in x.iter().rev().zip(y.iter().rev()) {
-                    let o = self.cmp_expr(*p, *q);
-                    if o != Ordering::Equal {
-                        return o;
+        Self::rank(na)
+            .cmp(&Self::rank(nb))
+            .then_with(|| match (na, nb) {
+                (Node::Num(x), Node::Num(y)) => x.cmp_value(y),
+                (Node::Sym(x), Node::Sym(y)) => self.symbol_name(*x).cmp(self.symbol_name(*y)),
+                (Node::Pow(b1, e1), Node::Pow(b2, e2)) => self
+                    .cmp_expr(*b1, *b2)
+                    .then_with(|| self.cmp_expr(*e1, *e2)),
+                (Node::Add(x), Node::Add(y)) | (Node::Mul(x), Node::Mul(y)) => {
+                    // Compare from the most significant (last) term, like polynomial degree order.
+                    for (p, q) in x.iter().rev().zip(y.iter().rev()) {
+                        let o = self.cmp_expr(*p, *q);
+                        if o != Ordering::Equal {
+                            return o;
+                        }
                     }
+                    x.len().cmp(&y.len())
                 }
-                x.len().cmp(&y.len())
-            }
-            (Node::Call(f, x), Node::Call(g, y)) => f.cmp(g).then_with(|| self.cmp_expr(*x, *y)),
-            (Node::Call2(f, x1, x2), Node::Call2(g, y1, y2)) => f
-                .cmp(g)
-                .then_with(|| self.cmp_expr(*x1, *y1))
-                .then_with(|| self.cmp_expr(*x2, *y2)),
-            _ => Ordering::Equal,
-        })
-        .then_with(|| {
-            // A power of a base after the base itself.
-            match (na, nb) {
-                (Node::Pow(..), _) if ba == b => Ordering::Greater,
-                (_, Node::Pow(..)) if bb == a => Ordering::Less,
+                (Node::Call(f, x), Node::Call(g, y)) => {
+                    f.cmp(g).then_with(|| self.cmp_expr(*x, *y))
+                }
+                (Node::Call2(f, x1, x2), Node::Call2(g, y1, y2)) => f
+                    .cmp(g)
+                    .then_with(|| self.cmp_expr(*x1, *y1))
+                    .then_with(|| self.cmp_expr(*x2, *y2)),
                 _ => Ordering::Equal,
-            }
-        })
-        .then(a.cmp(&b))
+            })
+            .then_with(|| {
+                // A power of a base after the base itself.
+                match (na, nb) {
+                    (Node::Pow(..), _) if ba == b => Ordering::Greater,
+                    (_, Node::Pow(..)) if bb == a => Ordering::Less,
+                    _ => Ordering::Equal,
+                }
+            })
+            .then(a.cmp(&b))
     }
 
     // ----- sums ---------------------------------------------------------------------------------------
@@ -289,7 +305,11 @@ impl Pool {
                 if let Node::Num(c) = self.node(fs[0]) {
                     let c = *c;
                     let rest: Vec<Id> = fs[1..].to_vec();
-                    let rest = if rest.len() == 1 { rest[0] } else { self.intern(Node::Mul(rest.into())) };
+                    let rest = if rest.len() == 1 {
+                        rest[0]
+                    } else {
+                        self.intern(Node::Mul(rest.into()))
+                    };
                     (c, rest)
                 } else {
                     (Number::ONE, t)
@@ -303,7 +323,9 @@ impl Pool {
     /// has coprime integer-or-rational coefficients and a positive first non-numeric term. `None` when the
     /// content is 1, the expression is not a sum, or a coefficient is inexact.
     pub fn content(&mut self, e: Id) -> Option<(Number, Id)> {
-        let Node::Add(ts) = self.node(e) else { return None };
+        let Node::Add(ts) = self.node(e) else {
+            return None;
+        };
         let ts = ts.to_vec();
         let mut g: i128 = 0;
         let mut l: i128 = 1;
@@ -319,7 +341,9 @@ impl Pool {
                     c
                 }
             };
-            let Number::Rational(p, q) = c else { return None };
+            let Number::Rational(p, q) = c else {
+                return None;
+            };
             g = gcd_i128(g, p);
             l = l.checked_div(gcd_i128(l, q))?.checked_mul(q)?;
         }
@@ -570,7 +594,8 @@ impl Pool {
                 // (x^a)^c = x^(a c) when a is not an integer: x^a is then real only for x ≥ 0, where the
                 // identity holds; likewise for a = −1 ((1/x)^c and x^(−c) are both real exactly for x > 0
                 // when c is not an integer). ((x^2)^(1/2) = |x| is deliberately left alone.)
-                if matches!(self.as_number(be), Some(an) if an.as_integer().is_none() || an.is_minus_one()) {
+                if matches!(self.as_number(be), Some(an) if an.as_integer().is_none() || an.is_minus_one())
+                {
                     let ne = self.mul(&[be, e]);
                     return self.pow(bb, ne);
                 }
@@ -587,7 +612,11 @@ impl Pool {
                 if let Node::Num(c) = self.node(fs[0]) {
                     if !c.is_negative() {
                         let fs = fs.to_vec();
-                        let rest = if fs.len() == 2 { fs[1] } else { self.intern(Node::Mul(fs[1..].into())) };
+                        let rest = if fs.len() == 2 {
+                            fs[1]
+                        } else {
+                            self.intern(Node::Mul(fs[1..].into()))
+                        };
                         let c = fs[0];
                         let cp = self.pow(c, e);
                         let rp = self.pow(rest, e);
@@ -647,7 +676,11 @@ impl Pool {
                 _ => a,
             };
         }
-        let (a, b) = if self.cmp_expr(a, b) == Ordering::Greater { (b, a) } else { (a, b) };
+        let (a, b) = if self.cmp_expr(a, b) == Ordering::Greater {
+            (b, a)
+        } else {
+            (a, b)
+        };
         self.intern(Node::Call2(f, a, b))
     }
 

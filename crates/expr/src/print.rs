@@ -43,12 +43,20 @@ struct Factor {
 impl Pool {
     /// The expression in the contract's language, e.g. `c3*c7 - x^2/2`.
     pub fn display(&self, e: Id) -> String {
-        Printer { pool: self, style: Style::Text }.expr(e, 0)
+        Printer {
+            pool: self,
+            style: Style::Text,
+        }
+        .expr(e, 0)
     }
 
     /// The expression in LaTeX (for `$…$` in Markdown).
     pub fn latex(&self, e: Id) -> String {
-        Printer { pool: self, style: Style::Latex }.expr(e, 0)
+        Printer {
+            pool: self,
+            style: Style::Latex,
+        }
+        .expr(e, 0)
     }
 }
 
@@ -56,9 +64,9 @@ impl Pool {
 /// `yr` → `y^{(r)}`.
 pub fn latex_symbol(name: &str) -> String {
     const GREEK: &[&str] = &[
-        "alpha", "beta", "gamma", "delta", "epsilon", "zeta", "eta", "theta", "iota", "kappa", "lambda", "mu",
-        "nu", "xi", "pi", "rho", "sigma", "tau", "upsilon", "phi", "chi", "psi", "omega", "Gamma", "Delta",
-        "Theta", "Lambda", "Xi", "Pi", "Sigma", "Phi", "Psi", "Omega",
+        "alpha", "beta", "gamma", "delta", "epsilon", "zeta", "eta", "theta", "iota", "kappa",
+        "lambda", "mu", "nu", "xi", "pi", "rho", "sigma", "tau", "upsilon", "phi", "chi", "psi",
+        "omega", "Gamma", "Delta", "Theta", "Lambda", "Xi", "Pi", "Sigma", "Phi", "Psi", "Omega",
     ];
     if name == "yr" {
         return "y^{(r)}".into();
@@ -212,7 +220,13 @@ impl Printer<'_> {
     }
 
     fn fraction(&self, e: Id) -> Fraction {
-        let mut frac = Fraction { negative: false, num_coeff: None, den_coeff: None, num: vec![], den: vec![] };
+        let mut frac = Fraction {
+            negative: false,
+            num_coeff: None,
+            den_coeff: None,
+            num: vec![],
+            den: vec![],
+        };
         let factors: Vec<Id> = match self.pool.node(e) {
             Node::Mul(fs) => fs.to_vec(),
             _ => vec![e],
@@ -241,12 +255,28 @@ impl Printer<'_> {
                 Node::Pow(b, x) => match self.pool.node(*x) {
                     Node::Num(k) if k.is_negative() => {
                         let k = k.neg();
-                        frac.den.push(Factor { base: *b, exp: (!k.is_one()).then_some(k), sym_exp: None })
+                        frac.den.push(Factor {
+                            base: *b,
+                            exp: (!k.is_one()).then_some(k),
+                            sym_exp: None,
+                        })
                     }
-                    Node::Num(k) => frac.num.push(Factor { base: *b, exp: Some(*k), sym_exp: None }),
-                    _ => frac.num.push(Factor { base: *b, exp: None, sym_exp: Some(*x) }),
+                    Node::Num(k) => frac.num.push(Factor {
+                        base: *b,
+                        exp: Some(*k),
+                        sym_exp: None,
+                    }),
+                    _ => frac.num.push(Factor {
+                        base: *b,
+                        exp: None,
+                        sym_exp: Some(*x),
+                    }),
                 },
-                _ => frac.num.push(Factor { base: f, exp: None, sym_exp: None }),
+                _ => frac.num.push(Factor {
+                    base: f,
+                    exp: None,
+                    sym_exp: None,
+                }),
             }
         }
         frac
@@ -302,13 +332,19 @@ impl Printer<'_> {
     /// The numeric coefficient of a term, and the term's fraction with that coefficient replaced by `k`.
     fn scaled_fraction(&self, t: Id, k: Number) -> Fraction {
         let mut frac = self.fraction(t);
-        let (neg, mag) = if k.is_negative() { (true, k.neg()) } else { (false, k) };
+        let (neg, mag) = if k.is_negative() {
+            (true, k.neg())
+        } else {
+            (false, k)
+        };
         frac.negative = neg;
         frac.num_coeff = None;
         frac.den_coeff = None;
         match mag {
             // A terminating decimal prints as one number (0.2*c4, not c4/5).
-            Number::Rational(_, q) if q != 1 && !mag.to_string().contains('/') => frac.num_coeff = Some(mag),
+            Number::Rational(_, q) if q != 1 && !mag.to_string().contains('/') => {
+                frac.num_coeff = Some(mag)
+            }
             Number::Rational(p, q) => {
                 if p != 1 {
                     frac.num_coeff = Some(Number::int(p));
@@ -345,7 +381,9 @@ impl Printer<'_> {
             if f.exp.is_some() || f.sym_exp.is_some() {
                 continue;
             }
-            let Node::Add(ts) = self.pool.node(f.base) else { continue };
+            let Node::Add(ts) = self.pool.node(f.base) else {
+                continue;
+            };
             let scaled: Vec<Number> = ts.iter().map(|&t| self.coefficient(t).mul(c)).collect();
             let texts: Vec<String> = scaled.iter().map(|k| k.to_string()).collect();
             if scaled.iter().any(|k| !k.is_exact()) || texts.iter().any(|t| t.contains('/')) {
@@ -357,7 +395,9 @@ impl Printer<'_> {
             }
         }
         let (index, _, scaled) = best?;
-        let Node::Add(ts) = self.pool.node(frac.num[index].base) else { return None };
+        let Node::Add(ts) = self.pool.node(frac.num[index].base) else {
+            return None;
+        };
         let mut sum = String::new();
         for (i, (&t, &k)) in ts.iter().zip(&scaled).enumerate() {
             let body = if self.pool.as_number(t).is_some() {
@@ -378,18 +418,30 @@ impl Printer<'_> {
             }
             sum.push_str(&body.1);
         }
-        let sum = if self.latex() { format!("\\left({sum}\\right)") } else { format!("({sum})") };
+        let sum = if self.latex() {
+            format!("\\left({sum}\\right)")
+        } else {
+            format!("({sum})")
+        };
         let others: Vec<Factor> = frac
             .num
             .iter()
             .enumerate()
             .filter(|(i, _)| *i != index)
-            .map(|(_, f)| Factor { base: f.base, exp: f.exp, sym_exp: f.sym_exp })
+            .map(|(_, f)| Factor {
+                base: f.base,
+                exp: f.exp,
+                sym_exp: f.sym_exp,
+            })
             .collect();
         let (nn, rest) = self.product(None, &others);
         let (nd, den) = self.product(None, &frac.den);
         let sep = if self.latex() { " \\, " } else { "*" };
-        let num = if nn == 0 { sum } else { format!("{sum}{sep}{rest}") };
+        let num = if nn == 0 {
+            sum
+        } else {
+            format!("{sum}{sep}{rest}")
+        };
         Some(match nd {
             0 => (if nn == 0 { P_ATOM } else { P_MUL }, num),
             _ if self.latex() => (P_ATOM, format!("\\frac{{{num}}}{{{den}}}")),
@@ -409,7 +461,9 @@ impl Printer<'_> {
         if nd == 0 {
             let own = if frac.negative {
                 P_NEG
-            } else if nn == 1 && frac.num.len() == 1 && frac.num[0].exp.is_some_and(|k| k != Number::ratio(1, 2))
+            } else if nn == 1
+                && frac.num.len() == 1
+                && frac.num[0].exp.is_some_and(|k| k != Number::ratio(1, 2))
                 || frac.num.len() == 1 && frac.num[0].sym_exp.is_some()
             {
                 P_POW
@@ -421,11 +475,17 @@ impl Printer<'_> {
             return (own, format!("{sign}{num}"));
         }
         if self.latex() {
-            return (if frac.negative { P_NEG } else { P_ATOM }, format!("{sign}\\frac{{{num}}}{{{den}}}"));
+            return (
+                if frac.negative { P_NEG } else { P_ATOM },
+                format!("{sign}\\frac{{{num}}}{{{den}}}"),
+            );
         }
         // A single denominator factor binds tighter than `/` (atoms and `^`); a product needs parentheses.
         let den = if nd > 1 { format!("({den})") } else { den };
-        (if frac.negative { P_NEG } else { P_MUL }, format!("{sign}{num}/{den}"))
+        (
+            if frac.negative { P_NEG } else { P_MUL },
+            format!("{sign}{num}/{den}"),
+        )
     }
 }
 
@@ -437,7 +497,9 @@ mod tests {
         let mut p = Pool::new();
         let e = p.parse(src).unwrap();
         let s = p.display(e);
-        let back = p.parse(&s).unwrap_or_else(|err| panic!("`{s}` does not parse: {err}"));
+        let back = p
+            .parse(&s)
+            .unwrap_or_else(|err| panic!("`{s}` does not parse: {err}"));
         assert_eq!(back, e, "{src} printed as {s}");
         s
     }

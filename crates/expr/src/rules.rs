@@ -145,7 +145,11 @@ pub struct FunctionRule {
 
 macro_rules! rule {
     ($name:literal, $f:ident, $rw:expr) => {
-        FunctionRule { name: $name, func: Func::$f, rewrite: $rw }
+        FunctionRule {
+            name: $name,
+            func: Func::$f,
+            rewrite: $rw,
+        }
     };
 }
 
@@ -181,7 +185,9 @@ fn negated(pool: &mut Pool, arg: Id) -> Option<Id> {
     let leading_negative = match pool.node(arg) {
         Node::Add(ts) => {
             let first = ts.iter().find(|&&t| pool.as_number(t).is_none()).copied();
-            first.map(|t| pool.split_coefficient(t).0.is_negative()).unwrap_or(false)
+            first
+                .map(|t| pool.split_coefficient(t).0.is_negative())
+                .unwrap_or(false)
         }
         _ => c.is_negative(),
     };

@@ -6,10 +6,10 @@
 //! exponents differ by an integer (`v^1.8`, `v^0.8`) share a single `powf`. Evaluation writes into a scratch
 //! buffer that is reused between calls: no allocation per evaluation.
 
+use crate::calculus::UnboundSymbol;
 use crate::number::Number;
 use crate::pool::{Id, Node, Pool, Symbol};
 use crate::rules::{Func, Func2};
-use crate::calculus::UnboundSymbol;
 use std::cell::RefCell;
 use std::collections::HashMap;
 
@@ -251,7 +251,11 @@ impl Builder<'_> {
     fn lower_power(&mut self, b: Id, k: Number) -> Result<u32, UnboundSymbol> {
         let sb = self.lower(b)?;
         if let Some(i) = k.as_integer().filter(|i| *i <= i32::MAX as i128) {
-            return Ok(if i == 1 { sb } else { self.emit(Instr::Powi(sb, i as i32)) });
+            return Ok(if i == 1 {
+                sb
+            } else {
+                self.emit(Instr::Powi(sb, i as i32))
+            });
         }
         let half = Number::ratio(1, 2);
         // Split k = m + frac with m integer ≥ 0.
@@ -328,9 +332,12 @@ impl Instr {
             | Instr::Div(x, y)
             | Instr::PowVar(x, y)
             | Instr::Call2(_, x, y) => [Some(x), Some(y)],
-            Instr::Neg(x) | Instr::Recip(x) | Instr::Powi(x, _) | Instr::Sqrt(x) | Instr::Powf(x, _) | Instr::Call(_, x) => {
-                [Some(x), None]
-            }
+            Instr::Neg(x)
+            | Instr::Recip(x)
+            | Instr::Powi(x, _)
+            | Instr::Sqrt(x)
+            | Instr::Powf(x, _)
+            | Instr::Call(_, x) => [Some(x), None],
         }
     }
 
@@ -357,7 +364,11 @@ impl Tape {
     pub fn compile(pool: &Pool, outputs: &[Id], inputs: &[Symbol]) -> Result<Tape, UnboundSymbol> {
         let mut b = Builder {
             pool,
-            inputs: inputs.iter().enumerate().map(|(i, &s)| (s, i as u32)).collect(),
+            inputs: inputs
+                .iter()
+                .enumerate()
+                .map(|(i, &s)| (s, i as u32))
+                .collect(),
             n_inputs: inputs.len(),
             consts: Vec::new(),
             const_slots: HashMap::new(),
@@ -425,7 +436,11 @@ impl Tape {
             *flag = false;
         }
         for (i, ins) in self.instrs.iter().enumerate() {
-            let inv = ins.operands().iter().flatten().all(|&o| invariant[o as usize]);
+            let inv = ins
+                .operands()
+                .iter()
+                .flatten()
+                .all(|&o| invariant[o as usize]);
             invariant[base + i] = inv;
             if inv {
                 let mut one = [0.0];
@@ -438,7 +453,13 @@ impl Tape {
         // New layout: varying inputs, then constants (old constants and needed invariant results), then the
         // varying instructions.
         let mut used = vec![false; total];
-        for ins in self.instrs.iter().enumerate().filter(|(i, _)| !invariant[base + i]).map(|(_, x)| x) {
+        for ins in self
+            .instrs
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| !invariant[base + i])
+            .map(|(_, x)| x)
+        {
             for &o in ins.operands().iter().flatten() {
                 used[o as usize] = true;
             }
@@ -481,7 +502,9 @@ impl Tape {
             if !invariant[base + i] {
                 map[base + i] = first + instrs.len() as u32;
                 let new = match ins {
-                    Instr::Div(x, y) if recip_slot.contains_key(y) => Instr::Mul(map[*x as usize], recip_slot[y]),
+                    Instr::Div(x, y) if recip_slot.contains_key(y) => {
+                        Instr::Mul(map[*x as usize], recip_slot[y])
+                    }
                     _ => ins.remap(|o| map[o as usize]),
                 };
                 instrs.push(new);
@@ -540,7 +563,10 @@ impl Tape {
     #[inline]
     fn run(&self, buf: &mut [f64], out: &mut [f64]) {
         let base = self.n_inputs + self.consts.len();
-        assert!(buf.len() >= base + self.instrs.len(), "tape buffer too small");
+        assert!(
+            buf.len() >= base + self.instrs.len(),
+            "tape buffer too small"
+        );
         let ptr = buf.as_mut_ptr();
         for (i, ins) in self.instrs.iter().enumerate() {
             // SAFETY: every tape is built (by `compile` or `specialize`, the only constructors) so that each
@@ -560,11 +586,17 @@ impl Tape {
         let base = self.n_inputs + self.consts.len();
         for (i, ins) in self.instrs.iter().enumerate() {
             for &o in ins.operands().iter().flatten() {
-                assert!((o as usize) < base + i, "tape operand {o} of instruction {i} is not an earlier slot");
+                assert!(
+                    (o as usize) < base + i,
+                    "tape operand {o} of instruction {i} is not an earlier slot"
+                );
             }
         }
         for &o in &self.outputs {
-            assert!((o as usize) < base + self.instrs.len(), "tape output slot {o} out of range");
+            assert!(
+                (o as usize) < base + self.instrs.len(),
+                "tape output slot {o} out of range"
+            );
         }
     }
 
@@ -573,10 +605,23 @@ impl Tape {
     /// the per-instruction dispatch is paid once per block and the arithmetic vectorises.
     pub fn eval_batch(&self, inputs: &[&[f64]], outputs: &mut [&mut [f64]]) {
         assert_eq!(inputs.len(), self.n_inputs, "tape input count");
-        let points = inputs.first().map(|c| c.len()).or_else(|| outputs.first().map(|c| c.len())).unwrap_or(0);
-        assert!(inputs.iter().all(|c| c.len() == points), "input columns differ in length");
-        assert!(outputs.len() >= self.outputs.len(), "too few output columns");
-        assert!(outputs.iter().all(|c| c.len() >= points), "output column too short");
+        let points = inputs
+            .first()
+            .map(|c| c.len())
+            .or_else(|| outputs.first().map(|c| c.len()))
+            .unwrap_or(0);
+        assert!(
+            inputs.iter().all(|c| c.len() == points),
+            "input columns differ in length"
+        );
+        assert!(
+            outputs.len() >= self.outputs.len(),
+            "too few output columns"
+        );
+        assert!(
+            outputs.iter().all(|c| c.len() >= points),
+            "output column too short"
+        );
         BATCH_SCRATCH.with(|cell| {
             let mut buf = cell.borrow_mut();
             let n = self.n_slots() * BATCH;
@@ -614,7 +659,8 @@ impl Tape {
                 }
                 for (o, &sl) in self.outputs.iter().enumerate() {
                     let sl = sl as usize;
-                    outputs[o][start..start + len].copy_from_slice(&buf[sl * BATCH..sl * BATCH + len]);
+                    outputs[o][start..start + len]
+                        .copy_from_slice(&buf[sl * BATCH..sl * BATCH + len]);
                 }
                 start += len;
             }
@@ -689,7 +735,9 @@ mod tests {
             "3",
         ];
         let es: Vec<Id> = srcs.iter().map(|s| p.parse(s).unwrap()).collect();
-        let names = ["c1", "c2", "c3", "c4", "v", "p", "x", "y", "z", "a", "b", "c"];
+        let names = [
+            "c1", "c2", "c3", "c4", "v", "p", "x", "y", "z", "a", "b", "c",
+        ];
         let syms: Vec<Symbol> = names.iter().map(|n| p.symbol(n)).collect();
         let tape = Tape::compile(&p, &es, &syms).unwrap();
         let vals: Vec<f64> = (0..syms.len()).map(|i| 0.3 + 0.37 * i as f64).collect();
@@ -698,17 +746,28 @@ mod tests {
         let env: HashMap<Symbol, f64> = syms.iter().copied().zip(vals.iter().copied()).collect();
         for (k, &e) in es.iter().enumerate() {
             let want = p.eval(e, &env).unwrap();
-            assert!((out[k] - want).abs() <= 1e-13 * want.abs().max(1.0), "{}: {} vs {want}", srcs[k], out[k]);
+            assert!(
+                (out[k] - want).abs() <= 1e-13 * want.abs().max(1.0),
+                "{}: {} vs {want}",
+                srcs[k],
+                out[k]
+            );
         }
         // v^1.8 and v^0.8 share one powf.
-        let powfs = tape.instructions().iter().filter(|i| matches!(i, Instr::Powf(..))).count();
+        let powfs = tape
+            .instructions()
+            .iter()
+            .filter(|i| matches!(i, Instr::Powf(..)))
+            .count();
         assert_eq!(powfs, 1);
     }
 
     #[test]
     fn specialization_matches_the_full_tape() {
         let mut p = Pool::new();
-        let e = p.parse("(1 + sqrt(a)/b)*x^1.8 + exp(a*b)*y - a/(1 + b)").unwrap();
+        let e = p
+            .parse("(1 + sqrt(a)/b)*x^1.8 + exp(a*b)*y - a/(1 + b)")
+            .unwrap();
         let syms: Vec<Symbol> = ["x", "y", "a", "b"].iter().map(|n| p.symbol(n)).collect();
         let full = Tape::compile(&p, &[e], &syms).unwrap();
         let spec = full.specialize(&[2.0, 3.0]);
@@ -727,10 +786,17 @@ mod tests {
     #[test]
     fn batch_evaluation_matches_pointwise() {
         let mut p = Pool::new();
-        let srcs = ["a*x^1.8 + b/x - sqrt(y)", "exp(-x*y)*sin(a) + min(x, y)", "x^y", "-x - y"];
+        let srcs = [
+            "a*x^1.8 + b/x - sqrt(y)",
+            "exp(-x*y)*sin(a) + min(x, y)",
+            "x^y",
+            "-x - y",
+        ];
         let es: Vec<Id> = srcs.iter().map(|s| p.parse(s).unwrap()).collect();
         let syms: Vec<Symbol> = ["x", "y", "a", "b"].iter().map(|n| p.symbol(n)).collect();
-        let tape = Tape::compile(&p, &es, &syms).unwrap().specialize(&[1.5, -0.25]);
+        let tape = Tape::compile(&p, &es, &syms)
+            .unwrap()
+            .specialize(&[1.5, -0.25]);
         let n = 150; // more than two blocks
         let xs: Vec<f64> = (0..n).map(|k| 0.1 + 0.05 * k as f64).collect();
         let ys: Vec<f64> = (0..n).map(|k| 2.0 - 0.01 * k as f64).collect();
@@ -743,7 +809,12 @@ mod tests {
             let mut one = vec![0.0; es.len()];
             tape.eval(&[xs[k], ys[k]], &mut one);
             for o in 0..es.len() {
-                assert_eq!(cols[o][k].to_bits(), one[o].to_bits(), "{} at point {k}", srcs[o]);
+                assert_eq!(
+                    cols[o][k].to_bits(),
+                    one[o].to_bits(),
+                    "{} at point {k}",
+                    srcs[o]
+                );
             }
         }
     }

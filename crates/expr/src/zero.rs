@@ -81,7 +81,14 @@ pub fn eval_with_error(pool: &Pool, e: Id, values: &HashMap<Symbol, f64>) -> Opt
         let ve = match pool.node(id) {
             Node::Num(n) => {
                 let v = n.to_f64();
-                (v, if n.as_integer().is_some_and(|i| i.abs() < 1 << 53) { 0.0 } else { U * v.abs() })
+                (
+                    v,
+                    if n.as_integer().is_some_and(|i| i.abs() < 1 << 53) {
+                        0.0
+                    } else {
+                        U * v.abs()
+                    },
+                )
             }
             Node::Pi => (std::f64::consts::PI, U * std::f64::consts::PI),
             Node::Sym(s) => (*values.get(s)?, 0.0),
@@ -101,8 +108,12 @@ pub fn eval_with_error(pool: &Pool, e: Id, values: &HashMap<Symbol, f64>) -> Opt
                 let mut err = 0.0;
                 for (i, &(_, ei)) in vals.iter().enumerate() {
                     if ei > 0.0 {
-                        let others: f64 =
-                            vals.iter().enumerate().filter(|(j, _)| *j != i).map(|(_, x)| x.0.abs()).product();
+                        let others: f64 = vals
+                            .iter()
+                            .enumerate()
+                            .filter(|(j, _)| *j != i)
+                            .map(|(_, x)| x.0.abs())
+                            .product();
                         err += ei * others;
                     }
                 }
@@ -113,7 +124,10 @@ pub fn eval_with_error(pool: &Pool, e: Id, values: &HashMap<Symbol, f64>) -> Opt
                 let v = crate::calculus::pow_f64(bv, pool.as_number(*p), pv);
                 let db = if bv != 0.0 { (pv * v / bv).abs() } else { 0.0 };
                 let dp = if bv > 0.0 { (v * bv.ln()).abs() } else { 0.0 };
-                (v, db * be + dp * pe + (2.0 + pv.abs().min(64.0)) * U * v.abs())
+                (
+                    v,
+                    db * be + dp * pe + (2.0 + pv.abs().min(64.0)) * U * v.abs(),
+                )
             }
             Node::Call(f, a) => {
                 let (av, ae) = memo[a];
@@ -147,7 +161,11 @@ pub fn eval_with_error(pool: &Pool, e: Id, values: &HashMap<Symbol, f64>) -> Opt
 /// every other symbol (states, inputs) uniformly in ±[0.2, 3].
 pub fn zero_test(pool: &mut Pool, e: Id, nominal: &HashMap<Symbol, f64>) -> ZeroVerdict {
     if let Some(n) = pool.as_number(e) {
-        return if n.is_zero() { ZeroVerdict::Zero(DecidedBy::Canonical) } else { ZeroVerdict::NonZero(DecidedBy::Canonical) };
+        return if n.is_zero() {
+            ZeroVerdict::Zero(DecidedBy::Canonical)
+        } else {
+            ZeroVerdict::NonZero(DecidedBy::Canonical)
+        };
     }
     let expanded = pool.expand(e).ok();
     if let Some(x) = expanded {
@@ -184,7 +202,9 @@ pub fn zero_test(pool: &mut Pool, e: Id, nominal: &HashMap<Symbol, f64>) -> Zero
             };
             values.insert(s, v);
         }
-        let Some((v, err)) = eval_with_error(pool, probe, &values) else { continue };
+        let Some((v, err)) = eval_with_error(pool, probe, &values) else {
+            continue;
+        };
         if !v.is_finite() || !err.is_finite() {
             continue;
         }
@@ -209,14 +229,29 @@ mod tests {
         let mut p = Pool::new();
         let nominal = HashMap::new();
         let e = p.parse("x - x").unwrap();
-        assert_eq!(zero_test(&mut p, e, &nominal), ZeroVerdict::Zero(DecidedBy::Canonical));
+        assert_eq!(
+            zero_test(&mut p, e, &nominal),
+            ZeroVerdict::Zero(DecidedBy::Canonical)
+        );
         let e = p.parse("(x + 1)^2 - x^2 - 2*x - 1").unwrap();
-        assert_eq!(zero_test(&mut p, e, &nominal), ZeroVerdict::Zero(DecidedBy::Expanded));
+        assert_eq!(
+            zero_test(&mut p, e, &nominal),
+            ZeroVerdict::Zero(DecidedBy::Expanded)
+        );
         let e = p.parse("sin(x)^2 + cos(x)^2 - 1").unwrap();
-        assert_eq!(zero_test(&mut p, e, &nominal), ZeroVerdict::Zero(DecidedBy::Probing));
+        assert_eq!(
+            zero_test(&mut p, e, &nominal),
+            ZeroVerdict::Zero(DecidedBy::Probing)
+        );
         let e = p.parse("sin(x)^2 + cos(x)^2 - 1.000001").unwrap();
-        assert_eq!(zero_test(&mut p, e, &nominal), ZeroVerdict::NonZero(DecidedBy::Probing));
+        assert_eq!(
+            zero_test(&mut p, e, &nominal),
+            ZeroVerdict::NonZero(DecidedBy::Probing)
+        );
         let e = p.parse("exp(log(x)) - x").unwrap();
-        assert_eq!(zero_test(&mut p, e, &nominal), ZeroVerdict::Zero(DecidedBy::Canonical));
+        assert_eq!(
+            zero_test(&mut p, e, &nominal),
+            ZeroVerdict::Zero(DecidedBy::Canonical)
+        );
     }
 }

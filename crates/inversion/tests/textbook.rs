@@ -185,7 +185,7 @@ h = "x1 + x2*exp(x2)"
 "#,
     );
     assert_eq!(d.relative_degree, 1);
-    assert!(d.psi_inv.iter().any(|s| *s == Solution::Numeric));
+    assert!(d.psi_inv.contains(&Solution::Numeric));
     let interp = Interpreter::new(&d).unwrap();
     let x_true = [0.4, 0.3];
     let (mut xi, mut eta) = ([0.0], [0.0]);

@@ -118,7 +118,10 @@ pub trait InverseModel: Send + Sync {
     ) -> Result<(), (usize, ModelError)> {
         let mut xi_k = vec![0.0; xi.len()];
         let mut eta_k = vec![0.0; eta.len()];
-        let mut x_k: Vec<f64> = x.iter().map(|c| c.first().copied().unwrap_or(0.0)).collect();
+        let mut x_k: Vec<f64> = x
+            .iter()
+            .map(|c| c.first().copied().unwrap_or(0.0))
+            .collect();
         for k in 0..yr.len() {
             for (v, c) in xi_k.iter_mut().zip(xi) {
                 *v = c[k];
@@ -126,7 +129,9 @@ pub trait InverseModel: Send + Sync {
             for (v, c) in eta_k.iter_mut().zip(eta) {
                 *v = c[k];
             }
-            u[k] = self.invert(&xi_k, &eta_k, yr[k], &mut x_k).map_err(|e| (k, e))?;
+            u[k] = self
+                .invert(&xi_k, &eta_k, yr[k], &mut x_k)
+                .map_err(|e| (k, e))?;
             for (c, &v) in x.iter_mut().zip(&x_k) {
                 c[k] = v;
             }
@@ -153,10 +158,13 @@ pub trait InverseModel: Send + Sync {
 
 /// Look up a parameter index by name, with an error listing the known names.
 pub fn param_index(info: &ModelInfo, name: &str) -> Result<usize, ModelError> {
-    info.parameters.iter().position(|p| p == name).ok_or_else(|| ModelError::UnknownParameter {
-        name: name.to_string(),
-        known: info.parameters.join(", "),
-    })
+    info.parameters
+        .iter()
+        .position(|p| p == name)
+        .ok_or_else(|| ModelError::UnknownParameter {
+            name: name.to_string(),
+            known: info.parameters.join(", "),
+        })
 }
 
 /// Check an override value and store it (shared by every implementation of `set_param`).
@@ -167,7 +175,10 @@ pub fn set_param_checked(
     value: f64,
 ) -> Result<(), ModelError> {
     if !value.is_finite() {
-        return Err(ModelError::NonFiniteParameter { name: name.to_string(), value });
+        return Err(ModelError::NonFiniteParameter {
+            name: name.to_string(),
+            value,
+        });
     }
     let i = param_index(info, name)?;
     params[i] = value;
