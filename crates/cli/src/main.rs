@@ -154,6 +154,8 @@ fn run_simulate(args: &SimulateArgs) -> Result<(), Failure> {
         dt: args.dt,
         engine: model.engine_name().to_string(),
         verify: args.verify,
+        // Without --out or --plot only the summary is needed: no time series is stored.
+        keep_series: args.out.is_some() || args.plot.is_some(),
         ..SimulationOptions::default()
     };
     let result = simulate(model.as_model(), &cycle, &opts).map_err(|e| {
