@@ -37,10 +37,17 @@ fn compile_dir(dir: &Path, out: &Path, sub: &str) -> Result<(), Box<dyn std::err
     let mut generated = Vec::new();
     let mut skipped = Vec::new();
     for file in toml_files(dir)? {
-        match invsim_codegen::Builder::new().model(&file).out_dir(&out).compile() {
+        match invsim_codegen::Builder::new()
+            .model(&file)
+            .out_dir(&out)
+            .compile()
+        {
             Ok(g) => generated.extend(g),
             Err(invsim_codegen::Error::Model(e)) => {
-                let name = file.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default();
+                let name = file
+                    .file_name()
+                    .map(|f| f.to_string_lossy().into_owned())
+                    .unwrap_or_default();
                 skipped.push((name, e.to_string()));
             }
             Err(e) => return Err(e.into()),
@@ -67,7 +74,10 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
         println!("cargo:rustc-cfg=has_shared");
     } else {
         // Watch for the directory to appear.
-        println!("cargo:rerun-if-changed={}", manifest.join("../..").display());
+        println!(
+            "cargo:rerun-if-changed={}",
+            manifest.join("../..").display()
+        );
     }
     compile_dir(&manifest.join("models"), &out, "extra")?;
     Ok(())

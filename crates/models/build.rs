@@ -22,7 +22,10 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     println!("cargo:rerun-if-changed={}", models_dir.display());
     let files = model_files(&models_dir)?;
     let out = PathBuf::from(std::env::var("OUT_DIR")?);
-    let generated = invsim_codegen::Builder::new().models(&files).out_dir(&out).compile()?;
+    let generated = invsim_codegen::Builder::new()
+        .models(&files)
+        .out_dir(&out)
+        .compile()?;
     let registry = invsim_codegen::registry(&generated)?;
     std::fs::write(out.join("registry.rs"), registry)?;
     Ok(())

@@ -25,10 +25,18 @@ pub fn run(root: &Path, model: &Path, out: Option<&Path>) -> Result<Written, Fai
     })?;
     // The module name is the file name (`pub mod <name>` is on the first line after the docs).
     let name = module_of(&rust).unwrap_or_else(|| {
-        model.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "model".to_string())
+        model
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "model".to_string())
     });
-    let dir = out.map(Path::to_path_buf).unwrap_or_else(|| root.join(DEFAULT_OUT));
-    let written = Written { rust: dir.join(format!("{name}.rs")), markdown: dir.join(format!("{name}.md")) };
+    let dir = out
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| root.join(DEFAULT_OUT));
+    let written = Written {
+        rust: dir.join(format!("{name}.rs")),
+        markdown: dir.join(format!("{name}.md")),
+    };
     write_if_changed(&written.rust, &rust)?;
     write_if_changed(&written.markdown, &markdown)?;
     Ok(written)
@@ -36,5 +44,9 @@ pub fn run(root: &Path, model: &Path, out: Option<&Path>) -> Result<Written, Fai
 
 /// The name in the first `pub mod <name> {` line.
 fn module_of(rust: &str) -> Option<String> {
-    rust.lines().find_map(|l| l.strip_prefix("pub mod ").and_then(|r| r.strip_suffix(" {")).map(str::to_string))
+    rust.lines().find_map(|l| {
+        l.strip_prefix("pub mod ")
+            .and_then(|r| r.strip_suffix(" {"))
+            .map(str::to_string)
+    })
 }

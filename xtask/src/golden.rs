@@ -15,7 +15,10 @@ pub const GOLDEN: &str = "crates/codegen/tests/golden/si_engine.rs";
 pub fn render(root: &Path) -> Result<String, Failure> {
     let rel = Path::new(MODEL);
     let d = derive_relative(root, rel)?;
-    let name = rel.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default();
+    let name = rel
+        .file_name()
+        .map(|f| f.to_string_lossy().into_owned())
+        .unwrap_or_default();
     invsim_codegen::generate(&d, &name).map_err(|e| Failure::io(e.to_string()))
 }
 

@@ -3,11 +3,13 @@
 //!
 //! * `gen MODEL [--out DIR]` — Rust source and Markdown derivation for one model file ([`gen`]);
 //! * `docs [--check]` — the derived-equation documents `docs/models/<name>.md` and `docs/README.md` ([`docs`]);
-//! * `golden [--bless]` — the golden copy of the generated si_engine source ([`golden`]).
+//! * `golden [--bless]` — the golden copy of the generated si_engine source ([`golden`]);
+//! * `figures [--check]` — the SVG figures under `docs/figures/` ([`figures`]).
 //!
 //! The tasks are a library so that the workspace's tests check exactly what the tasks write.
 
 pub mod docs;
+pub mod figures;
 pub mod gen;
 pub mod golden;
 

@@ -3,7 +3,7 @@
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 use std::process::ExitCode;
-use xtask::{docs, gen, golden, workspace_root, Failure};
+use xtask::{docs, figures, gen, golden, workspace_root, Failure};
 
 #[derive(Parser, Debug)]
 #[command(name = "xtask", about = "invsim developer tasks", long_about = None)]
@@ -34,6 +34,12 @@ enum Task {
         #[arg(long)]
         bless: bool,
     },
+    /// Regenerate the SVG figures in docs/figures/ (the paper's figures reproduced, and others).
+    Figures {
+        /// Render into a scratch directory and check that every figure renders; write nothing to docs/.
+        #[arg(long)]
+        check: bool,
+    },
 }
 
 fn main() -> ExitCode {
@@ -59,6 +65,12 @@ fn main() -> ExitCode {
                 println!("blessed {}", path.display());
             } else {
                 println!("{} is up to date", path.display());
+            }
+        }),
+        Task::Figures { check } => figures::run(&root, check).map(|written| {
+            let verb = if check { "rendered" } else { "wrote" };
+            for w in written {
+                println!("{verb} {}", w.display());
             }
         }),
     };

@@ -1,4 +1,5 @@
-//! The `invsim` command line: `derive` prints a model's inversion, `simulate` runs it along a drive cycle.
+//! The `invsim` command line: `derive` prints a model's inversion, `simulate` runs it along a drive cycle,
+//! `forward` runs the original model along the cycle with a PI driver.
 //!
 //! Exit status (contract §3): 0 on success, 2 on a user error (bad model or cycle file, bad option, a model
 //! the method cannot invert, a simulation that had to stop), with a one-paragraph message on stderr.
@@ -7,6 +8,7 @@ mod engine;
 
 use clap::{Parser, Subcommand, ValueEnum};
 use invsim_runtime::{output, plot, simulate, Cycle, SimulationOptions};
+use invsim_runtime::forward::{self, Bounds, ForwardOptions, Method};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -30,6 +32,8 @@ enum Command {
     },
     /// Run the inverse simulation of a model along a drive cycle.
     Simulate(SimulateArgs),
+    /// Run the forward simulation of a model along a drive cycle, closed by a PI driver on the raw cycle.
+    Forward(ForwardArgs),
 }
 
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
@@ -80,6 +84,78 @@ struct SimulateArgs {
     /// Which implementation of the model to run.
     #[arg(long, value_enum, default_value_t = EngineChoice::Auto)]
     engine: EngineChoice,
+    /// Integrate the zero dynamics forward even if they are unstable (default: unstable zero dynamics are
+    /// inverted stably, non-causally, with pre- and post-actuation).
+    #[arg(long)]
+    causal: bool,
+    /// Keep the pre- and post-actuation samples of a stable inversion (t before the cycle's start and after its
+    /// end) in the CSV, the plot and the summary's integrals.
+    #[arg(long)]
+    include_extension: bool,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+enum BoundsChoice {
+    /// Apply the driver's demand as it is, like the inverse simulation (violations are reported).
+    Ignore,
+    /// Clip the demand to the model's input bounds and report where the vehicle misses the trace.
+    Enforce,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+enum MethodChoice {
+    /// Dormand–Prince 5(4) with dense output.
+    Dopri5,
+    /// L-stable Rosenbrock 2(3), for stiff models at loose tolerances.
+    Rosenbrock23,
+}
+
+#[derive(clap::Args, Debug)]
+struct ForwardArgs {
+    /// The model file (TOML).
+    model: PathBuf,
+    /// A built-in cycle (nedc, ece, eudc) or the path of a cycle CSV file.
+    #[arg(long)]
+    cycle: String,
+    /// Output step in seconds.
+    #[arg(long, default_value_t = 0.1)]
+    dt: f64,
+    /// Driver's proportional gain: requested acceleration per unit of speed error (1/s).
+    #[arg(long, default_value_t = forward::DRIVER_KP)]
+    kp: f64,
+    /// Driver's integral gain: requested acceleration per unit of integrated speed error (1/s²).
+    #[arg(long, default_value_t = forward::DRIVER_KI)]
+    ki: f64,
+    /// Bandwidth of the engine management's response to the driver's request (rad/s).
+    #[arg(long, default_value_t = forward::RESPONSE_OMEGA)]
+    response: f64,
+    /// Leave out the driver's feed-forward of the cycle's slope.
+    #[arg(long)]
+    no_feedforward: bool,
+    /// Ignore the model's input bounds (like the inverse) or enforce them.
+    #[arg(long, value_enum, default_value_t = BoundsChoice::Ignore)]
+    bounds: BoundsChoice,
+    /// Integration method.
+    #[arg(long, value_enum, default_value_t = MethodChoice::Dopri5)]
+    method: MethodChoice,
+    /// Relative tolerance of the integrator.
+    #[arg(long, default_value_t = 1e-8)]
+    rtol: f64,
+    /// Absolute tolerance of the integrator.
+    #[arg(long, default_value_t = 1e-10)]
+    atol: f64,
+    /// Override a parameter: NAME=VALUE (repeatable).
+    #[arg(long = "set", value_name = "NAME=VALUE")]
+    set: Vec<String>,
+    /// Write the time series as CSV.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Write the summary as JSON.
+    #[arg(long)]
+    summary_json: Option<PathBuf>,
+    /// Which implementation of the model to run.
+    #[arg(long, value_enum, default_value_t = EngineChoice::Auto)]
+    engine: EngineChoice,
 }
 
 /// A user-facing failure: the message and the exit status.
@@ -102,6 +178,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Derive { model, format } => derive(&model, format),
         Command::Simulate(args) => run_simulate(&args),
+        Command::Forward(args) => run_forward(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -154,6 +231,8 @@ fn run_simulate(args: &SimulateArgs) -> Result<(), Failure> {
         dt: args.dt,
         engine: model.engine_name().to_string(),
         verify: args.verify,
+        causal: args.causal,
+        include_extension: args.include_extension,
         // Without --out or --plot only the summary is needed: no time series is stored.
         keep_series: args.out.is_some() || args.plot.is_some(),
         ..SimulationOptions::default()
@@ -174,6 +253,58 @@ fn run_simulate(args: &SimulateArgs) -> Result<(), Failure> {
     }
     if let Some(path) = &args.plot {
         plot::plot_svg(&result, &cycle, path).map_err(|e| Failure::io(e.to_string()))?;
+    }
+    let mut out = std::io::stdout().lock();
+    out.write_all(result.summary.to_text().as_bytes())
+        .map_err(|e| Failure::io(format!("cannot write to stdout: {e}")))?;
+    Ok(())
+}
+
+fn run_forward(args: &ForwardArgs) -> Result<(), Failure> {
+    let sets: Vec<(String, f64)> = args.set.iter().map(|s| parse_set(s)).collect::<Result<_, _>>()?;
+    let cycle = Cycle::load(&args.cycle).map_err(|e| Failure::user(e.to_string()))?;
+    let mut model = engine::load(&args.model, args.engine)?;
+    for (name, value) in &sets {
+        model.set_param(name, *value).map_err(|e| Failure::user(format!("--set {name}: {e}")))?;
+    }
+    let opts = ForwardOptions {
+        dt: args.dt,
+        engine: model.engine_name().to_string(),
+        kp: args.kp,
+        ki: args.ki,
+        response: args.response,
+        feedforward: !args.no_feedforward,
+        bounds: match args.bounds {
+            BoundsChoice::Ignore => Bounds::Ignore,
+            BoundsChoice::Enforce => Bounds::Enforce,
+        },
+        method: match args.method {
+            MethodChoice::Dopri5 => Method::Dopri5,
+            MethodChoice::Rosenbrock23 => Method::Rosenbrock23,
+        },
+        rtol: args.rtol,
+        atol: args.atol,
+        keep_series: args.out.is_some(),
+        ..ForwardOptions::default()
+    };
+    let result = forward::forward(model.as_model(), &cycle, &opts).map_err(|e| {
+        Failure::user(format!(
+            "forward simulation of `{}` on `{}` stopped: {e}",
+            args.model.display(),
+            cycle.name
+        ))
+    })?;
+    if let Some(path) = &args.out {
+        let file = std::fs::File::create(path)
+            .map_err(|e| Failure::io(format!("cannot create {}: {e}", path.display())))?;
+        output::write_table_csv(&result.columns, &result.data, file)
+            .map_err(|e| Failure::io(format!("cannot write {}: {e}", path.display())))?;
+    }
+    if let Some(path) = &args.summary_json {
+        let file = std::fs::File::create(path)
+            .map_err(|e| Failure::io(format!("cannot create {}: {e}", path.display())))?;
+        output::write_json(&result.summary, file)
+            .map_err(|e| Failure::io(format!("cannot write {}: {e}", path.display())))?;
     }
     let mut out = std::io::stdout().lock();
     out.write_all(result.summary.to_text().as_bytes())

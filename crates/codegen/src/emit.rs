@@ -179,7 +179,11 @@ pub(crate) fn float_tokens(x: f64, receiver: bool) -> TokenStream {
         return quote!(f64::NAN);
     }
     if x.is_infinite() {
-        return if x > 0.0 { quote!(f64::INFINITY) } else { quote!(f64::NEG_INFINITY) };
+        return if x > 0.0 {
+            quote!(f64::INFINITY)
+        } else {
+            quote!(f64::NEG_INFINITY)
+        };
     }
     let neg = x.is_sign_negative() && x != 0.0;
     let mag = x.abs();
@@ -191,8 +195,14 @@ pub(crate) fn float_tokens(x: f64, receiver: bool) -> TokenStream {
         quote!(std::f64::consts::#id)
     } else {
         let text = float_text(mag);
-        let text = if receiver { format!("{text}_f64") } else { text };
-        text.parse::<Literal>().map(|l| l.into_token_stream()).unwrap_or_else(|_| quote!(f64::NAN))
+        let text = if receiver {
+            format!("{text}_f64")
+        } else {
+            text
+        };
+        text.parse::<Literal>()
+            .map(|l| l.into_token_stream())
+            .unwrap_or_else(|_| quote!(f64::NAN))
     };
     if neg {
         quote!(-#body)
@@ -204,7 +214,15 @@ pub(crate) fn float_tokens(x: f64, receiver: bool) -> TokenStream {
 /// Would clippy's `approx_constant` take this literal text (digits without suffix) for an approximation of
 /// a `std::f64::consts` value? (The same test clippy applies.)
 pub(crate) fn looks_like_std_constant(text: &str) -> bool {
-    let min_digits = |name: &str| if matches!(name, "PI" | "TAU") { 3 } else if matches!(name, "E" | "FRAC_1_PI") { 4 } else { 5 };
+    let min_digits = |name: &str| {
+        if matches!(name, "PI" | "TAU") {
+            3
+        } else if matches!(name, "E" | "FRAC_1_PI") {
+            4
+        } else {
+            5
+        }
+    };
     STD_CONSTS.iter().any(|(name, c)| {
         if text.len() <= min_digits(name) {
             false
@@ -302,8 +320,16 @@ pub(crate) fn render(
         lets.push(quote!(let #name = #t;));
         names[i] = Some(name);
     }
-    let roots = roots.iter().map(|&v| val_ex(v, arena, &names, index, atom, &mut flags)).collect();
-    Block { lets, roots, uses_sign: flags & USES_SIGN != 0, clamp_like: flags & CLAMP_LIKE != 0 }
+    let roots = roots
+        .iter()
+        .map(|&v| val_ex(v, arena, &names, index, atom, &mut flags))
+        .collect();
+    Block {
+        lets,
+        roots,
+        uses_sign: flags & USES_SIGN != 0,
+        clamp_like: flags & CLAMP_LIKE != 0,
+    }
 }
 
 fn val_ex(
@@ -367,7 +393,11 @@ fn op_ex(
         Op::Call(f, a) => Ex::Method(Box::new(e(a)), method(f), vec![]),
         Op::Call2(f, a, b) => {
             // min and max are symmetric: a constant goes in the argument (`v.max(0.0)`, not `0.0_f64.max(v)`).
-            let (a, b) = if matches!(a, Val::Num(_) | Val::Pi) { (b, a) } else { (a, b) };
+            let (a, b) = if matches!(a, Val::Num(_) | Val::Pi) {
+                (b, a)
+            } else {
+                (a, b)
+            };
             let (a, b) = (e(a), e(b));
             let (m, other) = match f {
                 Func2::Min => ("min", "max"),
@@ -397,11 +427,28 @@ mod tests {
     fn parentheses_only_where_needed() {
         let (a, b, c) = (id("a"), id("b"), id("c"));
         let sub = |x: Ex, y: Ex| Ex::bin(BinOp::Sub, x, y);
-        assert_eq!(show(&sub(sub(a.clone(), b.clone()), c.clone())), "a - b - c");
-        assert_eq!(show(&sub(a.clone(), sub(b.clone(), c.clone()))), "a - (b - c)");
-        let mul = Ex::bin(BinOp::Mul, Ex::bin(BinOp::Add, a.clone(), b.clone()), c.clone());
+        assert_eq!(
+            show(&sub(sub(a.clone(), b.clone()), c.clone())),
+            "a - b - c"
+        );
+        assert_eq!(
+            show(&sub(a.clone(), sub(b.clone(), c.clone()))),
+            "a - (b - c)"
+        );
+        let mul = Ex::bin(
+            BinOp::Mul,
+            Ex::bin(BinOp::Add, a.clone(), b.clone()),
+            c.clone(),
+        );
         assert_eq!(show(&mul), "(a + b) * c");
-        assert_eq!(show(&Ex::Neg(Box::new(Ex::bin(BinOp::Mul, a.clone(), b.clone())))), "- (a * b)");
+        assert_eq!(
+            show(&Ex::Neg(Box::new(Ex::bin(
+                BinOp::Mul,
+                a.clone(),
+                b.clone()
+            )))),
+            "- (a * b)"
+        );
         assert_eq!(show(&Ex::Neg(Box::new(a.clone()))), "- a");
         let m = Ex::Method(Box::new(Ex::bin(BinOp::Mul, a.clone(), b)), "sqrt", vec![]);
         assert_eq!(show(&m), "(a * b) . sqrt ()");
@@ -419,9 +466,16 @@ mod tests {
         assert_eq!(float_text(0.075), "0.075");
         assert_eq!(float_text(1e30), "1e30");
         assert_eq!(float_tokens(std::f64::consts::PI, false).to_string(), "PI");
-        assert_eq!(float_tokens(std::f64::consts::E, true).to_string(), "std :: f64 :: consts :: E");
+        assert_eq!(
+            float_tokens(std::f64::consts::E, true).to_string(),
+            "std :: f64 :: consts :: E"
+        );
         assert_eq!(float_tokens(-0.5, false).to_string(), "- 0.5");
         assert!(looks_like_std_constant("3.14") && looks_like_std_constant("0.7071"));
-        assert!(!looks_like_std_constant("3.1") && !looks_like_std_constant("0.32") && !looks_like_std_constant("9.81"));
+        assert!(
+            !looks_like_std_constant("3.1")
+                && !looks_like_std_constant("0.32")
+                && !looks_like_std_constant("9.81")
+        );
     }
 }

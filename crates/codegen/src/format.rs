@@ -15,8 +15,10 @@ pub(crate) fn format_file(
     comments: &[(String, String)],
     what: &str,
 ) -> Result<String, CodegenError> {
-    let file: syn::File = syn::parse2(tokens)
-        .map_err(|e| CodegenError::Syntax { what: what.to_string(), message: e.to_string() })?;
+    let file: syn::File = syn::parse2(tokens).map_err(|e| CodegenError::Syntax {
+        what: what.to_string(),
+        message: e.to_string(),
+    })?;
     let text = prettyplease::unparse(&file);
     let mut out = String::with_capacity(text.len() + header.len() + 256);
     out.push_str(header);
@@ -37,6 +39,9 @@ pub(crate) fn format_file(
         out.push_str(line);
         out.push('\n');
     }
-    syn::parse_file(&out).map_err(|e| CodegenError::Syntax { what: what.to_string(), message: e.to_string() })?;
+    syn::parse_file(&out).map_err(|e| CodegenError::Syntax {
+        what: what.to_string(),
+        message: e.to_string(),
+    })?;
     Ok(out)
 }

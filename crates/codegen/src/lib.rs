@@ -9,7 +9,7 @@
 //!   functions per point — `h`, `psi`, `psi_inv` (closed form, or Newton's method on the analytic Jacobian with
 //!   a convergence error), `alpha`, `beta`, `invert`, `zero_dynamics`, `rhs`, `outputs` — each documented with
 //!   the equation it implements (plain and LaTeX);
-//! * free functions taking `&Params`, and `Model`, which implements [`invsim_model_api::InverseModel`].
+//! * free functions taking `&Params`, and `Model`, which implements `invsim_model_api::InverseModel`.
 //!
 //! Expressions are lowered as the interpreter's tape lowers them (sums and products as chains, negative
 //! coefficients as subtraction, integer powers as products or `powi`, ½-powers as `sqrt`, one shared `powf`
@@ -44,7 +44,11 @@ pub enum CodegenError {
         "model `{model}`: `{function}` refers to `{symbol}`, which is neither a parameter nor one of its inputs \
          (a bug in the derivation)"
     )]
-    Unbound { model: String, function: &'static str, symbol: String },
+    Unbound {
+        model: String,
+        function: &'static str,
+        symbol: String,
+    },
     #[error("the generated code for {what} does not parse: {message} (a bug in invsim-codegen)")]
     Syntax { what: String, message: String },
 }
@@ -66,7 +70,11 @@ pub enum Error {
     #[error("no output directory: call Builder::out_dir, or run from a build script (which sets OUT_DIR)")]
     NoOutDir,
     #[error("{} and {} both generate the module `{module}`; rename one model", first.display(), second.display())]
-    DuplicateModule { module: String, first: PathBuf, second: PathBuf },
+    DuplicateModule {
+        module: String,
+        first: PathBuf,
+        second: PathBuf,
+    },
 }
 
 /// The first line of every generated file.
@@ -80,7 +88,12 @@ pub fn header(source_name: &str, sha256: &str) -> String {
 /// on where the file was read from).
 pub fn generate(d: &Derivation, source_name: &str) -> Result<String, CodegenError> {
     let out = model::module(d, source_name)?;
-    format::format_file(out.tokens, &header(source_name, &d.model.source_hash), &out.comments, &d.model.name)
+    format::format_file(
+        out.tokens,
+        &header(source_name, &d.model.source_hash),
+        &out.comments,
+        &d.model.name,
+    )
 }
 
 /// Load and derive a model file; return its Rust source and its Markdown derivation
@@ -94,5 +107,7 @@ pub fn generate_file(path: &Path) -> Result<(String, String), Error> {
 
 /// The file name of a model path, for headers and docs.
 pub(crate) fn source_name(path: &Path) -> String {
-    path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_else(|| path.display().to_string())
+    path.file_name()
+        .map(|f| f.to_string_lossy().into_owned())
+        .unwrap_or_else(|| path.display().to_string())
 }

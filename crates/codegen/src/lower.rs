@@ -55,12 +55,22 @@ impl Op {
     /// Operands, with multiplicity (`Powi(v, 2)` is printed `v * v` and uses `v` twice).
     pub fn operands(&self) -> Vec<Val> {
         match *self {
-            Op::Add(a, b) | Op::Sub(a, b) | Op::Mul(a, b) | Op::Div(a, b) | Op::PowVar(a, b) | Op::Call2(_, a, b) => {
+            Op::Add(a, b)
+            | Op::Sub(a, b)
+            | Op::Mul(a, b)
+            | Op::Div(a, b)
+            | Op::PowVar(a, b)
+            | Op::Call2(_, a, b) => {
                 vec![a, b]
             }
             Op::Powi(a, 2) => vec![a, a],
             Op::Powi(a, 3) => vec![a, a, a],
-            Op::Neg(a) | Op::Recip(a) | Op::Powi(a, _) | Op::Sqrt(a) | Op::Powf(a, _) | Op::Call(_, a) => vec![a],
+            Op::Neg(a)
+            | Op::Recip(a)
+            | Op::Powi(a, _)
+            | Op::Sqrt(a)
+            | Op::Powf(a, _)
+            | Op::Call(_, a) => vec![a],
         }
     }
 }
@@ -103,7 +113,25 @@ pub(crate) struct Invariants<'p> {
 
 impl<'p> Invariants<'p> {
     pub fn new(pool: &'p Pool, params: &[Symbol]) -> Invariants<'p> {
-        Invariants { pool, params: params.iter().enumerate().map(|(i, &s)| (s, i)).collect(), arena: Arena::default() }
+        Invariants {
+            pool,
+            params: params.iter().enumerate().map(|(i, &s)| (s, i)).collect(),
+            arena: Arena::default(),
+        }
+    }
+
+    /// Is `v` computable from parameters and constants alone?
+    pub fn is_invariant(&self, v: Val) -> bool {
+        match v {
+            Val::Sym(s) => self.params.contains_key(&s),
+            Val::Num(_) | Val::Pi | Val::Inv(_) => true,
+            Val::Loc(_) => false,
+        }
+    }
+
+    /// 1/v for an invariant `v`, as an invariant value.
+    pub fn recip(&mut self, v: Val) -> Val {
+        Val::Inv(self.arena.push(Op::Recip(v)))
     }
 }
 
@@ -122,13 +150,85 @@ struct FnLowering<'a, 'p> {
     signed_memo: HashMap<Id, (bool, Val)>,
     /// (base, fractional part of the exponent) → smallest exponent with that fractional part.
     min_power: HashMap<(Id, Number), Number>,
+    /// (base, group root q) → (g, m) with q = m·g, when one `powf(b, g)` serves several groups: see
+    /// [`shared_roots`].
+    shared_root: HashMap<(Id, Number), (Number, i32)>,
+}
+
+/// Largest power of a shared root taken by multiplication (`r.powi(m)`).
+const MAX_ROOT_MULTIPLE: i128 = 16;
+
+fn gcd(a: i128, b: i128) -> i128 {
+    let (mut a, mut b) = (a.abs(), b.abs());
+    while b != 0 {
+        (a, b) = (b, a % b);
+    }
+    a
+}
+
+/// The greatest common divisor of two positive exact rationals, if it is computable without overflow.
+fn rational_gcd(a: Number, b: Number) -> Option<Number> {
+    let (Number::Rational(n1, d1), Number::Rational(n2, d2)) = (a, b) else {
+        return None;
+    };
+    let num = gcd(n1.checked_mul(d2)?, n2.checked_mul(d1)?);
+    Some(Number::ratio(num, d1.checked_mul(d2)?))
+}
+
+/// Powers of one base whose exponents are small multiples of a common g share one `powf(b, g)`:
+/// `b^0.1` and `b^0.9` become `r = b^0.1` and `r^9`, one `powf` instead of two. (Groups whose exponents differ by
+/// an integer already share one; this joins groups with different fractional parts.) `r^m` is exact at b = 0
+/// and costs a few multiplications; its relative error is about m ulp.
+fn shared_roots(min_power: &HashMap<(Id, Number), Number>) -> HashMap<(Id, Number), (Number, i32)> {
+    let half = Number::ratio(1, 2);
+    let mut by_base: HashMap<Id, Vec<Number>> = HashMap::new();
+    for (&(b, frac), &q) in min_power {
+        if frac != half {
+            by_base.entry(b).or_default().push(q);
+        }
+    }
+    let mut out = HashMap::new();
+    for (b, mut qs) in by_base {
+        if qs.len() < 2 {
+            continue;
+        }
+        qs.sort_by(|x, y| x.cmp_value(y));
+        let Some(g) = qs[1..].iter().try_fold(qs[0], |g, &q| rational_gcd(g, q)) else {
+            continue;
+        };
+        let multiples: Option<Vec<i32>> = qs
+            .iter()
+            .map(|&q| {
+                let m = q.mul(g.recip()?).as_integer()?;
+                (1..=MAX_ROOT_MULTIPLE).contains(&m).then_some(m as i32)
+            })
+            .collect();
+        if let Some(ms) = multiples {
+            for (q, m) in qs.into_iter().zip(ms) {
+                out.insert((b, q), (g, m));
+            }
+        }
+    }
+    out
 }
 
 /// Lower `roots`, whose free symbols must be parameters or `inputs`.
-pub(crate) fn lower(inv: &mut Invariants<'_>, roots: &[Id], inputs: &[Symbol]) -> Result<Lowered, Unbound> {
+pub(crate) fn lower(
+    inv: &mut Invariants<'_>,
+    roots: &[Id],
+    inputs: &[Symbol],
+) -> Result<Lowered, Unbound> {
     let input_set: HashMap<Symbol, ()> = inputs.iter().map(|&s| (s, ())).collect();
     let pool = inv.pool;
-    let mut l = FnLowering { inv, inputs: &input_set, arena: Arena::default(), memo: HashMap::new(), signed_memo: HashMap::new(), min_power: HashMap::new() };
+    let mut l = FnLowering {
+        inv,
+        inputs: &input_set,
+        arena: Arena::default(),
+        memo: HashMap::new(),
+        signed_memo: HashMap::new(),
+        min_power: HashMap::new(),
+        shared_root: HashMap::new(),
+    };
     for id in pool.topological(roots) {
         if let Node::Pow(base, p) = pool.node(id) {
             if let Some(k) = pool.as_number(*p) {
@@ -144,11 +244,15 @@ pub(crate) fn lower(inv: &mut Invariants<'_>, roots: &[Id], inputs: &[Symbol]) -
             }
         }
     }
+    l.shared_root = shared_roots(&l.min_power);
     let mut out = Vec::with_capacity(roots.len());
     for &r in roots {
         out.push(l.lower(r)?);
     }
-    Ok(Lowered { arena: l.arena, roots: out })
+    Ok(Lowered {
+        arena: l.arena,
+        roots: out,
+    })
 }
 
 impl FnLowering<'_, '_> {
@@ -247,7 +351,8 @@ impl FnLowering<'_, '_> {
             }
         }
         // Parameter-only terms first, so that their partial sum is hoisted.
-        let (mut first, rest): (Vec<_>, Vec<_>) = terms.into_iter().partition(|&(_, v)| self.is_param(v));
+        let (mut first, rest): (Vec<_>, Vec<_>) =
+            terms.into_iter().partition(|&(_, v)| self.is_param(v));
         first.extend(rest);
         let r = (all_negative, self.sum(&first));
         self.signed_memo.insert(e, r);
@@ -406,7 +511,11 @@ impl FnLowering<'_, '_> {
     fn lower_power(&mut self, b: Id, k: Number) -> Result<Val, Unbound> {
         let vb = self.lower(b)?;
         if let Some(i) = k.as_integer().filter(|i| *i <= i32::MAX as i128) {
-            return Ok(if i == 1 { vb } else { self.emit(Op::Powi(vb, i as i32)) });
+            return Ok(if i == 1 {
+                vb
+            } else {
+                self.emit(Op::Powi(vb, i as i32))
+            });
         }
         let m = k.to_f64().floor();
         let frac = k.add(Number::from_f64(-m));
@@ -422,7 +531,17 @@ impl FnLowering<'_, '_> {
             });
         }
         let q = self.min_power.get(&(b, frac)).copied().unwrap_or(k);
-        let s = self.emit(Op::Powf(vb, q));
+        let s = match self.shared_root.get(&(b, q)).copied() {
+            Some((g, m)) => {
+                let r = self.emit(Op::Powf(vb, g));
+                if m == 1 {
+                    r
+                } else {
+                    self.emit(Op::Powi(r, m))
+                }
+            }
+            None => self.emit(Op::Powf(vb, q)),
+        };
         Ok(self.times_integer_power(s, vb, k.add(q.neg())))
     }
 }
@@ -458,8 +577,35 @@ mod tests {
         let v = pool.symbol("v");
         let mut inv = Invariants::new(&pool, &[]);
         let l = lower(&mut inv, &[e], &[v]).unwrap();
-        let powf: Vec<&Op> = l.arena.ops.iter().filter(|o| matches!(o, Op::Powf(..))).collect();
+        let powf: Vec<&Op> = l
+            .arena
+            .ops
+            .iter()
+            .filter(|o| matches!(o, Op::Powf(..)))
+            .collect();
         assert_eq!(powf, vec![&Op::Powf(Val::Sym(v), Number::ratio(4, 5))]);
+    }
+
+    #[test]
+    fn exponents_with_a_common_divisor_share_one_powf() {
+        let mut pool = Pool::new();
+        let e = pool.parse("v^0.9 + 1/v^0.1 + v^1.9").unwrap();
+        let v = pool.symbol("v");
+        let mut inv = Invariants::new(&pool, &[]);
+        let l = lower(&mut inv, &[e], &[v]).unwrap();
+        let powf: Vec<&Op> = l
+            .arena
+            .ops
+            .iter()
+            .filter(|o| matches!(o, Op::Powf(..)))
+            .collect();
+        assert_eq!(powf, vec![&Op::Powf(Val::Sym(v), Number::ratio(1, 10))]);
+        assert!(l.arena.ops.iter().any(|o| matches!(o, Op::Powi(_, 9))));
+        // 0.3 and 0.7: gcd 0.1, multiples 3 and 7.
+        assert_eq!(
+            rational_gcd(Number::ratio(3, 10), Number::ratio(7, 10)),
+            Some(Number::ratio(1, 10))
+        );
     }
 
     #[test]

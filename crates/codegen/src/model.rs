@@ -68,7 +68,11 @@ impl Shape {
 #[derive(Clone)]
 enum Arg {
     /// `name: &[f64; LEN]`, destructured into the symbols' locals.
-    Array { name: &'static str, len: &'static str, syms: Vec<Symbol> },
+    Array {
+        name: &'static str,
+        len: &'static str,
+        syms: Vec<Symbol>,
+    },
     /// `local: f64` for a single symbol (the input u, or y^(r)).
     Scalar(Symbol),
 }
@@ -81,6 +85,8 @@ struct Straight {
     shape: Shape,
     doc: Vec<String>,
     lowered: Option<Lowered>,
+    /// For `invert`: β is parameter-only, and the last root is 1/β (u = (y^(r) − α)·(1/β)).
+    beta_recip: bool,
 }
 
 /// Everything needed to write one model's module.
@@ -119,7 +125,11 @@ fn equation_doc(rows: &[(String, String, String)]) -> Vec<String> {
 
 fn doc_attrs(lines: &[String]) -> TokenStream {
     let attrs = lines.iter().map(|l| {
-        let l = if l.is_empty() { String::new() } else { format!(" {l}") };
+        let l = if l.is_empty() {
+            String::new()
+        } else {
+            format!(" {l}")
+        };
         quote!(#[doc = #l])
     });
     quote!(#(#attrs)*)
@@ -178,7 +188,14 @@ impl<'d> Gen<'d> {
             add(s, pool.symbol_name(s).to_string(), &mut non_snake);
         }
         add(d.yr, "yr".to_string(), &mut non_snake);
-        Gen { d, pool, closed: d.psi_inv_closed(), fields, locals: local_map, non_snake }
+        Gen {
+            d,
+            pool,
+            closed: d.psi_inv_closed(),
+            fields,
+            locals: local_map,
+            non_snake,
+        }
     }
 
     fn name(&self, s: Symbol) -> &str {
@@ -198,13 +215,25 @@ impl<'d> Gen<'d> {
     }
 
     fn x_arg(&self) -> Arg {
-        Arg::Array { name: "x", len: "N", syms: self.state_syms() }
+        Arg::Array {
+            name: "x",
+            len: "N",
+            syms: self.state_syms(),
+        }
     }
     fn xi_arg(&self) -> Arg {
-        Arg::Array { name: "xi", len: "R", syms: self.d.xi.clone() }
+        Arg::Array {
+            name: "xi",
+            len: "R",
+            syms: self.d.xi.clone(),
+        }
     }
     fn eta_arg(&self) -> Arg {
-        Arg::Array { name: "eta", len: "N_ETA", syms: self.d.eta.clone() }
+        Arg::Array {
+            name: "eta",
+            len: "N_ETA",
+            syms: self.d.eta.clone(),
+        }
     }
 
     /// The straight-line functions of this model.
@@ -216,12 +245,13 @@ impl<'d> Gen<'d> {
         let ne = d.eta.len();
         let u = m.input.symbol;
         let states = self.state_syms();
-        let rows = |lhs: Vec<(String, String)>, es: &[Id], plain: bool| -> Vec<(String, String, String)> {
-            lhs.into_iter()
-                .zip(es)
-                .map(|((a, b), &e)| (a, b, if plain { self.plain(e) } else { self.tex(e) }))
-                .collect()
-        };
+        let rows =
+            |lhs: Vec<(String, String)>, es: &[Id], plain: bool| -> Vec<(String, String, String)> {
+                lhs.into_iter()
+                    .zip(es)
+                    .map(|((a, b), &e)| (a, b, if plain { self.plain(e) } else { self.tex(e) }))
+                    .collect()
+            };
         // Doc: a plain block from the `plain` rows and a LaTeX block from the `tex` rows.
         let eq = |lhs: Vec<(String, String)>, es: &[Id]| -> Vec<String> {
             let p = rows(lhs.clone(), es, true);
@@ -238,21 +268,43 @@ impl<'d> Gen<'d> {
             doc.extend(tex_doc.drain(start..));
             doc
         };
-        let xi_lhs: Vec<(String, String)> =
-            (1..=r).map(|k| (format!("xi{k}"), format!("\\xi_{{{k}}}"))).collect::<Vec<_>>();
-        let eta_lhs: Vec<(String, String)> = (1..=ne).map(|k| (format!("eta{k}"), format!("\\eta_{{{k}}}"))).collect();
-        let state_lhs: Vec<(String, String)> =
-            m.states.iter().map(|s| (s.name.clone(), latex_symbol(&s.name))).collect();
-        let dot_lhs: Vec<(String, String)> =
-            m.states.iter().map(|s| (format!("d({})/dt", s.name), format!("\\dot{{{}}}", latex_symbol(&s.name)))).collect();
-        let deta_lhs: Vec<(String, String)> =
-            (1..=ne).map(|k| (format!("d(eta{k})/dt"), format!("\\dot\\eta_{{{k}}}"))).collect();
-        let out_lhs: Vec<(String, String)> = m.outputs.iter().map(|o| (o.name.clone(), latex_symbol(&o.name))).collect();
+        let xi_lhs: Vec<(String, String)> = (1..=r)
+            .map(|k| (format!("xi{k}"), format!("\\xi_{{{k}}}")))
+            .collect::<Vec<_>>();
+        let eta_lhs: Vec<(String, String)> = (1..=ne)
+            .map(|k| (format!("eta{k}"), format!("\\eta_{{{k}}}")))
+            .collect();
+        let state_lhs: Vec<(String, String)> = m
+            .states
+            .iter()
+            .map(|s| (s.name.clone(), latex_symbol(&s.name)))
+            .collect();
+        let dot_lhs: Vec<(String, String)> = m
+            .states
+            .iter()
+            .map(|s| {
+                (
+                    format!("d({})/dt", s.name),
+                    format!("\\dot{{{}}}", latex_symbol(&s.name)),
+                )
+            })
+            .collect();
+        let deta_lhs: Vec<(String, String)> = (1..=ne)
+            .map(|k| (format!("d(eta{k})/dt"), format!("\\dot\\eta_{{{k}}}")))
+            .collect();
+        let out_lhs: Vec<(String, String)> = m
+            .outputs
+            .iter()
+            .map(|o| (o.name.clone(), latex_symbol(&o.name)))
+            .collect();
         let mut psi_lhs = xi_lhs.clone();
         psi_lhs.extend(eta_lhs.clone());
 
         let mut fs = Vec::new();
-        let mut doc = vec![format!("The tracked output y = h(x) (`{}`).", m.output.name), String::new()];
+        let mut doc = vec![
+            format!("The tracked output y = h(x) (`{}`).", m.output.name),
+            String::new(),
+        ];
         doc.extend(eq(vec![("y".into(), "y".into())], &[m.output.h]));
         fs.push(Straight {
             name: "h",
@@ -261,6 +313,7 @@ impl<'d> Gen<'d> {
             shape: Shape::Scalar,
             doc,
             lowered: None,
+            beta_recip: false,
         });
         let mut doc = vec![
             "Normal-form coordinates (ξ, η) = ψ(x): ξ_k = L_f^(k−1) h for k = 1 … r, η the internal states."
@@ -275,10 +328,20 @@ impl<'d> Gen<'d> {
             shape: Shape::Tuple(vec![Shape::array("R", r), Shape::array("N_ETA", ne)]),
             doc,
             lowered: None,
+            beta_recip: false,
         });
         if self.closed {
-            let inv: Vec<Id> = d.psi_inv.iter().filter_map(|s| match s { Solution::Closed(e) => Some(*e), Solution::Numeric => None }).collect();
-            let mut doc = vec!["The states at normal-form coordinates: x = ψ⁻¹(ξ, η), in closed form.".to_string()];
+            let inv: Vec<Id> = d
+                .psi_inv
+                .iter()
+                .filter_map(|s| match s {
+                    Solution::Closed(e) => Some(*e),
+                    Solution::Numeric => None,
+                })
+                .collect();
+            let mut doc = vec![
+                "The states at normal-form coordinates: x = ψ⁻¹(ξ, η), in closed form.".to_string(),
+            ];
             if !d.domain.is_empty() {
                 doc.push(String::new());
                 doc.push(format!("Valid where: {}.", d.domain.join("; ")));
@@ -292,9 +355,11 @@ impl<'d> Gen<'d> {
                 shape: Shape::array("N", n),
                 doc,
                 lowered: None,
+                beta_recip: false,
             });
             let mut doc = vec![
-                "α(ξ, η) = L_f^r h ∘ ψ⁻¹, the drift term of y^(r) = α(ξ, η) + β(ξ, η)·u.".to_string(),
+                "α(ξ, η) = L_f^r h ∘ ψ⁻¹, the drift term of y^(r) = α(ξ, η) + β(ξ, η)·u."
+                    .to_string(),
                 String::new(),
             ];
             doc.extend(eq(vec![("alpha".into(), "\\alpha".into())], &[d.alpha]));
@@ -305,9 +370,11 @@ impl<'d> Gen<'d> {
                 shape: Shape::Scalar,
                 doc,
                 lowered: None,
+                beta_recip: false,
             });
             let mut doc = vec![
-                "β(ξ, η) = L_g L_f^(r−1) h ∘ ψ⁻¹, the gain of the input in y^(r) = α + β·u.".to_string(),
+                "β(ξ, η) = L_g L_f^(r−1) h ∘ ψ⁻¹, the gain of the input in y^(r) = α + β·u."
+                    .to_string(),
             ];
             if !d.singular.is_empty() {
                 doc.push(String::new());
@@ -322,6 +389,7 @@ impl<'d> Gen<'d> {
                 shape: Shape::Scalar,
                 doc,
                 lowered: None,
+                beta_recip: false,
             });
             let mut roots = inv;
             roots.push(d.alpha);
@@ -345,10 +413,12 @@ impl<'d> Gen<'d> {
                     "```".into(),
                 ],
                 lowered: None,
+                beta_recip: false,
             });
             if ne > 0 {
                 let mut doc = vec![
-                    "The zero dynamics dη/dt = L_f η + L_g η · (y^(r) − α)/β in (ξ, η, y^(r)).".to_string(),
+                    "The zero dynamics dη/dt = L_f η + L_g η · (y^(r) − α)/β in (ξ, η, y^(r))."
+                        .to_string(),
                     String::new(),
                 ];
                 doc.extend(eq(deta_lhs.clone(), &d.zero_dynamics));
@@ -361,6 +431,7 @@ impl<'d> Gen<'d> {
                     shape: Shape::array("N_ETA", ne),
                     doc,
                     lowered: None,
+                    beta_recip: false,
                 });
             }
         } else {
@@ -372,7 +443,11 @@ impl<'d> Gen<'d> {
                     let _ = j;
                     jac_lhs.push((
                         format!("d({})/d({})", psi_lhs[i].0, self.name(*st)),
-                        format!("\\frac{{\\partial {}}}{{\\partial {}}}", psi_lhs[i].1, latex_symbol(self.name(*st))),
+                        format!(
+                            "\\frac{{\\partial {}}}{{\\partial {}}}",
+                            psi_lhs[i].1,
+                            latex_symbol(self.name(*st))
+                        ),
                     ));
                 }
             }
@@ -393,6 +468,7 @@ impl<'d> Gen<'d> {
                 ]),
                 doc,
                 lowered: None,
+                beta_recip: false,
             });
             let mut doc = vec!["α in the states: L_f^r h(x).".to_string(), String::new()];
             doc.extend(eq(vec![("alpha".into(), "\\alpha".into())], &[d.alpha_x]));
@@ -403,6 +479,7 @@ impl<'d> Gen<'d> {
                 shape: Shape::Scalar,
                 doc,
                 lowered: None,
+                beta_recip: false,
             });
             let mut doc = vec!["β in the states: L_g L_f^(r−1) h(x).".to_string()];
             if !d.singular.is_empty() {
@@ -418,6 +495,7 @@ impl<'d> Gen<'d> {
                 shape: Shape::Scalar,
                 doc,
                 lowered: None,
+                beta_recip: false,
             });
             if ne > 0 {
                 let mut doc = vec![
@@ -433,12 +511,16 @@ impl<'d> Gen<'d> {
                     shape: Shape::array("N_ETA", ne),
                     doc,
                     lowered: None,
+                    beta_recip: false,
                 });
             }
         }
         let rhs: Vec<Id> = m.states.iter().map(|s| s.rhs).collect();
         let mut doc = vec![
-            format!("The original model dx/dt = f(x) + g(x)·u, for forward simulation (u = `{}`).", m.input.name),
+            format!(
+                "The original model dx/dt = f(x) + g(x)·u, for forward simulation (u = `{}`).",
+                m.input.name
+            ),
             String::new(),
         ];
         doc.extend(eq(dot_lhs, &rhs));
@@ -449,10 +531,14 @@ impl<'d> Gen<'d> {
             shape: Shape::array("N", n),
             doc,
             lowered: None,
+            beta_recip: false,
         });
         if !m.outputs.is_empty() {
             let outs: Vec<Id> = m.outputs.iter().map(|o| o.expr).collect();
-            let mut doc = vec!["The extra outputs of the model's `[outputs]` table at (x, u).".to_string(), String::new()];
+            let mut doc = vec![
+                "The extra outputs of the model's `[outputs]` table at (x, u).".to_string(),
+                String::new(),
+            ];
             doc.extend(eq(out_lhs, &outs));
             fs.push(Straight {
                 name: "outputs",
@@ -461,6 +547,7 @@ impl<'d> Gen<'d> {
                 shape: Shape::array("N_OUTPUTS", m.outputs.len()),
                 doc,
                 lowered: None,
+                beta_recip: false,
             });
         }
         fs
@@ -506,6 +593,16 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
             function: f.name,
             symbol: e.0,
         })?;
+        let mut l = l;
+        if f.name == "invert" {
+            if let Some(&beta) = l.roots.last() {
+                if inv.is_invariant(beta) && !matches!(beta, Val::Num(_)) {
+                    let rb = inv.recip(beta);
+                    l.roots.push(rb);
+                    f.beta_recip = true;
+                }
+            }
+        }
         f.lowered = Some(l);
     }
     // Invariant values the per-point code reads become fields of `Precomputed`.
@@ -522,8 +619,11 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
         }
         l.roots.iter().copied().for_each(&mut note);
     }
-    let k_names: HashMap<usize, Ident> =
-        exported.iter().enumerate().map(|(j, &i)| (i, format_ident!("k{}", j))).collect();
+    let k_names: HashMap<usize, Ident> = exported
+        .iter()
+        .enumerate()
+        .map(|(j, &i)| (i, format_ident!("k{}", j)))
+        .collect();
 
     let field_of = |s: Symbol| -> TokenStream {
         match g.fields.get(&s) {
@@ -558,7 +658,12 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
     let k_fields: Vec<TokenStream> = exported
         .iter()
         .map(|&i| {
-            let e = describe(&mut describe_pool, &inv.arena, Val::Inv(i), &mut describe_memo);
+            let e = describe(
+                &mut describe_pool,
+                &inv.arena,
+                Val::Inv(i),
+                &mut describe_memo,
+            );
             let text = format!(" `{}`", describe_pool.display(e));
             let k = &k_names[&i];
             quote!(#[doc = #text] #k: f64,)
@@ -602,8 +707,13 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
         let block = emit::render(&l.arena, &l.roots, &loc_index, &atom, &HashMap::new(), "t");
         uses_sign |= block.uses_sign;
         let used = used.into_inner();
-        let (params_sig, destructure, call_args) = signature(&g, &f.args, &used, f.name == "invert");
-        let p_let = if *uses_p.borrow() { quote!(let p = &self.params;) } else { quote!() };
+        let (params_sig, destructure, call_args) =
+            signature(&g, &f.args, &used, f.name == "invert");
+        let p_let = if *uses_p.borrow() {
+            quote!(let p = &self.params;)
+        } else {
+            quote!()
+        };
         let lets = &block.lets;
         let name = format_ident!("{}", f.name);
         let doc = doc_attrs(&f.doc);
@@ -615,6 +725,7 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
         let (ret_ty, result) = if f.name == "invert" {
             // (x, α, β) → (x, (y^(r) − α)/β), with α and β named when they are not single tokens.
             let mut items: Vec<Ex> = block.roots.clone();
+            let beta_recip = if f.beta_recip { items.pop() } else { None };
             let beta = items.pop().unwrap_or(Ex::Lit(f64::NAN));
             let alpha = items.pop().unwrap_or(Ex::Lit(f64::NAN));
             let xs: Vec<TokenStream> = items.iter().map(|e| e.tokens(0)).collect();
@@ -630,13 +741,26 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
                 }
             };
             let alpha = bind("alpha", alpha);
-            let beta = bind("beta", beta);
             let yr = Ex::atom(quote!(yr));
-            let u = emit::Ex::bin(
-                emit::BinOp::Div,
-                emit::Ex::bin(emit::BinOp::Sub, yr, alpha),
-                beta,
-            );
+            let u = match beta_recip {
+                // β depends on parameters only: multiply by the precomputed 1/β.
+                Some(rb) => {
+                    let _ = beta;
+                    emit::Ex::bin(
+                        emit::BinOp::Mul,
+                        emit::Ex::bin(emit::BinOp::Sub, yr, alpha),
+                        rb,
+                    )
+                }
+                None => {
+                    let beta = bind("beta", beta);
+                    emit::Ex::bin(
+                        emit::BinOp::Div,
+                        emit::Ex::bin(emit::BinOp::Sub, yr, alpha),
+                        beta,
+                    )
+                }
+            };
             let u = u.tokens(0);
             (quote!(([f64; N], f64)), quote!(#extra ([#(#xs),*], #u)))
         } else {
@@ -769,36 +893,34 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
                 }
             });
         }
-        let mut numeric_free = vec![
-            quote! {
-                /// x = ψ⁻¹(ξ, η) by Newton's method at the parameters `p`; see [`Precomputed::psi_inv`].
-                #[inline]
-                pub fn psi_inv(p: &Params, xi: &[f64; R], eta: &[f64; N_ETA], guess: &[f64; N]) -> Result<[f64; N], ModelError> {
-                    Precomputed::new(p).psi_inv(xi, eta, guess)
-                }
-                /// α(ξ, η) at the parameters `p`; see [`Precomputed::alpha`].
-                #[inline]
-                pub fn alpha(p: &Params, xi: &[f64; R], eta: &[f64; N_ETA], guess: &[f64; N]) -> Result<f64, ModelError> {
-                    Precomputed::new(p).alpha(xi, eta, guess)
-                }
-                /// β(ξ, η) at the parameters `p`; see [`Precomputed::beta`].
-                #[inline]
-                pub fn beta(p: &Params, xi: &[f64; R], eta: &[f64; N_ETA], guess: &[f64; N]) -> Result<f64, ModelError> {
-                    Precomputed::new(p).beta(xi, eta, guess)
-                }
-                /// The inverse at one point at the parameters `p`; see [`Precomputed::invert`].
-                #[inline]
-                pub fn invert(
-                    p: &Params,
-                    xi: &[f64; R],
-                    eta: &[f64; N_ETA],
-                    yr: f64,
-                    guess: &[f64; N],
-                ) -> Result<([f64; N], f64), ModelError> {
-                    Precomputed::new(p).invert(xi, eta, yr, guess)
-                }
-            },
-        ];
+        let mut numeric_free = vec![quote! {
+            /// x = ψ⁻¹(ξ, η) by Newton's method at the parameters `p`; see [`Precomputed::psi_inv`].
+            #[inline]
+            pub fn psi_inv(p: &Params, xi: &[f64; R], eta: &[f64; N_ETA], guess: &[f64; N]) -> Result<[f64; N], ModelError> {
+                Precomputed::new(p).psi_inv(xi, eta, guess)
+            }
+            /// α(ξ, η) at the parameters `p`; see [`Precomputed::alpha`].
+            #[inline]
+            pub fn alpha(p: &Params, xi: &[f64; R], eta: &[f64; N_ETA], guess: &[f64; N]) -> Result<f64, ModelError> {
+                Precomputed::new(p).alpha(xi, eta, guess)
+            }
+            /// β(ξ, η) at the parameters `p`; see [`Precomputed::beta`].
+            #[inline]
+            pub fn beta(p: &Params, xi: &[f64; R], eta: &[f64; N_ETA], guess: &[f64; N]) -> Result<f64, ModelError> {
+                Precomputed::new(p).beta(xi, eta, guess)
+            }
+            /// The inverse at one point at the parameters `p`; see [`Precomputed::invert`].
+            #[inline]
+            pub fn invert(
+                p: &Params,
+                xi: &[f64; R],
+                eta: &[f64; N_ETA],
+                yr: f64,
+                guess: &[f64; N],
+            ) -> Result<([f64; N], f64), ModelError> {
+                Precomputed::new(p).invert(xi, eta, yr, guess)
+            }
+        }];
         if ne > 0 {
             numeric_free.push(quote! {
                 /// The zero dynamics at the parameters `p`; see [`Precomputed::zero_dynamics`].
@@ -885,17 +1007,26 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
         .map(|p| {
             let f = &g.fields[&p.symbol];
             let id = &f.ident;
-            let mut text = p.doc.clone().unwrap_or_else(|| format!("Parameter `{}`", p.name));
+            let mut text = p
+                .doc
+                .clone()
+                .unwrap_or_else(|| format!("Parameter `{}`", p.name));
             if let Some(u) = &p.unit {
                 text.push_str(&format!(" ({u})"));
             }
             text.push_str(&format!("; default {}.", number_text(p.value)));
             let text = format!(" {}", escape_doc(&text));
-            let rename = f.serde_rename.as_ref().map(|n| quote!(#[serde(rename = #n)]));
+            let rename = f
+                .serde_rename
+                .as_ref()
+                .map(|n| quote!(#[serde(rename = #n)]));
             quote!(#[doc = #text] #rename pub #id: f64,)
         })
         .collect();
-    let all_zero = m.parameters.iter().all(|p| p.value == 0.0 && p.value.is_sign_positive());
+    let all_zero = m
+        .parameters
+        .iter()
+        .all(|p| p.value == 0.0 && p.value.is_sign_positive());
     let defaults: Vec<TokenStream> = m
         .parameters
         .iter()
@@ -905,7 +1036,11 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
             quote!(#id: #v,)
         })
         .collect();
-    let field_ids: Vec<&Ident> = m.parameters.iter().map(|p| &g.fields[&p.symbol].ident).collect();
+    let field_ids: Vec<&Ident> = m
+        .parameters
+        .iter()
+        .map(|p| &g.fields[&p.symbol].ident)
+        .collect();
     let (derive_default, default_impl) = if all_zero {
         (quote!(Default,), quote!())
     } else {
@@ -1090,8 +1225,11 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
             quote!(OutputInfo { name: #name.to_string(), unit: #unit, accumulate: #acc })
         })
         .collect();
-    let outputs_vec =
-        if outputs_info.is_empty() { quote!(Vec::new()) } else { quote!(Vec::from([#(#outputs_info),*])) };
+    let outputs_vec = if outputs_info.is_empty() {
+        quote!(Vec::new())
+    } else {
+        quote!(Vec::from([#(#outputs_info),*]))
+    };
     let (input_min, input_max) = (opt_f64(m.input.min), opt_f64(m.input.max));
 
     // ----- module doc and attributes ------------------------------------------------------------------------
@@ -1099,7 +1237,8 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
     let psi_inv_note = if g.closed {
         "ψ⁻¹ is in closed form.".to_string()
     } else {
-        "ψ⁻¹ is solved by Newton's method on the analytic Jacobian (no closed form was found).".to_string()
+        "ψ⁻¹ is solved by Newton's method on the analytic Jacobian (no closed form was found)."
+            .to_string()
     };
     let mut mod_doc = vec![format!("Compiled `{name}` model.")];
     if !description.is_empty() {
@@ -1112,12 +1251,14 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
          degree r = {r}, {ne} internal state(s) η. {psi_inv_note}"
     ));
     mod_doc.push(String::new());
-    mod_doc.push(
-        "[`Model`] implements the runtime's [`InverseModel`]. [`Precomputed`] holds a parameter set with its \
-         parameter-only subexpressions and evaluates every function per point; the free functions take \
-         [`Params`] directly. Each method's documentation shows its equation."
-            .to_string(),
-    );
+    // Links in a module's outer docs resolve from the enclosing module, hence the module-qualified paths.
+    let md = names::module_name(&m.name);
+    mod_doc.push(format!(
+        "[`Model`]({md}::Model) implements the runtime's [`InverseModel`](invsim_model_api::InverseModel). \
+         [`Precomputed`]({md}::Precomputed) holds a parameter set with its parameter-only subexpressions and \
+         evaluates every function per point; the free functions take [`Params`]({md}::Params) directly. Each \
+         method's documentation shows its equation."
+    ));
     mod_doc.push(String::new());
     mod_doc.push(format!("Generated from `{source_name}` (sha256 `{hash}`)."));
     let mod_doc = doc_attrs(&mod_doc);
@@ -1132,16 +1273,23 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
         attrs.extend(quote!(#[allow(non_snake_case)]));
         comments.push((
             "#[allow(non_snake_case)]".to_string(),
-            "Parameter and state names are the model file's own (`C_d`, `T_i`), kept as written.".to_string(),
+            "Parameter and state names are the model file's own (`C_d`, `T_i`), kept as written."
+                .to_string(),
         ));
     }
 
     let description_lit = lit_str(&description);
     let imports = if has_outputs {
-        quote!(use invsim_model_api::{InverseModel, ModelError, ModelInfo, OutputInfo};)
+        quote!(
+            use invsim_model_api::{InverseModel, ModelError, ModelInfo, OutputInfo, ReferenceMap};
+        )
     } else {
-        quote!(use invsim_model_api::{InverseModel, ModelError, ModelInfo};)
+        quote!(
+            use invsim_model_api::{InverseModel, ModelError, ModelInfo, ReferenceMap};
+        )
     };
+    let ref_offset = emit::float_tokens(m.output.reference_offset, false);
+    let ref_scale = emit::float_tokens(m.output.reference_scale, false);
     let body = quote! {
         #imports
 
@@ -1173,6 +1321,8 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
         pub const PARAMETERS: [&str; N_PARAMS] = [#(#param_names),*];
         /// Names of the extra outputs.
         pub const OUTPUTS: [&str; N_OUTPUTS] = [#(#output_names),*];
+        /// How a drive cycle defines the tracked output's reference: y_d = offset + scale · (smoothed cycle).
+        pub const REFERENCE: ReferenceMap = ReferenceMap { offset: #ref_offset, scale: #ref_scale };
 
         /// The model's parameters; [`Default`] gives the model file's values.
         #[derive(Debug, Clone, Copy, PartialEq, #derive_default serde::Serialize, serde::Deserialize)]
@@ -1300,6 +1450,9 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
                 dx.copy_from_slice(&self.pre.rhs(arr(x), u));
             }
             #outputs_impl
+            fn reference(&self) -> ReferenceMap {
+                REFERENCE
+            }
             #invert_impl
         }
 
@@ -1361,7 +1514,9 @@ fn resembles_std_constant(tokens: TokenStream) -> bool {
         proc_macro2::TokenTree::Literal(l) => {
             let text = l.to_string();
             let digits = text.trim_end_matches("_f64");
-            !text.starts_with('"') && digits.contains(['.', 'e']) && emit::looks_like_std_constant(digits)
+            !text.starts_with('"')
+                && digits.contains(['.', 'e'])
+                && emit::looks_like_std_constant(digits)
         }
         _ => false,
     })
@@ -1411,7 +1566,11 @@ fn signature(
             Arg::Array { name, len, syms } => {
                 let len = format_ident!("{}", len);
                 let any = syms.iter().any(|s| used.contains(s));
-                let arg = if any { format_ident!("{}", name) } else { format_ident!("_{}", name) };
+                let arg = if any {
+                    format_ident!("{}", name)
+                } else {
+                    format_ident!("_{}", name)
+                };
                 sig.push(quote!(#arg: &[f64; #len]));
                 call.push(format_ident!("{}", name).to_token_stream());
                 if any {
@@ -1427,7 +1586,11 @@ fn signature(
             }
             Arg::Scalar(s) => {
                 let local = &g.locals[s];
-                let id = if used.contains(s) { local.clone() } else { format_ident!("_{}", local) };
+                let id = if used.contains(s) {
+                    local.clone()
+                } else {
+                    format_ident!("_{}", local)
+                };
                 sig.push(quote!(#id: f64));
                 call.push(local.to_token_stream());
             }

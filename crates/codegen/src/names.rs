@@ -11,11 +11,11 @@ use std::collections::HashSet;
 
 /// Strict and reserved keywords of every Rust edition up to 2024.
 const KEYWORDS: &[&str] = &[
-    "as", "async", "await", "break", "const", "continue", "crate", "dyn", "else", "enum", "extern", "false", "fn",
-    "for", "gen", "if", "impl", "in", "let", "loop", "match", "mod", "move", "mut", "pub", "ref", "return", "self",
-    "Self", "static", "struct", "super", "trait", "true", "type", "unsafe", "use", "where", "while", "abstract",
-    "become", "box", "do", "final", "macro", "override", "priv", "typeof", "unsized", "virtual", "yield", "try",
-    "union", "_",
+    "as", "async", "await", "break", "const", "continue", "crate", "dyn", "else", "enum", "extern",
+    "false", "fn", "for", "gen", "if", "impl", "in", "let", "loop", "match", "mod", "move", "mut",
+    "pub", "ref", "return", "self", "Self", "static", "struct", "super", "trait", "true", "type",
+    "unsafe", "use", "where", "while", "abstract", "become", "box", "do", "final", "macro",
+    "override", "priv", "typeof", "unsized", "virtual", "yield", "try", "union", "_",
 ];
 
 /// Keywords that cannot be raw identifiers.
@@ -24,17 +24,81 @@ const NOT_RAW: &[&str] = &["crate", "self", "Self", "super", "_"];
 /// Names the generated module defines or uses as locals; a model local may not shadow them.
 pub(crate) const RESERVED_LOCALS: &[&str] = &[
     // module items
-    "NAME", "SOURCE_FILE", "SOURCE_HASH", "DESCRIPTION", "N", "R", "N_ETA", "N_PARAMS", "N_OUTPUTS", "STATES",
-    "INPUT", "OUTPUT", "PARAMETERS", "OUTPUTS", "NEWTON_MAX_ITER", "NEWTON_TOL", "Params", "Precomputed",
-    "Model", "model_info", "h", "psi", "psi_inv", "psi_jacobian", "alpha", "beta", "alpha_x", "beta_x",
-    "invert", "zero_dynamics", "zero_dynamics_x", "rhs", "outputs", "lu_solve", "sign", "arr",
+    "NAME",
+    "SOURCE_FILE",
+    "SOURCE_HASH",
+    "DESCRIPTION",
+    "N",
+    "R",
+    "N_ETA",
+    "N_PARAMS",
+    "N_OUTPUTS",
+    "STATES",
+    "INPUT",
+    "OUTPUT",
+    "PARAMETERS",
+    "OUTPUTS",
+    "REFERENCE",
+    "ReferenceMap",
+    "NEWTON_MAX_ITER",
+    "NEWTON_TOL",
+    "Params",
+    "Precomputed",
+    "Model",
+    "model_info",
+    "h",
+    "psi",
+    "psi_inv",
+    "psi_jacobian",
+    "alpha",
+    "beta",
+    "alpha_x",
+    "beta_x",
+    "invert",
+    "zero_dynamics",
+    "zero_dynamics_x",
+    "rhs",
+    "outputs",
+    "lu_solve",
+    "sign",
+    "arr",
     // imports and the prelude's patterns
-    "InverseModel", "ModelError", "ModelInfo", "OutputInfo", "None", "Some", "Ok", "Err", "Option", "Result",
-    "String", "Vec", "Box", "std", "core", "f64", "serde", "PI",
+    "InverseModel",
+    "ModelError",
+    "ModelInfo",
+    "OutputInfo",
+    "None",
+    "Some",
+    "Ok",
+    "Err",
+    "Option",
+    "Result",
+    "String",
+    "Vec",
+    "Box",
+    "std",
+    "core",
+    "f64",
+    "serde",
+    "PI",
     // argument and local names of generated functions
-    "p", "x", "xi", "eta", "yr", "alpha", "beta", "guess", "target", "value", "jacobian", "step", "residual",
+    "p",
+    "x",
+    "xi",
+    "eta",
+    "yr",
+    "alpha",
+    "beta",
+    "guess",
+    "target",
+    "value",
+    "jacobian",
+    "step",
+    "residual",
     // names clippy's `disallowed_names` rejects by default
-    "foo", "baz", "quux",
+    "foo",
+    "baz",
+    "quux",
 ];
 
 pub(crate) fn is_keyword(s: &str) -> bool {
@@ -58,7 +122,13 @@ pub(crate) fn is_snake_case(s: &str) -> bool {
 pub fn module_name(model_name: &str) -> String {
     let mut s: String = model_name
         .chars()
-        .map(|c| if c.is_ascii_alphanumeric() { c.to_ascii_lowercase() } else { '_' })
+        .map(|c| {
+            if c.is_ascii_alphanumeric() {
+                c.to_ascii_lowercase()
+            } else {
+                '_'
+            }
+        })
         .collect();
     if s.is_empty() || s.starts_with(|c: char| c.is_ascii_digit()) {
         s.insert_str(0, "model_");
@@ -83,12 +153,21 @@ pub(crate) fn field_name(name: &str, taken: &HashSet<String>) -> FieldName {
         while taken.contains(&s) {
             s.push('_');
         }
-        return FieldName { ident: Ident::new(&s, Span::call_site()), serde_rename: Some(name.to_string()) };
+        return FieldName {
+            ident: Ident::new(&s, Span::call_site()),
+            serde_rename: Some(name.to_string()),
+        };
     }
     if is_keyword(name) {
-        return FieldName { ident: Ident::new_raw(name, Span::call_site()), serde_rename: None };
+        return FieldName {
+            ident: Ident::new_raw(name, Span::call_site()),
+            serde_rename: None,
+        };
     }
-    FieldName { ident: Ident::new(name, Span::call_site()), serde_rename: None }
+    FieldName {
+        ident: Ident::new(name, Span::call_site()),
+        serde_rename: None,
+    }
 }
 
 /// Local-variable names for model symbols, unique among themselves and clear of everything the generated
@@ -100,7 +179,9 @@ pub(crate) struct Locals {
 impl Locals {
     /// `all_model_names`: every name the model declares (so that a renamed `p_` cannot hit a real `p_`).
     pub fn new(all_model_names: &[&str]) -> Locals {
-        Locals { used: all_model_names.iter().map(|s| s.to_string()).collect() }
+        Locals {
+            used: all_model_names.iter().map(|s| s.to_string()).collect(),
+        }
     }
 
     /// The local identifier for model name `name`.

@@ -114,6 +114,41 @@ fn probe_points(model: &Model, count: usize, seed: u64) -> Vec<HashMap<Symbol, f
         .collect()
 }
 
+/// Wider probe points for models whose expressions are not finite anywhere on [0.2, 3] (physical units: a
+/// pressure in Pa under a square root of 1 − p_amb/p): every state log-uniform over [1e-3, 1e7].
+fn wide_probe_points(model: &Model, count: usize, seed: u64) -> Vec<HashMap<Symbol, f64>> {
+    let mut rng = Rng::new(seed);
+    let nominal = model.nominal();
+    let states = model.state_symbols();
+    (0..count)
+        .map(|_| {
+            let mut m = nominal.clone();
+            for &s in &states {
+                m.insert(s, 10f64.powf(rng.uniform(-3.0, 7.0)));
+            }
+            m.insert(model.input.symbol, rng.uniform(0.2, 3.0));
+            m
+        })
+        .collect()
+}
+
+/// [`generically_nonsingular`] on `points`, or on `wide` where the matrix is finite at none of `points`.
+fn generically_nonsingular_or_wide(
+    pool: &Pool,
+    rows: &[Vec<Id>],
+    points: &[HashMap<Symbol, f64>],
+    wide: &[HashMap<Symbol, f64>],
+) -> bool {
+    let finite_somewhere = points.iter().any(|p| {
+        rows.iter().flatten().all(|&e| pool.eval(e, p).is_ok_and(|v| v.is_finite()))
+    });
+    if finite_somewhere {
+        generically_nonsingular(pool, rows, points)
+    } else {
+        generically_nonsingular(pool, rows, wide)
+    }
+}
+
 /// Numerical rank test of an n×n matrix of expressions: nonsingular at most probe points.
 fn generically_nonsingular(pool: &Pool, rows: &[Vec<Id>], points: &[HashMap<Symbol, f64>]) -> bool {
     let n = rows.len();
@@ -206,6 +241,7 @@ impl Derivation {
 
         // Choose η among the states.
         let points = probe_points(&model, 12, 0xC0FFEE);
+        let wide = if n > r { wide_probe_points(&model, 512, 0x5CA1E) } else { Vec::new() };
         let pool = &mut model.pool;
         let jac_xi: Vec<Vec<Id>> =
             (0..r).map(|k| states.iter().map(|&x| pool.diff(lie[k], x)).collect()).collect();
@@ -220,7 +256,7 @@ impl Derivation {
                 let row: Vec<Id> = (0..n).map(|j| if j == c { pool.one() } else { pool.zero() }).collect();
                 rows.push(row);
             }
-            if generically_nonsingular(pool, &rows, &points) {
+            if generically_nonsingular_or_wide(pool, &rows, &points, &wide) {
                 chosen = Some(combo);
                 break;
             }

@@ -8,7 +8,7 @@
 
 use crate::derive::{Derivation, Solution};
 use invsim_expr::{Id, Symbol, Tape};
-use invsim_model_api::{set_param_checked, InverseModel, ModelError, ModelInfo, OutputInfo};
+use invsim_model_api::{set_param_checked, InverseModel, ModelError, ModelInfo, OutputInfo, ReferenceMap};
 use thiserror::Error;
 
 /// A tape could not be built (an expression referred to a symbol outside its inputs — a bug in the
@@ -87,6 +87,7 @@ impl Tapes {
 #[derive(Debug, Clone)]
 pub struct Interpreter {
     info: ModelInfo,
+    reference: ReferenceMap,
     params: Vec<f64>,
     n: usize,
     r: usize,
@@ -151,6 +152,7 @@ impl Interpreter {
         let special = generic.specialize(&values);
         Ok(Interpreter {
             info: model_info(d),
+            reference: ReferenceMap { offset: m.output.reference_offset, scale: m.output.reference_scale },
             params: values,
             n: states.len(),
             r: d.relative_degree,
@@ -285,6 +287,9 @@ impl InverseModel for Interpreter {
     }
     fn outputs(&self, x: &[f64], u: f64, out: &mut [f64]) {
         self.special.outputs.eval_parts(&[x, &[u]], out);
+    }
+    fn reference(&self) -> ReferenceMap {
+        self.reference
     }
     /// Closed-form ψ⁻¹: one batched evaluation of the fused (x, α, β) tape over all points.
     fn invert_batch(

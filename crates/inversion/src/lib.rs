@@ -9,11 +9,13 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+pub mod classify;
 pub mod derive;
 pub mod interpreter;
 pub mod model;
 pub mod render;
 
+pub use classify::{Classification, ZeroDynamicsClass};
 pub use derive::{isolate, lie_derivative, DeriveError, Derivation, Solution};
 pub use interpreter::{model_info, InterpretError, Interpreter};
 pub use model::*;

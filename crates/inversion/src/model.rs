@@ -21,7 +21,10 @@
 //! Besides the forms of the contract, the reader accepts: a definition as a table
 //! `{ expr = "…", unit = "…", doc = "…" }`; an extra output as a plain string (`p = "u*v"`, not
 //! accumulated); a plain number where an expression is expected (`g = 1`); states as `[states.NAME]`
-//! tables. The model's `name` defaults to the file stem.
+//! tables. The model's `name` defaults to the file stem. `[output]` takes three optional numbers beyond
+//! the contract: `nominal` (the output value where `invsim derive` classifies the zero dynamics),
+//! `reference_offset` and `reference_scale` (the reference is y_d = offset + scale · smoothed cycle, for
+//! outputs that are not a vehicle speed; the scale may not be 0).
 
 use invsim_expr::{
     parse, zero_test, Ast, AstKind, Id, Pool, Symbol, FUNCTIONS, NON_SMOOTH_FUNCTIONS,
@@ -129,6 +132,21 @@ pub struct Output {
     pub source: String,
     pub unit: Option<String>,
     pub doc: Option<String>,
+    /// The output's nominal value y0 (`nominal`, optional): where `invsim derive` linearises the zero dynamics
+    /// (ξ = (y0, 0, …, 0), y^(r) = 0, η at the equilibrium). `None`: [`Output::reference_offset`].
+    pub nominal: Option<f64>,
+    /// The reference the drive cycle defines for this output: y_d = `reference_offset` +
+    /// `reference_scale` · (smoothed cycle), so that every derivative of y_d stays exact (defaults 0 and 1:
+    /// y_d is the smoothed cycle itself, a vehicle speed in m/s).
+    pub reference_offset: f64,
+    pub reference_scale: f64,
+}
+
+impl Output {
+    /// The nominal output value y0: `nominal`, or else `reference_offset` (the reference at a standstill).
+    pub fn nominal_value(&self) -> f64 {
+        self.nominal.unwrap_or(self.reference_offset)
+    }
 }
 
 /// An extra signal of `[outputs]`, reported per sample (and integrated over the run if `accumulate`).
@@ -688,6 +706,9 @@ struct RawOutput {
     h: Src,
     unit: Option<String>,
     doc: Option<String>,
+    nominal: Option<f64>,
+    reference_offset: Option<f64>,
+    reference_scale: Option<f64>,
 }
 
 #[derive(Debug)]
@@ -1201,7 +1222,11 @@ impl<'a> Reader<'a> {
 
     fn output(&self, v: &Tv) -> Result<RawOutput, ModelError> {
         let t = self.table(v, "[output]")?;
-        self.known_keys(t, &["name", "h", "unit", "doc"], "[output]")?;
+        self.known_keys(
+            t,
+            &["name", "h", "unit", "doc", "nominal", "reference_offset", "reference_scale"],
+            "[output]",
+        )?;
         let Some(name_v) = get(t, "name") else {
             return Err(self.err(
                 tv_at(v),
@@ -1227,11 +1252,31 @@ impl<'a> Reader<'a> {
                 "[output] has no `h`; expected the output as an expression of the states, e.g. h = \"x1\"",
             ));
         };
+        // Optional numbers: the nominal output value and the affine map from the drive cycle to the reference.
+        let optional_number = |key: &str| {
+            get(t, key)
+                .map(|v| self.number(v, &format!("the output's `{key}`")))
+                .transpose()
+        };
+        let nominal = optional_number("nominal")?;
+        let reference_offset = optional_number("reference_offset")?;
+        let reference_scale = optional_number("reference_scale")?;
+        if reference_scale == Some(0.0) {
+            return Err(self.err(
+                get(t, "reference_scale").and_then(tv_at),
+                ModelErrorKind::Schema,
+                "the output's `reference_scale` is 0: the reference y_d = reference_offset + reference_scale · \
+                 (smoothed cycle) would not follow the cycle; give a nonzero factor (default 1)",
+            ));
+        }
         Ok(RawOutput {
             name,
             h: self.expression(h, "the output's h")?,
             unit: self.optional_string(t, "unit", "[output]")?,
             doc: self.optional_string(t, "doc", "[output]")?,
+            nominal,
+            reference_offset,
+            reference_scale,
         })
     }
 
@@ -1710,6 +1755,9 @@ impl<'a> Reader<'a> {
             source: output.h.text,
             unit: output.unit,
             doc: output.doc,
+            nominal: output.nominal,
+            reference_offset: output.reference_offset.unwrap_or(0.0),
+            reference_scale: output.reference_scale.unwrap_or(1.0),
         };
 
         let outputs = raw

@@ -22,7 +22,9 @@ impl Derivation {
         self.pool().latex(e)
     }
 
-    /// The contract's JSON form of `invsim derive` (section 3), plus `domain` and `lie_zero_tests`.
+    /// The contract's JSON form of `invsim derive` (section 3), plus `domain`, `lie_zero_tests`, the output's
+    /// `reference` map and the classification of the zero dynamics at the nominal point
+    /// (`zero_dynamics_class`, `zero_dynamics_eigenvalues` as [re, im] pairs, `zero_dynamics_nominal`).
     pub fn to_json(&self) -> Value {
         let m = &self.model;
         let mut params = Map::new();
@@ -40,6 +42,7 @@ impl Derivation {
             );
         }
         let r = self.relative_degree;
+        let c = self.classify();
         json!({
             "name": m.name,
             "states": m.states.iter().map(|s| s.name.clone()).collect::<Vec<_>>(),
@@ -60,8 +63,48 @@ impl Derivation {
             "lie_zero_tests": self.lg_lie.iter().zip(&self.lg_decided_by).enumerate().map(|(k, (&e, &d))| json!({
                 "k": k, "lg_lf_k_h": self.show(e), "decided_by": decided(d)
             })).collect::<Vec<_>>(),
+            "reference": { "offset": m.output.reference_offset, "scale": m.output.reference_scale },
+            "zero_dynamics_class": c.class.as_str(),
+            "zero_dynamics_eigenvalues": c.eigenvalues,
+            "zero_dynamics_nominal": {
+                "output": c.output,
+                "yr": 0.0,
+                "eta": c.eta,
+                "note": c.note,
+            },
             "warnings": self.warnings,
         })
+    }
+
+    /// One line on the zero dynamics at the nominal point (r < n only).
+    fn classification_line(&self) -> Option<String> {
+        if self.eta.is_empty() {
+            return None;
+        }
+        let c = self.classify();
+        let eigs: Vec<String> = c
+            .eigenvalues
+            .iter()
+            .map(|[re, im]| match *im {
+                v if v == 0.0 => format!("{re:.6e}"),
+                v if v > 0.0 => format!("{re:.6e} + {v:.6e}i"),
+                v => format!("{re:.6e} - {:.6e}i", -v),
+            })
+            .collect();
+        let at = if c.eta.is_empty() {
+            format!("y = {}, y^(r) = 0", c.output)
+        } else {
+            let eta: Vec<String> = c.eta.iter().map(|v| format!("{v:.6e}")).collect();
+            format!("y = {}, y^(r) = 0, equilibrium eta = ({})", c.output, eta.join(", "))
+        };
+        let mut line = format!("{} at {at}", c.class.as_str());
+        if !eigs.is_empty() {
+            line.push_str(&format!("; eigenvalues of d(q)/d(eta): {}", eigs.join(", ")));
+        }
+        if let Some(note) = c.note {
+            line.push_str(&format!(" ({note})"));
+        }
+        Some(line)
     }
 
     /// A plain-text report of the derivation.
@@ -110,6 +153,9 @@ impl Derivation {
             for (j, &q) in self.zero_dynamics.iter().enumerate() {
                 let _ = writeln!(s, "  d(eta{})/dt = {}", j + 1, self.show(q));
             }
+            if let Some(line) = self.classification_line() {
+                let _ = writeln!(s, "  class: {line}");
+            }
         }
         for d in &self.domain {
             let _ = writeln!(s, "domain: {d}");
@@ -154,16 +200,23 @@ impl Derivation {
             (None, Some(b)) => format!(", upper bound {b}"),
             (None, None) => String::new(),
         };
+        // `y = v` rather than `y = v = v` when the output is a state of the same name.
+        let h_tex = self.tex(m.output.h);
+        let y_tex = if h_tex == latex_symbol(&m.output.name) {
+            h_tex
+        } else {
+            format!("{} = {h_tex}", latex_symbol(&m.output.name))
+        };
         let _ = writeln!(
             s,
-            "\nInput $u = {}$ ({}{}){}. Output $y = {} = {}$ ({}).\n",
+            "\nInput $u = {}$ ({}{}){}. Output $y = {}$ ({}){}.\n",
             latex_symbol(&m.input.name),
             m.input.unit.as_deref().unwrap_or("–"),
             bounds,
             m.input.doc.as_deref().map(|d| format!(": {d}")).unwrap_or_default(),
-            latex_symbol(&m.output.name),
-            self.tex(m.output.h),
+            y_tex,
             m.output.unit.as_deref().unwrap_or("–"),
+            m.output.doc.as_deref().map(|d| format!(": {d}")).unwrap_or_default(),
         );
         if !m.parameters.is_empty() {
             let _ = writeln!(s, "| parameter | value | unit | description |\n|---|---|---|---|");
@@ -175,6 +228,21 @@ impl Derivation {
                     p.value,
                     p.unit.as_deref().unwrap_or("–"),
                     p.doc.as_deref().unwrap_or("")
+                );
+            }
+            s.push('\n');
+        }
+        if !m.outputs.is_empty() {
+            let _ = writeln!(s, "| extra output | unit | integrated | expression |\n|---|---|---|---|");
+            for o in &m.outputs {
+                let _ = writeln!(
+                    s,
+                    "| ${}$ | {} | {} | ${}$ |",
+                    latex_symbol(&o.name),
+                    o.unit.as_deref().unwrap_or("–"),
+                    if o.accumulate { "yes" } else { "no" },
+                    // A `|` (from abs) would end the table cell.
+                    self.tex(o.expr).replace('|', "\\vert ")
                 );
             }
             s.push('\n');
@@ -265,6 +333,13 @@ impl Derivation {
                 let _ = writeln!(s, "\\dot\\eta_{{{}}} &= {} \\\\", j + 1, self.tex(q));
             }
             let _ = writeln!(s, "\\end{{aligned}}\n$$\n");
+            if let Some(line) = self.classification_line() {
+                let _ = writeln!(
+                    s,
+                    "Linearised at the nominal point (ξ = (y0, 0, …), y^(r) = 0, η at the equilibrium of the zero \
+                     dynamics): **{line}**.\n"
+                );
+            }
         }
         if !self.warnings.is_empty() {
             let _ = writeln!(s, "## Notes\n");
@@ -273,6 +348,12 @@ impl Derivation {
             }
             s.push('\n');
         }
+        let _ = writeln!(
+            s,
+            "## Compiled code\n\n`cargo xtask gen` writes the Rust module generated from these equations (ψ, ψ⁻¹, α, β, \
+             zero dynamics, f + g·u, outputs), each function documented with the equation it implements; models in \
+             `models/` are compiled into the `invsim-models` crate and used by `invsim simulate` automatically.\n"
+        );
         let _ = writeln!(s, "## Plain form\n\n```text\n{}```", self.to_text());
         s
     }

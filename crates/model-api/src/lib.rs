@@ -53,6 +53,32 @@ pub struct OutputInfo {
     pub accumulate: bool,
 }
 
+/// How the drive cycle defines the reference of the tracked output: y_d = `offset` + `scale` · (smoothed cycle),
+/// so y_d^(k) = `scale` · (smoothed cycle)^(k) for k ≥ 1 and every derivative stays exact. The identity map
+/// (offset 0, scale 1) makes the output follow the cycle's speed itself; a model whose output is not a vehicle
+/// speed (a boost pressure, an engine speed) declares its map in the model file's `[output]`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReferenceMap {
+    pub offset: f64,
+    pub scale: f64,
+}
+
+impl ReferenceMap {
+    /// y_d = smoothed cycle.
+    pub const IDENTITY: ReferenceMap = ReferenceMap { offset: 0.0, scale: 1.0 };
+
+    /// True for the identity map.
+    pub fn is_identity(&self) -> bool {
+        self.offset == 0.0 && self.scale == 1.0
+    }
+}
+
+impl Default for ReferenceMap {
+    fn default() -> Self {
+        ReferenceMap::IDENTITY
+    }
+}
+
 /// Errors a model can report while being evaluated.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum ModelError {
@@ -95,6 +121,11 @@ pub trait InverseModel: Send + Sync {
     fn rhs(&self, x: &[f64], u: f64, dx: &mut [f64]);
     /// The extra outputs of `[outputs]` at (x, u), written into `out`.
     fn outputs(&self, x: &[f64], u: f64, out: &mut [f64]);
+
+    /// How a drive cycle defines this output's reference (default: y_d is the smoothed cycle itself).
+    fn reference(&self) -> ReferenceMap {
+        ReferenceMap::IDENTITY
+    }
 
     /// Inverse at one point: x = ψ⁻¹(ξ, η) into `x` and u = (y^(r) − α)/β returned (paper eq. 26).
     fn invert(&self, xi: &[f64], eta: &[f64], yr: f64, x: &mut [f64]) -> Result<f64, ModelError> {

@@ -1,11 +1,73 @@
-//! Adaptive Dormand–Prince 5(4) integration, shared by the zero dynamics, the verification replay and the
-//! forward simulation.
+//! Adaptive one-step integrators with error control and dense output, shared by the zero dynamics, the
+//! verification replay and the forward simulation:
+//!
+//! * [`Dopri5`]: the explicit Dormand–Prince 5(4) pair (Hairer, Nørsett & Wanner, *Solving ODEs I*, 2nd ed.,
+//!   §II.5, Table 5.2) with FSAL, its 4th-order continuous extension (§II.6, eq. 6.12 and the coefficients of
+//!   the code DOPRI5) and the code's stiffness test (§IV.2 of Hairer & Wanner, *Solving ODEs II*: the
+//!   estimate h·ρ ≈ h‖k7 − k6‖/‖y₁ − ŷ₆‖ of the step size times the dominant eigenvalue, compared with the
+//!   border 3.25 of the stability region);
+//! * [`Rosenbrock23`]: the linearly implicit, L-stable Rosenbrock (W-)method of order 2 with a 3rd-order error
+//!   estimate and a continuous extension, of Shampine & Reichelt (*The MATLAB ODE suite*, SIAM J. Sci.
+//!   Comput. 18, 1997, §3; MATLAB's `ode23s`), for stiff problems (Hairer & Wanner II, §IV.7).
+//!
+//! Both use the error norm ‖e_i / (atol + rtol·max(|y_i|, |ŷ_i|))‖_rms ≤ 1 (Hairer I, eq. II.4.11) and the
+//! step-size controller h_new = h·min(f_max, max(f_min, 0.9·err^(−1/(q+1)))) (q the order of the error
+//! estimate's lower member; no growth right after a rejection, Hairer I §II.4). All buffers are allocated
+//! once, except the Rosenbrock method's LU factorisation (a stiff path).
 
-use crate::simulate::SimulateError;
+use nalgebra::{DMatrix, DVector};
 
-/// Adaptive Dormand–Prince 5(4) (Hairer, Nørsett & Wanner, *Solving ODEs I*, §II.5) with FSAL, the
-/// standard error norm ‖e_i / (atol + rtol·max(|y_i|, |ŷ_i|))‖_rms ≤ 1 and the step size carried over from one
-/// output interval to the next. All buffers are allocated once.
+/// An integration failure: where, and why (a phrase).
+#[derive(Debug, Clone, PartialEq)]
+pub struct StepFailure {
+    pub t: f64,
+    pub reason: String,
+}
+
+/// Counters of one integrator.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+pub struct OdeStats {
+    /// Accepted steps.
+    pub accepted: usize,
+    /// Rejected steps.
+    pub rejected: usize,
+    /// Evaluations of the right-hand side (Jacobian columns included).
+    pub evaluations: usize,
+    /// Jacobian evaluations (Rosenbrock only).
+    pub jacobians: usize,
+    /// Accepted steps whose size was limited by stability rather than accuracy: h·ρ beyond the border of the
+    /// stability region (DOPRI5's stiffness estimate; Dormand–Prince only).
+    pub stability_limited: usize,
+}
+
+impl std::ops::AddAssign for OdeStats {
+    fn add_assign(&mut self, o: OdeStats) {
+        self.accepted += o.accepted;
+        self.rejected += o.rejected;
+        self.evaluations += o.evaluations;
+        self.jacobians += o.jacobians;
+        self.stability_limited += o.stability_limited;
+    }
+}
+
+/// Smallest step relative to |t| before the integrator gives up.
+fn h_min(t: f64) -> f64 {
+    16.0 * f64::EPSILON * t.abs().max(1.0)
+}
+
+fn too_small<E: From<StepFailure>>(t: f64) -> E {
+    E::from(StepFailure {
+        t,
+        reason: format!(
+            "the step size fell below {:e} s (the right-hand side is not finite near this state, or the problem \
+             is too stiff)",
+            h_min(t)
+        ),
+    })
+}
+
+/// Adaptive Dormand–Prince 5(4) (Hairer, Nørsett & Wanner I, §II.5) with FSAL, dense output and stiffness
+/// detection; the step size is carried over from one call to the next.
 pub struct Dopri5 {
     rtol: f64,
     atol: f64,
@@ -14,6 +76,17 @@ pub struct Dopri5 {
     y_stage: Vec<f64>,
     y_new: Vec<f64>,
     fsal: bool,
+    /// Dense output of the last accepted step [t_old, t_old + h_old] (Hairer I, §II.6; code DOPRI5 `CONTD5`).
+    t_old: f64,
+    h_old: f64,
+    rcont: [Vec<f64>; 5],
+    /// Stiffness test (Hairer II, §IV.2): steps with h·ρ > 3.25 and steps since the last such step.
+    stiff_hits: usize,
+    nonstiff_run: usize,
+    stiff: bool,
+    /// h·ρ of the last accepted step (NaN when not measurable).
+    pub last_h_rho: f64,
+    pub stats: OdeStats,
     /// Where and with which state the last failure happened (for diagnostics).
     pub t_fail: f64,
     pub y_fail: Vec<f64>,
@@ -50,6 +123,18 @@ const E4: f64 = 71.0 / 1920.0;
 const E5: f64 = -17253.0 / 339200.0;
 const E6: f64 = 22.0 / 525.0;
 const E7: f64 = -1.0 / 40.0;
+// Dense output (Hairer I, §II.6; Shampine 1986), as in the code DOPRI5.
+const D1: f64 = -12715105075.0 / 11282082432.0;
+const D3: f64 = 87487479700.0 / 32700410799.0;
+const D4: f64 = -10690763975.0 / 1880347072.0;
+const D5: f64 = 701980252875.0 / 199316789632.0;
+const D6: f64 = -1453857185.0 / 822651844.0;
+const D7: f64 = 69997945.0 / 29380423.0;
+
+/// Border of the stability region of DOPRI5 on the negative real axis, about 3.3 (Hairer II, §IV.2).
+pub const DOPRI5_STIFF_BORDER: f64 = 3.25;
+/// Accepted steps with h·ρ beyond the border after which DOPRI5 declares the problem stiff (the code's 15).
+pub const DOPRI5_STIFF_STEPS: usize = 15;
 
 impl Dopri5 {
     pub fn new(n: usize, rtol: f64, atol: f64, h0: f64) -> Self {
@@ -61,6 +146,14 @@ impl Dopri5 {
             y_stage: vec![0.0; n],
             y_new: vec![0.0; n],
             fsal: false,
+            t_old: 0.0,
+            h_old: 0.0,
+            rcont: std::array::from_fn(|_| vec![0.0; n]),
+            stiff_hits: 0,
+            nonstiff_run: 0,
+            stiff: false,
+            last_h_rho: f64::NAN,
+            stats: OdeStats::default(),
             t_fail: 0.0,
             y_fail: vec![0.0; n],
         }
@@ -72,88 +165,159 @@ impl Dopri5 {
         self.h = h0;
     }
 
+    /// Forget the FSAL stage but keep the step size (after a jump in the right-hand side, e.g. at a corner of
+    /// a piecewise-linear drive cycle: the next step starts with a fresh k1 = f(t, y)).
+    pub fn restart(&mut self) {
+        self.fsal = false;
+    }
+
+    /// The step size the controller proposes for the next step.
+    pub fn step_size(&self) -> f64 {
+        self.h
+    }
+
+    /// True once the stiffness test has fired: 15 accepted steps with h·ρ > 3.25, none separated by 6
+    /// consecutive non-stiff steps (the rule of the code DOPRI5).
+    pub fn is_stiff(&self) -> bool {
+        self.stiff
+    }
+
     /// Integrate y from `t0` to `t1` (> t0) in place.
-    pub fn advance<F>(
-        &mut self,
-        t0: f64,
-        t1: f64,
-        y: &mut [f64],
-        f: &mut F,
-    ) -> Result<(), SimulateError>
+    pub fn advance<F, E>(&mut self, t0: f64, t1: f64, y: &mut [f64], f: &mut F) -> Result<(), E>
     where
-        F: FnMut(f64, &[f64], &mut [f64]) -> Result<(), SimulateError>,
+        F: FnMut(f64, &[f64], &mut [f64]) -> Result<(), E>,
+        E: From<StepFailure>,
     {
         const MAX_STEPS: usize = 1_000_000;
-        let n = y.len();
         let mut t = t0;
+        for _ in 0..MAX_STEPS {
+            if t >= t1 {
+                return Ok(());
+            }
+            t = self.step_to(t, t1, y, f)?;
+        }
+        if t >= t1 {
+            return Ok(());
+        }
+        self.t_fail = t;
+        self.y_fail.copy_from_slice(y);
+        Err(E::from(StepFailure { t, reason: format!("more than {MAX_STEPS} steps in one output interval") }))
+    }
+
+    /// One accepted step from (t, y) towards `t_end` (> t), retrying with smaller steps after rejections; y is
+    /// updated in place and the new time returned (exactly `t_end` when the step reaches it). Afterwards
+    /// [`Dopri5::dense`] interpolates anywhere in the step.
+    pub fn step_to<F, E>(&mut self, t: f64, t_end: f64, y: &mut [f64], f: &mut F) -> Result<f64, E>
+    where
+        F: FnMut(f64, &[f64], &mut [f64]) -> Result<(), E>,
+        E: From<StepFailure>,
+    {
         if !self.fsal {
             f(t, y, &mut self.k[0])?;
+            self.stats.evaluations += 1;
             self.fsal = true;
         }
         let mut rejected_last = false;
-        for _ in 0..MAX_STEPS {
-            let remaining = t1 - t;
-            if remaining <= 0.0 {
-                return Ok(());
-            }
-            let h_min = 16.0 * f64::EPSILON * t.abs().max(1.0);
-            if self.h < h_min {
+        loop {
+            let remaining = t_end - t;
+            if self.h < h_min(t) || !self.h.is_finite() {
                 self.t_fail = t;
                 self.y_fail.copy_from_slice(y);
-                return Err(SimulateError::Integration {
-                    t,
-                    reason: format!(
-                        "the step size fell below {h_min:e} s (the right-hand side is not finite near this state, \
-                         or the problem is too stiff)"
-                    ),
-                });
+                return Err(too_small(t));
             }
-            // Land exactly on t1 (and avoid a sliver of a last step).
+            // Land exactly on t_end (and avoid a sliver of a last step).
             let clipped = self.h >= remaining * (1.0 - 1e-12) || self.h * 1.01 >= remaining;
             let h = if clipped { remaining } else { self.h };
             let err = self.step(t, h, y, f)?;
             if err <= 1.0 {
-                // Accepted: t += h, y = ŷ, FSAL (k7 = f(t + h, ŷ) is the next k1).
-                t = if clipped { t1 } else { t + h };
-                y.copy_from_slice(&self.y_new[..n]);
-                self.k.swap(0, 6);
+                let t_new = if clipped { t_end } else { t + h };
+                self.accept(t, h, y);
                 let grow = if rejected_last { 1.0 } else { 5.0 };
-                let factor = if err == 0.0 {
-                    grow
-                } else {
-                    (0.9 * err.powf(-0.2)).clamp(0.2, grow)
-                };
+                let factor = if err == 0.0 { grow } else { (0.9 * err.powf(-0.2)).clamp(0.2, grow) };
                 let proposed = h * factor;
-                // A step shortened to land on t1 says little about the step size the solution allows.
-                self.h = if clipped {
-                    proposed.max(self.h)
-                } else {
-                    proposed
-                };
-                rejected_last = false;
-            } else {
-                let factor = if err.is_finite() {
-                    (0.9 * err.powf(-0.2)).clamp(0.1, 0.9)
-                } else {
-                    0.1
-                };
-                self.h = h * factor;
-                rejected_last = true;
+                // A step shortened to land on t_end says little about the step size the solution allows.
+                self.h = if clipped { proposed.max(self.h) } else { proposed };
+                return Ok(t_new);
+            }
+            self.stats.rejected += 1;
+            let factor = if err.is_finite() { (0.9 * err.powf(-0.2)).clamp(0.1, 0.9) } else { 0.1 };
+            self.h = h * factor;
+            rejected_last = true;
+        }
+    }
+
+    /// One step of exactly `h` from (t, y), accepted whatever its error (for convergence studies); returns the
+    /// error estimate.
+    pub fn fixed_step<F, E>(&mut self, t: f64, h: f64, y: &mut [f64], f: &mut F) -> Result<f64, E>
+    where
+        F: FnMut(f64, &[f64], &mut [f64]) -> Result<(), E>,
+    {
+        if !self.fsal {
+            f(t, y, &mut self.k[0])?;
+            self.stats.evaluations += 1;
+            self.fsal = true;
+        }
+        let err = self.step(t, h, y, f)?;
+        self.accept(t, h, y);
+        Ok(err)
+    }
+
+    /// Commit the step just computed by [`Dopri5::step`]: dense-output coefficients, stiffness test, y = ŷ and
+    /// FSAL (k7 = f(t + h, ŷ) is the next k1).
+    fn accept(&mut self, t: f64, h: f64, y: &mut [f64]) {
+        let n = y.len();
+        let [k1, _, k3, k4, k5, k6, k7] = &self.k;
+        let [r1, r2, r3, r4, r5] = &mut self.rcont;
+        // Stiffness: h·ρ ≈ h‖k7 − k6‖ / ‖ŷ − y₆‖, y₆ the argument of the 6th stage (both at t + h).
+        let (mut num, mut den) = (0.0, 0.0);
+        for i in 0..n {
+            let ydiff = self.y_new[i] - y[i];
+            let bspl = h * k1[i] - ydiff;
+            r1[i] = y[i];
+            r2[i] = ydiff;
+            r3[i] = bspl;
+            r4[i] = ydiff - h * k7[i] - bspl;
+            r5[i] = h * (D1 * k1[i] + D3 * k3[i] + D4 * k4[i] + D5 * k5[i] + D6 * k6[i] + D7 * k7[i]);
+            num += (k7[i] - k6[i]) * (k7[i] - k6[i]);
+            den += (self.y_new[i] - self.y_stage[i]) * (self.y_new[i] - self.y_stage[i]);
+        }
+        self.last_h_rho = if den > 0.0 { h * (num / den).sqrt() } else { f64::NAN };
+        if self.last_h_rho > DOPRI5_STIFF_BORDER {
+            self.stats.stability_limited += 1;
+            self.nonstiff_run = 0;
+            self.stiff_hits += 1;
+            if self.stiff_hits >= DOPRI5_STIFF_STEPS {
+                self.stiff = true;
+            }
+        } else {
+            self.nonstiff_run += 1;
+            if self.nonstiff_run >= 6 {
+                self.stiff_hits = 0;
             }
         }
-        self.t_fail = t;
-        self.y_fail.copy_from_slice(y);
-        Err(SimulateError::Integration {
-            t,
-            reason: format!("more than {MAX_STEPS} steps in one output interval"),
-        })
+        self.t_old = t;
+        self.h_old = h;
+        y.copy_from_slice(&self.y_new[..n]);
+        self.k.swap(0, 6);
+        self.stats.accepted += 1;
+    }
+
+    /// The continuous extension of the last accepted step at `t` (4th order; exact at both ends):
+    /// y(t_old + θh) = r1 + θ(r2 + (1 − θ)(r3 + θ(r4 + (1 − θ) r5))).
+    pub fn dense(&self, t: f64, out: &mut [f64]) {
+        let theta = if self.h_old > 0.0 { (t - self.t_old) / self.h_old } else { 0.0 };
+        let theta1 = 1.0 - theta;
+        let [r1, r2, r3, r4, r5] = &self.rcont;
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = r1[i] + theta * (r2[i] + theta1 * (r3[i] + theta * (r4[i] + theta1 * r5[i])));
+        }
     }
 
     /// One step of size h from (t, y) with k1 = f(t, y) in k[0]; fills ŷ (5th order) and k[1..7], returns the
     /// error norm (NaN → rejected).
-    pub fn step<F>(&mut self, t: f64, h: f64, y: &[f64], f: &mut F) -> Result<f64, SimulateError>
+    pub fn step<F, E>(&mut self, t: f64, h: f64, y: &[f64], f: &mut F) -> Result<f64, E>
     where
-        F: FnMut(f64, &[f64], &mut [f64]) -> Result<(), SimulateError>,
+        F: FnMut(f64, &[f64], &mut [f64]) -> Result<(), E>,
     {
         let n = y.len();
         let [k1, k2, k3, k4, k5, k6, k7] = &mut self.k;
@@ -175,20 +339,18 @@ impl Dopri5 {
         }
         f(t + C5 * h, ys, k5)?;
         for i in 0..n {
-            ys[i] =
-                y[i] + h * (A61 * k1[i] + A62 * k2[i] + A63 * k3[i] + A64 * k4[i] + A65 * k5[i]);
+            ys[i] = y[i] + h * (A61 * k1[i] + A62 * k2[i] + A63 * k3[i] + A64 * k4[i] + A65 * k5[i]);
         }
         f(t + h, ys, k6)?;
         let yn = &mut self.y_new;
         for i in 0..n {
-            yn[i] =
-                y[i] + h * (A71 * k1[i] + A73 * k3[i] + A74 * k4[i] + A75 * k5[i] + A76 * k6[i]);
+            yn[i] = y[i] + h * (A71 * k1[i] + A73 * k3[i] + A74 * k4[i] + A75 * k5[i] + A76 * k6[i]);
         }
         f(t + h, yn, k7)?;
+        self.stats.evaluations += 6;
         let mut sum = 0.0;
         for i in 0..n {
-            let e =
-                h * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i]);
+            let e = h * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i]);
             let sc = self.atol + self.rtol * y[i].abs().max(yn[i].abs());
             sum += (e / sc) * (e / sc);
         }
@@ -197,3 +359,247 @@ impl Dopri5 {
     }
 }
 
+/// The L-stable Rosenbrock 2(3) method of Shampine & Reichelt (1997, §3; MATLAB's `ode23s`), for stiff
+/// problems; with W = I − h d J, J = ∂f/∂y and T = ∂f/∂t (both by finite differences at the start of every
+/// step), d = 1/(2 + √2), e32 = 6 + √2:
+///
+/// ```text
+/// k1 = W⁻¹ (f(t, y) + h d T)
+/// k2 = W⁻¹ (f(t + h/2, y + h k1/2) − k1) + k1
+/// y₁ = y + h k2                                                     (order 2)
+/// k3 = W⁻¹ (f(t + h, y₁) − e32 (k2 − f(t + h/2, …)) − 2 (k1 − f(t, y)) + h d T)
+/// err = h (k1 − 2 k2 + k3) / 6                                      (3rd-order estimate of the local error)
+/// y(t + θh) = y + h (θ(1 − θ) k1 + θ(θ − 2d) k2) / (1 − 2d)          (continuous extension)
+/// ```
+///
+/// f(t + h, y₁) is the next step's f(t, y) (FSAL).
+pub struct Rosenbrock23 {
+    rtol: f64,
+    atol: f64,
+    h: f64,
+    f0: Vec<f64>,
+    f1: Vec<f64>,
+    f2: Vec<f64>,
+    k1: Vec<f64>,
+    k2: Vec<f64>,
+    k3: Vec<f64>,
+    dfdt: Vec<f64>,
+    jac: Vec<f64>,
+    scratch: Vec<f64>,
+    y_new: Vec<f64>,
+    fsal: bool,
+    t_old: f64,
+    h_old: f64,
+    y_old: Vec<f64>,
+    pub stats: OdeStats,
+}
+
+const RB_D: f64 = 0.292_893_218_813_452_5; // 1/(2 + √2)
+const RB_E32: f64 = 7.414_213_562_373_095; // 6 + √2
+
+impl Rosenbrock23 {
+    pub fn new(n: usize, rtol: f64, atol: f64, h0: f64) -> Self {
+        Rosenbrock23 {
+            rtol,
+            atol,
+            h: h0,
+            f0: vec![0.0; n],
+            f1: vec![0.0; n],
+            f2: vec![0.0; n],
+            k1: vec![0.0; n],
+            k2: vec![0.0; n],
+            k3: vec![0.0; n],
+            dfdt: vec![0.0; n],
+            jac: vec![0.0; n * n],
+            scratch: vec![0.0; n],
+            y_new: vec![0.0; n],
+            fsal: false,
+            t_old: 0.0,
+            h_old: 0.0,
+            y_old: vec![0.0; n],
+            stats: OdeStats::default(),
+        }
+    }
+
+    /// Forget f(t, y) but keep the step size (after a jump in the right-hand side).
+    pub fn restart(&mut self) {
+        self.fsal = false;
+    }
+
+    /// Set the next step size (e.g. when taking over from another integrator).
+    pub fn set_step_size(&mut self, h: f64) {
+        self.h = h;
+    }
+
+    /// The step size the controller proposes for the next step.
+    pub fn step_size(&self) -> f64 {
+        self.h
+    }
+
+    /// J = ∂f/∂y (column major) and T = ∂f/∂t at (t, y) by forward differences, with f(t, y) in `f0`
+    /// (increments √ε·max(|y_j|, atol/rtol-scale)).
+    fn jacobian<F, E>(&mut self, t: f64, y: &[f64], f: &mut F) -> Result<(), E>
+    where
+        F: FnMut(f64, &[f64], &mut [f64]) -> Result<(), E>,
+    {
+        let n = y.len();
+        let sqrt_eps = f64::EPSILON.sqrt();
+        self.scratch.copy_from_slice(y);
+        for j in 0..n {
+            let delta = sqrt_eps * y[j].abs().max(self.atol / self.rtol).max(1e-8);
+            self.scratch[j] = y[j] + delta;
+            let delta = self.scratch[j] - y[j];
+            f(t, &self.scratch, &mut self.k3)?;
+            self.scratch[j] = y[j];
+            let column = &mut self.jac[j * n..(j + 1) * n];
+            for i in 0..n {
+                column[i] = (self.k3[i] - self.f0[i]) / delta;
+            }
+        }
+        let dt = sqrt_eps * t.abs().max(1.0);
+        f(t + dt, y, &mut self.k3)?;
+        for i in 0..n {
+            self.dfdt[i] = (self.k3[i] - self.f0[i]) / dt;
+        }
+        self.stats.evaluations += n + 1;
+        self.stats.jacobians += 1;
+        Ok(())
+    }
+
+    /// One accepted step from (t, y) towards `t_end` (see [`Dopri5::step_to`]).
+    pub fn step_to<F, E>(&mut self, t: f64, t_end: f64, y: &mut [f64], f: &mut F) -> Result<f64, E>
+    where
+        F: FnMut(f64, &[f64], &mut [f64]) -> Result<(), E>,
+        E: From<StepFailure>,
+    {
+        let n = y.len();
+        if !self.fsal {
+            f(t, y, &mut self.f0)?;
+            self.stats.evaluations += 1;
+            self.fsal = true;
+        }
+        self.jacobian(t, y, f)?;
+        let jac = DMatrix::from_column_slice(n, n, &self.jac);
+        let mut rejected_last = false;
+        loop {
+            let remaining = t_end - t;
+            if self.h < h_min(t) || !self.h.is_finite() {
+                return Err(too_small(t));
+            }
+            let clipped = self.h >= remaining * (1.0 - 1e-12) || self.h * 1.01 >= remaining;
+            let h = if clipped { remaining } else { self.h };
+            let err = self.attempt(t, h, y, &jac, f)?;
+            if err <= 1.0 {
+                let t_new = if clipped { t_end } else { t + h };
+                self.t_old = t;
+                self.h_old = h;
+                self.y_old.copy_from_slice(y);
+                y.copy_from_slice(&self.y_new);
+                std::mem::swap(&mut self.f0, &mut self.f2);
+                self.stats.accepted += 1;
+                let grow = if rejected_last { 1.0 } else { 5.0 };
+                let factor = if err == 0.0 { grow } else { (0.9 * err.powf(-1.0 / 3.0)).clamp(0.2, grow) };
+                let proposed = h * factor;
+                self.h = if clipped { proposed.max(self.h) } else { proposed };
+                return Ok(t_new);
+            }
+            self.stats.rejected += 1;
+            let factor = if err.is_finite() { (0.9 * err.powf(-1.0 / 3.0)).clamp(0.1, 0.9) } else { 0.1 };
+            self.h = h * factor;
+            rejected_last = true;
+        }
+    }
+
+    /// One step of exactly `h`, accepted whatever its error (for convergence studies); returns the error.
+    pub fn fixed_step<F, E>(&mut self, t: f64, h: f64, y: &mut [f64], f: &mut F) -> Result<f64, E>
+    where
+        F: FnMut(f64, &[f64], &mut [f64]) -> Result<(), E>,
+    {
+        let n = y.len();
+        if !self.fsal {
+            f(t, y, &mut self.f0)?;
+            self.stats.evaluations += 1;
+            self.fsal = true;
+        }
+        self.jacobian(t, y, f)?;
+        let jac = DMatrix::from_column_slice(n, n, &self.jac);
+        let err = self.attempt(t, h, y, &jac, f)?;
+        self.t_old = t;
+        self.h_old = h;
+        self.y_old.copy_from_slice(y);
+        y.copy_from_slice(&self.y_new);
+        std::mem::swap(&mut self.f0, &mut self.f2);
+        self.stats.accepted += 1;
+        Ok(err)
+    }
+
+    /// The stages of one step of size h; fills y_new and f2 = f(t + h, y_new), returns the error norm (NaN or
+    /// a singular W → ∞, i.e. rejected).
+    fn attempt<F, E>(&mut self, t: f64, h: f64, y: &[f64], jac: &DMatrix<f64>, f: &mut F) -> Result<f64, E>
+    where
+        F: FnMut(f64, &[f64], &mut [f64]) -> Result<(), E>,
+    {
+        let n = y.len();
+        let w = DMatrix::<f64>::identity(n, n) - jac * (h * RB_D);
+        let lu = w.lu();
+        let solve = |rhs: &[f64], out: &mut [f64]| -> bool {
+            match lu.solve(&DVector::from_column_slice(rhs)) {
+                Some(s) if s.iter().all(|v| v.is_finite()) => {
+                    out.copy_from_slice(s.as_slice());
+                    true
+                }
+                _ => false,
+            }
+        };
+        // k1 = W⁻¹ (F0 + h d T).
+        for i in 0..n {
+            self.scratch[i] = self.f0[i] + h * RB_D * self.dfdt[i];
+        }
+        if !solve(&self.scratch, &mut self.k1) {
+            return Ok(f64::INFINITY);
+        }
+        // F1 = f(t + h/2, y + h k1/2); k2 = W⁻¹ (F1 − k1) + k1.
+        for i in 0..n {
+            self.scratch[i] = y[i] + 0.5 * h * self.k1[i];
+        }
+        f(t + 0.5 * h, &self.scratch, &mut self.f1)?;
+        for i in 0..n {
+            self.scratch[i] = self.f1[i] - self.k1[i];
+        }
+        if !solve(&self.scratch, &mut self.k2) {
+            return Ok(f64::INFINITY);
+        }
+        for i in 0..n {
+            self.k2[i] += self.k1[i];
+            self.y_new[i] = y[i] + h * self.k2[i];
+        }
+        // F2 = f(t + h, y₁); k3 = W⁻¹ (F2 − e32 (k2 − F1) − 2 (k1 − F0) + h d T).
+        f(t + h, &self.y_new, &mut self.f2)?;
+        self.stats.evaluations += 2;
+        for i in 0..n {
+            self.scratch[i] = self.f2[i] - RB_E32 * (self.k2[i] - self.f1[i]) - 2.0 * (self.k1[i] - self.f0[i])
+                + h * RB_D * self.dfdt[i];
+        }
+        if !solve(&self.scratch, &mut self.k3) {
+            return Ok(f64::INFINITY);
+        }
+        let mut sum = 0.0;
+        for i in 0..n {
+            let e = h / 6.0 * (self.k1[i] - 2.0 * self.k2[i] + self.k3[i]);
+            let sc = self.atol + self.rtol * y[i].abs().max(self.y_new[i].abs());
+            sum += (e / sc) * (e / sc);
+        }
+        let err = (sum / n.max(1) as f64).sqrt();
+        Ok(if err.is_finite() { err } else { f64::INFINITY })
+    }
+
+    /// The continuous extension of the last accepted step at `t` (2nd order; exact at both ends).
+    pub fn dense(&self, t: f64, out: &mut [f64]) {
+        let s = if self.h_old > 0.0 { (t - self.t_old) / self.h_old } else { 0.0 };
+        let c1 = s * (1.0 - s) / (1.0 - 2.0 * RB_D);
+        let c2 = s * (s - 2.0 * RB_D) / (1.0 - 2.0 * RB_D);
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = self.y_old[i] + self.h_old * (c1 * self.k1[i] + c2 * self.k2[i]);
+        }
+    }
+}

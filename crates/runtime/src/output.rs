@@ -10,17 +10,23 @@ use crate::simulate::{SimulationResult, Summary};
 
 /// Write `result` as CSV: a header row with [`SimulationResult::columns`], then one row per sample.
 pub fn write_csv<W: Write>(result: &SimulationResult, w: W) -> io::Result<()> {
+    write_table_csv(&result.columns, &result.data, w)
+}
+
+/// Write a table stored column by column as CSV (header row, then one row per sample), with the number
+/// format of [`write_csv`]; used for the forward simulation's series too.
+pub fn write_table_csv<W: Write>(columns: &[String], data: &[Vec<f64>], w: W) -> io::Result<()> {
     let mut w = BufWriter::with_capacity(1 << 16, w);
-    for (i, name) in result.columns.iter().enumerate() {
+    for (i, name) in columns.iter().enumerate() {
         if i > 0 {
             w.write_all(b",")?;
         }
         write_field(&mut w, name)?;
     }
     w.write_all(b"\n")?;
-    let rows = result.data.first().map_or(0, Vec::len);
+    let rows = data.first().map_or(0, Vec::len);
     for k in 0..rows {
-        for (i, col) in result.data.iter().enumerate() {
+        for (i, col) in data.iter().enumerate() {
             if i > 0 {
                 w.write_all(b",")?;
             }
@@ -33,6 +39,11 @@ pub fn write_csv<W: Write>(result: &SimulationResult, w: W) -> io::Result<()> {
 
 /// Write the summary as pretty-printed JSON followed by a newline (`--summary-json`).
 pub fn write_summary_json<W: Write>(summary: &Summary, w: W) -> io::Result<()> {
+    write_json(summary, w)
+}
+
+/// Write any summary (e.g. the forward simulation's) as pretty-printed JSON followed by a newline.
+pub fn write_json<T: serde::Serialize + ?Sized, W: Write>(summary: &T, w: W) -> io::Result<()> {
     let mut w = BufWriter::new(w);
     serde_json::to_writer_pretty(&mut w, summary).map_err(io::Error::other)?;
     w.write_all(b"\n")?;

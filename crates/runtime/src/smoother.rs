@@ -38,6 +38,7 @@
 
 use crate::cycle::{Cycle, CycleError};
 use crate::kernel::Kernel;
+use invsim_model_api::ReferenceMap;
 
 /// Errors from [`Smoother::new`].
 #[derive(Debug, thiserror::Error)]
@@ -67,6 +68,9 @@ pub struct Smoother {
     origin: f64,
     inv_width: f64,
     bucket_start: Vec<usize>,
+    /// The output's reference map y_d = offset + scale · (k * y_c) (identity unless
+    /// [`Smoother::with_reference`] set one).
+    reference: ReferenceMap,
 }
 
 impl Smoother {
@@ -128,7 +132,35 @@ impl Smoother {
             origin,
             inv_width: 1.0 / width,
             bucket_start,
+            reference: ReferenceMap::IDENTITY,
         })
+    }
+
+    /// The same smoother delivering the reference of an output that is not the cycle's speed itself:
+    /// y_d = offset + scale · (k * y_c), y_d^(n) = scale · (k * y_c)^(n) for n ≥ 1 (exact, like the rest).
+    pub fn with_reference(mut self, reference: ReferenceMap) -> Smoother {
+        self.reference = reference;
+        self
+    }
+
+    /// The reference map in use (the identity by default).
+    pub fn reference(&self) -> ReferenceMap {
+        self.reference
+    }
+
+    /// Apply the reference map to y_d, y_d', … in `out` (nothing to do for the identity).
+    #[inline]
+    fn map_reference(&self, out: &mut [f64]) {
+        if self.reference.is_identity() {
+            return;
+        }
+        let ReferenceMap { offset, scale } = self.reference;
+        if let Some((y, rest)) = out.split_first_mut() {
+            *y = offset + scale * *y;
+            for d in rest {
+                *d *= scale;
+            }
+        }
     }
 
     /// Index of the first corner after `x` (`t_j > x`).
@@ -233,6 +265,7 @@ impl Smoother {
         if let Some(d) = first_derivative {
             *d = dy;
         }
+        self.map_reference(out);
     }
 
     /// y_d and its derivatives on a whole grid of increasing times: `out[n][k] = y_d^(n)(times[k])` for
@@ -332,6 +365,14 @@ impl Smoother {
                 };
                 for (n, col) in out.iter_mut().enumerate() {
                     col[k] += jump * src[n];
+                }
+            }
+        }
+        if !self.reference.is_identity() {
+            let ReferenceMap { offset, scale } = self.reference;
+            for (n, col) in out.iter_mut().enumerate() {
+                for v in col[..times.len()].iter_mut() {
+                    *v = if n == 0 { offset + scale * *v } else { scale * *v };
                 }
             }
         }

@@ -5,14 +5,16 @@
 ///
 /// States x = (v, p_i), input u = `m_at`, output y = `v`: n = 2, relative degree r = 2, 0 internal state(s) η. ψ⁻¹ is in closed form.
 ///
-/// [`Model`] implements the runtime's [`InverseModel`]. [`Precomputed`] holds a parameter set with its parameter-only subexpressions and evaluates every function per point; the free functions take [`Params`] directly. Each method's documentation shows its equation.
+/// [`Model`](si_engine::Model) implements the runtime's [`InverseModel`](invsim_model_api::InverseModel). [`Precomputed`](si_engine::Precomputed) holds a parameter set with its parameter-only subexpressions and evaluates every function per point; the free functions take [`Params`](si_engine::Params) directly. Each method's documentation shows its equation.
 ///
 /// Generated from `si_engine.toml` (sha256 `068b4ce0e15a72394472785101370e69098b784e0c106df866c6b3f20ac8d9c9`).
 // Parameter and state names are the model file's own (`C_d`, `T_i`), kept as written.
 #[allow(non_snake_case)]
 pub mod si_engine {
     use std::f64::consts::PI;
-    use invsim_model_api::{InverseModel, ModelError, ModelInfo, OutputInfo};
+    use invsim_model_api::{
+        InverseModel, ModelError, ModelInfo, OutputInfo, ReferenceMap,
+    };
     /// Model name.
     pub const NAME: &str = "si_engine";
     /// One-line description from the model file.
@@ -69,6 +71,11 @@ pub mod si_engine {
     ];
     /// Names of the extra outputs.
     pub const OUTPUTS: [&str; N_OUTPUTS] = ["fuel", "fuel_volume", "n_e", "T_e"];
+    /// How a drive cycle defines the tracked output's reference: y_d = offset + scale · (smoothed cycle).
+    pub const REFERENCE: ReferenceMap = ReferenceMap {
+        offset: 0.0,
+        scale: 1.0,
+    };
     /// The model's parameters; [`Default`] gives the model file's values.
     #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
     #[serde(default, deny_unknown_fields)]
@@ -343,18 +350,20 @@ pub mod si_engine {
         k14: f64,
         /// `500*R_a*T_i*V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi*V_i*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
         k15: f64,
-        /// `R_a*T_i/V_i`
+        /// `(4 + 0.086*sqrt(0.075)*xi_aux/sqrt(B))*pi*V_i*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)/(R_a*T_i*V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
         k16: f64,
-        /// `V_d*i_t/(4*pi*V_i*r_w)`
+        /// `R_a*T_i/V_i`
         k17: f64,
-        /// `1/(AFs*lambda)`
+        /// `V_d*i_t/(4*pi*V_i*r_w)`
         k18: f64,
-        /// `1000/(AFs*lambda*rho_f)`
+        /// `1/(AFs*lambda)`
         k19: f64,
-        /// `30*i_t/(pi*r_w)`
+        /// `1000/(AFs*lambda*rho_f)`
         k20: f64,
-        /// `-500*V_d/(pi*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        /// `30*i_t/(pi*r_w)`
         k21: f64,
+        /// `-500*V_d/(pi*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k22: f64,
     }
     impl Precomputed {
         /// Compute the parameter-only subexpressions for `p`.
@@ -393,13 +402,14 @@ pub mod si_engine {
             let k14 = 0.125 * p.V_d * p.i_t * p.s_i / t12;
             let k15 = 500.0 * p.R_a * p.T_i * p.V_d * p.eta_trm * p.i_t * t11
                 / (t12 * t2 * t5);
-            let k16 = p.R_a * p.T_i / p.V_i;
-            let k17 = 0.25 * p.V_d * p.i_t / t12;
+            let k16 = 1.0 / k15;
+            let k17 = p.R_a * p.T_i / p.V_i;
+            let k18 = 0.25 * p.V_d * p.i_t / t12;
             let t13 = p.AFs * p.lambda;
-            let k18 = 1.0 / t13;
-            let k19 = 1000.0 / (t13 * p.rho_f);
-            let k20 = 30.0 * p.i_t / t10;
-            let k21 = -500.0 * p.V_d / (PI * t5);
+            let k19 = 1.0 / t13;
+            let k20 = 1000.0 / (t13 * p.rho_f);
+            let k21 = 30.0 * p.i_t / t10;
+            let k22 = -500.0 * p.V_d / (PI * t5);
             Precomputed {
                 params: *p,
                 k0,
@@ -424,6 +434,7 @@ pub mod si_engine {
                 k19,
                 k20,
                 k21,
+                k22,
             }
         }
         /// The parameters.
@@ -513,15 +524,14 @@ pub mod si_engine {
         pub fn alpha(&self, xi: &[f64; R], _eta: &[f64; N_ETA]) -> f64 {
             let [xi1, xi2] = *xi;
             let t0 = xi1 * xi1;
-            let t1 = self.k3 + self.k4 * t0;
-            self.k12 * xi1
-                - self.k10 * xi2 * (self.k1 * xi1 + self.k13 * xi1 / t1.powf(0.1))
+            let t1 = (self.k3 + self.k4 * t0).powf(0.1);
+            self.k12 * xi1 - self.k10 * xi2 * (self.k1 * xi1 + self.k13 * xi1 / t1)
                 - self.k14 * xi1
                     * (2.0 * xi2
                         + self.k10
                             * (self.k0 + self.k1 * t0
                                 + self.k7
-                                    * (self.k9 - self.k6 * (self.k5 - 9.0 * t1.powf(0.9)))))
+                                    * (self.k9 - self.k6 * (self.k5 - 9.0 * t1.powi(9)))))
         }
         /// β(ξ, η) = L_g L_f^(r−1) h ∘ ψ⁻¹, the gain of the input in y^(r) = α + β·u.
         ///
@@ -552,16 +562,15 @@ pub mod si_engine {
         ) -> ([f64; N], f64) {
             let [xi1, xi2] = *xi;
             let t0 = xi1 * xi1;
-            let t1 = self.k3 + self.k4 * t0;
+            let t1 = (self.k3 + self.k4 * t0).powf(0.1);
             let t2 = 2.0 * xi2
                 + self.k10
                     * (self.k0 + self.k1 * t0
-                        + self.k7
-                            * (self.k9 - self.k6 * (self.k5 - 9.0 * t1.powf(0.9))));
+                        + self.k7 * (self.k9 - self.k6 * (self.k5 - 9.0 * t1.powi(9))));
             let alpha = self.k12 * xi1
-                - self.k10 * xi2 * (self.k1 * xi1 + self.k13 * xi1 / t1.powf(0.1))
+                - self.k10 * xi2 * (self.k1 * xi1 + self.k13 * xi1 / t1)
                 - self.k14 * xi1 * t2;
-            ([xi1, self.k11 * t2], (yr - alpha) / self.k15)
+            ([xi1, self.k11 * t2], (yr - alpha) * self.k16)
         }
         /// The original model dx/dt = f(x) + g(x)·u, for forward simulation (u = `m_at`).
         ///
@@ -588,7 +597,7 @@ pub mod si_engine {
                             * (p.p_e - p_i + self.k2 * t1
                                 - self.k6
                                     * (self.k5 - 9.0 * (self.k3 + self.k4 * t0).powf(0.9)))),
-                self.k16 * m_at + self.k17 * v * t1,
+                self.k17 * m_at + self.k18 * v * t1,
             ]
         }
         /// The extra outputs of the model's `[outputs]` table at (x, u).
@@ -613,10 +622,10 @@ pub mod si_engine {
             let [v, p_i] = *x;
             let t0 = m_at.max(0.0);
             [
-                self.k18 * t0,
                 self.k19 * t0,
-                self.k20 * v,
-                self.k21
+                self.k20 * t0,
+                self.k21 * v,
+                self.k22
                     * (p.p_e - p_i + self.k2 * (p.y_i - p.s_i * p_i)
                         - self.k6
                             * (self.k5 - 9.0 * (self.k3 + self.k4 * (v * v)).powf(0.9))),
@@ -783,6 +792,9 @@ pub mod si_engine {
         }
         fn outputs(&self, x: &[f64], u: f64, out: &mut [f64]) {
             out.copy_from_slice(&self.pre.outputs(arr(x), u));
+        }
+        fn reference(&self) -> ReferenceMap {
+            REFERENCE
         }
         /// ψ⁻¹, α and β in one evaluation.
         fn invert(
