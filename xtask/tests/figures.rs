@@ -18,12 +18,18 @@ fn figures_regenerate_in_check_mode() {
         "fig7_first_ece_detail.svg",
         "lookahead_effect.svg",
     ] {
-        assert!(names.iter().any(|n| n == expected), "{expected} not among {names:?}");
+        assert!(
+            names.iter().any(|n| n == expected),
+            "{expected} not among {names:?}"
+        );
     }
     for path in &rendered {
         let text = std::fs::read_to_string(path).unwrap();
         assert!(xtask::figures::is_complete_svg(&text), "{}", path.display());
-        assert!(path.starts_with(root.join(xtask::figures::CHECK_DIR)), "check mode writes nothing to docs/");
+        assert!(
+            path.starts_with(root.join(xtask::figures::CHECK_DIR)),
+            "check mode writes nothing to docs/"
+        );
     }
 }
 
@@ -33,5 +39,9 @@ fn figures_subcommand_check_exits_0() {
         .args(["figures", "--check"])
         .output()
         .expect("run xtask");
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }

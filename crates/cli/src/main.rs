@@ -121,13 +121,13 @@ struct ForwardArgs {
     #[arg(long, default_value_t = 0.1)]
     dt: f64,
     /// Driver's proportional gain: requested acceleration per unit of speed error (1/s).
-    #[arg(long, default_value_t = forward::DRIVER_KP)]
+    #[arg(long, default_value_t = forward::DRIVER_KP, allow_negative_numbers = true)]
     kp: f64,
     /// Driver's integral gain: requested acceleration per unit of integrated speed error (1/s²).
-    #[arg(long, default_value_t = forward::DRIVER_KI)]
+    #[arg(long, default_value_t = forward::DRIVER_KI, allow_negative_numbers = true)]
     ki: f64,
     /// Bandwidth of the engine management's response to the driver's request (rad/s).
-    #[arg(long, default_value_t = forward::RESPONSE_OMEGA)]
+    #[arg(long, default_value_t = forward::RESPONSE_OMEGA, allow_negative_numbers = true)]
     response: f64,
     /// Leave out the driver's feed-forward of the cycle's slope.
     #[arg(long)]

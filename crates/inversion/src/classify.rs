@@ -48,7 +48,10 @@ impl ZeroDynamicsClass {
         if eigenvalues.is_empty() {
             return ZeroDynamicsClass::Unknown;
         }
-        if eigenvalues.iter().any(|e| !e[0].is_finite() || e[0].abs() <= tol) {
+        if eigenvalues
+            .iter()
+            .any(|e| !e[0].is_finite() || e[0].abs() <= tol)
+        {
             return ZeroDynamicsClass::Unknown;
         }
         let unstable = eigenvalues.iter().filter(|e| e[0] > 0.0).count();
@@ -121,7 +124,13 @@ impl Derivation {
             ),
             _ => None,
         };
-        Classification { class, output: y0, eta, eigenvalues, note }
+        Classification {
+            class,
+            output: y0,
+            eta,
+            eigenvalues,
+            note,
+        }
     }
 }
 
@@ -157,7 +166,11 @@ pub(crate) fn eigenvalues(a: &DMatrix<f64>) -> Vec<[f64; 2]> {
     let Some(schur) = nalgebra::Schur::try_new(a.clone(), f64::EPSILON, 10_000) else {
         return Vec::new();
     };
-    let mut eigs: Vec<[f64; 2]> = schur.complex_eigenvalues().iter().map(|c| [c.re, c.im]).collect();
+    let mut eigs: Vec<[f64; 2]> = schur
+        .complex_eigenvalues()
+        .iter()
+        .map(|c| [c.re, c.im])
+        .collect();
     eigs.sort_by(|a, b| b[0].total_cmp(&a[0]).then(b[1].total_cmp(&a[1])));
     eigs
 }
@@ -165,7 +178,12 @@ pub(crate) fn eigenvalues(a: &DMatrix<f64>) -> Vec<[f64; 2]> {
 /// An equilibrium q(ξ, η, y^(r)) = 0 by damped Newton's method, tried from several starting points (η = 0,
 /// η = y0 in every component — internal states often share the output's scale, as pressures do —, then ±10^k):
 /// the first that converges to a finite point.
-pub(crate) fn equilibrium(model: &dyn InverseModel, xi: &[f64], yr: f64, y0: f64) -> Option<Vec<f64>> {
+pub(crate) fn equilibrium(
+    model: &dyn InverseModel,
+    xi: &[f64],
+    yr: f64,
+    y0: f64,
+) -> Option<Vec<f64>> {
     let m = model.info().n_eta;
     let mut starts = vec![0.0, y0, 1.0, -1.0];
     for k in [-2, 1, 2, 3, 4, 5, 6] {
@@ -173,7 +191,9 @@ pub(crate) fn equilibrium(model: &dyn InverseModel, xi: &[f64], yr: f64, y0: f64
         starts.push(-(10f64.powi(k)));
     }
     starts.dedup();
-    starts.into_iter().find_map(|s| newton(model, xi, yr, vec![s; m]))
+    starts
+        .into_iter()
+        .find_map(|s| newton(model, xi, yr, vec![s; m]))
 }
 
 /// Damped Newton's method for q(ξ, η, y^(r)) = 0 from `eta`; `None` if it fails.
@@ -181,7 +201,15 @@ fn newton(model: &dyn InverseModel, xi: &[f64], yr: f64, mut eta: Vec<f64>) -> O
     const MAX_ITER: usize = 100;
     let m = eta.len();
     // Max norm that propagates NaN (f64::max would drop it).
-    let norm = |v: &[f64]| v.iter().fold(0.0_f64, |a, x| if x.is_nan() || a.is_nan() { f64::NAN } else { a.max(x.abs()) });
+    let norm = |v: &[f64]| {
+        v.iter().fold(0.0_f64, |a, x| {
+            if x.is_nan() || a.is_nan() {
+                f64::NAN
+            } else {
+                a.max(x.abs())
+            }
+        })
+    };
     let mut q = vec![0.0; m];
     let mut trial = vec![0.0; m];
     let mut q_trial = vec![0.0; m];
@@ -236,7 +264,10 @@ mod tests {
     fn classes_of_eigenvalues() {
         let c = |e: &[[f64; 2]]| ZeroDynamicsClass::of_eigenvalues(e, 1e-9).as_str();
         assert_eq!(c(&[]), "unknown");
-        assert_eq!(c(&[[-1.0, 0.0], [-2.0, 3.0], [-2.0, -3.0]]), "minimum_phase");
+        assert_eq!(
+            c(&[[-1.0, 0.0], [-2.0, 3.0], [-2.0, -3.0]]),
+            "minimum_phase"
+        );
         assert_eq!(c(&[[0.5, 0.0]]), "non_minimum_phase");
         assert_eq!(c(&[[0.5, 0.0], [-3.0, 0.0]]), "mixed");
         assert_eq!(c(&[[0.0, 1.0], [0.0, -1.0]]), "unknown");

@@ -76,6 +76,17 @@ impl Derivation {
         })
     }
 
+    /// The drive cycle → reference map of `[output]`, when it is not the identity.
+    fn reference_line(&self) -> Option<String> {
+        let o = &self.model.output;
+        (o.reference_offset != 0.0 || o.reference_scale != 1.0).then(|| {
+            format!(
+                "reference from a drive cycle: y_d = {} + {} * (smoothed cycle speed in m/s)",
+                o.reference_offset, o.reference_scale
+            )
+        })
+    }
+
     /// One line on the zero dynamics at the nominal point (r < n only).
     fn classification_line(&self) -> Option<String> {
         if self.eta.is_empty() {
@@ -85,10 +96,14 @@ impl Derivation {
         let eigs: Vec<String> = c
             .eigenvalues
             .iter()
-            .map(|[re, im]| match *im {
-                v if v == 0.0 => format!("{re:.6e}"),
-                v if v > 0.0 => format!("{re:.6e} + {v:.6e}i"),
-                v => format!("{re:.6e} - {:.6e}i", -v),
+            .map(|&[re, im]| {
+                if im == 0.0 {
+                    format!("{re:.6e}")
+                } else if im > 0.0 {
+                    format!("{re:.6e} + {im:.6e}i")
+                } else {
+                    format!("{re:.6e} - {:.6e}i", -im)
+                }
             })
             .collect();
         let at = if c.eta.is_empty() {
@@ -115,6 +130,9 @@ impl Derivation {
         let _ = writeln!(s, "model {} ({})", m.name, m.file.display());
         let names: Vec<&str> = m.states.iter().map(|s| s.name.as_str()).collect();
         let _ = writeln!(s, "states x = ({}), input {}, output y = {}", names.join(", "), m.input.name, self.show(m.output.h));
+        if let Some(line) = self.reference_line() {
+            let _ = writeln!(s, "{line}");
+        }
         let _ = writeln!(s, "\nvector fields (definitions inlined):");
         for st in &m.states {
             let _ = writeln!(s, "  f_{} = {}", st.name, self.show(st.f));
@@ -218,6 +236,9 @@ impl Derivation {
             m.output.unit.as_deref().unwrap_or("–"),
             m.output.doc.as_deref().map(|d| format!(": {d}")).unwrap_or_default(),
         );
+        if let Some(line) = self.reference_line() {
+            let _ = writeln!(s, "{line}\n");
+        }
         if !m.parameters.is_empty() {
             let _ = writeln!(s, "| parameter | value | unit | description |\n|---|---|---|---|");
             for p in &m.parameters {

@@ -13,11 +13,15 @@ use invsim_runtime::{simulate, Cycle, SimulationOptions};
 
 fn nedc_diesel(c: &mut Criterion) {
     let compiled = invsim_models::builtin("diesel_gasflow").expect("diesel_gasflow is built in");
-    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models/diesel_gasflow.toml");
+    let root =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models/diesel_gasflow.toml");
     let derivation = invsim_inversion::derive_file(&root).expect("diesel_gasflow derives");
     let interpreted = invsim_inversion::Interpreter::new(&derivation).expect("interpreter");
     let cycle = Cycle::builtin("nedc").expect("built-in NEDC");
-    let opts = SimulationOptions { dt: 0.01, ..SimulationOptions::default() };
+    let opts = SimulationOptions {
+        dt: 0.01,
+        ..SimulationOptions::default()
+    };
     let first = simulate(compiled.as_ref(), &cycle, &opts).expect("simulation");
     assert_eq!(first.summary.inversion, "stable");
     let samples = first.summary.samples as u64;
@@ -27,11 +31,18 @@ fn nedc_diesel(c: &mut Criterion) {
     group.throughput(Throughput::Elements(samples));
     group.measurement_time(Duration::from_secs(8));
     group.bench_function("diesel_gasflow_compiled", |b| {
-        b.iter(|| simulate(std::hint::black_box(compiled.as_ref()), &cycle, &opts).expect("simulation"))
+        b.iter(|| {
+            simulate(std::hint::black_box(compiled.as_ref()), &cycle, &opts).expect("simulation")
+        })
     });
-    let lean = SimulationOptions { keep_series: false, ..opts.clone() };
+    let lean = SimulationOptions {
+        keep_series: false,
+        ..opts.clone()
+    };
     group.bench_function("diesel_gasflow_compiled_summary_only", |b| {
-        b.iter(|| simulate(std::hint::black_box(compiled.as_ref()), &cycle, &lean).expect("simulation"))
+        b.iter(|| {
+            simulate(std::hint::black_box(compiled.as_ref()), &cycle, &lean).expect("simulation")
+        })
     });
     group.sample_size(10);
     group.bench_function("diesel_gasflow_interpreted", |b| {

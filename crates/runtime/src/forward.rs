@@ -25,9 +25,9 @@
 //! Δa = β (u_a − u)/ω^(r−1) drives the back-calculation (Åström & Hägglund, *Advanced PID Control*, 2006, §3.5).
 //!
 //! Defaults ([`DRIVER_KP`], [`DRIVER_KI`], [`RESPONSE_OMEGA`]): K_p = 2 1/s and K_i = 1 1/s² give the speed loop
-//! s² + K_p s + K_i a double pole at −1 1/s; ω = 10 rad/s is faster than the driver and slower than the intake
-//! manifold above 10 km/h. The gains are in output units (for `si_engine`: (m/s²) per m/s and per m), so they
-//! suit any model whose output is a speed.
+//! s² + K_p s + K_i a double pole at −1 1/s; ω = 10 rad/s is ten times faster than the driver and as fast as
+//! the intake manifold's own pumping dynamics (1.02 v 1/s) at 35 km/h. The gains are in output units (for
+//! `si_engine`: (m/s²) per m/s and per m), so they suit any model whose output is a speed.
 //!
 //! With the bounds enforced the vehicle may fail to follow the cycle; like FASTSim, the run reports trace
 //! misses: the samples where y leaves the band of the U.S. driving-schedule tolerance (40 CFR 86.115-78:
@@ -65,7 +65,7 @@ pub const DRIVER_KP: f64 = 2.0;
 /// double pole at −1 1/s (critically damped, a calm driver).
 pub const DRIVER_KI: f64 = 1.0;
 /// Default bandwidth ω of the engine management's response to the driver's request, rad/s (time constant
-/// 0.1 s; the intake manifold's own time constant is 0.03–0.3 s above 10 km/h).
+/// 0.1 s; the intake manifold's own time constant 1/(1.02 v) is 0.35 s at 10 km/h and 0.03 s at 120 km/h).
 pub const RESPONSE_OMEGA: f64 = 10.0;
 
 /// What the forward run does with the model's input bounds.
@@ -168,7 +168,9 @@ pub enum ForwardError {
     InvalidDt(f64),
     #[error("invalid integrator tolerances rtol = {rtol}, atol = {atol}: both must be positive and finite")]
     InvalidTolerance { rtol: f64, atol: f64 },
-    #[error("invalid driver parameter {name} = {value}: it must be finite and ≥ 0 (the response > 0)")]
+    #[error(
+        "invalid driver parameter {name} = {value}: it must be finite and ≥ 0 (the response > 0)"
+    )]
     InvalidGain { name: &'static str, value: f64 },
     #[error(
         "invalid trace-miss tolerances {speed} (output units) and {time} s: both must be finite and ≥ 0"
@@ -180,7 +182,12 @@ pub enum ForwardError {
         "{samples} output samples (duration {duration} s at dt = {dt} s) exceed the limit of {max}; use a larger \
          --dt"
     )]
-    TooManySamples { samples: f64, duration: f64, dt: f64, max: usize },
+    TooManySamples {
+        samples: f64,
+        duration: f64,
+        dt: f64,
+        max: usize,
+    },
     #[error("invalid initial state x0: {reason}")]
     InvalidX0 { reason: String },
     #[error("cannot find the initial state at t0 = {t} s: {reason}; give x0 explicitly")]
@@ -192,14 +199,21 @@ pub enum ForwardError {
         source: ModelError,
     },
     #[error("{quantity} is not finite ({value}) at t = {t} s")]
-    NonFinite { t: f64, quantity: String, value: f64 },
+    NonFinite {
+        t: f64,
+        quantity: String,
+        value: f64,
+    },
     #[error("the forward integration failed at t = {t} s: {reason}")]
     Integration { t: f64, reason: String },
 }
 
 impl From<StepFailure> for ForwardError {
     fn from(f: StepFailure) -> Self {
-        ForwardError::Integration { t: f.t, reason: f.reason }
+        ForwardError::Integration {
+            t: f.t,
+            reason: f.reason,
+        }
     }
 }
 
@@ -276,7 +290,12 @@ impl ForwardSummary {
         let _ = writeln!(s, "engine: {}", self.engine);
         let _ = writeln!(s, "cycle: {}", self.cycle);
         let _ = writeln!(s, "duration: {} s", fmt_sig(self.duration_s, 6));
-        let _ = writeln!(s, "distance: {} m (driven {} m)", fmt_sig(self.distance_m, 6), fmt_sig(self.distance_driven_m, 6));
+        let _ = writeln!(
+            s,
+            "distance: {} m (driven {} m)",
+            fmt_sig(self.distance_m, 6),
+            fmt_sig(self.distance_driven_m, 6)
+        );
         let _ = writeln!(s, "relative degree: {}", self.relative_degree);
         let _ = writeln!(s, "samples: {}", self.samples);
         let _ = writeln!(s, "dt: {} s", fmt_sig(self.dt_s, 6));
@@ -318,10 +337,21 @@ impl ForwardSummary {
             }
             s.push('\n');
         }
-        let _ = write!(s, "{}: min {}, max {}", self.input, fmt_sig(self.input_min, 4), fmt_sig(self.input_max, 4));
+        let _ = write!(
+            s,
+            "{}: min {}, max {}",
+            self.input,
+            fmt_sig(self.input_min, 4),
+            fmt_sig(self.input_max, 4)
+        );
         if self.input_lower_bound.is_some() || self.input_upper_bound.is_some() {
             let b = |v: Option<f64>, inf: &str| v.map_or(inf.to_string(), |v| fmt_sig(v, 6));
-            let _ = write!(s, " (bounds [{}, {}])", b(self.input_lower_bound, "-inf"), b(self.input_upper_bound, "inf"));
+            let _ = write!(
+                s,
+                " (bounds [{}, {}])",
+                b(self.input_lower_bound, "-inf"),
+                b(self.input_upper_bound, "inf")
+            );
         }
         s.push('\n');
         let list = |name: &str, v: &[[f64; 2]], s: &mut String| {
@@ -329,15 +359,35 @@ impl ForwardSummary {
                 let _ = writeln!(s, "{name}: none");
             } else {
                 let total: f64 = v.iter().map(|[a, b]| b - a).sum();
-                let items: Vec<String> =
-                    v.iter().map(|[a, b]| format!("[{}, {}]", fmt_sig(*a, 6), fmt_sig(*b, 6))).collect();
-                let _ = writeln!(s, "{name}: {} intervals, {} s: {}", items.len(), fmt_sig(total, 4), items.join(" "));
+                let items: Vec<String> = v
+                    .iter()
+                    .map(|[a, b]| format!("[{}, {}]", fmt_sig(*a, 6), fmt_sig(*b, 6)))
+                    .collect();
+                let _ = writeln!(
+                    s,
+                    "{name}: {} intervals, {} s: {}",
+                    items.len(),
+                    fmt_sig(total, 4),
+                    items.join(" ")
+                );
             }
         };
-        list("input bound violations", &self.input_bound_violations, &mut s);
+        list(
+            "input bound violations",
+            &self.input_bound_violations,
+            &mut s,
+        );
         list("trace misses", &self.trace_misses, &mut s);
-        let _ = writeln!(s, "max abs tracking error: {}", fmt_sig(self.max_abs_tracking_error, 3));
-        let _ = writeln!(s, "rms tracking error: {}", fmt_sig(self.rms_tracking_error, 3));
+        let _ = writeln!(
+            s,
+            "max abs tracking error: {}",
+            fmt_sig(self.max_abs_tracking_error, 3)
+        );
+        let _ = writeln!(
+            s,
+            "rms tracking error: {}",
+            fmt_sig(self.rms_tracking_error, 3)
+        );
         for w in &self.warnings {
             let _ = writeln!(s, "warning: {w}");
         }
@@ -359,7 +409,10 @@ pub struct ForwardResult {
 impl ForwardResult {
     /// The column called `name`, if any.
     pub fn column(&self, name: &str) -> Option<&[f64]> {
-        self.columns.iter().position(|c| c == name).map(|i| self.data[i].as_slice())
+        self.columns
+            .iter()
+            .position(|c| c == name)
+            .map(|i| self.data[i].as_slice())
     }
     /// Sample times.
     pub fn time(&self) -> &[f64] {
@@ -397,8 +450,11 @@ struct RawCycle<'a> {
 impl<'a> RawCycle<'a> {
     fn new(cycle: &'a Cycle) -> Self {
         let (time, speed) = (&cycle.time[..], &cycle.speed[..]);
-        let mut slope: Vec<f64> =
-            time.windows(2).zip(speed.windows(2)).map(|(t, v)| (v[1] - v[0]) / (t[1] - t[0])).collect();
+        let mut slope: Vec<f64> = time
+            .windows(2)
+            .zip(speed.windows(2))
+            .map(|(t, v)| (v[1] - v[0]) / (t[1] - t[0]))
+            .collect();
         slope.push(0.0);
         RawCycle { time, speed, slope }
     }
@@ -407,7 +463,10 @@ impl<'a> RawCycle<'a> {
     }
     /// The segment of t, right-continuous (a corner belongs to the segment it starts).
     fn segment(&self, t: f64) -> usize {
-        self.time.partition_point(|&x| x <= t).saturating_sub(1).min(self.segments() - 1)
+        self.time
+            .partition_point(|&x| x <= t)
+            .saturating_sub(1)
+            .min(self.segments() - 1)
     }
     /// End of segment j (∞ for the last).
     fn end(&self, j: usize) -> f64 {
@@ -466,7 +525,11 @@ impl<M: InverseModel + ?Sized> Loop<'_, M> {
         let yc = self.raw.value(seg, t);
         self.model.psi(x, &mut self.xi, &mut self.eta);
         let y = self.xi[0];
-        let ff = if self.feedforward { self.raw.slope[seg] } else { 0.0 };
+        let ff = if self.feedforward {
+            self.raw.slope[seg]
+        } else {
+            0.0
+        };
         let request = ff + self.kp * (yc - y) + integral;
         let nu = if self.inner.is_empty() {
             request
@@ -482,8 +545,17 @@ impl<M: InverseModel + ?Sized> Loop<'_, M> {
             .model
             .invert(&self.xi, &self.eta, nu, &mut self.guess)
             .map_err(|source| ForwardError::Model { t, source })?;
-        let applied = if self.enforce { demand.max(self.lo).min(self.hi) } else { demand };
-        Ok(Drive { yc, y, demand, applied })
+        let applied = if self.enforce {
+            demand.max(self.lo).min(self.hi)
+        } else {
+            demand
+        };
+        Ok(Drive {
+            yc,
+            y,
+            demand,
+            applied,
+        })
     }
 
     /// dz/dt of the closed loop, z = (x, I): x' = f(x) + g(x) u_a and I' = K_i e + (Δa)/T_t, Δa = β (u_a − u)
@@ -495,7 +567,8 @@ impl<M: InverseModel + ?Sized> Loop<'_, M> {
         let mut windup = 0.0;
         if d.applied != d.demand && self.k_aw > 0.0 {
             let beta = self.model.beta(&self.xi, &self.eta);
-            windup = self.k_aw * beta * (d.applied - d.demand) / self.omega.powi(self.inner.len() as i32);
+            windup = self.k_aw * beta * (d.applied - d.demand)
+                / self.omega.powi(self.inner.len() as i32);
         }
         di[0] = self.ki * (d.yc - d.y) + windup;
         Ok(())
@@ -509,7 +582,13 @@ enum Stepper {
 }
 
 impl Stepper {
-    fn step_to<F>(&mut self, t: f64, t_end: f64, z: &mut [f64], f: &mut F) -> Result<f64, ForwardError>
+    fn step_to<F>(
+        &mut self,
+        t: f64,
+        t_end: f64,
+        z: &mut [f64],
+        f: &mut F,
+    ) -> Result<f64, ForwardError>
     where
         F: FnMut(f64, &[f64], &mut [f64]) -> Result<(), ForwardError>,
     {
@@ -597,7 +676,14 @@ struct TraceBand<'a> {
 
 impl<'a> TraceBand<'a> {
     fn new(cycle: &'a Cycle, tau: f64, tol: f64) -> Self {
-        TraceBand { time: &cycle.time, speed: &cycle.speed, tau, tol, lo: 0, hi: 0 }
+        TraceBand {
+            time: &cycle.time,
+            speed: &cycle.speed,
+            tau,
+            tol,
+            lo: 0,
+            hi: 0,
+        }
     }
 
     /// The raw cycle at s, given the index of the first breakpoint after s.
@@ -643,19 +729,32 @@ pub fn forward<M: InverseModel + ?Sized>(
     }
     let tol_ok = |v: f64| v > 0.0 && v.is_finite();
     if !(tol_ok(opts.rtol) && tol_ok(opts.atol)) {
-        return Err(ForwardError::InvalidTolerance { rtol: opts.rtol, atol: opts.atol });
+        return Err(ForwardError::InvalidTolerance {
+            rtol: opts.rtol,
+            atol: opts.atol,
+        });
     }
-    for (name, v) in [("kp", opts.kp), ("ki", opts.ki), ("response", opts.response)] {
+    for (name, v) in [
+        ("kp", opts.kp),
+        ("ki", opts.ki),
+        ("response", opts.response),
+    ] {
         if !(v.is_finite() && v >= 0.0) || (name == "response" && v == 0.0) {
             return Err(ForwardError::InvalidGain { name, value: v });
         }
     }
     let (speed_tol, time_tol) = (opts.trace_speed_tol, opts.trace_time_tol);
     if !(speed_tol.is_finite() && speed_tol >= 0.0 && time_tol.is_finite() && time_tol >= 0.0) {
-        return Err(ForwardError::InvalidTraceTolerance { speed: speed_tol, time: time_tol });
+        return Err(ForwardError::InvalidTraceTolerance {
+            speed: speed_tol,
+            time: time_tol,
+        });
     }
     if let Err(e) = cycle.validate() {
-        return Err(ForwardError::InvalidCycle { cycle: cycle.name.clone(), reason: e.to_string() });
+        return Err(ForwardError::InvalidCycle {
+            cycle: cycle.name.clone(),
+            reason: e.to_string(),
+        });
     }
     let info = model.info();
     let (n, r, ne) = (info.n_states(), info.relative_degree, info.n_eta);
@@ -664,13 +763,23 @@ pub fn forward<M: InverseModel + ?Sized>(
     let duration = cycle.duration();
     let steps = (duration / opts.dt).round();
     if steps + 1.0 > MAX_SAMPLES as f64 {
-        return Err(ForwardError::TooManySamples { samples: steps + 1.0, duration, dt: opts.dt, max: MAX_SAMPLES });
+        return Err(ForwardError::TooManySamples {
+            samples: steps + 1.0,
+            duration,
+            dt: opts.dt,
+            max: MAX_SAMPLES,
+        });
     }
     let per_second = {
         let m = (1.0 / opts.dt).round();
         (m >= 1.0 && (1.0 / opts.dt - m).abs() <= 1e-9 * m).then_some(m)
     };
-    let grid = Grid { t0, dt: opts.dt, n: steps as usize, per_second };
+    let grid = Grid {
+        t0,
+        dt: opts.dt,
+        n: steps as usize,
+        per_second,
+    };
     let raw = RawCycle::new(cycle);
 
     // --- initial state: ψ⁻¹ of the raw cycle's start --------------------------------------------------------
@@ -687,11 +796,17 @@ pub fn forward<M: InverseModel + ?Sized>(
     let x0 = match &opts.x0 {
         Some(x) if x.len() != n => {
             return Err(ForwardError::InvalidX0 {
-                reason: format!("model `{}` has {n} states, {} values were given", info.name, x.len()),
+                reason: format!(
+                    "model `{}` has {n} states, {} values were given",
+                    info.name,
+                    x.len()
+                ),
             })
         }
         Some(x) if x.iter().any(|v| !v.is_finite()) => {
-            return Err(ForwardError::InvalidX0 { reason: format!("values must be finite, got {x:?}") })
+            return Err(ForwardError::InvalidX0 {
+                reason: format!("values must be finite, got {x:?}"),
+            })
         }
         Some(x) => {
             let mut xi = vec![0.0; r];
@@ -705,7 +820,9 @@ pub fn forward<M: InverseModel + ?Sized>(
                     .map_err(|reason| ForwardError::InitialState { t: t0, reason })?;
             }
             let mut x = vec![0.0; n];
-            model.psi_inv(&xi0, &eta0, &mut x).map_err(|source| ForwardError::Model { t: t0, source })?;
+            model
+                .psi_inv(&xi0, &eta0, &mut x)
+                .map_err(|source| ForwardError::Model { t: t0, source })?;
             if let Some(j) = x.iter().position(|v| !v.is_finite()) {
                 return Err(ForwardError::InitialState {
                     t: t0,
@@ -719,9 +836,20 @@ pub fn forward<M: InverseModel + ?Sized>(
     // --- driver and engine management ---------------------------------------------------------------------
     let (kp, ki) = (opts.kp, opts.ki);
     // T_t = T_i = K_p/K_i (Åström & Hägglund §3.5); with K_p = 0, T_t = 1 s.
-    let k_aw = if ki > 0.0 { if kp > 0.0 { ki / kp } else { 1.0 } } else { 0.0 };
+    let k_aw = if ki > 0.0 {
+        if kp > 0.0 {
+            ki / kp
+        } else {
+            1.0
+        }
+    } else {
+        0.0
+    };
     let enforce = opts.bounds == Bounds::Enforce;
-    let (lo, hi) = (info.input_min.unwrap_or(f64::NEG_INFINITY), info.input_max.unwrap_or(f64::INFINITY));
+    let (lo, hi) = (
+        info.input_min.unwrap_or(f64::NEG_INFINITY),
+        info.input_max.unwrap_or(f64::INFINITY),
+    );
     // (s + ω)^(r−1) = Σ_j C(r−1, j) ω^(r−1−j) s^j.
     let inner: Vec<f64> = (0..r.saturating_sub(1))
         .map(|j| binomial(r - 1, j) * opts.response.powi((r - 1 - j) as i32))
@@ -745,20 +873,28 @@ pub fn forward<M: InverseModel + ?Sized>(
     };
     // Start in equilibrium: without feed-forward the integral carries the cycle's initial slope.
     let mut z = x0.clone();
-    z.push(if opts.feedforward || ki == 0.0 { 0.0 } else { lp.raw.slope[seg0] });
+    z.push(if opts.feedforward || ki == 0.0 {
+        0.0
+    } else {
+        lp.raw.slope[seg0]
+    });
 
     // --- columns --------------------------------------------------------------------------------------------
     let mut columns = vec!["t".to_string(), "yc".to_string()];
-    let output_is_state = info.states.iter().position(|s| *s == info.output).is_some_and(|j| {
-        // The output column is left out when it would repeat a state column of the same name.
-        let mut probe = x0.clone();
-        (0..3).all(|p| {
-            for (i, v) in probe.iter_mut().enumerate() {
-                *v = x0[i] * (1.0 + 0.1 * p as f64) + 0.01 * (p * (i + 1)) as f64;
-            }
-            model.h(&probe) == probe[j]
-        })
-    });
+    let output_is_state = info
+        .states
+        .iter()
+        .position(|s| *s == info.output)
+        .is_some_and(|j| {
+            // The output column is left out when it would repeat a state column of the same name.
+            let mut probe = x0.clone();
+            (0..3).all(|p| {
+                for (i, v) in probe.iter_mut().enumerate() {
+                    *v = x0[i] * (1.0 + 0.1 * p as f64) + 0.01 * (p * (i + 1)) as f64;
+                }
+                model.h(&probe) == probe[j]
+            })
+        });
     if !output_is_state {
         columns.push(info.output.clone());
     }
@@ -843,7 +979,9 @@ pub fn forward<M: InverseModel + ?Sized>(
     // --- the run: segment by segment, one accepted step at a time, the grid served by dense output -------
     let h0 = opts.dt.min(0.01);
     let mut stepper = match opts.method {
-        Method::Rosenbrock23 => Stepper::Implicit(Box::new(Rosenbrock23::new(n + 1, opts.rtol, opts.atol, h0))),
+        Method::Rosenbrock23 => {
+            Stepper::Implicit(Box::new(Rosenbrock23::new(n + 1, opts.rtol, opts.atol, h0)))
+        }
         Method::Dopri5 => Stepper::Explicit(Box::new(Dopri5::new(n + 1, opts.rtol, opts.atol, h0))),
     };
     let d0 = lp.drive(seg0, t0, &z)?;
@@ -859,8 +997,9 @@ pub fn forward<M: InverseModel + ?Sized>(
             stepper.restart();
             continue;
         }
-        let t_new =
-            stepper.step_to(t, target, &mut z, &mut |s, zz: &[f64], dz: &mut [f64]| lp.rhs(seg, s, zz, dz))?;
+        let t_new = stepper.step_to(t, target, &mut z, &mut |s, zz: &[f64], dz: &mut [f64]| {
+            lp.rhs(seg, s, zz, dz)
+        })?;
         // The grid samples t_k ≤ t_new, from the dense output; a sample on the segment's end belongs to the
         // next segment (the raw cycle's slope is taken from the right).
         while k <= grid.n {
@@ -869,7 +1008,11 @@ pub fn forward<M: InverseModel + ?Sized>(
                 break;
             }
             stepper.dense(tk, &mut zk);
-            let seg_k = if tk >= seg_end { (seg + 1).min(lp.raw.segments() - 1) } else { seg };
+            let seg_k = if tk >= seg_end {
+                (seg + 1).min(lp.raw.segments() - 1)
+            } else {
+                seg
+            };
             let d = lp.drive(seg_k, tk, &zk)?;
             emit(k, tk, &zk, d)?;
             k += 1;
@@ -898,11 +1041,18 @@ pub fn forward<M: InverseModel + ?Sized>(
     }
     let mut warnings = Vec::new();
     if enforce && info.input_min.is_none() && info.input_max.is_none() {
-        warnings.push(format!("model `{}` declares no input bounds: there is nothing to enforce", info.name));
+        warnings.push(format!(
+            "model `{}` declares no input bounds: there is nothing to enforce",
+            info.name
+        ));
     }
     if !violations.is_empty() {
         let total: f64 = violations.iter().map(|[a, b]| b - a).sum();
-        let what = if enforce { "clipped" } else { "applied as demanded, not clipped" };
+        let what = if enforce {
+            "clipped"
+        } else {
+            "applied as demanded, not clipped"
+        };
         warnings.push(format!(
             "the driver's demand for {} leaves its bounds in {} interval(s), {} s in total; {what}",
             info.input,
@@ -921,8 +1071,13 @@ pub fn forward<M: InverseModel + ?Sized>(
             fmt_sig(total, 4)
         ));
     }
-    if cycle.grade.as_ref().is_some_and(|g| g.iter().any(|&v| v != 0.0)) {
-        warnings.push("the cycle's road grade is ignored (the model has no grade input)".to_string());
+    if cycle
+        .grade
+        .as_ref()
+        .is_some_and(|g| g.iter().any(|&v| v != 0.0))
+    {
+        warnings
+            .push("the cycle's road grade is ignored (the model has no grade input)".to_string());
     }
     let summary = ForwardSummary {
         model: info.name.clone(),
@@ -964,7 +1119,12 @@ pub fn forward<M: InverseModel + ?Sized>(
         rms_tracking_error: (sum_sq / samples as f64).sqrt(),
         warnings,
     };
-    Ok(ForwardResult { summary, columns, data, input_column })
+    Ok(ForwardResult {
+        summary,
+        columns,
+        data,
+        input_column,
+    })
 }
 
 /// The binomial coefficient C(n, k) as a float.

@@ -201,7 +201,10 @@ impl Dopri5 {
         }
         self.t_fail = t;
         self.y_fail.copy_from_slice(y);
-        Err(E::from(StepFailure { t, reason: format!("more than {MAX_STEPS} steps in one output interval") }))
+        Err(E::from(StepFailure {
+            t,
+            reason: format!("more than {MAX_STEPS} steps in one output interval"),
+        }))
     }
 
     /// One accepted step from (t, y) towards `t_end` (> t), retrying with smaller steps after rejections; y is
@@ -233,14 +236,26 @@ impl Dopri5 {
                 let t_new = if clipped { t_end } else { t + h };
                 self.accept(t, h, y);
                 let grow = if rejected_last { 1.0 } else { 5.0 };
-                let factor = if err == 0.0 { grow } else { (0.9 * err.powf(-0.2)).clamp(0.2, grow) };
+                let factor = if err == 0.0 {
+                    grow
+                } else {
+                    (0.9 * err.powf(-0.2)).clamp(0.2, grow)
+                };
                 let proposed = h * factor;
                 // A step shortened to land on t_end says little about the step size the solution allows.
-                self.h = if clipped { proposed.max(self.h) } else { proposed };
+                self.h = if clipped {
+                    proposed.max(self.h)
+                } else {
+                    proposed
+                };
                 return Ok(t_new);
             }
             self.stats.rejected += 1;
-            let factor = if err.is_finite() { (0.9 * err.powf(-0.2)).clamp(0.1, 0.9) } else { 0.1 };
+            let factor = if err.is_finite() {
+                (0.9 * err.powf(-0.2)).clamp(0.1, 0.9)
+            } else {
+                0.1
+            };
             self.h = h * factor;
             rejected_last = true;
         }
@@ -277,11 +292,16 @@ impl Dopri5 {
             r2[i] = ydiff;
             r3[i] = bspl;
             r4[i] = ydiff - h * k7[i] - bspl;
-            r5[i] = h * (D1 * k1[i] + D3 * k3[i] + D4 * k4[i] + D5 * k5[i] + D6 * k6[i] + D7 * k7[i]);
+            r5[i] =
+                h * (D1 * k1[i] + D3 * k3[i] + D4 * k4[i] + D5 * k5[i] + D6 * k6[i] + D7 * k7[i]);
             num += (k7[i] - k6[i]) * (k7[i] - k6[i]);
             den += (self.y_new[i] - self.y_stage[i]) * (self.y_new[i] - self.y_stage[i]);
         }
-        self.last_h_rho = if den > 0.0 { h * (num / den).sqrt() } else { f64::NAN };
+        self.last_h_rho = if den > 0.0 {
+            h * (num / den).sqrt()
+        } else {
+            f64::NAN
+        };
         if self.last_h_rho > DOPRI5_STIFF_BORDER {
             self.stats.stability_limited += 1;
             self.nonstiff_run = 0;
@@ -305,7 +325,11 @@ impl Dopri5 {
     /// The continuous extension of the last accepted step at `t` (4th order; exact at both ends):
     /// y(t_old + θh) = r1 + θ(r2 + (1 − θ)(r3 + θ(r4 + (1 − θ) r5))).
     pub fn dense(&self, t: f64, out: &mut [f64]) {
-        let theta = if self.h_old > 0.0 { (t - self.t_old) / self.h_old } else { 0.0 };
+        let theta = if self.h_old > 0.0 {
+            (t - self.t_old) / self.h_old
+        } else {
+            0.0
+        };
         let theta1 = 1.0 - theta;
         let [r1, r2, r3, r4, r5] = &self.rcont;
         for (i, o) in out.iter_mut().enumerate() {
@@ -339,18 +363,21 @@ impl Dopri5 {
         }
         f(t + C5 * h, ys, k5)?;
         for i in 0..n {
-            ys[i] = y[i] + h * (A61 * k1[i] + A62 * k2[i] + A63 * k3[i] + A64 * k4[i] + A65 * k5[i]);
+            ys[i] =
+                y[i] + h * (A61 * k1[i] + A62 * k2[i] + A63 * k3[i] + A64 * k4[i] + A65 * k5[i]);
         }
         f(t + h, ys, k6)?;
         let yn = &mut self.y_new;
         for i in 0..n {
-            yn[i] = y[i] + h * (A71 * k1[i] + A73 * k3[i] + A74 * k4[i] + A75 * k5[i] + A76 * k6[i]);
+            yn[i] =
+                y[i] + h * (A71 * k1[i] + A73 * k3[i] + A74 * k4[i] + A75 * k5[i] + A76 * k6[i]);
         }
         f(t + h, yn, k7)?;
         self.stats.evaluations += 6;
         let mut sum = 0.0;
         for i in 0..n {
-            let e = h * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i]);
+            let e =
+                h * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i]);
             let sc = self.atol + self.rtol * y[i].abs().max(yn[i].abs());
             sum += (e / sc) * (e / sc);
         }
@@ -397,6 +424,8 @@ pub struct Rosenbrock23 {
 const RB_D: f64 = 0.292_893_218_813_452_5; // 1/(2 + √2)
 const RB_E32: f64 = 7.414_213_562_373_095; // 6 + √2
 
+// The stages combine several vectors element by element; index loops say that most plainly.
+#[allow(clippy::needless_range_loop)]
 impl Rosenbrock23 {
     pub fn new(n: usize, rtol: f64, atol: f64, h0: f64) -> Self {
         Rosenbrock23 {
@@ -498,13 +527,25 @@ impl Rosenbrock23 {
                 std::mem::swap(&mut self.f0, &mut self.f2);
                 self.stats.accepted += 1;
                 let grow = if rejected_last { 1.0 } else { 5.0 };
-                let factor = if err == 0.0 { grow } else { (0.9 * err.powf(-1.0 / 3.0)).clamp(0.2, grow) };
+                let factor = if err == 0.0 {
+                    grow
+                } else {
+                    (0.9 * err.powf(-1.0 / 3.0)).clamp(0.2, grow)
+                };
                 let proposed = h * factor;
-                self.h = if clipped { proposed.max(self.h) } else { proposed };
+                self.h = if clipped {
+                    proposed.max(self.h)
+                } else {
+                    proposed
+                };
                 return Ok(t_new);
             }
             self.stats.rejected += 1;
-            let factor = if err.is_finite() { (0.9 * err.powf(-1.0 / 3.0)).clamp(0.1, 0.9) } else { 0.1 };
+            let factor = if err.is_finite() {
+                (0.9 * err.powf(-1.0 / 3.0)).clamp(0.1, 0.9)
+            } else {
+                0.1
+            };
             self.h = h * factor;
             rejected_last = true;
         }
@@ -535,7 +576,14 @@ impl Rosenbrock23 {
 
     /// The stages of one step of size h; fills y_new and f2 = f(t + h, y_new), returns the error norm (NaN or
     /// a singular W → ∞, i.e. rejected).
-    fn attempt<F, E>(&mut self, t: f64, h: f64, y: &[f64], jac: &DMatrix<f64>, f: &mut F) -> Result<f64, E>
+    fn attempt<F, E>(
+        &mut self,
+        t: f64,
+        h: f64,
+        y: &[f64],
+        jac: &DMatrix<f64>,
+        f: &mut F,
+    ) -> Result<f64, E>
     where
         F: FnMut(f64, &[f64], &mut [f64]) -> Result<(), E>,
     {
@@ -577,8 +625,9 @@ impl Rosenbrock23 {
         f(t + h, &self.y_new, &mut self.f2)?;
         self.stats.evaluations += 2;
         for i in 0..n {
-            self.scratch[i] = self.f2[i] - RB_E32 * (self.k2[i] - self.f1[i]) - 2.0 * (self.k1[i] - self.f0[i])
-                + h * RB_D * self.dfdt[i];
+            self.scratch[i] =
+                self.f2[i] - RB_E32 * (self.k2[i] - self.f1[i]) - 2.0 * (self.k1[i] - self.f0[i])
+                    + h * RB_D * self.dfdt[i];
         }
         if !solve(&self.scratch, &mut self.k3) {
             return Ok(f64::INFINITY);
@@ -595,7 +644,11 @@ impl Rosenbrock23 {
 
     /// The continuous extension of the last accepted step at `t` (2nd order; exact at both ends).
     pub fn dense(&self, t: f64, out: &mut [f64]) {
-        let s = if self.h_old > 0.0 { (t - self.t_old) / self.h_old } else { 0.0 };
+        let s = if self.h_old > 0.0 {
+            (t - self.t_old) / self.h_old
+        } else {
+            0.0
+        };
         let c1 = s * (1.0 - s) / (1.0 - 2.0 * RB_D);
         let c2 = s * (s - 2.0 * RB_D) / (1.0 - 2.0 * RB_D);
         for (i, o) in out.iter_mut().enumerate() {

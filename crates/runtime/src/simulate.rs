@@ -75,9 +75,10 @@ pub struct SimulationOptions {
     /// (non-causally, [`crate::stable`]). A given `eta0` also selects causal integration (an initial state is a
     /// causal notion).
     pub causal: bool,
-    /// Tolerance of the stable inversion (default 1e-9): Newton's method on the boundary-value problem stops
-    /// when its scaled step is below it, the estimated discretisation error must be below it, and pre- and
-    /// post-actuation last until the deviation from the equilibria has decayed by this factor.
+    /// Tolerance of the stable inversion (default 1e-8), relative to the magnitude of each internal coordinate:
+    /// the estimated discretisation error of η must be below it (Newton's method on the boundary-value problem
+    /// stops at 1 % of it), and pre- and post-actuation last until the deviation from the equilibria has
+    /// decayed by this factor.
     pub stable_tol: f64,
     /// Longest pre- or post-actuation allowed, s (default 3600): slower unstable zero dynamics are an error.
     pub max_pre_actuation: f64,
@@ -100,7 +101,7 @@ impl Default for SimulationOptions {
             verify: false,
             keep_series: true,
             causal: false,
-            stable_tol: 1e-9,
+            stable_tol: 1e-8,
             max_pre_actuation: 3600.0,
             include_extension: false,
         }
@@ -454,7 +455,11 @@ impl Summary {
         if self.zero_dynamics_class != ZeroDynamicsClass::None {
             let _ = write!(s, "zero dynamics: {}", self.zero_dynamics_class.as_str());
             if !self.zero_dynamics_eigenvalues.is_empty() {
-                let _ = write!(s, " (eigenvalues at the start: {})", format_eigenvalues(&self.zero_dynamics_eigenvalues));
+                let _ = write!(
+                    s,
+                    " (eigenvalues at the start: {})",
+                    format_eigenvalues(&self.zero_dynamics_eigenvalues)
+                );
             }
             let _ = writeln!(s, ", inversion: {}", self.inversion);
         }
@@ -489,7 +494,11 @@ impl Summary {
             );
             match p.departs_at {
                 Some(t) => {
-                    let _ = writeln!(s, "; it departs from its initial value at t = {} s", fmt_sig(t, 4));
+                    let _ = writeln!(
+                        s,
+                        "; it departs from its initial value at t = {} s",
+                        fmt_sig(t, 4)
+                    );
                 }
                 None => s.push('\n'),
             }
@@ -668,7 +677,16 @@ fn run<M: InverseModel + ?Sized>(
     // --- zero dynamics: classified along the reference; unstable ones are inverted stably (non-causally) on
     // a grid extended by pre- and post-actuation (crate::stable), the series reports the cycle's samples
     // [k_lo, k_hi] unless `include_extension` asks for all.
-    let zd = stable::plan_run(model, cycle, &smoother, t0, grid.time(grid.n), opts.dt, opts, eta0.is_some())?;
+    let zd = stable::plan_run(
+        model,
+        cycle,
+        &smoother,
+        t0,
+        grid.time(grid.n),
+        opts.dt,
+        opts,
+        eta0.is_some(),
+    )?;
     if let Some(st) = &zd.stable {
         let extended = steps + (st.k_pre + st.k_post) as f64;
         if extended + 1.0 > MAX_SAMPLES as f64 {
@@ -791,13 +809,30 @@ fn run<M: InverseModel + ?Sized>(
             for (v, c) in x.iter_mut().zip(x_cols.iter()) {
                 *v = c[len - 1];
             }
+        } else if let Some(st) = &zd.stable {
+            // η from the bounded (stable) solution of the zero dynamics between its collocation nodes
+            // (crate::stable); then every sample is independent, as for r = n.
+            for (i, &t) in time.iter().enumerate() {
+                st.solution.eval(t, &mut eta);
+                for (c, &v) in eta_cols.iter_mut().zip(&eta) {
+                    c[i] = v;
+                }
+            }
+            let xi: Vec<&[f64]> = yd_cols[..r].iter().map(|c| &**c).collect();
+            let etas: Vec<&[f64]> = eta_cols.iter().map(|c| &**c).collect();
+            for (c, &v) in x_cols.iter_mut().zip(&x) {
+                c[0] = v; // the guess for a numerically solved ψ⁻¹
+            }
+            model
+                .invert_batch(&xi, &etas, yd_cols[r], x_cols, u_col[0])
+                .map_err(|(i, source)| SimulateError::Model { t: time[i], source })?;
+            for (v, c) in x.iter_mut().zip(x_cols.iter()) {
+                *v = c[len - 1];
+            }
         } else {
             for i in 0..len {
                 let (k, t) = (k0 + i, time[i]);
-                if let Some(st) = &zd.stable {
-                    // The bounded solution of the zero dynamics (crate::stable), between its nodes.
-                    st.solution.eval(t, &mut eta);
-                } else if k > 0 {
+                if k > 0 {
                     let t_prev = grid.time(k - 1);
                     let mut q = |s: f64, e: &[f64], de: &mut [f64]| {
                         let mut yd_s = [0.0_f64; MAX_DERIVATIVES];
@@ -833,7 +868,7 @@ fn run<M: InverseModel + ?Sized>(
                         detail: format!("eta{} = {} has blown up", j + 1, eta[j]),
                     });
                 }
-                if k % check_every == 0 && k > 0 && zd.stable.is_none() {
+                if k % check_every == 0 && k > 0 {
                     check_stability(model, t, xi, &eta, yr, &mut zd_ws)?;
                 }
                 // x = ψ⁻¹(ξ, η) (previous x as the guess), u = (y_d^(r) − α)/β (paper eq. 26).
@@ -994,13 +1029,19 @@ fn run<M: InverseModel + ?Sized>(
                 estimated_error: sol.estimated_error,
                 unstable_dimension: st.plan.unstable,
             };
-            ("stable", st.k_pre as f64 * opts.dt, st.k_post as f64 * opts.dt, Some(stats))
+            (
+                "stable",
+                st.k_pre as f64 * opts.dt,
+                st.k_post as f64 * opts.dt,
+                Some(stats),
+            )
         }
     };
     let input_before_start = match before_start.split_last() {
         Some((&[_, u_at_start], earlier)) if !earlier.is_empty() => {
             let [t_start, u_initial] = earlier[0];
-            let (mut lo, mut hi, mut max_deviation, mut integral) = (u_at_start, u_at_start, 0.0_f64, 0.0);
+            let (mut lo, mut hi, mut max_deviation, mut integral) =
+                (u_at_start, u_at_start, 0.0_f64, 0.0);
             let threshold = 1e-4 * (u_max - u_min).abs().max(f64::MIN_POSITIVE);
             let mut departs_at = None;
             for (j, &[t, u]) in before_start.iter().enumerate() {
@@ -1391,7 +1432,7 @@ mod tests {
         // y' = -2 y, y(0) = 1 → y(1) = e^-2.
         let mut ode = Dopri5::new(1, 1e-10, 1e-12, 0.1);
         let mut y = [1.0];
-        let mut f = |_t: f64, y: &[f64], dy: &mut [f64]| {
+        let mut f = |_t: f64, y: &[f64], dy: &mut [f64]| -> Result<(), SimulateError> {
             dy[0] = -2.0 * y[0];
             Ok(())
         };

@@ -93,9 +93,28 @@ const MAX_NEWTON: usize = 30;
 
 // --- small numeric helpers ---------------------------------------------------------------------------------
 
+/// Max over the nodes of |v_i|/scale_i (NaN propagates).
+fn scaled_norm(v: &[f64], scale: &[f64]) -> f64 {
+    v.chunks_exact(scale.len())
+        .flat_map(|node| node.iter().zip(scale).map(|(v, s)| v.abs() / s))
+        .fold(0.0_f64, |a, v| {
+            if v.is_nan() || a.is_nan() {
+                f64::NAN
+            } else {
+                a.max(v)
+            }
+        })
+}
+
 /// Max norm that propagates NaN (f64::max would drop it).
 fn max_norm(v: &[f64]) -> f64 {
-    v.iter().fold(0.0_f64, |a, x| if x.is_nan() || a.is_nan() { f64::NAN } else { a.max(x.abs()) })
+    v.iter().fold(0.0_f64, |a, x| {
+        if x.is_nan() || a.is_nan() {
+            f64::NAN
+        } else {
+            a.max(x.abs())
+        }
+    })
 }
 
 /// ∂q/∂η at (ξ, η, y^(r)) by central differences (step 1e-6·max(1, |η_j|)).
@@ -129,7 +148,11 @@ pub(crate) fn eigenvalues(a: &DMatrix<f64>) -> Vec<[f64; 2]> {
     let Some(schur) = nalgebra::Schur::try_new(a.clone(), f64::EPSILON, 10_000) else {
         return Vec::new();
     };
-    let mut eigs: Vec<[f64; 2]> = schur.complex_eigenvalues().iter().map(|c| [c.re, c.im]).collect();
+    let mut eigs: Vec<[f64; 2]> = schur
+        .complex_eigenvalues()
+        .iter()
+        .map(|c| [c.re, c.im])
+        .collect();
     eigs.sort_by(|a, b| b[0].total_cmp(&a[0]).then(b[1].total_cmp(&a[1])));
     eigs
 }
@@ -160,7 +183,9 @@ fn newton_equilibrium<M: InverseModel + ?Sized>(
         if res == 0.0 {
             return Some(eta);
         }
-        let step = jacobian(model, xi, &eta, yr).lu().solve(&DVector::from_column_slice(&q))?;
+        let step = jacobian(model, xi, &eta, yr)
+            .lu()
+            .solve(&DVector::from_column_slice(&q))?;
         if step.iter().any(|v| !v.is_finite()) {
             return None;
         }
@@ -212,7 +237,9 @@ pub(crate) fn equilibrium<M: InverseModel + ?Sized>(
         starts.push(10f64.powi(k));
         starts.push(-(10f64.powi(k)));
     }
-    starts.into_iter().find_map(|s| newton_equilibrium(model, xi, yr, vec![s; m], 100))
+    starts
+        .into_iter()
+        .find_map(|s| newton_equilibrium(model, xi, yr, vec![s; m], 100))
 }
 
 // --- classification along the reference ------------------------------------------------------------------
@@ -249,7 +276,12 @@ fn level<M: InverseModel + ?Sized>(model: &M, y: f64, guess: Option<&[f64]>) -> 
     let tol = critical_tol(&a);
     let unstable = (!eigs.is_empty() && eigs.iter().all(|e| e[0].abs() > tol))
         .then(|| eigs.iter().filter(|e| e[0] > tol).count());
-    Some(Level { y, eta, eigenvalues: eigs, unstable })
+    Some(Level {
+        y,
+        eta,
+        eigenvalues: eigs,
+        unstable,
+    })
 }
 
 /// Classify the zero dynamics at the equilibria the reference passes: the output held at y for every y in
@@ -297,19 +329,27 @@ pub(crate) fn classify_reference<M: InverseModel + ?Sized>(
         .find(|l| l.unstable != start.unstable)
         .map(|l| (start.clone(), l.clone()));
     let class = match (start.unstable, &change) {
-        (Some(u), None) if u == 0 => ZeroDynamicsClass::MinimumPhase,
+        (Some(0), None) => ZeroDynamicsClass::MinimumPhase,
         (Some(u), None) if u == m => ZeroDynamicsClass::NonMinimumPhase,
         (Some(_), None) => ZeroDynamicsClass::Mixed,
         _ => ZeroDynamicsClass::Unknown,
     };
     let unstable = start.unstable.unwrap_or(0);
-    ReferenceClassification { class, start: Some(start), change, unstable }
+    ReferenceClassification {
+        class,
+        start: Some(start),
+        change,
+        unstable,
+    }
 }
 
 /// True if any of the classified levels has an unstable eigenvalue (then causal inversion cannot work).
 pub(crate) fn any_unstable(c: &ReferenceClassification) -> bool {
     let unstable = |l: &Level| l.eigenvalues.iter().any(|e| e[0] > 0.0) && l.unstable != Some(0);
-    c.start.as_ref().is_some_and(unstable) || c.change.as_ref().is_some_and(|(a, b)| unstable(a) || unstable(b))
+    c.start.as_ref().is_some_and(unstable)
+        || c.change
+            .as_ref()
+            .is_some_and(|(a, b)| unstable(a) || unstable(b))
 }
 
 // --- spectral projections ------------------------------------------------------------------------------
@@ -322,7 +362,11 @@ fn matrix_sign(a: &DMatrix<f64>) -> Option<DMatrix<f64>> {
     for _ in 0..100 {
         let inv = x.clone().try_inverse()?;
         let det = x.determinant().abs();
-        let mu = if det > 0.0 && det.is_finite() { det.powf(-1.0 / m as f64) } else { 1.0 };
+        let mu = if det > 0.0 && det.is_finite() {
+            det.powf(-1.0 / m as f64)
+        } else {
+            1.0
+        };
         let next = (&x * mu + inv / mu) * 0.5;
         let diff = (&next - &x).norm();
         let size = next.norm();
@@ -368,7 +412,14 @@ struct Band {
 impl Band {
     fn new(n: usize, kl: usize, ku: usize) -> Band {
         let ld = 2 * kl + ku + 1;
-        Band { n, kl, ku, ld, ab: vec![0.0; ld * n], piv: vec![0; n] }
+        Band {
+            n,
+            kl,
+            ku,
+            ld,
+            ab: vec![0.0; ld * n],
+            piv: vec![0; n],
+        }
     }
     fn clear(&mut self) {
         self.ab.fill(0.0);
@@ -452,8 +503,9 @@ impl Band {
             b[j] /= self.ab[self.at(j, j)];
             let bj = b[j];
             if bj != 0.0 {
-                for i in j.saturating_sub(kv)..j {
-                    b[i] -= self.ab[self.at(i, j)] * bj;
+                let first = j.saturating_sub(kv);
+                for (i, bi) in b[first..j].iter_mut().enumerate() {
+                    *bi -= self.ab[self.at(first + i, j)] * bj;
                 }
             }
         }
@@ -515,7 +567,11 @@ impl Solution {
     pub fn eval(&self, t: f64, out: &mut [f64]) {
         let m = self.m;
         let s = (t - self.t_a) / self.h;
-        let j = if s.is_nan() { 0 } else { (s.floor().max(0.0) as usize).min(self.k - 1) };
+        let j = if s.is_nan() {
+            0
+        } else {
+            (s.floor().max(0.0) as usize).min(self.k - 1)
+        };
         let th = (s - j as f64).clamp(0.0, 1.0);
         let (t2, t3) = (th * th, th * th * th);
         let h00 = 2.0 * t3 - 3.0 * t2 + 1.0;
@@ -524,7 +580,10 @@ impl Solution {
         let h11 = (t3 - t2) * self.h;
         let (a, b) = (j * m, (j + 1) * m);
         for (i, o) in out.iter_mut().enumerate().take(m) {
-            *o = h00 * self.eta[a + i] + h10 * self.q[a + i] + h01 * self.eta[b + i] + h11 * self.q[b + i];
+            *o = h00 * self.eta[a + i]
+                + h10 * self.q[a + i]
+                + h01 * self.eta[b + i]
+                + h11 * self.q[b + i];
         }
     }
 
@@ -547,7 +606,9 @@ pub(crate) fn plan<M: InverseModel + ?Sized>(
     let (r, m) = (info.relative_degree, info.n_eta);
     let fail = |reason: String| SimulateError::StableInversion { reason };
     let mut yd = [0.0; MAX_DERIVATIVES];
-    let mut end = |t: f64, guess: Option<&[f64]>| -> Result<(Vec<f64>, DMatrix<f64>), SimulateError> {
+    let mut end = |t: f64,
+                   guess: Option<&[f64]>|
+     -> Result<(Vec<f64>, DMatrix<f64>), SimulateError> {
         smoother.eval(t, &mut yd[..=r]);
         let e = equilibrium(model, &yd[..r], yd[r], guess).ok_or_else(|| {
             fail(format!(
@@ -574,14 +635,30 @@ pub(crate) fn plan<M: InverseModel + ?Sized>(
     }
     let identity = DMatrix::<f64>::identity(m, m);
     let sign = |a: &DMatrix<f64>, t: f64| {
-        matrix_sign(a).ok_or_else(|| fail(format!("cannot split ∂q/∂η at t = {t} s into stable and unstable parts")))
+        matrix_sign(a).ok_or_else(|| {
+            fail(format!(
+                "cannot split ∂q/∂η at t = {t} s into stable and unstable parts"
+            ))
+        })
     };
     let (s_a, s_b) = (sign(&a_a, t_a)?, sign(&a_b, t_b)?);
     let p_s = (&identity - &s_a) * 0.5;
     let p_u = (&identity + &s_b) * 0.5;
-    let w_a = projector_rows(&p_s, m - unstable).ok_or_else(|| fail("SVD of the stable projection failed".into()))?;
-    let w_b = projector_rows(&p_u, unstable).ok_or_else(|| fail("SVD of the unstable projection failed".into()))?;
-    Ok(Plan { t_a, t_b, eta_a, eta_b, w_a, w_b, unstable, eig_a, eig_b })
+    let w_a = projector_rows(&p_s, m - unstable)
+        .ok_or_else(|| fail("SVD of the stable projection failed".into()))?;
+    let w_b = projector_rows(&p_u, unstable)
+        .ok_or_else(|| fail("SVD of the unstable projection failed".into()))?;
+    Ok(Plan {
+        t_a,
+        t_b,
+        eta_a,
+        eta_b,
+        w_a,
+        w_b,
+        unstable,
+        eig_a,
+        eig_b,
+    })
 }
 
 /// One discretisation of the boundary-value problem: K intervals of length h from t_a.
@@ -604,7 +681,9 @@ impl<'a, M: InverseModel + ?Sized> Bvp<'a, M> {
         let (r, m) = (info.relative_degree, info.n_eta);
         let h = (plan.t_b - plan.t_a) / k as f64;
         let points = 2 * k + 1;
-        let times: Vec<f64> = (0..points).map(|i| plan.t_a + i as f64 * (h / 2.0)).collect();
+        let times: Vec<f64> = (0..points)
+            .map(|i| plan.t_a + i as f64 * (h / 2.0))
+            .collect();
         let mut cols = vec![vec![0.0; points]; r + 1];
         {
             let mut views: Vec<&mut [f64]> = cols.iter_mut().map(|c| c.as_mut_slice()).collect();
@@ -616,7 +695,16 @@ impl<'a, M: InverseModel + ?Sized> Bvp<'a, M> {
                 *o = c[i];
             }
         }
-        Bvp { model, plan, r, m, k, h, yd, scale: vec![1.0; m] }
+        Bvp {
+            model,
+            plan,
+            r,
+            m,
+            k,
+            h,
+            yd,
+            scale: vec![1.0; m],
+        }
     }
 
     /// q at half-node i (even: node i/2, odd: a midpoint).
@@ -627,7 +715,15 @@ impl<'a, M: InverseModel + ?Sized> Bvp<'a, M> {
     }
 
     /// ∂q/∂η at half-node i by forward differences from the value `q0` there, into `jac` (row-major m × m).
-    fn jac(&self, i: usize, eta: &[f64], q0: &[f64], jac: &mut [f64], work: &mut [f64], qp: &mut [f64]) {
+    fn jac(
+        &self,
+        i: usize,
+        eta: &[f64],
+        q0: &[f64],
+        jac: &mut [f64],
+        work: &mut [f64],
+        qp: &mut [f64],
+    ) {
         let m = self.m;
         work.copy_from_slice(eta);
         for c in 0..m {
@@ -652,7 +748,11 @@ impl<'a, M: InverseModel + ?Sized> Bvp<'a, M> {
         }
         let big = s.iter().fold(0.0_f64, |a, v| a.max(*v));
         for v in &mut s {
-            *v = if big > 0.0 && big.is_finite() { v.max(1e-3 * big) } else { 1.0 };
+            *v = if big > 0.0 && big.is_finite() {
+                v.max(1e-3 * big)
+            } else {
+                1.0
+            };
         }
         self.scale = s;
     }
@@ -674,17 +774,32 @@ impl<'a, M: InverseModel + ?Sized> Bvp<'a, M> {
 
     /// Residual F(η) (scaled max norm returned) with q at the nodes and midpoints; `eta_mid` and the q's are
     /// filled for the Jacobian.
-    fn residual(&self, eta: &[f64], q_nodes: &mut [f64], eta_mid: &mut [f64], q_mid: &mut [f64], f: &mut [f64]) -> f64 {
+    fn residual(
+        &self,
+        eta: &[f64],
+        q_nodes: &mut [f64],
+        eta_mid: &mut [f64],
+        q_mid: &mut [f64],
+        f: &mut [f64],
+    ) -> f64 {
         let (m, k, h) = (self.m, self.k, self.h);
         for j in 0..=k {
-            self.q(2 * j, &eta[j * m..(j + 1) * m], &mut q_nodes[j * m..(j + 1) * m]);
+            self.q(
+                2 * j,
+                &eta[j * m..(j + 1) * m],
+                &mut q_nodes[j * m..(j + 1) * m],
+            );
         }
         for j in 0..k {
             for i in 0..m {
                 let (a, b) = (j * m + i, (j + 1) * m + i);
                 eta_mid[j * m + i] = 0.5 * (eta[a] + eta[b]) + h / 8.0 * (q_nodes[a] - q_nodes[b]);
             }
-            self.q(2 * j + 1, &eta_mid[j * m..(j + 1) * m], &mut q_mid[j * m..(j + 1) * m]);
+            self.q(
+                2 * j + 1,
+                &eta_mid[j * m..(j + 1) * m],
+                &mut q_mid[j * m..(j + 1) * m],
+            );
         }
         let ms = m - self.plan.unstable;
         let big = self.scale.iter().fold(0.0_f64, |a, v| a.max(*v));
@@ -692,21 +807,30 @@ impl<'a, M: InverseModel + ?Sized> Bvp<'a, M> {
         let mut put = |f: &mut [f64], row: usize, v: f64, s: f64| {
             f[row] = v;
             let x = v.abs() / s;
-            norm = if x.is_nan() || norm.is_nan() { f64::NAN } else { norm.max(x) };
+            norm = if x.is_nan() || norm.is_nan() {
+                f64::NAN
+            } else {
+                norm.max(x)
+            };
         };
         for a in 0..ms {
-            let v: f64 = (0..m).map(|i| self.plan.w_a[(a, i)] * (eta[i] - self.plan.eta_a[i])).sum();
+            let v: f64 = (0..m)
+                .map(|i| self.plan.w_a[(a, i)] * (eta[i] - self.plan.eta_a[i]))
+                .sum();
             put(f, a, v, big);
         }
         for j in 0..k {
             for c in 0..m {
                 let (a, b) = (j * m + c, (j + 1) * m + c);
-                let v = eta[b] - eta[a] - h / 6.0 * (q_nodes[a] + 4.0 * q_mid[j * m + c] + q_nodes[b]);
+                let v =
+                    eta[b] - eta[a] - h / 6.0 * (q_nodes[a] + 4.0 * q_mid[j * m + c] + q_nodes[b]);
                 put(f, ms + j * m + c, v, self.scale[c]);
             }
         }
         for b in 0..self.plan.unstable {
-            let v: f64 = (0..m).map(|i| self.plan.w_b[(b, i)] * (eta[k * m + i] - self.plan.eta_b[i])).sum();
+            let v: f64 = (0..m)
+                .map(|i| self.plan.w_b[(b, i)] * (eta[k * m + i] - self.plan.eta_b[i]))
+                .sum();
             put(f, ms + k * m + b, v, big);
         }
         norm
@@ -726,7 +850,12 @@ impl<'a, M: InverseModel + ?Sized> Bvp<'a, M> {
         let mut q_mid = vec![0.0; k * m];
         let mut f = vec![0.0; n];
         let mut trial = vec![0.0; n];
-        let (mut tq, mut tem, mut tqm, mut tf) = (vec![0.0; n], vec![0.0; k * m], vec![0.0; k * m], vec![0.0; n]);
+        let (mut tq, mut tem, mut tqm, mut tf) = (
+            vec![0.0; n],
+            vec![0.0; k * m],
+            vec![0.0; k * m],
+            vec![0.0; n],
+        );
         let mut jn = vec![0.0; (k + 1) * m * m];
         let mut jm = vec![0.0; m * m];
         let (mut work, mut qp) = (vec![0.0; m], vec![0.0; m]);
@@ -736,11 +865,57 @@ impl<'a, M: InverseModel + ?Sized> Bvp<'a, M> {
         if !norm.is_finite() {
             return Err("the zero dynamics are not finite along the starting guess (the quasi-static equilibria)".into());
         }
+        // Newton stops two orders of magnitude below the tolerance, so that its error does not pollute the
+        // discretisation error estimate; near convergence (scaled step below 1e-3) the factorised Jacobian is
+        // kept (the chord method: linear convergence at a rate of the order of the step).
+        let newton_tol = 0.01 * tol;
+        let mut last_step = f64::INFINITY;
         for iteration in 1..=MAX_NEWTON {
+            if last_step <= 1e-3 {
+                let mut step: Vec<f64> = f.iter().map(|v| -v).collect();
+                band.solve(&mut step);
+                let step_norm = scaled_norm(&step, &self.scale);
+                if !step_norm.is_finite() {
+                    return Err("the Newton step is not finite".into());
+                }
+                for (t, s) in trial
+                    .iter_mut()
+                    .zip(eta.iter())
+                    .zip(&step)
+                    .map(|((t, x), s)| (t, x + s))
+                {
+                    *t = s;
+                }
+                let tn = self.residual(&trial, &mut tq, &mut tem, &mut tqm, &mut tf);
+                if tn.is_finite()
+                    && (tn < norm || step_norm <= newton_tol)
+                    && step_norm < 0.5 * last_step
+                {
+                    norm = tn;
+                    std::mem::swap(eta, &mut trial);
+                    std::mem::swap(&mut q_nodes, &mut tq);
+                    std::mem::swap(&mut eta_mid, &mut tem);
+                    std::mem::swap(&mut q_mid, &mut tqm);
+                    std::mem::swap(&mut f, &mut tf);
+                    last_step = step_norm;
+                    if step_norm <= newton_tol {
+                        return Ok((iteration, q_nodes));
+                    }
+                    continue;
+                }
+                // The old Jacobian no longer contracts: fall through to a fresh one.
+            }
             // Jacobian: nodes, then per interval the midpoint, assembled into the band matrix.
             for j in 0..=k {
                 let (lo, hi) = (j * m, (j + 1) * m);
-                self.jac(2 * j, &eta[lo..hi], &q_nodes[lo..hi], &mut jn[j * m * m..(j + 1) * m * m], &mut work, &mut qp);
+                self.jac(
+                    2 * j,
+                    &eta[lo..hi],
+                    &q_nodes[lo..hi],
+                    &mut jn[j * m * m..(j + 1) * m * m],
+                    &mut work,
+                    &mut qp,
+                );
             }
             band.clear();
             for a in 0..ms {
@@ -750,7 +925,14 @@ impl<'a, M: InverseModel + ?Sized> Bvp<'a, M> {
             }
             for j in 0..k {
                 let (lo, hi) = (j * m, (j + 1) * m);
-                self.jac(2 * j + 1, &eta_mid[lo..hi], &q_mid[lo..hi], &mut jm, &mut work, &mut qp);
+                self.jac(
+                    2 * j + 1,
+                    &eta_mid[lo..hi],
+                    &q_mid[lo..hi],
+                    &mut jm,
+                    &mut work,
+                    &mut qp,
+                );
                 let ja = &jn[j * m * m..(j + 1) * m * m];
                 let jb = &jn[(j + 1) * m * m..(j + 2) * m * m];
                 // ∂R_j/∂η_j = −I − h/6 (J_j + 4 J_mid (I/2 + h/8 J_j)),
@@ -789,10 +971,7 @@ impl<'a, M: InverseModel + ?Sized> Bvp<'a, M> {
             })?;
             let mut step: Vec<f64> = f.iter().map(|v| -v).collect();
             band.solve(&mut step);
-            let step_norm = step
-                .chunks_exact(m)
-                .flat_map(|node| node.iter().zip(&self.scale).map(|(v, s)| v.abs() / s))
-                .fold(0.0_f64, |a, v| if v.is_nan() || a.is_nan() { f64::NAN } else { a.max(v) });
+            let step_norm = scaled_norm(&step, &self.scale);
             if !step_norm.is_finite() {
                 return Err("the Newton step is not finite".into());
             }
@@ -804,7 +983,7 @@ impl<'a, M: InverseModel + ?Sized> Bvp<'a, M> {
                     *t = x + lambda * s;
                 }
                 let tn = self.residual(&trial, &mut tq, &mut tem, &mut tqm, &mut tf);
-                if tn.is_finite() && (tn < norm || lambda * step_norm <= tol) {
+                if tn.is_finite() && (tn < norm || lambda * step_norm <= newton_tol) {
                     norm = tn;
                     accepted = true;
                     break;
@@ -823,7 +1002,8 @@ impl<'a, M: InverseModel + ?Sized> Bvp<'a, M> {
             std::mem::swap(&mut eta_mid, &mut tem);
             std::mem::swap(&mut q_mid, &mut tqm);
             std::mem::swap(&mut f, &mut tf);
-            if lambda * step_norm <= tol {
+            last_step = lambda * step_norm;
+            if last_step <= newton_tol {
                 return Ok((iteration, q_nodes));
             }
         }
@@ -845,17 +1025,24 @@ pub(crate) fn solve<M: InverseModel + ?Sized>(
     let span = plan.t_b - plan.t_a;
     let fail = |reason: String| SimulateError::StableInversion { reason };
     if !(span > 0.0 && span.is_finite()) {
-        return Err(fail(format!("the extended horizon [{}, {}] s is empty", plan.t_a, plan.t_b)));
+        return Err(fail(format!(
+            "the extended horizon [{}, {}] s is empty",
+            plan.t_a, plan.t_b
+        )));
     }
     let mut k = ((span / (2.0 * settings.h0)).ceil() as usize).max(2);
     if k > MAX_NODES {
-        return Err(fail(format!("{k} collocation nodes exceed the limit of {MAX_NODES}")));
+        return Err(fail(format!(
+            "{k} collocation nodes exceed the limit of {MAX_NODES}"
+        )));
     }
     // Coarse grid from the quasi-static guess.
     let (mut eta, mut q) = {
         let mut bvp = Bvp::new(model, smoother, plan, k);
         let mut eta = bvp.quasi_static();
-        let (_, q) = bvp.newton(&mut eta, settings.tol).map_err(|r| fail(format!("on {} nodes: {r}", k + 1)))?;
+        let (_, q) = bvp
+            .newton(&mut eta, settings.tol)
+            .map_err(|r| fail(format!("on {} nodes: {r}", k + 1)))?;
         (eta, q)
     };
     loop {
@@ -883,14 +1070,19 @@ pub(crate) fn solve<M: InverseModel + ?Sized>(
         for (j, node) in eta_f.chunks_exact_mut(m).enumerate() {
             coarse.eval(plan.t_a + j as f64 * fine.h, node);
         }
-        let (iterations, q_f) =
-            fine.newton(&mut eta_f, settings.tol).map_err(|r| fail(format!("on {} nodes: {r}", fine_k + 1)))?;
+        let (iterations, q_f) = fine
+            .newton(&mut eta_f, settings.tol)
+            .map_err(|r| fail(format!("on {} nodes: {r}", fine_k + 1)))?;
         // Richardson estimate for an order-4 method: error(fine) ≈ |fine − coarse|/15 at the common nodes.
         let mut diff = 0.0_f64;
         for j in 0..=k {
             for i in 0..m {
                 let d = (eta_f[2 * j * m + i] - coarse.eta[j * m + i]).abs() / fine.scale[i];
-                diff = if d.is_nan() || diff.is_nan() { f64::NAN } else { diff.max(d) };
+                diff = if d.is_nan() || diff.is_nan() {
+                    f64::NAN
+                } else {
+                    diff.max(d)
+                };
             }
         }
         let estimated_error = diff / 15.0;
@@ -920,7 +1112,11 @@ pub(crate) fn solve<M: InverseModel + ?Sized>(
 /// The first node (checked about once a second) where the frozen-time linearisation ∂q/∂η has a number of
 /// unstable eigenvalues other than `unstable` (a hint that the split may not fit; the bounded solution is
 /// defined by the linear time-varying dichotomy, not by frozen eigenvalues, so this is only reported).
-fn dichotomy_check<M: InverseModel + ?Sized>(bvp: &Bvp<'_, M>, eta: &[f64], unstable: usize) -> Option<(f64, Vec<[f64; 2]>)> {
+fn dichotomy_check<M: InverseModel + ?Sized>(
+    bvp: &Bvp<'_, M>,
+    eta: &[f64],
+    unstable: usize,
+) -> Option<(f64, Vec<[f64; 2]>)> {
     let (m, r) = (bvp.m, bvp.r);
     let every = ((1.0 / bvp.h).round() as usize).max(1);
     (0..=bvp.k).step_by(every).find_map(|j| {
@@ -929,7 +1125,7 @@ fn dichotomy_check<M: InverseModel + ?Sized>(bvp: &Bvp<'_, M>, eta: &[f64], unst
         let eigs = eigenvalues(&a);
         let tol = critical_tol(&a);
         let u = eigs.iter().filter(|e| e[0] > tol).count();
-        (eigs.is_empty() || u != unstable).then(|| (bvp.plan.t_a + j as f64 * bvp.h, eigs))
+        (eigs.is_empty() || u != unstable).then_some((bvp.plan.t_a + j as f64 * bvp.h, eigs))
     })
 }
 
@@ -990,11 +1186,18 @@ pub(crate) fn plan_run<M: InverseModel + ?Sized>(
 ) -> Result<ZeroDynamicsPlan, SimulateError> {
     let m = model.info().n_eta;
     if m == 0 {
-        return Ok(ZeroDynamicsPlan { class: ZeroDynamicsClass::None, eigenvalues: Vec::new(), stable: None });
+        return Ok(ZeroDynamicsPlan {
+            class: ZeroDynamicsClass::None,
+            eigenvalues: Vec::new(),
+            stable: None,
+        });
     }
     let fail = |reason: String| SimulateError::StableInversion { reason };
     if !(opts.stable_tol > 0.0 && opts.stable_tol < 1.0) {
-        return Err(fail(format!("the tolerance {} must lie strictly between 0 and 1", opts.stable_tol)));
+        return Err(fail(format!(
+            "the tolerance {} must lie strictly between 0 and 1",
+            opts.stable_tol
+        )));
     }
     if !(opts.max_pre_actuation >= 0.0 && opts.max_pre_actuation.is_finite()) {
         return Err(fail(format!(
@@ -1005,19 +1208,35 @@ pub(crate) fn plan_run<M: InverseModel + ?Sized>(
     // The levels the reference passes: y_d lies between the mapped extremes of the cycle (the kernel is
     // positive), and starts at the mapped first speed.
     let map = smoother.reference();
-    let (v_min, v_max) = cycle.speed.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
-    let (y_a, y_b) = (map.offset + map.scale * v_min, map.offset + map.scale * v_max);
+    let (v_min, v_max) = cycle
+        .speed
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v), b.max(v))
+        });
+    let (y_a, y_b) = (
+        map.offset + map.scale * v_min,
+        map.offset + map.scale * v_max,
+    );
     let y_start = map.offset + map.scale * cycle.speed.first().copied().unwrap_or(0.0);
     let c = classify_reference(model, y_start, y_a.min(y_b), y_a.max(y_b));
-    let eigenvalues = c.start.as_ref().map(|l| l.eigenvalues.clone()).unwrap_or_default();
+    let eigenvalues = c
+        .start
+        .as_ref()
+        .map(|l| l.eigenvalues.clone())
+        .unwrap_or_default();
     if opts.causal || eta0_given || !any_unstable(&c) {
-        return Ok(ZeroDynamicsPlan { class: c.class, eigenvalues, stable: None });
+        return Ok(ZeroDynamicsPlan {
+            class: c.class,
+            eigenvalues,
+            stable: None,
+        });
     }
     if let Some((a, b)) = &c.change {
         let count = |l: &Level| {
-            l.unstable
-                .map(|u| u.to_string())
-                .unwrap_or_else(|| "an undetermined number of (an eigenvalue on the imaginary axis)".to_string())
+            l.unstable.map(|u| u.to_string()).unwrap_or_else(|| {
+                "an undetermined number of (an eigenvalue on the imaginary axis)".to_string()
+            })
         };
         return Err(SimulateError::ZeroDynamicsTypeChange {
             y_from: a.y,
@@ -1031,7 +1250,14 @@ pub(crate) fn plan_run<M: InverseModel + ?Sized>(
     let start = c.start.as_ref().map(|l| l.eta.clone());
     // Boundary conditions where the reference is constant: before the smoother's support and after it.
     let (s_start, s_end) = smoother.support().unwrap_or((t0, t_end));
-    let mut p = plan(model, smoother, s_start.min(t0), s_end.max(t_end), c.unstable, start.as_deref())?;
+    let mut p = plan(
+        model,
+        smoother,
+        s_start.min(t0),
+        s_end.max(t_end),
+        c.unstable,
+        start.as_deref(),
+    )?;
     let tol = opts.stable_tol;
     let (t_pre, t_post) = decay_horizons(&p.eig_a, &p.eig_b, tol);
     let need_pre = (t0 - (s_start - t_pre)).max(0.0);
@@ -1063,12 +1289,21 @@ pub(crate) fn plan_run<M: InverseModel + ?Sized>(
     let (k_pre, k_post) = (samples(need_pre), samples(need_post));
     p.t_a = t0 - k_pre as f64 * dt;
     p.t_b = t_end + k_post as f64 * dt;
-    let settings = Settings { tol, h0: opts.lookahead / 25.0, h_min: opts.lookahead * 1e-3 };
+    let settings = Settings {
+        tol,
+        h0: opts.lookahead / 25.0,
+        h_min: opts.lookahead * 1e-3,
+    };
     let solution = solve(model, smoother, &p, settings)?;
     Ok(ZeroDynamicsPlan {
         class: c.class,
         eigenvalues,
-        stable: Some(StableRun { solution, plan: p, k_pre, k_post }),
+        stable: Some(StableRun {
+            solution,
+            plan: p,
+            k_pre,
+            k_post,
+        }),
     })
 }
 
@@ -1095,7 +1330,12 @@ mod tests {
         band.solve(&mut x);
         let expect = dense.lu().solve(&DVector::from_vec(b)).unwrap();
         for i in 0..n {
-            assert!((x[i] - expect[i]).abs() < 1e-10, "{i}: {} vs {}", x[i], expect[i]);
+            assert!(
+                (x[i] - expect[i]).abs() < 1e-10,
+                "{i}: {} vs {}",
+                x[i],
+                expect[i]
+            );
         }
     }
 
@@ -1113,7 +1353,11 @@ mod tests {
 
     #[test]
     fn horizons_from_decay_rates() {
-        let (pre, post) = decay_horizons(&[[0.5, 0.0], [-2.0, 0.0]], &[[0.5, 0.0], [-2.0, 0.0]], 1e-10);
+        let (pre, post) = decay_horizons(
+            &[[0.5, 0.0], [-2.0, 0.0]],
+            &[[0.5, 0.0], [-2.0, 0.0]],
+            1e-10,
+        );
         assert!((pre - 10f64.ln() * 10.0 / 0.5).abs() < 1e-9);
         assert!((post - 10f64.ln() * 10.0 / 2.0).abs() < 1e-9);
         assert_eq!(decay_horizons(&[[-1.0, 0.0]], &[[-1.0, 0.0]], 1e-10).0, 0.0);

@@ -96,7 +96,10 @@ impl TestProblem for ProtheroRobinson {
 }
 
 fn max_diff(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
 }
 
 /// Fixed-step run with N steps: (error at the end, largest dense-output error at the step midpoints).
@@ -111,7 +114,10 @@ fn fixed_step_errors(p: &dyn TestProblem, method: Method, steps: usize) -> (f64,
         Ok(())
     };
     let mut dense_err = 0.0_f64;
-    let (mut dp, mut rb) = (Dopri5::new(p.n(), 1e-6, 1e-6, h), Rosenbrock23::new(p.n(), 1e-6, 1e-6, h));
+    let (mut dp, mut rb) = (
+        Dopri5::new(p.n(), 1e-6, 1e-6, h),
+        Rosenbrock23::new(p.n(), 1e-6, 1e-6, h),
+    );
     for i in 0..steps {
         let t = t0 + i as f64 * h;
         match method {
@@ -133,7 +139,10 @@ fn fixed_step_errors(p: &dyn TestProblem, method: Method, steps: usize) -> (f64,
 
 /// Observed orders log2(e(N)/e(2N)) over a sequence of halvings.
 fn observed_orders(p: &dyn TestProblem, method: Method, steps: &[usize]) -> (Vec<f64>, Vec<f64>) {
-    let errors: Vec<(f64, f64)> = steps.iter().map(|&n| fixed_step_errors(p, method, n)).collect();
+    let errors: Vec<(f64, f64)> = steps
+        .iter()
+        .map(|&n| fixed_step_errors(p, method, n))
+        .collect();
     let order = |a: f64, b: f64| (a / b).log2();
     let end = errors.windows(2).map(|w| order(w[0].0, w[1].0)).collect();
     let dense = errors.windows(2).map(|w| order(w[0].1, w[1].1)).collect();
@@ -148,7 +157,11 @@ fn dopri5_converges_at_order_5() {
     for p in problems {
         let (end, dense) = observed_orders(p, Method::Dopri5, &[8, 16, 32, 64]);
         for q in &end {
-            assert!((4.7..5.6).contains(q), "{}: end-point orders {end:?}", p.name());
+            assert!(
+                (4.7..5.6).contains(q),
+                "{}: end-point orders {end:?}",
+                p.name()
+            );
         }
         for q in &dense {
             assert!(*q > 3.8, "{}: dense-output orders {dense:?}", p.name());
@@ -164,9 +177,17 @@ fn rosenbrock23_converges_at_order_2() {
         let (end, dense) = observed_orders(p, Method::Rosenbrock23, &[32, 64, 128, 256]);
         // The observed order approaches 2 from below as h → 0.
         for q in &end {
-            assert!((1.7..2.4).contains(q), "{}: end-point orders {end:?}", p.name());
+            assert!(
+                (1.7..2.4).contains(q),
+                "{}: end-point orders {end:?}",
+                p.name()
+            );
         }
-        assert!(end[end.len() - 1] > 1.9, "{}: end-point orders {end:?}", p.name());
+        assert!(
+            end[end.len() - 1] > 1.9,
+            "{}: end-point orders {end:?}",
+            p.name()
+        );
         for q in &dense {
             assert!(*q > 1.8, "{}: dense-output orders {dense:?}", p.name());
         }
@@ -219,16 +240,35 @@ fn stiff_problem_rosenbrock_vs_dopri5() {
     while t < t1 {
         t = rb.step_to(t, t1, &mut y, &mut f).unwrap();
     }
-    assert!((y[0] - exact[0]).abs() < 1e-5, "Rosenbrock: {} vs {}", y[0], exact[0]);
+    assert!(
+        (y[0] - exact[0]).abs() < 1e-5,
+        "Rosenbrock: {} vs {}",
+        y[0],
+        exact[0]
+    );
     let mut dp = Dopri5::new(1, 1e-6, 1e-8, 1e-3);
     let mut y = [0.0];
     dp.advance(t0, t1, &mut y, &mut f).unwrap();
-    assert!((y[0] - exact[0]).abs() < 1e-5, "Dopri5: {} vs {}", y[0], exact[0]);
+    assert!(
+        (y[0] - exact[0]).abs() < 1e-5,
+        "Dopri5: {} vs {}",
+        y[0],
+        exact[0]
+    );
     assert!(dp.is_stiff(), "the stiffness test fires");
     assert!(dp.stats.accepted > 100_000, "Dopri5 steps: {:?}", dp.stats);
-    assert!(dp.stats.stability_limited > dp.stats.accepted / 2, "{:?}", dp.stats);
+    assert!(
+        dp.stats.stability_limited > dp.stats.accepted / 2,
+        "{:?}",
+        dp.stats
+    );
     // Rosenbrock's steps are limited by its accuracy (order 2), Dormand–Prince's by stability: h ≤ 3.3/|λ|.
-    assert!(dp.stats.accepted > 30 * rb.stats.accepted, "Dopri5 {:?}, Rosenbrock {:?}", dp.stats, rb.stats);
+    assert!(
+        dp.stats.accepted > 30 * rb.stats.accepted,
+        "Dopri5 {:?}, Rosenbrock {:?}",
+        dp.stats,
+        rb.stats
+    );
 }
 
 // --- the paper's SI engine ---------------------------------------------------------------------------------
@@ -242,7 +282,15 @@ fn nedc() -> Cycle {
 }
 
 fn inverse(model: &dyn InverseModel, dt: f64) -> SimulationResult {
-    simulate(model, &nedc(), &SimulationOptions { dt, ..SimulationOptions::default() }).expect("inverse")
+    simulate(
+        model,
+        &nedc(),
+        &SimulationOptions {
+            dt,
+            ..SimulationOptions::default()
+        },
+    )
+    .expect("inverse")
 }
 
 /// Times where the raw cycle's slope changes (its corners), the first and last sample excluded.
@@ -265,11 +313,18 @@ fn corners(cycle: &Cycle) -> Vec<f64> {
 fn verify_si_engine_nedc_meets_the_tolerances() {
     let model = si_engine();
     for (dt, tol) in [(0.01, 1e-4), (0.1, 1e-2)] {
-        let o = SimulationOptions { dt, verify: true, ..SimulationOptions::default() };
+        let o = SimulationOptions {
+            dt,
+            verify: true,
+            ..SimulationOptions::default()
+        };
         let res = simulate(model.as_ref(), &nedc(), &o).unwrap();
         let max = res.summary.max_abs_tracking_error.unwrap();
         let rms = res.summary.rms_tracking_error.unwrap();
-        assert!(max < tol && rms <= max, "dt = {dt}: max {max:e}, rms {rms:e}");
+        assert!(
+            max < tol && rms <= max,
+            "dt = {dt}: max {max:e}, rms {rms:e}"
+        );
         assert!(max > 0.0, "the replay is a real check, not an identity");
     }
 }
@@ -280,10 +335,25 @@ fn verify_interpreter_agrees_with_compiled_code() {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models/si_engine.toml");
     let d = invsim_inversion::derive_file(&path).expect("derive si_engine.toml");
     let interp = invsim_inversion::Interpreter::new(&d).expect("interpreter");
-    let o = SimulationOptions { dt: 0.1, verify: true, ..SimulationOptions::default() };
-    let a = simulate(&interp, &nedc(), &o).unwrap().summary.max_abs_tracking_error.unwrap();
-    let b = simulate(si_engine().as_ref(), &nedc(), &o).unwrap().summary.max_abs_tracking_error.unwrap();
-    assert!((a - b).abs() <= 1e-6 * b.abs().max(1e-9), "interpreted {a:e}, compiled {b:e}");
+    let o = SimulationOptions {
+        dt: 0.1,
+        verify: true,
+        ..SimulationOptions::default()
+    };
+    let a = simulate(&interp, &nedc(), &o)
+        .unwrap()
+        .summary
+        .max_abs_tracking_error
+        .unwrap();
+    let b = simulate(si_engine().as_ref(), &nedc(), &o)
+        .unwrap()
+        .summary
+        .max_abs_tracking_error
+        .unwrap();
+    assert!(
+        (a - b).abs() <= 1e-6 * b.abs().max(1e-9),
+        "interpreted {a:e}, compiled {b:e}"
+    );
 }
 
 /// The forward run with the PI driver, bounds ignored: within 0.5 km/h of the raw NEDC except within 2 s of
@@ -293,8 +363,15 @@ fn pi_driver_tracks_nedc_and_matches_the_inverse_fuel() {
     let model = si_engine();
     let cycle = nedc();
     let dt = 0.01;
-    let fwd = forward::forward(model.as_ref(), &cycle, &ForwardOptions { dt, ..ForwardOptions::default() })
-        .expect("forward run");
+    let fwd = forward::forward(
+        model.as_ref(),
+        &cycle,
+        &ForwardOptions {
+            dt,
+            ..ForwardOptions::default()
+        },
+    )
+    .expect("forward run");
     let s = &fwd.summary;
     assert_eq!(s.samples, 118_001);
     assert_eq!(fwd.len(), 118_001);
@@ -303,7 +380,10 @@ fn pi_driver_tracks_nedc_and_matches_the_inverse_fuel() {
     let (t, v, yc) = (fwd.time(), fwd.column("v").unwrap(), fwd.cycle_speed());
     let mut worst = (0.0_f64, 0.0);
     for k in 0..t.len() {
-        assert!((yc[k] - cycle.speed_at(t[k])).abs() < 1e-12, "yc is the raw cycle");
+        assert!(
+            (yc[k] - cycle.speed_at(t[k])).abs() < 1e-12,
+            "yc is the raw cycle"
+        );
         if corners.iter().any(|c| (t[k] - c).abs() < 2.0) {
             continue;
         }
@@ -312,14 +392,32 @@ fn pi_driver_tracks_nedc_and_matches_the_inverse_fuel() {
             worst = (e, t[k]);
         }
     }
-    assert!(worst.0 < 0.5, "{} km/h off the cycle at t = {} s", worst.0, worst.1);
-    assert!(s.max_abs_tracking_error * 3.6 < 1.0, "even at corners: {}", s.max_abs_tracking_error * 3.6);
+    assert!(
+        worst.0 < 0.5,
+        "{} km/h off the cycle at t = {} s",
+        worst.0,
+        worst.1
+    );
+    assert!(
+        s.max_abs_tracking_error * 3.6 < 1.0,
+        "even at corners: {}",
+        s.max_abs_tracking_error * 3.6
+    );
     assert!(s.trace_misses.is_empty(), "{:?}", s.trace_misses);
-    assert!((s.distance_driven_m - s.distance_m).abs() < 1.0, "{} vs {}", s.distance_driven_m, s.distance_m);
+    assert!(
+        (s.distance_driven_m - s.distance_m).abs() < 1.0,
+        "{} vs {}",
+        s.distance_driven_m,
+        s.distance_m
+    );
     let inv = inverse(model.as_ref(), dt);
     let (fi, ff) = (inv.summary.integrals["fuel"], s.integrals["fuel"]);
     let rel = (ff - fi) / fi;
-    assert!(rel.abs() < 0.02, "fuel: forward {ff} kg, inverse {fi} kg ({:+.2} %)", 100.0 * rel);
+    assert!(
+        rel.abs() < 0.02,
+        "fuel: forward {ff} kg, inverse {fi} kg ({:+.2} %)",
+        100.0 * rel
+    );
     // Without clipping, the forward input leaves the bounds where the inverse's does (the car has no brake).
     assert!(!s.input_bound_violations.is_empty() && s.input_min < 0.0);
 }
@@ -332,7 +430,11 @@ fn pi_driver_tracks_nedc_and_matches_the_inverse_fuel() {
 fn enforced_bounds_miss_the_trace_only_in_hard_decelerations() {
     let model = si_engine();
     let cycle = nedc();
-    let o = ForwardOptions { dt: 0.01, bounds: Bounds::Enforce, ..ForwardOptions::default() };
+    let o = ForwardOptions {
+        dt: 0.01,
+        bounds: Bounds::Enforce,
+        ..ForwardOptions::default()
+    };
     let fwd = forward::forward(model.as_ref(), &cycle, &o).expect("forward run");
     let s = &fwd.summary;
     let (lo, hi) = (s.input_lower_bound.unwrap(), s.input_upper_bound.unwrap());
@@ -348,7 +450,10 @@ fn enforced_bounds_miss_the_trace_only_in_hard_decelerations() {
         );
         let mut t = a;
         while t <= b {
-            assert!(slope_at(t) <= 1e-9, "miss [{a}, {b}] reaches an acceleration at t = {t}");
+            assert!(
+                slope_at(t) <= 1e-9,
+                "miss [{a}, {b}] reaches an acceleration at t = {t}"
+            );
             t += 0.05;
         }
     }
@@ -360,13 +465,21 @@ fn enforced_bounds_miss_the_trace_only_in_hard_decelerations() {
     stops.push(1160.0);
     for stop in stops {
         assert!(
-            s.trace_misses.iter().any(|&[a, b]| a <= stop + 5.0 && b >= stop - 5.0 && a >= stop - 15.0),
+            s.trace_misses
+                .iter()
+                .any(|&[a, b]| a <= stop + 5.0 && b >= stop - 5.0 && a >= stop - 15.0),
             "no trace miss around the stop at {stop} s: {:?}",
             s.trace_misses
         );
     }
     // Away from the misses, the vehicle is on the trace.
-    assert!(s.warnings.iter().any(|w| w.contains("misses the cycle's trace")), "{:?}", s.warnings);
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("misses the cycle's trace")),
+        "{:?}",
+        s.warnings
+    );
 }
 
 /// The CSV layout of the forward run: t, the raw cycle, the input, the states, the outputs (the tracked output
@@ -376,20 +489,48 @@ fn forward_columns_and_summary() {
     let model = si_engine();
     let cycle = Cycle::builtin("ece").unwrap();
     let fwd = forward::forward(model.as_ref(), &cycle, &ForwardOptions::default()).unwrap();
-    assert_eq!(fwd.columns, ["t", "yc", "m_at", "v", "p_i", "fuel", "fuel_volume", "n_e", "T_e"]);
+    assert_eq!(
+        fwd.columns,
+        [
+            "t",
+            "yc",
+            "m_at",
+            "v",
+            "p_i",
+            "fuel",
+            "fuel_volume",
+            "n_e",
+            "T_e"
+        ]
+    );
     assert_eq!(fwd.summary.samples, 1951);
     assert!(fwd.data.iter().all(|c| c.len() == 1951));
     let text = fwd.summary.to_text();
-    for needle in ["model: si_engine", "driver: PI", "integrator: dopri5", "trace misses: ", "fuel: "] {
+    for needle in [
+        "model: si_engine",
+        "driver: PI",
+        "integrator: dopri5",
+        "trace misses: ",
+        "fuel: ",
+    ] {
         assert!(text.contains(needle), "{needle} in\n{text}");
     }
     let json = serde_json::to_value(&fwd.summary).unwrap();
-    for key in ["integrals", "trace_misses", "input_bound_violations", "max_abs_tracking_error", "driver"] {
+    for key in [
+        "integrals",
+        "trace_misses",
+        "input_bound_violations",
+        "max_abs_tracking_error",
+        "driver",
+    ] {
         assert!(json.get(key).is_some(), "{key}");
     }
     assert_eq!(json["bounds"], "ignore");
     assert_eq!(json["integrator"]["method"], "dopri5");
-    let lean = ForwardOptions { keep_series: false, ..ForwardOptions::default() };
+    let lean = ForwardOptions {
+        keep_series: false,
+        ..ForwardOptions::default()
+    };
     let summary_only = forward::forward(model.as_ref(), &cycle, &lean).unwrap();
     assert!(summary_only.is_empty());
     assert_eq!(summary_only.summary, fwd.summary);
@@ -401,13 +542,27 @@ fn forward_columns_and_summary() {
 fn forward_runs_a_model_with_internal_dynamics() {
     let model = LinearR2::minimum_phase();
     let cycle = nedc();
-    let fwd = forward::forward(&model, &cycle, &ForwardOptions { dt: 0.1, ..ForwardOptions::default() }).unwrap();
+    let fwd = forward::forward(
+        &model,
+        &cycle,
+        &ForwardOptions {
+            dt: 0.1,
+            ..ForwardOptions::default()
+        },
+    )
+    .unwrap();
     assert_eq!(fwd.columns[..4], ["t", "yc", "y", "u"]);
     let corners = corners(&cycle);
     let (t, y, yc) = (fwd.time(), fwd.column("y").unwrap(), fwd.cycle_speed());
     for k in 0..t.len() {
         if corners.iter().all(|c| (t[k] - c).abs() >= 3.0) {
-            assert!((y[k] - yc[k]).abs() < 0.2, "t = {}: y {} vs {}", t[k], y[k], yc[k]);
+            assert!(
+                (y[k] - yc[k]).abs() < 0.2,
+                "t = {}: y {} vs {}",
+                t[k],
+                y[k],
+                yc[k]
+            );
         }
     }
 }
@@ -421,14 +576,28 @@ fn small_manifold_is_stiff_and_both_methods_agree() {
     model.set_param("V_i", 2.5e-5).unwrap();
     let cycle = Cycle::builtin("ece").unwrap();
     let run = |method| {
-        let o = ForwardOptions { dt: 0.1, bounds: Bounds::Enforce, method, ..ForwardOptions::default() };
-        forward::forward(model.as_ref(), &cycle, &o).unwrap().summary
+        let o = ForwardOptions {
+            dt: 0.1,
+            bounds: Bounds::Enforce,
+            method,
+            ..ForwardOptions::default()
+        };
+        forward::forward(model.as_ref(), &cycle, &o)
+            .unwrap()
+            .summary
     };
     let (dp, rb) = (run(Method::Dopri5), run(Method::Rosenbrock23));
-    assert!(dp.integrator.stats.stability_limited > 0, "{:?}", dp.integrator);
+    assert!(
+        dp.integrator.stats.stability_limited > 0,
+        "{:?}",
+        dp.integrator
+    );
     assert!(rb.integrator.stats.jacobians > 0, "{:?}", rb.integrator);
     let (a, b) = (dp.integrals["fuel"], rb.integrals["fuel"]);
-    assert!((a - b).abs() < 1e-4 * a, "fuel: dopri5 {a}, rosenbrock23 {b}");
+    assert!(
+        (a - b).abs() < 1e-4 * a,
+        "fuel: dopri5 {a}, rosenbrock23 {b}"
+    );
     assert_eq!(dp.trace_misses.len(), rb.trace_misses.len());
 }
 
@@ -437,24 +606,50 @@ fn invalid_options_are_rejected() {
     let model = si_engine();
     let cycle = Cycle::builtin("ece").unwrap();
     let run = |o: ForwardOptions| forward::forward(model.as_ref(), &cycle, &o);
-    assert!(matches!(run(ForwardOptions { dt: 0.0, ..Default::default() }), Err(ForwardError::InvalidDt(_))));
     assert!(matches!(
-        run(ForwardOptions { kp: f64::NAN, ..Default::default() }),
+        run(ForwardOptions {
+            dt: 0.0,
+            ..Default::default()
+        }),
+        Err(ForwardError::InvalidDt(_))
+    ));
+    assert!(matches!(
+        run(ForwardOptions {
+            kp: f64::NAN,
+            ..Default::default()
+        }),
         Err(ForwardError::InvalidGain { name: "kp", .. })
     ));
     assert!(matches!(
-        run(ForwardOptions { response: 0.0, ..Default::default() }),
-        Err(ForwardError::InvalidGain { name: "response", .. })
+        run(ForwardOptions {
+            response: 0.0,
+            ..Default::default()
+        }),
+        Err(ForwardError::InvalidGain {
+            name: "response",
+            ..
+        })
     ));
     assert!(matches!(
-        run(ForwardOptions { rtol: -1.0, ..Default::default() }),
+        run(ForwardOptions {
+            rtol: -1.0,
+            ..Default::default()
+        }),
         Err(ForwardError::InvalidTolerance { .. })
     ));
     assert!(matches!(
-        run(ForwardOptions { x0: Some(vec![1.0]), ..Default::default() }),
+        run(ForwardOptions {
+            x0: Some(vec![1.0]),
+            ..Default::default()
+        }),
         Err(ForwardError::InvalidX0 { .. })
     ));
-    let bad = Cycle { name: "bad".into(), time: vec![0.0, 0.0], speed: vec![0.0, 1.0], grade: None };
+    let bad = Cycle {
+        name: "bad".into(),
+        time: vec![0.0, 0.0],
+        speed: vec![0.0, 1.0],
+        grade: None,
+    };
     assert!(matches!(
         forward::forward(model.as_ref(), &bad, &ForwardOptions::default()),
         Err(ForwardError::InvalidCycle { .. })

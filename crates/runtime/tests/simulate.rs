@@ -352,9 +352,12 @@ fn nan_output_is_detected_with_time_and_name() {
     }
 }
 
+/// Forced causal integration (`causal: true`; by default unstable zero dynamics are inverted stably, see
+/// `tests/stable.rs`).
 #[test]
 fn unstable_zero_dynamics_are_rejected_at_the_start() {
-    let err = simulate(&LinearR2::non_minimum_phase(), &nedc(), &opts(0.1)).unwrap_err();
+    let causal = SimulationOptions { causal: true, ..opts(0.1) };
+    let err = simulate(&LinearR2::non_minimum_phase(), &nedc(), &causal).unwrap_err();
     match &err {
         SimulateError::UnstableZeroDynamics { t, eigenvalues, .. } => {
             assert_eq!(*t, 0.0);
@@ -448,8 +451,9 @@ impl InverseModel for InternalDynamics {
     fn outputs(&self, _x: &[f64], _u: f64, _out: &mut [f64]) {}
 }
 
-/// With s = −1 and a reference that goes to 3 m/s: stable at the start, unstable once y_d > k = 2; caught by
-/// the monitoring, and (with monitoring off) by the blow-up guard.
+/// With s = −1 and a reference that goes to 3 m/s: stable at the start, unstable once y_d > k = 2; forced causal
+/// integration is caught by the monitoring, and (with monitoring off) by the blow-up guard; by default the
+/// change of type is reported before anything is integrated (no bounded inverse exists).
 #[test]
 fn zero_dynamics_becoming_unstable_along_the_run_are_detected() {
     let cycle = Cycle {
@@ -469,6 +473,14 @@ fn zero_dynamics_becoming_unstable_along_the_run_are_detected() {
         })
         .unwrap();
     match simulate(&model, &cycle, &opts(0.01)) {
+        Err(SimulateError::ZeroDynamicsTypeChange { from, to, y_to, .. }) => {
+            assert_eq!((from.as_str(), to.as_str()), ("0", "1"));
+            assert!(y_to > 2.0, "{y_to}");
+        }
+        other => panic!("expected ZeroDynamicsTypeChange, got {other:?}"),
+    }
+    let causal = SimulationOptions { causal: true, ..opts(0.01) };
+    match simulate(&model, &cycle, &causal) {
         Err(SimulateError::UnstableZeroDynamics {
             t,
             eigenvalues,
@@ -488,7 +500,7 @@ fn zero_dynamics_becoming_unstable_along_the_run_are_detected() {
     }
     let no_monitoring = SimulationOptions {
         stability_check_interval: 1e6,
-        ..opts(0.01)
+        ..causal.clone()
     };
     match simulate(&model, &cycle, &no_monitoring) {
         Err(SimulateError::UnstableZeroDynamics {

@@ -25,8 +25,10 @@ pub const CHECK_DIR: &str = "target/xtask-figures-check";
 
 /// Render every figure group into `out`; returns the files written, in group order.
 pub fn render_all(root: &Path, out: &Path) -> Result<Vec<PathBuf>, Failure> {
-    std::fs::create_dir_all(out).map_err(|e| Failure::io(format!("cannot create {}: {e}", out.display())))?;
+    std::fs::create_dir_all(out)
+        .map_err(|e| Failure::io(format!("cannot create {}: {e}", out.display())))?;
     let mut written = Vec::new();
+    // One line per group, in the order the figures are listed.
     written.extend(paper::render(root, out)?);
     Ok(written)
 }
@@ -40,7 +42,9 @@ pub fn run(root: &Path, check: bool) -> Result<Vec<PathBuf>, Failure> {
     // A directory of its own for every check, so that concurrent checks (parallel tests) do not collide.
     static RUNS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
     let run = RUNS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let scratch = root.join(CHECK_DIR).join(format!("{}-{run}", std::process::id()));
+    let scratch = root
+        .join(CHECK_DIR)
+        .join(format!("{}-{run}", std::process::id()));
     if scratch.exists() {
         std::fs::remove_dir_all(&scratch)
             .map_err(|e| Failure::io(format!("cannot clear {}: {e}", scratch.display())))?;
@@ -51,7 +55,10 @@ pub fn run(root: &Path, check: bool) -> Result<Vec<PathBuf>, Failure> {
         problems.push("no figure was rendered".to_string());
     }
     for path in &written {
-        let name = path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default();
+        let name = path
+            .file_name()
+            .map(|f| f.to_string_lossy().into_owned())
+            .unwrap_or_default();
         match std::fs::read_to_string(path) {
             Ok(text) if is_complete_svg(&text) => {}
             Ok(_) => problems.push(format!("{name}: not a complete SVG document")),
@@ -59,7 +66,9 @@ pub fn run(root: &Path, check: bool) -> Result<Vec<PathBuf>, Failure> {
         }
         let committed = root.join(FIGURES_DIR).join(&name);
         if !committed.is_file() {
-            problems.push(format!("{FIGURES_DIR}/{name} is missing: run `cargo xtask figures`"));
+            problems.push(format!(
+                "{FIGURES_DIR}/{name} is missing: run `cargo xtask figures`"
+            ));
         }
     }
     if problems.is_empty() {
@@ -71,7 +80,9 @@ pub fn run(root: &Path, check: bool) -> Result<Vec<PathBuf>, Failure> {
 
 /// A non-empty SVG document: an `<svg` element that is closed, with something drawn in between.
 pub fn is_complete_svg(text: &str) -> bool {
-    let (Some(open), Some(close)) = (text.find("<svg"), text.rfind("</svg>")) else { return false };
+    let (Some(open), Some(close)) = (text.find("<svg"), text.rfind("</svg>")) else {
+        return false;
+    };
     if open >= close {
         return false;
     }

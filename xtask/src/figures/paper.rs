@@ -46,15 +46,30 @@ fn builtin(name: &str) -> Result<Cycle, Failure> {
 }
 
 /// The inverse simulation of `model` on `cycle` with look-ahead `a`.
-pub fn inverse(model: &dyn InverseModel, cycle: &Cycle, a: f64) -> Result<SimulationResult, Failure> {
-    let opts = SimulationOptions { lookahead: a, dt: DT, engine: "interpreted".into(), ..Default::default() };
-    simulate(model, cycle, &opts).map_err(|e| Failure::io(format!("inverse simulation on {}: {e}", cycle.name)))
+pub fn inverse(
+    model: &dyn InverseModel,
+    cycle: &Cycle,
+    a: f64,
+) -> Result<SimulationResult, Failure> {
+    let opts = SimulationOptions {
+        lookahead: a,
+        dt: DT,
+        engine: "interpreted".into(),
+        ..Default::default()
+    };
+    simulate(model, cycle, &opts)
+        .map_err(|e| Failure::io(format!("inverse simulation on {}: {e}", cycle.name)))
 }
 
 /// The forward simulation of `model` on `cycle` with the default PI driver, bounds ignored.
 pub fn forward_run(model: &dyn InverseModel, cycle: &Cycle) -> Result<ForwardResult, Failure> {
-    let opts = ForwardOptions { dt: DT, engine: "interpreted".into(), ..Default::default() };
-    forward::forward(model, cycle, &opts).map_err(|e| Failure::io(format!("forward simulation on {}: {e}", cycle.name)))
+    let opts = ForwardOptions {
+        dt: DT,
+        engine: "interpreted".into(),
+        ..Default::default()
+    };
+    forward::forward(model, cycle, &opts)
+        .map_err(|e| Failure::io(format!("forward simulation on {}: {e}", cycle.name)))
 }
 
 /// Render this group's figures into `out`; returns the files written.
@@ -69,8 +84,24 @@ pub fn render(root: &Path, out: &Path) -> Result<Vec<PathBuf>, Failure> {
 
     let inv = inverse(&model, &nedc, 5.0)?;
     let fwd = forward_run(&model, &nedc)?;
-    written.push(fig7(out, "fig7_nedc_inverse_vs_forward.svg", "NEDC", &nedc, &inv, &fwd, None)?);
-    written.push(fig7(out, "fig7_first_ece_detail.svg", "first ECE-15 of the NEDC", &nedc, &inv, &fwd, Some(195.0))?);
+    written.push(fig7(
+        out,
+        "fig7_nedc_inverse_vs_forward.svg",
+        "NEDC",
+        &nedc,
+        &inv,
+        &fwd,
+        None,
+    )?);
+    written.push(fig7(
+        out,
+        "fig7_first_ece_detail.svg",
+        "first ECE-15 of the NEDC",
+        &nedc,
+        &inv,
+        &fwd,
+        Some(195.0),
+    )?);
 
     let mut runs = Vec::new();
     for a in LOOKAHEADS {
@@ -92,8 +123,19 @@ struct Series {
 }
 
 impl Series {
-    fn line(label: impl Into<String>, color: RGBColor, width: u32, points: Vec<(f64, f64)>) -> Series {
-        Series { label: label.into(), color, width, points, markers: false }
+    fn line(
+        label: impl Into<String>,
+        color: RGBColor,
+        width: u32,
+        points: Vec<(f64, f64)>,
+    ) -> Series {
+        Series {
+            label: label.into(),
+            color,
+            width,
+            points,
+            markers: false,
+        }
     }
 }
 
@@ -123,8 +165,14 @@ fn draw(path: &Path, panels: &[Panel]) -> Result<PathBuf, Failure> {
             .iter()
             .flat_map(|s| s.points.iter().map(|p| p.1))
             .filter(|v| v.is_finite())
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
-        let (lo, hi) = if lo < hi { (lo, hi) } else { (lo - 1.0, lo + 1.0) };
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+                (lo.min(v), hi.max(v))
+            });
+        let (lo, hi) = if lo < hi {
+            (lo, hi)
+        } else {
+            (lo - 1.0, lo + 1.0)
+        };
         let pad = 0.06 * (hi - lo);
         let mut chart = ChartBuilder::on(area)
             .caption(&panel.title, ("sans-serif", 18))
@@ -146,7 +194,9 @@ fn draw(path: &Path, panels: &[Panel]) -> Result<PathBuf, Failure> {
                 .draw_series(LineSeries::new(s.points.iter().copied(), style))
                 .map_err(|e| draw_error(path, e))?
                 .label(s.label.as_str())
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 22, y)], color.stroke_width(2)));
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 22, y)], color.stroke_width(2))
+                });
             if s.markers {
                 chart
                     .draw_series(s.points.iter().map(|&p| Circle::new(p, 4, color.filled())))
@@ -167,7 +217,9 @@ fn draw(path: &Path, panels: &[Panel]) -> Result<PathBuf, Failure> {
 
 /// Points (t_k, scale·v_k) with t_k in [t0, t1], thinned to the min and max of each of [`BUCKETS`] buckets.
 fn thin(t: &[f64], v: &[f64], scale: f64, (t0, t1): (f64, f64)) -> Vec<(f64, f64)> {
-    let idx: Vec<usize> = (0..t.len().min(v.len())).filter(|&k| t[k] >= t0 && t[k] <= t1).collect();
+    let idx: Vec<usize> = (0..t.len().min(v.len()))
+        .filter(|&k| t[k] >= t0 && t[k] <= t1)
+        .collect();
     if idx.len() <= 2 * BUCKETS {
         return idx.iter().map(|&k| (t[k], scale * v[k])).collect();
     }
@@ -195,7 +247,14 @@ fn thin(t: &[f64], v: &[f64], scale: f64, (t0, t1): (f64, f64)) -> Vec<(f64, f64
 /// The raw cycle between t0 and t1, at its own breakpoints, in km/h.
 fn raw_cycle(cycle: &Cycle, (t0, t1): (f64, f64)) -> Vec<(f64, f64)> {
     let mut pts = vec![(t0, cycle.speed_at(t0) * KMH)];
-    pts.extend(cycle.time.iter().zip(&cycle.speed).filter(|(&t, _)| t > t0 && t < t1).map(|(&t, &v)| (t, v * KMH)));
+    pts.extend(
+        cycle
+            .time
+            .iter()
+            .zip(&cycle.speed)
+            .filter(|(&t, _)| t > t0 && t < t1)
+            .map(|(&t, &v)| (t, v * KMH)),
+    );
     pts.push((t1, cycle.speed_at(t1) * KMH));
     pts
 }
@@ -272,15 +331,27 @@ fn fig7(
     let u_inv = column(&inv.columns, &inv.data, "m_at")?;
     let u_fwd = column(&fwd.columns, &fwd.data, "m_at")?;
     let v_fwd = column(&fwd.columns, &fwd.data, "v")?;
-    let yd = inv.yd(0).ok_or_else(|| Failure::io("no y_d column".to_string()))?;
+    let yd = inv
+        .yd(0)
+        .ok_or_else(|| Failure::io("no y_d column".to_string()))?;
     let flow = Panel {
         title: format!("Fig. 7 ({what}): air mass flow past the throttle"),
         x_desc: "t [s]".into(),
         y_desc: "m_at [g/s]".into(),
         x_range: range,
         series: vec![
-            Series::line("forward, PI driver on the raw cycle", ORANGE, 1, thin(tf, u_fwd, GPS, range)),
-            Series::line("inverse (a = 5 s)", RGBColor(0, 0, 200), 2, thin(ti, u_inv, GPS, range)),
+            Series::line(
+                "forward, PI driver on the raw cycle",
+                ORANGE,
+                1,
+                thin(tf, u_fwd, GPS, range),
+            ),
+            Series::line(
+                "inverse (a = 5 s)",
+                RGBColor(0, 0, 200),
+                2,
+                thin(ti, u_inv, GPS, range),
+            ),
         ],
         legend: SeriesLabelPosition::UpperLeft,
     };
@@ -292,7 +363,12 @@ fn fig7(
         series: vec![
             Series::line("cycle", RGBColor(0, 0, 0), 1, raw_cycle(cycle, range)),
             Series::line("forward, PI driver", ORANGE, 2, thin(tf, v_fwd, KMH, range)),
-            Series::line("inverse: v = y_d", RGBColor(0, 0, 200), 1, thin(ti, yd, KMH, range)),
+            Series::line(
+                "inverse: v = y_d",
+                RGBColor(0, 0, 200),
+                1,
+                thin(ti, yd, KMH, range),
+            ),
         ],
         legend: SeriesLabelPosition::UpperLeft,
     };
@@ -311,8 +387,18 @@ fn lookahead(
     let mut fuel = Vec::new();
     for ((a, res), color) in runs.iter().zip(colors) {
         let u = column(&res.columns, &res.data, "m_at")?;
-        inputs.push(Series::line(format!("a = {a} s"), color, if *a == 5.0 { 2 } else { 1 }, thin(res.time(), u, GPS, range)));
-        let per_100km = res.summary.integrals_per_100km.get("fuel_volume").copied().unwrap_or(f64::NAN);
+        inputs.push(Series::line(
+            format!("a = {a} s"),
+            color,
+            if *a == 5.0 { 2 } else { 1 },
+            thin(res.time(), u, GPS, range),
+        ));
+        let per_100km = res
+            .summary
+            .integrals_per_100km
+            .get("fuel_volume")
+            .copied()
+            .unwrap_or(f64::NAN);
         fuel.push((*a, per_100km));
     }
     let input = Panel {
@@ -323,7 +409,12 @@ fn lookahead(
         series: inputs,
         legend: SeriesLabelPosition::UpperLeft,
     };
-    let forward_fuel = fwd.summary.integrals_per_100km.get("fuel_volume").copied().unwrap_or(f64::NAN);
+    let forward_fuel = fwd
+        .summary
+        .integrals_per_100km
+        .get("fuel_volume")
+        .copied()
+        .unwrap_or(f64::NAN);
     let (a0, a1) = (0.0, 11.0);
     let fuel_panel = Panel {
         title: "Look-ahead a and the fuel consumption over the NEDC".into(),
@@ -331,7 +422,13 @@ fn lookahead(
         y_desc: "fuel [l/100 km]".into(),
         x_range: (a0, a1),
         series: vec![
-            Series { label: "inverse simulation".into(), color: RGBColor(0, 0, 200), width: 2, points: fuel, markers: true },
+            Series {
+                label: "inverse simulation".into(),
+                color: RGBColor(0, 0, 200),
+                width: 2,
+                points: fuel,
+                markers: true,
+            },
             Series::line(
                 format!("forward, PI driver on the raw cycle: {forward_fuel:.3}"),
                 ORANGE,
