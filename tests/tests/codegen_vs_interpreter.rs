@@ -41,6 +41,15 @@ fn sampling_box(m: &dyn InverseModel) -> Box_ {
             b.xi = vec![(0.0, 40.0), (-3.0, 3.0)];
             b.yr = (-2.0, 2.0);
         }
+        // Pressures in Pa above ambient (the turbine and compressor laws need p > p_amb), turbocharger speed in
+        // rad/s, VGT position in [0.2, 1]; ξ2 = dp_im/dt in Pa/s, y^(r) in Pa/s².
+        "diesel_gasflow" => {
+            b.x = vec![(1.1e5, 3.0e5), (1.2e5, 4.0e5), (3.0e3, 1.5e4)];
+            b.u = (0.2, 1.0);
+            b.xi = vec![(1.1e5, 3.0e5), (-2.0e5, 2.0e5)];
+            b.eta = vec![(1.2e5, 4.0e5)];
+            b.yr = (-1.0e6, 1.0e6);
+        }
         // Fractional and negative powers of v need v > 0.
         "function_zoo" => {
             b.x[0] = (0.1, 3.0);

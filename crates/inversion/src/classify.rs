@@ -3,7 +3,8 @@
 //! For r < n the internal coordinates follow η̇ = q(ξ, η, y^(r)) (Isidori, *Nonlinear Control Systems*, 3rd ed.,
 //! §4.3). With the output held at its nominal value y0 — ξ = (y0, 0, …, 0), y^(r) = 0 — the zero dynamics are
 //! autonomous; at an equilibrium η* (q(ξ, η*, 0) = 0, found here by Newton's method) their linearisation
-//! A = ∂q/∂η decides the class (Isidori Remark 4.3.2; Devasia, Chen & Paden 1996, §2, hyperbolicity):
+//! A = ∂q/∂η decides the class (Isidori §4.3, local asymptotic stability of the zero dynamics; hyperbolicity
+//! as stable inversion needs it, Devasia, Chen & Paden 1996):
 //!
 //! * every eigenvalue of A in the open left half-plane: **minimum phase** (causal inversion is stable);
 //! * every eigenvalue in the open right half-plane: **non-minimum phase** (η must be integrated backward);

@@ -41,6 +41,16 @@ pub fn plot_svg(result: &SimulationResult, cycle: &Cycle, path: &Path) -> Result
     let t = result.time();
     let (t0, t1) = (t[0], t[t.len() - 1]);
     let t1 = if t1 > t0 { t1 } else { t0 + 1.0 };
+    // A speed output is drawn in km/h; the reference of another output (a boost pressure) in its own unit, the
+    // cycle mapped through the same offset and scale.
+    let map = result.reference;
+    let speed = map.is_identity();
+    let raw_value = |s: f64| if speed { s * MPS_TO_KMH } else { map.offset + map.scale * s };
+    let (y_label, raw_label, yd_label, quantity) = if speed {
+        ("speed [km/h]", "cycle [km/h]", "y_d (smoothed) [km/h]", "speed")
+    } else {
+        ("reference y_d", "cycle, as reference offset + scale * v", "y_d (smoothed)", "reference")
+    };
 
     // Top panel: raw cycle (piecewise linear, its own breakpoints) and y_d, in km/h.
     let raw: Vec<(f64, f64)> = {
@@ -49,16 +59,16 @@ pub fn plot_svg(result: &SimulationResult, cycle: &Cycle, path: &Path) -> Result
             .iter()
             .zip(&cycle.speed)
             .filter(|(&ti, _)| ti >= t0 && ti <= t1)
-            .map(|(&ti, &s)| (ti, s * MPS_TO_KMH))
+            .map(|(&ti, &s)| (ti, raw_value(s)))
             .collect();
         // The cycle is held beyond its ends (as the smoother does).
         match v.first() {
             Some(p) if p.0 <= t0 => {}
-            _ => v.insert(0, (t0, cycle.speed_at(t0) * MPS_TO_KMH)),
+            _ => v.insert(0, (t0, raw_value(cycle.speed_at(t0)))),
         }
         match v.last() {
             Some(p) if p.0 >= t1 => {}
-            _ => v.push((t1, cycle.speed_at(t1) * MPS_TO_KMH)),
+            _ => v.push((t1, raw_value(cycle.speed_at(t1)))),
         }
         v
     };
@@ -66,11 +76,11 @@ pub fn plot_svg(result: &SimulationResult, cycle: &Cycle, path: &Path) -> Result
         .yd(0)
         .unwrap_or(&[])
         .iter()
-        .map(|v| v * MPS_TO_KMH)
+        .map(|v| if speed { v * MPS_TO_KMH } else { *v })
         .collect();
     let yd_pts = thin(t, &yd_kmh);
     let (lo, hi) = range(raw.iter().map(|p| p.1).chain(yd_pts.iter().map(|p| p.1)));
-    let (lo, hi) = pad(lo.min(0.0), hi);
+    let (lo, hi) = pad(if speed { lo.min(0.0) } else { lo }, hi);
 
     // Bottom panel: input and bounds.
     let u = result.input();
@@ -87,7 +97,7 @@ pub fn plot_svg(result: &SimulationResult, cycle: &Cycle, path: &Path) -> Result
     let mut chart = ChartBuilder::on(&top)
         .caption(
             format!(
-                "{} on {}: speed (look-ahead a = {} s)",
+                "{} on {}: {quantity} (look-ahead a = {} s)",
                 result.summary.model, result.summary.cycle, result.summary.lookahead_s
             ),
             ("sans-serif", 18),
@@ -100,18 +110,18 @@ pub fn plot_svg(result: &SimulationResult, cycle: &Cycle, path: &Path) -> Result
     chart
         .configure_mesh()
         .x_desc("t [s]")
-        .y_desc("speed [km/h]")
+        .y_desc(y_label)
         .draw()
         .map_err(|e| fail(&e))?;
     chart
         .draw_series(LineSeries::new(raw, BLACK.stroke_width(1)))
         .map_err(|e| fail(&e))?
-        .label("cycle [km/h]")
+        .label(raw_label)
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK));
     chart
         .draw_series(LineSeries::new(yd_pts, RED.stroke_width(2)))
         .map_err(|e| fail(&e))?
-        .label("y_d (smoothed) [km/h]")
+        .label(yd_label)
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RED));
     chart
         .configure_series_labels()

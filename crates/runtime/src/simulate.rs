@@ -262,6 +262,9 @@ pub struct SimulationResult {
     pub input_column: usize,
     /// The input's bounds [min, max] as declared by the model (reported, never clipped).
     pub input_bounds: [Option<f64>; 2],
+    /// How the cycle defined the reference: y_d = offset + scale · (smoothed cycle) (the model's
+    /// [`InverseModel::reference`]).
+    pub reference: invsim_model_api::ReferenceMap,
 }
 
 impl SimulationResult {
@@ -1042,7 +1045,8 @@ fn run<M: InverseModel + ?Sized>(
             let [t_start, u_initial] = earlier[0];
             let (mut lo, mut hi, mut max_deviation, mut integral) =
                 (u_at_start, u_at_start, 0.0_f64, 0.0);
-            let threshold = 1e-4 * (u_max - u_min).abs().max(f64::MIN_POSITIVE);
+            // 1e-4 of the input's range over the run, and above rounding.
+            let threshold = (1e-4 * (u_max - u_min).abs()).max(1e-9 * u_initial.abs().max(1.0));
             let mut departs_at = None;
             for (j, &[t, u]) in before_start.iter().enumerate() {
                 lo = lo.min(u);
@@ -1106,6 +1110,7 @@ fn run<M: InverseModel + ?Sized>(
         data,
         input_column,
         input_bounds: [umin_bound, umax_bound],
+        reference: smoother.reference(),
     })
 }
 

@@ -7,15 +7,15 @@
 //! §4.3). When ∂q/∂η has eigenvalues in the right half-plane (a non-minimum-phase system) integrating forward
 //! from any η(t_0) blows up. Because the whole reference is known in advance, the *bounded* solution can be
 //! computed instead: with A = ∂q/∂η split into its stable and unstable invariant subspaces E^s ⊕ E^u, the
-//! bounded solution of the linearisation is (Devasia–Chen–Paden eq. 14–16)
+//! bounded solution of the linearisation is (Devasia, Chen & Paden 1996, the linear time-invariant case)
 //!
 //! ```text
 //! η(t) = ∫_{−∞}^{t} e^{A(t−τ)} P_s b(τ) dτ − ∫_{t}^{∞} e^{A(t−τ)} P_u b(τ) dτ,
 //! ```
 //!
 //! i.e. the stable part integrated forward from the start and the unstable part backward from the end, and for
-//! the nonlinear zero dynamics it is the solution of the boundary-value problem (Hunt–Meyer §3, Devasia–Chen–
-//! Paden §4: the nonlinear problem as a fixed point around this linear one)
+//! the nonlinear zero dynamics it is the solution of the boundary-value problem (Devasia–Chen–Paden solve it
+//! as a fixed point around this linear one, Hunt & Meyer as a boundary-value problem in η)
 //!
 //! ```text
 //! η̇ = q(ξ(t), η, y_d^(r)(t)) on [t_a, t_b],   P_s(a)(η(t_a) − η_a) = 0,   P_u(b)(η(t_b) − η_b) = 0,
@@ -32,7 +32,7 @@
 //!
 //! The boundary-value problem is discretised by Hermite–Simpson collocation (the 3-stage Lobatto IIIA method,
 //! order 4, A-stable and symmetric, so it treats decaying and growing modes alike; Ascher, Mattheij & Russell,
-//! *Numerical Solution of Boundary Value Problems for ODEs*, §5.6):
+//! *Numerical Solution of Boundary Value Problems for ODEs*, 1995, on symmetric collocation and dichotomy):
 //!
 //! ```text
 //! η_{j+1} − η_j − h/6 (q_j + 4 q_{j+½} + q_{j+1}) = 0,   η_{j+½} = (η_j + η_{j+1})/2 + h/8 (q_j − q_{j+1}),
@@ -43,7 +43,8 @@
 //! backward" of the linearisation). The Jacobian is block bidiagonal plus the boundary rows, a band matrix
 //! solved by Gaussian elimination with partial pivoting — for purely unstable zero dynamics an upper bidiagonal
 //! matrix, whose back substitution is exactly the backward integration. Newton starts from the quasi-static
-//! equilibria; it stops when the scaled step is below the tolerance, with a clear error if it does not converge.
+//! equilibria; it stops when the scaled step is below 1 % of the tolerance, with a clear error if it does not
+//! converge.
 //! The step size is chosen from the look-ahead, the solution computed on a grid and on the grid halved, and the
 //! difference (Richardson: error ≈ difference/15 for order 4) must be below the tolerance, else the grid is
 //! refined. Between nodes η is the collocation polynomial, the cubic Hermite interpolant of (η_j, q_j).
@@ -56,7 +57,7 @@ use crate::cycle::Cycle;
 use crate::simulate::{fmt_sig, SimulateError, SimulationOptions, MAX_DERIVATIVES};
 use crate::smoother::Smoother;
 
-/// The class of the zero dynamics along a run (see [`classify_reference`]).
+/// The class of the zero dynamics along a run: at the equilibria for every output level the reference passes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ZeroDynamicsClass {
@@ -252,6 +253,8 @@ pub(crate) struct Level {
     pub eigenvalues: Vec<[f64; 2]>,
     /// Number of eigenvalues with Re > tol; `None` if one lies on the imaginary axis or none are computable.
     pub unstable: Option<usize>,
+    /// Some eigenvalue has Re > tol (clearly unstable, whatever the others do).
+    pub has_unstable: bool,
 }
 
 /// The zero dynamics at the equilibria the reference passes.
@@ -264,6 +267,8 @@ pub(crate) struct ReferenceClassification {
     pub change: Option<(Level, Level)>,
     /// Number of unstable eigenvalues (where the class is not unknown).
     pub unstable: usize,
+    /// Some level has an eigenvalue with positive real part (beyond finite-difference noise).
+    pub any_unstable: bool,
 }
 
 fn level<M: InverseModel + ?Sized>(model: &M, y: f64, guess: Option<&[f64]>) -> Option<Level> {
@@ -276,16 +281,18 @@ fn level<M: InverseModel + ?Sized>(model: &M, y: f64, guess: Option<&[f64]>) -> 
     let tol = critical_tol(&a);
     let unstable = (!eigs.is_empty() && eigs.iter().all(|e| e[0].abs() > tol))
         .then(|| eigs.iter().filter(|e| e[0] > tol).count());
+    let has_unstable = eigs.iter().any(|e| e[0] > tol);
     Some(Level {
         y,
         eta,
         eigenvalues: eigs,
         unstable,
+        has_unstable,
     })
 }
 
 /// Classify the zero dynamics at the equilibria the reference passes: the output held at y for every y in
-/// [y_lo, y_hi] (17 levels each way from `y_start`, by continuation), linearised there (Isidori §4.3).
+/// [y_lo, y_hi] (16 levels each way from `y_start`, by continuation), linearised there (Isidori §4.3).
 pub(crate) fn classify_reference<M: InverseModel + ?Sized>(
     model: &M,
     y_start: f64,
@@ -299,6 +306,7 @@ pub(crate) fn classify_reference<M: InverseModel + ?Sized>(
             start: None,
             change: None,
             unstable: 0,
+            any_unstable: false,
         };
     }
     let Some(start) = level(model, y_start, None) else {
@@ -307,6 +315,7 @@ pub(crate) fn classify_reference<M: InverseModel + ?Sized>(
             start: None,
             change: None,
             unstable: 0,
+            any_unstable: false,
         };
     };
     let mut levels = vec![start.clone()];
@@ -335,27 +344,25 @@ pub(crate) fn classify_reference<M: InverseModel + ?Sized>(
         _ => ZeroDynamicsClass::Unknown,
     };
     let unstable = start.unstable.unwrap_or(0);
+    let any_unstable = levels.iter().any(|l| l.has_unstable);
     ReferenceClassification {
         class,
         start: Some(start),
         change,
         unstable,
+        any_unstable,
     }
 }
 
 /// True if any of the classified levels has an unstable eigenvalue (then causal inversion cannot work).
 pub(crate) fn any_unstable(c: &ReferenceClassification) -> bool {
-    let unstable = |l: &Level| l.eigenvalues.iter().any(|e| e[0] > 0.0) && l.unstable != Some(0);
-    c.start.as_ref().is_some_and(unstable)
-        || c.change
-            .as_ref()
-            .is_some_and(|(a, b)| unstable(a) || unstable(b))
+    c.any_unstable
 }
 
 // --- spectral projections ------------------------------------------------------------------------------
 
 /// The matrix sign function by the scaled Newton iteration X ← (μX + (μX)⁻¹)/2, μ = |det X|^(−1/m)
-/// (Higham, *Functions of Matrices*, §5.3); `None` if X becomes singular or it does not converge.
+/// (Higham, *Functions of Matrices*, 2008, ch. 5); `None` if X becomes singular or it does not converge.
 fn matrix_sign(a: &DMatrix<f64>) -> Option<DMatrix<f64>> {
     let m = a.nrows();
     let mut x = a.clone();
@@ -398,7 +405,7 @@ fn projector_rows(p: &DMatrix<f64>, k: usize) -> Option<DMatrix<f64>> {
 // --- the band solver ---------------------------------------------------------------------------------------
 
 /// A band matrix with kl sub- and ku super-diagonals in LAPACK's layout (room for the ku + kl super-diagonals
-/// that partial pivoting fills in), factorised in place (Golub & Van Loan, *Matrix Computations*, §4.3.5;
+/// that partial pivoting fills in), factorised in place (Golub & Van Loan, *Matrix Computations*, §4.3;
 /// LAPACK dgbtf2/dgbtrs).
 struct Band {
     n: usize,
@@ -878,13 +885,8 @@ impl<'a, M: InverseModel + ?Sized> Bvp<'a, M> {
                 if !step_norm.is_finite() {
                     return Err("the Newton step is not finite".into());
                 }
-                for (t, s) in trial
-                    .iter_mut()
-                    .zip(eta.iter())
-                    .zip(&step)
-                    .map(|((t, x), s)| (t, x + s))
-                {
-                    *t = s;
+                for ((t, x), s) in trial.iter_mut().zip(eta.iter()).zip(&step) {
+                    *t = x + s;
                 }
                 let tn = self.residual(&trial, &mut tq, &mut tem, &mut tqm, &mut tf);
                 if tn.is_finite()
@@ -1260,8 +1262,18 @@ pub(crate) fn plan_run<M: InverseModel + ?Sized>(
     )?;
     let tol = opts.stable_tol;
     let (t_pre, t_post) = decay_horizons(&p.eig_a, &p.eig_b, tol);
-    let need_pre = (t0 - (s_start - t_pre)).max(0.0);
-    let need_post = (s_end + t_post - t_end).max(0.0);
+    // A constant reference needs none: η rests at the equilibrium throughout.
+    let moving = smoother.support().is_some();
+    let need_pre = if moving {
+        (t0 - (s_start - t_pre)).max(0.0)
+    } else {
+        0.0
+    };
+    let need_post = if moving {
+        (s_end + t_post - t_end).max(0.0)
+    } else {
+        0.0
+    };
     let rate = |eigs: &[[f64; 2]], unstable: bool| {
         eigs.iter()
             .map(|e| e[0])
@@ -1288,7 +1300,9 @@ pub(crate) fn plan_run<M: InverseModel + ?Sized>(
     let samples = |t: f64| (t / dt - 1e-9).ceil().max(0.0) as usize;
     let (k_pre, k_post) = (samples(need_pre), samples(need_post));
     p.t_a = t0 - k_pre as f64 * dt;
-    p.t_b = t_end + k_post as f64 * dt;
+    // A grid of one sample (a cycle of zero duration) still needs an interval for the collocation: beyond the
+    // grid's end the reference is held, so the boundary condition may sit a second later.
+    p.t_b = (t_end + k_post as f64 * dt).max(p.t_a + 1.0);
     let settings = Settings {
         tol,
         h0: opts.lookahead / 25.0,

@@ -5,6 +5,8 @@
 //! * [`paper`] — the reproduction of Fröberg & Nielsen (IFAC AAC 2004): Fig. 4 (the kernel), Fig. 5 (ECE with a
 //!   5 s look-ahead), Fig. 7 (NEDC, inverse vs forward simulation with a PI driver) and the effect of the
 //!   look-ahead on the input and on fuel (see `docs/paper.md`).
+//! * [`stable`] — the zero dynamics and their stable inversion: the driveline's resonance in the internal states,
+//!   the diesel air path's stable inverse, causal blow-up and pre-actuation (see `docs/stable_inversion.md`).
 //!
 //! A group is a function `render(root, out) -> Result<Vec<PathBuf>, Failure>` that writes its SVGs into `out`
 //! and returns their paths. `--check` renders every figure into a scratch directory under `target/` and fails
@@ -13,6 +15,7 @@
 //! digits may differ between platforms, and a figure is a picture, not a golden file.
 
 pub mod paper;
+pub mod stable;
 
 use crate::Failure;
 use std::path::{Path, PathBuf};
@@ -30,6 +33,7 @@ pub fn render_all(root: &Path, out: &Path) -> Result<Vec<PathBuf>, Failure> {
     let mut written = Vec::new();
     // One line per group, in the order the figures are listed.
     written.extend(paper::render(root, out)?);
+    written.extend(stable::render(root, out)?);
     Ok(written)
 }
 
