@@ -19,13 +19,27 @@ fn engines(c: &mut Criterion) {
     group.throughput(Throughput::Elements(118_001));
     group.sample_size(30);
     for (engine, model, keep) in [
-        ("compiled, summary only", compiled.as_ref() as &dyn InverseModel, false),
+        (
+            "compiled, summary only",
+            compiled.as_ref() as &dyn InverseModel,
+            false,
+        ),
         ("compiled, all columns", compiled.as_ref(), true),
-        ("interpreted, summary only", &interp as &dyn InverseModel, false),
+        (
+            "interpreted, summary only",
+            &interp as &dyn InverseModel,
+            false,
+        ),
         ("interpreted, all columns", &interp, true),
     ] {
-        let opts = SimulationOptions { dt: 0.01, keep_series: keep, ..SimulationOptions::default() };
-        group.bench_function(engine, |b| b.iter(|| black_box(simulate(model, &cycle, &opts).unwrap().summary.samples)));
+        let opts = SimulationOptions {
+            dt: 0.01,
+            keep_series: keep,
+            ..SimulationOptions::default()
+        };
+        group.bench_function(engine, |b| {
+            b.iter(|| black_box(simulate(model, &cycle, &opts).unwrap().summary.samples))
+        });
     }
     group.finish();
 }

@@ -15,7 +15,11 @@ fn root() -> PathBuf {
 
 fn run<M: InverseModel + ?Sized>(model: &M, dt: f64, engine: &str) -> SimulationResult {
     let cycle = Cycle::builtin("nedc").unwrap();
-    let opts = SimulationOptions { dt, engine: engine.to_string(), ..SimulationOptions::default() };
+    let opts = SimulationOptions {
+        dt,
+        engine: engine.to_string(),
+        ..SimulationOptions::default()
+    };
     simulate(model, &cycle, &opts).unwrap()
 }
 
@@ -25,14 +29,24 @@ fn psi_inv_jacobian(d: &Derivation) -> Option<Tape> {
     let coords: Vec<Symbol> = d.xi.iter().chain(&d.eta).copied().collect();
     let mut exprs: Vec<Id> = Vec::new();
     for sol in &d.psi_inv {
-        let Solution::Closed(e) = sol else { return None };
+        let Solution::Closed(e) = sol else {
+            return None;
+        };
         for &c in &coords {
             exprs.push(pool.diff(*e, c));
         }
     }
-    let inputs: Vec<Symbol> = coords.iter().copied().chain(d.model.parameters.iter().map(|p| p.symbol)).collect();
+    let inputs: Vec<Symbol> = coords
+        .iter()
+        .copied()
+        .chain(d.model.parameters.iter().map(|p| p.symbol))
+        .collect();
     let values: Vec<f64> = d.model.parameters.iter().map(|p| p.value).collect();
-    Some(Tape::compile(&pool, &exprs, &inputs).unwrap().specialize(&values))
+    Some(
+        Tape::compile(&pool, &exprs, &inputs)
+            .unwrap()
+            .specialize(&values),
+    )
 }
 
 #[test]
@@ -45,7 +59,12 @@ fn si_engine_inverse_satisfies_the_original_equations_on_nedc() {
     let (r, n) = (d.relative_degree, d.n());
     let yd: Vec<&[f64]> = (0..=r).map(|k| res.yd(k).unwrap()).collect();
     let u = res.input();
-    let xs: Vec<&[f64]> = d.model.states.iter().map(|s| res.column(&s.name).unwrap()).collect();
+    let xs: Vec<&[f64]> = d
+        .model
+        .states
+        .iter()
+        .map(|s| res.column(&s.name).unwrap())
+        .collect();
     // Per sample and state: the residual of dx/dt = f + g·u, relative to the magnitude of the terms that
     // balance, |f_s| + |g_s·u|, floored at 1e-6 of that magnitude's largest value over the run (at a constant
     // speed both sides are ~0 while f's own parts — traction and resistance — are not).
@@ -88,7 +107,8 @@ fn compiled_and_interpreted_si_engine_agree_on_nedc() {
     let path = root().join("models/si_engine.toml");
     let d = derive_file(&path).unwrap();
     let interp = Interpreter::new(&d).unwrap();
-    let compiled = invsim_models::by_hash(&d.model.source_hash).expect("si_engine is a built-in model");
+    let compiled =
+        invsim_models::by_hash(&d.model.source_hash).expect("si_engine is a built-in model");
     let a = run(&interp, 0.01, "interpreted");
     let b = run(compiled.as_ref(), 0.01, "compiled");
     assert_eq!(a.columns, b.columns);

@@ -27,27 +27,40 @@ impl Failure {
     /// A problem with the user's input (a bad model file, stale files under `--check`): exit status 2 for
     /// inputs, as `invsim` uses it.
     pub fn user(message: impl Into<String>) -> Failure {
-        Failure { message: message.into(), code: 2 }
+        Failure {
+            message: message.into(),
+            code: 2,
+        }
     }
     /// A check that found differences: exit status 1.
     pub fn check(message: impl Into<String>) -> Failure {
-        Failure { message: message.into(), code: 1 }
+        Failure {
+            message: message.into(),
+            code: 1,
+        }
     }
     /// An I/O problem: exit status 1.
     pub fn io(message: impl Into<String>) -> Failure {
-        Failure { message: message.into(), code: 1 }
+        Failure {
+            message: message.into(),
+            code: 1,
+        }
     }
 }
 
 /// The workspace root (the directory above `xtask/`).
 pub fn workspace_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().map(Path::to_path_buf).unwrap_or_else(|| PathBuf::from("."))
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| PathBuf::from("."))
 }
 
 /// The model files `models/*.toml` under `root`, as paths relative to `root`, sorted.
 pub fn model_files(root: &Path) -> Result<Vec<PathBuf>, Failure> {
     let dir = root.join("models");
-    let entries = std::fs::read_dir(&dir).map_err(|e| Failure::io(format!("cannot read {}: {e}", dir.display())))?;
+    let entries = std::fs::read_dir(&dir)
+        .map_err(|e| Failure::io(format!("cannot read {}: {e}", dir.display())))?;
     let mut files: Vec<PathBuf> = entries
         .filter_map(|e| e.ok())
         .map(|e| e.path())
@@ -62,8 +75,10 @@ pub fn model_files(root: &Path) -> Result<Vec<PathBuf>, Failure> {
 /// rendered from it is the same wherever the repository lives.
 pub fn derive_relative(root: &Path, rel: &Path) -> Result<invsim_inversion::Derivation, Failure> {
     let path = root.join(rel);
-    let bytes = std::fs::read(&path).map_err(|e| Failure::io(format!("cannot read {}: {e}", path.display())))?;
-    let model = invsim_inversion::Model::from_bytes(rel, &bytes).map_err(|e| Failure::user(e.to_string()))?;
+    let bytes = std::fs::read(&path)
+        .map_err(|e| Failure::io(format!("cannot read {}: {e}", path.display())))?;
+    let model = invsim_inversion::Model::from_bytes(rel, &bytes)
+        .map_err(|e| Failure::user(e.to_string()))?;
     invsim_inversion::Derivation::new(model).map_err(|e| Failure::user(e.to_string()))
 }
 
@@ -74,8 +89,10 @@ pub fn write_if_changed(path: &Path, text: &str) -> Result<bool, Failure> {
         return Ok(false);
     }
     if let Some(dir) = path.parent() {
-        std::fs::create_dir_all(dir).map_err(|e| Failure::io(format!("cannot create {}: {e}", dir.display())))?;
+        std::fs::create_dir_all(dir)
+            .map_err(|e| Failure::io(format!("cannot create {}: {e}", dir.display())))?;
     }
-    std::fs::write(path, text).map_err(|e| Failure::io(format!("cannot write {}: {e}", path.display())))?;
+    std::fs::write(path, text)
+        .map_err(|e| Failure::io(format!("cannot write {}: {e}", path.display())))?;
     Ok(true)
 }

@@ -46,7 +46,11 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let root = workspace_root();
     // `gen` reports a bad model exactly as `invsim derive` does.
-    let prefix = if matches!(cli.task, Task::Gen { .. }) { "invsim" } else { "xtask" };
+    let prefix = if matches!(cli.task, Task::Gen { .. }) {
+        "invsim"
+    } else {
+        "xtask"
+    };
     let result: Result<(), Failure> = match cli.task {
         Task::Gen { model, out } => gen::run(&root, &model, out.as_deref()).map(|w| {
             println!("wrote {}\nwrote {}", w.rust.display(), w.markdown.display());

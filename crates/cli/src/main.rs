@@ -7,8 +7,8 @@
 mod engine;
 
 use clap::{Parser, Subcommand, ValueEnum};
-use invsim_runtime::{output, plot, simulate, Cycle, SimulationOptions};
 use invsim_runtime::forward::{self, Bounds, ForwardOptions, Method};
+use invsim_runtime::{output, plot, simulate, Cycle, SimulationOptions};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -166,10 +166,16 @@ struct Failure {
 
 impl Failure {
     fn user(message: impl Into<String>) -> Failure {
-        Failure { message: message.into(), code: 2 }
+        Failure {
+            message: message.into(),
+            code: 2,
+        }
     }
     fn io(message: impl Into<String>) -> Failure {
-        Failure { message: message.into(), code: 1 }
+        Failure {
+            message: message.into(),
+            code: 1,
+        }
     }
 }
 
@@ -194,37 +200,50 @@ fn derive(path: &Path, format: Format) -> Result<(), Failure> {
     let text = match format {
         Format::Text => d.to_text(),
         Format::Json => {
-            let mut s = serde_json::to_string_pretty(&d.to_json()).map_err(|e| Failure::io(e.to_string()))?;
+            let mut s = serde_json::to_string_pretty(&d.to_json())
+                .map_err(|e| Failure::io(e.to_string()))?;
             s.push('\n');
             s
         }
         Format::Markdown => d.to_markdown(),
     };
     let mut out = std::io::stdout().lock();
-    out.write_all(text.as_bytes()).map_err(|e| Failure::io(format!("cannot write to stdout: {e}")))?;
+    out.write_all(text.as_bytes())
+        .map_err(|e| Failure::io(format!("cannot write to stdout: {e}")))?;
     Ok(())
 }
 
 /// Parse `NAME=VALUE`.
 fn parse_set(s: &str) -> Result<(String, f64), Failure> {
-    let (name, value) = s
-        .split_once('=')
-        .ok_or_else(|| Failure::user(format!("--set `{s}`: expected NAME=VALUE, e.g. --set m=1500")))?;
-    let v: f64 = value.trim().parse().map_err(|_| {
-        Failure::user(format!("--set `{s}`: `{}` is not a number", value.trim()))
+    let (name, value) = s.split_once('=').ok_or_else(|| {
+        Failure::user(format!(
+            "--set `{s}`: expected NAME=VALUE, e.g. --set m=1500"
+        ))
     })?;
+    let v: f64 = value
+        .trim()
+        .parse()
+        .map_err(|_| Failure::user(format!("--set `{s}`: `{}` is not a number", value.trim())))?;
     if !v.is_finite() {
-        return Err(Failure::user(format!("--set `{s}`: the value must be finite")));
+        return Err(Failure::user(format!(
+            "--set `{s}`: the value must be finite"
+        )));
     }
     Ok((name.trim().to_string(), v))
 }
 
 fn run_simulate(args: &SimulateArgs) -> Result<(), Failure> {
-    let sets: Vec<(String, f64)> = args.set.iter().map(|s| parse_set(s)).collect::<Result<_, _>>()?;
+    let sets: Vec<(String, f64)> = args
+        .set
+        .iter()
+        .map(|s| parse_set(s))
+        .collect::<Result<_, _>>()?;
     let cycle = Cycle::load(&args.cycle).map_err(|e| Failure::user(e.to_string()))?;
     let mut model = engine::load(&args.model, args.engine)?;
     for (name, value) in &sets {
-        model.set_param(name, *value).map_err(|e| Failure::user(format!("--set {name}: {e}")))?;
+        model
+            .set_param(name, *value)
+            .map_err(|e| Failure::user(format!("--set {name}: {e}")))?;
     }
     let opts = SimulationOptions {
         lookahead: args.lookahead,
@@ -238,12 +257,17 @@ fn run_simulate(args: &SimulateArgs) -> Result<(), Failure> {
         ..SimulationOptions::default()
     };
     let result = simulate(model.as_model(), &cycle, &opts).map_err(|e| {
-        Failure::user(format!("simulation of `{}` on `{}` stopped: {e}", args.model.display(), cycle.name))
+        Failure::user(format!(
+            "simulation of `{}` on `{}` stopped: {e}",
+            args.model.display(),
+            cycle.name
+        ))
     })?;
     if let Some(path) = &args.out {
         let file = std::fs::File::create(path)
             .map_err(|e| Failure::io(format!("cannot create {}: {e}", path.display())))?;
-        output::write_csv(&result, file).map_err(|e| Failure::io(format!("cannot write {}: {e}", path.display())))?;
+        output::write_csv(&result, file)
+            .map_err(|e| Failure::io(format!("cannot write {}: {e}", path.display())))?;
     }
     if let Some(path) = &args.summary_json {
         let file = std::fs::File::create(path)
@@ -261,11 +285,17 @@ fn run_simulate(args: &SimulateArgs) -> Result<(), Failure> {
 }
 
 fn run_forward(args: &ForwardArgs) -> Result<(), Failure> {
-    let sets: Vec<(String, f64)> = args.set.iter().map(|s| parse_set(s)).collect::<Result<_, _>>()?;
+    let sets: Vec<(String, f64)> = args
+        .set
+        .iter()
+        .map(|s| parse_set(s))
+        .collect::<Result<_, _>>()?;
     let cycle = Cycle::load(&args.cycle).map_err(|e| Failure::user(e.to_string()))?;
     let mut model = engine::load(&args.model, args.engine)?;
     for (name, value) in &sets {
-        model.set_param(name, *value).map_err(|e| Failure::user(format!("--set {name}: {e}")))?;
+        model
+            .set_param(name, *value)
+            .map_err(|e| Failure::user(format!("--set {name}: {e}")))?;
     }
     let opts = ForwardOptions {
         dt: args.dt,

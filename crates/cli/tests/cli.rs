@@ -82,9 +82,14 @@ fn shared_bad_models_exit_2_with_their_errors() {
     for (name, needle) in [
         ("bad_no_relative_degree", "does not depend on the input"),
         ("bad_nonaffine", "not affine"),
-        ("bad_unknown_symbol", "bad_unknown_symbol.toml:8:23: unknown name `c9`"),
+        (
+            "bad_unknown_symbol",
+            "bad_unknown_symbol.toml:8:23: unknown name `c9`",
+        ),
     ] {
-        let Some(p) = shared(&format!("models/{name}.toml")) else { return };
+        let Some(p) = shared(&format!("models/{name}.toml")) else {
+            return;
+        };
         let o = invsim(&["derive", &p]);
         assert_eq!(o.status.code(), Some(2), "{name}");
         let e = stderr(&o);
@@ -104,12 +109,52 @@ fn missing_model_file_is_a_user_error() {
 fn bad_options_exit_2() {
     for args in [
         vec!["simulate", "models/si_engine.toml"],
-        vec!["simulate", "models/si_engine.toml", "--cycle", "nedc", "--dt", "-1"],
-        vec!["simulate", "models/si_engine.toml", "--cycle", "nedc", "--lookahead", "0"],
-        vec!["simulate", "models/si_engine.toml", "--cycle", "nedc", "--set", "m"],
-        vec!["simulate", "models/si_engine.toml", "--cycle", "nedc", "--set", "nope=3"],
-        vec!["simulate", "models/si_engine.toml", "--cycle", "nedc", "--set", "m=abc"],
-        vec!["simulate", "models/si_engine.toml", "--cycle", "no_such_cycle"],
+        vec![
+            "simulate",
+            "models/si_engine.toml",
+            "--cycle",
+            "nedc",
+            "--dt",
+            "-1",
+        ],
+        vec![
+            "simulate",
+            "models/si_engine.toml",
+            "--cycle",
+            "nedc",
+            "--lookahead",
+            "0",
+        ],
+        vec![
+            "simulate",
+            "models/si_engine.toml",
+            "--cycle",
+            "nedc",
+            "--set",
+            "m",
+        ],
+        vec![
+            "simulate",
+            "models/si_engine.toml",
+            "--cycle",
+            "nedc",
+            "--set",
+            "nope=3",
+        ],
+        vec![
+            "simulate",
+            "models/si_engine.toml",
+            "--cycle",
+            "nedc",
+            "--set",
+            "m=abc",
+        ],
+        vec![
+            "simulate",
+            "models/si_engine.toml",
+            "--cycle",
+            "no_such_cycle",
+        ],
         vec!["derive", "models/si_engine.toml", "--format", "yaml"],
         vec!["frobnicate"],
     ] {
@@ -117,8 +162,19 @@ fn bad_options_exit_2() {
         assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
         assert!(!stderr(&o).contains("panicked"), "{args:?}");
     }
-    let o = invsim(&["simulate", "models/si_engine.toml", "--cycle", "nedc", "--set", "nope=3"]);
-    assert!(stderr(&o).contains("unknown parameter `nope`"), "{}", stderr(&o));
+    let o = invsim(&[
+        "simulate",
+        "models/si_engine.toml",
+        "--cycle",
+        "nedc",
+        "--set",
+        "nope=3",
+    ]);
+    assert!(
+        stderr(&o).contains("unknown parameter `nope`"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 #[test]
@@ -141,7 +197,10 @@ fn simulate_writes_csv_and_summary() {
     assert!(o.status.success(), "{}", stderr(&o));
     let text = std::fs::read_to_string(&csv).unwrap();
     let mut lines = text.lines();
-    assert_eq!(lines.next().unwrap(), "t,yd_0,yd_1,yd_2,m_at,v,p_i,fuel,fuel_volume,n_e,T_e");
+    assert_eq!(
+        lines.next().unwrap(),
+        "t,yd_0,yd_1,yd_2,m_at,v,p_i,fuel,fuel_volume,n_e,T_e"
+    );
     assert_eq!(text.lines().count(), 1 + 11_801);
     let s: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     assert_eq!(s["cycle"], "nedc");
@@ -162,7 +221,14 @@ fn simulate_writes_csv_and_summary() {
 fn simulate_parameter_override_changes_fuel() {
     let run = |extra: &[&str]| -> f64 {
         let json = tmp(&format!("set{}.json", extra.len()));
-        let mut args = vec!["simulate", "models/si_engine.toml", "--cycle", "ece", "--summary-json", json.to_str().unwrap()];
+        let mut args = vec![
+            "simulate",
+            "models/si_engine.toml",
+            "--cycle",
+            "ece",
+            "--summary-json",
+            json.to_str().unwrap(),
+        ];
         args.extend_from_slice(extra);
         let o = invsim(&args);
         assert!(o.status.success(), "{}", stderr(&o));
@@ -171,13 +237,18 @@ fn simulate_parameter_override_changes_fuel() {
     };
     let base = run(&[]);
     let heavy = run(&["--set", "m=1800"]);
-    assert!(heavy > base * 1.05, "heavier car must burn more: {heavy} vs {base}");
+    assert!(
+        heavy > base * 1.05,
+        "heavier car must burn more: {heavy} vs {base}"
+    );
 }
 
 #[test]
 fn simulate_each_shared_cycle() {
     for name in ["udds", "hwfet", "wltc_3b"] {
-        let Some(p) = shared(&format!("cycles/{name}.csv")) else { return };
+        let Some(p) = shared(&format!("cycles/{name}.csv")) else {
+            return;
+        };
         let o = invsim(&["simulate", "models/si_engine.toml", "--cycle", &p]);
         assert!(o.status.success(), "{name}: {}", stderr(&o));
         assert!(String::from_utf8_lossy(&o.stdout).contains(&format!("cycle: {name}")));
@@ -196,7 +267,12 @@ fn malformed_cycle_files_exit_2_naming_the_row() {
     for (file, body, needle) in cases {
         let p = tmp(file);
         std::fs::write(&p, body).unwrap();
-        let o = invsim(&["simulate", "models/si_engine.toml", "--cycle", p.to_str().unwrap()]);
+        let o = invsim(&[
+            "simulate",
+            "models/si_engine.toml",
+            "--cycle",
+            p.to_str().unwrap(),
+        ]);
         assert_eq!(o.status.code(), Some(2), "{file}");
         let e = stderr(&o);
         assert!(e.to_lowercase().contains(needle), "{file}: {e}");

@@ -26,7 +26,9 @@ fn tape(c: &mut Criterion) {
     let model = Model::from_str(Path::new("si_engine.toml"), &si_engine_text()).unwrap();
     let d = Derivation::new(model).unwrap();
     let interp = Interpreter::new(&d).unwrap();
-    let points: Vec<[f64; 2]> = (0..1024).map(|i| [0.5 + 0.03 * i as f64, -2.0 + 0.004 * i as f64]).collect();
+    let points: Vec<[f64; 2]> = (0..1024)
+        .map(|i| [0.5 + 0.03 * i as f64, -2.0 + 0.004 * i as f64])
+        .collect();
     c.bench_function("interpreter alpha + beta per point (si_engine)", |b| {
         let mut k = 0;
         b.iter(|| {
@@ -36,9 +38,15 @@ fn tape(c: &mut Criterion) {
         })
     });
     // The tape of (α, β) specialised to the parameters, evaluated over a block of 1024 points.
-    let syms: Vec<_> = d.xi.iter().copied().chain(d.model.parameters.iter().map(|p| p.symbol)).collect();
+    let syms: Vec<_> =
+        d.xi.iter()
+            .copied()
+            .chain(d.model.parameters.iter().map(|p| p.symbol))
+            .collect();
     let values: Vec<f64> = d.model.parameters.iter().map(|p| p.value).collect();
-    let ab = invsim_expr::Tape::compile(d.pool(), &[d.alpha, d.beta], &syms).unwrap().specialize(&values);
+    let ab = invsim_expr::Tape::compile(d.pool(), &[d.alpha, d.beta], &syms)
+        .unwrap()
+        .specialize(&values);
     let xi1: Vec<f64> = points.iter().map(|p| p[0]).collect();
     let xi2: Vec<f64> = points.iter().map(|p| p[1]).collect();
     let (mut a, mut bb) = (vec![0.0; 1024], vec![0.0; 1024]);

@@ -25,7 +25,13 @@ pub enum DeriveError {
          relative degree and cannot be inverted for this output; choose an output the input reaches, or \
          check that the input enters the right-hand sides"
     )]
-    NoRelativeDegree { file: String, output: String, input: String, n: usize, last: usize },
+    NoRelativeDegree {
+        file: String,
+        output: String,
+        input: String,
+        n: usize,
+        last: usize,
+    },
     #[error(
         "{file}: no choice of {m} internal state(s) η completes ξ = (h, …, L_f^(r-1) h) to a coordinate \
          change: ∂(ξ, η)/∂x is singular for every choice (the L_f^k h are not independent)"
@@ -140,7 +146,9 @@ fn generically_nonsingular_or_wide(
     wide: &[HashMap<Symbol, f64>],
 ) -> bool {
     let finite_somewhere = points.iter().any(|p| {
-        rows.iter().flatten().all(|&e| pool.eval(e, p).is_ok_and(|v| v.is_finite()))
+        rows.iter()
+            .flatten()
+            .all(|&e| pool.eval(e, p).is_ok_and(|v| v.is_finite()))
     });
     if finite_somewhere {
         generically_nonsingular(pool, rows, points)
@@ -236,24 +244,36 @@ impl Derivation {
         let alpha_x = lie[r];
 
         let xi: Vec<Symbol> = (1..=r).map(|i| pool.symbol(&format!("xi{i}"))).collect();
-        let eta: Vec<Symbol> = (1..=n - r).map(|i| pool.symbol(&format!("eta{i}"))).collect();
+        let eta: Vec<Symbol> = (1..=n - r)
+            .map(|i| pool.symbol(&format!("eta{i}")))
+            .collect();
         let yr = pool.symbol("yr");
 
         // Choose η among the states.
         let points = probe_points(&model, 12, 0xC0FFEE);
-        let wide = if n > r { wide_probe_points(&model, 512, 0x5CA1E) } else { Vec::new() };
+        let wide = if n > r {
+            wide_probe_points(&model, 512, 0x5CA1E)
+        } else {
+            Vec::new()
+        };
         let pool = &mut model.pool;
-        let jac_xi: Vec<Vec<Id>> =
-            (0..r).map(|k| states.iter().map(|&x| pool.diff(lie[k], x)).collect()).collect();
+        let jac_xi: Vec<Vec<Id>> = (0..r)
+            .map(|k| states.iter().map(|&x| pool.diff(lie[k], x)).collect())
+            .collect();
         let mut candidates: Vec<usize> = (0..n).collect();
-        let g_zero: Vec<bool> = g.iter().map(|&gi| zero_test(pool, gi, &nominal).is_zero()).collect();
+        let g_zero: Vec<bool> = g
+            .iter()
+            .map(|&gi| zero_test(pool, gi, &nominal).is_zero())
+            .collect();
         candidates.sort_by_key(|&i| (!g_zero[i], i));
         let m = n - r;
         let mut chosen: Option<Vec<usize>> = None;
         for combo in combinations(&candidates, m) {
             let mut rows = jac_xi.clone();
             for &c in &combo {
-                let row: Vec<Id> = (0..n).map(|j| if j == c { pool.one() } else { pool.zero() }).collect();
+                let row: Vec<Id> = (0..n)
+                    .map(|j| if j == c { pool.one() } else { pool.zero() })
+                    .collect();
                 rows.push(row);
             }
             if generically_nonsingular_or_wide(pool, &rows, &points, &wide) {
@@ -278,7 +298,11 @@ impl Derivation {
         let mut jacobian = jac_xi;
         for &c in &eta_states {
             psi.push(pool.var(states[c]));
-            jacobian.push((0..n).map(|j| if j == c { pool.one() } else { pool.zero() }).collect());
+            jacobian.push(
+                (0..n)
+                    .map(|j| if j == c { pool.one() } else { pool.zero() })
+                    .collect(),
+            );
         }
 
         // ψ⁻¹ by isolating one unknown at a time.
@@ -294,8 +318,10 @@ impl Derivation {
                 pool.sub(lie[k], x)
             })
             .collect();
-        let unknown_states: Vec<Symbol> =
-            (0..n).filter(|i| !eta_states.contains(i)).map(|i| states[i]).collect();
+        let unknown_states: Vec<Symbol> = (0..n)
+            .filter(|i| !eta_states.contains(i))
+            .map(|i| states[i])
+            .collect();
         let mut partial: HashMap<Symbol, Id> = HashMap::new();
         loop {
             let mut progress = false;
@@ -460,7 +486,9 @@ impl Derivation {
 
     /// Are all entries of ψ⁻¹ in closed form?
     pub fn psi_inv_closed(&self) -> bool {
-        self.psi_inv.iter().all(|s| matches!(s, Solution::Closed(_)))
+        self.psi_inv
+            .iter()
+            .all(|s| matches!(s, Solution::Closed(_)))
     }
 }
 
@@ -518,7 +546,13 @@ pub fn isolate(pool: &mut Pool, e: Id, x: Symbol) -> Option<(Id, Vec<(Id, String
 }
 
 /// Solve K(x) = rhs for x by undoing the outermost invertible operation of K repeatedly.
-fn invert_kernel(pool: &mut Pool, k: Id, rhs: Id, x: Symbol, conds: &mut Vec<(Id, String)>) -> Option<Id> {
+fn invert_kernel(
+    pool: &mut Pool,
+    k: Id,
+    rhs: Id,
+    x: Symbol,
+    conds: &mut Vec<(Id, String)>,
+) -> Option<Id> {
     if pool.as_symbol(k) == Some(x) {
         return Some(rhs);
     }
@@ -531,7 +565,10 @@ fn invert_kernel(pool: &mut Pool, k: Id, rhs: Id, x: Symbol, conds: &mut Vec<(Id
                 Some(n) if n.as_integer().is_some_and(|i| i % 2 != 0) => {}
                 Some(n) if n.as_integer().is_some() => {
                     conds.push((rhs, format!("{} ≥ 0", pool.display(rhs))));
-                    conds.push((b, format!("{} ≥ 0 (the positive root is taken)", pool.display(b))));
+                    conds.push((
+                        b,
+                        format!("{} ≥ 0 (the positive root is taken)", pool.display(b)),
+                    ));
                 }
                 _ => conds.push((rhs, format!("{} ≥ 0", pool.display(rhs)))),
             }
@@ -556,7 +593,10 @@ fn invert_kernel(pool: &mut Pool, k: Id, rhs: Id, x: Symbol, conds: &mut Vec<(Id
                 Func::Log => pool.call(Func::Exp, rhs),
                 Func::Atan => pool.call(Func::Tan, rhs),
                 Func::Tan => {
-                    conds.push((a, format!("|{}| < pi/2 (principal branch)", pool.display(a))));
+                    conds.push((
+                        a,
+                        format!("|{}| < pi/2 (principal branch)", pool.display(a)),
+                    ));
                     pool.call(Func::Atan, rhs)
                 }
                 Func::Sinh => {
@@ -595,10 +635,16 @@ fn invert_kernel(pool: &mut Pool, k: Id, rhs: Id, x: Symbol, conds: &mut Vec<(Id
                     let ratio = pool.div(rhs, sq);
                     let asin = pool.call(Func::Atan, ratio);
                     if f == Func::Sin {
-                        conds.push((a, format!("|{}| ≤ pi/2 (principal branch)", pool.display(a))));
+                        conds.push((
+                            a,
+                            format!("|{}| ≤ pi/2 (principal branch)", pool.display(a)),
+                        ));
                         asin
                     } else {
-                        conds.push((a, format!("0 ≤ {} ≤ pi (principal branch)", pool.display(a))));
+                        conds.push((
+                            a,
+                            format!("0 ≤ {} ≤ pi (principal branch)", pool.display(a)),
+                        ));
                         let pi = pool.pi();
                         let hp = pool.mul(&[half, pi]);
                         pool.sub(hp, asin)
@@ -610,7 +656,8 @@ fn invert_kernel(pool: &mut Pool, k: Id, rhs: Id, x: Symbol, conds: &mut Vec<(Id
         }
         Node::Add(ts) => {
             // Exactly one term contains x: T = rhs − (others).
-            let (with, without): (Vec<Id>, Vec<Id>) = ts.iter().partition(|&&t| pool.depends_on(t, x));
+            let (with, without): (Vec<Id>, Vec<Id>) =
+                ts.iter().partition(|&&t| pool.depends_on(t, x));
             if with.len() != 1 {
                 return None;
             }
@@ -619,7 +666,8 @@ fn invert_kernel(pool: &mut Pool, k: Id, rhs: Id, x: Symbol, conds: &mut Vec<(Id
             invert_kernel(pool, with[0], s, x, conds)
         }
         Node::Mul(fs) => {
-            let (with, without): (Vec<Id>, Vec<Id>) = fs.iter().partition(|&&t| pool.depends_on(t, x));
+            let (with, without): (Vec<Id>, Vec<Id>) =
+                fs.iter().partition(|&&t| pool.depends_on(t, x));
             if with.len() != 1 {
                 return None;
             }
@@ -636,7 +684,13 @@ fn invert_kernel(pool: &mut Pool, k: Id, rhs: Id, x: Symbol, conds: &mut Vec<(Id
 
 /// Describe where β(ξ, η) vanishes: symbolic factors that are coordinates (β = 0 on ξ1 = 0), parameter
 /// factors that are zero at their nominal values, and sign changes of other factors found by probing.
-fn singular_set(pool: &mut Pool, beta: Id, nominal: &HashMap<Symbol, f64>, xi: &[Symbol], eta: &[Symbol]) -> Vec<String> {
+fn singular_set(
+    pool: &mut Pool,
+    beta: Id,
+    nominal: &HashMap<Symbol, f64>,
+    xi: &[Symbol],
+    eta: &[Symbol],
+) -> Vec<String> {
     let mut out = Vec::new();
     if pool.as_number(beta).is_some() {
         return out;
@@ -660,7 +714,10 @@ fn singular_set(pool: &mut Pool, beta: Id, nominal: &HashMap<Symbol, f64>, xi: &
             // A parameter combination: singular only for particular parameter values.
             if let Ok(v) = pool.eval(base, nominal) {
                 if v == 0.0 && !negative_power {
-                    out.push(format!("{} = 0 at the nominal parameter values", pool.display(base)));
+                    out.push(format!(
+                        "{} = 0 at the nominal parameter values",
+                        pool.display(base)
+                    ));
                 }
             }
             continue;
@@ -669,7 +726,11 @@ fn singular_set(pool: &mut Pool, beta: Id, nominal: &HashMap<Symbol, f64>, xi: &
             continue;
         }
         if pool.as_symbol(base).is_some() {
-            out.push(format!("on {} = 0 (β = {})", pool.display(base), pool.display(beta)));
+            out.push(format!(
+                "on {} = 0 (β = {})",
+                pool.display(base),
+                pool.display(beta)
+            ));
             continue;
         }
         // Probe for a sign change of the factor over random coordinates.
@@ -708,7 +769,10 @@ mod tests {
 
     #[test]
     fn combinations_in_order() {
-        assert_eq!(combinations(&[0, 1, 2], 2), vec![vec![0, 1], vec![0, 2], vec![1, 2]]);
+        assert_eq!(
+            combinations(&[0, 1, 2], 2),
+            vec![vec![0, 1], vec![0, 2], vec![1, 2]]
+        );
         assert_eq!(combinations(&[5, 7], 0), vec![Vec::<usize>::new()]);
         assert_eq!(combinations(&[5, 7], 2), vec![vec![5, 7]]);
     }

@@ -8,7 +8,9 @@
 
 use crate::derive::{Derivation, Solution};
 use invsim_expr::{Id, Symbol, Tape};
-use invsim_model_api::{set_param_checked, InverseModel, ModelError, ModelInfo, OutputInfo, ReferenceMap};
+use invsim_model_api::{
+    set_param_checked, InverseModel, ModelError, ModelInfo, OutputInfo, ReferenceMap,
+};
 use thiserror::Error;
 
 /// A tape could not be built (an expression referred to a symbol outside its inputs — a bug in the
@@ -44,7 +46,11 @@ pub fn model_info(d: &Derivation) -> ModelInfo {
         outputs: m
             .outputs
             .iter()
-            .map(|o| OutputInfo { name: o.name.clone(), unit: o.unit.clone(), accumulate: o.accumulate })
+            .map(|o| OutputInfo {
+                name: o.name.clone(),
+                unit: o.unit.clone(),
+                accumulate: o.accumulate,
+            })
             .collect(),
         parameters: m.parameters.iter().map(|p| p.name.clone()).collect(),
     }
@@ -96,7 +102,12 @@ pub struct Interpreter {
     special: Tapes,
 }
 
-fn compile(d: &Derivation, what: &'static str, exprs: &[Id], inputs: &[Symbol]) -> Result<Tape, InterpretError> {
+fn compile(
+    d: &Derivation,
+    what: &'static str,
+    exprs: &[Id],
+    inputs: &[Symbol],
+) -> Result<Tape, InterpretError> {
     Tape::compile(d.pool(), exprs, inputs).map_err(|source| InterpretError { what, source })
 }
 
@@ -126,9 +137,15 @@ impl Interpreter {
                 .collect();
             exprs.push(d.alpha);
             exprs.push(d.beta);
-            (compile(d, "ψ⁻¹, α, β", &exprs, &xi_eta_p)?, compile(d, "α, β", &[d.alpha, d.beta], &xi_eta_p)?)
+            (
+                compile(d, "ψ⁻¹, α, β", &exprs, &xi_eta_p)?,
+                compile(d, "α, β", &[d.alpha, d.beta], &xi_eta_p)?,
+            )
         } else {
-            (compile(d, "ψ⁻¹, α, β", &[], &xi_eta_p)?, compile(d, "α, β", &[], &xi_eta_p)?)
+            (
+                compile(d, "ψ⁻¹, α, β", &[], &xi_eta_p)?,
+                compile(d, "α, β", &[], &xi_eta_p)?,
+            )
         };
         let mut newton_exprs: Vec<Id> = d.psi.clone();
         for row in &d.jacobian {
@@ -139,20 +156,41 @@ impl Interpreter {
         let newton = compile(d, "ψ and its Jacobian", &newton_exprs, &x_p)?;
         let h = compile(d, "h", &[m.output.h], &x_p)?;
         let zero = if closed {
-            compile(d, "zero dynamics", &d.zero_dynamics, &cat(&[&d.xi, &d.eta, &[d.yr], &params]))?
+            compile(
+                d,
+                "zero dynamics",
+                &d.zero_dynamics,
+                &cat(&[&d.xi, &d.eta, &[d.yr], &params]),
+            )?
         } else {
-            compile(d, "zero dynamics", &d.zero_dynamics_x, &cat(&[&states, &[d.yr], &params]))?
+            compile(
+                d,
+                "zero dynamics",
+                &d.zero_dynamics_x,
+                &cat(&[&states, &[d.yr], &params]),
+            )?
         };
         let rhs: Vec<Id> = m.states.iter().map(|s| s.rhs).collect();
         let rhs = compile(d, "f + g u", &rhs, &x_u_p)?;
         let outs: Vec<Id> = m.outputs.iter().map(|o| o.expr).collect();
         let outputs = compile(d, "outputs", &outs, &x_u_p)?;
-        let generic = Tapes { invert, alpha_beta, newton, h, zero, rhs, outputs };
+        let generic = Tapes {
+            invert,
+            alpha_beta,
+            newton,
+            h,
+            zero,
+            rhs,
+            outputs,
+        };
         let values: Vec<f64> = m.parameters.iter().map(|p| p.value).collect();
         let special = generic.specialize(&values);
         Ok(Interpreter {
             info: model_info(d),
-            reference: ReferenceMap { offset: m.output.reference_offset, scale: m.output.reference_scale },
+            reference: ReferenceMap {
+                offset: m.output.reference_offset,
+                scale: m.output.reference_scale,
+            },
             params: values,
             n: states.len(),
             r: d.relative_degree,
@@ -176,12 +214,16 @@ impl Interpreter {
             self.special.newton.eval(x, &mut buf);
             let target = |i: usize| if i < self.r { xi[i] } else { eta[i - self.r] };
             let res = nalgebra::DVector::from_fn(n, |i, _| buf[i] - target(i));
-            residual = (0..n).map(|i| res[i].abs() / target(i).abs().max(1.0)).fold(0.0, f64::max);
+            residual = (0..n)
+                .map(|i| res[i].abs() / target(i).abs().max(1.0))
+                .fold(0.0, f64::max);
             if residual < NEWTON_TOL {
                 return Ok(());
             }
             let jac = nalgebra::DMatrix::from_fn(n, n, |i, j| buf[n + i * n + j]);
-            let Some(step) = jac.lu().solve(&res) else { break };
+            let Some(step) = jac.lu().solve(&res) else {
+                break;
+            };
             for i in 0..n {
                 x[i] -= step[i];
             }
@@ -189,7 +231,10 @@ impl Interpreter {
                 break;
             }
         }
-        Err(ModelError::NewtonDidNotConverge { iterations: NEWTON_MAX_ITER, residual })
+        Err(ModelError::NewtonDidNotConverge {
+            iterations: NEWTON_MAX_ITER,
+            residual,
+        })
     }
 
     /// (α, β) in the original states (the numeric-ψ⁻¹ path).
@@ -220,7 +265,9 @@ impl Interpreter {
         let n = self.n;
         if n + 2 <= STACK {
             let mut buf = [0.0; STACK];
-            self.special.invert.eval_parts(&[xi, eta], &mut buf[..n + 2]);
+            self.special
+                .invert
+                .eval_parts(&[xi, eta], &mut buf[..n + 2]);
             x.copy_from_slice(&buf[..n]);
             (buf[n], buf[n + 1])
         } else {
@@ -304,7 +351,10 @@ impl InverseModel for Interpreter {
             // Newton point by point (the trait's default), warm-started from the previous point.
             let mut xi_k = vec![0.0; xi.len()];
             let mut eta_k = vec![0.0; eta.len()];
-            let mut x_k: Vec<f64> = x.iter().map(|c| c.first().copied().unwrap_or(1.0)).collect();
+            let mut x_k: Vec<f64> = x
+                .iter()
+                .map(|c| c.first().copied().unwrap_or(1.0))
+                .collect();
             for k in 0..yr.len() {
                 for (v, c) in xi_k.iter_mut().zip(xi) {
                     *v = c[k];
@@ -312,7 +362,9 @@ impl InverseModel for Interpreter {
                 for (v, c) in eta_k.iter_mut().zip(eta) {
                     *v = c[k];
                 }
-                u[k] = self.invert(&xi_k, &eta_k, yr[k], &mut x_k).map_err(|e| (k, e))?;
+                u[k] = self
+                    .invert(&xi_k, &eta_k, yr[k], &mut x_k)
+                    .map_err(|e| (k, e))?;
                 for (c, &v) in x.iter_mut().zip(&x_k) {
                     c[k] = v;
                 }

@@ -16,7 +16,7 @@ pub mod model;
 pub mod render;
 
 pub use classify::{Classification, ZeroDynamicsClass};
-pub use derive::{isolate, lie_derivative, DeriveError, Derivation, Solution};
+pub use derive::{isolate, lie_derivative, Derivation, DeriveError, Solution};
 pub use interpreter::{model_info, InterpretError, Interpreter};
 pub use model::*;
 

@@ -1224,7 +1224,15 @@ impl<'a> Reader<'a> {
         let t = self.table(v, "[output]")?;
         self.known_keys(
             t,
-            &["name", "h", "unit", "doc", "nominal", "reference_offset", "reference_scale"],
+            &[
+                "name",
+                "h",
+                "unit",
+                "doc",
+                "nominal",
+                "reference_offset",
+                "reference_scale",
+            ],
             "[output]",
         )?;
         let Some(name_v) = get(t, "name") else {
@@ -1837,7 +1845,11 @@ impl<'a> Reader<'a> {
         let ast = parse(&src.text).map_err(|e| {
             let message = match &e.opened {
                 Some(open) if src.content.is_some() => {
-                    format!("{} (opened at {})", e.message, self.place(src.at(open.start)))
+                    format!(
+                        "{} (opened at {})",
+                        e.message,
+                        self.place(src.at(open.start))
+                    )
                 }
                 _ => e.message.clone(),
             };

@@ -23,25 +23,47 @@ fn same(d: &Derivation, e: invsim_expr::Id, expr: &str) -> bool {
 
 #[test]
 fn motor_pendulum() {
-    let Some(p) = shared_model("motor_pendulum") else { return };
+    let Some(p) = shared_model("motor_pendulum") else {
+        return;
+    };
     let d = derive_file(&p).unwrap();
     assert_eq!((d.relative_degree, d.n()), (3, 3));
-    assert!(same(&d, d.beta, "K/(J*L)"), "beta = {}", d.pool().display(d.beta));
-    let Solution::Closed(i_m) = d.psi_inv[2] else { panic!("i_m must be in closed form") };
-    assert!(same(&d, i_m, "(J*xi3 + m*g0*l*sin(xi1) + b*xi2)/K"), "i_m = {}", d.pool().display(i_m));
+    assert!(
+        same(&d, d.beta, "K/(J*L)"),
+        "beta = {}",
+        d.pool().display(d.beta)
+    );
+    let Solution::Closed(i_m) = d.psi_inv[2] else {
+        panic!("i_m must be in closed form")
+    };
+    assert!(
+        same(&d, i_m, "(J*xi3 + m*g0*l*sin(xi1) + b*xi2)/K"),
+        "i_m = {}",
+        d.pool().display(i_m)
+    );
     assert!(d.zero_dynamics.is_empty());
 }
 
 #[test]
 fn internal_dynamics() {
-    let Some(p) = shared_model("internal_dynamics") else { return };
+    let Some(p) = shared_model("internal_dynamics") else {
+        return;
+    };
     let d = derive_file(&p).unwrap();
     assert_eq!((d.relative_degree, d.n()), (2, 3));
     assert!(same(&d, d.beta, "1"));
-    assert!(same(&d, d.alpha, "-sin(xi1) - xi2 + eta1"), "alpha = {}", d.pool().display(d.alpha));
+    assert!(
+        same(&d, d.alpha, "-sin(xi1) - xi2 + eta1"),
+        "alpha = {}",
+        d.pool().display(d.alpha)
+    );
     assert_eq!(d.pool().display(d.psi[2]), "x3");
     assert!(
-        same(&d, d.zero_dynamics[0], "-k*eta1 + xi1*(yr + sin(xi1) + xi2 - eta1)"),
+        same(
+            &d,
+            d.zero_dynamics[0],
+            "-k*eta1 + xi1*(yr + sin(xi1) + xi2 - eta1)"
+        ),
         "zero dynamics = {}",
         d.pool().display(d.zero_dynamics[0])
     );
@@ -49,38 +71,58 @@ fn internal_dynamics() {
 
 #[test]
 fn singular_decoupling() {
-    let Some(p) = shared_model("singular_decoupling") else { return };
+    let Some(p) = shared_model("singular_decoupling") else {
+        return;
+    };
     let d = derive_file(&p).unwrap();
     assert_eq!(d.relative_degree, 2);
     assert!(same(&d, d.beta, "xi1"));
-    assert!(d.singular.iter().any(|s| s.contains("xi1 = 0")), "{:?}", d.singular);
-    assert!(d.warnings.iter().any(|w| w.contains("xi1 = 0")), "{:?}", d.warnings);
+    assert!(
+        d.singular.iter().any(|s| s.contains("xi1 = 0")),
+        "{:?}",
+        d.singular
+    );
+    assert!(
+        d.warnings.iter().any(|w| w.contains("xi1 = 0")),
+        "{:?}",
+        d.warnings
+    );
     let json = d.to_json();
     assert!(json["singular"][0].as_str().unwrap().contains("xi1 = 0"));
 }
 
 #[test]
 fn bad_no_relative_degree() {
-    let Some(p) = shared_model("bad_no_relative_degree") else { return };
+    let Some(p) = shared_model("bad_no_relative_degree") else {
+        return;
+    };
     let err = derive_file(&p).unwrap_err();
     assert!(matches!(err, Error::Derive(_)));
     assert!(
-        err.to_string().contains("does not depend on the input `u` through any number of derivatives"),
+        err.to_string()
+            .contains("does not depend on the input `u` through any number of derivatives"),
         "{err}"
     );
 }
 
 #[test]
 fn bad_nonaffine() {
-    let Some(p) = shared_model("bad_nonaffine") else { return };
+    let Some(p) = shared_model("bad_nonaffine") else {
+        return;
+    };
     let err = derive_file(&p).unwrap_err().to_string();
-    assert!(err.contains("`x2`") && err.contains("not affine in the input `u`"), "{err}");
+    assert!(
+        err.contains("`x2`") && err.contains("not affine in the input `u`"),
+        "{err}"
+    );
     assert!(err.contains("bad_nonaffine.toml:6:"), "{err}");
 }
 
 #[test]
 fn bad_unknown_symbol() {
-    let Some(p) = shared_model("bad_unknown_symbol") else { return };
+    let Some(p) = shared_model("bad_unknown_symbol") else {
+        return;
+    };
     let err = derive_file(&p).unwrap_err().to_string();
     assert!(err.contains("`c9`"), "{err}");
     assert!(err.contains("bad_unknown_symbol.toml:8:23:"), "{err}");

@@ -58,10 +58,20 @@ fn state_point(d: &Derivation, u: &[f64]) -> Vec<f64> {
         for (s, v) in d.model.state_symbols().iter().zip(x) {
             env.insert(*s, *v);
         }
-        let exprs = d.model.states.iter().map(|s| s.f).chain(d.lie.iter().copied());
-        exprs.into_iter().all(|e| d.pool().eval(e, &env).is_ok_and(f64::is_finite))
+        let exprs = d
+            .model
+            .states
+            .iter()
+            .map(|s| s.f)
+            .chain(d.lie.iter().copied());
+        exprs
+            .into_iter()
+            .all(|e| d.pool().eval(e, &env).is_ok_and(f64::is_finite))
     };
-    (0..2).map(point).find(|x| finite(x)).unwrap_or_else(|| point(0))
+    (0..2)
+        .map(point)
+        .find(|x| finite(x))
+        .unwrap_or_else(|| point(0))
 }
 
 proptest! {

@@ -18,7 +18,10 @@ fn derive(text: &str) -> Derivation {
 fn eval(d: &Derivation, e: invsim_expr::Id, vals: &[(&str, f64)]) -> f64 {
     let mut env: HashMap<Symbol, f64> = d.model.nominal();
     for (name, v) in vals {
-        let s = d.pool().find_symbol(name).unwrap_or_else(|| panic!("no symbol {name}"));
+        let s = d
+            .pool()
+            .find_symbol(name)
+            .unwrap_or_else(|| panic!("no symbol {name}"));
         env.insert(s, *v);
     }
     d.pool().eval(e, &env).unwrap()
@@ -76,7 +79,11 @@ fn output_through_a_square_root_is_isolated_with_a_domain_condition() {
     let x2 = closed(&d, 1);
     assert!((eval(&d, x2, &[("xi1", 5.0), ("eta1", 1.0)]) - 2.0).abs() < 1e-15);
     assert!((eval(&d, d.beta, &[("xi1", 5.0), ("eta1", 1.0)]) - 4.0).abs() < 1e-14);
-    assert!(!d.domain.is_empty(), "the root needs xi1 - eta1 >= 0: {:?}", d.domain);
+    assert!(
+        !d.domain.is_empty(),
+        "the root needs xi1 - eta1 >= 0: {:?}",
+        d.domain
+    );
 }
 
 #[test]
@@ -128,12 +135,20 @@ h = "x2"
     assert_eq!(d.relative_degree, 2);
     assert_eq!(d.eta_states, vec![0]);
     assert_eq!(d.pool().display(d.alpha), "eta1*xi2");
-    let q0 = eval(&d, d.zero_dynamics[0], &[("xi1", 0.0), ("xi2", 0.0), ("eta1", 0.8), ("yr", 0.0)]);
+    let q0 = eval(
+        &d,
+        d.zero_dynamics[0],
+        &[("xi1", 0.0), ("xi2", 0.0), ("eta1", 0.8), ("yr", 0.0)],
+    );
     assert!((q0 + 0.8).abs() < 1e-15);
     // Away from y ≡ 0: η' = −η + (2 + ξ2²)/(1 + ξ2²)(yr − η ξ2).
     let (xi2, eta, yr) = (0.5, 0.3, 1.1);
     let want = -eta + (2.0 + xi2 * xi2) / (1.0 + xi2 * xi2) * (yr - eta * xi2);
-    let got = eval(&d, d.zero_dynamics[0], &[("xi1", 9.0), ("xi2", xi2), ("eta1", eta), ("yr", yr)]);
+    let got = eval(
+        &d,
+        d.zero_dynamics[0],
+        &[("xi1", 9.0), ("xi2", xi2), ("eta1", eta), ("yr", yr)],
+    );
     assert!((got - want).abs() < 1e-14);
     assert!(d.warnings.iter().any(|w| w.contains("L_g η ≠ 0")));
 }
@@ -157,9 +172,17 @@ h = "x1"
     );
     assert_eq!(d.relative_degree, 3);
     let (xi2, xi3) = (0.6, 0.25);
-    let x2 = eval(&d, closed(&d, 1), &[("xi1", 0.0), ("xi2", xi2), ("xi3", xi3)]);
+    let x2 = eval(
+        &d,
+        closed(&d, 1),
+        &[("xi1", 0.0), ("xi2", xi2), ("xi3", xi3)],
+    );
     assert!((x2 - xi2.asin()).abs() < 1e-15);
-    let x3 = eval(&d, closed(&d, 2), &[("xi1", 0.0), ("xi2", xi2), ("xi3", xi3)]);
+    let x3 = eval(
+        &d,
+        closed(&d, 2),
+        &[("xi1", 0.0), ("xi2", xi2), ("xi3", xi3)],
+    );
     assert!((x3 - xi3 / xi2.asin().cos()).abs() < 1e-14);
     // β = cos(x2) = cos(asin ξ2) > 0 on the principal branch: it vanishes only on its boundary |ξ2| = 1,
     // which the domain conditions state.
@@ -192,7 +215,10 @@ h = "x1 + x2*exp(x2)"
     interp.psi(&x_true, &mut xi, &mut eta);
     let mut x = [0.0, 0.0];
     interp.psi_inv(&xi, &eta, &mut x).unwrap();
-    assert!((x[0] - x_true[0]).abs() < 1e-12 && (x[1] - x_true[1]).abs() < 1e-12, "{x:?}");
+    assert!(
+        (x[0] - x_true[0]).abs() < 1e-12 && (x[1] - x_true[1]).abs() < 1e-12,
+        "{x:?}"
+    );
 }
 
 fn si_engine() -> Derivation {
@@ -208,7 +234,11 @@ fn si_engine_has_the_papers_structure() {
     assert!(d.eta.is_empty());
     // β = c3 c7: a constant (parameters only).
     let coords: Vec<Symbol> = d.xi.clone();
-    assert!(!d.pool().depends_on_any(d.beta, &coords), "beta = {}", d.pool().display(d.beta));
+    assert!(
+        !d.pool().depends_on_any(d.beta, &coords),
+        "beta = {}",
+        d.pool().display(d.beta)
+    );
     // α (paper eq. 28) is affine in ξ2: ∂²α/∂ξ2² = 0, and depends on ξ1.
     let mut pool = d.pool().clone();
     let a2 = pool.diff(d.alpha, d.xi[1]);
@@ -228,13 +258,26 @@ fn si_engine_reproduces_the_steady_state_check_values() {
     // shared/reference/si_engine.md: at constant speed (ξ = (v, 0), y^(2) = 0), p_i = ψ⁻¹ and ṁ_at = −α/β.
     let d = si_engine();
     let interp = Interpreter::new(&d).unwrap();
-    for (kmh, p_i, m_at_gs) in [(15.0, 25_498.0, 2.115), (50.0, 29_315.0, 8.619), (70.0, 33_141.0, 14.27), (120.0, 47_713.0, 38.82)] {
+    for (kmh, p_i, m_at_gs) in [
+        (15.0, 25_498.0, 2.115),
+        (50.0, 29_315.0, 8.619),
+        (70.0, 33_141.0, 14.27),
+        (120.0, 47_713.0, 38.82),
+    ] {
         let v = kmh / 3.6;
         let mut x = [0.0; 2];
         let u = interp.invert(&[v, 0.0], &[], 0.0, &mut x).unwrap();
         assert!((x[0] - v).abs() < 1e-12);
-        assert!(((x[1] - p_i) / p_i).abs() < 0.5e-4, "{kmh} km/h: p_i = {} (want {p_i})", x[1]);
-        assert!(((u * 1e3 - m_at_gs) / m_at_gs).abs() < 0.5e-3, "{kmh} km/h: m_at = {} g/s (want {m_at_gs})", u * 1e3);
+        assert!(
+            ((x[1] - p_i) / p_i).abs() < 0.5e-4,
+            "{kmh} km/h: p_i = {} (want {p_i})",
+            x[1]
+        );
+        assert!(
+            ((u * 1e3 - m_at_gs) / m_at_gs).abs() < 0.5e-3,
+            "{kmh} km/h: m_at = {} g/s (want {m_at_gs})",
+            u * 1e3
+        );
     }
     // 5.67 l/100 km at 50 km/h: fuel volume flow / speed.
     let v = 50.0 / 3.6;
@@ -254,6 +297,10 @@ fn si_engine_acceleration_check_values() {
     for (p_i, want) in [(0.95e5, 1.578), (0.2e5, -0.224)] {
         let mut dx = [0.0; 2];
         interp.rhs(&[50.0 / 3.6, p_i], 0.0, &mut dx);
-        assert!((dx[0] - want).abs() < 0.0005, "dv/dt = {} at p_i = {p_i}", dx[0]);
+        assert!(
+            (dx[0] - want).abs() < 0.0005,
+            "dv/dt = {} at p_i = {p_i}",
+            dx[0]
+        );
     }
 }

@@ -65,7 +65,10 @@ pub struct ReferenceMap {
 
 impl ReferenceMap {
     /// y_d = smoothed cycle.
-    pub const IDENTITY: ReferenceMap = ReferenceMap { offset: 0.0, scale: 1.0 };
+    pub const IDENTITY: ReferenceMap = ReferenceMap {
+        offset: 0.0,
+        scale: 1.0,
+    };
 
     /// True for the identity map.
     pub fn is_identity(&self) -> bool {

@@ -8,15 +8,17 @@ pub mod cycle;
 pub mod forward;
 pub mod kernel;
 pub mod ode;
-pub mod smoother;
-pub mod stable;
-pub mod simulate;
 pub mod output;
 pub mod plot;
+pub mod simulate;
+pub mod smoother;
+pub mod stable;
 
 pub use cycle::{Cycle, CycleError};
-pub use forward::{forward, Bounds, ForwardError, ForwardOptions, ForwardResult, ForwardSummary, Method};
+pub use forward::{
+    forward, Bounds, ForwardError, ForwardOptions, ForwardResult, ForwardSummary, Method,
+};
 pub use kernel::Kernel;
-pub use smoother::Smoother;
 pub use simulate::{simulate, SimulateError, SimulationOptions, SimulationResult, Summary};
+pub use smoother::Smoother;
 pub use stable::ZeroDynamicsClass;

@@ -45,11 +45,27 @@ pub fn plot_svg(result: &SimulationResult, cycle: &Cycle, path: &Path) -> Result
     // cycle mapped through the same offset and scale.
     let map = result.reference;
     let speed = map.is_identity();
-    let raw_value = |s: f64| if speed { s * MPS_TO_KMH } else { map.offset + map.scale * s };
+    let raw_value = |s: f64| {
+        if speed {
+            s * MPS_TO_KMH
+        } else {
+            map.offset + map.scale * s
+        }
+    };
     let (y_label, raw_label, yd_label, quantity) = if speed {
-        ("speed [km/h]", "cycle [km/h]", "y_d (smoothed) [km/h]", "speed")
+        (
+            "speed [km/h]",
+            "cycle [km/h]",
+            "y_d (smoothed) [km/h]",
+            "speed",
+        )
     } else {
-        ("reference y_d", "cycle, as reference offset + scale * v", "y_d (smoothed)", "reference")
+        (
+            "reference y_d",
+            "cycle, as reference offset + scale * v",
+            "y_d (smoothed)",
+            "reference",
+        )
     };
 
     // Top panel: raw cycle (piecewise linear, its own breakpoints) and y_d, in km/h.

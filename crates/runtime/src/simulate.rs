@@ -216,7 +216,10 @@ pub enum SimulateError {
 
 impl From<crate::ode::StepFailure> for SimulateError {
     fn from(f: crate::ode::StepFailure) -> Self {
-        SimulateError::Integration { t: f.t, reason: f.reason }
+        SimulateError::Integration {
+            t: f.t,
+            reason: f.reason,
+        }
     }
 }
 
@@ -778,7 +781,11 @@ fn run<M: InverseModel + ?Sized>(
     // (InverseModel::outputs_batch) and the per-sample bookkeeping. With `keep` a block is a view into the
     // result's columns, without it into block-sized scratch columns.
     let width = columns.len();
-    let mut scratch: Vec<Vec<f64>> = if keep { Vec::new() } else { vec![vec![0.0; BLOCK]; width] };
+    let mut scratch: Vec<Vec<f64>> = if keep {
+        Vec::new()
+    } else {
+        vec![vec![0.0; BLOCK]; width]
+    };
     let mut k0 = 0;
     while k0 < samples {
         let k1 = (k0 + BLOCK).min(samples);
@@ -848,7 +855,10 @@ fn run<M: InverseModel + ?Sized>(
                         let (t_fail, eta_fail) = (integrator.t_fail, &integrator.y_fail);
                         smoother.eval(t_fail, &mut yd[..=r]);
                         let (xi, yr) = (&yd[..r], yd[r]);
-                        if let Some(i) = eta_fail.iter().position(|v| !v.is_finite() || v.abs() > ETA_BLOWUP) {
+                        if let Some(i) = eta_fail
+                            .iter()
+                            .position(|v| !v.is_finite() || v.abs() > ETA_BLOWUP)
+                        {
                             return Err(SimulateError::UnstableZeroDynamics {
                                 t: t_fail,
                                 eigenvalues: eigenvalues_at(model, xi, eta_fail, yr, &mut zd_ws),
@@ -863,7 +873,10 @@ fn run<M: InverseModel + ?Sized>(
                     *o = c[i];
                 }
                 let (xi, yr) = (&yd[..r], yd[r]);
-                if let Some(j) = eta.iter().position(|v| !v.is_finite() || v.abs() > ETA_BLOWUP) {
+                if let Some(j) = eta
+                    .iter()
+                    .position(|v| !v.is_finite() || v.abs() > ETA_BLOWUP)
+                {
                     let eigenvalues = eigenvalues_at(model, xi, &eta, yr, &mut zd_ws);
                     return Err(SimulateError::UnstableZeroDynamics {
                         t,
@@ -875,7 +888,9 @@ fn run<M: InverseModel + ?Sized>(
                     check_stability(model, t, xi, &eta, yr, &mut zd_ws)?;
                 }
                 // x = ψ⁻¹(ξ, η) (previous x as the guess), u = (y_d^(r) − α)/β (paper eq. 26).
-                let u = model.invert(xi, &eta, yr, &mut x).map_err(|source| SimulateError::Model { t, source })?;
+                let u = model
+                    .invert(xi, &eta, yr, &mut x)
+                    .map_err(|source| SimulateError::Model { t, source })?;
                 u_col[0][i] = u;
                 for (c, &v) in x_cols.iter_mut().zip(&x) {
                     c[i] = v;
@@ -900,7 +915,8 @@ fn run<M: InverseModel + ?Sized>(
             }
             if probe.is_nan() {
                 let at = |cs: &[&mut [f64]]| cs.iter().map(|c| c[i]).collect::<Vec<f64>>();
-                let (yd_i, x_i, eta_i, outs_i) = (at(yd_cols), at(x_cols), at(eta_cols), at(out_cols));
+                let (yd_i, x_i, eta_i, outs_i) =
+                    (at(yd_cols), at(x_cols), at(eta_cols), at(out_cols));
                 return Err(non_finite(model, t, &yd_i, &eta_i, u, &x_i, &outs_i));
             }
             // Pre-actuation (t < t_0) is summarised on its own; samples outside [k_lo, k_hi] are not reported.
@@ -1399,7 +1415,10 @@ fn verify_forward<M: InverseModel + ?Sized>(
                 Err(e) => return Err(fail(ta, e.to_string())),
             }
             if let Some(j) = x.iter().position(|v| !v.is_finite()) {
-                return Err(fail(tb, format!("state {} became {}", model.info().states[j], x[j])));
+                return Err(fail(
+                    tb,
+                    format!("state {} became {}", model.info().states[j], x[j]),
+                ));
             }
         }
         let err = model.h(&x) - yd0_k;

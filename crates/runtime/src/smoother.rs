@@ -287,7 +287,10 @@ impl Smoother {
             return;
         }
         for col in out.iter_mut() {
-            assert!(col.len() >= times.len(), "output column shorter than the grid");
+            assert!(
+                col.len() >= times.len(),
+                "output column shorter than the grid"
+            );
         }
         // Base: y_c(t) and s(t), walking the corners along the increasing grid.
         let mut next = 0; // first corner > t
@@ -297,7 +300,10 @@ impl Smoother {
             }
             let (y, s) = match next.checked_sub(1) {
                 Some(i) if self.slope_after[i] == 0.0 => (self.value_at[i], 0.0),
-                Some(i) => (self.value_at[i] + self.slope_after[i] * (t - self.corners[i]), self.slope_after[i]),
+                Some(i) => (
+                    self.value_at[i] + self.slope_after[i] * (t - self.corners[i]),
+                    self.slope_after[i],
+                ),
                 None => (self.first_value, 0.0),
             };
             out[0][k] = y;
@@ -321,18 +327,20 @@ impl Smoother {
             }
         };
         // Table of c_n(i·dt), |i·dt| < a, for corners on the grid.
-        let table = dt.filter(|&h| h > 0.0 && h.is_finite() && a / h < 1e7).map(|h| {
-            let m = (a / h).ceil() as i64;
-            let mut rows = vec![0.0; (2 * m as usize + 1) * orders.max(2)];
-            for i in -m..=m {
-                let u = i as f64 * h;
-                let at = (i + m) as usize * orders.max(2);
-                if u.abs() < a {
-                    corner_terms(u, &mut rows[at..at + orders.max(2)]);
+        let table = dt
+            .filter(|&h| h > 0.0 && h.is_finite() && a / h < 1e7)
+            .map(|h| {
+                let m = (a / h).ceil() as i64;
+                let mut rows = vec![0.0; (2 * m as usize + 1) * orders.max(2)];
+                for i in -m..=m {
+                    let u = i as f64 * h;
+                    let at = (i + m) as usize * orders.max(2);
+                    if u.abs() < a {
+                        corner_terms(u, &mut rows[at..at + orders.max(2)]);
+                    }
                 }
-            }
-            (h, m, rows)
-        });
+                (h, m, rows)
+            });
         let width = orders.max(2);
         for (&tj, &jump) in self.corners.iter().zip(&self.jumps) {
             // Grid points with |t_k − t_j| < a.
@@ -372,7 +380,11 @@ impl Smoother {
             let ReferenceMap { offset, scale } = self.reference;
             for (n, col) in out.iter_mut().enumerate() {
                 for v in col[..times.len()].iter_mut() {
-                    *v = if n == 0 { offset + scale * *v } else { scale * *v };
+                    *v = if n == 0 {
+                        offset + scale * *v
+                    } else {
+                        scale * *v
+                    };
                 }
             }
         }

@@ -356,7 +356,10 @@ fn nan_output_is_detected_with_time_and_name() {
 /// `tests/stable.rs`).
 #[test]
 fn unstable_zero_dynamics_are_rejected_at_the_start() {
-    let causal = SimulationOptions { causal: true, ..opts(0.1) };
+    let causal = SimulationOptions {
+        causal: true,
+        ..opts(0.1)
+    };
     let err = simulate(&LinearR2::non_minimum_phase(), &nedc(), &causal).unwrap_err();
     match &err {
         SimulateError::UnstableZeroDynamics { t, eigenvalues, .. } => {
@@ -479,7 +482,10 @@ fn zero_dynamics_becoming_unstable_along_the_run_are_detected() {
         }
         other => panic!("expected ZeroDynamicsTypeChange, got {other:?}"),
     }
-    let causal = SimulationOptions { causal: true, ..opts(0.01) };
+    let causal = SimulationOptions {
+        causal: true,
+        ..opts(0.01)
+    };
     match simulate(&model, &cycle, &causal) {
         Err(SimulateError::UnstableZeroDynamics {
             t,
@@ -627,7 +633,11 @@ fn verification_tracks_the_reference() {
         let res = simulate(model, &nedc(), &o).unwrap();
         let max = res.summary.max_abs_tracking_error.unwrap();
         let rms = res.summary.rms_tracking_error.unwrap();
-        assert!(rms <= max, "{}: max {max:e}, rms {rms:e}", res.summary.model);
+        assert!(
+            rms <= max,
+            "{}: max {max:e}, rms {rms:e}",
+            res.summary.model
+        );
         let json = serde_json::to_value(&res.summary).unwrap();
         assert!(json.get("max_abs_tracking_error").is_some());
         assert!(res.summary.to_text().contains("max abs tracking error: "));
@@ -636,9 +646,17 @@ fn verification_tracks_the_reference() {
     let models: [&dyn InverseModel; 2] = [&SiEngine::new(), &LinearR2::minimum_phase()];
     for model in models {
         let (fine, coarse) = (verified(0.01, model), verified(0.1, model));
-        assert!(fine < 1e-4 && coarse < 1e-2, "{}: {fine:e} at dt = 0.01, {coarse:e} at dt = 0.1", model.info().name);
+        assert!(
+            fine < 1e-4 && coarse < 1e-2,
+            "{}: {fine:e} at dt = 0.01, {coarse:e} at dt = 0.1",
+            model.info().name
+        );
         let ratio = coarse / fine;
-        assert!((30.0..300.0).contains(&ratio), "{}: O(dt²) expected, ratio {ratio}", model.info().name);
+        assert!(
+            (30.0..300.0).contains(&ratio),
+            "{}: O(dt²) expected, ratio {ratio}",
+            model.info().name
+        );
     }
 }
 
@@ -657,7 +675,10 @@ fn verification_stops_with_a_clear_error_where_the_original_model_is_undefined()
         Err(e @ SimulateError::Verification { t, .. }) => {
             let text = e.to_string();
             assert!(nedc().speed_at(t) == 0.0, "at a standstill: t = {t}");
-            assert!(text.contains("verification failed") && text.contains("state v = "), "{text}");
+            assert!(
+                text.contains("verification failed") && text.contains("state v = "),
+                "{text}"
+            );
         }
         other => panic!("expected a verification error, got {other:?}"),
     }

@@ -690,7 +690,11 @@ fn grid_evaluation_matches_pointwise() {
             }
         }
         for (o, w) in worst.iter().enumerate() {
-            assert!(*w < 1e-12, "{} a = {a} dt = {dt}: order {o} differs by {w:e} (relative to its scale)", cycle.name);
+            assert!(
+                *w < 1e-12,
+                "{} a = {a} dt = {dt}: order {o} differs by {w:e} (relative to its scale)",
+                cycle.name
+            );
         }
     }
 }
