@@ -207,10 +207,7 @@ fn derive(path: &Path, format: Format) -> Result<(), Failure> {
         }
         Format::Markdown => d.to_markdown(),
     };
-    let mut out = std::io::stdout().lock();
-    out.write_all(text.as_bytes())
-        .map_err(|e| Failure::io(format!("cannot write to stdout: {e}")))?;
-    Ok(())
+    print_stdout(&text)
 }
 
 /// Parse `NAME=VALUE`.
@@ -232,19 +229,46 @@ fn parse_set(s: &str) -> Result<(String, f64), Failure> {
     Ok((name.trim().to_string(), v))
 }
 
-fn run_simulate(args: &SimulateArgs) -> Result<(), Failure> {
-    let sets: Vec<(String, f64)> = args
-        .set
+/// The cycle and the model of a run, with the `--set` overrides applied.
+fn load_run(
+    model: &Path,
+    engine: EngineChoice,
+    cycle: &str,
+    sets: &[String],
+) -> Result<(Cycle, engine::LoadedModel), Failure> {
+    let sets: Vec<(String, f64)> = sets
         .iter()
         .map(|s| parse_set(s))
         .collect::<Result<_, _>>()?;
-    let cycle = Cycle::load(&args.cycle).map_err(|e| Failure::user(e.to_string()))?;
-    let mut model = engine::load(&args.model, args.engine)?;
+    let cycle = Cycle::load(cycle).map_err(|e| Failure::user(e.to_string()))?;
+    let mut model = engine::load(model, engine)?;
     for (name, value) in &sets {
         model
             .set_param(name, *value)
             .map_err(|e| Failure::user(format!("--set {name}: {e}")))?;
     }
+    Ok((cycle, model))
+}
+
+/// Create `path` and fill it with `write`, reporting either failure with the path.
+fn write_file(
+    path: &Path,
+    write: impl FnOnce(std::fs::File) -> std::io::Result<()>,
+) -> Result<(), Failure> {
+    let file = std::fs::File::create(path)
+        .map_err(|e| Failure::io(format!("cannot create {}: {e}", path.display())))?;
+    write(file).map_err(|e| Failure::io(format!("cannot write {}: {e}", path.display())))
+}
+
+fn print_stdout(text: &str) -> Result<(), Failure> {
+    std::io::stdout()
+        .lock()
+        .write_all(text.as_bytes())
+        .map_err(|e| Failure::io(format!("cannot write to stdout: {e}")))
+}
+
+fn run_simulate(args: &SimulateArgs) -> Result<(), Failure> {
+    let (cycle, model) = load_run(&args.model, args.engine, &args.cycle, &args.set)?;
     let opts = SimulationOptions {
         lookahead: args.lookahead,
         dt: args.dt,
@@ -264,39 +288,19 @@ fn run_simulate(args: &SimulateArgs) -> Result<(), Failure> {
         ))
     })?;
     if let Some(path) = &args.out {
-        let file = std::fs::File::create(path)
-            .map_err(|e| Failure::io(format!("cannot create {}: {e}", path.display())))?;
-        output::write_csv(&result, file)
-            .map_err(|e| Failure::io(format!("cannot write {}: {e}", path.display())))?;
+        write_file(path, |f| output::write_csv(&result, f))?;
     }
     if let Some(path) = &args.summary_json {
-        let file = std::fs::File::create(path)
-            .map_err(|e| Failure::io(format!("cannot create {}: {e}", path.display())))?;
-        output::write_summary_json(&result.summary, file)
-            .map_err(|e| Failure::io(format!("cannot write {}: {e}", path.display())))?;
+        write_file(path, |f| output::write_summary_json(&result.summary, f))?;
     }
     if let Some(path) = &args.plot {
         plot::plot_svg(&result, &cycle, path).map_err(|e| Failure::io(e.to_string()))?;
     }
-    let mut out = std::io::stdout().lock();
-    out.write_all(result.summary.to_text().as_bytes())
-        .map_err(|e| Failure::io(format!("cannot write to stdout: {e}")))?;
-    Ok(())
+    print_stdout(&result.summary.to_text())
 }
 
 fn run_forward(args: &ForwardArgs) -> Result<(), Failure> {
-    let sets: Vec<(String, f64)> = args
-        .set
-        .iter()
-        .map(|s| parse_set(s))
-        .collect::<Result<_, _>>()?;
-    let cycle = Cycle::load(&args.cycle).map_err(|e| Failure::user(e.to_string()))?;
-    let mut model = engine::load(&args.model, args.engine)?;
-    for (name, value) in &sets {
-        model
-            .set_param(name, *value)
-            .map_err(|e| Failure::user(format!("--set {name}: {e}")))?;
-    }
+    let (cycle, model) = load_run(&args.model, args.engine, &args.cycle, &args.set)?;
     let opts = ForwardOptions {
         dt: args.dt,
         engine: model.engine_name().to_string(),
@@ -325,19 +329,12 @@ fn run_forward(args: &ForwardArgs) -> Result<(), Failure> {
         ))
     })?;
     if let Some(path) = &args.out {
-        let file = std::fs::File::create(path)
-            .map_err(|e| Failure::io(format!("cannot create {}: {e}", path.display())))?;
-        output::write_table_csv(&result.columns, &result.data, file)
-            .map_err(|e| Failure::io(format!("cannot write {}: {e}", path.display())))?;
+        write_file(path, |f| {
+            output::write_table_csv(&result.columns, &result.data, f)
+        })?;
     }
     if let Some(path) = &args.summary_json {
-        let file = std::fs::File::create(path)
-            .map_err(|e| Failure::io(format!("cannot create {}: {e}", path.display())))?;
-        output::write_json(&result.summary, file)
-            .map_err(|e| Failure::io(format!("cannot write {}: {e}", path.display())))?;
+        write_file(path, |f| output::write_json(&result.summary, f))?;
     }
-    let mut out = std::io::stdout().lock();
-    out.write_all(result.summary.to_text().as_bytes())
-        .map_err(|e| Failure::io(format!("cannot write to stdout: {e}")))?;
-    Ok(())
+    print_stdout(&result.summary.to_text())
 }

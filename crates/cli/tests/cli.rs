@@ -1,40 +1,10 @@
 //! The `invsim` command line as a user meets it: exit codes, the contract's JSON and CSV layouts, and
 //! error messages for bad models, cycles and options (contract §3).
 
+mod common;
+use common::*;
+
 use serde_json::Value;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn invsim(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_invsim"))
-        .args(args)
-        .current_dir(root())
-        .output()
-        .expect("run invsim")
-}
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn shared(rel: &str) -> Option<String> {
-    let p = root().join("../shared").join(rel);
-    if !p.exists() {
-        eprintln!("skipping: ../shared not found");
-        return None;
-    }
-    Some(p.display().to_string())
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("invsim-cli-test-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
-}
 
 #[test]
 fn derive_json_has_the_contract_fields() {

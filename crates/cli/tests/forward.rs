@@ -1,31 +1,10 @@
 //! `invsim forward` and `invsim simulate --verify` as a user meets them: exit codes, the CSV and JSON layouts,
 //! the tracking and fuel figures of the paper's SI-engine car on the NEDC.
 
+mod common;
+use common::*;
+
 use serde_json::Value;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn invsim(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_invsim"))
-        .args(args)
-        .current_dir(root())
-        .output()
-        .expect("run invsim")
-}
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("invsim-cli-forward-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
-}
 
 fn summary(args: &[&str], name: &str) -> Value {
     let json = tmp(name);

@@ -2,35 +2,10 @@
 //! automatically in `simulate` with pre-actuation and forward replay, `--causal`, `--include-extension`, and the
 //! built-in `diesel_gasflow` (non-minimum phase) and `driveline` (minimum phase, lightly damped) models.
 
+mod common;
+use common::*;
+
 use serde_json::Value;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn invsim(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_invsim"))
-        .args(args)
-        .current_dir(root())
-        .output()
-        .expect("run invsim")
-}
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("invsim-cli-stable-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
-}
-
-fn json_file(path: &Path) -> Value {
-    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
-}
 
 /// (s − 0.5)/((s + 0.5)(s + 2)) in a model file: x1' = −3 x1 + x2 + u, x2' = 0.5 x2 − 2.5 x1, y = x1.
 const LINEAR_NMP: &str = r#"name = "linear_nmp"

@@ -348,28 +348,8 @@ impl InverseModel for Interpreter {
         u: &mut [f64],
     ) -> Result<(), (usize, ModelError)> {
         if !self.closed {
-            // Newton point by point (the trait's default), warm-started from the previous point.
-            let mut xi_k = vec![0.0; xi.len()];
-            let mut eta_k = vec![0.0; eta.len()];
-            let mut x_k: Vec<f64> = x
-                .iter()
-                .map(|c| c.first().copied().unwrap_or(1.0))
-                .collect();
-            for k in 0..yr.len() {
-                for (v, c) in xi_k.iter_mut().zip(xi) {
-                    *v = c[k];
-                }
-                for (v, c) in eta_k.iter_mut().zip(eta) {
-                    *v = c[k];
-                }
-                u[k] = self
-                    .invert(&xi_k, &eta_k, yr[k], &mut x_k)
-                    .map_err(|e| (k, e))?;
-                for (c, &v) in x.iter_mut().zip(&x_k) {
-                    c[k] = v;
-                }
-            }
-            return Ok(());
+            // Newton point by point, warm-started from the previous point.
+            return invsim_model_api::invert_pointwise(self, xi, eta, yr, x, u);
         }
         let m = yr.len();
         let mut alpha = vec![0.0; m];

@@ -150,27 +150,7 @@ pub trait InverseModel: Send + Sync {
         x: &mut [&mut [f64]],
         u: &mut [f64],
     ) -> Result<(), (usize, ModelError)> {
-        let mut xi_k = vec![0.0; xi.len()];
-        let mut eta_k = vec![0.0; eta.len()];
-        let mut x_k: Vec<f64> = x
-            .iter()
-            .map(|c| c.first().copied().unwrap_or(0.0))
-            .collect();
-        for k in 0..yr.len() {
-            for (v, c) in xi_k.iter_mut().zip(xi) {
-                *v = c[k];
-            }
-            for (v, c) in eta_k.iter_mut().zip(eta) {
-                *v = c[k];
-            }
-            u[k] = self
-                .invert(&xi_k, &eta_k, yr[k], &mut x_k)
-                .map_err(|e| (k, e))?;
-            for (c, &v) in x.iter_mut().zip(&x_k) {
-                c[k] = v;
-            }
-        }
-        Ok(())
+        invert_pointwise(self, xi, eta, yr, x, u)
     }
 
     /// The extra outputs at many points, column-wise: `x[s][k]`, `u[k]` in, `out[o][k]` out. The default
@@ -216,5 +196,39 @@ pub fn set_param_checked(
     }
     let i = param_index(info, name)?;
     params[i] = value;
+    Ok(())
+}
+
+/// [`InverseModel::invert_batch`] point by point through [`InverseModel::invert`], each point warm-started
+/// from its predecessor's state (the default implementation, also for implementors that override the batch
+/// only in some cases).
+pub fn invert_pointwise<M: InverseModel + ?Sized>(
+    model: &M,
+    xi: &[&[f64]],
+    eta: &[&[f64]],
+    yr: &[f64],
+    x: &mut [&mut [f64]],
+    u: &mut [f64],
+) -> Result<(), (usize, ModelError)> {
+    let mut xi_k = vec![0.0; xi.len()];
+    let mut eta_k = vec![0.0; eta.len()];
+    let mut x_k: Vec<f64> = x
+        .iter()
+        .map(|c| c.first().copied().unwrap_or(0.0))
+        .collect();
+    for k in 0..yr.len() {
+        for (v, c) in xi_k.iter_mut().zip(xi) {
+            *v = c[k];
+        }
+        for (v, c) in eta_k.iter_mut().zip(eta) {
+            *v = c[k];
+        }
+        u[k] = model
+            .invert(&xi_k, &eta_k, yr[k], &mut x_k)
+            .map_err(|e| (k, e))?;
+        for (c, &v) in x.iter_mut().zip(&x_k) {
+            c[k] = v;
+        }
+    }
     Ok(())
 }

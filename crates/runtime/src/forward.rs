@@ -51,7 +51,10 @@ use thiserror::Error;
 
 use crate::cycle::Cycle;
 use crate::ode::{Dopri5, OdeStats, Rosenbrock23, StepFailure};
-use crate::simulate::{equilibrium, fmt_sig, integral_unit, ZeroDynamicsWorkspace, MAX_SAMPLES};
+use crate::simulate::{
+    equilibrium, fmt_sig, integral_unit, write_input_range, write_integrals, write_intervals,
+    ZeroDynamicsWorkspace, MAX_SAMPLES,
+};
 
 /// One mile per hour in m/s.
 pub const MPH: f64 = 0.447_04;
@@ -322,62 +325,24 @@ impl ForwardSummary {
             g.stats.evaluations
         );
         s.push('\n');
-        for (name, value) in &self.integrals {
-            let unit = self.integral_units.get(name);
-            let _ = write!(s, "{name}: {}", fmt_sig(*value, 4));
-            if let Some(u) = unit {
-                let _ = write!(s, " {u}");
-            }
-            s.push_str(" (integral)");
-            if let Some(p) = self.integrals_per_100km.get(name) {
-                let _ = match unit {
-                    Some(u) => write!(s, ", {} {u}/100 km", fmt_sig(*p, 4)),
-                    None => write!(s, ", {} per 100 km", fmt_sig(*p, 4)),
-                };
-            }
-            s.push('\n');
-        }
-        let _ = write!(
-            s,
-            "{}: min {}, max {}",
-            self.input,
-            fmt_sig(self.input_min, 4),
-            fmt_sig(self.input_max, 4)
+        write_integrals(
+            &mut s,
+            &self.integrals,
+            &self.integral_units,
+            &self.integrals_per_100km,
         );
-        if self.input_lower_bound.is_some() || self.input_upper_bound.is_some() {
-            let b = |v: Option<f64>, inf: &str| v.map_or(inf.to_string(), |v| fmt_sig(v, 6));
-            let _ = write!(
-                s,
-                " (bounds [{}, {}])",
-                b(self.input_lower_bound, "-inf"),
-                b(self.input_upper_bound, "inf")
-            );
-        }
-        s.push('\n');
-        let list = |name: &str, v: &[[f64; 2]], s: &mut String| {
-            if v.is_empty() {
-                let _ = writeln!(s, "{name}: none");
-            } else {
-                let total: f64 = v.iter().map(|[a, b]| b - a).sum();
-                let items: Vec<String> = v
-                    .iter()
-                    .map(|[a, b]| format!("[{}, {}]", fmt_sig(*a, 6), fmt_sig(*b, 6)))
-                    .collect();
-                let _ = writeln!(
-                    s,
-                    "{name}: {} intervals, {} s: {}",
-                    items.len(),
-                    fmt_sig(total, 4),
-                    items.join(" ")
-                );
-            }
-        };
-        list(
+        write_input_range(
+            &mut s,
+            &self.input,
+            [self.input_min, self.input_max],
+            [self.input_lower_bound, self.input_upper_bound],
+        );
+        write_intervals(
+            &mut s,
             "input bound violations",
             &self.input_bound_violations,
-            &mut s,
         );
-        list("trace misses", &self.trace_misses, &mut s);
+        write_intervals(&mut s, "trace misses", &self.trace_misses);
         let _ = writeln!(
             s,
             "max abs tracking error: {}",

@@ -390,6 +390,75 @@ pub struct StableInversionStats {
     pub unstable_dimension: usize,
 }
 
+/// Summary text: one line per accumulated output, `fuel: 0.5617 kg (integral), 6.846 l/100 km`.
+pub(crate) fn write_integrals(
+    s: &mut String,
+    integrals: &BTreeMap<String, f64>,
+    units: &BTreeMap<String, String>,
+    per_100km: &BTreeMap<String, f64>,
+) {
+    for (name, value) in integrals {
+        let unit = units.get(name);
+        let _ = write!(s, "{name}: {}", fmt_sig(*value, 4));
+        if let Some(u) = unit {
+            let _ = write!(s, " {u}");
+        }
+        s.push_str(" (integral)");
+        if let Some(p) = per_100km.get(name) {
+            let _ = match unit {
+                Some(u) => write!(s, ", {} {u}/100 km", fmt_sig(*p, 4)),
+                None => write!(s, ", {} per 100 km", fmt_sig(*p, 4)),
+            };
+        }
+        s.push('\n');
+    }
+}
+
+/// Summary text: the input's range over the run and its declared bounds.
+pub(crate) fn write_input_range(
+    s: &mut String,
+    input: &str,
+    range: [f64; 2],
+    bounds: [Option<f64>; 2],
+) {
+    let _ = write!(
+        s,
+        "{input}: min {}, max {}",
+        fmt_sig(range[0], 4),
+        fmt_sig(range[1], 4)
+    );
+    if bounds.iter().any(Option::is_some) {
+        let b = |v: Option<f64>, inf: &str| v.map_or(inf.to_string(), |v| fmt_sig(v, 6));
+        let _ = write!(
+            s,
+            " (bounds [{}, {}])",
+            b(bounds[0], "-inf"),
+            b(bounds[1], "inf")
+        );
+    }
+    s.push('\n');
+}
+
+/// Summary text: a list of time intervals with their count and total length, or `none`.
+pub(crate) fn write_intervals(s: &mut String, label: &str, intervals: &[[f64; 2]]) {
+    if intervals.is_empty() {
+        let _ = writeln!(s, "{label}: none");
+        return;
+    }
+    let total: f64 = intervals.iter().map(|[a, b]| b - a).sum();
+    let list: Vec<String> = intervals
+        .iter()
+        .map(|[a, b]| format!("[{}, {}]", fmt_sig(*a, 6), fmt_sig(*b, 6)))
+        .collect();
+    let _ = writeln!(
+        s,
+        "{label}: {} intervals, {} s: {}",
+        list.len(),
+        fmt_sig(total, 4),
+        list.join(" ")
+    );
+}
+
 impl Summary {
     /// Human-readable summary, one line per field (what `invsim simulate` prints).
     pub fn to_text(&self) -> String {
@@ -403,55 +472,23 @@ impl Summary {
         let _ = writeln!(s, "samples: {}", self.samples);
         let _ = writeln!(s, "dt: {} s", fmt_sig(self.dt_s, 6));
         let _ = writeln!(s, "look-ahead: {} s", fmt_sig(self.lookahead_s, 6));
-        for (name, value) in &self.integrals {
-            let unit = self.integral_units.get(name);
-            let _ = write!(s, "{name}: {}", fmt_sig(*value, 4));
-            if let Some(u) = unit {
-                let _ = write!(s, " {u}");
-            }
-            s.push_str(" (integral)");
-            if let Some(p) = self.integrals_per_100km.get(name) {
-                let _ = match unit {
-                    Some(u) => write!(s, ", {} {u}/100 km", fmt_sig(*p, 4)),
-                    None => write!(s, ", {} per 100 km", fmt_sig(*p, 4)),
-                };
-            }
-            s.push('\n');
-        }
-        let _ = write!(
-            s,
-            "{}: min {}, max {}",
-            self.input,
-            fmt_sig(self.input_min, 4),
-            fmt_sig(self.input_max, 4)
+        write_integrals(
+            &mut s,
+            &self.integrals,
+            &self.integral_units,
+            &self.integrals_per_100km,
         );
-        if self.input_lower_bound.is_some() || self.input_upper_bound.is_some() {
-            let b = |v: Option<f64>, inf: &str| v.map_or(inf.to_string(), |v| fmt_sig(v, 6));
-            let _ = write!(
-                s,
-                " (bounds [{}, {}])",
-                b(self.input_lower_bound, "-inf"),
-                b(self.input_upper_bound, "inf")
-            );
-        }
-        s.push('\n');
-        if self.input_bound_violations.is_empty() {
-            s.push_str("input bound violations: none\n");
-        } else {
-            let total: f64 = self.input_bound_violations.iter().map(|[a, b]| b - a).sum();
-            let list: Vec<String> = self
-                .input_bound_violations
-                .iter()
-                .map(|[a, b]| format!("[{}, {}]", fmt_sig(*a, 6), fmt_sig(*b, 6)))
-                .collect();
-            let _ = writeln!(
-                s,
-                "input bound violations: {} intervals, {} s: {}",
-                list.len(),
-                fmt_sig(total, 4),
-                list.join(" ")
-            );
-        }
+        write_input_range(
+            &mut s,
+            &self.input,
+            [self.input_min, self.input_max],
+            [self.input_lower_bound, self.input_upper_bound],
+        );
+        write_intervals(
+            &mut s,
+            "input bound violations",
+            &self.input_bound_violations,
+        );
         if let Some(e) = self.max_abs_tracking_error {
             let _ = writeln!(s, "max abs tracking error: {}", fmt_sig(e, 3));
         }

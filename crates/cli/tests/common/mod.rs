@@ -1,0 +1,46 @@
+//! Helpers shared by the command-line tests: running the `invsim` binary from the repository root, temporary
+//! files, and the optional reference material in `../shared`.
+#![allow(dead_code)] // each test binary uses a different subset
+
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// Run `invsim` with `args` from the repository root.
+pub fn invsim(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_invsim"))
+        .args(args)
+        .current_dir(root())
+        .output()
+        .expect("run invsim")
+}
+
+/// The repository root.
+pub fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+pub fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A path in this test process's temporary directory.
+pub fn tmp(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("invsim-cli-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+/// `../shared/<rel>` if the reference material is there; says so and returns `None` if not.
+pub fn shared(rel: &str) -> Option<String> {
+    let p = root().join("../shared").join(rel);
+    if !p.exists() {
+        eprintln!("skipping: ../shared not found");
+        return None;
+    }
+    Some(p.display().to_string())
+}
+
+pub fn json_file(path: &Path) -> Value {
+    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
+}
