@@ -249,3 +249,22 @@ fn malformed_cycle_files_exit_2_naming_the_row() {
         assert!(!e.contains("panicked"));
     }
 }
+
+#[test]
+fn verify_warns_when_an_unstable_model_makes_the_open_loop_replay_stray() {
+    // x'' = x + u is unstable (eigenvalues ±1): the inverse is exact, but an open-loop replay of it amplifies
+    // every error by e^t, so the summary must say what the number means.
+    let model = tmp("unstable.toml");
+    std::fs::write(
+        &model,
+        "[states]\nx1 = { rhs = \"x2\" }\nx2 = { rhs = \"x1 + u\" }\n[input]\nname = \"u\"\n[output]\nname = \"y\"\nh = \"x1\"\n",
+    )
+    .unwrap();
+    let o = invsim(&["simulate", model.to_str().unwrap(), "--cycle", "ece", "--verify"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("open-loop replay strays"), "{out}");
+    // The stable si_engine gives no such warning.
+    let o = invsim(&["simulate", "models/si_engine.toml", "--cycle", "ece", "--verify"]);
+    assert!(!String::from_utf8_lossy(&o.stdout).contains("strays"));
+}
