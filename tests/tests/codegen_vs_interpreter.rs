@@ -1,6 +1,7 @@
 //! Generated code, compiled, agrees with the interpreter tape: every `InverseModel` method of every loadable
 //! model (`models/` via `invsim-models`, `../shared/models` and `tests/models` via this crate's build script)
-//! at 1 000 random points, within 1e-12 relative.
+//! at 1 000 random points, within 1e-12 relative — the per-point methods, and the batch methods
+//! (`invert_batch`, `outputs_batch`) on the same points as columns, whole and in a block of odd length.
 
 use invsim_inversion::Interpreter;
 use invsim_model_api::{InverseModel, ModelError};
@@ -155,6 +156,72 @@ impl Compare {
     }
 }
 
+/// The sampled points as columns, for the batch methods.
+#[derive(Default)]
+struct Columns {
+    x: Vec<Vec<f64>>,
+    u: Vec<f64>,
+    xi: Vec<Vec<f64>>,
+    eta: Vec<Vec<f64>>,
+    yr: Vec<f64>,
+}
+
+impl Columns {
+    fn new(n: usize, r: usize, ne: usize) -> Columns {
+        Columns {
+            x: vec![Vec::new(); n],
+            xi: vec![Vec::new(); r],
+            eta: vec![Vec::new(); ne],
+            ..Columns::default()
+        }
+    }
+
+    fn push(&mut self, x: &[f64], u: f64, xi: &[f64], eta: &[f64], yr: f64) {
+        let add = |cols: &mut Vec<Vec<f64>>, v: &[f64]| {
+            cols.iter_mut().zip(v).for_each(|(c, &v)| c.push(v));
+        };
+        add(&mut self.x, x);
+        add(&mut self.xi, xi);
+        add(&mut self.eta, eta);
+        self.u.push(u);
+        self.yr.push(yr);
+    }
+}
+
+/// `invert_batch` (states then u, or the first failing point) and `outputs_batch` over the first `len` points
+/// of `c`, Newton's method (where ψ⁻¹ needs it) starting from x = 1 at the first point.
+#[allow(clippy::type_complexity)]
+fn batch(
+    m: &dyn InverseModel,
+    c: &Columns,
+    len: usize,
+    n_out: usize,
+) -> (Result<Vec<Vec<f64>>, usize>, Vec<Vec<f64>>) {
+    let cut =
+        |cols: &[Vec<f64>]| -> Vec<Vec<f64>> { cols.iter().map(|v| v[..len].to_vec()).collect() };
+    let (xi, eta) = (cut(&c.xi), cut(&c.eta));
+    let xi: Vec<&[f64]> = xi.iter().map(|v| &v[..]).collect();
+    let eta: Vec<&[f64]> = eta.iter().map(|v| &v[..]).collect();
+    let mut states = vec![vec![1.0; len]; c.x.len()];
+    let mut u = vec![0.0; len];
+    let inverse = {
+        let mut x: Vec<&mut [f64]> = states.iter_mut().map(|v| &mut v[..]).collect();
+        m.invert_batch(&xi, &eta, &c.yr[..len], &mut x, &mut u)
+    };
+    let inverse = inverse.map(|()| {
+        states.push(u);
+        states
+    });
+    let x = cut(&c.x);
+    let x: Vec<&[f64]> = x.iter().map(|v| &v[..]).collect();
+    let mut out = vec![vec![0.0; len]; n_out];
+    {
+        let mut o: Vec<&mut [f64]> = out.iter_mut().map(|v| &mut v[..]).collect();
+        m.outputs_batch(&x, &c.u[..len], &mut o);
+    }
+    (inverse.map_err(|(k, _)| k), out)
+}
+
 fn compare(name: &str, file: &Path, compiled: &mut dyn InverseModel) -> Stats {
     let d = invsim_inversion::derive_file(file).unwrap_or_else(|e| panic!("{name}: {e}"));
     let mut interp = Interpreter::new(&d).unwrap_or_else(|e| panic!("{name}: {e}"));
@@ -184,12 +251,14 @@ fn compare(name: &str, file: &Path, compiled: &mut dyn InverseModel) -> Stats {
                compiled: &dyn InverseModel,
                interp: &dyn InverseModel,
                tag: &str| {
+        let mut columns = Columns::new(n, r, ne);
         for k in 0..POINTS {
             let x = sample(rng, &b.x);
             let u = rng.gen_range(b.u.0..=b.u.1);
             let xi = sample(rng, &b.xi);
             let eta = sample(rng, &b.eta);
             let yr = rng.gen_range(b.yr.0..=b.yr.1);
+            columns.push(&x, u, &xi, &eta, yr);
             let both = |f: &dyn Fn(&dyn InverseModel) -> Vec<f64>| (f(interp), f(compiled));
 
             let (a, g) = both(&|m| vec![m.h(&x)]);
@@ -241,6 +310,41 @@ fn compare(name: &str, file: &Path, compiled: &mut dyn InverseModel) -> Stats {
                         "{tag}{what} at point {k}: interpreter {a:?}, compiled {g:?}"
                     )),
                 }
+            }
+        }
+        // The batch methods on the same points: all of them (several blocks of the generated code), and an
+        // odd-length prefix (a partial last block).
+        for len in [POINTS, 300] {
+            let ((ia, oa), (ig, og)) = (
+                batch(interp, &columns, len, no),
+                batch(compiled, &columns, len, no),
+            );
+            // One row per point (quantity i of a method is `what[i]`, as for the per-point methods).
+            let row =
+                |cols: &[Vec<f64>], k: usize| -> Vec<f64> { cols.iter().map(|c| c[k]).collect() };
+            for k in 0..len {
+                c.add(
+                    &format!("{tag}outputs_batch/{len}"),
+                    &row(&oa, k),
+                    &row(&og, k),
+                );
+            }
+            match (ia, ig) {
+                (Ok(a), Ok(g)) => {
+                    for k in 0..len {
+                        c.add(
+                            &format!("{tag}invert_batch/{len}"),
+                            &row(&a, k),
+                            &row(&g, k),
+                        );
+                    }
+                }
+                (Err(a), Err(g)) if a == g => {}
+                (a, g) => c.mismatched_errors.push(format!(
+                    "{tag}invert_batch/{len}: interpreter {:?}, compiled {:?}",
+                    a.map(|_| ()),
+                    g.map(|_| ())
+                )),
             }
         }
     };

@@ -260,11 +260,23 @@ fn verify_warns_when_an_unstable_model_makes_the_open_loop_replay_stray() {
         "[states]\nx1 = { rhs = \"x2\" }\nx2 = { rhs = \"x1 + u\" }\n[input]\nname = \"u\"\n[output]\nname = \"y\"\nh = \"x1\"\n",
     )
     .unwrap();
-    let o = invsim(&["simulate", model.to_str().unwrap(), "--cycle", "ece", "--verify"]);
+    let o = invsim(&[
+        "simulate",
+        model.to_str().unwrap(),
+        "--cycle",
+        "ece",
+        "--verify",
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(out.contains("open-loop replay strays"), "{out}");
     // The stable si_engine gives no such warning.
-    let o = invsim(&["simulate", "models/si_engine.toml", "--cycle", "ece", "--verify"]);
+    let o = invsim(&[
+        "simulate",
+        "models/si_engine.toml",
+        "--cycle",
+        "ece",
+        "--verify",
+    ]);
     assert!(!String::from_utf8_lossy(&o.stdout).contains("strays"));
 }

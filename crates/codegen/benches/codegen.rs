@@ -2,7 +2,11 @@
 //!
 //! * `invert/*`: ψ⁻¹ + α + β (and u = (y'' − α)/β) per point, over 1 000 points with ξ1 ∈ [0, 40] m/s,
 //!   ξ2 ∈ [−3, 3] m/s²: the compiled model through the runtime's trait object, the generated typed function,
-//!   the interpreter, and for reference one `powf` per point (si_engine's friction term needs one);
+//!   the interpreter, and for reference one `powf` per point (si_engine's friction term needs one); the same
+//!   1 000 points as columns through the batch method (`invert_batch`, trait object and typed), and for
+//!   reference the one power per point by `math::pow_pos_slice`;
+//! * `outputs/*`: the extra outputs (fuel, engine speed and torque, whose friction term is another fractional
+//!   power) at 1 000 states, point by point and by `outputs_batch`;
 //! * `generate/*`: formatted Rust source from a derivation, and load + derive + generate from the file.
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
@@ -76,6 +80,41 @@ fn invert(c: &mut Criterion) {
             acc
         })
     });
+    // The same points as columns, through the batch methods.
+    let xi1: Vec<f64> = pts.iter().map(|p| p.0[0]).collect();
+    let xi2: Vec<f64> = pts.iter().map(|p| p.0[1]).collect();
+    let yr: Vec<f64> = pts.iter().map(|p| p.1).collect();
+    let (mut x1, mut x2, mut u) = (vec![0.0; POINTS], vec![0.0; POINTS], vec![0.0; POINTS]);
+    g.bench_function("compiled_batch_trait_object", |b| {
+        b.iter(|| {
+            let xi: [&[f64]; 2] = [black_box(&xi1), black_box(&xi2)];
+            compiled
+                .invert_batch(&xi, &[], black_box(&yr), &mut [&mut x1, &mut x2], &mut u)
+                .unwrap_or(());
+            u[POINTS - 1] + x2[POINTS - 1]
+        })
+    });
+    g.bench_function("compiled_batch_typed", |b| {
+        b.iter(|| {
+            pre.invert_batch(
+                [black_box(&xi1), black_box(&xi2)],
+                [],
+                black_box(&yr),
+                [&mut x1, &mut x2],
+                &mut u,
+            );
+            u[POINTS - 1] + x2[POINTS - 1]
+        })
+    });
+    // The floor under the batch: the same one power per point, by the vectorised pow.
+    let bases: Vec<f64> = xi1.iter().map(|v| k3 + k4 * v * v).collect();
+    let mut powers = vec![0.0; POINTS];
+    g.bench_function("reference_one_pow_pos_slice", |b| {
+        b.iter(|| {
+            invsim_model_api::math::pow_pos_slice(black_box(&bases), 0.1, &mut powers);
+            powers[POINTS - 1]
+        })
+    });
     g.bench_function("interpreter", |b| {
         b.iter(|| {
             let mut x = [0.0; 2];
@@ -87,6 +126,44 @@ fn invert(c: &mut Criterion) {
                     + x[1];
             }
             acc
+        })
+    });
+    g.finish();
+}
+
+fn outputs(c: &mut Criterion) {
+    let pts = points();
+    let compiled: Box<dyn InverseModel> =
+        invsim_models::builtin("si_engine").expect("si_engine is built in");
+    // States v ∈ [0, 40] m/s, p_i ∈ [2e4, 1e5] Pa and inputs m_at ∈ [0, 0.08] kg/s from the same generator.
+    let v: Vec<f64> = pts.iter().map(|p| p.0[0]).collect();
+    let p_i: Vec<f64> = pts.iter().map(|p| 6.0e4 + 1.3e4 * p.0[1]).collect();
+    let m_at: Vec<f64> = pts.iter().map(|p| 0.04 + 0.02 * p.1).collect();
+    let mut out = vec![vec![0.0; POINTS]; 4];
+    let mut g = c.benchmark_group("outputs");
+    g.throughput(Throughput::Elements(POINTS as u64));
+    g.bench_function("compiled_pointwise", |b| {
+        b.iter(|| {
+            let mut o = [0.0; 4];
+            let mut acc = 0.0;
+            for k in 0..POINTS {
+                compiled.outputs(black_box(&[v[k], p_i[k]]), black_box(m_at[k]), &mut o);
+                acc += o[3];
+            }
+            acc
+        })
+    });
+    g.bench_function("compiled_batch", |b| {
+        b.iter(|| {
+            let [o0, o1, o2, o3] = &mut out[..] else {
+                unreachable!()
+            };
+            compiled.outputs_batch(
+                &[black_box(&v), black_box(&p_i)],
+                black_box(&m_at),
+                &mut [o0, o1, o2, o3],
+            );
+            out[3][POINTS - 1]
         })
     });
     g.finish();
@@ -105,5 +182,5 @@ fn generate(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, invert, generate);
+criterion_group!(benches, invert, outputs, generate);
 criterion_main!(benches);

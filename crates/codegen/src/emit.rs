@@ -278,18 +278,34 @@ pub(crate) fn render(
     fixed: &HashMap<usize, Ident>,
     temp: &str,
 ) -> Block {
+    render_with(arena, roots, index, atom, &|_| None, fixed, temp)
+}
+
+/// [`render`], with some arena values computed elsewhere: `given(i)` is the expression that stands for value
+/// `i` (bound or inlined like any other value; its operands are not computed here).
+pub(crate) fn render_with(
+    arena: &Arena,
+    roots: &[Val],
+    index: &dyn Fn(Val) -> Option<usize>,
+    atom: &dyn Fn(Val) -> Ex,
+    given: &dyn Fn(usize) -> Option<Ex>,
+    fixed: &HashMap<usize, Ident>,
+    temp: &str,
+) -> Block {
     let n = arena.ops.len();
     let mut reachable = vec![false; n];
     let mut stack: Vec<usize> = roots.iter().filter_map(|&v| index(v)).collect();
     while let Some(i) = stack.pop() {
         if !reachable[i] {
             reachable[i] = true;
-            stack.extend(arena.ops[i].operands().into_iter().filter_map(index));
+            if given(i).is_none() {
+                stack.extend(arena.ops[i].operands().into_iter().filter_map(index));
+            }
         }
     }
     let mut uses = vec![0usize; n];
     for (i, op) in arena.ops.iter().enumerate() {
-        if reachable[i] {
+        if reachable[i] && given(i).is_none() {
             for v in op.operands() {
                 if let Some(j) = index(v) {
                     uses[j] += 1;
@@ -315,14 +331,17 @@ pub(crate) fn render(
             counter += 1;
             id
         });
-        let ex = op_ex(arena.ops[i], arena, &names, index, atom, &mut flags);
+        let ex = match given(i) {
+            Some(e) => e,
+            None => op_ex(arena.ops[i], arena, &names, index, atom, given, &mut flags),
+        };
         let t = ex.tokens(0);
         lets.push(quote!(let #name = #t;));
         names[i] = Some(name);
     }
     let roots = roots
         .iter()
-        .map(|&v| val_ex(v, arena, &names, index, atom, &mut flags))
+        .map(|&v| val_ex(v, arena, &names, index, atom, given, &mut flags))
         .collect();
     Block {
         lets,
@@ -338,12 +357,16 @@ fn val_ex(
     names: &[Option<Ident>],
     index: &dyn Fn(Val) -> Option<usize>,
     atom: &dyn Fn(Val) -> Ex,
+    given: &dyn Fn(usize) -> Option<Ex>,
     flags: &mut u8,
 ) -> Ex {
     match index(v) {
         Some(i) => match &names[i] {
             Some(name) => Ex::Atom(name.to_token_stream()),
-            None => op_ex(arena.ops[i], arena, names, index, atom, flags),
+            None => match given(i) {
+                Some(e) => e,
+                None => op_ex(arena.ops[i], arena, names, index, atom, given, flags),
+            },
         },
         None => atom(v),
     }
@@ -355,9 +378,10 @@ fn op_ex(
     names: &[Option<Ident>],
     index: &dyn Fn(Val) -> Option<usize>,
     atom: &dyn Fn(Val) -> Ex,
+    given: &dyn Fn(usize) -> Option<Ex>,
     flags: &mut u8,
 ) -> Ex {
-    let mut e = |v: Val| val_ex(v, arena, names, index, atom, flags);
+    let mut e = |v: Val| val_ex(v, arena, names, index, atom, given, flags);
     match op {
         Op::Add(a, b) => Ex::bin(BinOp::Add, e(a), e(b)),
         Op::Sub(a, b) => Ex::bin(BinOp::Sub, e(a), e(b)),

@@ -9,7 +9,11 @@
 //!   functions per point — `h`, `psi`, `psi_inv` (closed form, or Newton's method on the analytic Jacobian with
 //!   a convergence error), `alpha`, `beta`, `invert`, `zero_dynamics`, `rhs`, `outputs` — each documented with
 //!   the equation it implements (plain and LaTeX);
-//! * free functions taking `&Params`, and `Model`, which implements `invsim_model_api::InverseModel`.
+//! * batch methods over columns of points, `invert_batch` (where ψ⁻¹ is in closed form) and `outputs_batch`:
+//!   block by block, the fractional powers of a block at once by `invsim_model_api::math::pow_pos_slice`, the
+//!   rest in loops that vectorise (see `model/batch.rs`);
+//! * free functions taking `&Params`, and `Model`, which implements `invsim_model_api::InverseModel` (its batch
+//!   methods through the generated ones).
 //!
 //! Expressions are lowered as the interpreter's tape lowers them (sums and products as chains, negative
 //! coefficients as subtraction, integer powers as products or `powi`, ½-powers as `sqrt`, one shared `powf`

@@ -1,5 +1,5 @@
-//! The generated module for one model: constants, `Params`, `Precomputed` (parameter-only subexpressions and
-//! the per-point functions), free functions, `Model` and its `InverseModel` impl.
+//! The generated module for one model: constants, `Params`, `Precomputed` (parameter-only subexpressions, the
+//! per-point functions and the batch methods of [`batch`]), free functions, `Model` and its `InverseModel` impl.
 //!
 //! Which functions exist, and what they compute, mirrors the interpreter (`invsim_inversion::Interpreter`):
 //!
@@ -8,7 +8,7 @@
 //!   ∂ψ/∂x (same iteration limit, tolerance and residual scaling as the interpreter), and α, β and the zero
 //!   dynamics are evaluated in the states at the solution (L_f^r h, L_g L_f^(r−1) h, f_η + g_η·u).
 
-use crate::emit::{self, Ex};
+use crate::emit::{self, BinOp, Ex};
 use crate::lower::{self, Invariants, Lowered, Val};
 use crate::names::{self, FieldName, Locals};
 use crate::CodegenError;
@@ -19,6 +19,8 @@ use proc_macro2::{Ident, Span, TokenStream};
 use quote::{format_ident, quote, ToTokens};
 use std::cell::RefCell;
 use std::collections::{BTreeSet, HashMap, HashSet};
+
+mod batch;
 
 /// The shape of a function's result.
 #[derive(Clone)]
@@ -554,6 +556,40 @@ impl<'d> Gen<'d> {
     }
 }
 
+/// The fused inverse's results from the roots of its lowered code (x…, α, β and, with `beta_recip`, 1/β):
+/// `let` statements naming α and β where they are not single tokens, the states, and
+/// u = (y^(r) − α)/β (or (y^(r) − α)·(1/β) when β depends on parameters only).
+fn invert_result(mut items: Vec<Ex>, beta_recip: bool) -> (TokenStream, Vec<Ex>, Ex) {
+    let beta_recip = if beta_recip { items.pop() } else { None };
+    let beta = items.pop().unwrap_or(Ex::Lit(f64::NAN));
+    let alpha = items.pop().unwrap_or(Ex::Lit(f64::NAN));
+    let mut extra = TokenStream::new();
+    let mut bind = |name: &str, e: Ex| -> Ex {
+        if matches!(e, Ex::Atom(_)) {
+            e
+        } else {
+            let id = format_ident!("{}", name);
+            let t = e.tokens(0);
+            extra.extend(quote!(let #id = #t;));
+            Ex::atom(id.to_token_stream())
+        }
+    };
+    let alpha = bind("alpha", alpha);
+    let yr = Ex::atom(quote!(yr));
+    let u = match beta_recip {
+        // β depends on parameters only: multiply by the precomputed 1/β.
+        Some(rb) => {
+            let _ = beta;
+            Ex::bin(BinOp::Mul, Ex::bin(BinOp::Sub, yr, alpha), rb)
+        }
+        None => {
+            let beta = bind("beta", beta);
+            Ex::bin(BinOp::Div, Ex::bin(BinOp::Sub, yr, alpha), beta)
+        }
+    };
+    (extra, items, u)
+}
+
 fn arg_syms(args: &[Arg]) -> Vec<Symbol> {
     args.iter()
         .flat_map(|a| match a {
@@ -672,6 +708,8 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
 
     // ----- per-point methods --------------------------------------------------------------------------------
     let mut methods: Vec<TokenStream> = Vec::new();
+    let mut batch_methods: Vec<TokenStream> = Vec::new();
+    let (mut has_invert_batch, mut has_outputs_batch, mut uses_pow_slice) = (false, false, false);
     let mut free_fns: Vec<TokenStream> = Vec::new();
     for f in &fns {
         let Some(l) = &f.lowered else { continue };
@@ -723,44 +761,8 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
             quote!()
         };
         let (ret_ty, result) = if f.name == "invert" {
-            // (x, α, β) → (x, (y^(r) − α)/β), with α and β named when they are not single tokens.
-            let mut items: Vec<Ex> = block.roots.clone();
-            let beta_recip = if f.beta_recip { items.pop() } else { None };
-            let beta = items.pop().unwrap_or(Ex::Lit(f64::NAN));
-            let alpha = items.pop().unwrap_or(Ex::Lit(f64::NAN));
-            let xs: Vec<TokenStream> = items.iter().map(|e| e.tokens(0)).collect();
-            let mut extra = TokenStream::new();
-            let mut bind = |name: &str, e: Ex| -> Ex {
-                if matches!(e, Ex::Atom(_)) {
-                    e
-                } else {
-                    let id = format_ident!("{}", name);
-                    let t = e.tokens(0);
-                    extra.extend(quote!(let #id = #t;));
-                    Ex::atom(id.to_token_stream())
-                }
-            };
-            let alpha = bind("alpha", alpha);
-            let yr = Ex::atom(quote!(yr));
-            let u = match beta_recip {
-                // β depends on parameters only: multiply by the precomputed 1/β.
-                Some(rb) => {
-                    let _ = beta;
-                    emit::Ex::bin(
-                        emit::BinOp::Mul,
-                        emit::Ex::bin(emit::BinOp::Sub, yr, alpha),
-                        rb,
-                    )
-                }
-                None => {
-                    let beta = bind("beta", beta);
-                    emit::Ex::bin(
-                        emit::BinOp::Div,
-                        emit::Ex::bin(emit::BinOp::Sub, yr, alpha),
-                        beta,
-                    )
-                }
-            };
+            let (extra, xs, u) = invert_result(block.roots.clone(), f.beta_recip);
+            let xs = xs.iter().map(|e| e.tokens(0));
             let u = u.tokens(0);
             (quote!(([f64; N], f64)), quote!(#extra ([#(#xs),*], #u)))
         } else {
@@ -777,6 +779,28 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
                 #result
             }
         });
+        // The same over columns of points, block by block (ψ⁻¹ in closed form; outputs for every model).
+        let kind = match f.name {
+            "invert" if g.closed => Some(batch::Kind::Invert),
+            "outputs" => Some(batch::Kind::Outputs),
+            _ => None,
+        };
+        if let Some(kind) = kind {
+            let is_param = |v: Val| match v {
+                Val::Sym(s) => g.fields.contains_key(&s),
+                Val::Num(_) | Val::Pi | Val::Inv(_) => true,
+                Val::Loc(_) => false,
+            };
+            let plan = batch::Plan::new(&l.arena, &l.roots, &is_param);
+            uses_pow_slice |= plan.has_powers();
+            let (tokens, sign) = batch::method(&g, f, l, &plan, kind, &k_names, &is_param);
+            uses_sign |= sign;
+            batch_methods.push(tokens);
+            match kind {
+                batch::Kind::Invert => has_invert_batch = true,
+                batch::Kind::Outputs => has_outputs_batch = true,
+            }
+        }
         let free_doc = format!(
             " {} at the parameters `p`; the equation and the code are in [`Precomputed::{}`].",
             short_title(f.name),
@@ -1126,12 +1150,52 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
             fn outputs(&self, x: &[f64], u: f64, out: &mut [f64]) {
                 out.copy_from_slice(&self.pre.outputs(arr(x), u));
             }
+            /// The outputs over columns, block by block ([`Precomputed::outputs_batch`]).
+            fn outputs_batch(&self, x: &[&[f64]], u: &[f64], out: &mut [&mut [f64]]) {
+                self.pre.outputs_batch(cols(x), u, cols_mut(out));
+            }
         }
     } else {
         quote! {
             fn outputs(&self, _x: &[f64], _u: f64, _out: &mut [f64]) {}
+            fn outputs_batch(&self, _x: &[&[f64]], _u: &[f64], _out: &mut [&mut [f64]]) {}
         }
     };
+    let invert_batch_impl = if has_invert_batch {
+        quote! {
+            /// ψ⁻¹, α and β over columns, block by block ([`Precomputed::invert_batch`]).
+            fn invert_batch(
+                &self,
+                xi: &[&[f64]],
+                eta: &[&[f64]],
+                yr: &[f64],
+                x: &mut [&mut [f64]],
+                u: &mut [f64],
+            ) -> Result<(), (usize, ModelError)> {
+                self.pre.invert_batch(cols(xi), cols(eta), yr, cols_mut(x), u);
+                Ok(())
+            }
+        }
+    } else {
+        quote!()
+    };
+    if has_invert_batch || has_outputs_batch {
+        helpers.push(quote! {
+            /// The fixed-size array of columns behind a slice of columns (a wrong count is a bug in the
+            /// caller, as the trait documents).
+            fn cols<'a, const K: usize>(s: &[&'a [f64]]) -> [&'a [f64]; K] {
+                s.try_into().expect("column count matches the model's dimensions")
+            }
+
+            /// The same for columns written to.
+            fn cols_mut<'a, const K: usize>(s: &'a mut [&mut [f64]]) -> [&'a mut [f64]; K] {
+                let s: &'a mut [&mut [f64]; K] = s
+                    .try_into()
+                    .expect("column count matches the model's dimensions");
+                s.each_mut().map(|c| &mut **c)
+            }
+        });
+    }
     let (psi_inv_impl, alpha_impl, beta_impl, zero_impl, invert_impl) = if g.closed {
         (
             quote! {
@@ -1288,6 +1352,20 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
             use invsim_model_api::{InverseModel, ModelError, ModelInfo, ReferenceMap};
         )
     };
+    let imports = if uses_pow_slice {
+        quote!(#imports use invsim_model_api::math::pow_pos_slice;)
+    } else {
+        imports
+    };
+    let block_const = if has_invert_batch || has_outputs_batch {
+        quote! {
+            /// Points per block of the batch methods of [`Precomputed`] (`*_batch`): their block buffers hold
+            /// this many values each, on the stack.
+            pub const BLOCK: usize = 256;
+        }
+    } else {
+        quote!()
+    };
     let ref_offset = emit::float_tokens(m.output.reference_offset, false);
     let ref_scale = emit::float_tokens(m.output.reference_scale, false);
     let body = quote! {
@@ -1323,6 +1401,7 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
         pub const OUTPUTS: [&str; N_OUTPUTS] = [#(#output_names),*];
         /// How a drive cycle defines the tracked output's reference: y_d = offset + scale · (smoothed cycle).
         pub const REFERENCE: ReferenceMap = ReferenceMap { offset: #ref_offset, scale: #ref_scale };
+        #block_const
 
         /// The model's parameters; [`Default`] gives the model file's values.
         #[derive(Debug, Clone, Copy, PartialEq, #derive_default serde::Serialize, serde::Deserialize)]
@@ -1365,6 +1444,8 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
             }
 
             #(#methods)*
+
+            #(#batch_methods)*
         }
 
         #(#free_fns)*
@@ -1454,6 +1535,7 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
                 REFERENCE
             }
             #invert_impl
+            #invert_batch_impl
         }
 
         /// The fixed-size array behind a slice of one of the model's dimensions (a wrong length is a bug in

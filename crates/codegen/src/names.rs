@@ -99,6 +99,26 @@ pub(crate) const RESERVED_LOCALS: &[&str] = &[
     "foo",
     "baz",
     "quux",
+    // The batch methods' own names.
+    "invert_batch",
+    "outputs_batch",
+    "BLOCK",
+    "cols",
+    "cols_mut",
+    "pow_pos_slice",
+    "start",
+    "end",
+    "len",
+    "k",
+    "c",
+    "base",
+    "power",
+    "kept",
+    "states",
+    "input",
+    "values",
+    "column",
+    "buffer",
 ];
 
 pub(crate) fn is_keyword(s: &str) -> bool {

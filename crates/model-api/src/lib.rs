@@ -2,7 +2,8 @@
 //!
 //! Both the Rust code that `invsim-codegen` emits and the interpreter tape in `invsim-inversion` implement
 //! [`InverseModel`]; the runtime drives either through it. This crate is deliberately tiny so that generated
-//! model crates depend on it alone, not on the whole runtime.
+//! model crates depend on it alone, not on the whole runtime; [`math`] holds the one numerical routine generated
+//! code needs beyond `std`, a vectorised x^y for its batch methods.
 //!
 //! Notation (Isidori, *Nonlinear Control Systems*, 3rd ed., §4.1; Fröberg & Nielsen 2004, eq. 24–32):
 //! for x' = f(x) + g(x)u, y = h(x) with relative degree r, the normal-form coordinates are
@@ -10,6 +11,8 @@
 //! y^(r) = α(ξ, η) + β(ξ, η) u, so the input that makes y follow y_d is u = (y_d^(r) − α) / β.
 
 use thiserror::Error;
+
+pub mod math;
 
 /// Static description of a model: names, sizes, bounds. Order of every list is the model file's order.
 #[derive(Debug, Clone, PartialEq)]

@@ -1467,7 +1467,10 @@ fn verify_forward<M: InverseModel + ?Sized>(
     // replay's own O(dt²) interpolation error then stays small. Where it is unstable any error grows
     // exponentially whatever dt is. Say so when the replay strays, so the number is not mistaken for an
     // inaccuracy of the inverse.
-    let scale = yd0.iter().fold(0.0_f64, |m, v| m.max(v.abs())).max(f64::MIN_POSITIVE);
+    let scale = yd0
+        .iter()
+        .fold(0.0_f64, |m, v| m.max(v.abs()))
+        .max(f64::MIN_POSITIVE);
     let mut warnings = Vec::new();
     if max_abs > 1e-3 * scale {
         warnings.push(format!(

@@ -15,6 +15,7 @@ pub mod si_engine {
     use invsim_model_api::{
         InverseModel, ModelError, ModelInfo, OutputInfo, ReferenceMap,
     };
+    use invsim_model_api::math::pow_pos_slice;
     /// Model name.
     pub const NAME: &str = "si_engine";
     /// One-line description from the model file.
@@ -76,6 +77,9 @@ pub mod si_engine {
         offset: 0.0,
         scale: 1.0,
     };
+    /// Points per block of the batch methods of [`Precomputed`] (`*_batch`): their block buffers hold
+    /// this many values each, on the stack.
+    pub const BLOCK: usize = 256;
     /// The model's parameters; [`Default`] gives the model file's values.
     #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
     #[serde(default, deny_unknown_fields)]
@@ -631,6 +635,100 @@ pub mod si_engine {
                             * (self.k5 - 9.0 * (self.k3 + self.k4 * (v * v)).powf(0.9))),
             ]
         }
+        /// [`Precomputed::invert`] at many points, stored column-wise: ξ_i at point k is `xi[i][k]`, η_j is `eta[j][k]`, y^(r) is `yr[k]`; x_s is written to `x[s][k]` and u to `u[k]`.
+        ///
+        /// Block by block ([`BLOCK`] points): the fractional powers of a block at once, by [`pow_pos_slice`] (within 1 ulp of `powf`), everything else point by point in loops that vectorise.
+        ///
+        /// # Panics
+        ///
+        /// If a column is shorter than `yr`.
+        pub fn invert_batch(
+            &self,
+            xi: [&[f64]; R],
+            _eta: [&[f64]; N_ETA],
+            yr: &[f64],
+            mut x: [&mut [f64]; N],
+            u: &mut [f64],
+        ) {
+            let mut base = [[0.0; BLOCK]; 1];
+            let mut power = [[0.0; BLOCK]; 1];
+            let mut states = [[0.0; BLOCK]; N];
+            let mut input = [0.0; BLOCK];
+            for start in (0..yr.len()).step_by(BLOCK) {
+                let len = BLOCK.min(yr.len() - start);
+                let end = start + len;
+                let xi = xi.map(|c| &c[start..end]);
+                let yr = &yr[start..end];
+                for k in 0..len {
+                    let [xi1, _] = xi.map(|c| c[k]);
+                    base[0][k] = self.k3 + self.k4 * (xi1 * xi1);
+                }
+                pow_pos_slice(&base[0][..len], 0.1, &mut power[0][..len]);
+                for k in 0..len {
+                    let [xi1, xi2] = xi.map(|c| c[k]);
+                    let yr = yr[k];
+                    let t0 = power[0][k];
+                    let t1 = 2.0 * xi2
+                        + self.k10
+                            * (self.k0 + self.k1 * (xi1 * xi1)
+                                + self.k7
+                                    * (self.k9 - self.k6 * (self.k5 - 9.0 * t0.powi(9))));
+                    let alpha = self.k12 * xi1
+                        - self.k10 * xi2 * (self.k1 * xi1 + self.k13 * xi1 / t0)
+                        - self.k14 * xi1 * t1;
+                    states[0][k] = xi1;
+                    states[1][k] = self.k11 * t1;
+                    input[k] = (yr - alpha) * self.k16;
+                }
+                for (column, buffer) in x.iter_mut().zip(&states) {
+                    column[start..end].copy_from_slice(&buffer[..len]);
+                }
+                u[start..end].copy_from_slice(&input[..len]);
+            }
+        }
+        /// [`Precomputed::outputs`] at many points, stored column-wise: x_s at point k is `x[s][k]`, the input `m_at[k]`; output o is written to `out[o][k]`.
+        ///
+        /// Block by block ([`BLOCK`] points): the fractional powers of a block at once, by [`pow_pos_slice`] (within 1 ulp of `powf`), everything else point by point in loops that vectorise.
+        ///
+        /// # Panics
+        ///
+        /// If a column is shorter than `m_at`.
+        pub fn outputs_batch(
+            &self,
+            x: [&[f64]; N],
+            m_at: &[f64],
+            mut out: [&mut [f64]; N_OUTPUTS],
+        ) {
+            let p = &self.params;
+            let mut base = [[0.0; BLOCK]; 1];
+            let mut power = [[0.0; BLOCK]; 1];
+            let mut values = [[0.0; BLOCK]; N_OUTPUTS];
+            for start in (0..m_at.len()).step_by(BLOCK) {
+                let len = BLOCK.min(m_at.len() - start);
+                let end = start + len;
+                let x = x.map(|c| &c[start..end]);
+                let m_at = &m_at[start..end];
+                for k in 0..len {
+                    let [v, _] = x.map(|c| c[k]);
+                    base[0][k] = self.k3 + self.k4 * (v * v);
+                }
+                pow_pos_slice(&base[0][..len], 0.9, &mut power[0][..len]);
+                for k in 0..len {
+                    let [v, p_i] = x.map(|c| c[k]);
+                    let m_at = m_at[k];
+                    let t0 = m_at.max(0.0);
+                    values[0][k] = self.k19 * t0;
+                    values[1][k] = self.k20 * t0;
+                    values[2][k] = self.k21 * v;
+                    values[3][k] = self.k22
+                        * (p.p_e - p_i + self.k2 * (p.y_i - p.s_i * p_i)
+                            - self.k6 * (self.k5 - 9.0 * power[0][k]));
+                }
+                for (column, buffer) in out.iter_mut().zip(&values) {
+                    column[start..end].copy_from_slice(&buffer[..len]);
+                }
+            }
+        }
     }
     /// The tracked output y = h(x) at the parameters `p`; the equation and the code are in [`Precomputed::h`].
     #[inline]
@@ -793,6 +891,10 @@ pub mod si_engine {
         fn outputs(&self, x: &[f64], u: f64, out: &mut [f64]) {
             out.copy_from_slice(&self.pre.outputs(arr(x), u));
         }
+        /// The outputs over columns, block by block ([`Precomputed::outputs_batch`]).
+        fn outputs_batch(&self, x: &[&[f64]], u: &[f64], out: &mut [&mut [f64]]) {
+            self.pre.outputs_batch(cols(x), u, cols_mut(out));
+        }
         fn reference(&self) -> ReferenceMap {
             REFERENCE
         }
@@ -808,10 +910,34 @@ pub mod si_engine {
             x.copy_from_slice(&states);
             Ok(u)
         }
+        /// ψ⁻¹, α and β over columns, block by block ([`Precomputed::invert_batch`]).
+        fn invert_batch(
+            &self,
+            xi: &[&[f64]],
+            eta: &[&[f64]],
+            yr: &[f64],
+            x: &mut [&mut [f64]],
+            u: &mut [f64],
+        ) -> Result<(), (usize, ModelError)> {
+            self.pre.invert_batch(cols(xi), cols(eta), yr, cols_mut(x), u);
+            Ok(())
+        }
     }
     /// The fixed-size array behind a slice of one of the model's dimensions (a wrong length is a bug in
     /// the caller, as the trait documents).
     fn arr<const K: usize>(s: &[f64]) -> &[f64; K] {
         s.try_into().expect("slice length matches the model's dimensions")
+    }
+    /// The fixed-size array of columns behind a slice of columns (a wrong count is a bug in the
+    /// caller, as the trait documents).
+    fn cols<'a, const K: usize>(s: &[&'a [f64]]) -> [&'a [f64]; K] {
+        s.try_into().expect("column count matches the model's dimensions")
+    }
+    /// The same for columns written to.
+    fn cols_mut<'a, const K: usize>(s: &'a mut [&mut [f64]]) -> [&'a mut [f64]; K] {
+        let s: &'a mut [&mut [f64]; K] = s
+            .try_into()
+            .expect("column count matches the model's dimensions");
+        s.each_mut().map(|c| &mut **c)
     }
 }

@@ -1,0 +1,641 @@
+//! Batch kernels: `invert_batch` and `outputs_batch`, a model function evaluated over columns of points, block
+//! by block, with the fractional powers of a block taken at once by `invsim_model_api::math::pow_pos_slice`.
+//!
+//! The per-point function's lowered code is split at its fractional powers b^q (q a constant or a
+//! parameter-only value, b varying). A power's *level* is one more than the highest level of the powers its
+//! base depends on. Over a block of points, loop l computes the bases of the level-(l + 1) powers into block
+//! buffers and `pow_pos_slice` raises them, for l = 0, 1, …; the last loop computes the function's results
+//! from the inputs and the powers. Every loop is straight-line `f64` code per point that LLVM vectorises (the
+//! results go to block buffers on the stack, copied to the columns afterwards, so no loop writes memory that
+//! could alias its inputs). A later loop recomputes the cheap values it shares with an earlier one and reads
+//! calls of transcendental functions (and powers with varying exponents) from a block buffer instead.
+
+use super::*;
+use crate::lower::{Arena, Op};
+use invsim_expr::Func;
+
+/// A fractional power taken a block at a time.
+pub(super) struct SlicePow {
+    /// Its arena index.
+    op: usize,
+    /// 1 + the highest level among the powers its base depends on.
+    level: usize,
+    base: Val,
+    /// A number or a parameter-only value.
+    exponent: Val,
+}
+
+/// How one function's lowered code splits into loops over a block.
+pub(super) struct Plan {
+    pows: Vec<SlicePow>,
+    /// Values computed in loop `l` and kept in a block buffer for later loops: (arena index, l).
+    kept: Vec<(usize, usize)>,
+    /// The number of loops: the highest level + 1.
+    loops: usize,
+}
+
+/// `b^q` with a varying base and a constant or parameter-only exponent, as (b, q).
+fn slice_pow(op: Op, is_param: &dyn Fn(Val) -> bool) -> Option<(Val, Val)> {
+    match op {
+        Op::Powf(b, q) if !is_param(b) => Some((b, Val::Num(q))),
+        Op::PowVar(b, e) if !is_param(b) && is_param(e) => Some((b, e)),
+        _ => None,
+    }
+}
+
+/// Worth a block buffer rather than computing twice: library calls.
+fn expensive(op: Op) -> bool {
+    match op {
+        Op::Call(f, _) => !matches!(f, Func::Abs | Func::Sign),
+        Op::PowVar(..) => true,
+        _ => false,
+    }
+}
+
+/// The arena values computed for `roots` (not descending below the values `given` marks), as flags.
+fn reach(arena: &Arena, roots: &[Val], given: &dyn Fn(usize) -> bool) -> Vec<bool> {
+    let mut seen = vec![false; arena.ops.len()];
+    let mut stack: Vec<usize> = roots.iter().filter_map(|v| loc(*v)).collect();
+    while let Some(i) = stack.pop() {
+        if seen[i] || given(i) {
+            continue;
+        }
+        seen[i] = true;
+        stack.extend(arena.ops[i].operands().into_iter().filter_map(loc));
+    }
+    seen
+}
+
+fn loc(v: Val) -> Option<usize> {
+    match v {
+        Val::Loc(i) => Some(i),
+        _ => None,
+    }
+}
+
+impl Plan {
+    pub(super) fn new(arena: &Arena, roots: &[Val], is_param: &dyn Fn(Val) -> bool) -> Plan {
+        let live = reach(arena, roots, &|_| false);
+        let mut level = vec![0usize; arena.ops.len()];
+        let mut pows = Vec::new();
+        for (i, &op) in arena.ops.iter().enumerate() {
+            let of = |v: Val| loc(v).map_or(0, |j| level[j]);
+            level[i] = match slice_pow(op, is_param) {
+                Some((base, exponent)) => {
+                    let l = of(base) + 1;
+                    if live[i] {
+                        pows.push(SlicePow {
+                            op: i,
+                            level: l,
+                            base,
+                            exponent,
+                        });
+                    }
+                    l
+                }
+                None => op.operands().into_iter().map(of).max().unwrap_or(0),
+            };
+        }
+        // Numbered in the order they are taken.
+        pows.sort_by_key(|p| p.level);
+        let loops = pows.iter().map(|p| p.level).max().unwrap_or(0) + 1;
+        let mut plan = Plan {
+            pows,
+            kept: Vec::new(),
+            loops,
+        };
+        for l in 0..loops - 1 {
+            let here = reach(arena, &plan.roots(l, roots), &|i| plan.given(i, l));
+            let mut later = vec![false; arena.ops.len()];
+            for m in l + 1..loops {
+                let r = reach(arena, &plan.roots(m, roots), &|i| {
+                    plan.given(i, l) || plan.pows.iter().any(|p| p.op == i && p.level <= m)
+                });
+                later.iter_mut().zip(r).for_each(|(a, b)| *a |= b);
+            }
+            for i in 0..arena.ops.len() {
+                if here[i]
+                    && later[i]
+                    && expensive(arena.ops[i])
+                    && slice_pow(arena.ops[i], is_param).is_none()
+                {
+                    plan.kept.push((i, l));
+                }
+            }
+        }
+        plan
+    }
+
+    /// Is value `i` available from a block buffer in loop `l` (a power below level l + 1, or kept earlier)?
+    fn given(&self, i: usize, l: usize) -> bool {
+        self.pows.iter().any(|p| p.op == i && p.level <= l)
+            || self.kept.iter().any(|&(k, m)| k == i && m < l)
+    }
+
+    /// What loop `l` computes: the function's roots in the last loop, else the bases of the next level's
+    /// powers (those not already in a column or buffer) and the values kept from it.
+    fn roots(&self, l: usize, roots: &[Val]) -> Vec<Val> {
+        if l + 1 == self.loops {
+            return roots.to_vec();
+        }
+        let mut out: Vec<Val> = Vec::new();
+        for p in &self.pows {
+            if p.level == l + 1
+                && loc(p.base).is_some_and(|b| !self.given(b, l))
+                && !out.contains(&p.base)
+            {
+                out.push(p.base);
+            }
+        }
+        for &(i, m) in &self.kept {
+            if m == l && !out.contains(&Val::Loc(i)) {
+                out.push(Val::Loc(i));
+            }
+        }
+        out
+    }
+
+    /// Does this function have powers to take a block at a time?
+    pub(super) fn has_powers(&self) -> bool {
+        !self.pows.is_empty()
+    }
+}
+
+/// The two batch methods.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub(super) enum Kind {
+    /// `invert_batch` from the fused inverse `invert`.
+    Invert,
+    /// `outputs_batch` from `outputs`.
+    Outputs,
+}
+
+/// The batch method for `f` (`invert` or `outputs`) and whether it calls `sign`.
+pub(super) fn method(
+    g: &Gen<'_>,
+    f: &Straight,
+    l: &Lowered,
+    plan: &Plan,
+    kind: Kind,
+    k_names: &HashMap<usize, Ident>,
+    is_param: &dyn Fn(Val) -> bool,
+) -> (TokenStream, bool) {
+    let lit = proc_macro2::Literal::usize_unsuffixed;
+    // Buffers: bases computed here (a base that is an input column or a buffer already is used as it is),
+    // powers, kept values.
+    let mut base_of: HashMap<Val, usize> = HashMap::new();
+    for l_ in 0..plan.loops.saturating_sub(1) {
+        for v in plan.roots(l_, &[]) {
+            if plan.kept.iter().all(|&(i, _)| Val::Loc(i) != v) {
+                let n = base_of.len();
+                base_of.entry(v).or_insert(n);
+            }
+        }
+    }
+    let power_of: HashMap<usize, usize> = plan
+        .pows
+        .iter()
+        .enumerate()
+        .map(|(j, p)| (p.op, j))
+        .collect();
+    let kept_of: HashMap<usize, usize> = plan
+        .kept
+        .iter()
+        .enumerate()
+        .map(|(j, &(i, _))| (i, j))
+        .collect();
+
+    let used_any: RefCell<HashSet<Symbol>> = RefCell::new(HashSet::new());
+    let uses_p = RefCell::new(false);
+    let mut uses_sign = false;
+    let mut clamp_like = false;
+    // One loop over the block: its statements, and the symbols it reads per point.
+    let mut loop_body = |lv: usize| -> (TokenStream, HashSet<Symbol>) {
+        let used: RefCell<HashSet<Symbol>> = RefCell::new(HashSet::new());
+        let atom = |v: Val| -> Ex {
+            match v {
+                Val::Sym(s) if g.fields.contains_key(&s) => {
+                    *uses_p.borrow_mut() = true;
+                    let fld = &g.fields[&s].ident;
+                    Ex::atom(quote!(p.#fld))
+                }
+                Val::Sym(s) => {
+                    used.borrow_mut().insert(s);
+                    match g.locals.get(&s) {
+                        Some(id) => Ex::atom(id.to_token_stream()),
+                        None => Ex::Lit(f64::NAN),
+                    }
+                }
+                Val::Num(x) => Ex::Lit(x.to_f64()),
+                Val::Pi => Ex::Lit(std::f64::consts::PI),
+                Val::Inv(i) => {
+                    let k = &k_names[&i];
+                    Ex::atom(quote!(self.#k))
+                }
+                Val::Loc(_) => Ex::Lit(f64::NAN),
+            }
+        };
+        let given = |i: usize| -> Option<Ex> {
+            if !plan.given(i, lv) {
+                return None;
+            }
+            Some(match (power_of.get(&i), kept_of.get(&i)) {
+                (Some(&j), _) => {
+                    let j = lit(j);
+                    Ex::atom(quote!(power[#j][k]))
+                }
+                (None, Some(&j)) => {
+                    let j = lit(j);
+                    Ex::atom(quote!(kept[#j][k]))
+                }
+                (None, None) => Ex::Lit(f64::NAN),
+            })
+        };
+        let last = lv + 1 == plan.loops;
+        let roots: Vec<Val> = if last {
+            l.roots.clone()
+        } else {
+            plan.roots(lv, &[])
+        };
+        let block = emit::render_with(&l.arena, &roots, &loc, &atom, &given, &HashMap::new(), "t");
+        uses_sign |= block.uses_sign;
+        clamp_like |= block.clamp_like;
+        let lets = &block.lets;
+        let stores: TokenStream = if last {
+            match kind {
+                Kind::Invert => {
+                    let (extra, xs, u) = invert_result(block.roots.clone(), f.beta_recip);
+                    let xs = xs.iter().enumerate().map(|(s, e)| {
+                        let (s, e) = (lit(s), e.tokens(0));
+                        quote!(states[#s][k] = #e;)
+                    });
+                    let u = u.tokens(0);
+                    quote!(#extra #(#xs)* input[k] = #u;)
+                }
+                Kind::Outputs => {
+                    let outs = block.roots.iter().enumerate().map(|(o, e)| {
+                        let (o, e) = (lit(o), e.tokens(0));
+                        quote!(values[#o][k] = #e;)
+                    });
+                    quote!(#(#outs)*)
+                }
+            }
+        } else {
+            roots
+                .iter()
+                .zip(&block.roots)
+                .map(|(v, e)| {
+                    let e = e.tokens(0);
+                    match loc(*v).and_then(|i| kept_of.get(&i)) {
+                        Some(&j) => {
+                            let j = lit(j);
+                            quote!(kept[#j][k] = #e;)
+                        }
+                        None => {
+                            let j = lit(base_of[v]);
+                            quote!(base[#j][k] = #e;)
+                        }
+                    }
+                })
+                .collect()
+        };
+        let mut used = used.into_inner();
+        if last && kind == Kind::Invert {
+            used.insert(g.d.yr);
+        }
+        // Per point: the inputs it reads, from the block's columns.
+        let mut reads = TokenStream::new();
+        for a in f
+            .args
+            .iter()
+            .cloned()
+            .chain((kind == Kind::Invert).then_some(Arg::Scalar(g.d.yr)))
+        {
+            match a {
+                Arg::Array { name, syms, .. } => {
+                    if syms.iter().any(|s| used.contains(s)) {
+                        let pats = syms.iter().map(|s| {
+                            if used.contains(s) {
+                                g.locals[s].to_token_stream()
+                            } else {
+                                quote!(_)
+                            }
+                        });
+                        let name = format_ident!("{}", name);
+                        reads.extend(quote!(let [#(#pats),*] = #name.map(|c| c[k]);));
+                    }
+                }
+                Arg::Scalar(s) => {
+                    if used.contains(&s) {
+                        let id = &g.locals[&s];
+                        reads.extend(quote!(let #id = #id[k];));
+                    }
+                }
+            }
+        }
+        used_any.borrow_mut().extend(used.iter().copied());
+        // A loop with nothing to compute (every base is a column or a buffer already) is left out.
+        let body = if stores.is_empty() {
+            quote!()
+        } else {
+            quote! {
+                for k in 0..len {
+                    #reads
+                    #(#lets)*
+                    #stores
+                }
+            }
+        };
+        (body, used)
+    };
+
+    // The loops with the powers between them.
+    let mut loops = TokenStream::new();
+    for lv in 0..plan.loops {
+        let (body, _) = loop_body(lv);
+        loops.extend(body);
+        for (j, p) in plan
+            .pows
+            .iter()
+            .enumerate()
+            .filter(|(_, p)| p.level == lv + 1)
+        {
+            let source = match p.base {
+                Val::Sym(s) => match column_of(g, f, s) {
+                    Some(c) => c,
+                    None => quote!(&[]),
+                },
+                // A power taken before, or a value kept by this loop or an earlier one: its buffer.
+                Val::Loc(i) if power_of.contains_key(&i) && plan.given(i, lv) => {
+                    let m = lit(power_of[&i]);
+                    quote!(&power[#m][..len])
+                }
+                Val::Loc(i) if kept_of.contains_key(&i) => {
+                    let m = lit(kept_of[&i]);
+                    quote!(&kept[#m][..len])
+                }
+                v => match base_of.get(&v) {
+                    Some(&b) => {
+                        let b = lit(b);
+                        quote!(&base[#b][..len])
+                    }
+                    None => quote!(&[]),
+                },
+            };
+            let exponent = match p.exponent {
+                Val::Num(q) => emit::float_tokens(q.to_f64(), false),
+                Val::Sym(s) if is_param(p.exponent) => {
+                    *uses_p.borrow_mut() = true;
+                    let fld = &g.fields[&s].ident;
+                    quote!(p.#fld)
+                }
+                Val::Inv(i) => {
+                    let k = &k_names[&i];
+                    quote!(self.#k)
+                }
+                Val::Pi => quote!(PI),
+                _ => quote!(f64::NAN),
+            };
+            let j = lit(j);
+            loops.extend(quote!(pow_pos_slice(#source, #exponent, &mut power[#j][..len]);));
+        }
+    }
+    let used_any = used_any.into_inner();
+
+    // Column arguments and the block's slices of them.
+    let mut params = Vec::new();
+    let mut slices = TokenStream::new();
+    for a in &f.args {
+        match a {
+            Arg::Array { name, len, syms } => {
+                let len_id = format_ident!("{}", len);
+                let any = syms.iter().any(|s| used_any.contains(s))
+                    || plan
+                        .pows
+                        .iter()
+                        .any(|p| matches!(p.base, Val::Sym(s) if syms.contains(&s)));
+                let id = format_ident!("{}", name);
+                if any {
+                    params.push(quote!(#id: [&[f64]; #len_id]));
+                    slices.extend(quote!(let #id = #id.map(|c| &c[start..end]);));
+                } else {
+                    let unused = format_ident!("_{}", name);
+                    params.push(quote!(#unused: [&[f64]; #len_id]));
+                }
+            }
+            Arg::Scalar(s) => {
+                // Named even when no point reads it: its length is the number of points.
+                let id = &g.locals[s];
+                params.push(quote!(#id: &[f64]));
+                let base = plan.pows.iter().any(|p| p.base == Val::Sym(*s));
+                if used_any.contains(s) || base {
+                    slices.extend(quote!(let #id = &#id[start..end];));
+                }
+            }
+        }
+    }
+    let (length, outputs_params, buffers, copies, name, doc) = match kind {
+        Kind::Invert => {
+            params.push(quote!(yr: &[f64]));
+            slices.extend(quote!(let yr = &yr[start..end];));
+            (
+                quote!(yr.len()),
+                quote!(mut x: [&mut [f64]; N], u: &mut [f64]),
+                quote!(let mut states = [[0.0; BLOCK]; N]; let mut input = [0.0; BLOCK];),
+                quote! {
+                    for (column, buffer) in x.iter_mut().zip(&states) {
+                        column[start..end].copy_from_slice(&buffer[..len]);
+                    }
+                    u[start..end].copy_from_slice(&input[..len]);
+                },
+                format_ident!("invert_batch"),
+                vec![
+                    "[`Precomputed::invert`] at many points, stored column-wise: ξ_i at point k is `xi[i][k]`, η_j \
+                     is `eta[j][k]`, y^(r) is `yr[k]`; x_s is written to `x[s][k]` and u to `u[k]`."
+                        .to_string(),
+                ],
+            )
+        }
+        Kind::Outputs => {
+            let u = &g.locals[&g.d.model.input.symbol];
+            (
+                quote!(#u.len()),
+                quote!(mut out: [&mut [f64]; N_OUTPUTS]),
+                quote!(let mut values = [[0.0; BLOCK]; N_OUTPUTS];),
+                quote! {
+                    for (column, buffer) in out.iter_mut().zip(&values) {
+                        column[start..end].copy_from_slice(&buffer[..len]);
+                    }
+                },
+                format_ident!("outputs_batch"),
+                vec![format!(
+                    "[`Precomputed::outputs`] at many points, stored column-wise: x_s at point k is `x[s][k]`, \
+                     the input `{u}[k]`; output o is written to `out[o][k]`."
+                )],
+            )
+        }
+    };
+    let mut doc = doc;
+    doc.push(String::new());
+    doc.push(if plan.has_powers() {
+        "Block by block ([`BLOCK`] points): the fractional powers of a block at once, by [`pow_pos_slice`] \
+         (within 1 ulp of `powf`), everything else point by point in loops that vectorise."
+            .to_string()
+    } else {
+        "Block by block ([`BLOCK`] points), point by point in loops that vectorise.".to_string()
+    });
+    doc.push(String::new());
+    doc.push("# Panics".to_string());
+    doc.push(String::new());
+    doc.push(format!(
+        "If a column is shorter than `{}`.",
+        match kind {
+            Kind::Invert => "yr".to_string(),
+            Kind::Outputs => g.locals[&g.d.model.input.symbol].to_string(),
+        }
+    ));
+    let doc = doc_attrs(&doc);
+    let count = |n: usize| lit(n);
+    let mut scratch = TokenStream::new();
+    if !base_of.is_empty() {
+        let n = count(base_of.len());
+        scratch.extend(quote!(let mut base = [[0.0; BLOCK]; #n];));
+    }
+    if !plan.pows.is_empty() {
+        let n = count(plan.pows.len());
+        scratch.extend(quote!(let mut power = [[0.0; BLOCK]; #n];));
+    }
+    if !plan.kept.is_empty() {
+        let n = count(plan.kept.len());
+        scratch.extend(quote!(let mut kept = [[0.0; BLOCK]; #n];));
+    }
+    scratch.extend(buffers);
+    let p_let = if *uses_p.borrow() {
+        quote!(let p = &self.params;)
+    } else {
+        quote!()
+    };
+    let allow_clamp = if clamp_like {
+        quote!(#[allow(clippy::manual_clamp)])
+    } else {
+        quote!()
+    };
+    let tokens = quote! {
+        #doc
+        #allow_clamp
+        pub fn #name(&self, #(#params,)* #outputs_params) {
+            #p_let
+            #scratch
+            for start in (0..#length).step_by(BLOCK) {
+                let len = BLOCK.min(#length - start);
+                let end = start + len;
+                #slices
+                #loops
+                #copies
+            }
+        }
+    };
+    (tokens, uses_sign)
+}
+
+/// The block's column of input symbol `s` (a `&[f64]` expression), if `f` takes it.
+fn column_of(g: &Gen<'_>, f: &Straight, s: Symbol) -> Option<TokenStream> {
+    for a in &f.args {
+        match a {
+            Arg::Array { name, syms, .. } => {
+                if let Some(i) = syms.iter().position(|&t| t == s) {
+                    let name = format_ident!("{}", name);
+                    let i = proc_macro2::Literal::usize_unsuffixed(i);
+                    return Some(quote!(#name[#i]));
+                }
+            }
+            Arg::Scalar(t) if *t == s => {
+                let id = &g.locals[t];
+                return Some(quote!(#id));
+            }
+            Arg::Scalar(_) => {}
+        }
+    }
+    (s == g.d.yr).then(|| quote!(yr))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lower::{self, Invariants};
+    use invsim_expr::Pool;
+
+    /// The plan of `src` with parameters `params` and the single input `v` (and `s`).
+    fn plan_of(src: &str, params: &[&str]) -> (Plan, Arena) {
+        let mut pool = Pool::new();
+        let e = pool.parse(src).unwrap();
+        let ps: Vec<Symbol> = params.iter().map(|n| pool.symbol(n)).collect();
+        let inputs = [pool.symbol("v"), pool.symbol("s")];
+        let mut inv = Invariants::new(&pool, &ps);
+        let l = lower::lower(&mut inv, &[e], &inputs).unwrap();
+        let is_param = |v: Val| match v {
+            Val::Sym(s) => ps.contains(&s),
+            Val::Num(_) | Val::Pi | Val::Inv(_) => true,
+            Val::Loc(_) => false,
+        };
+        (Plan::new(&l.arena, &l.roots, &is_param), l.arena)
+    }
+
+    fn levels(p: &Plan) -> Vec<usize> {
+        p.pows.iter().map(|q| q.level).collect()
+    }
+
+    #[test]
+    fn one_power_two_loops() {
+        let (p, _) = plan_of("v*(1 + v^2)^0.25", &[]);
+        assert_eq!((levels(&p), p.loops, p.kept.len()), (vec![1], 2, 0));
+        // Loop 0 computes the base 1 + v².
+        assert_eq!(p.roots(0, &[]).len(), 1);
+    }
+
+    #[test]
+    fn a_power_of_an_input_needs_no_base_loop() {
+        let (p, _) = plan_of("v^0.8 + v", &[]);
+        assert_eq!((levels(&p), p.loops), (vec![1], 2));
+        assert!(p.roots(0, &[]).is_empty());
+    }
+
+    #[test]
+    fn nested_powers_take_two_levels_and_keep_the_shared_call() {
+        let (p, arena) = plan_of("(2 + (1 + exp(-v))^0.3)^0.7 + exp(-v)", &[]);
+        assert_eq!((levels(&p), p.loops), (vec![1, 2], 3));
+        // exp(−v) is computed in loop 0 (for the inner base) and read from a buffer in the last loop.
+        assert_eq!(p.kept.len(), 1);
+        let (i, l) = p.kept[0];
+        assert_eq!(l, 0);
+        assert!(matches!(arena.ops[i], Op::Call(Func::Exp, _)));
+        assert!(p.given(i, 2) && !p.given(i, 0));
+    }
+
+    #[test]
+    fn parameter_exponents_are_taken_a_block_at_a_time_varying_ones_are_not() {
+        let (p, _) = plan_of("(1 + v^2)^(g - 1)", &["g"]);
+        assert_eq!(levels(&p), vec![1]);
+        assert!(matches!(p.pows[0].exponent, Val::Inv(_)));
+        let (p, _) = plan_of("(1 + v^2)^s", &[]);
+        assert!(!p.has_powers());
+        assert_eq!(p.loops, 1);
+    }
+
+    #[test]
+    fn a_kept_value_can_be_a_base() {
+        let (p, arena) = plan_of("cosh(v)^0.3 + cosh(v)", &[]);
+        assert_eq!((levels(&p), p.kept.len()), (vec![1], 1));
+        // cosh(v) is computed once, in loop 0, as a kept value (and not also as a base).
+        let roots = p.roots(0, &[]);
+        assert_eq!(roots.len(), 1);
+        assert!(matches!(arena.ops[p.kept[0].0], Op::Call(Func::Cosh, _)));
+    }
+
+    #[test]
+    fn powers_of_one_base_share_its_loop() {
+        let (p, _) = plan_of("(1 + v^2)^a + (1 + v^2)^b", &["a", "b"]);
+        assert_eq!(levels(&p), vec![1, 1]);
+        assert_eq!(p.roots(0, &[]).len(), 1, "one base for both powers");
+    }
+}
