@@ -51,10 +51,10 @@ use thiserror::Error;
 
 use crate::cycle::Cycle;
 use crate::ode::{Dopri5, OdeStats, Rosenbrock23, StepFailure};
-use crate::simulate::{
-    equilibrium, fmt_sig, integral_unit, write_input_range, write_integrals, write_intervals,
-    ZeroDynamicsWorkspace, MAX_SAMPLES,
+use crate::report::{
+    integral_tables, write_input_range, write_integrals, write_intervals, Intervals,
 };
+use crate::simulate::{equilibrium, fmt_sig, ZeroDynamicsWorkspace, MAX_SAMPLES};
 
 /// One mile per hour in m/s.
 pub const MPH: f64 = 0.447_04;
@@ -600,33 +600,6 @@ impl Grid {
     }
 }
 
-/// Appends to a list of maximal intervals of consecutive flagged samples.
-#[derive(Default)]
-struct Intervals {
-    done: Vec<[f64; 2]>,
-    open: Option<[f64; 2]>,
-}
-
-impl Intervals {
-    fn push(&mut self, t: f64, flagged: bool) {
-        match (&mut self.open, flagged) {
-            (Some(v), true) => v[1] = t,
-            (None, true) => self.open = Some([t, t]),
-            (Some(v), false) => {
-                self.done.push(*v);
-                self.open = None;
-            }
-            (None, false) => {}
-        }
-    }
-    fn finish(mut self) -> Vec<[f64; 2]> {
-        if let Some(v) = self.open.take() {
-            self.done.push(v);
-        }
-        self.done
-    }
-}
-
 /// The trace tolerance band [min − tol, max + tol] of the raw cycle over [t − τ, t + τ] (40 CFR 86.115-78),
 /// for increasing t: two pointers into the breakpoints, O(1) per sample.
 struct TraceBand<'a> {
@@ -990,20 +963,7 @@ pub fn forward<M: InverseModel + ?Sized>(
     let trace_misses = misses.finish();
     let stats = stepper.stats();
     let distance = cycle.distance();
-    let has_distance = distance > 0.0 && distance.is_finite();
-    let mut integral_map = BTreeMap::new();
-    let mut per_100km = BTreeMap::new();
-    let mut integral_units = BTreeMap::new();
-    for (acc, &i) in integrals.iter().zip(&accumulate) {
-        let o = &info.outputs[i];
-        integral_map.insert(o.name.clone(), *acc);
-        if has_distance {
-            per_100km.insert(o.name.clone(), acc * 1e5 / distance);
-        }
-        if let Some(unit) = o.unit.as_deref().and_then(integral_unit) {
-            integral_units.insert(o.name.clone(), unit);
-        }
-    }
+    let tables = integral_tables(info, &accumulate, &integrals, distance);
     let mut warnings = Vec::new();
     if enforce && info.input_min.is_none() && info.input_max.is_none() {
         warnings.push(format!(
@@ -1068,9 +1028,9 @@ pub fn forward<M: InverseModel + ?Sized>(
             atol: opts.atol,
             stats,
         },
-        integrals: integral_map,
-        integrals_per_100km: per_100km,
-        integral_units,
+        integrals: tables.integrals,
+        integrals_per_100km: tables.per_100km,
+        integral_units: tables.units,
         input: info.input.clone(),
         input_min: u_min,
         input_max: u_max,

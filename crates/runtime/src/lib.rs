@@ -10,6 +10,7 @@ pub mod kernel;
 pub mod ode;
 pub mod output;
 pub mod plot;
+mod report;
 pub mod simulate;
 pub mod smoother;
 pub mod stable;

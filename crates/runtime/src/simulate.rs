@@ -27,6 +27,9 @@ use thiserror::Error;
 
 use crate::cycle::Cycle;
 use crate::ode::Dopri5;
+use crate::report::{
+    integral_tables, write_input_range, write_integrals, write_intervals, Intervals,
+};
 use crate::smoother::{Smoother, SmootherError};
 use crate::stable::{self, ZeroDynamicsClass};
 
@@ -390,75 +393,6 @@ pub struct StableInversionStats {
     pub unstable_dimension: usize,
 }
 
-/// Summary text: one line per accumulated output, `fuel: 0.5617 kg (integral), 6.846 l/100 km`.
-pub(crate) fn write_integrals(
-    s: &mut String,
-    integrals: &BTreeMap<String, f64>,
-    units: &BTreeMap<String, String>,
-    per_100km: &BTreeMap<String, f64>,
-) {
-    for (name, value) in integrals {
-        let unit = units.get(name);
-        let _ = write!(s, "{name}: {}", fmt_sig(*value, 4));
-        if let Some(u) = unit {
-            let _ = write!(s, " {u}");
-        }
-        s.push_str(" (integral)");
-        if let Some(p) = per_100km.get(name) {
-            let _ = match unit {
-                Some(u) => write!(s, ", {} {u}/100 km", fmt_sig(*p, 4)),
-                None => write!(s, ", {} per 100 km", fmt_sig(*p, 4)),
-            };
-        }
-        s.push('\n');
-    }
-}
-
-/// Summary text: the input's range over the run and its declared bounds.
-pub(crate) fn write_input_range(
-    s: &mut String,
-    input: &str,
-    range: [f64; 2],
-    bounds: [Option<f64>; 2],
-) {
-    let _ = write!(
-        s,
-        "{input}: min {}, max {}",
-        fmt_sig(range[0], 4),
-        fmt_sig(range[1], 4)
-    );
-    if bounds.iter().any(Option::is_some) {
-        let b = |v: Option<f64>, inf: &str| v.map_or(inf.to_string(), |v| fmt_sig(v, 6));
-        let _ = write!(
-            s,
-            " (bounds [{}, {}])",
-            b(bounds[0], "-inf"),
-            b(bounds[1], "inf")
-        );
-    }
-    s.push('\n');
-}
-
-/// Summary text: a list of time intervals with their count and total length, or `none`.
-pub(crate) fn write_intervals(s: &mut String, label: &str, intervals: &[[f64; 2]]) {
-    if intervals.is_empty() {
-        let _ = writeln!(s, "{label}: none");
-        return;
-    }
-    let total: f64 = intervals.iter().map(|[a, b]| b - a).sum();
-    let list: Vec<String> = intervals
-        .iter()
-        .map(|[a, b]| format!("[{}, {}]", fmt_sig(*a, 6), fmt_sig(*b, 6)))
-        .collect();
-    let _ = writeln!(
-        s,
-        "{label}: {} intervals, {} s: {}",
-        list.len(),
-        fmt_sig(total, 4),
-        list.join(" ")
-    );
-}
-
 impl Summary {
     /// Human-readable summary, one line per field (what `invsim simulate` prints).
     pub fn to_text(&self) -> String {
@@ -808,8 +742,7 @@ fn run<M: InverseModel + ?Sized>(
     // --- bookkeeping of the input ----------------------------------------------------------------------
     let (umin_bound, umax_bound) = (info.input_min, info.input_max);
     let (mut u_min, mut u_max) = (f64::INFINITY, f64::NEG_INFINITY);
-    let mut violations: Vec<[f64; 2]> = Vec::new();
-    let mut open_violation: Option<[f64; 2]> = None;
+    let mut violations = Intervals::default();
 
     // --- the run, block by block -------------------------------------------------------------------------
     // Per block of samples: y_d … y_d^(r) on the grid at once (Smoother::eval_grid); then the inverse, for
@@ -975,38 +908,16 @@ fn run<M: InverseModel + ?Sized>(
             u_min = u_min.min(u);
             u_max = u_max.max(u);
             let outside = umin_bound.is_some_and(|b| u < b) || umax_bound.is_some_and(|b| u > b);
-            match (&mut open_violation, outside) {
-                (Some(v), true) => v[1] = t,
-                (None, true) => open_violation = Some([t, t]),
-                (Some(v), false) => {
-                    violations.push(*v);
-                    open_violation = None;
-                }
-                (None, false) => {}
-            }
+            violations.push(t, outside);
         }
         k0 = k1;
     }
-    if let Some(v) = open_violation {
-        violations.push(v);
-    }
+    let violations = violations.finish();
 
     // --- summary ---------------------------------------------------------------------------------------
     let distance = cycle.distance();
     let has_distance = distance > 0.0 && distance.is_finite();
-    let mut integral_map = BTreeMap::new();
-    let mut per_100km = BTreeMap::new();
-    let mut integral_units = BTreeMap::new();
-    for (acc, &i) in integrals.iter().zip(&accumulate) {
-        let o = &info.outputs[i];
-        integral_map.insert(o.name.clone(), *acc);
-        if has_distance {
-            per_100km.insert(o.name.clone(), acc * 1e5 / distance);
-        }
-        if let Some(unit) = o.unit.as_deref().and_then(integral_unit) {
-            integral_units.insert(o.name.clone(), unit);
-        }
-    }
+    let tables = integral_tables(info, &accumulate, &integrals, distance);
     if !accumulate.is_empty() && !has_distance {
         warnings.push(format!(
             "the cycle covers no distance ({distance} m): no per-100-km figures"
@@ -1137,9 +1048,9 @@ fn run<M: InverseModel + ?Sized>(
         samples: k_hi - k_lo + 1,
         lookahead_s: opts.lookahead,
         dt_s: opts.dt,
-        integrals: integral_map,
-        integrals_per_100km: per_100km,
-        integral_units,
+        integrals: tables.integrals,
+        integrals_per_100km: tables.per_100km,
+        integral_units: tables.units,
         input: info.input.clone(),
         input_min: u_min,
         input_max: u_max,
