@@ -16,53 +16,10 @@
 
 use crate::derive::Derivation;
 use crate::interpreter::Interpreter;
+pub use invsim_model_api::linearize::ZeroDynamicsClass;
+use invsim_model_api::linearize::{eigenvalues, jacobian};
 use invsim_model_api::InverseModel;
-use nalgebra::{DMatrix, DVector};
-
-/// The class of the zero dynamics (the `zero_dynamics_class` of `invsim derive --format json`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ZeroDynamicsClass {
-    /// r = n: no internal dynamics.
-    None,
-    MinimumPhase,
-    NonMinimumPhase,
-    Mixed,
-    /// No equilibrium found, or an eigenvalue on the imaginary axis.
-    Unknown,
-}
-
-impl ZeroDynamicsClass {
-    /// `none`, `minimum_phase`, `non_minimum_phase`, `mixed` or `unknown`.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            ZeroDynamicsClass::None => "none",
-            ZeroDynamicsClass::MinimumPhase => "minimum_phase",
-            ZeroDynamicsClass::NonMinimumPhase => "non_minimum_phase",
-            ZeroDynamicsClass::Mixed => "mixed",
-            ZeroDynamicsClass::Unknown => "unknown",
-        }
-    }
-
-    /// The class of a set of eigenvalues [re, im] of ∂q/∂η; real parts within `tol` of 0, or no eigenvalues
-    /// (a linearisation that could not be computed), make it unknown.
-    pub fn of_eigenvalues(eigenvalues: &[[f64; 2]], tol: f64) -> ZeroDynamicsClass {
-        if eigenvalues.is_empty() {
-            return ZeroDynamicsClass::Unknown;
-        }
-        if eigenvalues
-            .iter()
-            .any(|e| !e[0].is_finite() || e[0].abs() <= tol)
-        {
-            return ZeroDynamicsClass::Unknown;
-        }
-        let unstable = eigenvalues.iter().filter(|e| e[0] > 0.0).count();
-        match unstable {
-            0 => ZeroDynamicsClass::MinimumPhase,
-            u if u == eigenvalues.len() => ZeroDynamicsClass::NonMinimumPhase,
-            _ => ZeroDynamicsClass::Mixed,
-        }
-    }
-}
+use nalgebra::DVector;
 
 /// The zero dynamics linearised at the nominal point.
 #[derive(Debug, Clone, PartialEq)]
@@ -133,47 +90,6 @@ impl Derivation {
             note,
         }
     }
-}
-
-/// ∂q/∂η at (ξ, η, y^(r)) by central differences (step 1e-6·max(1, |η_j|)), column major.
-pub(crate) fn jacobian(model: &dyn InverseModel, xi: &[f64], eta: &[f64], yr: f64) -> DMatrix<f64> {
-    let m = eta.len();
-    let mut e = eta.to_vec();
-    let (mut qp, mut qm) = (vec![0.0; m], vec![0.0; m]);
-    let mut jac = DMatrix::zeros(m, m);
-    for j in 0..m {
-        let h = 1e-6 * eta[j].abs().max(1.0);
-        e[j] = eta[j] + h;
-        model.zero_dynamics(xi, &e, yr, &mut qp);
-        e[j] = eta[j] - h;
-        model.zero_dynamics(xi, &e, yr, &mut qm);
-        e[j] = eta[j];
-        for i in 0..m {
-            jac[(i, j)] = (qp[i] - qm[i]) / (2.0 * h);
-        }
-    }
-    jac
-}
-
-/// Eigenvalues [re, im] of a square matrix, sorted by decreasing real part (then imaginary part); empty if
-/// the matrix is not finite or the Schur iteration fails.
-pub(crate) fn eigenvalues(a: &DMatrix<f64>) -> Vec<[f64; 2]> {
-    if a.iter().any(|v| !v.is_finite()) {
-        return Vec::new();
-    }
-    if a.nrows() == 1 {
-        return vec![[a[(0, 0)], 0.0]];
-    }
-    let Some(schur) = nalgebra::Schur::try_new(a.clone(), f64::EPSILON, 10_000) else {
-        return Vec::new();
-    };
-    let mut eigs: Vec<[f64; 2]> = schur
-        .complex_eigenvalues()
-        .iter()
-        .map(|c| [c.re, c.im])
-        .collect();
-    eigs.sort_by(|a, b| b[0].total_cmp(&a[0]).then(b[1].total_cmp(&a[1])));
-    eigs
 }
 
 /// An equilibrium q(ξ, η, y^(r)) = 0 by damped Newton's method, tried from several starting points (η = 0,

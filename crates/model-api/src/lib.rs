@@ -12,6 +12,9 @@
 
 use thiserror::Error;
 
+#[cfg(feature = "linearize")]
+pub mod linearize;
+
 pub mod math;
 
 /// Static description of a model: names, sizes, bounds. Order of every list is the model file's order.

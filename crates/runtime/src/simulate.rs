@@ -32,6 +32,7 @@ use crate::report::{
 };
 use crate::smoother::{Smoother, SmootherError};
 use crate::stable::{self, ZeroDynamicsClass};
+use invsim_model_api::linearize::{eigenvalues, JacobianWork};
 
 /// How many derivatives (orders 0 … 9) the smoother delivers per evaluation; bounds the relative degree (≤ 9).
 pub const MAX_DERIVATIVES: usize = 10;
@@ -1126,49 +1127,8 @@ pub(crate) fn integral_unit(unit: &str) -> Option<String> {
 
 // --- zero dynamics: equilibrium, linearisation, eigenvalues --------------------------------------------------
 
-/// Scratch space for Jacobians of q(ξ, η, y^(r)) with respect to η.
-pub(crate) struct ZeroDynamicsWorkspace {
-    n: usize,
-    eta: Vec<f64>,
-    qp: Vec<f64>,
-    qm: Vec<f64>,
-    /// ∂q/∂η, column major (n × n).
-    jac: Vec<f64>,
-}
-
-impl ZeroDynamicsWorkspace {
-    pub(crate) fn new(n: usize) -> Self {
-        ZeroDynamicsWorkspace {
-            n,
-            eta: vec![0.0; n],
-            qp: vec![0.0; n],
-            qm: vec![0.0; n],
-            jac: vec![0.0; n * n],
-        }
-    }
-
-    /// ∂q/∂η at (ξ, η, y^(r)) by central differences (step 1e-6·max(1, |η_j|)).
-    fn jacobian<M: InverseModel + ?Sized>(&mut self, model: &M, xi: &[f64], eta: &[f64], yr: f64) {
-        let n = self.n;
-        self.eta.copy_from_slice(eta);
-        for (j, &eta_j) in eta.iter().enumerate() {
-            let h = 1e-6 * eta_j.abs().max(1.0);
-            self.eta[j] = eta_j + h;
-            model.zero_dynamics(xi, &self.eta, yr, &mut self.qp);
-            self.eta[j] = eta_j - h;
-            model.zero_dynamics(xi, &self.eta, yr, &mut self.qm);
-            self.eta[j] = eta_j;
-            let column = &mut self.jac[j * n..(j + 1) * n];
-            for ((d, p), m) in column.iter_mut().zip(&self.qp).zip(&self.qm) {
-                *d = (p - m) / (2.0 * h);
-            }
-        }
-    }
-
-    fn jac_matrix(&self) -> DMatrix<f64> {
-        DMatrix::from_column_slice(self.n, self.n, &self.jac)
-    }
-}
+/// Buffers for linearising the zero dynamics along a run (no allocation per check).
+pub(crate) type ZeroDynamicsWorkspace = JacobianWork;
 
 /// Eigenvalues [re, im] of ∂q/∂η at (ξ, η, y^(r)); empty if the Jacobian is not finite.
 fn eigenvalues_at<M: InverseModel + ?Sized>(
@@ -1178,29 +1138,12 @@ fn eigenvalues_at<M: InverseModel + ?Sized>(
     yr: f64,
     ws: &mut ZeroDynamicsWorkspace,
 ) -> Vec<[f64; 2]> {
-    ws.jacobian(model, xi, eta, yr);
-    eigenvalues(ws)
-}
-
-fn eigenvalues(ws: &ZeroDynamicsWorkspace) -> Vec<[f64; 2]> {
-    if ws.jac.iter().any(|v| !v.is_finite()) {
-        return Vec::new();
-    }
-    if ws.n == 1 {
-        return vec![[ws.jac[0], 0.0]];
-    }
-    match nalgebra::Schur::try_new(ws.jac_matrix(), f64::EPSILON, 10_000) {
-        Some(schur) => {
-            let mut eigs: Vec<[f64; 2]> = schur
-                .complex_eigenvalues()
-                .iter()
-                .map(|c| [c.re, c.im])
-                .collect();
-            eigs.sort_by(|a, b| b[0].total_cmp(&a[0]).then(b[1].total_cmp(&a[1])));
-            eigs
-        }
-        None => Vec::new(),
-    }
+    let n = eta.len();
+    eigenvalues(&DMatrix::from_column_slice(
+        n,
+        n,
+        ws.jacobian(model, xi, eta, yr),
+    ))
 }
 
 /// Stop with [`SimulateError::UnstableZeroDynamics`] if ∂q/∂η has an eigenvalue with positive real part
@@ -1214,13 +1157,14 @@ fn check_stability<M: InverseModel + ?Sized>(
     yr: f64,
     ws: &mut ZeroDynamicsWorkspace,
 ) -> Result<(), SimulateError> {
-    ws.jacobian(model, xi, eta, yr);
-    let scale = ws.jac.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    let n = eta.len();
+    let jac = ws.jacobian(model, xi, eta, yr);
+    let scale = jac.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
     // One internal coordinate: the Jacobian is the eigenvalue; no allocation needed on the stable path.
-    if ws.n == 1 && ws.jac[0].is_finite() && ws.jac[0] <= 1e-9 + 1e-7 * scale {
+    if n == 1 && jac[0].is_finite() && jac[0] <= 1e-9 + 1e-7 * scale {
         return Ok(());
     }
-    let eigs = eigenvalues(ws);
+    let eigs = eigenvalues(&DMatrix::from_column_slice(n, n, jac));
     if eigs.is_empty() {
         return Err(SimulateError::UnstableZeroDynamics {
             t,
@@ -1252,7 +1196,7 @@ pub(crate) fn equilibrium<M: InverseModel + ?Sized>(
     ws: &mut ZeroDynamicsWorkspace,
 ) -> Result<(), String> {
     const MAX_ITER: usize = 100;
-    let n = ws.n;
+    let n = eta.len();
     eta.fill(0.0);
     let norm = |v: &[f64]| v.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
     let mut q = vec![0.0; n];
@@ -1267,8 +1211,7 @@ pub(crate) fn equilibrium<M: InverseModel + ?Sized>(
         if res == 0.0 {
             return Ok(());
         }
-        ws.jacobian(model, xi, eta, yr);
-        let step = DMatrix::from_column_slice(n, n, &ws.jac)
+        let step = DMatrix::from_column_slice(n, n, ws.jacobian(model, xi, eta, yr))
             .lu()
             .solve(&DVector::from_column_slice(&q))
             .filter(|s| s.iter().all(|v| v.is_finite()))

@@ -51,40 +51,13 @@
 
 use invsim_model_api::InverseModel;
 use nalgebra::{DMatrix, DVector};
-use serde::Serialize;
 
 use crate::cycle::Cycle;
 use crate::simulate::{fmt_sig, SimulateError, SimulationOptions, MAX_DERIVATIVES};
 use crate::smoother::Smoother;
 
-/// The class of the zero dynamics along a run: at the equilibria for every output level the reference passes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum ZeroDynamicsClass {
-    /// r = n: no zero dynamics.
-    None,
-    /// Every eigenvalue of ∂q/∂η in the open left half-plane at every equilibrium the reference passes.
-    MinimumPhase,
-    /// Every eigenvalue in the open right half-plane.
-    NonMinimumPhase,
-    /// A fixed number of eigenvalues on each side.
-    Mixed,
-    /// No equilibrium found, eigenvalues on the imaginary axis, or a type that changes along the reference.
-    Unknown,
-}
-
-impl ZeroDynamicsClass {
-    /// `none`, `minimum_phase`, `non_minimum_phase`, `mixed`, `unknown`.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            ZeroDynamicsClass::None => "none",
-            ZeroDynamicsClass::MinimumPhase => "minimum_phase",
-            ZeroDynamicsClass::NonMinimumPhase => "non_minimum_phase",
-            ZeroDynamicsClass::Mixed => "mixed",
-            ZeroDynamicsClass::Unknown => "unknown",
-        }
-    }
-}
+pub use invsim_model_api::linearize::ZeroDynamicsClass;
+use invsim_model_api::linearize::{eigenvalues, jacobian};
 
 /// Largest number of collocation nodes (memory guard: about 100 bytes per node and internal state).
 const MAX_NODES: usize = 20_000_000;
@@ -116,46 +89,6 @@ fn max_norm(v: &[f64]) -> f64 {
             a.max(x.abs())
         }
     })
-}
-
-/// ∂q/∂η at (ξ, η, y^(r)) by central differences (step 1e-6·max(1, |η_j|)).
-fn jacobian<M: InverseModel + ?Sized>(model: &M, xi: &[f64], eta: &[f64], yr: f64) -> DMatrix<f64> {
-    let m = eta.len();
-    let mut e = eta.to_vec();
-    let (mut qp, mut qm) = (vec![0.0; m], vec![0.0; m]);
-    let mut jac = DMatrix::zeros(m, m);
-    for j in 0..m {
-        let h = 1e-6 * eta[j].abs().max(1.0);
-        e[j] = eta[j] + h;
-        model.zero_dynamics(xi, &e, yr, &mut qp);
-        e[j] = eta[j] - h;
-        model.zero_dynamics(xi, &e, yr, &mut qm);
-        e[j] = eta[j];
-        for i in 0..m {
-            jac[(i, j)] = (qp[i] - qm[i]) / (2.0 * h);
-        }
-    }
-    jac
-}
-
-/// Eigenvalues [re, im] sorted by decreasing real part; empty if not computable.
-pub(crate) fn eigenvalues(a: &DMatrix<f64>) -> Vec<[f64; 2]> {
-    if a.iter().any(|v| !v.is_finite()) {
-        return Vec::new();
-    }
-    if a.nrows() == 1 {
-        return vec![[a[(0, 0)], 0.0]];
-    }
-    let Some(schur) = nalgebra::Schur::try_new(a.clone(), f64::EPSILON, 10_000) else {
-        return Vec::new();
-    };
-    let mut eigs: Vec<[f64; 2]> = schur
-        .complex_eigenvalues()
-        .iter()
-        .map(|c| [c.re, c.im])
-        .collect();
-    eigs.sort_by(|a, b| b[0].total_cmp(&a[0]).then(b[1].total_cmp(&a[1])));
-    eigs
 }
 
 /// Tolerance below which a real part counts as zero (finite-difference noise): 1e-9 + 1e-7·‖A‖_max.
