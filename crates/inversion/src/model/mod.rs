@@ -1,0 +1,53 @@
+//! Model files: read a TOML model (contract section 2), check it, and turn it into a validated [`Model`]
+//! whose definitions are inlined and whose state equations are split into `f(x) + g(x) u`.
+//!
+//! Every error names the file, the line and the column (1-based, columns counted in characters) of the
+//! offending key, value or character inside an expression, and says what was expected. The checks run in
+//! this order, so a file with several problems reports the most basic one first:
+//!
+//! 1. the file is readable UTF-8 and valid TOML;
+//! 2. the structure: known top-level keys and section keys, value types, required sections and keys,
+//!    finite numbers, `min <= max` for the input bounds;
+//! 3. declared names: identifiers, not reserved, unique across parameters, definitions, states and input;
+//!    extra outputs may not take the name of a state, the input or another result column (`t`, `yd_N`,
+//!    `etaN`);
+//! 4. each expression (in file order): not empty, at most [`MAX_EXPRESSION_LEN`] bytes and
+//!    [`MAX_EXPRESSION_NESTING`] levels deep, syntax, finite number literals, known names;
+//! 5. definitions: no cycles, and only earlier definitions used;
+//! 6. `abs`, `sign`, `min`, `max` only where they cannot reach f, g or h;
+//! 7. symbolic: `h` free of the input, given `f`/`g` free of the input, each `rhs` affine in the input
+//!    (∂²rhs/∂u² identically zero by [`invsim_expr::zero_test`] at the nominal parameter values).
+//!
+//! Besides the forms of the contract, the reader accepts: a definition as a table
+//! `{ expr = "…", unit = "…", doc = "…" }`; an extra output as a plain string (`p = "u*v"`, not
+//! accumulated); a plain number where an expression is expected (`g = 1`); states as `[states.NAME]`
+//! tables. The model's `name` defaults to the file stem. `[output]` takes three optional numbers beyond
+//! the contract: `nominal` (the output value where `invsim derive` classifies the zero dynamics),
+//! `reference_offset` and `reference_scale` (the reference is y_d = offset + scale · smoothed cycle, for
+//! outputs that are not a vehicle speed; the scale may not be 0).
+
+//!
+//! Where each step lives: [`spanned`](self) positions (`spanned.rs`: line and column, the reader that
+//! reports them), the TOML tree with spans (`tree.rs`), typed values (`values.rs`), the file as read
+//! (`raw.rs`), names (`names.rs`), expressions (`expressions.rs`), definitions and their inlining
+//! (`definitions.rs`), smoothness (`smooth.rs`), the affine split rhs → f + g·u (`split.rs`), the
+//! validated model (`validated.rs`), the pipeline (`reader.rs`) and the error (`error.rs`). Imports go
+//! one way: error ← spanned ← tree ← values ← names ← raw ← expressions ← definitions ← smooth ←
+//! split ← reader, with `validated` below definitions, split and reader.
+
+mod definitions;
+mod error;
+mod expressions;
+mod names;
+mod raw;
+mod reader;
+mod smooth;
+mod spanned;
+mod split;
+mod tree;
+mod validated;
+mod values;
+
+pub use error::{ModelError, ModelErrorKind};
+pub use expressions::{MAX_EXPRESSION_LEN, MAX_EXPRESSION_NESTING};
+pub use validated::{Definition, ExtraOutput, Input, Model, Output, Parameter, State};

@@ -1,0 +1,196 @@
+//! Names in a model file: identifiers `[A-Za-z_][A-Za-z0-9_]*`, reserved names (`t`, `pi`, `yr`, `xi<N>`,
+//! `eta<N>`, the functions of the expression language), collisions between declarations and with the
+//! result columns (`t`, `yd_N`, `etaN`), and "did you mean" hints by Levenshtein distance.
+
+use super::error::{ModelError, ModelErrorKind};
+use super::spanned::Reader;
+use invsim_expr::FUNCTIONS;
+use std::collections::HashMap;
+
+pub(super) fn is_identifier(s: &str) -> bool {
+    let mut cs = s.chars();
+    matches!(cs.next(), Some(c) if c.is_ascii_alphabetic() || c == '_')
+        && cs.all(|c| c.is_ascii_alphanumeric() || c == '_')
+}
+
+/// `prefix` followed by one or more digits.
+pub(super) fn is_indexed(s: &str, prefix: &str) -> bool {
+    s.strip_prefix(prefix)
+        .is_some_and(|d| !d.is_empty() && d.bytes().all(|b| b.is_ascii_digit()))
+}
+
+/// Why a name is reserved, if it is.
+pub(super) fn reserved_reason(name: &str) -> Option<String> {
+    if name == "t" {
+        return Some("`t` is reserved for time".into());
+    }
+    if name == "pi" {
+        return Some("`pi` is the constant π".into());
+    }
+    if name == "yr" {
+        return Some("`yr` is reserved for the r-th derivative of the output, y^(r)".into());
+    }
+    if is_indexed(name, "xi") || is_indexed(name, "eta") {
+        return Some(format!(
+            "`{name}` is reserved for the normal-form coordinates xi1 … xiN, eta1 … etaN"
+        ));
+    }
+    if FUNCTIONS.iter().any(|(f, _)| *f == name) {
+        return Some(format!("`{name}` is a function of the expression language"));
+    }
+    None
+}
+
+/// Levenshtein distance (for "did you mean" hints on short names).
+fn edit_distance(a: &str, b: &str) -> usize {
+    let a: Vec<char> = a.chars().collect();
+    let b: Vec<char> = b.chars().collect();
+    let mut prev: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.iter().enumerate() {
+        let mut cur = vec![i + 1; b.len() + 1];
+        for (j, cb) in b.iter().enumerate() {
+            let sub = prev[j] + usize::from(ca != cb);
+            cur[j + 1] = sub.min(prev[j + 1] + 1).min(cur[j] + 1);
+        }
+        prev = cur;
+    }
+    prev[b.len()]
+}
+
+/// What a declared name is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum NameRef {
+    Parameter(usize),
+    Definition(usize),
+    State(usize),
+    Input,
+}
+
+impl NameRef {
+    pub(super) fn describe(self) -> &'static str {
+        match self {
+            NameRef::Parameter(_) => "a parameter",
+            NameRef::Definition(_) => "a definition",
+            NameRef::State(_) => "a state",
+            NameRef::Input => "the input",
+        }
+    }
+}
+
+/// A declared name close to an unknown one, if exactly one is closest.
+pub(super) fn suggestion<'n>(
+    unknown: &str,
+    names: impl Iterator<Item = &'n str>,
+) -> Option<&'n str> {
+    let limit = if unknown.chars().count() <= 3 { 1 } else { 2 };
+    let mut best: Vec<(usize, &str)> = names
+        .map(|n| (edit_distance(unknown, n), n))
+        .filter(|&(d, _)| d <= limit)
+        .collect();
+    best.sort();
+    match best.as_slice() {
+        [(d, n)] => Some(*n).filter(|_| *d > 0),
+        [(d1, n), (d2, _), ..] if d1 < d2 => Some(*n),
+        _ => None,
+    }
+}
+
+/// A declared name: the name, the offset of its declaration, and what it declares.
+pub(super) type Declaration<'r> = (&'r str, Option<usize>, NameRef);
+
+/// The declared names, each with the offset of its declaration and what it declares.
+pub(super) type Names<'r> = HashMap<&'r str, (Option<usize>, NameRef)>;
+
+impl Reader<'_> {
+    /// Check the declared names (identifiers, not reserved, unique), in file order.
+    pub(super) fn declare<'r>(
+        &self,
+        mut decls: Vec<Declaration<'r>>,
+    ) -> Result<Names<'r>, ModelError> {
+        decls.sort_by_key(|&(_, at, _)| at.unwrap_or(usize::MAX));
+        let mut names: HashMap<&str, (Option<usize>, NameRef)> = HashMap::new();
+        for &(name, at, what) in &decls {
+            if !is_identifier(name) {
+                return Err(self.err(
+                    at,
+                    ModelErrorKind::InvalidName,
+                    format!(
+                        "invalid name `{}` for {}: names are identifiers [A-Za-z_][A-Za-z0-9_]*",
+                        name.escape_debug(),
+                        what.describe()
+                    ),
+                ));
+            }
+            if let Some(why) = reserved_reason(name) {
+                return Err(self.err(
+                    at,
+                    ModelErrorKind::ReservedName,
+                    format!(
+                        "reserved name `{name}` cannot be declared as {}: {why}",
+                        what.describe()
+                    ),
+                ));
+            }
+            if let Some(&(first_at, first)) = names.get(name) {
+                return Err(self.err(
+                    at,
+                    ModelErrorKind::DuplicateName,
+                    format!(
+                        "duplicate name `{name}`: declared as {} at {} and again here as {}",
+                        first.describe(),
+                        self.place(first_at),
+                        what.describe()
+                    ),
+                ));
+            }
+            names.insert(name, (at, what));
+        }
+        Ok(names)
+    }
+
+    /// Extra outputs become CSV columns next to the states and the input: their names may not take a
+    /// state's, the input's or another result column's.
+    pub(super) fn check_columns<'e>(
+        &self,
+        names: &Names<'_>,
+        outputs: impl Iterator<Item = (&'e str, Option<usize>)>,
+    ) -> Result<(), ModelError> {
+        for (name, at) in outputs {
+            let clash = match names.get(name) {
+                Some((_, NameRef::State(_))) => Some("a state"),
+                Some((_, NameRef::Input)) => Some("the input"),
+                _ if name == "t" => Some("the time column `t`"),
+                _ if is_indexed(name, "yd_") => {
+                    Some("a column of output derivatives (yd_0, yd_1, …)")
+                }
+                _ if is_indexed(name, "eta") => Some("a column of internal states (eta1, eta2, …)"),
+                _ => None,
+            };
+            if let Some(clash) = clash {
+                return Err(self.err(
+                    at,
+                    ModelErrorKind::DuplicateName,
+                    format!(
+                        "output `{}` has the same name as {clash}; results are reported in columns by name, \
+                         so choose another name",
+                        name
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn suggestions() {
+        let names = ["c1", "x1", "u"];
+        assert_eq!(suggestion("c9", names.iter().copied()), Some("c1"));
+        assert_eq!(suggestion("zz", names.iter().copied()), None);
+        assert_eq!(suggestion("mass", ["mas", "masss"].into_iter()), None);
+    }
+}

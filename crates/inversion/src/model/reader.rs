@@ -1,0 +1,129 @@
+//! Reading a model file: bytes → UTF-8 text → a TOML tree with spans → the sections checked for structure
+//! → names → expressions → definitions → smoothness → the affine split → a validated [`Model`]. The
+//! stages run in this order so that a file with several problems reports the most basic one first.
+
+use super::definitions::Interned;
+use super::error::{ModelError, ModelErrorKind};
+use super::raw::RawModel;
+use super::spanned::Reader;
+use super::split::extra_outputs;
+use super::tree::Tv;
+use super::validated::{Input, Model};
+use sha2::{Digest, Sha256};
+use std::path::Path;
+
+impl Model {
+    /// Read and validate a model file.
+    pub fn from_path(path: &Path) -> Result<Model, ModelError> {
+        let bytes = std::fs::read(path).map_err(|e| ModelError {
+            file: path.to_path_buf(),
+            line: None,
+            column: None,
+            message: format!("cannot read the model file: {e}"),
+            kind: ModelErrorKind::Io,
+        })?;
+        Model::from_bytes(path, &bytes)
+    }
+
+    /// Validate a model given as bytes (which must be UTF-8); `file` is used in messages and for the
+    /// default name.
+    pub fn from_bytes(file: &Path, bytes: &[u8]) -> Result<Model, ModelError> {
+        match std::str::from_utf8(bytes) {
+            Ok(text) => Model::from_str(file, text),
+            Err(e) => {
+                let valid = &bytes[..e.valid_up_to()];
+                // The prefix is valid UTF-8 by construction.
+                let prefix = std::str::from_utf8(valid).unwrap_or("");
+                let reader = Reader { file, text: prefix };
+                Err(reader.err(
+                    Some(prefix.len()),
+                    ModelErrorKind::Io,
+                    "the file is not valid UTF-8 (model files must be UTF-8 text)",
+                ))
+            }
+        }
+    }
+
+    /// Validate a model given as text; `file` is used in messages and for the default name.
+    pub fn from_str(file: &Path, text: &str) -> Result<Model, ModelError> {
+        let reader = Reader { file, text };
+        reader.read()
+    }
+}
+
+impl Reader<'_> {
+    /// Parse the TOML (with spans), read its structure, then check its meaning.
+    fn read(&self) -> Result<Model, ModelError> {
+        let hash = Sha256::digest(self.text.as_bytes());
+        let source_hash: String = hash.iter().map(|b| format!("{b:02x}")).collect();
+        let root: Tv = toml::from_str(self.text).map_err(|e| {
+            let message = e
+                .message()
+                .trim()
+                .lines()
+                .map(str::trim)
+                .collect::<Vec<_>>()
+                .join("; ");
+            self.err(
+                e.span().map(|s| s.start),
+                ModelErrorKind::Toml,
+                format!("TOML syntax error: {message}"),
+            )
+        })?;
+        let raw = self.structure(&root)?;
+        self.build(raw, source_hash)
+    }
+
+    /// The checks on meaning, in order: names, expressions, definitions, smoothness, the affine split.
+    fn build(&self, raw: RawModel, source_hash: String) -> Result<Model, ModelError> {
+        let names = self.declare(raw.declarations())?;
+        self.check_columns(&names, raw.outputs.iter().map(|e| (e.name.as_str(), e.at)))?;
+        let items = self.parse_all(&raw, &names)?;
+        let uses = self.definition_graph(&raw, &names, &items)?;
+        self.check_smooth(&raw, &names, &items, &uses)?;
+
+        let RawModel {
+            name,
+            description,
+            parameters,
+            definitions,
+            states,
+            input,
+            output,
+            outputs,
+        } = raw;
+        let mut m = Interned::new(parameters, definitions, &states, &input, &items);
+        let states = self.split_states(states, &input.name, &mut m, &items)?;
+        let output = self.split_output(output, &input.name, &mut m, &items)?;
+        let outputs = extra_outputs(outputs, &mut m);
+
+        let name = name.unwrap_or_else(|| {
+            self.file
+                .file_stem()
+                .and_then(|s| s.to_str())
+                .filter(|s| !s.is_empty())
+                .unwrap_or("model")
+                .to_string()
+        });
+        Ok(Model {
+            name,
+            description,
+            file: self.file.to_path_buf(),
+            source_hash,
+            pool: m.pool,
+            parameters: m.parameters,
+            definitions: m.definitions,
+            states,
+            input: Input {
+                name: input.name,
+                symbol: m.u,
+                unit: input.unit,
+                doc: input.doc,
+                min: input.min,
+                max: input.max,
+            },
+            output,
+            outputs,
+        })
+    }
+}

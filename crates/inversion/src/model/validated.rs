@@ -1,0 +1,137 @@
+//! The validated model: every name checked, definitions inlined, each state's right-hand side split into
+//! dx/dt = f(x) + g(x)·u, the output y = h(x) free of the input (contract section 2).
+
+use invsim_expr::{Id, Pool, Symbol};
+use std::collections::HashMap;
+use std::path::PathBuf;
+
+/// A validated model: every name checked, definitions inlined, each state's right-hand side split into
+/// `f + g·u`. All expressions live in [`Model::pool`]; parameters stay symbols (their values are the
+/// defaults, see [`Model::nominal`]).
+#[derive(Debug, Clone)]
+pub struct Model {
+    pub name: String,
+    pub description: Option<String>,
+    /// The model file (for messages).
+    pub file: PathBuf,
+    /// SHA-256 of the file's bytes, lowercase hex.
+    pub source_hash: String,
+    pub pool: Pool,
+    /// In file order.
+    pub parameters: Vec<Parameter>,
+    /// In file order.
+    pub definitions: Vec<Definition>,
+    /// In file order.
+    pub states: Vec<State>,
+    pub input: Input,
+    pub output: Output,
+    /// The extra outputs of `[outputs]`, in file order.
+    pub outputs: Vec<ExtraOutput>,
+}
+
+/// A named numeric parameter (kept symbolic in derivations; `value` is its default).
+#[derive(Debug, Clone)]
+pub struct Parameter {
+    pub name: String,
+    pub symbol: Symbol,
+    pub value: f64,
+    pub unit: Option<String>,
+    pub doc: Option<String>,
+}
+
+/// A named intermediate quantity.
+#[derive(Debug, Clone)]
+pub struct Definition {
+    pub name: String,
+    pub symbol: Symbol,
+    /// The expression as written in the file.
+    pub source: String,
+    /// The expression as written, parsed (it may refer to earlier definitions).
+    pub expr: Id,
+    /// The expression with all definitions inlined.
+    pub inlined: Id,
+    pub unit: Option<String>,
+    pub doc: Option<String>,
+}
+
+/// A state `x` with `dx/dt = f(x) + g(x) u` (definitions inlined everywhere).
+#[derive(Debug, Clone)]
+pub struct State {
+    pub name: String,
+    pub symbol: Symbol,
+    pub unit: Option<String>,
+    pub doc: Option<String>,
+    /// `f + g·u`.
+    pub rhs: Id,
+    /// The drift, free of the input.
+    pub f: Id,
+    /// The input gain, free of the input.
+    pub g: Id,
+}
+
+/// The model's single input `u`.
+#[derive(Debug, Clone)]
+pub struct Input {
+    pub name: String,
+    pub symbol: Symbol,
+    pub unit: Option<String>,
+    pub doc: Option<String>,
+    /// Optional bounds; violations are reported, not clipped.
+    pub min: Option<f64>,
+    pub max: Option<f64>,
+}
+
+/// The tracked output `y = h(x)`.
+#[derive(Debug, Clone)]
+pub struct Output {
+    pub name: String,
+    /// `h` with definitions inlined; free of the input.
+    pub h: Id,
+    /// `h` as written in the file.
+    pub source: String,
+    pub unit: Option<String>,
+    pub doc: Option<String>,
+    /// The output's nominal value y0 (`nominal`, optional): where `invsim derive` linearises the zero dynamics
+    /// (ξ = (y0, 0, …, 0), y^(r) = 0, η at the equilibrium). `None`: [`Output::reference_offset`].
+    pub nominal: Option<f64>,
+    /// The reference the drive cycle defines for this output: y_d = `reference_offset` +
+    /// `reference_scale` · (smoothed cycle), so that every derivative of y_d stays exact (defaults 0 and 1:
+    /// y_d is the smoothed cycle itself, a vehicle speed in m/s).
+    pub reference_offset: f64,
+    pub reference_scale: f64,
+}
+
+impl Output {
+    /// The nominal output value y0: `nominal`, or else `reference_offset` (the reference at a standstill).
+    pub fn nominal_value(&self) -> f64 {
+        self.nominal.unwrap_or(self.reference_offset)
+    }
+}
+
+/// An extra signal of `[outputs]`, reported per sample (and integrated over the run if `accumulate`).
+#[derive(Debug, Clone)]
+pub struct ExtraOutput {
+    pub name: String,
+    /// The expression with definitions inlined (it may use the input).
+    pub expr: Id,
+    /// The expression as written in the file.
+    pub source: String,
+    pub unit: Option<String>,
+    pub doc: Option<String>,
+    pub accumulate: bool,
+}
+
+impl Model {
+    /// The parameters' default values, by symbol.
+    pub fn nominal(&self) -> HashMap<Symbol, f64> {
+        self.parameters
+            .iter()
+            .map(|p| (p.symbol, p.value))
+            .collect()
+    }
+
+    /// The states' symbols, in file order.
+    pub fn state_symbols(&self) -> Vec<Symbol> {
+        self.states.iter().map(|s| s.symbol).collect()
+    }
+}
