@@ -1,0 +1,224 @@
+//! The derivation: Lie derivatives, relative degree, normal-form coordinates, ψ⁻¹, α, β and zero dynamics.
+//!
+//! For x' = f(x) + g(x)u, y = h(x) (Isidori, *Nonlinear Control Systems*, 3rd ed., §4.1; Khalil,
+//! *Nonlinear Systems*, 3rd ed., §13.2; Fröberg & Nielsen 2004, eq. 24–32):
+//!
+//! * L_f φ = ∇φ · f, and L_f^k h = L_f(L_f^{k−1} h);
+//! * the relative degree r is the first k with L_g L_f^{k−1} h ≢ 0 (Isidori Def. 4.1.1, here "not
+//!   identically zero" rather than "nonzero at x°", so that singular sets are reported, not hidden);
+//! * ξ = (h, L_f h, …, L_f^{r−1} h), η = n − r states chosen so that ∂(ξ, η)/∂x is nonsingular, preferring
+//!   states with L_g η = g_η ≡ 0 (Isidori Prop. 4.1.3);
+//! * y^(r) = α(ξ, η) + β(ξ, η) u with α = L_f^r h ∘ ψ⁻¹, β = L_g L_f^{r−1} h ∘ ψ⁻¹ (paper eq. 26–28);
+//! * zero dynamics dη/dt = L_f η + L_g η · (y^(r) − α)/β, expressed in (ξ, η, y^(r)).
+//!
+//! Where each step lives: the Lie derivative in `lie.rs`, the relative degree in `relative_degree.rs`, ξ,
+//! η and the rank test in `coordinates.rs`, ψ⁻¹ (isolation or Newton) in `psi_inv.rs`, α, β and the zero
+//! dynamics in `normal_form.rs`, the singular set and domain conditions in `domain.rs`; this file composes
+//! them. Imports go one way: lie ← relative_degree; coordinates, psi_inv, normal_form and domain stand
+//! alone; all of them ← this file.
+
+mod coordinates;
+mod domain;
+mod lie;
+mod normal_form;
+mod psi_inv;
+mod relative_degree;
+
+pub use lie::lie_derivative;
+pub use psi_inv::{isolate, Solution};
+
+use crate::model::Model;
+use coordinates::{choose_coordinates, Coordinates};
+use domain::{domain_conditions, singular_set};
+use invsim_expr::{DecidedBy, Id, Pool, Symbol};
+use normal_form::{normal_form, NormalForm, ToCoordinates};
+use psi_inv::{psi_inverse, Inverse};
+use relative_degree::{relative_degree, RelativeDegree};
+use thiserror::Error;
+
+/// Why a model cannot be inverted.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum DeriveError {
+    #[error(
+        "{file}: the output `{output}` does not depend on the input `{input}` through any number of \
+         derivatives: L_g L_f^k h is identically zero for k = 0 … {last} (n = {n}), so the model has no \
+         relative degree and cannot be inverted for this output; choose an output the input reaches, or \
+         check that the input enters the right-hand sides"
+    )]
+    NoRelativeDegree {
+        file: String,
+        output: String,
+        input: String,
+        n: usize,
+        last: usize,
+    },
+    #[error(
+        "{file}: no choice of {m} internal state(s) η completes ξ = (h, …, L_f^(r-1) h) to a coordinate \
+         change: ∂(ξ, η)/∂x is singular for every choice (the L_f^k h are not independent)"
+    )]
+    NoCoordinates { file: String, m: usize },
+}
+
+/// Everything derived for one model. Expressions live in `model.pool`.
+#[derive(Debug, Clone)]
+pub struct Derivation {
+    pub model: Model,
+    /// Relative degree r.
+    pub relative_degree: usize,
+    /// L_f^k h for k = 0 … r, in the original states.
+    pub lie: Vec<Id>,
+    /// L_g L_f^k h for k = 0 … r − 1 (all but the last identically zero), in the states.
+    pub lg_lie: Vec<Id>,
+    /// How each L_g L_f^k h was found zero or nonzero.
+    pub lg_decided_by: Vec<DecidedBy>,
+    /// The symbols ξ1 … ξr and η1 … η(n−r).
+    pub xi: Vec<Symbol>,
+    pub eta: Vec<Symbol>,
+    /// Indices of the states chosen as η (η_j = x_{eta_states[j]}).
+    pub eta_states: Vec<usize>,
+    /// ψ(x) = (ξ, η) in the states: lie[0..r] then the η states.
+    pub psi: Vec<Id>,
+    /// ψ⁻¹ per state.
+    pub psi_inv: Vec<Solution>,
+    /// ∂ψ/∂x (n × n, row i = ∂ψ_i/∂x), for Newton's method and for the chain rule.
+    pub jacobian: Vec<Vec<Id>>,
+    /// α and β in (ξ, η) — with any numerically solved states left as state symbols.
+    pub alpha: Id,
+    pub beta: Id,
+    /// α = L_f^r h and β = L_g L_f^{r−1} h in the original states.
+    pub alpha_x: Id,
+    pub beta_x: Id,
+    /// dη_j/dt in (ξ, η, yr) (and numerically solved states, if any).
+    pub zero_dynamics: Vec<Id>,
+    /// dη_j/dt in (x, yr).
+    pub zero_dynamics_x: Vec<Id>,
+    /// The symbol `yr` (= y^(r)).
+    pub yr: Symbol,
+    /// Where β vanishes, in words.
+    pub singular: Vec<String>,
+    /// Conditions under which the closed-form ψ⁻¹ is valid (divisors nonzero, roots real, branches).
+    pub domain: Vec<String>,
+    pub warnings: Vec<String>,
+}
+
+impl Derivation {
+    /// Derive the normal form of a loaded model.
+    pub fn new(model: Model) -> Result<Derivation, DeriveError> {
+        let mut model = model;
+        let n = model.states.len();
+        let states = model.state_symbols();
+        let nominal = model.nominal();
+        let f: Vec<Id> = model.states.iter().map(|s| s.f).collect();
+        let g: Vec<Id> = model.states.iter().map(|s| s.g).collect();
+        let file = model.file.display().to_string();
+        let params: Vec<Symbol> = model.parameters.iter().map(|p| p.symbol).collect();
+        let mut warnings = Vec::new();
+
+        let h = model.output.h;
+        let found = relative_degree(&mut model.pool, h, &f, &g, &states, &nominal, &mut warnings);
+        let Some(RelativeDegree {
+            r,
+            lie,
+            lg_lie,
+            lg_decided_by,
+        }) = found
+        else {
+            return Err(DeriveError::NoRelativeDegree {
+                file,
+                output: model.output.name.clone(),
+                input: model.input.name.clone(),
+                n,
+                last: n.saturating_sub(1),
+            });
+        };
+        let decoupling = *lg_lie.last().expect("r ≥ 1 implies one L_g L_f^k h");
+        let alpha_x = lie[r];
+
+        let pool = &mut model.pool;
+        let xi: Vec<Symbol> = (1..=r).map(|i| pool.symbol(&format!("xi{i}"))).collect();
+        let eta: Vec<Symbol> = (1..=n - r)
+            .map(|i| pool.symbol(&format!("eta{i}")))
+            .collect();
+        let yr = pool.symbol("yr");
+
+        let Some(Coordinates {
+            eta_states,
+            psi,
+            jacobian,
+        }) = choose_coordinates(&mut model, &lie, r, &eta, &mut warnings)
+        else {
+            return Err(DeriveError::NoCoordinates { file, m: n - r });
+        };
+        let Inverse {
+            psi_inv,
+            closed,
+            domain,
+        } = psi_inverse(&mut model, &lie, &xi, &eta, &eta_states, &mut warnings);
+
+        let pool = &mut model.pool;
+        let coords = ToCoordinates {
+            lie: &lie,
+            xi: &xi,
+            closed: &closed,
+        };
+        let NormalForm {
+            alpha,
+            beta,
+            zero_dynamics,
+            zero_dynamics_x,
+        } = normal_form(
+            pool,
+            &coords,
+            (alpha_x, decoupling),
+            (&f, &g),
+            &eta_states,
+            yr,
+        );
+
+        let singular = singular_set(pool, beta, &nominal, &xi, &eta);
+        for s in &singular {
+            warnings.push(format!("β vanishes: {s}"));
+        }
+        let domain = domain_conditions(pool, domain, &params);
+
+        Ok(Derivation {
+            model,
+            relative_degree: r,
+            lie,
+            lg_lie,
+            lg_decided_by,
+            xi,
+            eta,
+            eta_states,
+            psi,
+            psi_inv,
+            jacobian,
+            alpha,
+            beta,
+            alpha_x,
+            beta_x: decoupling,
+            zero_dynamics,
+            zero_dynamics_x,
+            yr,
+            singular,
+            domain,
+            warnings,
+        })
+    }
+
+    pub fn pool(&self) -> &Pool {
+        &self.model.pool
+    }
+
+    /// Number of states n.
+    pub fn n(&self) -> usize {
+        self.model.states.len()
+    }
+
+    /// Are all entries of ψ⁻¹ in closed form?
+    pub fn psi_inv_closed(&self) -> bool {
+        self.psi_inv
+            .iter()
+            .all(|s| matches!(s, Solution::Closed(_)))
+    }
+}
