@@ -200,10 +200,21 @@ impl Derivation {
     /// The derived-equation document: the model as written and every step of the derivation, in Markdown
     /// with math GitHub renders.
     pub fn to_markdown(&self) -> String {
-        let m = &self.model;
-        let r = self.relative_degree;
-        let n = self.n();
         let mut s = String::new();
+        self.md_model(&mut s);
+        self.md_tables(&mut s);
+        self.md_vector_fields(&mut s);
+        self.md_relative_degree(&mut s);
+        self.md_coordinates(&mut s);
+        self.md_input_output(&mut s);
+        self.md_zero_dynamics(&mut s);
+        self.md_notes(&mut s);
+        s
+    }
+
+    /// The title, the source file and the model as written: states, input, output, reference.
+    fn md_model(&self, s: &mut String) {
+        let m = &self.model;
         let _ = writeln!(s, "# `{}` — derived equations\n", m.name);
         if let Some(d) = &m.description {
             let _ = writeln!(s, "{d}\n");
@@ -264,6 +275,11 @@ impl Derivation {
         if let Some(line) = self.reference_line() {
             let _ = writeln!(s, "{line}\n");
         }
+    }
+
+    /// The tables of parameters and extra outputs, and the definitions.
+    fn md_tables(&self, s: &mut String) {
+        let m = &self.model;
         if !m.parameters.is_empty() {
             let _ = writeln!(
                 s,
@@ -309,6 +325,11 @@ impl Derivation {
             }
             let _ = writeln!(s, "\\end{{aligned}}\n$$\n");
         }
+    }
+
+    /// f, g and h with definitions inlined.
+    fn md_vector_fields(&self, s: &mut String) {
+        let m = &self.model;
         let _ = writeln!(s, "## Vector fields\n\n$\\dot x = f(x) + g(x)\\,u$ with definitions inlined:\n\n$$\n\\begin{{aligned}}");
         for st in &m.states {
             let _ = writeln!(
@@ -325,6 +346,12 @@ impl Derivation {
             );
         }
         let _ = writeln!(s, "h &= {}\n\\end{{aligned}}\n$$\n", self.tex(m.output.h));
+    }
+
+    /// L_f^k h, L_g L_f^k h and the relative degree with how each zero test was decided.
+    fn md_relative_degree(&self, s: &mut String) {
+        let r = self.relative_degree;
+        let n = self.n();
         let _ = writeln!(
             s,
             "## Lie derivatives and relative degree\n\n$$\n\\begin{{aligned}}"
@@ -354,6 +381,12 @@ impl Derivation {
             "The relative degree is **r = {r}** (n = {n}): {}.\n",
             why.join("; ")
         );
+    }
+
+    /// ξ, η, ψ⁻¹ and the conditions under which it is valid.
+    fn md_coordinates(&self, s: &mut String) {
+        let m = &self.model;
+        let r = self.relative_degree;
         let _ = writeln!(s, "## Normal-form coordinates\n\n$$\n\\begin{{aligned}}");
         for k in 0..r {
             let _ = writeln!(s, "\\xi_{{{}}} &= {} \\\\", k + 1, self.tex(self.psi[k]));
@@ -393,6 +426,10 @@ impl Derivation {
             }
             s.push('\n');
         }
+    }
+
+    /// α, β and the singular set.
+    fn md_input_output(&self, s: &mut String) {
         let _ = writeln!(
             s,
             "## Input–output form\n\n$y^{{(r)}} = \\alpha(\\xi, \\eta) + \\beta(\\xi, \\eta)\\,u$, so \
@@ -412,6 +449,10 @@ impl Derivation {
             }
             s.push('\n');
         }
+    }
+
+    /// The zero dynamics and their classification.
+    fn md_zero_dynamics(&self, s: &mut String) {
         if self.zero_dynamics.is_empty() {
             let _ = writeln!(s, "## Zero dynamics\n\nNone: r = n.\n");
         } else {
@@ -428,6 +469,10 @@ impl Derivation {
                 );
             }
         }
+    }
+
+    /// Warnings, the compiled code, and the plain form.
+    fn md_notes(&self, s: &mut String) {
         if !self.warnings.is_empty() {
             let _ = writeln!(s, "## Notes\n");
             for w in &self.warnings {
@@ -442,6 +487,5 @@ impl Derivation {
              `models/` are compiled into the `invsim-models` crate and used by `invsim simulate` automatically.\n"
         );
         let _ = writeln!(s, "## Plain form\n\n```text\n{}```", self.to_text());
-        s
     }
 }

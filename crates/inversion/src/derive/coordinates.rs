@@ -9,7 +9,7 @@ use std::collections::HashMap;
 
 /// The chosen η and the coordinate change ψ with its Jacobian.
 pub(super) struct Coordinates {
-    /// Indices of the states chosen as η (η_j = x_{eta_states[j]}), ascending.
+    /// Indices of the states chosen as η (`η_j = x_{eta_states[j]}`), ascending.
     pub(super) eta_states: Vec<usize>,
     /// ψ(x) = (ξ, η) in the states: L_f^k h for k < r, then the η states.
     pub(super) psi: Vec<Id>,
@@ -106,6 +106,20 @@ fn generically_nonsingular(pool: &Pool, rows: &[Vec<Id>], points: &[HashMap<Symb
         }
     }
     tried > 0 && good * 2 > tried
+}
+
+/// The symbols ξ1 … ξr, η1 … η(n−r) and `yr` (= y^(r)).
+pub(super) fn coordinate_symbols(
+    pool: &mut Pool,
+    r: usize,
+    n: usize,
+) -> (Vec<Symbol>, Vec<Symbol>, Symbol) {
+    let xi: Vec<Symbol> = (1..=r).map(|i| pool.symbol(&format!("xi{i}"))).collect();
+    let eta: Vec<Symbol> = (1..=n - r)
+        .map(|i| pool.symbol(&format!("eta{i}")))
+        .collect();
+    let yr = pool.symbol("yr");
+    (xi, eta, yr)
 }
 
 /// Choose η among the states: the first combination of n − r states (those with g ≡ 0 first) that makes

@@ -11,11 +11,11 @@
 //! * y^(r) = α(ξ, η) + β(ξ, η) u with α = L_f^r h ∘ ψ⁻¹, β = L_g L_f^{r−1} h ∘ ψ⁻¹ (paper eq. 26–28);
 //! * zero dynamics dη/dt = L_f η + L_g η · (y^(r) − α)/β, expressed in (ξ, η, y^(r)).
 //!
-//! Where each step lives: the Lie derivative in `lie.rs`, the relative degree in `relative_degree.rs`, ξ,
-//! η and the rank test in `coordinates.rs`, ψ⁻¹ (isolation or Newton) in `psi_inv.rs`, α, β and the zero
-//! dynamics in `normal_form.rs`, the singular set and domain conditions in `domain.rs`; this file composes
-//! them. Imports go one way: lie ← relative_degree; coordinates, psi_inv, normal_form and domain stand
-//! alone; all of them ← this file.
+//! Where each step lives (one file per concept): the Lie derivative in `lie.rs`, the relative degree in
+//! `relative_degree.rs`, the choice of ξ and η with the rank test in `coordinates.rs`, ψ⁻¹ (isolation or
+//! Newton) in `psi_inv.rs`, α, β and the zero dynamics in `normal_form.rs`, the singular set and the
+//! domain conditions in `domain.rs`; this file composes them. Imports go one way: lie ← relative_degree
+//! ← this file; coordinates, psi_inv, normal_form and domain import only the model and are imported here.
 
 mod coordinates;
 mod domain;
@@ -28,7 +28,7 @@ pub use lie::lie_derivative;
 pub use psi_inv::{isolate, Solution};
 
 use crate::model::Model;
-use coordinates::{choose_coordinates, Coordinates};
+use coordinates::{choose_coordinates, coordinate_symbols, Coordinates};
 use domain::{domain_conditions, singular_set};
 use invsim_expr::{DecidedBy, Id, Pool, Symbol};
 use normal_form::{normal_form, NormalForm, ToCoordinates};
@@ -74,7 +74,7 @@ pub struct Derivation {
     /// The symbols ξ1 … ξr and η1 … η(n−r).
     pub xi: Vec<Symbol>,
     pub eta: Vec<Symbol>,
-    /// Indices of the states chosen as η (η_j = x_{eta_states[j]}).
+    /// Indices of the states chosen as η (`η_j = x_{eta_states[j]}`).
     pub eta_states: Vec<usize>,
     /// ψ(x) = (ξ, η) in the states: lie[0..r] then the η states.
     pub psi: Vec<Id>,
@@ -114,6 +114,7 @@ impl Derivation {
         let params: Vec<Symbol> = model.parameters.iter().map(|p| p.symbol).collect();
         let mut warnings = Vec::new();
 
+        // r: the first k with L_g L_f^(k-1) h ≢ 0.
         let h = model.output.h;
         let found = relative_degree(&mut model.pool, h, &f, &g, &states, &nominal, &mut warnings);
         let Some(RelativeDegree {
@@ -134,13 +135,9 @@ impl Derivation {
         let decoupling = *lg_lie.last().expect("r ≥ 1 implies one L_g L_f^k h");
         let alpha_x = lie[r];
 
-        let pool = &mut model.pool;
-        let xi: Vec<Symbol> = (1..=r).map(|i| pool.symbol(&format!("xi{i}"))).collect();
-        let eta: Vec<Symbol> = (1..=n - r)
-            .map(|i| pool.symbol(&format!("eta{i}")))
-            .collect();
-        let yr = pool.symbol("yr");
+        let (xi, eta, yr) = coordinate_symbols(&mut model.pool, r, n);
 
+        // η among the states, ψ = (ξ, η) and ∂ψ/∂x; then ψ⁻¹ by isolation (or Newton at run time).
         let Some(Coordinates {
             eta_states,
             psi,
@@ -155,6 +152,7 @@ impl Derivation {
             domain,
         } = psi_inverse(&mut model, &lie, &xi, &eta, &eta_states, &mut warnings);
 
+        // y^(r) = α + β u and the zero dynamics, in (ξ, η); then where β vanishes.
         let pool = &mut model.pool;
         let coords = ToCoordinates {
             lie: &lie,

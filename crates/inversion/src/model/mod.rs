@@ -25,15 +25,26 @@
 //! the contract: `nominal` (the output value where `invsim derive` classifies the zero dynamics),
 //! `reference_offset` and `reference_scale` (the reference is y_d = offset + scale · smoothed cycle, for
 //! outputs that are not a vehicle speed; the scale may not be 0).
-
 //!
-//! Where each step lives: [`spanned`](self) positions (`spanned.rs`: line and column, the reader that
-//! reports them), the TOML tree with spans (`tree.rs`), typed values (`values.rs`), the file as read
-//! (`raw.rs`), names (`names.rs`), expressions (`expressions.rs`), definitions and their inlining
-//! (`definitions.rs`), smoothness (`smooth.rs`), the affine split rhs → f + g·u (`split.rs`), the
-//! validated model (`validated.rs`), the pipeline (`reader.rs`) and the error (`error.rs`). Imports go
-//! one way: error ← spanned ← tree ← values ← names ← raw ← expressions ← definitions ← smooth ←
-//! split ← reader, with `validated` below definitions, split and reader.
+//! Where each step lives (one file per concept):
+//!
+//! | file | concept |
+//! |---|---|
+//! | `error.rs` | the typed [`ModelError`] and its [`ModelErrorKind`] |
+//! | `spanned.rs` | positions: byte offset → line and column, the reader that reports them |
+//! | `tree.rs` | the TOML tree with spans |
+//! | `values.rs` | a TOML value read as the type a key expects |
+//! | `names.rs` | identifiers, reserved names, collisions, "did you mean" |
+//! | `raw.rs` | the file as read, checked for structure (check 2) |
+//! | `expressions.rs` | parsing each expression (check 4) |
+//! | `definitions.rs` | definition order, cycles and inlining (check 5) |
+//! | `smooth.rs` | where `abs`, `sign`, `min`, `max` may appear (check 6) |
+//! | `split.rs` | the affine split rhs → f + g·u and its check (check 7) |
+//! | `validated.rs` | the validated [`Model`] |
+//! | `reader.rs` | the pipeline from bytes to [`Model`] |
+//!
+//! Imports go one way — each file imports only files listed before it: error, validated, spanned, tree,
+//! names, values, raw, expressions, definitions, smooth, split, reader.
 
 mod definitions;
 mod error;
