@@ -8,6 +8,7 @@ use super::spanned::{string_content, Reader, Src};
 use super::tree::{get, get_key, key_at, tv_at, Entries, Kind, Tv};
 use std::collections::HashSet;
 
+/// A parameter as written: `name = 1.0` or `name = { value = …, unit = "…", doc = "…" }`.
 #[derive(Debug)]
 pub(super) struct RawParameter {
     pub(super) name: String,
@@ -17,6 +18,7 @@ pub(super) struct RawParameter {
     pub(super) doc: Option<String>,
 }
 
+/// A definition as written, its expression not yet parsed.
 #[derive(Debug)]
 pub(super) struct RawDefinition {
     pub(super) name: String,
@@ -26,12 +28,14 @@ pub(super) struct RawDefinition {
     pub(super) doc: Option<String>,
 }
 
+/// A state's equation as written: `rhs`, or `f` and `g`.
 #[derive(Debug)]
 pub(super) enum RawEquation {
     Rhs(Src),
     Fg(Src, Src),
 }
 
+/// A state as written.
 #[derive(Debug)]
 pub(super) struct RawState {
     pub(super) name: String,
@@ -41,6 +45,7 @@ pub(super) struct RawState {
     pub(super) doc: Option<String>,
 }
 
+/// `[input]` as written.
 #[derive(Debug)]
 pub(super) struct RawInput {
     pub(super) name: String,
@@ -51,6 +56,7 @@ pub(super) struct RawInput {
     pub(super) max: Option<f64>,
 }
 
+/// `[output]` as written.
 #[derive(Debug)]
 pub(super) struct RawOutput {
     pub(super) name: String,
@@ -62,6 +68,7 @@ pub(super) struct RawOutput {
     pub(super) reference_scale: Option<f64>,
 }
 
+/// An extra output of `[outputs]` as written.
 #[derive(Debug)]
 pub(super) struct RawExtra {
     pub(super) name: String,
@@ -129,6 +136,7 @@ const TOP_KEYS_SHOWN: &str =
     "name, description, [parameters], [definitions], [states], [input], [output], [outputs]";
 
 impl Reader<'_> {
+    /// The top-level keys and sections; the required ones present.
     pub(super) fn structure(&self, root: &Tv) -> Result<RawModel, ModelError> {
         let entries = self.table(root, "the model file")?;
         let mut raw = Sections::default();

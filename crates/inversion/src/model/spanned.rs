@@ -31,6 +31,7 @@ pub(super) struct Reader<'a> {
 }
 
 impl<'a> Reader<'a> {
+    /// An error of `kind` at byte offset `at` (none: the error names only the file).
     pub(super) fn err(
         &self,
         at: Option<usize>,
@@ -64,6 +65,7 @@ impl<'a> Reader<'a> {
         }
     }
 
+    /// "line 5" for messages that refer to another line.
     pub(super) fn line(&self, at: Option<usize>) -> String {
         match at {
             Some(o) => format!("line {}", line_col(self.text, o).0),

@@ -24,6 +24,7 @@ pub(super) struct Tv {
     pub(super) kind: Kind,
 }
 
+/// What a TOML value is (arrays and date-times are not read further: no key takes them).
 #[derive(Debug)]
 pub(super) enum Kind {
     Str(String),
@@ -209,12 +210,15 @@ impl<'de> Visitor<'de> for KeyVisitor {
     }
 }
 
+/// A table's entries, in file order.
 pub(super) type Entries = [(Key, Tv)];
 
+/// The value of `key`, if the table has it.
 pub(super) fn get<'t>(entries: &'t Entries, key: &str) -> Option<&'t Tv> {
     get_key(entries, key).map(|(_, v)| v)
 }
 
+/// The key and value of `key`, if the table has it.
 pub(super) fn get_key<'t>(entries: &'t Entries, key: &str) -> Option<(&'t Key, &'t Tv)> {
     entries
         .iter()
@@ -222,10 +226,12 @@ pub(super) fn get_key<'t>(entries: &'t Entries, key: &str) -> Option<(&'t Key, &
         .map(|(k, v)| (k, v))
 }
 
+/// Where a key starts in the file.
 pub(super) fn key_at(k: &Key) -> Option<usize> {
     k.span.as_ref().map(|s| s.start)
 }
 
+/// Where a value starts in the file.
 pub(super) fn tv_at(v: &Tv) -> Option<usize> {
     v.span.as_ref().map(|s| s.start)
 }
