@@ -10,7 +10,7 @@ use plotters::prelude::*;
 use thiserror::Error;
 
 use crate::cycle::Cycle;
-use crate::simulate::SimulationResult;
+use crate::inverse::SimulationResult;
 
 /// Width and height of the SVG in pixels.
 pub const SIZE: (u32, u32) = (1000, 750);
@@ -104,7 +104,7 @@ pub fn plot_svg(result: &SimulationResult, cycle: &Cycle, path: &Path) -> Result
     let [umin, umax] = result.input_bounds;
     let (ulo, uhi) = range(u.iter().copied().chain(umin).chain(umax));
     let (ulo, uhi) = pad(ulo, uhi);
-    let input = &result.summary.input;
+    let input = &result.summary.totals.input;
 
     let root = SVGBackend::new(path, SIZE).into_drawing_area();
     root.fill(&WHITE).map_err(|e| fail(&e))?;
@@ -114,7 +114,7 @@ pub fn plot_svg(result: &SimulationResult, cycle: &Cycle, path: &Path) -> Result
         .caption(
             format!(
                 "{} on {}: {quantity} (look-ahead a = {} s)",
-                result.summary.model, result.summary.cycle, result.summary.lookahead_s
+                result.summary.run.model, result.summary.run.cycle, result.summary.lookahead_s
             ),
             ("sans-serif", 18),
         )
