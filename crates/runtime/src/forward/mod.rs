@@ -58,7 +58,7 @@ use crate::ode::{Dopri5, OdeStats, Rosenbrock23, StepFailure};
 use crate::report::{fmt_sig, grade_warning, CycleInfo, Intervals, Totals};
 use driver::{binomial, Drive, Loop, RawCycle};
 use integrator::Integrator;
-use invsim_model_api::zero_dynamics::{newton, EQUILIBRIUM_MAX_ITER};
+use invsim_model_api::zero_dynamics::{newton, EquilibriumFailure, EQUILIBRIUM_MAX_ITER};
 use trace::TraceBand;
 
 pub use summary::{DriverSummary, ForwardSummary, IntegratorSummary};
@@ -415,15 +415,10 @@ fn initial_state<M: InverseModel + ?Sized>(
         xi0[1] = raw.slope[seg0];
     }
     let yr0 = if r == 1 { raw.slope[seg0] } else { 0.0 };
-    let eta0 = if ne > 0 {
-        newton(model, &xi0, yr0, vec![0.0; ne], EQUILIBRIUM_MAX_ITER).map_err(|f| {
-            ForwardError::InitialState {
-                t: t0,
-                reason: f.to_string(),
-            }
-        })?
-    } else {
+    let eta0 = if ne == 0 {
         Vec::new()
+    } else {
+        start_equilibrium(model, &xi0, yr0, t0)?
     };
     let mut x = vec![0.0; n];
     model
@@ -436,6 +431,26 @@ fn initial_state<M: InverseModel + ?Sized>(
         });
     }
     Ok(x)
+}
+
+/// The equilibrium of the zero dynamics at the start, by Newton's method from η = 0.
+fn start_equilibrium<M: InverseModel + ?Sized>(
+    model: &M,
+    xi0: &[f64],
+    yr0: f64,
+    t0: f64,
+) -> Result<Vec<f64>, ForwardError> {
+    let start = vec![0.0; model.info().n_eta];
+    match newton(model, xi0, yr0, start, EQUILIBRIUM_MAX_ITER) {
+        Ok(eta) => Ok(eta),
+        // q is not finite already at the start η = 0: stay there and let ψ⁻¹ tell what is not finite (the
+        // state is what the user can act on, with x0).
+        Err(EquilibriumFailure::NonFinite { eta }) if eta.iter().all(|&v| v == 0.0) => Ok(eta),
+        Err(f) => Err(ForwardError::InitialState {
+            t: t0,
+            reason: f.to_string(),
+        }),
+    }
 }
 
 /// The driver and the engine management around `model` (see the module docs).
