@@ -121,7 +121,10 @@ fn compiled_and_interpreted_si_engine_agree_on_nedc() {
             );
         }
     }
-    assert_eq!(a.summary.totals.integrals.len(), b.summary.totals.integrals.len());
+    assert_eq!(
+        a.summary.totals.integrals.len(),
+        b.summary.totals.integrals.len()
+    );
     for (key, va) in &a.summary.totals.integrals {
         let vb = b.summary.totals.integrals[key];
         assert!((va - vb).abs() <= 1e-10 * va.abs(), "{key}: {va} vs {vb}");

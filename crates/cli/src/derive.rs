@@ -28,4 +28,3 @@ pub fn run(path: &Path, format: Format) -> Result<(), Failure> {
     };
     print_stdout(&text)
 }
-

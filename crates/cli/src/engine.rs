@@ -23,7 +23,6 @@ pub enum EngineChoice {
     Interpreted,
 }
 
-
 /// A loaded model behind the runtime's trait, with the name of the engine that runs it.
 pub enum LoadedModel {
     Interpreted(Box<Interpreter>),
@@ -123,4 +122,3 @@ pub fn load_run(
     }
     Ok((cycle, model))
 }
-

@@ -21,4 +21,3 @@ pub fn print_stdout(text: &str) -> Result<(), Failure> {
         .write_all(text.as_bytes())
         .map_err(|e| Failure::io(format!("cannot write to stdout: {e}")))
 }
-

@@ -81,4 +81,3 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
     }
     print_stdout(&result.summary.to_text())
 }
-

@@ -411,7 +411,10 @@ fn pi_driver_tracks_nedc_and_matches_the_inverse_fuel() {
         s.run.distance_m
     );
     let inv = inverse(model.as_ref(), dt);
-    let (fi, ff) = (inv.summary.totals.integrals["fuel"], s.totals.integrals["fuel"]);
+    let (fi, ff) = (
+        inv.summary.totals.integrals["fuel"],
+        s.totals.integrals["fuel"],
+    );
     let rel = (ff - fi) / fi;
     assert!(
         rel.abs() < 0.02,
@@ -437,7 +440,10 @@ fn enforced_bounds_miss_the_trace_only_in_hard_decelerations() {
     };
     let fwd = forward::forward(model.as_ref(), &cycle, &o).expect("forward run");
     let s = &fwd.summary;
-    let (lo, hi) = (s.totals.input_lower_bound.unwrap(), s.totals.input_upper_bound.unwrap());
+    let (lo, hi) = (
+        s.totals.input_lower_bound.unwrap(),
+        s.totals.input_upper_bound.unwrap(),
+    );
     assert!(fwd.input().iter().all(|&u| (lo..=hi).contains(&u)));
     assert!(!s.trace_misses.is_empty());
     let inv = inverse(model.as_ref(), 0.01);

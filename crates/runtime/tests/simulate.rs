@@ -68,7 +68,9 @@ fn si_engine_steady_state_check_values() {
     let l_per_100km = res.summary.totals.integrals_per_100km["fuel_l"];
     assert!((l_per_100km - 5.67).abs() < 0.005, "{l_per_100km} l/100 km");
     let fuel_kg = res.summary.totals.integrals["fuel"];
-    assert!((fuel_kg / FUEL_DENSITY * 1000.0 - res.summary.totals.integrals["fuel_l"]).abs() < 1e-12);
+    assert!(
+        (fuel_kg / FUEL_DENSITY * 1000.0 - res.summary.totals.integrals["fuel_l"]).abs() < 1e-12
+    );
     assert!((res.summary.run.distance_m - 50.0 / 3.6 * 100.0).abs() < 1e-9);
 }
 
@@ -226,7 +228,11 @@ fn bound_violations_cover_hard_decelerations() {
         assert!(inside(tk), "{tk} s is a hard deceleration: {v:?}");
     }
     // Never clipped: the input really goes negative, and the cruise at 120 km/h is inside the bounds.
-    assert!(res.summary.totals.input_min < -1e-3, "{}", res.summary.totals.input_min);
+    assert!(
+        res.summary.totals.input_min < -1e-3,
+        "{}",
+        res.summary.totals.input_min
+    );
     assert!(!inside(1120.0));
     assert!(
         res.summary
@@ -263,7 +269,11 @@ fn summary_integrals_text_and_json() {
         s.totals.integrals_per_100km["fuel"],
         s.totals.integrals["fuel"] * 1e5 / s.run.distance_m
     );
-    assert!((s.run.distance_m - 11_013.0).abs() < 1.0, "{}", s.run.distance_m);
+    assert!(
+        (s.run.distance_m - 11_013.0).abs() < 1.0,
+        "{}",
+        s.run.distance_m
+    );
     assert_eq!(s.relative_degree, 2);
     assert_eq!(s.run.cycle, "nedc");
     assert_eq!(s.run.model, "si_engine");
@@ -477,7 +487,9 @@ fn zero_dynamics_becoming_unstable_along_the_run_are_detected() {
         })
         .unwrap();
     match simulate(&model, &cycle, &opts(0.01)) {
-        Err(SimulateError::Stable(StableError::ZeroDynamicsTypeChange { from, to, y_to, .. })) => {
+        Err(SimulateError::Stable(StableError::ZeroDynamicsTypeChange {
+            from, to, y_to, ..
+        })) => {
             assert_eq!((from.as_str(), to.as_str()), ("0", "1"));
             assert!(y_to > 2.0, "{y_to}");
         }
@@ -692,7 +704,10 @@ fn invalid_options_are_rejected() {
     let model = SiEngine::new();
     for dt in [0.0, -0.1, f64::NAN, f64::INFINITY] {
         let e = simulate(&model, &nedc(), &opts(dt)).unwrap_err();
-        assert!(matches!(e, SimulateError::Run(RunError::InvalidDt(_))), "{e:?}");
+        assert!(
+            matches!(e, SimulateError::Run(RunError::InvalidDt(_))),
+            "{e:?}"
+        );
         assert!(e.to_string().contains("positive, finite"), "{e}");
     }
     for a in [0.0, -5.0, f64::NAN] {

@@ -33,4 +33,3 @@ pub use threshold::{critical_tol, CRITICAL_ABS_TOL, CRITICAL_REL_TOL};
 pub const PSI_INV_NEWTON_MAX_ITER: usize = 50;
 /// ψ⁻¹'s Newton iteration stops when every residual, relative to max(|target|, 1), is below this.
 pub const PSI_INV_NEWTON_TOL: f64 = 1e-13;
-

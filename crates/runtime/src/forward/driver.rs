@@ -129,7 +129,13 @@ impl<M: InverseModel + ?Sized> Loop<'_, M> {
 
     /// dz/dt of the closed loop, z = (x, I): x' = f(x) + g(x) u_a and I' = K_i e + (Δa)/T_t, Δa = β (u_a − u)
     /// / ω^(r−1) the part of the request the clipped input cannot deliver (back-calculation).
-    pub(super) fn rhs(&mut self, seg: usize, t: f64, z: &[f64], dz: &mut [f64]) -> Result<(), ForwardError> {
+    pub(super) fn rhs(
+        &mut self,
+        seg: usize,
+        t: f64,
+        z: &[f64],
+        dz: &mut [f64],
+    ) -> Result<(), ForwardError> {
         let d = self.drive(seg, t, z)?;
         let (dx, di) = dz.split_at_mut(self.n);
         self.model.rhs(&z[..self.n], d.applied, dx);
@@ -143,7 +149,6 @@ impl<M: InverseModel + ?Sized> Loop<'_, M> {
         Ok(())
     }
 }
-
 
 /// The binomial coefficient C(n, k) as a float.
 pub(super) fn binomial(n: usize, k: usize) -> f64 {

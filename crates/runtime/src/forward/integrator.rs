@@ -8,7 +8,13 @@ use super::ForwardError;
 /// An adaptive one-step method with dense output, as the forward run uses it.
 pub(super) trait Integrator {
     /// One accepted step from t towards `t_end` (never beyond it); returns the new time.
-    fn step_to<F>(&mut self, t: f64, t_end: f64, z: &mut [f64], f: &mut F) -> Result<f64, ForwardError>
+    fn step_to<F>(
+        &mut self,
+        t: f64,
+        t_end: f64,
+        z: &mut [f64],
+        f: &mut F,
+    ) -> Result<f64, ForwardError>
     where
         F: FnMut(f64, &[f64], &mut [f64]) -> Result<(), ForwardError>;
     /// The dense output of the last step at t.
@@ -20,7 +26,13 @@ pub(super) trait Integrator {
 }
 
 impl Integrator for Dopri5 {
-    fn step_to<F>(&mut self, t: f64, t_end: f64, z: &mut [f64], f: &mut F) -> Result<f64, ForwardError>
+    fn step_to<F>(
+        &mut self,
+        t: f64,
+        t_end: f64,
+        z: &mut [f64],
+        f: &mut F,
+    ) -> Result<f64, ForwardError>
     where
         F: FnMut(f64, &[f64], &mut [f64]) -> Result<(), ForwardError>,
     {
@@ -38,7 +50,13 @@ impl Integrator for Dopri5 {
 }
 
 impl Integrator for Rosenbrock23 {
-    fn step_to<F>(&mut self, t: f64, t_end: f64, z: &mut [f64], f: &mut F) -> Result<f64, ForwardError>
+    fn step_to<F>(
+        &mut self,
+        t: f64,
+        t_end: f64,
+        z: &mut [f64],
+        f: &mut F,
+    ) -> Result<f64, ForwardError>
     where
         F: FnMut(f64, &[f64], &mut [f64]) -> Result<(), ForwardError>,
     {

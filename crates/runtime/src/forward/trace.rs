@@ -56,4 +56,3 @@ impl<'a> TraceBand<'a> {
         (lo - self.tol, hi + self.tol)
     }
 }
-

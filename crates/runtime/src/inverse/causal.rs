@@ -200,4 +200,3 @@ fn check_stability<M: InverseModel + ?Sized>(
     }
     Ok(())
 }
-

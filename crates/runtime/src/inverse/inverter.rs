@@ -107,10 +107,7 @@ impl<'a, M: InverseModel + ?Sized> Inverter<'a, M> {
         let time = b.time;
         self.model
             .invert_batch(&xi, &etas, b.yd[r], b.x, b.u)
-            .map_err(|(i, source)| RunError::Model {
-                t: time[i],
-                source,
-            })?;
+            .map_err(|(i, source)| RunError::Model { t: time[i], source })?;
         for (v, c) in self.x.iter_mut().zip(b.x.iter()) {
             *v = c[len - 1];
         }

@@ -183,4 +183,3 @@ impl SimulationOptionsBuilder {
         Ok(self.0)
     }
 }
-

@@ -42,7 +42,10 @@ fn check_cycle(cycle: &Cycle) -> Result<(f64, f64), RunError> {
 }
 
 /// The given η(t_0), checked against the model.
-fn check_eta0(info: &ModelInfo, opts: &SimulationOptions) -> Result<Option<Vec<f64>>, SimulateError> {
+fn check_eta0(
+    info: &ModelInfo,
+    opts: &SimulationOptions,
+) -> Result<Option<Vec<f64>>, SimulateError> {
     let ne = info.n_eta;
     match &opts.eta0 {
         Some(e) if e.len() != ne => Err(SimulateError::InvalidEta0 {
@@ -62,7 +65,8 @@ fn check_eta0(info: &ModelInfo, opts: &SimulationOptions) -> Result<Option<Vec<f
 /// The column names (`t`, `yd_0` … `yd_r`, the input, the states, `eta1` …, the outputs) and the input's index.
 fn column_names(info: &ModelInfo) -> (Vec<String>, usize) {
     let r = info.relative_degree;
-    let mut columns = Vec::with_capacity(2 + r + 1 + info.n_states() + info.n_eta + info.outputs.len());
+    let mut columns =
+        Vec::with_capacity(2 + r + 1 + info.n_states() + info.n_eta + info.outputs.len());
     columns.push("t".to_string());
     columns.extend((0..=r).map(|k| format!("yd_{k}")));
     let input_column = columns.len();
@@ -241,7 +245,9 @@ fn check_finite<M: InverseModel + ?Sized>(
     }
     let at = |cs: &[&mut [f64]]| cs.iter().map(|c| c[i]).collect::<Vec<f64>>();
     let (yd_i, x_i, eta_i, outs_i) = (at(b.yd), at(b.x), at(b.eta), at(b.out));
-    Err(non_finite(model, b.time[i], &yd_i, &eta_i, b.u[i], &x_i, &outs_i))
+    Err(non_finite(
+        model, b.time[i], &yd_i, &eta_i, b.u[i], &x_i, &outs_i,
+    ))
 }
 
 pub(super) fn run<M: InverseModel + ?Sized>(
@@ -274,7 +280,13 @@ pub(super) fn run<M: InverseModel + ?Sized>(
         lookahead: opts.lookahead,
         causal: opts.causal || eta0.is_some(),
     };
-    let zd = stable::plan_run(model, cycle, &smoother, (t0, grid.time(grid.n), opts.dt), &stable_opts)?;
+    let zd = stable::plan_run(
+        model,
+        cycle,
+        &smoother,
+        (t0, grid.time(grid.n), opts.dt),
+        &stable_opts,
+    )?;
     if let Some(st) = &zd.stable {
         let extended = steps as f64 + (st.k_pre + st.k_post) as f64;
         check_samples(extended, extended * opts.dt, opts.dt)?;
@@ -292,7 +304,15 @@ pub(super) fn run<M: InverseModel + ?Sized>(
     let mut data = allocate(spare, columns.len(), stored, &grid);
     let mut inverter = Inverter::new(model, &smoother, grid, &zd, eta0, opts)?;
     let mut tally = Tally::new(info, &grid, window);
-    run_blocks(model, &smoother, &grid, &mut inverter, &mut tally, &mut data, keep)?;
+    run_blocks(
+        model,
+        &smoother,
+        &grid,
+        &mut inverter,
+        &mut tally,
+        &mut data,
+        keep,
+    )?;
 
     let run = Finished {
         grid,
@@ -437,8 +457,11 @@ fn summarise<M: InverseModel + ?Sized>(
     }
     let (inversion, pre_actuation_s, post_actuation_s, stable_inversion) =
         inversion_report(zd, info.n_eta, opts, &mut warnings);
-    let input_before_start =
-        InputBeforeStart::from_samples(&before_start, [totals.input_min, totals.input_max], opts.dt);
+    let input_before_start = InputBeforeStart::from_samples(
+        &before_start,
+        [totals.input_min, totals.input_max],
+        opts.dt,
+    );
     Ok(Summary {
         run: CycleInfo {
             model: info.name.clone(),
@@ -497,4 +520,3 @@ fn non_finite<M: InverseModel + ?Sized>(
         None => error("a value".to_string(), f64::NAN),
     }
 }
-

@@ -160,7 +160,6 @@ impl Summary {
     }
 }
 
-
 impl InputBeforeStart {
     /// From the samples [t, u] before t_0 (and at t_0, the last), given the input's range over the run and the
     /// grid step; `None` without pre-actuation.

@@ -94,7 +94,6 @@ pub(super) fn verify_forward<M: InverseModel + ?Sized>(
     Ok((max_abs, rms, warnings))
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;

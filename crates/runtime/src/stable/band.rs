@@ -116,7 +116,6 @@ impl Band {
     }
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;

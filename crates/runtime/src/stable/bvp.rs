@@ -91,6 +91,31 @@ impl Solution {
     }
 }
 
+/// Buffers of the Newton matrix's assembly (allocated once per Newton solve).
+struct AssemblyWork {
+    /// ∂q/∂η at the nodes (row-major m × m each) and at one midpoint.
+    nodes: Vec<f64>,
+    mid: Vec<f64>,
+    work: Vec<f64>,
+    qp: Vec<f64>,
+    /// ∂R_j/∂η_j and ∂R_j/∂η_{j+1} of one interval.
+    d: Vec<f64>,
+    e: Vec<f64>,
+}
+
+impl AssemblyWork {
+    fn new(m: usize, k: usize) -> AssemblyWork {
+        AssemblyWork {
+            nodes: vec![0.0; (k + 1) * m * m],
+            mid: vec![0.0; m * m],
+            work: vec![0.0; m],
+            qp: vec![0.0; m],
+            d: vec![0.0; m * m],
+            e: vec![0.0; m * m],
+        }
+    }
+}
+
 /// One discretisation of the boundary-value problem: K intervals of length h from t_a.
 struct Bvp<'a, M: ?Sized> {
     model: &'a M,
@@ -269,7 +294,7 @@ impl<'a, M: InverseModel + ?Sized> Bvp<'a, M> {
     /// Newton's method on the collocation equations from `eta` (in place); returns the iterations and the final
     /// q at the nodes.
     fn newton(&mut self, eta: &mut Vec<f64>, tol: f64) -> Result<(usize, Vec<f64>), String> {
-        let (m, k, h) = (self.m, self.k, self.h);
+        let (m, k) = (self.m, self.k);
         let ms = m - self.plan.unstable;
         let n = (k + 1) * m;
         self.set_scale(eta);
@@ -286,11 +311,7 @@ impl<'a, M: InverseModel + ?Sized> Bvp<'a, M> {
             vec![0.0; k * m],
             vec![0.0; n],
         );
-        let mut jn = vec![0.0; (k + 1) * m * m];
-        let mut jm = vec![0.0; m * m];
-        let (mut work, mut qp) = (vec![0.0; m], vec![0.0; m]);
-        let mut d = vec![0.0; m * m];
-        let mut e = vec![0.0; m * m];
+        let mut jw = AssemblyWork::new(m, k);
         let mut norm = self.residual(eta, &mut q_nodes, &mut eta_mid, &mut q_mid, &mut f);
         if !norm.is_finite() {
             return Err("the zero dynamics are not finite along the starting guess (the quasi-static equilibria)".into());
@@ -330,64 +351,7 @@ impl<'a, M: InverseModel + ?Sized> Bvp<'a, M> {
                 }
                 // The old Jacobian no longer contracts: fall through to a fresh one.
             }
-            // Jacobian: nodes, then per interval the midpoint, assembled into the band matrix.
-            for j in 0..=k {
-                let (lo, hi) = (j * m, (j + 1) * m);
-                self.jac(
-                    2 * j,
-                    &eta[lo..hi],
-                    &q_nodes[lo..hi],
-                    &mut jn[j * m * m..(j + 1) * m * m],
-                    &mut work,
-                    &mut qp,
-                );
-            }
-            band.clear();
-            for a in 0..ms {
-                for i in 0..m {
-                    band.set(a, i, self.plan.w_a[(a, i)]);
-                }
-            }
-            for j in 0..k {
-                let (lo, hi) = (j * m, (j + 1) * m);
-                self.jac(
-                    2 * j + 1,
-                    &eta_mid[lo..hi],
-                    &q_mid[lo..hi],
-                    &mut jm,
-                    &mut work,
-                    &mut qp,
-                );
-                let ja = &jn[j * m * m..(j + 1) * m * m];
-                let jb = &jn[(j + 1) * m * m..(j + 2) * m * m];
-                // ∂R_j/∂η_j = −I − h/6 (J_j + 4 J_mid (I/2 + h/8 J_j)),
-                // ∂R_j/∂η_{j+1} = I − h/6 (J_{j+1} + 4 J_mid (I/2 − h/8 J_{j+1})).
-                for c in 0..m {
-                    for i in 0..m {
-                        let (mut sa, mut sb) = (0.0, 0.0);
-                        for l in 0..m {
-                            let delta = if l == i { 0.5 } else { 0.0 };
-                            sa += jm[c * m + l] * (delta + h / 8.0 * ja[l * m + i]);
-                            sb += jm[c * m + l] * (delta - h / 8.0 * jb[l * m + i]);
-                        }
-                        let id = if c == i { 1.0 } else { 0.0 };
-                        d[c * m + i] = -id - h / 6.0 * (ja[c * m + i] + 4.0 * sa);
-                        e[c * m + i] = id - h / 6.0 * (jb[c * m + i] + 4.0 * sb);
-                    }
-                }
-                let row0 = ms + j * m;
-                for c in 0..m {
-                    for i in 0..m {
-                        band.set(row0 + c, j * m + i, d[c * m + i]);
-                        band.set(row0 + c, (j + 1) * m + i, e[c * m + i]);
-                    }
-                }
-            }
-            for b in 0..self.plan.unstable {
-                for i in 0..m {
-                    band.set(ms + k * m + b, k * m + i, self.plan.w_b[(b, i)]);
-                }
-            }
+            self.assemble(&mut band, eta, (&q_nodes, &eta_mid, &q_mid), &mut jw);
             band.factor().map_err(|col| {
                 format!(
                     "the Newton matrix of the collocation equations is singular (column {col} of {n}): the split \
@@ -436,6 +400,77 @@ impl<'a, M: InverseModel + ?Sized> Bvp<'a, M> {
             "Newton's method did not converge in {MAX_NEWTON} iterations (scaled residual {})",
             fmt_sig(norm, 3)
         ))
+    }
+
+    /// The Newton matrix of the collocation equations at `eta` into `band`: the boundary rows W_a, W_b and per
+    /// interval the derivatives of R_j by η_j and η_{j+1}, from ∂q/∂η at the nodes and the midpoints.
+    fn assemble(
+        &self,
+        band: &mut Band,
+        eta: &[f64],
+        (q_nodes, eta_mid, q_mid): (&[f64], &[f64], &[f64]),
+        jw: &mut AssemblyWork,
+    ) {
+        let (m, k, h) = (self.m, self.k, self.h);
+        let ms = m - self.plan.unstable;
+        // Jacobian: nodes, then per interval the midpoint, assembled into the band matrix.
+        for j in 0..=k {
+            let (lo, hi) = (j * m, (j + 1) * m);
+            self.jac(
+                2 * j,
+                &eta[lo..hi],
+                &q_nodes[lo..hi],
+                &mut jw.nodes[j * m * m..(j + 1) * m * m],
+                &mut jw.work,
+                &mut jw.qp,
+            );
+        }
+        band.clear();
+        for a in 0..ms {
+            for i in 0..m {
+                band.set(a, i, self.plan.w_a[(a, i)]);
+            }
+        }
+        for j in 0..k {
+            let (lo, hi) = (j * m, (j + 1) * m);
+            self.jac(
+                2 * j + 1,
+                &eta_mid[lo..hi],
+                &q_mid[lo..hi],
+                &mut jw.mid,
+                &mut jw.work,
+                &mut jw.qp,
+            );
+            let ja = &jw.nodes[j * m * m..(j + 1) * m * m];
+            let jb = &jw.nodes[(j + 1) * m * m..(j + 2) * m * m];
+            // ∂R_j/∂η_j = −I − h/6 (J_j + 4 J_mid (I/2 + h/8 J_j)),
+            // ∂R_j/∂η_{j+1} = I − h/6 (J_{j+1} + 4 J_mid (I/2 − h/8 J_{j+1})).
+            for c in 0..m {
+                for i in 0..m {
+                    let (mut sa, mut sb) = (0.0, 0.0);
+                    for l in 0..m {
+                        let delta = if l == i { 0.5 } else { 0.0 };
+                        sa += jw.mid[c * m + l] * (delta + h / 8.0 * ja[l * m + i]);
+                        sb += jw.mid[c * m + l] * (delta - h / 8.0 * jb[l * m + i]);
+                    }
+                    let id = if c == i { 1.0 } else { 0.0 };
+                    jw.d[c * m + i] = -id - h / 6.0 * (ja[c * m + i] + 4.0 * sa);
+                    jw.e[c * m + i] = id - h / 6.0 * (jb[c * m + i] + 4.0 * sb);
+                }
+            }
+            let row0 = ms + j * m;
+            for c in 0..m {
+                for i in 0..m {
+                    band.set(row0 + c, j * m + i, jw.d[c * m + i]);
+                    band.set(row0 + c, (j + 1) * m + i, jw.e[c * m + i]);
+                }
+            }
+        }
+        for b in 0..self.plan.unstable {
+            for i in 0..m {
+                band.set(ms + k * m + b, k * m + i, self.plan.w_b[(b, i)]);
+            }
+        }
     }
 }
 
@@ -551,4 +586,3 @@ fn dichotomy_check<M: InverseModel + ?Sized>(
             .then_some((bvp.plan.t_a + j as f64 * bvp.h, lin.eigenvalues))
     })
 }
-

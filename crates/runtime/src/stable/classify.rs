@@ -1,7 +1,9 @@
 //! Classification of the zero dynamics along the reference: the output held at each level the reference
 //! passes, the equilibrium there and its linearisation (Isidori §4.3).
 
-use invsim_model_api::zero_dynamics::{default_starts, equilibrium, Linearization, ZeroDynamicsClass};
+use invsim_model_api::zero_dynamics::{
+    default_starts, equilibrium, Linearization, ZeroDynamicsClass,
+};
 use invsim_model_api::InverseModel;
 
 use crate::grid::MAX_DERIVATIVES;
@@ -109,4 +111,3 @@ pub(crate) fn classify_reference<M: InverseModel + ?Sized>(
         any_unstable,
     }
 }
-

@@ -152,7 +152,6 @@ pub(crate) fn decay_horizons(eig_a: &[[f64; 2]], eig_b: &[[f64; 2]], tol: f64) -
     (t_pre, t_post)
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;
