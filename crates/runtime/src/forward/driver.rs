@@ -3,7 +3,7 @@
 
 use invsim_model_api::InverseModel;
 
-use super::ForwardError;
+use super::error::ForwardError;
 use crate::cycle::Cycle;
 use crate::error::RunError;
 

@@ -3,7 +3,7 @@
 
 use crate::ode::{Dopri5, OdeStats, Rosenbrock23};
 
-use super::ForwardError;
+use super::error::ForwardError;
 
 /// An adaptive one-step method with dense output, as the forward run uses it.
 pub(super) trait Integrator {

@@ -4,7 +4,7 @@ use std::fmt::Write as _;
 
 use serde::Serialize;
 
-use super::{Bounds, Method};
+use super::options::{Bounds, Method};
 use crate::ode::OdeStats;
 use crate::report::{fmt_sig, write_intervals, CycleInfo, Totals};
 

@@ -10,12 +10,14 @@ use nalgebra::DMatrix;
 
 use super::error::SimulateError;
 use super::options::SimulationOptions;
-use super::ETA_BLOWUP;
 use crate::error::RunError;
 use crate::grid::{Grid, MAX_DERIVATIVES};
 use crate::ode::Dopri5;
 use crate::report::fmt_sig;
 use crate::smoother::Smoother;
+
+/// |η| above this means the internal dynamics have blown up.
+pub const ETA_BLOWUP: f64 = 1e12;
 
 /// The state of a causal run: η, its integrator and the buffers of the stability checks.
 pub(super) struct Causal {
