@@ -425,7 +425,7 @@ fn summarise<M: InverseModel + ?Sized>(
     zd: &ZeroDynamicsPlan,
     run: &Finished,
     tally: Tally,
-    data: &mut Vec<Vec<f64>>,
+    data: &mut [Vec<f64>],
 ) -> Result<Summary, SimulateError> {
     let info = model.info();
     let distance = cycle.distance();
