@@ -661,3 +661,43 @@ fn invalid_options_are_rejected() {
         Err(ForwardError::Run(RunError::InvalidCycle { .. }))
     ));
 }
+
+#[test]
+fn forward_options_builder_validates_once() {
+    let o = ForwardOptions::builder()
+        .kp(3.0)
+        .method(Method::Rosenbrock23)
+        .bounds(Bounds::Enforce)
+        .build()
+        .unwrap();
+    assert_eq!(
+        (o.kp, o.ki, o.method, o.bounds),
+        (
+            3.0,
+            forward::DRIVER_KI,
+            Method::Rosenbrock23,
+            Bounds::Enforce
+        )
+    );
+    assert_eq!(
+        ForwardOptions::builder().build().unwrap(),
+        ForwardOptions::default()
+    );
+    assert!(matches!(
+        ForwardOptions::builder().dt(-1.0).build(),
+        Err(ForwardError::Run(RunError::InvalidDt(_)))
+    ));
+    assert!(matches!(
+        ForwardOptions::builder().response(0.0).build(),
+        Err(ForwardError::InvalidGain {
+            name: "response",
+            ..
+        })
+    ));
+    assert!(matches!(
+        ForwardOptions::builder()
+            .trace_time_tol(f64::INFINITY)
+            .build(),
+        Err(ForwardError::InvalidTraceTolerance { .. })
+    ));
+}

@@ -801,3 +801,35 @@ fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
     }
     (nodes, weights)
 }
+
+#[test]
+fn options_builder_validates_once() {
+    let o = SimulationOptions::builder()
+        .lookahead(3.0)
+        .dt(0.05)
+        .engine("interpreted")
+        .verify(true)
+        .build()
+        .unwrap();
+    assert_eq!(
+        (o.lookahead, o.dt, o.engine.as_str()),
+        (3.0, 0.05, "interpreted")
+    );
+    assert!(o.verify && o.keep_series && !o.causal);
+    assert_eq!(
+        SimulationOptions::builder().build().unwrap(),
+        SimulationOptions::default()
+    );
+    assert_eq!(
+        SimulationOptions::default().lookahead,
+        invsim_runtime::inverse::DEFAULT_LOOKAHEAD
+    );
+    let bad = |b: invsim_runtime::SimulationOptionsBuilder| b.build().unwrap_err().to_string();
+    assert!(bad(SimulationOptions::builder().dt(0.0)).starts_with("invalid output step dt = 0 s"));
+    assert!(bad(SimulationOptions::builder().lookahead(f64::NAN)).starts_with("invalid look-ahead"));
+    assert!(bad(SimulationOptions::builder().rtol(-1.0)).contains("rtol = -1"));
+    assert!(
+        bad(SimulationOptions::builder().stability_check_interval(0.0))
+            .starts_with("invalid stability check interval")
+    );
+}
