@@ -7,7 +7,7 @@
 //! Modules, in the one direction their imports go: [`cycle`], [`kernel`], [`smoother`] and [`ode`] (the
 //! numerics); `error`, [`grid`] and `report` (what both simulations share: errors, the output grid, the
 //! summary blocks and formatting); [`stable`] (stable inversion of unstable zero dynamics); [`inverse`] (the
-//! inverse simulation, using `stable`) and [`forward`] (the forward simulation); [`output`] and [`plot`]
+//! inverse simulation, using `stable`) and [`forward`](mod@forward) (the forward simulation); [`output`] and [`plot`]
 //! (writing results).
 
 pub mod cycle;

@@ -66,7 +66,7 @@ pub const DEFAULT_RTOL: f64 = 1e-8;
 /// Default absolute tolerance of the integrator (`--atol`).
 pub const DEFAULT_ATOL: f64 = 1e-10;
 
-/// Options of [`forward()`].
+/// Options of [`forward()`](super::forward()).
 #[derive(Debug, Clone, PartialEq)]
 pub struct ForwardOptions {
     /// Output step in seconds (default 0.1 s); the grid is that of the inverse simulation,

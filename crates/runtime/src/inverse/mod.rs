@@ -7,7 +7,7 @@
 //! ξ̇_i = ξ_{i+1} (i < r),   y^(r) = α(ξ, η) + β(ξ, η) u,   η̇ = q(ξ, η, y^(r)),   x = ψ⁻¹(ξ, η)
 //! ```
 //!
-//! so with the reference y_d and its exact derivatives from the [`Smoother`] (paper eq. 33–35),
+//! so with the reference y_d and its exact derivatives from the [`Smoother`](crate::Smoother) (paper eq. 33–35),
 //! ξ = (y_d, ẏ_d, …, y_d^(r−1)) and the input that makes y follow y_d is u = (y_d^(r) − α) / β (eq. 26).
 //! If r < n the internal coordinates η follow the zero dynamics η̇ = q(ξ(t), η, y_d^(r)(t)), which are
 //! integrated here with an adaptive, error-controlled Dormand–Prince 5(4) method. This causal inversion is only

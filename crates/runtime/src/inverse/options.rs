@@ -18,7 +18,7 @@ pub const DEFAULT_STABLE_TOL: f64 = 1e-8;
 /// Default longest pre- or post-actuation, s.
 pub const DEFAULT_MAX_PRE_ACTUATION: f64 = 3600.0;
 
-/// Options of [`crate::simulate`].
+/// Options of [`simulate()`](crate::simulate()).
 #[derive(Debug, Clone, PartialEq)]
 pub struct SimulationOptions {
     /// Kernel half-width a in seconds, the driver's look-ahead (paper eq. 33; default [`DEFAULT_LOOKAHEAD`]).
