@@ -121,9 +121,12 @@ fn compiled_and_interpreted_si_engine_agree_on_nedc() {
             );
         }
     }
-    assert_eq!(a.summary.integrals.len(), b.summary.integrals.len());
-    for (key, va) in &a.summary.integrals {
-        let vb = b.summary.integrals[key];
+    assert_eq!(
+        a.summary.totals.integrals.len(),
+        b.summary.totals.integrals.len()
+    );
+    for (key, va) in &a.summary.totals.integrals {
+        let vb = b.summary.totals.integrals[key];
         assert!((va - vb).abs() <= 1e-10 * va.abs(), "{key}: {va} vs {vb}");
     }
 }

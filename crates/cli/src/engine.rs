@@ -4,10 +4,24 @@
 //! A model file matches a built-in model when the SHA-256 of its bytes equals that of a file in `models/` the
 //! binary was built with (`invsim_models::by_hash`): then the code generated from exactly that file runs.
 
-use crate::{EngineChoice, Failure};
+use std::path::Path;
+
+use clap::ValueEnum;
 use invsim_inversion::{Derivation, Interpreter};
 use invsim_model_api::InverseModel;
-use std::path::Path;
+use invsim_runtime::Cycle;
+
+use crate::error::Failure;
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum EngineChoice {
+    /// Compiled code when the model file matches a built-in model, else the interpreter.
+    Auto,
+    /// Compiled code; an error if the model is not built in.
+    Compiled,
+    /// The interpreter tape.
+    Interpreted,
+}
 
 /// A loaded model behind the runtime's trait, with the name of the engine that runs it.
 pub enum LoadedModel {
@@ -67,4 +81,44 @@ pub fn load(path: &Path, choice: EngineChoice) -> Result<LoadedModel, Failure> {
             ))
         }),
     }
+}
+
+/// Parse `NAME=VALUE`.
+fn parse_set(s: &str) -> Result<(String, f64), Failure> {
+    let (name, value) = s.split_once('=').ok_or_else(|| {
+        Failure::user(format!(
+            "--set `{s}`: expected NAME=VALUE, e.g. --set m=1500"
+        ))
+    })?;
+    let v: f64 = value
+        .trim()
+        .parse()
+        .map_err(|_| Failure::user(format!("--set `{s}`: `{}` is not a number", value.trim())))?;
+    if !v.is_finite() {
+        return Err(Failure::user(format!(
+            "--set `{s}`: the value must be finite"
+        )));
+    }
+    Ok((name.trim().to_string(), v))
+}
+
+/// The cycle and the model of a run, with the `--set` overrides applied.
+pub fn load_run(
+    model: &Path,
+    engine: EngineChoice,
+    cycle: &str,
+    sets: &[String],
+) -> Result<(Cycle, LoadedModel), Failure> {
+    let sets: Vec<(String, f64)> = sets
+        .iter()
+        .map(|s| parse_set(s))
+        .collect::<Result<_, _>>()?;
+    let cycle = Cycle::load(cycle).map_err(|e| Failure::user(e.to_string()))?;
+    let mut model = load(model, engine)?;
+    for (name, value) in &sets {
+        model
+            .set_param(name, *value)
+            .map_err(|e| Failure::user(format!("--set {name}: {e}")))?;
+    }
+    Ok((cycle, model))
 }

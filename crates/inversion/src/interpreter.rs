@@ -23,10 +23,14 @@ pub struct InterpretError {
     pub source: invsim_expr::UnboundSymbol,
 }
 
-/// Maximum Newton iterations for a numerically solved ψ⁻¹.
-pub const NEWTON_MAX_ITER: usize = 50;
-/// Newton stops when every residual, relative to max(|target|, 1), is below this.
-pub const NEWTON_TOL: f64 = 1e-13;
+use invsim_model_api::zero_dynamics::{PSI_INV_NEWTON_MAX_ITER, PSI_INV_NEWTON_TOL};
+
+// Old names of ψ⁻¹'s Newton constants, kept so that the code generator still compiles; to be removed once it
+// imports `invsim_model_api::zero_dynamics::{PSI_INV_NEWTON_MAX_ITER, PSI_INV_NEWTON_TOL}` itself.
+#[doc(hidden)]
+pub use invsim_model_api::zero_dynamics::PSI_INV_NEWTON_MAX_ITER as NEWTON_MAX_ITER;
+#[doc(hidden)]
+pub use invsim_model_api::zero_dynamics::PSI_INV_NEWTON_TOL as NEWTON_TOL;
 /// Largest state dimension evaluated with stack buffers (larger models use the heap).
 const STACK: usize = 16;
 
@@ -210,14 +214,14 @@ impl Interpreter {
         let n = self.n;
         let mut buf = vec![0.0; n + n * n + 2];
         let mut residual = f64::INFINITY;
-        for _ in 0..NEWTON_MAX_ITER {
+        for _ in 0..PSI_INV_NEWTON_MAX_ITER {
             self.special.newton.eval(x, &mut buf);
             let target = |i: usize| if i < self.r { xi[i] } else { eta[i - self.r] };
             let res = nalgebra::DVector::from_fn(n, |i, _| buf[i] - target(i));
             residual = (0..n)
                 .map(|i| res[i].abs() / target(i).abs().max(1.0))
                 .fold(0.0, f64::max);
-            if residual < NEWTON_TOL {
+            if residual < PSI_INV_NEWTON_TOL {
                 return Ok(());
             }
             let jac = nalgebra::DMatrix::from_fn(n, n, |i, j| buf[n + i * n + j]);
@@ -232,7 +236,7 @@ impl Interpreter {
             }
         }
         Err(ModelError::NewtonDidNotConverge {
-            iterations: NEWTON_MAX_ITER,
+            iterations: PSI_INV_NEWTON_MAX_ITER,
             residual,
         })
     }

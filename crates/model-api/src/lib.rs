@@ -12,10 +12,8 @@
 
 use thiserror::Error;
 
-#[cfg(feature = "linearize")]
-pub mod linearize;
-
 pub mod math;
+pub mod zero_dynamics;
 
 /// Static description of a model: names, sizes, bounds. Order of every list is the model file's order.
 #[derive(Debug, Clone, PartialEq)]

@@ -3,23 +3,39 @@
 //!
 //! The driver works on any [`invsim_model_api::InverseModel`]: compiled code from `invsim-models` or the
 //! interpreter tape from `invsim-inversion`.
+//!
+//! Modules, in the one direction their imports go: [`cycle`], [`kernel`], [`smoother`] and [`ode`] (the
+//! numerics); `error`, [`grid`] and `report` (what both simulations share: errors, the output grid, the
+//! summary blocks and formatting); [`stable`] (stable inversion of unstable zero dynamics); [`inverse`] (the
+//! inverse simulation, using `stable`) and [`forward`](mod@forward) (the forward simulation); [`output`] and [`plot`]
+//! (writing results).
 
 pub mod cycle;
+mod error;
 pub mod forward;
+pub mod grid;
+pub mod inverse;
 pub mod kernel;
 pub mod ode;
 pub mod output;
 pub mod plot;
 mod report;
-pub mod simulate;
 pub mod smoother;
 pub mod stable;
 
+/// The inverse simulation under its former module name.
+pub use inverse as simulate;
+
 pub use cycle::{Cycle, CycleError};
+pub use error::RunError;
 pub use forward::{
-    forward, Bounds, ForwardError, ForwardOptions, ForwardResult, ForwardSummary, Method,
+    forward, Bounds, ForwardError, ForwardOptions, ForwardOptionsBuilder, ForwardResult,
+    ForwardSummary, Method,
+};
+pub use inverse::{
+    simulate, SimulateError, SimulationOptions, SimulationOptionsBuilder, SimulationResult, Summary,
 };
 pub use kernel::Kernel;
-pub use simulate::{simulate, SimulateError, SimulationOptions, SimulationResult, Summary};
+pub use report::{CycleInfo, Totals};
 pub use smoother::Smoother;
-pub use stable::ZeroDynamicsClass;
+pub use stable::{StableError, ZeroDynamicsClass};

@@ -6,7 +6,7 @@
 
 use std::io::{self, BufWriter, Write};
 
-use crate::simulate::{SimulationResult, Summary};
+use crate::inverse::{SimulationResult, Summary};
 
 /// Write `result` as CSV: a header row with [`SimulationResult::columns`], then one row per sample.
 pub fn write_csv<W: Write>(result: &SimulationResult, w: W) -> io::Result<()> {

@@ -10,7 +10,7 @@ use plotters::prelude::*;
 use thiserror::Error;
 
 use crate::cycle::Cycle;
-use crate::simulate::SimulationResult;
+use crate::inverse::SimulationResult;
 
 /// Width and height of the SVG in pixels.
 pub const SIZE: (u32, u32) = (1000, 750);
@@ -68,26 +68,8 @@ pub fn plot_svg(result: &SimulationResult, cycle: &Cycle, path: &Path) -> Result
         )
     };
 
-    // Top panel: raw cycle (piecewise linear, its own breakpoints) and y_d, in km/h.
-    let raw: Vec<(f64, f64)> = {
-        let mut v: Vec<(f64, f64)> = cycle
-            .time
-            .iter()
-            .zip(&cycle.speed)
-            .filter(|(&ti, _)| ti >= t0 && ti <= t1)
-            .map(|(&ti, &s)| (ti, raw_value(s)))
-            .collect();
-        // The cycle is held beyond its ends (as the smoother does).
-        match v.first() {
-            Some(p) if p.0 <= t0 => {}
-            _ => v.insert(0, (t0, raw_value(cycle.speed_at(t0)))),
-        }
-        match v.last() {
-            Some(p) if p.0 >= t1 => {}
-            _ => v.push((t1, raw_value(cycle.speed_at(t1)))),
-        }
-        v
-    };
+    // Top panel: raw cycle and y_d, in km/h.
+    let raw = raw_points(cycle, (t0, t1), raw_value);
     let yd_kmh: Vec<f64> = result
         .yd(0)
         .unwrap_or(&[])
@@ -104,7 +86,7 @@ pub fn plot_svg(result: &SimulationResult, cycle: &Cycle, path: &Path) -> Result
     let [umin, umax] = result.input_bounds;
     let (ulo, uhi) = range(u.iter().copied().chain(umin).chain(umax));
     let (ulo, uhi) = pad(ulo, uhi);
-    let input = &result.summary.input;
+    let input = &result.summary.totals.input;
 
     let root = SVGBackend::new(path, SIZE).into_drawing_area();
     root.fill(&WHITE).map_err(|e| fail(&e))?;
@@ -114,7 +96,7 @@ pub fn plot_svg(result: &SimulationResult, cycle: &Cycle, path: &Path) -> Result
         .caption(
             format!(
                 "{} on {}: {quantity} (look-ahead a = {} s)",
-                result.summary.model, result.summary.cycle, result.summary.lookahead_s
+                result.summary.run.model, result.summary.run.cycle, result.summary.lookahead_s
             ),
             ("sans-serif", 18),
         )
@@ -186,6 +168,27 @@ pub fn plot_svg(result: &SimulationResult, cycle: &Cycle, path: &Path) -> Result
         .map_err(|e| fail(&e))?;
     root.present().map_err(|e| fail(&e))?;
     Ok(())
+}
+
+/// The raw cycle's points within [t0, t1] (piecewise linear, its own breakpoints), through `value`, held
+/// beyond its ends (as the smoother does).
+fn raw_points(cycle: &Cycle, (t0, t1): (f64, f64), value: impl Fn(f64) -> f64) -> Vec<(f64, f64)> {
+    let mut v: Vec<(f64, f64)> = cycle
+        .time
+        .iter()
+        .zip(&cycle.speed)
+        .filter(|(&ti, _)| ti >= t0 && ti <= t1)
+        .map(|(&ti, &s)| (ti, value(s)))
+        .collect();
+    match v.first() {
+        Some(p) if p.0 <= t0 => {}
+        _ => v.insert(0, (t0, value(cycle.speed_at(t0)))),
+    }
+    match v.last() {
+        Some(p) if p.0 >= t1 => {}
+        _ => v.push((t1, value(cycle.speed_at(t1)))),
+    }
+    v
 }
 
 /// (min, max) of the finite values; (0, 1) if there are none.

@@ -1,12 +1,163 @@
-//! Bookkeeping shared by the inverse and the forward simulation's summaries: intervals of flagged samples, the
-//! integrals of accumulated outputs with their per-100-km figures and units, and the summary text lines.
+//! What the inverse and the forward simulation's summaries share: the two blocks of fields both report
+//! ([`CycleInfo`], [`Totals`], flattened into each summary so that the JSON keys and their order stay those of
+//! one flat object), intervals of flagged samples, the integrals of accumulated outputs with their per-100-km
+//! figures and units, number formatting and the summary text lines.
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
 use invsim_model_api::ModelInfo;
+use serde::Serialize;
 
-use crate::simulate::{fmt_sig, integral_unit};
+use crate::cycle::Cycle;
+
+/// The run's model and cycle: the first fields of both summaries.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CycleInfo {
+    pub model: String,
+    pub cycle: String,
+    /// Cycle duration (last minus first time stamp), s.
+    pub duration_s: f64,
+    /// Distance of the (raw, piecewise-linear) cycle, m.
+    pub distance_m: f64,
+}
+
+/// The integrals and the input's range and bounds: a block of fields both summaries report alike.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Totals {
+    /// Accumulated output → its integral over the run (trapezoidal rule on the output grid).
+    pub integrals: BTreeMap<String, f64>,
+    /// Accumulated output → integral · 1e5 / distance_m (per 100 km); empty if the cycle covers no distance.
+    pub integrals_per_100km: BTreeMap<String, f64>,
+    /// Accumulated output → unit of its integral (e.g. `kg` for an output in `kg/s`), where the unit is known.
+    pub integral_units: BTreeMap<String, String>,
+    /// The input's name.
+    pub input: String,
+    /// Smallest and largest input reached over the run.
+    pub input_min: f64,
+    pub input_max: f64,
+    /// The model's input bounds (reported, never clipped).
+    pub input_lower_bound: Option<f64>,
+    pub input_upper_bound: Option<f64>,
+    /// Maximal time intervals [t_start, t_end] of consecutive samples with the input outside its bounds.
+    pub input_bound_violations: Vec<[f64; 2]>,
+}
+
+impl Totals {
+    /// The totals of a run of `info`'s model over a cycle of `distance` metres: `integrals[k]` of the outputs
+    /// `accumulate[k]`, the input's `range` and its bound `violations`.
+    pub(crate) fn new(
+        info: &ModelInfo,
+        accumulate: &[usize],
+        integrals: &[f64],
+        distance: f64,
+        range: [f64; 2],
+        violations: Vec<[f64; 2]>,
+    ) -> Totals {
+        let tables = integral_tables(info, accumulate, integrals, distance);
+        Totals {
+            integrals: tables.integrals,
+            integrals_per_100km: tables.per_100km,
+            integral_units: tables.units,
+            input: info.input.clone(),
+            input_min: range[0],
+            input_max: range[1],
+            input_lower_bound: info.input_min,
+            input_upper_bound: info.input_max,
+            input_bound_violations: violations,
+        }
+    }
+
+    /// Summary text: the integrals, the input's range and its bound violations.
+    pub(crate) fn write_text(&self, s: &mut String) {
+        write_integrals(
+            s,
+            &self.integrals,
+            &self.integral_units,
+            &self.integrals_per_100km,
+        );
+        write_input_range(
+            s,
+            &self.input,
+            [self.input_min, self.input_max],
+            [self.input_lower_bound, self.input_upper_bound],
+        );
+        write_intervals(s, "input bound violations", &self.input_bound_violations);
+    }
+}
+
+/// The warning both runs give for a cycle with a non-zero road grade (no model has a grade input yet).
+pub(crate) fn grade_warning(cycle: &Cycle) -> Option<String> {
+    cycle
+        .grade
+        .as_ref()
+        .is_some_and(|g| g.iter().any(|&v| v != 0.0))
+        .then(|| "the cycle's road grade is ignored (the model has no grade input)".to_string())
+}
+
+/// `v` with `digits` significant digits, in positional notation for moderate magnitudes.
+pub(crate) fn fmt_sig(v: f64, digits: usize) -> String {
+    if !v.is_finite() {
+        return format!("{v}");
+    }
+    if v == 0.0 {
+        return "0".to_string();
+    }
+    let mag = v.abs().log10().floor() as i32;
+    if !(-4..15).contains(&mag) {
+        return format!("{:.*e}", digits.saturating_sub(1), v);
+    }
+    let decimals = (digits as i32 - 1 - mag).max(0) as usize;
+    let s = format!("{v:.decimals$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
+}
+
+/// "0.5, -2 ± 1i" style list of complex numbers given as [re, im].
+pub(crate) fn format_eigenvalues(eigs: &[[f64; 2]]) -> String {
+    if eigs.is_empty() {
+        return "not computable (∂q/∂η is not finite)".to_string();
+    }
+    let mut s = String::new();
+    let mut i = 0;
+    while i < eigs.len() {
+        if !s.is_empty() {
+            s.push_str(", ");
+        }
+        let [re, im] = eigs[i];
+        // Conjugate pairs are listed together.
+        let paired =
+            im != 0.0 && i + 1 < eigs.len() && eigs[i + 1][0] == re && eigs[i + 1][1] == -im;
+        if paired {
+            let _ = write!(s, "{} ± {}i", fmt_sig(re, 6), fmt_sig(im.abs(), 6));
+            i += 2;
+        } else if im == 0.0 {
+            let _ = write!(s, "{}", fmt_sig(re, 6));
+            i += 1;
+        } else {
+            let sign = if im < 0.0 { '-' } else { '+' };
+            let _ = write!(s, "{} {} {}i", fmt_sig(re, 6), sign, fmt_sig(im.abs(), 6));
+            i += 1;
+        }
+    }
+    s
+}
+
+/// The unit of ∫ o dt for an output in `unit`: `kg/s` → `kg`, `W` → `J`; `None` if not obvious.
+pub(crate) fn integral_unit(unit: &str) -> Option<String> {
+    let unit = unit.trim();
+    if let Some(base) = unit.strip_suffix("/s") {
+        return (!base.is_empty()).then(|| base.to_string());
+    }
+    match unit {
+        "W" => Some("J".to_string()),
+        "kW" => Some("kJ".to_string()),
+        _ => None,
+    }
+}
 
 /// Appends to a list of maximal intervals of consecutive flagged samples.
 #[derive(Default)]
@@ -138,4 +289,34 @@ pub(crate) fn write_intervals(s: &mut String, label: &str, intervals: &[[f64; 2]
         fmt_sig(total, 4),
         list.join(" ")
     );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn significant_digits() {
+        assert_eq!(fmt_sig(0.345_612, 4), "0.3456");
+        assert_eq!(fmt_sig(5.666_3, 3), "5.67");
+        assert_eq!(fmt_sig(11_013.3, 6), "11013.3");
+        assert_eq!(fmt_sig(1180.0, 6), "1180");
+        assert_eq!(fmt_sig(-2.0e-9, 3), "-2.00e-9");
+        assert_eq!(fmt_sig(0.0, 3), "0");
+    }
+
+    #[test]
+    fn eigenvalue_list() {
+        assert_eq!(
+            format_eigenvalues(&[[0.5, 0.0], [-2.0, 1.0], [-2.0, -1.0]]),
+            "0.5, -2 ± 1i"
+        );
+    }
+
+    #[test]
+    fn integral_units() {
+        assert_eq!(integral_unit("kg/s").as_deref(), Some("kg"));
+        assert_eq!(integral_unit("W").as_deref(), Some("J"));
+        assert_eq!(integral_unit("Pa"), None);
+    }
 }

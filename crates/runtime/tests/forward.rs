@@ -9,7 +9,7 @@ use common::LinearR2;
 use invsim_model_api::InverseModel;
 use invsim_runtime::forward::{self, Bounds, ForwardError, ForwardOptions, Method};
 use invsim_runtime::ode::{Dopri5, Rosenbrock23, StepFailure};
-use invsim_runtime::{simulate, Cycle, SimulationOptions, SimulationResult};
+use invsim_runtime::{simulate, Cycle, RunError, SimulationOptions, SimulationResult};
 
 // --- test problems with analytic solutions (in the manner of diffsol's test models) ----------------------
 
@@ -405,13 +405,16 @@ fn pi_driver_tracks_nedc_and_matches_the_inverse_fuel() {
     );
     assert!(s.trace_misses.is_empty(), "{:?}", s.trace_misses);
     assert!(
-        (s.distance_driven_m - s.distance_m).abs() < 1.0,
+        (s.distance_driven_m - s.run.distance_m).abs() < 1.0,
         "{} vs {}",
         s.distance_driven_m,
-        s.distance_m
+        s.run.distance_m
     );
     let inv = inverse(model.as_ref(), dt);
-    let (fi, ff) = (inv.summary.integrals["fuel"], s.integrals["fuel"]);
+    let (fi, ff) = (
+        inv.summary.totals.integrals["fuel"],
+        s.totals.integrals["fuel"],
+    );
     let rel = (ff - fi) / fi;
     assert!(
         rel.abs() < 0.02,
@@ -419,7 +422,7 @@ fn pi_driver_tracks_nedc_and_matches_the_inverse_fuel() {
         100.0 * rel
     );
     // Without clipping, the forward input leaves the bounds where the inverse's does (the car has no brake).
-    assert!(!s.input_bound_violations.is_empty() && s.input_min < 0.0);
+    assert!(!s.totals.input_bound_violations.is_empty() && s.totals.input_min < 0.0);
 }
 
 /// With the bounds enforced the input stays within them, and the trace misses (±2 mph within ±1 s) cover the
@@ -437,11 +440,14 @@ fn enforced_bounds_miss_the_trace_only_in_hard_decelerations() {
     };
     let fwd = forward::forward(model.as_ref(), &cycle, &o).expect("forward run");
     let s = &fwd.summary;
-    let (lo, hi) = (s.input_lower_bound.unwrap(), s.input_upper_bound.unwrap());
+    let (lo, hi) = (
+        s.totals.input_lower_bound.unwrap(),
+        s.totals.input_upper_bound.unwrap(),
+    );
     assert!(fwd.input().iter().all(|&u| (lo..=hi).contains(&u)));
     assert!(!s.trace_misses.is_empty());
     let inv = inverse(model.as_ref(), 0.01);
-    let hard = &inv.summary.input_bound_violations;
+    let hard = &inv.summary.totals.input_bound_violations;
     let slope_at = |t: f64| (cycle.speed_at(t + 1e-6) - cycle.speed_at(t - 1e-6)) / 2e-6;
     for &[a, b] in &s.trace_misses {
         assert!(
@@ -593,7 +599,7 @@ fn small_manifold_is_stiff_and_both_methods_agree() {
         dp.integrator
     );
     assert!(rb.integrator.stats.jacobians > 0, "{:?}", rb.integrator);
-    let (a, b) = (dp.integrals["fuel"], rb.integrals["fuel"]);
+    let (a, b) = (dp.totals.integrals["fuel"], rb.totals.integrals["fuel"]);
     assert!(
         (a - b).abs() < 1e-4 * a,
         "fuel: dopri5 {a}, rosenbrock23 {b}"
@@ -611,7 +617,7 @@ fn invalid_options_are_rejected() {
             dt: 0.0,
             ..Default::default()
         }),
-        Err(ForwardError::InvalidDt(_))
+        Err(ForwardError::Run(RunError::InvalidDt(_)))
     ));
     assert!(matches!(
         run(ForwardOptions {
@@ -652,6 +658,46 @@ fn invalid_options_are_rejected() {
     };
     assert!(matches!(
         forward::forward(model.as_ref(), &bad, &ForwardOptions::default()),
-        Err(ForwardError::InvalidCycle { .. })
+        Err(ForwardError::Run(RunError::InvalidCycle { .. }))
+    ));
+}
+
+#[test]
+fn forward_options_builder_validates_once() {
+    let o = ForwardOptions::builder()
+        .kp(3.0)
+        .method(Method::Rosenbrock23)
+        .bounds(Bounds::Enforce)
+        .build()
+        .unwrap();
+    assert_eq!(
+        (o.kp, o.ki, o.method, o.bounds),
+        (
+            3.0,
+            forward::DRIVER_KI,
+            Method::Rosenbrock23,
+            Bounds::Enforce
+        )
+    );
+    assert_eq!(
+        ForwardOptions::builder().build().unwrap(),
+        ForwardOptions::default()
+    );
+    assert!(matches!(
+        ForwardOptions::builder().dt(-1.0).build(),
+        Err(ForwardError::Run(RunError::InvalidDt(_)))
+    ));
+    assert!(matches!(
+        ForwardOptions::builder().response(0.0).build(),
+        Err(ForwardError::InvalidGain {
+            name: "response",
+            ..
+        })
+    ));
+    assert!(matches!(
+        ForwardOptions::builder()
+            .trace_time_tol(f64::INFINITY)
+            .build(),
+        Err(ForwardError::InvalidTraceTolerance { .. })
     ));
 }

@@ -7,7 +7,8 @@ use invsim_model_api::{InverseModel, ModelError, ModelInfo};
 use invsim_runtime::output::write_csv;
 use invsim_runtime::plot::plot_svg;
 use invsim_runtime::{
-    simulate, Cycle, SimulateError, SimulationOptions, SimulationResult, Smoother,
+    simulate, Cycle, RunError, SimulateError, SimulationOptions, SimulationResult, Smoother,
+    StableError,
 };
 
 fn nedc() -> Cycle {
@@ -60,15 +61,17 @@ fn si_engine_steady_state_check_values() {
                 u * 1e3
             );
         }
-        assert!(res.summary.input_bound_violations.is_empty());
+        assert!(res.summary.totals.input_bound_violations.is_empty());
     }
     // 5.67 l/100 km at 50 km/h, from the accumulated fuel volume over the distance.
     let res = simulate(&model, &constant_speed(50.0, 100.0), &opts(0.1)).unwrap();
-    let l_per_100km = res.summary.integrals_per_100km["fuel_l"];
+    let l_per_100km = res.summary.totals.integrals_per_100km["fuel_l"];
     assert!((l_per_100km - 5.67).abs() < 0.005, "{l_per_100km} l/100 km");
-    let fuel_kg = res.summary.integrals["fuel"];
-    assert!((fuel_kg / FUEL_DENSITY * 1000.0 - res.summary.integrals["fuel_l"]).abs() < 1e-12);
-    assert!((res.summary.distance_m - 50.0 / 3.6 * 100.0).abs() < 1e-9);
+    let fuel_kg = res.summary.totals.integrals["fuel"];
+    assert!(
+        (fuel_kg / FUEL_DENSITY * 1000.0 - res.summary.totals.integrals["fuel_l"]).abs() < 1e-12
+    );
+    assert!((res.summary.run.distance_m - 50.0 / 3.6 * 100.0).abs() < 1e-9);
 }
 
 /// At every NEDC sample the inverse satisfies the original model dx/dt = f(x) + g(x)u, with dx/dt from the chain
@@ -131,7 +134,7 @@ fn sample_count_and_grid_at_dt_0_01() {
     assert_eq!(t[118_000], 1180.0);
     assert_eq!(t[30], 0.3);
     assert_eq!(t[12_345], 123.45);
-    assert_eq!(res.summary.duration_s, 1180.0);
+    assert_eq!(res.summary.run.duration_s, 1180.0);
     assert_eq!(res.summary.dt_s, 0.01);
     assert_eq!(res.summary.engine, "compiled");
     // 1180 s at dt = 0.1 and a non-dividing step: round(duration/dt) + 1 samples.
@@ -202,7 +205,7 @@ fn csv_header_column_order_and_round_trip() {
 fn bound_violations_cover_hard_decelerations() {
     let res = simulate(&SiEngine::new(), &nedc(), &opts(0.1)).unwrap();
     let (t, u) = (res.time(), res.input());
-    let v = &res.summary.input_bound_violations;
+    let v = &res.summary.totals.input_bound_violations;
     assert!(!v.is_empty());
     assert!(
         v.windows(2).all(|w| w[0][1] < w[1][0]),
@@ -225,7 +228,11 @@ fn bound_violations_cover_hard_decelerations() {
         assert!(inside(tk), "{tk} s is a hard deceleration: {v:?}");
     }
     // Never clipped: the input really goes negative, and the cruise at 120 km/h is inside the bounds.
-    assert!(res.summary.input_min < -1e-3, "{}", res.summary.input_min);
+    assert!(
+        res.summary.totals.input_min < -1e-3,
+        "{}",
+        res.summary.totals.input_min
+    );
     assert!(!inside(1120.0));
     assert!(
         res.summary
@@ -236,11 +243,11 @@ fn bound_violations_cover_hard_decelerations() {
         res.summary.warnings
     );
     assert_eq!(
-        res.summary.input_min,
+        res.summary.totals.input_min,
         u.iter().copied().fold(f64::INFINITY, f64::min)
     );
     assert_eq!(
-        res.summary.input_max,
+        res.summary.totals.input_max,
         u.iter().copied().fold(f64::NEG_INFINITY, f64::max)
     );
 }
@@ -252,20 +259,24 @@ fn summary_integrals_text_and_json() {
     // Trapezoidal rule over the grid.
     let fuel = col(&res, "fuel");
     let trapezoid: f64 = fuel.windows(2).map(|w| 0.05 * (w[0] + w[1])).sum();
-    assert!((s.integrals["fuel"] - trapezoid).abs() <= 1e-12 * trapezoid.abs());
+    assert!((s.totals.integrals["fuel"] - trapezoid).abs() <= 1e-12 * trapezoid.abs());
     assert!(
-        s.integrals["fuel"] > 0.1 && s.integrals["fuel"] < 2.0,
+        s.totals.integrals["fuel"] > 0.1 && s.totals.integrals["fuel"] < 2.0,
         "{} kg of fuel on the NEDC",
-        s.integrals["fuel"]
+        s.totals.integrals["fuel"]
     );
     assert_eq!(
-        s.integrals_per_100km["fuel"],
-        s.integrals["fuel"] * 1e5 / s.distance_m
+        s.totals.integrals_per_100km["fuel"],
+        s.totals.integrals["fuel"] * 1e5 / s.run.distance_m
     );
-    assert!((s.distance_m - 11_013.0).abs() < 1.0, "{}", s.distance_m);
+    assert!(
+        (s.run.distance_m - 11_013.0).abs() < 1.0,
+        "{}",
+        s.run.distance_m
+    );
     assert_eq!(s.relative_degree, 2);
-    assert_eq!(s.cycle, "nedc");
-    assert_eq!(s.model, "si_engine");
+    assert_eq!(s.run.cycle, "nedc");
+    assert_eq!(s.run.model, "si_engine");
 
     let text = s.to_text();
     let fuel_line = text.lines().find(|l| l.starts_with("fuel: ")).expect(&text);
@@ -337,12 +348,12 @@ fn nan_output_is_detected_with_time_and_name() {
         .unwrap();
     let expected_t = reference.time()[k];
     match simulate(&NanOutput::new(10.0), &nedc(), &opts(0.1)) {
-        Err(SimulateError::NonFinite { t, quantity, value }) => {
+        Err(SimulateError::Run(RunError::NonFinite { t, quantity, value })) => {
             assert_eq!(quantity, "bad");
             assert_eq!(t, expected_t);
             assert!(value.is_nan());
             assert!((130.0..145.0).contains(&t), "{t}");
-            let msg = SimulateError::NonFinite { t, quantity, value }.to_string();
+            let msg = RunError::NonFinite { t, quantity, value }.to_string();
             assert!(
                 msg.contains("bad") && msg.contains(&format!("t = {t} s")),
                 "{msg}"
@@ -476,7 +487,9 @@ fn zero_dynamics_becoming_unstable_along_the_run_are_detected() {
         })
         .unwrap();
     match simulate(&model, &cycle, &opts(0.01)) {
-        Err(SimulateError::ZeroDynamicsTypeChange { from, to, y_to, .. }) => {
+        Err(SimulateError::Stable(StableError::ZeroDynamicsTypeChange {
+            from, to, y_to, ..
+        })) => {
             assert_eq!((from.as_str(), to.as_str()), ("0", "1"));
             assert!(y_to > 2.0, "{y_to}");
         }
@@ -562,7 +575,7 @@ fn stable_zero_dynamics_match_the_analytic_transient() {
         .map(|w| 0.025 * (w[0] * w[0] + w[1] * w[1]))
         .sum();
     assert!(
-        (res.summary.integrals["u2"] - trapezoid).abs() <= 1e-12 * trapezoid,
+        (res.summary.totals.integrals["u2"] - trapezoid).abs() <= 1e-12 * trapezoid,
         "{trapezoid}"
     );
     assert!((u[0] - 23.0).abs() < 1e-9 && u[u.len() - 1] < 10.1);
@@ -636,7 +649,7 @@ fn verification_tracks_the_reference() {
         assert!(
             rms <= max,
             "{}: max {max:e}, rms {rms:e}",
-            res.summary.model
+            res.summary.run.model
         );
         let json = serde_json::to_value(&res.summary).unwrap();
         assert!(json.get("max_abs_tracking_error").is_some());
@@ -691,7 +704,10 @@ fn invalid_options_are_rejected() {
     let model = SiEngine::new();
     for dt in [0.0, -0.1, f64::NAN, f64::INFINITY] {
         let e = simulate(&model, &nedc(), &opts(dt)).unwrap_err();
-        assert!(matches!(e, SimulateError::InvalidDt(_)), "{e:?}");
+        assert!(
+            matches!(e, SimulateError::Run(RunError::InvalidDt(_))),
+            "{e:?}"
+        );
         assert!(e.to_string().contains("positive, finite"), "{e}");
     }
     for a in [0.0, -5.0, f64::NAN] {
@@ -784,4 +800,36 @@ fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
         weights.push(2.0 / ((1.0 - z * z) * dp * dp));
     }
     (nodes, weights)
+}
+
+#[test]
+fn options_builder_validates_once() {
+    let o = SimulationOptions::builder()
+        .lookahead(3.0)
+        .dt(0.05)
+        .engine("interpreted")
+        .verify(true)
+        .build()
+        .unwrap();
+    assert_eq!(
+        (o.lookahead, o.dt, o.engine.as_str()),
+        (3.0, 0.05, "interpreted")
+    );
+    assert!(o.verify && o.keep_series && !o.causal);
+    assert_eq!(
+        SimulationOptions::builder().build().unwrap(),
+        SimulationOptions::default()
+    );
+    assert_eq!(
+        SimulationOptions::default().lookahead,
+        invsim_runtime::inverse::DEFAULT_LOOKAHEAD
+    );
+    let bad = |b: invsim_runtime::SimulationOptionsBuilder| b.build().unwrap_err().to_string();
+    assert!(bad(SimulationOptions::builder().dt(0.0)).starts_with("invalid output step dt = 0 s"));
+    assert!(bad(SimulationOptions::builder().lookahead(f64::NAN)).starts_with("invalid look-ahead"));
+    assert!(bad(SimulationOptions::builder().rtol(-1.0)).contains("rtol = -1"));
+    assert!(
+        bad(SimulationOptions::builder().stability_check_interval(0.0))
+            .starts_with("invalid stability check interval")
+    );
 }

@@ -5,7 +5,7 @@
 
 use invsim_model_api::{set_param_checked, InverseModel, ModelError, ModelInfo};
 use invsim_runtime::{
-    simulate, Cycle, SimulateError, SimulationOptions, SimulationResult, Smoother,
+    simulate, Cycle, SimulateError, SimulationOptions, SimulationResult, Smoother, StableError,
     ZeroDynamicsClass,
 };
 
@@ -519,7 +519,7 @@ fn pre_actuation_beyond_the_limit_is_an_error() {
         ..SimulationOptions::default()
     };
     match simulate(&model, &ramp_cycle(), &opts) {
-        Err(e @ SimulateError::PreActuationTooLong { .. }) => {
+        Err(e @ SimulateError::Stable(StableError::PreActuationTooLong { .. })) => {
             let msg = e.to_string();
             assert!(
                 msg.contains("pre-actuation") && msg.contains("limit of 100 s"),

@@ -395,6 +395,7 @@ fn lookahead(
         ));
         let per_100km = res
             .summary
+            .totals
             .integrals_per_100km
             .get("fuel_volume")
             .copied()
@@ -411,6 +412,7 @@ fn lookahead(
     };
     let forward_fuel = fwd
         .summary
+        .totals
         .integrals_per_100km
         .get("fuel_volume")
         .copied()

@@ -1,59 +1,11 @@
-//! Linearisation of the zero dynamics, shared by `invsim derive` (classification at the nominal point) and
-//! the runtime (stability checks along a run, the stable/unstable split of stable inversion).
-//!
-//! ∂q/∂η by central differences, (q(η + h e_j) − q(η − h e_j))/(2h) with h = 1e-6·max(1, |η_j|), and the
-//! eigenvalues of the result by the real Schur decomposition (Golub & Van Loan, *Matrix Computations*,
-//! 4th ed., §7.5); the class follows from the signs of their real parts (Isidori, *Nonlinear Control
-//! Systems*, 3rd ed., §4.3: minimum phase when the zero dynamics are asymptotically stable).
+//! Linearisation of the zero dynamics: ∂q/∂η by central differences, (q(η + h e_j) − q(η − h e_j))/(2h) with
+//! h = 1e-6·max(1, |η_j|), and the eigenvalues of the result by the real Schur decomposition (Golub & Van
+//! Loan, *Matrix Computations*, 4th ed., §7.5).
 
+use super::class::ZeroDynamicsClass;
+use super::threshold::critical_tol;
 use crate::InverseModel;
 use nalgebra::DMatrix;
-
-/// The class of the zero dynamics.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum ZeroDynamicsClass {
-    /// r = n: no zero dynamics.
-    None,
-    /// Every eigenvalue of ∂q/∂η in the open left half-plane.
-    MinimumPhase,
-    /// Every eigenvalue in the open right half-plane.
-    NonMinimumPhase,
-    /// Eigenvalues on both sides.
-    Mixed,
-    /// No equilibrium found, eigenvalues on the imaginary axis, or a type that changes along the reference.
-    Unknown,
-}
-
-impl ZeroDynamicsClass {
-    /// `none`, `minimum_phase`, `non_minimum_phase`, `mixed` or `unknown`.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            ZeroDynamicsClass::None => "none",
-            ZeroDynamicsClass::MinimumPhase => "minimum_phase",
-            ZeroDynamicsClass::NonMinimumPhase => "non_minimum_phase",
-            ZeroDynamicsClass::Mixed => "mixed",
-            ZeroDynamicsClass::Unknown => "unknown",
-        }
-    }
-
-    /// The class of a set of eigenvalues [re, im] of ∂q/∂η; real parts within `tol` of 0, or no eigenvalues
-    /// (a linearisation that could not be computed), make it unknown.
-    pub fn of_eigenvalues(eigenvalues: &[[f64; 2]], tol: f64) -> ZeroDynamicsClass {
-        if eigenvalues.is_empty()
-            || eigenvalues
-                .iter()
-                .any(|e| !e[0].is_finite() || e[0].abs() <= tol)
-        {
-            return ZeroDynamicsClass::Unknown;
-        }
-        match eigenvalues.iter().filter(|e| e[0] > 0.0).count() {
-            0 => ZeroDynamicsClass::MinimumPhase,
-            u if u == eigenvalues.len() => ZeroDynamicsClass::NonMinimumPhase,
-            _ => ZeroDynamicsClass::Mixed,
-        }
-    }
-}
 
 /// Buffers for [`JacobianWork::jacobian`], allocated once for a run.
 #[derive(Debug, Clone)]
@@ -137,6 +89,55 @@ pub fn eigenvalues(a: &DMatrix<f64>) -> Vec<[f64; 2]> {
     eigs
 }
 
+/// ∂q/∂η at one point with its eigenvalues and the threshold of [`critical_tol`].
+#[derive(Debug, Clone)]
+pub struct Linearization {
+    /// ∂q/∂η (m × m).
+    pub jacobian: DMatrix<f64>,
+    /// Its eigenvalues [re, im], sorted by decreasing real part; empty if not computable.
+    pub eigenvalues: Vec<[f64; 2]>,
+    /// Real parts within ± this of 0 count as zero.
+    pub tol: f64,
+}
+
+impl Linearization {
+    /// Linearise the zero dynamics at (ξ, η, y^(r)).
+    pub fn at<M: InverseModel + ?Sized>(model: &M, xi: &[f64], eta: &[f64], yr: f64) -> Self {
+        Linearization::of(jacobian(model, xi, eta, yr))
+    }
+
+    /// The eigenvalues and threshold of a given ∂q/∂η.
+    pub fn of(jacobian: DMatrix<f64>) -> Self {
+        let eigenvalues = eigenvalues(&jacobian);
+        let tol = critical_tol(jacobian.as_slice());
+        Linearization {
+            jacobian,
+            eigenvalues,
+            tol,
+        }
+    }
+
+    /// Number of eigenvalues with real part above the threshold.
+    pub fn unstable_count(&self) -> usize {
+        self.eigenvalues.iter().filter(|e| e[0] > self.tol).count()
+    }
+
+    /// Some eigenvalue has a real part above the threshold.
+    pub fn has_unstable(&self) -> bool {
+        self.eigenvalues.iter().any(|e| e[0] > self.tol)
+    }
+
+    /// Every eigenvalue off the imaginary axis (by more than the threshold), and there are some.
+    pub fn is_hyperbolic(&self) -> bool {
+        !self.eigenvalues.is_empty() && self.eigenvalues.iter().all(|e| e[0].abs() > self.tol)
+    }
+
+    /// The class of these eigenvalues ([`ZeroDynamicsClass::of_eigenvalues`] with the threshold).
+    pub fn class(&self) -> ZeroDynamicsClass {
+        ZeroDynamicsClass::of_eigenvalues(&self.eigenvalues, self.tol)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -150,17 +151,9 @@ mod tests {
             (e[0][0] + 0.2).abs() < 1e-12 && (e[0][1].abs() - 3.96f64.sqrt()).abs() < 1e-12,
             "{e:?}"
         );
-        assert_eq!(
-            ZeroDynamicsClass::of_eigenvalues(&e, 1e-9),
-            ZeroDynamicsClass::MinimumPhase
-        );
-        assert_eq!(
-            ZeroDynamicsClass::of_eigenvalues(&[[1.0, 0.0], [-1.0, 0.0]], 1e-9),
-            ZeroDynamicsClass::Mixed
-        );
-        assert_eq!(
-            ZeroDynamicsClass::of_eigenvalues(&[], 1e-9),
-            ZeroDynamicsClass::Unknown
-        );
+        let lin = Linearization::of(a);
+        assert_eq!(lin.class(), ZeroDynamicsClass::MinimumPhase);
+        assert!(lin.is_hyperbolic() && !lin.has_unstable());
+        assert_eq!(lin.tol, 1e-9 + 1e-7 * 4.0);
     }
 }

@@ -1,0 +1,30 @@
+//! `invsim derive`: a model's relative degree, normal form, ψ⁻¹, α, β and zero dynamics.
+
+use std::path::Path;
+
+use clap::ValueEnum;
+
+use crate::error::Failure;
+use crate::files::print_stdout;
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Format {
+    Text,
+    Json,
+    Markdown,
+}
+
+pub fn run(path: &Path, format: Format) -> Result<(), Failure> {
+    let d = invsim_inversion::derive_file(path).map_err(|e| Failure::user(e.to_string()))?;
+    let text = match format {
+        Format::Text => d.to_text(),
+        Format::Json => {
+            let mut s = serde_json::to_string_pretty(&d.to_json())
+                .map_err(|e| Failure::io(e.to_string()))?;
+            s.push('\n');
+            s
+        }
+        Format::Markdown => d.to_markdown(),
+    };
+    print_stdout(&text)
+}

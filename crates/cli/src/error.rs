@@ -1,0 +1,32 @@
+//! The CLI's failures and their exit status (contract §3): 2 for a user error (bad model or cycle file, bad
+//! option, a model the method cannot invert, a simulation that had to stop), 1 for an I/O failure; the message
+//! is one paragraph on stderr.
+
+use std::process::ExitCode;
+
+/// A user-facing failure: the message and the exit status.
+pub struct Failure {
+    pub message: String,
+    pub code: u8,
+}
+
+impl Failure {
+    pub fn user(message: impl Into<String>) -> Failure {
+        Failure {
+            message: message.into(),
+            code: 2,
+        }
+    }
+    pub fn io(message: impl Into<String>) -> Failure {
+        Failure {
+            message: message.into(),
+            code: 1,
+        }
+    }
+
+    /// Print the message as `invsim: error: …` on stderr; the exit status.
+    pub fn report(self) -> ExitCode {
+        eprintln!("invsim: error: {}", self.message);
+        ExitCode::from(self.code)
+    }
+}

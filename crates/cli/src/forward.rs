@@ -1,0 +1,116 @@
+//! `invsim forward`: the forward simulation of a model along a drive cycle, closed by a PI driver.
+
+use std::path::PathBuf;
+
+use clap::ValueEnum;
+use invsim_runtime::forward::{self, Bounds, ForwardError, ForwardOptions, Method};
+use invsim_runtime::output;
+
+use crate::engine::{load_run, EngineChoice};
+use crate::error::Failure;
+use crate::files::{print_stdout, write_file};
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum BoundsChoice {
+    /// Apply the driver's demand as it is, like the inverse simulation (violations are reported).
+    Ignore,
+    /// Clip the demand to the model's input bounds and report where the vehicle misses the trace.
+    Enforce,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum MethodChoice {
+    /// Dormand–Prince 5(4) with dense output.
+    Dopri5,
+    /// L-stable Rosenbrock 2(3), for stiff models at loose tolerances.
+    Rosenbrock23,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct ForwardArgs {
+    /// The model file (TOML).
+    pub model: PathBuf,
+    /// A built-in cycle (nedc, ece, eudc) or the path of a cycle CSV file.
+    #[arg(long)]
+    cycle: String,
+    /// Output step in seconds.
+    #[arg(long, default_value_t = forward::DEFAULT_DT)]
+    dt: f64,
+    /// Driver's proportional gain: requested acceleration per unit of speed error (1/s).
+    #[arg(long, default_value_t = forward::DRIVER_KP, allow_negative_numbers = true)]
+    kp: f64,
+    /// Driver's integral gain: requested acceleration per unit of integrated speed error (1/s²).
+    #[arg(long, default_value_t = forward::DRIVER_KI, allow_negative_numbers = true)]
+    ki: f64,
+    /// Bandwidth of the engine management's response to the driver's request (rad/s).
+    #[arg(long, default_value_t = forward::RESPONSE_OMEGA, allow_negative_numbers = true)]
+    response: f64,
+    /// Leave out the driver's feed-forward of the cycle's slope.
+    #[arg(long)]
+    no_feedforward: bool,
+    /// Ignore the model's input bounds (like the inverse) or enforce them.
+    #[arg(long, value_enum, default_value_t = BoundsChoice::Ignore)]
+    bounds: BoundsChoice,
+    /// Integration method.
+    #[arg(long, value_enum, default_value_t = MethodChoice::Dopri5)]
+    method: MethodChoice,
+    /// Relative tolerance of the integrator.
+    #[arg(long, default_value_t = forward::DEFAULT_RTOL)]
+    rtol: f64,
+    /// Absolute tolerance of the integrator.
+    #[arg(long, default_value_t = forward::DEFAULT_ATOL)]
+    atol: f64,
+    /// Override a parameter: NAME=VALUE (repeatable).
+    #[arg(long = "set", value_name = "NAME=VALUE")]
+    set: Vec<String>,
+    /// Write the time series as CSV.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Write the summary as JSON.
+    #[arg(long)]
+    summary_json: Option<PathBuf>,
+    /// Which implementation of the model to run.
+    #[arg(long, value_enum, default_value_t = EngineChoice::Auto)]
+    engine: EngineChoice,
+}
+
+pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
+    let (cycle, model) = load_run(&args.model, args.engine, &args.cycle, &args.set)?;
+    let stopped = |e: ForwardError| {
+        Failure::user(format!(
+            "forward simulation of `{}` on `{}` stopped: {e}",
+            args.model.display(),
+            cycle.name
+        ))
+    };
+    let opts = ForwardOptions::builder()
+        .dt(args.dt)
+        .engine(model.engine_name())
+        .kp(args.kp)
+        .ki(args.ki)
+        .response(args.response)
+        .feedforward(!args.no_feedforward)
+        .bounds(match args.bounds {
+            BoundsChoice::Ignore => Bounds::Ignore,
+            BoundsChoice::Enforce => Bounds::Enforce,
+        })
+        .method(match args.method {
+            MethodChoice::Dopri5 => Method::Dopri5,
+            MethodChoice::Rosenbrock23 => Method::Rosenbrock23,
+        })
+        .rtol(args.rtol)
+        .atol(args.atol)
+        .keep_series(args.out.is_some())
+        .build()
+        .map_err(stopped)?;
+    let result = forward::forward(model.as_model(), &cycle, &opts).map_err(stopped)?;
+    if let Some(path) = &args.out {
+        write_file(path, |f| {
+            output::write_table_csv(&result.columns, &result.data, f)
+        })?;
+    }
+    if let Some(path) = &args.summary_json {
+        write_file(path, |f| output::write_json(&result.summary, f))?;
+    }
+    print_stdout(&result.summary.to_text())
+}

@@ -1,0 +1,35 @@
+//! The zero dynamics η̇ = q(ξ, η, y^(r)) in one place: their equilibrium, their linearisation ∂q/∂η, the
+//! threshold below which a real part counts as zero, and the class that follows (Isidori, *Nonlinear Control
+//! Systems*, 3rd ed., §4.3), shared by `invsim derive` (classification at the nominal point), the causal run
+//! (initial state, stability checks along the run), the forward run (initial state) and stable inversion (the
+//! stable/unstable split at the ends).
+//!
+//! Also here, with no feature needed (generated code uses them): the constants of ψ⁻¹'s Newton iteration, for
+//! states that the derivation could only solve numerically.
+//!
+//! With the `linearize` feature (nalgebra): [`equilibrium`] (one damped Newton method, the starting points a
+//! parameter), [`jacobian`] / [`JacobianWork`], [`eigenvalues`], [`Linearization`] and
+//! [`ZeroDynamicsClass`].
+
+#[cfg(feature = "linearize")]
+mod class;
+#[cfg(feature = "linearize")]
+mod equilibrium;
+#[cfg(feature = "linearize")]
+mod linear;
+mod threshold;
+
+#[cfg(feature = "linearize")]
+pub use class::ZeroDynamicsClass;
+#[cfg(feature = "linearize")]
+pub use equilibrium::{
+    default_starts, equilibrium, newton, EquilibriumFailure, EQUILIBRIUM_MAX_ITER,
+};
+#[cfg(feature = "linearize")]
+pub use linear::{eigenvalues, jacobian, JacobianWork, Linearization};
+pub use threshold::{critical_tol, CRITICAL_ABS_TOL, CRITICAL_REL_TOL};
+
+/// Maximum Newton iterations for a numerically solved ψ⁻¹ (interpreter and generated code alike).
+pub const PSI_INV_NEWTON_MAX_ITER: usize = 50;
+/// ψ⁻¹'s Newton iteration stops when every residual, relative to max(|target|, 1), is below this.
+pub const PSI_INV_NEWTON_TOL: f64 = 1e-13;

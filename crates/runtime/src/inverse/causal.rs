@@ -1,0 +1,204 @@
+//! Causal inversion: the zero dynamics η̇ = q(ξ(t), η, y_d^(r)(t)) integrated forward from their equilibrium at
+//! t_0 (adaptive Dormand–Prince 5(4)), with the eigenvalues of ∂q/∂η checked along the run (Isidori §4.3: only
+//! minimum-phase zero dynamics can be inverted causally).
+
+use invsim_model_api::zero_dynamics::{
+    critical_tol, default_starts, eigenvalues, equilibrium, JacobianWork,
+};
+use invsim_model_api::InverseModel;
+use nalgebra::DMatrix;
+
+use super::error::SimulateError;
+use super::options::SimulationOptions;
+use crate::error::RunError;
+use crate::grid::{Grid, MAX_DERIVATIVES};
+use crate::ode::Dopri5;
+use crate::report::fmt_sig;
+use crate::smoother::Smoother;
+
+/// |η| above this means the internal dynamics have blown up.
+pub const ETA_BLOWUP: f64 = 1e12;
+
+/// The state of a causal run: η, its integrator and the buffers of the stability checks.
+pub(super) struct Causal {
+    eta: Vec<f64>,
+    integrator: Dopri5,
+    ws: JacobianWork,
+    /// Check the eigenvalues every this many samples.
+    check_every: usize,
+    yd: [f64; MAX_DERIVATIVES],
+}
+
+impl Causal {
+    /// Start at t_0 from `eta0`, else from the equilibrium q(ξ(t_0), η, y_d^(r)(t_0)) = 0 (Newton from several
+    /// starting points: internal states in physical units are rarely near 0), checked for stability.
+    pub(super) fn start<M: InverseModel + ?Sized>(
+        model: &M,
+        smoother: &Smoother,
+        t0: f64,
+        eta0: Option<Vec<f64>>,
+        opts: &SimulationOptions,
+    ) -> Result<Causal, SimulateError> {
+        let info = model.info();
+        let (r, ne) = (info.relative_degree, info.n_eta);
+        let mut yd = [0.0_f64; MAX_DERIVATIVES];
+        smoother.eval(t0, &mut yd[..=r]);
+        let (xi, yr) = (&yd[..r], yd[r]);
+        let eta = match eta0 {
+            Some(e) => e,
+            None => equilibrium(model, xi, yr, None, &default_starts(xi[0])).map_err(|f| {
+                SimulateError::ZeroDynamicsEquilibrium {
+                    t: t0,
+                    reason: f.to_string(),
+                }
+            })?,
+        };
+        let mut ws = JacobianWork::new(ne);
+        check_stability(model, t0, xi, &eta, yr, &mut ws)?;
+        Ok(Causal {
+            eta,
+            integrator: Dopri5::new(ne, opts.rtol, opts.atol, opts.dt),
+            ws,
+            check_every: ((opts.stability_check_interval / opts.dt).round() as usize).max(1),
+            yd,
+        })
+    }
+
+    /// η at grid sample k (time t, reference `yd` = y_d … y_d^(r) there): integrated from sample k − 1, checked
+    /// for blow-up and (every `check_every` samples) for stability.
+    pub(super) fn advance<M: InverseModel + ?Sized>(
+        &mut self,
+        model: &M,
+        smoother: &Smoother,
+        grid: &Grid,
+        (k, t): (usize, f64),
+        yd: &[f64],
+    ) -> Result<&[f64], SimulateError> {
+        let r = yd.len() - 1;
+        if k > 0 {
+            self.integrate(model, smoother, grid.time(k - 1), t, r)?;
+        }
+        let (xi, yr) = (&yd[..r], yd[r]);
+        if let Some(j) = self
+            .eta
+            .iter()
+            .position(|v| !v.is_finite() || v.abs() > ETA_BLOWUP)
+        {
+            let eigenvalues = eigenvalues_at(model, xi, &self.eta, yr, &mut self.ws);
+            return Err(SimulateError::UnstableZeroDynamics {
+                t,
+                eigenvalues,
+                detail: format!("eta{} = {} has blown up", j + 1, self.eta[j]),
+            });
+        }
+        if k % self.check_every == 0 && k > 0 {
+            check_stability(model, t, xi, &self.eta, yr, &mut self.ws)?;
+        }
+        Ok(&self.eta)
+    }
+
+    /// Integrate η from `t_prev` to `t`; a failing integrator usually means that η is running away: say so if
+    /// it is.
+    fn integrate<M: InverseModel + ?Sized>(
+        &mut self,
+        model: &M,
+        smoother: &Smoother,
+        t_prev: f64,
+        t: f64,
+        r: usize,
+    ) -> Result<(), SimulateError> {
+        let mut q = |s: f64, e: &[f64], de: &mut [f64]| {
+            let mut yd_s = [0.0_f64; MAX_DERIVATIVES];
+            smoother.eval(s, &mut yd_s[..=r]);
+            model.zero_dynamics(&yd_s[..r], e, yd_s[r], de);
+            Ok(())
+        };
+        let Err(err) = self.integrator.advance(t_prev, t, &mut self.eta, &mut q) else {
+            return Ok(());
+        };
+        let (t_fail, eta_fail) = (self.integrator.t_fail, &self.integrator.y_fail);
+        smoother.eval(t_fail, &mut self.yd[..=r]);
+        let (xi, yr) = (&self.yd[..r], self.yd[r]);
+        if let Some(i) = eta_fail
+            .iter()
+            .position(|v| !v.is_finite() || v.abs() > ETA_BLOWUP)
+        {
+            return Err(SimulateError::UnstableZeroDynamics {
+                t: t_fail,
+                eigenvalues: eigenvalues_at(model, xi, eta_fail, yr, &mut self.ws),
+                detail: format!("eta{} = {} has blown up", i + 1, eta_fail[i]),
+            });
+        }
+        check_stability(model, t_fail, xi, eta_fail, yr, &mut self.ws)?;
+        Err(err)
+    }
+
+    /// x = ψ⁻¹(ξ, η) (the previous x as the guess) and u = (y_d^(r) − α)/β (paper eq. 26) at time t.
+    pub(super) fn invert<M: InverseModel + ?Sized>(
+        &self,
+        model: &M,
+        t: f64,
+        yd: &[f64],
+        x: &mut [f64],
+    ) -> Result<f64, SimulateError> {
+        let r = yd.len() - 1;
+        model
+            .invert(&yd[..r], &self.eta, yd[r], x)
+            .map_err(|source| RunError::Model { t, source }.into())
+    }
+}
+
+/// Eigenvalues [re, im] of ∂q/∂η at (ξ, η, y^(r)); empty if the Jacobian is not finite.
+fn eigenvalues_at<M: InverseModel + ?Sized>(
+    model: &M,
+    xi: &[f64],
+    eta: &[f64],
+    yr: f64,
+    ws: &mut JacobianWork,
+) -> Vec<[f64; 2]> {
+    let n = eta.len();
+    eigenvalues(&DMatrix::from_column_slice(
+        n,
+        n,
+        ws.jacobian(model, xi, eta, yr),
+    ))
+}
+
+/// Stop with [`SimulateError::UnstableZeroDynamics`] if ∂q/∂η has an eigenvalue with positive real part
+/// (beyond finite-difference noise, [`critical_tol`]): the zero dynamics are then locally unstable and
+/// the system non-minimum phase (Isidori §4.3).
+fn check_stability<M: InverseModel + ?Sized>(
+    model: &M,
+    t: f64,
+    xi: &[f64],
+    eta: &[f64],
+    yr: f64,
+    ws: &mut JacobianWork,
+) -> Result<(), SimulateError> {
+    let n = eta.len();
+    let jac = ws.jacobian(model, xi, eta, yr);
+    let tol = critical_tol(jac);
+    // One internal coordinate: the Jacobian is the eigenvalue; no allocation needed on the stable path.
+    if n == 1 && jac[0].is_finite() && jac[0] <= tol {
+        return Ok(());
+    }
+    let eigs = eigenvalues(&DMatrix::from_column_slice(n, n, jac));
+    if eigs.is_empty() {
+        return Err(SimulateError::UnstableZeroDynamics {
+            t,
+            eigenvalues: eigs,
+            detail: "the linearisation ∂q/∂η is not finite".to_string(),
+        });
+    }
+    if let Some(e) = eigs.iter().find(|e| e[0] > tol) {
+        return Err(SimulateError::UnstableZeroDynamics {
+            t,
+            detail: format!(
+                "∂q/∂η has an eigenvalue with positive real part {}",
+                fmt_sig(e[0], 6)
+            ),
+            eigenvalues: eigs,
+        });
+    }
+    Ok(())
+}

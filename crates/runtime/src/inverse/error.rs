@@ -1,0 +1,74 @@
+//! Why an inverse simulation could not be run or was stopped.
+
+use thiserror::Error;
+
+use crate::error::RunError;
+use crate::report::format_eigenvalues;
+use crate::smoother::SmootherError;
+use crate::stable::StableError;
+
+/// Why a simulation could not be run or was stopped.
+#[derive(Debug, Error)]
+pub enum SimulateError {
+    #[error("invalid look-ahead a = {0} s: the kernel half-width must be a positive, finite number of seconds")]
+    InvalidLookahead(f64),
+    #[error(
+        "invalid zero-dynamics tolerances rtol = {rtol}, atol = {atol}: both must be positive and finite"
+    )]
+    InvalidTolerance { rtol: f64, atol: f64 },
+    #[error(
+        "invalid stability check interval {0} s: it must be a positive, finite number of seconds"
+    )]
+    InvalidCheckInterval(f64),
+    #[error("invalid initial internal state eta0: {reason}")]
+    InvalidEta0 { reason: String },
+    #[error(
+        "relative degree {relative_degree} is too high: the smoother provides y_d and its derivatives up to \
+         order {max}"
+    )]
+    RelativeDegreeTooHigh { relative_degree: usize, max: usize },
+    #[error("cannot smooth the drive cycle: {0}")]
+    Smoother(#[from] SmootherError),
+    #[error(
+        "the decoupling coefficient β(ξ, η) = L_g L_f^(r−1) h is {beta} at t = {t} s, so the input \
+         u = (y^(r) − α)/β is undefined there: the relative degree is not well defined at this operating point"
+    )]
+    SingularDecoupling { t: f64, beta: f64 },
+    #[error(
+        "cannot find the initial internal state: Newton's method for the equilibrium q(ξ(t0), η, y_d^(r)(t0)) = 0 \
+         at t0 = {t} s {reason}; give eta0 explicitly"
+    )]
+    ZeroDynamicsEquilibrium { t: f64, reason: String },
+    #[error(
+        "unstable zero dynamics at t = {t} s: {detail}; eigenvalues of ∂q/∂η: {eigs}. The system is non-minimum \
+         phase for this output, so causal inverse simulation diverges; stable (non-causal) inversion is needed",
+        eigs = format_eigenvalues(.eigenvalues)
+    )]
+    UnstableZeroDynamics {
+        t: f64,
+        eigenvalues: Vec<[f64; 2]>,
+        detail: String,
+    },
+    #[error("integrating the internal dynamics failed at t = {t} s: {reason}")]
+    Integration { t: f64, reason: String },
+    #[error(
+        "verification failed: the original model dx/dt = f(x) + g(x)u could not be integrated forward with the \
+         computed input at t = {t} s: {reason} (the inverse itself completed; run without --verify to get it)"
+    )]
+    Verification { t: f64, reason: String },
+    /// A reason shared with the forward simulation.
+    #[error(transparent)]
+    Run(#[from] RunError),
+    /// The stable inversion failed.
+    #[error(transparent)]
+    Stable(#[from] StableError),
+}
+
+impl From<crate::ode::StepFailure> for SimulateError {
+    fn from(f: crate::ode::StepFailure) -> Self {
+        SimulateError::Integration {
+            t: f.t,
+            reason: f.reason,
+        }
+    }
+}

@@ -1,0 +1,522 @@
+//! The inverse run: validation, the zero-dynamics plan, the columns, the run block by block and the summary.
+
+use invsim_model_api::{InverseModel, ModelInfo};
+
+use super::error::SimulateError;
+use super::inverter::{Block, Inverter};
+use super::options::SimulationOptions;
+use super::result::SimulationResult;
+use super::summary::{InputBeforeStart, StableInversionStats, Summary};
+use super::verify::verify_forward;
+use crate::cycle::Cycle;
+use crate::error::RunError;
+use crate::grid::{check_samples, Grid, MAX_DERIVATIVES};
+use crate::report::{fmt_sig, format_eigenvalues, grade_warning, CycleInfo, Intervals, Totals};
+use crate::smoother::Smoother;
+use crate::stable::{self, StableOptions, ZeroDynamicsPlan};
+
+/// Samples per block of the run (see [`run`]).
+const BLOCK: usize = 4096;
+
+/// The cycle's start time and duration, or why it cannot be simulated.
+fn check_cycle(cycle: &Cycle) -> Result<(f64, f64), RunError> {
+    let bad_cycle = |reason: String| RunError::InvalidCycle {
+        cycle: cycle.name.clone(),
+        reason,
+    };
+    if cycle.time.is_empty() || cycle.time.len() != cycle.speed.len() {
+        return Err(bad_cycle(format!(
+            "it has {} time stamps and {} speeds (need at least one of each, equally many)",
+            cycle.time.len(),
+            cycle.speed.len()
+        )));
+    }
+    let t0 = cycle.time[0];
+    let duration = cycle.duration();
+    if !(t0.is_finite() && duration.is_finite() && duration >= 0.0) {
+        return Err(bad_cycle(format!(
+            "start time {t0} s and duration {duration} s must be finite, duration ≥ 0"
+        )));
+    }
+    Ok((t0, duration))
+}
+
+/// The given η(t_0), checked against the model.
+fn check_eta0(
+    info: &ModelInfo,
+    opts: &SimulationOptions,
+) -> Result<Option<Vec<f64>>, SimulateError> {
+    let ne = info.n_eta;
+    match &opts.eta0 {
+        Some(e) if e.len() != ne => Err(SimulateError::InvalidEta0 {
+            reason: format!(
+                "model `{}` has {ne} internal coordinates, {} values were given",
+                info.name,
+                e.len()
+            ),
+        }),
+        Some(e) if e.iter().any(|v| !v.is_finite()) => Err(SimulateError::InvalidEta0 {
+            reason: format!("values must be finite, got {e:?}"),
+        }),
+        other => Ok(other.clone()),
+    }
+}
+
+/// The column names (`t`, `yd_0` … `yd_r`, the input, the states, `eta1` …, the outputs) and the input's index.
+fn column_names(info: &ModelInfo) -> (Vec<String>, usize) {
+    let r = info.relative_degree;
+    let mut columns =
+        Vec::with_capacity(2 + r + 1 + info.n_states() + info.n_eta + info.outputs.len());
+    columns.push("t".to_string());
+    columns.extend((0..=r).map(|k| format!("yd_{k}")));
+    let input_column = columns.len();
+    columns.push(info.input.clone());
+    columns.extend(info.states.iter().cloned());
+    columns.extend((1..=info.n_eta).map(|k| format!("eta{k}")));
+    columns.extend(info.outputs.iter().map(|o| o.name.clone()));
+    (columns, input_column)
+}
+
+/// `width` columns of `stored` entries, reusing `spare`'s buffers, with the grid's times in the first.
+fn allocate(mut spare: Vec<Vec<f64>>, width: usize, stored: usize, grid: &Grid) -> Vec<Vec<f64>> {
+    spare.truncate(width);
+    spare.resize_with(width, Vec::new);
+    for column in &mut spare {
+        // Fresh columns come zeroed from the allocator without being touched; every entry is overwritten.
+        if column.capacity() < stored {
+            *column = vec![0.0; stored];
+        } else {
+            column.resize(stored, 0.0);
+        }
+    }
+    // t_k for the whole grid up front (keeps the division off the per-sample path).
+    for (k, t) in spare[0].iter_mut().enumerate() {
+        *t = grid.time(k);
+    }
+    spare
+}
+
+/// The per-sample bookkeeping: integrals, input range and bound violations over the reported samples
+/// [k_lo, k_hi], and the input before t_0.
+struct Tally {
+    accumulate: Vec<usize>,
+    integrals: Vec<f64>,
+    previous: Vec<f64>,
+    bounds: [Option<f64>; 2],
+    range: [f64; 2],
+    violations: Intervals,
+    before_start: Vec<[f64; 2]>,
+    window: (usize, usize),
+    k0: usize,
+    dt: f64,
+}
+
+impl Tally {
+    fn new(info: &ModelInfo, grid: &Grid, window: (usize, usize)) -> Tally {
+        let no = info.outputs.len();
+        let accumulate: Vec<usize> = (0..no).filter(|&i| info.outputs[i].accumulate).collect();
+        Tally {
+            integrals: vec![0.0; accumulate.len()],
+            previous: vec![0.0; accumulate.len()],
+            accumulate,
+            bounds: [info.input_min, info.input_max],
+            range: [f64::INFINITY, f64::NEG_INFINITY],
+            violations: Intervals::default(),
+            before_start: Vec::with_capacity(grid.k0),
+            window,
+            k0: grid.k0,
+            dt: grid.dt,
+        }
+    }
+
+    /// Sample i of block `b` (grid index k).
+    fn record(&mut self, b: &Block<'_, '_>, i: usize) {
+        let (k, t, u) = (b.k0 + i, b.time[i], b.u[i]);
+        let (k_lo, k_hi) = self.window;
+        // Pre-actuation (t < t_0) is summarised on its own; samples outside [k_lo, k_hi] are not reported.
+        if k < self.k0 || (k == self.k0 && self.k0 > 0) {
+            self.before_start.push([t, u]);
+        }
+        if k < k_lo || k > k_hi {
+            return;
+        }
+        // Trapezoidal rule over the grid: ∫ o dt ≈ Σ_k dt·(o_k + o_{k+1})/2.
+        for ((acc, prev), &o) in self
+            .integrals
+            .iter_mut()
+            .zip(&mut self.previous)
+            .zip(&self.accumulate)
+        {
+            let v = b.out[o][i];
+            if k > k_lo {
+                *acc += 0.5 * self.dt * (*prev + v);
+            }
+            *prev = v;
+        }
+        // Input range and bound violations: maximal runs of consecutive samples outside the bounds.
+        self.range = [self.range[0].min(u), self.range[1].max(u)];
+        let [lo, hi] = self.bounds;
+        let outside = lo.is_some_and(|b| u < b) || hi.is_some_and(|b| u > b);
+        self.violations.push(t, outside);
+    }
+}
+
+/// Split a block's columns into a [`Block`].
+fn split<'c, 'd>(cols: &'c mut [&'d mut [f64]], k0: usize, info: &ModelInfo) -> Block<'c, 'd> {
+    let (r, n, ne) = (info.relative_degree, info.n_states(), info.n_eta);
+    let (time_col, rest) = cols.split_at_mut(1);
+    let (yd, rest) = rest.split_at_mut(r + 1);
+    let (u_col, rest) = rest.split_at_mut(1);
+    let (x, rest) = rest.split_at_mut(n);
+    let (eta, out) = rest.split_at_mut(ne);
+    Block {
+        k0,
+        time: &*time_col[0],
+        yd,
+        u: &mut *u_col[0],
+        x,
+        eta,
+        out,
+    }
+}
+
+/// The run, block by block. Per block of samples: y_d … y_d^(r) on the grid at once
+/// (Smoother::eval_grid); then the inverse ([`Inverter`]); then the extra outputs
+/// (InverseModel::outputs_batch) and the per-sample bookkeeping. With `keep` a block is a view into the
+/// result's columns, without it into block-sized scratch columns.
+fn run_blocks<M: InverseModel + ?Sized>(
+    model: &M,
+    smoother: &Smoother,
+    grid: &Grid,
+    inverter: &mut Inverter<'_, M>,
+    tally: &mut Tally,
+    data: &mut [Vec<f64>],
+    keep: bool,
+) -> Result<(), SimulateError> {
+    let info = model.info();
+    let samples = grid.samples();
+    let mut scratch: Vec<Vec<f64>> = if keep {
+        Vec::new()
+    } else {
+        vec![vec![0.0; BLOCK]; data.len()]
+    };
+    let mut k0 = 0;
+    while k0 < samples {
+        let k1 = (k0 + BLOCK).min(samples);
+        let len = k1 - k0;
+        let mut cols: Vec<&mut [f64]> = if keep {
+            data.iter_mut().map(|c| &mut c[k0..k1]).collect()
+        } else {
+            scratch.iter_mut().map(|c| &mut c[..len]).collect()
+        };
+        if !keep {
+            for (i, t) in cols[0].iter_mut().enumerate() {
+                *t = grid.time(k0 + i);
+            }
+        }
+        let mut b = split(&mut cols, k0, info);
+        smoother.eval_grid(b.time, Some(grid.dt), b.yd);
+        inverter.fill(&mut b)?;
+        {
+            let xs: Vec<&[f64]> = b.x.iter().map(|c| &**c).collect();
+            model.outputs_batch(&xs, b.u, b.out);
+        }
+        for i in 0..len {
+            check_finite(model, &b, i)?;
+            tally.record(&b, i);
+        }
+        k0 = k1;
+    }
+    Ok(())
+}
+
+/// Sample i of the block must be finite (v·0 is NaN exactly when v is not finite: one test per sample).
+fn check_finite<M: InverseModel + ?Sized>(
+    model: &M,
+    b: &Block<'_, '_>,
+    i: usize,
+) -> Result<(), SimulateError> {
+    let mut probe = b.u[i] * 0.0;
+    for c in b.yd.iter().chain(b.x.iter()).chain(b.out.iter()) {
+        probe += c[i] * 0.0;
+    }
+    if !probe.is_nan() {
+        return Ok(());
+    }
+    let at = |cs: &[&mut [f64]]| cs.iter().map(|c| c[i]).collect::<Vec<f64>>();
+    let (yd_i, x_i, eta_i, outs_i) = (at(b.yd), at(b.x), at(b.eta), at(b.out));
+    Err(non_finite(
+        model, b.time[i], &yd_i, &eta_i, b.u[i], &x_i, &outs_i,
+    ))
+}
+
+pub(super) fn run<M: InverseModel + ?Sized>(
+    model: &M,
+    cycle: &Cycle,
+    opts: &SimulationOptions,
+    spare: Vec<Vec<f64>>,
+) -> Result<SimulationResult, SimulateError> {
+    opts.validate()?;
+    let info = model.info();
+    let r = info.relative_degree;
+    if r + 1 > MAX_DERIVATIVES {
+        return Err(SimulateError::RelativeDegreeTooHigh {
+            relative_degree: r,
+            max: MAX_DERIVATIVES - 1,
+        });
+    }
+    let (t0, duration) = check_cycle(cycle)?;
+    let mut grid = Grid::new(t0, duration, opts.dt)?;
+    let steps = grid.n;
+    let eta0 = check_eta0(info, opts)?;
+    let smoother = Smoother::new(cycle, opts.lookahead)?.with_reference(model.reference());
+
+    // Zero dynamics: classified along the reference; unstable ones are inverted stably (non-causally) on a
+    // grid extended by pre- and post-actuation (crate::stable), the series reports the cycle's samples
+    // [k_lo, k_hi] unless `include_extension` asks for all.
+    let stable_opts = StableOptions {
+        tol: opts.stable_tol,
+        max_pre_actuation: opts.max_pre_actuation,
+        lookahead: opts.lookahead,
+        causal: opts.causal || eta0.is_some(),
+    };
+    let zd = stable::plan_run(
+        model,
+        cycle,
+        &smoother,
+        (t0, grid.time(grid.n), opts.dt),
+        &stable_opts,
+    )?;
+    if let Some(st) = &zd.stable {
+        let extended = steps as f64 + (st.k_pre + st.k_post) as f64;
+        check_samples(extended, extended * opts.dt, opts.dt)?;
+        grid.k0 = st.k_pre;
+        grid.n += st.k_pre + st.k_post;
+    }
+    let window = match (&zd.stable, opts.include_extension) {
+        (Some(_), false) => (grid.k0, grid.k0 + steps),
+        _ => (0, grid.n),
+    };
+
+    let (columns, input_column) = column_names(info);
+    let keep = opts.keep_series || opts.verify;
+    let stored = if keep { grid.samples() } else { 0 };
+    let mut data = allocate(spare, columns.len(), stored, &grid);
+    let mut inverter = Inverter::new(model, &smoother, grid, &zd, eta0, opts)?;
+    let mut tally = Tally::new(info, &grid, window);
+    run_blocks(
+        model,
+        &smoother,
+        &grid,
+        &mut inverter,
+        &mut tally,
+        &mut data,
+        keep,
+    )?;
+
+    let run = Finished {
+        grid,
+        window,
+        input_column,
+        keep,
+        duration,
+    };
+    let summary = summarise(model, cycle, opts, &zd, &run, tally, &mut data)?;
+    Ok(SimulationResult {
+        summary,
+        columns,
+        data,
+        input_column,
+        input_bounds: [info.input_min, info.input_max],
+        reference: smoother.reference(),
+    })
+}
+
+/// What the summary needs of the finished run.
+struct Finished {
+    grid: Grid,
+    window: (usize, usize),
+    input_column: usize,
+    keep: bool,
+    duration: f64,
+}
+
+/// The warnings about the cycle and the input bounds.
+fn run_warnings(info: &ModelInfo, cycle: &Cycle, distance: f64, totals: &Totals) -> Vec<String> {
+    let mut warnings = Vec::new();
+    let has_distance = distance > 0.0 && distance.is_finite();
+    if !totals.integrals.is_empty() && !has_distance {
+        warnings.push(format!(
+            "the cycle covers no distance ({distance} m): no per-100-km figures"
+        ));
+    }
+    warnings.extend(grade_warning(cycle));
+    let violations = &totals.input_bound_violations;
+    if !violations.is_empty() {
+        let total: f64 = violations.iter().map(|[a, b]| b - a).sum();
+        let bounds = format!(
+            "[{}, {}]",
+            info.input_min.map_or("-inf".to_string(), |b| fmt_sig(b, 6)),
+            info.input_max.map_or("inf".to_string(), |b| fmt_sig(b, 6))
+        );
+        warnings.push(format!(
+            "input {} leaves its bounds {bounds} in {} interval(s), {} s in total (reached {} … {}); not clipped",
+            info.input,
+            violations.len(),
+            fmt_sig(total, 4),
+            fmt_sig(totals.input_min, 4),
+            fmt_sig(totals.input_max, 4)
+        ));
+    }
+    warnings
+}
+
+/// How η was obtained, the pre- and post-actuation (s) and the stable inversion's numbers, with its warnings.
+fn inversion_report(
+    zd: &ZeroDynamicsPlan,
+    ne: usize,
+    opts: &SimulationOptions,
+    warnings: &mut Vec<String>,
+) -> (&'static str, f64, f64, Option<StableInversionStats>) {
+    let Some(st) = &zd.stable else {
+        return (if ne == 0 { "none" } else { "causal" }, 0.0, 0.0, None);
+    };
+    let sol = &st.solution;
+    if let Some((t, eigs)) = &sol.dichotomy_change {
+        warnings.push(format!(
+            "stable inversion: at t = {} s the frozen linearisation ∂q/∂η has eigenvalues {}, not {} \
+             unstable one(s) as at the ends; the bounded solution was found, but check it (e.g. with \
+             --verify)",
+            fmt_sig(*t, 6),
+            format_eigenvalues(eigs),
+            st.plan.unstable
+        ));
+    }
+    if sol.estimated_error > opts.stable_tol {
+        warnings.push(format!(
+            "stable inversion: the estimated error {} of η exceeds the tolerance {} at the finest node \
+             spacing {} s",
+            fmt_sig(sol.estimated_error, 2),
+            opts.stable_tol,
+            fmt_sig(sol.h, 3)
+        ));
+    }
+    let stats = StableInversionStats {
+        nodes: sol.nodes(),
+        node_spacing_s: sol.h,
+        newton_iterations: sol.iterations,
+        estimated_error: sol.estimated_error,
+        unstable_dimension: st.plan.unstable,
+    };
+    (
+        "stable",
+        st.k_pre as f64 * opts.dt,
+        st.k_post as f64 * opts.dt,
+        Some(stats),
+    )
+}
+
+/// The summary of a finished run; the verification replays `data`, then the pre- and post-actuation rows
+/// leave the series unless they are asked for.
+fn summarise<M: InverseModel + ?Sized>(
+    model: &M,
+    cycle: &Cycle,
+    opts: &SimulationOptions,
+    zd: &ZeroDynamicsPlan,
+    run: &Finished,
+    tally: Tally,
+    data: &mut [Vec<f64>],
+) -> Result<Summary, SimulateError> {
+    let info = model.info();
+    let distance = cycle.distance();
+    let before_start = tally.before_start;
+    let totals = Totals::new(
+        info,
+        &tally.accumulate,
+        &tally.integrals,
+        distance,
+        tally.range,
+        tally.violations.finish(),
+    );
+    let mut warnings = run_warnings(info, cycle, distance, &totals);
+    let (max_abs_tracking_error, rms_tracking_error) = if opts.verify {
+        let state_column = run.input_column + 1;
+        let (max_abs, rms, verify_warnings) =
+            verify_forward(model, &run.grid, data, run.input_column, state_column, opts)?;
+        warnings.extend(verify_warnings);
+        (Some(max_abs), Some(rms))
+    } else {
+        (None, None)
+    };
+    let (k_lo, k_hi) = run.window;
+    if run.keep && (k_lo, k_hi) != (0, run.grid.n) {
+        for column in data.iter_mut() {
+            column.truncate(k_hi + 1);
+            column.drain(..k_lo);
+        }
+    }
+    let (inversion, pre_actuation_s, post_actuation_s, stable_inversion) =
+        inversion_report(zd, info.n_eta, opts, &mut warnings);
+    let input_before_start = InputBeforeStart::from_samples(
+        &before_start,
+        [totals.input_min, totals.input_max],
+        opts.dt,
+    );
+    Ok(Summary {
+        run: CycleInfo {
+            model: info.name.clone(),
+            cycle: cycle.name.clone(),
+            duration_s: run.duration,
+            distance_m: distance,
+        },
+        relative_degree: info.relative_degree,
+        engine: opts.engine.clone(),
+        samples: k_hi - k_lo + 1,
+        lookahead_s: opts.lookahead,
+        dt_s: opts.dt,
+        totals,
+        max_abs_tracking_error,
+        rms_tracking_error,
+        inversion: inversion.to_string(),
+        zero_dynamics_class: zd.class,
+        zero_dynamics_eigenvalues: zd.eigenvalues.clone(),
+        pre_actuation_s,
+        post_actuation_s,
+        input_before_start,
+        stable_inversion,
+        warnings,
+    })
+}
+
+/// The first non-finite quantity of a sample, in column order, as an error; a non-finite input is blamed on a
+/// vanishing β(ξ, η) if that is the cause.
+fn non_finite<M: InverseModel + ?Sized>(
+    model: &M,
+    t: f64,
+    yd: &[f64],
+    eta: &[f64],
+    u: f64,
+    x: &[f64],
+    outs: &[f64],
+) -> SimulateError {
+    let info = model.info();
+    let error = |quantity: String, value: f64| RunError::NonFinite { t, quantity, value }.into();
+    if let Some(i) = yd.iter().position(|v| !v.is_finite()) {
+        return error(format!("yd_{i}"), yd[i]);
+    }
+    if !u.is_finite() {
+        let r = info.relative_degree;
+        let beta = model.beta(&yd[..r], eta);
+        if beta == 0.0 || !beta.is_finite() {
+            return SimulateError::SingularDecoupling { t, beta };
+        }
+        return error(info.input.clone(), u);
+    }
+    if let Some(i) = x.iter().position(|v| !v.is_finite()) {
+        return error(info.states[i].clone(), x[i]);
+    }
+    match outs.iter().position(|v| !v.is_finite()) {
+        Some(i) => error(info.outputs[i].name.clone(), outs[i]),
+        None => error("a value".to_string(), f64::NAN),
+    }
+}
