@@ -4,7 +4,7 @@
 
 use crate::number::Number;
 use crate::pool::{Id, Node, Pool, Symbol};
-use crate::rules::{Func, Func2};
+use crate::func::{Func, Func2};
 use std::collections::HashMap;
 use thiserror::Error;
 

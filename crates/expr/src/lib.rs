@@ -12,6 +12,7 @@
 //! ```
 
 pub mod calculus;
+pub mod func;
 pub mod number;
 pub mod parse;
 pub mod pool;
@@ -22,9 +23,10 @@ pub mod zero;
 
 pub use calculus::{pow_f64, ExpansionTooLarge, UnboundSymbol, EXPAND_TERM_LIMIT};
 pub use number::Number;
-pub use parse::{parse, Ast, AstKind, BinOp, ParseError, FUNCTIONS, NON_SMOOTH_FUNCTIONS};
+pub use func::{Func, Func2, FUNCTIONS, NON_SMOOTH_FUNCTIONS};
+pub use parse::{parse, Ast, AstKind, BinOp, ParseError};
 pub use pool::{Id, Node, Pool, Symbol};
 pub use print::latex_symbol;
-pub use rules::{Func, Func2, FunctionRule, Rewrite, FUNCTION_RULES};
+pub use rules::{FunctionRule, Rewrite, FUNCTION_RULES};
 pub use tape::{Instr, Tape};
 pub use zero::{eval_with_error, zero_test, DecidedBy, Rng, ZeroVerdict};

@@ -7,7 +7,7 @@
 
 use crate::number::Number;
 use crate::pool::{Id, Node, Pool};
-use crate::rules::Func;
+use crate::func::Func;
 
 const P_ADD: u8 = 1;
 const P_MUL: u8 = 2;

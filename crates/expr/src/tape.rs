@@ -9,7 +9,7 @@
 use crate::calculus::UnboundSymbol;
 use crate::number::Number;
 use crate::pool::{Id, Node, Pool, Symbol};
-use crate::rules::{Func, Func2};
+use crate::func::{Func, Func2};
 use std::cell::RefCell;
 use std::collections::HashMap;
 

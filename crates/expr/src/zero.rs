@@ -8,7 +8,7 @@
 //! as log(1 + x^12) + log(1/(1 + x^12)) are not mistaken for nonzero.
 
 use crate::pool::{Id, Node, Pool, Symbol};
-use crate::rules::Func;
+use crate::func::Func;
 use std::collections::HashMap;
 
 /// Which step of the zero test decided.
