@@ -15,9 +15,10 @@
 //! * free functions taking `&Params`, and `Model`, which implements `invsim_model_api::InverseModel` (its batch
 //!   methods through the generated ones).
 //!
-//! Expressions are lowered as the interpreter's tape lowers them (sums and products as chains, negative
-//! coefficients as subtraction, integer powers as products or `powi`, ½-powers as `sqrt`, one shared `powf`
-//! per base), with common subexpressions in `let` bindings. Output is parsed with `syn` and formatted with
+//! Expressions are lowered by the plan the interpreter's tape encodes ([`invsim_expr::lower`], with
+//! [`invsim_expr::Strategy::GENERATED`]: sums and products as chains, negative coefficients as subtraction,
+//! integer powers as products or `powi`, ½-powers as `sqrt`, one shared `powf` per base, parameter-only work
+//! hoisted), with common subexpressions in `let` bindings. Output is parsed with `syn` and formatted with
 //! `prettyplease`.
 //!
 //! ```no_run
@@ -31,7 +32,6 @@
 mod builder;
 mod emit;
 mod format;
-mod lower;
 mod model;
 mod names;
 

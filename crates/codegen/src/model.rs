@@ -9,7 +9,7 @@
 //!   dynamics are evaluated in the states at the solution (L_f^r h, L_g L_f^(r−1) h, f_η + g_η·u).
 
 use crate::emit::{self, BinOp, Ex};
-use crate::lower::{self, Invariants, Lowered, Val};
+use invsim_expr::lower::{self, Invariants, Lowered, Strategy, Val};
 use crate::names::{self, FieldName, Locals};
 use crate::CodegenError;
 use invsim_expr::{latex_symbol, Id, Pool, Symbol};
@@ -620,7 +620,7 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
     let (n_lit, r_lit, ne_lit, np_lit, no_lit) = (lit(n), lit(r), lit(ne), lit(np), lit(no));
 
     // ----- lower every function; parameter-only work lands in one shared arena ------------------------
-    let mut inv = Invariants::new(pool, &param_syms);
+    let mut inv = Invariants::new(pool, &param_syms, Strategy::GENERATED);
     let mut fns = g.straight_functions();
     for f in fns.iter_mut() {
         let inputs = arg_syms(&f.args);
@@ -650,7 +650,7 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
                 exported.insert(i);
             }
         };
-        for op in &l.arena.ops {
+        for op in l.arena.ops() {
             op.operands().into_iter().for_each(&mut note);
         }
         l.roots.iter().copied().for_each(&mut note);
@@ -685,7 +685,7 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
             Val::Inv(_) | Val::Loc(_) => Ex::Lit(f64::NAN),
         }
     };
-    let pre_block = emit::render(&inv.arena, &inv_roots, &inv_index, &inv_atom, &k_names, "t");
+    let pre_block = emit::render(inv.arena(), &inv_roots, &inv_index, &inv_atom, &k_names, "t");
     let mut uses_sign = pre_block.uses_sign;
     let pre_lets = &pre_block.lets;
     let k_idents: Vec<&Ident> = exported.iter().map(|i| &k_names[i]).collect();
@@ -696,7 +696,7 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
         .map(|&i| {
             let e = describe(
                 &mut describe_pool,
-                &inv.arena,
+                inv.arena(),
                 Val::Inv(i),
                 &mut describe_memo,
             );
@@ -1729,7 +1729,7 @@ fn describe(pool: &mut Pool, arena: &lower::Arena, v: Val, memo: &mut HashMap<us
                 return e;
             }
             let mut sub = |pool: &mut Pool, v: Val| describe(pool, arena, v, memo);
-            let e = match arena.ops[i] {
+            let e = match arena.ops()[i] {
                 Op::Add(a, b) => {
                     let (a, b) = (sub(pool, a), sub(pool, b));
                     pool.add2(a, b)

@@ -1,6 +1,7 @@
 //! invsim's symbolic expression engine: a hash-consed DAG of canonical expressions with a parser and
-//! printers for the model-file language, symbolic differentiation, substitution, a zero test and a
-//! compiler to a flat evaluation tape.
+//! printers for the model-file language, symbolic differentiation, substitution, a zero test, the lowering
+//! plan to straight-line code (shared by the code generator) and a compiler of that plan to a flat
+//! evaluation tape.
 //!
 //! ```
 //! use invsim_expr::{Pool, Tape};
@@ -13,6 +14,7 @@
 
 pub mod calculus;
 pub mod func;
+pub mod lower;
 pub mod number;
 pub mod parse;
 pub mod pool;
@@ -23,6 +25,7 @@ pub mod zero;
 
 pub use calculus::{pow_f64, ExpansionTooLarge, UnboundSymbol, EXPAND_TERM_LIMIT};
 pub use number::Number;
+pub use lower::{Lowered, Strategy};
 pub use func::{Func, Func2, FUNCTIONS, NON_SMOOTH_FUNCTIONS};
 pub use parse::{parse, Ast, AstKind, BinOp, ParseError};
 pub use pool::{Id, Node, Pool, Symbol};

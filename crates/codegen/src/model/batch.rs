@@ -11,7 +11,7 @@
 //! calls of transcendental functions (and powers with varying exponents) from a block buffer instead.
 
 use super::*;
-use crate::lower::{Arena, Op};
+use invsim_expr::lower::{Arena, Op};
 use invsim_expr::Func;
 
 /// A fractional power taken a block at a time.
@@ -54,14 +54,14 @@ fn expensive(op: Op) -> bool {
 
 /// The arena values computed for `roots` (not descending below the values `given` marks), as flags.
 fn reach(arena: &Arena, roots: &[Val], given: &dyn Fn(usize) -> bool) -> Vec<bool> {
-    let mut seen = vec![false; arena.ops.len()];
+    let mut seen = vec![false; arena.ops().len()];
     let mut stack: Vec<usize> = roots.iter().filter_map(|v| loc(*v)).collect();
     while let Some(i) = stack.pop() {
         if seen[i] || given(i) {
             continue;
         }
         seen[i] = true;
-        stack.extend(arena.ops[i].operands().into_iter().filter_map(loc));
+        stack.extend(arena.ops()[i].operands().into_iter().filter_map(loc));
     }
     seen
 }
@@ -76,9 +76,9 @@ fn loc(v: Val) -> Option<usize> {
 impl Plan {
     pub(super) fn new(arena: &Arena, roots: &[Val], is_param: &dyn Fn(Val) -> bool) -> Plan {
         let live = reach(arena, roots, &|_| false);
-        let mut level = vec![0usize; arena.ops.len()];
+        let mut level = vec![0usize; arena.ops().len()];
         let mut pows = Vec::new();
-        for (i, &op) in arena.ops.iter().enumerate() {
+        for (i, &op) in arena.ops().iter().enumerate() {
             let of = |v: Val| loc(v).map_or(0, |j| level[j]);
             level[i] = match slice_pow(op, is_param) {
                 Some((base, exponent)) => {
@@ -106,18 +106,18 @@ impl Plan {
         };
         for l in 0..loops - 1 {
             let here = reach(arena, &plan.roots(l, roots), &|i| plan.given(i, l));
-            let mut later = vec![false; arena.ops.len()];
+            let mut later = vec![false; arena.ops().len()];
             for m in l + 1..loops {
                 let r = reach(arena, &plan.roots(m, roots), &|i| {
                     plan.given(i, l) || plan.pows.iter().any(|p| p.op == i && p.level <= m)
                 });
                 later.iter_mut().zip(r).for_each(|(a, b)| *a |= b);
             }
-            for i in 0..arena.ops.len() {
+            for i in 0..arena.ops().len() {
                 if here[i]
                     && later[i]
-                    && expensive(arena.ops[i])
-                    && slice_pow(arena.ops[i], is_param).is_none()
+                    && expensive(arena.ops()[i])
+                    && slice_pow(arena.ops()[i], is_param).is_none()
                 {
                     plan.kept.push((i, l));
                 }
@@ -562,7 +562,7 @@ fn column_of(g: &Gen<'_>, f: &Straight, s: Symbol) -> Option<TokenStream> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::lower::{self, Invariants};
+    use invsim_expr::lower::{self, Invariants};
     use invsim_expr::Pool;
 
     /// The plan of `src` with parameters `params` and the single input `v` (and `s`).
@@ -571,7 +571,7 @@ mod tests {
         let e = pool.parse(src).unwrap();
         let ps: Vec<Symbol> = params.iter().map(|n| pool.symbol(n)).collect();
         let inputs = [pool.symbol("v"), pool.symbol("s")];
-        let mut inv = Invariants::new(&pool, &ps);
+        let mut inv = Invariants::new(&pool, &ps, Strategy::GENERATED);
         let l = lower::lower(&mut inv, &[e], &inputs).unwrap();
         let is_param = |v: Val| match v {
             Val::Sym(s) => ps.contains(&s),
@@ -608,7 +608,7 @@ mod tests {
         assert_eq!(p.kept.len(), 1);
         let (i, l) = p.kept[0];
         assert_eq!(l, 0);
-        assert!(matches!(arena.ops[i], Op::Call(Func::Exp, _)));
+        assert!(matches!(arena.ops()[i], Op::Call(Func::Exp, _)));
         assert!(p.given(i, 2) && !p.given(i, 0));
     }
 
@@ -629,7 +629,7 @@ mod tests {
         // cosh(v) is computed once, in loop 0, as a kept value (and not also as a base).
         let roots = p.roots(0, &[]);
         assert_eq!(roots.len(), 1);
-        assert!(matches!(arena.ops[p.kept[0].0], Op::Call(Func::Cosh, _)));
+        assert!(matches!(arena.ops()[p.kept[0].0], Op::Call(Func::Cosh, _)));
     }
 
     #[test]
