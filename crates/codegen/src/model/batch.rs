@@ -10,9 +10,16 @@
 //! could alias its inputs). A later loop recomputes the cheap values it shares with an earlier one and reads
 //! calls of transcendental functions (and powers with varying exponents) from a block buffer instead.
 
-use super::*;
-use invsim_expr::lower::{Arena, Op};
-use invsim_expr::Func;
+use super::atoms::Atoms;
+use super::context::{invert_result, Arg, FnKind, Gen, Straight};
+use super::docs::doc_attrs;
+use crate::emit::{self, Ex};
+use invsim_expr::lower::{Arena, Lowered, Op, Val};
+use invsim_expr::{Func, Symbol};
+use proc_macro2::{Ident, TokenStream};
+use quote::{format_ident, quote, ToTokens};
+use std::cell::{Cell, RefCell};
+use std::collections::{HashMap, HashSet};
 
 /// A fractional power taken a block at a time.
 pub(super) struct SlicePow {
@@ -26,7 +33,7 @@ pub(super) struct SlicePow {
 }
 
 /// How one function's lowered code splits into loops over a block.
-pub(super) struct Plan {
+pub(super) struct Split {
     pows: Vec<SlicePow>,
     /// Values computed in loop `l` and kept in a block buffer for later loops: (arena index, l).
     kept: Vec<(usize, usize)>,
@@ -73,8 +80,8 @@ fn loc(v: Val) -> Option<usize> {
     }
 }
 
-impl Plan {
-    pub(super) fn new(arena: &Arena, roots: &[Val], is_param: &dyn Fn(Val) -> bool) -> Plan {
+impl Split {
+    pub(super) fn new(arena: &Arena, roots: &[Val], is_param: &dyn Fn(Val) -> bool) -> Split {
         let live = reach(arena, roots, &|_| false);
         let mut level = vec![0usize; arena.ops().len()];
         let mut pows = Vec::new();
@@ -99,7 +106,7 @@ impl Plan {
         // Numbered in the order they are taken.
         pows.sort_by_key(|p| p.level);
         let loops = pows.iter().map(|p| p.level).max().unwrap_or(0) + 1;
-        let mut plan = Plan {
+        let mut plan = Split {
             pows,
             kept: Vec::new(),
             loops,
@@ -170,15 +177,65 @@ pub(super) enum Kind {
     Outputs,
 }
 
+impl Kind {
+    /// The batch method made from function `f`, if any (`invert_batch` needs ψ⁻¹ in closed form).
+    fn of(f: FnKind, closed: bool) -> Option<Kind> {
+        match f {
+            FnKind::Invert if closed => Some(Kind::Invert),
+            FnKind::Outputs => Some(Kind::Outputs),
+            _ => None,
+        }
+    }
+}
+
+/// The batch methods of a model.
+#[derive(Default)]
+pub(super) struct Batch {
+    pub(super) methods: Vec<TokenStream>,
+    pub(super) uses_sign: bool,
+    /// Some method calls `pow_pos_slice`.
+    pub(super) uses_pow_slice: bool,
+    pub(super) invert: bool,
+    pub(super) outputs: bool,
+}
+
+impl Batch {
+    /// Does the model have any batch method?
+    pub(super) fn any(&self) -> bool {
+        self.invert || self.outputs
+    }
+}
+
+/// The batch methods over columns of points for the lowered functions `fns` that have one.
+pub(super) fn methods(g: &Gen<'_>, fns: &[Straight], k_names: &HashMap<usize, Ident>) -> Batch {
+    let mut out = Batch::default();
+    for f in fns {
+        let (Some(l), Some(kind)) = (&f.lowered, Kind::of(f.kind, g.closed)) else {
+            continue;
+        };
+        let atoms = Atoms::new(g, k_names);
+        let is_param = |v: Val| atoms.is_param(v);
+        let plan = Split::new(&l.arena, &l.roots, &is_param);
+        out.uses_pow_slice |= plan.has_powers();
+        let (tokens, sign) = method(g, f, l, &plan, kind, k_names);
+        out.uses_sign |= sign;
+        out.methods.push(tokens);
+        match kind {
+            Kind::Invert => out.invert = true,
+            Kind::Outputs => out.outputs = true,
+        }
+    }
+    out
+}
+
 /// The batch method for `f` (`invert` or `outputs`) and whether it calls `sign`.
-pub(super) fn method(
+fn method(
     g: &Gen<'_>,
     f: &Straight,
     l: &Lowered,
-    plan: &Plan,
+    plan: &Split,
     kind: Kind,
     k_names: &HashMap<usize, Ident>,
-    is_param: &dyn Fn(Val) -> bool,
 ) -> (TokenStream, bool) {
     let lit = proc_macro2::Literal::usize_unsuffixed;
     // Buffers: bases computed here (a base that is an input column or a buffer already is used as it is),
@@ -206,35 +263,13 @@ pub(super) fn method(
         .collect();
 
     let used_any: RefCell<HashSet<Symbol>> = RefCell::new(HashSet::new());
-    let uses_p = RefCell::new(false);
+    let uses_p = Cell::new(false);
     let mut uses_sign = false;
     let mut clamp_like = false;
     // One loop over the block: its statements, and the symbols it reads per point.
     let mut loop_body = |lv: usize| -> (TokenStream, HashSet<Symbol>) {
-        let used: RefCell<HashSet<Symbol>> = RefCell::new(HashSet::new());
-        let atom = |v: Val| -> Ex {
-            match v {
-                Val::Sym(s) if g.fields.contains_key(&s) => {
-                    *uses_p.borrow_mut() = true;
-                    let fld = &g.fields[&s].ident;
-                    Ex::atom(quote!(p.#fld))
-                }
-                Val::Sym(s) => {
-                    used.borrow_mut().insert(s);
-                    match g.locals.get(&s) {
-                        Some(id) => Ex::atom(id.to_token_stream()),
-                        None => Ex::Lit(f64::NAN),
-                    }
-                }
-                Val::Num(x) => Ex::Lit(x.to_f64()),
-                Val::Pi => Ex::Lit(std::f64::consts::PI),
-                Val::Inv(i) => {
-                    let k = &k_names[&i];
-                    Ex::atom(quote!(self.#k))
-                }
-                Val::Loc(_) => Ex::Lit(f64::NAN),
-            }
-        };
+        let atoms = Atoms::new(g, k_names);
+        let atom = |v: Val| atoms.ex(v);
         let given = |i: usize| -> Option<Ex> {
             if !plan.given(i, lv) {
                 return None;
@@ -299,7 +334,8 @@ pub(super) fn method(
                 })
                 .collect()
         };
-        let mut used = used.into_inner();
+        uses_p.set(uses_p.get() || atoms.uses_p());
+        let mut used = atoms.used();
         if last && kind == Kind::Invert {
             used.insert(g.d.yr);
         }
@@ -382,20 +418,9 @@ pub(super) fn method(
                     None => quote!(&[]),
                 },
             };
-            let exponent = match p.exponent {
-                Val::Num(q) => emit::float_tokens(q.to_f64(), false),
-                Val::Sym(s) if is_param(p.exponent) => {
-                    *uses_p.borrow_mut() = true;
-                    let fld = &g.fields[&s].ident;
-                    quote!(p.#fld)
-                }
-                Val::Inv(i) => {
-                    let k = &k_names[&i];
-                    quote!(self.#k)
-                }
-                Val::Pi => quote!(PI),
-                _ => quote!(f64::NAN),
-            };
+            let atoms = Atoms::new(g, k_names);
+            let exponent = atoms.tokens(p.exponent);
+            uses_p.set(uses_p.get() || atoms.uses_p());
             let j = lit(j);
             loops.extend(quote!(pow_pos_slice(#source, #exponent, &mut power[#j][..len]);));
         }
@@ -510,7 +535,7 @@ pub(super) fn method(
         scratch.extend(quote!(let mut kept = [[0.0; BLOCK]; #n];));
     }
     scratch.extend(buffers);
-    let p_let = if *uses_p.borrow() {
+    let p_let = if uses_p.get() {
         quote!(let p = &self.params;)
     } else {
         quote!()
@@ -566,7 +591,7 @@ mod tests {
     use invsim_expr::Pool;
 
     /// The plan of `src` with parameters `params` and the single input `v` (and `s`).
-    fn plan_of(src: &str, params: &[&str]) -> (Plan, Arena) {
+    fn plan_of(src: &str, params: &[&str]) -> (Split, Arena) {
         let mut pool = Pool::new();
         let e = pool.parse(src).unwrap();
         let ps: Vec<Symbol> = params.iter().map(|n| pool.symbol(n)).collect();
@@ -578,10 +603,10 @@ mod tests {
             Val::Num(_) | Val::Pi | Val::Inv(_) => true,
             Val::Loc(_) => false,
         };
-        (Plan::new(&l.arena, &l.roots, &is_param), l.arena)
+        (Split::new(&l.arena, &l.roots, &is_param), l.arena)
     }
 
-    fn levels(p: &Plan) -> Vec<usize> {
+    fn levels(p: &Split) -> Vec<usize> {
         p.pows.iter().map(|q| q.level).collect()
     }
 
