@@ -333,7 +333,15 @@ pub(crate) fn render_with(
         });
         let ex = match given(i) {
             Some(e) => e,
-            None => op_ex(arena.ops()[i], arena, &names, index, atom, given, &mut flags),
+            None => op_ex(
+                arena.ops()[i],
+                arena,
+                &names,
+                index,
+                atom,
+                given,
+                &mut flags,
+            ),
         };
         let t = ex.tokens(0);
         lets.push(quote!(let #name = #t;));

@@ -137,7 +137,6 @@ impl Func2 {
     }
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;

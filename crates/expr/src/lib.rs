@@ -24,9 +24,9 @@ pub mod tape;
 pub mod zero;
 
 pub use calculus::{pow_f64, ExpansionTooLarge, UnboundSymbol, EXPAND_TERM_LIMIT};
-pub use number::Number;
-pub use lower::{Lowered, Strategy};
 pub use func::{Func, Func2, FUNCTIONS, NON_SMOOTH_FUNCTIONS};
+pub use lower::{Lowered, Strategy};
+pub use number::Number;
 pub use parse::{parse, Ast, AstKind, BinOp, ParseError};
 pub use pool::{Id, Node, Pool, Symbol};
 pub use print::latex_symbol;

@@ -670,6 +670,9 @@ mod tests {
         let e = pool.parse("x + y").unwrap();
         let x = pool.symbol("x");
         let mut inv = Invariants::new(&pool, &[], Strategy::GENERATED);
-        assert_eq!(lower(&mut inv, &[e], &[x]).err(), Some(UnboundSymbol("y".into())));
+        assert_eq!(
+            lower(&mut inv, &[e], &[x]).err(),
+            Some(UnboundSymbol("y".into()))
+        );
     }
 }

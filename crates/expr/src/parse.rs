@@ -14,9 +14,9 @@
 //! Parsing produces an [`Ast`] (so callers can check names with their spans), which
 //! [`Pool::from_ast`] interns into canonical form.
 
+use crate::func::{Func, Func2, FUNCTIONS};
 use crate::number::Number;
 use crate::pool::{Id, Pool};
-use crate::func::{Func, Func2, FUNCTIONS};
 use std::ops::Range;
 use thiserror::Error;
 

@@ -13,8 +13,8 @@
 //!
 //! Nothing here expands products of sums, so expressions never blow up; see [`Pool::expand`] for that.
 
-use crate::number::Number;
 use crate::func::{Func, Func2};
+use crate::number::Number;
 use crate::rules::{FunctionRule, Rewrite, FUNCTION_RULES};
 use std::cmp::Ordering;
 use std::collections::HashMap;

@@ -66,7 +66,10 @@ impl<'a> Encoder<'a> {
         };
         // Constants in order of first use.
         let ops = inv.ops().iter().chain(lowered.arena.ops());
-        for v in ops.flat_map(|op| op.operands()).chain(lowered.roots.iter().copied()) {
+        for v in ops
+            .flat_map(|op| op.operands())
+            .chain(lowered.roots.iter().copied())
+        {
             let x = match v {
                 Val::Num(n) => n.to_f64(),
                 Val::Pi => std::f64::consts::PI,

@@ -237,116 +237,252 @@ fn method(
     kind: Kind,
     k_names: &HashMap<usize, Ident>,
 ) -> (TokenStream, bool) {
-    let lit = proc_macro2::Literal::usize_unsuffixed;
-    // Buffers: bases computed here (a base that is an input column or a buffer already is used as it is),
-    // powers, kept values.
-    let mut base_of: HashMap<Val, usize> = HashMap::new();
-    for l_ in 0..plan.loops.saturating_sub(1) {
-        for v in plan.roots(l_, &[]) {
-            if plan.kept.iter().all(|&(i, _)| Val::Loc(i) != v) {
-                let n = base_of.len();
-                base_of.entry(v).or_insert(n);
+    let k = Kernel::new(g, f, l, plan, kind, k_names);
+    let loops = k.loops();
+    let (params, slices) = k.columns();
+    let parts = k.parts();
+    let doc = k.doc(parts.doc);
+    let scratch = k.scratch(parts.buffers);
+    let p_let = if k.uses_p.get() {
+        quote!(let p = &self.params;)
+    } else {
+        quote!()
+    };
+    let allow_clamp = if k.clamp_like.get() {
+        quote!(#[allow(clippy::manual_clamp)])
+    } else {
+        quote!()
+    };
+    let (name, length, outputs_params, copies) =
+        (parts.name, parts.length, parts.outputs_params, parts.copies);
+    let tokens = quote! {
+        #doc
+        #allow_clamp
+        pub fn #name(&self, #(#params,)* #outputs_params) {
+            #p_let
+            #scratch
+            for start in (0..#length).step_by(BLOCK) {
+                let len = BLOCK.min(#length - start);
+                let end = start + len;
+                #slices
+                #loops
+                #copies
+            }
+        }
+    };
+    (tokens, k.uses_sign.get())
+}
+
+fn lit(i: usize) -> proc_macro2::Literal {
+    proc_macro2::Literal::usize_unsuffixed(i)
+}
+
+/// One batch method being written: the function, its loop split, its block buffers (bases computed here,
+/// powers, kept values, each by number) and what its code turned out to use.
+struct Kernel<'a> {
+    g: &'a Gen<'a>,
+    f: &'a Straight,
+    l: &'a Lowered,
+    plan: &'a Split,
+    kind: Kind,
+    k_names: &'a HashMap<usize, Ident>,
+    /// Bases computed here (a base that is an input column or a buffer already is used as it is).
+    base_of: HashMap<Val, usize>,
+    power_of: HashMap<usize, usize>,
+    kept_of: HashMap<usize, usize>,
+    used_any: RefCell<HashSet<Symbol>>,
+    uses_p: Cell<bool>,
+    uses_sign: Cell<bool>,
+    clamp_like: Cell<bool>,
+}
+
+/// What differs between `invert_batch` and `outputs_batch`.
+struct Parts {
+    length: TokenStream,
+    outputs_params: TokenStream,
+    buffers: TokenStream,
+    copies: TokenStream,
+    name: Ident,
+    doc: Vec<String>,
+}
+
+impl<'a> Kernel<'a> {
+    fn new(
+        g: &'a Gen<'a>,
+        f: &'a Straight,
+        l: &'a Lowered,
+        plan: &'a Split,
+        kind: Kind,
+        k_names: &'a HashMap<usize, Ident>,
+    ) -> Kernel<'a> {
+        let mut base_of: HashMap<Val, usize> = HashMap::new();
+        for l_ in 0..plan.loops.saturating_sub(1) {
+            for v in plan.roots(l_, &[]) {
+                if plan.kept.iter().all(|&(i, _)| Val::Loc(i) != v) {
+                    let n = base_of.len();
+                    base_of.entry(v).or_insert(n);
+                }
+            }
+        }
+        let power_of = plan
+            .pows
+            .iter()
+            .enumerate()
+            .map(|(j, p)| (p.op, j))
+            .collect();
+        let kept_of = plan
+            .kept
+            .iter()
+            .enumerate()
+            .map(|(j, &(i, _))| (i, j))
+            .collect();
+        Kernel {
+            g,
+            f,
+            l,
+            plan,
+            kind,
+            k_names,
+            base_of,
+            power_of,
+            kept_of,
+            used_any: RefCell::new(HashSet::new()),
+            uses_p: Cell::new(false),
+            uses_sign: Cell::new(false),
+            clamp_like: Cell::new(false),
+        }
+    }
+
+    /// Value `i` read from a block buffer in loop `lv`, if it is available there.
+    fn given(&self, i: usize, lv: usize) -> Option<Ex> {
+        if !self.plan.given(i, lv) {
+            return None;
+        }
+        Some(match (self.power_of.get(&i), self.kept_of.get(&i)) {
+            (Some(&j), _) => {
+                let j = lit(j);
+                Ex::atom(quote!(power[#j][k]))
+            }
+            (None, Some(&j)) => {
+                let j = lit(j);
+                Ex::atom(quote!(kept[#j][k]))
+            }
+            (None, None) => Ex::Lit(f64::NAN),
+        })
+    }
+
+    /// The loops with the powers between them.
+    fn loops(&self) -> TokenStream {
+        let mut loops = TokenStream::new();
+        for lv in 0..self.plan.loops {
+            loops.extend(self.loop_body(lv));
+            for (j, p) in self.plan.pows.iter().enumerate() {
+                if p.level == lv + 1 {
+                    loops.extend(self.power(j, p, lv));
+                }
+            }
+        }
+        loops
+    }
+
+    /// One loop over the block: per point, the inputs it reads, its `let`s and its stores.
+    fn loop_body(&self, lv: usize) -> TokenStream {
+        let atoms = Atoms::new(self.g, self.k_names);
+        let atom = |v: Val| atoms.ex(v);
+        let given = |i: usize| self.given(i, lv);
+        let last = lv + 1 == self.plan.loops;
+        let roots: Vec<Val> = if last {
+            self.l.roots.clone()
+        } else {
+            self.plan.roots(lv, &[])
+        };
+        let block = emit::render_with(
+            &self.l.arena,
+            &roots,
+            &loc,
+            &atom,
+            &given,
+            &HashMap::new(),
+            "t",
+        );
+        self.uses_sign.set(self.uses_sign.get() || block.uses_sign);
+        self.clamp_like
+            .set(self.clamp_like.get() || block.clamp_like);
+        let lets = &block.lets;
+        let stores = if last {
+            self.results(block.roots)
+        } else {
+            self.stores(&roots, &block.roots)
+        };
+        self.uses_p.set(self.uses_p.get() || atoms.uses_p());
+        let mut used = atoms.used();
+        if last && self.kind == Kind::Invert {
+            used.insert(self.g.d.yr);
+        }
+        let reads = self.reads(&used);
+        self.used_any.borrow_mut().extend(used.iter().copied());
+        // A loop with nothing to compute (every base is a column or a buffer already) is left out.
+        if stores.is_empty() {
+            return quote!();
+        }
+        quote! {
+            for k in 0..len {
+                #reads
+                #(#lets)*
+                #stores
             }
         }
     }
-    let power_of: HashMap<usize, usize> = plan
-        .pows
-        .iter()
-        .enumerate()
-        .map(|(j, p)| (p.op, j))
-        .collect();
-    let kept_of: HashMap<usize, usize> = plan
-        .kept
-        .iter()
-        .enumerate()
-        .map(|(j, &(i, _))| (i, j))
-        .collect();
 
-    let used_any: RefCell<HashSet<Symbol>> = RefCell::new(HashSet::new());
-    let uses_p = Cell::new(false);
-    let mut uses_sign = false;
-    let mut clamp_like = false;
-    // One loop over the block: its statements, and the symbols it reads per point.
-    let mut loop_body = |lv: usize| -> (TokenStream, HashSet<Symbol>) {
-        let atoms = Atoms::new(g, k_names);
-        let atom = |v: Val| atoms.ex(v);
-        let given = |i: usize| -> Option<Ex> {
-            if !plan.given(i, lv) {
-                return None;
+    /// The last loop's stores: the states and the input, or the outputs.
+    fn results(&self, items: Vec<Ex>) -> TokenStream {
+        match self.kind {
+            Kind::Invert => {
+                let (extra, xs, u) = invert_result(items, self.f.beta_recip);
+                let xs = xs.iter().enumerate().map(|(s, e)| {
+                    let (s, e) = (lit(s), e.tokens(0));
+                    quote!(states[#s][k] = #e;)
+                });
+                let u = u.tokens(0);
+                quote!(#extra #(#xs)* input[k] = #u;)
             }
-            Some(match (power_of.get(&i), kept_of.get(&i)) {
-                (Some(&j), _) => {
-                    let j = lit(j);
-                    Ex::atom(quote!(power[#j][k]))
-                }
-                (None, Some(&j)) => {
-                    let j = lit(j);
-                    Ex::atom(quote!(kept[#j][k]))
-                }
-                (None, None) => Ex::Lit(f64::NAN),
-            })
-        };
-        let last = lv + 1 == plan.loops;
-        let roots: Vec<Val> = if last {
-            l.roots.clone()
-        } else {
-            plan.roots(lv, &[])
-        };
-        let block = emit::render_with(&l.arena, &roots, &loc, &atom, &given, &HashMap::new(), "t");
-        uses_sign |= block.uses_sign;
-        clamp_like |= block.clamp_like;
-        let lets = &block.lets;
-        let stores: TokenStream = if last {
-            match kind {
-                Kind::Invert => {
-                    let (extra, xs, u) = invert_result(block.roots.clone(), f.beta_recip);
-                    let xs = xs.iter().enumerate().map(|(s, e)| {
-                        let (s, e) = (lit(s), e.tokens(0));
-                        quote!(states[#s][k] = #e;)
-                    });
-                    let u = u.tokens(0);
-                    quote!(#extra #(#xs)* input[k] = #u;)
-                }
-                Kind::Outputs => {
-                    let outs = block.roots.iter().enumerate().map(|(o, e)| {
-                        let (o, e) = (lit(o), e.tokens(0));
-                        quote!(values[#o][k] = #e;)
-                    });
-                    quote!(#(#outs)*)
-                }
+            Kind::Outputs => {
+                let outs = items.iter().enumerate().map(|(o, e)| {
+                    let (o, e) = (lit(o), e.tokens(0));
+                    quote!(values[#o][k] = #e;)
+                });
+                quote!(#(#outs)*)
             }
-        } else {
-            roots
-                .iter()
-                .zip(&block.roots)
-                .map(|(v, e)| {
-                    let e = e.tokens(0);
-                    match loc(*v).and_then(|i| kept_of.get(&i)) {
-                        Some(&j) => {
-                            let j = lit(j);
-                            quote!(kept[#j][k] = #e;)
-                        }
-                        None => {
-                            let j = lit(base_of[v]);
-                            quote!(base[#j][k] = #e;)
-                        }
-                    }
-                })
-                .collect()
-        };
-        uses_p.set(uses_p.get() || atoms.uses_p());
-        let mut used = atoms.used();
-        if last && kind == Kind::Invert {
-            used.insert(g.d.yr);
         }
-        // Per point: the inputs it reads, from the block's columns.
-        let mut reads = TokenStream::new();
-        for a in f
-            .args
+    }
+
+    /// An earlier loop's stores: the next level's bases and the values kept for later loops.
+    fn stores(&self, roots: &[Val], items: &[Ex]) -> TokenStream {
+        roots
             .iter()
-            .cloned()
-            .chain((kind == Kind::Invert).then_some(Arg::Scalar(g.d.yr)))
-        {
+            .zip(items)
+            .map(|(v, e)| {
+                let e = e.tokens(0);
+                match loc(*v).and_then(|i| self.kept_of.get(&i)) {
+                    Some(&j) => {
+                        let j = lit(j);
+                        quote!(kept[#j][k] = #e;)
+                    }
+                    None => {
+                        let j = lit(self.base_of.get(v).copied().unwrap_or(0));
+                        quote!(base[#j][k] = #e;)
+                    }
+                }
+            })
+            .collect()
+    }
+
+    /// Per point: the inputs it reads, from the block's columns.
+    fn reads(&self, used: &HashSet<Symbol>) -> TokenStream {
+        let g = self.g;
+        let mut reads = TokenStream::new();
+        let yr = (self.kind == Kind::Invert).then_some(Arg::Scalar(g.d.yr));
+        for a in self.f.args.iter().cloned().chain(yr) {
             match a {
                 Arg::Array { name, syms, .. } => {
                     if syms.iter().any(|s| used.contains(s)) {
@@ -369,198 +505,167 @@ fn method(
                 }
             }
         }
-        used_any.borrow_mut().extend(used.iter().copied());
-        // A loop with nothing to compute (every base is a column or a buffer already) is left out.
-        let body = if stores.is_empty() {
-            quote!()
-        } else {
-            quote! {
-                for k in 0..len {
-                    #reads
-                    #(#lets)*
-                    #stores
-                }
+        reads
+    }
+
+    /// `pow_pos_slice` for power `j` after loop `lv`.
+    fn power(&self, j: usize, p: &SlicePow, lv: usize) -> TokenStream {
+        let source = match p.base {
+            Val::Sym(s) => match column_of(self.g, self.f, s) {
+                Some(c) => c,
+                None => quote!(&[]),
+            },
+            // A power taken before, or a value kept by this loop or an earlier one: its buffer.
+            Val::Loc(i) if self.power_of.contains_key(&i) && self.plan.given(i, lv) => {
+                let m = lit(self.power_of[&i]);
+                quote!(&power[#m][..len])
             }
+            Val::Loc(i) if self.kept_of.contains_key(&i) => {
+                let m = lit(self.kept_of[&i]);
+                quote!(&kept[#m][..len])
+            }
+            v => match self.base_of.get(&v) {
+                Some(&b) => {
+                    let b = lit(b);
+                    quote!(&base[#b][..len])
+                }
+                None => quote!(&[]),
+            },
         };
-        (body, used)
-    };
+        let atoms = Atoms::new(self.g, self.k_names);
+        let exponent = atoms.tokens(p.exponent);
+        self.uses_p.set(self.uses_p.get() || atoms.uses_p());
+        let j = lit(j);
+        quote!(pow_pos_slice(#source, #exponent, &mut power[#j][..len]);)
+    }
 
-    // The loops with the powers between them.
-    let mut loops = TokenStream::new();
-    for lv in 0..plan.loops {
-        let (body, _) = loop_body(lv);
-        loops.extend(body);
-        for (j, p) in plan
-            .pows
-            .iter()
-            .enumerate()
-            .filter(|(_, p)| p.level == lv + 1)
-        {
-            let source = match p.base {
-                Val::Sym(s) => match column_of(g, f, s) {
-                    Some(c) => c,
-                    None => quote!(&[]),
-                },
-                // A power taken before, or a value kept by this loop or an earlier one: its buffer.
-                Val::Loc(i) if power_of.contains_key(&i) && plan.given(i, lv) => {
-                    let m = lit(power_of[&i]);
-                    quote!(&power[#m][..len])
-                }
-                Val::Loc(i) if kept_of.contains_key(&i) => {
-                    let m = lit(kept_of[&i]);
-                    quote!(&kept[#m][..len])
-                }
-                v => match base_of.get(&v) {
-                    Some(&b) => {
-                        let b = lit(b);
-                        quote!(&base[#b][..len])
+    /// The column arguments and the block's slices of them (after the loops, which record what is read).
+    fn columns(&self) -> (Vec<TokenStream>, TokenStream) {
+        let used_any = self.used_any.borrow();
+        let pows = &self.plan.pows;
+        let mut params = Vec::new();
+        let mut slices = TokenStream::new();
+        for a in &self.f.args {
+            match a {
+                Arg::Array { name, len, syms } => {
+                    let len_id = format_ident!("{}", len);
+                    let any = syms.iter().any(|s| used_any.contains(s))
+                        || pows
+                            .iter()
+                            .any(|p| matches!(p.base, Val::Sym(s) if syms.contains(&s)));
+                    let id = format_ident!("{}", name);
+                    if any {
+                        params.push(quote!(#id: [&[f64]; #len_id]));
+                        slices.extend(quote!(let #id = #id.map(|c| &c[start..end]);));
+                    } else {
+                        let unused = format_ident!("_{}", name);
+                        params.push(quote!(#unused: [&[f64]; #len_id]));
                     }
-                    None => quote!(&[]),
-                },
-            };
-            let atoms = Atoms::new(g, k_names);
-            let exponent = atoms.tokens(p.exponent);
-            uses_p.set(uses_p.get() || atoms.uses_p());
-            let j = lit(j);
-            loops.extend(quote!(pow_pos_slice(#source, #exponent, &mut power[#j][..len]);));
-        }
-    }
-    let used_any = used_any.into_inner();
-
-    // Column arguments and the block's slices of them.
-    let mut params = Vec::new();
-    let mut slices = TokenStream::new();
-    for a in &f.args {
-        match a {
-            Arg::Array { name, len, syms } => {
-                let len_id = format_ident!("{}", len);
-                let any = syms.iter().any(|s| used_any.contains(s))
-                    || plan
-                        .pows
-                        .iter()
-                        .any(|p| matches!(p.base, Val::Sym(s) if syms.contains(&s)));
-                let id = format_ident!("{}", name);
-                if any {
-                    params.push(quote!(#id: [&[f64]; #len_id]));
-                    slices.extend(quote!(let #id = #id.map(|c| &c[start..end]);));
-                } else {
-                    let unused = format_ident!("_{}", name);
-                    params.push(quote!(#unused: [&[f64]; #len_id]));
                 }
-            }
-            Arg::Scalar(s) => {
-                // Named even when no point reads it: its length is the number of points.
-                let id = &g.locals[s];
-                params.push(quote!(#id: &[f64]));
-                let base = plan.pows.iter().any(|p| p.base == Val::Sym(*s));
-                if used_any.contains(s) || base {
-                    slices.extend(quote!(let #id = &#id[start..end];));
+                Arg::Scalar(s) => {
+                    // Named even when no point reads it: its length is the number of points.
+                    let id = &self.g.locals[s];
+                    params.push(quote!(#id: &[f64]));
+                    let base = pows.iter().any(|p| p.base == Val::Sym(*s));
+                    if used_any.contains(s) || base {
+                        slices.extend(quote!(let #id = &#id[start..end];));
+                    }
                 }
             }
         }
-    }
-    let (length, outputs_params, buffers, copies, name, doc) = match kind {
-        Kind::Invert => {
+        if self.kind == Kind::Invert {
             params.push(quote!(yr: &[f64]));
             slices.extend(quote!(let yr = &yr[start..end];));
-            (
-                quote!(yr.len()),
-                quote!(mut x: [&mut [f64]; N], u: &mut [f64]),
-                quote!(let mut states = [[0.0; BLOCK]; N]; let mut input = [0.0; BLOCK];),
-                quote! {
+        }
+        (params, slices)
+    }
+
+    /// The input column whose length is the number of points.
+    fn length_column(&self) -> String {
+        match self.kind {
+            Kind::Invert => "yr".to_string(),
+            Kind::Outputs => self.g.locals[&self.g.d.model.input.symbol].to_string(),
+        }
+    }
+
+    fn parts(&self) -> Parts {
+        match self.kind {
+            Kind::Invert => Parts {
+                length: quote!(yr.len()),
+                outputs_params: quote!(mut x: [&mut [f64]; N], u: &mut [f64]),
+                buffers: quote!(let mut states = [[0.0; BLOCK]; N]; let mut input = [0.0; BLOCK];),
+                copies: quote! {
                     for (column, buffer) in x.iter_mut().zip(&states) {
                         column[start..end].copy_from_slice(&buffer[..len]);
                     }
                     u[start..end].copy_from_slice(&input[..len]);
                 },
-                format_ident!("invert_batch"),
-                vec![
+                name: format_ident!("invert_batch"),
+                doc: vec![
                     "[`Precomputed::invert`] at many points, stored column-wise: ξ_i at point k is `xi[i][k]`, η_j \
                      is `eta[j][k]`, y^(r) is `yr[k]`; x_s is written to `x[s][k]` and u to `u[k]`."
                         .to_string(),
                 ],
-            )
-        }
-        Kind::Outputs => {
-            let u = &g.locals[&g.d.model.input.symbol];
-            (
-                quote!(#u.len()),
-                quote!(mut out: [&mut [f64]; N_OUTPUTS]),
-                quote!(let mut values = [[0.0; BLOCK]; N_OUTPUTS];),
-                quote! {
-                    for (column, buffer) in out.iter_mut().zip(&values) {
-                        column[start..end].copy_from_slice(&buffer[..len]);
-                    }
-                },
-                format_ident!("outputs_batch"),
-                vec![format!(
-                    "[`Precomputed::outputs`] at many points, stored column-wise: x_s at point k is `x[s][k]`, \
-                     the input `{u}[k]`; output o is written to `out[o][k]`."
-                )],
-            )
-        }
-    };
-    let mut doc = doc;
-    doc.push(String::new());
-    doc.push(if plan.has_powers() {
-        "Block by block ([`BLOCK`] points): the fractional powers of a block at once, by [`pow_pos_slice`] \
-         (within 1 ulp of `powf`), everything else point by point in loops that vectorise."
-            .to_string()
-    } else {
-        "Block by block ([`BLOCK`] points), point by point in loops that vectorise.".to_string()
-    });
-    doc.push(String::new());
-    doc.push("# Panics".to_string());
-    doc.push(String::new());
-    doc.push(format!(
-        "If a column is shorter than `{}`.",
-        match kind {
-            Kind::Invert => "yr".to_string(),
-            Kind::Outputs => g.locals[&g.d.model.input.symbol].to_string(),
-        }
-    ));
-    let doc = doc_attrs(&doc);
-    let count = |n: usize| lit(n);
-    let mut scratch = TokenStream::new();
-    if !base_of.is_empty() {
-        let n = count(base_of.len());
-        scratch.extend(quote!(let mut base = [[0.0; BLOCK]; #n];));
-    }
-    if !plan.pows.is_empty() {
-        let n = count(plan.pows.len());
-        scratch.extend(quote!(let mut power = [[0.0; BLOCK]; #n];));
-    }
-    if !plan.kept.is_empty() {
-        let n = count(plan.kept.len());
-        scratch.extend(quote!(let mut kept = [[0.0; BLOCK]; #n];));
-    }
-    scratch.extend(buffers);
-    let p_let = if uses_p.get() {
-        quote!(let p = &self.params;)
-    } else {
-        quote!()
-    };
-    let allow_clamp = if clamp_like {
-        quote!(#[allow(clippy::manual_clamp)])
-    } else {
-        quote!()
-    };
-    let tokens = quote! {
-        #doc
-        #allow_clamp
-        pub fn #name(&self, #(#params,)* #outputs_params) {
-            #p_let
-            #scratch
-            for start in (0..#length).step_by(BLOCK) {
-                let len = BLOCK.min(#length - start);
-                let end = start + len;
-                #slices
-                #loops
-                #copies
+            },
+            Kind::Outputs => {
+                let u = &self.g.locals[&self.g.d.model.input.symbol];
+                Parts {
+                    length: quote!(#u.len()),
+                    outputs_params: quote!(mut out: [&mut [f64]; N_OUTPUTS]),
+                    buffers: quote!(let mut values = [[0.0; BLOCK]; N_OUTPUTS];),
+                    copies: quote! {
+                        for (column, buffer) in out.iter_mut().zip(&values) {
+                            column[start..end].copy_from_slice(&buffer[..len]);
+                        }
+                    },
+                    name: format_ident!("outputs_batch"),
+                    doc: vec![format!(
+                        "[`Precomputed::outputs`] at many points, stored column-wise: x_s at point k is `x[s][k]`, \
+                         the input `{u}[k]`; output o is written to `out[o][k]`."
+                    )],
+                }
             }
         }
-    };
-    (tokens, uses_sign)
+    }
+
+    /// The method's documentation, from its first paragraph.
+    fn doc(&self, mut doc: Vec<String>) -> TokenStream {
+        doc.push(String::new());
+        doc.push(if self.plan.has_powers() {
+            "Block by block ([`BLOCK`] points): the fractional powers of a block at once, by [`pow_pos_slice`] \
+             (within 1 ulp of `powf`), everything else point by point in loops that vectorise."
+                .to_string()
+        } else {
+            "Block by block ([`BLOCK`] points), point by point in loops that vectorise.".to_string()
+        });
+        doc.push(String::new());
+        doc.push("# Panics".to_string());
+        doc.push(String::new());
+        doc.push(format!(
+            "If a column is shorter than `{}`.",
+            self.length_column()
+        ));
+        doc_attrs(&doc)
+    }
+
+    /// The block buffers on the stack.
+    fn scratch(&self, buffers: TokenStream) -> TokenStream {
+        let mut scratch = TokenStream::new();
+        if !self.base_of.is_empty() {
+            let n = lit(self.base_of.len());
+            scratch.extend(quote!(let mut base = [[0.0; BLOCK]; #n];));
+        }
+        if !self.plan.pows.is_empty() {
+            let n = lit(self.plan.pows.len());
+            scratch.extend(quote!(let mut power = [[0.0; BLOCK]; #n];));
+        }
+        if !self.plan.kept.is_empty() {
+            let n = lit(self.plan.kept.len());
+            scratch.extend(quote!(let mut kept = [[0.0; BLOCK]; #n];));
+        }
+        scratch.extend(buffers);
+        scratch
+    }
 }
 
 /// The block's column of input symbol `s` (a `&[f64]` expression), if `f` takes it.

@@ -18,11 +18,7 @@ pub(super) fn functions(g: &Gen<'_>) -> Vec<Straight> {
         format!("The tracked output y = h(x) (`{}`).", m.output.name),
         String::new(),
     ];
-    doc.extend(equations(
-        g,
-        &[("y".into(), "y".into())],
-        &[m.output.h],
-    ));
+    doc.extend(equations(g, &[("y".into(), "y".into())], &[m.output.h]));
     let mut fs = vec![Straight::new(
         FnKind::H,
         vec![g.x_arg()],
@@ -99,7 +95,11 @@ fn closed(g: &Gen<'_>, lhs: &Lhs) -> Vec<Straight> {
         "α(ξ, η) = L_f^r h ∘ ψ⁻¹, the drift term of y^(r) = α(ξ, η) + β(ξ, η)·u.".to_string(),
         String::new(),
     ];
-    doc.extend(equations(g, &[("alpha".into(), "\\alpha".into())], &[d.alpha]));
+    doc.extend(equations(
+        g,
+        &[("alpha".into(), "\\alpha".into())],
+        &[d.alpha],
+    ));
     fs.push(Straight::new(
         FnKind::Alpha,
         xi_eta(),
@@ -186,7 +186,8 @@ fn numeric(g: &Gen<'_>, lhs: &Lhs) -> Vec<Straight> {
         }
     }
     let mut doc = vec![
-        "ψ(x) and its Jacobian ∂ψ/∂x (row i = ∂ψ_i/∂x), for Newton's method on ψ(x) = (ξ, η).".to_string(),
+        "ψ(x) and its Jacobian ∂ψ/∂x (row i = ∂ψ_i/∂x), for Newton's method on ψ(x) = (ξ, η)."
+            .to_string(),
         String::new(),
     ];
     doc.extend(equations(g, &eq_lhs, &roots));
@@ -201,7 +202,11 @@ fn numeric(g: &Gen<'_>, lhs: &Lhs) -> Vec<Straight> {
         doc,
     )];
     let mut doc = vec!["α in the states: L_f^r h(x).".to_string(), String::new()];
-    doc.extend(equations(g, &[("alpha".into(), "\\alpha".into())], &[d.alpha_x]));
+    doc.extend(equations(
+        g,
+        &[("alpha".into(), "\\alpha".into())],
+        &[d.alpha_x],
+    ));
     fs.push(Straight::new(
         FnKind::AlphaX,
         vec![g.x_arg()],

@@ -72,9 +72,6 @@ pub(super) fn constants(g: &Gen<'_>, source_name: &str, batch: bool) -> TokenStr
 /// `Params`, its `Default` and its methods.
 pub(super) fn params(g: &Gen<'_>) -> TokenStream {
     let m = &g.d.model;
-    let np = m.parameters.len();
-    let lit = proc_macro2::Literal::usize_unsuffixed;
-    let param_names: Vec<&str> = m.parameters.iter().map(|p| p.name.as_str()).collect();
     let field_defs: Vec<TokenStream> = m
         .parameters
         .iter()
@@ -130,8 +127,43 @@ pub(super) fn params(g: &Gen<'_>) -> TokenStream {
             },
         )
     };
+    let (get_fn, set_fn, from_array_fn) = accessors(g);
+    quote! {
+        /// The model's parameters; [`Default`] gives the model file's values.
+        #[derive(Debug, Clone, Copy, PartialEq, #derive_default serde::Serialize, serde::Deserialize)]
+        #[serde(default, deny_unknown_fields)]
+        pub struct Params {
+            #(#field_defs)*
+        }
+
+        #default_impl
+
+        impl Params {
+            /// The values in [`PARAMETERS`] order.
+            pub fn to_array(&self) -> [f64; N_PARAMS] {
+                [#(self.#field_ids),*]
+            }
+            #from_array_fn
+            #get_fn
+            #set_fn
+        }
+
+    }
+}
+
+/// `get`, `set` and `from_array` of `Params`.
+fn accessors(g: &Gen<'_>) -> (TokenStream, TokenStream, TokenStream) {
+    let m = &g.d.model;
+    let np = m.parameters.len();
+    let lit = proc_macro2::Literal::usize_unsuffixed;
+    let param_names: Vec<&str> = m.parameters.iter().map(|p| p.name.as_str()).collect();
+    let field_ids: Vec<&Ident> = m
+        .parameters
+        .iter()
+        .map(|p| &g.fields[&p.symbol].ident)
+        .collect();
     let idx: Vec<proc_macro2::Literal> = (0..np).map(lit).collect();
-    let (get_fn, set_fn, from_array_fn) = if np == 0 {
+    if np == 0 {
         (
             quote! {
                 /// The value of the parameter called `name` (this model has none).
@@ -191,26 +223,5 @@ pub(super) fn params(g: &Gen<'_>) -> TokenStream {
                 }
             },
         )
-    };
-    quote! {
-        /// The model's parameters; [`Default`] gives the model file's values.
-        #[derive(Debug, Clone, Copy, PartialEq, #derive_default serde::Serialize, serde::Deserialize)]
-        #[serde(default, deny_unknown_fields)]
-        pub struct Params {
-            #(#field_defs)*
-        }
-
-        #default_impl
-
-        impl Params {
-            /// The values in [`PARAMETERS`] order.
-            pub fn to_array(&self) -> [f64; N_PARAMS] {
-                [#(self.#field_ids),*]
-            }
-            #from_array_fn
-            #get_fn
-            #set_fn
-        }
-
     }
 }

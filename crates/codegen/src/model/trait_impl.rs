@@ -12,77 +12,13 @@ pub(super) fn model(g: &Gen<'_>, invert_batch: bool) -> TokenStream {
     let m = &g.d.model;
     let ne = g.d.eta.len();
     let has_outputs = !m.outputs.is_empty();
-    let outputs_impl = if has_outputs {
-        quote! {
-            fn outputs(&self, x: &[f64], u: f64, out: &mut [f64]) {
-                out.copy_from_slice(&self.pre.outputs(arr(x), u));
-            }
-            /// The outputs over columns, block by block ([`Precomputed::outputs_batch`]).
-            fn outputs_batch(&self, x: &[&[f64]], u: &[f64], out: &mut [&mut [f64]]) {
-                self.pre.outputs_batch(cols(x), u, cols_mut(out));
-            }
-        }
-    } else {
-        quote! {
-            fn outputs(&self, _x: &[f64], _u: f64, _out: &mut [f64]) {}
-            fn outputs_batch(&self, _x: &[&[f64]], _u: &[f64], _out: &mut [&mut [f64]]) {}
-        }
-    };
-    let invert_batch_impl = if invert_batch {
-        quote! {
-            /// ψ⁻¹, α and β over columns, block by block ([`Precomputed::invert_batch`]).
-            fn invert_batch(
-                &self,
-                xi: &[&[f64]],
-                eta: &[&[f64]],
-                yr: &[f64],
-                x: &mut [&mut [f64]],
-                u: &mut [f64],
-            ) -> Result<(), (usize, ModelError)> {
-                self.pre.invert_batch(cols(xi), cols(eta), yr, cols_mut(x), u);
-                Ok(())
-            }
-        }
-    } else {
-        quote!()
-    };
-    let (psi_inv_impl, alpha_impl, beta_impl, zero_impl, invert_impl) = if g.closed {
-        closed(ne)
-    } else {
-        numeric(ne)
-    };
-    let outputs_info: Vec<TokenStream> = m
-        .outputs
-        .iter()
-        .map(|o| {
-            let (name, unit, acc) = (&o.name, opt_string(&o.unit), o.accumulate);
-            quote!(OutputInfo { name: #name.to_string(), unit: #unit, accumulate: #acc })
-        })
-        .collect();
-    let outputs_vec = if outputs_info.is_empty() {
-        quote!(Vec::new())
-    } else {
-        quote!(Vec::from([#(#outputs_info),*]))
-    };
-    let (input_min, input_max) = (opt_f64(m.input.min), opt_f64(m.input.max));
+    let outputs_impl = outputs_impl(has_outputs);
+    let invert_batch_impl = invert_batch_impl(invert_batch);
+    let (psi_inv_impl, alpha_impl, beta_impl, zero_impl, invert_impl) =
+        if g.closed { closed(ne) } else { numeric(ne) };
+    let model_info = model_info(g);
     quote! {
-        /// The model's static description (names, sizes, bounds), as the interpreter reports it.
-        pub fn model_info() -> ModelInfo {
-            ModelInfo {
-                name: NAME.to_string(),
-                source_hash: Some(SOURCE_HASH.to_string()),
-                states: STATES.iter().map(|s| s.to_string()).collect(),
-                input: INPUT.to_string(),
-                output: OUTPUT.to_string(),
-                relative_degree: R,
-                n_eta: N_ETA,
-                input_min: #input_min,
-                input_max: #input_max,
-                outputs: #outputs_vec,
-                parameters: PARAMETERS.iter().map(|s| s.to_string()).collect(),
-            }
-        }
-
+        #model_info
         /// The compiled model behind the runtime's [`InverseModel`] trait.
         #[derive(Debug, Clone)]
         pub struct Model {
@@ -182,7 +118,13 @@ pub(super) fn column_helpers() -> TokenStream {
 }
 
 /// `psi_inv`, `alpha`, `beta`, `zero_dynamics` and `invert` of the trait impl.
-type Impls = (TokenStream, TokenStream, TokenStream, TokenStream, TokenStream);
+type Impls = (
+    TokenStream,
+    TokenStream,
+    TokenStream,
+    TokenStream,
+    TokenStream,
+);
 
 /// The trait's functions for a closed-form ψ⁻¹.
 fn closed(ne: usize) -> Impls {
@@ -287,5 +229,85 @@ fn opt_string(v: &Option<String>) -> TokenStream {
     match v {
         Some(s) => quote!(Some(#s.to_string())),
         None => quote!(None),
+    }
+}
+
+/// The trait's `outputs` and `outputs_batch`.
+fn outputs_impl(has_outputs: bool) -> TokenStream {
+    if has_outputs {
+        quote! {
+            fn outputs(&self, x: &[f64], u: f64, out: &mut [f64]) {
+                out.copy_from_slice(&self.pre.outputs(arr(x), u));
+            }
+            /// The outputs over columns, block by block ([`Precomputed::outputs_batch`]).
+            fn outputs_batch(&self, x: &[&[f64]], u: &[f64], out: &mut [&mut [f64]]) {
+                self.pre.outputs_batch(cols(x), u, cols_mut(out));
+            }
+        }
+    } else {
+        quote! {
+            fn outputs(&self, _x: &[f64], _u: f64, _out: &mut [f64]) {}
+            fn outputs_batch(&self, _x: &[&[f64]], _u: &[f64], _out: &mut [&mut [f64]]) {}
+        }
+    }
+}
+
+/// The trait's `invert_batch`, when the model has `Precomputed::invert_batch`.
+fn invert_batch_impl(invert_batch: bool) -> TokenStream {
+    if invert_batch {
+        quote! {
+            /// ψ⁻¹, α and β over columns, block by block ([`Precomputed::invert_batch`]).
+            fn invert_batch(
+                &self,
+                xi: &[&[f64]],
+                eta: &[&[f64]],
+                yr: &[f64],
+                x: &mut [&mut [f64]],
+                u: &mut [f64],
+            ) -> Result<(), (usize, ModelError)> {
+                self.pre.invert_batch(cols(xi), cols(eta), yr, cols_mut(x), u);
+                Ok(())
+            }
+        }
+    } else {
+        quote!()
+    }
+}
+
+/// `model_info()`: the static description (names, sizes, bounds).
+fn model_info(g: &Gen<'_>) -> TokenStream {
+    let m = &g.d.model;
+    let outputs_info: Vec<TokenStream> = m
+        .outputs
+        .iter()
+        .map(|o| {
+            let (name, unit, acc) = (&o.name, opt_string(&o.unit), o.accumulate);
+            quote!(OutputInfo { name: #name.to_string(), unit: #unit, accumulate: #acc })
+        })
+        .collect();
+    let outputs_vec = if outputs_info.is_empty() {
+        quote!(Vec::new())
+    } else {
+        quote!(Vec::from([#(#outputs_info),*]))
+    };
+    let (input_min, input_max) = (opt_f64(m.input.min), opt_f64(m.input.max));
+    quote! {
+        /// The model's static description (names, sizes, bounds), as the interpreter reports it.
+        pub fn model_info() -> ModelInfo {
+            ModelInfo {
+                name: NAME.to_string(),
+                source_hash: Some(SOURCE_HASH.to_string()),
+                states: STATES.iter().map(|s| s.to_string()).collect(),
+                input: INPUT.to_string(),
+                output: OUTPUT.to_string(),
+                relative_degree: R,
+                n_eta: N_ETA,
+                input_min: #input_min,
+                input_max: #input_max,
+                outputs: #outputs_vec,
+                parameters: PARAMETERS.iter().map(|s| s.to_string()).collect(),
+            }
+        }
+
     }
 }
