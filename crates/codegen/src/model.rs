@@ -22,8 +22,8 @@ mod newton;
 mod params;
 mod trait_impl;
 
+use crate::error::CodegenError;
 use crate::names;
-use crate::CodegenError;
 use context::Gen;
 use invsim_inversion::Derivation;
 use proc_macro2::TokenStream;

@@ -6,7 +6,7 @@ use super::atoms::Atoms;
 use super::context::{arg_syms, invert_result, Arg, FnKind, Gen, Straight};
 use super::docs::doc_attrs;
 use crate::emit;
-use crate::CodegenError;
+use crate::error::CodegenError;
 use invsim_expr::lower::{self, Arena, Invariants, Lowered, Op, Strategy, Val};
 use invsim_expr::{Id, Pool, Symbol};
 use proc_macro2::{Ident, TokenStream};
