@@ -692,10 +692,10 @@ fn column_of(g: &Gen<'_>, f: &Straight, s: Symbol) -> Option<TokenStream> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use invsim_expr::lower::{self, Invariants};
+    use invsim_expr::lower::{self, Invariants, Strategy};
     use invsim_expr::Pool;
 
-    /// The plan of `src` with parameters `params` and the single input `v` (and `s`).
+    /// The loop split of `src` with parameters `params` and the single input `v` (and `s`).
     fn plan_of(src: &str, params: &[&str]) -> (Split, Arena) {
         let mut pool = Pool::new();
         let e = pool.parse(src).unwrap();
