@@ -61,7 +61,8 @@ pub enum Op {
 }
 
 impl Op {
-    /// Operands, with multiplicity (`Powi(v, 2)` is printed `v * v` and uses `v` twice).
+    /// Operands, with multiplicity as straight-line code uses them (`Powi(v, 2)` is the product `v * v`,
+    /// which uses `v` twice; `Powi(v, 3)` three times).
     pub fn operands(&self) -> Vec<Val> {
         match *self {
             Op::Add(a, b)
@@ -109,7 +110,7 @@ impl Arena {
 
 /// A symbol the lowering may meet: a parameter (invariant) or a per-point input.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
-pub enum SymKind {
+enum SymKind {
     Param,
     Varying,
 }
@@ -184,7 +185,9 @@ impl<'p> Invariants<'p> {
     }
 }
 
-/// One function's lowering: its arena, its inputs and the roots it computes.
+/// One function's lowering: its arena and the values of its roots (operations of either arena, symbols or
+/// constants).
+#[derive(Debug, Clone)]
 pub struct Lowered {
     pub arena: Arena,
     pub roots: Vec<Val>,
@@ -261,7 +264,8 @@ fn shared_roots(min_power: &HashMap<(Id, Number), Number>) -> HashMap<(Id, Numbe
     out
 }
 
-/// Lower `roots`, whose free symbols must be parameters or `inputs`.
+/// Lower `roots`, whose free symbols must be parameters of `inv` or `inputs`; parameter-only operations go
+/// to `inv`'s arena when its strategy hoists them.
 pub fn lower(
     inv: &mut Invariants<'_>,
     roots: &[Id],
@@ -624,6 +628,29 @@ mod tests {
         // a + b - x + c: (a + b + c) - x.
         let (inv, loc) = lower_src(&["a + b - x + c"], &["a", "b", "c"], &["x"]);
         assert_eq!((inv, loc), (2, 1));
+    }
+
+    #[test]
+    fn the_tape_strategy_hoists_nothing_and_keeps_canonical_order() {
+        let mut pool = Pool::new();
+        let e = pool.parse("a*b*x/(c*d)").unwrap();
+        let w = pool.parse("v^0.1 + v^0.9").unwrap();
+        let ps: Vec<Symbol> = ["a", "b", "c", "d"]
+            .iter()
+            .map(|n| pool.symbol(n))
+            .collect();
+        let (x, v) = (pool.symbol("x"), pool.symbol("v"));
+        let mut inv = Invariants::new(&pool, &ps, Strategy::TAPE);
+        let l = lower(&mut inv, &[e, w], &[x, v]).unwrap();
+        assert!(inv.arena().ops().is_empty());
+        // a·b·x first (canonical order), then the division by c·d.
+        let ops = l.arena.ops();
+        let (a, b) = (Val::Sym(ps[0]), Val::Sym(ps[1]));
+        assert_eq!(ops[0], Op::Mul(a, b));
+        assert_eq!(ops[1], Op::Mul(Val::Loc(0), Val::Sym(x)));
+        // Two powf: no shared root without the strategy.
+        let powf = ops.iter().filter(|o| matches!(o, Op::Powf(..))).count();
+        assert_eq!(powf, 2);
     }
 
     #[test]
