@@ -10,7 +10,8 @@
 //! // src/lib.rs: include!(concat!(env!("OUT_DIR"), "/<model name>.rs"));
 //! ```
 
-use crate::{generate, source_name, CodegenError, Error};
+use crate::error::{CodegenError, Error};
+use crate::generate::{generate, source_name};
 use proc_macro2::TokenStream;
 use quote::{format_ident, quote};
 use std::path::{Path, PathBuf};
@@ -100,7 +101,7 @@ impl Builder {
                 println!("cargo:rerun-if-changed={}", path.display());
             }
             let d = invsim_inversion::derive_file(path)?;
-            let module = crate::module_name(&d.model.name);
+            let module = crate::names::module_name(&d.model.name);
             if let Some(first) = done.iter().find(|g| g.module == module) {
                 return Err(Error::DuplicateModule {
                     module,

@@ -8,7 +8,7 @@
 //! Parentheses follow Rust's precedence with floating-point evaluation order preserved: `a - (b - c)` keeps
 //! its parentheses (floating-point `−` is not associative), `a - b - c` needs none.
 
-use crate::lower::{Arena, Op, Val};
+use invsim_expr::lower::{Arena, Op, Val};
 use invsim_expr::{Func, Func2};
 use proc_macro2::{Ident, Literal, Span, TokenStream};
 use quote::{quote, ToTokens};
@@ -292,19 +292,19 @@ pub(crate) fn render_with(
     fixed: &HashMap<usize, Ident>,
     temp: &str,
 ) -> Block {
-    let n = arena.ops.len();
+    let n = arena.ops().len();
     let mut reachable = vec![false; n];
     let mut stack: Vec<usize> = roots.iter().filter_map(|&v| index(v)).collect();
     while let Some(i) = stack.pop() {
         if !reachable[i] {
             reachable[i] = true;
             if given(i).is_none() {
-                stack.extend(arena.ops[i].operands().into_iter().filter_map(index));
+                stack.extend(arena.ops()[i].operands().into_iter().filter_map(index));
             }
         }
     }
     let mut uses = vec![0usize; n];
-    for (i, op) in arena.ops.iter().enumerate() {
+    for (i, op) in arena.ops().iter().enumerate() {
         if reachable[i] && given(i).is_none() {
             for v in op.operands() {
                 if let Some(j) = index(v) {
@@ -333,7 +333,15 @@ pub(crate) fn render_with(
         });
         let ex = match given(i) {
             Some(e) => e,
-            None => op_ex(arena.ops[i], arena, &names, index, atom, given, &mut flags),
+            None => op_ex(
+                arena.ops()[i],
+                arena,
+                &names,
+                index,
+                atom,
+                given,
+                &mut flags,
+            ),
         };
         let t = ex.tokens(0);
         lets.push(quote!(let #name = #t;));
@@ -365,7 +373,7 @@ fn val_ex(
             Some(name) => Ex::Atom(name.to_token_stream()),
             None => match given(i) {
                 Some(e) => e,
-                None => op_ex(arena.ops[i], arena, names, index, atom, given, flags),
+                None => op_ex(arena.ops()[i], arena, names, index, atom, given, flags),
             },
         },
         None => atom(v),

@@ -1,7 +1,7 @@
 //! Turning generated tokens into a source file: parsed with `syn`, formatted with `prettyplease`, headed with
 //! the `@generated` line, and with explanatory comments placed above the lines they explain.
 
-use crate::CodegenError;
+use crate::error::CodegenError;
 use proc_macro2::TokenStream;
 
 /// Parse `tokens` as a Rust file and format it.

@@ -2,9 +2,9 @@
 //!
 //! Each traversal memoises per node, so shared subterms are visited once and results stay shared.
 
+use crate::func::{Func, Func2};
 use crate::number::Number;
 use crate::pool::{Id, Node, Pool, Symbol};
-use crate::rules::{Func, Func2};
 use std::collections::HashMap;
 use thiserror::Error;
 

@@ -1,6 +1,7 @@
 //! invsim's symbolic expression engine: a hash-consed DAG of canonical expressions with a parser and
-//! printers for the model-file language, symbolic differentiation, substitution, a zero test and a
-//! compiler to a flat evaluation tape.
+//! printers for the model-file language, symbolic differentiation, substitution, a zero test, the lowering
+//! plan to straight-line code (shared by the code generator) and a compiler of that plan to a flat
+//! evaluation tape.
 //!
 //! ```
 //! use invsim_expr::{Pool, Tape};
@@ -12,6 +13,8 @@
 //! ```
 
 pub mod calculus;
+pub mod func;
+pub mod lower;
 pub mod number;
 pub mod parse;
 pub mod pool;
@@ -21,10 +24,12 @@ pub mod tape;
 pub mod zero;
 
 pub use calculus::{pow_f64, ExpansionTooLarge, UnboundSymbol, EXPAND_TERM_LIMIT};
+pub use func::{Func, Func2, FUNCTIONS, NON_SMOOTH_FUNCTIONS};
+pub use lower::{Lowered, Strategy};
 pub use number::Number;
-pub use parse::{parse, Ast, AstKind, BinOp, ParseError, FUNCTIONS, NON_SMOOTH_FUNCTIONS};
+pub use parse::{parse, Ast, AstKind, BinOp, ParseError};
 pub use pool::{Id, Node, Pool, Symbol};
 pub use print::latex_symbol;
-pub use rules::{Func, Func2, FunctionRule, Rewrite, FUNCTION_RULES};
+pub use rules::{FunctionRule, Rewrite, FUNCTION_RULES};
 pub use tape::{Instr, Tape};
 pub use zero::{eval_with_error, zero_test, DecidedBy, Rng, ZeroVerdict};

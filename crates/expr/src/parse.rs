@@ -14,9 +14,9 @@
 //! Parsing produces an [`Ast`] (so callers can check names with their spans), which
 //! [`Pool::from_ast`] interns into canonical form.
 
+use crate::func::{Func, Func2, FUNCTIONS};
 use crate::number::Number;
 use crate::pool::{Id, Pool};
-use crate::rules::{Func, Func2};
 use std::ops::Range;
 use thiserror::Error;
 
@@ -57,28 +57,6 @@ pub enum AstKind {
     /// A function call; the name is one of the language's functions (checked by the parser).
     Call(String, Vec<Ast>),
 }
-
-/// Every function name of the language with its number of arguments.
-pub const FUNCTIONS: &[(&str, usize)] = &[
-    ("exp", 1),
-    ("log", 1),
-    ("sqrt", 1),
-    ("sin", 1),
-    ("cos", 1),
-    ("tan", 1),
-    ("sinh", 1),
-    ("cosh", 1),
-    ("tanh", 1),
-    ("atan", 1),
-    ("pow", 2),
-    ("abs", 1),
-    ("sign", 1),
-    ("min", 2),
-    ("max", 2),
-];
-
-/// Functions that are not smooth and may appear only in `[outputs]`.
-pub const NON_SMOOTH_FUNCTIONS: &[&str] = &["abs", "sign", "min", "max"];
 
 impl Ast {
     /// Every identifier (not function names) with its span, in source order.

@@ -9,12 +9,13 @@
 //! * like terms are merged (`2x + 3x → 5x`) and like powers combined (`x·x → x^2`, `x^a·x^b → x^(a+b)`);
 //! * identities: `x + 0`, `1·x`, `0·x`, `x^0`, `x^1`, `1^x`, `(x^a)^n → x^(a·n)` for integer n,
 //!   `(x·y)^n → x^n·y^n` for integer n, numeric coefficients distributed over sums (`2(x+y) → 2x + 2y`);
-//! * the function identities in [`crate::rules::FUNCTION_RULES`] (kept as data).
+//! * the function identities in [`crate::rules::FUNCTION_RULES`] (kept as data, applied by [`Pool::call`]).
 //!
 //! Nothing here expands products of sums, so expressions never blow up; see [`Pool::expand`] for that.
 
+use crate::func::{Func, Func2};
 use crate::number::Number;
-use crate::rules::{self, Func, Func2};
+use crate::rules::{FunctionRule, Rewrite, FUNCTION_RULES};
 use std::cmp::Ordering;
 use std::collections::HashMap;
 
@@ -656,12 +657,64 @@ impl Pool {
 
     // ----- functions ----------------------------------------------------------------------------------
 
-    /// Canonical one-argument function call, applying [`rules::FUNCTION_RULES`].
+    /// Canonical one-argument function call, applying the first matching rule of [`FUNCTION_RULES`].
     pub fn call(&mut self, f: Func, a: Id) -> Id {
-        if let Some(r) = rules::apply_function_rules(self, f, a) {
-            return r;
+        for rule in FUNCTION_RULES.iter().filter(|r| r.func == f) {
+            if let Some(r) = self.apply_rule(rule, a) {
+                return r;
+            }
         }
         self.intern(Node::Call(f, a))
+    }
+
+    /// `rule` applied to `rule.func(arg)`; `None` when it does not match.
+    fn apply_rule(&mut self, rule: &FunctionRule, arg: Id) -> Option<Id> {
+        let f = rule.func;
+        match rule.rewrite {
+            Rewrite::Inverse(g) => match self.node(arg) {
+                Node::Call(h, inner) if *h == g => Some(*inner),
+                _ => None,
+            },
+            Rewrite::AtZero(v) => self.is_zero(arg).then(|| self.int(v)),
+            Rewrite::AtOne(v) => self.is_one(arg).then(|| self.int(v)),
+            Rewrite::Odd => {
+                // f(−x) = −f(x).
+                let m = self.negated(arg)?;
+                let inner = self.call(f, m);
+                Some(self.neg(inner))
+            }
+            Rewrite::Even => {
+                // f(−x) = f(x).
+                let m = self.negated(arg)?;
+                Some(self.call(f, m))
+            }
+            Rewrite::Numeric => {
+                let n = self.as_number(arg)?;
+                let v = match f {
+                    Func::Abs if n.is_negative() => n.neg(),
+                    Func::Abs => n,
+                    Func::Sign if n.is_zero() => Number::ZERO,
+                    Func::Sign if n.is_negative() => Number::MINUS_ONE,
+                    _ => Number::ONE,
+                };
+                Some(self.num(v))
+            }
+        }
+    }
+
+    /// −arg if `arg` is written with a negative numeric coefficient (for a sum: its first non-numeric term's).
+    fn negated(&mut self, arg: Id) -> Option<Id> {
+        let (c, _) = self.split_coefficient(arg);
+        let leading_negative = match self.node(arg) {
+            Node::Add(ts) => {
+                let first = ts.iter().find(|&&t| self.as_number(t).is_none()).copied();
+                first
+                    .map(|t| self.split_coefficient(t).0.is_negative())
+                    .unwrap_or(false)
+            }
+            _ => c.is_negative(),
+        };
+        leading_negative.then(|| self.neg(arg))
     }
 
     /// Canonical two-argument call (`min`, `max`).

@@ -5,9 +5,9 @@
 //! exponents), `x^(1/2)` prints as `sqrt(x)`. Parentheses are emitted only where precedence needs them, so
 //! `parse(print(e)) == e` for every canonical `e`.
 
+use crate::func::Func;
 use crate::number::Number;
 use crate::pool::{Id, Node, Pool};
-use crate::rules::Func;
 
 const P_ADD: u8 = 1;
 const P_MUL: u8 = 2;

@@ -1,15 +1,16 @@
 //! A set of expressions compiled into one flat instruction tape for fast repeated numeric evaluation.
 //!
-//! Every DAG node below the outputs becomes at most one instruction, so shared subexpressions are evaluated
-//! once per call. Sums and products are lowered to binary chains (with subtraction and division for negative
-//! coefficients and exponents), integer powers to `powi`, ½-powers to `sqrt`, and powers of one base whose
-//! exponents differ by an integer (`v^1.8`, `v^0.8`) share a single `powf`. Evaluation writes into a scratch
-//! buffer that is reused between calls: no allocation per evaluation.
+//! The tape encodes the lowering plan of [`crate::lower`] (the one the code generator prints): each operation
+//! of the plan is one instruction, so shared subexpressions are evaluated once per call; sums and products are
+//! binary chains (with subtraction and division for negative coefficients and exponents), integer powers
+//! `powi`, ½-powers `sqrt`, and powers of one base whose exponents differ by an integer (`v^1.8`, `v^0.8`)
+//! share a single `powf`. Evaluation writes into a scratch buffer that is reused between calls: no
+//! allocation per evaluation.
 
 use crate::calculus::UnboundSymbol;
-use crate::number::Number;
-use crate::pool::{Id, Node, Pool, Symbol};
-use crate::rules::{Func, Func2};
+use crate::func::{Func, Func2};
+use crate::lower::{self, Arena, Invariants, Lowered, Op, Strategy, Val};
+use crate::pool::{Id, Pool, Symbol};
 use std::cell::RefCell;
 use std::collections::HashMap;
 
@@ -41,252 +42,90 @@ pub struct Tape {
     outputs: Vec<u32>,
 }
 
-struct Builder<'p> {
-    pool: &'p Pool,
-    inputs: HashMap<Symbol, u32>,
+/// Slot numbering of a lowered plan: inputs `[0, n)`, constants `[n, n + c)`, then the invariant arena's
+/// operations (empty with [`Strategy::TAPE`]) and the function's, in order.
+struct Encoder<'a> {
     n_inputs: usize,
+    inputs: HashMap<Symbol, u32>,
     consts: Vec<f64>,
     const_slots: HashMap<u64, u32>,
-    instrs: Vec<Instr>,
-    memo: HashMap<Id, u32>,
-    /// base slot → (exponent, slot) of non-integer powers already computed.
-    powers: HashMap<u32, Vec<(Number, u32)>>,
-    /// (base, fractional part of the exponent) → the smallest |exponent| with that fractional part.
-    min_power: HashMap<(Id, Number), Number>,
-    /// Instructions are emitted before constants are known; they are renumbered at the end.
-    pending_consts: bool,
+    inv: &'a Arena,
+    /// Slot of the first invariant operation.
+    inv_base: u32,
 }
 
-const OP_BASE: u32 = 1 << 30;
-const CONST_BASE: u32 = 1 << 29;
-
-impl Builder<'_> {
-    fn constant(&mut self, x: f64) -> u32 {
-        if let Some(&s) = self.const_slots.get(&x.to_bits()) {
-            return s;
-        }
-        let s = CONST_BASE + self.consts.len() as u32;
-        self.consts.push(x);
-        self.const_slots.insert(x.to_bits(), s);
-        s
-    }
-
-    fn emit(&mut self, i: Instr) -> u32 {
-        self.pending_consts = true;
-        self.instrs.push(i);
-        OP_BASE + (self.instrs.len() - 1) as u32
-    }
-
-    fn lower(&mut self, e: Id) -> Result<u32, UnboundSymbol> {
-        if let Some(&s) = self.memo.get(&e) {
-            return Ok(s);
-        }
-        let s = match self.pool.node(e) {
-            Node::Num(n) => self.constant(n.to_f64()),
-            Node::Pi => self.constant(std::f64::consts::PI),
-            Node::Sym(sym) => *self
-                .inputs
-                .get(sym)
-                .ok_or_else(|| UnboundSymbol(self.pool.symbol_name(*sym).to_string()))?,
-            Node::Add(ts) => {
-                let ts = ts.clone();
-                let mut acc: Option<u32> = None;
-                let mut negs: Vec<u32> = Vec::new();
-                for &t in ts.iter() {
-                    let (neg, slot) = self.lower_signed(t)?;
-                    if neg {
-                        match acc {
-                            Some(a) => acc = Some(self.emit(Instr::Sub(a, slot))),
-                            None => negs.push(slot),
-                        }
-                    } else {
-                        acc = Some(match acc {
-                            Some(a) => self.emit(Instr::Add(a, slot)),
-                            None => slot,
-                        });
-                        for n in std::mem::take(&mut negs) {
-                            let a = acc.unwrap_or(slot);
-                            acc = Some(self.emit(Instr::Sub(a, n)));
-                        }
-                    }
-                }
-                match acc {
-                    Some(a) => a,
-                    None => {
-                        // Every term negative: −(t1 + t2 + …).
-                        let mut sum = negs[0];
-                        for &n in &negs[1..] {
-                            sum = self.emit(Instr::Add(sum, n));
-                        }
-                        self.emit(Instr::Neg(sum))
-                    }
-                }
-            }
-            Node::Mul(_) | Node::Pow(..) => {
-                let (neg, slot) = self.lower_product(e, false)?;
-                if neg {
-                    self.emit(Instr::Neg(slot))
-                } else {
-                    slot
-                }
-            }
-            Node::Call(f, a) => {
-                let (f, a) = (*f, *a);
-                let sa = self.lower(a)?;
-                self.emit(Instr::Call(f, sa))
-            }
-            Node::Call2(f, a, b) => {
-                let (f, a, b) = (*f, *a, *b);
-                let (sa, sb) = (self.lower(a)?, self.lower(b)?);
-                self.emit(Instr::Call2(f, sa, sb))
-            }
+impl<'a> Encoder<'a> {
+    fn new(inputs: &[Symbol], inv: &'a Arena, lowered: &Lowered) -> Encoder<'a> {
+        let mut e = Encoder {
+            n_inputs: inputs.len(),
+            inputs: (0u32..).zip(inputs).map(|(i, &s)| (s, i)).collect(),
+            consts: Vec::new(),
+            const_slots: HashMap::new(),
+            inv,
+            inv_base: 0,
         };
-        self.memo.insert(e, s);
-        Ok(s)
+        // Constants in order of first use.
+        let ops = inv.ops().iter().chain(lowered.arena.ops());
+        for v in ops
+            .flat_map(|op| op.operands())
+            .chain(lowered.roots.iter().copied())
+        {
+            let x = match v {
+                Val::Num(n) => n.to_f64(),
+                Val::Pi => std::f64::consts::PI,
+                _ => continue,
+            };
+            if !e.const_slots.contains_key(&x.to_bits()) {
+                let slot = (inputs.len() + e.consts.len()) as u32;
+                e.const_slots.insert(x.to_bits(), slot);
+                e.consts.push(x);
+            }
+        }
+        e.inv_base = (inputs.len() + e.consts.len()) as u32;
+        e
     }
 
-    /// A sum's term as (negative?, slot of its magnitude).
-    fn lower_signed(&mut self, t: Id) -> Result<(bool, u32), UnboundSymbol> {
-        match self.pool.node(t) {
-            Node::Num(n) if n.is_negative() => Ok((true, self.constant(-n.to_f64()))),
-            Node::Mul(_) => self.lower_product(t, true),
-            _ => Ok((false, self.lower(t)?)),
-        }
-    }
-
-    /// Lower a product (or a lone power) as coefficient · numerator / denominator. With `split_sign`, a
-    /// negative coefficient is returned as a flag instead of being applied.
-    fn lower_product(&mut self, e: Id, split_sign: bool) -> Result<(bool, u32), UnboundSymbol> {
-        if !split_sign {
-            if let Some(&s) = self.memo.get(&e) {
-                return Ok((false, s));
-            }
-        }
-        let factors: Vec<Id> = match self.pool.node(e) {
-            Node::Mul(fs) => fs.to_vec(),
-            _ => vec![e],
-        };
-        let mut coeff = 1.0;
-        let mut num: Vec<u32> = Vec::new();
-        let mut den: Vec<u32> = Vec::new();
-        for f in factors {
-            match self.pool.node(f) {
-                Node::Num(n) => coeff *= n.to_f64(),
-                Node::Pow(b, p) => {
-                    let (b, p) = (*b, *p);
-                    match self.pool.as_number(p) {
-                        Some(k) if k.is_negative() => {
-                            let s = self.lower_power(b, k.neg())?;
-                            den.push(s)
-                        }
-                        Some(k) => {
-                            let s = self.lower_power(b, k)?;
-                            num.push(s)
-                        }
-                        None => {
-                            let (sb, sp) = (self.lower(b)?, self.lower(p)?);
-                            let s = self.emit(Instr::PowVar(sb, sp));
-                            num.push(s)
-                        }
-                    }
-                }
-                _ => num.push(self.lower(f)?),
-            }
-        }
-        let negative = coeff < 0.0;
-        let mag = coeff.abs();
-        let sign_applied = negative && !split_sign;
-        let mut acc: Option<u32> = None;
-        if mag != 1.0 || (num.is_empty() && !sign_applied) {
-            acc = Some(self.constant(if sign_applied { -mag } else { mag }));
-        } else if sign_applied && num.is_empty() {
-            acc = Some(self.constant(-1.0));
-        }
-        let mut applied = mag != 1.0 || num.is_empty();
-        for s in num {
-            acc = Some(match acc {
-                Some(a) => self.emit(Instr::Mul(a, s)),
-                None => s,
-            });
-        }
-        if let Some(first) = den.first().copied() {
-            let mut d = first;
-            for &s in &den[1..] {
-                d = self.emit(Instr::Mul(d, s));
-            }
-            acc = Some(match acc {
-                Some(a) => self.emit(Instr::Div(a, d)),
-                None => self.emit(Instr::Recip(d)),
-            });
-        }
-        let mut slot = acc.unwrap_or_else(|| self.constant(1.0));
-        if sign_applied && !applied {
-            slot = self.emit(Instr::Neg(slot));
-            applied = true;
-        }
-        let _ = applied;
-        if !split_sign {
-            self.memo.insert(e, slot);
-        }
-        Ok((negative && split_sign, slot))
-    }
-
-    /// s · b^j for an integer j ≥ 0 (`j` exact; anything else falls back to powf of the difference).
-    fn times_integer_power(&mut self, s: u32, sb: u32, j: Number) -> u32 {
-        match j.as_integer() {
-            Some(0) => s,
-            Some(1) => self.emit(Instr::Mul(s, sb)),
-            Some(i) if i > 0 && i <= i32::MAX as i128 => {
-                let p = self.emit(Instr::Powi(sb, i as i32));
-                self.emit(Instr::Mul(s, p))
-            }
-            _ => {
-                let p = self.emit(Instr::Powf(sb, j.to_f64()));
-                self.emit(Instr::Mul(s, p))
-            }
+    /// The slot of an operand. Every symbol is an input (the plan reports unbound ones) and every number
+    /// has a constant slot (collected in `new`).
+    fn slot(&self, v: Val) -> u32 {
+        match v {
+            Val::Sym(s) => self.inputs[&s],
+            Val::Num(n) => self.const_slots[&n.to_f64().to_bits()],
+            Val::Pi => self.const_slots[&std::f64::consts::PI.to_bits()],
+            Val::Inv(i) => self.inv_base + i as u32,
+            Val::Loc(i) => self.inv_base + (self.inv.ops().len() + i) as u32,
         }
     }
 
-    /// b^k for a positive number k: `powi`, `sqrt`, or one shared `powf` per base and fractional part.
-    fn lower_power(&mut self, b: Id, k: Number) -> Result<u32, UnboundSymbol> {
-        let sb = self.lower(b)?;
-        if let Some(i) = k.as_integer().filter(|i| *i <= i32::MAX as i128) {
-            return Ok(if i == 1 {
-                sb
-            } else {
-                self.emit(Instr::Powi(sb, i as i32))
-            });
+    fn instr(&self, op: &Op) -> Instr {
+        let s = |v: Val| self.slot(v);
+        match *op {
+            Op::Add(a, b) => Instr::Add(s(a), s(b)),
+            Op::Sub(a, b) => Instr::Sub(s(a), s(b)),
+            Op::Mul(a, b) => Instr::Mul(s(a), s(b)),
+            Op::Div(a, b) => Instr::Div(s(a), s(b)),
+            Op::Neg(a) => Instr::Neg(s(a)),
+            Op::Recip(a) => Instr::Recip(s(a)),
+            Op::Powi(a, k) => Instr::Powi(s(a), k),
+            Op::Sqrt(a) => Instr::Sqrt(s(a)),
+            Op::Powf(a, q) => Instr::Powf(s(a), q.to_f64()),
+            Op::PowVar(a, b) => Instr::PowVar(s(a), s(b)),
+            Op::Call(f, a) => Instr::Call(f, s(a)),
+            Op::Call2(f, a, b) => Instr::Call2(f, s(a), s(b)),
         }
-        let half = Number::ratio(1, 2);
-        // Split k = m + frac with m integer ≥ 0.
-        let kf = k.to_f64();
-        let m = kf.floor();
-        let frac = k.add(Number::from_f64(-m));
-        let base_frac = if frac == half {
-            self.emit(Instr::Sqrt(sb))
-        } else {
-            // Powers of one base whose exponents differ by an integer share one `powf`: the one with the
-            // smallest exponent (found in a pre-pass), so the others are products b^q·b^j, never quotients
-            // (which would give 0/0 at b = 0).
-            let q = self.min_power.get(&(b, frac)).copied().unwrap_or(k);
-            if let Some(list) = self.powers.get(&sb) {
-                if let Some(&(_, s)) = list.iter().find(|(e, _)| *e == q) {
-                    return Ok(self.times_integer_power(s, sb, k.add(q.neg())));
-                }
-            }
-            let s = self.emit(Instr::Powf(sb, q.to_f64()));
-            self.powers.entry(sb).or_default().push((q, s));
-            return Ok(self.times_integer_power(s, sb, k.add(q.neg())));
-        };
-        let mi = m as i32;
-        Ok(match mi {
-            0 => base_frac,
-            1 => self.emit(Instr::Mul(base_frac, sb)),
-            _ => {
-                let p = self.emit(Instr::Powi(sb, mi));
-                self.emit(Instr::Mul(base_frac, p))
-            }
-        })
+    }
+
+    fn tape(self, lowered: &Lowered) -> Tape {
+        let ops = self.inv.ops().iter().chain(lowered.arena.ops());
+        let instrs = ops.map(|op| self.instr(op)).collect();
+        let outputs = lowered.roots.iter().map(|&v| self.slot(v)).collect();
+        Tape {
+            id: next_id(),
+            n_inputs: self.n_inputs,
+            consts: self.consts,
+            instrs,
+            outputs,
+        }
     }
 }
 
@@ -361,63 +200,12 @@ impl Instr {
 
 impl Tape {
     /// Compile `outputs`, whose free symbols must all be among `inputs` (in that order at evaluation).
+    ///
+    /// The instructions are the lowering plan of [`crate::lower`] with [`Strategy::TAPE`], one per operation.
     pub fn compile(pool: &Pool, outputs: &[Id], inputs: &[Symbol]) -> Result<Tape, UnboundSymbol> {
-        let mut b = Builder {
-            pool,
-            inputs: inputs
-                .iter()
-                .enumerate()
-                .map(|(i, &s)| (s, i as u32))
-                .collect(),
-            n_inputs: inputs.len(),
-            consts: Vec::new(),
-            const_slots: HashMap::new(),
-            instrs: Vec::new(),
-            memo: HashMap::new(),
-            powers: HashMap::new(),
-            min_power: HashMap::new(),
-            pending_consts: false,
-        };
-        for id in pool.topological(outputs) {
-            if let Node::Pow(base, p) = pool.node(id) {
-                if let Some(k) = pool.as_number(*p) {
-                    let k = if k.is_negative() { k.neg() } else { k };
-                    if k.as_integer().is_some() {
-                        continue;
-                    }
-                    let frac = k.add(Number::from_f64(-k.to_f64().floor()));
-                    let e = b.min_power.entry((*base, frac)).or_insert(k);
-                    if k.cmp_value(e) == std::cmp::Ordering::Less {
-                        *e = k;
-                    }
-                }
-            }
-        }
-        let mut outs = Vec::with_capacity(outputs.len());
-        for &o in outputs {
-            outs.push(b.lower(o)?);
-        }
-        let _ = b.pending_consts;
-        // Renumber: inputs [0, n), constants [n, n + c), instructions after.
-        let n = b.n_inputs as u32;
-        let c = b.consts.len() as u32;
-        let map = |s: u32| -> u32 {
-            if s >= OP_BASE {
-                n + c + (s - OP_BASE)
-            } else if s >= CONST_BASE {
-                n + (s - CONST_BASE)
-            } else {
-                s
-            }
-        };
-        let instrs = b.instrs.iter().map(|i| i.remap(map)).collect();
-        let tape = Tape {
-            id: next_id(),
-            n_inputs: b.n_inputs,
-            consts: b.consts,
-            instrs,
-            outputs: outs.into_iter().map(map).collect(),
-        };
+        let mut inv = Invariants::new(pool, &[], Strategy::TAPE);
+        let lowered = lower::lower(&mut inv, outputs, inputs)?;
+        let tape = Encoder::new(inputs, inv.arena(), &lowered).tape(&lowered);
         tape.validate();
         Ok(tape)
     }

@@ -7,8 +7,8 @@
 //! rounding-error bound (running error analysis, [`eval_with_error`]), so ill-conditioned identities such
 //! as log(1 + x^12) + log(1/(1 + x^12)) are not mistaken for nonzero.
 
+use crate::func::Func;
 use crate::pool::{Id, Node, Pool, Symbol};
-use crate::rules::Func;
 use std::collections::HashMap;
 
 /// Which step of the zero test decided.

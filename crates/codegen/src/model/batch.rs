@@ -10,9 +10,16 @@
 //! could alias its inputs). A later loop recomputes the cheap values it shares with an earlier one and reads
 //! calls of transcendental functions (and powers with varying exponents) from a block buffer instead.
 
-use super::*;
-use crate::lower::{Arena, Op};
-use invsim_expr::Func;
+use super::atoms::Atoms;
+use super::context::{invert_result, Arg, FnKind, Gen, Straight};
+use super::docs::doc_attrs;
+use crate::emit::{self, Ex};
+use invsim_expr::lower::{Arena, Lowered, Op, Val};
+use invsim_expr::{Func, Symbol};
+use proc_macro2::{Ident, TokenStream};
+use quote::{format_ident, quote, ToTokens};
+use std::cell::{Cell, RefCell};
+use std::collections::{HashMap, HashSet};
 
 /// A fractional power taken a block at a time.
 pub(super) struct SlicePow {
@@ -26,7 +33,7 @@ pub(super) struct SlicePow {
 }
 
 /// How one function's lowered code splits into loops over a block.
-pub(super) struct Plan {
+pub(super) struct Split {
     pows: Vec<SlicePow>,
     /// Values computed in loop `l` and kept in a block buffer for later loops: (arena index, l).
     kept: Vec<(usize, usize)>,
@@ -54,14 +61,14 @@ fn expensive(op: Op) -> bool {
 
 /// The arena values computed for `roots` (not descending below the values `given` marks), as flags.
 fn reach(arena: &Arena, roots: &[Val], given: &dyn Fn(usize) -> bool) -> Vec<bool> {
-    let mut seen = vec![false; arena.ops.len()];
+    let mut seen = vec![false; arena.ops().len()];
     let mut stack: Vec<usize> = roots.iter().filter_map(|v| loc(*v)).collect();
     while let Some(i) = stack.pop() {
         if seen[i] || given(i) {
             continue;
         }
         seen[i] = true;
-        stack.extend(arena.ops[i].operands().into_iter().filter_map(loc));
+        stack.extend(arena.ops()[i].operands().into_iter().filter_map(loc));
     }
     seen
 }
@@ -73,12 +80,12 @@ fn loc(v: Val) -> Option<usize> {
     }
 }
 
-impl Plan {
-    pub(super) fn new(arena: &Arena, roots: &[Val], is_param: &dyn Fn(Val) -> bool) -> Plan {
+impl Split {
+    pub(super) fn new(arena: &Arena, roots: &[Val], is_param: &dyn Fn(Val) -> bool) -> Split {
         let live = reach(arena, roots, &|_| false);
-        let mut level = vec![0usize; arena.ops.len()];
+        let mut level = vec![0usize; arena.ops().len()];
         let mut pows = Vec::new();
-        for (i, &op) in arena.ops.iter().enumerate() {
+        for (i, &op) in arena.ops().iter().enumerate() {
             let of = |v: Val| loc(v).map_or(0, |j| level[j]);
             level[i] = match slice_pow(op, is_param) {
                 Some((base, exponent)) => {
@@ -99,25 +106,25 @@ impl Plan {
         // Numbered in the order they are taken.
         pows.sort_by_key(|p| p.level);
         let loops = pows.iter().map(|p| p.level).max().unwrap_or(0) + 1;
-        let mut plan = Plan {
+        let mut plan = Split {
             pows,
             kept: Vec::new(),
             loops,
         };
         for l in 0..loops - 1 {
             let here = reach(arena, &plan.roots(l, roots), &|i| plan.given(i, l));
-            let mut later = vec![false; arena.ops.len()];
+            let mut later = vec![false; arena.ops().len()];
             for m in l + 1..loops {
                 let r = reach(arena, &plan.roots(m, roots), &|i| {
                     plan.given(i, l) || plan.pows.iter().any(|p| p.op == i && p.level <= m)
                 });
                 later.iter_mut().zip(r).for_each(|(a, b)| *a |= b);
             }
-            for i in 0..arena.ops.len() {
+            for i in 0..arena.ops().len() {
                 if here[i]
                     && later[i]
-                    && expensive(arena.ops[i])
-                    && slice_pow(arena.ops[i], is_param).is_none()
+                    && expensive(arena.ops()[i])
+                    && slice_pow(arena.ops()[i], is_param).is_none()
                 {
                     plan.kept.push((i, l));
                 }
@@ -170,147 +177,312 @@ pub(super) enum Kind {
     Outputs,
 }
 
+impl Kind {
+    /// The batch method made from function `f`, if any (`invert_batch` needs ψ⁻¹ in closed form).
+    fn of(f: FnKind, closed: bool) -> Option<Kind> {
+        match f {
+            FnKind::Invert if closed => Some(Kind::Invert),
+            FnKind::Outputs => Some(Kind::Outputs),
+            _ => None,
+        }
+    }
+}
+
+/// The batch methods of a model.
+#[derive(Default)]
+pub(super) struct Batch {
+    pub(super) methods: Vec<TokenStream>,
+    pub(super) uses_sign: bool,
+    /// Some method calls `pow_pos_slice`.
+    pub(super) uses_pow_slice: bool,
+    pub(super) invert: bool,
+    pub(super) outputs: bool,
+}
+
+impl Batch {
+    /// Does the model have any batch method?
+    pub(super) fn any(&self) -> bool {
+        self.invert || self.outputs
+    }
+}
+
+/// The batch methods over columns of points for the lowered functions `fns` that have one.
+pub(super) fn methods(g: &Gen<'_>, fns: &[Straight], k_names: &HashMap<usize, Ident>) -> Batch {
+    let mut out = Batch::default();
+    for f in fns {
+        let (Some(l), Some(kind)) = (&f.lowered, Kind::of(f.kind, g.closed)) else {
+            continue;
+        };
+        let atoms = Atoms::new(g, k_names);
+        let is_param = |v: Val| atoms.is_param(v);
+        let plan = Split::new(&l.arena, &l.roots, &is_param);
+        out.uses_pow_slice |= plan.has_powers();
+        let (tokens, sign) = method(g, f, l, &plan, kind, k_names);
+        out.uses_sign |= sign;
+        out.methods.push(tokens);
+        match kind {
+            Kind::Invert => out.invert = true,
+            Kind::Outputs => out.outputs = true,
+        }
+    }
+    out
+}
+
 /// The batch method for `f` (`invert` or `outputs`) and whether it calls `sign`.
-pub(super) fn method(
+fn method(
     g: &Gen<'_>,
     f: &Straight,
     l: &Lowered,
-    plan: &Plan,
+    plan: &Split,
     kind: Kind,
     k_names: &HashMap<usize, Ident>,
-    is_param: &dyn Fn(Val) -> bool,
 ) -> (TokenStream, bool) {
-    let lit = proc_macro2::Literal::usize_unsuffixed;
-    // Buffers: bases computed here (a base that is an input column or a buffer already is used as it is),
-    // powers, kept values.
-    let mut base_of: HashMap<Val, usize> = HashMap::new();
-    for l_ in 0..plan.loops.saturating_sub(1) {
-        for v in plan.roots(l_, &[]) {
-            if plan.kept.iter().all(|&(i, _)| Val::Loc(i) != v) {
-                let n = base_of.len();
-                base_of.entry(v).or_insert(n);
+    let k = Kernel::new(g, f, l, plan, kind, k_names);
+    let loops = k.loops();
+    let (params, slices) = k.columns();
+    let parts = k.parts();
+    let doc = k.doc(parts.doc);
+    let scratch = k.scratch(parts.buffers);
+    let p_let = if k.uses_p.get() {
+        quote!(let p = &self.params;)
+    } else {
+        quote!()
+    };
+    let allow_clamp = if k.clamp_like.get() {
+        quote!(#[allow(clippy::manual_clamp)])
+    } else {
+        quote!()
+    };
+    let (name, length, outputs_params, copies) =
+        (parts.name, parts.length, parts.outputs_params, parts.copies);
+    let tokens = quote! {
+        #doc
+        #allow_clamp
+        pub fn #name(&self, #(#params,)* #outputs_params) {
+            #p_let
+            #scratch
+            for start in (0..#length).step_by(BLOCK) {
+                let len = BLOCK.min(#length - start);
+                let end = start + len;
+                #slices
+                #loops
+                #copies
+            }
+        }
+    };
+    (tokens, k.uses_sign.get())
+}
+
+fn lit(i: usize) -> proc_macro2::Literal {
+    proc_macro2::Literal::usize_unsuffixed(i)
+}
+
+/// One batch method being written: the function, its loop split, its block buffers (bases computed here,
+/// powers, kept values, each by number) and what its code turned out to use.
+struct Kernel<'a> {
+    g: &'a Gen<'a>,
+    f: &'a Straight,
+    l: &'a Lowered,
+    plan: &'a Split,
+    kind: Kind,
+    k_names: &'a HashMap<usize, Ident>,
+    /// Bases computed here (a base that is an input column or a buffer already is used as it is).
+    base_of: HashMap<Val, usize>,
+    power_of: HashMap<usize, usize>,
+    kept_of: HashMap<usize, usize>,
+    used_any: RefCell<HashSet<Symbol>>,
+    uses_p: Cell<bool>,
+    uses_sign: Cell<bool>,
+    clamp_like: Cell<bool>,
+}
+
+/// What differs between `invert_batch` and `outputs_batch`.
+struct Parts {
+    length: TokenStream,
+    outputs_params: TokenStream,
+    buffers: TokenStream,
+    copies: TokenStream,
+    name: Ident,
+    doc: Vec<String>,
+}
+
+impl<'a> Kernel<'a> {
+    fn new(
+        g: &'a Gen<'a>,
+        f: &'a Straight,
+        l: &'a Lowered,
+        plan: &'a Split,
+        kind: Kind,
+        k_names: &'a HashMap<usize, Ident>,
+    ) -> Kernel<'a> {
+        let mut base_of: HashMap<Val, usize> = HashMap::new();
+        for l_ in 0..plan.loops.saturating_sub(1) {
+            for v in plan.roots(l_, &[]) {
+                if plan.kept.iter().all(|&(i, _)| Val::Loc(i) != v) {
+                    let n = base_of.len();
+                    base_of.entry(v).or_insert(n);
+                }
+            }
+        }
+        let power_of = plan
+            .pows
+            .iter()
+            .enumerate()
+            .map(|(j, p)| (p.op, j))
+            .collect();
+        let kept_of = plan
+            .kept
+            .iter()
+            .enumerate()
+            .map(|(j, &(i, _))| (i, j))
+            .collect();
+        Kernel {
+            g,
+            f,
+            l,
+            plan,
+            kind,
+            k_names,
+            base_of,
+            power_of,
+            kept_of,
+            used_any: RefCell::new(HashSet::new()),
+            uses_p: Cell::new(false),
+            uses_sign: Cell::new(false),
+            clamp_like: Cell::new(false),
+        }
+    }
+
+    /// Value `i` read from a block buffer in loop `lv`, if it is available there.
+    fn given(&self, i: usize, lv: usize) -> Option<Ex> {
+        if !self.plan.given(i, lv) {
+            return None;
+        }
+        Some(match (self.power_of.get(&i), self.kept_of.get(&i)) {
+            (Some(&j), _) => {
+                let j = lit(j);
+                Ex::atom(quote!(power[#j][k]))
+            }
+            (None, Some(&j)) => {
+                let j = lit(j);
+                Ex::atom(quote!(kept[#j][k]))
+            }
+            (None, None) => Ex::Lit(f64::NAN),
+        })
+    }
+
+    /// The loops with the powers between them.
+    fn loops(&self) -> TokenStream {
+        let mut loops = TokenStream::new();
+        for lv in 0..self.plan.loops {
+            loops.extend(self.loop_body(lv));
+            for (j, p) in self.plan.pows.iter().enumerate() {
+                if p.level == lv + 1 {
+                    loops.extend(self.power(j, p, lv));
+                }
+            }
+        }
+        loops
+    }
+
+    /// One loop over the block: per point, the inputs it reads, its `let`s and its stores.
+    fn loop_body(&self, lv: usize) -> TokenStream {
+        let atoms = Atoms::new(self.g, self.k_names);
+        let atom = |v: Val| atoms.ex(v);
+        let given = |i: usize| self.given(i, lv);
+        let last = lv + 1 == self.plan.loops;
+        let roots: Vec<Val> = if last {
+            self.l.roots.clone()
+        } else {
+            self.plan.roots(lv, &[])
+        };
+        let block = emit::render_with(
+            &self.l.arena,
+            &roots,
+            &loc,
+            &atom,
+            &given,
+            &HashMap::new(),
+            "t",
+        );
+        self.uses_sign.set(self.uses_sign.get() || block.uses_sign);
+        self.clamp_like
+            .set(self.clamp_like.get() || block.clamp_like);
+        let lets = &block.lets;
+        let stores = if last {
+            self.results(block.roots)
+        } else {
+            self.stores(&roots, &block.roots)
+        };
+        self.uses_p.set(self.uses_p.get() || atoms.uses_p());
+        let mut used = atoms.used();
+        if last && self.kind == Kind::Invert {
+            used.insert(self.g.d.yr);
+        }
+        let reads = self.reads(&used);
+        self.used_any.borrow_mut().extend(used.iter().copied());
+        // A loop with nothing to compute (every base is a column or a buffer already) is left out.
+        if stores.is_empty() {
+            return quote!();
+        }
+        quote! {
+            for k in 0..len {
+                #reads
+                #(#lets)*
+                #stores
             }
         }
     }
-    let power_of: HashMap<usize, usize> = plan
-        .pows
-        .iter()
-        .enumerate()
-        .map(|(j, p)| (p.op, j))
-        .collect();
-    let kept_of: HashMap<usize, usize> = plan
-        .kept
-        .iter()
-        .enumerate()
-        .map(|(j, &(i, _))| (i, j))
-        .collect();
 
-    let used_any: RefCell<HashSet<Symbol>> = RefCell::new(HashSet::new());
-    let uses_p = RefCell::new(false);
-    let mut uses_sign = false;
-    let mut clamp_like = false;
-    // One loop over the block: its statements, and the symbols it reads per point.
-    let mut loop_body = |lv: usize| -> (TokenStream, HashSet<Symbol>) {
-        let used: RefCell<HashSet<Symbol>> = RefCell::new(HashSet::new());
-        let atom = |v: Val| -> Ex {
-            match v {
-                Val::Sym(s) if g.fields.contains_key(&s) => {
-                    *uses_p.borrow_mut() = true;
-                    let fld = &g.fields[&s].ident;
-                    Ex::atom(quote!(p.#fld))
-                }
-                Val::Sym(s) => {
-                    used.borrow_mut().insert(s);
-                    match g.locals.get(&s) {
-                        Some(id) => Ex::atom(id.to_token_stream()),
-                        None => Ex::Lit(f64::NAN),
-                    }
-                }
-                Val::Num(x) => Ex::Lit(x.to_f64()),
-                Val::Pi => Ex::Lit(std::f64::consts::PI),
-                Val::Inv(i) => {
-                    let k = &k_names[&i];
-                    Ex::atom(quote!(self.#k))
-                }
-                Val::Loc(_) => Ex::Lit(f64::NAN),
+    /// The last loop's stores: the states and the input, or the outputs.
+    fn results(&self, items: Vec<Ex>) -> TokenStream {
+        match self.kind {
+            Kind::Invert => {
+                let (extra, xs, u) = invert_result(items, self.f.beta_recip);
+                let xs = xs.iter().enumerate().map(|(s, e)| {
+                    let (s, e) = (lit(s), e.tokens(0));
+                    quote!(states[#s][k] = #e;)
+                });
+                let u = u.tokens(0);
+                quote!(#extra #(#xs)* input[k] = #u;)
             }
-        };
-        let given = |i: usize| -> Option<Ex> {
-            if !plan.given(i, lv) {
-                return None;
+            Kind::Outputs => {
+                let outs = items.iter().enumerate().map(|(o, e)| {
+                    let (o, e) = (lit(o), e.tokens(0));
+                    quote!(values[#o][k] = #e;)
+                });
+                quote!(#(#outs)*)
             }
-            Some(match (power_of.get(&i), kept_of.get(&i)) {
-                (Some(&j), _) => {
-                    let j = lit(j);
-                    Ex::atom(quote!(power[#j][k]))
-                }
-                (None, Some(&j)) => {
-                    let j = lit(j);
-                    Ex::atom(quote!(kept[#j][k]))
-                }
-                (None, None) => Ex::Lit(f64::NAN),
-            })
-        };
-        let last = lv + 1 == plan.loops;
-        let roots: Vec<Val> = if last {
-            l.roots.clone()
-        } else {
-            plan.roots(lv, &[])
-        };
-        let block = emit::render_with(&l.arena, &roots, &loc, &atom, &given, &HashMap::new(), "t");
-        uses_sign |= block.uses_sign;
-        clamp_like |= block.clamp_like;
-        let lets = &block.lets;
-        let stores: TokenStream = if last {
-            match kind {
-                Kind::Invert => {
-                    let (extra, xs, u) = invert_result(block.roots.clone(), f.beta_recip);
-                    let xs = xs.iter().enumerate().map(|(s, e)| {
-                        let (s, e) = (lit(s), e.tokens(0));
-                        quote!(states[#s][k] = #e;)
-                    });
-                    let u = u.tokens(0);
-                    quote!(#extra #(#xs)* input[k] = #u;)
-                }
-                Kind::Outputs => {
-                    let outs = block.roots.iter().enumerate().map(|(o, e)| {
-                        let (o, e) = (lit(o), e.tokens(0));
-                        quote!(values[#o][k] = #e;)
-                    });
-                    quote!(#(#outs)*)
-                }
-            }
-        } else {
-            roots
-                .iter()
-                .zip(&block.roots)
-                .map(|(v, e)| {
-                    let e = e.tokens(0);
-                    match loc(*v).and_then(|i| kept_of.get(&i)) {
-                        Some(&j) => {
-                            let j = lit(j);
-                            quote!(kept[#j][k] = #e;)
-                        }
-                        None => {
-                            let j = lit(base_of[v]);
-                            quote!(base[#j][k] = #e;)
-                        }
-                    }
-                })
-                .collect()
-        };
-        let mut used = used.into_inner();
-        if last && kind == Kind::Invert {
-            used.insert(g.d.yr);
         }
-        // Per point: the inputs it reads, from the block's columns.
-        let mut reads = TokenStream::new();
-        for a in f
-            .args
+    }
+
+    /// An earlier loop's stores: the next level's bases and the values kept for later loops.
+    fn stores(&self, roots: &[Val], items: &[Ex]) -> TokenStream {
+        roots
             .iter()
-            .cloned()
-            .chain((kind == Kind::Invert).then_some(Arg::Scalar(g.d.yr)))
-        {
+            .zip(items)
+            .map(|(v, e)| {
+                let e = e.tokens(0);
+                match loc(*v).and_then(|i| self.kept_of.get(&i)) {
+                    Some(&j) => {
+                        let j = lit(j);
+                        quote!(kept[#j][k] = #e;)
+                    }
+                    None => {
+                        let j = lit(self.base_of.get(v).copied().unwrap_or(0));
+                        quote!(base[#j][k] = #e;)
+                    }
+                }
+            })
+            .collect()
+    }
+
+    /// Per point: the inputs it reads, from the block's columns.
+    fn reads(&self, used: &HashSet<Symbol>) -> TokenStream {
+        let g = self.g;
+        let mut reads = TokenStream::new();
+        let yr = (self.kind == Kind::Invert).then_some(Arg::Scalar(g.d.yr));
+        for a in self.f.args.iter().cloned().chain(yr) {
             match a {
                 Arg::Array { name, syms, .. } => {
                     if syms.iter().any(|s| used.contains(s)) {
@@ -333,209 +505,167 @@ pub(super) fn method(
                 }
             }
         }
-        used_any.borrow_mut().extend(used.iter().copied());
-        // A loop with nothing to compute (every base is a column or a buffer already) is left out.
-        let body = if stores.is_empty() {
-            quote!()
-        } else {
-            quote! {
-                for k in 0..len {
-                    #reads
-                    #(#lets)*
-                    #stores
-                }
+        reads
+    }
+
+    /// `pow_pos_slice` for power `j` after loop `lv`.
+    fn power(&self, j: usize, p: &SlicePow, lv: usize) -> TokenStream {
+        let source = match p.base {
+            Val::Sym(s) => match column_of(self.g, self.f, s) {
+                Some(c) => c,
+                None => quote!(&[]),
+            },
+            // A power taken before, or a value kept by this loop or an earlier one: its buffer.
+            Val::Loc(i) if self.power_of.contains_key(&i) && self.plan.given(i, lv) => {
+                let m = lit(self.power_of[&i]);
+                quote!(&power[#m][..len])
             }
+            Val::Loc(i) if self.kept_of.contains_key(&i) => {
+                let m = lit(self.kept_of[&i]);
+                quote!(&kept[#m][..len])
+            }
+            v => match self.base_of.get(&v) {
+                Some(&b) => {
+                    let b = lit(b);
+                    quote!(&base[#b][..len])
+                }
+                None => quote!(&[]),
+            },
         };
-        (body, used)
-    };
+        let atoms = Atoms::new(self.g, self.k_names);
+        let exponent = atoms.tokens(p.exponent);
+        self.uses_p.set(self.uses_p.get() || atoms.uses_p());
+        let j = lit(j);
+        quote!(pow_pos_slice(#source, #exponent, &mut power[#j][..len]);)
+    }
 
-    // The loops with the powers between them.
-    let mut loops = TokenStream::new();
-    for lv in 0..plan.loops {
-        let (body, _) = loop_body(lv);
-        loops.extend(body);
-        for (j, p) in plan
-            .pows
-            .iter()
-            .enumerate()
-            .filter(|(_, p)| p.level == lv + 1)
-        {
-            let source = match p.base {
-                Val::Sym(s) => match column_of(g, f, s) {
-                    Some(c) => c,
-                    None => quote!(&[]),
-                },
-                // A power taken before, or a value kept by this loop or an earlier one: its buffer.
-                Val::Loc(i) if power_of.contains_key(&i) && plan.given(i, lv) => {
-                    let m = lit(power_of[&i]);
-                    quote!(&power[#m][..len])
-                }
-                Val::Loc(i) if kept_of.contains_key(&i) => {
-                    let m = lit(kept_of[&i]);
-                    quote!(&kept[#m][..len])
-                }
-                v => match base_of.get(&v) {
-                    Some(&b) => {
-                        let b = lit(b);
-                        quote!(&base[#b][..len])
+    /// The column arguments and the block's slices of them (after the loops, which record what is read).
+    fn columns(&self) -> (Vec<TokenStream>, TokenStream) {
+        let used_any = self.used_any.borrow();
+        let pows = &self.plan.pows;
+        let mut params = Vec::new();
+        let mut slices = TokenStream::new();
+        for a in &self.f.args {
+            match a {
+                Arg::Array { name, len, syms } => {
+                    let len_id = format_ident!("{}", len);
+                    let any = syms.iter().any(|s| used_any.contains(s))
+                        || pows
+                            .iter()
+                            .any(|p| matches!(p.base, Val::Sym(s) if syms.contains(&s)));
+                    let id = format_ident!("{}", name);
+                    if any {
+                        params.push(quote!(#id: [&[f64]; #len_id]));
+                        slices.extend(quote!(let #id = #id.map(|c| &c[start..end]);));
+                    } else {
+                        let unused = format_ident!("_{}", name);
+                        params.push(quote!(#unused: [&[f64]; #len_id]));
                     }
-                    None => quote!(&[]),
-                },
-            };
-            let exponent = match p.exponent {
-                Val::Num(q) => emit::float_tokens(q.to_f64(), false),
-                Val::Sym(s) if is_param(p.exponent) => {
-                    *uses_p.borrow_mut() = true;
-                    let fld = &g.fields[&s].ident;
-                    quote!(p.#fld)
                 }
-                Val::Inv(i) => {
-                    let k = &k_names[&i];
-                    quote!(self.#k)
-                }
-                Val::Pi => quote!(PI),
-                _ => quote!(f64::NAN),
-            };
-            let j = lit(j);
-            loops.extend(quote!(pow_pos_slice(#source, #exponent, &mut power[#j][..len]);));
-        }
-    }
-    let used_any = used_any.into_inner();
-
-    // Column arguments and the block's slices of them.
-    let mut params = Vec::new();
-    let mut slices = TokenStream::new();
-    for a in &f.args {
-        match a {
-            Arg::Array { name, len, syms } => {
-                let len_id = format_ident!("{}", len);
-                let any = syms.iter().any(|s| used_any.contains(s))
-                    || plan
-                        .pows
-                        .iter()
-                        .any(|p| matches!(p.base, Val::Sym(s) if syms.contains(&s)));
-                let id = format_ident!("{}", name);
-                if any {
-                    params.push(quote!(#id: [&[f64]; #len_id]));
-                    slices.extend(quote!(let #id = #id.map(|c| &c[start..end]);));
-                } else {
-                    let unused = format_ident!("_{}", name);
-                    params.push(quote!(#unused: [&[f64]; #len_id]));
-                }
-            }
-            Arg::Scalar(s) => {
-                // Named even when no point reads it: its length is the number of points.
-                let id = &g.locals[s];
-                params.push(quote!(#id: &[f64]));
-                let base = plan.pows.iter().any(|p| p.base == Val::Sym(*s));
-                if used_any.contains(s) || base {
-                    slices.extend(quote!(let #id = &#id[start..end];));
+                Arg::Scalar(s) => {
+                    // Named even when no point reads it: its length is the number of points.
+                    let id = &self.g.locals[s];
+                    params.push(quote!(#id: &[f64]));
+                    let base = pows.iter().any(|p| p.base == Val::Sym(*s));
+                    if used_any.contains(s) || base {
+                        slices.extend(quote!(let #id = &#id[start..end];));
+                    }
                 }
             }
         }
-    }
-    let (length, outputs_params, buffers, copies, name, doc) = match kind {
-        Kind::Invert => {
+        if self.kind == Kind::Invert {
             params.push(quote!(yr: &[f64]));
             slices.extend(quote!(let yr = &yr[start..end];));
-            (
-                quote!(yr.len()),
-                quote!(mut x: [&mut [f64]; N], u: &mut [f64]),
-                quote!(let mut states = [[0.0; BLOCK]; N]; let mut input = [0.0; BLOCK];),
-                quote! {
+        }
+        (params, slices)
+    }
+
+    /// The input column whose length is the number of points.
+    fn length_column(&self) -> String {
+        match self.kind {
+            Kind::Invert => "yr".to_string(),
+            Kind::Outputs => self.g.locals[&self.g.d.model.input.symbol].to_string(),
+        }
+    }
+
+    fn parts(&self) -> Parts {
+        match self.kind {
+            Kind::Invert => Parts {
+                length: quote!(yr.len()),
+                outputs_params: quote!(mut x: [&mut [f64]; N], u: &mut [f64]),
+                buffers: quote!(let mut states = [[0.0; BLOCK]; N]; let mut input = [0.0; BLOCK];),
+                copies: quote! {
                     for (column, buffer) in x.iter_mut().zip(&states) {
                         column[start..end].copy_from_slice(&buffer[..len]);
                     }
                     u[start..end].copy_from_slice(&input[..len]);
                 },
-                format_ident!("invert_batch"),
-                vec![
+                name: format_ident!("invert_batch"),
+                doc: vec![
                     "[`Precomputed::invert`] at many points, stored column-wise: ξ_i at point k is `xi[i][k]`, η_j \
                      is `eta[j][k]`, y^(r) is `yr[k]`; x_s is written to `x[s][k]` and u to `u[k]`."
                         .to_string(),
                 ],
-            )
-        }
-        Kind::Outputs => {
-            let u = &g.locals[&g.d.model.input.symbol];
-            (
-                quote!(#u.len()),
-                quote!(mut out: [&mut [f64]; N_OUTPUTS]),
-                quote!(let mut values = [[0.0; BLOCK]; N_OUTPUTS];),
-                quote! {
-                    for (column, buffer) in out.iter_mut().zip(&values) {
-                        column[start..end].copy_from_slice(&buffer[..len]);
-                    }
-                },
-                format_ident!("outputs_batch"),
-                vec![format!(
-                    "[`Precomputed::outputs`] at many points, stored column-wise: x_s at point k is `x[s][k]`, \
-                     the input `{u}[k]`; output o is written to `out[o][k]`."
-                )],
-            )
-        }
-    };
-    let mut doc = doc;
-    doc.push(String::new());
-    doc.push(if plan.has_powers() {
-        "Block by block ([`BLOCK`] points): the fractional powers of a block at once, by [`pow_pos_slice`] \
-         (within 1 ulp of `powf`), everything else point by point in loops that vectorise."
-            .to_string()
-    } else {
-        "Block by block ([`BLOCK`] points), point by point in loops that vectorise.".to_string()
-    });
-    doc.push(String::new());
-    doc.push("# Panics".to_string());
-    doc.push(String::new());
-    doc.push(format!(
-        "If a column is shorter than `{}`.",
-        match kind {
-            Kind::Invert => "yr".to_string(),
-            Kind::Outputs => g.locals[&g.d.model.input.symbol].to_string(),
-        }
-    ));
-    let doc = doc_attrs(&doc);
-    let count = |n: usize| lit(n);
-    let mut scratch = TokenStream::new();
-    if !base_of.is_empty() {
-        let n = count(base_of.len());
-        scratch.extend(quote!(let mut base = [[0.0; BLOCK]; #n];));
-    }
-    if !plan.pows.is_empty() {
-        let n = count(plan.pows.len());
-        scratch.extend(quote!(let mut power = [[0.0; BLOCK]; #n];));
-    }
-    if !plan.kept.is_empty() {
-        let n = count(plan.kept.len());
-        scratch.extend(quote!(let mut kept = [[0.0; BLOCK]; #n];));
-    }
-    scratch.extend(buffers);
-    let p_let = if *uses_p.borrow() {
-        quote!(let p = &self.params;)
-    } else {
-        quote!()
-    };
-    let allow_clamp = if clamp_like {
-        quote!(#[allow(clippy::manual_clamp)])
-    } else {
-        quote!()
-    };
-    let tokens = quote! {
-        #doc
-        #allow_clamp
-        pub fn #name(&self, #(#params,)* #outputs_params) {
-            #p_let
-            #scratch
-            for start in (0..#length).step_by(BLOCK) {
-                let len = BLOCK.min(#length - start);
-                let end = start + len;
-                #slices
-                #loops
-                #copies
+            },
+            Kind::Outputs => {
+                let u = &self.g.locals[&self.g.d.model.input.symbol];
+                Parts {
+                    length: quote!(#u.len()),
+                    outputs_params: quote!(mut out: [&mut [f64]; N_OUTPUTS]),
+                    buffers: quote!(let mut values = [[0.0; BLOCK]; N_OUTPUTS];),
+                    copies: quote! {
+                        for (column, buffer) in out.iter_mut().zip(&values) {
+                            column[start..end].copy_from_slice(&buffer[..len]);
+                        }
+                    },
+                    name: format_ident!("outputs_batch"),
+                    doc: vec![format!(
+                        "[`Precomputed::outputs`] at many points, stored column-wise: x_s at point k is `x[s][k]`, \
+                         the input `{u}[k]`; output o is written to `out[o][k]`."
+                    )],
+                }
             }
         }
-    };
-    (tokens, uses_sign)
+    }
+
+    /// The method's documentation, from its first paragraph.
+    fn doc(&self, mut doc: Vec<String>) -> TokenStream {
+        doc.push(String::new());
+        doc.push(if self.plan.has_powers() {
+            "Block by block ([`BLOCK`] points): the fractional powers of a block at once, by [`pow_pos_slice`] \
+             (within 1 ulp of `powf`), everything else point by point in loops that vectorise."
+                .to_string()
+        } else {
+            "Block by block ([`BLOCK`] points), point by point in loops that vectorise.".to_string()
+        });
+        doc.push(String::new());
+        doc.push("# Panics".to_string());
+        doc.push(String::new());
+        doc.push(format!(
+            "If a column is shorter than `{}`.",
+            self.length_column()
+        ));
+        doc_attrs(&doc)
+    }
+
+    /// The block buffers on the stack.
+    fn scratch(&self, buffers: TokenStream) -> TokenStream {
+        let mut scratch = TokenStream::new();
+        if !self.base_of.is_empty() {
+            let n = lit(self.base_of.len());
+            scratch.extend(quote!(let mut base = [[0.0; BLOCK]; #n];));
+        }
+        if !self.plan.pows.is_empty() {
+            let n = lit(self.plan.pows.len());
+            scratch.extend(quote!(let mut power = [[0.0; BLOCK]; #n];));
+        }
+        if !self.plan.kept.is_empty() {
+            let n = lit(self.plan.kept.len());
+            scratch.extend(quote!(let mut kept = [[0.0; BLOCK]; #n];));
+        }
+        scratch.extend(buffers);
+        scratch
+    }
 }
 
 /// The block's column of input symbol `s` (a `&[f64]` expression), if `f` takes it.
@@ -562,26 +692,26 @@ fn column_of(g: &Gen<'_>, f: &Straight, s: Symbol) -> Option<TokenStream> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::lower::{self, Invariants};
+    use invsim_expr::lower::{self, Invariants, Strategy};
     use invsim_expr::Pool;
 
-    /// The plan of `src` with parameters `params` and the single input `v` (and `s`).
-    fn plan_of(src: &str, params: &[&str]) -> (Plan, Arena) {
+    /// The loop split of `src` with parameters `params` and the single input `v` (and `s`).
+    fn plan_of(src: &str, params: &[&str]) -> (Split, Arena) {
         let mut pool = Pool::new();
         let e = pool.parse(src).unwrap();
         let ps: Vec<Symbol> = params.iter().map(|n| pool.symbol(n)).collect();
         let inputs = [pool.symbol("v"), pool.symbol("s")];
-        let mut inv = Invariants::new(&pool, &ps);
+        let mut inv = Invariants::new(&pool, &ps, Strategy::GENERATED);
         let l = lower::lower(&mut inv, &[e], &inputs).unwrap();
         let is_param = |v: Val| match v {
             Val::Sym(s) => ps.contains(&s),
             Val::Num(_) | Val::Pi | Val::Inv(_) => true,
             Val::Loc(_) => false,
         };
-        (Plan::new(&l.arena, &l.roots, &is_param), l.arena)
+        (Split::new(&l.arena, &l.roots, &is_param), l.arena)
     }
 
-    fn levels(p: &Plan) -> Vec<usize> {
+    fn levels(p: &Split) -> Vec<usize> {
         p.pows.iter().map(|q| q.level).collect()
     }
 
@@ -608,7 +738,7 @@ mod tests {
         assert_eq!(p.kept.len(), 1);
         let (i, l) = p.kept[0];
         assert_eq!(l, 0);
-        assert!(matches!(arena.ops[i], Op::Call(Func::Exp, _)));
+        assert!(matches!(arena.ops()[i], Op::Call(Func::Exp, _)));
         assert!(p.given(i, 2) && !p.given(i, 0));
     }
 
@@ -629,7 +759,7 @@ mod tests {
         // cosh(v) is computed once, in loop 0, as a kept value (and not also as a base).
         let roots = p.roots(0, &[]);
         assert_eq!(roots.len(), 1);
-        assert!(matches!(arena.ops[p.kept[0].0], Op::Call(Func::Cosh, _)));
+        assert!(matches!(arena.ops()[p.kept[0].0], Op::Call(Func::Cosh, _)));
     }
 
     #[test]

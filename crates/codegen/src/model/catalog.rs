@@ -1,0 +1,279 @@
+//! Which per-point functions a model's module defines, with their arguments, the expressions they compute,
+//! their result shapes and their documentation. Mirrors the interpreter (`invsim_inversion::Interpreter`):
+//!
+//! * ψ⁻¹ in closed form: `psi_inv`, `alpha`, `beta`, `invert` and `zero_dynamics` are evaluated in (ξ, η);
+//! * ψ⁻¹ solved numerically: `psi_jacobian` (ψ and ∂ψ/∂x, for Newton's method in `newton`), and α, β and
+//!   the zero dynamics in the states (L_f^r h, L_g L_f^(r−1) h, f_η + g_η·u).
+
+use super::context::{Arg, FnKind, Gen, Shape, Straight};
+use super::docs::{equations, Lhs};
+use invsim_expr::{latex_symbol, Id};
+use invsim_inversion::Solution;
+
+/// The straight-line functions of this model.
+pub(super) fn functions(g: &Gen<'_>) -> Vec<Straight> {
+    let lhs = Lhs::new(g);
+    let m = &g.d.model;
+    let mut doc = vec![
+        format!("The tracked output y = h(x) (`{}`).", m.output.name),
+        String::new(),
+    ];
+    doc.extend(equations(g, &[("y".into(), "y".into())], &[m.output.h]));
+    let mut fs = vec![Straight::new(
+        FnKind::H,
+        vec![g.x_arg()],
+        vec![m.output.h],
+        Shape::Scalar,
+        doc,
+    )];
+    let mut doc = vec![
+        "Normal-form coordinates (ξ, η) = ψ(x): ξ_k = L_f^(k−1) h for k = 1 … r, η the internal states."
+            .to_string(),
+        String::new(),
+    ];
+    doc.extend(equations(g, &lhs.psi(), &g.d.psi));
+    fs.push(Straight::new(
+        FnKind::Psi,
+        vec![g.x_arg()],
+        g.d.psi.clone(),
+        Shape::Tuple(vec![
+            Shape::array("R", g.d.relative_degree),
+            Shape::array("N_ETA", g.d.eta.len()),
+        ]),
+        doc,
+    ));
+    if g.closed {
+        fs.extend(closed(g, &lhs));
+    } else {
+        fs.extend(numeric(g, &lhs));
+    }
+    fs.extend(original(g, &lhs));
+    fs
+}
+
+/// `beta`'s or `beta_x`'s description, with the model's singular set.
+fn beta_doc(g: &Gen<'_>, first: &str, e: Id) -> Vec<String> {
+    let mut doc = vec![first.to_string()];
+    if !g.d.singular.is_empty() {
+        doc.push(String::new());
+        doc.push(format!("Vanishes {}.", g.d.singular.join("; ")));
+    }
+    doc.push(String::new());
+    doc.extend(equations(g, &[("beta".into(), "\\beta".into())], &[e]));
+    doc
+}
+
+/// The functions of a closed-form ψ⁻¹, evaluated in (ξ, η).
+fn closed(g: &Gen<'_>, lhs: &Lhs) -> Vec<Straight> {
+    let d = g.d;
+    let n = d.n();
+    let inv: Vec<Id> = d
+        .psi_inv
+        .iter()
+        .filter_map(|s| match s {
+            Solution::Closed(e) => Some(*e),
+            Solution::Numeric => None,
+        })
+        .collect();
+    let xi_eta = || vec![g.xi_arg(), g.eta_arg()];
+    let mut doc =
+        vec!["The states at normal-form coordinates: x = ψ⁻¹(ξ, η), in closed form.".to_string()];
+    if !d.domain.is_empty() {
+        doc.push(String::new());
+        doc.push(format!("Valid where: {}.", d.domain.join("; ")));
+    }
+    doc.push(String::new());
+    doc.extend(equations(g, &lhs.states, &inv));
+    let mut fs = vec![Straight::new(
+        FnKind::PsiInv,
+        xi_eta(),
+        inv.clone(),
+        Shape::array("N", n),
+        doc,
+    )];
+    let mut doc = vec![
+        "α(ξ, η) = L_f^r h ∘ ψ⁻¹, the drift term of y^(r) = α(ξ, η) + β(ξ, η)·u.".to_string(),
+        String::new(),
+    ];
+    doc.extend(equations(
+        g,
+        &[("alpha".into(), "\\alpha".into())],
+        &[d.alpha],
+    ));
+    fs.push(Straight::new(
+        FnKind::Alpha,
+        xi_eta(),
+        vec![d.alpha],
+        Shape::Scalar,
+        doc,
+    ));
+    let doc = beta_doc(
+        g,
+        "β(ξ, η) = L_g L_f^(r−1) h ∘ ψ⁻¹, the gain of the input in y^(r) = α + β·u.",
+        d.beta,
+    );
+    fs.push(Straight::new(
+        FnKind::Beta,
+        xi_eta(),
+        vec![d.beta],
+        Shape::Scalar,
+        doc,
+    ));
+    let mut roots = inv;
+    roots.push(d.alpha);
+    roots.push(d.beta);
+    fs.push(Straight::new(
+        FnKind::Invert,
+        xi_eta(),
+        roots,
+        Shape::Tuple(vec![Shape::array("N", n), Shape::Scalar, Shape::Scalar]),
+        invert_doc(),
+    ));
+    if !d.eta.is_empty() {
+        let mut doc = vec![
+            "The zero dynamics dη/dt = L_f η + L_g η · (y^(r) − α)/β in (ξ, η, y^(r)).".to_string(),
+            String::new(),
+        ];
+        doc.extend(equations(g, &lhs.deta, &d.zero_dynamics));
+        let mut args = xi_eta();
+        args.push(Arg::Scalar(d.yr));
+        fs.push(Straight::new(
+            FnKind::ZeroDynamics,
+            args,
+            d.zero_dynamics.clone(),
+            Shape::array("N_ETA", d.eta.len()),
+            doc,
+        ));
+    }
+    fs
+}
+
+/// The fused inverse's description (paper eq. 26).
+fn invert_doc() -> Vec<String> {
+    vec![
+        "The inverse at one point (paper eq. 26): x = ψ⁻¹(ξ, η) and the input that gives the output \
+         derivative y^(r) = `yr`, with ψ⁻¹, α and β evaluated together."
+            .to_string(),
+        String::new(),
+        "```text".into(),
+        "u = (yr - alpha)/beta".into(),
+        "```".into(),
+        String::new(),
+        "```math".into(),
+        "u = \\frac{y^{(r)} - \\alpha(\\xi, \\eta)}{\\beta(\\xi, \\eta)}".into(),
+        "```".into(),
+    ]
+}
+
+/// The functions of a numeric ψ⁻¹, evaluated in the states.
+fn numeric(g: &Gen<'_>, lhs: &Lhs) -> Vec<Straight> {
+    let d = g.d;
+    let n = d.n();
+    let psi_lhs = lhs.psi();
+    let mut roots = d.psi.clone();
+    let mut eq_lhs = psi_lhs.clone();
+    for (i, row) in d.jacobian.iter().enumerate() {
+        roots.extend(row.iter().copied());
+        for st in g.state_syms() {
+            eq_lhs.push((
+                format!("d({})/d({})", psi_lhs[i].0, g.name(st)),
+                format!(
+                    "\\frac{{\\partial {}}}{{\\partial {}}}",
+                    psi_lhs[i].1,
+                    latex_symbol(g.name(st))
+                ),
+            ));
+        }
+    }
+    let mut doc = vec![
+        "ψ(x) and its Jacobian ∂ψ/∂x (row i = ∂ψ_i/∂x), for Newton's method on ψ(x) = (ξ, η)."
+            .to_string(),
+        String::new(),
+    ];
+    doc.extend(equations(g, &eq_lhs, &roots));
+    let mut fs = vec![Straight::new(
+        FnKind::PsiJacobian,
+        vec![g.x_arg()],
+        roots,
+        Shape::Tuple(vec![
+            Shape::array("N", n),
+            Shape::Array("N", n, Box::new(Shape::array("N", n))),
+        ]),
+        doc,
+    )];
+    let mut doc = vec!["α in the states: L_f^r h(x).".to_string(), String::new()];
+    doc.extend(equations(
+        g,
+        &[("alpha".into(), "\\alpha".into())],
+        &[d.alpha_x],
+    ));
+    fs.push(Straight::new(
+        FnKind::AlphaX,
+        vec![g.x_arg()],
+        vec![d.alpha_x],
+        Shape::Scalar,
+        doc,
+    ));
+    let doc = beta_doc(g, "β in the states: L_g L_f^(r−1) h(x).", d.beta_x);
+    fs.push(Straight::new(
+        FnKind::BetaX,
+        vec![g.x_arg()],
+        vec![d.beta_x],
+        Shape::Scalar,
+        doc,
+    ));
+    if !d.eta.is_empty() {
+        let mut doc = vec![
+            "The zero dynamics in the states: dη/dt = f_η(x) + g_η(x)·(y^(r) − L_f^r h)/(L_g L_f^(r−1) h)."
+                .to_string(),
+            String::new(),
+        ];
+        doc.extend(equations(g, &lhs.deta, &d.zero_dynamics_x));
+        fs.push(Straight::new(
+            FnKind::ZeroDynamicsX,
+            vec![g.x_arg(), Arg::Scalar(d.yr)],
+            d.zero_dynamics_x.clone(),
+            Shape::array("N_ETA", d.eta.len()),
+            doc,
+        ));
+    }
+    fs
+}
+
+/// The original model's functions: the right-hand side and the extra outputs.
+fn original(g: &Gen<'_>, lhs: &Lhs) -> Vec<Straight> {
+    let m = &g.d.model;
+    let u = m.input.symbol;
+    let rhs: Vec<Id> = m.states.iter().map(|s| s.rhs).collect();
+    let mut doc = vec![
+        format!(
+            "The original model dx/dt = f(x) + g(x)·u, for forward simulation (u = `{}`).",
+            m.input.name
+        ),
+        String::new(),
+    ];
+    doc.extend(equations(g, &lhs.dot, &rhs));
+    let mut fs = vec![Straight::new(
+        FnKind::Rhs,
+        vec![g.x_arg(), Arg::Scalar(u)],
+        rhs,
+        Shape::array("N", g.d.n()),
+        doc,
+    )];
+    if !m.outputs.is_empty() {
+        let outs: Vec<Id> = m.outputs.iter().map(|o| o.expr).collect();
+        let mut doc = vec![
+            "The extra outputs of the model's `[outputs]` table at (x, u).".to_string(),
+            String::new(),
+        ];
+        doc.extend(equations(g, &lhs.outputs, &outs));
+        fs.push(Straight::new(
+            FnKind::Outputs,
+            vec![g.x_arg(), Arg::Scalar(u)],
+            outs,
+            Shape::array("N_OUTPUTS", m.outputs.len()),
+            doc,
+        ));
+    }
+    fs
+}

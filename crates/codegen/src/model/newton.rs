@@ -1,0 +1,226 @@
+//! Newton's method for a ψ⁻¹ without closed form: `psi_inv` iterates on ψ(x) = (ξ, η) with the analytic
+//! Jacobian `psi_jacobian` (same iteration limit, tolerance and residual scaling as the interpreter); α, β,
+//! the inverse and the zero dynamics are then evaluated in the states at the solution (L_f^r h,
+//! L_g L_f^(r−1) h, f_η + g_η·u). Also the free wrappers, the LU solve and the constants.
+
+use super::context::Gen;
+use crate::emit;
+use invsim_inversion::interpreter::{NEWTON_MAX_ITER, NEWTON_TOL};
+use proc_macro2::TokenStream;
+use quote::quote;
+
+/// What Newton's method adds to the module: methods of `Precomputed`, free functions, helpers.
+pub(super) struct Newton {
+    pub(super) methods: Vec<TokenStream>,
+    pub(super) free: Vec<TokenStream>,
+    pub(super) helpers: Vec<TokenStream>,
+}
+
+/// The Newton items of a model whose ψ⁻¹ is solved numerically.
+pub(super) fn newton(g: &Gen<'_>) -> Newton {
+    let ne = g.d.eta.len();
+    let mut methods = vec![methods(g)];
+    if ne > 0 {
+        methods.push(quote! {
+            /// The zero dynamics dη/dt at x = ψ⁻¹(ξ, η) (Newton from `guess`); see
+            /// [`Precomputed::zero_dynamics_x`].
+            pub fn zero_dynamics(
+                &self,
+                xi: &[f64; R],
+                eta: &[f64; N_ETA],
+                yr: f64,
+                guess: &[f64; N],
+            ) -> Result<[f64; N_ETA], ModelError> {
+                Ok(self.zero_dynamics_x(&self.psi_inv(xi, eta, guess)?, yr))
+            }
+        });
+    }
+    let mut free = vec![free_functions()];
+    if ne > 0 {
+        free.push(quote! {
+            /// The zero dynamics at the parameters `p`; see [`Precomputed::zero_dynamics`].
+            #[inline]
+            pub fn zero_dynamics(
+                p: &Params,
+                xi: &[f64; R],
+                eta: &[f64; N_ETA],
+                yr: f64,
+                guess: &[f64; N],
+            ) -> Result<[f64; N_ETA], ModelError> {
+                Precomputed::new(p).zero_dynamics(xi, eta, yr, guess)
+            }
+        });
+    }
+    Newton {
+        methods,
+        free,
+        helpers: vec![lu_solve(), constants()],
+    }
+}
+
+/// `psi_inv` by Newton's method, and α, β and the inverse at its solution.
+fn methods(g: &Gen<'_>) -> TokenStream {
+    let (r, ne) = (g.d.relative_degree, g.d.eta.len());
+    let lit = proc_macro2::Literal::usize_unsuffixed;
+    let target: Vec<TokenStream> = (0..r)
+        .map(|i| {
+            let i = lit(i);
+            quote!(xi[#i])
+        })
+        .chain((0..ne).map(|j| {
+            let j = lit(j);
+            quote!(eta[#j])
+        }))
+        .collect();
+    let xi_name = if r > 0 { quote!(xi) } else { quote!(_xi) };
+    let eta_name = if ne > 0 { quote!(eta) } else { quote!(_eta) };
+    quote! {
+        /// The states at normal-form coordinates, x = ψ⁻¹(ξ, η), by Newton's method on ψ(x) = (ξ, η) with
+        /// the analytic Jacobian, started from `guess`.
+        ///
+        /// Stops when max_i |ψ_i(x) − target_i| / max(|target_i|, 1e-12) < [`NEWTON_TOL`]; after
+        /// [`NEWTON_MAX_ITER`] iterations, a singular Jacobian or a non-finite iterate it returns
+        /// [`ModelError::NewtonDidNotConverge`], never an unconverged x.
+        pub fn psi_inv(
+            &self,
+            #xi_name: &[f64; R],
+            #eta_name: &[f64; N_ETA],
+            guess: &[f64; N],
+        ) -> Result<[f64; N], ModelError> {
+            let target: [f64; N] = [#(#target),*];
+            let mut x = *guess;
+            let mut residual = f64::INFINITY;
+            for _ in 0..NEWTON_MAX_ITER {
+                let (value, jacobian) = self.psi_jacobian(&x);
+                let mut step = [0.0; N];
+                residual = 0.0;
+                for ((s, v), t) in step.iter_mut().zip(value).zip(target) {
+                    *s = v - t;
+                    let scaled = (*s / t.abs().max(1e-12)).abs();
+                    if scaled.is_nan() || scaled > residual {
+                        residual = scaled;
+                    }
+                }
+                if residual < NEWTON_TOL {
+                    return Ok(x);
+                }
+                if !lu_solve(jacobian, &mut step) {
+                    break;
+                }
+                for (xk, s) in x.iter_mut().zip(step) {
+                    *xk -= s;
+                }
+                if !x.iter().all(|v| v.is_finite()) {
+                    break;
+                }
+            }
+            Err(ModelError::NewtonDidNotConverge { iterations: NEWTON_MAX_ITER, residual })
+        }
+
+        /// α(ξ, η) = L_f^r h at x = ψ⁻¹(ξ, η) (Newton from `guess`); see [`Precomputed::alpha_x`].
+        pub fn alpha(&self, xi: &[f64; R], eta: &[f64; N_ETA], guess: &[f64; N]) -> Result<f64, ModelError> {
+            Ok(self.alpha_x(&self.psi_inv(xi, eta, guess)?))
+        }
+
+        /// β(ξ, η) = L_g L_f^(r−1) h at x = ψ⁻¹(ξ, η) (Newton from `guess`); see [`Precomputed::beta_x`].
+        pub fn beta(&self, xi: &[f64; R], eta: &[f64; N_ETA], guess: &[f64; N]) -> Result<f64, ModelError> {
+            Ok(self.beta_x(&self.psi_inv(xi, eta, guess)?))
+        }
+
+        /// The inverse at one point (paper eq. 26): x = ψ⁻¹(ξ, η) by Newton from `guess`, and
+        /// u = (y^(r) − α)/β at that x.
+        ///
+        /// ```math
+        /// u = \frac{y^{(r)} - \alpha(x)}{\beta(x)}
+        /// ```
+        pub fn invert(
+            &self,
+            xi: &[f64; R],
+            eta: &[f64; N_ETA],
+            yr: f64,
+            guess: &[f64; N],
+        ) -> Result<([f64; N], f64), ModelError> {
+            let x = self.psi_inv(xi, eta, guess)?;
+            Ok((x, (yr - self.alpha_x(&x)) / self.beta_x(&x)))
+        }
+    }
+}
+
+/// The free wrappers of the Newton methods.
+fn free_functions() -> TokenStream {
+    quote! {
+        /// x = ψ⁻¹(ξ, η) by Newton's method at the parameters `p`; see [`Precomputed::psi_inv`].
+        #[inline]
+        pub fn psi_inv(p: &Params, xi: &[f64; R], eta: &[f64; N_ETA], guess: &[f64; N]) -> Result<[f64; N], ModelError> {
+            Precomputed::new(p).psi_inv(xi, eta, guess)
+        }
+        /// α(ξ, η) at the parameters `p`; see [`Precomputed::alpha`].
+        #[inline]
+        pub fn alpha(p: &Params, xi: &[f64; R], eta: &[f64; N_ETA], guess: &[f64; N]) -> Result<f64, ModelError> {
+            Precomputed::new(p).alpha(xi, eta, guess)
+        }
+        /// β(ξ, η) at the parameters `p`; see [`Precomputed::beta`].
+        #[inline]
+        pub fn beta(p: &Params, xi: &[f64; R], eta: &[f64; N_ETA], guess: &[f64; N]) -> Result<f64, ModelError> {
+            Precomputed::new(p).beta(xi, eta, guess)
+        }
+        /// The inverse at one point at the parameters `p`; see [`Precomputed::invert`].
+        #[inline]
+        pub fn invert(
+            p: &Params,
+            xi: &[f64; R],
+            eta: &[f64; N_ETA],
+            yr: f64,
+            guess: &[f64; N],
+        ) -> Result<([f64; N], f64), ModelError> {
+            Precomputed::new(p).invert(xi, eta, yr, guess)
+        }
+    }
+}
+
+/// Gaussian elimination for Newton's step.
+fn lu_solve() -> TokenStream {
+    quote! {
+        /// Solves a·s = b in place of `b` by Gaussian elimination with partial pivoting; `false` when `a`
+        /// is singular.
+        fn lu_solve(mut a: [[f64; N]; N], b: &mut [f64; N]) -> bool {
+            for k in 0..N {
+                let pivot = (k..N).fold(k, |best, i| if a[i][k].abs() > a[best][k].abs() { i } else { best });
+                if a[pivot][k] == 0.0 {
+                    return false;
+                }
+                a.swap(k, pivot);
+                b.swap(k, pivot);
+                let (row, bk) = (a[k], b[k]);
+                for (ai, bi) in a.iter_mut().zip(b.iter_mut()).skip(k + 1) {
+                    let factor = ai[k] / row[k];
+                    for (aij, rj) in ai.iter_mut().zip(row).skip(k) {
+                        *aij -= factor * rj;
+                    }
+                    *bi -= factor * bk;
+                }
+            }
+            for k in (0..N).rev() {
+                b[k] /= a[k][k];
+                let bk = b[k];
+                for (bi, ai) in b.iter_mut().zip(a).take(k) {
+                    *bi -= ai[k] * bk;
+                }
+            }
+            true
+        }
+    }
+}
+
+/// `NEWTON_MAX_ITER` and `NEWTON_TOL`, the interpreter's values.
+fn constants() -> TokenStream {
+    let tol = emit::float_tokens(NEWTON_TOL, false);
+    let lit = proc_macro2::Literal::usize_unsuffixed;
+    let iter = lit(NEWTON_MAX_ITER);
+    quote! {
+        /// Largest number of Newton iterations for ψ⁻¹ (the interpreter's limit).
+        pub const NEWTON_MAX_ITER: usize = #iter;
+        /// Newton's method for ψ⁻¹ stops when the scaled residual is below this (the interpreter's tolerance).
+        pub const NEWTON_TOL: f64 = #tol;
+    }
+}

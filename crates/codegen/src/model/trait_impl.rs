@@ -1,0 +1,313 @@
+//! The compiled model behind the runtime's trait: `model_info`, `Model` (a `Precomputed` with its parameter
+//! values) and its `invsim_model_api::InverseModel` impl, with the slice-to-array helpers it needs.
+
+use super::context::Gen;
+use crate::emit;
+use proc_macro2::TokenStream;
+use quote::quote;
+
+/// `model_info()`, `Model`, its `Default` and `InverseModel` impls and `arr`; `invert_batch`: the model has
+/// `Precomputed::invert_batch`.
+pub(super) fn model(g: &Gen<'_>, invert_batch: bool) -> TokenStream {
+    let m = &g.d.model;
+    let ne = g.d.eta.len();
+    let has_outputs = !m.outputs.is_empty();
+    let outputs_impl = outputs_impl(has_outputs);
+    let invert_batch_impl = invert_batch_impl(invert_batch);
+    let (psi_inv_impl, alpha_impl, beta_impl, zero_impl, invert_impl) =
+        if g.closed { closed(ne) } else { numeric(ne) };
+    let model_info = model_info(g);
+    quote! {
+        #model_info
+        /// The compiled model behind the runtime's [`InverseModel`] trait.
+        #[derive(Debug, Clone)]
+        pub struct Model {
+            pre: Precomputed,
+            values: [f64; N_PARAMS],
+            info: ModelInfo,
+        }
+
+        impl Model {
+            /// The model at parameters `params`.
+            pub fn new(params: Params) -> Model {
+                Model { pre: Precomputed::new(&params), values: params.to_array(), info: model_info() }
+            }
+            /// The current parameters.
+            pub fn parameters(&self) -> &Params {
+                self.pre.params()
+            }
+            /// Replace the parameters (recomputing their subexpressions).
+            pub fn set_parameters(&mut self, params: Params) {
+                self.pre = Precomputed::new(&params);
+                self.values = params.to_array();
+            }
+            /// The precomputed evaluator (typed, array-based access to every function).
+            pub fn precomputed(&self) -> &Precomputed {
+                &self.pre
+            }
+        }
+
+        impl Default for Model {
+            /// The model at the model file's parameter values.
+            fn default() -> Model {
+                Model::new(Params::default())
+            }
+        }
+
+        impl InverseModel for Model {
+            fn info(&self) -> &ModelInfo {
+                &self.info
+            }
+            fn params(&self) -> &[f64] {
+                &self.values
+            }
+            fn set_param(&mut self, name: &str, value: f64) -> Result<(), ModelError> {
+                let mut params = *self.pre.params();
+                params.set(name, value)?;
+                self.set_parameters(params);
+                Ok(())
+            }
+            fn h(&self, x: &[f64]) -> f64 {
+                self.pre.h(arr(x))
+            }
+            fn psi(&self, x: &[f64], xi: &mut [f64], eta: &mut [f64]) {
+                let (a, b) = self.pre.psi(arr(x));
+                xi.copy_from_slice(&a);
+                eta.copy_from_slice(&b);
+            }
+            #psi_inv_impl
+            #alpha_impl
+            #beta_impl
+            #zero_impl
+            fn rhs(&self, x: &[f64], u: f64, dx: &mut [f64]) {
+                dx.copy_from_slice(&self.pre.rhs(arr(x), u));
+            }
+            #outputs_impl
+            fn reference(&self) -> ReferenceMap {
+                REFERENCE
+            }
+            #invert_impl
+            #invert_batch_impl
+        }
+
+        /// The fixed-size array behind a slice of one of the model's dimensions (a wrong length is a bug in
+        /// the caller, as the trait documents).
+        fn arr<const K: usize>(s: &[f64]) -> &[f64; K] {
+            s.try_into().expect("slice length matches the model's dimensions")
+        }
+    }
+}
+
+/// `cols` and `cols_mut`, for the batch methods.
+pub(super) fn column_helpers() -> TokenStream {
+    quote! {
+        /// The fixed-size array of columns behind a slice of columns (a wrong count is a bug in the
+        /// caller, as the trait documents).
+        fn cols<'a, const K: usize>(s: &[&'a [f64]]) -> [&'a [f64]; K] {
+            s.try_into().expect("column count matches the model's dimensions")
+        }
+
+        /// The same for columns written to.
+        fn cols_mut<'a, const K: usize>(s: &'a mut [&mut [f64]]) -> [&'a mut [f64]; K] {
+            let s: &'a mut [&mut [f64]; K] = s
+                .try_into()
+                .expect("column count matches the model's dimensions");
+            s.each_mut().map(|c| &mut **c)
+        }
+    }
+}
+
+/// `psi_inv`, `alpha`, `beta`, `zero_dynamics` and `invert` of the trait impl.
+type Impls = (
+    TokenStream,
+    TokenStream,
+    TokenStream,
+    TokenStream,
+    TokenStream,
+);
+
+/// The trait's functions for a closed-form ψ⁻¹.
+fn closed(ne: usize) -> Impls {
+    (
+        quote! {
+            fn psi_inv(&self, xi: &[f64], eta: &[f64], x: &mut [f64]) -> Result<(), ModelError> {
+                x.copy_from_slice(&self.pre.psi_inv(arr(xi), arr(eta)));
+                Ok(())
+            }
+        },
+        quote! {
+            fn alpha(&self, xi: &[f64], eta: &[f64]) -> f64 {
+                self.pre.alpha(arr(xi), arr(eta))
+            }
+        },
+        quote! {
+            fn beta(&self, xi: &[f64], eta: &[f64]) -> f64 {
+                self.pre.beta(arr(xi), arr(eta))
+            }
+        },
+        if ne > 0 {
+            quote! {
+                fn zero_dynamics(&self, xi: &[f64], eta: &[f64], yr: f64, deta: &mut [f64]) {
+                    deta.copy_from_slice(&self.pre.zero_dynamics(arr(xi), arr(eta), yr));
+                }
+            }
+        } else {
+            quote! {
+                fn zero_dynamics(&self, _xi: &[f64], _eta: &[f64], _yr: f64, _deta: &mut [f64]) {}
+            }
+        },
+        quote! {
+            /// ψ⁻¹, α and β in one evaluation.
+            fn invert(&self, xi: &[f64], eta: &[f64], yr: f64, x: &mut [f64]) -> Result<f64, ModelError> {
+                let (states, u) = self.pre.invert(arr(xi), arr(eta), yr);
+                x.copy_from_slice(&states);
+                Ok(u)
+            }
+        },
+    )
+}
+
+/// The same through Newton's method (from x = 1, as the interpreter, or from the guess in `x`).
+fn numeric(ne: usize) -> Impls {
+    (
+        quote! {
+            fn psi_inv(&self, xi: &[f64], eta: &[f64], x: &mut [f64]) -> Result<(), ModelError> {
+                let states = self.pre.psi_inv(arr(xi), arr(eta), arr(x))?;
+                x.copy_from_slice(&states);
+                Ok(())
+            }
+        },
+        quote! {
+            /// Newton from x = 1 (as the interpreter); NaN if it does not converge.
+            fn alpha(&self, xi: &[f64], eta: &[f64]) -> f64 {
+                self.pre.alpha(arr(xi), arr(eta), &[1.0; N]).unwrap_or(f64::NAN)
+            }
+        },
+        quote! {
+            /// Newton from x = 1 (as the interpreter); NaN if it does not converge.
+            fn beta(&self, xi: &[f64], eta: &[f64]) -> f64 {
+                self.pre.beta(arr(xi), arr(eta), &[1.0; N]).unwrap_or(f64::NAN)
+            }
+        },
+        if ne > 0 {
+            quote! {
+                /// Newton from x = 1 (as the interpreter); NaN if it does not converge.
+                fn zero_dynamics(&self, xi: &[f64], eta: &[f64], yr: f64, deta: &mut [f64]) {
+                    match self.pre.zero_dynamics(arr(xi), arr(eta), yr, &[1.0; N]) {
+                        Ok(q) => deta.copy_from_slice(&q),
+                        Err(_) => deta.fill(f64::NAN),
+                    }
+                }
+            }
+        } else {
+            quote! {
+                fn zero_dynamics(&self, _xi: &[f64], _eta: &[f64], _yr: f64, _deta: &mut [f64]) {}
+            }
+        },
+        quote! {
+            /// Newton from the guess in `x`, then u = (y^(r) − α)/β at the solution.
+            fn invert(&self, xi: &[f64], eta: &[f64], yr: f64, x: &mut [f64]) -> Result<f64, ModelError> {
+                let (states, u) = self.pre.invert(arr(xi), arr(eta), yr, arr(x))?;
+                x.copy_from_slice(&states);
+                Ok(u)
+            }
+        },
+    )
+}
+
+fn opt_f64(v: Option<f64>) -> TokenStream {
+    match v {
+        Some(x) => {
+            let t = emit::float_tokens(x, false);
+            quote!(Some(#t))
+        }
+        None => quote!(None),
+    }
+}
+
+fn opt_string(v: &Option<String>) -> TokenStream {
+    match v {
+        Some(s) => quote!(Some(#s.to_string())),
+        None => quote!(None),
+    }
+}
+
+/// The trait's `outputs` and `outputs_batch`.
+fn outputs_impl(has_outputs: bool) -> TokenStream {
+    if has_outputs {
+        quote! {
+            fn outputs(&self, x: &[f64], u: f64, out: &mut [f64]) {
+                out.copy_from_slice(&self.pre.outputs(arr(x), u));
+            }
+            /// The outputs over columns, block by block ([`Precomputed::outputs_batch`]).
+            fn outputs_batch(&self, x: &[&[f64]], u: &[f64], out: &mut [&mut [f64]]) {
+                self.pre.outputs_batch(cols(x), u, cols_mut(out));
+            }
+        }
+    } else {
+        quote! {
+            fn outputs(&self, _x: &[f64], _u: f64, _out: &mut [f64]) {}
+            fn outputs_batch(&self, _x: &[&[f64]], _u: &[f64], _out: &mut [&mut [f64]]) {}
+        }
+    }
+}
+
+/// The trait's `invert_batch`, when the model has `Precomputed::invert_batch`.
+fn invert_batch_impl(invert_batch: bool) -> TokenStream {
+    if invert_batch {
+        quote! {
+            /// ψ⁻¹, α and β over columns, block by block ([`Precomputed::invert_batch`]).
+            fn invert_batch(
+                &self,
+                xi: &[&[f64]],
+                eta: &[&[f64]],
+                yr: &[f64],
+                x: &mut [&mut [f64]],
+                u: &mut [f64],
+            ) -> Result<(), (usize, ModelError)> {
+                self.pre.invert_batch(cols(xi), cols(eta), yr, cols_mut(x), u);
+                Ok(())
+            }
+        }
+    } else {
+        quote!()
+    }
+}
+
+/// `model_info()`: the static description (names, sizes, bounds).
+fn model_info(g: &Gen<'_>) -> TokenStream {
+    let m = &g.d.model;
+    let outputs_info: Vec<TokenStream> = m
+        .outputs
+        .iter()
+        .map(|o| {
+            let (name, unit, acc) = (&o.name, opt_string(&o.unit), o.accumulate);
+            quote!(OutputInfo { name: #name.to_string(), unit: #unit, accumulate: #acc })
+        })
+        .collect();
+    let outputs_vec = if outputs_info.is_empty() {
+        quote!(Vec::new())
+    } else {
+        quote!(Vec::from([#(#outputs_info),*]))
+    };
+    let (input_min, input_max) = (opt_f64(m.input.min), opt_f64(m.input.max));
+    quote! {
+        /// The model's static description (names, sizes, bounds), as the interpreter reports it.
+        pub fn model_info() -> ModelInfo {
+            ModelInfo {
+                name: NAME.to_string(),
+                source_hash: Some(SOURCE_HASH.to_string()),
+                states: STATES.iter().map(|s| s.to_string()).collect(),
+                input: INPUT.to_string(),
+                output: OUTPUT.to_string(),
+                relative_degree: R,
+                n_eta: N_ETA,
+                input_min: #input_min,
+                input_max: #input_max,
+                outputs: #outputs_vec,
+                parameters: PARAMETERS.iter().map(|s| s.to_string()).collect(),
+            }
+        }
+
+    }
+}
