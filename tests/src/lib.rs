@@ -5,6 +5,8 @@
 //! `MODELS`) plus `SKIPPED`, the model files that did not derive.
 #![deny(clippy::all)]
 
+pub mod tidy;
+
 /// The compiled acceptance models of `../shared/models`.
 #[cfg(has_shared)]
 pub mod shared {
