@@ -71,11 +71,17 @@ fn use_tree(
             }
             let mut alias = t.text.clone();
             if tokens.get(i).is_some_and(|t| t.is("as")) {
-                alias = tokens.get(i + 1).map(|t| t.text.clone()).unwrap_or_default();
+                alias = tokens
+                    .get(i + 1)
+                    .map(|t| t.text.clone())
+                    .unwrap_or_default();
                 i += 2;
             }
             if alias == "self" {
-                alias = path.get(path.len().saturating_sub(2)).cloned().unwrap_or_default();
+                alias = path
+                    .get(path.len().saturating_sub(2))
+                    .cloned()
+                    .unwrap_or_default();
                 path.pop();
             }
             out.push((path, alias));
@@ -121,7 +127,12 @@ fn named_paths(file_module: &[String], tokens: &[Token]) -> Vec<Named> {
     let inline = inline_modules(tokens);
     let module_at = |i: usize| -> Vec<String> {
         let mut m = file_module.to_vec();
-        m.extend(inline.iter().filter(|(_, a, b)| *a <= i && i <= *b).map(|(n, _, _)| n.clone()));
+        m.extend(
+            inline
+                .iter()
+                .filter(|(_, a, b)| *a <= i && i <= *b)
+                .map(|(n, _, _)| n.clone()),
+        );
         m
     };
     let mut out = Vec::new();
@@ -276,7 +287,10 @@ pub struct Circle {
 
 impl Graph {
     fn successors(&self, v: usize) -> impl Iterator<Item = usize> + '_ {
-        self.edges.get(&v).into_iter().flat_map(|m| m.keys().copied())
+        self.edges
+            .get(&v)
+            .into_iter()
+            .flat_map(|m| m.keys().copied())
     }
 
     /// The strongly connected components with more than one file (Tarjan's algorithm).
@@ -307,7 +321,11 @@ impl Graph {
 
     /// One cycle through the component `c` (a shortest path back to its first file, by breadth-first search).
     fn circle(&self, c: &[usize]) -> Circle {
-        let start = c.iter().copied().min_by_key(|&v| &self.files[v]).unwrap_or(c[0]);
+        let start = c
+            .iter()
+            .copied()
+            .min_by_key(|&v| &self.files[v])
+            .unwrap_or(c[0]);
         let mut prev: BTreeMap<usize, usize> = BTreeMap::new();
         let mut queue = std::collections::VecDeque::from([start]);
         'search: while let Some(v) = queue.pop_front() {
@@ -333,7 +351,12 @@ impl Graph {
         let cycle = (0..path.len())
             .map(|k| {
                 let (a, b) = (path[k], path[(k + 1) % path.len()]);
-                let line = self.edges.get(&a).and_then(|m| m.get(&b)).copied().unwrap_or(0);
+                let line = self
+                    .edges
+                    .get(&a)
+                    .and_then(|m| m.get(&b))
+                    .copied()
+                    .unwrap_or(0);
                 (self.files[a].clone(), line)
             })
             .collect();
@@ -411,14 +434,26 @@ mod tests {
     #[test]
     fn reexports_are_followed_and_test_code_is_ignored() {
         let files = [
-            file("src/lib.rs", "mod a; mod b; pub use a::A; pub use b::{B as Bee};"),
-            file("src/a.rs", "use crate::Bee;\n#[cfg(test)]\nmod tests { use crate::b::X; }"),
-            file("src/b.rs", "pub struct B; fn f() { let _ = super::c::g(); }"),
+            file(
+                "src/lib.rs",
+                "mod a; mod b; pub use a::A; pub use b::{B as Bee};",
+            ),
+            file(
+                "src/a.rs",
+                "use crate::Bee;\n#[cfg(test)]\nmod tests { use crate::b::X; }",
+            ),
+            file(
+                "src/b.rs",
+                "pub struct B; fn f() { let _ = super::c::g(); }",
+            ),
             file("src/c.rs", "pub fn g() {}"),
         ];
         let g = graph(&files);
         let named = |i: usize| -> Vec<&str> {
-            g.edges.get(&i).map(|m| m.keys().map(|&k| g.files[k].as_str()).collect()).unwrap_or_default()
+            g.edges
+                .get(&i)
+                .map(|m| m.keys().map(|&k| g.files[k].as_str()).collect())
+                .unwrap_or_default()
         };
         assert_eq!(named(0), Vec::<&str>::new(), "re-exports are not uses");
         assert_eq!(named(1), ["src/b.rs"]);
@@ -439,7 +474,11 @@ mod tests {
         assert_eq!(circles[0].files, ["src/a.rs", "src/b.rs", "src/c.rs"]);
         assert_eq!(
             circles[0].cycle,
-            [("src/a.rs".to_string(), 1), ("src/b.rs".to_string(), 2), ("src/c.rs".to_string(), 1)]
+            [
+                ("src/a.rs".to_string(), 1),
+                ("src/b.rs".to_string(), 2),
+                ("src/c.rs".to_string(), 1)
+            ]
         );
     }
 }

@@ -112,6 +112,26 @@ pub fn test_regions(tokens: &[Token]) -> Vec<(usize, usize)> {
     out
 }
 
+/// Line ranges (inclusive) of code templates, `quote! { … }` and `quote_spanned! { … }` bodies: generated code,
+/// not the generator's own.
+pub fn template_regions(tokens: &[Token]) -> Vec<(usize, usize)> {
+    let mut out = Vec::new();
+    for i in 0..tokens.len().saturating_sub(2) {
+        let is_quote = tokens[i].is("quote") || tokens[i].is("quote_spanned");
+        if is_quote && tokens[i + 1].is("!") && tokens[i + 2].kind == Kind::Punct {
+            out.push((tokens[i].line, tokens[matching(tokens, i + 2)].line));
+        }
+    }
+    out
+}
+
+/// Test regions and code templates: the lines the habits do not apply to.
+pub fn exempt_regions(tokens: &[Token]) -> Vec<(usize, usize)> {
+    let mut out = test_regions(tokens);
+    out.extend(template_regions(tokens));
+    out
+}
+
 /// The index of the first token after the attributes that start at `i`.
 fn skip_attributes(tokens: &[Token], mut i: usize) -> usize {
     while tokens.get(i).is_some_and(|t| t.is("#")) && tokens.get(i + 1).is_some_and(|t| t.is("[")) {
@@ -145,5 +165,11 @@ mod tests {
     fn test_modules_and_test_functions_are_regions() {
         let src = "fn a() {}\n#[cfg(test)]\nmod tests {\n  #[test]\n  fn t() {}\n}\n#[test]\n#[ignore]\nfn u() {\n}\n";
         assert_eq!(test_regions(&tokenize(src)), [(2, 6), (7, 10)]);
+    }
+
+    #[test]
+    fn code_templates_are_exempt() {
+        let src = "fn gen() {\n  quote! {\n    fn f() { x.unwrap() }\n  }\n}\n";
+        assert_eq!(exempt_regions(&tokenize(src)), [(2, 4)]);
     }
 }

@@ -138,7 +138,9 @@ fn literal_after_prefix(cur: &mut Cursor, prefix: &str) -> bool {
         ("b" | "c", Some('"')) => cur.quoted('"'),
         ("b", Some('\'')) => cur.quoted('\''),
         ("r" | "br" | "cr", Some('"')) => cur.raw_string(),
-        ("r" | "br" | "cr", Some('#')) if matches!(cur.peek(1), Some('"' | '#')) => cur.raw_string(),
+        ("r" | "br" | "cr", Some('#')) if matches!(cur.peek(1), Some('"' | '#')) => {
+            cur.raw_string()
+        }
         _ => return false,
     }
     true
@@ -228,7 +230,10 @@ mod tests {
         let t = texts(src);
         assert!(!t.iter().any(|s| s == "fn" || s == "unwrap"), "{t:?}");
         assert!(t.contains(&"r#\"a\"b\"#".to_string()), "{t:?}");
-        assert!(t.contains(&"'q'".to_string()) && t.contains(&"'a".to_string()), "{t:?}");
+        assert!(
+            t.contains(&"'q'".to_string()) && t.contains(&"'a".to_string()),
+            "{t:?}"
+        );
     }
 
     #[test]
