@@ -12,7 +12,7 @@ use invsim_tests::tidy::{
 };
 use std::path::Path;
 
-/// Files that may open without `//!` (path, path, reason).
+/// Files that may open without `//!` (path, the same path, reason).
 const ALLOW_MISSING_DOCS: &[Allow] = &[];
 
 /// Functions longer than [`MAX_FUNCTION_LINES`] (path, function name, reason).

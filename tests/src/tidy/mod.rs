@@ -40,7 +40,7 @@ impl fmt::Display for Violation {
 /// An allow-list entry: the path and subject of a [`Violation`] it excuses, and why.
 pub type Allow = (&'static str, &'static str, &'static str);
 
-/// Whether `line` starts a generated file's marker.
+/// Whether `text` is a generated file: it has a line starting with `// @generated`.
 fn is_generated(text: &str) -> bool {
     text.lines()
         .any(|l| l.trim_start().starts_with("// @generated"))
@@ -213,11 +213,11 @@ pub fn import_circles(files: &[SourceFile]) -> Vec<Violation> {
 }
 
 /// The violations no entry of `allow` excuses, and the entries that excuse nothing (stale: remove them).
-pub fn apply_allow_list<'a>(
+pub fn apply_allow_list(
     violations: Vec<Violation>,
-    allow: &'a [Allow],
+    allow: &[Allow],
     matches: fn(&Violation, &Allow) -> bool,
-) -> (Vec<Violation>, Vec<&'a Allow>) {
+) -> (Vec<Violation>, Vec<&Allow>) {
     let stale = allow
         .iter()
         .filter(|a| !violations.iter().any(|v| matches(v, a)))
