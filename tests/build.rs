@@ -5,7 +5,9 @@
 //!   every model that derives is compiled into `shared`, the others (the `bad_*` files) are listed in
 //!   `shared::SKIPPED`; the cfg `has_shared` says whether the directory was found;
 //! * `tests/models/*.toml`, this crate's own models for paths the built-in models do not reach (Newton's
-//!   method for ψ⁻¹, every function of the expression language), into `extra`.
+//!   method for ψ⁻¹, every function of the expression language), into `extra`;
+//! * `tests/models/known/*.toml`, the known-answer models whose exact solutions are in `src/known.rs`, into
+//!   `known`.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -80,5 +82,6 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
         );
     }
     compile_dir(&manifest.join("models"), &out, "extra")?;
+    compile_dir(&manifest.join("models/known"), &out, "known")?;
     Ok(())
 }

@@ -2,8 +2,12 @@
 //!
 //! The build script compiles `../shared/models/*.toml` (when that directory exists) into [`shared`] and this
 //! crate's `models/*.toml` into [`extra`], each with a registry like `invsim-models`' (`builtin`, `by_hash`,
-//! `MODELS`) plus `SKIPPED`, the model files that did not derive.
+//! `MODELS`) plus `SKIPPED`, the model files that did not derive; the known-answer models of `models/known/`
+//! with their exact solutions are in [`known`]; the workspace's habits as checks are in [`tidy`].
 #![deny(clippy::all)]
+
+pub mod known;
+pub mod tidy;
 
 /// The compiled acceptance models of `../shared/models`.
 #[cfg(has_shared)]

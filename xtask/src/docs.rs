@@ -6,7 +6,7 @@
 //! repository-relative paths, so the documents do not depend on where the repository is checked out.
 //! `--check` writes nothing and fails, listing the stale files, when any differs.
 
-use crate::{derive_relative, model_files, write_if_changed, Failure};
+use crate::{derive_relative, ensure_file_contents, model_files, Check, Failure};
 use invsim_inversion::{Derivation, Solution};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -98,35 +98,51 @@ fn orphans(root: &Path, expected: &[(PathBuf, String)]) -> Vec<PathBuf> {
     out
 }
 
+/// The command that regenerates the documents.
+pub const COMMAND: &str = "cargo xtask docs";
+
+/// Check every document: one message per stale, missing or left-over file, with the command that fixes it.
+fn check_all(root: &Path, expected: &[(PathBuf, String)]) -> Vec<(PathBuf, String)> {
+    let check = Check::Exact { command: COMMAND };
+    let mut out: Vec<(PathBuf, String)> = expected
+        .iter()
+        .filter_map(|(rel, text)| {
+            let err = ensure_file_contents(&root.join(rel), text, check).err()?;
+            Some((rel.clone(), err.message))
+        })
+        .collect();
+    out.extend(orphans(root, expected).into_iter().map(|rel| {
+        let message = format!("{} is stale: run `{COMMAND}`", rel.display());
+        (rel, message)
+    }));
+    out
+}
+
 /// The documents that differ from what [`expected`] renders, are missing, or are left over.
 pub fn stale(root: &Path) -> Result<Vec<PathBuf>, Failure> {
     let expected = expected(root)?;
-    let mut out: Vec<PathBuf> = expected
-        .iter()
-        .filter(|(rel, text)| std::fs::read(root.join(rel)).map_or(true, |b| b != text.as_bytes()))
-        .map(|(rel, _)| rel.clone())
-        .collect();
-    out.extend(orphans(root, &expected));
-    Ok(out)
+    Ok(check_all(root, &expected)
+        .into_iter()
+        .map(|(rel, _)| rel)
+        .collect())
 }
 
 /// Regenerate (or with `check`, verify) the documents; returns the files written.
 pub fn run(root: &Path, check: bool) -> Result<Vec<PathBuf>, Failure> {
+    let expected = expected(root)?;
     if check {
-        let stale = stale(root)?;
-        if stale.is_empty() {
+        let problems: Vec<String> = check_all(root, &expected)
+            .into_iter()
+            .map(|(_, m)| m)
+            .collect();
+        if problems.is_empty() {
             return Ok(Vec::new());
         }
-        let list: Vec<String> = stale
-            .iter()
-            .map(|p| format!("{} is stale: run `cargo xtask docs`", p.display()))
-            .collect();
-        return Err(Failure::check(list.join("\n")));
+        return Err(Failure::check(problems.join("\n")));
     }
-    let expected = expected(root)?;
     let mut written = Vec::new();
     for (rel, text) in &expected {
-        if write_if_changed(&root.join(rel), text)? {
+        if ensure_file_contents(&root.join(rel), text, Check::Write)? {
             written.push(rel.clone());
         }
     }

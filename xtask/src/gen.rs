@@ -4,7 +4,7 @@
 //! A model that cannot be loaded or inverted fails with exactly the message `invsim derive` prints for it
 //! (`invsim: error: …`, exit status 2).
 
-use crate::{write_if_changed, Failure};
+use crate::{ensure_file_contents, Check, Failure};
 use std::path::{Path, PathBuf};
 
 /// The default output directory, relative to the workspace root.
@@ -37,8 +37,8 @@ pub fn run(root: &Path, model: &Path, out: Option<&Path>) -> Result<Written, Fai
         rust: dir.join(format!("{name}.rs")),
         markdown: dir.join(format!("{name}.md")),
     };
-    write_if_changed(&written.rust, &rust)?;
-    write_if_changed(&written.markdown, &markdown)?;
+    ensure_file_contents(&written.rust, &rust, Check::Write)?;
+    ensure_file_contents(&written.markdown, &markdown, Check::Write)?;
     Ok(written)
 }
 

@@ -3,7 +3,7 @@
 //! same); with `--bless` it writes the current output. Changes to generated code are thus always reviewed as
 //! a diff of this file, never taken silently.
 
-use crate::{derive_relative, write_if_changed, Failure};
+use crate::{derive_relative, ensure_file_contents, Check, Failure};
 use std::path::{Path, PathBuf};
 
 /// The model the golden file is generated from, relative to the root.
@@ -22,19 +22,23 @@ pub fn render(root: &Path) -> Result<String, Failure> {
     invsim_codegen::generate(&d, &name).map_err(|e| Failure::io(e.to_string()))
 }
 
+/// The command that rewrites the golden file.
+pub const BLESS: &str = "cargo xtask golden --bless";
+
 /// Compare with (or with `bless`, overwrite) the golden file; returns the golden file's path.
 pub fn run(root: &Path, bless: bool) -> Result<PathBuf, Failure> {
     let text = render(root)?;
     let path = root.join(GOLDEN);
     if bless {
-        write_if_changed(&path, &text)?;
+        ensure_file_contents(&path, &text, Check::Write)?;
         return Ok(path);
     }
-    match std::fs::read_to_string(&path) {
-        Ok(old) if old == text => Ok(path),
-        Ok(_) => Err(Failure::check(format!(
-            "{GOLDEN} differs from the generated source of {MODEL}: review the change, then run `cargo xtask golden --bless`"
-        ))),
-        Err(e) => Err(Failure::check(format!("cannot read {GOLDEN} ({e}): run `cargo xtask golden --bless`"))),
-    }
+    ensure_file_contents(&path, &text, Check::Exact { command: BLESS }).map_err(|f| Failure {
+        message: format!(
+            "{} (the generated source of {MODEL} changed: review the change first)",
+            f.message
+        ),
+        ..f
+    })?;
+    Ok(path)
 }

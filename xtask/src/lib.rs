@@ -6,7 +6,9 @@
 //! * `golden [--bless]` — the golden copy of the generated si_engine source ([`golden`]);
 //! * `figures [--check]` — the SVG figures under `docs/figures/` ([`figures`]).
 //!
-//! The tasks are a library so that the workspace's tests check exactly what the tasks write.
+//! The tasks are a library so that the workspace's tests check exactly what the tasks write. Every file a task
+//! generates goes through [`ensure_file_contents`], which writes it only if it changed or, in check mode, fails
+//! naming the stale file and the command that regenerates it.
 
 pub mod docs;
 pub mod figures;
@@ -82,17 +84,82 @@ pub fn derive_relative(root: &Path, rel: &Path) -> Result<invsim_inversion::Deri
     invsim_inversion::Derivation::new(model).map_err(|e| Failure::user(e.to_string()))
 }
 
-/// Write `text` to `path` (creating directories) unless it already holds exactly that; returns whether it
-/// wrote.
-pub fn write_if_changed(path: &Path, text: &str) -> Result<bool, Failure> {
-    if std::fs::read(path).is_ok_and(|old| old == text.as_bytes()) {
+/// What [`ensure_file_contents`] does with a generated file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Check<'a> {
+    /// Write the file (creating its directory) unless it already holds exactly the contents.
+    Write,
+    /// Write nothing: the file must hold exactly the contents; otherwise it is stale, and the error names it
+    /// and `command`, the command that regenerates it.
+    Exact { command: &'a str },
+    /// Write nothing: the file must exist (a figure: rendered from floating-point runs whose last digits may
+    /// differ between platforms, a picture rather than a golden file); otherwise the error names it and
+    /// `command`.
+    Exists { command: &'a str },
+}
+
+/// Make sure the generated file `path` holds `contents` (rust-analyzer's `ensure_file_contents`): with
+/// [`Check::Write`] write it if it differs (returns whether it wrote); with [`Check::Exact`] or
+/// [`Check::Exists`] write nothing and fail, naming the file (relative to the workspace root) and the command
+/// that regenerates it, when it is stale or missing. Every task that generates files goes through here.
+pub fn ensure_file_contents(
+    path: &Path,
+    contents: &str,
+    check: Check<'_>,
+) -> Result<bool, Failure> {
+    let old = std::fs::read(path).ok();
+    let command = match check {
+        Check::Write => return write_file(path, contents, old.as_deref()),
+        Check::Exact { command } | Check::Exists { command } => command,
+    };
+    let shown = shown_path(path);
+    match old {
+        None => Err(Failure::check(format!(
+            "{} is missing: run `{command}`",
+            shown.display()
+        ))),
+        Some(old) if matches!(check, Check::Exact { .. }) && old != contents.as_bytes() => Err(
+            Failure::check(format!("{} is stale: run `{command}`", shown.display())),
+        ),
+        Some(_) => Ok(false),
+    }
+}
+
+/// Write `contents` to `path` unless `old` (what it holds now) is the same; returns whether it wrote.
+fn write_file(path: &Path, contents: &str, old: Option<&[u8]>) -> Result<bool, Failure> {
+    if old == Some(contents.as_bytes()) {
         return Ok(false);
     }
     if let Some(dir) = path.parent() {
         std::fs::create_dir_all(dir)
             .map_err(|e| Failure::io(format!("cannot create {}: {e}", dir.display())))?;
     }
-    std::fs::write(path, text)
+    std::fs::write(path, contents)
         .map_err(|e| Failure::io(format!("cannot write {}: {e}", path.display())))?;
     Ok(true)
+}
+
+/// `path` relative to the workspace root when it lies under it (both taken lexically, `..` resolved), else
+/// as given.
+pub fn shown_path(path: &Path) -> PathBuf {
+    let (path_n, root_n) = (normalize(path), normalize(&workspace_root()));
+    path_n
+        .strip_prefix(&root_n)
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|_| path.to_path_buf())
+}
+
+/// `path` with `.` and `name/..` components removed, without touching the file system.
+fn normalize(path: &Path) -> PathBuf {
+    let mut out = PathBuf::new();
+    for c in path.components() {
+        match c {
+            std::path::Component::CurDir => {}
+            std::path::Component::ParentDir if out.file_name().is_some() => {
+                out.pop();
+            }
+            other => out.push(other),
+        }
+    }
+    out
 }

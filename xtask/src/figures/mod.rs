@@ -17,11 +17,14 @@
 pub mod paper;
 pub mod stable;
 
-use crate::Failure;
+use crate::{ensure_file_contents, Check, Failure};
 use std::path::{Path, PathBuf};
 
 /// Where the figures live, relative to the workspace root.
 pub const FIGURES_DIR: &str = "docs/figures";
+
+/// The command that regenerates the figures.
+pub const COMMAND: &str = "cargo xtask figures";
 
 /// Where `--check` renders (into a subdirectory per run), relative to the workspace root.
 pub const CHECK_DIR: &str = "target/xtask-figures-check";
@@ -63,16 +66,20 @@ pub fn run(root: &Path, check: bool) -> Result<Vec<PathBuf>, Failure> {
             .file_name()
             .map(|f| f.to_string_lossy().into_owned())
             .unwrap_or_default();
-        match std::fs::read_to_string(path) {
-            Ok(text) if is_complete_svg(&text) => {}
-            Ok(_) => problems.push(format!("{name}: not a complete SVG document")),
-            Err(e) => problems.push(format!("{name}: cannot read the rendered file ({e})")),
+        let text = match std::fs::read_to_string(path) {
+            Ok(text) => text,
+            Err(e) => {
+                problems.push(format!("{name}: cannot read the rendered file ({e})"));
+                continue;
+            }
+        };
+        if !is_complete_svg(&text) {
+            problems.push(format!("{name}: not a complete SVG document"));
         }
         let committed = root.join(FIGURES_DIR).join(&name);
-        if !committed.is_file() {
-            problems.push(format!(
-                "{FIGURES_DIR}/{name} is missing: run `cargo xtask figures`"
-            ));
+        if let Err(f) = ensure_file_contents(&committed, &text, Check::Exists { command: COMMAND })
+        {
+            problems.push(f.message);
         }
     }
     if problems.is_empty() {

@@ -13,7 +13,7 @@
 //! the output grid dt = 0.01 s; long series are thinned to the minimum and maximum of each of
 //! [`BUCKETS`] time buckets for drawing.
 
-use crate::{derive_relative, Failure};
+use crate::{derive_relative, ensure_file_contents, Check, Failure};
 use invsim_inversion::Interpreter;
 use invsim_model_api::InverseModel;
 use invsim_runtime::forward::{self, ForwardOptions, ForwardResult};
@@ -156,7 +156,20 @@ fn draw_error(path: &Path, e: impl std::fmt::Display) -> Failure {
 /// Draw `panels` stacked vertically into an SVG of width 1000 and 380 px per panel.
 fn draw(path: &Path, panels: &[Panel]) -> Result<PathBuf, Failure> {
     let height = 380 * panels.len() as u32;
-    let root = SVGBackend::new(path, (1000, height)).into_drawing_area();
+    let mut svg = String::new();
+    draw_into(&mut svg, (1000, height), path, panels)?;
+    ensure_file_contents(path, &svg, Check::Write)?;
+    Ok(path.to_path_buf())
+}
+
+/// Draw `panels` into the SVG text `svg` of the given size (`path` names the figure in errors).
+fn draw_into(
+    svg: &mut String,
+    size: (u32, u32),
+    path: &Path,
+    panels: &[Panel],
+) -> Result<(), Failure> {
+    let root = SVGBackend::with_string(svg, size).into_drawing_area();
     root.fill(&WHITE).map_err(|e| draw_error(path, e))?;
     let areas = root.split_evenly((panels.len(), 1));
     for (panel, area) in panels.iter().zip(&areas) {
@@ -211,8 +224,7 @@ fn draw(path: &Path, panels: &[Panel]) -> Result<PathBuf, Failure> {
             .draw()
             .map_err(|e| draw_error(path, e))?;
     }
-    root.present().map_err(|e| draw_error(path, e))?;
-    Ok(path.to_path_buf())
+    root.present().map_err(|e| draw_error(path, e))
 }
 
 /// Points (t_k, scale·v_k) with t_k in [t0, t1], thinned to the min and max of each of [`BUCKETS`] buckets.

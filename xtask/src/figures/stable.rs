@@ -13,7 +13,7 @@
 //! The models run on the interpreter (so the figures follow the model files) on the output grid dt = 0.01 s;
 //! long series are thinned to the minimum and maximum of each of [`BUCKETS`] time buckets.
 
-use crate::{derive_relative, Failure};
+use crate::{derive_relative, ensure_file_contents, Check, Failure};
 use invsim_inversion::Interpreter;
 use invsim_model_api::InverseModel;
 use invsim_runtime::{simulate, Cycle, SimulationOptions, SimulationResult, Smoother};
@@ -103,7 +103,20 @@ fn draw_error(path: &Path, e: impl std::fmt::Display) -> Failure {
 
 /// Draw `panels` stacked vertically, 1000 px wide and 330 px per panel.
 fn draw(path: &Path, panels: &[Panel]) -> Result<PathBuf, Failure> {
-    let root = SVGBackend::new(path, (1000, 330 * panels.len() as u32)).into_drawing_area();
+    let mut svg = String::new();
+    draw_into(&mut svg, (1000, 330 * panels.len() as u32), path, panels)?;
+    ensure_file_contents(path, &svg, Check::Write)?;
+    Ok(path.to_path_buf())
+}
+
+/// Draw `panels` into the SVG text `svg` of the given size (`path` names the figure in errors).
+fn draw_into(
+    svg: &mut String,
+    size: (u32, u32),
+    path: &Path,
+    panels: &[Panel],
+) -> Result<(), Failure> {
+    let root = SVGBackend::with_string(svg, size).into_drawing_area();
     root.fill(&WHITE).map_err(|e| draw_error(path, e))?;
     for (panel, area) in panels.iter().zip(&root.split_evenly((panels.len(), 1))) {
         let (lo, hi) = panel.y_range.unwrap_or_else(|| {
@@ -161,8 +174,7 @@ fn draw(path: &Path, panels: &[Panel]) -> Result<PathBuf, Failure> {
             .draw()
             .map_err(|e| draw_error(path, e))?;
     }
-    root.present().map_err(|e| draw_error(path, e))?;
-    Ok(path.to_path_buf())
+    root.present().map_err(|e| draw_error(path, e))
 }
 
 /// Points (t_k, scale·v_k) for t_k in [t0, t1], thinned to the min and max of each of [`BUCKETS`] buckets.
