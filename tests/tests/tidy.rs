@@ -16,63 +16,7 @@ use std::path::Path;
 const ALLOW_MISSING_DOCS: &[Allow] = &[];
 
 /// Functions longer than [`MAX_FUNCTION_LINES`] (path, function name, reason).
-const ALLOW_LONG_FUNCTIONS: &[Allow] = &[
-    (
-        "crates/codegen/src/model.rs",
-        "straight_functions",
-        "being split (issue 9)",
-    ),
-    (
-        "crates/codegen/src/model.rs",
-        "module",
-        "being split (issue 9)",
-    ),
-    (
-        "crates/codegen/src/model/batch.rs",
-        "method",
-        "being split (issue 9)",
-    ),
-    (
-        "crates/inversion/src/derive.rs",
-        "new",
-        "being split (issue 9)",
-    ),
-    (
-        "crates/inversion/src/model.rs",
-        "build",
-        "being split (issue 9)",
-    ),
-    (
-        "crates/inversion/src/render.rs",
-        "to_markdown",
-        "being split (issue 9)",
-    ),
-    (
-        "crates/runtime/src/cycle.rs",
-        "parse_csv",
-        "being split (issue 9)",
-    ),
-    (
-        "crates/runtime/src/forward.rs",
-        "forward",
-        "being split (issue 9)",
-    ),
-    (
-        "crates/runtime/src/plot.rs",
-        "plot_svg",
-        "being split (issue 9)",
-    ),
-    (
-        "crates/runtime/src/simulate.rs",
-        "run",
-        "being split (issue 9)",
-    ),
-    (
-        "crates/runtime/src/stable.rs",
-        "newton",
-        "being split (issue 9)",
-    ),
-];
+const ALLOW_LONG_FUNCTIONS: &[Allow] = &[];
 
 /// `.unwrap()`/`.expect(` calls in library code (start of the path — a file, or a module's files —, a piece of
 /// the source line, the reason the call cannot fail on user data).
@@ -90,28 +34,7 @@ const ALLOW_UNWRAPS: &[Allow] = &[
 ];
 
 /// Import circles (crate directory, its files in the circle sorted and separated by spaces, reason).
-const ALLOW_CIRCLES: &[Allow] = &[
-    (
-        "crates/cli",
-        "crates/cli/src/engine.rs crates/cli/src/main.rs",
-        "being split (issue 9)",
-    ),
-    (
-        "crates/codegen",
-        "crates/codegen/src/format.rs crates/codegen/src/lib.rs crates/codegen/src/model.rs crates/codegen/src/model/batch.rs",
-        "being split (issue 9)",
-    ),
-    (
-        "crates/expr",
-        "crates/expr/src/pool.rs crates/expr/src/rules.rs",
-        "being split (issue 9)",
-    ),
-    (
-        "crates/runtime",
-        "crates/runtime/src/report.rs crates/runtime/src/simulate.rs crates/runtime/src/stable.rs",
-        "being split (issue 9)",
-    ),
-];
+const ALLOW_CIRCLES: &[Allow] = &[];
 
 fn sources() -> Vec<SourceFile> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");

@@ -25,12 +25,6 @@ pub struct InterpretError {
 
 use invsim_model_api::zero_dynamics::{PSI_INV_NEWTON_MAX_ITER, PSI_INV_NEWTON_TOL};
 
-// Old names of ψ⁻¹'s Newton constants, kept so that the code generator still compiles; to be removed once it
-// imports `invsim_model_api::zero_dynamics::{PSI_INV_NEWTON_MAX_ITER, PSI_INV_NEWTON_TOL}` itself.
-#[doc(hidden)]
-pub use invsim_model_api::zero_dynamics::PSI_INV_NEWTON_MAX_ITER as NEWTON_MAX_ITER;
-#[doc(hidden)]
-pub use invsim_model_api::zero_dynamics::PSI_INV_NEWTON_TOL as NEWTON_TOL;
 /// Largest state dimension evaluated with stack buffers (larger models use the heap).
 const STACK: usize = 16;
 

@@ -479,58 +479,85 @@ struct Column {
     name: String,
 }
 
-fn parse_csv(name: String, file: &str, text: &str) -> Result<Cycle, CycleError> {
-    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let mut reader = csv::ReaderBuilder::new()
-        .has_headers(false)
-        .flexible(true)
-        .from_reader(text.as_bytes());
-    let mut records = reader.records();
-    // A blank (or white-space-only) line; a row of empty fields such as `,,` is not blank but malformed.
-    let is_blank = |r: &csv::StringRecord| r.len() <= 1 && r.iter().all(|f| f.trim().is_empty());
-    // 1-based line of a record. The reader reports where a record's text begins *including* preceding
-    // blank lines, so skip line breaks from that byte offset and count the newlines before it.
-    let newlines: Vec<usize> = text.match_indices('\n').map(|(i, _)| i).collect();
-    let line_at = |byte: usize| {
-        let skipped = text.as_bytes().get(byte..).map_or(0, |rest| {
+/// 1-based line numbers of CSV records in a text.
+struct Lines<'a> {
+    text: &'a str,
+    newlines: Vec<usize>,
+}
+
+impl<'a> Lines<'a> {
+    fn new(text: &'a str) -> Self {
+        Lines {
+            text,
+            newlines: text.match_indices('\n').map(|(i, _)| i).collect(),
+        }
+    }
+
+    /// The line of the record starting at `byte`. The reader reports where a record's text begins *including*
+    /// preceding blank lines, so skip line breaks from that byte offset and count the newlines before it.
+    fn at(&self, byte: usize) -> u64 {
+        let skipped = self.text.as_bytes().get(byte..).map_or(0, |rest| {
             rest.iter()
                 .take_while(|&&b| b == b'\n' || b == b'\r')
                 .count()
         });
-        1 + newlines.partition_point(|&i| i < byte + skipped) as u64
-    };
-    let line_of = |r: &csv::StringRecord| r.position().map_or(0, |p| line_at(p.byte() as usize));
-    let csv_error = |e: csv::Error| CycleError::Csv {
-        file: file.to_string(),
-        line: e.position().map_or(0, |p| line_at(p.byte() as usize)),
-        message: e.to_string(),
-    };
+        1 + self.newlines.partition_point(|&i| i < byte + skipped) as u64
+    }
 
-    // Header: the first non-blank record.
-    let header = loop {
-        match records.next() {
-            None => {
-                return Err(CycleError::Empty {
-                    file: file.to_string(),
-                })
-            }
-            Some(Err(e)) => return Err(csv_error(e)),
-            Some(Ok(r)) if is_blank(&r) => continue,
-            Some(Ok(r)) => break r,
+    fn of(&self, r: &csv::StringRecord) -> u64 {
+        r.position().map_or(0, |p| self.at(p.byte() as usize))
+    }
+
+    fn csv_error(&self, file: &str, e: csv::Error) -> CycleError {
+        CycleError::Csv {
+            file: file.to_string(),
+            line: e.position().map_or(0, |p| self.at(p.byte() as usize)),
+            message: e.to_string(),
         }
-    };
-    let header_line = line_of(&header);
-    let names: Vec<String> = header.iter().map(|f| f.trim().to_string()).collect();
+    }
+}
+
+/// A blank (or white-space-only) line; a row of empty fields such as `,,` is not blank but malformed.
+fn is_blank(r: &csv::StringRecord) -> bool {
+    r.len() <= 1 && r.iter().all(|f| f.trim().is_empty())
+}
+
+/// The recognised columns of a header.
+struct Columns {
+    time: Column,
+    speed: Column,
+    unit: SpeedUnit,
+    grade: Option<Column>,
+    /// Number of fields of the header (every row must have as many).
+    width: usize,
+}
+
+/// The header's trimmed names, each as `` `name` ``, comma-separated (for messages).
+fn list_names(names: &[String]) -> String {
+    let mut s = String::new();
+    for (i, n) in names.iter().enumerate() {
+        if i > 0 {
+            s.push_str(", ");
+        }
+        let _ = write!(s, "`{n}`");
+    }
+    if s.is_empty() {
+        s.push_str("no names");
+    }
+    s
+}
+
+/// Picks the time, speed and grade columns of the header at `line`; two columns of one kind are an error.
+fn choose_columns(file: &str, line: u64, names: &[String]) -> Result<Columns, CycleError> {
     if names
         .iter()
         .all(|n| n.is_empty() || n.parse::<f64>().is_ok())
     {
         return Err(CycleError::NoHeader {
             file: file.to_string(),
-            line: header_line,
+            line,
         });
     }
-
     let mut time_col: Option<Column> = None;
     let mut speed_col: Option<(Column, SpeedUnit)> = None;
     let mut grade_col: Option<Column> = None;
@@ -544,7 +571,7 @@ fn parse_csv(name: String, file: &str, text: &str) -> Result<Cycle, CycleError> 
         if let Some((first_index, first)) = slot_name {
             return Err(CycleError::DuplicateColumn {
                 file: file.to_string(),
-                line: header_line,
+                line,
                 kind,
                 first: first.clone(),
                 first_index: first_index + 1,
@@ -562,85 +589,99 @@ fn parse_csv(name: String, file: &str, text: &str) -> Result<Cycle, CycleError> 
             Role::Grade => grade_col = Some(column),
         }
     }
-    let found = || {
-        let mut s = String::new();
-        for (i, n) in names.iter().enumerate() {
-            if i > 0 {
-                s.push_str(", ");
-            }
-            let _ = write!(s, "`{n}`");
-        }
-        if s.is_empty() {
-            s.push_str("no names");
-        }
-        s
-    };
-    let Some(time_col) = time_col else {
+    let Some(time) = time_col else {
         return Err(CycleError::NoTimeColumn {
             file: file.to_string(),
-            line: header_line,
-            found: found(),
+            line,
+            found: list_names(names),
         });
     };
-    let Some((speed_col, unit)) = speed_col else {
+    let Some((speed, unit)) = speed_col else {
         return Err(CycleError::NoSpeedColumn {
             file: file.to_string(),
-            line: header_line,
-            found: found(),
+            line,
+            found: list_names(names),
         });
     };
+    Ok(Columns {
+        time,
+        speed,
+        unit,
+        grade: grade_col,
+        width: names.len(),
+    })
+}
 
-    let mut time = Vec::new();
-    let mut speed = Vec::new();
-    let mut grade = grade_col.as_ref().map(|_| Vec::new());
-    let mut row = 0usize;
-    for record in records {
-        let record = record.map_err(csv_error)?;
-        if is_blank(&record) {
-            continue;
-        }
-        row += 1;
-        let line = line_of(&record);
-        if record.len() != names.len() {
-            return Err(CycleError::Ragged {
-                file: file.to_string(),
-                line,
-                row,
-                found: record.len(),
-                expected: names.len(),
-            });
-        }
-        let number = |col: &Column| -> Result<f64, CycleError> {
-            let text = record.get(col.index).unwrap_or("").trim();
-            let value: f64 = text.parse().map_err(|_| CycleError::BadNumber {
-                file: file.to_string(),
-                line,
-                row,
+/// Where a data row is: for messages.
+struct RowAt<'a> {
+    file: &'a str,
+    line: u64,
+    row: usize,
+}
+
+impl RowAt<'_> {
+    /// The finite number in `col` of `record`.
+    fn number(&self, record: &csv::StringRecord, col: &Column) -> Result<f64, CycleError> {
+        let text = record.get(col.index).unwrap_or("").trim();
+        let value: f64 = text.parse().map_err(|_| CycleError::BadNumber {
+            file: self.file.to_string(),
+            line: self.line,
+            row: self.row,
+            column: col.name.clone(),
+            text: text.to_string(),
+        })?;
+        if value.is_finite() {
+            Ok(value)
+        } else {
+            Err(CycleError::NonFinite {
+                file: self.file.to_string(),
+                line: self.line,
+                row: self.row,
                 column: col.name.clone(),
                 text: text.to_string(),
-            })?;
-            if value.is_finite() {
-                Ok(value)
-            } else {
-                Err(CycleError::NonFinite {
-                    file: file.to_string(),
-                    line,
-                    row,
-                    column: col.name.clone(),
-                    text: text.to_string(),
-                })
-            }
-        };
-        let t = number(&time_col)?;
-        let v = number(&speed_col)?;
-        let g = grade_col.as_ref().map(&number).transpose()?;
-        if let Some(&previous) = time.last() {
+            })
+        }
+    }
+}
+
+/// The samples read so far.
+struct Samples {
+    time: Vec<f64>,
+    speed: Vec<f64>,
+    grade: Option<Vec<f64>>,
+}
+
+impl Samples {
+    /// Checks and appends one data row.
+    fn push(
+        &mut self,
+        at: &RowAt,
+        record: &csv::StringRecord,
+        cols: &Columns,
+    ) -> Result<(), CycleError> {
+        if record.len() != cols.width {
+            return Err(CycleError::Ragged {
+                file: at.file.to_string(),
+                line: at.line,
+                row: at.row,
+                found: record.len(),
+                expected: cols.width,
+            });
+        }
+        let t = at.number(record, &cols.time)?;
+        let v = at.number(record, &cols.speed)?;
+        let g = cols
+            .grade
+            .as_ref()
+            .map(|c| at.number(record, c))
+            .transpose()?;
+        if let Some(&previous) = self.time.last() {
             if t <= previous {
                 return Err(CycleError::TimeNotIncreasing {
-                    file: file.to_string(),
-                    line,
-                    row,
-                    column: time_col.name.clone(),
+                    file: at.file.to_string(),
+                    line: at.line,
+                    row: at.row,
+                    column: cols.time.name.clone(),
                     time: t,
                     previous,
                 });
@@ -648,29 +689,76 @@ fn parse_csv(name: String, file: &str, text: &str) -> Result<Cycle, CycleError> 
         }
         if v < 0.0 {
             return Err(CycleError::NegativeSpeed {
-                file: file.to_string(),
-                line,
-                row,
-                column: speed_col.name.clone(),
+                file: at.file.to_string(),
+                line: at.line,
+                row: at.row,
+                column: cols.speed.name.clone(),
                 value: v,
             });
         }
-        time.push(t);
-        speed.push(unit.to_mps(v));
-        if let (Some(grades), Some(g)) = (grade.as_mut(), g) {
+        self.time.push(t);
+        self.speed.push(cols.unit.to_mps(v));
+        if let (Some(grades), Some(g)) = (self.grade.as_mut(), g) {
             grades.push(g);
         }
+        Ok(())
     }
-    if time.len() < 2 {
+}
+
+fn parse_csv(name: String, file: &str, text: &str) -> Result<Cycle, CycleError> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let mut reader = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .flexible(true)
+        .from_reader(text.as_bytes());
+    let mut records = reader.records();
+    let lines = Lines::new(text);
+
+    // Header: the first non-blank record.
+    let header = loop {
+        match records.next() {
+            None => {
+                return Err(CycleError::Empty {
+                    file: file.to_string(),
+                })
+            }
+            Some(Err(e)) => return Err(lines.csv_error(file, e)),
+            Some(Ok(r)) if is_blank(&r) => continue,
+            Some(Ok(r)) => break r,
+        }
+    };
+    let names: Vec<String> = header.iter().map(|f| f.trim().to_string()).collect();
+    let cols = choose_columns(file, lines.of(&header), &names)?;
+
+    let mut samples = Samples {
+        time: Vec::new(),
+        speed: Vec::new(),
+        grade: cols.grade.as_ref().map(|_| Vec::new()),
+    };
+    let mut row = 0usize;
+    for record in records {
+        let record = record.map_err(|e| lines.csv_error(file, e))?;
+        if is_blank(&record) {
+            continue;
+        }
+        row += 1;
+        let at = RowAt {
+            file,
+            line: lines.of(&record),
+            row,
+        };
+        samples.push(&at, &record, &cols)?;
+    }
+    if samples.time.len() < 2 {
         return Err(CycleError::TooFewRows {
             file: file.to_string(),
-            found: time.len(),
+            found: samples.time.len(),
         });
     }
     Ok(Cycle {
         name,
-        time,
-        speed,
-        grade,
+        time: samples.time,
+        speed: samples.speed,
+        grade: samples.grade,
     })
 }

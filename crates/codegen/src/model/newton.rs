@@ -5,7 +5,9 @@
 
 use super::context::Gen;
 use crate::emit;
-use invsim_inversion::interpreter::{NEWTON_MAX_ITER, NEWTON_TOL};
+use invsim_model_api::zero_dynamics::{
+    PSI_INV_NEWTON_MAX_ITER as NEWTON_MAX_ITER, PSI_INV_NEWTON_TOL as NEWTON_TOL,
+};
 use proc_macro2::TokenStream;
 use quote::quote;
 
@@ -212,7 +214,7 @@ fn lu_solve() -> TokenStream {
     }
 }
 
-/// `NEWTON_MAX_ITER` and `NEWTON_TOL`, the interpreter's values.
+/// `NEWTON_MAX_ITER` and `NEWTON_TOL`: the values of `invsim_model_api::zero_dynamics`, shared with the interpreter.
 fn constants() -> TokenStream {
     let tol = emit::float_tokens(NEWTON_TOL, false);
     let lit = proc_macro2::Literal::usize_unsuffixed;
