@@ -60,8 +60,8 @@ use std::fmt;
 #[cfg_attr(not(test), allow(dead_code))]
 mod construction;
 
-use construction::{build_derivative_polys, Piece, PIECES, TABULATED_ORDERS};
 pub use construction::UNIT_NORMALISATION;
+use construction::{build_derivative_polys, Piece, PIECES, TABULATED_ORDERS};
 
 /// The tables as constants, emitted by `build.rs` from [`construction`] (bit for bit what it builds at run
 /// time; a test checks that).
@@ -187,7 +187,7 @@ impl Kernel {
             }
             let w2 = w * w;
             for (n, o) in out.iter_mut().enumerate() {
-                let v = c * horner(&polys[n], q);
+                let v = c * horner(polys[n], q);
                 *o += if n % 2 == 1 { v * u } else { v };
                 c *= w2 * self.inv_a;
             }
@@ -195,7 +195,7 @@ impl Kernel {
             let ln_w = w.ln();
             for (n, o) in out.iter_mut().enumerate() {
                 let e = (-w + 2.0 * n as f64 * ln_w).exp();
-                let v = c * e * horner(&polys[n], q);
+                let v = c * e * horner(polys[n], q);
                 *o += if n % 2 == 1 { v * u } else { v };
                 c *= self.inv_a;
             }

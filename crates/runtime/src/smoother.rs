@@ -427,7 +427,8 @@ mod tests {
         let times: Vec<f64> = (0..11_801).map(|k| k as f64 / 10.0).collect();
         let mut cols = vec![vec![0.0; 4096]; 3];
         for block in times.chunks(4096) {
-            let mut views: Vec<&mut [f64]> = cols.iter_mut().map(|c| &mut c[..block.len()]).collect();
+            let mut views: Vec<&mut [f64]> =
+                cols.iter_mut().map(|c| &mut c[..block.len()]).collect();
             s.eval_grid(block, Some(0.1), &mut views);
         }
         assert_eq!(s.grid_cache.len(), 1);

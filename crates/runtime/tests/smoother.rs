@@ -673,7 +673,13 @@ fn grid_times(t0: f64, dt: f64, n: usize) -> Vec<f64> {
 
 /// Largest difference between `eval_grid` (in blocks of `block` samples, like the simulation) and `eval`
 /// at every time, per order, relative to the order's largest magnitude on the grid.
-fn grid_error(s: &Smoother, times: &[f64], dt: Option<f64>, orders: usize, block: usize) -> Vec<f64> {
+fn grid_error(
+    s: &Smoother,
+    times: &[f64],
+    dt: Option<f64>,
+    orders: usize,
+    block: usize,
+) -> Vec<f64> {
     let n = times.len();
     let mut cols = vec![vec![0.0; n]; orders];
     for k0 in (0..n).step_by(block) {
@@ -764,7 +770,10 @@ fn grid_evaluation_edge_cases() {
     let times = grid_times(0.0, 0.1, 3_000);
     for orders in [7, 3, 1, 2, 5] {
         let worst = grid_error(&s, &times, Some(0.1), orders, 1000);
-        assert!(worst.iter().all(|&w| w < 1e-12), "{orders} orders: {worst:?}");
+        assert!(
+            worst.iter().all(|&w| w < 1e-12),
+            "{orders} orders: {worst:?}"
+        );
     }
     let mut rng = StdRng::seed_from_u64(21);
     let mut irregular: Vec<f64> = (0..3_000).map(|_| rng.gen_range(0.0..300.0)).collect();
@@ -811,4 +820,3 @@ fn grid_evaluation_beyond_the_table_budget() {
         assert!(worst.iter().all(|&w| w < 1e-12), "block {block}: {worst:?}");
     }
 }
-

@@ -17,9 +17,10 @@
 //!
 //! The grid times are rounded (`t_k` is the double nearest `t_0 + k·h`, a few 10⁻¹⁶·|t| off), and for the
 //! highest orders that rounding, amplified by `c_{n+1}/c_n`, reaches 10⁻¹² of the scale: the table
-//! therefore holds one order more and the offsets `u_i`, and the scatter evaluates
-//! `c_n(t_k − t_j) = c_n(u_i) + c_{n+1}(u_i)·d_k`, `d_k = (t_k − t_j) − u_i`, which is exact to
-//! `c_{n+2}·d_k²` — the values the sample-by-sample evaluation gets at the same times, to rounding.
+//! therefore holds one order more and the offsets `u_i`, and the scatter evaluates the kernel's derivatives
+//! as `c_n(t_k − t_j) = c_n(u_i) + c_{n+1}(u_i)·d_k`, `d_k = (t_k − t_j) − u_i`, exact to `c_{n+2}·d_k²` —
+//! the values the sample-by-sample evaluation gets at the same times, to rounding (`y_d` and `y_d'` need
+//! no correction).
 //! Phases closer than `tol = 8 ε · max(|t|)` (`ε` the double-precision epsilon) share a table, a phase within
 //! `tol` of 0 is 0. The one term that is not continuous, `c_1` at `u = 0`, is settled for the row `i = 0`
 //! by the sign of `t_k − t_j` itself, as the base `s(t)` is. Tables are kept up to [`CACHE_BUDGET`] values;
@@ -214,7 +215,9 @@ pub(super) fn add_corners(
             if steps - mj < -0.5 + tol_steps {
                 mj -= 1.0;
             }
-            let delta = Some(steps - mj).filter(|d| d.abs() > tol_steps).unwrap_or(0.0);
+            let delta = Some(steps - mj)
+                .filter(|d| d.abs() > tol_steps)
+                .unwrap_or(0.0);
             let m = (a / h).ceil() as usize + 1;
             let key = Key {
                 h,
@@ -245,10 +248,11 @@ fn is_regular(times: &[f64], h: f64, tol: f64) -> bool {
 }
 
 /// `out[n][k] += jump · c_n(times[k] − t_j)` over the samples the table covers, from the table's row
-/// `i = k − m_j` to first order in the grid's rounding `d_k = (times[k] − t_j) − u_i` (a few 10⁻¹⁶ s·|t|):
-/// `c_n(u_i + d_k) = c_n(u_i) + c_{n+1}(u_i)·d_k` (`c_0' = c_1`, `c_1' = c_2` away from `u = 0`,
-/// `c_n' = c_{n+1}`), as contiguous multiply-adds. The step of `c_1` at `u = 0` is decided by the sign of
-/// `times[m_j] − t_j` itself.
+/// `i = k − m_j`, as contiguous multiply-adds. For the kernel's derivatives (`n ≥ 2`) to first order in the
+/// grid's rounding `d_k = (times[k] − t_j) − u_i` (a few 10⁻¹⁶ s·|t|): `c_n(u_i + d_k) = c_n(u_i) +
+/// c_{n+1}(u_i)·d_k`; `y_d` and `y_d'` take `c_0(u_i)`, `c_1(u_i)` as they are (their slopes `c_1`, `c_2` are
+/// at most 1 and `1/(C₀a)`, so the rounding moves them by 10⁻¹⁵ of their scale, and a `K(u) − H(u)` that
+/// rounds to 0 stays 0). The step of `c_1` at `u = 0` is decided by the sign of `times[m_j] − t_j` itself.
 fn scatter(
     table: &PhaseTable,
     mj: i64,
@@ -269,19 +273,28 @@ fn scatter(
     let len = (k_hi - k_lo) as usize;
     let k_lo = k_lo as usize;
     let rows = row_lo..row_lo + len;
-    // jd_k = jump · d_k
-    jd.clear();
-    jd.extend(
-        times[k_lo..k_lo + len]
-            .iter()
-            .zip(&table.column(table.width + 1)[rows.clone()])
-            .map(|(&t, &u)| jump * ((t - tj) - u)),
-    );
+    if out.len() > 2 {
+        // jd_k = jump · d_k
+        jd.clear();
+        jd.extend(
+            times[k_lo..k_lo + len]
+                .iter()
+                .zip(&table.column(table.width + 1)[rows.clone()])
+                .map(|(&t, &u)| jump * ((t - tj) - u)),
+        );
+    }
     for (order, col) in out.iter_mut().enumerate() {
         let c = &table.column(order)[rows.clone()];
-        let dc = &table.column(order + 1)[rows.clone()];
-        for (((o, &c), &dc), &jd) in col[k_lo..k_lo + len].iter_mut().zip(c).zip(dc).zip(&*jd) {
-            *o += jump * c + jd * dc;
+        let col = &mut col[k_lo..k_lo + len];
+        if order < 2 {
+            for (o, &c) in col.iter_mut().zip(c) {
+                *o += jump * c;
+            }
+        } else {
+            let dc = &table.column(order + 1)[rows.clone()];
+            for (((o, &c), &dc), &jd) in col.iter_mut().zip(c).zip(dc).zip(&*jd) {
+                *o += jump * c + jd * dc;
+            }
         }
     }
     // Row 0 (u = −δh): the table's H(u) against the base's "corner passed" (t_j ≤ t_k).
