@@ -820,3 +820,35 @@ fn grid_evaluation_beyond_the_table_budget() {
         assert!(worst.iter().all(|&w| w < 1e-12), "block {block}: {worst:?}");
     }
 }
+
+/// A smoother is shared by threads (parameter sweeps): its table cache is behind a lock, and evaluations
+/// from two threads at once give the values of one.
+#[test]
+fn grid_evaluation_from_two_threads() {
+    fn shareable<T: Send + Sync + Clone>() {}
+    shareable::<Smoother>();
+    let nedc = Cycle::builtin("nedc").unwrap();
+    let s = Smoother::new(&nedc, 5.0).unwrap();
+    let times = grid_times(0.0, 0.01, 20_000);
+    let run = |t0: f64| {
+        let shifted: Vec<f64> = times.iter().map(|t| t + t0).collect();
+        let mut cols = vec![vec![0.0; shifted.len()]; 4];
+        for k0 in (0..shifted.len()).step_by(1000) {
+            let k1 = (k0 + 1000).min(shifted.len());
+            let mut views: Vec<&mut [f64]> = cols.iter_mut().map(|c| &mut c[k0..k1]).collect();
+            s.eval_grid(&shifted[k0..k1], Some(0.01), &mut views);
+        }
+        cols
+    };
+    let alone: Vec<_> = [0.0, 0.004].map(run).into();
+    let together: Vec<_> = std::thread::scope(|scope| {
+        let handles = [0.0, 0.004].map(|t0| scope.spawn(move || run(t0)));
+        handles.map(|h| h.join().unwrap()).into()
+    });
+    assert!(alone == together);
+    let copy = s.clone();
+    let mut one = vec![vec![0.0; 1000]; 4];
+    let mut views: Vec<&mut [f64]> = one.iter_mut().map(|c| c.as_mut_slice()).collect();
+    copy.eval_grid(&times[..1000], Some(0.01), &mut views);
+    assert!(one.iter().zip(&alone[0]).all(|(c, a)| c[..] == a[..1000]));
+}
