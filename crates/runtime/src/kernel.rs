@@ -45,27 +45,32 @@
 //! # The integral and the smoothed ramp
 //!
 //! `K(t) = ∫_{−a}^{t} k` and `R(t) = ∫_{−a}^{t} K = t K(t) − M(t)`, with `M(t) = ∫_{−a}^{t} σ k(σ) dσ`,
-//! are tabulated once per process for the unit kernel on `[−1, 0]` (the rest follows from symmetry:
+//! are tabulated for the unit kernel on `[−1, 0]` (the rest follows from symmetry:
 //! `K(u) = 1 − K(−u)`, `M(u) = M(−u)`, `R(u) = u + R(−u)`): 128 pieces, each a degree-11 polynomial
 //! obtained by interpolating `h` at 32 Chebyshev points, integrating the Chebyshev series exactly and
 //! accumulating the piece integrals in double-double arithmetic. The truncation error is below 10⁻¹⁸, so `K`
-//! is correct to rounding (≈ 10⁻¹⁶ absolute) and a call costs one table look-up.
+//! is correct to rounding (≈ 10⁻¹⁶ absolute) and a call costs one table look-up. The tables (and the
+//! polynomials `S̃_n` of the orders 0–32) are built at compile time by `build.rs`, which runs the
+//! construction in `kernel/construction.rs`; nothing is built at start-up.
 
-use std::f64::consts::PI;
 use std::fmt;
-use std::sync::OnceLock;
 
-/// `C₀ = ∫_{−1}^{1} exp(−1/(1 − u²)) du`: the paper's normalisation constant is `C = C₀·a` (eq. 33–35).
-pub const UNIT_NORMALISATION: f64 = 0.443_993_816_168_079_4;
+// The library itself only needs the derivative polynomials of orders above 32 from here; the rest runs in
+// build.rs and in the tests.
+#[cfg_attr(not(test), allow(dead_code))]
+mod construction;
 
-/// Number of table pieces on `[−1, 0]`.
-const PIECES: usize = 128;
-/// Coefficients per piece (degree + 1).
-const COEFFS: usize = 12;
-/// Chebyshev points used to build each piece.
-const SAMPLES: usize = 32;
-/// Derivative orders whose polynomials are precomputed; higher orders are built on demand.
-const TABULATED_ORDERS: usize = 33;
+pub use construction::UNIT_NORMALISATION;
+use construction::{build_derivative_polys, Piece, PIECES, TABULATED_ORDERS};
+
+/// The tables as constants, emitted by `build.rs` from [`construction`] (bit for bit what it builds at run
+/// time; a test checks that).
+#[allow(clippy::unreadable_literal, clippy::excessive_precision)]
+mod tables {
+    use super::construction::Piece;
+    include!(concat!(env!("OUT_DIR"), "/kernel_tables.rs"));
+}
+
 /// Above this `w = 1/(1 − u²)` the factor `e^(−w) w^(2n)` is formed in log space.
 const W_LOG_SPACE: f64 = 700.0;
 
@@ -77,7 +82,7 @@ pub struct Kernel {
     a: f64,
     inv_a: f64,
     tables: &'static UnitTables,
-    polys: &'static [Vec<f64>],
+    polys: &'static [&'static [f64]; TABULATED_ORDERS],
 }
 
 impl fmt::Debug for Kernel {
@@ -103,8 +108,8 @@ impl Kernel {
         Kernel {
             a,
             inv_a: 1.0 / a,
-            tables: unit_tables(),
-            polys: derivative_polys(),
+            tables: &UNIT_TABLES,
+            polys: &tables::DERIVATIVE_POLYS,
         }
     }
 
@@ -136,7 +141,7 @@ impl Kernel {
         let u = t * self.inv_a;
         let scale = self.inv_a.powi(order as i32 + 1) / UNIT_NORMALISATION;
         if order < TABULATED_ORDERS {
-            unit_derivative(&self.polys[order], order, u) * scale
+            unit_derivative(self.polys[order], order, u) * scale
         } else {
             let poly = build_derivative_polys(order + 1).pop().unwrap_or_default();
             unit_derivative(&poly, order, u) * scale
@@ -182,7 +187,7 @@ impl Kernel {
             }
             let w2 = w * w;
             for (n, o) in out.iter_mut().enumerate() {
-                let v = c * horner(&polys[n], q);
+                let v = c * horner(polys[n], q);
                 *o += if n % 2 == 1 { v * u } else { v };
                 c *= w2 * self.inv_a;
             }
@@ -190,7 +195,7 @@ impl Kernel {
             let ln_w = w.ln();
             for (n, o) in out.iter_mut().enumerate() {
                 let e = (-w + 2.0 * n as f64 * ln_w).exp();
-                let v = c * e * horner(&polys[n], q);
+                let v = c * e * horner(polys[n], q);
                 *o += if n % 2 == 1 { v * u } else { v };
                 c *= self.inv_a;
             }
@@ -281,63 +286,21 @@ fn unit_derivative(poly: &[f64], n: usize, u: f64) -> f64 {
     }
 }
 
+#[inline]
 fn horner(c: &[f64], x: f64) -> f64 {
     c.iter().rev().fold(0.0, |acc, &ci| acc * x + ci)
-}
-
-fn derivative_polys() -> &'static [Vec<f64>] {
-    static POLYS: OnceLock<Vec<Vec<f64>>> = OnceLock::new();
-    POLYS.get_or_init(|| build_derivative_polys(TABULATED_ORDERS))
-}
-
-/// `S̃_n(q) = q^(2n) S_n(1/q)` for `n = 0..count`, from the recurrence for `S_n(w)` in the module docs.
-fn build_derivative_polys(count: usize) -> Vec<Vec<f64>> {
-    let mut out = Vec::with_capacity(count);
-    // s[j] = coefficient of w^j in S_n.
-    let mut s = vec![1.0_f64];
-    for n in 0..count {
-        // S̃_n: coefficient of q^i is s[2n − i].
-        let mut rev = vec![0.0; 2 * n + 1];
-        for (j, &c) in s.iter().enumerate() {
-            rev[2 * n - j] = c;
-        }
-        out.push(rev);
-        // d = S_n' − S_n
-        let mut d = vec![0.0; s.len()];
-        for (j, dj) in d.iter_mut().enumerate() {
-            let deriv = s.get(j + 1).map_or(0.0, |&c| c * (j + 1) as f64);
-            *dj = deriv - s[j];
-        }
-        let mut next = vec![0.0; 2 * (n + 1) + 1];
-        if n % 2 == 0 {
-            // S_{n+1} = 2 w² d
-            for (j, &dj) in d.iter().enumerate() {
-                next[j + 2] += 2.0 * dj;
-            }
-        } else {
-            // S_{n+1} = S_n + 2 (w² − w) d
-            for (j, &c) in s.iter().enumerate() {
-                next[j] += c;
-            }
-            for (j, &dj) in d.iter().enumerate() {
-                next[j + 2] += 2.0 * dj;
-                next[j + 1] -= 2.0 * dj;
-            }
-        }
-        s = next;
-    }
-    out
 }
 
 /// Piecewise polynomials for the unit kernel on `[−1, 0]`: `K₁(u)` and `R₁(u)`, each as `COEFFS` monomial
 /// coefficients in the local variable `s ∈ [−1, 1]` of piece `j` (`u = −1 + (j + ½ + s/2)/PIECES`).
 struct UnitTables {
-    pieces: Vec<Piece>,
+    pieces: &'static [Piece; PIECES],
 }
 
-/// Coefficient `i` of a piece is the pair `[K-coefficient, R-coefficient]`, so both polynomials are
-/// evaluated together, two lanes at a time.
-type Piece = [[f64; 2]; COEFFS];
+/// The unit kernel's tables, compiled in.
+static UNIT_TABLES: UnitTables = UnitTables {
+    pieces: &tables::UNIT_PIECES,
+};
 
 impl UnitTables {
     /// `(K₁(u), R₁(u))` for `u ∈ (−1, 0]`.
@@ -379,132 +342,6 @@ fn estrin12(c: &Piece, s: f64) -> [f64; 2] {
     lin2(lin2(lo, mid, s4), hi, s8)
 }
 
-fn unit_tables() -> &'static UnitTables {
-    static TABLES: OnceLock<UnitTables> = OnceLock::new();
-    TABLES.get_or_init(build_unit_tables)
-}
-
-/// Double-double accumulator (Knuth's two-sum) for the running integrals between pieces.
-#[derive(Clone, Copy, Default)]
-struct DoubleDouble {
-    hi: f64,
-    lo: f64,
-}
-
-impl DoubleDouble {
-    fn add(&mut self, x: f64) {
-        let s = self.hi + x;
-        let bb = s - self.hi;
-        let err = (self.hi - (s - bb)) + (x - bb);
-        self.hi = s;
-        self.lo += err;
-    }
-    fn value(self) -> f64 {
-        self.hi + self.lo
-    }
-}
-
-fn build_unit_tables() -> UnitTables {
-    let n = PIECES as f64;
-    let half = 0.5 / n;
-    let theta: Vec<f64> = (0..SAMPLES)
-        .map(|i| PI * (i as f64 + 0.5) / SAMPLES as f64)
-        .collect();
-    let mut k_left = DoubleDouble::default();
-    let mut r_left = DoubleDouble::default();
-    let mut pieces = Vec::with_capacity(PIECES);
-    for j in 0..PIECES {
-        let centre = -1.0 + (j as f64 + 0.5) / n;
-        // Chebyshev interpolant of h/C₀ on the piece, in the local variable s.
-        let f: Vec<f64> = theta
-            .iter()
-            .map(|&th| {
-                let u = centre + half * th.cos();
-                let q = (1.0 - u) * (1.0 + u);
-                (-1.0 / q).exp() / UNIT_NORMALISATION
-            })
-            .collect();
-        let mut a = vec![0.0; SAMPLES];
-        for (k, ak) in a.iter_mut().enumerate() {
-            let sum: f64 = f
-                .iter()
-                .zip(&theta)
-                .map(|(&fi, &th)| fi * (k as f64 * th).cos())
-                .sum();
-            *ak = sum * if k == 0 { 1.0 } else { 2.0 } / SAMPLES as f64;
-        }
-        // F(s) = ∫_{left}^{u} k: antiderivative with F(−1) = 0, du = half·ds.
-        let f_series = cheb_integrate(&a, half);
-        // K on the piece = K(left) + F;  R = R(left) + half·K(left)(s + 1) + ∫ F.
-        let k0 = k_left.value();
-        let mut k_series = f_series.clone();
-        k_series[0] += k0;
-        let g_series = cheb_integrate(&f_series, half);
-        let mut r_series = g_series.clone();
-        r_series[0] += r_left.value() + half * k0;
-        r_series[1] += half * k0;
-        let (k, r) = (cheb_to_monomial(&k_series), cheb_to_monomial(&r_series));
-        pieces.push(std::array::from_fn(|i| [k[i], r[i]]));
-        // Advance the running integrals to the right end (s = 1, where T_k = 1).
-        k_left.add(f_series.iter().sum());
-        r_left.add(2.0 * half * k0);
-        r_left.add(g_series.iter().sum());
-    }
-    UnitTables { pieces }
-}
-
-/// `scale · ∫_{−1}^{s} Σ a_k T_k`, as Chebyshev coefficients (one degree higher), zero at `s = −1`.
-fn cheb_integrate(a: &[f64], scale: f64) -> Vec<f64> {
-    let mut b = vec![0.0; a.len() + 1];
-    for (k, &ak) in a.iter().enumerate() {
-        match k {
-            0 => b[1] += ak,
-            1 => b[2] += ak / 4.0,
-            _ => {
-                b[k + 1] += ak / (2.0 * (k + 1) as f64);
-                b[k - 1] -= ak / (2.0 * (k - 1) as f64);
-            }
-        }
-    }
-    let at_minus_one: f64 = b
-        .iter()
-        .enumerate()
-        .skip(1)
-        .map(|(k, &bk)| if k % 2 == 0 { bk } else { -bk })
-        .sum();
-    b[0] -= at_minus_one;
-    b.iter().map(|&x| x * scale).collect()
-}
-
-/// Truncates a Chebyshev series to `COEFFS` terms (the tail is below 10⁻¹⁸) and converts it to monomials.
-fn cheb_to_monomial(c: &[f64]) -> [f64; COEFFS] {
-    let mut out = [0.0; COEFFS];
-    let mut t_prev = [0.0; COEFFS];
-    let mut t_cur = [0.0; COEFFS];
-    t_prev[0] = 1.0; // T_0
-    t_cur[1] = 1.0; // T_1
-    for (k, &ck) in c.iter().enumerate().take(COEFFS) {
-        let tk = match k {
-            0 => t_prev,
-            1 => t_cur,
-            _ => {
-                let mut next = [0.0; COEFFS];
-                for i in 0..COEFFS {
-                    let shifted = if i > 0 { 2.0 * t_cur[i - 1] } else { 0.0 };
-                    next[i] = shifted - t_prev[i];
-                }
-                t_prev = t_cur;
-                t_cur = next;
-                next
-            }
-        };
-        for i in 0..COEFFS {
-            out[i] += ck * tk[i];
-        }
-    }
-    out
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -520,9 +357,37 @@ mod tests {
         assert!((k.integral(-1e-300) - 0.5).abs() < 2e-16);
     }
 
+    /// The compiled tables are bit for bit those of the double-double construction run now.
+    #[test]
+    fn compiled_tables_equal_the_runtime_construction() {
+        let pieces = construction::build_unit_pieces();
+        assert_eq!(pieces.len(), PIECES);
+        for (j, (built, compiled)) in pieces.iter().zip(UNIT_TABLES.pieces.iter()).enumerate() {
+            for (i, (b, c)) in built.iter().zip(compiled).enumerate() {
+                for lane in 0..2 {
+                    assert_eq!(
+                        b[lane].to_bits(),
+                        c[lane].to_bits(),
+                        "piece {j}, coefficient {i}, lane {lane}: {} vs {}",
+                        b[lane],
+                        c[lane]
+                    );
+                }
+            }
+        }
+        let polys = build_derivative_polys(TABULATED_ORDERS);
+        for (n, (built, compiled)) in polys.iter().zip(tables::DERIVATIVE_POLYS).enumerate() {
+            let bits = |p: &[f64]| p.iter().map(|c| c.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(built), bits(compiled), "derivative polynomial {n}");
+        }
+        // and the compiled source is what the construction prints now
+        let compiled = include_str!(concat!(env!("OUT_DIR"), "/kernel_tables.rs"));
+        assert!(construction::tables_source() == compiled);
+    }
+
     #[test]
     fn pieces_join_continuously() {
-        let tables = unit_tables();
+        let tables = &UNIT_TABLES;
         for j in 1..PIECES {
             // left piece at s = 1, right piece at s = −1
             let left = estrin12(&tables.pieces[j - 1], 1.0);

@@ -36,6 +36,8 @@
 //! at or before `t`. Nothing is differenced numerically: `K` comes from the kernel's tables (about 10⁻¹⁶
 //! absolute), `R` likewise (about 10⁻¹⁶·a), the derivatives from the kernel's closed form.
 
+mod grid;
+
 use crate::cycle::{Cycle, CycleError};
 use crate::kernel::Kernel;
 use invsim_model_api::ReferenceMap;
@@ -71,6 +73,8 @@ pub struct Smoother {
     /// The output's reference map y_d = offset + scale · (k * y_c) (identity unless
     /// [`Smoother::with_reference`] set one).
     reference: ReferenceMap,
+    /// Tables of the corners' kernel terms on the grids [`Smoother::eval_grid`] has seen.
+    grid_cache: grid::GridCache,
 }
 
 impl Smoother {
@@ -133,6 +137,7 @@ impl Smoother {
             inv_width: 1.0 / width,
             bucket_start,
             reference: ReferenceMap::IDENTITY,
+            grid_cache: grid::GridCache::default(),
         })
     }
 
@@ -277,13 +282,14 @@ impl Smoother {
     /// y_d^(n)(t) = Σ_{|u|<a} Δs_j k^(n−2)(u),             u = t − t_j,  H(u) = 1 for u ≥ 0,
     /// ```
     ///
-    /// with s(t) the slope of the cycle at t. When `dt` is given and a corner lies on the grid
-    /// (t_j − times[0] a whole number of steps), its offsets u are whole multiples of dt, and the kernel terms
-    /// come from a table over ±a built once per call: the cost is then O(samples + corners·a/dt) additions
-    /// instead of one kernel evaluation per corner and sample.
+    /// with s(t) the slope of the cycle at t. When `dt` is given and the grid is regular
+    /// (`times[k] = times[0] + k·dt` to rounding), the kernel terms of every corner come from a table over
+    /// ±a per phase of the corners on the grid (`(t_j − times[0])/dt` modulo 1: 0 for all corners of a 1 Hz
+    /// cycle when dt divides 1 s), built once and kept for later calls on the same grid (a simulation
+    /// evaluates its grid block by block); each corner then costs a few multiply-adds per sample of its
+    /// window instead of a kernel evaluation. See `smoother/grid.rs`.
     pub fn eval_grid(&self, times: &[f64], dt: Option<f64>, out: &mut [&mut [f64]]) {
-        let orders = out.len();
-        if orders == 0 || times.is_empty() {
+        if out.is_empty() || times.is_empty() {
             return;
         }
         for col in out.iter_mut() {
@@ -292,94 +298,21 @@ impl Smoother {
                 "output column shorter than the grid"
             );
         }
-        // Base: y_c(t) and s(t), walking the corners along the increasing grid.
-        let mut next = 0; // first corner > t
-        for (k, &t) in times.iter().enumerate() {
-            while next < self.corners.len() && self.corners[next] <= t {
-                next += 1;
-            }
-            let (y, s) = match next.checked_sub(1) {
-                Some(i) if self.slope_after[i] == 0.0 => (self.value_at[i], 0.0),
-                Some(i) => (
-                    self.value_at[i] + self.slope_after[i] * (t - self.corners[i]),
-                    self.slope_after[i],
-                ),
-                None => (self.first_value, 0.0),
-            };
-            out[0][k] = y;
-            if orders > 1 {
-                out[1][k] = s;
-            }
-            for col in out.iter_mut().skip(2) {
-                col[k] = 0.0;
-            }
-        }
-        let a = self.kernel.half_width();
-        let t0 = times[0];
-        let mut terms = vec![0.0; orders.max(2)];
-        // c_n(u) for one offset: [R(u) − u₊, K(u) − H(u), k(u), k'(u), …].
-        let corner_terms = |u: f64, terms: &mut [f64]| {
-            let (k, r) = self.kernel.integral_and_ramp_offset(u);
-            terms[0] = r;
-            terms[1] = k - if u >= 0.0 { 1.0 } else { 0.0 };
-            if terms.len() > 2 {
-                self.kernel.derivatives(u, &mut terms[2..]);
-            }
-        };
-        // Table of c_n(i·dt), |i·dt| < a, for corners on the grid.
-        let table = dt
-            .filter(|&h| h > 0.0 && h.is_finite() && a / h < 1e7)
-            .map(|h| {
-                let m = (a / h).ceil() as i64;
-                let mut rows = vec![0.0; (2 * m as usize + 1) * orders.max(2)];
-                for i in -m..=m {
-                    let u = i as f64 * h;
-                    let at = (i + m) as usize * orders.max(2);
-                    if u.abs() < a {
-                        corner_terms(u, &mut rows[at..at + orders.max(2)]);
-                    }
-                }
-                (h, m, rows)
-            });
-        let width = orders.max(2);
-        for (&tj, &jump) in self.corners.iter().zip(&self.jumps) {
-            // Grid points with |t_k − t_j| < a.
-            let lo = times.partition_point(|&t| t <= tj - a);
-            let hi = times.partition_point(|&t| t < tj + a);
-            if lo >= hi {
-                continue;
-            }
-            let aligned = table.as_ref().and_then(|(h, m, rows)| {
-                let steps = (tj - t0) / h;
-                let mj = steps.round();
-                ((steps - mj).abs() <= 1e-9 * steps.abs().max(1.0)).then_some((mj as i64, *m, rows))
-            });
-            for k in lo..hi {
-                let src: &[f64] = match aligned {
-                    Some((mj, m, rows)) => {
-                        let i = k as i64 - mj;
-                        if i.abs() > m {
-                            corner_terms(times[k] - tj, &mut terms);
-                            &terms
-                        } else {
-                            let at = (i + m) as usize * width;
-                            &rows[at..at + width]
-                        }
-                    }
-                    None => {
-                        corner_terms(times[k] - tj, &mut terms);
-                        &terms
-                    }
-                };
-                for (n, col) in out.iter_mut().enumerate() {
-                    col[k] += jump * src[n];
-                }
-            }
-        }
+        let n = times.len();
+        let mut cols: Vec<&mut [f64]> = out.iter_mut().map(|c| &mut c[..n]).collect();
+        self.base_on_grid(times, &mut cols);
+        grid::add_corners(
+            &self.kernel,
+            &self.grid_cache,
+            (&self.corners, &self.jumps),
+            times,
+            dt,
+            &mut cols,
+        );
         if !self.reference.is_identity() {
             let ReferenceMap { offset, scale } = self.reference;
-            for (n, col) in out.iter_mut().enumerate() {
-                for v in col[..times.len()].iter_mut() {
+            for (n, col) in cols.iter_mut().enumerate() {
+                for v in col.iter_mut() {
                     *v = if n == 0 {
                         offset + scale * *v
                     } else {
@@ -387,6 +320,43 @@ impl Smoother {
                     };
                 }
             }
+        }
+    }
+
+    /// `out[0][k] = y_c(times[k])`, `out[1][k] = s(times[k])` (the slope after the last corner at or before
+    /// the time), higher orders 0: segment by segment between the corners along the increasing grid.
+    fn base_on_grid(&self, times: &[f64], out: &mut [&mut [f64]]) {
+        let orders = out.len();
+        for col in out.iter_mut().skip(2) {
+            col.fill(0.0);
+        }
+        let mut k = 0;
+        // corners[next − 1] ≤ t < corners[next] on the current segment
+        let mut next = self.corners.partition_point(|&c| c <= times[0]);
+        while k < times.len() {
+            let end = match self.corners.get(next) {
+                Some(&c) => k + times[k..].partition_point(|&t| t < c),
+                None => times.len(),
+            };
+            let (y, s) = (&mut out[0][k..end], k..end);
+            match next.checked_sub(1) {
+                Some(i) if self.slope_after[i] == 0.0 => {
+                    y.fill(self.value_at[i]);
+                }
+                Some(i) => {
+                    let (v, slope, tj) = (self.value_at[i], self.slope_after[i], self.corners[i]);
+                    for (o, &t) in y.iter_mut().zip(&times[k..end]) {
+                        *o = v + slope * (t - tj);
+                    }
+                }
+                None => y.fill(self.first_value),
+            }
+            if orders > 1 {
+                let slope = next.checked_sub(1).map_or(0.0, |i| self.slope_after[i]);
+                out[1][s].fill(slope);
+            }
+            k = end;
+            next += 1;
         }
     }
 
@@ -446,5 +416,25 @@ mod tests {
             let expected = s.corners.partition_point(|&c| c <= x);
             assert_eq!(s.first_corner_after(x), expected, "x = {x}");
         }
+    }
+
+    /// On a 1 Hz cycle and a grid whose step divides 1 s every corner has phase 0: the whole grid, block by
+    /// block, uses one table; a corner phase of its own adds one.
+    #[test]
+    fn one_table_per_phase() {
+        let nedc = Cycle::builtin("nedc").unwrap();
+        let s = Smoother::new(&nedc, 5.0).unwrap();
+        let times: Vec<f64> = (0..11_801).map(|k| k as f64 / 10.0).collect();
+        let mut cols = vec![vec![0.0; 4096]; 3];
+        for block in times.chunks(4096) {
+            let mut views: Vec<&mut [f64]> =
+                cols.iter_mut().map(|c| &mut c[..block.len()]).collect();
+            s.eval_grid(block, Some(0.1), &mut views);
+        }
+        assert_eq!(s.grid_cache.len(), 1);
+        let shifted: Vec<f64> = times.iter().map(|t| t + 0.05).collect();
+        let mut views: Vec<&mut [f64]> = cols.iter_mut().map(|c| &mut c[..4096]).collect();
+        s.eval_grid(&shifted[..4096], Some(0.1), &mut views);
+        assert_eq!(s.grid_cache.len(), 2);
     }
 }

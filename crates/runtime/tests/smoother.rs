@@ -655,8 +655,62 @@ fn shared_cycles() -> Option<PathBuf> {
     }
 }
 
-/// `eval_grid` (corner by corner, kernel terms from a table for corners on the grid) gives the values of
-/// `eval` (time by time) on aligned and unaligned grids.
+/// Grid times as the simulation forms them: `t0 + k/m` when `m = 1/dt` is a whole number (the correctly
+/// rounded `k·dt`), else `t0 + k·dt`.
+fn grid_times(t0: f64, dt: f64, n: usize) -> Vec<f64> {
+    let per_second = 1.0 / dt;
+    let whole = (per_second - per_second.round()).abs() < 1e-9 && per_second >= 1.0;
+    (0..n)
+        .map(|k| {
+            if whole {
+                t0 + k as f64 / per_second.round()
+            } else {
+                t0 + k as f64 * dt
+            }
+        })
+        .collect()
+}
+
+/// Largest difference between `eval_grid` (in blocks of `block` samples, like the simulation) and `eval`
+/// at every time, per order, relative to the order's largest magnitude on the grid.
+fn grid_error(
+    s: &Smoother,
+    times: &[f64],
+    dt: Option<f64>,
+    orders: usize,
+    block: usize,
+) -> Vec<f64> {
+    let n = times.len();
+    let mut cols = vec![vec![0.0; n]; orders];
+    for k0 in (0..n).step_by(block) {
+        let k1 = (k0 + block).min(n);
+        let mut views: Vec<&mut [f64]> = cols.iter_mut().map(|c| &mut c[k0..k1]).collect();
+        s.eval_grid(&times[k0..k1], dt, &mut views);
+    }
+    let mut reference = vec![vec![0.0; n]; orders];
+    let mut one = vec![0.0; orders];
+    for (k, &t) in times.iter().enumerate() {
+        s.eval(t, &mut one);
+        for (col, &v) in reference.iter_mut().zip(&one) {
+            col[k] = v;
+        }
+    }
+    (0..orders)
+        .map(|o| {
+            let scale = reference[o].iter().fold(1e-300_f64, |m, v| m.max(v.abs()));
+            let worst = cols[o]
+                .iter()
+                .zip(&reference[o])
+                .fold(0.0, |m: f64, (g, r)| m.max((g - r).abs()));
+            worst / scale
+        })
+        .collect()
+}
+
+/// `eval_grid` (corner by corner, kernel terms from per-phase tables on regular grids, sample by sample
+/// otherwise) gives the values of `eval` (time by time) within 1e-12 of each order's scale, for every order
+/// a model of relative degree up to 5 uses (y_d … y_d^(6)), on aligned and unaligned grids, whole or in
+/// blocks.
 #[test]
 fn grid_evaluation_matches_pointwise() {
     let nedc = Cycle::builtin("nedc").unwrap();
@@ -666,35 +720,135 @@ fn grid_evaluation_matches_pointwise() {
         speed: vec![0.0, 4.0, 4.0, 9.5, 0.0],
         grade: None,
     };
-    for (cycle, a, t0, dt, n) in [
+    let mut ece_shifted = Cycle::builtin("ece").unwrap();
+    for t in &mut ece_shifted.time {
+        *t += 0.37; // every corner off a 0.1 s grid by the same phase
+    }
+    let cases: &[(&Cycle, f64, f64, f64, usize)] = &[
         (&nedc, 5.0, 0.0, 0.01, 118_001),
+        (&nedc, 5.0, 0.0, 0.001, 250_001),
+        (&nedc, 5.0, 0.0, 1.0, 1_181),
+        (&nedc, 5.0, 0.5, 1.0, 1_181),
         (&nedc, 2.0, 0.0, 0.1, 11_801),
+        (&nedc, 5.0, 0.0, 0.3, 3_934),
         (&nedc, 1.0, 3.0, 0.07, 2_000),
+        (&nedc, 5.0, -7.123, 0.1, 11_900),
+        (&nedc, 0.5, 0.001, 0.001, 60_000),
+        (&ece_shifted, 5.0, 0.0, 0.1, 2_000),
+        (&ece_shifted, 3.0, -1.0, 0.3, 700),
         (&odd, 1.5, -2.0, 0.05, 500),
         (&odd, 0.3, 0.0, 0.011, 2_000),
-    ] {
+        (&odd, 4.0, 0.25, 0.001, 25_000),
+    ];
+    let mut overall = [0.0f64; 7];
+    for &(cycle, a, t0, dt, n) in cases {
         let s = Smoother::new(cycle, a).unwrap();
-        let times: Vec<f64> = (0..n).map(|k| t0 + k as f64 * dt).collect();
-        let mut cols = vec![vec![0.0; n]; 5];
-        {
-            let mut views: Vec<&mut [f64]> = cols.iter_mut().map(|c| c.as_mut_slice()).collect();
-            s.eval_grid(&times, Some(dt), &mut views);
-        }
-        let mut one = [0.0; 5];
-        let mut worst = [0.0f64; 5];
-        for (k, &t) in times.iter().enumerate() {
-            s.eval(t, &mut one);
-            for o in 0..5 {
-                let scale = [30.0, 2.0, 2.0, 5.0, 20.0][o];
-                worst[o] = worst[o].max((cols[o][k] - one[o]).abs() / scale);
+        let times = grid_times(t0, dt, n);
+        for (block, step) in [(n, Some(dt)), (4096, Some(dt)), (777, Some(dt)), (n, None)] {
+            let worst = grid_error(&s, &times, step, 7, block);
+            for (o, w) in worst.iter().enumerate() {
+                overall[o] = overall[o].max(*w);
+                assert!(
+                    *w < 1e-12,
+                    "{} a = {a} t0 = {t0} dt = {dt} block {block} {step:?}: order {o} differs by {w:e} \
+                     (relative to its scale)",
+                    cycle.name
+                );
             }
         }
-        for (o, w) in worst.iter().enumerate() {
-            assert!(
-                *w < 1e-12,
-                "{} a = {a} dt = {dt}: order {o} differs by {w:e} (relative to its scale)",
-                cycle.name
-            );
-        }
     }
+    let overall = overall.map(|w| format!("{w:.1e}"));
+    eprintln!("worst |eval_grid − eval| / scale for orders 0–6: {overall:?}");
+}
+
+/// Fewer orders than the tables hold, one order only, an irregular grid passed with a step, a grid that
+/// starts far from the cycle, and a reference map: all agree with `eval`.
+#[test]
+fn grid_evaluation_edge_cases() {
+    let nedc = Cycle::builtin("nedc").unwrap();
+    let s = Smoother::new(&nedc, 5.0).unwrap();
+    let times = grid_times(0.0, 0.1, 3_000);
+    for orders in [7, 3, 1, 2, 5] {
+        let worst = grid_error(&s, &times, Some(0.1), orders, 1000);
+        assert!(
+            worst.iter().all(|&w| w < 1e-12),
+            "{orders} orders: {worst:?}"
+        );
+    }
+    let mut rng = StdRng::seed_from_u64(21);
+    let mut irregular: Vec<f64> = (0..3_000).map(|_| rng.gen_range(0.0..300.0)).collect();
+    irregular.sort_by(f64::total_cmp);
+    let worst = grid_error(&s, &irregular, Some(0.1), 5, 3_000);
+    assert!(worst.iter().all(|&w| w < 1e-12), "irregular: {worst:?}");
+    let far = grid_times(-500.0, 0.25, 400);
+    let worst = grid_error(&s, &far, Some(0.25), 4, 100);
+    assert!(worst.iter().all(|&w| w < 1e-12), "far: {worst:?}");
+    let map = invsim_model_api::ReferenceMap {
+        offset: 1.5e5,
+        scale: 2e4,
+    };
+    let mapped = s.clone().with_reference(map);
+    let worst = grid_error(&mapped, &times, Some(0.1), 4, 1000);
+    assert!(worst.iter().all(|&w| w < 1e-12), "mapped: {worst:?}");
+    // A table too long for the cache (a/dt = 5·10⁶): sample by sample.
+    let fine = grid_times(14.999, 1e-6, 2_000);
+    let worst = grid_error(&s, &fine, Some(1e-6), 4, 2_000);
+    assert!(worst.iter().all(|&w| w < 1e-12), "fine: {worst:?}");
+}
+
+/// More corner phases than the cache holds (a random cycle, every corner its own phase): tables up to the
+/// budget, the rest sample by sample, tables of earlier blocks dropped — the values stay those of `eval`.
+#[test]
+fn grid_evaluation_beyond_the_table_budget() {
+    let mut rng = StdRng::seed_from_u64(77);
+    let mut time = vec![0.0];
+    let mut speed = vec![0.0];
+    for _ in 0..200 {
+        time.push(time[time.len() - 1] + rng.gen_range(0.1..0.9));
+        speed.push(rng.gen_range(0.0..30.0));
+    }
+    let cycle = Cycle {
+        name: "random".into(),
+        time,
+        speed,
+        grade: None,
+    };
+    let s = Smoother::new(&cycle, 2.0).unwrap();
+    let times = grid_times(-2.5, 0.0005, 230_000);
+    for block in [times.len(), 4096] {
+        let worst = grid_error(&s, &times, Some(0.0005), 3, block);
+        assert!(worst.iter().all(|&w| w < 1e-12), "block {block}: {worst:?}");
+    }
+}
+
+/// A smoother is shared by threads (parameter sweeps): its table cache is behind a lock, and evaluations
+/// from two threads at once give the values of one.
+#[test]
+fn grid_evaluation_from_two_threads() {
+    fn shareable<T: Send + Sync + Clone>() {}
+    shareable::<Smoother>();
+    let nedc = Cycle::builtin("nedc").unwrap();
+    let s = Smoother::new(&nedc, 5.0).unwrap();
+    let times = grid_times(0.0, 0.01, 20_000);
+    let run = |t0: f64| {
+        let shifted: Vec<f64> = times.iter().map(|t| t + t0).collect();
+        let mut cols = vec![vec![0.0; shifted.len()]; 4];
+        for k0 in (0..shifted.len()).step_by(1000) {
+            let k1 = (k0 + 1000).min(shifted.len());
+            let mut views: Vec<&mut [f64]> = cols.iter_mut().map(|c| &mut c[k0..k1]).collect();
+            s.eval_grid(&shifted[k0..k1], Some(0.01), &mut views);
+        }
+        cols
+    };
+    let alone: Vec<_> = [0.0, 0.004].map(run).into();
+    let together: Vec<_> = std::thread::scope(|scope| {
+        let handles = [0.0, 0.004].map(|t0| scope.spawn(move || run(t0)));
+        handles.map(|h| h.join().unwrap()).into()
+    });
+    assert!(alone == together);
+    let copy = s.clone();
+    let mut one = vec![vec![0.0; 1000]; 4];
+    let mut views: Vec<&mut [f64]> = one.iter_mut().map(|c| c.as_mut_slice()).collect();
+    copy.eval_grid(&times[..1000], Some(0.01), &mut views);
+    assert!(one.iter().zip(&alone[0]).all(|(c, a)| c[..] == a[..1000]));
 }
