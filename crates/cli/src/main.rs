@@ -1,10 +1,15 @@
 //! The `invsim` command line: `derive` prints a model's inversion, `simulate` runs it along a drive cycle,
-//! `forward` runs the original model along the cycle with a PI driver.
+//! `forward` runs the original model along the cycle with a PI driver, `cycles` lists the built-in drive cycles,
+//! `completions` prints a shell completion script.
 //!
 //! Exit status (contract §3): 0 on success, 2 on a user error (bad model or cycle file, bad option, a model
 //! the method cannot invert, a simulation that had to stop), with a one-paragraph message on stderr.
 
+mod completions;
+mod cycles_cmd;
+mod describe;
 mod engine;
+mod version;
 
 use clap::{Parser, Subcommand, ValueEnum};
 use invsim_runtime::forward::{self, Bounds, ForwardOptions, Method};
@@ -14,7 +19,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 #[derive(Parser, Debug)]
-#[command(name = "invsim", version, about = "Inverse dynamic simulation of vehicle powertrains", long_about = None)]
+#[command(name = "invsim", version = version::VERSION, about = "Inverse dynamic simulation of vehicle powertrains", long_about = None)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -34,6 +39,10 @@ enum Command {
     Simulate(SimulateArgs),
     /// Run the forward simulation of a model along a drive cycle, closed by a PI driver on the raw cycle.
     Forward(ForwardArgs),
+    /// List the built-in drive cycles with their duration, distance and top speed.
+    Cycles(cycles_cmd::CyclesArgs),
+    /// Print a shell completion script (bash, zsh, fish, elvish, powershell) on stdout.
+    Completions(completions::CompletionsArgs),
 }
 
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
@@ -57,7 +66,7 @@ pub enum EngineChoice {
 struct SimulateArgs {
     /// The model file (TOML).
     model: PathBuf,
-    /// A built-in cycle (nedc, ece, eudc) or the path of a cycle CSV file.
+    /// A built-in cycle (`invsim cycles` lists them: nedc, udds, wltc3b, …) or the path of a cycle CSV file.
     #[arg(long)]
     cycle: String,
     /// Kernel half-width a in seconds: the driver's look-ahead.
@@ -114,7 +123,7 @@ enum MethodChoice {
 struct ForwardArgs {
     /// The model file (TOML).
     model: PathBuf,
-    /// A built-in cycle (nedc, ece, eudc) or the path of a cycle CSV file.
+    /// A built-in cycle (`invsim cycles` lists them: nedc, udds, wltc3b, …) or the path of a cycle CSV file.
     #[arg(long)]
     cycle: String,
     /// Output step in seconds.
@@ -185,6 +194,8 @@ fn main() -> ExitCode {
         Command::Derive { model, format } => derive(&model, format),
         Command::Simulate(args) => run_simulate(&args),
         Command::Forward(args) => run_forward(&args),
+        Command::Cycles(args) => cycles_cmd::run(&args),
+        Command::Completions(args) => completions::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -296,7 +307,10 @@ fn run_simulate(args: &SimulateArgs) -> Result<(), Failure> {
     if let Some(path) = &args.plot {
         plot::plot_svg(&result, &cycle, path).map_err(|e| Failure::io(e.to_string()))?;
     }
-    print_stdout(&result.summary.to_text())
+    print_stdout(&describe::with_description(
+        &result.summary.to_text(),
+        &args.model,
+    ))
 }
 
 fn run_forward(args: &ForwardArgs) -> Result<(), Failure> {
@@ -336,5 +350,8 @@ fn run_forward(args: &ForwardArgs) -> Result<(), Failure> {
     if let Some(path) = &args.summary_json {
         write_file(path, |f| output::write_json(&result.summary, f))?;
     }
-    print_stdout(&result.summary.to_text())
+    print_stdout(&describe::with_description(
+        &result.summary.to_text(),
+        &args.model,
+    ))
 }
