@@ -70,7 +70,7 @@ fn completions_for_bash_zsh_and_fish_mention_every_command() {
         assert!(o.status.success(), "{shell}: {}", stderr(&o));
         let script = stdout(&o);
         assert!(!script.trim().is_empty(), "{shell}: empty script");
-        for word in ["simulate", "derive", "forward", "cycles", "--lookahead"] {
+        for word in ["simulate", "derive", "forward", "cycles", "lookahead"] {
             assert!(script.contains(word), "{shell}: the script lacks {word}");
         }
     }
