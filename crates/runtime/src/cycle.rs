@@ -5,9 +5,10 @@
 //! regulations define it; before the first and after the last sample it is held constant. This is the
 //! input `y_c` that the smoother convolves with the paper's kernel (Fröberg & Nielsen 2004, eq. 33–35).
 
-mod hwfet;
-mod udds;
-mod wltc3b;
+mod builtin;
+
+pub use builtin::BuiltinCycle;
+use builtin::{BUILTINS, BUILTIN_NAMES};
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -189,117 +190,6 @@ pub const SPEED_MPH_COLUMN: &str = "speed_mph";
 /// Recognised grade column names (decimal rise/run).
 pub const GRADE_COLUMNS: &[&str] = &["grade", "cycGrade"];
 
-const BUILTIN_NAMES: &[&str] = &[
-    "nedc",
-    "ece",
-    "eudc",
-    "udds",
-    "hwfet",
-    "wltc3b",
-    "wltc3b-low",
-    "wltc3b-medium",
-    "wltc3b-high",
-    "wltc3b-extra-high",
-];
-
-/// A built-in cycle: its name (as accepted by [`Cycle::builtin`]) and what it is, with its source.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct BuiltinCycle {
-    pub name: &'static str,
-    pub description: &'static str,
-}
-
-/// Every built-in cycle, in the order of [`Cycle::builtin_names`].
-const BUILTINS: &[BuiltinCycle] = &[
-    BuiltinCycle {
-        name: "nedc",
-        description: "New European Driving Cycle: 4 × ECE-15 + EUDC (UNECE R83, 70/220/EEC)",
-    },
-    BuiltinCycle {
-        name: "ece",
-        description: "ECE-15 urban cycle, one of the four in the NEDC (UNECE R83)",
-    },
-    BuiltinCycle {
-        name: "eudc",
-        description: "Extra-Urban Driving Cycle, the last part of the NEDC (UNECE R83)",
-    },
-    BuiltinCycle {
-        name: "udds",
-        description: "EPA Urban Dynamometer Driving Schedule, FTP-72 (40 CFR 86 App. I)",
-    },
-    BuiltinCycle {
-        name: "hwfet",
-        description: "EPA Highway Fuel Economy Test (40 CFR 600 App. I)",
-    },
-    BuiltinCycle {
-        name: "wltc3b",
-        description: "WLTC class 3b, all four phases (UN GTR 15 Annex 1)",
-    },
-    BuiltinCycle {
-        name: "wltc3b-low",
-        description: "WLTC class 3b, phase Low, 0-589 s (UN GTR 15 Annex 1)",
-    },
-    BuiltinCycle {
-        name: "wltc3b-medium",
-        description: "WLTC class 3b, phase Medium, 589-1022 s (UN GTR 15 Annex 1)",
-    },
-    BuiltinCycle {
-        name: "wltc3b-high",
-        description: "WLTC class 3b, phase High, 1022-1477 s (UN GTR 15 Annex 1)",
-    },
-    BuiltinCycle {
-        name: "wltc3b-extra-high",
-        description: "WLTC class 3b, phase Extra High, 1477-1800 s (UN GTR 15 Annex 1)",
-    },
-];
-
-/// Exact conversions of the tables' units to m/s: 1 mph = 1609.344 m / 3600 s, 1 km/h = 1/3.6 m/s.
-const MPS_PER_MPH: f64 = 0.44704;
-const MPS_PER_KMH: f64 = 1.0 / 3.6;
-
-/// WLTC class 3b phases: (name, first second, last second) of UN GTR 15 Annex 1. Each phase keeps the
-/// regulation's time, so it starts at its first second, not at t = 0, and shares its end point (a standstill)
-/// with the next phase.
-const WLTC3B_PHASES: [(&str, usize, usize); 4] = [
-    ("wltc3b-low", 0, 589),
-    ("wltc3b-medium", 589, 1022),
-    ("wltc3b-high", 1022, 1477),
-    ("wltc3b-extra-high", 1477, 1800),
-];
-
-/// A 1 Hz table cut to seconds `first..=last`: speed (m/s) = `table[t]` × `mps_per_unit`, at t = `first` …
-/// `last` s, linear in between (as the regulations interpolate their second-by-second tables).
-fn from_1hz(name: &str, table: &[u16], mps_per_unit: f64, first: usize, last: usize) -> Cycle {
-    let seconds = first..=last.min(table.len().saturating_sub(1));
-    Cycle {
-        name: name.to_string(),
-        time: seconds.clone().map(|t| t as f64).collect(),
-        speed: table[seconds]
-            .iter()
-            .map(|&x| f64::from(x) * mps_per_unit)
-            .collect(),
-        grade: None,
-    }
-}
-
-/// The second-by-second built-ins: UDDS and HWFET (tables in 0.1 mph), WLTC class 3b and its phases (tables in
-/// 0.1 km/h; the tables hold tenths, hence the factor 0.1).
-fn tabulated(name: &str) -> Option<Cycle> {
-    let whole =
-        |table: &[u16], unit: f64| Some(from_1hz(name, table, 0.1 * unit, 0, table.len() - 1));
-    match name {
-        "udds" => whole(&udds::MPH_X10, MPS_PER_MPH),
-        "hwfet" => whole(&hwfet::MPH_X10, MPS_PER_MPH),
-        "wltc3b" => whole(&wltc3b::KMH_X10, MPS_PER_KMH),
-        _ => WLTC3B_PHASES
-            .iter()
-            .find(|(phase, _, _)| *phase == name)
-            .map(|&(_, first, last)| {
-                from_1hz(name, &wltc3b::KMH_X10, 0.1 * MPS_PER_KMH, first, last)
-            }),
-    }
-}
-
 fn builtin_list() -> String {
     BUILTIN_NAMES.join(", ")
 }
@@ -405,7 +295,12 @@ impl Cycle {
                     (780.0, &EUDC),
                 ],
             )),
-            other => tabulated(other),
+            other => builtin::tabulated(other).map(|(time, speed)| Cycle {
+                name: other.to_string(),
+                time,
+                speed,
+                grade: None,
+            }),
         }
     }
 

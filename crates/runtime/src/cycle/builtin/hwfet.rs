@@ -5,7 +5,7 @@
 //! The numbers are those of the regulation's table as distributed in NREL FASTSim's resources
 //! (`hwfet.csv`, Apache License 2.0, <https://github.com/NREL/fastsim>), which stores them in m/s converted
 //! with 1 mph ≈ 0.447047 m/s; here they are rounded back to the table's 0.1 mph and converted with the exact
-//! 1 mph = 0.44704 m/s by [`super::Cycle::builtin`].
+//! 1 mph = 0.44704 m/s by `Cycle::builtin`.
 
 /// Speed in tenths of a mph at t = 0, 1, …, 765 s (ten seconds a row).
 #[rustfmt::skip]
