@@ -30,7 +30,7 @@ pub enum MethodChoice {
 pub struct ForwardArgs {
     /// The model file (TOML).
     pub model: PathBuf,
-    /// A built-in cycle (nedc, ece, eudc) or the path of a cycle CSV file.
+    /// A built-in cycle (`invsim cycles` lists them: nedc, udds, wltc3b, …) or the path of a cycle CSV file.
     #[arg(long)]
     cycle: String,
     /// Output step in seconds.
@@ -112,5 +112,8 @@ pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
     if let Some(path) = &args.summary_json {
         write_file(path, |f| output::write_json(&result.summary, f))?;
     }
-    print_stdout(&result.summary.to_text())
+    print_stdout(&crate::describe::with_description(
+        &result.summary.to_text(),
+        &args.model,
+    ))
 }

@@ -1,16 +1,21 @@
 //! The `invsim` command line: `derive` prints a model's inversion, `simulate` runs it along a drive cycle,
-//! `forward` runs the original model along the cycle with a PI driver.
+//! `forward` runs the original model along the cycle with a PI driver, `cycles` lists the built-in drive cycles,
+//! `completions` prints a shell completion script.
 //!
 //! Exit status (contract §3): 0 on success, 2 on a user error (bad model or cycle file, bad option, a model
 //! the method cannot invert, a simulation that had to stop), with a one-paragraph message on stderr
 //! ([`error`]). This file only parses the command line and dispatches; each command has its module.
 
+mod completions;
+mod cycles_cmd;
 mod derive;
+mod describe;
 mod engine;
 mod error;
 mod files;
 mod forward;
 mod simulate;
+mod version;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -18,7 +23,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 #[derive(Parser, Debug)]
-#[command(name = "invsim", version, about = "Inverse dynamic simulation of vehicle powertrains", long_about = None)]
+#[command(name = "invsim", version = version::VERSION, about = "Inverse dynamic simulation of vehicle powertrains", long_about = None)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -38,6 +43,10 @@ enum Command {
     Simulate(simulate::SimulateArgs),
     /// Run the forward simulation of a model along a drive cycle, closed by a PI driver on the raw cycle.
     Forward(forward::ForwardArgs),
+    /// List the built-in drive cycles with their duration, distance and top speed.
+    Cycles(cycles_cmd::CyclesArgs),
+    /// Print a shell completion script (bash, zsh, fish, elvish, powershell) on stdout.
+    Completions(completions::CompletionsArgs),
 }
 
 fn main() -> ExitCode {
@@ -46,6 +55,8 @@ fn main() -> ExitCode {
         Command::Derive { model, format } => derive::run(&model, format),
         Command::Simulate(args) => simulate::run(&args),
         Command::Forward(args) => forward::run(&args),
+        Command::Cycles(args) => cycles_cmd::run(&args),
+        Command::Completions(args) => completions::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -12,7 +12,7 @@ use crate::files::{print_stdout, write_file};
 pub struct SimulateArgs {
     /// The model file (TOML).
     pub model: PathBuf,
-    /// A built-in cycle (nedc, ece, eudc) or the path of a cycle CSV file.
+    /// A built-in cycle (`invsim cycles` lists them: nedc, udds, wltc3b, …) or the path of a cycle CSV file.
     #[arg(long)]
     cycle: String,
     /// Kernel half-width a in seconds: the driver's look-ahead.
@@ -79,5 +79,8 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
     if let Some(path) = &args.plot {
         plot::plot_svg(&result, &cycle, path).map_err(|e| Failure::io(e.to_string()))?;
     }
-    print_stdout(&result.summary.to_text())
+    print_stdout(&crate::describe::with_description(
+        &result.summary.to_text(),
+        &args.model,
+    ))
 }

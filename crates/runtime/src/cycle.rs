@@ -1,8 +1,14 @@
-//! Drive cycles: the built-in NEDC, ECE-15 and EUDC, and CSV cycle files (interface contract, section 4).
+//! Drive cycles: the built-in NEDC, ECE-15, EUDC, UDDS, HWFET and WLTC class 3b (with its four phases), and
+//! CSV cycle files (interface contract, section 4).
 //!
 //! A cycle is a speed trace `y_c(t)` given at strictly increasing times and linear between them, as the
 //! regulations define it; before the first and after the last sample it is held constant. This is the
 //! input `y_c` that the smoother convolves with the paper's kernel (Fröberg & Nielsen 2004, eq. 33–35).
+
+mod builtin;
+
+pub use builtin::BuiltinCycle;
+use builtin::{BUILTINS, BUILTIN_NAMES};
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -184,8 +190,6 @@ pub const SPEED_MPH_COLUMN: &str = "speed_mph";
 /// Recognised grade column names (decimal rise/run).
 pub const GRADE_COLUMNS: &[&str] = &["grade", "cycGrade"];
 
-const BUILTIN_NAMES: &[&str] = &["nedc", "ece", "eudc"];
-
 fn builtin_list() -> String {
     BUILTIN_NAMES.join(", ")
 }
@@ -273,7 +277,9 @@ fn from_waypoints(name: &str, parts: &[(f64, &[(f64, f64)])]) -> Cycle {
 
 impl Cycle {
     /// A built-in cycle by name, ignoring ASCII case: `nedc` (4 × ECE-15 + EUDC, 1180 s), `ece` (one ECE-15,
-    /// 195 s) or `eudc` (400 s). Speeds in m/s, no grade.
+    /// 195 s), `eudc` (400 s), `udds` (1369 s), `hwfet` (765 s), `wltc3b` (1800 s) or one of its phases
+    /// `wltc3b-low`, `wltc3b-medium`, `wltc3b-high`, `wltc3b-extra-high` (which keep the regulation's time:
+    /// `wltc3b-medium` runs from 589 s to 1022 s). Speeds in m/s, no grade.
     pub fn builtin(name: &str) -> Option<Cycle> {
         let lower = name.trim().to_ascii_lowercase();
         match lower.as_str() {
@@ -289,13 +295,23 @@ impl Cycle {
                     (780.0, &EUDC),
                 ],
             )),
-            _ => None,
+            other => builtin::tabulated(other).map(|(time, speed)| Cycle {
+                name: other.to_string(),
+                time,
+                speed,
+                grade: None,
+            }),
         }
     }
 
     /// Names accepted by [`Cycle::builtin`].
     pub fn builtin_names() -> &'static [&'static str] {
         BUILTIN_NAMES
+    }
+
+    /// Every built-in cycle with its description, in the order of [`Cycle::builtin_names`].
+    pub fn builtins() -> &'static [BuiltinCycle] {
+        BUILTINS
     }
 
     /// Loads a CSV cycle file (section 4 of the contract); the cycle is named after the file stem.

@@ -1,4 +1,5 @@
-//! Tests for drive cycles: the built-in NEDC / ECE-15 / EUDC checksums, the CSV loader (contract section 4)
+//! Tests for drive cycles: the built-in NEDC / ECE-15 / EUDC checksums, the regulation tables (UDDS, HWFET,
+//! WLTC class 3b and its phases) against their published figures, the CSV loader (contract section 4)
 //! and its error messages, and the shared FASTSim cycles when `../shared` is present.
 
 use std::path::{Path, PathBuf};
@@ -92,7 +93,21 @@ fn nedc_is_four_ece_and_an_eudc() {
 
 #[test]
 fn builtin_names_are_case_insensitive() {
-    assert_eq!(Cycle::builtin_names(), &["nedc", "ece", "eudc"]);
+    assert_eq!(
+        Cycle::builtin_names(),
+        &[
+            "nedc",
+            "ece",
+            "eudc",
+            "udds",
+            "hwfet",
+            "wltc3b",
+            "wltc3b-low",
+            "wltc3b-medium",
+            "wltc3b-high",
+            "wltc3b-extra-high"
+        ]
+    );
     for name in Cycle::builtin_names() {
         assert!(Cycle::builtin(name).is_some());
         assert_eq!(
@@ -102,7 +117,7 @@ fn builtin_names_are_case_insensitive() {
         );
     }
     assert_eq!(Cycle::builtin("Nedc").unwrap().name, "nedc");
-    assert!(Cycle::builtin("udds").is_none());
+    assert!(Cycle::builtin("wltc").is_none());
     assert!(Cycle::builtin("").is_none());
 }
 
@@ -608,4 +623,227 @@ fn temp_file(name: &str, contents: &[u8]) -> PathBuf {
 
 fn remove(path: &Path) {
     let _ = std::fs::remove_file(path);
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Built-in regulation tables (UDDS, HWFET, WLTC class 3b and its phases) against their published figures
+
+const MILE: f64 = 1609.344;
+const MPH: f64 = 0.44704;
+
+/// A published figure: what the regulation (or the agency's summary of it) states, with the rounding of the
+/// statement as tolerance (half a unit of its last digit).
+struct Published {
+    name: &'static str,
+    /// First and last second.
+    start: f64,
+    end: f64,
+    /// Distance in km and its tolerance.
+    km: f64,
+    km_tol: f64,
+    /// Top speed in km/h and its tolerance.
+    top_kmh: f64,
+    top_tol: f64,
+}
+
+/// - UDDS (40 CFR 86 App. I (a); EPA's summary): 1369 s, 7.45 mi = 11.99 km, top 56.7 mph = 91.2 km/h.
+/// - HWFET (40 CFR 600 App. I; EPA's summary): 765 s, 10.26 mi = 16.51 km, top 59.9 mph = 96.4 km/h.
+/// - WLTC class 3b (UN GTR 15 Annex 1, the class 3b phase summary): 1800 s, 23 266 m, top 131.3 km/h; Low
+///   589 s, 3095 m, 56.5 km/h; Medium 433 s, 4756 m, 76.6 km/h; High 455 s, 7162 m, 97.4 km/h; Extra High
+///   323 s, 8254 m, 131.3 km/h.
+///
+/// The km/h figures of the US cycles are the mph figures converted and rounded to 0.1 km/h (tolerance 0.05);
+/// the WLTC speeds are the table's own 0.1 km/h values (tolerance 1e-9).
+const PUBLISHED: &[Published] = &[
+    Published {
+        name: "udds",
+        start: 0.0,
+        end: 1369.0,
+        km: 11.99,
+        km_tol: 0.005,
+        top_kmh: 91.2,
+        top_tol: 0.05,
+    },
+    Published {
+        name: "hwfet",
+        start: 0.0,
+        end: 765.0,
+        km: 16.51,
+        km_tol: 0.005,
+        top_kmh: 96.4,
+        top_tol: 0.05,
+    },
+    Published {
+        name: "wltc3b",
+        start: 0.0,
+        end: 1800.0,
+        km: 23.266,
+        km_tol: 0.0005,
+        top_kmh: 131.3,
+        top_tol: 1e-9,
+    },
+    Published {
+        name: "wltc3b-low",
+        start: 0.0,
+        end: 589.0,
+        km: 3.095,
+        km_tol: 0.0005,
+        top_kmh: 56.5,
+        top_tol: 1e-9,
+    },
+    Published {
+        name: "wltc3b-medium",
+        start: 589.0,
+        end: 1022.0,
+        km: 4.756,
+        km_tol: 0.0005,
+        top_kmh: 76.6,
+        top_tol: 1e-9,
+    },
+    Published {
+        name: "wltc3b-high",
+        start: 1022.0,
+        end: 1477.0,
+        km: 7.162,
+        km_tol: 0.0005,
+        top_kmh: 97.4,
+        top_tol: 1e-9,
+    },
+    Published {
+        name: "wltc3b-extra-high",
+        start: 1477.0,
+        end: 1800.0,
+        km: 8.254,
+        km_tol: 0.0005,
+        top_kmh: 131.3,
+        top_tol: 1e-9,
+    },
+];
+
+#[test]
+fn builtin_regulation_cycles_match_their_published_figures() {
+    for p in PUBLISHED {
+        let c = Cycle::builtin(p.name).unwrap_or_else(|| panic!("no built-in {}", p.name));
+        assert_eq!(c.name, p.name);
+        assert!(c.validate().is_ok(), "{}", p.name);
+        assert_eq!(
+            (c.time[0], *c.time.last().unwrap()),
+            (p.start, p.end),
+            "{}",
+            p.name
+        );
+        // One sample per second, the regulation tables' rate.
+        assert_eq!(c.time.len() as f64, p.end - p.start + 1.0, "{}", p.name);
+        assert!(c.time.windows(2).all(|w| w[1] - w[0] == 1.0), "{}", p.name);
+        let km = c.distance() / 1000.0;
+        assert!(
+            (km - p.km).abs() <= p.km_tol,
+            "{}: {km} km, published {} km",
+            p.name,
+            p.km
+        );
+        let top = c.max_speed() * 3.6;
+        assert!(
+            (top - p.top_kmh).abs() <= p.top_tol,
+            "{}: {top} km/h, published {}",
+            p.name,
+            p.top_kmh
+        );
+        // Every phase and cycle starts and ends at a standstill.
+        assert_eq!(
+            (c.speed[0], *c.speed.last().unwrap()),
+            (0.0, 0.0),
+            "{}",
+            p.name
+        );
+        assert!(c.grade.is_none());
+    }
+}
+
+#[test]
+fn us_cycles_match_their_published_figures_in_miles() {
+    // 40 CFR 86 App. I (a) and 40 CFR 600 App. I tabulate mph; EPA states 7.45 mi / 56.7 mph (UDDS) and
+    // 10.26 mi / 59.9 mph (HWFET). Tolerance: half a unit of the last digit stated.
+    for (name, miles, top_mph) in [("udds", 7.45, 56.7), ("hwfet", 10.26, 59.9)] {
+        let c = Cycle::builtin(name).unwrap();
+        let mi = c.distance() / MILE;
+        assert!(
+            (mi - miles).abs() <= 0.005,
+            "{name}: {mi} mi, published {miles}"
+        );
+        let top = c.max_speed() / MPH;
+        assert!(
+            (top - top_mph).abs() < 1e-9,
+            "{name}: {top} mph, published {top_mph}"
+        );
+    }
+}
+
+#[test]
+fn wltc3b_phases_cut_the_whole_cycle_at_the_regulation_boundaries() {
+    let whole = Cycle::builtin("wltc3b").unwrap();
+    let phases = [
+        "wltc3b-low",
+        "wltc3b-medium",
+        "wltc3b-high",
+        "wltc3b-extra-high",
+    ];
+    let mut distance = 0.0;
+    for name in phases {
+        let p = Cycle::builtin(name).unwrap();
+        let first = p.time[0] as usize;
+        // Each phase keeps the regulation's time: its samples are those of the whole cycle at the same seconds.
+        assert_eq!(
+            p.time[..],
+            whole.time[first..first + p.time.len()],
+            "{name}"
+        );
+        assert_eq!(
+            p.speed[..],
+            whole.speed[first..first + p.time.len()],
+            "{name}"
+        );
+        distance += p.distance();
+    }
+    assert!((distance - whole.distance()).abs() < 1e-9);
+}
+
+#[test]
+fn builtin_list_names_every_builtin_once_with_a_description() {
+    let names = Cycle::builtin_names();
+    let listed: Vec<&str> = Cycle::builtins().iter().map(|b| b.name).collect();
+    assert_eq!(listed, names);
+    for b in Cycle::builtins() {
+        assert!(!b.description.is_empty());
+        let c =
+            Cycle::builtin(&b.name.to_ascii_uppercase()).unwrap_or_else(|| panic!("{}", b.name));
+        assert_eq!(c.name, b.name);
+        assert_eq!(Cycle::load(b.name).unwrap(), c);
+    }
+    let err = Cycle::load("no-such-cycle.csv").unwrap_err().to_string();
+    assert!(err.contains("udds, hwfet, wltc3b, wltc3b-low"), "{err}");
+}
+
+/// The built-ins equal FASTSim's copies of the same tables sample by sample. FASTSim stores the US cycles in m/s
+/// converted with 1 mph ≈ 0.44704725 m/s instead of the exact 0.44704 m/s (1.6e-5 relative), and the WLTC
+/// in m/s rounded to 9 decimals, so the speeds agree to 2e-5 relative plus 1e-8 m/s; the times exactly.
+#[test]
+fn builtins_equal_the_shared_fastsim_files_sample_by_sample() {
+    let Some(dir) = shared_cycles() else { return };
+    for (file, name) in [
+        ("udds.csv", "udds"),
+        ("hwfet.csv", "hwfet"),
+        ("wltc_3b.csv", "wltc3b"),
+    ] {
+        let shared = Cycle::from_csv_path(&dir.join(file)).unwrap_or_else(|e| panic!("{e}"));
+        let builtin = Cycle::builtin(name).unwrap();
+        assert_eq!(shared.time, builtin.time, "{name}");
+        for (i, (a, b)) in shared.speed.iter().zip(&builtin.speed).enumerate() {
+            assert!(
+                (a - b).abs() <= 2e-5 * b + 1e-8,
+                "{name} at {i} s: file {a} m/s, built-in {b} m/s"
+            );
+        }
+        assert!(shared.grade.as_ref().unwrap().iter().all(|&g| g == 0.0));
+    }
 }

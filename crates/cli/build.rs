@@ -1,0 +1,52 @@
+//! Build script of the `invsim` command: sets `INVSIM_GIT_REVISION` to `git rev-parse --short HEAD` of the
+//! checkout, or to "unknown" when git or the repository is absent (a source tarball builds all the same). The
+//! revision is that of the commit checked out; uncommitted edits are not marked.
+
+use std::path::Path;
+use std::process::Command;
+
+/// Stdout of `git ARGS` run in this crate's directory, trimmed, if git ran and succeeded.
+fn git(args: &[&str]) -> Option<String> {
+    let out = Command::new("git")
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .ok()?;
+    if !out.status.success() {
+        return None;
+    }
+    let text = String::from_utf8(out.stdout).ok()?;
+    Some(text.trim().to_string())
+}
+
+/// Rebuild when HEAD moves: the HEAD file, the branch it names and packed-refs (only paths that exist, since
+/// cargo reruns a script on every build for a missing one).
+fn watch_head() {
+    let dirs = [
+        git(&["rev-parse", "--git-dir"]),
+        git(&["rev-parse", "--git-common-dir"]),
+    ];
+    let branch = git(&["symbolic-ref", "-q", "HEAD"]);
+    for dir in dirs.iter().flatten() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join(dir);
+        let mut files = vec![dir.join("HEAD"), dir.join("packed-refs")];
+        if let Some(branch) = &branch {
+            files.push(dir.join(branch));
+        }
+        for f in files.iter().filter(|f| f.exists()) {
+            println!("cargo:rerun-if-changed={}", f.display());
+        }
+    }
+}
+
+fn main() {
+    println!("cargo:rerun-if-changed=build.rs");
+    let revision = match git(&["rev-parse", "--short", "HEAD"]) {
+        Some(rev) if !rev.is_empty() => {
+            watch_head();
+            rev
+        }
+        _ => "unknown".to_string(),
+    };
+    println!("cargo:rustc-env=INVSIM_GIT_REVISION={revision}");
+}

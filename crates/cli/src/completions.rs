@@ -1,0 +1,21 @@
+//! `invsim completions SHELL`: a completion script for bash, zsh, fish, elvish or PowerShell on stdout,
+//! generated from the command-line definition by `clap_complete`.
+
+use crate::error::Failure;
+use crate::files::print_stdout;
+use crate::Cli;
+use clap::CommandFactory;
+use clap_complete::Shell;
+
+#[derive(clap::Args, Debug)]
+pub struct CompletionsArgs {
+    /// The shell, e.g. `invsim completions bash > ~/.local/share/bash-completion/completions/invsim`.
+    shell: Shell,
+}
+
+/// Print the completion script.
+pub fn run(args: &CompletionsArgs) -> Result<(), Failure> {
+    let mut script = Vec::new();
+    clap_complete::generate(args.shell, &mut Cli::command(), "invsim", &mut script);
+    print_stdout(&String::from_utf8_lossy(&script))
+}
