@@ -3,8 +3,6 @@
 
 use crate::error::Failure;
 use crate::files::print_stdout;
-use crate::Cli;
-use clap::CommandFactory;
 use clap_complete::Shell;
 
 #[derive(clap::Args, Debug)]
@@ -13,9 +11,9 @@ pub struct CompletionsArgs {
     shell: Shell,
 }
 
-/// Print the completion script.
-pub fn run(args: &CompletionsArgs) -> Result<(), Failure> {
+/// Print the completion script of `command` (the whole `invsim` command line, from `main`).
+pub fn run(args: &CompletionsArgs, mut command: clap::Command) -> Result<(), Failure> {
     let mut script = Vec::new();
-    clap_complete::generate(args.shell, &mut Cli::command(), "invsim", &mut script);
+    clap_complete::generate(args.shell, &mut command, "invsim", &mut script);
     print_stdout(&String::from_utf8_lossy(&script))
 }
