@@ -21,7 +21,8 @@
 //! argument is its absolute path). In `text`, `{{repeat N|PIECE}}` expands to N copies of PIECE, where `{i}`
 //! is the copy's number (1 … N) and `{i-1}` the previous one. `copy` paths are relative to the repository
 //! root. `exit`, `timeout_s` (wall clock, then the run is killed) and `max_rss_mib` (peak resident memory,
-//! VmHWM polled from /proc; above it the run is killed) default to 2, 20 s and 1024 MiB.
+//! VmHWM polled from /proc; above it the run is killed) default to 2, 20 s and 1024 MiB; `exit` is 0 only for
+//! a hostile input whose correct answer is a result within the bounds (e.g. a large but easy model).
 //!
 //! Cases that fail today (open defects) live in `tests/hostile/pending/` with a `now` field saying what
 //! happens; they are only checked for being well-formed. Move one up a directory once its defect is fixed.
