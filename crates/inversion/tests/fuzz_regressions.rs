@@ -1,8 +1,9 @@
 //! Replays the fuzz regressions of the model reader, the expression parser and the derive pipeline
 //! (`fuzz/regressions/<target>/*`) through the very functions the cargo-fuzz targets call, on stable Rust: no
 //! input may panic, and each must be rejected with an error unless its file name starts with `ok-` (an input
-//! the library must accept). Findings whose defect is still open wait in `fuzz/regressions/<target>/pending/`,
-//! which is not replayed; move a file up once its defect is fixed.
+//! the library must accept) or `any-` (either outcome, only no panic). Findings whose defect is still open
+//! wait in `fuzz/regressions/<target>/pending/`, which is not replayed; move a file up once its defect is
+//! fixed.
 
 #[path = "../../../fuzz/src/inversion_targets.rs"]
 mod inversion_targets;
@@ -33,12 +34,13 @@ fn replay(target: &str, run: fn(&[u8]) -> Result<(), String>) {
     let mut failures = Vec::new();
     for path in regressions(target) {
         let data = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-        let must_accept = path
+        let name = path
             .file_name()
-            .is_some_and(|n| n.to_string_lossy().starts_with("ok-"));
+            .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+        let (must_accept, either) = (name.starts_with("ok-"), name.starts_with("any-"));
         match catch_unwind(AssertUnwindSafe(|| run(&data))) {
             Err(_) => failures.push(format!("{}: panicked", path.display())),
-            Ok(Ok(())) if !must_accept => {
+            Ok(Ok(())) if !must_accept && !either => {
                 failures.push(format!("{}: accepted, expected an error", path.display()))
             }
             Ok(Err(e)) if must_accept => {
