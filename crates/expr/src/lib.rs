@@ -14,6 +14,7 @@
 
 pub mod calculus;
 pub mod func;
+pub mod fxhash;
 pub mod lower;
 pub mod number;
 pub mod parse;
