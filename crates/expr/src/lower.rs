@@ -342,6 +342,12 @@ pub fn lower(
     if l.inv.strategy.shared_roots {
         l.shared_root = shared_roots(&l.min_power);
     }
+    if roots
+        .iter()
+        .any(|&r| pool.depth(r) > crate::limits::ITERATIVE_DEPTH)
+    {
+        l.lower_bottom_up(roots)?;
+    }
     let mut out = Vec::with_capacity(roots.len());
     for &r in roots {
         out.push(l.lower(r)?);
@@ -365,6 +371,25 @@ impl<'p> FnLowering<'_, 'p> {
         } else {
             None
         }
+    }
+
+    /// For deep expressions: lower every node that the recursion lowers as a whole (calls, and sums when
+    /// signs are not folded) bottom-up first, so that the recursion below finds them memoised and stays
+    /// shallow. Only the order of the operations differs from the recursive lowering (which shallow
+    /// expressions keep, so that the generated code and the tape stay as they were).
+    fn lower_bottom_up(&mut self, roots: &[Id]) -> Result<(), UnboundSymbol> {
+        let pool = self.pool();
+        for id in pool.topological(roots) {
+            let whole = match pool.node(id) {
+                Node::Call(..) | Node::Call2(..) => true,
+                Node::Add(_) => !self.inv.strategy.fold_signs,
+                _ => false,
+            };
+            if whole {
+                self.lower(id)?;
+            }
+        }
+        Ok(())
     }
 
     /// Emit `op` into the invariant arena when all its operands are invariant, else into this function's.

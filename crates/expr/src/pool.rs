@@ -68,6 +68,10 @@ pub struct Pool {
     nodes: Vec<Node>,
     /// Sorted, deduplicated free symbols of each node.
     free: Vec<Box<[Symbol]>>,
+    /// Depth of each node (see [`crate::limits`]).
+    depth: Vec<u32>,
+    /// Written size of each node, saturating (see [`crate::limits`]).
+    written: Vec<u64>,
     index: HashMap<Node, Id>,
     symbols: Vec<String>,
     symbol_index: HashMap<String, Symbol>,
@@ -107,6 +111,26 @@ impl Pool {
         &self.free[id.index()]
     }
 
+    /// Nesting depth of `id`: 1 for a leaf (see [`crate::limits`]).
+    pub fn depth(&self, id: Id) -> u32 {
+        self.depth[id.index()]
+    }
+
+    /// Number of nodes of `id` written out as a tree, saturating (see [`crate::limits`]).
+    pub fn written_size(&self, id: Id) -> u64 {
+        self.written[id.index()]
+    }
+
+    /// The nodes below `e` in post-order when `e` is deeper than [`crate::limits::ITERATIVE_DEPTH`]: a
+    /// memoised walk that first visits these bottom-up never recurses more than a few levels.
+    pub(crate) fn deep_order(&self, e: Id) -> Vec<Id> {
+        if self.depth(e) > crate::limits::ITERATIVE_DEPTH {
+            self.topological(&[e])
+        } else {
+            Vec::new()
+        }
+    }
+
     /// Does `id` depend on symbol `s`?
     pub fn depends_on(&self, id: Id, s: Symbol) -> bool {
         self.free[id.index()].binary_search(&s).is_ok()
@@ -122,6 +146,13 @@ impl Pool {
             return id;
         }
         let free = self.collect_free(&node);
+        let (mut depth, mut written) = (0u32, 1u64);
+        Self::for_each_child_of(&node, |c| {
+            depth = depth.max(self.depth[c.index()]);
+            written = written.saturating_add(self.written[c.index()]);
+        });
+        self.depth.push(depth.saturating_add(1));
+        self.written.push(written);
         let id = Id(u32::try_from(self.nodes.len()).expect("expression pool exceeded 2^32 nodes"));
         self.nodes.push(node.clone());
         self.free.push(free);
@@ -762,8 +793,13 @@ impl Pool {
 
     /// Calls `f` on each child of `id`, in order, without allocating.
     #[inline]
-    pub fn for_each_child(&self, id: Id, mut f: impl FnMut(Id)) {
-        match self.node(id) {
+    pub fn for_each_child(&self, id: Id, f: impl FnMut(Id)) {
+        Self::for_each_child_of(self.node(id), f)
+    }
+
+    #[inline]
+    fn for_each_child_of(node: &Node, mut f: impl FnMut(Id)) {
+        match node {
             Node::Num(_) | Node::Pi | Node::Sym(_) => {}
             Node::Add(c) | Node::Mul(c) => c.iter().for_each(|&c| f(c)),
             Node::Pow(a, b) | Node::Call2(_, a, b) => {
