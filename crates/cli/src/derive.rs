@@ -16,6 +16,8 @@ pub enum Format {
 
 pub fn run(path: &Path, format: Format) -> Result<(), Failure> {
     let d = invsim_inversion::derive_file(path).map_err(|e| Failure::user(e.to_string()))?;
+    d.check_printable()
+        .map_err(|e| Failure::user(e.to_string()))?;
     let text = match format {
         Format::Text => d.to_text(),
         Format::Json => {

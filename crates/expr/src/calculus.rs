@@ -18,6 +18,10 @@ pub struct UnboundSymbol(pub String);
 #[error("expansion exceeds {0} terms")]
 pub struct ExpansionTooLarge(pub usize);
 
+/// Largest product (nodes written out) that [`Pool::tidy`] tries to distribute: it compares printed
+/// lengths, so on larger ones it would spend its time printing.
+const TIDY_MAX_WRITTEN: u64 = 10_000;
+
 /// Hard limit on the number of terms [`Pool::expand`] may produce.
 pub const EXPAND_TERM_LIMIT: usize = 20_000;
 
@@ -32,6 +36,9 @@ impl Pool {
     /// * min(a, b) = (a + b − |a − b|)/2 and max(a, b) = (a + b + |a − b|)/2 differentiated as such.
     pub fn diff(&mut self, e: Id, x: Symbol) -> Id {
         let mut memo = HashMap::new();
+        for id in self.deep_order(e) {
+            self.diff_memo(id, x, &mut memo);
+        }
         self.diff_memo(e, x, &mut memo)
     }
 
@@ -150,6 +157,9 @@ impl Pool {
     pub fn substitute(&mut self, e: Id, map: &HashMap<Symbol, Id>) -> Id {
         let keys: Vec<Symbol> = map.keys().copied().collect();
         let mut memo = HashMap::new();
+        for id in self.deep_order(e) {
+            self.subs_memo(id, map, &keys, &mut memo);
+        }
         self.subs_memo(e, map, &keys, &mut memo)
     }
 
@@ -185,6 +195,9 @@ impl Pool {
     /// Replace every occurrence of the subexpression `from` by `to`, rebuilt in canonical form.
     pub fn replace(&mut self, e: Id, from: Id, to: Id) -> Id {
         let mut memo = HashMap::new();
+        for id in self.deep_order(e) {
+            self.replace_memo(id, from, to, &mut memo);
+        }
         self.replace_memo(e, from, to, &mut memo)
     }
 
@@ -240,6 +253,9 @@ impl Pool {
             return self.replace(e, target, to);
         };
         let mut memo = HashMap::new();
+        for id in self.deep_order(e) {
+            self.replace_product_memo(id, target, &tf, to, &mut memo);
+        }
         self.replace_product_memo(e, target, &tf, to, &mut memo)
     }
 
@@ -333,6 +349,9 @@ impl Pool {
     /// the printed result is shorter (`J*(xi3 - X/J)/K → J*xi3/K - X/K`). Never grows an expression.
     pub fn tidy(&mut self, e: Id) -> Id {
         let mut memo = HashMap::new();
+        for id in self.deep_order(e) {
+            self.tidy_memo(id, &mut memo);
+        }
         self.tidy_memo(e, &mut memo)
     }
 
@@ -352,7 +371,9 @@ impl Pool {
                 self.rebuild(&node, &new)
             }
         };
-        if let Node::Mul(fs) = self.node(r).clone() {
+        // Only where printing is cheap: the comparison prints both forms.
+        let printable = self.written_size(r) <= TIDY_MAX_WRITTEN && self.printable(r).is_ok();
+        if let (Node::Mul(fs), true) = (self.node(r).clone(), printable) {
             let best = self.display(r).len();
             for (i, &f) in fs.iter().enumerate() {
                 let Node::Add(ts) = self.node(f).clone() else {
@@ -388,6 +409,9 @@ impl Pool {
     /// [`EXPAND_TERM_LIMIT`] terms). Function arguments are expanded too.
     pub fn expand(&mut self, e: Id) -> Result<Id, ExpansionTooLarge> {
         let mut memo = HashMap::new();
+        for id in self.deep_order(e) {
+            self.expand_memo(id, &mut memo)?;
+        }
         self.expand_memo(e, &mut memo)
     }
 

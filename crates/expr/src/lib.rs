@@ -14,6 +14,8 @@
 
 pub mod calculus;
 pub mod func;
+pub mod fxhash;
+pub mod limits;
 pub mod lower;
 pub mod number;
 pub mod parse;
@@ -25,6 +27,7 @@ pub mod zero;
 
 pub use calculus::{pow_f64, ExpansionTooLarge, UnboundSymbol, EXPAND_TERM_LIMIT};
 pub use func::{Func, Func2, FUNCTIONS, NON_SMOOTH_FUNCTIONS};
+pub use limits::{Measure, TooLarge};
 pub use lower::{Lowered, Strategy};
 pub use number::Number;
 pub use parse::{parse, Ast, AstKind, BinOp, ParseError};

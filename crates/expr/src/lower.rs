@@ -26,10 +26,10 @@
 
 use crate::calculus::UnboundSymbol;
 use crate::func::{Func, Func2};
+use crate::fxhash::{FxHashMap, FxHashSet};
 use crate::number::Number;
 use crate::pool::{Id, Node, Pool, Symbol};
 use std::cmp::Ordering;
-use std::collections::HashMap;
 
 /// An operand: a symbol, a constant, or the result of an operation in one of the two arenas.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
@@ -60,27 +60,51 @@ pub enum Op {
     Call2(Func2, Val, Val),
 }
 
+/// The operands of one operation (at most three), without allocation.
+#[derive(Clone, Copy, Debug)]
+pub struct Operands {
+    vals: [Val; 3],
+    len: usize,
+}
+
+impl Operands {
+    fn of(vals: &[Val]) -> Operands {
+        let mut o = Operands {
+            vals: [Val::Pi; 3],
+            len: vals.len(),
+        };
+        o.vals[..vals.len()].copy_from_slice(vals);
+        o
+    }
+}
+
+impl IntoIterator for Operands {
+    type Item = Val;
+    type IntoIter = std::iter::Take<std::array::IntoIter<Val, 3>>;
+    fn into_iter(self) -> Self::IntoIter {
+        self.vals.into_iter().take(self.len)
+    }
+}
+
 impl Op {
     /// Operands, with multiplicity as straight-line code uses them (`Powi(v, 2)` is the product `v * v`,
     /// which uses `v` twice; `Powi(v, 3)` three times).
-    pub fn operands(&self) -> Vec<Val> {
+    pub fn operands(&self) -> Operands {
         match *self {
             Op::Add(a, b)
             | Op::Sub(a, b)
             | Op::Mul(a, b)
             | Op::Div(a, b)
             | Op::PowVar(a, b)
-            | Op::Call2(_, a, b) => {
-                vec![a, b]
-            }
-            Op::Powi(a, 2) => vec![a, a],
-            Op::Powi(a, 3) => vec![a, a, a],
+            | Op::Call2(_, a, b) => Operands::of(&[a, b]),
+            Op::Powi(a, 2) => Operands::of(&[a, a]),
+            Op::Powi(a, 3) => Operands::of(&[a, a, a]),
             Op::Neg(a)
             | Op::Recip(a)
             | Op::Powi(a, _)
             | Op::Sqrt(a)
             | Op::Powf(a, _)
-            | Op::Call(_, a) => vec![a],
+            | Op::Call(_, a) => Operands::of(&[a]),
         }
     }
 }
@@ -89,7 +113,7 @@ impl Op {
 #[derive(Default, Debug, Clone)]
 pub struct Arena {
     ops: Vec<Op>,
-    index: HashMap<Op, usize>,
+    index: FxHashMap<Op, usize>,
 }
 
 impl Arena {
@@ -99,12 +123,12 @@ impl Arena {
     }
 
     fn push(&mut self, op: Op) -> usize {
-        if let Some(&i) = self.index.get(&op) {
-            return i;
+        let next = self.ops.len();
+        let i = *self.index.entry(op).or_insert(next);
+        if i == next {
+            self.ops.push(op);
         }
-        self.ops.push(op);
-        self.index.insert(op, self.ops.len() - 1);
-        self.ops.len() - 1
+        i
     }
 }
 
@@ -144,7 +168,7 @@ impl Strategy {
 /// The invariant arena and the classification of symbols, shared by all functions of a model.
 pub struct Invariants<'p> {
     pool: &'p Pool,
-    params: HashMap<Symbol, usize>,
+    params: FxHashMap<Symbol, usize>,
     arena: Arena,
     strategy: Strategy,
 }
@@ -195,16 +219,16 @@ pub struct Lowered {
 
 struct FnLowering<'a, 'p> {
     inv: &'a mut Invariants<'p>,
-    inputs: &'a HashMap<Symbol, ()>,
+    inputs: &'a FxHashSet<Symbol>,
     arena: Arena,
-    memo: HashMap<Id, Val>,
+    memo: FxHashMap<Id, Val>,
     /// Sums as (negative?, magnitude), see `lower_sum`.
-    signed_memo: HashMap<Id, (bool, Val)>,
+    signed_memo: FxHashMap<Id, (bool, Val)>,
     /// (base, fractional part of the exponent) → smallest exponent with that fractional part.
-    min_power: HashMap<(Id, Number), Number>,
+    min_power: FxHashMap<(Id, Number), Number>,
     /// (base, group root q) → (g, m) with q = m·g, when one `powf(b, g)` serves several groups: see
     /// [`shared_roots`].
-    shared_root: HashMap<(Id, Number), (Number, i32)>,
+    shared_root: FxHashMap<(Id, Number), (Number, i32)>,
 }
 
 /// Largest power of a shared root taken by multiplication (`r.powi(m)`).
@@ -231,15 +255,17 @@ fn rational_gcd(a: Number, b: Number) -> Option<Number> {
 /// `b^0.1` and `b^0.9` become `r = b^0.1` and `r^9`, one `powf` instead of two. (Groups whose exponents differ by
 /// an integer already share one; this joins groups with different fractional parts.) `r^m` is exact at b = 0
 /// and costs a few multiplications; its relative error is about m ulp.
-fn shared_roots(min_power: &HashMap<(Id, Number), Number>) -> HashMap<(Id, Number), (Number, i32)> {
+fn shared_roots(
+    min_power: &FxHashMap<(Id, Number), Number>,
+) -> FxHashMap<(Id, Number), (Number, i32)> {
     let half = Number::ratio(1, 2);
-    let mut by_base: HashMap<Id, Vec<Number>> = HashMap::new();
+    let mut by_base: FxHashMap<Id, Vec<Number>> = FxHashMap::default();
     for (&(b, frac), &q) in min_power {
         if frac != half {
             by_base.entry(b).or_default().push(q);
         }
     }
-    let mut out = HashMap::new();
+    let mut out = FxHashMap::default();
     for (b, mut qs) in by_base {
         if qs.len() < 2 {
             continue;
@@ -264,6 +290,36 @@ fn shared_roots(min_power: &HashMap<(Id, Number), Number>) -> HashMap<(Id, Numbe
     out
 }
 
+/// (base, fractional part of the exponent) → the smallest |exponent| with that fractional part, over the
+/// non-integer numeric powers below `roots` (a plain depth-first visit: the result does not depend on order).
+fn min_powers(pool: &Pool, roots: &[Id]) -> FxHashMap<(Id, Number), Number> {
+    let mut out: FxHashMap<(Id, Number), Number> = FxHashMap::default();
+    let mut seen: FxHashSet<Id> = FxHashSet::default();
+    let mut stack: Vec<Id> = roots.to_vec();
+    while let Some(id) = stack.pop() {
+        if !seen.insert(id) {
+            continue;
+        }
+        pool.for_each_child(id, |c| stack.push(c));
+        let Node::Pow(base, p) = pool.node(id) else {
+            continue;
+        };
+        let Some(k) = pool.as_number(*p) else {
+            continue;
+        };
+        let k = if k.is_negative() { k.neg() } else { k };
+        if k.as_integer().is_some() {
+            continue;
+        }
+        let frac = k.add(Number::from_f64(-k.to_f64().floor()));
+        let e = out.entry((*base, frac)).or_insert(k);
+        if k.cmp_value(e) == Ordering::Less {
+            *e = k;
+        }
+    }
+    out
+}
+
 /// Lower `roots`, whose free symbols must be parameters of `inv` or `inputs`; parameter-only operations go
 /// to `inv`'s arena when its strategy hoists them.
 pub fn lower(
@@ -271,34 +327,26 @@ pub fn lower(
     roots: &[Id],
     inputs: &[Symbol],
 ) -> Result<Lowered, UnboundSymbol> {
-    let input_set: HashMap<Symbol, ()> = inputs.iter().map(|&s| (s, ())).collect();
+    let input_set: FxHashSet<Symbol> = inputs.iter().copied().collect();
     let pool = inv.pool;
     let mut l = FnLowering {
         inv,
         inputs: &input_set,
         arena: Arena::default(),
-        memo: HashMap::new(),
-        signed_memo: HashMap::new(),
-        min_power: HashMap::new(),
-        shared_root: HashMap::new(),
+        memo: FxHashMap::default(),
+        signed_memo: FxHashMap::default(),
+        min_power: FxHashMap::default(),
+        shared_root: FxHashMap::default(),
     };
-    for id in pool.topological(roots) {
-        if let Node::Pow(base, p) = pool.node(id) {
-            if let Some(k) = pool.as_number(*p) {
-                let k = if k.is_negative() { k.neg() } else { k };
-                if k.as_integer().is_some() {
-                    continue;
-                }
-                let frac = k.add(Number::from_f64(-k.to_f64().floor()));
-                let e = l.min_power.entry((*base, frac)).or_insert(k);
-                if k.cmp_value(e) == Ordering::Less {
-                    *e = k;
-                }
-            }
-        }
-    }
+    l.min_power = min_powers(pool, roots);
     if l.inv.strategy.shared_roots {
         l.shared_root = shared_roots(&l.min_power);
+    }
+    if roots
+        .iter()
+        .any(|&r| pool.depth(r) > crate::limits::ITERATIVE_DEPTH)
+    {
+        l.lower_bottom_up(roots)?;
     }
     let mut out = Vec::with_capacity(roots.len());
     for &r in roots {
@@ -310,19 +358,38 @@ pub fn lower(
     })
 }
 
-impl FnLowering<'_, '_> {
-    fn pool(&self) -> &Pool {
+impl<'p> FnLowering<'_, 'p> {
+    fn pool(&self) -> &'p Pool {
         self.inv.pool
     }
 
     fn kind(&self, s: Symbol) -> Option<SymKind> {
-        if self.inputs.contains_key(&s) {
+        if self.inputs.contains(&s) {
             Some(SymKind::Varying)
         } else if self.inv.params.contains_key(&s) {
             Some(SymKind::Param)
         } else {
             None
         }
+    }
+
+    /// For deep expressions: lower every node that the recursion lowers as a whole (calls, and sums when
+    /// signs are not folded) bottom-up first, so that the recursion below finds them memoised and stays
+    /// shallow. Only the order of the operations differs from the recursive lowering (which shallow
+    /// expressions keep, so that the generated code and the tape stay as they were).
+    fn lower_bottom_up(&mut self, roots: &[Id]) -> Result<(), UnboundSymbol> {
+        let pool = self.pool();
+        for id in pool.topological(roots) {
+            let whole = match pool.node(id) {
+                Node::Call(..) | Node::Call2(..) => true,
+                Node::Add(_) => !self.inv.strategy.fold_signs,
+                _ => false,
+            };
+            if whole {
+                self.lower(id)?;
+            }
+        }
+        Ok(())
     }
 
     /// Emit `op` into the invariant arena when all its operands are invariant, else into this function's.
@@ -351,7 +418,7 @@ impl FnLowering<'_, '_> {
         if let Some(&v) = self.memo.get(&e) {
             return Ok(v);
         }
-        let v = match self.pool().node(e).clone() {
+        let v = match *self.pool().node(e) {
             Node::Num(n) => Val::Num(n),
             Node::Pi => Val::Pi,
             Node::Sym(s) => {
@@ -396,12 +463,13 @@ impl FnLowering<'_, '_> {
         if let Some(&r) = self.signed_memo.get(&e) {
             return Ok(r);
         }
-        let ts: Vec<Id> = match self.pool().node(e) {
-            Node::Add(ts) => ts.to_vec(),
-            _ => vec![e],
+        let one = [e];
+        let ts: &[Id] = match self.pool().node(e) {
+            Node::Add(ts) => ts,
+            _ => &one,
         };
         let mut terms = Vec::with_capacity(ts.len());
-        for t in ts {
+        for &t in ts {
             terms.push(self.lower_signed(t)?);
         }
         let all_negative = terms.iter().all(|&(neg, _)| neg);
@@ -411,10 +479,11 @@ impl FnLowering<'_, '_> {
             }
         }
         // Parameter-only terms first, so that their partial sum is hoisted.
-        let (mut first, rest): (Vec<_>, Vec<_>) =
-            terms.into_iter().partition(|&(_, v)| self.hoisted(v));
-        first.extend(rest);
-        let r = (all_negative, self.sum(&first));
+        if self.inv.strategy.hoist {
+            // A stable sort: the order within each group is kept.
+            terms.sort_by_key(|&(_, v)| !self.hoisted(v));
+        }
+        let r = (all_negative, self.sum(&terms));
         self.signed_memo.insert(e, r);
         Ok(r)
     }
@@ -471,15 +540,16 @@ impl FnLowering<'_, '_> {
                 return Ok((false, v));
             }
         }
-        let factors: Vec<Id> = match self.pool().node(e) {
-            Node::Mul(fs) => fs.to_vec(),
-            _ => vec![e],
+        let one = [e];
+        let factors: &[Id] = match self.pool().node(e) {
+            Node::Mul(fs) => fs,
+            _ => &one,
         };
         let mut coeff = Number::ONE;
         let mut num: Vec<Val> = Vec::new();
         let mut den: Vec<Val> = Vec::new();
-        for f in factors {
-            match self.pool().node(f).clone() {
+        for &f in factors {
+            match *self.pool().node(f) {
                 Node::Num(n) => coeff = coeff.mul(n),
                 Node::Pow(b, p) => match self.pool().as_number(p) {
                     Some(k) if k.is_negative() => {

@@ -14,6 +14,7 @@
 //! Nothing here expands products of sums, so expressions never blow up; see [`Pool::expand`] for that.
 
 use crate::func::{Func, Func2};
+use crate::fxhash::FxHashSet;
 use crate::number::Number;
 use crate::rules::{FunctionRule, Rewrite, FUNCTION_RULES};
 use std::cmp::Ordering;
@@ -67,6 +68,10 @@ pub struct Pool {
     nodes: Vec<Node>,
     /// Sorted, deduplicated free symbols of each node.
     free: Vec<Box<[Symbol]>>,
+    /// Depth of each node (see [`crate::limits`]).
+    depth: Vec<u32>,
+    /// Written size of each node, saturating (see [`crate::limits`]).
+    written: Vec<u64>,
     index: HashMap<Node, Id>,
     symbols: Vec<String>,
     symbol_index: HashMap<String, Symbol>,
@@ -106,6 +111,26 @@ impl Pool {
         &self.free[id.index()]
     }
 
+    /// Nesting depth of `id`: 1 for a leaf (see [`crate::limits`]).
+    pub fn depth(&self, id: Id) -> u32 {
+        self.depth[id.index()]
+    }
+
+    /// Number of nodes of `id` written out as a tree, saturating (see [`crate::limits`]).
+    pub fn written_size(&self, id: Id) -> u64 {
+        self.written[id.index()]
+    }
+
+    /// The nodes below `e` in post-order when `e` is deeper than [`crate::limits::ITERATIVE_DEPTH`]: a
+    /// memoised walk that first visits these bottom-up never recurses more than a few levels.
+    pub(crate) fn deep_order(&self, e: Id) -> Vec<Id> {
+        if self.depth(e) > crate::limits::ITERATIVE_DEPTH {
+            self.topological(&[e])
+        } else {
+            Vec::new()
+        }
+    }
+
     /// Does `id` depend on symbol `s`?
     pub fn depends_on(&self, id: Id, s: Symbol) -> bool {
         self.free[id.index()].binary_search(&s).is_ok()
@@ -121,6 +146,13 @@ impl Pool {
             return id;
         }
         let free = self.collect_free(&node);
+        let (mut depth, mut written) = (0u32, 1u64);
+        Self::for_each_child_of(&node, |c| {
+            depth = depth.max(self.depth[c.index()]);
+            written = written.saturating_add(self.written[c.index()]);
+        });
+        self.depth.push(depth.saturating_add(1));
+        self.written.push(written);
         let id = Id(u32::try_from(self.nodes.len()).expect("expression pool exceeded 2^32 nodes"));
         self.nodes.push(node.clone());
         self.free.push(free);
@@ -759,13 +791,44 @@ impl Pool {
         }
     }
 
+    /// Calls `f` on each child of `id`, in order, without allocating.
+    #[inline]
+    pub fn for_each_child(&self, id: Id, f: impl FnMut(Id)) {
+        Self::for_each_child_of(self.node(id), f)
+    }
+
+    #[inline]
+    fn for_each_child_of(node: &Node, mut f: impl FnMut(Id)) {
+        match node {
+            Node::Num(_) | Node::Pi | Node::Sym(_) => {}
+            Node::Add(c) | Node::Mul(c) => c.iter().for_each(|&c| f(c)),
+            Node::Pow(a, b) | Node::Call2(_, a, b) => {
+                f(*a);
+                f(*b)
+            }
+            Node::Call(_, a) => f(*a),
+        }
+    }
+
+    /// The children of `id` as a slice-like pair (the two operands of a power or a two-argument call are
+    /// `pair`, the terms or factors of a sum or product `list`).
+    #[inline]
+    fn child_slice(&self, id: Id) -> ChildSlice<'_> {
+        match self.node(id) {
+            Node::Num(_) | Node::Pi | Node::Sym(_) => ChildSlice::Pair([id, id], 0),
+            Node::Add(c) | Node::Mul(c) => ChildSlice::List(c),
+            Node::Pow(a, b) | Node::Call2(_, a, b) => ChildSlice::Pair([*a, *b], 2),
+            Node::Call(_, a) => ChildSlice::Pair([*a, *a], 1),
+        }
+    }
+
     /// Number of distinct nodes in the DAG below `roots` (shared subterms counted once).
     pub fn dag_size(&self, roots: &[Id]) -> usize {
-        let mut seen = std::collections::HashSet::new();
+        let mut seen: FxHashSet<Id> = FxHashSet::default();
         let mut stack: Vec<Id> = roots.to_vec();
         while let Some(id) = stack.pop() {
             if seen.insert(id) {
-                stack.extend(self.children(id));
+                self.for_each_child(id, |c| stack.push(c));
             }
         }
         seen.len()
@@ -774,9 +837,10 @@ impl Pool {
     /// Every node below `roots` in post-order (children before parents), each once.
     pub fn topological(&self, roots: &[Id]) -> Vec<Id> {
         let mut out = Vec::new();
-        let mut seen = std::collections::HashSet::new();
+        let mut seen: FxHashSet<Id> = FxHashSet::default();
+        let mut stack: Vec<(Id, bool)> = Vec::new();
         for &r in roots {
-            let mut stack: Vec<(Id, bool)> = vec![(r, false)];
+            stack.push((r, false));
             while let Some((id, done)) = stack.pop() {
                 if done {
                     out.push(id);
@@ -786,7 +850,7 @@ impl Pool {
                     continue;
                 }
                 stack.push((id, true));
-                for c in self.children(id).into_iter().rev() {
+                for &c in self.child_slice(id).as_slice().iter().rev() {
                     if !seen.contains(&c) {
                         stack.push((c, false));
                     }
@@ -794,5 +858,20 @@ impl Pool {
             }
         }
         out
+    }
+}
+
+/// The children of a node: up to two inline, or the terms of a sum or factors of a product.
+enum ChildSlice<'a> {
+    Pair([Id; 2], usize),
+    List(&'a [Id]),
+}
+
+impl ChildSlice<'_> {
+    fn as_slice(&self) -> &[Id] {
+        match self {
+            ChildSlice::Pair(p, n) => &p[..*n],
+            ChildSlice::List(l) => l,
+        }
     }
 }

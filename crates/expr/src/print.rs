@@ -6,6 +6,7 @@
 //! `parse(print(e)) == e` for every canonical `e`.
 
 use crate::func::Func;
+use crate::limits::{Measure, TooLarge, MAX_PRINT_DEPTH, MAX_PRINT_SIZE};
 use crate::number::Number;
 use crate::pool::{Id, Node, Pool};
 
@@ -41,27 +42,70 @@ struct Factor {
 }
 
 impl Pool {
-    /// The expression in the contract's language, e.g. `c3*c7 - x^2/2`.
+    /// The expression in the contract's language, e.g. `c3*c7 - x^2/2`; an expression over the printing
+    /// budget of [`crate::limits`] prints as a placeholder that says how large it is (see
+    /// [`Pool::try_display`]).
     pub fn display(&self, e: Id) -> String {
-        Printer {
+        self.try_display(e)
+            .unwrap_or_else(|t| placeholder(self, e, t))
+    }
+
+    /// The expression in LaTeX (for `$…$` in Markdown), or a placeholder as [`Pool::display`].
+    pub fn latex(&self, e: Id) -> String {
+        self.try_latex(e)
+            .unwrap_or_else(|t| placeholder(self, e, t))
+    }
+
+    /// The expression in the contract's language, or why it is too large to print.
+    pub fn try_display(&self, e: Id) -> Result<String, TooLarge> {
+        self.printable(e)?;
+        Ok(Printer {
             pool: self,
             style: Style::Text,
         }
-        .expr(e, 0)
+        .expr(e, 0))
     }
 
-    /// The expression in LaTeX (for `$…$` in Markdown).
-    pub fn latex(&self, e: Id) -> String {
-        Printer {
+    /// The expression in LaTeX, or why it is too large to print.
+    pub fn try_latex(&self, e: Id) -> Result<String, TooLarge> {
+        self.printable(e)?;
+        Ok(Printer {
             pool: self,
             style: Style::Latex,
         }
-        .expr(e, 0)
+        .expr(e, 0))
+    }
+
+    /// Is `e` within the printing budget ([`MAX_PRINT_DEPTH`], [`MAX_PRINT_SIZE`])? O(1).
+    pub fn printable(&self, e: Id) -> Result<(), TooLarge> {
+        let depth = self.depth(e);
+        if depth > MAX_PRINT_DEPTH {
+            return Err(TooLarge {
+                measure: Measure::Depth,
+                size: u64::from(depth),
+                limit: u64::from(MAX_PRINT_DEPTH),
+            });
+        }
+        let written = self.written_size(e);
+        if written > MAX_PRINT_SIZE {
+            return Err(TooLarge {
+                measure: Measure::Written,
+                size: written,
+                limit: MAX_PRINT_SIZE,
+            });
+        }
+        Ok(())
     }
 }
 
-/// LaTeX for a symbol name: Greek names become letters, `_` starts a subscript, `xi1` → `\xi_{1}`,
-/// `yr` → `y^{(r)}`.
+/// What prints in place of an expression over the budget (never parsed back: `<` is not in the language).
+fn placeholder(pool: &Pool, e: Id, t: TooLarge) -> String {
+    format!(
+        "<expression too large to print: {} distinct nodes; {t}>",
+        pool.dag_size(&[e])
+    )
+}
+
 pub fn latex_symbol(name: &str) -> String {
     const GREEK: &[&str] = &[
         "alpha", "beta", "gamma", "delta", "epsilon", "zeta", "eta", "theta", "iota", "kappa",

@@ -9,10 +9,10 @@
 
 use crate::calculus::UnboundSymbol;
 use crate::func::{Func, Func2};
+use crate::fxhash::FxHashMap;
 use crate::lower::{self, Arena, Invariants, Lowered, Op, Strategy, Val};
 use crate::pool::{Id, Pool, Symbol};
 use std::cell::RefCell;
-use std::collections::HashMap;
 
 /// One instruction; operands are slot indices. Instruction `i` writes slot `first_op_slot + i`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -46,9 +46,9 @@ pub struct Tape {
 /// operations (empty with [`Strategy::TAPE`]) and the function's, in order.
 struct Encoder<'a> {
     n_inputs: usize,
-    inputs: HashMap<Symbol, u32>,
+    inputs: FxHashMap<Symbol, u32>,
     consts: Vec<f64>,
-    const_slots: HashMap<u64, u32>,
+    const_slots: FxHashMap<u64, u32>,
     inv: &'a Arena,
     /// Slot of the first invariant operation.
     inv_base: u32,
@@ -60,7 +60,7 @@ impl<'a> Encoder<'a> {
             n_inputs: inputs.len(),
             inputs: (0u32..).zip(inputs).map(|(i, &s)| (s, i)).collect(),
             consts: Vec::new(),
-            const_slots: HashMap::new(),
+            const_slots: FxHashMap::default(),
             inv,
             inv_base: 0,
         };
@@ -508,6 +508,7 @@ fn exec(ins: &Instr, g: impl Fn(u32) -> f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::collections::HashMap;
 
     #[test]
     fn tape_matches_reference_evaluator() {

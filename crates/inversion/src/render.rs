@@ -2,7 +2,7 @@
 //! (the derived-equation documents in `docs/models/`).
 
 use crate::derive::{Derivation, Solution};
-use invsim_expr::{latex_symbol, DecidedBy, Id};
+use invsim_expr::{latex_symbol, DecidedBy, Id, TooLarge};
 use serde_json::{json, Map, Value};
 use std::fmt::Write as _;
 
@@ -14,7 +14,110 @@ fn decided(d: DecidedBy) -> &'static str {
     }
 }
 
+/// A derived expression is too large to print (`derive` prints them all; `simulate` prints none).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error(
+    "{file}: {quantity} is too large to print: {source}; the model's definitions or its derivatives grow \
+     too much (a definition that uses the previous one several times doubles or triples the written-out \
+     size at every step); `invsim simulate` evaluates it without printing, `derive` cannot show it"
+)]
+pub struct TooLargeToPrint {
+    pub file: String,
+    /// The quantity, as `derive` names it (`L_f^2 h`, `alpha`, `psi_inv of x`, …).
+    pub quantity: String,
+    pub source: TooLarge,
+}
+
 impl Derivation {
+    /// Every expression `derive` prints (text, JSON or Markdown), with its name.
+    fn printed_quantities(&self) -> Vec<(String, Id)> {
+        let m = &self.model;
+        let r = self.relative_degree;
+        let mut q: Vec<(String, Id)> = vec![("h".into(), m.output.h)];
+        for st in &m.states {
+            q.push((format!("f_{}", st.name), st.f));
+            q.push((format!("g_{}", st.name), st.g));
+        }
+        q.extend(
+            m.definitions
+                .iter()
+                .map(|d| (format!("definition `{}`", d.name), d.expr)),
+        );
+        q.extend(
+            m.outputs
+                .iter()
+                .map(|o| (format!("output `{}`", o.name), o.expr)),
+        );
+        q.extend(
+            self.lie
+                .iter()
+                .enumerate()
+                .map(|(k, &e)| (format!("L_f^{k} h"), e)),
+        );
+        q.extend(
+            self.lg_lie
+                .iter()
+                .enumerate()
+                .map(|(k, &e)| (format!("L_g L_f^{k} h"), e)),
+        );
+        q.extend(
+            self.psi[..r]
+                .iter()
+                .enumerate()
+                .map(|(k, &e)| (format!("xi{}", k + 1), e)),
+        );
+        q.extend(
+            self.psi[r..]
+                .iter()
+                .enumerate()
+                .map(|(j, &e)| (format!("eta{}", j + 1), e)),
+        );
+        for (st, sol) in m.states.iter().zip(&self.psi_inv) {
+            if let Solution::Closed(e) = sol {
+                q.push((format!("psi_inv of {}", st.name), *e));
+            }
+        }
+        q.push(("alpha".into(), self.alpha));
+        q.push(("beta".into(), self.beta));
+        q.extend(
+            self.zero_dynamics
+                .iter()
+                .enumerate()
+                .map(|(j, &e)| (format!("d(eta{})/dt", j + 1), e)),
+        );
+        q
+    }
+
+    /// Are all expressions that `derive` prints within the printing budget of `invsim_expr::limits`?
+    /// O(1) per expression; call it before [`Derivation::to_json`], [`Derivation::to_text`] or
+    /// [`Derivation::to_markdown`], which print a placeholder for an expression over the budget.
+    pub fn check_printable(&self) -> Result<(), TooLargeToPrint> {
+        for (mut quantity, e) in self.printed_quantities() {
+            if let Err(source) = self.pool().printable(e) {
+                // Name where it grew: the first definition already over the budget once inlined.
+                let grown = self
+                    .model
+                    .definitions
+                    .iter()
+                    .find(|d| d.inlined != e && self.pool().printable(d.inlined).is_err());
+                if let Some(d) = grown {
+                    let _ = write!(
+                        quantity,
+                        " (it uses definition `{}`, which is already too large once the definitions \
+                         it uses are inlined)",
+                        d.name
+                    );
+                }
+                return Err(TooLargeToPrint {
+                    file: self.model.file.display().to_string(),
+                    quantity,
+                    source,
+                });
+            }
+        }
+        Ok(())
+    }
+
     fn show(&self, e: Id) -> String {
         self.pool().display(e)
     }

@@ -8,6 +8,7 @@ use super::names::{NameRef, Names};
 use super::raw::{RawDefinition, RawInput, RawModel, RawParameter, RawState};
 use super::spanned::Reader;
 use super::validated::{Definition, Parameter};
+use invsim_expr::limits::{MAX_DEPTH, MAX_POOL_NODES};
 use invsim_expr::{Id, Pool, Symbol};
 use std::collections::HashMap;
 
@@ -108,14 +109,16 @@ impl Interned {
         self.by_role.get(&role).copied().unwrap_or(self.zero)
     }
 
-    /// Intern every expression and inline the definitions in order (each uses only earlier ones).
+    /// Intern every expression and inline the definitions in order (each uses only earlier ones); a
+    /// definition that after inlining nests deeper than [`MAX_DEPTH`] levels, or that takes the model's
+    /// expressions past [`MAX_POOL_NODES`] distinct nodes, is an error.
     pub(super) fn new(
         raw_parameters: Vec<RawParameter>,
         raw_definitions: Vec<RawDefinition>,
         states: &[RawState],
         input: &RawInput,
         items: &[Item],
-    ) -> Interned {
+    ) -> Result<Interned, TooLargeDefinition> {
         // Symbols in a fixed order: parameters, definitions, states, input.
         let mut pool = Pool::new();
         let parameters: Vec<Parameter> = raw_parameters
@@ -159,16 +162,29 @@ impl Interned {
             definitions: Vec::with_capacity(raw_definitions.len()),
             def_symbols: HashMap::new(),
         };
-        interned.inline_definitions(raw_definitions);
-        interned
+        interned.inline_definitions(raw_definitions)?;
+        Ok(interned)
     }
 
     /// Inline definitions in order (each uses only earlier ones).
-    fn inline_definitions(&mut self, raw_definitions: Vec<RawDefinition>) {
+    fn inline_definitions(
+        &mut self,
+        raw_definitions: Vec<RawDefinition>,
+    ) -> Result<(), TooLargeDefinition> {
         for (i, d) in raw_definitions.into_iter().enumerate() {
             let symbol = self.pool.symbol(&d.name);
             let expr = self.expr_of(Role::Definition(i));
             let inlined = self.pool.substitute(expr, &self.inline);
+            let depth = self.pool.depth(inlined);
+            let nodes = self.pool.len();
+            if depth > MAX_DEPTH || nodes > MAX_POOL_NODES {
+                return Err(TooLargeDefinition {
+                    name: d.name,
+                    at: d.at,
+                    depth,
+                    nodes,
+                });
+            }
             self.inline.insert(symbol, inlined);
             self.definitions.push(Definition {
                 name: d.name,
@@ -186,6 +202,45 @@ impl Interned {
             .enumerate()
             .map(|(i, d)| (d.symbol, i))
             .collect();
+        Ok(())
+    }
+}
+
+/// A definition that is too large once every earlier definition is inlined into it.
+#[derive(Debug)]
+pub(super) struct TooLargeDefinition {
+    name: String,
+    at: Option<usize>,
+    /// Its nesting depth after inlining.
+    depth: u32,
+    /// Distinct nodes of the model's expressions so far.
+    nodes: usize,
+}
+
+impl Reader<'_> {
+    /// The model error for a definition over a size budget, naming it, its size and the limit.
+    pub(super) fn too_large_definition(&self, t: TooLargeDefinition) -> ModelError {
+        let what = if t.depth > MAX_DEPTH {
+            format!(
+                "nests {} levels deep once the definitions it uses are inlined (limit {MAX_DEPTH})",
+                t.depth
+            )
+        } else {
+            format!(
+                "takes the model's expressions to {} distinct nodes once the definitions it uses are \
+                 inlined (limit {MAX_POOL_NODES})",
+                t.nodes
+            )
+        };
+        self.err(
+            t.at,
+            ModelErrorKind::Expression,
+            format!(
+                "definition `{}` {what}; a chain of definitions each built on the previous one is too \
+                 long: write the model with fewer nested definitions",
+                t.name
+            ),
+        )
     }
 }
 

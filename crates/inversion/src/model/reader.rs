@@ -92,7 +92,8 @@ impl Reader<'_> {
             output,
             outputs,
         } = raw;
-        let mut m = Interned::new(parameters, definitions, &states, &input, &items);
+        let mut m = Interned::new(parameters, definitions, &states, &input, &items)
+            .map_err(|t| self.too_large_definition(t))?;
         let states = self.split_states(states, &input.name, &mut m, &items)?;
         let output = self.split_output(output, &input.name, &mut m, &items)?;
         let outputs = extra_outputs(outputs, &mut m);
