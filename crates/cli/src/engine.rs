@@ -102,6 +102,16 @@ fn parse_set(s: &str) -> Result<(String, f64), Failure> {
     Ok((name.trim().to_string(), v))
 }
 
+/// The input files of a run, for the check of its outputs: the model file and the cycle file (unless the cycle
+/// is a built-in).
+pub fn run_inputs<'a>(model: &'a Path, cycle: &'a str) -> Vec<(&'static str, &'a Path)> {
+    let mut inputs = vec![("model file", model)];
+    if Cycle::builtin(cycle).is_none() {
+        inputs.push(("cycle file", Path::new(cycle)));
+    }
+    inputs
+}
+
 /// The cycle and the model of a run, with the `--set` overrides applied.
 pub fn load_run(
     model: &Path,

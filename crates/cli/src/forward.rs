@@ -8,7 +8,8 @@ use invsim_runtime::output;
 
 use crate::engine::{load_run, EngineChoice};
 use crate::error::Failure;
-use crate::files::{print_stdout, write_file};
+use crate::files::print_stdout;
+use crate::outputs::Outputs;
 
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
 pub enum BoundsChoice {
@@ -75,6 +76,13 @@ pub struct ForwardArgs {
 }
 
 pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
+    let mut outputs = Outputs::plan(
+        &crate::engine::run_inputs(&args.model, &args.cycle),
+        &[
+            ("--out", args.out.as_deref()),
+            ("--summary-json", args.summary_json.as_deref()),
+        ],
+    )?;
     let (cycle, model) = load_run(&args.model, args.engine, &args.cycle, &args.set)?;
     let stopped = |e: ForwardError| {
         Failure::user(format!(
@@ -104,14 +112,11 @@ pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
         .build()
         .map_err(stopped)?;
     let result = forward::forward(model.as_model(), &cycle, &opts).map_err(stopped)?;
-    if let Some(path) = &args.out {
-        write_file(path, |f| {
-            output::write_table_csv(&result.columns, &result.data, f)
-        })?;
-    }
-    if let Some(path) = &args.summary_json {
-        write_file(path, |f| output::write_json(&result.summary, f))?;
-    }
+    outputs.write("--out", |f| {
+        output::write_table_csv(&result.columns, &result.data, f)
+    })?;
+    outputs.write("--summary-json", |f| output::write_json(&result.summary, f))?;
+    outputs.commit()?;
     print_stdout(&crate::describe::with_description(
         &result.summary.to_text(),
         &args.model,
