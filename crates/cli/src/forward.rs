@@ -35,7 +35,7 @@ pub struct ForwardArgs {
     #[arg(long)]
     cycle: String,
     /// Output step in seconds.
-    #[arg(long, default_value_t = forward::DEFAULT_DT)]
+    #[arg(long, default_value_t = forward::DEFAULT_DT, allow_negative_numbers = true)]
     dt: f64,
     /// Driver's proportional gain: requested acceleration per unit of speed error (1/s).
     #[arg(long, default_value_t = forward::DRIVER_KP, allow_negative_numbers = true)]
@@ -56,11 +56,17 @@ pub struct ForwardArgs {
     #[arg(long, value_enum, default_value_t = MethodChoice::Dopri5)]
     method: MethodChoice,
     /// Relative tolerance of the integrator.
-    #[arg(long, default_value_t = forward::DEFAULT_RTOL)]
+    #[arg(long, default_value_t = forward::DEFAULT_RTOL, allow_negative_numbers = true)]
     rtol: f64,
     /// Absolute tolerance of the integrator.
-    #[arg(long, default_value_t = forward::DEFAULT_ATOL)]
+    #[arg(long, default_value_t = forward::DEFAULT_ATOL, allow_negative_numbers = true)]
     atol: f64,
+    /// Stop after this many integrator steps (default: 2000 per second of the cycle, at least 100 000).
+    #[arg(long, value_name = "N")]
+    max_steps: Option<usize>,
+    /// Stop once the integration has run this many seconds of wall-clock time (default: no limit).
+    #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
+    time_limit: Option<f64>,
     /// Override a parameter: NAME=VALUE (repeatable).
     #[arg(long = "set", value_name = "NAME=VALUE")]
     set: Vec<String>,
@@ -109,6 +115,8 @@ pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
         .rtol(args.rtol)
         .atol(args.atol)
         .keep_series(args.out.is_some())
+        .max_steps(args.max_steps)
+        .time_limit_s(args.time_limit)
         .build()
         .map_err(stopped)?;
     let result = forward::forward(model.as_model(), &cycle, &opts).map_err(stopped)?;

@@ -17,10 +17,10 @@ pub struct SimulateArgs {
     #[arg(long)]
     cycle: String,
     /// Kernel half-width a in seconds: the driver's look-ahead.
-    #[arg(long, default_value_t = inverse::DEFAULT_LOOKAHEAD)]
+    #[arg(long, default_value_t = inverse::DEFAULT_LOOKAHEAD, allow_negative_numbers = true)]
     lookahead: f64,
     /// Output step in seconds.
-    #[arg(long, default_value_t = inverse::DEFAULT_DT)]
+    #[arg(long, default_value_t = inverse::DEFAULT_DT, allow_negative_numbers = true)]
     dt: f64,
     /// Override a parameter: NAME=VALUE (repeatable).
     #[arg(long = "set", value_name = "NAME=VALUE")]

@@ -42,6 +42,7 @@
 //! tolerance, not stability, limits the step, and there a 5th-order method wins. DOPRI5's stiffness estimate is
 //! reported as the number of stability-limited steps.
 
+mod budget;
 mod driver;
 mod error;
 mod integrator;
@@ -57,6 +58,7 @@ use crate::error::RunError;
 use crate::grid::Grid;
 use crate::ode::{Dopri5, OdeStats, Rosenbrock23};
 use crate::report::{fmt_sig, grade_warning, CycleInfo, Totals};
+use budget::Budget;
 use driver::{binomial, Loop, RawCycle};
 use integrator::Integrator;
 use invsim_model_api::zero_dynamics::{newton, EquilibriumFailure, EQUILIBRIUM_MAX_ITER};
@@ -64,8 +66,9 @@ use record::{ForwardTally, Layout, Recorder};
 
 pub use error::ForwardError;
 pub use options::{
-    Bounds, ForwardOptions, ForwardOptionsBuilder, Method, DEFAULT_ATOL, DEFAULT_DT, DEFAULT_RTOL,
-    DRIVER_KI, DRIVER_KP, MPH, RESPONSE_OMEGA, TRACE_MISS_SPEED_TOL, TRACE_MISS_TIME_TOL,
+    default_step_budget, Bounds, ForwardOptions, ForwardOptionsBuilder, Method, DEFAULT_ATOL,
+    DEFAULT_DT, DEFAULT_RTOL, DRIVER_KI, DRIVER_KP, MIN_STEP_BUDGET, MPH, RESPONSE_OMEGA,
+    STEPS_PER_CYCLE_SECOND, TRACE_MISS_SPEED_TOL, TRACE_MISS_TIME_TOL,
 };
 pub use summary::{DriverSummary, ForwardSummary, IntegratorSummary};
 
@@ -143,14 +146,15 @@ pub fn forward<M: InverseModel + ?Sized>(
     let (n, h0) = (info.n_states(), opts.dt.min(0.01));
     // The method is chosen once here; the run is generic over it.
     let start = (seg0, t0);
+    let budget = Budget::new(opts, duration, grid.time(grid.n));
     let stats = match opts.method {
         Method::Rosenbrock23 => {
             let mut s = Rosenbrock23::new(n + 1, opts.rtol, opts.atol, h0);
-            drive(&mut s, &mut lp, &mut rec, &grid, start, &mut z)?
+            drive(&mut s, &mut lp, &mut rec, (&grid, &budget), start, &mut z)?
         }
         Method::Dopri5 => {
             let mut s = Dopri5::new(n + 1, opts.rtol, opts.atol, h0);
-            drive(&mut s, &mut lp, &mut rec, &grid, start, &mut z)?
+            drive(&mut s, &mut lp, &mut rec, (&grid, &budget), start, &mut z)?
         }
     };
     let summary = summarise(info, cycle, opts, &grid, &lp, rec.tally, stats);
@@ -283,12 +287,13 @@ fn anti_windup_rate(kp: f64, ki: f64) -> f64 {
     }
 }
 
-/// The run: segment by segment, one accepted step at a time, the grid served by dense output.
+/// The run: segment by segment, one accepted step at a time, the grid served by dense output, within the
+/// budget.
 fn drive<M: InverseModel + ?Sized, I: Integrator>(
     stepper: &mut I,
     lp: &mut Loop<'_, M>,
     rec: &mut Recorder<'_>,
-    grid: &Grid,
+    (grid, budget): (&Grid, &Budget),
     (seg0, t0): (usize, f64),
     z: &mut [f64],
 ) -> Result<OdeStats, ForwardError> {
@@ -309,6 +314,7 @@ fn drive<M: InverseModel + ?Sized, I: Integrator>(
         let t_new = stepper.step_to(t, target, z, &mut |s, zz: &[f64], dz: &mut [f64]| {
             lp.rhs(seg, s, zz, dz)
         })?;
+        budget.check(t_new, &stepper.step_state())?;
         // The grid samples t_k ≤ t_new, from the dense output; a sample on the segment's end belongs to the
         // next segment (the raw cycle's slope is taken from the right).
         while k <= grid.n {
