@@ -141,19 +141,21 @@ pub fn forward<M: InverseModel + ?Sized>(
     } else {
         lp.raw.slope[seg0]
     });
+    // The quadrature states of the accumulated outputs and of ∫ y dt start at 0.
+    z.resize(z.len() + lp.accumulate.len() + 1, 0.0);
     let layout = Layout::new(model, &x0);
     let mut rec = Recorder::new(info, cycle, &grid, &layout, opts);
-    let (n, h0) = (info.n_states(), opts.dt.min(0.01));
+    let (nz, h0) = (z.len(), opts.dt.min(0.01));
     // The method is chosen once here; the run is generic over it.
     let start = (seg0, t0);
     let budget = Budget::new(opts, duration, grid.time(grid.n));
     let stats = match opts.method {
         Method::Rosenbrock23 => {
-            let mut s = Rosenbrock23::new(n + 1, opts.rtol, opts.atol, h0);
+            let mut s = Rosenbrock23::new(nz, opts.rtol, opts.atol, h0);
             drive(&mut s, &mut lp, &mut rec, (&grid, &budget), start, &mut z)?
         }
         Method::Dopri5 => {
-            let mut s = Dopri5::new(n + 1, opts.rtol, opts.atol, h0);
+            let mut s = Dopri5::new(nz, opts.rtol, opts.atol, h0);
             drive(&mut s, &mut lp, &mut rec, (&grid, &budget), start, &mut z)?
         }
     };
@@ -270,6 +272,10 @@ fn closed_loop<'a, M: InverseModel + ?Sized>(
         xi: vec![0.0; r],
         eta: vec![0.0; ne],
         guess: vec![0.0; n],
+        accumulate: (0..info.outputs.len())
+            .filter(|&i| info.outputs[i].accumulate)
+            .collect(),
+        outs: vec![0.0; info.outputs.len()],
     }
 }
 
@@ -299,7 +305,7 @@ fn drive<M: InverseModel + ?Sized, I: Integrator>(
 ) -> Result<OdeStats, ForwardError> {
     let model = lp.model;
     let d0 = lp.drive(seg0, t0, z)?;
-    rec.emit(model, (0, t0), z, d0)?;
+    rec.emit(model, t0, z, d0)?;
     let t_last = grid.time(grid.n);
     let mut zk = z.to_vec();
     let (mut t, mut seg, mut k) = (t0, seg0, 1);
@@ -329,7 +335,7 @@ fn drive<M: InverseModel + ?Sized, I: Integrator>(
                 seg
             };
             let d = lp.drive(seg_k, tk, &zk)?;
-            rec.emit(model, (k, tk), &zk, d)?;
+            rec.emit(model, tk, &zk, d)?;
             k += 1;
         }
         t = t_new;
