@@ -112,18 +112,19 @@ pub fn run_inputs<'a>(model: &'a Path, cycle: &'a str) -> Vec<(&'static str, &'a
     inputs
 }
 
-/// The cycle and the model of a run, with the `--set` overrides applied.
+/// The cycle (read through the size cap) and the model of a run, with the `--set` overrides applied.
 pub fn load_run(
     model: &Path,
     engine: EngineChoice,
-    cycle: &str,
+    (cycle, max_cycle_bytes): (&str, u64),
     sets: &[String],
 ) -> Result<(Cycle, LoadedModel), Failure> {
     let sets: Vec<(String, f64)> = sets
         .iter()
         .map(|s| parse_set(s))
         .collect::<Result<_, _>>()?;
-    let cycle = Cycle::load(cycle).map_err(|e| Failure::user(e.to_string()))?;
+    let cycle =
+        Cycle::load_with_limit(cycle, max_cycle_bytes).map_err(|e| Failure::user(e.to_string()))?;
     let mut model = load(model, engine)?;
     for (name, value) in &sets {
         model

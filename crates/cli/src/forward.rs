@@ -34,6 +34,9 @@ pub struct ForwardArgs {
     /// A built-in cycle (`invsim cycles` lists them: nedc, udds, wltc3b, …) or the path of a cycle CSV file.
     #[arg(long)]
     cycle: String,
+    /// Largest cycle file read, in bytes (default 64 MiB).
+    #[arg(long, value_name = "BYTES", default_value_t = invsim_runtime::cycle::MAX_CYCLE_BYTES)]
+    max_cycle_bytes: u64,
     /// Output step in seconds.
     #[arg(long, default_value_t = forward::DEFAULT_DT, allow_negative_numbers = true)]
     dt: f64,
@@ -89,7 +92,12 @@ pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
             ("--summary-json", args.summary_json.as_deref()),
         ],
     )?;
-    let (cycle, model) = load_run(&args.model, args.engine, &args.cycle, &args.set)?;
+    let (cycle, model) = load_run(
+        &args.model,
+        args.engine,
+        (&args.cycle, args.max_cycle_bytes),
+        &args.set,
+    )?;
     let stopped = |e: ForwardError| {
         Failure::user(format!(
             "forward simulation of `{}` on `{}` stopped: {e}",

@@ -16,6 +16,9 @@ pub struct SimulateArgs {
     /// A built-in cycle (`invsim cycles` lists them: nedc, udds, wltc3b, …) or the path of a cycle CSV file.
     #[arg(long)]
     cycle: String,
+    /// Largest cycle file read, in bytes (default 64 MiB).
+    #[arg(long, value_name = "BYTES", default_value_t = invsim_runtime::cycle::MAX_CYCLE_BYTES)]
+    max_cycle_bytes: u64,
     /// Kernel half-width a in seconds: the driver's look-ahead.
     #[arg(long, default_value_t = inverse::DEFAULT_LOOKAHEAD, allow_negative_numbers = true)]
     lookahead: f64,
@@ -59,7 +62,12 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
             ("--plot", args.plot.as_deref()),
         ],
     )?;
-    let (cycle, model) = load_run(&args.model, args.engine, &args.cycle, &args.set)?;
+    let (cycle, model) = load_run(
+        &args.model,
+        args.engine,
+        (&args.cycle, args.max_cycle_bytes),
+        &args.set,
+    )?;
     let stopped = |e: SimulateError| {
         Failure::user(format!(
             "simulation of `{}` on `{}` stopped: {e}",
