@@ -10,7 +10,10 @@ pub(crate) use crate::numfmt::num;
 /// Why a run (inverse or forward) could not be run or was stopped, for the reasons both share.
 #[derive(Debug, Error)]
 pub enum RunError {
-    #[error("invalid output step --dt {}: it must be > 0 and finite (seconds)", num(*.0))]
+    #[error(
+        "invalid output step dt = {} s (--dt): it must be a positive, finite number of seconds",
+        num(*.0)
+    )]
     InvalidDt(f64),
     #[error("cannot simulate cycle `{cycle}`: {reason}")]
     InvalidCycle { cycle: String, reason: String },
@@ -23,6 +26,17 @@ pub enum RunError {
         duration: f64,
         dt: f64,
         max: usize,
+    },
+    #[error(
+        "{} output sample(s) (duration {} s at dt = {} s) are fewer than the {min} a run needs; use a --dt of at \
+         most {} s",
+        num(*samples), num(*duration), num(*dt), num(*duration / (*min as f64 - 1.0))
+    )]
+    TooFewSamples {
+        samples: f64,
+        duration: f64,
+        dt: f64,
+        min: usize,
     },
     #[error("the model failed at t = {} s: {source}", num(*t))]
     Model {

@@ -6,8 +6,8 @@
 const MESSAGE_DIGITS: usize = 6;
 
 /// `v` for a message: as written when that takes at most [`MESSAGE_DIGITS`] significant digits (0.1, 1180,
-/// 2.5e-9), else rounded to them; positional for 1e-4 ≤ |v| < 1e15, else with an exponent (1e300, not 301
-/// digits).
+/// 1000000000 below 1e15), else rounded to them, positional for 1e-4 ≤ |v| < 1e6 and with an exponent
+/// otherwise (1e300, not 301 digits).
 pub(crate) fn num(v: f64) -> String {
     if !v.is_finite() || v == 0.0 {
         return format!("{v}");
@@ -23,6 +23,8 @@ pub(crate) fn num(v: f64) -> String {
         if digits <= MESSAGE_DIGITS {
             return s;
         }
+    }
+    if (1e-4..1e6).contains(&a) {
         let mag = a.log10().floor() as i32;
         let decimals = (MESSAGE_DIGITS as i32 - 1 - mag).max(0) as usize;
         let s = format!("{v:.decimals$}");
@@ -52,7 +54,10 @@ mod tests {
         assert_eq!(num(-2.5e-9), "-2.5e-9");
         assert_eq!(num(1e300), "1e300");
         assert_eq!(num(1.0 / 3.0), "0.333333");
-        assert_eq!(num(123_456_789.123), "123456789");
+        assert_eq!(num(123_456_789.123), "1.23457e8");
+        assert_eq!(num(12_345_678.0), "1.23457e7");
+        assert_eq!(num(1e9), "1e9");
+        assert_eq!(num(-0.33333333333333331), "-0.333333");
         assert_eq!(num(5e-324), "4.94066e-324");
         assert_eq!(num(f64::MAX), "1.79769e308");
         for v in [1e-320, 7.0e22, 0.1 + 0.2, 1e15 / 3.0] {

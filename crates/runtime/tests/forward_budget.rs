@@ -45,14 +45,14 @@ fn absurd_gains_stop_within_the_budget_naming_the_gain() {
     let cases: [(ForwardOptions, &[&str]); 4] = [
         (
             ForwardOptions { kp: 1e9, ..opts() },
-            &["budget of", "kp = 1000000000", "--max-steps"],
+            &["budget of", "kp = 1e9", "--max-steps"],
         ),
         (
             ForwardOptions {
                 response: 1e9,
                 ..opts()
             },
-            &["stiff", "response = 1000000000", "rosenbrock23"],
+            &["stiff", "response = 1e9", "rosenbrock23"],
         ),
         (
             ForwardOptions {
@@ -60,7 +60,7 @@ fn absurd_gains_stop_within_the_budget_naming_the_gain() {
                 method: Method::Rosenbrock23,
                 ..opts()
             },
-            &["budget of", "kp = 1000000000"],
+            &["budget of", "kp = 1e9"],
         ),
         (
             ForwardOptions {
@@ -68,7 +68,7 @@ fn absurd_gains_stop_within_the_budget_naming_the_gain() {
                 response: 1e5,
                 ..opts()
             },
-            &["budget of", "kp = 10000000", "response = 100000"],
+            &["budget of", "kp = 1e7", "response = 100000"],
         ),
     ];
     for (o, words) in cases {

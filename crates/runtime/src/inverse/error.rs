@@ -2,7 +2,7 @@
 
 use thiserror::Error;
 
-use crate::error::RunError;
+use crate::error::{num, RunError};
 use crate::report::format_eigenvalues;
 use crate::smoother::SmootherError;
 use crate::stable::StableError;
@@ -10,8 +10,21 @@ use crate::stable::StableError;
 /// Why a simulation could not be run or was stopped.
 #[derive(Debug, Error)]
 pub enum SimulateError {
-    #[error("invalid look-ahead a = {0} s: the kernel half-width must be a positive, finite number of seconds")]
+    #[error(
+        "invalid look-ahead a = {} s: the kernel half-width must be > 0 and finite (seconds)",
+        num(*.0)
+    )]
     InvalidLookahead(f64),
+    #[error(
+        "the look-ahead a = {} s is too long for a cycle of {} s: the kernel's window 2a would smooth the \
+         cycle away; use a look-ahead of at most {} s (a quarter of the cycle)",
+        num(*lookahead), num(*duration), num(*max)
+    )]
+    LookaheadTooLong {
+        lookahead: f64,
+        duration: f64,
+        max: f64,
+    },
     #[error(
         "invalid zero-dynamics tolerances rtol = {rtol}, atol = {atol}: both must be positive and finite"
     )]
@@ -36,7 +49,10 @@ pub enum SimulateError {
     SingularDecoupling { t: f64, beta: f64 },
     #[error(
         "cannot find the initial internal state: Newton's method for the equilibrium q(ξ(t0), η, y_d^(r)(t0)) = 0 \
-         at t0 = {t} s {reason}; give eta0 explicitly"
+         at t0 = {} s {reason}; the run starts η in that equilibrium: start the cycle at a speed where it \
+         exists (e.g. prepend a row at a speed the model can hold), change the parameters with --set, or try \
+         another --lookahead (it changes y_d^(r)(t0))",
+        num(*t)
     )]
     ZeroDynamicsEquilibrium { t: f64, reason: String },
     #[error(
