@@ -60,9 +60,42 @@ fn interpreted(d: &Derivation) -> Result<LoadedModel, Failure> {
     Ok(LoadedModel::Interpreted(Box::new(interp)))
 }
 
-/// Load `path` with the requested engine. The file is always loaded and derived first, so a bad file gives the
-/// same error whichever engine was asked for.
+/// Bytes of a model file read for its hash; a larger file is no built-in model (the reader's own limits then
+/// apply).
+const MAX_HASHED_BYTES: u64 = 1 << 20;
+
+/// The SHA-256 (hex) of the model file's bytes, if it can be read and is at most [`MAX_HASHED_BYTES`] long.
+fn file_hash(path: &Path) -> Option<String> {
+    use sha2::{Digest, Sha256};
+    use std::io::Read;
+    let mut bytes = Vec::new();
+    std::fs::File::open(path)
+        .ok()?
+        .take(MAX_HASHED_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .ok()?;
+    if bytes.len() as u64 > MAX_HASHED_BYTES {
+        return None;
+    }
+    Some(
+        Sha256::digest(&bytes)
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect(),
+    )
+}
+
+/// Load `path` with the requested engine. A file whose SHA-256 matches a built-in model runs its compiled code
+/// (with `auto` or `compiled`) without being derived: it is byte-for-byte the file the code was generated from,
+/// so its derivation succeeds and the compiled model carries everything the run needs (its `ModelInfo` and
+/// every function). Any other file is read and derived first, so a bad file gives the same error whichever
+/// engine was asked for.
 pub fn load(path: &Path, choice: EngineChoice) -> Result<LoadedModel, Failure> {
+    if choice != EngineChoice::Interpreted {
+        if let Some(m) = file_hash(path).and_then(|h| invsim_models::by_hash(&h)) {
+            return Ok(LoadedModel::Compiled(m));
+        }
+    }
     let d = invsim_inversion::derive_file(path).map_err(|e| Failure::user(e.to_string()))?;
     let hash = &d.model.source_hash;
     match choice {
@@ -102,18 +135,29 @@ fn parse_set(s: &str) -> Result<(String, f64), Failure> {
     Ok((name.trim().to_string(), v))
 }
 
-/// The cycle and the model of a run, with the `--set` overrides applied.
+/// The input files of a run, for the check of its outputs: the model file and the cycle file (unless the cycle
+/// is a built-in).
+pub fn run_inputs<'a>(model: &'a Path, cycle: &'a str) -> Vec<(&'static str, &'a Path)> {
+    let mut inputs = vec![("model file", model)];
+    if Cycle::builtin(cycle).is_none() {
+        inputs.push(("cycle file", Path::new(cycle)));
+    }
+    inputs
+}
+
+/// The cycle (read through the size cap) and the model of a run, with the `--set` overrides applied.
 pub fn load_run(
     model: &Path,
     engine: EngineChoice,
-    cycle: &str,
+    (cycle, max_cycle_bytes): (&str, u64),
     sets: &[String],
 ) -> Result<(Cycle, LoadedModel), Failure> {
     let sets: Vec<(String, f64)> = sets
         .iter()
         .map(|s| parse_set(s))
         .collect::<Result<_, _>>()?;
-    let cycle = Cycle::load(cycle).map_err(|e| Failure::user(e.to_string()))?;
+    let cycle =
+        Cycle::load_with_limit(cycle, max_cycle_bytes).map_err(|e| Failure::user(e.to_string()))?;
     let mut model = load(model, engine)?;
     for (name, value) in &sets {
         model

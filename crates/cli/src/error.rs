@@ -1,6 +1,7 @@
 //! The CLI's failures and their exit status (contract §3): 2 for a user error (bad model or cycle file, bad
-//! option, a model the method cannot invert, a simulation that had to stop), 1 for an I/O failure; the message
-//! is one paragraph on stderr.
+//! option, a model the method cannot invert, a simulation that had to stop, an output file that cannot be
+//! written or stdout closed), 1 only for an internal failure (a built-in table missing, a serialiser failing);
+//! the message is one paragraph on stderr.
 
 use std::process::ExitCode;
 
@@ -17,6 +18,7 @@ impl Failure {
             code: 2,
         }
     }
+    /// An internal failure, not caused by the user's input (exit 1).
     pub fn io(message: impl Into<String>) -> Failure {
         Failure {
             message: message.into(),

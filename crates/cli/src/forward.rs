@@ -8,7 +8,8 @@ use invsim_runtime::output;
 
 use crate::engine::{load_run, EngineChoice};
 use crate::error::Failure;
-use crate::files::{print_stdout, write_file};
+use crate::files::print_stdout;
+use crate::outputs::Outputs;
 
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
 pub enum BoundsChoice {
@@ -33,8 +34,11 @@ pub struct ForwardArgs {
     /// A built-in cycle (`invsim cycles` lists them: nedc, udds, wltc3b, …) or the path of a cycle CSV file.
     #[arg(long)]
     cycle: String,
+    /// Largest cycle file read, in bytes (default 64 MiB).
+    #[arg(long, value_name = "BYTES", default_value_t = invsim_runtime::cycle::MAX_CYCLE_BYTES)]
+    max_cycle_bytes: u64,
     /// Output step in seconds.
-    #[arg(long, default_value_t = forward::DEFAULT_DT)]
+    #[arg(long, default_value_t = forward::DEFAULT_DT, allow_negative_numbers = true)]
     dt: f64,
     /// Driver's proportional gain: requested acceleration per unit of speed error (1/s).
     #[arg(long, default_value_t = forward::DRIVER_KP, allow_negative_numbers = true)]
@@ -55,11 +59,17 @@ pub struct ForwardArgs {
     #[arg(long, value_enum, default_value_t = MethodChoice::Dopri5)]
     method: MethodChoice,
     /// Relative tolerance of the integrator.
-    #[arg(long, default_value_t = forward::DEFAULT_RTOL)]
+    #[arg(long, default_value_t = forward::DEFAULT_RTOL, allow_negative_numbers = true)]
     rtol: f64,
     /// Absolute tolerance of the integrator.
-    #[arg(long, default_value_t = forward::DEFAULT_ATOL)]
+    #[arg(long, default_value_t = forward::DEFAULT_ATOL, allow_negative_numbers = true)]
     atol: f64,
+    /// Stop after this many integrator steps (default: 2000 per second of the cycle, at least 100 000).
+    #[arg(long, value_name = "N")]
+    max_steps: Option<usize>,
+    /// Stop once the integration has run this many seconds of wall-clock time (default: no limit).
+    #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
+    time_limit: Option<f64>,
     /// Override a parameter: NAME=VALUE (repeatable).
     #[arg(long = "set", value_name = "NAME=VALUE")]
     set: Vec<String>,
@@ -75,7 +85,19 @@ pub struct ForwardArgs {
 }
 
 pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
-    let (cycle, model) = load_run(&args.model, args.engine, &args.cycle, &args.set)?;
+    let mut outputs = Outputs::plan(
+        &crate::engine::run_inputs(&args.model, &args.cycle),
+        &[
+            ("--out", args.out.as_deref()),
+            ("--summary-json", args.summary_json.as_deref()),
+        ],
+    )?;
+    let (cycle, model) = load_run(
+        &args.model,
+        args.engine,
+        (&args.cycle, args.max_cycle_bytes),
+        &args.set,
+    )?;
     let stopped = |e: ForwardError| {
         Failure::user(format!(
             "forward simulation of `{}` on `{}` stopped: {e}",
@@ -101,17 +123,16 @@ pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
         .rtol(args.rtol)
         .atol(args.atol)
         .keep_series(args.out.is_some())
+        .max_steps(args.max_steps)
+        .time_limit_s(args.time_limit)
         .build()
         .map_err(stopped)?;
     let result = forward::forward(model.as_model(), &cycle, &opts).map_err(stopped)?;
-    if let Some(path) = &args.out {
-        write_file(path, |f| {
-            output::write_table_csv(&result.columns, &result.data, f)
-        })?;
-    }
-    if let Some(path) = &args.summary_json {
-        write_file(path, |f| output::write_json(&result.summary, f))?;
-    }
+    outputs.write("--out", |f| {
+        output::write_table_csv(&result.columns, &result.data, f)
+    })?;
+    outputs.write("--summary-json", |f| output::write_json(&result.summary, f))?;
+    outputs.commit()?;
     print_stdout(&crate::describe::with_description(
         &result.summary.to_text(),
         &args.model,

@@ -6,7 +6,8 @@ use invsim_runtime::{inverse, output, plot, simulate, SimulateError, SimulationO
 
 use crate::engine::{load_run, EngineChoice};
 use crate::error::Failure;
-use crate::files::{print_stdout, write_file};
+use crate::files::print_stdout;
+use crate::outputs::Outputs;
 
 #[derive(clap::Args, Debug)]
 pub struct SimulateArgs {
@@ -15,11 +16,14 @@ pub struct SimulateArgs {
     /// A built-in cycle (`invsim cycles` lists them: nedc, udds, wltc3b, …) or the path of a cycle CSV file.
     #[arg(long)]
     cycle: String,
+    /// Largest cycle file read, in bytes (default 64 MiB).
+    #[arg(long, value_name = "BYTES", default_value_t = invsim_runtime::cycle::MAX_CYCLE_BYTES)]
+    max_cycle_bytes: u64,
     /// Kernel half-width a in seconds: the driver's look-ahead.
-    #[arg(long, default_value_t = inverse::DEFAULT_LOOKAHEAD)]
+    #[arg(long, default_value_t = inverse::DEFAULT_LOOKAHEAD, allow_negative_numbers = true)]
     lookahead: f64,
     /// Output step in seconds.
-    #[arg(long, default_value_t = inverse::DEFAULT_DT)]
+    #[arg(long, default_value_t = inverse::DEFAULT_DT, allow_negative_numbers = true)]
     dt: f64,
     /// Override a parameter: NAME=VALUE (repeatable).
     #[arg(long = "set", value_name = "NAME=VALUE")]
@@ -50,7 +54,20 @@ pub struct SimulateArgs {
 }
 
 pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
-    let (cycle, model) = load_run(&args.model, args.engine, &args.cycle, &args.set)?;
+    let mut outputs = Outputs::plan(
+        &crate::engine::run_inputs(&args.model, &args.cycle),
+        &[
+            ("--out", args.out.as_deref()),
+            ("--summary-json", args.summary_json.as_deref()),
+            ("--plot", args.plot.as_deref()),
+        ],
+    )?;
+    let (cycle, model) = load_run(
+        &args.model,
+        args.engine,
+        (&args.cycle, args.max_cycle_bytes),
+        &args.set,
+    )?;
     let stopped = |e: SimulateError| {
         Failure::user(format!(
             "simulation of `{}` on `{}` stopped: {e}",
@@ -70,15 +87,16 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
         .build()
         .map_err(stopped)?;
     let result = simulate(model.as_model(), &cycle, &opts).map_err(stopped)?;
-    if let Some(path) = &args.out {
-        write_file(path, |f| output::write_csv(&result, f))?;
+    outputs.write("--out", |f| output::write_csv(&result, f))?;
+    outputs.write("--summary-json", |f| {
+        output::write_summary_json(&result.summary, f)
+    })?;
+    if let Some((path, given)) = outputs.path_for("--plot") {
+        plot::plot_svg(&result, &cycle, &path).map_err(|e| {
+            Failure::user(format!("cannot write --plot `{}`: {e}", given.display()))
+        })?;
     }
-    if let Some(path) = &args.summary_json {
-        write_file(path, |f| output::write_summary_json(&result.summary, f))?;
-    }
-    if let Some(path) = &args.plot {
-        plot::plot_svg(&result, &cycle, path).map_err(|e| Failure::io(e.to_string()))?;
-    }
+    outputs.commit()?;
     print_stdout(&crate::describe::with_description(
         &result.summary.to_text(),
         &args.model,

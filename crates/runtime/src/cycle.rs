@@ -11,7 +11,22 @@ pub use builtin::BuiltinCycle;
 use builtin::{BUILTINS, BUILTIN_NAMES};
 
 use std::fmt::Write as _;
+use std::io::Read as _;
 use std::path::Path;
+
+use crate::numfmt::num;
+
+/// Largest cycle file read by default, bytes (64 MiB: a 1 Hz table of a year is 30 MiB); the file is read
+/// through this cap, so an endless file (`/dev/zero`) stops there. [`Cycle::load_with_limit`] raises it (the
+/// CLI's `--max-cycle-bytes`).
+pub const MAX_CYCLE_BYTES: u64 = 64 << 20;
+/// Largest speed a cycle file may hold, m/s (3600 km/h; the land speed record is 341 m/s): a finite but larger
+/// value is a unit or typing error and is refused naming its row.
+pub const MAX_SPEED_MPS: f64 = 1000.0;
+/// Largest magnitude of a time in a cycle file, s (about 3 years).
+pub const MAX_TIME_S: f64 = 1e8;
+/// Shortest duration of a cycle file, s.
+pub const MIN_DURATION_S: f64 = 1e-3;
 
 /// A drive cycle: speed (m/s) against time (s), optionally with road grade (decimal, rise/run).
 #[derive(Debug, Clone, PartialEq)]
@@ -40,6 +55,42 @@ pub enum CycleError {
         file: String,
         #[source]
         source: std::io::Error,
+    },
+    /// The file is larger than the cap.
+    #[error(
+        "{file}: the file is larger than {max} bytes, the limit for a cycle file (raise it with \
+         --max-cycle-bytes if the file really is a drive cycle)"
+    )]
+    TooLarge { file: String, max: u64 },
+    /// A finite but physically absurd speed or time.
+    #[error(
+        "{file}: line {line} (data row {row}), column `{column}`: {what} {} {unit} is beyond the limit of {} {unit}; \
+         expected {expected}",
+        num(*value), num(*max)
+    )]
+    Absurd {
+        file: String,
+        line: u64,
+        row: usize,
+        column: String,
+        what: &'static str,
+        value: f64,
+        max: f64,
+        unit: &'static str,
+        expected: &'static str,
+    },
+    /// The cycle lasts (almost) no time.
+    #[error(
+        "{file}: line {line}: the cycle lasts only {} s (from t = {} s to {} s); expected a duration of at \
+         least {} s",
+        num(*duration), num(*first), num(*last), num(MIN_DURATION_S)
+    )]
+    TooShort {
+        file: String,
+        line: u64,
+        duration: f64,
+        first: f64,
+        last: f64,
     },
     /// The file is not UTF-8 text.
     #[error("{file}: line {line}: not valid UTF-8 text (expected a CSV text file)")]
@@ -130,8 +181,9 @@ pub enum CycleError {
     },
     /// A time not greater than the one before it.
     #[error(
-        "{file}: line {line} (data row {row}), column `{column}`: time {time} s is not after the previous \
-         row's {previous} s; expected strictly increasing times"
+        "{file}: line {line} (data row {row}), column `{column}`: time {} s is not after the previous \
+         row's {} s; expected strictly increasing times",
+        num(*time), num(*previous)
     )]
     TimeNotIncreasing {
         file: String,
@@ -143,8 +195,9 @@ pub enum CycleError {
     },
     /// A negative speed.
     #[error(
-        "{file}: line {line} (data row {row}), column `{column}`: speed {value} is negative; expected a \
-         speed ≥ 0"
+        "{file}: line {line} (data row {row}), column `{column}`: speed {} is negative; expected a \
+         speed ≥ 0",
+        num(*value)
     )]
     NegativeSpeed {
         file: String,
@@ -316,11 +369,28 @@ impl Cycle {
 
     /// Loads a CSV cycle file (section 4 of the contract); the cycle is named after the file stem.
     pub fn from_csv_path(path: &Path) -> Result<Cycle, CycleError> {
+        Cycle::from_csv_path_with_limit(path, MAX_CYCLE_BYTES)
+    }
+
+    /// [`Cycle::from_csv_path`] reading at most `max_bytes` (a larger file is [`CycleError::TooLarge`]).
+    pub fn from_csv_path_with_limit(path: &Path, max_bytes: u64) -> Result<Cycle, CycleError> {
         let file = path.display().to_string();
-        let bytes = std::fs::read(path).map_err(|source| CycleError::Io {
+        let io = |source| CycleError::Io {
             file: file.clone(),
             source,
-        })?;
+        };
+        let mut bytes = Vec::new();
+        std::fs::File::open(path)
+            .map_err(io)?
+            .take(max_bytes.saturating_add(1))
+            .read_to_end(&mut bytes)
+            .map_err(io)?;
+        if bytes.len() as u64 > max_bytes {
+            return Err(CycleError::TooLarge {
+                file,
+                max: max_bytes,
+            });
+        }
         let text = std::str::from_utf8(&bytes).map_err(|e| CycleError::NotUtf8 {
             file: file.clone(),
             line: 1 + bytes[..e.valid_up_to()]
@@ -348,9 +418,14 @@ impl Cycle {
     /// A built-in cycle name (see [`Cycle::builtin`]) or else a path to a CSV cycle file. A built-in name
     /// wins over a file of the same name in the working directory; write `./nedc` for the file.
     pub fn load(spec: &str) -> Result<Cycle, CycleError> {
+        Cycle::load_with_limit(spec, MAX_CYCLE_BYTES)
+    }
+
+    /// [`Cycle::load`] reading a cycle file of at most `max_bytes`.
+    pub fn load_with_limit(spec: &str, max_bytes: u64) -> Result<Cycle, CycleError> {
         match Cycle::builtin(spec) {
             Some(cycle) => Ok(cycle),
-            None => Cycle::from_csv_path(Path::new(spec)),
+            None => Cycle::from_csv_path_with_limit(Path::new(spec), max_bytes),
         }
     }
 
@@ -643,8 +718,8 @@ impl RowAt<'_> {
             file: self.file.to_string(),
             line: self.line,
             row: self.row,
-            column: col.name.clone(),
-            text: text.to_string(),
+            column: printable(&col.name),
+            text: printable(text),
         })?;
         if value.is_finite() {
             Ok(value)
@@ -653,11 +728,60 @@ impl RowAt<'_> {
                 file: self.file.to_string(),
                 line: self.line,
                 row: self.row,
-                column: col.name.clone(),
-                text: text.to_string(),
+                column: printable(&col.name),
+                text: printable(text),
             })
         }
     }
+
+    /// `Err(Absurd)` for a finite `value` of `col` beyond `max` in magnitude.
+    fn bounded(&self, col: &Column, value: f64, bound: Bound) -> Result<(), CycleError> {
+        let (what, max, unit, expected) = bound;
+        if value.abs() <= max {
+            return Ok(());
+        }
+        Err(CycleError::Absurd {
+            file: self.file.to_string(),
+            line: self.line,
+            row: self.row,
+            column: printable(&col.name),
+            what,
+            value,
+            max,
+            unit,
+            expected,
+        })
+    }
+}
+
+/// A physical bound: what, the largest magnitude, its unit, what is expected.
+type Bound = (&'static str, f64, &'static str, &'static str);
+
+/// Bound of a time in a cycle file.
+const TIME_BOUND: Bound = ("time", MAX_TIME_S, "s", "a time in seconds");
+/// Bound of a speed in a cycle file (after the conversion to m/s).
+const SPEED_BOUND: Bound = (
+    "speed",
+    MAX_SPEED_MPS,
+    "m/s",
+    "a vehicle's speed (check the column's unit)",
+);
+
+/// `text` for a message: control characters (a NUL byte) escaped, at most 40 characters.
+fn printable(text: &str) -> String {
+    let mut out = String::new();
+    for (i, c) in text.chars().enumerate() {
+        if i == 40 {
+            out.push('…');
+            break;
+        }
+        if c.is_control() {
+            out.extend(c.escape_default());
+        } else {
+            out.push(c);
+        }
+    }
+    out
 }
 
 /// The samples read so far.
@@ -685,7 +809,9 @@ impl Samples {
             });
         }
         let t = at.number(record, &cols.time)?;
+        at.bounded(&cols.time, t, TIME_BOUND)?;
         let v = at.number(record, &cols.speed)?;
+        at.bounded(&cols.speed, cols.unit.to_mps(v), SPEED_BOUND)?;
         let g = cols
             .grade
             .as_ref()
@@ -751,7 +877,7 @@ fn parse_csv(name: String, file: &str, text: &str) -> Result<Cycle, CycleError> 
         speed: Vec::new(),
         grade: cols.grade.as_ref().map(|_| Vec::new()),
     };
-    let mut row = 0usize;
+    let (mut row, mut last_line) = (0usize, 0u64);
     for record in records {
         let record = record.map_err(|e| lines.csv_error(file, e))?;
         if is_blank(&record) {
@@ -763,12 +889,23 @@ fn parse_csv(name: String, file: &str, text: &str) -> Result<Cycle, CycleError> 
             line: lines.of(&record),
             row,
         };
+        last_line = at.line;
         samples.push(&at, &record, &cols)?;
     }
     if samples.time.len() < 2 {
         return Err(CycleError::TooFewRows {
             file: file.to_string(),
             found: samples.time.len(),
+        });
+    }
+    let (first, last) = (samples.time[0], samples.time[samples.time.len() - 1]);
+    if last - first < MIN_DURATION_S {
+        return Err(CycleError::TooShort {
+            file: file.to_string(),
+            line: last_line,
+            duration: last - first,
+            first,
+            last,
         });
     }
     Ok(Cycle {

@@ -5,16 +5,21 @@
 use invsim_model_api::ModelError;
 use thiserror::Error;
 
+pub(crate) use crate::numfmt::num;
+
 /// Why a run (inverse or forward) could not be run or was stopped, for the reasons both share.
 #[derive(Debug, Error)]
 pub enum RunError {
-    #[error("invalid output step dt = {0} s: it must be a positive, finite number of seconds")]
+    #[error(
+        "invalid output step dt = {} s (--dt): it must be a positive, finite number of seconds",
+        num(*.0)
+    )]
     InvalidDt(f64),
     #[error("cannot simulate cycle `{cycle}`: {reason}")]
     InvalidCycle { cycle: String, reason: String },
     #[error(
-        "{samples} output samples (duration {duration} s at dt = {dt} s) exceed the limit of {max}; use a larger \
-         --dt"
+        "{} output samples (duration {} s at dt = {} s) exceed the limit of {max}; use a larger --dt",
+        num(*samples), num(*duration), num(*dt)
     )]
     TooManySamples {
         samples: f64,
@@ -22,13 +27,24 @@ pub enum RunError {
         dt: f64,
         max: usize,
     },
-    #[error("the model failed at t = {t} s: {source}")]
+    #[error(
+        "{} output sample(s) (duration {} s at dt = {} s) are fewer than the {min} a run needs; use a --dt of at \
+         most {} s",
+        num(*samples), num(*duration), num(*dt), num(*duration / (*min as f64 - 1.0))
+    )]
+    TooFewSamples {
+        samples: f64,
+        duration: f64,
+        dt: f64,
+        min: usize,
+    },
+    #[error("the model failed at t = {} s: {source}", num(*t))]
     Model {
         t: f64,
         #[source]
         source: ModelError,
     },
-    #[error("{quantity} is not finite ({value}) at t = {t} s")]
+    #[error("{quantity} is not finite ({value}) at t = {} s", num(*t))]
     NonFinite {
         t: f64,
         quantity: String,

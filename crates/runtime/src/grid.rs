@@ -9,6 +9,10 @@ pub const MAX_DERIVATIVES: usize = 10;
 /// Largest number of output samples a run may produce (guards against absurd `--dt`).
 pub const MAX_SAMPLES: usize = 50_000_000;
 
+/// Fewest output samples a run may produce: fewer (`--dt` about as long as the cycle) leave no time series
+/// worth the name and integrals of one or two trapezoids.
+pub const MIN_SAMPLES: usize = 10;
+
 /// `Err(InvalidDt)` unless dt is a positive, finite number of seconds.
 pub fn check_dt(dt: f64) -> Result<(), RunError> {
     if dt > 0.0 && dt.is_finite() {
@@ -47,11 +51,19 @@ pub struct Grid {
 
 impl Grid {
     /// The grid over a cycle starting at `t0` of `duration` seconds: round(duration/dt) steps, checked against
-    /// [`MAX_SAMPLES`].
+    /// [`MAX_SAMPLES`] and [`MIN_SAMPLES`].
     pub fn new(t0: f64, duration: f64, dt: f64) -> Result<Grid, RunError> {
         check_dt(dt)?;
         let steps = (duration / dt).round();
         check_samples(steps, duration, dt)?;
+        if steps + 1.0 < MIN_SAMPLES as f64 {
+            return Err(RunError::TooFewSamples {
+                samples: steps + 1.0,
+                duration,
+                dt,
+                min: MIN_SAMPLES,
+            });
+        }
         let per_second = {
             let m = (1.0 / dt).round();
             (m >= 1.0 && (1.0 / dt - m).abs() <= 1e-9 * m).then_some(m)

@@ -4,8 +4,8 @@
 //! The driver works on any [`invsim_model_api::InverseModel`]: compiled code from `invsim-models` or the
 //! interpreter tape from `invsim-inversion`.
 //!
-//! Modules, in the one direction their imports go: [`cycle`], [`kernel`], [`smoother`] and [`ode`] (the
-//! numerics); `error`, [`grid`] and `report` (what both simulations share: errors, the output grid, the
+//! Modules, in the one direction their imports go: `numfmt` (numbers in messages); [`cycle`], [`kernel`],
+//! [`smoother`] and [`ode`] (the numerics); `error`, [`grid`] and `report` (what both simulations share: errors, the output grid, the
 //! summary blocks and formatting); [`stable`] (stable inversion of unstable zero dynamics); [`inverse`] (the
 //! inverse simulation, using `stable`) and [`forward`](mod@forward) (the forward simulation); [`output`] and [`plot`]
 //! (writing results).
@@ -16,6 +16,7 @@ pub mod forward;
 pub mod grid;
 pub mod inverse;
 pub mod kernel;
+mod numfmt;
 pub mod ode;
 pub mod output;
 pub mod plot;

@@ -59,9 +59,9 @@ fn too_small<E: From<StepFailure>>(t: f64) -> E {
     E::from(StepFailure {
         t,
         reason: format!(
-            "the step size fell below {:e} s (the right-hand side is not finite near this state, or the problem \
+            "the step size fell below {} s (the right-hand side is not finite near this state, or the problem \
              is too stiff)",
-            h_min(t)
+            crate::numfmt::num(h_min(t))
         ),
     })
 }

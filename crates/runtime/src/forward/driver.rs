@@ -70,6 +70,9 @@ pub(super) struct Loop<'a, M: InverseModel + ?Sized> {
     pub(super) xi: Vec<f64>,
     pub(super) eta: Vec<f64>,
     pub(super) guess: Vec<f64>,
+    /// Indices of the accumulated `[outputs]`, integrated as quadrature states, and their scratch buffer.
+    pub(super) accumulate: Vec<usize>,
+    pub(super) outs: Vec<f64>,
 }
 
 /// The driver's and the engine management's output at one point.
@@ -127,8 +130,10 @@ impl<M: InverseModel + ?Sized> Loop<'_, M> {
         })
     }
 
-    /// dz/dt of the closed loop, z = (x, I): x' = f(x) + g(x) u_a and I' = K_i e + (Δa)/T_t, Δa = β (u_a − u)
-    /// / ω^(r−1) the part of the request the clipped input cannot deliver (back-calculation).
+    /// dz/dt of the closed loop, z = (x, I, Q_1 … Q_m, D): x' = f(x) + g(x) u_a and I' = K_i e + (Δa)/T_t,
+    /// Δa = β (u_a − u) / ω^(r−1) the part of the request the clipped input cannot deliver (back-calculation);
+    /// the quadrature states Q_i' = o_i(x, u_a) (the accumulated outputs) and D' = y = h(x) make the solver
+    /// integrate ∫ o_i dt and ∫ y dt with its own error control, independent of the output grid.
     pub(super) fn rhs(
         &mut self,
         seg: usize,
@@ -137,8 +142,17 @@ impl<M: InverseModel + ?Sized> Loop<'_, M> {
         dz: &mut [f64],
     ) -> Result<(), ForwardError> {
         let d = self.drive(seg, t, z)?;
-        let (dx, di) = dz.split_at_mut(self.n);
-        self.model.rhs(&z[..self.n], d.applied, dx);
+        let (dx, rest) = dz.split_at_mut(self.n);
+        let (di, dq) = rest.split_at_mut(1);
+        let x = &z[..self.n];
+        self.model.rhs(x, d.applied, dx);
+        if !self.accumulate.is_empty() {
+            self.model.outputs(x, d.applied, &mut self.outs);
+            for (q, &o) in dq.iter_mut().zip(&self.accumulate) {
+                *q = self.outs[o];
+            }
+        }
+        dq[self.accumulate.len()] = d.y;
         let mut windup = 0.0;
         if d.applied != d.demand && self.k_aw > 0.0 {
             let beta = self.model.beta(&self.xi, &self.eta);

@@ -2,27 +2,59 @@
 
 use thiserror::Error;
 
-use crate::error::RunError;
+use crate::error::{num, RunError};
 use crate::ode::StepFailure;
 
 /// Why a forward simulation could not be run or was stopped.
 #[derive(Debug, Error)]
 pub enum ForwardError {
-    #[error("invalid integrator tolerances rtol = {rtol}, atol = {atol}: both must be positive and finite")]
-    InvalidTolerance { rtol: f64, atol: f64 },
     #[error(
-        "invalid driver parameter {name} = {value}: it must be finite and ≥ 0 (the response > 0)"
+        "invalid integrator tolerances rtol = {}, atol = {}: both must be > 0 and finite",
+        num(*rtol), num(*atol)
     )]
+    InvalidTolerance { rtol: f64, atol: f64 },
+    #[error("invalid driver parameter {name} = {}: it must be {}", num(*value), gain_rule(name))]
     InvalidGain { name: &'static str, value: f64 },
     #[error(
-        "invalid trace-miss tolerances {speed} (output units) and {time} s: both must be finite and ≥ 0"
+        "invalid trace-miss tolerances {} (output units) and {} s: both must be finite and ≥ 0",
+        num(*speed), num(*time)
     )]
     InvalidTraceTolerance { speed: f64, time: f64 },
+    #[error("invalid {what} = {}: it must be > 0 (and finite)", num(*value))]
+    InvalidBudget { what: &'static str, value: f64 },
+    #[error(
+        "the integration used up its budget of {steps} steps ({how}) and reached only t = {} s of {} s; \
+         {diagnosis}",
+        num(*t), num(*t_end)
+    )]
+    StepBudget {
+        t: f64,
+        t_end: f64,
+        steps: usize,
+        how: String,
+        diagnosis: String,
+    },
+    #[error(
+        "the run reached its time limit of {} s at t = {} s of {} s after {steps} steps; {diagnosis}",
+        num(*limit), num(*t), num(*t_end)
+    )]
+    TimeLimit {
+        limit: f64,
+        t: f64,
+        t_end: f64,
+        steps: usize,
+        diagnosis: String,
+    },
     #[error("invalid initial state x0: {reason}")]
     InvalidX0 { reason: String },
-    #[error("cannot find the initial state at t0 = {t} s: {reason}; give x0 explicitly")]
+    #[error(
+        "cannot find the initial state at t0 = {} s: {reason}; the run starts in the equilibrium ψ⁻¹ gives at \
+         the cycle's first speed: start the cycle at a speed where that equilibrium exists (e.g. prepend a \
+         row at a speed the model can hold), or change the parameters with --set",
+        num(*t)
+    )]
     InitialState { t: f64, reason: String },
-    #[error("the forward integration failed at t = {t} s: {reason}")]
+    #[error("the forward integration failed at t = {} s: {reason}", num(*t))]
     Integration { t: f64, reason: String },
     /// A reason shared with the inverse simulation.
     #[error(transparent)]
@@ -35,5 +67,14 @@ impl From<StepFailure> for ForwardError {
             t: f.t,
             reason: f.reason,
         }
+    }
+}
+
+/// What a driver parameter must be.
+fn gain_rule(name: &str) -> &'static str {
+    if name == "response" {
+        "> 0 and finite (rad/s)"
+    } else {
+        "≥ 0 and finite"
     }
 }

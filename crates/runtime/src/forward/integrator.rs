@@ -3,6 +3,7 @@
 
 use crate::ode::{Dopri5, OdeStats, Rosenbrock23};
 
+use super::budget::StepState;
 use super::error::ForwardError;
 
 /// An adaptive one-step method with dense output, as the forward run uses it.
@@ -23,6 +24,16 @@ pub(super) trait Integrator {
     fn restart(&mut self);
     /// Step statistics so far.
     fn stats(&self) -> OdeStats;
+    /// The step size proposed next and DOPRI5's stiffness estimate h·ρ of the last step (NaN otherwise).
+    fn step_state(&self) -> StepState {
+        StepState {
+            stats: self.stats(),
+            h: self.step_size(),
+            h_rho: f64::NAN,
+        }
+    }
+    /// The step size proposed next.
+    fn step_size(&self) -> f64;
 }
 
 impl Integrator for Dopri5 {
@@ -47,6 +58,16 @@ impl Integrator for Dopri5 {
     fn stats(&self) -> OdeStats {
         self.stats
     }
+    fn step_state(&self) -> StepState {
+        StepState {
+            stats: self.stats,
+            h: Dopri5::step_size(self),
+            h_rho: self.last_h_rho,
+        }
+    }
+    fn step_size(&self) -> f64 {
+        Dopri5::step_size(self)
+    }
 }
 
 impl Integrator for Rosenbrock23 {
@@ -70,5 +91,8 @@ impl Integrator for Rosenbrock23 {
     }
     fn stats(&self) -> OdeStats {
         self.stats
+    }
+    fn step_size(&self) -> f64 {
+        Rosenbrock23::step_size(self)
     }
 }

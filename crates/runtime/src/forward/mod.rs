@@ -42,6 +42,7 @@
 //! tolerance, not stability, limits the step, and there a 5th-order method wins. DOPRI5's stiffness estimate is
 //! reported as the number of stability-limited steps.
 
+mod budget;
 mod driver;
 mod error;
 mod integrator;
@@ -57,6 +58,7 @@ use crate::error::RunError;
 use crate::grid::Grid;
 use crate::ode::{Dopri5, OdeStats, Rosenbrock23};
 use crate::report::{fmt_sig, grade_warning, CycleInfo, Totals};
+use budget::Budget;
 use driver::{binomial, Loop, RawCycle};
 use integrator::Integrator;
 use invsim_model_api::zero_dynamics::{newton, EquilibriumFailure, EQUILIBRIUM_MAX_ITER};
@@ -64,8 +66,9 @@ use record::{ForwardTally, Layout, Recorder};
 
 pub use error::ForwardError;
 pub use options::{
-    Bounds, ForwardOptions, ForwardOptionsBuilder, Method, DEFAULT_ATOL, DEFAULT_DT, DEFAULT_RTOL,
-    DRIVER_KI, DRIVER_KP, MPH, RESPONSE_OMEGA, TRACE_MISS_SPEED_TOL, TRACE_MISS_TIME_TOL,
+    default_step_budget, Bounds, ForwardOptions, ForwardOptionsBuilder, Method, DEFAULT_ATOL,
+    DEFAULT_DT, DEFAULT_RTOL, DRIVER_KI, DRIVER_KP, MIN_STEP_BUDGET, MPH, RESPONSE_OMEGA,
+    STEPS_PER_CYCLE_SECOND, TRACE_MISS_SPEED_TOL, TRACE_MISS_TIME_TOL,
 };
 pub use summary::{DriverSummary, ForwardSummary, IntegratorSummary};
 
@@ -138,19 +141,22 @@ pub fn forward<M: InverseModel + ?Sized>(
     } else {
         lp.raw.slope[seg0]
     });
+    // The quadrature states of the accumulated outputs and of ∫ y dt start at 0.
+    z.resize(z.len() + lp.accumulate.len() + 1, 0.0);
     let layout = Layout::new(model, &x0);
     let mut rec = Recorder::new(info, cycle, &grid, &layout, opts);
-    let (n, h0) = (info.n_states(), opts.dt.min(0.01));
+    let (nz, h0) = (z.len(), opts.dt.min(0.01));
     // The method is chosen once here; the run is generic over it.
     let start = (seg0, t0);
+    let budget = Budget::new(opts, duration, grid.time(grid.n));
     let stats = match opts.method {
         Method::Rosenbrock23 => {
-            let mut s = Rosenbrock23::new(n + 1, opts.rtol, opts.atol, h0);
-            drive(&mut s, &mut lp, &mut rec, &grid, start, &mut z)?
+            let mut s = Rosenbrock23::new(nz, opts.rtol, opts.atol, h0);
+            drive(&mut s, &mut lp, &mut rec, (&grid, &budget), start, &mut z)?
         }
         Method::Dopri5 => {
-            let mut s = Dopri5::new(n + 1, opts.rtol, opts.atol, h0);
-            drive(&mut s, &mut lp, &mut rec, &grid, start, &mut z)?
+            let mut s = Dopri5::new(nz, opts.rtol, opts.atol, h0);
+            drive(&mut s, &mut lp, &mut rec, (&grid, &budget), start, &mut z)?
         }
     };
     let summary = summarise(info, cycle, opts, &grid, &lp, rec.tally, stats);
@@ -266,6 +272,10 @@ fn closed_loop<'a, M: InverseModel + ?Sized>(
         xi: vec![0.0; r],
         eta: vec![0.0; ne],
         guess: vec![0.0; n],
+        accumulate: (0..info.outputs.len())
+            .filter(|&i| info.outputs[i].accumulate)
+            .collect(),
+        outs: vec![0.0; info.outputs.len()],
     }
 }
 
@@ -283,18 +293,19 @@ fn anti_windup_rate(kp: f64, ki: f64) -> f64 {
     }
 }
 
-/// The run: segment by segment, one accepted step at a time, the grid served by dense output.
+/// The run: segment by segment, one accepted step at a time, the grid served by dense output, within the
+/// budget.
 fn drive<M: InverseModel + ?Sized, I: Integrator>(
     stepper: &mut I,
     lp: &mut Loop<'_, M>,
     rec: &mut Recorder<'_>,
-    grid: &Grid,
+    (grid, budget): (&Grid, &Budget),
     (seg0, t0): (usize, f64),
     z: &mut [f64],
 ) -> Result<OdeStats, ForwardError> {
     let model = lp.model;
     let d0 = lp.drive(seg0, t0, z)?;
-    rec.emit(model, (0, t0), z, d0)?;
+    rec.emit(model, t0, z, d0)?;
     let t_last = grid.time(grid.n);
     let mut zk = z.to_vec();
     let (mut t, mut seg, mut k) = (t0, seg0, 1);
@@ -309,6 +320,7 @@ fn drive<M: InverseModel + ?Sized, I: Integrator>(
         let t_new = stepper.step_to(t, target, z, &mut |s, zz: &[f64], dz: &mut [f64]| {
             lp.rhs(seg, s, zz, dz)
         })?;
+        budget.check(t_new, &stepper.step_state())?;
         // The grid samples t_k ≤ t_new, from the dense output; a sample on the segment's end belongs to the
         // next segment (the raw cycle's slope is taken from the right).
         while k <= grid.n {
@@ -323,7 +335,7 @@ fn drive<M: InverseModel + ?Sized, I: Integrator>(
                 seg
             };
             let d = lp.drive(seg_k, tk, &zk)?;
-            rec.emit(model, (k, tk), &zk, d)?;
+            rec.emit(model, tk, &zk, d)?;
             k += 1;
         }
         t = t_new;

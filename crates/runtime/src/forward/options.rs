@@ -66,6 +66,21 @@ pub const DEFAULT_RTOL: f64 = 1e-8;
 /// Default absolute tolerance of the integrator (`--atol`).
 pub const DEFAULT_ATOL: f64 = 1e-10;
 
+/// Step budget of the forward integration per second of the cycle (accepted plus rejected steps; `max_steps`
+/// overrides it): the default run of `si_engine` on the NEDC takes about 10 steps per second, a stiff variant
+/// (V_i/100, bounds enforced) about 100, so 2000 leaves room for any sensible model while a loop made stiff by
+/// absurd gains (`--kp 1e9`: about 150 000 steps per second) stops within a second or so of computing.
+pub const STEPS_PER_CYCLE_SECOND: f64 = 2000.0;
+/// The smallest default step budget, for short cycles.
+pub const MIN_STEP_BUDGET: usize = 100_000;
+
+/// The default step budget for a cycle of `duration` seconds: [`STEPS_PER_CYCLE_SECOND`] per second, at least
+/// [`MIN_STEP_BUDGET`].
+pub fn default_step_budget(duration: f64) -> usize {
+    let scaled = (STEPS_PER_CYCLE_SECOND * duration).min(usize::MAX as f64 / 2.0);
+    (scaled as usize).max(MIN_STEP_BUDGET)
+}
+
 /// Options of [`forward()`](super::forward()).
 #[derive(Debug, Clone, PartialEq)]
 pub struct ForwardOptions {
@@ -98,6 +113,12 @@ pub struct ForwardOptions {
     pub trace_time_tol: f64,
     /// Keep the time series (default true); `false` computes every sample for the summary only.
     pub keep_series: bool,
+    /// Step budget: the run stops with [`ForwardError::StepBudget`] after this many integrator steps (accepted
+    /// and rejected); `None` (default): [`default_step_budget`] of the cycle's duration.
+    pub max_steps: Option<usize>,
+    /// Wall-clock limit in seconds (for sweeps): the run stops with [`ForwardError::TimeLimit`] once it has
+    /// computed this long; `None` (default): no limit.
+    pub time_limit_s: Option<f64>,
 }
 
 impl Default for ForwardOptions {
@@ -117,6 +138,8 @@ impl Default for ForwardOptions {
             trace_speed_tol: TRACE_MISS_SPEED_TOL,
             trace_time_tol: TRACE_MISS_TIME_TOL,
             keep_series: true,
+            max_steps: None,
+            time_limit_s: None,
         }
     }
 }
@@ -145,6 +168,20 @@ impl ForwardOptions {
         ] {
             if !(v.is_finite() && v >= 0.0) || (name == "response" && v == 0.0) {
                 return Err(ForwardError::InvalidGain { name, value: v });
+            }
+        }
+        if self.max_steps == Some(0) {
+            return Err(ForwardError::InvalidBudget {
+                what: "step budget max_steps",
+                value: 0.0,
+            });
+        }
+        if let Some(limit) = self.time_limit_s {
+            if !(limit > 0.0 && limit.is_finite()) {
+                return Err(ForwardError::InvalidBudget {
+                    what: "time limit time_limit_s",
+                    value: limit,
+                });
             }
         }
         let (speed_tol, time_tol) = (self.trace_speed_tol, self.trace_time_tol);
@@ -179,6 +216,7 @@ macro_rules! setters {
 setters! {
     dt: f64, kp: f64, ki: f64, response: f64, feedforward: bool, bounds: Bounds, method: Method, rtol: f64,
     atol: f64, x0: Option<Vec<f64>>, trace_speed_tol: f64, trace_time_tol: f64, keep_series: bool,
+    max_steps: Option<usize>, time_limit_s: Option<f64>,
 }
 
 impl ForwardOptionsBuilder {

@@ -1,5 +1,6 @@
-//! The samples of a forward run: the columns of its series and the bookkeeping of the summary (integrals,
-//! distance driven, input range and bound violations, trace misses, tracking error).
+//! The samples of a forward run: the columns of its series and the bookkeeping of the summary (integrals and
+//! distance driven, read from the solver's quadrature states; input range and bound violations, trace misses,
+//! tracking error).
 
 use invsim_model_api::{InverseModel, ModelInfo};
 
@@ -61,10 +62,9 @@ impl Layout {
 /// The bookkeeping of the forward run over its samples.
 pub(super) struct ForwardTally {
     pub(super) accumulate: Vec<usize>,
+    /// ∫ o dt of the accumulated outputs and ∫ y dt from t_0 to the last sample, by the solver.
     pub(super) integrals: Vec<f64>,
-    pub(super) previous: Vec<f64>,
     pub(super) distance_driven: f64,
-    pub(super) y_prev: f64,
     pub(super) range: [f64; 2],
     pub(super) violations: Intervals,
     pub(super) misses: Intervals,
@@ -81,7 +81,6 @@ pub(super) struct Recorder<'a> {
     pub(super) columns: (usize, usize, usize),
     pub(super) outs: Vec<f64>,
     pub(super) band: TraceBand<'a>,
-    pub(super) dt: f64,
     /// Bounds of the demand, widened by the rounding tolerance.
     pub(super) bounds: (f64, f64),
     pub(super) tally: ForwardTally,
@@ -122,14 +121,11 @@ impl<'a> Recorder<'a> {
             ),
             outs: vec![0.0; no],
             band: TraceBand::new(cycle, opts.trace_time_tol, opts.trace_speed_tol),
-            dt: grid.dt,
             bounds: (lo - u_tol, hi + u_tol),
             tally: ForwardTally {
                 integrals: vec![0.0; accumulate.len()],
-                previous: vec![0.0; accumulate.len()],
                 accumulate,
                 distance_driven: 0.0,
-                y_prev: 0.0,
                 range: [f64::INFINITY, f64::NEG_INFINITY],
                 violations: Intervals::default(),
                 misses: Intervals::default(),
@@ -139,11 +135,11 @@ impl<'a> Recorder<'a> {
         }
     }
 
-    /// Sample k at time t: state z = (x, I), the loop's values `d`.
+    /// The sample at time t: state z = (x, I, quadratures), the loop's values `d`.
     pub(super) fn emit<M: InverseModel + ?Sized>(
         &mut self,
         model: &M,
-        (k, t): (usize, f64),
+        t: f64,
         z: &[f64],
         d: Drive,
     ) -> Result<(), ForwardError> {
@@ -163,7 +159,7 @@ impl<'a> Recorder<'a> {
         if self.keep {
             self.store(t, x, d);
         }
-        self.count(k, t, d);
+        self.count(t, &z[info.n_states() + 1..], d);
         Ok(())
     }
 
@@ -184,24 +180,13 @@ impl<'a> Recorder<'a> {
         }
     }
 
-    fn count(&mut self, k: usize, t: f64, d: Drive) {
-        let (dt, tally) = (self.dt, &mut self.tally);
-        // Trapezoidal rule over the grid, as in the inverse simulation.
-        for ((acc, prev), &o) in tally
-            .integrals
-            .iter_mut()
-            .zip(&mut tally.previous)
-            .zip(&tally.accumulate)
-        {
-            if k > 0 {
-                *acc += 0.5 * dt * (*prev + self.outs[o]);
-            }
-            *prev = self.outs[o];
-        }
-        if k > 0 {
-            tally.distance_driven += 0.5 * dt * (tally.y_prev + d.y);
-        }
-        tally.y_prev = d.y;
+    /// The summary's bookkeeping at sample t; `quadrature` is z's tail (ForwardTally::integrals, then ∫ y dt)
+    /// at t, integrated by the solver.
+    fn count(&mut self, t: f64, quadrature: &[f64], d: Drive) {
+        let tally = &mut self.tally;
+        let m = tally.integrals.len();
+        tally.integrals.copy_from_slice(&quadrature[..m]);
+        tally.distance_driven = quadrature[m];
         tally.range = [tally.range[0].min(d.applied), tally.range[1].max(d.applied)];
         let (lo, hi) = self.bounds;
         tally.violations.push(t, d.demand < lo || d.demand > hi);

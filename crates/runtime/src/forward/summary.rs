@@ -49,7 +49,8 @@ pub struct ForwardSummary {
     pub bounds: Bounds,
     pub driver: DriverSummary,
     pub integrator: IntegratorSummary,
-    /// Integrals (trapezoidal rule on the output grid, as in the inverse simulation) and the input applied:
+    /// Integrals (by the solver: quadrature states appended to the ODE, independent of the output grid) and
+    /// the input applied:
     /// its range, bounds and the intervals where the driver's demand is outside them (applied as it is with
     /// `ignore`, clipped with `enforce`); flattened.
     #[serde(flatten)]

@@ -2,7 +2,7 @@
 
 use thiserror::Error;
 
-use crate::error::RunError;
+use crate::error::{num, RunError};
 use crate::report::format_eigenvalues;
 use crate::smoother::SmootherError;
 use crate::stable::StableError;
@@ -10,14 +10,29 @@ use crate::stable::StableError;
 /// Why a simulation could not be run or was stopped.
 #[derive(Debug, Error)]
 pub enum SimulateError {
-    #[error("invalid look-ahead a = {0} s: the kernel half-width must be a positive, finite number of seconds")]
+    #[error(
+        "invalid look-ahead a = {} s: the kernel half-width must be > 0 and finite (seconds)",
+        num(*.0)
+    )]
     InvalidLookahead(f64),
     #[error(
-        "invalid zero-dynamics tolerances rtol = {rtol}, atol = {atol}: both must be positive and finite"
+        "the look-ahead a = {} s is too long for a cycle of {} s: the kernel's window 2a would smooth the \
+         cycle away; use a look-ahead of at most {} s (a quarter of the cycle)",
+        num(*lookahead), num(*duration), num(*max)
+    )]
+    LookaheadTooLong {
+        lookahead: f64,
+        duration: f64,
+        max: f64,
+    },
+    #[error(
+        "invalid zero-dynamics tolerances rtol = {rtol_}, atol = {atol_}: both must be positive and finite",
+        rtol_ = num(*.rtol), atol_ = num(*.atol)
     )]
     InvalidTolerance { rtol: f64, atol: f64 },
     #[error(
-        "invalid stability check interval {0} s: it must be a positive, finite number of seconds"
+        "invalid stability check interval {v0_} s: it must be a positive, finite number of seconds",
+        v0_ = num(*.0)
     )]
     InvalidCheckInterval(f64),
     #[error("invalid initial internal state eta0: {reason}")]
@@ -30,30 +45,38 @@ pub enum SimulateError {
     #[error("cannot smooth the drive cycle: {0}")]
     Smoother(#[from] SmootherError),
     #[error(
-        "the decoupling coefficient β(ξ, η) = L_g L_f^(r−1) h is {beta} at t = {t} s, so the input \
-         u = (y^(r) − α)/β is undefined there: the relative degree is not well defined at this operating point"
+        "the decoupling coefficient β(ξ, η) = L_g L_f^(r−1) h is {beta_} at t = {t_} s, so the input \
+         u = (y^(r) − α)/β is undefined there: the relative degree is not well defined at this operating point",
+        t_ = num(*.t), beta_ = num(*.beta)
     )]
     SingularDecoupling { t: f64, beta: f64 },
     #[error(
         "cannot find the initial internal state: Newton's method for the equilibrium q(ξ(t0), η, y_d^(r)(t0)) = 0 \
-         at t0 = {t} s {reason}; give eta0 explicitly"
+         at t0 = {} s {reason}; the run starts η in that equilibrium: start the cycle at a speed where it \
+         exists (e.g. prepend a row at a speed the model can hold), change the parameters with --set, or try \
+         another --lookahead (it changes y_d^(r)(t0))",
+        num(*t)
     )]
     ZeroDynamicsEquilibrium { t: f64, reason: String },
     #[error(
-        "unstable zero dynamics at t = {t} s: {detail}; eigenvalues of ∂q/∂η: {eigs}. The system is non-minimum \
+        "unstable zero dynamics at t = {t_} s: {detail}; eigenvalues of ∂q/∂η: {eigs}. The system is non-minimum \
          phase for this output, so causal inverse simulation diverges; stable (non-causal) inversion is needed",
-        eigs = format_eigenvalues(.eigenvalues)
+        eigs = format_eigenvalues(.eigenvalues),
+        t_ = num(*.t)
     )]
     UnstableZeroDynamics {
         t: f64,
         eigenvalues: Vec<[f64; 2]>,
         detail: String,
     },
-    #[error("integrating the internal dynamics failed at t = {t} s: {reason}")]
+    #[error("integrating the internal dynamics failed at t = {t_} s: {reason}",
+        t_ = num(*.t)
+    )]
     Integration { t: f64, reason: String },
     #[error(
         "verification failed: the original model dx/dt = f(x) + g(x)u could not be integrated forward with the \
-         computed input at t = {t} s: {reason} (the inverse itself completed; run without --verify to get it)"
+         computed input at t = {t_} s: {reason} (the inverse itself completed; run without --verify to get it)",
+        t_ = num(*.t)
     )]
     Verification { t: f64, reason: String },
     /// A reason shared with the forward simulation.

@@ -2,6 +2,7 @@
 
 use invsim_model_api::{InverseModel, ModelInfo};
 
+use super::checks;
 use super::error::SimulateError;
 use super::inverter::{Block, Inverter};
 use super::options::SimulationOptions;
@@ -267,9 +268,12 @@ pub(super) fn run<M: InverseModel + ?Sized>(
     }
     let (t0, duration) = check_cycle(cycle)?;
     let mut grid = Grid::new(t0, duration, opts.dt)?;
+    checks::check_lookahead(opts.lookahead, duration)?;
     let steps = grid.n;
     let eta0 = check_eta0(info, opts)?;
-    let smoother = Smoother::new(cycle, opts.lookahead)?.with_reference(model.reference());
+    let smoother = Smoother::new(cycle, opts.lookahead)?;
+    let distance_warning = checks::reference_distance_warning(&smoother, cycle);
+    let smoother = smoother.with_reference(model.reference());
 
     // Zero dynamics: classified along the reference; unstable ones are inverted stably (non-causally) on a
     // grid extended by pre- and post-actuation (crate::stable), the series reports the cycle's samples
@@ -320,6 +324,7 @@ pub(super) fn run<M: InverseModel + ?Sized>(
         input_column,
         keep,
         duration,
+        distance_warning,
     };
     let summary = summarise(model, cycle, opts, &zd, &run, tally, &mut data)?;
     Ok(SimulationResult {
@@ -339,6 +344,8 @@ struct Finished {
     input_column: usize,
     keep: bool,
     duration: f64,
+    /// The smoothed reference's distance, when it is far from the cycle's.
+    distance_warning: Option<String>,
 }
 
 /// The warnings about the cycle and the input bounds.
@@ -439,6 +446,7 @@ fn summarise<M: InverseModel + ?Sized>(
         tally.violations.finish(),
     );
     let mut warnings = run_warnings(info, cycle, distance, &totals);
+    warnings.extend(run.distance_warning.clone());
     let (max_abs_tracking_error, rms_tracking_error) = if opts.verify {
         let state_column = run.input_column + 1;
         let (max_abs, rms, verify_warnings) =
