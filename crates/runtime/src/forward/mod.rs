@@ -56,7 +56,7 @@ use crate::cycle::Cycle;
 use crate::error::RunError;
 use crate::grid::Grid;
 use crate::ode::{Dopri5, OdeStats, Rosenbrock23};
-use crate::report::{fmt_sig, grade_warning, CycleInfo, Totals};
+use crate::report::{columns_with_units, fmt_sig, grade_warning, CycleInfo, Totals};
 use driver::{binomial, Loop, RawCycle};
 use integrator::Integrator;
 use invsim_model_api::zero_dynamics::{newton, EquilibriumFailure, EQUILIBRIUM_MAX_ITER};
@@ -153,7 +153,8 @@ pub fn forward<M: InverseModel + ?Sized>(
             drive(&mut s, &mut lp, &mut rec, &grid, start, &mut z)?
         }
     };
-    let summary = summarise(info, cycle, opts, &grid, &lp, rec.tally, stats);
+    let mut summary = summarise(info, cycle, opts, &grid, &lp, rec.tally, stats);
+    summary.columns = columns_with_units(info, &layout.columns);
     Ok(ForwardResult {
         summary,
         columns: layout.columns,
@@ -405,12 +406,7 @@ fn summarise<M: InverseModel + ?Sized>(
         &trace_misses,
     );
     ForwardSummary {
-        run: CycleInfo {
-            model: info.name.clone(),
-            cycle: cycle.name.clone(),
-            duration_s: cycle.duration(),
-            distance_m: distance,
-        },
+        run: CycleInfo::new(info, cycle, cycle.duration()),
         distance_driven_m: tally.distance_driven,
         relative_degree: info.relative_degree,
         engine: opts.engine.clone(),
@@ -436,6 +432,9 @@ fn summarise<M: InverseModel + ?Sized>(
         trace_miss_time_tolerance_s: opts.trace_time_tol,
         max_abs_tracking_error: tally.max_err,
         rms_tracking_error: (tally.sum_sq / samples as f64).sqrt(),
+        engine_operating_points: tally.operating.map(|op| op.finish(info, opts.dt)),
+        columns: Vec::new(),
+        provenance: None,
         warnings,
     }
 }

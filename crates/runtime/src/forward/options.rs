@@ -98,6 +98,8 @@ pub struct ForwardOptions {
     pub trace_time_tol: f64,
     /// Keep the time series (default true); `false` computes every sample for the summary only.
     pub keep_series: bool,
+    /// Called with the fraction of the run done every few hundred samples (default: none).
+    pub progress: crate::progress::Progress,
 }
 
 impl Default for ForwardOptions {
@@ -117,6 +119,7 @@ impl Default for ForwardOptions {
             trace_speed_tol: TRACE_MISS_SPEED_TOL,
             trace_time_tol: TRACE_MISS_TIME_TOL,
             keep_series: true,
+            progress: crate::progress::Progress::none(),
         }
     }
 }

@@ -10,6 +10,8 @@ use super::trace::TraceBand;
 use crate::cycle::Cycle;
 use crate::error::RunError;
 use crate::grid::Grid;
+use crate::operating_points::OperatingPointTally;
+use crate::progress::Progress;
 use crate::report::Intervals;
 
 /// The columns of the forward run's series.
@@ -70,6 +72,8 @@ pub(super) struct ForwardTally {
     pub(super) misses: Intervals,
     pub(super) max_err: f64,
     pub(super) sum_sq: f64,
+    /// The engine's operating points (models with an `[engine]`).
+    pub(super) operating: Option<OperatingPointTally>,
 }
 
 /// Records the samples: the series (if kept) and the bookkeeping.
@@ -85,6 +89,9 @@ pub(super) struct Recorder<'a> {
     /// Bounds of the demand, widened by the rounding tolerance.
     pub(super) bounds: (f64, f64),
     pub(super) tally: ForwardTally,
+    progress: Progress,
+    /// The grid's last index (for the progress fraction).
+    last: usize,
 }
 
 impl<'a> Recorder<'a> {
@@ -135,7 +142,10 @@ impl<'a> Recorder<'a> {
                 misses: Intervals::default(),
                 max_err: 0.0,
                 sum_sq: 0.0,
+                operating: OperatingPointTally::new(info, stored),
             },
+            progress: opts.progress.clone(),
+            last: grid.n,
         }
     }
 
@@ -164,6 +174,13 @@ impl<'a> Recorder<'a> {
             self.store(t, x, d);
         }
         self.count(k, t, d);
+        if let Some(op) = &mut self.tally.operating {
+            let outs = &self.outs;
+            op.push(|o| outs[o]);
+        }
+        if k % 256 == 0 || k == self.last {
+            self.progress.report(k, self.last);
+        }
         Ok(())
     }
 
