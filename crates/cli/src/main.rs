@@ -9,11 +9,12 @@
 mod completions;
 mod cycles_cmd;
 mod derive;
-mod describe;
 mod engine;
 mod error;
 mod files;
 mod forward;
+mod progress;
+mod provenance;
 mod simulate;
 mod version;
 

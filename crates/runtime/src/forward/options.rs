@@ -182,6 +182,7 @@ macro_rules! setters {
 setters! {
     dt: f64, kp: f64, ki: f64, response: f64, feedforward: bool, bounds: Bounds, method: Method, rtol: f64,
     atol: f64, x0: Option<Vec<f64>>, trace_speed_tol: f64, trace_time_tol: f64, keep_series: bool,
+    progress: crate::progress::Progress,
 }
 
 impl ForwardOptionsBuilder {
