@@ -147,7 +147,11 @@ fn nice_edges(values: &[f64]) -> Vec<f64> {
 
 /// 1, 2 or 5 × 10^k at or above `raw` (a unit bin for a range of zero width around `scale`).
 fn nice_width(raw: f64, scale: f64) -> f64 {
-    let raw = if raw > 0.0 { raw } else { (scale * 0.05).max(1e-9) };
+    let raw = if raw > 0.0 {
+        raw
+    } else {
+        (scale * 0.05).max(1e-9)
+    };
     let p = 10f64.powf(raw.log10().floor());
     [1.0, 2.0, 5.0, 10.0]
         .iter()

@@ -334,13 +334,7 @@ pub(super) fn run<M: InverseModel + ?Sized>(
     let stored = if keep { grid.samples() } else { 0 };
     let mut data = allocate(spare, columns.len(), stored, &grid);
     let mut inverter = Inverter::new(model, &smoother, grid, &zd, eta0, opts)?;
-    let mut tally = Tally::new(
-        model,
-        (cycle, steps),
-        &grid,
-        window,
-        opts.progress.clone(),
-    );
+    let mut tally = Tally::new(model, (cycle, steps), &grid, window, opts.progress.clone());
     run_blocks(
         model,
         &smoother,

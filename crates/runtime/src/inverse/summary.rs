@@ -154,7 +154,11 @@ impl Summary {
         }
         if let Some(p) = &self.input_before_start {
             let iu = unit_suffix(self.totals.input_unit.as_deref());
-            let ius = if iu.is_empty() { " s".to_string() } else { format!("{iu} s") };
+            let ius = if iu.is_empty() {
+                " s".to_string()
+            } else {
+                format!("{iu} s")
+            };
             let _ = write!(
                 s,
                 "{} before t0: from {}{iu} (at {} s) to {}{iu} at t0, range [{}, {}]{iu}, integral of |u - u_initial| {}{ius}",
