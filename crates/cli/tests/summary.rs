@@ -71,7 +71,13 @@ fn histogram_sum(op: &Value) -> f64 {
 fn si_engine_summary_has_units_reference_deviation_histogram_and_columns() {
     let (text, s, header) = run(
         "si_nedc",
-        &["simulate", "models/si_engine.toml", "--cycle", "nedc", "--verify"],
+        &[
+            "simulate",
+            "models/si_engine.toml",
+            "--cycle",
+            "nedc",
+            "--verify",
+        ],
         true,
     );
     for line in [
@@ -83,15 +89,24 @@ fn si_engine_summary_has_units_reference_deviation_histogram_and_columns() {
         assert!(l.contains(" m/s") || l.contains(" kg/s"), "{l}");
     }
     assert!(text.contains("(bounds [0, 0.08] kg/s)"), "{text}");
-    assert!(text.contains("reference vs cycle: |y_d - y_c| max "), "{text}");
-    assert!(text.contains("fuel: 0.5617 kg (integral), 5.1 kg/100 km"), "{text}");
+    assert!(
+        text.contains("reference vs cycle: |y_d - y_c| max "),
+        "{text}"
+    );
+    assert!(
+        text.contains("fuel: 0.5617 kg (integral), 5.1 kg/100 km"),
+        "{text}"
+    );
     assert!(text.contains("engine operating points: "), "{text}");
     assert_eq!(s["input_unit"], "kg/s");
     assert_eq!(s["output_unit"], "m/s");
     // The smoothed reference rounds the corners (so departs from the trace) but drives the same distance up to
     // the kernel's end effects.
     let (dist, ref_dist) = (f(&s["distance_m"]), f(&s["reference_distance_m"]));
-    assert!((ref_dist - dist).abs() < 1e-3 * dist, "{ref_dist} vs {dist}");
+    assert!(
+        (ref_dist - dist).abs() < 1e-3 * dist,
+        "{ref_dist} vs {dist}"
+    );
     let (max_dev, rms_dev) = (
         f(&s["reference_max_abs_deviation"]),
         f(&s["reference_rms_deviation"]),
@@ -246,7 +261,10 @@ fn provenance_records_version_files_overrides_and_options() {
     assert_eq!(p["options"]["dt"], 0.1);
     assert_eq!(p["options"]["engine"], "auto");
     assert!(text.contains("overrides: --set m=1500"), "{text}");
-    assert!(text.contains("model file: models/si_engine.toml (sha256 "), "{text}");
+    assert!(
+        text.contains("model file: models/si_engine.toml (sha256 "),
+        "{text}"
+    );
     assert!(text.lines().any(|l| l.starts_with("invsim: ")), "{text}");
     let (_, b, _) = run(
         "prov_builtin",
