@@ -13,7 +13,8 @@ use invsim_runtime::Cycle;
 
 use crate::error::Failure;
 
-#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum EngineChoice {
     /// Compiled code when the model file matches a built-in model, else the interpreter.
     Auto,

@@ -10,8 +10,10 @@ use crate::engine::{load_run, EngineChoice};
 use crate::error::Failure;
 use crate::files::print_stdout;
 use crate::outputs::Outputs;
+use crate::provenance;
 
-#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum BoundsChoice {
     /// Apply the driver's demand as it is, like the inverse simulation (violations are reported).
     Ignore,
@@ -19,7 +21,8 @@ pub enum BoundsChoice {
     Enforce,
 }
 
-#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum MethodChoice {
     /// Dormand–Prince 5(4) with dense output.
     Dopri5,
@@ -27,7 +30,9 @@ pub enum MethodChoice {
     Rosenbrock23,
 }
 
-#[derive(clap::Args, Debug)]
+/// Serialised (by command-line name) into the summary's provenance.
+#[derive(clap::Args, Debug, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
 pub struct ForwardArgs {
     /// The model file (TOML).
     pub model: PathBuf,
@@ -105,7 +110,9 @@ pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
             cycle.name
         ))
     };
+    let (progress, bar) = crate::progress::start("forward");
     let opts = ForwardOptions::builder()
+        .progress(progress)
         .dt(args.dt)
         .engine(model.engine_name())
         .kp(args.kp)
@@ -127,14 +134,22 @@ pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
         .time_limit_s(args.time_limit)
         .build()
         .map_err(stopped)?;
-    let result = forward::forward(model.as_model(), &cycle, &opts).map_err(stopped)?;
+    let result = forward::forward(model.as_model(), &cycle, &opts);
+    bar.finish();
+    let mut result = result.map_err(stopped)?;
+    result.summary.provenance = Some(provenance::record(provenance::RunRecord {
+        command: "forward",
+        model: &args.model,
+        info: model.as_model().info(),
+        cycle_spec: &args.cycle,
+        cycle: &cycle,
+        sets: &args.set,
+        options: provenance::options_of(args),
+    })?);
     outputs.write("--out", |f| {
         output::write_table_csv(&result.columns, &result.data, f)
     })?;
     outputs.write("--summary-json", |f| output::write_json(&result.summary, f))?;
     outputs.commit()?;
-    print_stdout(&crate::describe::with_description(
-        &result.summary.to_text(),
-        &args.model,
-    ))
+    print_stdout(&result.summary.to_text())
 }

@@ -9,12 +9,13 @@
 mod completions;
 mod cycles_cmd;
 mod derive;
-mod describe;
 mod engine;
 mod error;
 mod files;
 mod forward;
 mod outputs;
+mod progress;
+mod provenance;
 mod simulate;
 mod version;
 

@@ -8,8 +8,11 @@ use crate::engine::{load_run, EngineChoice};
 use crate::error::Failure;
 use crate::files::print_stdout;
 use crate::outputs::Outputs;
+use crate::provenance;
 
-#[derive(clap::Args, Debug)]
+/// Serialised (by command-line name) into the summary's provenance.
+#[derive(clap::Args, Debug, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
 pub struct SimulateArgs {
     /// The model file (TOML).
     pub model: PathBuf,
@@ -75,7 +78,9 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
             cycle.name
         ))
     };
+    let (progress, bar) = crate::progress::start("simulate");
     let opts = SimulationOptions::builder()
+        .progress(progress)
         .lookahead(args.lookahead)
         .dt(args.dt)
         .engine(model.engine_name())
@@ -86,7 +91,18 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
         .keep_series(args.out.is_some() || args.plot.is_some())
         .build()
         .map_err(stopped)?;
-    let result = simulate(model.as_model(), &cycle, &opts).map_err(stopped)?;
+    let result = simulate(model.as_model(), &cycle, &opts);
+    bar.finish();
+    let mut result = result.map_err(stopped)?;
+    result.summary.provenance = Some(provenance::record(provenance::RunRecord {
+        command: "simulate",
+        model: &args.model,
+        info: model.as_model().info(),
+        cycle_spec: &args.cycle,
+        cycle: &cycle,
+        sets: &args.set,
+        options: provenance::options_of(args),
+    })?);
     outputs.write("--out", |f| output::write_csv(&result, f))?;
     outputs.write("--summary-json", |f| {
         output::write_summary_json(&result.summary, f)
@@ -97,8 +113,5 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
         })?;
     }
     outputs.commit()?;
-    print_stdout(&crate::describe::with_description(
-        &result.summary.to_text(),
-        &args.model,
-    ))
+    print_stdout(&result.summary.to_text())
 }

@@ -9,7 +9,7 @@
 use crate::derive::{Derivation, Solution};
 use invsim_expr::{Id, Symbol, Tape};
 use invsim_model_api::{
-    set_param_checked, InverseModel, ModelError, ModelInfo, OutputInfo, ReferenceMap,
+    set_param_checked, EngineInfo, InverseModel, ModelError, ModelInfo, OutputInfo, ReferenceMap,
 };
 use thiserror::Error;
 
@@ -33,10 +33,14 @@ pub fn model_info(d: &Derivation) -> ModelInfo {
     let m = &d.model;
     ModelInfo {
         name: m.name.clone(),
+        description: m.description.clone().unwrap_or_default(),
         source_hash: Some(m.source_hash.clone()),
         states: m.states.iter().map(|s| s.name.clone()).collect(),
+        state_units: m.states.iter().map(|s| s.unit.clone()).collect(),
         input: m.input.name.clone(),
+        input_unit: m.input.unit.clone(),
         output: m.output.name.clone(),
+        output_unit: m.output.unit.clone(),
         relative_degree: d.relative_degree,
         n_eta: d.eta.len(),
         input_min: m.input.min,
@@ -48,9 +52,14 @@ pub fn model_info(d: &Derivation) -> ModelInfo {
                 name: o.name.clone(),
                 unit: o.unit.clone(),
                 accumulate: o.accumulate,
+                per_distance: o.per_distance,
             })
             .collect(),
         parameters: m.parameters.iter().map(|p| p.name.clone()).collect(),
+        engine: m.engine.map(|e| EngineInfo {
+            speed: e.speed,
+            torque: e.torque,
+        }),
     }
 }
 

@@ -804,3 +804,56 @@ fn random_expressions_never_panic() {
         "no random model loaded: {kinds:?}"
     );
 }
+
+// ----- per-distance outputs and the engine ---------------------------------------------------------------
+
+const PER_DISTANCE_BASE: &str = r#"
+[states]
+v = { rhs = "-v + u", unit = "m/s" }
+[input]
+name = "u"
+unit = "N"
+[output]
+name = "v"
+h = "v"
+unit = "m/s"
+"#;
+
+#[test]
+fn per_distance_defaults_to_accumulated_outputs_of_a_speed_tracking_model() {
+    let m = load_ok(&format!(
+        "{PER_DISTANCE_BASE}[outputs]\nfuel = {{ expr = \"u\", accumulate = true }}\n\
+         work = {{ expr = \"u*v\", accumulate = true, per_distance = false }}\nw = \"v\"\n\
+         [engine]\nspeed = \"w\"\ntorque = \"fuel\"\n"
+    ));
+    let flags: Vec<(bool, bool)> = m
+        .outputs
+        .iter()
+        .map(|o| (o.accumulate, o.per_distance))
+        .collect();
+    assert_eq!(flags, [(true, true), (true, false), (false, false)]);
+    let e = m.engine.expect("an [engine]");
+    assert_eq!((e.speed, e.torque), (2, 0));
+    // A model whose reference is not the cycle's speed: no per-distance default, unless asked for.
+    let m = load_ok(&format!(
+        "{PER_DISTANCE_BASE}reference_scale = 1000.0\n[outputs]\nfuel = {{ expr = \"u\", accumulate = true }}\n\
+         e = {{ expr = \"u\", accumulate = true, per_distance = true }}\n"
+    ));
+    let flags: Vec<bool> = m.outputs.iter().map(|o| o.per_distance).collect();
+    assert_eq!(flags, [false, true]);
+    assert!(m.engine.is_none());
+}
+
+#[test]
+fn shipped_models_mark_per_distance_outputs_and_si_engine_its_engine() {
+    let models = manifest_dir().join("../../models");
+    let si = Model::from_path(&models.join("si_engine.toml")).expect("si_engine loads");
+    for o in &si.outputs {
+        assert_eq!(o.per_distance, o.accumulate, "si_engine {}", o.name);
+    }
+    let e = si.engine.expect("si_engine declares its engine");
+    assert_eq!(si.outputs[e.speed].name, "n_e");
+    assert_eq!(si.outputs[e.torque].name, "T_e");
+    let diesel = Model::from_path(&models.join("diesel_gasflow.toml")).expect("diesel loads");
+    assert!(diesel.outputs.iter().all(|o| !o.per_distance));
+}

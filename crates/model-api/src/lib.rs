@@ -15,19 +15,27 @@ use thiserror::Error;
 pub mod math;
 pub mod zero_dynamics;
 
-/// Static description of a model: names, sizes, bounds. Order of every list is the model file's order.
-#[derive(Debug, Clone, PartialEq)]
+/// Static description of a model: names, sizes, bounds, units. Order of every list is the model file's order.
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct ModelInfo {
     /// Model name (the TOML's `name`, or its file stem).
     pub name: String,
+    /// The model file's `description` (empty when it has none).
+    pub description: String,
     /// SHA-256 of the model file's bytes, lower-case hex, if known.
     pub source_hash: Option<String>,
     /// State names x_1 … x_n.
     pub states: Vec<String>,
+    /// Unit of each state (`None` where the model file gives none), in [`ModelInfo::states`] order.
+    pub state_units: Vec<Option<String>>,
     /// Input name.
     pub input: String,
+    /// Unit of the input.
+    pub input_unit: Option<String>,
     /// Tracked output name (y = h(x)).
     pub output: String,
+    /// Unit of the tracked output.
+    pub output_unit: Option<String>,
     /// Relative degree r.
     pub relative_degree: usize,
     /// Number of internal coordinates η (n − r).
@@ -39,6 +47,8 @@ pub struct ModelInfo {
     pub outputs: Vec<OutputInfo>,
     /// Parameter names, in declaration order (the order of [`InverseModel::params`]).
     pub parameters: Vec<String>,
+    /// The engine whose operating points the summary tabulates (the model file's `[engine]`), if any.
+    pub engine: Option<EngineInfo>,
 }
 
 impl ModelInfo {
@@ -49,12 +59,23 @@ impl ModelInfo {
 }
 
 /// One entry of the model's `[outputs]` table.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct OutputInfo {
     pub name: String,
     pub unit: Option<String>,
     /// Integrate this output over the run and report the integral.
     pub accumulate: bool,
+    /// The integral means something per distance driven: the summary gives it per 100 km (the model file's
+    /// `per_distance`; default: accumulated outputs of a model that tracks the cycle's speed itself).
+    pub per_distance: bool,
+}
+
+/// The model's engine: the two `[outputs]` entries that give its speed and torque (the model file's
+/// `[engine] speed = "…", torque = "…"`), by index into [`ModelInfo::outputs`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct EngineInfo {
+    pub speed: usize,
+    pub torque: usize,
 }
 
 /// How the drive cycle defines the reference of the tracked output: y_d = `offset` + `scale` · (smoothed cycle),

@@ -30,6 +30,7 @@ impl Cubic {
                 input_max: None,
                 outputs: Vec::new(),
                 parameters: Vec::new(),
+                ..Default::default()
             },
             c,
         }

@@ -4,9 +4,10 @@
 //! The driver works on any [`invsim_model_api::InverseModel`]: compiled code from `invsim-models` or the
 //! interpreter tape from `invsim-inversion`.
 //!
-//! Modules, in the one direction their imports go: `numfmt` (numbers in messages); [`cycle`], [`kernel`],
-//! [`smoother`] and [`ode`] (the numerics); `error`, [`grid`] and `report` (what both simulations share: errors, the output grid, the
-//! summary blocks and formatting); [`stable`] (stable inversion of unstable zero dynamics); [`inverse`] (the
+//! Modules, in the one direction their imports go: `numfmt` (numbers in messages); [`cycle`], [`kernel`], [`smoother`] and [`ode`] (the
+//! numerics); [`progress`] and [`provenance`] (the run's callback and its record); `error`, [`grid`] and
+//! `report` (what both simulations share: errors, the output grid, the summary blocks and formatting), then
+//! [`operating_points`] and [`reference_deviation`] (summary blocks); [`stable`] (stable inversion of unstable zero dynamics); [`inverse`] (the
 //! inverse simulation, using `stable`) and [`forward`](mod@forward) (the forward simulation); [`output`] and [`plot`]
 //! (writing results).
 
@@ -18,8 +19,12 @@ pub mod inverse;
 pub mod kernel;
 mod numfmt;
 pub mod ode;
+pub mod operating_points;
 pub mod output;
 pub mod plot;
+pub mod progress;
+pub mod provenance;
+pub mod reference_deviation;
 mod report;
 pub mod smoother;
 pub mod stable;
@@ -37,6 +42,10 @@ pub use inverse::{
     simulate, SimulateError, SimulationOptions, SimulationOptionsBuilder, SimulationResult, Summary,
 };
 pub use kernel::Kernel;
-pub use report::{CycleInfo, Totals};
+pub use operating_points::OperatingPoints;
+pub use progress::Progress;
+pub use provenance::{CycleRecord, FileRecord, Override, Provenance};
+pub use reference_deviation::ReferenceDeviation;
+pub use report::{columns_with_units, Column, CycleInfo, Totals};
 pub use smoother::Smoother;
 pub use stable::{StableError, ZeroDynamicsClass};

@@ -1,7 +1,8 @@
 //! What the inverse and the forward simulation's summaries share: the two blocks of fields both report
 //! ([`CycleInfo`], [`Totals`], flattened into each summary so that the JSON keys and their order stay those of
 //! one flat object), intervals of flagged samples, the integrals of accumulated outputs with their per-100-km
-//! figures and units, number formatting and the summary text lines.
+//! figures (only for outputs marked `per_distance`) and units, the units of the series' columns, number
+//! formatting and the summary text lines.
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -15,6 +16,10 @@ use crate::cycle::Cycle;
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct CycleInfo {
     pub model: String,
+    /// The model file's `description` (left out when it has none; the text summary prints its first
+    /// sentence).
+    #[serde(skip_serializing_if = "String::is_empty")]
+    pub description: String,
     pub cycle: String,
     /// Cycle duration (last minus first time stamp), s.
     pub duration_s: f64,
@@ -22,17 +27,122 @@ pub struct CycleInfo {
     pub distance_m: f64,
 }
 
+impl CycleInfo {
+    /// The first fields of a run of `info`'s model on `cycle`.
+    pub(crate) fn new(info: &ModelInfo, cycle: &Cycle, duration_s: f64) -> CycleInfo {
+        CycleInfo {
+            model: info.name.clone(),
+            description: info.description.clone(),
+            cycle: cycle.name.clone(),
+            duration_s,
+            distance_m: cycle.distance(),
+        }
+    }
+
+    /// Summary text: the `model:` line and, where the model has a description, its first sentence.
+    pub(crate) fn write_model(&self, s: &mut String) {
+        let _ = writeln!(s, "model: {}", self.model);
+        if !self.description.trim().is_empty() {
+            let _ = writeln!(s, "description: {}", first_sentence(&self.description));
+        }
+    }
+}
+
+/// The first sentence of `description` (up to the first ". "), or all of it without a final period.
+pub(crate) fn first_sentence(description: &str) -> &str {
+    let d = description.trim();
+    match d.find(". ") {
+        Some(i) => &d[..i],
+        None => d.trim_end_matches('.'),
+    }
+}
+
+/// One column of the CSV: its name and unit (`None` where the model gives none).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Column {
+    pub name: String,
+    pub unit: Option<String>,
+}
+
+/// The columns `names` of a series of `info`'s model with their units: `t` in s, `yc` and `yd_0` in the
+/// output's unit, `yd_k` in the output's unit per s^k, the input, the states, the output and the extra outputs
+/// in the model file's units, `etaN` without a unit (η is a combination of states).
+pub fn columns_with_units(info: &ModelInfo, names: &[String]) -> Vec<Column> {
+    names
+        .iter()
+        .map(|name| Column {
+            name: name.clone(),
+            unit: column_unit(info, name),
+        })
+        .collect()
+}
+
+/// The unit of the column `name` (see [`columns_with_units`]).
+fn column_unit(info: &ModelInfo, name: &str) -> Option<String> {
+    if let Some(j) = info.states.iter().position(|s| s == name) {
+        return info.state_units.get(j).cloned().flatten();
+    }
+    if name == info.input {
+        return info.input_unit.clone();
+    }
+    if name == info.output {
+        return info.output_unit.clone();
+    }
+    if let Some(o) = info.outputs.iter().find(|o| o.name == name) {
+        return o.unit.clone();
+    }
+    if name == "t" {
+        return Some("s".to_string());
+    }
+    if name == "yc" {
+        return info.output_unit.clone();
+    }
+    let k: u32 = name.strip_prefix("yd_")?.parse().ok()?;
+    info.output_unit.as_deref().map(|u| per_second(u, k))
+}
+
+/// `unit` divided by s^k: `m/s`, 1 → `m/s^2`; `Pa`, 2 → `Pa/s^2`.
+fn per_second(unit: &str, k: u32) -> String {
+    if k == 0 {
+        return unit.to_string();
+    }
+    let (base, already) = match unit.rsplit_once("/s") {
+        Some((b, "")) => (b, 1),
+        Some((b, p)) => match p.strip_prefix('^').and_then(|p| p.parse::<u32>().ok()) {
+            Some(n) => (b, n),
+            None => (unit, 0),
+        },
+        None => (unit, 0),
+    };
+    match already + k {
+        1 => format!("{base}/s"),
+        n => format!("{base}/s^{n}"),
+    }
+}
+
+/// ` UNIT` for the text summary (nothing for no unit or a dimensionless `-`).
+pub(crate) fn unit_suffix(unit: Option<&str>) -> String {
+    match unit.map(str::trim) {
+        Some(u) if !u.is_empty() && u != "-" => format!(" {u}"),
+        _ => String::new(),
+    }
+}
+
 /// The integrals and the input's range and bounds: a block of fields both summaries report alike.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Totals {
     /// Accumulated output → its integral over the run (trapezoidal rule on the output grid).
     pub integrals: BTreeMap<String, f64>,
-    /// Accumulated output → integral · 1e5 / distance_m (per 100 km); empty if the cycle covers no distance.
+    /// Accumulated output marked `per_distance` → integral · 1e5 / distance_m (per 100 km); empty if the cycle
+    /// covers no distance.
     pub integrals_per_100km: BTreeMap<String, f64>,
     /// Accumulated output → unit of its integral (e.g. `kg` for an output in `kg/s`), where the unit is known.
     pub integral_units: BTreeMap<String, String>,
-    /// The input's name.
+    /// The input's name and unit.
     pub input: String,
+    pub input_unit: Option<String>,
+    /// The unit of the tracked output (and so of the tracking errors).
+    pub output_unit: Option<String>,
     /// Smallest and largest input reached over the run.
     pub input_min: f64,
     pub input_max: f64,
@@ -60,6 +170,8 @@ impl Totals {
             integrals_per_100km: tables.per_100km,
             integral_units: tables.units,
             input: info.input.clone(),
+            input_unit: info.input_unit.clone(),
+            output_unit: info.output_unit.clone(),
             input_min: range[0],
             input_max: range[1],
             input_lower_bound: info.input_min,
@@ -78,7 +190,7 @@ impl Totals {
         );
         write_input_range(
             s,
-            &self.input,
+            (&self.input, self.input_unit.as_deref()),
             [self.input_min, self.input_max],
             [self.input_lower_bound, self.input_upper_bound],
         );
@@ -190,7 +302,8 @@ impl Intervals {
 pub(crate) struct IntegralTables {
     /// Output → ∫ o dt over the run.
     pub integrals: BTreeMap<String, f64>,
-    /// Output → integral · 1e5 / distance (per 100 km); empty when the cycle covers no distance.
+    /// Output → integral · 1e5 / distance (per 100 km), for `per_distance` outputs; empty when the cycle
+    /// covers no distance.
     pub per_100km: BTreeMap<String, f64>,
     /// Output → unit of its integral (`kg` for `kg/s`), where known.
     pub units: BTreeMap<String, String>,
@@ -212,7 +325,7 @@ pub(crate) fn integral_tables(
     for (acc, &i) in integrals.iter().zip(accumulate) {
         let o = &info.outputs[i];
         t.integrals.insert(o.name.clone(), *acc);
-        if has_distance {
+        if has_distance && o.per_distance {
             t.per_100km.insert(o.name.clone(), acc * 1e5 / distance);
         }
         if let Some(unit) = o.unit.as_deref().and_then(integral_unit) {
@@ -246,16 +359,17 @@ pub(crate) fn write_integrals(
     }
 }
 
-/// Summary text: the input's range over the run and its declared bounds.
+/// Summary text: the input's range over the run and its declared bounds, in the input's unit.
 pub(crate) fn write_input_range(
     s: &mut String,
-    input: &str,
+    (input, unit): (&str, Option<&str>),
     range: [f64; 2],
     bounds: [Option<f64>; 2],
 ) {
+    let unit = unit_suffix(unit);
     let _ = write!(
         s,
-        "{input}: min {}, max {}",
+        "{input}: min {}{unit}, max {}{unit}",
         fmt_sig(range[0], 4),
         fmt_sig(range[1], 4)
     );
@@ -263,7 +377,7 @@ pub(crate) fn write_input_range(
         let b = |v: Option<f64>, inf: &str| v.map_or(inf.to_string(), |v| fmt_sig(v, 6));
         let _ = write!(
             s,
-            " (bounds [{}, {}])",
+            " (bounds [{}, {}]{unit})",
             b(bounds[0], "-inf"),
             b(bounds[1], "inf")
         );
@@ -311,6 +425,22 @@ mod tests {
             format_eigenvalues(&[[0.5, 0.0], [-2.0, 1.0], [-2.0, -1.0]]),
             "0.5, -2 ± 1i"
         );
+    }
+
+    #[test]
+    fn derivative_units() {
+        assert_eq!(per_second("m/s", 1), "m/s^2");
+        assert_eq!(per_second("m/s", 2), "m/s^3");
+        assert_eq!(per_second("Pa", 1), "Pa/s");
+        assert_eq!(per_second("Pa", 2), "Pa/s^2");
+        assert_eq!(per_second("m/s^2", 1), "m/s^3");
+    }
+
+    #[test]
+    fn first_sentences() {
+        assert_eq!(first_sentence("A car. With a gear."), "A car");
+        assert_eq!(first_sentence("A car."), "A car");
+        assert_eq!(first_sentence(" e.g.x "), "e.g.x");
     }
 
     #[test]

@@ -419,6 +419,7 @@ impl InternalDynamics {
                 input_max: None,
                 outputs: vec![],
                 parameters: vec!["k".into()],
+                ..Default::default()
             },
             k: [2.0],
             s,

@@ -40,6 +40,7 @@ impl LinearNmp {
                 input_max: None,
                 outputs: vec![],
                 parameters: vec!["a".into(), "b".into(), "k".into()],
+                ..Default::default()
             },
             p: [a, b, k],
         }
@@ -112,6 +113,7 @@ impl LinearMixed {
                     .iter()
                     .map(|s| s.to_string())
                     .collect(),
+                ..Default::default()
             },
             p: [3.0, 0.5, 2.0, -2.0, 1.0],
         }

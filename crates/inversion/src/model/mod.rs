@@ -24,7 +24,10 @@
 //! tables. The model's `name` defaults to the file stem. `[output]` takes three optional numbers beyond
 //! the contract: `nominal` (the output value where `invsim derive` classifies the zero dynamics),
 //! `reference_offset` and `reference_scale` (the reference is y_d = offset + scale · smoothed cycle, for
-//! outputs that are not a vehicle speed; the scale may not be 0).
+//! outputs that are not a vehicle speed; the scale may not be 0). An `[outputs]` entry takes
+//! `per_distance = true|false` (its integral is reported per 100 km; default: accumulated outputs of a model
+//! with the identity reference map, i.e. one that tracks the cycle's speed), and an optional `[engine]` table
+//! names the two outputs that are the engine's speed and torque (`engine.rs`).
 //!
 //! Where each step lives (one file per concept):
 //!
@@ -35,6 +38,7 @@
 //! | `tree.rs` | the TOML tree with spans |
 //! | `values.rs` | a TOML value read as the type a key expects |
 //! | `names.rs` | identifiers, reserved names, collisions, "did you mean" |
+//! | `engine.rs` | the optional `[engine]` table: which outputs are the engine's speed and torque |
 //! | `raw.rs` | the file as read, checked for structure (check 2) |
 //! | `expressions.rs` | parsing each expression (check 4) |
 //! | `definitions.rs` | definition order, cycles and inlining (check 5) |
@@ -44,9 +48,10 @@
 //! | `reader.rs` | the pipeline from bytes to [`Model`] |
 //!
 //! Imports go one way — each file imports only files listed before it: error, validated, spanned, tree,
-//! names, values, raw, expressions, definitions, smooth, split, reader.
+//! names, values, engine, raw, expressions, definitions, smooth, split, reader.
 
 mod definitions;
+mod engine;
 mod error;
 mod expressions;
 mod names;
@@ -61,4 +66,4 @@ mod values;
 
 pub use error::{ModelError, ModelErrorKind};
 pub use expressions::{MAX_EXPRESSION_LEN, MAX_EXPRESSION_NESTING};
-pub use validated::{Definition, ExtraOutput, Input, Model, Output, Parameter, State};
+pub use validated::{Definition, Engine, ExtraOutput, Input, Model, Output, Parameter, State};

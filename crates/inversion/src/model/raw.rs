@@ -2,6 +2,7 @@
 //! sections, finite numbers, `min <= max`), not yet for meaning; expressions are kept as text with their
 //! positions ([`Src`]).
 
+use super::engine::RawEngine;
 use super::error::{ModelError, ModelErrorKind};
 use super::names::{is_identifier, Declaration, NameRef};
 use super::spanned::{string_content, Reader, Src};
@@ -77,6 +78,8 @@ pub(super) struct RawExtra {
     pub(super) unit: Option<String>,
     pub(super) doc: Option<String>,
     pub(super) accumulate: bool,
+    /// `per_distance` as written (the default is decided with the reference map).
+    pub(super) per_distance: Option<bool>,
 }
 
 /// The model file as read, every required section present.
@@ -90,6 +93,7 @@ pub(super) struct RawModel {
     pub(super) input: RawInput,
     pub(super) output: RawOutput,
     pub(super) outputs: Vec<RawExtra>,
+    pub(super) engine: Option<RawEngine>,
 }
 
 impl RawModel {
@@ -130,10 +134,11 @@ struct Sections {
     input: Option<RawInput>,
     output: Option<RawOutput>,
     outputs: Vec<RawExtra>,
+    engine: Option<RawEngine>,
 }
 
 const TOP_KEYS_SHOWN: &str =
-    "name, description, [parameters], [definitions], [states], [input], [output], [outputs]";
+    "name, description, [parameters], [definitions], [states], [input], [output], [outputs], [engine]";
 
 impl Reader<'_> {
     /// The top-level keys and sections; the required ones present.
@@ -176,6 +181,7 @@ impl Reader<'_> {
                 "input" => raw.input = Some(self.input(v)?),
                 "output" => raw.output = Some(self.output(v)?),
                 "outputs" => raw.outputs = self.extra_outputs(self.table(v, "[outputs]")?)?,
+                "engine" => raw.engine = Some(self.engine(v)?),
                 other => {
                     return Err(self.err(
                         key_at(k),
@@ -218,6 +224,7 @@ impl Reader<'_> {
             input,
             output,
             outputs: raw.outputs,
+            engine: raw.engine,
         })
     }
 
@@ -488,9 +495,13 @@ impl Reader<'_> {
                     ),
                 ));
             }
-            let (src, unit, doc, accumulate) = match &v.kind {
+            let (src, unit, doc, accumulate, per_distance) = match &v.kind {
                 Kind::Table(t) => {
-                    self.known_keys(t, &["expr", "unit", "doc", "accumulate"], &what)?;
+                    self.known_keys(
+                        t,
+                        &["expr", "unit", "doc", "accumulate", "per_distance"],
+                        &what,
+                    )?;
                     let Some(e) = get(t, "expr") else {
                         return Err(self.err(
                             tv_at(v).or(key_at(k)),
@@ -505,9 +516,12 @@ impl Reader<'_> {
                         get(t, "accumulate")
                             .map(|a| self.boolean(a, &format!("{what}'s `accumulate`")))
                             .transpose()?,
+                        get(t, "per_distance")
+                            .map(|a| self.boolean(a, &format!("{what}'s `per_distance`")))
+                            .transpose()?,
                     )
                 }
-                _ => (self.expression(v, &what)?, None, None, None),
+                _ => (self.expression(v, &what)?, None, None, None, None),
             };
             out.push(RawExtra {
                 name: k.name.clone(),
@@ -516,6 +530,7 @@ impl Reader<'_> {
                 unit,
                 doc,
                 accumulate: accumulate.unwrap_or(false),
+                per_distance,
             });
         }
         Ok(out)

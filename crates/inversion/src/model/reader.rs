@@ -91,12 +91,21 @@ impl Reader<'_> {
             input,
             output,
             outputs,
+            engine,
         } = raw;
+        let engine = {
+            let names: Vec<&str> = outputs.iter().map(|o| o.name.as_str()).collect();
+            engine
+                .map(|e| self.resolve_engine(&e, &names))
+                .transpose()?
+        };
+        let tracks_speed = output.reference_offset.unwrap_or(0.0) == 0.0
+            && output.reference_scale.unwrap_or(1.0) == 1.0;
         let mut m = Interned::new(parameters, definitions, &states, &input, &items)
             .map_err(|t| self.too_large_definition(t))?;
         let states = self.split_states(states, &input.name, &mut m, &items)?;
         let output = self.split_output(output, &input.name, &mut m, &items)?;
-        let outputs = extra_outputs(outputs, &mut m);
+        let outputs = extra_outputs(outputs, tracks_speed, &mut m);
 
         let name = name.unwrap_or_else(|| {
             self.file
@@ -125,6 +134,7 @@ impl Reader<'_> {
             },
             output,
             outputs,
+            engine,
         })
     }
 }

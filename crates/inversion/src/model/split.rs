@@ -185,8 +185,13 @@ impl Reader<'_> {
     }
 }
 
-/// The extra outputs, definitions inlined (they may use the input).
-pub(super) fn extra_outputs(outputs: Vec<RawExtra>, m: &mut Interned) -> Vec<ExtraOutput> {
+/// The extra outputs, definitions inlined (they may use the input). `per_distance` defaults to `accumulate` in
+/// a model that tracks the cycle's speed itself (`tracks_speed`: the identity reference map), else to false.
+pub(super) fn extra_outputs(
+    outputs: Vec<RawExtra>,
+    tracks_speed: bool,
+    m: &mut Interned,
+) -> Vec<ExtraOutput> {
     outputs
         .into_iter()
         .enumerate()
@@ -197,6 +202,7 @@ pub(super) fn extra_outputs(outputs: Vec<RawExtra>, m: &mut Interned) -> Vec<Ext
             unit: e.unit,
             doc: e.doc,
             accumulate: e.accumulate,
+            per_distance: e.per_distance.unwrap_or(e.accumulate && tracks_speed),
         })
         .collect()
 }

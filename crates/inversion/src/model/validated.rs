@@ -27,6 +27,15 @@ pub struct Model {
     pub output: Output,
     /// The extra outputs of `[outputs]`, in file order.
     pub outputs: Vec<ExtraOutput>,
+    /// `[engine]`: which extra outputs are the engine's speed and torque.
+    pub engine: Option<Engine>,
+}
+
+/// The validated `[engine]`: indices of its speed and torque into [`Model::outputs`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Engine {
+    pub speed: usize,
+    pub torque: usize,
 }
 
 /// A named numeric parameter (kept symbolic in derivations; `value` is its default).
@@ -119,6 +128,9 @@ pub struct ExtraOutput {
     pub unit: Option<String>,
     pub doc: Option<String>,
     pub accumulate: bool,
+    /// Its integral is reported per 100 km (`per_distance`; default: accumulated outputs of a model whose
+    /// reference map is the identity, i.e. that tracks the cycle's speed).
+    pub per_distance: bool,
 }
 
 impl Model {

@@ -57,7 +57,7 @@ use crate::cycle::Cycle;
 use crate::error::RunError;
 use crate::grid::Grid;
 use crate::ode::{Dopri5, OdeStats, Rosenbrock23};
-use crate::report::{fmt_sig, grade_warning, CycleInfo, Totals};
+use crate::report::{columns_with_units, fmt_sig, grade_warning, CycleInfo, Totals};
 use budget::Budget;
 use driver::{binomial, Loop, RawCycle};
 use integrator::Integrator;
@@ -159,7 +159,8 @@ pub fn forward<M: InverseModel + ?Sized>(
             drive(&mut s, &mut lp, &mut rec, (&grid, &budget), start, &mut z)?
         }
     };
-    let summary = summarise(info, cycle, opts, &grid, &lp, rec.tally, stats);
+    let mut summary = summarise(info, cycle, opts, &grid, &lp, rec.tally, stats);
+    summary.columns = columns_with_units(info, &layout.columns);
     Ok(ForwardResult {
         summary,
         columns: layout.columns,
@@ -305,7 +306,7 @@ fn drive<M: InverseModel + ?Sized, I: Integrator>(
 ) -> Result<OdeStats, ForwardError> {
     let model = lp.model;
     let d0 = lp.drive(seg0, t0, z)?;
-    rec.emit(model, t0, z, d0)?;
+    rec.emit(model, (0, t0), z, d0)?;
     let t_last = grid.time(grid.n);
     let mut zk = z.to_vec();
     let (mut t, mut seg, mut k) = (t0, seg0, 1);
@@ -335,7 +336,7 @@ fn drive<M: InverseModel + ?Sized, I: Integrator>(
                 seg
             };
             let d = lp.drive(seg_k, tk, &zk)?;
-            rec.emit(model, tk, &zk, d)?;
+            rec.emit(model, (k, tk), &zk, d)?;
             k += 1;
         }
         t = t_new;
@@ -417,12 +418,7 @@ fn summarise<M: InverseModel + ?Sized>(
         &trace_misses,
     );
     ForwardSummary {
-        run: CycleInfo {
-            model: info.name.clone(),
-            cycle: cycle.name.clone(),
-            duration_s: cycle.duration(),
-            distance_m: distance,
-        },
+        run: CycleInfo::new(info, cycle, cycle.duration()),
         distance_driven_m: tally.distance_driven,
         relative_degree: info.relative_degree,
         engine: opts.engine.clone(),
@@ -448,6 +444,9 @@ fn summarise<M: InverseModel + ?Sized>(
         trace_miss_time_tolerance_s: opts.trace_time_tol,
         max_abs_tracking_error: tally.max_err,
         rms_tracking_error: (tally.sum_sq / samples as f64).sqrt(),
+        engine_operating_points: tally.operating.map(|op| op.finish(info, opts.dt)),
+        columns: Vec::new(),
+        provenance: None,
         warnings,
     }
 }

@@ -119,6 +119,8 @@ pub struct ForwardOptions {
     /// Wall-clock limit in seconds (for sweeps): the run stops with [`ForwardError::TimeLimit`] once it has
     /// computed this long; `None` (default): no limit.
     pub time_limit_s: Option<f64>,
+    /// Called with the fraction of the run done every few hundred samples (default: none).
+    pub progress: crate::progress::Progress,
 }
 
 impl Default for ForwardOptions {
@@ -140,6 +142,7 @@ impl Default for ForwardOptions {
             keep_series: true,
             max_steps: None,
             time_limit_s: None,
+            progress: crate::progress::Progress::none(),
         }
     }
 }
@@ -217,6 +220,7 @@ setters! {
     dt: f64, kp: f64, ki: f64, response: f64, feedforward: bool, bounds: Bounds, method: Method, rtol: f64,
     atol: f64, x0: Option<Vec<f64>>, trace_speed_tol: f64, trace_time_tol: f64, keep_series: bool,
     max_steps: Option<usize>, time_limit_s: Option<f64>,
+    progress: crate::progress::Progress,
 }
 
 impl ForwardOptionsBuilder {

@@ -11,6 +11,8 @@ use super::trace::TraceBand;
 use crate::cycle::Cycle;
 use crate::error::RunError;
 use crate::grid::Grid;
+use crate::operating_points::OperatingPointTally;
+use crate::progress::Progress;
 use crate::report::Intervals;
 
 /// The columns of the forward run's series.
@@ -70,6 +72,8 @@ pub(super) struct ForwardTally {
     pub(super) misses: Intervals,
     pub(super) max_err: f64,
     pub(super) sum_sq: f64,
+    /// The engine's operating points (models with an `[engine]`).
+    pub(super) operating: Option<OperatingPointTally>,
 }
 
 /// Records the samples: the series (if kept) and the bookkeeping.
@@ -84,6 +88,9 @@ pub(super) struct Recorder<'a> {
     /// Bounds of the demand, widened by the rounding tolerance.
     pub(super) bounds: (f64, f64),
     pub(super) tally: ForwardTally,
+    progress: Progress,
+    /// The grid's last index (for the progress fraction).
+    last: usize,
 }
 
 impl<'a> Recorder<'a> {
@@ -131,15 +138,18 @@ impl<'a> Recorder<'a> {
                 misses: Intervals::default(),
                 max_err: 0.0,
                 sum_sq: 0.0,
+                operating: OperatingPointTally::new(info, stored),
             },
+            progress: opts.progress.clone(),
+            last: grid.n,
         }
     }
 
-    /// The sample at time t: state z = (x, I, quadratures), the loop's values `d`.
+    /// Sample k at time t: state z = (x, I, quadratures), the loop's values `d`.
     pub(super) fn emit<M: InverseModel + ?Sized>(
         &mut self,
         model: &M,
-        t: f64,
+        (k, t): (usize, f64),
         z: &[f64],
         d: Drive,
     ) -> Result<(), ForwardError> {
@@ -160,6 +170,13 @@ impl<'a> Recorder<'a> {
             self.store(t, x, d);
         }
         self.count(t, &z[info.n_states() + 1..], d);
+        if let Some(op) = &mut self.tally.operating {
+            let outs = &self.outs;
+            op.push(|o| outs[o]);
+        }
+        if k % 256 == 0 || k == self.last {
+            self.progress.report(k, self.last);
+        }
         Ok(())
     }
 

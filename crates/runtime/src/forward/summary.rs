@@ -6,7 +6,9 @@ use serde::Serialize;
 
 use super::options::{Bounds, Method};
 use crate::ode::OdeStats;
-use crate::report::{fmt_sig, write_intervals, CycleInfo, Totals};
+use crate::operating_points::OperatingPoints;
+use crate::provenance::Provenance;
+use crate::report::{fmt_sig, unit_suffix, write_intervals, Column, CycleInfo, Totals};
 
 /// The driver as run: gains, feed-forward, anti-windup.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -62,6 +64,14 @@ pub struct ForwardSummary {
     /// max |y − y_c| and rms (y − y_c) over the samples, y_c the raw cycle.
     pub max_abs_tracking_error: f64,
     pub rms_tracking_error: f64,
+    /// The time-weighted engine speed × torque histogram (models with an `[engine]`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub engine_operating_points: Option<OperatingPoints>,
+    /// The CSV's columns with their units, in order.
+    pub columns: Vec<Column>,
+    /// What produced the run (filled in by the command line).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub provenance: Option<Provenance>,
     pub warnings: Vec<String>,
 }
 
@@ -69,7 +79,7 @@ impl ForwardSummary {
     /// Human-readable summary, one line per field (what `invsim forward` prints).
     pub fn to_text(&self) -> String {
         let mut s = String::new();
-        let _ = writeln!(s, "model: {}", self.run.model);
+        self.run.write_model(&mut s);
         let _ = writeln!(s, "engine: {}", self.engine);
         let _ = writeln!(s, "cycle: {}", self.run.cycle);
         let _ = writeln!(s, "duration: {} s", fmt_sig(self.run.duration_s, 6));
@@ -106,17 +116,24 @@ impl ForwardSummary {
         );
         s.push('\n');
         self.totals.write_text(&mut s);
+        if let Some(op) = &self.engine_operating_points {
+            op.write_text(&mut s);
+        }
         write_intervals(&mut s, "trace misses", &self.trace_misses);
+        let u = unit_suffix(self.totals.output_unit.as_deref());
         let _ = writeln!(
             s,
-            "max abs tracking error: {}",
+            "max abs tracking error: {}{u}",
             fmt_sig(self.max_abs_tracking_error, 3)
         );
         let _ = writeln!(
             s,
-            "rms tracking error: {}",
+            "rms tracking error: {}{u}",
             fmt_sig(self.rms_tracking_error, 3)
         );
+        if let Some(p) = &self.provenance {
+            p.write_text(&mut s);
+        }
         for w in &self.warnings {
             let _ = writeln!(s, "warning: {w}");
         }

@@ -2,6 +2,7 @@
 
 use super::error::SimulateError;
 use crate::grid::check_dt;
+use crate::progress::Progress;
 
 /// Default kernel half-width a, s (`--lookahead`).
 pub const DEFAULT_LOOKAHEAD: f64 = 5.0;
@@ -62,6 +63,8 @@ pub struct SimulationOptions {
     /// the summary's integrals, bounds and verification (default `false`: they are computed and summarised in
     /// `input_before_start`, the series covers the cycle).
     pub include_extension: bool,
+    /// Called with the fraction of the run done after each block of samples (default: none).
+    pub progress: Progress,
 }
 
 impl Default for SimulationOptions {
@@ -80,6 +83,7 @@ impl Default for SimulationOptions {
             stable_tol: DEFAULT_STABLE_TOL,
             max_pre_actuation: DEFAULT_MAX_PRE_ACTUATION,
             include_extension: false,
+            progress: Progress::none(),
         }
     }
 }
@@ -174,6 +178,12 @@ impl SimulationOptionsBuilder {
     /// The initial internal state η(t_0) (selects causal integration).
     pub fn eta0(mut self, eta0: Option<Vec<f64>>) -> Self {
         self.0.eta0 = eta0;
+        self
+    }
+
+    /// A progress callback, called with the fraction of the run done.
+    pub fn progress(mut self, progress: Progress) -> Self {
+        self.0.progress = progress;
         self
     }
 

@@ -12,7 +12,12 @@ use super::verify::verify_forward;
 use crate::cycle::Cycle;
 use crate::error::RunError;
 use crate::grid::{check_samples, Grid, MAX_DERIVATIVES};
-use crate::report::{fmt_sig, format_eigenvalues, grade_warning, CycleInfo, Intervals, Totals};
+use crate::operating_points::OperatingPointTally;
+use crate::progress::Progress;
+use crate::reference_deviation::DeviationTally;
+use crate::report::{
+    columns_with_units, fmt_sig, format_eigenvalues, grade_warning, CycleInfo, Intervals, Totals,
+};
 use crate::smoother::Smoother;
 use crate::stable::{self, StableOptions, ZeroDynamicsPlan};
 
@@ -97,9 +102,10 @@ fn allocate(mut spare: Vec<Vec<f64>>, width: usize, stored: usize, grid: &Grid) 
     spare
 }
 
-/// The per-sample bookkeeping: integrals, input range and bound violations over the reported samples
-/// [k_lo, k_hi], and the input before t_0.
-struct Tally {
+/// The per-sample bookkeeping: integrals, input range, bound violations and engine operating points over the
+/// reported samples [k_lo, k_hi], the reference's departure from the cycle over the cycle's samples, and the
+/// input before t_0.
+struct Tally<'c> {
     accumulate: Vec<usize>,
     integrals: Vec<f64>,
     previous: Vec<f64>,
@@ -110,10 +116,23 @@ struct Tally {
     window: (usize, usize),
     k0: usize,
     dt: f64,
+    /// The cycle's last sample (k0 + the cycle's steps).
+    cycle_end: usize,
+    cycle: &'c Cycle,
+    deviation: DeviationTally,
+    operating: Option<OperatingPointTally>,
+    progress: Progress,
 }
 
-impl Tally {
-    fn new(info: &ModelInfo, grid: &Grid, window: (usize, usize)) -> Tally {
+impl<'c> Tally<'c> {
+    fn new<M: InverseModel + ?Sized>(
+        model: &M,
+        (cycle, steps): (&'c Cycle, usize),
+        grid: &Grid,
+        window: (usize, usize),
+        progress: Progress,
+    ) -> Tally<'c> {
+        let info = model.info();
         let no = info.outputs.len();
         let accumulate: Vec<usize> = (0..no).filter(|&i| info.outputs[i].accumulate).collect();
         Tally {
@@ -127,6 +146,11 @@ impl Tally {
             window,
             k0: grid.k0,
             dt: grid.dt,
+            cycle_end: grid.k0 + steps,
+            cycle,
+            deviation: DeviationTally::new(model.reference(), grid.dt),
+            operating: OperatingPointTally::new(info, window.1 - window.0 + 1),
+            progress,
         }
     }
 
@@ -140,6 +164,12 @@ impl Tally {
         }
         if k < k_lo || k > k_hi {
             return;
+        }
+        if k >= self.k0 && k <= self.cycle_end {
+            self.deviation.push(self.cycle, t, b.yd[0][i]);
+        }
+        if let Some(op) = &mut self.operating {
+            op.push(|o| b.out[o][i]);
         }
         // Trapezoidal rule over the grid: ∫ o dt ≈ Σ_k dt·(o_k + o_{k+1})/2.
         for ((acc, prev), &o) in self
@@ -190,7 +220,7 @@ fn run_blocks<M: InverseModel + ?Sized>(
     smoother: &Smoother,
     grid: &Grid,
     inverter: &mut Inverter<'_, M>,
-    tally: &mut Tally,
+    tally: &mut Tally<'_>,
     data: &mut [Vec<f64>],
     keep: bool,
 ) -> Result<(), SimulateError> {
@@ -226,6 +256,7 @@ fn run_blocks<M: InverseModel + ?Sized>(
             check_finite(model, &b, i)?;
             tally.record(&b, i);
         }
+        tally.progress.report(k1, samples);
         k0 = k1;
     }
     Ok(())
@@ -307,7 +338,7 @@ pub(super) fn run<M: InverseModel + ?Sized>(
     let stored = if keep { grid.samples() } else { 0 };
     let mut data = allocate(spare, columns.len(), stored, &grid);
     let mut inverter = Inverter::new(model, &smoother, grid, &zd, eta0, opts)?;
-    let mut tally = Tally::new(info, &grid, window);
+    let mut tally = Tally::new(model, (cycle, steps), &grid, window, opts.progress.clone());
     run_blocks(
         model,
         &smoother,
@@ -326,7 +357,8 @@ pub(super) fn run<M: InverseModel + ?Sized>(
         duration,
         distance_warning,
     };
-    let summary = summarise(model, cycle, opts, &zd, &run, tally, &mut data)?;
+    let mut summary = summarise(model, cycle, opts, &zd, &run, tally, &mut data)?;
+    summary.columns = columns_with_units(info, &columns);
     Ok(SimulationResult {
         summary,
         columns,
@@ -352,7 +384,8 @@ struct Finished {
 fn run_warnings(info: &ModelInfo, cycle: &Cycle, distance: f64, totals: &Totals) -> Vec<String> {
     let mut warnings = Vec::new();
     let has_distance = distance > 0.0 && distance.is_finite();
-    if !totals.integrals.is_empty() && !has_distance {
+    let per_distance = info.outputs.iter().any(|o| o.accumulate && o.per_distance);
+    if per_distance && !has_distance {
         warnings.push(format!(
             "the cycle covers no distance ({distance} m): no per-100-km figures"
         ));
@@ -431,7 +464,7 @@ fn summarise<M: InverseModel + ?Sized>(
     opts: &SimulationOptions,
     zd: &ZeroDynamicsPlan,
     run: &Finished,
-    tally: Tally,
+    tally: Tally<'_>,
     data: &mut [Vec<f64>],
 ) -> Result<Summary, SimulateError> {
     let info = model.info();
@@ -471,17 +504,13 @@ fn summarise<M: InverseModel + ?Sized>(
         opts.dt,
     );
     Ok(Summary {
-        run: CycleInfo {
-            model: info.name.clone(),
-            cycle: cycle.name.clone(),
-            duration_s: run.duration,
-            distance_m: distance,
-        },
+        run: CycleInfo::new(info, cycle, run.duration),
         relative_degree: info.relative_degree,
         engine: opts.engine.clone(),
         samples: k_hi - k_lo + 1,
         lookahead_s: opts.lookahead,
         dt_s: opts.dt,
+        reference: tally.deviation.finish(),
         totals,
         max_abs_tracking_error,
         rms_tracking_error,
@@ -492,6 +521,9 @@ fn summarise<M: InverseModel + ?Sized>(
         post_actuation_s,
         input_before_start,
         stable_inversion,
+        engine_operating_points: tally.operating.map(|op| op.finish(info, opts.dt)),
+        columns: Vec::new(),
+        provenance: None,
         warnings,
     })
 }

@@ -4,7 +4,10 @@ use std::fmt::Write as _;
 
 use serde::Serialize;
 
-use crate::report::{fmt_sig, format_eigenvalues, CycleInfo, Totals};
+use crate::operating_points::OperatingPoints;
+use crate::provenance::Provenance;
+use crate::reference_deviation::ReferenceDeviation;
+use crate::report::{fmt_sig, format_eigenvalues, unit_suffix, Column, CycleInfo, Totals};
 use crate::stable::ZeroDynamicsClass;
 
 /// What `invsim simulate` prints and writes with `--summary-json`.
@@ -18,6 +21,10 @@ pub struct Summary {
     pub samples: usize,
     pub lookahead_s: f64,
     pub dt_s: f64,
+    /// How far y_d departs from the cycle and the distance it covers (flattened: `reference_distance_m`,
+    /// `reference_max_abs_deviation`, `reference_rms_deviation`).
+    #[serde(flatten)]
+    pub reference: ReferenceDeviation,
     /// Integrals and the input's range, bounds and bound violations (flattened: `integrals` …
     /// `input_bound_violations`).
     #[serde(flatten)]
@@ -44,6 +51,14 @@ pub struct Summary {
     /// Numbers of the stable inversion (only for a stable run).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub stable_inversion: Option<StableInversionStats>,
+    /// The time-weighted engine speed × torque histogram (models with an `[engine]`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub engine_operating_points: Option<OperatingPoints>,
+    /// The CSV's columns with their units, in order.
+    pub columns: Vec<Column>,
+    /// What produced the run (filled in by the command line).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub provenance: Option<Provenance>,
     pub warnings: Vec<String>,
 }
 
@@ -86,7 +101,7 @@ impl Summary {
     /// Human-readable summary, one line per field (what `invsim simulate` prints).
     pub fn to_text(&self) -> String {
         let mut s = String::new();
-        let _ = writeln!(s, "model: {}", self.run.model);
+        self.run.write_model(&mut s);
         let _ = writeln!(s, "engine: {}", self.engine);
         let _ = writeln!(s, "cycle: {}", self.run.cycle);
         let _ = writeln!(s, "duration: {} s", fmt_sig(self.run.duration_s, 6));
@@ -95,12 +110,19 @@ impl Summary {
         let _ = writeln!(s, "samples: {}", self.samples);
         let _ = writeln!(s, "dt: {} s", fmt_sig(self.dt_s, 6));
         let _ = writeln!(s, "look-ahead: {} s", fmt_sig(self.lookahead_s, 6));
+        let output_unit = self.totals.output_unit.as_deref();
+        self.reference
+            .write_text(&mut s, output_unit, self.run.distance_m);
         self.totals.write_text(&mut s);
+        if let Some(op) = &self.engine_operating_points {
+            op.write_text(&mut s);
+        }
+        let u = unit_suffix(output_unit);
         if let Some(e) = self.max_abs_tracking_error {
-            let _ = writeln!(s, "max abs tracking error: {}", fmt_sig(e, 3));
+            let _ = writeln!(s, "max abs tracking error: {}{u}", fmt_sig(e, 3));
         }
         if let Some(e) = self.rms_tracking_error {
-            let _ = writeln!(s, "rms tracking error: {}", fmt_sig(e, 3));
+            let _ = writeln!(s, "rms tracking error: {}{u}", fmt_sig(e, 3));
         }
         if self.zero_dynamics_class != ZeroDynamicsClass::None {
             let _ = write!(s, "zero dynamics: {}", self.zero_dynamics_class.as_str());
@@ -131,9 +153,15 @@ impl Summary {
             );
         }
         if let Some(p) = &self.input_before_start {
+            let iu = unit_suffix(self.totals.input_unit.as_deref());
+            let ius = if iu.is_empty() {
+                " s".to_string()
+            } else {
+                format!("{iu} s")
+            };
             let _ = write!(
                 s,
-                "{} before t0: from {} (at {} s) to {} at t0, range [{}, {}], integral of |u - u_initial| {}",
+                "{} before t0: from {}{iu} (at {} s) to {}{iu} at t0, range [{}, {}]{iu}, integral of |u - u_initial| {}{ius}",
                 self.totals.input,
                 fmt_sig(p.u_initial, 4),
                 fmt_sig(p.t_start, 6),
@@ -152,6 +180,9 @@ impl Summary {
                 }
                 None => s.push('\n'),
             }
+        }
+        if let Some(p) = &self.provenance {
+            p.write_text(&mut s);
         }
         for w in &self.warnings {
             let _ = writeln!(s, "warning: {w}");

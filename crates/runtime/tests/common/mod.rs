@@ -107,14 +107,17 @@ impl SiEngine {
                     name: "fuel".into(),
                     unit: Some("kg/s".into()),
                     accumulate: true,
+                    per_distance: true,
                 },
                 OutputInfo {
                     name: "fuel_l".into(),
                     unit: Some("l/s".into()),
                     accumulate: true,
+                    per_distance: true,
                 },
             ],
             parameters: SI_PARAMS.iter().map(|(n, _)| n.to_string()).collect(),
+            ..Default::default()
         };
         let params: Vec<f64> = SI_PARAMS.iter().map(|(_, v)| *v).collect();
         let mut model = SiEngine {
@@ -249,11 +252,13 @@ impl LinearR2 {
                 name: "u2".into(),
                 unit: None,
                 accumulate: true,
+                per_distance: true,
             }],
             parameters: ["a0", "a1", "k", "b", "c"]
                 .iter()
                 .map(|s| s.to_string())
                 .collect(),
+            ..Default::default()
         };
         LinearR2 {
             info,
@@ -338,6 +343,7 @@ impl NanOutput {
             name: "bad".into(),
             unit: None,
             accumulate: false,
+            per_distance: false,
         });
         NanOutput { inner, info, v_max }
     }

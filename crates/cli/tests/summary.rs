@@ -1,0 +1,303 @@
+//! The summaries answer the engineer's questions: units on every figure, how far the smoothed reference
+//! departs from the legal trace, per-100-km figures only for per-distance outputs, the engine's operating
+//! points, the CSV's columns with units, and the run's provenance (two runs that differ only in an override
+//! are told apart by their outputs alone). No progress bar off a terminal.
+
+mod common;
+use common::*;
+
+use serde_json::Value;
+
+fn stdout(o: &std::process::Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// Run `invsim` with `args` plus `--summary-json` (and `--out` when `csv`), returning (text, JSON, CSV header).
+fn run(name: &str, args: &[&str], csv: bool) -> (String, Value, Vec<String>) {
+    let json = tmp(&format!("{name}.json"));
+    let table = tmp(&format!("{name}.csv"));
+    let mut all: Vec<&str> = args.to_vec();
+    all.extend(["--summary-json", json.to_str().unwrap()]);
+    if csv {
+        all.extend(["--out", table.to_str().unwrap()]);
+    }
+    let o = invsim(&all);
+    assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+    assert!(
+        o.stderr.is_empty(),
+        "nothing on a piped stderr (no progress bar): {}",
+        stderr(&o)
+    );
+    let header = if csv {
+        let text = std::fs::read_to_string(&table).unwrap();
+        let first = text.lines().next().unwrap_or("").to_string();
+        first.split(',').map(str::to_string).collect()
+    } else {
+        Vec::new()
+    };
+    (stdout(&o), json_file(&json), header)
+}
+
+fn f(v: &Value) -> f64 {
+    v.as_f64().unwrap_or_else(|| panic!("not a number: {v}"))
+}
+
+/// The columns' names in the summary, in order.
+fn column_names(summary: &Value) -> Vec<String> {
+    summary["columns"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c["name"].as_str().unwrap().to_string())
+        .collect()
+}
+
+fn unit_of<'a>(summary: &'a Value, column: &str) -> &'a Value {
+    let columns = summary["columns"].as_array().unwrap();
+    &columns.iter().find(|c| c["name"] == column).unwrap()["unit"]
+}
+
+/// Σ of the histogram's times.
+fn histogram_sum(op: &Value) -> f64 {
+    op["time_s"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .flat_map(|row| row.as_array().unwrap().iter().map(f))
+        .sum()
+}
+
+#[test]
+fn si_engine_summary_has_units_reference_deviation_histogram_and_columns() {
+    let (text, s, header) = run(
+        "si_nedc",
+        &[
+            "simulate",
+            "models/si_engine.toml",
+            "--cycle",
+            "nedc",
+            "--verify",
+        ],
+        true,
+    );
+    for line in [
+        "max abs tracking error: ",
+        "rms tracking error: ",
+        "m_at: min ",
+    ] {
+        let l = text.lines().find(|l| l.starts_with(line)).unwrap();
+        assert!(l.contains(" m/s") || l.contains(" kg/s"), "{l}");
+    }
+    assert!(text.contains("(bounds [0, 0.08] kg/s)"), "{text}");
+    assert!(
+        text.contains("reference vs cycle: |y_d - y_c| max "),
+        "{text}"
+    );
+    assert!(
+        text.contains("fuel: 0.5617 kg (integral), 5.1 kg/100 km"),
+        "{text}"
+    );
+    assert!(text.contains("engine operating points: "), "{text}");
+    assert_eq!(s["input_unit"], "kg/s");
+    assert_eq!(s["output_unit"], "m/s");
+    // The smoothed reference rounds the corners (so departs from the trace) but drives the same distance up to
+    // the kernel's end effects.
+    let (dist, ref_dist) = (f(&s["distance_m"]), f(&s["reference_distance_m"]));
+    assert!(
+        (ref_dist - dist).abs() < 1e-3 * dist,
+        "{ref_dist} vs {dist}"
+    );
+    let (max_dev, rms_dev) = (
+        f(&s["reference_max_abs_deviation"]),
+        f(&s["reference_rms_deviation"]),
+    );
+    assert!(max_dev > 0.1 && max_dev < 5.0 && rms_dev > 0.0 && rms_dev < max_dev);
+    // Columns: the CSV's header, with units.
+    assert_eq!(column_names(&s), header);
+    assert_eq!(unit_of(&s, "t"), "s");
+    assert_eq!(unit_of(&s, "yd_0"), "m/s");
+    assert_eq!(unit_of(&s, "yd_1"), "m/s^2");
+    assert_eq!(unit_of(&s, "yd_2"), "m/s^3");
+    assert_eq!(unit_of(&s, "m_at"), "kg/s");
+    assert_eq!(unit_of(&s, "p_i"), "Pa");
+    assert_eq!(unit_of(&s, "n_e"), "rpm");
+    // Engine operating points: time-weighted, they add up to the cycle's duration.
+    let op = &s["engine_operating_points"];
+    assert_eq!(op["speed"], "n_e");
+    assert_eq!(op["torque_unit"], "N m");
+    let duration = f(&s["duration_s"]);
+    assert!((histogram_sum(op) - duration).abs() < 1e-9 * duration);
+    assert!((f(&op["total_time_s"]) - duration).abs() < 1e-9 * duration);
+    let rows = op["time_s"].as_array().unwrap();
+    assert_eq!(rows.len() + 1, op["speed_edges"].as_array().unwrap().len());
+    assert_eq!(
+        rows[0].as_array().unwrap().len() + 1,
+        op["torque_edges"].as_array().unwrap().len()
+    );
+    assert!(s["integrals_per_100km"]["fuel"].is_number());
+}
+
+#[test]
+fn a_constant_speed_cycle_gives_a_reference_on_the_trace() {
+    // 36 km/h for 100 s: the smoothed reference is the cycle itself (the kernel has unit integral), so
+    // |y_d - y_c| is 0 up to rounding and both distances are 10 m/s · 100 s = 1000 m.
+    let cycle = tmp("constant.csv");
+    let mut rows = String::from("time_s,speed_mps\n");
+    for t in 0..=100 {
+        rows.push_str(&format!("{t},10\n"));
+    }
+    std::fs::write(&cycle, rows).unwrap();
+    let (text, s, _) = run(
+        "constant",
+        &[
+            "simulate",
+            "models/si_engine.toml",
+            "--cycle",
+            cycle.to_str().unwrap(),
+        ],
+        false,
+    );
+    assert!(f(&s["reference_max_abs_deviation"]) < 1e-9, "{text}");
+    assert!(f(&s["reference_rms_deviation"]) < 1e-9);
+    assert!((f(&s["distance_m"]) - 1000.0).abs() < 1e-9);
+    assert!((f(&s["reference_distance_m"]) - 1000.0).abs() < 1e-6);
+    // The engine runs at one operating point all the time: one bin holds the whole 100 s.
+    let op = &s["engine_operating_points"];
+    let most = op["time_s"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .flat_map(|r| r.as_array().unwrap().iter().map(f))
+        .fold(0.0, f64::max);
+    assert!((most - 100.0).abs() < 1e-9, "{op}");
+}
+
+#[test]
+fn per_100_km_figures_only_for_per_distance_outputs() {
+    let (text, s, _) = run(
+        "diesel",
+        &[
+            "simulate",
+            "models/diesel_gasflow.toml",
+            "--cycle",
+            "ece",
+            "--dt",
+            "0.5",
+        ],
+        false,
+    );
+    assert!(s["integrals"]["fuel"].is_number());
+    assert_eq!(s["integrals_per_100km"], serde_json::json!({}));
+    assert!(!text.contains("/100 km"), "{text}");
+    assert!(s.get("engine_operating_points").is_none());
+    // The boost-pressure model's deviations are in its output's unit.
+    assert_eq!(s["output_unit"], "Pa");
+    assert!(text.contains("rms tracking error") || text.contains(" Pa, rms "));
+}
+
+#[test]
+fn forward_summary_has_units_columns_and_histogram() {
+    let (text, s, header) = run(
+        "fwd",
+        &[
+            "forward",
+            "models/si_engine.toml",
+            "--cycle",
+            "ece",
+            "--dt",
+            "0.5",
+        ],
+        true,
+    );
+    assert_eq!(column_names(&s), header);
+    assert_eq!(unit_of(&s, "yc"), "m/s");
+    let l = text
+        .lines()
+        .find(|l| l.starts_with("max abs tracking error: "))
+        .unwrap();
+    assert!(l.ends_with(" m/s"), "{l}");
+    let op = &s["engine_operating_points"];
+    let duration = f(&s["duration_s"]);
+    assert!((histogram_sum(op) - duration).abs() < 1e-9 * duration);
+    assert_eq!(s["provenance"]["command"], "forward");
+    assert_eq!(s["provenance"]["options"]["kp"], 2.0);
+}
+
+#[test]
+fn provenance_records_version_files_overrides_and_options() {
+    let cycle = tmp("prov_cycle.csv");
+    std::fs::write(&cycle, "t,speed_kmh\n0,0\n10,20\n20,20\n30,0\n").unwrap();
+    let (text, s, _) = run(
+        "prov",
+        &[
+            "simulate",
+            "models/si_engine.toml",
+            "--cycle",
+            cycle.to_str().unwrap(),
+            "--set",
+            "m=1500",
+            "--lookahead",
+            "3",
+        ],
+        false,
+    );
+    let p = &s["provenance"];
+    assert_eq!(p["invsim_version"], env!("CARGO_PKG_VERSION"));
+    assert_eq!(p["command"], "simulate");
+    assert_eq!(p["model_file"]["path"], "models/si_engine.toml");
+    let hex = |v: &Value| {
+        let h = v.as_str().unwrap();
+        h.len() == 64 && h.chars().all(|c| c.is_ascii_hexdigit())
+    };
+    assert!(hex(&p["model_file"]["sha256"]), "{p}");
+    assert_eq!(p["cycle"]["builtin"], false);
+    assert_eq!(p["cycle"]["file"]["path"], cycle.to_str().unwrap());
+    assert!(hex(&p["cycle"]["file"]["sha256"]));
+    assert_eq!(
+        p["overrides"],
+        serde_json::json!([{"kind": "set", "name": "m", "value": 1500.0}])
+    );
+    assert_eq!(p["options"]["lookahead"], 3.0);
+    assert_eq!(p["options"]["dt"], 0.1);
+    assert_eq!(p["options"]["engine"], "auto");
+    assert!(text.contains("overrides: --set m=1500"), "{text}");
+    assert!(
+        text.contains("model file: models/si_engine.toml (sha256 "),
+        "{text}"
+    );
+    assert!(text.lines().any(|l| l.starts_with("invsim: ")), "{text}");
+    let (_, b, _) = run(
+        "prov_builtin",
+        &["simulate", "models/si_engine.toml", "--cycle", "ece"],
+        false,
+    );
+    assert_eq!(b["provenance"]["cycle"]["builtin"], true);
+    assert!(b["provenance"]["cycle"].get("file").is_none());
+}
+
+#[test]
+fn runs_that_differ_only_in_an_override_are_distinguishable() {
+    // `--set m=1300` is si_engine's default: the numbers are the same, the record is not.
+    let args = ["simulate", "models/si_engine.toml", "--cycle", "ece"];
+    let with = |set: Option<&str>| {
+        let mut a = args.to_vec();
+        if let Some(s) = set {
+            a.extend(["--set", s]);
+        }
+        let json = tmp("same.json");
+        a.extend(["--summary-json", json.to_str().unwrap()]);
+        let o = invsim(&a);
+        assert!(o.status.success(), "{}", stderr(&o));
+        (stdout(&o), std::fs::read_to_string(&json).unwrap())
+    };
+    let (text_default, json_default) = with(None);
+    let (text_same, json_same) = with(Some("m=1300"));
+    let (text_other, json_other) = with(Some("m=1400"));
+    let a: Value = serde_json::from_str(&json_default).unwrap();
+    let b: Value = serde_json::from_str(&json_same).unwrap();
+    assert_eq!(a["integrals"], b["integrals"]);
+    assert_ne!(json_default, json_same);
+    assert_ne!(text_default, text_same);
+    assert_ne!(json_same, json_other);
+    assert_ne!(text_same, text_other);
+}
