@@ -129,7 +129,7 @@ impl Summary {
             if !self.zero_dynamics_eigenvalues.is_empty() {
                 let _ = write!(
                     s,
-                    " (eigenvalues at the start: {})",
+                    " (eigenvalues at the start, 1/s: {})",
                     format_eigenvalues(&self.zero_dynamics_eigenvalues)
                 );
             }
