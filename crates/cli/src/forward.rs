@@ -72,10 +72,13 @@ pub struct ForwardArgs {
     /// Which implementation of the model to run.
     #[arg(long, value_enum, default_value_t = EngineChoice::Auto)]
     engine: EngineChoice,
+    #[command(flatten)]
+    plot: crate::plotting::PlotArgs,
 }
 
 pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
     let (cycle, model) = load_run(&args.model, args.engine, &args.cycle, &args.set)?;
+    crate::plotting::check(&args.plot, model.as_model().info())?;
     let stopped = |e: ForwardError| {
         Failure::user(format!(
             "forward simulation of `{}` on `{}` stopped: {e}",
@@ -100,7 +103,7 @@ pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
         })
         .rtol(args.rtol)
         .atol(args.atol)
-        .keep_series(args.out.is_some())
+        .keep_series(args.out.is_some() || args.plot.plot.is_some())
         .build()
         .map_err(stopped)?;
     let result = forward::forward(model.as_model(), &cycle, &opts).map_err(stopped)?;
@@ -112,6 +115,10 @@ pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
     if let Some(path) = &args.summary_json {
         write_file(path, |f| output::write_json(&result.summary, f))?;
     }
+    let m = model.as_model();
+    crate::plotting::write(&args.plot, |vars| {
+        invsim_runtime::plot::forward_figure(&result, m.info(), m.reference(), vars)
+    })?;
     print_stdout(&crate::describe::with_description(
         &result.summary.to_text(),
         &args.model,

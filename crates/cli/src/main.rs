@@ -14,6 +14,7 @@ mod engine;
 mod error;
 mod files;
 mod forward;
+mod plotting;
 mod simulate;
 mod version;
 

@@ -30,9 +30,8 @@ pub struct SimulateArgs {
     /// Write the summary as JSON.
     #[arg(long)]
     summary_json: Option<PathBuf>,
-    /// Draw the cycle, y_d and the input as SVG.
-    #[arg(long)]
-    plot: Option<PathBuf>,
+    #[command(flatten)]
+    plot: crate::plotting::PlotArgs,
     /// Replay the computed input through the original model and report the tracking error.
     #[arg(long)]
     verify: bool,
@@ -51,6 +50,7 @@ pub struct SimulateArgs {
 
 pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
     let (cycle, model) = load_run(&args.model, args.engine, &args.cycle, &args.set)?;
+    crate::plotting::check(&args.plot, model.as_model().info())?;
     let stopped = |e: SimulateError| {
         Failure::user(format!(
             "simulation of `{}` on `{}` stopped: {e}",
@@ -66,7 +66,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
         .causal(args.causal)
         .include_extension(args.include_extension)
         // Without --out or --plot only the summary is needed: no time series is stored.
-        .keep_series(args.out.is_some() || args.plot.is_some())
+        .keep_series(args.out.is_some() || args.plot.plot.is_some())
         .build()
         .map_err(stopped)?;
     let result = simulate(model.as_model(), &cycle, &opts).map_err(stopped)?;
@@ -76,9 +76,9 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
     if let Some(path) = &args.summary_json {
         write_file(path, |f| output::write_summary_json(&result.summary, f))?;
     }
-    if let Some(path) = &args.plot {
-        plot::plot_svg(&result, &cycle, path).map_err(|e| Failure::io(e.to_string()))?;
-    }
+    crate::plotting::write(&args.plot, |vars| {
+        plot::simulation_figure(&result, &cycle, model.as_model().info(), vars)
+    })?;
     print_stdout(&crate::describe::with_description(
         &result.summary.to_text(),
         &args.model,

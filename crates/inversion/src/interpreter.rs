@@ -33,10 +33,14 @@ pub fn model_info(d: &Derivation) -> ModelInfo {
     let m = &d.model;
     ModelInfo {
         name: m.name.clone(),
+        description: m.description.clone().unwrap_or_default(),
         source_hash: Some(m.source_hash.clone()),
         states: m.states.iter().map(|s| s.name.clone()).collect(),
+        state_units: m.states.iter().map(|s| s.unit.clone()).collect(),
         input: m.input.name.clone(),
+        input_unit: m.input.unit.clone(),
         output: m.output.name.clone(),
+        output_unit: m.output.unit.clone(),
         relative_degree: d.relative_degree,
         n_eta: d.eta.len(),
         input_min: m.input.min,

@@ -20,14 +20,22 @@ pub mod zero_dynamics;
 pub struct ModelInfo {
     /// Model name (the TOML's `name`, or its file stem).
     pub name: String,
+    /// The model file's `description` (empty if it has none).
+    pub description: String,
     /// SHA-256 of the model file's bytes, lower-case hex, if known.
     pub source_hash: Option<String>,
     /// State names x_1 … x_n.
     pub states: Vec<String>,
+    /// Unit of each state, as the model file declares it (`None` where it declares none).
+    pub state_units: Vec<Option<String>>,
     /// Input name.
     pub input: String,
+    /// Unit of the input, if declared.
+    pub input_unit: Option<String>,
     /// Tracked output name (y = h(x)).
     pub output: String,
+    /// Unit of the tracked output, if declared.
+    pub output_unit: Option<String>,
     /// Relative degree r.
     pub relative_degree: usize,
     /// Number of internal coordinates η (n − r).

@@ -291,15 +291,22 @@ fn model_info(g: &Gen<'_>) -> TokenStream {
         quote!(Vec::from([#(#outputs_info),*]))
     };
     let (input_min, input_max) = (opt_f64(m.input.min), opt_f64(m.input.max));
+    let description = m.description.clone().unwrap_or_default();
+    let state_units: Vec<TokenStream> = m.states.iter().map(|s| opt_string(&s.unit)).collect();
+    let (input_unit, output_unit) = (opt_string(&m.input.unit), opt_string(&m.output.unit));
     quote! {
         /// The model's static description (names, sizes, bounds), as the interpreter reports it.
         pub fn model_info() -> ModelInfo {
             ModelInfo {
                 name: NAME.to_string(),
+                description: #description.to_string(),
                 source_hash: Some(SOURCE_HASH.to_string()),
                 states: STATES.iter().map(|s| s.to_string()).collect(),
+                state_units: Vec::from([#(#state_units),*]),
                 input: INPUT.to_string(),
+                input_unit: #input_unit,
                 output: OUTPUT.to_string(),
+                output_unit: #output_unit,
                 relative_degree: R,
                 n_eta: N_ETA,
                 input_min: #input_min,
