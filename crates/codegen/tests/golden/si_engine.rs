@@ -807,10 +807,15 @@ pub mod si_engine {
     pub fn model_info() -> ModelInfo {
         ModelInfo {
             name: NAME.to_string(),
+            description: "One-gear SI-engine car without brake or idle (Fröberg & Nielsen 2004). An SI engine with intake-manifold dynamics geared rigidly to the wheels: no gear shifts, no brake (hard decelerations appear as negative air flow), no idle (the engine stops with the car). States: vehicle speed and intake-manifold pressure; input: air mass flow past the throttle; output: vehicle speed."
+                .to_string(),
             source_hash: Some(SOURCE_HASH.to_string()),
             states: STATES.iter().map(|s| s.to_string()).collect(),
+            state_units: Vec::from([Some("m/s".to_string()), Some("Pa".to_string())]),
             input: INPUT.to_string(),
+            input_unit: Some("kg/s".to_string()),
             output: OUTPUT.to_string(),
+            output_unit: Some("m/s".to_string()),
             relative_degree: R,
             n_eta: N_ETA,
             input_min: Some(0.0),
