@@ -18,8 +18,16 @@ impl Axis {
         } else {
             (lo - 1.0, lo + 1.0)
         };
-        let step = nice_step((hi - lo) / target.max(1) as f64);
-        let ticks = ticks_inside(lo, hi, step);
+        // A nice step can leave only two ticks inside the range: halve the step until there are three.
+        let mut step = nice_step((hi - lo) / target.max(1) as f64);
+        let mut ticks = ticks_inside(lo, hi, step);
+        for _ in 0..3 {
+            if ticks.len() >= 3 {
+                break;
+            }
+            step = nice_step(step / 2.0 * (1.0 - 1e-9));
+            ticks = ticks_inside(lo, hi, step);
+        }
         let labels = tick_labels(&ticks, step);
         Axis {
             lo,

@@ -96,6 +96,14 @@ pub(crate) fn with_unit(name: &str, unit: Option<&str>) -> String {
     }
 }
 
+/// ` unit` after a number, nothing for a dimensionless (`-`) or undeclared unit.
+fn unit_suffix(unit: Option<&str>) -> String {
+    match unit.map(str::trim) {
+        Some(u) if !u.is_empty() && u != "-" => format!(" {u}"),
+        _ => String::new(),
+    }
+}
+
 /// A solid curve of `t`, `v` (thinned).
 pub(crate) fn series(
     label: String,
@@ -127,10 +135,7 @@ pub(crate) fn input_panel(info: &ModelInfo, t: &[f64], u: &[f64], title: &str) -
     ] {
         if let Some(b) = bound {
             s.push(Series {
-                label: format!(
-                    "{name} {b}{}",
-                    unit.map(|u| format!(" {u}")).unwrap_or_default()
-                ),
+                label: format!("{name} {b}{}", unit_suffix(unit)),
                 color,
                 width: 2.0,
                 dashed: true,
