@@ -96,13 +96,13 @@ fn check_svg(svg: &str, vars: &[String], what: &str) {
     assert_eq!(shown, vars, "{what}: one panel per variable, in order");
     for p in &panels {
         let var = p.attribute("data-var").unwrap();
-        let label = p
+        let y_label = p
             .descendants()
             .find(|n| n.attribute("class") == Some("axis-label y"))
-            .and_then(|n| n.text())
             .unwrap_or_else(|| panic!("{what}: panel {var} has a y label"));
+        let label = y_label.text().unwrap_or("");
         assert!(
-            text_width(label, 16.0) <= 200.0,
+            text_width(label, attr(y_label, "font-size")) <= 200.0,
             "{what}: `{label}` fits beside its plot"
         );
         assert!(

@@ -221,10 +221,16 @@ fn write_panel(s: &mut String, k: usize, p: &Panel, y: &Axis, f: &Frame, top: f6
         f.left,
         f.right - f.left
     );
+    // A y label longer than the plot is high is set at the tick labels' size.
+    let size = if text_width(&p.y_label, LABEL_SIZE) <= PLOT_HEIGHT {
+        LABEL_SIZE
+    } else {
+        TICK_SIZE
+    };
     let (lx, ly) = (MARGIN + LABEL_SIZE * ASCENT, (y0 + y1) / 2.0);
     let _ = writeln!(
         s,
-        r#"<text class="axis-label y" x="{lx:.2}" y="{ly:.2}" font-size="{LABEL_SIZE}" text-anchor="middle" transform="rotate(-90 {lx:.2} {ly:.2})">{}</text>"#,
+        r#"<text class="axis-label y" x="{lx:.2}" y="{ly:.2}" font-size="{size}" text-anchor="middle" transform="rotate(-90 {lx:.2} {ly:.2})">{}</text>"#,
         esc(&p.y_label)
     );
     s.push_str("</g>\n");
