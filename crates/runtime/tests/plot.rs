@@ -3,7 +3,7 @@
 //! distinct bound colours, legible text, no text outside the canvas), the PNG decoded and checked for size and
 //! content.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use invsim_inversion::{derive_file, Interpreter};
 use invsim_model_api::InverseModel;
@@ -26,7 +26,7 @@ fn models() -> Vec<PathBuf> {
     v
 }
 
-fn load(path: &PathBuf) -> Interpreter {
+fn load(path: &Path) -> Interpreter {
     Interpreter::new(&derive_file(path).unwrap()).unwrap()
 }
 
