@@ -211,7 +211,8 @@ fn write_panel(s: &mut String, k: usize, p: &Panel, y: &Axis, f: &Frame, top: f6
         f.right - f.left
     );
     let _ = writeln!(s, r#"<g clip-path="url(#plot{k})">"#);
-    for series in &p.series {
+    // The first curve of the legend (the raw cycle, the input) is drawn last, on top.
+    for series in p.series.iter().rev() {
         write_series(s, series, f, &py);
     }
     s.push_str("</g>\n");
