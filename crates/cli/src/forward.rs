@@ -87,6 +87,8 @@ pub struct ForwardArgs {
     /// Which implementation of the model to run.
     #[arg(long, value_enum, default_value_t = EngineChoice::Auto)]
     engine: EngineChoice,
+    #[command(flatten)]
+    plot: crate::plotting::PlotArgs,
 }
 
 pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
@@ -95,6 +97,7 @@ pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
         &[
             ("--out", args.out.as_deref()),
             ("--summary-json", args.summary_json.as_deref()),
+            ("--plot", args.plot.plot.as_deref()),
         ],
     )?;
     let (cycle, model) = load_run(
@@ -103,6 +106,7 @@ pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
         (&args.cycle, args.max_cycle_bytes),
         &args.set,
     )?;
+    crate::plotting::check(&args.plot, model.as_model().info())?;
     let stopped = |e: ForwardError| {
         Failure::user(format!(
             "forward simulation of `{}` on `{}` stopped: {e}",
@@ -129,7 +133,7 @@ pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
         })
         .rtol(args.rtol)
         .atol(args.atol)
-        .keep_series(args.out.is_some())
+        .keep_series(args.out.is_some() || args.plot.plot.is_some())
         .max_steps(args.max_steps)
         .time_limit_s(args.time_limit)
         .build()
@@ -150,6 +154,10 @@ pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
         output::write_table_csv(&result.columns, &result.data, f)
     })?;
     outputs.write("--summary-json", |f| output::write_json(&result.summary, f))?;
+    let m = model.as_model();
+    crate::plotting::write(&args.plot, &mut outputs, |vars| {
+        invsim_runtime::plot::forward_figure(&result, m.info(), m.reference(), vars)
+    })?;
     outputs.commit()?;
     print_stdout(&result.summary.to_text())
 }

@@ -14,6 +14,7 @@ mod error;
 mod files;
 mod forward;
 mod outputs;
+mod plotting;
 mod progress;
 mod provenance;
 mod simulate;

@@ -209,18 +209,6 @@ impl Outputs {
         Ok(())
     }
 
-    /// The path to hand to a writer that opens the file itself (the plot), with the path the user gave for
-    /// messages; `None` if `flag` was not asked for. The writer's output is taken as written.
-    pub fn path_for(&mut self, flag: &str) -> Option<(PathBuf, PathBuf)> {
-        let p = self.find(flag)?;
-        p.written = true;
-        let path = match &p.target {
-            Target::Regular { tmp, .. } => tmp.clone(),
-            Target::Device(d) => d.clone(),
-        };
-        Some((path, p.given.clone()))
-    }
-
     /// Rename every written regular output into place (all were written: the run succeeded).
     pub fn commit(mut self) -> Result<(), Failure> {
         for p in &self.planned {

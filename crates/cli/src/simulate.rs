@@ -37,9 +37,8 @@ pub struct SimulateArgs {
     /// Write the summary as JSON.
     #[arg(long)]
     summary_json: Option<PathBuf>,
-    /// Draw the cycle, y_d and the input as SVG.
-    #[arg(long)]
-    plot: Option<PathBuf>,
+    #[command(flatten)]
+    plot: crate::plotting::PlotArgs,
     /// Replay the computed input through the original model and report the tracking error.
     #[arg(long)]
     verify: bool,
@@ -62,7 +61,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
         &[
             ("--out", args.out.as_deref()),
             ("--summary-json", args.summary_json.as_deref()),
-            ("--plot", args.plot.as_deref()),
+            ("--plot", args.plot.plot.as_deref()),
         ],
     )?;
     let (cycle, model) = load_run(
@@ -71,6 +70,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
         (&args.cycle, args.max_cycle_bytes),
         &args.set,
     )?;
+    crate::plotting::check(&args.plot, model.as_model().info())?;
     let stopped = |e: SimulateError| {
         Failure::user(format!(
             "simulation of `{}` on `{}` stopped: {e}",
@@ -88,7 +88,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
         .causal(args.causal)
         .include_extension(args.include_extension)
         // Without --out or --plot only the summary is needed: no time series is stored.
-        .keep_series(args.out.is_some() || args.plot.is_some())
+        .keep_series(args.out.is_some() || args.plot.plot.is_some())
         .build()
         .map_err(stopped)?;
     let result = simulate(model.as_model(), &cycle, &opts);
@@ -107,11 +107,9 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
     outputs.write("--summary-json", |f| {
         output::write_summary_json(&result.summary, f)
     })?;
-    if let Some((path, given)) = outputs.path_for("--plot") {
-        plot::plot_svg(&result, &cycle, &path).map_err(|e| {
-            Failure::user(format!("cannot write --plot `{}`: {e}", given.display()))
-        })?;
-    }
+    crate::plotting::write(&args.plot, &mut outputs, |vars| {
+        plot::simulation_figure(&result, &cycle, model.as_model().info(), vars)
+    })?;
     outputs.commit()?;
     print_stdout(&result.summary.to_text())
 }

@@ -1,173 +1,354 @@
-//! SVG plot of a run, as Figs. 5 and 7 of Fröberg & Nielsen (2004): the raw cycle speed and the smoothed
-//! reference y_d over time (top), the computed input with its bounds (bottom).
+//! Plots of a run for a report, as Figs. 5 and 7 of Fröberg & Nielsen (2004): panels stacked over time, by
+//! default the raw cycle with the smoothed reference y_d, the input with its bounds and the running integral
+//! of every accumulated output (the fuel used so far); `--plot-vars` chooses any of the reference, the input,
+//! the states, the `[outputs]` and `cum:NAME`. Every axis label carries the model file's unit.
 //!
-//! Long runs are thinned for drawing: each of at most [`MAX_BUCKETS`] time buckets keeps its smallest and
-//! largest value, so peaks (e.g. of the input at gear-change corners) survive.
+//! The figure is 1000 px wide, text at 14–20 px in the embedded DejaVu Sans; SVG or PNG by the file's
+//! extension, the PNG rasterised from the same SVG in pure Rust (resvg), so no system font is needed.
+//!
+//! Modules, in the one direction their imports go: `axis` (ranges, nice ticks), `font` (the embedded font:
+//! text widths, PNG), `figure` (the SVG layout), `panels` (what each `--plot-vars` name draws), this file.
+
+mod axis;
+mod figure;
+mod font;
+mod panels;
 
 use std::path::Path;
 
-use plotters::prelude::*;
+use invsim_model_api::{ModelInfo, ReferenceMap};
 use thiserror::Error;
 
 use crate::cycle::Cycle;
+use crate::forward::ForwardResult;
 use crate::inverse::SimulationResult;
+use panels::{input_panel, resolve, series, signal_panel, Var, CYCLE, REFERENCE};
 
-/// Width and height of the SVG in pixels.
-pub const SIZE: (u32, u32) = (1000, 750);
-
-/// At most this many min/max buckets per series are drawn.
-pub const MAX_BUCKETS: usize = 2000;
+pub use figure::{
+    Figure, Panel, Series, LABEL_SIZE, LEGEND_SIZE, PANEL_TITLE_SIZE, TICK_SIZE, TITLE_SIZE, WIDTH,
+};
+pub use font::{text_width, FONT_FAMILY};
+pub use panels::{default_vars, valid_vars, MAX_BUCKETS};
 
 const MPS_TO_KMH: f64 = 3.6;
 
-/// Why a plot could not be written.
+/// Why a plot could not be drawn or written.
 #[derive(Debug, Error)]
 pub enum PlotError {
     #[error("nothing to plot: the result has no samples")]
     Empty,
-    #[error("cannot draw the plot {path}: {message}")]
-    Draw { path: String, message: String },
+    #[error("cannot plot to {path}: the file name must end in .svg or .png")]
+    Format { path: String },
+    #[error("--plot-vars: unknown panel `{name}`; this model's panels are: {valid}")]
+    UnknownVar { name: String, valid: String },
+    #[error("--plot-vars: no panel given; this model's panels are: {valid}")]
+    NoVars { valid: String },
+    #[error("cannot render the plot as PNG: {0}")]
+    Render(String),
+    #[error("cannot write the plot {path}: {message}")]
+    Write { path: String, message: String },
 }
 
-/// Draw `result` (and the raw `cycle` it followed) into an SVG file at `path`.
-pub fn plot_svg(result: &SimulationResult, cycle: &Cycle, path: &Path) -> Result<(), PlotError> {
+/// The file format of a plot, chosen by the file's extension.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PlotFormat {
+    Svg,
+    Png,
+}
+
+impl PlotFormat {
+    /// `.svg` or `.png` (any case); anything else is an error naming the file.
+    pub fn from_path(path: &Path) -> Result<PlotFormat, PlotError> {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        match ext.as_deref() {
+            Some("svg") => Ok(PlotFormat::Svg),
+            Some("png") => Ok(PlotFormat::Png),
+            _ => Err(PlotError::Format {
+                path: path.display().to_string(),
+            }),
+        }
+    }
+}
+
+/// Check `vars` (`--plot-vars`) against the model's panels; an empty list means [`default_vars`].
+pub fn check_vars(info: &ModelInfo, vars: &[String]) -> Result<(), PlotError> {
+    resolve_all(info, vars).map(|_| ())
+}
+
+fn resolve_all(info: &ModelInfo, vars: &[String]) -> Result<Vec<(String, Var)>, PlotError> {
+    let valid = || valid_vars(info).join(", ");
+    let names: Vec<String> = if vars.is_empty() {
+        default_vars(info)
+    } else {
+        vars.iter().map(|v| v.trim().to_string()).collect()
+    };
+    if names.iter().all(|n| n.is_empty()) {
+        return Err(PlotError::NoVars { valid: valid() });
+    }
+    names
+        .into_iter()
+        .filter(|n| !n.is_empty())
+        .map(|n| match resolve(info, &n) {
+            Some(v) => Ok((n, v)),
+            None => Err(PlotError::UnknownVar {
+                name: n,
+                valid: valid(),
+            }),
+        })
+        .collect()
+}
+
+/// The figure of an inverse run of `info`'s model along `cycle`, with the panels `vars` (empty: the default).
+pub fn simulation_figure(
+    result: &SimulationResult,
+    cycle: &Cycle,
+    info: &ModelInfo,
+    vars: &[String],
+) -> Result<Figure, PlotError> {
+    let vars = resolve_all(info, vars)?;
     if result.is_empty() {
         return Err(PlotError::Empty);
     }
-    let fail = |e: &dyn std::fmt::Display| PlotError::Draw {
-        path: path.display().to_string(),
-        message: e.to_string(),
-    };
     let t = result.time();
-    let (t0, t1) = (t[0], t[t.len() - 1]);
-    let t1 = if t1 > t0 { t1 } else { t0 + 1.0 };
-    // A speed output is drawn in km/h; the reference of another output (a boost pressure) in its own unit, the
-    // cycle mapped through the same offset and scale.
-    let map = result.reference;
-    let speed = map.is_identity();
-    let raw_value = |s: f64| {
-        if speed {
-            s * MPS_TO_KMH
-        } else {
-            map.offset + map.scale * s
-        }
+    let x_range = time_range(t);
+    let input_title = format!("input {} (bounds reported, not clipped)", info.input);
+    let columns = Columns {
+        names: &result.columns,
+        data: &result.data,
     };
-    let (y_label, raw_label, yd_label, quantity) = if speed {
-        (
-            "speed [km/h]",
-            "cycle [km/h]",
-            "y_d (smoothed) [km/h]",
-            "speed",
-        )
+    let reference = || simulation_reference(result, cycle, info, x_range);
+    let panels = build_panels(info, &vars, columns, &reference, &input_title);
+    let s = &result.summary;
+    Ok(Figure {
+        title: format!(
+            "{} on {}: inverse simulation, look-ahead a = {} s",
+            s.run.model, s.run.cycle, s.lookahead_s
+        ),
+        x_label: "t [s]".to_string(),
+        x_range,
+        panels,
+    })
+}
+
+/// The figure of a forward run of `info`'s model (whose reference map is `reference`), with the panels
+/// `vars` (empty: the default); its reference panel shows the raw cycle and the output achieved.
+pub fn forward_figure(
+    result: &ForwardResult,
+    info: &ModelInfo,
+    reference: ReferenceMap,
+    vars: &[String],
+) -> Result<Figure, PlotError> {
+    let vars = resolve_all(info, vars)?;
+    if result.is_empty() {
+        return Err(PlotError::Empty);
+    }
+    let t = result.time();
+    let input_title = format!("input {} applied by the driver", info.input);
+    let columns = Columns {
+        names: &result.columns,
+        data: &result.data,
+    };
+    let reference = || forward_reference(result, info, reference);
+    let panels = build_panels(info, &vars, columns, &reference, &input_title);
+    let s = &result.summary;
+    Ok(Figure {
+        title: format!(
+            "{} on {}: forward simulation with the PI driver",
+            s.run.model, s.run.cycle
+        ),
+        x_label: "t [s]".to_string(),
+        x_range: time_range(t),
+        panels,
+    })
+}
+
+/// The series of a run, column by column (the first column is the time).
+#[derive(Clone, Copy)]
+struct Columns<'a> {
+    names: &'a [String],
+    data: &'a [Vec<f64>],
+}
+
+impl<'a> Columns<'a> {
+    fn get(&self, name: &str) -> &'a [f64] {
+        self.names
+            .iter()
+            .position(|c| c == name)
+            .and_then(|i| self.data.get(i))
+            .map_or(&[], Vec::as_slice)
+    }
+}
+
+/// The panels of `vars` from the run's `columns`.
+fn build_panels(
+    info: &ModelInfo,
+    vars: &[(String, Var)],
+    columns: Columns<'_>,
+    reference: &dyn Fn() -> Panel,
+    input_title: &str,
+) -> Vec<Panel> {
+    let t = columns.data.first().map_or(&[][..], Vec::as_slice);
+    let column = |name: &str| columns.get(name);
+    let mut k = 0;
+    let mut panels = Vec::with_capacity(vars.len());
+    for (_, var) in vars {
+        let panel = match *var {
+            Var::Reference => reference(),
+            Var::Input => input_panel(info, t, column(&info.input), input_title),
+            Var::Signal(signal) => {
+                let name = match signal {
+                    panels::Signal::State(i) => &info.states[i],
+                    panels::Signal::Output(i) | panels::Signal::Cumulative(i) => {
+                        &info.outputs[i].name
+                    }
+                };
+                k += 1;
+                signal_panel(info, signal, t, column(name), k - 1)
+            }
+        };
+        panels.push(panel);
+    }
+    panels
+}
+
+/// [t_first, t_last] (a unit interval after t_first if the run is a single sample).
+fn time_range(t: &[f64]) -> (f64, f64) {
+    let t0 = t.first().copied().unwrap_or(0.0);
+    let t1 = t.last().copied().unwrap_or(t0);
+    (t0, if t1 > t0 { t1 } else { t0 + 1.0 })
+}
+
+/// The y axis label, the factor from the output's unit to the axis unit and whether 0 belongs on the axis:
+/// a speed tracked as itself (identity reference) in km/h, any other output in its own unit.
+fn reference_axis(info: &ModelInfo, reference: ReferenceMap) -> (String, f64, bool) {
+    let speed =
+        reference.is_identity() && !matches!(info.output_unit.as_deref(), Some(u) if u != "m/s");
+    if speed {
+        ("speed [km/h]".to_string(), MPS_TO_KMH, true)
     } else {
         (
-            "reference y_d",
-            "cycle, as reference offset + scale * v",
-            "y_d (smoothed)",
-            "reference",
+            panels::with_unit(&info.output, info.output_unit.as_deref()),
+            1.0,
+            false,
         )
+    }
+}
+
+/// The reference panel of an inverse run: the raw cycle (through the reference map) and y_d.
+fn simulation_reference(
+    r: &SimulationResult,
+    cycle: &Cycle,
+    info: &ModelInfo,
+    range: (f64, f64),
+) -> Panel {
+    let map = r.reference;
+    let (y_label, factor, y_zero) = reference_axis(info, map);
+    let raw = raw_points(cycle, range, |s| factor * (map.offset + map.scale * s));
+    let yd: Vec<f64> = r.yd(0).unwrap_or(&[]).iter().map(|v| v * factor).collect();
+    let raw_label = if map.is_identity() {
+        "cycle (raw)".to_string()
+    } else {
+        format!("cycle as reference {} + {}·v", map.offset, map.scale)
     };
+    let a = r.summary.lookahead_s;
+    Panel {
+        var: "reference".to_string(),
+        title: format!(
+            "reference of {}: the drive cycle and y_d smoothed with a = {a} s",
+            info.output
+        ),
+        y_label,
+        y_zero,
+        series: vec![
+            Series {
+                label: raw_label,
+                color: CYCLE,
+                width: 1.5,
+                dashed: false,
+                points: raw,
+            },
+            series("y_d (smoothed)".to_string(), REFERENCE, 2.0, r.time(), &yd),
+        ],
+    }
+}
 
-    // Top panel: raw cycle and y_d, in km/h.
-    let raw = raw_points(cycle, (t0, t1), raw_value);
-    let yd_kmh: Vec<f64> = result
-        .yd(0)
-        .unwrap_or(&[])
-        .iter()
-        .map(|v| if speed { v * MPS_TO_KMH } else { *v })
-        .collect();
-    let yd_pts = thin(t, &yd_kmh);
-    let (lo, hi) = range(raw.iter().map(|p| p.1).chain(yd_pts.iter().map(|p| p.1)));
-    let (lo, hi) = pad(if speed { lo.min(0.0) } else { lo }, hi);
-
-    // Bottom panel: input and bounds.
-    let u = result.input();
-    let u_pts = thin(t, u);
-    let [umin, umax] = result.input_bounds;
-    let (ulo, uhi) = range(u.iter().copied().chain(umin).chain(umax));
-    let (ulo, uhi) = pad(ulo, uhi);
-    let input = &result.summary.totals.input;
-
-    let root = SVGBackend::new(path, SIZE).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| fail(&e))?;
-    let (top, bottom) = root.split_vertically(SIZE.1 / 2);
-
-    let mut chart = ChartBuilder::on(&top)
-        .caption(
-            format!(
-                "{} on {}: {quantity} (look-ahead a = {} s)",
-                result.summary.run.model, result.summary.run.cycle, result.summary.lookahead_s
+/// The reference panel of a forward run: the raw cycle y_c and the output the model achieved.
+fn forward_reference(r: &ForwardResult, info: &ModelInfo, reference: ReferenceMap) -> Panel {
+    let (y_label, factor, y_zero) = reference_axis(info, reference);
+    let scaled = |v: &[f64]| -> Vec<f64> { v.iter().map(|x| x * factor).collect() };
+    let t = r.time();
+    let achieved = r.column(&info.output).unwrap_or(&[]);
+    Panel {
+        var: "reference".to_string(),
+        title: format!("{}: the raw cycle and what the model achieved", info.output),
+        y_label,
+        y_zero,
+        series: vec![
+            series(
+                "cycle y_c (raw)".to_string(),
+                CYCLE,
+                1.5,
+                t,
+                &scaled(r.cycle_speed()),
             ),
-            ("sans-serif", 18),
-        )
-        .margin(10)
-        .x_label_area_size(35)
-        .y_label_area_size(60)
-        .build_cartesian_2d(t0..t1, lo..hi)
-        .map_err(|e| fail(&e))?;
-    chart
-        .configure_mesh()
-        .x_desc("t [s]")
-        .y_desc(y_label)
-        .draw()
-        .map_err(|e| fail(&e))?;
-    chart
-        .draw_series(LineSeries::new(raw, BLACK.stroke_width(1)))
-        .map_err(|e| fail(&e))?
-        .label(raw_label)
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK));
-    chart
-        .draw_series(LineSeries::new(yd_pts, RED.stroke_width(2)))
-        .map_err(|e| fail(&e))?
-        .label(yd_label)
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RED));
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperLeft)
-        .draw()
-        .map_err(|e| fail(&e))?;
+            series(
+                format!("achieved {}", info.output),
+                REFERENCE,
+                1.5,
+                t,
+                &scaled(achieved),
+            ),
+        ],
+    }
+}
 
-    let mut chart = ChartBuilder::on(&bottom)
-        .caption(
-            format!("input {input} (bounds reported, not clipped)"),
-            ("sans-serif", 18),
-        )
-        .margin(10)
-        .x_label_area_size(35)
-        .y_label_area_size(60)
-        .build_cartesian_2d(t0..t1, ulo..uhi)
-        .map_err(|e| fail(&e))?;
-    chart
-        .configure_mesh()
-        .x_desc("t [s]")
-        .y_desc(input.as_str())
-        .draw()
-        .map_err(|e| fail(&e))?;
-    chart
-        .draw_series(LineSeries::new(u_pts, BLUE.stroke_width(1)))
-        .map_err(|e| fail(&e))?
-        .label(input.as_str())
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLUE));
-    for (bound, name) in [(umin, "lower bound"), (umax, "upper bound")] {
-        if let Some(b) = bound {
-            chart
-                .draw_series(LineSeries::new([(t0, b), (t1, b)], MAGENTA.stroke_width(1)))
-                .map_err(|e| fail(&e))?
-                .label(format!("{name} {b}"))
-                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], MAGENTA));
+impl Figure {
+    /// The figure in `format`: SVG text, or PNG bytes rasterised from it.
+    pub fn render(&self, format: PlotFormat) -> Result<Vec<u8>, PlotError> {
+        let svg = self.to_svg();
+        match format {
+            PlotFormat::Svg => Ok(svg.into_bytes()),
+            PlotFormat::Png => font::svg_to_png(&svg).map_err(PlotError::Render),
         }
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperLeft)
-        .draw()
-        .map_err(|e| fail(&e))?;
-    root.present().map_err(|e| fail(&e))?;
-    Ok(())
+
+    /// Write the figure to `path`, as SVG or PNG by its extension.
+    pub fn write(&self, path: &Path) -> Result<(), PlotError> {
+        let bytes = self.render(PlotFormat::from_path(path)?)?;
+        std::fs::write(path, bytes).map_err(|e| PlotError::Write {
+            path: path.display().to_string(),
+            message: e.to_string(),
+        })
+    }
+}
+
+/// Draw `result` (and the raw `cycle` it followed) into an SVG file at `path` with the default panels, labelled
+/// without the model's units (they are not in the result): [`simulation_figure`] with the model's
+/// [`ModelInfo`] labels every axis.
+pub fn plot_svg(result: &SimulationResult, cycle: &Cycle, path: &Path) -> Result<(), PlotError> {
+    let s = &result.summary;
+    let info = ModelInfo {
+        name: s.run.model.clone(),
+        description: String::new(),
+        source_hash: None,
+        states: Vec::new(),
+        state_units: Vec::new(),
+        input: s.totals.input.clone(),
+        input_unit: None,
+        output: "y".to_string(),
+        output_unit: None,
+        engine: None,
+        relative_degree: s.relative_degree,
+        n_eta: 0,
+        input_min: result.input_bounds[0],
+        input_max: result.input_bounds[1],
+        outputs: Vec::new(),
+        parameters: Vec::new(),
+    };
+    simulation_figure(result, cycle, &info, &[])?.write(path)
 }
 
 /// The raw cycle's points within [t0, t1] (piecewise linear, its own breakpoints), through `value`, held
@@ -189,78 +370,4 @@ fn raw_points(cycle: &Cycle, (t0, t1): (f64, f64), value: impl Fn(f64) -> f64) -
         _ => v.push((t1, value(cycle.speed_at(t1)))),
     }
     v
-}
-
-/// (min, max) of the finite values; (0, 1) if there are none.
-fn range(values: impl Iterator<Item = f64>) -> (f64, f64) {
-    let (lo, hi) = values
-        .filter(|v| v.is_finite())
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
-            (lo.min(v), hi.max(v))
-        });
-    if lo <= hi {
-        (lo, hi)
-    } else {
-        (0.0, 1.0)
-    }
-}
-
-/// Widen [lo, hi] by 5 % (or by 1 if it is a single point).
-fn pad(lo: f64, hi: f64) -> (f64, f64) {
-    let span = hi - lo;
-    if span > 0.0 {
-        (lo - 0.05 * span, hi + 0.05 * span)
-    } else {
-        (lo - 1.0, hi + 1.0)
-    }
-}
-
-/// Points (t_k, v_k), thinned to the min and max of each of at most [`MAX_BUCKETS`] buckets, in time order.
-fn thin(t: &[f64], v: &[f64]) -> Vec<(f64, f64)> {
-    let n = t.len().min(v.len());
-    if n <= 2 * MAX_BUCKETS {
-        return t.iter().zip(v).map(|(&a, &b)| (a, b)).collect();
-    }
-    let mut out = Vec::with_capacity(2 * MAX_BUCKETS + 1);
-    for b in 0..MAX_BUCKETS {
-        let (s, e) = (b * n / MAX_BUCKETS, (b + 1) * n / MAX_BUCKETS);
-        let (mut imin, mut imax) = (s, s);
-        for i in s..e {
-            if v[i] < v[imin] {
-                imin = i;
-            }
-            if v[i] > v[imax] {
-                imax = i;
-            }
-        }
-        let (i, j) = if imin <= imax {
-            (imin, imax)
-        } else {
-            (imax, imin)
-        };
-        out.push((t[i], v[i]));
-        if j != i {
-            out.push((t[j], v[j]));
-        }
-    }
-    if out.last().is_some_and(|p| p.0 < t[n - 1]) {
-        out.push((t[n - 1], v[n - 1]));
-    }
-    out
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn thinning_keeps_extremes() {
-        let t: Vec<f64> = (0..100_000).map(|k| k as f64 * 0.01).collect();
-        let mut v: Vec<f64> = t.iter().map(|x| x.sin()).collect();
-        v[54_321] = 10.0;
-        let p = thin(&t, &v);
-        assert!(p.len() <= 2 * MAX_BUCKETS + 1);
-        assert!(p.iter().any(|&(a, b)| a == t[54_321] && b == 10.0));
-        assert!(p.windows(2).all(|w| w[0].0 < w[1].0));
-    }
 }

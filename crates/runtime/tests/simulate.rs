@@ -410,6 +410,10 @@ impl InternalDynamics {
             info: ModelInfo {
                 name: "internal_dynamics".into(),
                 source_hash: None,
+                description: String::new(),
+                state_units: Vec::new(),
+                input_unit: None,
+                output_unit: None,
                 states: vec!["x1".into(), "x2".into(), "x3".into()],
                 input: "u".into(),
                 output: "y".into(),

@@ -31,6 +31,10 @@ impl LinearNmp {
             info: ModelInfo {
                 name: "linear_nmp".into(),
                 source_hash: None,
+                description: String::new(),
+                state_units: Vec::new(),
+                input_unit: None,
+                output_unit: None,
                 states: vec!["x1".into(), "x2".into()],
                 input: "u".into(),
                 output: "y".into(),
@@ -101,6 +105,10 @@ impl LinearMixed {
             info: ModelInfo {
                 name: "linear_mixed".into(),
                 source_hash: None,
+                description: String::new(),
+                state_units: Vec::new(),
+                input_unit: None,
+                output_unit: None,
                 states: vec!["x1".into(), "x2".into(), "x3".into()],
                 input: "u".into(),
                 output: "y".into(),

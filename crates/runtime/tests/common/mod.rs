@@ -95,6 +95,10 @@ impl SiEngine {
         let info = ModelInfo {
             name: "si_engine".into(),
             source_hash: None,
+            description: String::new(),
+            state_units: Vec::new(),
+            input_unit: None,
+            output_unit: None,
             states: vec!["v".into(), "p_i".into()],
             input: "m_at".into(),
             output: "v".into(),
@@ -241,6 +245,10 @@ impl LinearR2 {
         let info = ModelInfo {
             name: name.into(),
             source_hash: None,
+            description: String::new(),
+            state_units: Vec::new(),
+            input_unit: None,
+            output_unit: None,
             states: vec!["x1".into(), "x2".into(), "x3".into()],
             input: "u".into(),
             output: "y".into(),

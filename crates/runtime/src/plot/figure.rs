@@ -1,0 +1,329 @@
+//! A figure of panels stacked over one time axis, written as SVG by hand so that its layout is exact: every
+//! text is measured with the embedded font, tick labels stay inside the canvas, legends sit above their plot
+//! area and never cover a curve.
+//!
+//! Structure (what the tests parse): the root `<svg>` holds a `title` text, one `<g class="panel">` per panel
+//! (with `panel-title`, `legend` > `legend-entry`, `axis-label y`, `tick` texts and `series` polylines) and
+//! the `axis-label x` text under the last panel.
+
+use std::fmt::Write as _;
+
+use super::axis::Axis;
+use super::font::{text_width, ASCENT, DESCENT, FONT_FAMILY};
+
+/// Width of every figure in pixels.
+pub const WIDTH: f64 = 1000.0;
+/// Font sizes in pixels: figure title, panel titles, axis labels, tick labels and legend entries.
+pub const TITLE_SIZE: f64 = 20.0;
+pub const PANEL_TITLE_SIZE: f64 = 16.0;
+pub const LABEL_SIZE: f64 = 16.0;
+pub const TICK_SIZE: f64 = 14.0;
+pub const LEGEND_SIZE: f64 = 14.0;
+
+const MARGIN: f64 = 12.0;
+const TITLE_ROW: f64 = 40.0;
+const HEADER_ROW: f64 = 24.0;
+const LEGEND_ROW: f64 = 22.0;
+const PLOT_HEIGHT: f64 = 200.0;
+const TICK_ROW: f64 = 24.0;
+const PANEL_GAP: f64 = 16.0;
+const X_LABEL_ROW: f64 = 30.0;
+const SWATCH: f64 = 26.0;
+
+/// One curve: its legend label, colour, line width, dash and points (x, y) in axis units.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Series {
+    pub label: String,
+    pub color: &'static str,
+    pub width: f64,
+    pub dashed: bool,
+    pub points: Vec<(f64, f64)>,
+}
+
+/// One panel: a title, the y axis label (with its unit) and its curves.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Panel {
+    /// The `--plot-vars` name that chose the panel.
+    pub var: String,
+    pub title: String,
+    pub y_label: String,
+    /// Include 0 in the y range (speeds).
+    pub y_zero: bool,
+    pub series: Vec<Series>,
+}
+
+/// A figure: title, x-axis label, the x range and the panels, top to bottom.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Figure {
+    pub title: String,
+    pub x_label: String,
+    pub x_range: (f64, f64),
+    pub panels: Vec<Panel>,
+}
+
+/// Horizontal placement shared by all panels: the plot area's left and right edges.
+struct Frame {
+    left: f64,
+    right: f64,
+    x: Axis,
+}
+
+impl Frame {
+    fn px(&self, t: f64) -> f64 {
+        self.left + self.x.frac(t) * (self.right - self.left)
+    }
+}
+
+impl Figure {
+    /// The figure as an SVG document.
+    pub fn to_svg(&self) -> String {
+        let x = Axis::new(self.x_range.0, self.x_range.1, 10);
+        let y_axes: Vec<Axis> = self.panels.iter().map(y_axis).collect();
+        let tick_w = y_axes
+            .iter()
+            .flat_map(|a| a.labels.iter())
+            .map(|l| text_width(l, TICK_SIZE))
+            .fold(0.0, f64::max);
+        let left = MARGIN + LABEL_SIZE * (ASCENT + DESCENT) + 10.0 + tick_w + 8.0;
+        let last_half = x
+            .labels
+            .last()
+            .map_or(0.0, |l| text_width(l, TICK_SIZE) / 2.0);
+        let right = WIDTH - MARGIN - last_half.max(12.0);
+        let frame = Frame { left, right, x };
+        let mut body = String::new();
+        let mut y = MARGIN + TITLE_ROW;
+        for (k, (panel, axis)) in self.panels.iter().zip(&y_axes).enumerate() {
+            y = write_panel(&mut body, k, panel, axis, &frame, y);
+        }
+        let height = (y - PANEL_GAP + X_LABEL_ROW + MARGIN).ceil();
+        let mut s = String::new();
+        let _ = write!(
+            s,
+            r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{height}" viewBox="0 0 {w} {height}" font-family="{FONT_FAMILY}, sans-serif">"#,
+            w = WIDTH
+        );
+        s.push('\n');
+        let _ = writeln!(
+            s,
+            r#"<rect width="{WIDTH}" height="{height}" fill="white"/>"#
+        );
+        text(
+            &mut s,
+            "title",
+            MARGIN,
+            MARGIN + TITLE_SIZE,
+            TITLE_SIZE,
+            "start",
+            &self.title,
+        );
+        s.push_str(&body);
+        let x_mid = (frame.left + frame.right) / 2.0;
+        let x_base = y - PANEL_GAP + X_LABEL_ROW - 8.0;
+        text(
+            &mut s,
+            "axis-label x",
+            x_mid,
+            x_base,
+            LABEL_SIZE,
+            "middle",
+            &self.x_label,
+        );
+        s.push_str("</svg>\n");
+        s
+    }
+}
+
+/// The y axis of a panel: its curves' range with margins.
+fn y_axis(p: &Panel) -> Axis {
+    let values = p.series.iter().flat_map(|s| s.points.iter().map(|q| q.1));
+    Axis::padded(values, p.y_zero, 5)
+}
+
+/// Lay the legend's entries out in rows within `width`: (row, x offset) of each entry.
+fn legend_layout(series: &[Series], width: f64) -> Vec<(usize, f64)> {
+    let (mut row, mut x) = (0, 0.0);
+    series
+        .iter()
+        .map(|s| {
+            let w = SWATCH + 6.0 + text_width(&s.label, LEGEND_SIZE) + 20.0;
+            if x > 0.0 && x + w > width {
+                row += 1;
+                x = 0.0;
+            }
+            let at = (row, x);
+            x += w;
+            at
+        })
+        .collect()
+}
+
+/// Write panel `k` starting at height `top`; the height where the next panel starts.
+fn write_panel(s: &mut String, k: usize, p: &Panel, y: &Axis, f: &Frame, top: f64) -> f64 {
+    let _ = writeln!(s, r#"<g class="panel" data-var="{}">"#, esc(&p.var));
+    let base = top + PANEL_TITLE_SIZE;
+    text(
+        s,
+        "panel-title",
+        f.left,
+        base,
+        PANEL_TITLE_SIZE,
+        "start",
+        &p.title,
+    );
+    let layout = legend_layout(&p.series, f.right - f.left);
+    let rows = layout.last().map_or(0, |l| l.0 + 1);
+    s.push_str("<g class=\"legend\">\n");
+    for (series, (row, dx)) in p.series.iter().zip(&layout) {
+        let (lx, ly) = (
+            f.left + dx,
+            top + HEADER_ROW + *row as f64 * LEGEND_ROW + 14.0,
+        );
+        let _ = write!(
+            s,
+            r#"<g class="legend-entry"><line x1="{:.2}" y1="{:.2}" x2="{:.2}" y2="{:.2}" {}/>"#,
+            lx,
+            ly - 5.0,
+            lx + SWATCH,
+            ly - 5.0,
+            stroke(series)
+        );
+        text(
+            s,
+            "legend-label",
+            lx + SWATCH + 6.0,
+            ly,
+            LEGEND_SIZE,
+            "start",
+            &series.label,
+        );
+        s.push_str("</g>\n");
+    }
+    s.push_str("</g>\n");
+    let y0 = top + HEADER_ROW + rows as f64 * LEGEND_ROW + 6.0;
+    let y1 = y0 + PLOT_HEIGHT;
+    let py = |v: f64| y1 - y.frac(v) * PLOT_HEIGHT;
+    write_grid(s, f, y, y0, y1, &py);
+    let _ = writeln!(
+        s,
+        r#"<clipPath id="plot{k}"><rect x="{:.2}" y="{y0:.2}" width="{:.2}" height="{PLOT_HEIGHT}"/></clipPath>"#,
+        f.left,
+        f.right - f.left
+    );
+    let _ = writeln!(s, r#"<g clip-path="url(#plot{k})">"#);
+    // The first curve of the legend (the raw cycle, the input) is drawn last, on top.
+    for series in p.series.iter().rev() {
+        write_series(s, series, f, &py);
+    }
+    s.push_str("</g>\n");
+    let _ = writeln!(
+        s,
+        r#"<rect class="frame" x="{:.2}" y="{y0:.2}" width="{:.2}" height="{PLOT_HEIGHT}" fill="none" stroke="black" stroke-width="1"/>"#,
+        f.left,
+        f.right - f.left
+    );
+    // A y label longer than the plot is high is set at the tick labels' size.
+    let size = if text_width(&p.y_label, LABEL_SIZE) <= PLOT_HEIGHT {
+        LABEL_SIZE
+    } else {
+        TICK_SIZE
+    };
+    let (lx, ly) = (MARGIN + LABEL_SIZE * ASCENT, (y0 + y1) / 2.0);
+    let _ = writeln!(
+        s,
+        r#"<text class="axis-label y" x="{lx:.2}" y="{ly:.2}" font-size="{size}" text-anchor="middle" transform="rotate(-90 {lx:.2} {ly:.2})">{}</text>"#,
+        esc(&p.y_label)
+    );
+    s.push_str("</g>\n");
+    y1 + TICK_ROW + PANEL_GAP
+}
+
+/// Grid lines and tick labels of both axes (x labels under the plot area, y labels left of it).
+fn write_grid(s: &mut String, f: &Frame, y: &Axis, y0: f64, y1: f64, py: &dyn Fn(f64) -> f64) {
+    s.push_str("<g class=\"grid\" stroke=\"#d0d0d0\" stroke-width=\"1\">\n");
+    for &t in &f.x.ticks {
+        let x = f.px(t);
+        let _ = writeln!(
+            s,
+            r#"<line x1="{x:.2}" y1="{y0:.2}" x2="{x:.2}" y2="{y1:.2}"/>"#
+        );
+    }
+    for &v in &y.ticks {
+        let yy = py(v);
+        let _ = writeln!(
+            s,
+            r#"<line x1="{:.2}" y1="{yy:.2}" x2="{:.2}" y2="{yy:.2}"/>"#,
+            f.left, f.right
+        );
+    }
+    s.push_str("</g>\n");
+    for (&t, l) in f.x.ticks.iter().zip(&f.x.labels) {
+        text(
+            s,
+            "tick x",
+            f.px(t),
+            y1 + 4.0 + TICK_SIZE,
+            TICK_SIZE,
+            "middle",
+            l,
+        );
+    }
+    for (&v, l) in y.ticks.iter().zip(&y.labels) {
+        let base = py(v) + TICK_SIZE * (ASCENT - DESCENT) / 2.0;
+        text(s, "tick y", f.left - 8.0, base, TICK_SIZE, "end", l);
+    }
+}
+
+/// A curve as polylines (one per run of finite points).
+fn write_series(s: &mut String, series: &Series, f: &Frame, py: &dyn Fn(f64) -> f64) {
+    let mut runs: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
+    for &(t, v) in &series.points {
+        if t.is_finite() && v.is_finite() {
+            if let Some(r) = runs.last_mut() {
+                r.push((f.px(t), py(v)));
+            }
+        } else if runs.last().is_some_and(|r| !r.is_empty()) {
+            runs.push(Vec::new());
+        }
+    }
+    for run in runs.iter().filter(|r| !r.is_empty()) {
+        let mut pts = String::with_capacity(run.len() * 16);
+        for (x, y) in run {
+            let _ = write!(pts, "{x:.2},{y:.2} ");
+        }
+        let _ = writeln!(
+            s,
+            r#"<polyline class="series" fill="none" {} points="{}"/>"#,
+            stroke(series),
+            pts.trim_end()
+        );
+    }
+}
+
+fn stroke(series: &Series) -> String {
+    let dash = if series.dashed {
+        r#" stroke-dasharray="8 5""#
+    } else {
+        ""
+    };
+    format!(
+        r#"stroke="{}" stroke-width="{}" stroke-linejoin="round"{dash}"#,
+        series.color, series.width
+    )
+}
+
+fn text(s: &mut String, class: &str, x: f64, y: f64, size: f64, anchor: &str, content: &str) {
+    let _ = writeln!(
+        s,
+        r#"<text class="{class}" x="{x:.2}" y="{y:.2}" font-size="{size}" text-anchor="{anchor}">{}</text>"#,
+        esc(content)
+    );
+}
+
+/// Escape text for XML.
+fn esc(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}

@@ -1,0 +1,282 @@
+//! The plots of every shipped model (`models/*.toml`, through the interpreter): the SVG parsed and its
+//! elements checked (one panel per variable, axis labels with the model's units, a legend entry per curve,
+//! distinct bound colours, legible text, no text outside the canvas), the PNG decoded and checked for size and
+//! content.
+
+use std::path::{Path, PathBuf};
+
+use invsim_inversion::{derive_file, Interpreter};
+use invsim_model_api::InverseModel;
+use invsim_runtime::plot::{
+    self, default_vars, forward_figure, simulation_figure, text_width, valid_vars, PlotError,
+    PlotFormat, WIDTH,
+};
+use invsim_runtime::{forward, simulate, Cycle, ForwardOptions, SimulationOptions};
+use resvg::tiny_skia::Pixmap;
+
+fn models() -> Vec<PathBuf> {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../models");
+    let mut v: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    v.sort();
+    assert!(v.len() >= 3, "shipped models in {}", dir.display());
+    v
+}
+
+fn load(path: &Path) -> Interpreter {
+    Interpreter::new(&derive_file(path).unwrap()).unwrap()
+}
+
+fn sim_opts() -> SimulationOptions {
+    SimulationOptions::builder()
+        .engine("interpreted")
+        .keep_series(true)
+        .build()
+        .unwrap()
+}
+
+/// One text element: class, content, font size and its box (left, top, right, bottom).
+struct Text {
+    class: String,
+    content: String,
+    size: f64,
+    bbox: [f64; 4],
+}
+
+fn attr(n: roxmltree::Node, name: &str) -> f64 {
+    n.attribute(name).unwrap().parse().unwrap()
+}
+
+/// Every `<text>` with its box from the embedded font's advances, ascent 0.76 em and descent 0.24 em (the
+/// y labels rotated by −90° about their anchor).
+fn texts(doc: &roxmltree::Document) -> Vec<Text> {
+    doc.descendants()
+        .filter(|n| n.has_tag_name("text"))
+        .map(|n| {
+            let content = n.text().unwrap_or("").to_string();
+            let (x, y, size) = (attr(n, "x"), attr(n, "y"), attr(n, "font-size"));
+            let w = text_width(&content, size);
+            let start = match n.attribute("text-anchor") {
+                Some("middle") => -w / 2.0,
+                Some("end") => -w,
+                _ => 0.0,
+            };
+            let bbox = if n.attribute("transform").is_some() {
+                [x - 0.76 * size, y - start - w, x + 0.24 * size, y - start]
+            } else {
+                [x + start, y - 0.76 * size, x + start + w, y + 0.24 * size]
+            };
+            Text {
+                class: n.attribute("class").unwrap_or("").to_string(),
+                content,
+                size,
+                bbox,
+            }
+        })
+        .collect()
+}
+
+/// Check the SVG's structure: the panels `vars`, their labels, legends and the canvas.
+fn check_svg(svg: &str, vars: &[String], what: &str) {
+    let doc = roxmltree::Document::parse(svg).unwrap_or_else(|e| panic!("{what}: {e}"));
+    let root = doc.root_element();
+    let (w, h) = (attr(root, "width"), attr(root, "height"));
+    assert_eq!(w, WIDTH, "{what}");
+    let panels: Vec<_> = doc
+        .descendants()
+        .filter(|n| n.attribute("class") == Some("panel"))
+        .collect();
+    let shown: Vec<&str> = panels
+        .iter()
+        .map(|p| p.attribute("data-var").unwrap())
+        .collect();
+    assert_eq!(shown, vars, "{what}: one panel per variable, in order");
+    for p in &panels {
+        let var = p.attribute("data-var").unwrap();
+        let y_label = p
+            .descendants()
+            .find(|n| n.attribute("class") == Some("axis-label y"))
+            .unwrap_or_else(|| panic!("{what}: panel {var} has a y label"));
+        let label = y_label.text().unwrap_or("");
+        assert!(
+            text_width(label, attr(y_label, "font-size")) <= 200.0,
+            "{what}: `{label}` fits beside its plot"
+        );
+        assert!(
+            label.contains(" [") && label.ends_with(']'),
+            "{what}: unit in `{label}`"
+        );
+        let entries: Vec<_> = p
+            .descendants()
+            .filter(|n| n.attribute("class") == Some("legend-entry"))
+            .collect();
+        let curves: Vec<&str> = p
+            .descendants()
+            .filter(|n| n.attribute("class") == Some("series"))
+            .filter_map(|n| n.attribute("stroke"))
+            .collect();
+        assert!(!entries.is_empty(), "{what}: legend of {var}");
+        let colours: Vec<&str> = entries
+            .iter()
+            .filter_map(|e| e.first_element_child()?.attribute("stroke"))
+            .collect();
+        let mut distinct = colours.clone();
+        distinct.sort();
+        distinct.dedup();
+        assert_eq!(
+            distinct.len(),
+            colours.len(),
+            "{what}: distinct colours in {var}"
+        );
+        assert!(
+            colours.iter().all(|c| curves.contains(c)),
+            "{what}: every entry drawn in {var}"
+        );
+        if var == "reference" {
+            assert_eq!(entries.len(), 2, "{what}: cycle and reference/achieved");
+        }
+        let ticks = p
+            .descendants()
+            .filter(|n| n.attribute("class") == Some("tick y"))
+            .count();
+        assert!(ticks >= 3, "{what}: {ticks} y ticks in {var}");
+    }
+    assert!(svg.contains(">t [s]</text>"), "{what}: time axis label");
+    for t in texts(&doc) {
+        assert!(t.size >= 14.0, "{what}: `{}` at {} px", t.content, t.size);
+        let [l, top, r, b] = t.bbox;
+        assert!(
+            l >= 0.0 && top >= 0.0 && r <= w && b <= h,
+            "{what}: {} `{}` at {:?} outside the {w}×{h} canvas",
+            t.class,
+            t.content,
+            t.bbox
+        );
+    }
+}
+
+#[test]
+fn every_shipped_model_plots_with_units_legends_and_text_inside() {
+    let nedc = Cycle::builtin("nedc").unwrap();
+    let mut forwards = 0;
+    for path in models() {
+        let model = load(&path);
+        let info = model.info();
+        let what = path.file_name().unwrap().to_string_lossy().to_string();
+        let res = simulate(&model, &nedc, &sim_opts()).unwrap();
+        for vars in [default_vars(info), valid_vars(info)] {
+            let fig = simulation_figure(&res, &nedc, info, &vars).unwrap();
+            check_svg(&fig.to_svg(), &vars, &format!("{what} simulate {vars:?}"));
+        }
+        let fwd_opts = ForwardOptions::builder().keep_series(true).build().unwrap();
+        // diesel_gasflow has no forward start at a standstill (its output is a pressure, not the cycle's speed).
+        if let Ok(fwd) = forward(&model, &nedc, &fwd_opts) {
+            forwards += 1;
+            let vars = default_vars(info);
+            let fig = forward_figure(&fwd, info, model.reference(), &vars).unwrap();
+            let svg = fig.to_svg();
+            check_svg(&svg, &vars, &format!("{what} forward"));
+            assert!(
+                svg.contains("achieved"),
+                "{what}: forward shows the output achieved"
+            );
+        }
+    }
+    assert!(forwards >= 2, "forward plots of si_engine and driveline");
+}
+
+#[test]
+fn input_panel_has_both_bounds_in_the_legend_and_units_from_the_model() {
+    let path = models()
+        .into_iter()
+        .find(|p| p.ends_with("si_engine.toml"))
+        .unwrap();
+    let model = load(&path);
+    let cycle = Cycle::builtin("wltc3b").unwrap();
+    let res = simulate(&model, &cycle, &sim_opts()).unwrap();
+    let vars: Vec<String> = ["reference", "input", "p_i", "cum:fuel"]
+        .map(String::from)
+        .to_vec();
+    let svg = simulation_figure(&res, &cycle, model.info(), &vars)
+        .unwrap()
+        .to_svg();
+    for label in [
+        "speed [km/h]",
+        "m_at [kg/s]",
+        "lower bound 0 kg/s",
+        "upper bound 0.08 kg/s",
+        "p_i [Pa]",
+        "cumulative fuel [kg]",
+        "wltc3b",
+    ] {
+        assert!(svg.contains(label), "`{label}` in the SVG");
+    }
+    // The time axis of the WLTC ends at 1800 s with a tick there whose label stays inside the canvas.
+    assert!(svg.contains(">1800</text>"));
+    check_svg(&svg, &vars, "si_engine on wltc3b");
+}
+
+#[test]
+fn png_decodes_at_the_svg_size_and_is_not_blank() {
+    let path = models()
+        .into_iter()
+        .find(|p| p.ends_with("si_engine.toml"))
+        .unwrap();
+    let model = load(&path);
+    let cycle = Cycle::builtin("nedc").unwrap();
+    let res = simulate(&model, &cycle, &sim_opts()).unwrap();
+    let fig = simulation_figure(&res, &cycle, model.info(), &[]).unwrap();
+    let svg = String::from_utf8(fig.render(PlotFormat::Svg).unwrap()).unwrap();
+    let height: f64 = svg
+        .split("height=\"")
+        .nth(1)
+        .and_then(|s| s.split('"').next())
+        .and_then(|s| s.parse().ok())
+        .unwrap();
+    let png = fig.render(PlotFormat::Png).unwrap();
+    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+    let img = Pixmap::decode_png(&png).unwrap();
+    assert_eq!((img.width(), img.height()), (WIDTH as u32, height as u32));
+    let px = img.pixels();
+    let ink = px
+        .iter()
+        .filter(|p| p.red() < 200 || p.green() < 200 || p.blue() < 200)
+        .count();
+    let frac = ink as f64 / px.len() as f64;
+    assert!(frac > 0.02 && frac < 0.5, "{frac} of the pixels drawn");
+    // The input's blue (#0072B2) and the reference's vermilion (#D55E00) are both there, and dark text.
+    let has = |r: u8, g: u8, b: u8| {
+        px.iter().any(|p| {
+            p.red().abs_diff(r) < 12 && p.green().abs_diff(g) < 12 && p.blue().abs_diff(b) < 12
+        })
+    };
+    assert!(has(0x00, 0x72, 0xB2) && has(0xD5, 0x5E, 0x00) && has(0, 0, 0));
+}
+
+#[test]
+fn bad_names_and_formats_are_errors_listing_the_choices() {
+    let path = models()
+        .into_iter()
+        .find(|p| p.ends_with("si_engine.toml"))
+        .unwrap();
+    let model = load(&path);
+    let info = model.info();
+    let e = plot::check_vars(info, &["reference".into(), "speed".into()]).unwrap_err();
+    assert!(matches!(e, PlotError::UnknownVar { .. }));
+    let msg = e.to_string();
+    for name in ["`speed`", "reference", "input", "p_i", "cum:fuel"] {
+        assert!(msg.contains(name), "{msg}");
+    }
+    // Only accumulated outputs have a running integral; the input's own name is accepted.
+    assert!(plot::check_vars(info, &["cum:n_e".into()]).is_err());
+    assert!(plot::check_vars(info, &["m_at".into(), "v".into()]).is_ok());
+    assert!(plot::check_vars(info, &[" ".into()]).is_err());
+    assert!(PlotFormat::from_path("a.pdf".as_ref()).is_err());
+    assert_eq!(
+        PlotFormat::from_path("a.PNG".as_ref()).unwrap(),
+        PlotFormat::Png
+    );
+}
