@@ -148,7 +148,7 @@ pub fn forward<M: InverseModel + ?Sized>(
     let (nz, h0) = (z.len(), opts.dt.min(0.01));
     // The method is chosen once here; the run is generic over it.
     let start = (seg0, t0);
-    let budget = Budget::new(opts, duration, grid.time(grid.n));
+    let budget = Budget::new(opts, duration, (t0, grid.time(grid.n)));
     let stats = match opts.method {
         Method::Rosenbrock23 => {
             let mut s = Rosenbrock23::new(nz, opts.rtol, opts.atol, h0);
