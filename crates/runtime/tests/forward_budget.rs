@@ -94,14 +94,7 @@ fn an_explicit_budget_and_a_time_limit_stop_a_run() {
     )
     .expect_err("1000 steps are not enough for the NEDC");
     assert!(
-        matches!(
-            e,
-            ForwardError::StepBudget {
-                steps: 1000,
-                max: 1000,
-                ..
-            }
-        ),
+        matches!(e, ForwardError::StepBudget { steps, max: 1000, .. } if steps <= 1000),
         "{e}"
     );
     assert!(e.to_string().contains("(as given)"), "{e}");
