@@ -64,7 +64,8 @@ impl Budget {
     /// the limit, at time `t`.
     pub(super) fn check(&self, t: f64, s: &StepState) -> Result<(), ForwardError> {
         let steps = s.stats.accepted + s.stats.rejected;
-        let checkpoint = steps % CLOCK_EVERY == 0;
+        // CLOCK_EVERY is a power of two.
+        let checkpoint = steps & (CLOCK_EVERY - 1) == 0;
         if steps >= self.max_steps || (checkpoint && self.hopeless(t, steps)) {
             let how = if self.explicit {
                 "as given".to_string()
