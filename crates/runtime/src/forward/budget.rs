@@ -99,17 +99,22 @@ impl Budget {
         Ok(())
     }
 
-    /// Why the steps are many: the stiffness estimate (DOPRI5) or the step size, and the driver's gains that
-    /// set the closed loop's speed; `raise` names the option that lifts the limit.
-    fn diagnosis(&self, s: &StepState, raise: &str) -> String {
+    /// What the driver's gains do, for a message about a run that the integrator could not finish.
+    pub(super) fn gains_hint(&self) -> String {
         let (kp, ki, w) = self.gains;
-        let gains = format!(
+        format!(
             "the driver's gains kp = {}, ki = {} and response = {} rad/s set how fast the closed loop is (defaults \
-             2, 1, 10): lower them, or raise {raise}",
+             2, 1, 10): lower them",
             num(kp),
             num(ki),
             num(w)
-        );
+        )
+    }
+
+    /// Why the steps are many: the stiffness estimate (DOPRI5) or the step size, and the driver's gains that
+    /// set the closed loop's speed; `raise` names the option that lifts the limit.
+    fn diagnosis(&self, s: &StepState, raise: &str) -> String {
+        let gains = format!("{}, or raise {raise}", self.gains_hint());
         let accepted = s.stats.accepted.max(1);
         match self.method {
             Method::Dopri5 if s.stats.stability_limited * 2 >= accepted => format!(

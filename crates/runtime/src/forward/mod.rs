@@ -318,9 +318,17 @@ fn drive<M: InverseModel + ?Sized, I: Integrator>(
             stepper.restart();
             continue;
         }
-        let t_new = stepper.step_to(t, target, z, &mut |s, zz: &[f64], dz: &mut [f64]| {
-            lp.rhs(seg, s, zz, dz)
-        })?;
+        let t_new = stepper
+            .step_to(t, target, z, &mut |s, zz: &[f64], dz: &mut [f64]| {
+                lp.rhs(seg, s, zz, dz)
+            })
+            .map_err(|e| match e {
+                ForwardError::Integration { t, reason } => ForwardError::Integration {
+                    t,
+                    reason: format!("{reason}; {}", budget.gains_hint()),
+                },
+                e => e,
+            })?;
         budget.check(t_new, &stepper.step_state())?;
         // The grid samples t_k ≤ t_new, from the dense output; a sample on the segment's end belongs to the
         // next segment (the raw cycle's slope is taken from the right).
