@@ -133,6 +133,13 @@ fn parse_set(s: &str) -> Result<(String, f64), Failure> {
             "--set `{s}`: the value must be finite"
         )));
     }
+    let mantissa = value.trim().split(['e', 'E']).next().unwrap_or("");
+    if v == 0.0 && mantissa.bytes().any(|b| (b'1'..=b'9').contains(&b)) {
+        return Err(Failure::user(format!(
+            "--set `{s}`: `{}` is out of range: it underflows to 0 (below 5e-324, the smallest number)",
+            value.trim()
+        )));
+    }
     Ok((name.trim().to_string(), v))
 }
 

@@ -3,7 +3,8 @@
 //!
 //! Before the run ([`Outputs::plan`]) every output path is resolved to a canonical path — through symbolic
 //! links and `..`; for a file that does not exist yet, the canonical parent directory joined with the file
-//! name — and refused (exit 2) when it is an input of the run (the model file, a cycle file), when two outputs
+//! name — and refused (exit 2) when it is an input of the run (the model file, a cycle file; also through a
+//! hard link: same device and inode), when two outputs
 //! name the same file, when it is a directory or its directory does not exist, or when no file can be created
 //! in that directory. A regular file is written to a temporary file next to its target (`.NAME.invsim-PID.tmp`,
 //! created at the check) and renamed into place only by [`Outputs::commit`], once the run and every write have
@@ -80,6 +81,12 @@ fn canonical_output(flag: &str, path: &Path) -> Result<PathBuf, Failure> {
     Ok(dir.join(name))
 }
 
+/// The device and inode of an existing file (a hard link to an input is that input too).
+fn file_id(path: &Path) -> Option<(u64, u64)> {
+    use std::os::unix::fs::MetadataExt;
+    std::fs::metadata(path).ok().map(|m| (m.dev(), m.ino()))
+}
+
 /// True if `path` (links followed) is a character device or a FIFO.
 fn is_device(path: &Path) -> bool {
     std::fs::metadata(path).is_ok_and(|m| m.file_type().is_char_device() || m.file_type().is_fifo())
@@ -151,7 +158,11 @@ impl Outputs {
                 continue;
             }
             let canon = canonical_output(flag, path)?;
-            if let Some((what, p, _)) = inputs.iter().find(|(_, _, c)| *c == canon) {
+            let id = file_id(&canon);
+            if let Some((what, p, _)) = inputs
+                .iter()
+                .find(|(_, _, c)| *c == canon || (id.is_some() && file_id(c) == id))
+            {
                 return Err(Failure::user(format!(
                     "refusing to write {flag} `{}`: it is the {what} `{}`, an input of this run; choose another \
                      file name",

@@ -116,3 +116,26 @@ fn a_failed_run_leaves_the_old_outputs_and_no_temporary() {
     assert_eq!(std::fs::read_to_string(&out).unwrap(), "precious\n");
     assert_eq!(names(&d), ["a.csv"]);
 }
+
+#[test]
+fn an_output_that_is_a_hard_link_to_an_input_is_refused() {
+    let d = dir("hardlink");
+    let model = d.join("m.toml");
+    std::fs::copy(root().join("models/si_engine.toml"), &model).unwrap();
+    let before = std::fs::read(&model).unwrap();
+    std::fs::hard_link(&model, d.join("alias.csv")).unwrap();
+    for cmd in ["simulate", "forward"] {
+        let o = invsim(&[
+            cmd,
+            model.to_str().unwrap(),
+            "--cycle",
+            "ece",
+            "--out",
+            d.join("alias.csv").to_str().unwrap(),
+        ]);
+        assert_eq!(o.status.code(), Some(2), "{cmd}: {}", stderr(&o));
+        assert!(stderr(&o).contains("the model file"), "{}", stderr(&o));
+    }
+    assert_eq!(std::fs::read(&model).unwrap(), before);
+    assert_eq!(names(&d), ["alias.csv", "m.toml"]);
+}

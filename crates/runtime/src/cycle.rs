@@ -62,11 +62,12 @@ pub enum CycleError {
          --max-cycle-bytes if the file really is a drive cycle)"
     )]
     TooLarge { file: String, max: u64 },
-    /// A finite but physically absurd speed or time.
+    /// A finite but physically absurd speed or time (`what`: "speed" in m/s or "time" in s; the limits are
+    /// [`MAX_SPEED_MPS`] and [`MAX_TIME_S`]).
     #[error(
-        "{file}: line {line} (data row {row}), column `{column}`: {what} {} {unit} is beyond the limit of {} {unit}; \
-         expected {expected}",
-        num(*value), num(*max)
+        "{file}: line {line} (data row {row}), column `{column}`: {what} {} {unit} is beyond the limit of {} \
+         {unit}; expected {expected}",
+        num(*value), num(bound(what).1), unit = bound(what).2, expected = bound(what).3
     )]
     Absurd {
         file: String,
@@ -75,9 +76,6 @@ pub enum CycleError {
         column: String,
         what: &'static str,
         value: f64,
-        max: f64,
-        unit: &'static str,
-        expected: &'static str,
     },
     /// The cycle lasts (almost) no time.
     #[error(
@@ -734,10 +732,9 @@ impl RowAt<'_> {
         }
     }
 
-    /// `Err(Absurd)` for a finite `value` of `col` beyond `max` in magnitude.
-    fn bounded(&self, col: &Column, value: f64, bound: Bound) -> Result<(), CycleError> {
-        let (what, max, unit, expected) = bound;
-        if value.abs() <= max {
+    /// `Err(Absurd)` for a finite `value` of `col` beyond the bound of `what` in magnitude.
+    fn bounded(&self, col: &Column, value: f64, what: &'static str) -> Result<(), CycleError> {
+        if value.abs() <= bound(what).1 {
             return Ok(());
         }
         Err(CycleError::Absurd {
@@ -747,9 +744,6 @@ impl RowAt<'_> {
             column: printable(&col.name),
             what,
             value,
-            max,
-            unit,
-            expected,
         })
     }
 }
@@ -757,15 +751,19 @@ impl RowAt<'_> {
 /// A physical bound: what, the largest magnitude, its unit, what is expected.
 type Bound = (&'static str, f64, &'static str, &'static str);
 
-/// Bound of a time in a cycle file.
-const TIME_BOUND: Bound = ("time", MAX_TIME_S, "s", "a time in seconds");
-/// Bound of a speed in a cycle file (after the conversion to m/s).
-const SPEED_BOUND: Bound = (
-    "speed",
-    MAX_SPEED_MPS,
-    "m/s",
-    "a vehicle's speed (check the column's unit)",
-);
+/// The bound of a time ("time") or a speed ("speed", after the conversion to m/s) in a cycle file.
+fn bound(what: &str) -> Bound {
+    if what == "time" {
+        ("time", MAX_TIME_S, "s", "a time in seconds")
+    } else {
+        (
+            "speed",
+            MAX_SPEED_MPS,
+            "m/s",
+            "a vehicle's speed (check the column's unit)",
+        )
+    }
+}
 
 /// `text` for a message: control characters (a NUL byte) escaped, at most 40 characters.
 fn printable(text: &str) -> String {
@@ -809,9 +807,9 @@ impl Samples {
             });
         }
         let t = at.number(record, &cols.time)?;
-        at.bounded(&cols.time, t, TIME_BOUND)?;
+        at.bounded(&cols.time, t, "time")?;
         let v = at.number(record, &cols.speed)?;
-        at.bounded(&cols.speed, cols.unit.to_mps(v), SPEED_BOUND)?;
+        at.bounded(&cols.speed, cols.unit.to_mps(v), "speed")?;
         let g = cols
             .grade
             .as_ref()

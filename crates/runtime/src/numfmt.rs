@@ -57,7 +57,7 @@ mod tests {
         assert_eq!(num(123_456_789.123), "1.23457e8");
         assert_eq!(num(12_345_678.0), "1.23457e7");
         assert_eq!(num(1e9), "1e9");
-        assert_eq!(num(-0.33333333333333331), "-0.333333");
+        assert_eq!(num(-1.0 / 3.0), "-0.333333");
         assert_eq!(num(5e-324), "4.94066e-324");
         assert_eq!(num(f64::MAX), "1.79769e308");
         for v in [1e-320, 7.0e22, 0.1 + 0.2, 1e15 / 3.0] {

@@ -90,6 +90,8 @@ pub struct Dopri5 {
     /// Where and with which state the last failure happened (for diagnostics).
     pub t_fail: f64,
     pub y_fail: Vec<f64>,
+    /// The leading components that enter the error norm and the stiffness test (all by default).
+    n_err: usize,
 }
 
 const C2: f64 = 1.0 / 5.0;
@@ -156,7 +158,16 @@ impl Dopri5 {
             stats: OdeStats::default(),
             t_fail: 0.0,
             y_fail: vec![0.0; n],
+            n_err: n,
         }
+    }
+
+    /// Only the first `m` components enter the error norm and the stiffness test; the others (quadrature
+    /// states Q' = o(t, y) that nothing depends on) are integrated along with the same steps, so appending
+    /// them leaves the solution of the first `m` unchanged.
+    pub fn error_components(mut self, m: usize) -> Self {
+        self.n_err = m;
+        self
     }
 
     /// Forget the FSAL stage and the step size (after a jump in the state).
@@ -285,6 +296,7 @@ impl Dopri5 {
         let [r1, r2, r3, r4, r5] = &mut self.rcont;
         // Stiffness: h·ρ ≈ h‖k7 − k6‖ / ‖ŷ − y₆‖, y₆ the argument of the 6th stage (both at t + h).
         let (mut num, mut den) = (0.0, 0.0);
+        let m = self.n_err.min(n);
         for i in 0..n {
             let ydiff = self.y_new[i] - y[i];
             let bspl = h * k1[i] - ydiff;
@@ -294,8 +306,10 @@ impl Dopri5 {
             r4[i] = ydiff - h * k7[i] - bspl;
             r5[i] =
                 h * (D1 * k1[i] + D3 * k3[i] + D4 * k4[i] + D5 * k5[i] + D6 * k6[i] + D7 * k7[i]);
-            num += (k7[i] - k6[i]) * (k7[i] - k6[i]);
-            den += (self.y_new[i] - self.y_stage[i]) * (self.y_new[i] - self.y_stage[i]);
+            if i < m {
+                num += (k7[i] - k6[i]) * (k7[i] - k6[i]);
+                den += (self.y_new[i] - self.y_stage[i]) * (self.y_new[i] - self.y_stage[i]);
+            }
         }
         self.last_h_rho = if den > 0.0 {
             h * (num / den).sqrt()
@@ -375,13 +389,14 @@ impl Dopri5 {
         f(t + h, yn, k7)?;
         self.stats.evaluations += 6;
         let mut sum = 0.0;
-        for i in 0..n {
+        let m = self.n_err.min(n);
+        for i in 0..m {
             let e =
                 h * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i]);
             let sc = self.atol + self.rtol * y[i].abs().max(yn[i].abs());
             sum += (e / sc) * (e / sc);
         }
-        let err = (sum / n.max(1) as f64).sqrt();
+        let err = (sum / m.max(1) as f64).sqrt();
         Ok(if err.is_finite() { err } else { f64::NAN })
     }
 }
@@ -419,6 +434,8 @@ pub struct Rosenbrock23 {
     h_old: f64,
     y_old: Vec<f64>,
     pub stats: OdeStats,
+    /// The leading components that enter the error norm (all by default).
+    n_err: usize,
 }
 
 const RB_D: f64 = 0.292_893_218_813_452_5; // 1/(2 + √2)
@@ -447,7 +464,14 @@ impl Rosenbrock23 {
             h_old: 0.0,
             y_old: vec![0.0; n],
             stats: OdeStats::default(),
+            n_err: n,
         }
+    }
+
+    /// Only the first `m` components enter the error norm (see [`Dopri5::error_components`]).
+    pub fn error_components(mut self, m: usize) -> Self {
+        self.n_err = m;
+        self
     }
 
     /// Forget f(t, y) but keep the step size (after a jump in the right-hand side).
@@ -633,12 +657,13 @@ impl Rosenbrock23 {
             return Ok(f64::INFINITY);
         }
         let mut sum = 0.0;
-        for i in 0..n {
+        let m = self.n_err.min(n);
+        for i in 0..m {
             let e = h / 6.0 * (self.k1[i] - 2.0 * self.k2[i] + self.k3[i]);
             let sc = self.atol + self.rtol * y[i].abs().max(self.y_new[i].abs());
             sum += (e / sc) * (e / sc);
         }
-        let err = (sum / n.max(1) as f64).sqrt();
+        let err = (sum / m.max(1) as f64).sqrt();
         Ok(if err.is_finite() { err } else { f64::INFINITY })
     }
 

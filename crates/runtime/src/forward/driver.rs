@@ -133,7 +133,8 @@ impl<M: InverseModel + ?Sized> Loop<'_, M> {
     /// dz/dt of the closed loop, z = (x, I, Q_1 … Q_m, D): x' = f(x) + g(x) u_a and I' = K_i e + (Δa)/T_t,
     /// Δa = β (u_a − u) / ω^(r−1) the part of the request the clipped input cannot deliver (back-calculation);
     /// the quadrature states Q_i' = o_i(x, u_a) (the accumulated outputs) and D' = y = h(x) make the solver
-    /// integrate ∫ o_i dt and ∫ y dt with its own error control, independent of the output grid.
+    /// integrate ∫ o_i dt and ∫ y dt with its own steps (5th order for DOPRI5), independent of the output
+    /// grid; they stay out of the error control, so the closed loop takes the steps it takes without them.
     pub(super) fn rhs(
         &mut self,
         seg: usize,

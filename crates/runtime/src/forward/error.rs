@@ -23,14 +23,15 @@ pub enum ForwardError {
     #[error("invalid {what} = {}: it must be > 0 (and finite)", num(*value))]
     InvalidBudget { what: &'static str, value: f64 },
     #[error(
-        "the integration used up its budget of {steps} steps ({how}) and reached only t = {} s of {} s; \
-         {diagnosis}",
+        "the integration would exceed its budget of {max} steps ({how}): after {steps} steps it reached only \
+         t = {} s of {} s; {diagnosis}",
         num(*t), num(*t_end)
     )]
     StepBudget {
         t: f64,
         t_end: f64,
         steps: usize,
+        max: usize,
         how: String,
         diagnosis: String,
     },

@@ -145,17 +145,18 @@ pub fn forward<M: InverseModel + ?Sized>(
     z.resize(z.len() + lp.accumulate.len() + 1, 0.0);
     let layout = Layout::new(model, &x0);
     let mut rec = Recorder::new(info, cycle, &grid, &layout, opts);
-    let (nz, h0) = (z.len(), opts.dt.min(0.01));
+    // The error control and the stiffness test see (x, I) only: the quadrature states ride along.
+    let (nz, n_err, h0) = (z.len(), info.n_states() + 1, opts.dt.min(0.01));
     // The method is chosen once here; the run is generic over it.
     let start = (seg0, t0);
-    let budget = Budget::new(opts, duration, grid.time(grid.n));
+    let budget = Budget::new(opts, duration, (t0, grid.time(grid.n)));
     let stats = match opts.method {
         Method::Rosenbrock23 => {
-            let mut s = Rosenbrock23::new(nz, opts.rtol, opts.atol, h0);
+            let mut s = Rosenbrock23::new(nz, opts.rtol, opts.atol, h0).error_components(n_err);
             drive(&mut s, &mut lp, &mut rec, (&grid, &budget), start, &mut z)?
         }
         Method::Dopri5 => {
-            let mut s = Dopri5::new(nz, opts.rtol, opts.atol, h0);
+            let mut s = Dopri5::new(nz, opts.rtol, opts.atol, h0).error_components(n_err);
             drive(&mut s, &mut lp, &mut rec, (&grid, &budget), start, &mut z)?
         }
     };
@@ -318,9 +319,17 @@ fn drive<M: InverseModel + ?Sized, I: Integrator>(
             stepper.restart();
             continue;
         }
-        let t_new = stepper.step_to(t, target, z, &mut |s, zz: &[f64], dz: &mut [f64]| {
-            lp.rhs(seg, s, zz, dz)
-        })?;
+        let t_new = stepper
+            .step_to(t, target, z, &mut |s, zz: &[f64], dz: &mut [f64]| {
+                lp.rhs(seg, s, zz, dz)
+            })
+            .map_err(|e| match e {
+                ForwardError::Integration { t, reason } => ForwardError::Integration {
+                    t,
+                    reason: format!("{reason}; {}", budget.gains_hint()),
+                },
+                e => e,
+            })?;
         budget.check(t_new, &stepper.step_state())?;
         // The grid samples t_k ≤ t_new, from the dense output; a sample on the segment's end belongs to the
         // next segment (the raw cycle's slope is taken from the right).

@@ -11,7 +11,8 @@ use crate::stable::StableError;
 #[derive(Debug, Error)]
 pub enum SimulateError {
     #[error(
-        "invalid look-ahead a = {} s: the kernel half-width must be > 0 and finite (seconds)",
+        "invalid look-ahead a = {} s: the kernel half-width (--lookahead) must be a positive, finite number of \
+         seconds",
         num(*.0)
     )]
     InvalidLookahead(f64),
