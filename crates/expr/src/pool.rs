@@ -273,56 +273,78 @@ impl Pool {
     /// The canonical total order on expressions: structural, independent of creation order, so printed and
     /// generated output is deterministic. Numbers first, then π, symbols by name, powers (by base, then
     /// exponent), products, sums and function calls.
+    ///
+    /// Lexicographic over the two trees, with an explicit stack of pairs still to compare (no recursion, so
+    /// the depth of the expressions does not matter).
     pub fn cmp_expr(&self, a: Id, b: Id) -> Ordering {
-        if a == b {
-            return Ordering::Equal;
+        /// A pair still to compare, or an ordering that decides once every pair above it is equal.
+        enum Item {
+            Pair(Id, Id),
+            Then(Ordering),
         }
-        let (na, nb) = (self.node(a), self.node(b));
-        // A power sorts next to its base: x < x^2 < y.
-        let base = |n: &Node, id: Id| match n {
-            Node::Pow(b, _) => *b,
-            _ => id,
-        };
-        let (ba, bb) = (base(na, a), base(nb, b));
-        if ba != bb && (matches!(na, Node::Pow(..)) || matches!(nb, Node::Pow(..))) {
-            return self.cmp_expr(ba, bb);
-        }
-        Self::rank(na)
-            .cmp(&Self::rank(nb))
-            .then_with(|| match (na, nb) {
+        let mut stack = vec![Item::Pair(a, b)];
+        while let Some(item) = stack.pop() {
+            let (a, b) = match item {
+                Item::Then(o) if o != Ordering::Equal => return o,
+                Item::Then(_) => continue,
+                Item::Pair(a, b) if a == b => continue,
+                Item::Pair(a, b) => (a, b),
+            };
+            let (na, nb) = (self.node(a), self.node(b));
+            // A power sorts next to its base: x < x^2 < y.
+            let base = |n: &Node, id: Id| match n {
+                Node::Pow(b, _) => *b,
+                _ => id,
+            };
+            let (ba, bb) = (base(na, a), base(nb, b));
+            if ba != bb && (matches!(na, Node::Pow(..)) || matches!(nb, Node::Pow(..))) {
+                stack.push(Item::Pair(ba, bb));
+                continue;
+            }
+            let o = Self::rank(na).cmp(&Self::rank(nb));
+            if o != Ordering::Equal {
+                return o;
+            }
+            // After the structure: a power of a base after the base itself, then creation order.
+            stack.push(Item::Then(a.cmp(&b)));
+            stack.push(Item::Then(match (na, nb) {
+                (Node::Pow(..), _) if ba == b => Ordering::Greater,
+                (_, Node::Pow(..)) if bb == a => Ordering::Less,
+                _ => Ordering::Equal,
+            }));
+            let o = match (na, nb) {
                 (Node::Num(x), Node::Num(y)) => x.cmp_value(y),
                 (Node::Sym(x), Node::Sym(y)) => self.symbol_name(*x).cmp(self.symbol_name(*y)),
-                (Node::Pow(b1, e1), Node::Pow(b2, e2)) => self
-                    .cmp_expr(*b1, *b2)
-                    .then_with(|| self.cmp_expr(*e1, *e2)),
+                (Node::Pow(b1, e1), Node::Pow(b2, e2)) => {
+                    stack.push(Item::Pair(*e1, *e2));
+                    stack.push(Item::Pair(*b1, *b2));
+                    Ordering::Equal
+                }
                 (Node::Add(x), Node::Add(y)) | (Node::Mul(x), Node::Mul(y)) => {
-                    // Compare from the most significant (last) term, like polynomial degree order.
-                    for (p, q) in x.iter().rev().zip(y.iter().rev()) {
-                        let o = self.cmp_expr(*p, *q);
-                        if o != Ordering::Equal {
-                            return o;
-                        }
-                    }
-                    x.len().cmp(&y.len())
+                    // Compare from the most significant (last) term, like polynomial degree order; then
+                    // the shorter first.
+                    stack.push(Item::Then(x.len().cmp(&y.len())));
+                    let pairs = x.iter().rev().zip(y.iter().rev());
+                    let pairs: Vec<(Id, Id)> = pairs.map(|(p, q)| (*p, *q)).collect();
+                    stack.extend(pairs.into_iter().rev().map(|(p, q)| Item::Pair(p, q)));
+                    Ordering::Equal
                 }
                 (Node::Call(f, x), Node::Call(g, y)) => {
-                    f.cmp(g).then_with(|| self.cmp_expr(*x, *y))
+                    stack.push(Item::Pair(*x, *y));
+                    f.cmp(g)
                 }
-                (Node::Call2(f, x1, x2), Node::Call2(g, y1, y2)) => f
-                    .cmp(g)
-                    .then_with(|| self.cmp_expr(*x1, *y1))
-                    .then_with(|| self.cmp_expr(*x2, *y2)),
+                (Node::Call2(f, x1, x2), Node::Call2(g, y1, y2)) => {
+                    stack.push(Item::Pair(*x2, *y2));
+                    stack.push(Item::Pair(*x1, *y1));
+                    f.cmp(g)
+                }
                 _ => Ordering::Equal,
-            })
-            .then_with(|| {
-                // A power of a base after the base itself.
-                match (na, nb) {
-                    (Node::Pow(..), _) if ba == b => Ordering::Greater,
-                    (_, Node::Pow(..)) if bb == a => Ordering::Less,
-                    _ => Ordering::Equal,
-                }
-            })
-            .then(a.cmp(&b))
+            };
+            if o != Ordering::Equal {
+                return o;
+            }
+        }
+        Ordering::Equal
     }
 
     // ----- sums ---------------------------------------------------------------------------------------
