@@ -22,6 +22,9 @@ pub struct ExpansionTooLarge(pub usize);
 /// lengths, so on larger ones it would spend its time printing.
 const TIDY_MAX_WRITTEN: u64 = 10_000;
 
+/// Deepest product that [`Pool::tidy`] tries to distribute (printing recurses).
+const TIDY_MAX_DEPTH: u32 = 100;
+
 /// Hard limit on the number of terms [`Pool::expand`] may produce.
 pub const EXPAND_TERM_LIMIT: usize = 20_000;
 
@@ -372,7 +375,7 @@ impl Pool {
             }
         };
         // Only where printing is cheap: the comparison prints both forms.
-        let printable = self.written_size(r) <= TIDY_MAX_WRITTEN && self.printable(r).is_ok();
+        let printable = self.written_size(r) <= TIDY_MAX_WRITTEN && self.depth(r) <= TIDY_MAX_DEPTH;
         if let (Node::Mul(fs), true) = (self.node(r).clone(), printable) {
             let best = self.display(r).len();
             for (i, &f) in fs.iter().enumerate() {

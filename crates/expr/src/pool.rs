@@ -273,56 +273,77 @@ impl Pool {
     /// The canonical total order on expressions: structural, independent of creation order, so printed and
     /// generated output is deterministic. Numbers first, then π, symbols by name, powers (by base, then
     /// exponent), products, sums and function calls.
+    ///
+    /// Lexicographic over the two trees, with an explicit stack of pairs still to compare (no recursion, so
+    /// the depth of the expressions does not matter). Two distinct nodes never compare equal (creation
+    /// order breaks ties between equal numbers of different kinds), so a compound node is decided by the
+    /// first pair of distinct children, and only sums and products of different lengths need more.
     pub fn cmp_expr(&self, a: Id, b: Id) -> Ordering {
-        if a == b {
-            return Ordering::Equal;
+        /// A pair still to compare, or an ordering that decides once every pair above it is equal.
+        enum Item {
+            Pair(Id, Id),
+            Then(Ordering),
         }
-        let (na, nb) = (self.node(a), self.node(b));
-        // A power sorts next to its base: x < x^2 < y.
-        let base = |n: &Node, id: Id| match n {
-            Node::Pow(b, _) => *b,
-            _ => id,
-        };
-        let (ba, bb) = (base(na, a), base(nb, b));
-        if ba != bb && (matches!(na, Node::Pow(..)) || matches!(nb, Node::Pow(..))) {
-            return self.cmp_expr(ba, bb);
-        }
-        Self::rank(na)
-            .cmp(&Self::rank(nb))
-            .then_with(|| match (na, nb) {
-                (Node::Num(x), Node::Num(y)) => x.cmp_value(y),
-                (Node::Sym(x), Node::Sym(y)) => self.symbol_name(*x).cmp(self.symbol_name(*y)),
-                (Node::Pow(b1, e1), Node::Pow(b2, e2)) => self
-                    .cmp_expr(*b1, *b2)
-                    .then_with(|| self.cmp_expr(*e1, *e2)),
+        let mut stack: Vec<Item> = Vec::new();
+        let mut next = Some((a, b));
+        loop {
+            let (a, b) = match next.take() {
+                Some(p) => p,
+                None => match stack.pop() {
+                    None => return Ordering::Equal,
+                    Some(Item::Then(Ordering::Equal)) => continue,
+                    Some(Item::Then(o)) => return o,
+                    Some(Item::Pair(a, b)) => (a, b),
+                },
+            };
+            if a == b {
+                continue;
+            }
+            let (na, nb) = (self.node(a), self.node(b));
+            // A power sorts next to its base: x < x^2 < y.
+            let base = |n: &Node, id: Id| match n {
+                Node::Pow(b, _) => *b,
+                _ => id,
+            };
+            let (ba, bb) = (base(na, a), base(nb, b));
+            if ba != bb && (matches!(na, Node::Pow(..)) || matches!(nb, Node::Pow(..))) {
+                next = Some((ba, bb));
+                continue;
+            }
+            let o = Self::rank(na).cmp(&Self::rank(nb));
+            if o != Ordering::Equal {
+                return o;
+            }
+            match (na, nb) {
+                (Node::Pow(b1, e1), Node::Pow(b2, e2)) => {
+                    stack.push(Item::Pair(*e1, *e2));
+                    next = Some((*b1, *b2));
+                }
                 (Node::Add(x), Node::Add(y)) | (Node::Mul(x), Node::Mul(y)) => {
-                    // Compare from the most significant (last) term, like polynomial degree order.
-                    for (p, q) in x.iter().rev().zip(y.iter().rev()) {
-                        let o = self.cmp_expr(*p, *q);
-                        if o != Ordering::Equal {
-                            return o;
-                        }
-                    }
-                    x.len().cmp(&y.len())
+                    // From the most significant (last) term, like polynomial degree order; then the
+                    // shorter first.
+                    stack.push(Item::Then(x.len().cmp(&y.len())));
+                    let k = x.len().min(y.len());
+                    let pairs = x[x.len() - k..].iter().zip(&y[y.len() - k..]);
+                    stack.extend(pairs.map(|(p, q)| Item::Pair(*p, *q)));
                 }
-                (Node::Call(f, x), Node::Call(g, y)) => {
-                    f.cmp(g).then_with(|| self.cmp_expr(*x, *y))
+                (Node::Call(f, x), Node::Call(g, y)) if f == g => next = Some((*x, *y)),
+                (Node::Call2(f, x1, x2), Node::Call2(g, y1, y2)) if f == g => {
+                    stack.push(Item::Pair(*x2, *y2));
+                    next = Some((*x1, *y1));
                 }
-                (Node::Call2(f, x1, x2), Node::Call2(g, y1, y2)) => f
-                    .cmp(g)
-                    .then_with(|| self.cmp_expr(*x1, *y1))
-                    .then_with(|| self.cmp_expr(*x2, *y2)),
-                _ => Ordering::Equal,
-            })
-            .then_with(|| {
-                // A power of a base after the base itself.
-                match (na, nb) {
-                    (Node::Pow(..), _) if ba == b => Ordering::Greater,
-                    (_, Node::Pow(..)) if bb == a => Ordering::Less,
-                    _ => Ordering::Equal,
+                (Node::Call(f, _), Node::Call(g, _)) => return f.cmp(g),
+                (Node::Call2(f, ..), Node::Call2(g, ..)) => return f.cmp(g),
+                (Node::Num(x), Node::Num(y)) => return x.cmp_value(y).then(a.cmp(&b)),
+                (Node::Sym(x), Node::Sym(y)) => {
+                    return self
+                        .symbol_name(*x)
+                        .cmp(self.symbol_name(*y))
+                        .then(a.cmp(&b))
                 }
-            })
-            .then(a.cmp(&b))
+                _ => return a.cmp(&b),
+            }
+        }
     }
 
     // ----- sums ---------------------------------------------------------------------------------------
