@@ -8,7 +8,7 @@
 //! numerics); `error`, [`grid`] and `report` (what both simulations share: errors, the output grid, the
 //! summary blocks and formatting); [`stable`] (stable inversion of unstable zero dynamics); [`inverse`] (the
 //! inverse simulation, using `stable`) and [`forward`](mod@forward) (the forward simulation); [`output`] and [`plot`]
-//! (writing results).
+//! (writing results); [`sweep`] (parameter sweeps over many variants, on `inverse`).
 
 pub mod cycle;
 mod error;
@@ -22,6 +22,7 @@ pub mod plot;
 mod report;
 pub mod smoother;
 pub mod stable;
+pub mod sweep;
 
 /// The inverse simulation under its former module name.
 pub use inverse as simulate;
@@ -39,3 +40,4 @@ pub use kernel::Kernel;
 pub use report::{CycleInfo, Totals};
 pub use smoother::Smoother;
 pub use stable::{StableError, ZeroDynamicsClass};
+pub use sweep::{Figures, Sweep, SweepBuilder, SweepError, SweepResult, SweepRow};

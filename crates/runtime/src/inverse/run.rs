@@ -5,6 +5,7 @@ use invsim_model_api::{InverseModel, ModelInfo};
 use super::error::SimulateError;
 use super::inverter::{Block, Inverter};
 use super::options::SimulationOptions;
+use super::reference::Reference;
 use super::result::SimulationResult;
 use super::summary::{InputBeforeStart, StableInversionStats, Summary};
 use super::verify::verify_forward;
@@ -192,6 +193,7 @@ fn run_blocks<M: InverseModel + ?Sized>(
     tally: &mut Tally,
     data: &mut [Vec<f64>],
     keep: bool,
+    shared: Option<&[Vec<f64>]>,
 ) -> Result<(), SimulateError> {
     let info = model.info();
     let samples = grid.samples();
@@ -215,7 +217,15 @@ fn run_blocks<M: InverseModel + ?Sized>(
             }
         }
         let mut b = split(&mut cols, k0, info);
-        smoother.eval_grid(b.time, Some(grid.dt), b.yd);
+        match shared {
+            // The reference computed once for all runs on this grid (the same blocks, the same numbers).
+            Some(yd) => {
+                for (c, s) in b.yd.iter_mut().zip(yd) {
+                    c.copy_from_slice(&s[k0..k1]);
+                }
+            }
+            None => smoother.eval_grid(b.time, Some(grid.dt), b.yd),
+        }
         inverter.fill(&mut b)?;
         {
             let xs: Vec<&[f64]> = b.x.iter().map(|c| &**c).collect();
@@ -250,11 +260,56 @@ fn check_finite<M: InverseModel + ?Sized>(
     ))
 }
 
+/// y_d … y_d^(r) on the cycle's grid, evaluated over the blocks [`run_blocks`] uses.
+fn reference_columns(smoother: &Smoother, grid: &Grid, r: usize) -> Vec<Vec<f64>> {
+    let samples = grid.samples();
+    let time: Vec<f64> = (0..samples).map(|k| grid.time(k)).collect();
+    let mut yd = vec![vec![0.0; samples]; r + 1];
+    let mut k0 = 0;
+    while k0 < samples {
+        let k1 = (k0 + BLOCK).min(samples);
+        let mut cols: Vec<&mut [f64]> = yd.iter_mut().map(|c| &mut c[k0..k1]).collect();
+        smoother.eval_grid(&time[k0..k1], Some(grid.dt), &mut cols);
+        k0 = k1;
+    }
+    yd
+}
+
+/// The smoothed reference of `cycle` for runs of models with relative degree `r` and reference map `map`
+/// with `opts`' look-ahead and dt (see [`Reference`]).
+pub(super) fn reference(
+    cycle: &Cycle,
+    map: invsim_model_api::ReferenceMap,
+    r: usize,
+    opts: &SimulationOptions,
+) -> Result<Reference, SimulateError> {
+    opts.validate()?;
+    if r + 1 > MAX_DERIVATIVES {
+        return Err(SimulateError::RelativeDegreeTooHigh {
+            relative_degree: r,
+            max: MAX_DERIVATIVES - 1,
+        });
+    }
+    let (t0, duration) = check_cycle(cycle)?;
+    let grid = Grid::new(t0, duration, opts.dt)?;
+    let smoother = Smoother::new(cycle, opts.lookahead)?.with_reference(map);
+    let yd = reference_columns(&smoother, &grid, r);
+    Ok(Reference {
+        smoother,
+        cycle: cycle.name.clone(),
+        lookahead: opts.lookahead,
+        grid,
+        yd,
+    })
+}
+
+/// The inverse run; `shared` is a reference computed beforehand, used where it fits the model and options.
 pub(super) fn run<M: InverseModel + ?Sized>(
     model: &M,
     cycle: &Cycle,
     opts: &SimulationOptions,
     spare: Vec<Vec<f64>>,
+    shared: Option<&Reference>,
 ) -> Result<SimulationResult, SimulateError> {
     opts.validate()?;
     let info = model.info();
@@ -269,7 +324,17 @@ pub(super) fn run<M: InverseModel + ?Sized>(
     let mut grid = Grid::new(t0, duration, opts.dt)?;
     let steps = grid.n;
     let eta0 = check_eta0(info, opts)?;
-    let smoother = Smoother::new(cycle, opts.lookahead)?.with_reference(model.reference());
+    let shared = shared.filter(|s| {
+        s.fits(opts.lookahead, opts.dt, r, model.reference()) && s.cycle == cycle.name
+    });
+    let own;
+    let smoother = match shared {
+        Some(s) => &s.smoother,
+        None => {
+            own = Smoother::new(cycle, opts.lookahead)?.with_reference(model.reference());
+            &own
+        }
+    };
 
     // Zero dynamics: classified along the reference; unstable ones are inverted stably (non-causally) on a
     // grid extended by pre- and post-actuation (crate::stable), the series reports the cycle's samples
@@ -283,7 +348,7 @@ pub(super) fn run<M: InverseModel + ?Sized>(
     let zd = stable::plan_run(
         model,
         cycle,
-        &smoother,
+        smoother,
         (t0, grid.time(grid.n), opts.dt),
         &stable_opts,
     )?;
@@ -302,16 +367,17 @@ pub(super) fn run<M: InverseModel + ?Sized>(
     let keep = opts.keep_series || opts.verify;
     let stored = if keep { grid.samples() } else { 0 };
     let mut data = allocate(spare, columns.len(), stored, &grid);
-    let mut inverter = Inverter::new(model, &smoother, grid, &zd, eta0, opts)?;
+    let mut inverter = Inverter::new(model, smoother, grid, &zd, eta0, opts)?;
     let mut tally = Tally::new(info, &grid, window);
     run_blocks(
         model,
-        &smoother,
+        smoother,
         &grid,
         &mut inverter,
         &mut tally,
         &mut data,
         keep,
+        shared.and_then(|s| s.columns_for(&grid)),
     )?;
 
     let run = Finished {

@@ -1,0 +1,2 @@
+//! Sweep benchmark (placeholder).
+fn main() {}
