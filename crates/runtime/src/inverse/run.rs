@@ -324,9 +324,8 @@ pub(super) fn run<M: InverseModel + ?Sized>(
     let mut grid = Grid::new(t0, duration, opts.dt)?;
     let steps = grid.n;
     let eta0 = check_eta0(info, opts)?;
-    let shared = shared.filter(|s| {
-        s.fits(opts.lookahead, opts.dt, r, model.reference()) && s.cycle == cycle.name
-    });
+    let shared = shared
+        .filter(|s| s.fits(opts.lookahead, opts.dt, r, model.reference()) && s.cycle == cycle.name);
     let own;
     let smoother = match shared {
         Some(s) => &s.smoother,

@@ -77,7 +77,12 @@ pub(super) fn run(sweep: &Sweep, progress: &(dyn Fn(usize) + Sync)) -> SweepResu
         };
         jobs.map(|j| job(&mut worker, j)).collect()
     } else {
-        let all = || jobs.clone().into_par_iter().map_init(new_worker, job).collect();
+        let all = || {
+            jobs.clone()
+                .into_par_iter()
+                .map_init(new_worker, job)
+                .collect()
+        };
         match &sweep.pool {
             Some(pool) => pool.install(all),
             None => all(),

@@ -74,7 +74,10 @@ enum Design {
     /// Full factorial over the axes (the last axis varies fastest).
     Grid(Vec<(String, Vec<f64>)>),
     /// One variant per row.
-    Table { names: Vec<String>, rows: Vec<Vec<f64>> },
+    Table {
+        names: Vec<String>,
+        rows: Vec<Vec<f64>>,
+    },
 }
 
 /// Builds a [`Sweep`] (see [`Sweep::new`]); [`SweepBuilder::build`] checks everything once.
@@ -287,7 +290,13 @@ fn grid_values(start: f64, stop: f64, n: usize) -> Result<Vec<f64>, String> {
         _ => {
             let step = (stop - start) / (n - 1) as f64;
             Ok((0..n)
-                .map(|i| if i + 1 == n { stop } else { start + i as f64 * step })
+                .map(|i| {
+                    if i + 1 == n {
+                        stop
+                    } else {
+                        start + i as f64 * step
+                    }
+                })
                 .collect())
         }
     }
@@ -297,7 +306,11 @@ fn grid_values(start: f64, stop: f64, n: usize) -> Result<Vec<f64>, String> {
 fn expand(design: &Design) -> Result<(Vec<String>, Vec<Vec<f64>>), SweepError> {
     match design {
         Design::Table { names, rows } => {
-            if let Some((row, r)) = rows.iter().enumerate().find(|(_, r)| r.len() != names.len()) {
+            if let Some((row, r)) = rows
+                .iter()
+                .enumerate()
+                .find(|(_, r)| r.len() != names.len())
+            {
                 return Err(SweepError::TableWidth {
                     row: row + 1,
                     got: r.len(),
