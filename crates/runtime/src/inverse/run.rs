@@ -106,6 +106,8 @@ struct Tally {
     bounds: [Option<f64>; 2],
     range: [f64; 2],
     violations: Intervals,
+    /// Whether the last sample pushed to `violations` was outside the bounds (an interval is open).
+    outside: bool,
     before_start: Vec<[f64; 2]>,
     window: (usize, usize),
     k0: usize,
@@ -123,6 +125,7 @@ impl Tally {
             bounds: [info.input_min, info.input_max],
             range: [f64::INFINITY, f64::NEG_INFINITY],
             violations: Intervals::default(),
+            outside: false,
             before_start: Vec::with_capacity(grid.k0),
             window,
             k0: grid.k0,
@@ -130,35 +133,65 @@ impl Tally {
         }
     }
 
-    /// Sample i of block `b` (grid index k).
-    fn record(&mut self, b: &Block<'_, '_>, i: usize) {
-        let (k, t, u) = (b.k0 + i, b.time[i], b.u[i]);
-        let (k_lo, k_hi) = self.window;
-        // Pre-actuation (t < t_0) is summarised on its own; samples outside [k_lo, k_hi] are not reported.
-        if k < self.k0 || (k == self.k0 && self.k0 > 0) {
-            self.before_start.push([t, u]);
+    /// The samples of block `b`, in order: the ones before t_0, then those in the window [k_lo, k_hi] (one
+    /// pass per quantity over the block's reported range; every sum in the order of the samples).
+    fn record_block(&mut self, b: &Block<'_, '_>) {
+        let len = b.time.len();
+        // Pre-actuation (t < t_0, and t_0 itself when there is pre-actuation) is summarised on its own.
+        if self.k0 > 0 && b.k0 <= self.k0 {
+            let last = (self.k0 - b.k0).min(len - 1);
+            for i in 0..=last {
+                self.before_start.push([b.time[i], b.u[i]]);
+            }
         }
-        if k < k_lo || k > k_hi {
+        // Samples outside [k_lo, k_hi] are not reported.
+        let (k_lo, k_hi) = self.window;
+        let (first, end) = (k_lo.max(b.k0), (k_hi + 1).min(b.k0 + len));
+        if first >= end {
             return;
         }
-        // Trapezoidal rule over the grid: ∫ o dt ≈ Σ_k dt·(o_k + o_{k+1})/2.
+        let (i0, i1) = (first - b.k0, end - b.k0);
+        // Trapezoidal rule over the grid: ∫ o dt ≈ Σ_k dt·(o_k + o_{k+1})/2, the sum from k_lo on.
+        let h = 0.5 * self.dt;
         for ((acc, prev), &o) in self
             .integrals
             .iter_mut()
             .zip(&mut self.previous)
             .zip(&self.accumulate)
         {
-            let v = b.out[o][i];
-            if k > k_lo {
-                *acc += 0.5 * self.dt * (*prev + v);
+            let column = &b.out[o][i0..i1];
+            let mut p = if first > k_lo { *prev } else { column[0] };
+            let skip = usize::from(first == k_lo);
+            for &v in &column[skip..] {
+                *acc += h * (p + v);
+                p = v;
             }
-            *prev = v;
+            *prev = p;
         }
-        // Input range and bound violations: maximal runs of consecutive samples outside the bounds.
-        self.range = [self.range[0].min(u), self.range[1].max(u)];
-        let [lo, hi] = self.bounds;
-        let outside = lo.is_some_and(|b| u < b) || hi.is_some_and(|b| u > b);
-        self.violations.push(t, outside);
+        self.record_input(&b.time[i0..i1], &b.u[i0..i1]);
+    }
+
+    /// The input's range and its bound violations (maximal runs of consecutive samples outside the bounds)
+    /// over reported samples.
+    fn record_input(&mut self, time: &[f64], u: &[f64]) {
+        let [mut lo, mut hi] = self.range;
+        for &v in u {
+            lo = lo.min(v);
+            hi = hi.max(v);
+        }
+        self.range = [lo, hi];
+        let (below, above) = match self.bounds {
+            [None, None] => return,
+            [l, h] => (l.unwrap_or(f64::NEG_INFINITY), h.unwrap_or(f64::INFINITY)),
+        };
+        for (&t, &v) in time.iter().zip(u) {
+            let outside = v < below || v > above;
+            // Pushing an inside sample changes the intervals only when one is open.
+            if outside || self.outside {
+                self.violations.push(t, outside);
+                self.outside = outside;
+            }
+        }
     }
 }
 
@@ -231,28 +264,46 @@ fn run_blocks<M: InverseModel + ?Sized>(
             let xs: Vec<&[f64]> = b.x.iter().map(|c| &**c).collect();
             model.outputs_batch(&xs, b.u, b.out);
         }
-        for i in 0..len {
-            check_finite(model, &b, i)?;
-            tally.record(&b, i);
-        }
+        check_finite(model, &b)?;
+        tally.record_block(&b);
         k0 = k1;
     }
     Ok(())
 }
 
-/// Sample i of the block must be finite (v·0 is NaN exactly when v is not finite: one test per sample).
+/// NaN exactly when an entry of `c` is not finite: Σ c_i·0 (x·0 is NaN for x = ±∞ or NaN, ±0 otherwise),
+/// summed in eight independent lanes the compiler vectorises.
+fn nan_probe(c: &[f64]) -> f64 {
+    let mut lanes = [0.0_f64; 8];
+    let chunks = c.chunks_exact(8);
+    let rest = chunks.remainder();
+    for chunk in chunks {
+        for (l, &v) in lanes.iter_mut().zip(chunk) {
+            *l += v * 0.0;
+        }
+    }
+    rest.iter()
+        .fold(lanes.iter().sum::<f64>(), |s, &v| s + v * 0.0)
+}
+
+/// Every sample of the block must be finite: one vectorised probe per column (the input, y_d, the states, the
+/// outputs); if one fails, the first sample with a non-finite quantity is the error.
 fn check_finite<M: InverseModel + ?Sized>(
     model: &M,
     b: &Block<'_, '_>,
-    i: usize,
 ) -> Result<(), SimulateError> {
-    let mut probe = b.u[i] * 0.0;
+    let mut probe = nan_probe(b.u);
     for c in b.yd.iter().chain(b.x.iter()).chain(b.out.iter()) {
-        probe += c[i] * 0.0;
+        probe += nan_probe(c);
     }
     if !probe.is_nan() {
         return Ok(());
     }
+    let finite_at = |i: usize| {
+        b.u[i].is_finite()
+            && (b.yd.iter().chain(b.x.iter()).chain(b.out.iter())).all(|c| c[i].is_finite())
+    };
+    let i = (0..b.time.len()).find(|&i| !finite_at(i)).unwrap_or(0);
     let at = |cs: &[&mut [f64]]| cs.iter().map(|c| c[i]).collect::<Vec<f64>>();
     let (yd_i, x_i, eta_i, outs_i) = (at(b.yd), at(b.x), at(b.eta), at(b.out));
     Err(non_finite(
