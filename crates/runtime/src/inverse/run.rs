@@ -214,19 +214,18 @@ fn split<'c, 'd>(cols: &'c mut [&'d mut [f64]], k0: usize, info: &ModelInfo) -> 
     }
 }
 
-/// The run, block by block. Per block of samples: y_d … y_d^(r) on the grid at once
-/// (Smoother::eval_grid); then the inverse ([`Inverter`]); then the extra outputs
-/// (InverseModel::outputs_batch) and the per-sample bookkeeping. With `keep` a block is a view into the
+/// The run, block by block. Per block of samples: y_d … y_d^(r) on the grid at once (Smoother::eval_grid,
+/// or copied from a shared reference's columns where given); then the inverse ([`Inverter`]); then the extra
+/// outputs (InverseModel::outputs_batch) and the bookkeeping (finiteness, integrals, input range, bounds). With `keep` a block is a view into the
 /// result's columns, without it into block-sized scratch columns.
 fn run_blocks<M: InverseModel + ?Sized>(
     model: &M,
-    smoother: &Smoother,
+    (smoother, shared): (&Smoother, Option<&[Vec<f64>]>),
     grid: &Grid,
     inverter: &mut Inverter<'_, M>,
     tally: &mut Tally,
     data: &mut [Vec<f64>],
     keep: bool,
-    shared: Option<&[Vec<f64>]>,
 ) -> Result<(), SimulateError> {
     let info = model.info();
     let samples = grid.samples();
@@ -419,16 +418,8 @@ pub(super) fn run<M: InverseModel + ?Sized>(
     let mut data = allocate(spare, columns.len(), stored, &grid);
     let mut inverter = Inverter::new(model, smoother, grid, &zd, eta0, opts)?;
     let mut tally = Tally::new(info, &grid, window);
-    run_blocks(
-        model,
-        smoother,
-        &grid,
-        &mut inverter,
-        &mut tally,
-        &mut data,
-        keep,
-        shared.and_then(|s| s.columns_for(&grid)),
-    )?;
+    let yd = (smoother, shared.and_then(|s| s.columns_for(&grid)));
+    run_blocks(model, yd, &grid, &mut inverter, &mut tally, &mut data, keep)?;
 
     let run = Finished {
         grid,

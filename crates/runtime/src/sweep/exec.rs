@@ -7,12 +7,34 @@ use rayon::prelude::*;
 
 use super::rows::{Figures, SweepResult, SweepRow};
 use super::Sweep;
-use crate::inverse::simulate_shared;
+use crate::cycle::Cycle;
+use crate::inverse::{simulate_shared, Reference};
 
 /// A worker's model and the column buffers its runs reuse.
 struct Worker {
-    model: Box<dyn InverseModel>,
+    model: Result<Box<dyn InverseModel>, String>,
     spare: Vec<Vec<f64>>,
+}
+
+/// Set the variant's parameters on `model` and run it on `cycle` with the shared `reference`, reusing and
+/// refilling the column buffers `spare`.
+fn run_variant(
+    sweep: &Sweep,
+    model: &mut dyn InverseModel,
+    spare: &mut Vec<Vec<f64>>,
+    (cycle, reference): (&Cycle, &Reference),
+    (params, integrals): (&[f64], &[String]),
+) -> Result<Figures, String> {
+    for (name, &value) in sweep.names.iter().zip(params) {
+        model
+            .set_param(name, value)
+            .map_err(|e| format!("{name} = {value}: {e}"))?;
+    }
+    let buffers = std::mem::take(spare);
+    let result = simulate_shared(&*model, cycle, reference, &sweep.opts, buffers)
+        .map_err(|e| e.to_string())?;
+    *spare = result.data;
+    Ok(Figures::from_summary(&result.summary, integrals))
 }
 
 /// Row `job` (variant job / cycles, cycle job % cycles) on `worker`'s model.
@@ -21,25 +43,16 @@ fn run_one(sweep: &Sweep, worker: &mut Worker, integrals: &[String], job: usize)
     let (variant, c) = (job / n_cycles, job % n_cycles);
     let (cycle, reference) = &sweep.cycles[c];
     let params = &sweep.variants[variant];
-    let mut outcome = Ok(());
-    for (name, &value) in sweep.names.iter().zip(params) {
-        if let Err(e) = worker.model.set_param(name, value) {
-            outcome = Err(format!("--set {name}={value}: {e}"));
-            break;
-        }
-    }
-    let outcome = outcome.and_then(|()| {
-        let spare = std::mem::take(&mut worker.spare);
-        let model = worker.model.as_ref();
-        match simulate_shared(model, cycle, reference, &sweep.opts, spare) {
-            Ok(result) => {
-                let figures = Figures::from_summary(&result.summary, integrals);
-                worker.spare = result.data;
-                Ok(figures)
-            }
-            Err(e) => Err(e.to_string()),
-        }
-    });
+    let outcome = match &mut worker.model {
+        Ok(model) => run_variant(
+            sweep,
+            model.as_mut(),
+            &mut worker.spare,
+            (cycle, reference),
+            (params, integrals),
+        ),
+        Err(e) => Err(e.clone()),
+    };
     SweepRow {
         variant,
         cycle: cycle.name.clone(),
@@ -50,8 +63,7 @@ fn run_one(sweep: &Sweep, worker: &mut Worker, integrals: &[String], job: usize)
 
 /// Every row of `sweep`, in order; `progress` is told the number of finished rows after each.
 pub(super) fn run(sweep: &Sweep, progress: &(dyn Fn(usize) + Sync)) -> SweepResult {
-    let base = (sweep.factory)();
-    let info = base.info().clone();
+    let info = &sweep.info;
     let mut integrals: Vec<String> = info
         .outputs
         .iter()
@@ -72,7 +84,7 @@ pub(super) fn run(sweep: &Sweep, progress: &(dyn Fn(usize) + Sync)) -> SweepResu
     let jobs = 0..sweep.len();
     let rows: Vec<SweepRow> = if sweep.threads == 1 {
         let mut worker = Worker {
-            model: base,
+            model: (sweep.factory)(),
             spare: Vec::new(),
         };
         jobs.map(|j| job(&mut worker, j)).collect()

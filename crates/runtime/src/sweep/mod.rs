@@ -36,14 +36,17 @@ use crate::inverse::{Reference, SimulateError, SimulationOptions};
 
 pub use rows::{Figures, SweepResult, SweepRow};
 
-/// Makes a fresh copy of the swept model at its base parameters (called once per worker thread).
-pub type ModelFactory = Arc<dyn Fn() -> Box<dyn InverseModel> + Send + Sync>;
+/// Makes a fresh copy of the swept model at its base parameters (called once per worker thread), or says why
+/// it cannot.
+pub type ModelFactory = Arc<dyn Fn() -> Result<Box<dyn InverseModel>, String> + Send + Sync>;
 
 /// Why a sweep could not be built.
 #[derive(Debug, Error)]
 pub enum SweepError {
     #[error("a sweep needs at least one cycle")]
     NoCycles,
+    #[error("cannot make the model: {0}")]
+    Model(String),
     #[error("grid axis `{name}`: {reason}")]
     BadAxis { name: String, reason: String },
     #[error("parameter `{name}` is swept twice")]
@@ -60,10 +63,10 @@ pub enum SweepError {
     Reference {
         cycle: String,
         #[source]
-        source: SimulateError,
+        source: Box<SimulateError>,
     },
     #[error(transparent)]
-    Options(#[from] SimulateError),
+    Options(Box<SimulateError>),
     #[error("cannot start {threads} worker threads: {reason}")]
     Threads { threads: usize, reason: String },
 }
@@ -95,6 +98,8 @@ pub struct SweepBuilder {
 /// A checked sweep: the model, the variants, the cycles with their shared references; [`Sweep::run`] runs it.
 pub struct Sweep {
     factory: ModelFactory,
+    /// The model's description (of the copy `build` made).
+    info: invsim_model_api::ModelInfo,
     cycles: Vec<(Cycle, Arc<Reference>)>,
     names: Vec<String>,
     variants: Vec<Vec<f64>>,
@@ -104,12 +109,29 @@ pub struct Sweep {
     pool: Option<rayon::ThreadPool>,
 }
 
+impl From<SimulateError> for SweepError {
+    fn from(e: SimulateError) -> SweepError {
+        SweepError::Options(Box::new(e))
+    }
+}
+
 impl Sweep {
     /// A sweep of the model `factory` makes (`|| invsim_models::builtin("si_engine").unwrap()`, or
     /// [`Sweep::of`] for a model that is `Clone`).
+    // `new` starts the builder, as `Sweep::new(model).cycle(…)….build()?` reads.
+    #[allow(clippy::new_ret_no_self)]
     pub fn new<F>(factory: F) -> SweepBuilder
     where
         F: Fn() -> Box<dyn InverseModel> + Send + Sync + 'static,
+    {
+        Sweep::try_new(move || Ok(factory()))
+    }
+
+    /// [`Sweep::new`] with a factory that may fail: [`SweepBuilder::build`] reports its error, and a worker
+    /// whose copy fails gives rows with that error.
+    pub fn try_new<F>(factory: F) -> SweepBuilder
+    where
+        F: Fn() -> Result<Box<dyn InverseModel>, String> + Send + Sync + 'static,
     {
         SweepBuilder {
             factory: Arc::new(factory),
@@ -238,7 +260,7 @@ impl SweepBuilder {
         opts.verify = self.verify;
         opts.keep_series = false;
         opts.validate()?;
-        let model = (self.factory)();
+        let model = (self.factory)().map_err(SweepError::Model)?;
         let (names, variants) = expand(&self.design)?;
         check_names(model.as_ref(), &names)?;
         let cycles = self
@@ -248,7 +270,7 @@ impl SweepBuilder {
                 let r = crate::inverse::reference(model.as_ref(), &c, &opts).map_err(|source| {
                     SweepError::Reference {
                         cycle: c.name.clone(),
-                        source,
+                        source: Box::new(source),
                     }
                 })?;
                 Ok((c, Arc::new(r)))
@@ -267,6 +289,7 @@ impl SweepBuilder {
             ),
         };
         Ok(Sweep {
+            info: model.info().clone(),
             factory: self.factory,
             cycles,
             names,

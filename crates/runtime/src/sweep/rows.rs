@@ -111,7 +111,7 @@ impl SweepResult {
         match &row.outcome {
             Err(e) => {
                 r.extend(["error".to_string(), e.clone()]);
-                r.extend(std::iter::repeat(String::new()).take(n_figures));
+                r.extend(std::iter::repeat_n(String::new(), n_figures));
             }
             Ok(f) => {
                 r.extend(["ok".to_string(), String::new(), f.samples.to_string()]);
