@@ -179,14 +179,13 @@ fn builder(model: LoadedModel, sets: Vec<(String, f64)>) -> Result<SweepBuilder,
             let params = m.params().to_vec();
             let names = m.info().parameters.clone();
             let hash = m.info().source_hash.clone().unwrap_or_default();
-            Ok(Sweep::new(move || {
-                // Not user data: the model was loaded by this hash, so it is built in.
-                let mut fresh =
-                    invsim_models::by_hash(&hash).expect("a model loaded by hash is built in");
+            Ok(Sweep::try_new(move || {
+                let mut fresh = invsim_models::by_hash(&hash)
+                    .ok_or_else(|| format!("no built-in model has the hash {hash}"))?;
                 for (name, &v) in names.iter().zip(&params) {
-                    let _ = fresh.set_param(name, v);
+                    fresh.set_param(name, v).map_err(|e| e.to_string())?;
                 }
-                fresh
+                Ok(fresh)
             }))
         }
     }

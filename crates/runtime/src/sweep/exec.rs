@@ -5,8 +5,8 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use invsim_model_api::InverseModel;
 use rayon::prelude::*;
 
+use super::plan::Sweep;
 use super::rows::{Figures, SweepResult, SweepRow};
-use super::Sweep;
 use crate::cycle::Cycle;
 use crate::inverse::{simulate_shared, Reference};
 

@@ -24,6 +24,7 @@
 //! series is stored unless `verify` needs one. A variant that fails is a row with its error.
 
 mod exec;
+mod plan;
 mod rows;
 
 use std::sync::Arc;
@@ -32,13 +33,10 @@ use invsim_model_api::InverseModel;
 use thiserror::Error;
 
 use crate::cycle::Cycle;
-use crate::inverse::{Reference, SimulateError, SimulationOptions};
+use crate::inverse::{SimulateError, SimulationOptions};
 
+pub use plan::{ModelFactory, Sweep};
 pub use rows::{Figures, SweepResult, SweepRow};
-
-/// Makes a fresh copy of the swept model at its base parameters (called once per worker thread), or says why
-/// it cannot.
-pub type ModelFactory = Arc<dyn Fn() -> Result<Box<dyn InverseModel>, String> + Send + Sync>;
 
 /// Why a sweep could not be built.
 #[derive(Debug, Error)]
@@ -93,20 +91,6 @@ pub struct SweepBuilder {
     opts: SimulationOptions,
     verify: bool,
     threads: usize,
-}
-
-/// A checked sweep: the model, the variants, the cycles with their shared references; [`Sweep::run`] runs it.
-pub struct Sweep {
-    factory: ModelFactory,
-    /// The model's description (of the copy `build` made).
-    info: invsim_model_api::ModelInfo,
-    cycles: Vec<(Cycle, Arc<Reference>)>,
-    names: Vec<String>,
-    variants: Vec<Vec<f64>>,
-    opts: SimulationOptions,
-    threads: usize,
-    /// The worker threads when a number other than 1 was asked for (`None`: rayon's global pool).
-    pool: Option<rayon::ThreadPool>,
 }
 
 impl From<SimulateError> for SweepError {
