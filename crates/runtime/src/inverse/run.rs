@@ -195,17 +195,21 @@ impl Tally {
     }
 }
 
-/// Split a block's columns into a [`Block`].
-fn split<'c, 'd>(cols: &'c mut [&'d mut [f64]], k0: usize, info: &ModelInfo) -> Block<'c, 'd> {
-    let (r, n, ne) = (info.relative_degree, info.n_states(), info.n_eta);
-    let (time_col, rest) = cols.split_at_mut(1);
-    let (yd, rest) = rest.split_at_mut(r + 1);
+/// Split a block's columns after y_d … y_d^(r) (`rest`: the input, the states, η, the outputs) into a
+/// [`Block`] with the times and the y_d columns `yd`.
+fn split<'c, 'd>(
+    (time, yd): (&'c [f64], &'c [&'c [f64]]),
+    rest: &'c mut [&'d mut [f64]],
+    k0: usize,
+    info: &ModelInfo,
+) -> Block<'c, 'd> {
+    let (n, ne) = (info.n_states(), info.n_eta);
     let (u_col, rest) = rest.split_at_mut(1);
     let (x, rest) = rest.split_at_mut(n);
     let (eta, out) = rest.split_at_mut(ne);
     Block {
         k0,
-        time: &*time_col[0],
+        time,
         yd,
         u: &mut *u_col[0],
         x,
@@ -214,10 +218,34 @@ fn split<'c, 'd>(cols: &'c mut [&'d mut [f64]], k0: usize, info: &ModelInfo) -> 
     }
 }
 
+/// y_d … y_d^(r) of the block [k0, k1) into its columns `cols[1..=r+1]` (after the times in `cols[0]`): from the
+/// smoother, or copied from the shared reference when the columns are kept (the result needs them; a run
+/// that keeps no series reads the shared reference directly).
+fn fill_reference(
+    (smoother, shared): (&Smoother, Option<&[Vec<f64>]>),
+    grid: &Grid,
+    cols: &mut [&mut [f64]],
+    (k0, k1): (usize, usize),
+    keep: bool,
+) {
+    let (time, yd) = cols.split_at_mut(1);
+    match shared {
+        // The reference computed once for all runs on this grid (the same blocks, the same numbers).
+        Some(s) if keep => {
+            for (c, s) in yd.iter_mut().zip(s) {
+                c.copy_from_slice(&s[k0..k1]);
+            }
+        }
+        Some(_) => {}
+        None => smoother.eval_grid(time[0], Some(grid.dt), yd),
+    }
+}
+
 /// The run, block by block. Per block of samples: y_d … y_d^(r) on the grid at once (Smoother::eval_grid,
-/// or copied from a shared reference's columns where given); then the inverse ([`Inverter`]); then the extra
-/// outputs (InverseModel::outputs_batch) and the bookkeeping (finiteness, integrals, input range, bounds). With `keep` a block is a view into the
-/// result's columns, without it into block-sized scratch columns.
+/// or a shared reference's columns where given, [`fill_reference`]); then the inverse ([`Inverter`]); then
+/// the extra outputs (InverseModel::outputs_batch) and the bookkeeping (finiteness, integrals, input range,
+/// bounds). With `keep` a block is a view into the result's columns, without it into block-sized scratch
+/// columns.
 fn run_blocks<M: InverseModel + ?Sized>(
     model: &M,
     (smoother, shared): (&Smoother, Option<&[Vec<f64>]>),
@@ -229,10 +257,11 @@ fn run_blocks<M: InverseModel + ?Sized>(
 ) -> Result<(), SimulateError> {
     let info = model.info();
     let samples = grid.samples();
+    // Zeroed columns straight from the allocator (`vec![column; n]` would copy the first into the others).
     let mut scratch: Vec<Vec<f64>> = if keep {
         Vec::new()
     } else {
-        vec![vec![0.0; BLOCK]; data.len()]
+        (0..data.len()).map(|_| vec![0.0; BLOCK]).collect()
     };
     let mut k0 = 0;
     while k0 < samples {
@@ -248,16 +277,14 @@ fn run_blocks<M: InverseModel + ?Sized>(
                 *t = grid.time(k0 + i);
             }
         }
-        let mut b = split(&mut cols, k0, info);
-        match shared {
-            // The reference computed once for all runs on this grid (the same blocks, the same numbers).
-            Some(yd) => {
-                for (c, s) in b.yd.iter_mut().zip(yd) {
-                    c.copy_from_slice(&s[k0..k1]);
-                }
-            }
-            None => smoother.eval_grid(b.time, Some(grid.dt), b.yd),
-        }
+        let r1 = info.relative_degree + 2;
+        fill_reference((smoother, shared), grid, &mut cols[..r1], (k0, k1), keep);
+        let (head, rest) = cols.split_at_mut(r1);
+        let yd: Vec<&[f64]> = match shared {
+            Some(s) if !keep => s.iter().map(|c| &c[k0..k1]).collect(),
+            _ => head[1..].iter().map(|c| &**c).collect(),
+        };
+        let mut b = split((&*head[0], &yd), rest, k0, info);
         inverter.fill(&mut b)?;
         {
             let xs: Vec<&[f64]> = b.x.iter().map(|c| &**c).collect();
@@ -292,7 +319,10 @@ fn check_finite<M: InverseModel + ?Sized>(
     b: &Block<'_, '_>,
 ) -> Result<(), SimulateError> {
     let mut probe = nan_probe(b.u);
-    for c in b.yd.iter().chain(b.x.iter()).chain(b.out.iter()) {
+    for c in b.yd.iter() {
+        probe += nan_probe(c);
+    }
+    for c in b.x.iter().chain(b.out.iter()) {
         probe += nan_probe(c);
     }
     if !probe.is_nan() {
@@ -300,11 +330,13 @@ fn check_finite<M: InverseModel + ?Sized>(
     }
     let finite_at = |i: usize| {
         b.u[i].is_finite()
-            && (b.yd.iter().chain(b.x.iter()).chain(b.out.iter())).all(|c| c[i].is_finite())
+            && b.yd.iter().all(|c| c[i].is_finite())
+            && (b.x.iter().chain(b.out.iter())).all(|c| c[i].is_finite())
     };
     let i = (0..b.time.len()).find(|&i| !finite_at(i)).unwrap_or(0);
     let at = |cs: &[&mut [f64]]| cs.iter().map(|c| c[i]).collect::<Vec<f64>>();
-    let (yd_i, x_i, eta_i, outs_i) = (at(b.yd), at(b.x), at(b.eta), at(b.out));
+    let yd_i: Vec<f64> = b.yd.iter().map(|c| c[i]).collect();
+    let (x_i, eta_i, outs_i) = (at(b.x), at(b.eta), at(b.out));
     Err(non_finite(
         model, b.time[i], &yd_i, &eta_i, b.u[i], &x_i, &outs_i,
     ))
