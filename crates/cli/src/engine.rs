@@ -118,7 +118,7 @@ pub fn load(path: &Path, choice: EngineChoice) -> Result<LoadedModel, Failure> {
 }
 
 /// Parse `NAME=VALUE`.
-fn parse_set(s: &str) -> Result<(String, f64), Failure> {
+pub fn parse_set(s: &str) -> Result<(String, f64), Failure> {
     let (name, value) = s.split_once('=').ok_or_else(|| {
         Failure::user(format!(
             "--set `{s}`: expected NAME=VALUE, e.g. --set m=1500"

@@ -1,10 +1,11 @@
 //! The `invsim` command line: `derive` prints a model's inversion, `simulate` runs it along a drive cycle,
-//! `forward` runs the original model along the cycle with a PI driver, `cycles` lists the built-in drive cycles,
-//! `completions` prints a shell completion script.
+//! `sweep` runs many parameter variants of it, `forward` runs the original model along the cycle with a PI
+//! driver, `cycles` lists the built-in drive cycles, `completions` prints a shell completion script.
 //!
 //! Exit status (contract §3): 0 on success, 2 on a user error (bad model or cycle file, bad option, a model
-//! the method cannot invert, a simulation that had to stop), with a one-paragraph message on stderr
-//! ([`error`]). This file only parses the command line and dispatches; each command has its module.
+//! the method cannot invert, a simulation that had to stop), 3 when some variants of a sweep failed, with a
+//! one-paragraph message on stderr ([`error`]). This file only parses the command line and dispatches; each
+//! command has its module.
 
 mod completions;
 mod cycles_cmd;
@@ -18,6 +19,7 @@ mod plotting;
 mod progress;
 mod provenance;
 mod simulate;
+mod sweep_cmd;
 mod version;
 
 use std::path::PathBuf;
@@ -44,6 +46,8 @@ enum Command {
     },
     /// Run the inverse simulation of a model along a drive cycle.
     Simulate(simulate::SimulateArgs),
+    /// Run many variants of a model (a parameter grid or table) on one or more cycles, one CSV row each.
+    Sweep(sweep_cmd::SweepArgs),
     /// Run the forward simulation of a model along a drive cycle, closed by a PI driver on the raw cycle.
     Forward(forward::ForwardArgs),
     /// List the built-in drive cycles with their duration, distance and top speed.
@@ -57,6 +61,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Derive { model, format } => derive::run(&model, format),
         Command::Simulate(args) => simulate::run(&args),
+        Command::Sweep(args) => sweep_cmd::run(&args),
         Command::Forward(args) => forward::run(&args),
         Command::Cycles(args) => cycles_cmd::run(&args),
         Command::Completions(args) => completions::run(&args, Cli::command()),

@@ -9,7 +9,7 @@
 //! `report` (what both simulations share: errors, the output grid, the summary blocks and formatting), then
 //! [`operating_points`] and [`reference_deviation`] (summary blocks); [`stable`] (stable inversion of unstable zero dynamics); [`inverse`] (the
 //! inverse simulation, using `stable`) and [`forward`](mod@forward) (the forward simulation); [`output`] and [`plot`]
-//! (writing results).
+//! (writing results); [`sweep`] (parameter sweeps over many variants, on `inverse`).
 
 pub mod cycle;
 mod error;
@@ -28,6 +28,7 @@ pub mod reference_deviation;
 mod report;
 pub mod smoother;
 pub mod stable;
+pub mod sweep;
 
 /// The inverse simulation under its former module name.
 pub use inverse as simulate;
@@ -49,3 +50,4 @@ pub use reference_deviation::ReferenceDeviation;
 pub use report::{columns_with_units, Column, CycleInfo, Totals};
 pub use smoother::Smoother;
 pub use stable::{StableError, ZeroDynamicsClass};
+pub use sweep::{Figures, Sweep, SweepBuilder, SweepError, SweepResult, SweepRow};

@@ -12,13 +12,13 @@ use crate::grid::{Grid, MAX_DERIVATIVES};
 use crate::smoother::Smoother;
 use crate::stable::{StableRun, ZeroDynamicsPlan};
 
-/// A block of samples of the result's columns: the times, y_d … y_d^(r), the input, the states, η and the
-/// extra outputs.
+/// A block of samples of the result's columns: the times, y_d … y_d^(r) (read only: the result's columns or a
+/// shared reference's), the input, the states, η and the extra outputs.
 pub(super) struct Block<'c, 'd> {
     /// Index of the block's first sample on the grid.
     pub k0: usize,
     pub time: &'c [f64],
-    pub yd: &'c mut [&'d mut [f64]],
+    pub yd: &'c [&'c [f64]],
     pub u: &'c mut [f64],
     pub x: &'c mut [&'d mut [f64]],
     pub eta: &'c mut [&'d mut [f64]],

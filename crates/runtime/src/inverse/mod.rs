@@ -22,6 +22,7 @@ mod checks;
 mod error;
 mod inverter;
 mod options;
+mod reference;
 mod result;
 mod run;
 mod summary;
@@ -38,6 +39,7 @@ pub use options::{
     SimulationOptions, SimulationOptionsBuilder, DEFAULT_ATOL, DEFAULT_DT, DEFAULT_LOOKAHEAD,
     DEFAULT_MAX_PRE_ACTUATION, DEFAULT_RTOL, DEFAULT_STABILITY_CHECK_INTERVAL, DEFAULT_STABLE_TOL,
 };
+pub use reference::Reference;
 pub use result::SimulationResult;
 pub use summary::{InputBeforeStart, StableInversionStats, Summary};
 
@@ -51,7 +53,7 @@ pub fn simulate<M: InverseModel + ?Sized>(
     cycle: &Cycle,
     opts: &SimulationOptions,
 ) -> Result<SimulationResult, SimulateError> {
-    run::run(model, cycle, opts, Vec::new())
+    run::run(model, cycle, opts, Vec::new(), None)
 }
 
 /// [`simulate`], reusing the column buffers of an earlier result: for repeated runs (parameter sweeps,
@@ -63,5 +65,31 @@ pub fn simulate_reusing<M: InverseModel + ?Sized>(
     opts: &SimulationOptions,
     previous: SimulationResult,
 ) -> Result<SimulationResult, SimulateError> {
-    run::run(model, cycle, opts, previous.data)
+    run::run(model, cycle, opts, previous.data, None)
+}
+
+/// The smoothed reference of `cycle` for models like `model` (its relative degree and reference map) with
+/// `opts`' look-ahead and dt, computed once to be shared by many runs ([`simulate_shared`]).
+pub fn reference<M: InverseModel + ?Sized>(
+    model: &M,
+    cycle: &Cycle,
+    opts: &SimulationOptions,
+) -> Result<Reference, SimulateError> {
+    let info = model.info();
+    run::reference(cycle, model.reference(), info.relative_degree, opts)
+}
+
+/// [`simulate_reusing`] on a reference computed beforehand by [`reference`]: the smoother is not rebuilt and,
+/// where the run's grid is the reference's (no pre- or post-actuation), y_d … y_d^(r) are copied instead of
+/// evaluated. The numbers are bit for bit those of [`simulate`]. A reference that does not fit (another
+/// cycle, look-ahead, dt, relative degree or reference map — a parameter can move the map) is ignored and the
+/// run smooths the cycle itself. `spare` are column buffers to reuse (an earlier result's `data`, or empty).
+pub fn simulate_shared<M: InverseModel + ?Sized>(
+    model: &M,
+    cycle: &Cycle,
+    reference: &Reference,
+    opts: &SimulationOptions,
+    spare: Vec<Vec<f64>>,
+) -> Result<SimulationResult, SimulateError> {
+    run::run(model, cycle, opts, spare, Some(reference))
 }

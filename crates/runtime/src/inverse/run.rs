@@ -6,6 +6,7 @@ use super::checks;
 use super::error::SimulateError;
 use super::inverter::{Block, Inverter};
 use super::options::SimulationOptions;
+use super::reference::Reference;
 use super::result::SimulationResult;
 use super::summary::{InputBeforeStart, StableInversionStats, Summary};
 use super::verify::verify_forward;
@@ -112,6 +113,8 @@ struct Tally<'c> {
     bounds: [Option<f64>; 2],
     range: [f64; 2],
     violations: Intervals,
+    /// Whether the last sample pushed to `violations` was outside the bounds (an interval is open).
+    outside: bool,
     before_start: Vec<[f64; 2]>,
     window: (usize, usize),
     k0: usize,
@@ -142,6 +145,7 @@ impl<'c> Tally<'c> {
             bounds: [info.input_min, info.input_max],
             range: [f64::INFINITY, f64::NEG_INFINITY],
             violations: Intervals::default(),
+            outside: false,
             before_start: Vec::with_capacity(grid.k0),
             window,
             k0: grid.k0,
@@ -154,55 +158,92 @@ impl<'c> Tally<'c> {
         }
     }
 
-    /// Sample i of block `b` (grid index k).
-    fn record(&mut self, b: &Block<'_, '_>, i: usize) {
-        let (k, t, u) = (b.k0 + i, b.time[i], b.u[i]);
-        let (k_lo, k_hi) = self.window;
-        // Pre-actuation (t < t_0) is summarised on its own; samples outside [k_lo, k_hi] are not reported.
-        if k < self.k0 || (k == self.k0 && self.k0 > 0) {
-            self.before_start.push([t, u]);
+    /// The samples of block `b`, in order: the ones before t_0, then those in the window [k_lo, k_hi] (one
+    /// pass per quantity over the block's reported range; every sum in the order of the samples).
+    fn record_block(&mut self, b: &Block<'_, '_>) {
+        let len = b.time.len();
+        // Pre-actuation (t < t_0, and t_0 itself when there is pre-actuation) is summarised on its own.
+        if self.k0 > 0 && b.k0 <= self.k0 {
+            let last = (self.k0 - b.k0).min(len - 1);
+            for i in 0..=last {
+                self.before_start.push([b.time[i], b.u[i]]);
+            }
         }
-        if k < k_lo || k > k_hi {
+        // Samples outside [k_lo, k_hi] are not reported.
+        let (k_lo, k_hi) = self.window;
+        let (first, end) = (k_lo.max(b.k0), (k_hi + 1).min(b.k0 + len));
+        if first >= end {
             return;
         }
-        if k >= self.k0 && k <= self.cycle_end {
-            self.deviation.push(self.cycle, t, b.yd[0][i]);
+        let (i0, i1) = (first - b.k0, end - b.k0);
+        // Trapezoidal rule over the grid: ∫ o dt ≈ Σ_k dt·(o_k + o_{k+1})/2, the sum from k_lo on.
+        let h = 0.5 * self.dt;
+        for i in i0..i1 {
+            let k = b.k0 + i;
+            if k >= self.k0 && k <= self.cycle_end {
+                self.deviation.push(self.cycle, b.time[i], b.yd[0][i]);
+            }
+            if let Some(op) = &mut self.operating {
+                op.push(|o| b.out[o][i]);
+            }
         }
-        if let Some(op) = &mut self.operating {
-            op.push(|o| b.out[o][i]);
-        }
-        // Trapezoidal rule over the grid: ∫ o dt ≈ Σ_k dt·(o_k + o_{k+1})/2.
         for ((acc, prev), &o) in self
             .integrals
             .iter_mut()
             .zip(&mut self.previous)
             .zip(&self.accumulate)
         {
-            let v = b.out[o][i];
-            if k > k_lo {
-                *acc += 0.5 * self.dt * (*prev + v);
+            let column = &b.out[o][i0..i1];
+            let mut p = if first > k_lo { *prev } else { column[0] };
+            let skip = usize::from(first == k_lo);
+            for &v in &column[skip..] {
+                *acc += h * (p + v);
+                p = v;
             }
-            *prev = v;
+            *prev = p;
         }
-        // Input range and bound violations: maximal runs of consecutive samples outside the bounds.
-        self.range = [self.range[0].min(u), self.range[1].max(u)];
-        let [lo, hi] = self.bounds;
-        let outside = lo.is_some_and(|b| u < b) || hi.is_some_and(|b| u > b);
-        self.violations.push(t, outside);
+        self.record_input(&b.time[i0..i1], &b.u[i0..i1]);
+    }
+
+    /// The input's range and its bound violations (maximal runs of consecutive samples outside the bounds)
+    /// over reported samples.
+    fn record_input(&mut self, time: &[f64], u: &[f64]) {
+        let [mut lo, mut hi] = self.range;
+        for &v in u {
+            lo = lo.min(v);
+            hi = hi.max(v);
+        }
+        self.range = [lo, hi];
+        let (below, above) = match self.bounds {
+            [None, None] => return,
+            [l, h] => (l.unwrap_or(f64::NEG_INFINITY), h.unwrap_or(f64::INFINITY)),
+        };
+        for (&t, &v) in time.iter().zip(u) {
+            let outside = v < below || v > above;
+            // Pushing an inside sample changes the intervals only when one is open.
+            if outside || self.outside {
+                self.violations.push(t, outside);
+                self.outside = outside;
+            }
+        }
     }
 }
 
-/// Split a block's columns into a [`Block`].
-fn split<'c, 'd>(cols: &'c mut [&'d mut [f64]], k0: usize, info: &ModelInfo) -> Block<'c, 'd> {
-    let (r, n, ne) = (info.relative_degree, info.n_states(), info.n_eta);
-    let (time_col, rest) = cols.split_at_mut(1);
-    let (yd, rest) = rest.split_at_mut(r + 1);
+/// Split a block's columns after y_d … y_d^(r) (`rest`: the input, the states, η, the outputs) into a
+/// [`Block`] with the times and the y_d columns `yd`.
+fn split<'c, 'd>(
+    (time, yd): (&'c [f64], &'c [&'c [f64]]),
+    rest: &'c mut [&'d mut [f64]],
+    k0: usize,
+    info: &ModelInfo,
+) -> Block<'c, 'd> {
+    let (n, ne) = (info.n_states(), info.n_eta);
     let (u_col, rest) = rest.split_at_mut(1);
     let (x, rest) = rest.split_at_mut(n);
     let (eta, out) = rest.split_at_mut(ne);
     Block {
         k0,
-        time: &*time_col[0],
+        time,
         yd,
         u: &mut *u_col[0],
         x,
@@ -211,13 +252,37 @@ fn split<'c, 'd>(cols: &'c mut [&'d mut [f64]], k0: usize, info: &ModelInfo) -> 
     }
 }
 
-/// The run, block by block. Per block of samples: y_d … y_d^(r) on the grid at once
-/// (Smoother::eval_grid); then the inverse ([`Inverter`]); then the extra outputs
-/// (InverseModel::outputs_batch) and the per-sample bookkeeping. With `keep` a block is a view into the
-/// result's columns, without it into block-sized scratch columns.
+/// y_d … y_d^(r) of the block [k0, k1) into its columns `cols[1..=r+1]` (after the times in `cols[0]`): from the
+/// smoother, or copied from the shared reference when the columns are kept (the result needs them; a run
+/// that keeps no series reads the shared reference directly).
+fn fill_reference(
+    (smoother, shared): (&Smoother, Option<&[Vec<f64>]>),
+    grid: &Grid,
+    cols: &mut [&mut [f64]],
+    (k0, k1): (usize, usize),
+    keep: bool,
+) {
+    let (time, yd) = cols.split_at_mut(1);
+    match shared {
+        // The reference computed once for all runs on this grid (the same blocks, the same numbers).
+        Some(s) if keep => {
+            for (c, s) in yd.iter_mut().zip(s) {
+                c.copy_from_slice(&s[k0..k1]);
+            }
+        }
+        Some(_) => {}
+        None => smoother.eval_grid(time[0], Some(grid.dt), yd),
+    }
+}
+
+/// The run, block by block. Per block of samples: y_d … y_d^(r) on the grid at once (Smoother::eval_grid,
+/// or a shared reference's columns where given, [`fill_reference`]); then the inverse ([`Inverter`]); then
+/// the extra outputs (InverseModel::outputs_batch) and the bookkeeping (finiteness, integrals, input range,
+/// bounds). With `keep` a block is a view into the result's columns, without it into block-sized scratch
+/// columns.
 fn run_blocks<M: InverseModel + ?Sized>(
     model: &M,
-    smoother: &Smoother,
+    (smoother, shared): (&Smoother, Option<&[Vec<f64>]>),
     grid: &Grid,
     inverter: &mut Inverter<'_, M>,
     tally: &mut Tally<'_>,
@@ -226,10 +291,11 @@ fn run_blocks<M: InverseModel + ?Sized>(
 ) -> Result<(), SimulateError> {
     let info = model.info();
     let samples = grid.samples();
+    // Zeroed columns straight from the allocator (`vec![column; n]` would copy the first into the others).
     let mut scratch: Vec<Vec<f64>> = if keep {
         Vec::new()
     } else {
-        vec![vec![0.0; BLOCK]; data.len()]
+        (0..data.len()).map(|_| vec![0.0; BLOCK]).collect()
     };
     let mut k0 = 0;
     while k0 < samples {
@@ -245,48 +311,125 @@ fn run_blocks<M: InverseModel + ?Sized>(
                 *t = grid.time(k0 + i);
             }
         }
-        let mut b = split(&mut cols, k0, info);
-        smoother.eval_grid(b.time, Some(grid.dt), b.yd);
+        let r1 = info.relative_degree + 2;
+        fill_reference((smoother, shared), grid, &mut cols[..r1], (k0, k1), keep);
+        let (head, rest) = cols.split_at_mut(r1);
+        let yd: Vec<&[f64]> = match shared {
+            Some(s) if !keep => s.iter().map(|c| &c[k0..k1]).collect(),
+            _ => head[1..].iter().map(|c| &**c).collect(),
+        };
+        let mut b = split((&*head[0], &yd), rest, k0, info);
         inverter.fill(&mut b)?;
         {
             let xs: Vec<&[f64]> = b.x.iter().map(|c| &**c).collect();
             model.outputs_batch(&xs, b.u, b.out);
         }
-        for i in 0..len {
-            check_finite(model, &b, i)?;
-            tally.record(&b, i);
-        }
+        check_finite(model, &b)?;
+        tally.record_block(&b);
         tally.progress.report(k1, samples);
         k0 = k1;
     }
     Ok(())
 }
 
-/// Sample i of the block must be finite (v·0 is NaN exactly when v is not finite: one test per sample).
+/// NaN exactly when an entry of `c` is not finite: Σ c_i·0 (x·0 is NaN for x = ±∞ or NaN, ±0 otherwise),
+/// summed in eight independent lanes the compiler vectorises.
+fn nan_probe(c: &[f64]) -> f64 {
+    let mut lanes = [0.0_f64; 8];
+    let chunks = c.chunks_exact(8);
+    let rest = chunks.remainder();
+    for chunk in chunks {
+        for (l, &v) in lanes.iter_mut().zip(chunk) {
+            *l += v * 0.0;
+        }
+    }
+    rest.iter()
+        .fold(lanes.iter().sum::<f64>(), |s, &v| s + v * 0.0)
+}
+
+/// Every sample of the block must be finite: one vectorised probe per column (the input, y_d, the states, the
+/// outputs); if one fails, the first sample with a non-finite quantity is the error.
 fn check_finite<M: InverseModel + ?Sized>(
     model: &M,
     b: &Block<'_, '_>,
-    i: usize,
 ) -> Result<(), SimulateError> {
-    let mut probe = b.u[i] * 0.0;
-    for c in b.yd.iter().chain(b.x.iter()).chain(b.out.iter()) {
-        probe += c[i] * 0.0;
+    let mut probe = nan_probe(b.u);
+    for c in b.yd.iter() {
+        probe += nan_probe(c);
+    }
+    for c in b.x.iter().chain(b.out.iter()) {
+        probe += nan_probe(c);
     }
     if !probe.is_nan() {
         return Ok(());
     }
+    let finite_at = |i: usize| {
+        b.u[i].is_finite()
+            && b.yd.iter().all(|c| c[i].is_finite())
+            && (b.x.iter().chain(b.out.iter())).all(|c| c[i].is_finite())
+    };
+    let i = (0..b.time.len()).find(|&i| !finite_at(i)).unwrap_or(0);
     let at = |cs: &[&mut [f64]]| cs.iter().map(|c| c[i]).collect::<Vec<f64>>();
-    let (yd_i, x_i, eta_i, outs_i) = (at(b.yd), at(b.x), at(b.eta), at(b.out));
+    let yd_i: Vec<f64> = b.yd.iter().map(|c| c[i]).collect();
+    let (x_i, eta_i, outs_i) = (at(b.x), at(b.eta), at(b.out));
     Err(non_finite(
         model, b.time[i], &yd_i, &eta_i, b.u[i], &x_i, &outs_i,
     ))
 }
 
+/// y_d … y_d^(r) on the cycle's grid, evaluated over the blocks [`run_blocks`] uses.
+fn reference_columns(smoother: &Smoother, grid: &Grid, r: usize) -> Vec<Vec<f64>> {
+    let samples = grid.samples();
+    let time: Vec<f64> = (0..samples).map(|k| grid.time(k)).collect();
+    let mut yd = vec![vec![0.0; samples]; r + 1];
+    let mut k0 = 0;
+    while k0 < samples {
+        let k1 = (k0 + BLOCK).min(samples);
+        let mut cols: Vec<&mut [f64]> = yd.iter_mut().map(|c| &mut c[k0..k1]).collect();
+        smoother.eval_grid(&time[k0..k1], Some(grid.dt), &mut cols);
+        k0 = k1;
+    }
+    yd
+}
+
+/// The smoothed reference of `cycle` for runs of models with relative degree `r` and reference map `map`
+/// with `opts`' look-ahead and dt (see [`Reference`]).
+pub(super) fn reference(
+    cycle: &Cycle,
+    map: invsim_model_api::ReferenceMap,
+    r: usize,
+    opts: &SimulationOptions,
+) -> Result<Reference, SimulateError> {
+    opts.validate()?;
+    if r + 1 > MAX_DERIVATIVES {
+        return Err(SimulateError::RelativeDegreeTooHigh {
+            relative_degree: r,
+            max: MAX_DERIVATIVES - 1,
+        });
+    }
+    let (t0, duration) = check_cycle(cycle)?;
+    let grid = Grid::new(t0, duration, opts.dt)?;
+    let raw = Smoother::new(cycle, opts.lookahead)?;
+    let distance_warning = checks::reference_distance_warning(&raw, cycle);
+    let smoother = raw.with_reference(map);
+    let yd = reference_columns(&smoother, &grid, r);
+    Ok(Reference {
+        smoother,
+        distance_warning,
+        cycle: cycle.name.clone(),
+        lookahead: opts.lookahead,
+        grid,
+        yd,
+    })
+}
+
+/// The inverse run; `shared` is a reference computed beforehand, used where it fits the model and options.
 pub(super) fn run<M: InverseModel + ?Sized>(
     model: &M,
     cycle: &Cycle,
     opts: &SimulationOptions,
     spare: Vec<Vec<f64>>,
+    shared: Option<&Reference>,
 ) -> Result<SimulationResult, SimulateError> {
     opts.validate()?;
     let info = model.info();
@@ -302,9 +445,18 @@ pub(super) fn run<M: InverseModel + ?Sized>(
     checks::check_lookahead(opts.lookahead, duration)?;
     let steps = grid.n;
     let eta0 = check_eta0(info, opts)?;
-    let smoother = Smoother::new(cycle, opts.lookahead)?;
-    let distance_warning = checks::reference_distance_warning(&smoother, cycle);
-    let smoother = smoother.with_reference(model.reference());
+    let shared = shared
+        .filter(|s| s.fits(opts.lookahead, opts.dt, r, model.reference()) && s.cycle == cycle.name);
+    let own;
+    let (smoother, distance_warning) = match shared {
+        Some(s) => (&s.smoother, s.distance_warning.clone()),
+        None => {
+            let raw = Smoother::new(cycle, opts.lookahead)?;
+            let warning = checks::reference_distance_warning(&raw, cycle);
+            own = raw.with_reference(model.reference());
+            (&own, warning)
+        }
+    };
 
     // Zero dynamics: classified along the reference; unstable ones are inverted stably (non-causally) on a
     // grid extended by pre- and post-actuation (crate::stable), the series reports the cycle's samples
@@ -318,7 +470,7 @@ pub(super) fn run<M: InverseModel + ?Sized>(
     let zd = stable::plan_run(
         model,
         cycle,
-        &smoother,
+        smoother,
         (t0, grid.time(grid.n), opts.dt),
         &stable_opts,
     )?;
@@ -337,17 +489,10 @@ pub(super) fn run<M: InverseModel + ?Sized>(
     let keep = opts.keep_series || opts.verify;
     let stored = if keep { grid.samples() } else { 0 };
     let mut data = allocate(spare, columns.len(), stored, &grid);
-    let mut inverter = Inverter::new(model, &smoother, grid, &zd, eta0, opts)?;
+    let mut inverter = Inverter::new(model, smoother, grid, &zd, eta0, opts)?;
     let mut tally = Tally::new(model, (cycle, steps), &grid, window, opts.progress.clone());
-    run_blocks(
-        model,
-        &smoother,
-        &grid,
-        &mut inverter,
-        &mut tally,
-        &mut data,
-        keep,
-    )?;
+    let yd = (smoother, shared.and_then(|s| s.columns_for(&grid)));
+    run_blocks(model, yd, &grid, &mut inverter, &mut tally, &mut data, keep)?;
 
     let run = Finished {
         grid,

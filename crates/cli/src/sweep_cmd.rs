@@ -1,0 +1,314 @@
+//! `invsim sweep`: many variants of a model (a full-factorial grid of parameter values or a table of them) on
+//! one or more cycles, one CSV row of summary figures per variant × cycle (contract §3, exit status 3 when some
+//! variants failed).
+
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+
+use indicatif::{ProgressBar, ProgressStyle};
+use invsim_model_api::InverseModel;
+use invsim_runtime::{inverse, Cycle, SimulationOptions, Sweep, SweepBuilder, SweepResult};
+
+use crate::engine::{load, parse_set, EngineChoice, LoadedModel};
+use crate::error::Failure;
+use crate::outputs::Outputs;
+
+/// Exit status of a sweep in which some variants failed (their rows say why).
+pub const SOME_FAILED: u8 = 3;
+
+#[derive(clap::Args, Debug)]
+pub struct SweepArgs {
+    /// The model file (TOML).
+    pub model: PathBuf,
+    /// A built-in cycle or the path of a cycle CSV file.
+    #[arg(long)]
+    cycle: Option<String>,
+    /// More cycles, comma-separated (every variant runs on each).
+    #[arg(long, value_delimiter = ',')]
+    cycles: Vec<String>,
+    /// A grid axis NAME=START:STOP:N (N values from START to STOP, both included); repeated: full factorial.
+    #[arg(
+        long = "grid",
+        value_name = "NAME=START:STOP:N",
+        conflicts_with = "table"
+    )]
+    grid: Vec<String>,
+    /// A CSV file of variants: a header of parameter names, one row of values per variant.
+    #[arg(long, value_name = "PARAMS.csv")]
+    table: Option<PathBuf>,
+    /// Worker threads (default: one per core).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Write the rows to this CSV file (default: stdout).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Replay every variant's input through the original model and report its tracking error.
+    #[arg(long)]
+    verify: bool,
+    /// Kernel half-width a in seconds: the driver's look-ahead.
+    #[arg(long, default_value_t = inverse::DEFAULT_LOOKAHEAD)]
+    lookahead: f64,
+    /// Output step in seconds.
+    #[arg(long, default_value_t = inverse::DEFAULT_DT)]
+    dt: f64,
+    /// Override a parameter of every variant: NAME=VALUE (repeatable).
+    #[arg(long = "set", value_name = "NAME=VALUE")]
+    set: Vec<String>,
+    /// Which implementation of the model to run.
+    #[arg(long, value_enum, default_value_t = EngineChoice::Auto)]
+    engine: EngineChoice,
+}
+
+/// Parse `NAME=START:STOP:N`.
+fn parse_grid(s: &str) -> Result<(String, f64, f64, usize), Failure> {
+    let bad = |why: &str| {
+        Failure::user(format!(
+            "--grid `{s}`: {why}; expected NAME=START:STOP:N, e.g. --grid m=1000:1800:9"
+        ))
+    };
+    let (name, spec) = s.split_once('=').ok_or_else(|| bad("no `=`"))?;
+    let parts: Vec<&str> = spec.split(':').map(str::trim).collect();
+    let [start, stop, n] = parts[..] else {
+        return Err(bad(&format!("{} `:`-separated fields, not 3", parts.len())));
+    };
+    let num = |v: &str| match v.parse::<f64>() {
+        Ok(x) if x.is_finite() => Ok(x),
+        _ => Err(bad(&format!("`{v}` is not a finite number"))),
+    };
+    let n: usize = match n.parse() {
+        Ok(n) if n >= 1 => n,
+        _ => return Err(bad(&format!("N = `{n}` is not a whole number ≥ 1"))),
+    };
+    let name = name.trim();
+    if name.is_empty() {
+        return Err(bad("the parameter name is empty"));
+    }
+    Ok((name.to_string(), num(start)?, num(stop)?, n))
+}
+
+/// Read a table of variants: a header of parameter names, then one row of finite numbers per variant
+/// (blank lines skipped). Errors name FILE:LINE:COLUMN.
+pub fn read_table(path: &Path) -> Result<(Vec<String>, Vec<Vec<f64>>), Failure> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| Failure::user(format!("cannot read {}: {e}", path.display())))?;
+    let at = |line: usize, col: usize, what: String| {
+        Failure::user(format!("{}:{line}:{col}: {what}", path.display()))
+    };
+    let mut lines = text
+        .trim_start_matches('\u{feff}')
+        .lines()
+        .enumerate()
+        .map(|(i, l)| (i + 1, l.trim_end_matches('\r')))
+        .filter(|(_, l)| !l.trim().is_empty());
+    let (_, header) = lines.next().ok_or_else(|| {
+        at(
+            1,
+            1,
+            "empty table: expected a header of parameter names".into(),
+        )
+    })?;
+    let names: Vec<String> = header.split(',').map(|s| s.trim().to_string()).collect();
+    if let Some(i) = names.iter().position(|n| n.is_empty()) {
+        let col = fields(header).nth(i).map_or(1, |(c, _)| c);
+        return Err(at(1, col, "empty parameter name in the header".into()));
+    }
+    let mut rows = Vec::new();
+    for (line, l) in lines {
+        let mut row = Vec::with_capacity(names.len());
+        for (i, (col, field)) in fields(l).enumerate() {
+            let Some(name) = names.get(i) else {
+                return Err(at(
+                    line,
+                    col,
+                    format!(
+                        "more values than the {} parameters of the header",
+                        names.len()
+                    ),
+                ));
+            };
+            match field.trim().parse::<f64>() {
+                Ok(v) if v.is_finite() => row.push(v),
+                _ => {
+                    let what = format!(
+                        "`{}` is not a finite number (parameter `{name}`)",
+                        field.trim()
+                    );
+                    return Err(at(line, col, what));
+                }
+            }
+        }
+        if row.len() < names.len() {
+            let what = format!(
+                "{} values, the header names {} parameters",
+                row.len(),
+                names.len()
+            );
+            return Err(at(line, l.chars().count() + 1, what));
+        }
+        rows.push(row);
+    }
+    Ok((names, rows))
+}
+
+/// The comma-separated fields of a line with the 1-based column (in characters) where each starts.
+fn fields(line: &str) -> impl Iterator<Item = (usize, &str)> {
+    let mut col = 1;
+    line.split(',').map(move |f| {
+        let start = col;
+        col += f.chars().count() + 1;
+        (start, f)
+    })
+}
+
+/// The sweep's builder for the loaded model: copies of the interpreter, or fresh compiled models, each with the
+/// `--set` overrides.
+fn builder(model: LoadedModel, sets: Vec<(String, f64)>) -> Result<SweepBuilder, Failure> {
+    match model {
+        LoadedModel::Interpreted(mut m) => {
+            for (name, value) in &sets {
+                m.set_param(name, *value)
+                    .map_err(|e| Failure::user(format!("--set {name}: {e}")))?;
+            }
+            Ok(Sweep::of(*m))
+        }
+        LoadedModel::Compiled(mut m) => {
+            for (name, value) in &sets {
+                m.set_param(name, *value)
+                    .map_err(|e| Failure::user(format!("--set {name}: {e}")))?;
+            }
+            let params = m.params().to_vec();
+            let names = m.info().parameters.clone();
+            let hash = m.info().source_hash.clone().unwrap_or_default();
+            Ok(Sweep::try_new(move || {
+                let mut fresh = invsim_models::by_hash(&hash)
+                    .ok_or_else(|| format!("no built-in model has the hash {hash}"))?;
+                for (name, &v) in names.iter().zip(&params) {
+                    fresh.set_param(name, v).map_err(|e| e.to_string())?;
+                }
+                Ok(fresh)
+            }))
+        }
+    }
+}
+
+/// The cycles of `--cycle` and `--cycles`, in that order.
+fn cycles(args: &SweepArgs) -> Result<Vec<Cycle>, Failure> {
+    let names: Vec<&String> = args.cycle.iter().chain(&args.cycles).collect();
+    if names.is_empty() {
+        return Err(Failure::user(
+            "sweep needs a cycle: --cycle C and/or --cycles c1,c2,…",
+        ));
+    }
+    names
+        .iter()
+        .map(|c| Cycle::load(c.trim()).map_err(|e| Failure::user(e.to_string())))
+        .collect()
+}
+
+/// A progress bar on stderr when it is a terminal, else none.
+fn progress_bar(rows: usize) -> Option<ProgressBar> {
+    if !std::io::stderr().is_terminal() {
+        return None;
+    }
+    let bar = ProgressBar::new(rows as u64);
+    let style =
+        ProgressStyle::with_template("{bar:40} {pos}/{len} runs, {elapsed} elapsed, eta {eta}");
+    if let Ok(style) = style {
+        bar.set_style(style);
+    }
+    Some(bar)
+}
+
+/// The sweep's `--out` checked against its inputs (model, cycle files, parameter table) before the run.
+fn plan_outputs(args: &SweepArgs) -> Result<Outputs, Failure> {
+    let mut inputs = vec![("model file", args.model.as_path())];
+    for c in args.cycle.iter().chain(&args.cycles) {
+        if Cycle::builtin(c.trim()).is_none() {
+            inputs.push(("cycle file", Path::new(c.trim())));
+        }
+    }
+    if let Some(table) = &args.table {
+        inputs.push(("parameter table", table.as_path()));
+    }
+    Outputs::plan(&inputs, &[("--out", args.out.as_deref())])
+}
+
+/// Write the rows to `--out` (through a temporary file renamed into place) or stdout.
+fn write_rows(result: &SweepResult, mut outputs: Outputs, to_file: bool) -> Result<(), Failure> {
+    let to_io = |e: csv::Error| std::io::Error::other(e.to_string());
+    match to_file {
+        true => {
+            outputs.write("--out", |f| {
+                result.write_csv(std::io::BufWriter::new(f)).map_err(to_io)
+            })?;
+            outputs.commit()
+        }
+        false => result
+            .write_csv(std::io::stdout().lock())
+            .map_err(|e| Failure::io(format!("cannot write to stdout: {e}"))),
+    }
+}
+
+pub fn run(args: &SweepArgs) -> Result<(), Failure> {
+    let sets: Vec<(String, f64)> = args
+        .set
+        .iter()
+        .map(|s| parse_set(s))
+        .collect::<Result<_, _>>()?;
+    let grid: Vec<_> = args
+        .grid
+        .iter()
+        .map(|g| parse_grid(g))
+        .collect::<Result<_, _>>()?;
+    let table = args.table.as_deref().map(read_table).transpose()?;
+    if grid.is_empty() && table.is_none() {
+        return Err(Failure::user(
+            "sweep needs --grid NAME=START:STOP:N (repeatable) or --table PARAMS.csv",
+        ));
+    }
+    let outputs = plan_outputs(args)?;
+    let cycles = cycles(args)?;
+    let model = load(&args.model, args.engine)?;
+    let failed = |e: String| Failure::user(format!("sweep of `{}`: {e}", args.model.display()));
+    let opts = SimulationOptions::builder()
+        .lookahead(args.lookahead)
+        .dt(args.dt)
+        .engine(model.engine_name())
+        .build()
+        .map_err(|e| failed(e.to_string()))?;
+    let mut b = builder(model, sets)?;
+    for c in &cycles {
+        b = b.cycle(c);
+    }
+    for (name, start, stop, n) in grid {
+        b = b.grid(name, start, stop, n);
+    }
+    if let Some((names, rows)) = table {
+        b = b.table(names, rows);
+    }
+    let sweep = b
+        .options(opts)
+        .verify(args.verify)
+        .threads(args.threads)
+        .build();
+    let sweep = sweep.map_err(|e| failed(e.to_string()))?;
+    let bar = progress_bar(sweep.len());
+    let result = match &bar {
+        Some(bar) => sweep.run_with_progress(&|n| bar.set_position(n as u64)),
+        None => sweep.run(),
+    };
+    if let Some(bar) = bar {
+        bar.finish_and_clear();
+    }
+    write_rows(&result, outputs, args.out.is_some())?;
+    match result.failed() {
+        0 => Ok(()),
+        n => Err(Failure {
+            message: format!(
+                "{n} of {} runs failed (their rows have status `error` and the reason)",
+                result.rows.len()
+            ),
+            code: SOME_FAILED,
+        }),
+    }
+}

@@ -1,0 +1,364 @@
+//! Parameter sweeps: many variants of one model (parameter values from a full-factorial grid or a table) ×
+//! one or more cycles, each run inversely, one row of summary figures per variant × cycle.
+//!
+//! ```
+//! use invsim_runtime::{Cycle, SimulationOptions, Sweep};
+//! let nedc = Cycle::builtin("nedc").expect("built in");
+//! let opts = SimulationOptions::builder().dt(1.0).build()?;
+//! let sweep = Sweep::new(|| invsim_models::builtin("si_engine").expect("built in"))
+//!     .cycle(&nedc)
+//!     .grid("m", 1000.0, 1600.0, 4)
+//!     .options(opts)
+//!     .threads(1)
+//!     .build()?;
+//! let result = sweep.run();
+//! assert_eq!(result.rows.len(), 4);
+//! assert_eq!(result.failed(), 0);
+//! # Ok::<(), invsim_runtime::SweepError>(())
+//! ```
+//!
+//! The smoothed reference is computed once per cycle ([`crate::inverse::reference`]) and shared by every
+//! variant ([`crate::inverse::simulate_shared`]): a row's figures are bit for bit those of
+//! [`crate::simulate()`] of the same variant. Variants run in parallel (rayon), each worker with its own copy
+//! of the model (made by the factory once per worker, then [`InverseModel::set_param`] per variant); no time
+//! series is stored unless `verify` needs one. A variant that fails is a row with its error.
+
+mod exec;
+mod plan;
+mod rows;
+
+use std::sync::Arc;
+
+use invsim_model_api::InverseModel;
+use thiserror::Error;
+
+use crate::cycle::Cycle;
+use crate::inverse::{SimulateError, SimulationOptions};
+
+pub use plan::{ModelFactory, Sweep};
+pub use rows::{Figures, SweepResult, SweepRow};
+
+/// Why a sweep could not be built.
+#[derive(Debug, Error)]
+pub enum SweepError {
+    #[error("a sweep needs at least one cycle")]
+    NoCycles,
+    #[error("cannot make the model: {0}")]
+    Model(String),
+    #[error("grid axis `{name}`: {reason}")]
+    BadAxis { name: String, reason: String },
+    #[error("parameter `{name}` is swept twice")]
+    DuplicateParameter { name: String },
+    #[error("parameter table: row {row} has {got} values, the header names {expected} parameters")]
+    TableWidth {
+        row: usize,
+        got: usize,
+        expected: usize,
+    },
+    #[error("unknown parameter `{name}` (the model declares: {known})")]
+    UnknownParameter { name: String, known: String },
+    #[error("cycle `{cycle}`: {source}")]
+    Reference {
+        cycle: String,
+        #[source]
+        source: Box<SimulateError>,
+    },
+    #[error(transparent)]
+    Options(Box<SimulateError>),
+    #[error("cannot start {threads} worker threads: {reason}")]
+    Threads { threads: usize, reason: String },
+}
+
+/// How the variants' parameter values are given.
+#[derive(Debug, Clone)]
+enum Design {
+    /// Full factorial over the axes (the last axis varies fastest).
+    Grid(Vec<(String, Vec<f64>)>),
+    /// One variant per row.
+    Table {
+        names: Vec<String>,
+        rows: Vec<Vec<f64>>,
+    },
+}
+
+/// Builds a [`Sweep`] (see [`Sweep::new`]); [`SweepBuilder::build`] checks everything once.
+pub struct SweepBuilder {
+    factory: ModelFactory,
+    cycles: Vec<Cycle>,
+    design: Design,
+    table: Option<(Vec<String>, Vec<Vec<f64>>)>,
+    errors: Vec<SweepError>,
+    opts: SimulationOptions,
+    verify: bool,
+    threads: usize,
+}
+
+impl From<SimulateError> for SweepError {
+    fn from(e: SimulateError) -> SweepError {
+        SweepError::Options(Box::new(e))
+    }
+}
+
+impl Sweep {
+    /// A sweep of the model `factory` makes (`|| invsim_models::builtin("si_engine").unwrap()`, or
+    /// [`Sweep::of`] for a model that is `Clone`).
+    // `new` starts the builder, as `Sweep::new(model).cycle(…)….build()?` reads.
+    #[allow(clippy::new_ret_no_self)]
+    pub fn new<F>(factory: F) -> SweepBuilder
+    where
+        F: Fn() -> Box<dyn InverseModel> + Send + Sync + 'static,
+    {
+        Sweep::try_new(move || Ok(factory()))
+    }
+
+    /// [`Sweep::new`] with a factory that may fail: [`SweepBuilder::build`] reports its error, and a worker
+    /// whose copy fails gives rows with that error.
+    pub fn try_new<F>(factory: F) -> SweepBuilder
+    where
+        F: Fn() -> Result<Box<dyn InverseModel>, String> + Send + Sync + 'static,
+    {
+        SweepBuilder {
+            factory: Arc::new(factory),
+            cycles: Vec::new(),
+            design: Design::Grid(Vec::new()),
+            table: None,
+            errors: Vec::new(),
+            opts: SimulationOptions::default(),
+            verify: false,
+            threads: 0,
+        }
+    }
+
+    /// A sweep of copies of `model` (e.g. an `invsim_inversion::Interpreter`).
+    pub fn of<M: InverseModel + Clone + 'static>(model: M) -> SweepBuilder {
+        Sweep::new(move || Box::new(model.clone()))
+    }
+
+    /// Names of the swept parameters, in the order of every row's `params`.
+    pub fn parameters(&self) -> &[String] {
+        &self.names
+    }
+    /// The variants' parameter values.
+    pub fn variants(&self) -> &[Vec<f64>] {
+        &self.variants
+    }
+    /// Number of rows [`Sweep::run`] returns: variants × cycles.
+    pub fn len(&self) -> usize {
+        self.variants.len() * self.cycles.len()
+    }
+    /// True if there is nothing to run (a table without rows).
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Run every variant on every cycle: rows in the order variant 0 on each cycle, variant 1 on each cycle, ….
+    pub fn run(&self) -> SweepResult {
+        self.run_with_progress(&|_| {})
+    }
+
+    /// [`Sweep::run`], calling `progress(n)` after each finished row with the number of rows finished by then
+    /// (from the worker threads).
+    pub fn run_with_progress(&self, progress: &(dyn Fn(usize) + Sync)) -> SweepResult {
+        exec::run(self, progress)
+    }
+}
+
+impl SweepBuilder {
+    /// Add a cycle (its name labels the rows).
+    pub fn cycle(mut self, cycle: &Cycle) -> Self {
+        self.cycles.push(cycle.clone());
+        self
+    }
+
+    /// Add a grid axis: `n` values of parameter `name` evenly from `start` to `stop` (both included;
+    /// n = 1 gives `start`). Several axes make a full-factorial design, the last added varying fastest.
+    pub fn grid(self, name: impl Into<String>, start: f64, stop: f64, n: usize) -> Self {
+        let name = name.into();
+        match grid_values(start, stop, n) {
+            Ok(v) => self.values(name, v),
+            Err(reason) => self.fail(SweepError::BadAxis { name, reason }),
+        }
+    }
+
+    /// Add a grid axis with the given values of parameter `name`.
+    pub fn values(mut self, name: impl Into<String>, values: Vec<f64>) -> Self {
+        let name = name.into();
+        if values.is_empty() || values.iter().any(|v| !v.is_finite()) {
+            let reason = "needs at least one value, all finite".to_string();
+            return self.fail(SweepError::BadAxis { name, reason });
+        }
+        if let Design::Grid(axes) = &mut self.design {
+            axes.push((name, values));
+        }
+        self
+    }
+
+    /// The variants as a table: the parameters `names` and one row of values per variant (instead of a grid).
+    pub fn table(mut self, names: Vec<String>, rows: Vec<Vec<f64>>) -> Self {
+        self.table = Some((names, rows));
+        self
+    }
+
+    /// The options of every run (look-ahead, dt, engine name, …; `keep_series` is ignored: no series is kept).
+    pub fn options(mut self, opts: SimulationOptions) -> Self {
+        self.opts = opts;
+        self
+    }
+
+    /// Replay every variant's input through the original model and report its tracking error.
+    pub fn verify(mut self, verify: bool) -> Self {
+        self.verify = verify;
+        self
+    }
+
+    /// Number of worker threads (0, the default: rayon's choice, one per core).
+    pub fn threads(mut self, threads: usize) -> Self {
+        self.threads = threads;
+        self
+    }
+
+    fn fail(mut self, e: SweepError) -> Self {
+        self.errors.push(e);
+        self
+    }
+
+    /// The sweep, checked: the parameters exist, the axes and the table are well formed, the options are valid,
+    /// and the reference of every cycle (computed here, once).
+    pub fn build(mut self) -> Result<Sweep, SweepError> {
+        if let Some(e) = self.errors.drain(..).next() {
+            return Err(e);
+        }
+        if let Some((names, rows)) = self.table.take() {
+            if matches!(&self.design, Design::Grid(axes) if !axes.is_empty()) {
+                return Err(SweepError::BadAxis {
+                    name: names.join(","),
+                    reason: "a sweep has either grid axes or a table, not both".to_string(),
+                });
+            }
+            self.design = Design::Table { names, rows };
+        }
+        if self.cycles.is_empty() {
+            return Err(SweepError::NoCycles);
+        }
+        let mut opts = self.opts.clone();
+        opts.verify = self.verify;
+        opts.keep_series = false;
+        opts.validate()?;
+        let model = (self.factory)().map_err(SweepError::Model)?;
+        let (names, variants) = expand(&self.design)?;
+        check_names(model.as_ref(), &names)?;
+        let cycles = self
+            .cycles
+            .into_iter()
+            .map(|c| {
+                let r = crate::inverse::reference(model.as_ref(), &c, &opts).map_err(|source| {
+                    SweepError::Reference {
+                        cycle: c.name.clone(),
+                        source: Box::new(source),
+                    }
+                })?;
+                Ok((c, Arc::new(r)))
+            })
+            .collect::<Result<Vec<_>, SweepError>>()?;
+        let pool = match self.threads {
+            0 | 1 => None,
+            n => Some(
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(n)
+                    .build()
+                    .map_err(|e| SweepError::Threads {
+                        threads: n,
+                        reason: e.to_string(),
+                    })?,
+            ),
+        };
+        Ok(Sweep {
+            info: model.info().clone(),
+            factory: self.factory,
+            cycles,
+            names,
+            variants,
+            opts,
+            threads: self.threads,
+            pool,
+        })
+    }
+}
+
+/// `n` values evenly from `start` to `stop`: start + i·(stop − start)/(n − 1), i = 0 … n − 1 (the last is
+/// `stop` exactly).
+fn grid_values(start: f64, stop: f64, n: usize) -> Result<Vec<f64>, String> {
+    if !(start.is_finite() && stop.is_finite()) {
+        return Err(format!("start {start} and stop {stop} must be finite"));
+    }
+    match n {
+        0 => Err("needs at least one point (N ≥ 1)".to_string()),
+        1 => Ok(vec![start]),
+        _ => {
+            let step = (stop - start) / (n - 1) as f64;
+            Ok((0..n)
+                .map(|i| {
+                    if i + 1 == n {
+                        stop
+                    } else {
+                        start + i as f64 * step
+                    }
+                })
+                .collect())
+        }
+    }
+}
+
+/// The parameter names and the variants of a design (full factorial for a grid, last axis fastest).
+fn expand(design: &Design) -> Result<(Vec<String>, Vec<Vec<f64>>), SweepError> {
+    match design {
+        Design::Table { names, rows } => {
+            if let Some((row, r)) = rows
+                .iter()
+                .enumerate()
+                .find(|(_, r)| r.len() != names.len())
+            {
+                return Err(SweepError::TableWidth {
+                    row: row + 1,
+                    got: r.len(),
+                    expected: names.len(),
+                });
+            }
+            Ok((names.clone(), rows.clone()))
+        }
+        Design::Grid(axes) => {
+            let names: Vec<String> = axes.iter().map(|(n, _)| n.clone()).collect();
+            let mut variants: Vec<Vec<f64>> = vec![Vec::new()];
+            for (_, values) in axes {
+                variants = variants
+                    .iter()
+                    .flat_map(|v| {
+                        values.iter().map(move |&x| {
+                            let mut w = v.clone();
+                            w.push(x);
+                            w
+                        })
+                    })
+                    .collect();
+            }
+            Ok((names, variants))
+        }
+    }
+}
+
+/// Every swept name is a parameter of the model, and none twice.
+fn check_names(model: &dyn InverseModel, names: &[String]) -> Result<(), SweepError> {
+    let declared = &model.info().parameters;
+    for (i, name) in names.iter().enumerate() {
+        if names[..i].contains(name) {
+            return Err(SweepError::DuplicateParameter { name: name.clone() });
+        }
+        if !declared.iter().any(|p| p == name) {
+            return Err(SweepError::UnknownParameter {
+                name: name.clone(),
+                known: declared.join(", "),
+            });
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,142 @@
+//! A sweep's rows: the parameter values and the summary figures of every variant × cycle, and their CSV.
+
+use std::io::Write;
+
+use crate::inverse::Summary;
+
+/// The summary figures of one run (see [`crate::Summary`], whose numbers they are).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Figures {
+    /// Reported samples.
+    pub samples: usize,
+    /// Distance of the cycle, m.
+    pub distance_m: f64,
+    /// ∫ o dt of every accumulated output, in the order of [`SweepResult::integrals`].
+    pub integrals: Vec<f64>,
+    /// The integrals per 100 km (NaN when the cycle covers no distance).
+    pub integrals_per_100km: Vec<f64>,
+    /// The input's range over the run.
+    pub input_min: f64,
+    pub input_max: f64,
+    /// Number of intervals with the input outside its bounds and their total length, s.
+    pub violations: usize,
+    pub violation_s: f64,
+    /// With `verify`: max |y − y_d| and rms (y − y_d) of the forward replay.
+    pub max_abs_tracking_error: Option<f64>,
+    pub rms_tracking_error: Option<f64>,
+}
+
+impl Figures {
+    /// The figures of `summary`, integrals in the order of `integrals`.
+    pub fn from_summary(summary: &Summary, integrals: &[String]) -> Figures {
+        let totals = &summary.totals;
+        let pick = |map: &std::collections::BTreeMap<String, f64>| -> Vec<f64> {
+            let value = |name: &String| map.get(name).copied().unwrap_or(f64::NAN);
+            integrals.iter().map(value).collect()
+        };
+        let violations = &totals.input_bound_violations;
+        Figures {
+            samples: summary.samples,
+            distance_m: summary.run.distance_m,
+            integrals: pick(&totals.integrals),
+            integrals_per_100km: pick(&totals.integrals_per_100km),
+            input_min: totals.input_min,
+            input_max: totals.input_max,
+            violations: violations.len(),
+            violation_s: violations.iter().map(|[a, b]| b - a).sum(),
+            max_abs_tracking_error: summary.max_abs_tracking_error,
+            rms_tracking_error: summary.rms_tracking_error,
+        }
+    }
+}
+
+/// One variant on one cycle.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SweepRow {
+    /// Index of the variant (grid point or table row, from 0).
+    pub variant: usize,
+    /// The cycle's name.
+    pub cycle: String,
+    /// The swept parameters' values, in the order of [`SweepResult::parameters`].
+    pub params: Vec<f64>,
+    /// The figures, or why the run failed (the error's message).
+    pub outcome: Result<Figures, String>,
+}
+
+/// Every row of a sweep, with the names that label their numbers.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SweepResult {
+    /// The model's name.
+    pub model: String,
+    /// The engine that ran it (the options' `engine`).
+    pub engine: String,
+    /// Names of the swept parameters.
+    pub parameters: Vec<String>,
+    /// Names of the accumulated outputs (sorted, as in the summary's `integrals`).
+    pub integrals: Vec<String>,
+    /// Whether the rows have tracking errors.
+    pub verify: bool,
+    /// Variant 0 on each cycle, then variant 1 on each cycle, ….
+    pub rows: Vec<SweepRow>,
+}
+
+impl SweepResult {
+    /// Number of rows whose run failed.
+    pub fn failed(&self) -> usize {
+        self.rows.iter().filter(|r| r.outcome.is_err()).count()
+    }
+
+    /// The CSV header: `variant`, `cycle`, the parameters, `status`, `error`, `samples`, `distance_m`, the
+    /// integrals, `NAME_per_100km` for each, `input_min`, `input_max`, `violations`, `violation_s`, and with
+    /// `verify` `max_abs_tracking_error`, `rms_tracking_error`.
+    pub fn header(&self) -> Vec<String> {
+        let mut h = vec!["variant".to_string(), "cycle".to_string()];
+        h.extend(self.parameters.iter().cloned());
+        h.extend(["status", "error", "samples", "distance_m"].map(String::from));
+        h.extend(self.integrals.iter().cloned());
+        h.extend(self.integrals.iter().map(|n| format!("{n}_per_100km")));
+        h.extend(["input_min", "input_max", "violations", "violation_s"].map(String::from));
+        if self.verify {
+            h.extend(["max_abs_tracking_error", "rms_tracking_error"].map(String::from));
+        }
+        h
+    }
+
+    /// The fields of `row` under [`SweepResult::header`]; numbers in Rust's shortest round-trip form, empty
+    /// fields where a failed run has no figure.
+    pub fn record(&self, row: &SweepRow) -> Vec<String> {
+        let mut r = vec![row.variant.to_string(), row.cycle.clone()];
+        r.extend(row.params.iter().map(|v| v.to_string()));
+        let n_figures = 2 + 2 * self.integrals.len() + 4 + if self.verify { 2 } else { 0 };
+        match &row.outcome {
+            Err(e) => {
+                r.extend(["error".to_string(), e.clone()]);
+                r.extend(std::iter::repeat_n(String::new(), n_figures));
+            }
+            Ok(f) => {
+                r.extend(["ok".to_string(), String::new(), f.samples.to_string()]);
+                r.push(f.distance_m.to_string());
+                r.extend(f.integrals.iter().map(|v| v.to_string()));
+                r.extend(f.integrals_per_100km.iter().map(|v| v.to_string()));
+                r.extend([f.input_min, f.input_max].map(|v| v.to_string()));
+                r.extend([f.violations.to_string(), f.violation_s.to_string()]);
+                if self.verify {
+                    let opt = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
+                    r.extend([opt(f.max_abs_tracking_error), opt(f.rms_tracking_error)]);
+                }
+            }
+        }
+        r
+    }
+
+    /// Write the rows as CSV (header first).
+    pub fn write_csv<W: Write>(&self, w: W) -> Result<(), csv::Error> {
+        let mut out = csv::Writer::from_writer(w);
+        out.write_record(self.header())?;
+        for row in &self.rows {
+            out.write_record(self.record(row))?;
+        }
+        out.flush()?;
+        Ok(())
+    }
+}
