@@ -132,8 +132,8 @@ impl Model {
             keep_series,
         };
         let out = py.allow_threads(|| {
-            let opts = opts.build(self.loaded.engine_name())?;
             let cycle = load_cycle(&cycle)?;
+            let opts = opts.build(self.loaded.engine_name(), &self.path, &cycle.name)?;
             let m = self.loaded.with_params(&params)?;
             let r = run_one(m.as_ref(), &self.path, &cycle, &opts)?;
             let json = serde_json::to_string(&r.summary).map_err(|e| Failure::msg(e.to_string()))?;
@@ -172,8 +172,9 @@ impl Model {
             keep_series: false,
         };
         let rows = py.allow_threads(|| {
-            let opts = opts.build(self.loaded.engine_name())?;
             let cycles = cycles.iter().map(|c| load_cycle(c)).collect::<Result<Vec<_>, _>>()?;
+            let first = cycles.first().map_or("", |c| c.name.as_str());
+            let opts = opts.build(self.loaded.engine_name(), &self.path, first)?;
             check_variants(&self.loaded, &variants, &base)?;
             run_sweep(&self.loaded, &self.path, &cycles, &variants, &base, &opts, threads)
         });

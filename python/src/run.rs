@@ -1,7 +1,7 @@
 //! One inverse simulation, as `invsim simulate` runs it: the cycle, the options, the model with its
 //! parameters set, then `invsim_runtime::simulate`.
 
-use invsim_runtime::{Cycle, SimulationOptions, SimulationResult};
+use invsim_runtime::{Cycle, SimulateError, SimulationOptions, SimulationResult};
 
 use invsim_model_api::InverseModel;
 
@@ -19,8 +19,9 @@ pub struct RunOptions {
 }
 
 impl RunOptions {
-    /// The runtime's options, validated, for a model run by `engine`.
-    pub fn build(&self, engine: &str) -> Result<SimulationOptions, Failure> {
+    /// The runtime's options, validated, for `model_path` run by `engine` on `cycle` (an invalid option is
+    /// reported as the command line reports it).
+    pub fn build(&self, engine: &str, model_path: &str, cycle: &str) -> Result<SimulationOptions, Failure> {
         SimulationOptions::builder()
             .lookahead(self.lookahead)
             .dt(self.dt)
@@ -30,7 +31,7 @@ impl RunOptions {
             .include_extension(self.include_extension)
             .keep_series(self.keep_series)
             .build()
-            .map_err(|e| Failure::msg(e.to_string()))
+            .map_err(|e| stopped(model_path, cycle, e))
     }
 }
 
@@ -52,10 +53,12 @@ pub fn run_one(
     cycle: &Cycle,
     opts: &SimulationOptions,
 ) -> Result<SimulationResult, Failure> {
-    invsim_runtime::simulate(m, cycle, opts).map_err(|e| {
-        Failure::msg(format!(
-            "simulation of `{model_path}` on `{}` stopped: {e}",
-            cycle.name
-        ))
-    })
+    invsim_runtime::simulate(m, cycle, opts).map_err(|e| stopped(model_path, &cycle.name, e))
+}
+
+/// The command line's message for a run that could not start or had to stop.
+fn stopped(model_path: &str, cycle: &str, e: SimulateError) -> Failure {
+    Failure::msg(format!(
+        "simulation of `{model_path}` on `{cycle}` stopped: {e}"
+    ))
 }
