@@ -147,11 +147,13 @@ class Model:
 
     def __init__(self, path, engine="auto"):
         self._m = _invsim.Model(str(path), engine)
+        self._units = dict(self._m.column_units())
 
     @classmethod
     def _from_source(cls, path, source, engine):
         self = cls.__new__(cls)
         self._m = _invsim.Model.from_source(path, source, engine)
+        self._units = dict(self._m.column_units())
         return self
 
     def __reduce__(self):
@@ -201,7 +203,7 @@ class Model:
             bool(include_extension),
             bool(keep_series),
         )
-        return Result(json.loads(summary), columns, arrays, dict(self._m.column_units()))
+        return Result(json.loads(summary), columns, arrays, self._units)
 
     def sweep(self, params=None, cycles=("nedc",), dt=0.1, lookahead=5.0, base=None, verify=False, threads=None):
         """Every variant on every cycle, in parallel (rayon; `threads` = None: all cores). `params` is a

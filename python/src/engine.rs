@@ -56,7 +56,8 @@ impl Loaded {
     pub fn new(path: &Path, bytes: &[u8], choice: EngineChoice) -> Result<Loaded, Failure> {
         let model = Model::from_bytes(path, bytes)?;
         let d = Derivation::new(model).map_err(invsim_inversion::Error::from)?;
-        let derive_json = serde_json::to_string(&d.to_json()).map_err(|e| Failure::msg(e.to_string()))?;
+        let derive_json =
+            serde_json::to_string(&d.to_json()).map_err(|e| Failure::msg(e.to_string()))?;
         let units = column_units(&d);
         let hash = d.model.source_hash.clone();
         let builtin = invsim_models::by_hash(&hash).is_some();

@@ -59,7 +59,9 @@ impl Model {
                 // The model reader's own message for an unreadable file.
                 match invsim_inversion::Model::from_path(&path) {
                     Err(e) => Failure::from(e),
-                    Ok(_) => Failure::in_file("cannot read the model file", path.display().to_string()),
+                    Ok(_) => {
+                        Failure::in_file("cannot read the model file", path.display().to_string())
+                    }
                 }
             })
         });
@@ -70,7 +72,12 @@ impl Model {
     /// The same model from the bytes of its file (`path` names it in messages); used to unpickle.
     #[staticmethod]
     #[pyo3(signature = (path, source, engine = String::from("auto")))]
-    fn from_source(py: Python<'_>, path: String, source: Vec<u8>, engine: String) -> PyResult<Model> {
+    fn from_source(
+        py: Python<'_>,
+        path: String,
+        source: Vec<u8>,
+        engine: String,
+    ) -> PyResult<Model> {
         Model::load(py, path, source, engine)
     }
 
@@ -136,7 +143,8 @@ impl Model {
             let opts = opts.build(self.loaded.engine_name(), &self.path, &cycle.name)?;
             let m = self.loaded.with_params(&params)?;
             let r = run_one(m.as_ref(), &self.path, &cycle, &opts)?;
-            let json = serde_json::to_string(&r.summary).map_err(|e| Failure::msg(e.to_string()))?;
+            let json =
+                serde_json::to_string(&r.summary).map_err(|e| Failure::msg(e.to_string()))?;
             Ok((json, r.columns, r.data))
         });
         let (json, columns, data) = to_py(py, out)?;
@@ -172,11 +180,22 @@ impl Model {
             keep_series: false,
         };
         let rows = py.allow_threads(|| {
-            let cycles = cycles.iter().map(|c| load_cycle(c)).collect::<Result<Vec<_>, _>>()?;
+            let cycles = cycles
+                .iter()
+                .map(|c| load_cycle(c))
+                .collect::<Result<Vec<_>, _>>()?;
             let first = cycles.first().map_or("", |c| c.name.as_str());
             let opts = opts.build(self.loaded.engine_name(), &self.path, first)?;
             check_variants(&self.loaded, &variants, &base)?;
-            run_sweep(&self.loaded, &self.path, &cycles, &variants, &base, &opts, threads)
+            run_sweep(
+                &self.loaded,
+                &self.path,
+                &cycles,
+                &variants,
+                &base,
+                &opts,
+                threads,
+            )
         });
         let rows = to_py(py, rows)?;
         let param_names = to_py(py, self.loaded.instance())?.info().parameters.clone();
@@ -219,6 +238,9 @@ fn _invsim(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Model>()?;
     m.add("InvsimError", m.py().get_type::<InvsimError>())?;
     m.add("builtin_models", invsim_models::names())?;
-    m.add("builtin_cycles", invsim_runtime::Cycle::builtin_names().to_vec())?;
+    m.add(
+        "builtin_cycles",
+        invsim_runtime::Cycle::builtin_names().to_vec(),
+    )?;
     Ok(())
 }

@@ -21,7 +21,12 @@ pub struct RunOptions {
 impl RunOptions {
     /// The runtime's options, validated, for `model_path` run by `engine` on `cycle` (an invalid option is
     /// reported as the command line reports it).
-    pub fn build(&self, engine: &str, model_path: &str, cycle: &str) -> Result<SimulationOptions, Failure> {
+    pub fn build(
+        &self,
+        engine: &str,
+        model_path: &str,
+        cycle: &str,
+    ) -> Result<SimulationOptions, Failure> {
         SimulationOptions::builder()
             .lookahead(self.lookahead)
             .dt(self.dt)

@@ -27,7 +27,12 @@ impl Variants {
     /// Parameter settings of variant `i`, after the `base` settings shared by all variants.
     fn params(&self, base: &[(String, f64)], i: usize) -> Vec<(String, f64)> {
         let mut p = base.to_vec();
-        p.extend(self.names.iter().cloned().zip(self.values.iter().map(|c| c[i])));
+        p.extend(
+            self.names
+                .iter()
+                .cloned()
+                .zip(self.values.iter().map(|c| c[i])),
+        );
         p
     }
 }
@@ -65,7 +70,9 @@ pub fn run_sweep(
             .unwrap_or_default();
         let summary = instance
             .and_then(|m| run_one(m.as_ref(), model_path, &cycles[c], opts))
-            .and_then(|r| serde_json::to_string(&r.summary).map_err(|e| Failure::msg(e.to_string())))
+            .and_then(|r| {
+                serde_json::to_string(&r.summary).map_err(|e| Failure::msg(e.to_string()))
+            })
             .map_err(|f| f.message);
         Row {
             variant: i,
