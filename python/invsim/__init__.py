@@ -1,0 +1,222 @@
+"""invsim: inverse dynamic simulation of vehicle powertrains, from Python.
+
+>>> import invsim
+>>> model = invsim.Model("models/si_engine.toml")
+>>> model.derive()["relative_degree"]
+2
+>>> run = model.simulate(cycle="nedc", dt=0.1, lookahead=5.0)
+>>> run.summary["integrals"]["fuel"] > 0
+True
+>>> df = run.to_pandas()               # the CSV's columns; units in df.attrs["units"]
+>>> sweep = model.sweep(params={"m": [1200.0, 1400.0]}, cycles=["nedc", "udds"])   # one row per variant x cycle
+
+Everything runs in Rust without the GIL: `derive` is the command line's `invsim derive --format json`,
+`simulate` its `invsim simulate` (summary = `--summary-json`, columns = `--out`), `sweep` a loop of such runs
+over variants in parallel. Errors are `InvsimError` (a `ValueError`) with `file`, `line` and `column`.
+"""
+
+import json
+
+from . import _invsim
+
+__all__ = ["Model", "Result", "InvsimError", "builtin_models", "builtin_cycles", "sweep_frame"]
+
+InvsimError = _invsim.InvsimError
+InvsimError.__module__ = "invsim"
+# Defaults for errors raised without a position.
+InvsimError.file = None
+InvsimError.line = None
+InvsimError.column = None
+
+#: Names of the models compiled into the extension (files in the repository's models/).
+builtin_models = list(_invsim.builtin_models)
+#: Names of the built-in drive cycles (`invsim cycles`).
+builtin_cycles = list(_invsim.builtin_cycles)
+
+
+def _params_list(params):
+    """A dict of parameter overrides as a list of (name, float), in the dict's order."""
+    if params is None:
+        return []
+    return [(str(k), float(v)) for k, v in dict(params).items()]
+
+
+def _no_signals(signals):
+    if signals:
+        raise InvsimError(
+            "signals: this version of invsim has no [signals] (exogenous inputs); pass signals=None"
+        )
+
+
+class Result:
+    """One inverse simulation: `summary` (dict), `columns` (names), `arrays` (name -> numpy float64 array,
+    handed over from Rust without a copy) and `units` (column name -> unit or None)."""
+
+    def __init__(self, summary, columns, arrays, units):
+        self.summary = summary
+        self.columns = list(columns)
+        self.arrays = dict(zip(self.columns, arrays))
+        self.units = {c: units.get(c) for c in self.columns}
+
+    def __len__(self):
+        return self.summary["samples"] if not self.arrays else len(self.arrays["t"])
+
+    def __getitem__(self, name):
+        return self.arrays[name]
+
+    def __repr__(self):
+        return "<invsim.Result {} on {}: {} samples, columns {}>".format(
+            self.summary.get("model"), self.summary.get("cycle"), self.summary.get("samples"), self.columns
+        )
+
+    def to_pandas(self):
+        """A pandas DataFrame with the CSV's columns (same names, same order); the units are in
+        `df.attrs["units"]` (column -> unit or None)."""
+        import pandas as pd
+
+        df = pd.DataFrame(self.arrays, columns=self.columns, copy=False)
+        df.attrs["units"] = dict(self.units)
+        df.attrs["summary"] = self.summary
+        return df
+
+    def to_polars(self, units_in_names=False):
+        """A polars DataFrame with the CSV's columns. Polars frames carry no metadata: the units are in
+        `Result.units`, or in the names (`"v [m/s]"`) with `units_in_names=True`."""
+        import polars as pl
+
+        def name(c):
+            u = self.units.get(c)
+            return "{} [{}]".format(c, u) if units_in_names and u else c
+
+        return pl.DataFrame({name(c): self.arrays[c] for c in self.columns})
+
+
+def _flatten(d, prefix=""):
+    """A summary dict flattened for a table row: nested objects as `outer.inner`, lists as JSON text."""
+    out = {}
+    for k, v in d.items():
+        key = prefix + k
+        if isinstance(v, dict):
+            out.update(_flatten(v, key + "."))
+        elif isinstance(v, list):
+            out[key] = json.dumps(v)
+        else:
+            out[key] = v
+    return out
+
+
+def _variants(params):
+    """Sweep variants from a DataFrame (pandas or polars) or a dict of equal-length arrays: (names, columns)."""
+    import numpy as np
+
+    if params is None:
+        return [], []
+    if hasattr(params, "to_dict") and hasattr(params, "columns"):
+        names = [str(c) for c in params.columns]
+        cols = [np.ascontiguousarray(np.asarray(params[c], dtype=np.float64)) for c in params.columns]
+    else:
+        names = [str(k) for k in params]
+        cols = [np.ascontiguousarray(np.atleast_1d(np.asarray(v, dtype=np.float64))) for v in params.values()]
+    return names, cols
+
+
+def sweep_frame(param_names, rows, cycles, names, cols, variant_offset=0):
+    """The sweep's DataFrame from the extension's rows (one per variant x cycle)."""
+    import pandas as pd
+
+    records = []
+    for variant, cycle, values, summary, error in rows:
+        rec = {"variant": variant + variant_offset, "cycle": cycles[cycle]}
+        if values:
+            rec.update(zip(param_names, values))
+        else:  # the parameters could not be set: the variant's own values
+            rec.update({n: float(c[variant]) for n, c in zip(names, cols)})
+        rec["error"] = error
+        if summary is not None:
+            rec.update(_flatten(json.loads(summary)))
+        records.append(rec)
+    df = pd.DataFrame.from_records(records)
+    front = ["variant", "cycle"] + list(param_names) + ["error"]
+    rest = [c for c in df.columns if c not in front]
+    return df.reindex(columns=[c for c in front if c in df.columns] + rest)
+
+
+class Model:
+    """A model file, read, checked and derived once. `engine` is "auto" (compiled code when the file is
+    byte for byte one of `builtin_models`, else the interpreter), "compiled" or "interpreted"."""
+
+    def __init__(self, path, engine="auto"):
+        self._m = _invsim.Model(str(path), engine)
+        self._units = dict(self._m.column_units())
+
+    @classmethod
+    def _from_source(cls, path, source, engine):
+        self = cls.__new__(cls)
+        self._m = _invsim.Model.from_source(path, source, engine)
+        self._units = dict(self._m.column_units())
+        return self
+
+    def __reduce__(self):
+        # Pickled with the file's bytes: a worker process (Dask, multiprocessing) needs no copy of the file.
+        return (Model._from_source, (self._m.path, self._m.source, self._m.engine_choice))
+
+    def __repr__(self):
+        return "<invsim.Model {} ({})>".format(self._m.path, self.engine)
+
+    @property
+    def path(self):
+        """The model file's path as given."""
+        return self._m.path
+
+    @property
+    def engine(self):
+        """The engine that runs the model: "compiled" or "interpreted"."""
+        return self._m.engine
+
+    def derive(self):
+        """The derivation as a dict: exactly the JSON of `invsim derive MODEL --format json`."""
+        return json.loads(self._m.derive_json())
+
+    def simulate(
+        self,
+        cycle="nedc",
+        dt=0.1,
+        lookahead=5.0,
+        params=None,
+        signals=None,
+        verify=False,
+        causal=False,
+        include_extension=False,
+        keep_series=True,
+    ):
+        """Inverse simulation on `cycle` (a built-in name or a cycle CSV path), like `invsim simulate`:
+        `params` overrides parameters (`--set`), `verify` replays the input through the original model.
+        `keep_series=False` computes every sample but keeps only the summary."""
+        _no_signals(signals)
+        summary, columns, arrays = self._m.simulate(
+            str(cycle),
+            float(dt),
+            float(lookahead),
+            _params_list(params),
+            bool(verify),
+            bool(causal),
+            bool(include_extension),
+            bool(keep_series),
+        )
+        return Result(json.loads(summary), columns, arrays, self._units)
+
+    def sweep(self, params=None, cycles=("nedc",), dt=0.1, lookahead=5.0, base=None, verify=False, threads=None):
+        """Every variant on every cycle, in parallel (rayon; `threads` = None: all cores). `params` is a
+        DataFrame (one row per variant, one column per parameter) or a dict of equal-length arrays; `base`
+        overrides parameters for all variants. Returns a pandas DataFrame with one row per variant x cycle
+        (variant-major): `variant`, `cycle`, every model parameter, `error` (None, or why the run failed: a
+        failing variant never aborts the sweep) and the flattened summary (`integrals.fuel`, ...)."""
+        if isinstance(cycles, str):
+            cycles = [cycles]
+        cycles = [str(c) for c in cycles]
+        names, cols = _variants(params)
+        # No parameter varies: one variant, the model's defaults (with `base`).
+        param_names, rows = self._m.sweep(
+            names, cols, cycles, _params_list(base), float(dt), float(lookahead), bool(verify), threads
+        )
+        return sweep_frame(param_names, rows, cycles, names, cols)

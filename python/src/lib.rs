@@ -1,0 +1,246 @@
+//! The Rust extension `invsim._invsim` of the Python package `invsim`: a model loaded once (`Model`), its
+//! derivation as JSON, single inverse simulations returning their columns as numpy arrays (moved, not copied)
+//! and parameter sweeps. Every call runs without the GIL. The Python wrappers in `python/invsim/` turn the
+//! JSON into dicts and the columns into pandas and polars data frames.
+
+mod engine;
+mod error;
+mod run;
+mod sweep;
+
+use std::path::PathBuf;
+
+use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1};
+use pyo3::prelude::*;
+use pyo3::types::PyBytes;
+
+use engine::{EngineChoice, Loaded};
+use error::{to_py, Failure, InvsimError};
+use run::{load_cycle, run_one, RunOptions};
+use sweep::{run_sweep, Variants};
+
+/// What `Model.simulate` returns: the summary as JSON, the column names and the columns.
+type RunOutput<'py> = (String, Vec<String>, Vec<Bound<'py, PyArray1<f64>>>);
+/// One sweep row: variant, cycle index, every parameter's value, the summary JSON, the error.
+type SweepRow = (usize, usize, Vec<f64>, Option<String>, Option<String>);
+
+/// A model file, read and derived once; runs on compiled code when the file is a built-in model's.
+#[pyclass(module = "invsim._invsim", frozen)]
+struct Model {
+    loaded: Loaded,
+    path: String,
+    source: Vec<u8>,
+    engine_choice: String,
+}
+
+impl Model {
+    fn load(py: Python<'_>, path: String, source: Vec<u8>, engine: String) -> PyResult<Model> {
+        let loaded = py.allow_threads(|| {
+            let choice = EngineChoice::parse(&engine)?;
+            Loaded::new(&PathBuf::from(&path), &source, choice)
+        });
+        Ok(Model {
+            loaded: to_py(py, loaded)?,
+            path,
+            source,
+            engine_choice: engine,
+        })
+    }
+}
+
+#[pymethods]
+impl Model {
+    /// Read, check and derive the model file at `path`; `engine` is "auto", "compiled" or "interpreted".
+    #[new]
+    #[pyo3(signature = (path, engine = "auto"))]
+    fn new(py: Python<'_>, path: PathBuf, engine: &str) -> PyResult<Model> {
+        let source = py.allow_threads(|| {
+            std::fs::read(&path).map_err(|_| {
+                // The model reader's own message for an unreadable file.
+                match invsim_inversion::Model::from_path(&path) {
+                    Err(e) => Failure::from(e),
+                    Ok(_) => {
+                        Failure::in_file("cannot read the model file", path.display().to_string())
+                    }
+                }
+            })
+        });
+        let source = to_py(py, source)?;
+        Model::load(py, path.display().to_string(), source, engine.to_string())
+    }
+
+    /// The same model from the bytes of its file (`path` names it in messages); used to unpickle.
+    #[staticmethod]
+    #[pyo3(signature = (path, source, engine = String::from("auto")))]
+    fn from_source(
+        py: Python<'_>,
+        path: String,
+        source: Vec<u8>,
+        engine: String,
+    ) -> PyResult<Model> {
+        Model::load(py, path, source, engine)
+    }
+
+    /// The model file's path as given.
+    #[getter]
+    fn path(&self) -> &str {
+        &self.path
+    }
+
+    /// The model file's bytes.
+    #[getter]
+    fn source<'py>(&self, py: Python<'py>) -> Bound<'py, PyBytes> {
+        PyBytes::new(py, &self.source)
+    }
+
+    /// The engine asked for ("auto", "compiled", "interpreted").
+    #[getter]
+    fn engine_choice(&self) -> &str {
+        &self.engine_choice
+    }
+
+    /// The engine that runs the model: "compiled" or "interpreted".
+    #[getter]
+    fn engine(&self) -> &'static str {
+        self.loaded.engine_name()
+    }
+
+    /// The derivation as JSON (the command line's `invsim derive --format json`).
+    fn derive_json(&self) -> &str {
+        &self.loaded.derive_json
+    }
+
+    /// The unit of every column a run can have, as (name, unit or None).
+    fn column_units(&self) -> Vec<(String, Option<String>)> {
+        self.loaded.units.clone()
+    }
+
+    /// One inverse simulation: (summary JSON, column names, columns as float64 arrays).
+    #[pyo3(signature = (cycle, dt, lookahead, params, verify, causal, include_extension, keep_series))]
+    #[allow(clippy::too_many_arguments)]
+    fn simulate<'py>(
+        &self,
+        py: Python<'py>,
+        cycle: String,
+        dt: f64,
+        lookahead: f64,
+        params: Vec<(String, f64)>,
+        verify: bool,
+        causal: bool,
+        include_extension: bool,
+        keep_series: bool,
+    ) -> PyResult<RunOutput<'py>> {
+        let opts = RunOptions {
+            dt,
+            lookahead,
+            verify,
+            causal,
+            include_extension,
+            keep_series,
+        };
+        let out = py.allow_threads(|| {
+            let cycle = load_cycle(&cycle)?;
+            let opts = opts.build(self.loaded.engine_name(), &self.path, &cycle.name)?;
+            let m = self.loaded.with_params(&params)?;
+            let r = run_one(m.as_ref(), &self.path, &cycle, &opts)?;
+            let json =
+                serde_json::to_string(&r.summary).map_err(|e| Failure::msg(e.to_string()))?;
+            Ok((json, r.columns, r.data))
+        });
+        let (json, columns, data) = to_py(py, out)?;
+        // Each Vec becomes the buffer of its numpy array: no copy.
+        let arrays = data.into_iter().map(|c| c.into_pyarray(py)).collect();
+        Ok((json, columns, arrays))
+    }
+
+    /// A sweep: every variant (`names[j]` = `values[j][i]`) on every cycle, after the `base` settings.
+    /// Returns the model's parameter names and one row per variant × cycle (variant-major).
+    #[pyo3(signature = (names, values, cycles, base, dt, lookahead, verify, threads))]
+    #[allow(clippy::too_many_arguments)]
+    fn sweep(
+        &self,
+        py: Python<'_>,
+        names: Vec<String>,
+        values: Vec<PyReadonlyArray1<'_, f64>>,
+        cycles: Vec<String>,
+        base: Vec<(String, f64)>,
+        dt: f64,
+        lookahead: f64,
+        verify: bool,
+        threads: Option<usize>,
+    ) -> PyResult<(Vec<String>, Vec<SweepRow>)> {
+        let values: Vec<Vec<f64>> = values.iter().map(|a| a.as_array().to_vec()).collect();
+        let variants = Variants { names, values };
+        let opts = RunOptions {
+            dt,
+            lookahead,
+            verify,
+            causal: false,
+            include_extension: false,
+            keep_series: false,
+        };
+        let rows = py.allow_threads(|| {
+            let cycles = cycles
+                .iter()
+                .map(|c| load_cycle(c))
+                .collect::<Result<Vec<_>, _>>()?;
+            let first = cycles.first().map_or("", |c| c.name.as_str());
+            let opts = opts.build(self.loaded.engine_name(), &self.path, first)?;
+            check_variants(&self.loaded, &variants, &base)?;
+            run_sweep(
+                &self.loaded,
+                &self.path,
+                &cycles,
+                &variants,
+                &base,
+                &opts,
+                threads,
+            )
+        });
+        let rows = to_py(py, rows)?;
+        let param_names = to_py(py, self.loaded.instance())?.info().parameters.clone();
+        let rows = rows
+            .into_iter()
+            .map(|r| {
+                let (ok, err) = match r.summary {
+                    Ok(s) => (Some(s), None),
+                    Err(e) => (None, Some(e)),
+                };
+                (r.variant, r.cycle, r.params, ok, err)
+            })
+            .collect();
+        Ok((param_names, rows))
+    }
+}
+
+/// A sweep's parameter names must be the model's and its columns of one length: else no row could run.
+fn check_variants(model: &Loaded, v: &Variants, base: &[(String, f64)]) -> Result<(), Failure> {
+    if let Some(c) = v.values.iter().find(|c| c.len() != v.len()) {
+        return Err(Failure::msg(format!(
+            "sweep parameters: every column must have one value per variant ({} and {})",
+            v.len(),
+            c.len()
+        )));
+    }
+    let known = model.with_params(base)?.info().parameters.clone();
+    if let Some(name) = v.names.iter().find(|n| !known.contains(n)) {
+        return Err(Failure::msg(format!(
+            "sweep parameter `{name}`: the model has no such parameter (its parameters: {})",
+            known.join(", ")
+        )));
+    }
+    Ok(())
+}
+
+/// The extension module.
+#[pymodule]
+fn _invsim(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<Model>()?;
+    m.add("InvsimError", m.py().get_type::<InvsimError>())?;
+    m.add("builtin_models", invsim_models::names())?;
+    m.add(
+        "builtin_cycles",
+        invsim_runtime::Cycle::builtin_names().to_vec(),
+    )?;
+    Ok(())
+}

@@ -1,0 +1,93 @@
+//! Parameter sweeps: every variant (a set of parameter values) on every cycle, rows in variant-major order,
+//! variants run in parallel with rayon. A failing run is a row with its error, never an abort of the sweep.
+//!
+//! [`run_sweep`] is the one function the Python side calls; it loops single runs of
+//! `invsim_runtime::simulate` (each variant smooths the cycle again). The runtime's `Sweep`, which smooths
+//! each cycle once for all variants, can replace its body without changing its signature.
+
+use invsim_runtime::{Cycle, SimulationOptions};
+use rayon::prelude::*;
+
+use crate::engine::Loaded;
+use crate::error::Failure;
+use crate::run::run_one;
+
+/// The variants of a sweep, stored column by column: `values[j][i]` is parameter `names[j]` of variant i.
+#[derive(Debug, Clone)]
+pub struct Variants {
+    pub names: Vec<String>,
+    pub values: Vec<Vec<f64>>,
+}
+
+impl Variants {
+    /// Number of variants: without columns, one (the model's defaults).
+    pub fn len(&self) -> usize {
+        self.values.first().map_or(1, Vec::len)
+    }
+    /// Parameter settings of variant `i`, after the `base` settings shared by all variants.
+    fn params(&self, base: &[(String, f64)], i: usize) -> Vec<(String, f64)> {
+        let mut p = base.to_vec();
+        p.extend(
+            self.names
+                .iter()
+                .cloned()
+                .zip(self.values.iter().map(|c| c[i])),
+        );
+        p
+    }
+}
+
+/// One row: a variant on a cycle.
+#[derive(Debug, Clone)]
+pub struct Row {
+    pub variant: usize,
+    pub cycle: usize,
+    /// The values of every model parameter in this run (the model's parameter order).
+    pub params: Vec<f64>,
+    /// The run's summary as JSON (what `--summary-json` writes), or why the run failed.
+    pub summary: Result<String, String>,
+}
+
+/// Run every variant on every cycle; `threads` = `None` uses rayon's global pool. Rows are in the order
+/// variant 0 on each cycle, variant 1 on each cycle, …
+pub fn run_sweep(
+    model: &Loaded,
+    model_path: &str,
+    cycles: &[Cycle],
+    variants: &Variants,
+    base: &[(String, f64)],
+    opts: &SimulationOptions,
+    threads: Option<usize>,
+) -> Result<Vec<Row>, Failure> {
+    let jobs = variants.len() * cycles.len();
+    let one = |job: usize| {
+        let (i, c) = (job / cycles.len(), job % cycles.len());
+        let params = variants.params(base, i);
+        let instance = model.with_params(&params);
+        let values = instance
+            .as_ref()
+            .map(|m| m.params().to_vec())
+            .unwrap_or_default();
+        let summary = instance
+            .and_then(|m| run_one(m.as_ref(), model_path, &cycles[c], opts))
+            .and_then(|r| {
+                serde_json::to_string(&r.summary).map_err(|e| Failure::msg(e.to_string()))
+            })
+            .map_err(|f| f.message);
+        Row {
+            variant: i,
+            cycle: c,
+            params: values,
+            summary,
+        }
+    };
+    let run = || (0..jobs).into_par_iter().map(one).collect::<Vec<Row>>();
+    match threads {
+        None => Ok(run()),
+        Some(n) => rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .map(|pool| pool.install(run))
+            .map_err(|e| Failure::msg(format!("cannot start {n} threads: {e}"))),
+    }
+}

@@ -1,0 +1,78 @@
+"""Shared fixtures: the repository, the `invsim` command line to compare with, the shared models.
+
+The command line is `$INVSIM_BIN` if set, else the repository's `target/release/invsim` (built by
+`cargo build --release -p invsim`; `.ci/python` builds it), else `cargo run --release -q --`.
+"""
+
+import json
+import math
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+SHARED = REPO.parent / "shared"
+SI_ENGINE = REPO / "models" / "si_engine.toml"
+
+
+def _cli_command():
+    if os.environ.get("INVSIM_BIN"):
+        return [os.environ["INVSIM_BIN"]]
+    target = Path(os.environ.get("CARGO_TARGET_DIR", REPO / "target"))
+    binary = target / "release" / "invsim"
+    if binary.exists():
+        return [str(binary)]
+    if shutil.which("cargo"):
+        return ["cargo", "run", "--release", "-q", "--manifest-path", str(REPO / "Cargo.toml"), "-p", "invsim", "--"]
+    return None
+
+
+CLI = _cli_command()
+
+
+def run_cli(*args, check=True):
+    """Run `invsim ARGS…`; returns the CompletedProcess (text)."""
+    if CLI is None:
+        pytest.skip("no invsim command line to compare with (set INVSIM_BIN or build target/release/invsim)")
+    p = subprocess.run(CLI + [str(a) for a in args], capture_output=True, text=True, cwd=REPO)
+    if check and p.returncode != 0:
+        raise AssertionError("invsim {} failed ({}): {}".format(args, p.returncode, p.stderr))
+    return p
+
+
+def cli_json(*args):
+    return json.loads(run_cli(*args).stdout)
+
+
+def shared_model(name):
+    """A model of ../shared/models, or a skip saying it is absent."""
+    path = SHARED / "models" / name
+    if not path.exists():
+        pytest.skip("shared model {} is absent (expected at {})".format(name, path))
+    return path
+
+
+def assert_close(a, b, rel=1e-12, path="$"):
+    """Equal JSON-like values: numbers within `rel` relative (or 1e-300 absolute), the rest exactly."""
+    if isinstance(a, dict):
+        assert isinstance(b, dict) and list(a) == list(b), "{}: keys {} != {}".format(path, list(a), list(b))
+        for k in a:
+            assert_close(a[k], b[k], rel, path + "." + k)
+    elif isinstance(a, list):
+        assert isinstance(b, list) and len(a) == len(b), "{}: {} != {}".format(path, a, b)
+        for i, (x, y) in enumerate(zip(a, b)):
+            assert_close(x, y, rel, "{}[{}]".format(path, i))
+    elif isinstance(a, float) or isinstance(b, float):
+        assert math.isclose(a, b, rel_tol=rel, abs_tol=1e-300), "{}: {} != {}".format(path, a, b)
+    else:
+        assert a == b, "{}: {!r} != {!r}".format(path, a, b)
+
+
+@pytest.fixture(scope="session")
+def si_engine():
+    import invsim
+
+    return invsim.Model(SI_ENGINE)
