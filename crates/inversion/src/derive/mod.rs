@@ -15,11 +15,13 @@
 //! `relative_degree.rs`, the generic rank test in `rank.rs`, the greedy choice of ξ and η in
 //! `coordinates.rs`, ψ⁻¹ (isolation or Newton) in `psi_inv.rs`, α, β and the zero dynamics in
 //! `normal_form.rs`, the singular set and the domain conditions in `domain.rs`; this file composes them.
-//! Imports go one way: lie ← relative_degree ← this file; rank ← coordinates ← this file; psi_inv,
-//! normal_form and domain import only the model and are imported here.
+//! Constant subexpressions that are not finite are refused first (`finite.rs`). Imports go one way: lie ←
+//! relative_degree ← this file; rank ← coordinates ← this file; finite, psi_inv, normal_form and domain
+//! import only the model and are imported here.
 
 mod coordinates;
 mod domain;
+mod finite;
 mod lie;
 mod normal_form;
 mod psi_inv;
@@ -55,6 +57,18 @@ pub enum DeriveError {
         input: String,
         n: usize,
         last: usize,
+    },
+    #[error(
+        "{file}: {what} holds `{expr}` = {value} at the parameters' values ({params}): it is not finite, \
+         so α, β or the zero dynamics would be infinite or NaN everywhere; correct the expression or the \
+         parameter values"
+    )]
+    NotFinite {
+        file: String,
+        what: String,
+        expr: String,
+        value: f64,
+        params: String,
     },
     #[error(
         "{file}: the Lie derivative L_f^{k} h of the output `{output}` has {nodes} distinct expression nodes, \
@@ -140,6 +154,33 @@ impl Derivation {
         let file = model.file.display().to_string();
         let params: Vec<Symbol> = model.parameters.iter().map(|p| p.symbol).collect();
         let mut warnings = Vec::new();
+
+        // No constant part of f, g or h may be infinite or NaN at the parameters' values.
+        let roots: Vec<(String, Id)> = model
+            .states
+            .iter()
+            .flat_map(|s| {
+                [
+                    (format!("f of state `{}`", s.name), s.f),
+                    (format!("g of state `{}`", s.name), s.g),
+                ]
+            })
+            .chain([(
+                format!("the output `{}`", model.output.name),
+                model.output.h,
+            )])
+            .collect();
+        if let Some((what, expr, value, params)) =
+            finite::non_finite_constant(&model.pool, &roots, &nominal)
+        {
+            return Err(DeriveError::NotFinite {
+                file,
+                what,
+                expr,
+                value,
+                params,
+            });
+        }
 
         // r: the first k with L_g L_f^(k-1) h ≢ 0.
         let h = model.output.h;
