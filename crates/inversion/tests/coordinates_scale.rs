@@ -123,8 +123,11 @@ fn dependent_lie_derivatives_are_reported_as_such() {
 #[test]
 fn long_nonlinear_chains_stop_at_the_lie_derivative_budget() {
     // The 40-state chain of the issue and longer ones: an exit-2 error naming the limit, not gigabytes.
-    for n in [40] {
-        let text = chain_of(n, "-k*sin(THIS)*THIS", "exp(NEXT/10)", "x1");
+    for (n, decay, next) in [
+        (40, "-k*sin(THIS)*THIS", "exp(NEXT/10)"),
+        (40, "-k*THIS^3", "sin(NEXT)"),
+    ] {
+        let text = chain_of(n, decay, next, "x1");
         match derive(&text) {
             Err(e @ DeriveError::LieDerivativeTooLarge { .. }) => {
                 let msg = e.to_string();
