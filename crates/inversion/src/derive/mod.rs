@@ -142,6 +142,59 @@ pub struct Derivation {
     pub warnings: Vec<String>,
 }
 
+/// `Err(NotFinite)` naming the first constant subexpression of f, g or h that is not finite at `nominal`.
+fn check_finite(
+    model: &Model,
+    nominal: &std::collections::HashMap<Symbol, f64>,
+    file: &str,
+) -> Result<(), DeriveError> {
+    let roots: Vec<(String, Id)> = model
+        .states
+        .iter()
+        .flat_map(|s| {
+            [
+                (format!("f of state `{}`", s.name), s.f),
+                (format!("g of state `{}`", s.name), s.g),
+            ]
+        })
+        .chain([(
+            format!("the output `{}`", model.output.name),
+            model.output.h,
+        )])
+        .collect();
+    match finite::non_finite_constant(&model.pool, &roots, nominal) {
+        Some((what, expr, value, params)) => Err(DeriveError::NotFinite {
+            file: file.to_string(),
+            what,
+            expr,
+            value,
+            params,
+        }),
+        None => Ok(()),
+    }
+}
+
+/// The error for a model without a relative degree.
+fn no_relative_degree(model: &Model, file: String, why: NoRelativeDegree) -> DeriveError {
+    let n = model.states.len();
+    match why {
+        NoRelativeDegree::Unreachable => DeriveError::NoRelativeDegree {
+            file,
+            output: model.output.name.clone(),
+            input: model.input.name.clone(),
+            n,
+            last: n.saturating_sub(1),
+        },
+        NoRelativeDegree::TooLarge { k, nodes } => DeriveError::LieDerivativeTooLarge {
+            file,
+            output: model.output.name.clone(),
+            k,
+            nodes,
+            max: MAX_LIE_DERIVATIVE_NODES,
+        },
+    }
+}
+
 impl Derivation {
     /// Derive the normal form of a loaded model.
     pub fn new(model: Model) -> Result<Derivation, DeriveError> {
@@ -156,31 +209,7 @@ impl Derivation {
         let mut warnings = Vec::new();
 
         // No constant part of f, g or h may be infinite or NaN at the parameters' values.
-        let roots: Vec<(String, Id)> = model
-            .states
-            .iter()
-            .flat_map(|s| {
-                [
-                    (format!("f of state `{}`", s.name), s.f),
-                    (format!("g of state `{}`", s.name), s.g),
-                ]
-            })
-            .chain([(
-                format!("the output `{}`", model.output.name),
-                model.output.h,
-            )])
-            .collect();
-        if let Some((what, expr, value, params)) =
-            finite::non_finite_constant(&model.pool, &roots, &nominal)
-        {
-            return Err(DeriveError::NotFinite {
-                file,
-                what,
-                expr,
-                value,
-                params,
-            });
-        }
+        check_finite(&model, &nominal, &file)?;
 
         // r: the first k with L_g L_f^(k-1) h ≢ 0.
         let h = model.output.h;
@@ -190,27 +219,7 @@ impl Derivation {
             lie,
             lg_lie,
             lg_decided_by,
-        } = match found {
-            Ok(found) => found,
-            Err(NoRelativeDegree::Unreachable) => {
-                return Err(DeriveError::NoRelativeDegree {
-                    file,
-                    output: model.output.name.clone(),
-                    input: model.input.name.clone(),
-                    n,
-                    last: n.saturating_sub(1),
-                })
-            }
-            Err(NoRelativeDegree::TooLarge { k, nodes }) => {
-                return Err(DeriveError::LieDerivativeTooLarge {
-                    file,
-                    output: model.output.name.clone(),
-                    k,
-                    nodes,
-                    max: MAX_LIE_DERIVATIVE_NODES,
-                })
-            }
-        };
+        } = found.map_err(|why| no_relative_degree(&model, file.clone(), why))?;
         let decoupling = *lg_lie.last().expect("r ≥ 1 implies one L_g L_f^k h");
         let alpha_x = lie[r];
 
