@@ -1,8 +1,9 @@
 //! The normal-form coordinates: ξ = (h, L_f h, …, L_f^{r−1} h) and η = n − r states chosen so that
 //! ψ(x) = (ξ, η) is a coordinate change, ∂(ξ, η)/∂x nonsingular, preferring states with L_g η = g_η ≡ 0
-//! (Isidori, *Nonlinear Control Systems*, 3rd ed., Prop. 4.1.3). Nonsingularity is a numerical rank test
-//! at random probe points (rows scaled to unit norm, smallest singular value above 1e-9 at most points).
+//! (Isidori, *Nonlinear Control Systems*, 3rd ed., Prop. 4.1.3), by a greedy choice with the rank test of
+//! `rank.rs` (exact triangular elimination, then a numerical rank test at random probe points).
 
+use super::rank::RankTest;
 use crate::model::Model;
 use invsim_expr::{zero_test, Id, Pool, Rng, Symbol};
 use std::collections::HashMap;
@@ -15,6 +16,8 @@ pub(super) struct Coordinates {
     pub(super) psi: Vec<Id>,
     /// ∂ψ/∂x (n × n, row i = ∂ψ_i/∂x).
     pub(super) jacobian: Vec<Vec<Id>>,
+    /// Rank tests the choice took (at most n + 1).
+    pub(super) rank_tests: usize,
 }
 
 /// Random probe points: parameters at nominal values, states uniformly in [0.2, 3].
@@ -52,62 +55,6 @@ fn wide_probe_points(model: &Model, count: usize, seed: u64) -> Vec<HashMap<Symb
         .collect()
 }
 
-/// [`generically_nonsingular`] on `points`, or on `wide` where the matrix is finite at none of `points`.
-fn generically_nonsingular_or_wide(
-    pool: &Pool,
-    rows: &[Vec<Id>],
-    points: &[HashMap<Symbol, f64>],
-    wide: &[HashMap<Symbol, f64>],
-) -> bool {
-    let finite_somewhere = points.iter().any(|p| {
-        rows.iter()
-            .flatten()
-            .all(|&e| pool.eval(e, p).is_ok_and(|v| v.is_finite()))
-    });
-    if finite_somewhere {
-        generically_nonsingular(pool, rows, points)
-    } else {
-        generically_nonsingular(pool, rows, wide)
-    }
-}
-
-/// Numerical rank test of an n×n matrix of expressions: nonsingular at most probe points.
-fn generically_nonsingular(pool: &Pool, rows: &[Vec<Id>], points: &[HashMap<Symbol, f64>]) -> bool {
-    let n = rows.len();
-    let mut good = 0;
-    let mut tried = 0;
-    for p in points {
-        let mut m = nalgebra::DMatrix::<f64>::zeros(n, n);
-        let mut ok = true;
-        for i in 0..n {
-            for j in 0..n {
-                match pool.eval(rows[i][j], p) {
-                    Ok(v) if v.is_finite() => m[(i, j)] = v,
-                    _ => ok = false,
-                }
-            }
-        }
-        if !ok {
-            continue;
-        }
-        tried += 1;
-        // Scale rows so that the test is unit-independent.
-        for i in 0..n {
-            let norm = m.row(i).norm();
-            if norm > 0.0 {
-                let scaled = m.row(i) / norm;
-                m.set_row(i, &scaled);
-            }
-        }
-        let sv = m.svd(false, false).singular_values;
-        let min = sv.iter().copied().fold(f64::INFINITY, f64::min);
-        if min > 1e-9 {
-            good += 1;
-        }
-    }
-    tried > 0 && good * 2 > tried
-}
-
 /// The symbols ξ1 … ξr, η1 … η(n−r) and `yr` (= y^(r)).
 pub(super) fn coordinate_symbols(
     pool: &mut Pool,
@@ -122,15 +69,20 @@ pub(super) fn coordinate_symbols(
     (xi, eta, yr)
 }
 
-/// Choose η among the states: the first combination of n − r states (those with g ≡ 0 first) that makes
-/// ∂(ξ, η)/∂x generically nonsingular, or `None`. A chosen state with L_g η ≠ 0 is reported in `warnings`.
+/// Choose η among the states: n − r states, those with g ≡ 0 first (then by index), chosen greedily — a
+/// state joins η when ξ together with the states chosen so far and it remains independent, i.e. when ∂ξ/∂x
+/// restricted to the other columns keeps full row rank r (`rank.rs`). For a linear matroid this greedy
+/// choice is the lexicographically first basis, the first combination an enumeration of subsets in the same
+/// order would find (Oxley, *Matroid Theory*, 2nd ed., §1.8), in at most n + 1 rank tests instead of
+/// C(n, n − r). `Err` with the number of rank tests if ∂ξ/∂x has rank below r. A chosen state with
+/// L_g η ≠ 0 is reported in `warnings`.
 pub(super) fn choose_coordinates(
     model: &mut Model,
     lie: &[Id],
     r: usize,
     eta: &[Symbol],
     warnings: &mut Vec<String>,
-) -> Option<Coordinates> {
+) -> Result<Coordinates, usize> {
     let n = model.states.len();
     let states = model.state_symbols();
     let nominal = model.nominal();
@@ -151,27 +103,32 @@ pub(super) fn choose_coordinates(
         .map(|&gi| zero_test(pool, gi, &nominal).is_zero())
         .collect();
     candidates.sort_by_key(|&i| (!g_zero[i], i));
-    let mut chosen: Option<Vec<usize>> = None;
-    for combo in combinations(&candidates, n - r) {
-        let mut rows = jac_xi.clone();
-        for &c in &combo {
-            let row: Vec<Id> = (0..n)
-                .map(|j| if j == c { pool.one() } else { pool.zero() })
-                .collect();
-            rows.push(row);
-        }
-        if generically_nonsingular_or_wide(pool, &rows, &points, &wide) {
-            chosen = Some(combo);
+    let mut rank = RankTest::new(pool, &jac_xi, &nominal, &points, &wide);
+    let mut xi_columns: Vec<usize> = (0..n).collect();
+    if !rank.full_row_rank(&xi_columns) {
+        return Err(rank.tests);
+    }
+    let mut eta_states = Vec::with_capacity(n - r);
+    for &c in &candidates {
+        if eta_states.len() == n - r {
             break;
         }
+        let rest: Vec<usize> = xi_columns.iter().copied().filter(|&j| j != c).collect();
+        if rank.full_row_rank(&rest) {
+            eta_states.push(c);
+            xi_columns = rest;
+        }
     }
-    let mut eta_states = chosen?;
+    if eta_states.len() < n - r {
+        return Err(rank.tests);
+    }
+    let rank_tests = rank.tests;
     eta_states.sort_unstable();
-    for &c in &eta_states {
+    for (j, &c) in eta_states.iter().enumerate() {
         if !g_zero[c] {
             warnings.push(format!(
                 "internal coordinate {} = {} has L_g η ≠ 0: the zero dynamics depend on the input",
-                pool.symbol_name(eta[eta_states.iter().position(|&e| e == c).unwrap_or(0)]),
+                pool.symbol_name(eta[j]),
                 model.states[c].name
             ));
         }
@@ -186,39 +143,74 @@ pub(super) fn choose_coordinates(
                 .collect(),
         );
     }
-    Some(Coordinates {
+    Ok(Coordinates {
         eta_states,
         psi,
         jacobian,
+        rank_tests,
     })
-}
-
-/// All `k`-subsets of `items`, in lexicographic order of positions.
-fn combinations(items: &[usize], k: usize) -> Vec<Vec<usize>> {
-    if k == 0 {
-        return vec![Vec::new()];
-    }
-    let mut out = Vec::new();
-    for (i, &first) in items.iter().enumerate() {
-        for mut rest in combinations(&items[i + 1..], k - 1) {
-            rest.insert(0, first);
-            out.push(rest);
-        }
-    }
-    out
 }
 
 #[cfg(test)]
 mod tests {
+    use super::super::relative_degree::{relative_degree, RelativeDegree};
     use super::*;
+    use std::fmt::Write;
+    use std::path::Path;
+
+    /// xI' = decay(xI) + next(xI+1), xn' = decay(xn) + u, y = x1 (`THIS`, `NEXT` stand for xI, xI+1).
+    fn chain(n: usize, decay: &str, next: &str) -> Model {
+        let mut s = String::from("[parameters]\nk = 0.5\n[states]\n");
+        for i in 1..=n {
+            let d = decay.replace("THIS", &format!("x{i}"));
+            let tail = if i == n {
+                "u".to_string()
+            } else {
+                next.replace("NEXT", &format!("x{}", i + 1))
+            };
+            let _ = writeln!(s, "x{i} = {{ rhs = \"{d} + {tail}\" }}");
+        }
+        s.push_str("[input]\nname = \"u\"\n[output]\nname = \"y\"\nh = \"x1\"\n");
+        Model::from_str(Path::new("chain.toml"), &s).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    /// The relative degree and the result of the choice of η with its number of rank tests.
+    fn choose(mut model: Model) -> (usize, Result<Vec<usize>, usize>, usize) {
+        let f: Vec<Id> = model.states.iter().map(|s| s.f).collect();
+        let g: Vec<Id> = model.states.iter().map(|s| s.g).collect();
+        let (states, nominal, h) = (model.state_symbols(), model.nominal(), model.output.h);
+        let mut warnings = Vec::new();
+        let Ok(RelativeDegree { r, lie, .. }) =
+            relative_degree(&mut model.pool, h, &f, &g, &states, &nominal, &mut warnings)
+        else {
+            panic!("no relative degree");
+        };
+        let (_, eta, _) = coordinate_symbols(&mut model.pool, r, states.len());
+        match choose_coordinates(&mut model, &lie, r, &eta, &mut warnings) {
+            Ok(c) => (r, Ok(c.eta_states), c.rank_tests),
+            Err(tests) => (r, Err(tests), tests),
+        }
+    }
 
     #[test]
-    fn combinations_in_order() {
-        assert_eq!(
-            combinations(&[0, 1, 2], 2),
-            vec![vec![0, 1], vec![0, 2], vec![1, 2]]
-        );
-        assert_eq!(combinations(&[5, 7], 0), vec![Vec::<usize>::new()]);
-        assert_eq!(combinations(&[5, 7], 2), vec![vec![5, 7]]);
+    fn long_linear_chains_are_nonsingular() {
+        // ∂ξ/∂x is unit lower-triangular, entries C(k, j)·(−k)^(k−j): the old singular-value test called
+        // it singular from n = 22 on.
+        for n in [21, 22, 30, 40] {
+            let (r, eta, tests) = choose(chain(n, "-k*THIS", "NEXT"));
+            assert_eq!(r, n);
+            assert_eq!(eta, Ok(Vec::new()), "n = {n}");
+            assert_eq!(tests, 1);
+        }
+    }
+
+    #[test]
+    fn long_nonlinear_chains_are_nonsingular() {
+        for n in [6, 8, 10] {
+            let (r, eta, tests) = choose(chain(n, "-k*sin(THIS)*THIS", "exp(NEXT/10)"));
+            assert_eq!(r, n);
+            assert_eq!(eta, Ok(Vec::new()), "n = {n}");
+            assert_eq!(tests, 1);
+        }
     }
 }

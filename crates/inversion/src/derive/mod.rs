@@ -12,20 +12,25 @@
 //! * zero dynamics dη/dt = L_f η + L_g η · (y^(r) − α)/β, expressed in (ξ, η, y^(r)).
 //!
 //! Where each step lives (one file per concept): the Lie derivative in `lie.rs`, the relative degree in
-//! `relative_degree.rs`, the choice of ξ and η with the rank test in `coordinates.rs`, ψ⁻¹ (isolation or
-//! Newton) in `psi_inv.rs`, α, β and the zero dynamics in `normal_form.rs`, the singular set and the
-//! domain conditions in `domain.rs`; this file composes them. Imports go one way: lie ← relative_degree
-//! ← this file; coordinates, psi_inv, normal_form and domain import only the model and are imported here.
+//! `relative_degree.rs`, the generic rank test in `rank.rs`, the greedy choice of ξ and η in
+//! `coordinates.rs`, ψ⁻¹ (isolation or Newton) in `psi_inv.rs`, α, β and the zero dynamics in
+//! `normal_form.rs`, the singular set and the domain conditions in `domain.rs`; this file composes them.
+//! Constant subexpressions that are not finite are refused first (`finite.rs`). Imports go one way: lie ←
+//! relative_degree ← this file; rank ← coordinates ← this file; finite, psi_inv, normal_form and domain
+//! import only the model and are imported here.
 
 mod coordinates;
 mod domain;
+mod finite;
 mod lie;
 mod normal_form;
 mod psi_inv;
+mod rank;
 mod relative_degree;
 
 pub use lie::lie_derivative;
 pub use psi_inv::{isolate, Solution};
+pub use rank::SINGULAR_VALUE_TOL;
 
 use crate::model::Model;
 use coordinates::{choose_coordinates, coordinate_symbols, Coordinates};
@@ -33,7 +38,8 @@ use domain::{domain_conditions, singular_set};
 use invsim_expr::{DecidedBy, Id, Pool, Symbol};
 use normal_form::{normal_form, NormalForm, ToCoordinates};
 use psi_inv::{psi_inverse, Inverse};
-use relative_degree::{relative_degree, RelativeDegree};
+pub use relative_degree::MAX_LIE_DERIVATIVE_NODES;
+use relative_degree::{relative_degree, NoRelativeDegree, RelativeDegree};
 use thiserror::Error;
 
 /// Why a model cannot be inverted.
@@ -53,10 +59,43 @@ pub enum DeriveError {
         last: usize,
     },
     #[error(
-        "{file}: no choice of {m} internal state(s) η completes ξ = (h, …, L_f^(r-1) h) to a coordinate \
-         change: ∂(ξ, η)/∂x is singular for every choice (the L_f^k h are not independent)"
+        "{file}: {what} holds `{expr}` = {value} at the parameters' values ({params}): it is not finite, \
+         so α, β or the zero dynamics would be infinite or NaN everywhere; correct the expression or the \
+         parameter values"
     )]
-    NoCoordinates { file: String, m: usize },
+    NotFinite {
+        file: String,
+        what: String,
+        expr: String,
+        value: f64,
+        params: String,
+    },
+    #[error(
+        "{file}: the Lie derivative L_f^{k} h of the output `{output}` has {nodes} distinct expression nodes, \
+         more than the limit of {max} (MAX_LIE_DERIVATIVE_NODES): the model's derivatives grow too fast to \
+         derive symbolically (a long chain of nonlinear states); shorten the chain or simplify the \
+         right-hand sides"
+    )]
+    LieDerivativeTooLarge {
+        file: String,
+        output: String,
+        k: usize,
+        nodes: usize,
+        max: usize,
+    },
+    #[error(
+        "{file}: ξ = (h, …, L_f^(r-1) h) with r = {r} are not independent functions of the {n} states: the \
+         {r} × {n} matrix ∂ξ/∂x has rank below {r} (exact triangular elimination, then the smallest \
+         singular value of the row-scaled remainder at most random probe points is below {tol:e}), so no \
+         choice of the {m} internal state(s) η completes ξ to a coordinate change"
+    )]
+    NoCoordinates {
+        file: String,
+        r: usize,
+        n: usize,
+        m: usize,
+        tol: f64,
+    },
 }
 
 /// Everything derived for one model. Expressions live in `model.pool`.
@@ -82,6 +121,8 @@ pub struct Derivation {
     pub psi_inv: Vec<Solution>,
     /// ∂ψ/∂x (n × n, row i = ∂ψ_i/∂x), for Newton's method and for the chain rule.
     pub jacobian: Vec<Vec<Id>>,
+    /// Rank tests the choice of η took (at most n + 1: the greedy choice of `coordinates.rs`).
+    pub rank_tests: usize,
     /// α and β in (ξ, η) — with any numerically solved states left as state symbols.
     pub alpha: Id,
     pub beta: Id,
@@ -101,6 +142,59 @@ pub struct Derivation {
     pub warnings: Vec<String>,
 }
 
+/// `Err(NotFinite)` naming the first constant subexpression of f, g or h that is not finite at `nominal`.
+fn check_finite(
+    model: &Model,
+    nominal: &std::collections::HashMap<Symbol, f64>,
+    file: &str,
+) -> Result<(), DeriveError> {
+    let roots: Vec<(String, Id)> = model
+        .states
+        .iter()
+        .flat_map(|s| {
+            [
+                (format!("f of state `{}`", s.name), s.f),
+                (format!("g of state `{}`", s.name), s.g),
+            ]
+        })
+        .chain([(
+            format!("the output `{}`", model.output.name),
+            model.output.h,
+        )])
+        .collect();
+    match finite::non_finite_constant(&model.pool, &roots, nominal) {
+        Some((what, expr, value, params)) => Err(DeriveError::NotFinite {
+            file: file.to_string(),
+            what,
+            expr,
+            value,
+            params,
+        }),
+        None => Ok(()),
+    }
+}
+
+/// The error for a model without a relative degree.
+fn no_relative_degree(model: &Model, file: String, why: NoRelativeDegree) -> DeriveError {
+    let n = model.states.len();
+    match why {
+        NoRelativeDegree::Unreachable => DeriveError::NoRelativeDegree {
+            file,
+            output: model.output.name.clone(),
+            input: model.input.name.clone(),
+            n,
+            last: n.saturating_sub(1),
+        },
+        NoRelativeDegree::TooLarge { k, nodes } => DeriveError::LieDerivativeTooLarge {
+            file,
+            output: model.output.name.clone(),
+            k,
+            nodes,
+            max: MAX_LIE_DERIVATIVE_NODES,
+        },
+    }
+}
+
 impl Derivation {
     /// Derive the normal form of a loaded model.
     pub fn new(model: Model) -> Result<Derivation, DeriveError> {
@@ -114,38 +208,38 @@ impl Derivation {
         let params: Vec<Symbol> = model.parameters.iter().map(|p| p.symbol).collect();
         let mut warnings = Vec::new();
 
+        // No constant part of f, g or h may be infinite or NaN at the parameters' values.
+        check_finite(&model, &nominal, &file)?;
+
         // r: the first k with L_g L_f^(k-1) h ≢ 0.
         let h = model.output.h;
         let found = relative_degree(&mut model.pool, h, &f, &g, &states, &nominal, &mut warnings);
-        let Some(RelativeDegree {
+        let RelativeDegree {
             r,
             lie,
             lg_lie,
             lg_decided_by,
-        }) = found
-        else {
-            return Err(DeriveError::NoRelativeDegree {
-                file,
-                output: model.output.name.clone(),
-                input: model.input.name.clone(),
-                n,
-                last: n.saturating_sub(1),
-            });
-        };
+        } = found.map_err(|why| no_relative_degree(&model, file.clone(), why))?;
         let decoupling = *lg_lie.last().expect("r ≥ 1 implies one L_g L_f^k h");
         let alpha_x = lie[r];
 
         let (xi, eta, yr) = coordinate_symbols(&mut model.pool, r, n);
 
         // η among the states, ψ = (ξ, η) and ∂ψ/∂x; then ψ⁻¹ by isolation (or Newton at run time).
-        let Some(Coordinates {
+        let Coordinates {
             eta_states,
             psi,
             jacobian,
-        }) = choose_coordinates(&mut model, &lie, r, &eta, &mut warnings)
-        else {
-            return Err(DeriveError::NoCoordinates { file, m: n - r });
-        };
+            rank_tests,
+        } = choose_coordinates(&mut model, &lie, r, &eta, &mut warnings).map_err(|_| {
+            DeriveError::NoCoordinates {
+                file: file.clone(),
+                r,
+                n,
+                m: n - r,
+                tol: SINGULAR_VALUE_TOL,
+            }
+        })?;
         let Inverse {
             psi_inv,
             closed,
@@ -191,6 +285,7 @@ impl Derivation {
             psi,
             psi_inv,
             jacobian,
+            rank_tests,
             alpha,
             beta,
             alpha_x,

@@ -6,6 +6,19 @@ use super::lie::lie_derivative;
 use invsim_expr::{zero_test, DecidedBy, Id, Pool, Symbol, ZeroVerdict};
 use std::collections::HashMap;
 
+/// Largest DAG (distinct nodes, shared subterms counted once) of one Lie derivative L_f^k h. Chains of
+/// nonlinear states grow L_f^k h geometrically (a 40-state chain x_i' = −k·sin(x_i)·x_i + exp(x_{i+1}/10)
+/// would need gigabytes); the shipped models stay below 2 000 nodes.
+pub const MAX_LIE_DERIVATIVE_NODES: usize = 20_000;
+
+/// Why no relative degree was found.
+pub(super) enum NoRelativeDegree {
+    /// L_g L_f^k h ≡ 0 for every k < n.
+    Unreachable,
+    /// L_f^k h has more than [`MAX_LIE_DERIVATIVE_NODES`] nodes.
+    TooLarge { k: usize, nodes: usize },
+}
+
 /// The relative degree and the Lie derivatives that found it.
 pub(super) struct RelativeDegree {
     /// Relative degree r.
@@ -18,8 +31,9 @@ pub(super) struct RelativeDegree {
     pub(super) lg_decided_by: Vec<DecidedBy>,
 }
 
-/// The first k ≤ n with L_g L_f^(k-1) h ≢ 0, or `None` if the input reaches the output through no number
-/// of derivatives. A zero found only by numeric probing is reported in `warnings`.
+/// The first k ≤ n with L_g L_f^(k-1) h ≢ 0, or why there is none: the input reaches the output through no
+/// number of derivatives, or a Lie derivative outgrew [`MAX_LIE_DERIVATIVE_NODES`]. A zero found only by
+/// numeric probing is reported in `warnings`.
 pub(super) fn relative_degree(
     pool: &mut Pool,
     h: Id,
@@ -28,7 +42,7 @@ pub(super) fn relative_degree(
     states: &[Symbol],
     nominal: &HashMap<Symbol, f64>,
     warnings: &mut Vec<String>,
-) -> Option<RelativeDegree> {
+) -> Result<RelativeDegree, NoRelativeDegree> {
     let n = states.len();
     let mut lie = vec![h];
     let mut lg_lie = Vec::new();
@@ -45,9 +59,13 @@ pub(super) fn relative_degree(
             ));
         }
         let next = lie_derivative(pool, lie[k], f, states);
+        let nodes = pool.dag_size(&[next]);
+        if nodes > MAX_LIE_DERIVATIVE_NODES {
+            return Err(NoRelativeDegree::TooLarge { k: k + 1, nodes });
+        }
         lie.push(next);
         if !verdict.is_zero() {
-            return Some(RelativeDegree {
+            return Ok(RelativeDegree {
                 r: k + 1,
                 lie,
                 lg_lie,
@@ -55,5 +73,5 @@ pub(super) fn relative_degree(
             });
         }
     }
-    None
+    Err(NoRelativeDegree::Unreachable)
 }

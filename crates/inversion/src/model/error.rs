@@ -21,12 +21,30 @@ pub struct ModelError {
 
 impl ModelError {
     fn render(&self) -> String {
-        match (self.line, self.column) {
+        let text = match (self.line, self.column) {
             (Some(l), Some(c)) => format!("{}:{l}:{c}: {}", self.file.display(), self.message),
             (Some(l), None) => format!("{}:{l}: {}", self.file.display(), self.message),
             _ => format!("{}: {}", self.file.display(), self.message),
-        }
+        };
+        escape_controls(&text)
     }
+}
+
+/// `text` with every control character but the newline escaped (`\u{0}` for NUL), so that a message never
+/// echoes raw bytes from a file into a terminal or a log.
+fn escape_controls(text: &str) -> String {
+    if !text.chars().any(|c| c.is_control() && c != '\n') {
+        return text.to_string();
+    }
+    text.chars()
+        .map(|c| {
+            if c.is_control() && c != '\n' {
+                c.escape_default().to_string()
+            } else {
+                c.to_string()
+            }
+        })
+        .collect()
 }
 
 /// What kind of problem a [`ModelError`] reports.

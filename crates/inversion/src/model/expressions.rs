@@ -6,6 +6,7 @@ use super::error::{ModelError, ModelErrorKind};
 use super::names::{reserved_reason, suggestion, Names};
 use super::raw::{RawEquation, RawModel};
 use super::spanned::{Reader, Src};
+use super::values::underflows;
 use invsim_expr::{parse, Ast, AstKind};
 
 /// Longest expression accepted, in bytes. Real model expressions are a few hundred characters; the limit
@@ -166,6 +167,17 @@ impl Reader<'_> {
                             src.at(a.span.start),
                             ModelErrorKind::NonFinite,
                             format!("number out of range in {what}: it must be finite"),
+                        ));
+                    }
+                    let literal = src.text.get(a.span.clone()).unwrap_or("");
+                    if n.to_f64() == 0.0 && underflows(literal) {
+                        return Err(self.err(
+                            src.at(a.span.start),
+                            ModelErrorKind::NonFinite,
+                            format!(
+                                "number out of range in {what}: `{literal}` is not zero but below the \
+                                 smallest floating-point number (about 4.9e-324), so it would be read as 0"
+                            ),
                         ));
                     }
                 }

@@ -5,7 +5,8 @@
 //! offending key, value or character inside an expression, and says what was expected. The checks run in
 //! this order, so a file with several problems reports the most basic one first:
 //!
-//! 1. the file is readable UTF-8 and valid TOML;
+//! 1. the file is readable, at most [`MAX_MODEL_FILE_BYTES`] bytes (read through the cap), UTF-8 and
+//!    valid TOML;
 //! 2. the structure: known top-level keys and section keys, value types, required sections and keys,
 //!    finite numbers, `min <= max` for the input bounds;
 //! 3. declared names: identifiers, not reserved, unique across parameters, definitions, states and input;
@@ -66,4 +67,5 @@ mod values;
 
 pub use error::{ModelError, ModelErrorKind};
 pub use expressions::{MAX_EXPRESSION_LEN, MAX_EXPRESSION_NESTING};
+pub use reader::MAX_MODEL_FILE_BYTES;
 pub use validated::{Definition, Engine, ExtraOutput, Input, Model, Output, Parameter, State};

@@ -10,18 +10,41 @@ use super::split::extra_outputs;
 use super::tree::Tv;
 use super::validated::{Input, Model};
 use sha2::{Digest, Sha256};
+use std::io::Read;
 use std::path::Path;
 
+/// Largest model file read, in bytes (1 MiB; the shipped models are under 20 KiB). The file is read through
+/// this cap, so a device or an endless stream (`/dev/zero`) is refused after 1 MiB + 1 byte.
+pub const MAX_MODEL_FILE_BYTES: u64 = 1 << 20;
+
+/// The bytes of `path`, at most [`MAX_MODEL_FILE_BYTES`].
+fn read_capped(path: &Path) -> Result<Vec<u8>, ModelError> {
+    let err = |message: String| ModelError {
+        file: path.to_path_buf(),
+        line: None,
+        column: None,
+        message,
+        kind: ModelErrorKind::Io,
+    };
+    let file =
+        std::fs::File::open(path).map_err(|e| err(format!("cannot read the model file: {e}")))?;
+    let mut bytes = Vec::new();
+    file.take(MAX_MODEL_FILE_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| err(format!("cannot read the model file: {e}")))?;
+    if bytes.len() as u64 > MAX_MODEL_FILE_BYTES {
+        return Err(err(format!(
+            "the model file is larger than the limit of {MAX_MODEL_FILE_BYTES} bytes (1 MiB); a model file \
+             is text of a few kilobytes"
+        )));
+    }
+    Ok(bytes)
+}
+
 impl Model {
-    /// Read and validate a model file.
+    /// Read and validate a model file (at most [`MAX_MODEL_FILE_BYTES`] bytes).
     pub fn from_path(path: &Path) -> Result<Model, ModelError> {
-        let bytes = std::fs::read(path).map_err(|e| ModelError {
-            file: path.to_path_buf(),
-            line: None,
-            column: None,
-            message: format!("cannot read the model file: {e}"),
-            kind: ModelErrorKind::Io,
-        })?;
+        let bytes = read_capped(path)?;
         Model::from_bytes(path, &bytes)
     }
 

@@ -5,6 +5,13 @@ use super::error::{ModelError, ModelErrorKind};
 use super::spanned::{string_content, Reader, Src};
 use super::tree::{get, key_at, Entries, Kind, Tv};
 
+/// Is the decimal literal `text` (`1e-400`, `-0.5E-330`, `1_0e-999`) nonzero in its digits? Such a literal
+/// that parses to 0 has underflowed.
+pub(super) fn underflows(text: &str) -> bool {
+    let mantissa = text.split(['e', 'E']).next().unwrap_or("");
+    mantissa.chars().any(|c| matches!(c, '1'..='9'))
+}
+
 impl Reader<'_> {
     pub(super) fn table<'t>(&self, v: &'t Tv, what: &str) -> Result<&'t Entries, ModelError> {
         match &v.kind {
@@ -48,6 +55,21 @@ impl Reader<'_> {
                 format!("{what} must be finite, found {x}"),
             ));
         }
+        let literal = v
+            .span
+            .as_ref()
+            .and_then(|s| self.text.get(s.clone()))
+            .unwrap_or("");
+        if x == 0.0 && matches!(v.kind, Kind::Float(_)) && underflows(literal) {
+            return Err(self.err(
+                at,
+                ModelErrorKind::NonFinite,
+                format!(
+                    "{what} `{literal}` is not zero but below the smallest floating-point number (about \
+                     4.9e-324), so it would be read as 0; write 0 or a representable value"
+                ),
+            ));
+        }
         Ok(x)
     }
 
@@ -78,6 +100,24 @@ impl Reader<'_> {
                 });
             }
             Kind::Int(i) => i.to_string(),
+            Kind::Float(x)
+                if *x == 0.0
+                    && underflows(
+                        v.span
+                            .as_ref()
+                            .and_then(|s| self.text.get(s.clone()))
+                            .unwrap_or(""),
+                    ) =>
+            {
+                return Err(self.err(
+                    at,
+                    ModelErrorKind::NonFinite,
+                    format!(
+                        "{what} is not zero but below the smallest floating-point number (about \
+                         4.9e-324), so it would be read as 0"
+                    ),
+                ));
+            }
             Kind::Float(x) if x.is_finite() => format!("{x:?}"),
             Kind::Float(x) => {
                 return Err(self.err(

@@ -1,5 +1,8 @@
 //! Linearisation of the zero dynamics: ∂q/∂η by central differences, (q(η + h e_j) − q(η − h e_j))/(2h) with
-//! h = 1e-6·max(1, |η_j|), and the eigenvalues of the result by the real Schur decomposition (Golub & Van
+//! h = 1e-6·max(1, |η_j|); where a column is not finite because η lies on the boundary of q's domain (η_j = 0
+//! in η_j^1.5, where q(η − h e_j) is NaN), the one-sided second-order difference into the domain,
+//! ±(−3q(η) + 4q(η ± h e_j) − q(η ± 2h e_j))/(2h) (Fornberg 1988), the one-sided limit of the derivative;
+//! and the eigenvalues of the result by the real Schur decomposition (Golub & Van
 //! Loan, *Matrix Computations*, 4th ed., §7.5).
 
 use super::class::ZeroDynamicsClass;
@@ -14,6 +17,8 @@ pub struct JacobianWork {
     eta: Vec<f64>,
     qp: Vec<f64>,
     qm: Vec<f64>,
+    /// q(η), for one-sided differences.
+    q0: Vec<f64>,
     /// ∂q/∂η, column major (n × n).
     jac: Vec<f64>,
 }
@@ -26,11 +31,13 @@ impl JacobianWork {
             eta: vec![0.0; n],
             qp: vec![0.0; n],
             qm: vec![0.0; n],
+            q0: vec![0.0; n],
             jac: vec![0.0; n * n],
         }
     }
 
-    /// ∂q/∂η at (ξ, η, y^(r)) by central differences, column major; no allocation.
+    /// ∂q/∂η at (ξ, η, y^(r)) by central differences (one-sided at the boundary of q's domain, see the
+    /// module documentation), column major; no allocation.
     pub fn jacobian<M: InverseModel + ?Sized>(
         &mut self,
         model: &M,
@@ -40,6 +47,7 @@ impl JacobianWork {
     ) -> &[f64] {
         let n = self.n;
         self.eta.copy_from_slice(eta);
+        let mut have_q0 = false;
         for (j, &eta_j) in eta.iter().enumerate() {
             let h = 1e-6 * eta_j.abs().max(1.0);
             self.eta[j] = eta_j + h;
@@ -51,8 +59,48 @@ impl JacobianWork {
             for ((d, p), m) in column.iter_mut().zip(&self.qp).zip(&self.qm) {
                 *d = (p - m) / (2.0 * h);
             }
+            if column.iter().all(|d| d.is_finite()) {
+                continue;
+            }
+            if !have_q0 {
+                model.zero_dynamics(xi, eta, yr, &mut self.q0);
+                have_q0 = true;
+            }
+            for side in [1.0, -1.0] {
+                if self.one_sided(model, (xi, yr), j, eta_j, side * h) {
+                    break;
+                }
+            }
         }
         &self.jac
+    }
+
+    /// Column j by the one-sided difference (−3q(η) + 4q(η + s e_j) − q(η + 2s e_j))/(2s) with step s
+    /// (either sign); false (column left as it was) if that is not finite either. `self.q0` holds q(η) and
+    /// `self.eta` holds η.
+    fn one_sided<M: InverseModel + ?Sized>(
+        &mut self,
+        model: &M,
+        (xi, yr): (&[f64], f64),
+        j: usize,
+        eta_j: f64,
+        s: f64,
+    ) -> bool {
+        let n = self.n;
+        self.eta[j] = eta_j + s;
+        model.zero_dynamics(xi, &self.eta, yr, &mut self.qp);
+        self.eta[j] = eta_j + 2.0 * s;
+        model.zero_dynamics(xi, &self.eta, yr, &mut self.qm);
+        self.eta[j] = eta_j;
+        let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
+        if !(finite(&self.q0) && finite(&self.qp) && finite(&self.qm)) {
+            return false;
+        }
+        let column = &mut self.jac[j * n..(j + 1) * n];
+        for (((d, q0), p), m) in column.iter_mut().zip(&self.q0).zip(&self.qp).zip(&self.qm) {
+            *d = (-3.0 * q0 + 4.0 * p - m) / (2.0 * s);
+        }
+        true
     }
 }
 

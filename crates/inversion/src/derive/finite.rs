@@ -1,0 +1,95 @@
+//! Constant parts of the model that are not finite at the parameters' values: a literal `1/0`, `m = -0.0`
+//! under a division (β = 1/m = −inf), `sqrt(-1)`, `log(0)`. Such a subexpression — free of states and of
+//! the input — makes f, g or h (and so α, β or the zero dynamics) infinite or NaN at every point, so the
+//! derivation is refused with an error naming it, instead of printing `β = -inf`.
+//!
+//! One walk over the DAG in post-order (iterative, each node once): a node whose children are all finite
+//! constants and whose own value is not finite is reported, with the parameters it holds.
+
+use invsim_expr::{pow_f64, Id, Node, Pool, Symbol};
+use std::collections::HashMap;
+
+/// Longest printed subexpression in the message, in characters.
+const SHOWN_CHARS: usize = 200;
+
+/// The first constant subexpression of the `roots` (named, in order) that is not finite at `nominal`:
+/// (root name, the subexpression printed, its value, the parameters in it with their values).
+pub(super) fn non_finite_constant(
+    pool: &Pool,
+    roots: &[(String, Id)],
+    nominal: &HashMap<Symbol, f64>,
+) -> Option<(String, String, f64, String)> {
+    let mut memo: HashMap<Id, Option<f64>> = HashMap::new();
+    for (name, root) in roots {
+        for id in pool.topological(&[*root]) {
+            if memo.contains_key(&id) {
+                continue;
+            }
+            let value = constant_value(pool, id, nominal, &memo);
+            let children_finite = pool
+                .children(id)
+                .iter()
+                .all(|c| memo.get(c).copied().flatten().is_some_and(f64::is_finite));
+            memo.insert(id, value);
+            if let Some(v) = value.filter(|v| !v.is_finite()) {
+                if children_finite {
+                    return Some((
+                        name.clone(),
+                        shown(pool, id),
+                        v,
+                        parameters(pool, id, nominal),
+                    ));
+                }
+            }
+        }
+    }
+    None
+}
+
+/// The value of `id` if it is free of states and the input (every child's value in `memo`).
+fn constant_value(
+    pool: &Pool,
+    id: Id,
+    nominal: &HashMap<Symbol, f64>,
+    memo: &HashMap<Id, Option<f64>>,
+) -> Option<f64> {
+    let get = |c: &Id| memo.get(c).copied().flatten();
+    Some(match pool.node(id) {
+        Node::Num(n) => n.to_f64(),
+        Node::Pi => std::f64::consts::PI,
+        Node::Sym(s) => *nominal.get(s)?,
+        Node::Add(ts) => ts.iter().map(get).sum::<Option<f64>>()?,
+        Node::Mul(fs) => fs.iter().map(get).product::<Option<f64>>()?,
+        Node::Pow(b, p) => pow_f64(get(b)?, pool.as_number(*p), get(p)?),
+        Node::Call(f, a) => f.eval(get(a)?),
+        Node::Call2(f, a, b) => f.eval(get(a)?, get(b)?),
+    })
+}
+
+fn shown(pool: &Pool, id: Id) -> String {
+    let text = pool.display(id);
+    if text.chars().count() <= SHOWN_CHARS {
+        text
+    } else {
+        let cut: String = text.chars().take(SHOWN_CHARS).collect();
+        format!("{cut}…")
+    }
+}
+
+/// `m = -0, k = 2` for the parameters in `id`, or `no parameters`.
+fn parameters(pool: &Pool, id: Id, nominal: &HashMap<Symbol, f64>) -> String {
+    let list: Vec<String> = pool
+        .free_symbols(id)
+        .iter()
+        .filter_map(|s| {
+            nominal
+                .get(s)
+                .map(|v| format!("{} = {v:?}", pool.symbol_name(*s)))
+        })
+        .collect();
+    if list.is_empty() {
+        "no parameters: a literal".to_string()
+    } else {
+        format!("parameters {}", list.join(", "))
+    }
+}
