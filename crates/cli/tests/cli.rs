@@ -1,7 +1,7 @@
 //! The `invsim` command line as a user meets it: exit codes, the contract's JSON and CSV layouts, and
 //! error messages for bad models, cycles and options (contract §3).
 
-mod common;
+use crate::common;
 use common::*;
 
 use serde_json::Value;

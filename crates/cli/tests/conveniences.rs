@@ -2,7 +2,7 @@
 //! `--version` with the git revision, the built-in regulation cycles by name, and the model's description in
 //! the summary.
 
-mod common;
+use crate::common;
 use common::*;
 
 use serde_json::Value;

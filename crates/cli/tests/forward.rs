@@ -1,7 +1,7 @@
 //! `invsim forward` and `invsim simulate --verify` as a user meets them: exit codes, the CSV and JSON layouts,
 //! the tracking and fuel figures of the paper's SI-engine car on the NEDC.
 
-mod common;
+use crate::common;
 use common::*;
 
 use serde_json::Value;

@@ -25,8 +25,8 @@
 //! a hostile input whose correct answer is a result within the bounds (e.g. a large but easy model).
 //!
 //! Cases that fail today (open defects) live in `tests/hostile/pending/` with a `now` field saying what
-//! happens; they are only checked for being well-formed. Move one up a directory once its defect is fixed;
-//! `cargo test -p invsim --test hostile -- --ignored --nocapture` lists the pending cases that pass now.
+//! happens; they are only checked for being well-formed. Move one up a directory once its defect is fixed
+//! (the suite then runs it).
 
 use regex::Regex;
 use serde_json::Value;
@@ -421,19 +421,6 @@ fn pending_cases_are_well_formed() {
     for path in manifests(&dir) {
         if let Err(e) = read_case(&path, true) {
             panic!("{}: {e}", path.display());
-        }
-    }
-}
-
-/// Which pending cases pass now (their defect fixed, ready to move up): `cargo test -p invsim --test hostile
-/// -- --ignored --nocapture`. Never fails.
-#[test]
-#[ignore = "runs the pending cases of open defects; a report, not a check"]
-fn pending_cases_that_pass_now() {
-    for path in manifests(&cases_dir().join("pending")) {
-        match read_case(&path, true).and_then(|case| check(&case)) {
-            Ok(()) => eprintln!("PASSES NOW, move it up: {}", path.display()),
-            Err(e) => eprintln!("still failing: {}: {e}", path.display()),
         }
     }
 }

@@ -2,7 +2,7 @@
 //! onto character devices directly, and no temporary file left behind (the refusals are hostile cases in
 //! `tests/hostile/`).
 
-mod common;
+use crate::common;
 use common::*;
 
 use std::path::Path;

@@ -2,8 +2,7 @@
 //! and user errors (exit 2) for an unknown panel (listing the valid names), an unknown extension and
 //! `--plot-vars` without `--plot`.
 
-mod common;
-
+use crate::common;
 use common::{invsim, stderr, tmp};
 
 fn panels(svg: &str) -> Vec<String> {

@@ -2,7 +2,7 @@
 //! automatically in `simulate` with pre-actuation and forward replay, `--causal`, `--include-extension`, and the
 //! built-in `diesel_gasflow` (non-minimum phase) and `driveline` (minimum phase, lightly damped) models.
 
-mod common;
+use crate::common;
 use common::*;
 
 use serde_json::Value;

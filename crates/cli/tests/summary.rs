@@ -3,7 +3,7 @@
 //! points, the CSV's columns with units, and the run's provenance (two runs that differ only in an override
 //! are told apart by their outputs alone). No progress bar off a terminal.
 
-mod common;
+use crate::common;
 use common::*;
 
 use serde_json::Value;

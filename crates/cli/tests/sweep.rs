@@ -2,8 +2,7 @@
 //! interpreted, 1 and 2 threads), failing variants are rows and exit status 3, bad `--grid`/`--table` input
 //! exits 2 naming the argument or FILE:LINE:COLUMN.
 
-mod common;
-
+use crate::common;
 use std::collections::HashMap;
 
 use common::{invsim, json_file, stderr, tmp};

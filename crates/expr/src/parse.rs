@@ -103,11 +103,17 @@ enum Tok {
     End,
 }
 
+/// Deepest nesting the parser descends into (parentheses, unary signs, powers, calls): deeper input is an
+/// error rather than a stack overflow. Model files are limited further by the reader (64 levels).
+pub const MAX_PARSE_DEPTH: usize = 500;
+
 struct Parser<'s> {
     src: &'s str,
     pos: usize,
     tok: Tok,
     tok_span: Range<usize>,
+    /// Current nesting, counted in [`Parser::unary`] (every nested sub-expression passes through it).
+    depth: usize,
 }
 
 fn describe(t: &Tok) -> String {
@@ -263,6 +269,19 @@ impl<'s> Parser<'s> {
     }
 
     fn unary(&mut self) -> Result<Ast, ParseError> {
+        if self.depth >= MAX_PARSE_DEPTH {
+            return self.err(
+                self.tok_span.clone(),
+                format!("expression nested more than {MAX_PARSE_DEPTH} levels deep"),
+            );
+        }
+        self.depth += 1;
+        let ast = self.unary_inner();
+        self.depth -= 1;
+        ast
+    }
+
+    fn unary_inner(&mut self) -> Result<Ast, ParseError> {
         if let Tok::Op(c @ ('-' | '+')) = self.tok {
             let start = self.tok_span.start;
             self.advance()?;
@@ -406,6 +425,7 @@ pub fn parse(src: &str) -> Result<Ast, ParseError> {
         pos: 0,
         tok: Tok::End,
         tok_span: 0..0,
+        depth: 0,
     };
     p.advance()?;
     let ast = p.expr()?;
@@ -484,6 +504,26 @@ mod tests {
         assert_eq!(p.parse("pow(2, 9)").unwrap(), p.int(512));
         assert_eq!(p.parse("1 - 2 - 3").unwrap(), p.int(-4));
         assert_eq!(p.parse("8/2/2").unwrap(), p.int(2));
+    }
+
+    #[test]
+    fn nesting_is_bounded() {
+        let deep = |n: usize| format!("{}x{}", "(".repeat(n), ")".repeat(n));
+        assert!(parse(&deep(MAX_PARSE_DEPTH - 1)).is_ok());
+        for n in [MAX_PARSE_DEPTH + 1, 2_000, 100_000] {
+            let e = parse(&deep(n)).unwrap_err();
+            assert!(
+                e.message.contains("nested more than 500 levels"),
+                "{}",
+                e.message
+            );
+        }
+        let tower = format!("x{}", "^x".repeat(5_000));
+        assert!(parse(&tower).unwrap_err().message.contains("nested"));
+        assert!(parse(&"-".repeat(50_000))
+            .unwrap_err()
+            .message
+            .contains("nested"));
     }
 
     #[test]

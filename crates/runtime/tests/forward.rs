@@ -3,8 +3,7 @@
 //! paper's SI-engine car on the NEDC against the inverse simulation, and the trace misses with the input
 //! bounds enforced.
 
-mod common;
-
+use crate::common;
 use common::LinearR2;
 use invsim_model_api::InverseModel;
 use invsim_runtime::forward::{self, Bounds, ForwardError, ForwardOptions, Method};

@@ -1,7 +1,6 @@
 //! Tests of the inverse-simulation driver against hand-written models with known answers.
 
-mod common;
-
+use crate::common;
 use common::{LinearR2, NanOutput, SiEngine, FUEL_DENSITY};
 use invsim_model_api::{InverseModel, ModelError, ModelInfo};
 use invsim_runtime::output::write_csv;

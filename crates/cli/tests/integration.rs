@@ -1,0 +1,23 @@
+//! The integration tests of this crate in one test binary (one link instead of one per file):
+//! - `cli`: The `invsim` command line as a user meets it: exit codes, the contract's JSON and CSV layouts, and
+//! - `conveniences`: The first-hour conveniences of the `invsim` command: `invsim cycles` (text and JSON), shell completions,
+//! - `derive_bad_model`: `invsim derive` on a model that cannot be loaded or inverted exits with status 2 and prints
+//! - `forward`: `invsim forward` and `invsim simulate --verify` as a user meets them: exit codes, the CSV and JSON layouts,
+//! - `hostile`: Hostile-input suite: every case in `tests/hostile/*.json` runs the built `invsim` binary on hostile model
+//! - `outputs`: Output files of `simulate` and `forward` on success: written in place, through links into the linked file,
+//! - `plot`: `--plot` and `--plot-vars` of `simulate` and `forward`: SVG and PNG by the extension, the chosen panels,
+//! - `stable`: `invsim` with unstable zero dynamics: the classification in `derive`, stable (non-causal) inversion selected
+//! - `summary`: The summaries answer the engineer's questions: units on every figure, how far the smoothed reference
+//! - `sweep`: `invsim sweep`: its rows equal `invsim simulate --set …` of the same variants bit for bit (compiled and
+
+mod cli;
+mod common;
+mod conveniences;
+mod derive_bad_model;
+mod forward;
+mod hostile;
+mod outputs;
+mod plot;
+mod stable;
+mod summary;
+mod sweep;

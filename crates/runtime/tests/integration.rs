@@ -1,0 +1,27 @@
+//! The integration tests of this crate in one test binary (one link instead of one per file):
+//! - `cycle`: Tests for drive cycles: the built-in NEDC / ECE-15 / EUDC checksums, the regulation tables (UDDS, HWFET,
+//! - `cycle_limits`: The cycle reader's limits (issue 15, defects 8, 10, 11): files read through a size cap, finite but absurd
+//! - `forward`: Tests of the forward simulation (issue #6): the integrators' order of convergence on test problems that carry
+//! - `forward_budget`: The forward run's budgets (issue 15, defect 5): a closed loop made stiff or fast by absurd driver gains stops
+//! - `forward_integrals`: The forward run's integrals do not depend on the output grid (issue 15, defect 12): the accumulated outputs
+//! - `fuzz_regressions`: Replays the fuzz regressions of the drive-cycle reader (`fuzz/regressions/cycle_reader/*`) through the very
+//! - `nonsense_options`: Options that make no sense for the cycle (issue 15, defect 10): a look-ahead longer than a quarter of the
+//! - `plot`: The plots of every shipped model (`models/*.toml`, through the interpreter): the SVG parsed and its
+//! - `simulate`: Tests of the inverse-simulation driver against hand-written models with known answers.
+//! - `smoother`: Tests for the kernel (eq. 33–35 of Fröberg & Nielsen 2004) and the smoother: every value is checked
+//! - `stable`: Stable (non-causal) inversion of unstable zero dynamics (`invsim_runtime::stable`): linear non-minimum-phase
+//! - `sweep`: Parameter sweeps: every row equals the single run of its variant (bit for bit), for the compiled and the
+
+mod common;
+mod cycle;
+mod cycle_limits;
+mod forward;
+mod forward_budget;
+mod forward_integrals;
+mod fuzz_regressions;
+mod nonsense_options;
+mod plot;
+mod simulate;
+mod smoother;
+mod stable;
+mod sweep;
