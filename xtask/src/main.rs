@@ -40,6 +40,13 @@ enum Task {
         #[arg(long)]
         check: bool,
     },
+    /// Run every test: `cargo test --workspace`, then the Python package's (`.ci/python`: a fresh venv,
+    /// `pip install ./python`, pytest).
+    Test {
+        /// Only the Rust tests.
+        #[arg(long)]
+        no_python: bool,
+    },
 }
 
 fn main() -> ExitCode {
@@ -71,6 +78,7 @@ fn main() -> ExitCode {
                 println!("{} is up to date", path.display());
             }
         }),
+        Task::Test { no_python } => run_tests(&root, no_python),
         Task::Figures { check } => figures::run(&root, check).map(|written| {
             let verb = if check { "rendered" } else { "wrote" };
             for w in written {
@@ -85,4 +93,31 @@ fn main() -> ExitCode {
             ExitCode::from(f.code)
         }
     }
+}
+
+/// `cargo test --workspace`, then `bash .ci/python` unless `no_python`; the first failure stops.
+fn run_tests(root: &std::path::Path, no_python: bool) -> Result<(), Failure> {
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    let mut steps: Vec<(std::process::Command, &str)> = Vec::new();
+    let mut rust = std::process::Command::new(&cargo);
+    rust.args(["test", "--workspace"]);
+    steps.push((rust, "cargo test --workspace"));
+    if !no_python {
+        let mut python = std::process::Command::new("bash");
+        python.arg(root.join(".ci/python"));
+        steps.push((python, "bash .ci/python"));
+    }
+    for (mut cmd, what) in steps {
+        let status = cmd.current_dir(root).status().map_err(|e| Failure {
+            message: format!("cannot run `{what}`: {e}"),
+            code: 1,
+        })?;
+        if !status.success() {
+            return Err(Failure {
+                message: format!("`{what}` failed ({status})"),
+                code: 1,
+            });
+        }
+    }
+    Ok(())
 }
