@@ -80,7 +80,9 @@ impl From<invsim_inversion::ModelError> for Failure {
 fn derive_file(e: &invsim_inversion::DeriveError) -> String {
     match e {
         invsim_inversion::DeriveError::NoRelativeDegree { file, .. }
-        | invsim_inversion::DeriveError::NoCoordinates { file, .. } => file.clone(),
+        | invsim_inversion::DeriveError::NoCoordinates { file, .. }
+        | invsim_inversion::DeriveError::NotFinite { file, .. }
+        | invsim_inversion::DeriveError::LieDerivativeTooLarge { file, .. } => file.clone(),
     }
 }
 
