@@ -154,7 +154,7 @@ pub fn run_inputs<'a>(model: &'a Path, cycle: &'a str) -> Vec<(&'static str, &'a
 }
 
 /// The cycle (read through the size cap) and the model of a run, with the `--set` overrides applied.
-pub fn load_run(
+fn load_run(
     model: &Path,
     engine: EngineChoice,
     (cycle, max_cycle_bytes): (&str, u64),
@@ -173,4 +173,41 @@ pub fn load_run(
             .map_err(|e| Failure::user(format!("--set {name}: {e}")))?;
     }
     Ok((cycle, model))
+}
+
+/// What `simulate` and `forward` ask for before a run: the input files, the engine, the overrides and the three
+/// outputs.
+pub struct RunRequest<'a> {
+    pub model: &'a Path,
+    pub engine: EngineChoice,
+    pub cycle: &'a str,
+    pub max_cycle_bytes: u64,
+    pub set: &'a [String],
+    pub out: Option<&'a Path>,
+    pub summary_json: Option<&'a Path>,
+    pub plot: &'a crate::plotting::PlotArgs,
+}
+
+/// The common start of `simulate` and `forward`: the outputs checked against the inputs and each other
+/// ([`crate::outputs::Outputs::plan`]), the cycle and the model loaded with the overrides, the plot options
+/// checked against the model — all before the run.
+pub fn prepare_run(
+    req: &RunRequest<'_>,
+) -> Result<(crate::outputs::Outputs, Cycle, LoadedModel), Failure> {
+    let outputs = crate::outputs::Outputs::plan(
+        &run_inputs(req.model, req.cycle),
+        &[
+            ("--out", req.out),
+            ("--summary-json", req.summary_json),
+            ("--plot", req.plot.plot.as_deref()),
+        ],
+    )?;
+    let (cycle, model) = load_run(
+        req.model,
+        req.engine,
+        (req.cycle, req.max_cycle_bytes),
+        req.set,
+    )?;
+    crate::plotting::check(req.plot, model.as_model().info())?;
+    Ok((outputs, cycle, model))
 }

@@ -6,10 +6,9 @@ use clap::ValueEnum;
 use invsim_runtime::forward::{self, Bounds, ForwardError, ForwardOptions, Method};
 use invsim_runtime::output;
 
-use crate::engine::{load_run, EngineChoice};
+use crate::engine::{prepare_run, EngineChoice, RunRequest};
 use crate::error::Failure;
 use crate::files::print_stdout;
-use crate::outputs::Outputs;
 use crate::provenance;
 
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum, serde::Serialize)]
@@ -92,21 +91,16 @@ pub struct ForwardArgs {
 }
 
 pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
-    let mut outputs = Outputs::plan(
-        &crate::engine::run_inputs(&args.model, &args.cycle),
-        &[
-            ("--out", args.out.as_deref()),
-            ("--summary-json", args.summary_json.as_deref()),
-            ("--plot", args.plot.plot.as_deref()),
-        ],
-    )?;
-    let (cycle, model) = load_run(
-        &args.model,
-        args.engine,
-        (&args.cycle, args.max_cycle_bytes),
-        &args.set,
-    )?;
-    crate::plotting::check(&args.plot, model.as_model().info())?;
+    let (mut outputs, cycle, model) = prepare_run(&RunRequest {
+        model: &args.model,
+        engine: args.engine,
+        cycle: &args.cycle,
+        max_cycle_bytes: args.max_cycle_bytes,
+        set: &args.set,
+        out: args.out.as_deref(),
+        summary_json: args.summary_json.as_deref(),
+        plot: &args.plot,
+    })?;
     let stopped = |e: ForwardError| {
         Failure::user(format!(
             "forward simulation of `{}` on `{}` stopped: {e}",

@@ -4,10 +4,9 @@ use std::path::PathBuf;
 
 use invsim_runtime::{inverse, output, plot, simulate, SimulateError, SimulationOptions};
 
-use crate::engine::{load_run, EngineChoice};
+use crate::engine::{prepare_run, EngineChoice, RunRequest};
 use crate::error::Failure;
 use crate::files::print_stdout;
-use crate::outputs::Outputs;
 use crate::provenance;
 
 /// Serialised (by command-line name) into the summary's provenance.
@@ -56,21 +55,16 @@ pub struct SimulateArgs {
 }
 
 pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
-    let mut outputs = Outputs::plan(
-        &crate::engine::run_inputs(&args.model, &args.cycle),
-        &[
-            ("--out", args.out.as_deref()),
-            ("--summary-json", args.summary_json.as_deref()),
-            ("--plot", args.plot.plot.as_deref()),
-        ],
-    )?;
-    let (cycle, model) = load_run(
-        &args.model,
-        args.engine,
-        (&args.cycle, args.max_cycle_bytes),
-        &args.set,
-    )?;
-    crate::plotting::check(&args.plot, model.as_model().info())?;
+    let (mut outputs, cycle, model) = prepare_run(&RunRequest {
+        model: &args.model,
+        engine: args.engine,
+        cycle: &args.cycle,
+        max_cycle_bytes: args.max_cycle_bytes,
+        set: &args.set,
+        out: args.out.as_deref(),
+        summary_json: args.summary_json.as_deref(),
+        plot: &args.plot,
+    })?;
     let stopped = |e: SimulateError| {
         Failure::user(format!(
             "simulation of `{}` on `{}` stopped: {e}",

@@ -88,21 +88,3 @@ impl Derivation {
         }
     }
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn classes_of_eigenvalues() {
-        let c = |e: &[[f64; 2]]| ZeroDynamicsClass::of_eigenvalues(e, 1e-9).as_str();
-        assert_eq!(c(&[]), "unknown");
-        assert_eq!(
-            c(&[[-1.0, 0.0], [-2.0, 3.0], [-2.0, -3.0]]),
-            "minimum_phase"
-        );
-        assert_eq!(c(&[[0.5, 0.0]]), "non_minimum_phase");
-        assert_eq!(c(&[[0.5, 0.0], [-3.0, 0.0]]), "mixed");
-        assert_eq!(c(&[[0.0, 1.0], [0.0, -1.0]]), "unknown");
-    }
-}
