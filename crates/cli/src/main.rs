@@ -14,6 +14,7 @@ mod engine;
 mod error;
 mod files;
 mod forward;
+mod initial_args;
 mod outputs;
 mod plotting;
 mod progress;
