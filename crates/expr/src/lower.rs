@@ -401,7 +401,9 @@ impl<'p> FnLowering<'_, 'p> {
 
     /// Emit `op` into the invariant arena when all its operands are invariant, else into this function's.
     fn emit(&mut self, op: Op) -> Val {
-        if op.operands().into_iter().all(|v| self.hoisted(v)) {
+        // A map call is never hoisted: its data may be replaced at run time, apart from the parameters.
+        let is_map = matches!(op, Op::Map1(..) | Op::Map2(..));
+        if !is_map && op.operands().into_iter().all(|v| self.hoisted(v)) {
             Val::Inv(self.inv.arena.push(op))
         } else {
             Val::Loc(self.arena.push(op))

@@ -24,8 +24,10 @@
 //! constant, higher ones zero); the contract allows that only for maps used in outputs alone.
 
 mod axis;
+mod violation;
 
 use axis::{Axis, Basis};
+pub use violation::{take_violation, Violation};
 
 use crate::Kernel;
 
@@ -145,6 +147,8 @@ pub struct Map {
     settings: MapSettings,
     /// Scratch sizes per axis for one basis evaluation and one order.
     max_count: [usize; 2],
+    /// The map's name in messages (see [`Map::named`]).
+    name: std::sync::Arc<str>,
 }
 
 /// Scratch values on the stack per axis; larger windows (large `smooth` on uneven grids) use the heap.
@@ -226,6 +230,7 @@ impl Map {
             y: None,
             values,
             settings,
+            name: "map".into(),
         })
     }
 
@@ -245,7 +250,19 @@ impl Map {
             y: Some(y),
             values,
             settings,
+            name: "map".into(),
         })
+    }
+
+    /// The map with `name` for messages (a [`Violation`] names it).
+    pub fn named(mut self, name: &str) -> Map {
+        self.name = name.into();
+        self
+    }
+
+    /// The map's name in messages.
+    pub fn name(&self) -> &str {
+        &self.name
     }
 
     /// The number of arguments: 1 or 2.
@@ -300,7 +317,20 @@ impl Map {
     /// (`orders` is ignored). 2-D: `out[p · (orders[1] + 1) + q] = ∂^(p+q) M / ∂a^p ∂b^q` for
     /// `p ≤ orders[0]`, `q ≤ orders[1]`; `out` must hold `(orders[0] + 1)(orders[1] + 1)` values.
     /// A NaN argument gives NaN everywhere.
+    ///
+    /// Under `extrapolate = "error"` an argument outside the grid is recorded as this thread's
+    /// [`Violation`] (see [`take_violation`]); the value is still the linear continuation.
     pub fn eval(&self, args: &[f64], orders: [usize; 2], out: &mut [f64]) {
+        if self.settings.extrapolate == Extrapolate::Error {
+            if let Some(k) = self.outside(args) {
+                let grid = if k == 0 {
+                    self.x()
+                } else {
+                    self.y().unwrap_or(self.x())
+                };
+                violation::record(&self.name, k, args[k], (grid[0], grid[grid.len() - 1]));
+            }
+        }
         if args.iter().take(self.arity()).any(|a| a.is_nan()) {
             out.fill(f64::NAN);
             return;

@@ -64,6 +64,8 @@ pub(super) enum NameRef {
     Definition(usize),
     State(usize),
     Input,
+    /// A lookup map of `[maps]` (contract §6).
+    Map(usize),
 }
 
 impl NameRef {
@@ -73,6 +75,7 @@ impl NameRef {
             NameRef::Definition(_) => "a definition",
             NameRef::State(_) => "a state",
             NameRef::Input => "the input",
+            NameRef::Map(_) => "a map",
         }
     }
 }

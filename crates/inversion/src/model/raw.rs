@@ -4,6 +4,7 @@
 
 use super::engine::RawEngine;
 use super::error::{ModelError, ModelErrorKind};
+use super::maps::RawMap;
 use super::names::{is_identifier, Declaration, NameRef};
 use super::spanned::{string_content, Reader, Src};
 use super::tree::{get, get_key, key_at, tv_at, Entries, Kind, Tv};
@@ -94,6 +95,8 @@ pub(super) struct RawModel {
     pub(super) output: RawOutput,
     pub(super) outputs: Vec<RawExtra>,
     pub(super) engine: Option<RawEngine>,
+    /// `[maps]` (contract §6), in file order.
+    pub(super) maps: Vec<RawMap>,
 }
 
 impl RawModel {
@@ -119,6 +122,12 @@ impl RawModel {
                 .map(|(i, s)| (s.name.as_str(), s.at, NameRef::State(i))),
         );
         decls.push((self.input.name.as_str(), self.input.at, NameRef::Input));
+        decls.extend(
+            self.maps
+                .iter()
+                .enumerate()
+                .map(|(i, m)| (m.name.as_str(), m.at, NameRef::Map(i))),
+        );
         decls
     }
 }
@@ -135,10 +144,11 @@ struct Sections {
     output: Option<RawOutput>,
     outputs: Vec<RawExtra>,
     engine: Option<RawEngine>,
+    maps: Vec<RawMap>,
 }
 
 const TOP_KEYS_SHOWN: &str =
-    "name, description, [parameters], [definitions], [states], [input], [output], [outputs], [engine]";
+    "name, description, [parameters], [definitions], [states], [input], [output], [outputs], [engine], [maps]";
 
 impl Reader<'_> {
     /// The top-level keys and sections; the required ones present.
@@ -182,6 +192,7 @@ impl Reader<'_> {
                 "output" => raw.output = Some(self.output(v)?),
                 "outputs" => raw.outputs = self.extra_outputs(self.table(v, "[outputs]")?)?,
                 "engine" => raw.engine = Some(self.engine(v)?),
+                "maps" => raw.maps = self.maps(v)?,
                 other => {
                     return Err(self.err(
                         key_at(k),
@@ -225,6 +236,7 @@ impl Reader<'_> {
             output,
             outputs: raw.outputs,
             engine: raw.engine,
+            maps: raw.maps,
         })
     }
 
