@@ -198,7 +198,7 @@ fn the_interpreter_evaluates_maps_like_the_pool() {
             (dp.find_symbol("c2").unwrap(), 1.3),
         ]);
         let want = dp.eval(d.alpha, &values).unwrap();
-        let got = it.alpha(&[xi1, xi2], &[]);
+        let got = it.alpha(&[xi1, xi2], &[], &[]);
         assert!(
             (got - want).abs() <= 1e-14 * want.abs().max(1.0),
             "{got} vs {want}"

@@ -7,6 +7,7 @@ use super::expressions::{Item, Role};
 use super::maps::RawMap;
 use super::names::{NameRef, Names};
 use super::raw::{RawDefinition, RawInput, RawModel, RawParameter, RawState};
+use super::signals::RawSignal;
 use super::spanned::Reader;
 use super::validated::{Definition, Parameter};
 use invsim_expr::limits::{MAX_DEPTH, MAX_POOL_NODES};
@@ -117,11 +118,12 @@ impl Interned {
         raw_parameters: Vec<RawParameter>,
         raw_definitions: Vec<RawDefinition>,
         states: &[RawState],
-        input: &RawInput,
+        (input, signals): (&RawInput, &[RawSignal]),
         maps: &[RawMap],
         items: &[Item],
     ) -> Result<Interned, TooLargeDefinition> {
-        // Symbols in a fixed order: parameters, definitions, states, input; maps declared before any call.
+        // Symbols in a fixed order: parameters, definitions, states, input, signals; maps declared before any
+        // call.
         let mut pool = Pool::new();
         for m in maps {
             pool.declare_map(MapDecl::new(&m.name, m.data.clone()));
@@ -145,6 +147,9 @@ impl Interned {
             pool.symbol(&s.name);
         }
         let u = pool.symbol(&input.name);
+        for s in signals {
+            pool.symbol(&s.name);
+        }
         let u_var = pool.var(u);
         let zero = pool.zero();
         let u_zero: HashMap<Symbol, Id> = HashMap::from([(u, zero)]);

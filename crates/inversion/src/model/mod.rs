@@ -39,6 +39,7 @@
 //! | `tree.rs` | the TOML tree with spans |
 //! | `values.rs` | a TOML value read as the type a key expects |
 //! | `names.rs` | identifiers, reserved names, collisions, "did you mean" |
+//! | `signals.rs` | the optional `[signals]` table and the reserved names `S_dk` of their derivatives |
 //! | `engine.rs` | the optional `[engine]` table: which outputs are the engine's speed and torque |
 //! | `map_csv.rs` | a map's grid and values from a CSV file |
 //! | `maps.rs` | `[maps.NAME]` tables: grid, values, smoothing, extrapolation (contract §6) |
@@ -51,7 +52,7 @@
 //! | `reader.rs` | the pipeline from bytes to [`Model`] |
 //!
 //! Imports go one way — each file imports only files listed before it: error, validated, spanned, tree,
-//! names, values, engine, map_csv, maps, raw, expressions, definitions, smooth, split, reader.
+//! names, values, signals, engine, map_csv, maps, raw, expressions, definitions, smooth, split, reader.
 
 mod definitions;
 mod engine;
@@ -63,6 +64,7 @@ mod maps;
 mod names;
 mod raw;
 mod reader;
+mod signals;
 mod smooth;
 mod spanned;
 mod split;
@@ -73,6 +75,7 @@ mod values;
 pub use error::{ModelError, ModelErrorKind};
 pub use expressions::{MAX_EXPRESSION_LEN, MAX_EXPRESSION_NESTING};
 pub use reader::MAX_MODEL_FILE_BYTES;
+pub use signals::{derivative_name, MAX_SIGNAL_DERIVATIVE};
 pub use validated::{
-    Definition, Engine, ExtraOutput, Input, MapInfo, Model, Output, Parameter, State,
+    Definition, Engine, ExtraOutput, Input, MapInfo, Model, Output, Parameter, Signal, State,
 };

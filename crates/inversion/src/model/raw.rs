@@ -6,6 +6,7 @@ use super::engine::RawEngine;
 use super::error::{ModelError, ModelErrorKind};
 use super::maps::RawMap;
 use super::names::{is_identifier, Declaration, NameRef};
+use super::signals::RawSignal;
 use super::spanned::{string_content, Reader, Src};
 use super::tree::{get, get_key, key_at, tv_at, Entries, Kind, Tv};
 use std::collections::HashSet;
@@ -97,6 +98,8 @@ pub(super) struct RawModel {
     pub(super) engine: Option<RawEngine>,
     /// `[maps]` (contract §6), in file order.
     pub(super) maps: Vec<RawMap>,
+    /// `[signals]`, in file order.
+    pub(super) signals: Vec<RawSignal>,
 }
 
 impl RawModel {
@@ -128,6 +131,12 @@ impl RawModel {
                 .enumerate()
                 .map(|(i, m)| (m.name.as_str(), m.at, NameRef::Map(i))),
         );
+        decls.extend(
+            self.signals
+                .iter()
+                .enumerate()
+                .map(|(i, s)| (s.name.as_str(), s.at, NameRef::Signal(i))),
+        );
         decls
     }
 }
@@ -145,10 +154,12 @@ struct Sections {
     outputs: Vec<RawExtra>,
     engine: Option<RawEngine>,
     maps: Vec<RawMap>,
+    signals: Vec<RawSignal>,
 }
 
 const TOP_KEYS_SHOWN: &str =
-    "name, description, [parameters], [definitions], [states], [input], [output], [outputs], [engine], [maps]";
+    "name, description, [parameters], [definitions], [states], [input], [output], [outputs], [engine], \
+     [signals], [maps]";
 
 impl Reader<'_> {
     /// The top-level keys and sections; the required ones present.
@@ -193,6 +204,7 @@ impl Reader<'_> {
                 "outputs" => raw.outputs = self.extra_outputs(self.table(v, "[outputs]")?)?,
                 "engine" => raw.engine = Some(self.engine(v)?),
                 "maps" => raw.maps = self.maps(v)?,
+                "signals" => raw.signals = self.signals(self.table(v, "[signals]")?)?,
                 other => {
                     return Err(self.err(
                         key_at(k),
@@ -237,6 +249,7 @@ impl Reader<'_> {
             outputs: raw.outputs,
             engine: raw.engine,
             maps: raw.maps,
+            signals: raw.signals,
         })
     }
 

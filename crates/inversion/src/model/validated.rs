@@ -33,6 +33,8 @@ pub struct Model {
     pub engine: Option<Engine>,
     /// `[maps]` (contract §6), in file order; each is declared in [`Model::pool`] under its name.
     pub maps: Vec<MapInfo>,
+    /// The exogenous signals of `[signals]`, in file order.
+    pub signals: Vec<Signal>,
 }
 
 /// A lookup map of `[maps]` (contract §6).
@@ -49,6 +51,20 @@ pub struct MapInfo {
     pub file: Option<PathBuf>,
     /// Grid, values and settings.
     pub data: Arc<Map>,
+}
+
+/// An exogenous signal S (contract §5): a symbol in the expressions; its smoothed derivatives S_d1 … are
+/// symbols the derivation adds.
+#[derive(Debug, Clone)]
+pub struct Signal {
+    pub name: String,
+    pub symbol: Symbol,
+    pub unit: Option<String>,
+    pub doc: Option<String>,
+    /// Used when neither the command line nor the cycle file gives the signal.
+    pub default: Option<f64>,
+    /// The cycle file's column (`None`: the signal's name).
+    pub column: Option<String>,
 }
 
 /// The validated `[engine]`: indices of its speed and torque into [`Model::outputs`].

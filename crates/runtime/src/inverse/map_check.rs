@@ -27,13 +27,17 @@ pub(super) fn check<M: InverseModel + ?Sized>(
     let n = b.x.len();
     let mut x = vec![0.0; n];
     let mut dx = vec![0.0; n];
+    let mut w = vec![0.0; b.w.len()];
     let mut out = vec![0.0; b.out.len()];
     for (i, &t) in b.time.iter().enumerate() {
         for (xs, c) in x.iter_mut().zip(b.x.iter()) {
             *xs = c[i];
         }
-        model.rhs(&x, b.u[i], &mut dx);
-        model.outputs(&x, b.u[i], &mut out);
+        for (ws, c) in w.iter_mut().zip(b.w.iter()) {
+            *ws = c[i];
+        }
+        model.rhs(&x, &w, b.u[i], &mut dx);
+        model.outputs(&x, &w, b.u[i], &mut out);
         if let Some(v) = take_violation() {
             return Err(SimulateError::MapOutsideGrid {
                 at: format!("t = {} s", crate::error::num(t)),
