@@ -41,6 +41,8 @@
 //! | `names.rs` | identifiers, reserved names, collisions, "did you mean" |
 //! | `signals.rs` | the optional `[signals]` table and the reserved names `S_dk` of their derivatives |
 //! | `engine.rs` | the optional `[engine]` table: which outputs are the engine's speed and torque |
+//! | `map_csv.rs` | a map's grid and values from a CSV file |
+//! | `maps.rs` | `[maps.NAME]` tables: grid, values, smoothing, extrapolation (contract §6) |
 //! | `raw.rs` | the file as read, checked for structure (check 2) |
 //! | `expressions.rs` | parsing each expression (check 4) |
 //! | `definitions.rs` | definition order, cycles and inlining (check 5) |
@@ -50,13 +52,15 @@
 //! | `reader.rs` | the pipeline from bytes to [`Model`] |
 //!
 //! Imports go one way — each file imports only files listed before it: error, validated, spanned, tree,
-//! names, values, signals, engine, raw, expressions, definitions, smooth, split, reader.
+//! names, values, signals, engine, map_csv, maps, raw, expressions, definitions, smooth, split, reader.
 
 mod definitions;
 mod engine;
 mod error;
 mod expressions;
 pub(crate) mod finite;
+mod map_csv;
+mod maps;
 mod names;
 mod raw;
 mod reader;
@@ -73,5 +77,5 @@ pub use expressions::{MAX_EXPRESSION_LEN, MAX_EXPRESSION_NESTING};
 pub use reader::MAX_MODEL_FILE_BYTES;
 pub use signals::{derivative_name, MAX_SIGNAL_DERIVATIVE};
 pub use validated::{
-    Definition, Engine, ExtraOutput, Input, Model, Output, Parameter, Signal, State,
+    Definition, Engine, ExtraOutput, Input, MapInfo, Model, Output, Parameter, Signal, State,
 };
