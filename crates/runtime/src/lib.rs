@@ -17,6 +17,7 @@ pub mod forward;
 pub mod grid;
 pub mod inverse;
 pub mod kernel;
+pub mod modes;
 mod numfmt;
 pub mod ode;
 pub mod operating_points;
