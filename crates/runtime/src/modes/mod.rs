@@ -25,6 +25,9 @@ pub use gears::{GearBox, GearSource};
 pub use runner::simulate_modes;
 pub use summary::{Impulse, ModalSummary, ModeTime, Transition};
 
+/// The signal values of a run with modes: models with modes have no `[signals]` yet (the run refuses them).
+pub(crate) const NO_SIGNALS: &[f64] = &[];
+
 /// What a mode is for (see `invsim_inversion::ModeRole`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Role {

@@ -8,6 +8,7 @@ use super::blend::Blend;
 use super::gears::GearBox;
 use super::summary::{Book, Impulse, Transition};
 use super::verify::replay;
+use super::NO_SIGNALS;
 use super::{ModalError, ModalOptions, ModalResult, ModalSpec, Role, Switching};
 use crate::cycle::Cycle;
 use crate::grid::Grid;
@@ -86,7 +87,7 @@ impl Ctx<'_, '_> {
         let yref = self.reference(m, t, blend);
         let mut x = x_guess.to_vec();
         let u = model
-            .invert(&yref[..r], eta, yref[r], &mut x)
+            .invert(&yref[..r], eta, NO_SIGNALS, yref[r], &mut x)
             .map_err(|e| self.err(m, t, e.to_string()))?;
         if !(u.is_finite() && x.iter().all(|v| v.is_finite())) {
             return Err(self.err(
@@ -122,7 +123,7 @@ impl Ctx<'_, '_> {
         let mut ode = Dopri5::new(eta.len(), 1e-10, 1e-12, (t1 - t0) / 4.0);
         let mut f = |t: f64, e: &[f64], de: &mut [f64]| -> Result<(), StepFailure> {
             let y = self.reference(m, t, blend);
-            model.zero_dynamics(&y[..r], e, y[r], de);
+            model.zero_dynamics(&y[..r], e, NO_SIGNALS, y[r], de);
             Ok(())
         };
         ode.advance(t0, t1, eta, &mut f).map_err(|e: StepFailure| {
@@ -138,12 +139,12 @@ impl Ctx<'_, '_> {
         let mut eta = vec![0.0; ne];
         let q = |e: &[f64]| {
             let mut d = vec![0.0; ne];
-            model.zero_dynamics(&y[..r], e, y[r], &mut d);
+            model.zero_dynamics(&y[..r], e, NO_SIGNALS, y[r], &mut d);
             d
         };
         for _ in 0..60 {
             let f0 = q(&eta);
-            if f0.iter().all(|v| v.abs() < 1e-12) {
+            if f0.iter().all(|v: &f64| v.abs() < 1e-12) {
                 break;
             }
             let mut jac = nalgebra::DMatrix::zeros(ne, ne);
@@ -299,6 +300,11 @@ pub fn simulate_modes(
 ) -> Result<ModalResult, ModalError> {
     if spec.modes.is_empty() {
         return Err(ModalError::Setup("the model has no mode".into()));
+    }
+    if spec.modes.iter().any(|m| m.model.info().n_w() > 0) {
+        return Err(ModalError::Setup(
+            "a model with modes may not have [signals] yet".into(),
+        ));
     }
     let grid = Grid::new(cycle.time[0], cycle.duration(), opts.dt)?;
     let smoother =
@@ -497,7 +503,7 @@ fn entry(
     let r = info.relative_degree;
     let mut xi = vec![0.0; r];
     let mut eta = vec![0.0; info.n_eta];
-    model.psi(&prev.x, &mut xi, &mut eta);
+    model.psi(&prev.x, NO_SIGNALS, &mut xi, &mut eta);
     let yc = ctx.cycle_reference(target, t);
     let transition = Transition {
         t,
@@ -587,8 +593,8 @@ fn commit(seq: &mut Seq, rec: &mut Record, rung: Rung, e: Entry) -> Solved {
 pub(super) fn g_of(model: &dyn InverseModel, x: &[f64]) -> Vec<f64> {
     let n = x.len();
     let (mut a, mut b) = (vec![0.0; n], vec![0.0; n]);
-    model.rhs(x, 1.0, &mut a);
-    model.rhs(x, 0.0, &mut b);
+    model.rhs(x, NO_SIGNALS, 1.0, &mut a);
+    model.rhs(x, NO_SIGNALS, 0.0, &mut b);
     a.iter().zip(&b).map(|(p, q)| p - q).collect()
 }
 
@@ -611,8 +617,8 @@ fn impulse(ctx: &Ctx<'_, '_>, m: usize, t: f64, prev: &[f64], s: &Solved) -> Imp
     let no = model.info().outputs.len();
     let (mut op, mut om) = (vec![0.0; no], vec![0.0; no]);
     let h = 1e-6 * s.u.abs().max(1e-6);
-    model.outputs(&s.x, s.u + h, &mut op);
-    model.outputs(&s.x, s.u - h, &mut om);
+    model.outputs(&s.x, NO_SIGNALS, s.u + h, &mut op);
+    model.outputs(&s.x, NO_SIGNALS, s.u - h, &mut om);
     let booked: Vec<f64> = (0..ctx.spec.n_outputs)
         .map(|i| {
             if model.info().outputs[i].accumulate {

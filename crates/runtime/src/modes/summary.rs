@@ -8,6 +8,7 @@ use serde::Serialize;
 
 use super::runner::{Ctx, Record};
 use super::verify::Tracking;
+use super::NO_SIGNALS;
 use super::{ModalOptions, ModalResult};
 use crate::cycle::Cycle;
 use crate::provenance::Provenance;
@@ -150,7 +151,7 @@ pub(super) fn assemble(
         let (m, s) = (rec.mode[k], &rec.solved[k]);
         let model = spec.modes[m].model;
         let mut outs = vec![0.0; model.info().outputs.len()];
-        model.outputs(&s.x, s.u, &mut outs);
+        model.outputs(&s.x, NO_SIGNALS, s.u, &mut outs);
         let mut row = vec![rec.t[k], m as f64, spec.modes[m].gear.unwrap_or(0) as f64];
         row.extend_from_slice(&s.yref);
         row.extend(input_values(ctx, m, s.u, &outs));
@@ -178,7 +179,7 @@ pub(super) fn assemble(
         outside = out;
         if k + 1 < ns {
             let mut end = vec![0.0; outs.len()];
-            model.outputs(&rec.x_end[k], rec.u_end[k], &mut end);
+            model.outputs(&rec.x_end[k], NO_SIGNALS, rec.u_end[k], &mut end);
             let dt = rec.t[k + 1] - rec.t[k];
             for i in 0..no {
                 if info0.outputs[i].accumulate {

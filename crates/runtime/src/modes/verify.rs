@@ -5,6 +5,7 @@
 
 use super::runner::{Ctx, Record};
 use super::ModalError;
+use super::NO_SIGNALS;
 use crate::ode::{Dopri5, StepFailure};
 
 /// The replay's tracking error.
@@ -26,7 +27,7 @@ pub(super) fn replay(ctx: &Ctx<'_, '_>, rec: &Record) -> Result<Tracking, ModalE
                 *xi += rec.impulse[k] * gi;
             }
         }
-        let e = model.h(&x) - rec.solved[k].yref[0];
+        let e = model.h(&x, NO_SIGNALS) - rec.solved[k].yref[0];
         max_abs = max_abs.max(e.abs());
         sum2 += e * e;
         if k + 1 == ns {
@@ -36,7 +37,7 @@ pub(super) fn replay(ctx: &Ctx<'_, '_>, rec: &Record) -> Result<Tracking, ModalE
         let (ua, ub) = (rec.solved[k].u, rec.u_end[k]);
         let mut f = |t: f64, y: &[f64], dy: &mut [f64]| -> Result<(), StepFailure> {
             let s = (t - ta) / (tb - ta);
-            model.rhs(y, ua + s * (ub - ua), dy);
+            model.rhs(y, NO_SIGNALS, ua + s * (ub - ua), dy);
             Ok(())
         };
         ode.restart();
