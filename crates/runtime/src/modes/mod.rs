@@ -149,6 +149,12 @@ pub struct ModalResult {
     pub mode: Vec<usize>,
     /// The mode's free input at the end of each interval [t_k, t_{k+1}] before any switch at t_{k+1}.
     pub u_end: Vec<f64>,
+    /// The state at the end of each interval [t_k, t_{k+1}] in its mode, before any switch at t_{k+1}.
+    pub x_end: Vec<Vec<f64>>,
+    /// The mode's solution at each sample: the state, the free input and the reference y^(0 … R) it tracked.
+    pub states: Vec<Vec<f64>>,
+    pub free: Vec<f64>,
+    pub yref: Vec<Vec<f64>>,
     /// Impulse of the free input at each sample (quasi-static switches; 0 elsewhere).
     pub impulse: Vec<f64>,
 }

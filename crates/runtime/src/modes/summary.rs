@@ -284,6 +284,10 @@ pub(super) fn assemble(
         data,
         mode: rec.mode,
         u_end: rec.u_end,
+        x_end: rec.x_end,
+        states: rec.solved.iter().map(|s| s.x.clone()).collect(),
+        free: rec.solved.iter().map(|s| s.u).collect(),
+        yref: rec.solved.into_iter().map(|s| s.yref).collect(),
         impulse: rec.impulse,
     }
 }
