@@ -15,6 +15,7 @@ mod error;
 mod files;
 mod forward;
 mod initial_args;
+mod modal_cmd;
 mod outputs;
 mod plotting;
 mod progress;
