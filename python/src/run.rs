@@ -1,6 +1,7 @@
 //! One inverse simulation, as `invsim simulate` runs it: the cycle, the options, the model with its
 //! parameters set, then `invsim_runtime::simulate`.
 
+use invsim_runtime::inverse::{simulate_shared, Reference};
 use invsim_runtime::{Cycle, SimulateError, SimulationOptions, SimulationResult};
 
 use invsim_model_api::InverseModel;
@@ -59,6 +60,18 @@ pub fn run_one(
     opts: &SimulationOptions,
 ) -> Result<SimulationResult, Failure> {
     invsim_runtime::simulate(m, cycle, opts).map_err(|e| stopped(model_path, &cycle.name, e))
+}
+
+/// [`run_one`] on a reference smoothed beforehand (the numbers are bit for bit those of [`run_one`]).
+pub fn run_one_shared(
+    m: &dyn InverseModel,
+    model_path: &str,
+    cycle: &Cycle,
+    reference: &Reference,
+    opts: &SimulationOptions,
+) -> Result<SimulationResult, Failure> {
+    simulate_shared(m, cycle, reference, opts, Vec::new())
+        .map_err(|e| stopped(model_path, &cycle.name, e))
 }
 
 /// The command line's message for a run that could not start or had to stop.

@@ -1,16 +1,18 @@
 //! Parameter sweeps: every variant (a set of parameter values) on every cycle, rows in variant-major order,
 //! variants run in parallel with rayon. A failing run is a row with its error, never an abort of the sweep.
 //!
-//! [`run_sweep`] is the one function the Python side calls; it loops single runs of
-//! `invsim_runtime::simulate` (each variant smooths the cycle again). The runtime's `Sweep`, which smooths
-//! each cycle once for all variants, can replace its body without changing its signature.
+//! [`run_sweep`] is the one function the Python side calls. Like the runtime's `Sweep`, it smooths each cycle
+//! once ([`invsim_runtime::inverse::reference`]) and runs every variant on that shared reference
+//! ([`invsim_runtime::inverse::simulate_shared`]), so a row's summary is bit for bit that of a single run of
+//! the same variant; unlike `Sweep`, each row keeps the whole summary (the JSON `--summary-json` writes).
 
+use invsim_runtime::inverse::{reference, Reference};
 use invsim_runtime::{Cycle, SimulationOptions};
 use rayon::prelude::*;
 
 use crate::engine::Loaded;
 use crate::error::Failure;
-use crate::run::run_one;
+use crate::run::{run_one, run_one_shared};
 
 /// The variants of a sweep, stored column by column: `values[j][i]` is parameter `names[j]` of variant i.
 #[derive(Debug, Clone)]
@@ -60,6 +62,7 @@ pub fn run_sweep(
     threads: Option<usize>,
 ) -> Result<Vec<Row>, Failure> {
     let jobs = variants.len() * cycles.len();
+    let references = shared_references(model, cycles, base, opts);
     let one = |job: usize| {
         let (i, c) = (job / cycles.len(), job % cycles.len());
         let params = variants.params(base, i);
@@ -69,7 +72,10 @@ pub fn run_sweep(
             .map(|m| m.params().to_vec())
             .unwrap_or_default();
         let summary = instance
-            .and_then(|m| run_one(m.as_ref(), model_path, &cycles[c], opts))
+            .and_then(|m| match &references[c] {
+                Some(r) => run_one_shared(m.as_ref(), model_path, &cycles[c], r, opts),
+                None => run_one(m.as_ref(), model_path, &cycles[c], opts),
+            })
             .and_then(|r| {
                 serde_json::to_string(&r.summary).map_err(|e| Failure::msg(e.to_string()))
             })
@@ -90,4 +96,21 @@ pub fn run_sweep(
             .map(|pool| pool.install(run))
             .map_err(|e| Failure::msg(format!("cannot start {n} threads: {e}"))),
     }
+}
+
+/// The smoothed reference of every cycle, made once with the `base` settings. A variant whose parameters move
+/// the reference map (an output offset or scale that is a parameter) does not fit it and smooths its cycle
+/// itself (see `simulate_shared`), so sharing never changes a figure. Where no reference can be made (bad
+/// base settings, a cycle the options refuse), `None`: the rows run alone and carry the error themselves.
+fn shared_references(
+    model: &Loaded,
+    cycles: &[Cycle],
+    base: &[(String, f64)],
+    opts: &SimulationOptions,
+) -> Vec<Option<Reference>> {
+    let m = model.with_params(base).ok();
+    cycles
+        .iter()
+        .map(|c| m.as_ref().and_then(|m| reference(m.as_ref(), c, opts).ok()))
+        .collect()
 }

@@ -1,5 +1,5 @@
 //! `invsim sweep`: many variants of a model (a full-factorial grid of parameter values or a table of them) on
-//! one or more cycles, one CSV row of summary figures per variant × cycle (contract §3, exit status 3 when some
+//! one or more cycles, one CSV (or Parquet) row of summary figures per variant × cycle (contract §3, exit status 3 when some
 //! variants failed).
 
 use std::io::IsTerminal;
@@ -39,7 +39,7 @@ pub struct SweepArgs {
     /// Worker threads (default: one per core).
     #[arg(long, default_value_t = 0)]
     threads: usize,
-    /// Write the rows to this CSV file (default: stdout).
+    /// Write the rows to this file: Parquet if its name ends in `.parquet`, else CSV (default: CSV on stdout).
     #[arg(long)]
     out: Option<PathBuf>,
     /// Replay every variant's input through the original model and report its tracking error.
@@ -233,20 +233,38 @@ fn plan_outputs(args: &SweepArgs) -> Result<Outputs, Failure> {
     Outputs::plan(&inputs, &[("--out", args.out.as_deref())])
 }
 
-/// Write the rows to `--out` (through a temporary file renamed into place) or stdout.
-fn write_rows(result: &SweepResult, mut outputs: Outputs, to_file: bool) -> Result<(), Failure> {
+/// Write the rows to `--out` (through a temporary file renamed into place) or stdout: Parquet when the file
+/// name ends in `.parquet` (any case), CSV otherwise.
+fn write_rows(
+    result: &SweepResult,
+    mut outputs: Outputs,
+    out: Option<&Path>,
+) -> Result<(), Failure> {
     let to_io = |e: csv::Error| std::io::Error::other(e.to_string());
-    match to_file {
-        true => {
+    match out {
+        Some(path) if is_parquet(path) => {
+            outputs.write("--out", |f| {
+                result.write_parquet(std::io::BufWriter::new(f))
+            })?;
+            outputs.commit()
+        }
+        Some(_) => {
             outputs.write("--out", |f| {
                 result.write_csv(std::io::BufWriter::new(f)).map_err(to_io)
             })?;
             outputs.commit()
         }
-        false => result
+        None => result
             .write_csv(std::io::stdout().lock())
             .map_err(|e| Failure::io(format!("cannot write to stdout: {e}"))),
     }
+}
+
+/// Does `path` name a Parquet file (extension `.parquet`, any case)?
+fn is_parquet(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("parquet"))
 }
 
 pub fn run(args: &SweepArgs) -> Result<(), Failure> {
@@ -300,7 +318,7 @@ pub fn run(args: &SweepArgs) -> Result<(), Failure> {
     if let Some(bar) = bar {
         bar.finish_and_clear();
     }
-    write_rows(&result, outputs, args.out.is_some())?;
+    write_rows(&result, outputs, args.out.as_deref())?;
     match result.failed() {
         0 => Ok(()),
         n => Err(Failure {

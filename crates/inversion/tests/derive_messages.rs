@@ -28,19 +28,31 @@ fn constant_parts_that_are_not_finite_are_refused_naming_them() {
         ("0", "log(m)*x1 + u", "log(m)"),
         ("-1", "(-x1 + u)/sqrt(m)", "m"),
     ] {
-        let model = Model::from_str(Path::new("m.toml"), &text(m, rhs)).expect("loads");
-        match Derivation::new(model) {
-            Err(e @ DeriveError::NotFinite { .. }) => {
-                let msg = e.to_string();
-                assert!(
-                    msg.contains("m.toml") && msg.contains("state `x2`"),
-                    "{msg}"
-                );
-                assert!(msg.contains(shown), "{rhs}: {msg}");
-            }
-            Err(e) => panic!("{rhs}: unexpected error {e}"),
-            Ok(d) => panic!("{rhs}: derived, β = {}", d.pool().display(d.beta)),
+        // The reader refuses it at the state's expression (the rhs of x2 starts at line 5, column 15).
+        let e = Model::from_str(Path::new("m.toml"), &text(m, rhs)).expect_err("not finite");
+        assert_eq!(e.kind, ModelErrorKind::NonFinite, "{rhs}");
+        let msg = e.to_string();
+        assert!(
+            msg.starts_with("m.toml:5:15:") && msg.contains("state `x2`"),
+            "{msg}"
+        );
+        assert!(msg.contains(shown), "{rhs}: {msg}");
+    }
+}
+
+#[test]
+fn the_derivation_refuses_a_model_built_with_non_finite_constants() {
+    // A model whose parameter is changed after reading (as a program may do) is still refused by the
+    // derivation, which runs the same check without positions.
+    let mut model = Model::from_str(Path::new("m.toml"), &text("2.0", "-x1 + u/m")).expect("loads");
+    model.parameters[0].value = -0.0;
+    match Derivation::new(model) {
+        Err(e @ DeriveError::NotFinite { .. }) => {
+            let msg = e.to_string();
+            assert!(msg.contains("m.toml") && msg.contains("1/m"), "{msg}");
         }
+        Err(e) => panic!("unexpected error {e}"),
+        Ok(d) => panic!("derived, β = {}", d.pool().display(d.beta)),
     }
 }
 

@@ -15,13 +15,13 @@
 //! `relative_degree.rs`, the generic rank test in `rank.rs`, the greedy choice of ξ and η in
 //! `coordinates.rs`, ψ⁻¹ (isolation or Newton) in `psi_inv.rs`, α, β and the zero dynamics in
 //! `normal_form.rs`, the singular set and the domain conditions in `domain.rs`; this file composes them.
-//! Constant subexpressions that are not finite are refused first (`finite.rs`). Imports go one way: lie ←
-//! relative_degree ← this file; rank ← coordinates ← this file; finite, psi_inv, normal_form and domain
+//! Constant subexpressions that are not finite are refused first (`model/finite.rs`, which the reader
+//! already runs with positions). Imports go one way: lie ←
+//! relative_degree ← this file; rank ← coordinates ← this file; psi_inv, normal_form and domain
 //! import only the model and are imported here.
 
 mod coordinates;
 mod domain;
-mod finite;
 mod lie;
 mod normal_form;
 mod psi_inv;
@@ -162,7 +162,7 @@ fn check_finite(
             model.output.h,
         )])
         .collect();
-    match finite::non_finite_constant(&model.pool, &roots, nominal) {
+    match crate::model::finite::non_finite_constant(&model.pool, &roots, nominal) {
         Some((what, expr, value, params)) => Err(DeriveError::NotFinite {
             file: file.to_string(),
             what,

@@ -55,6 +55,7 @@ mod definitions;
 mod engine;
 mod error;
 mod expressions;
+pub(crate) mod finite;
 mod names;
 mod raw;
 mod reader;

@@ -128,6 +128,7 @@ impl Reader<'_> {
             .map_err(|t| self.too_large_definition(t))?;
         let states = self.split_states(states, &input.name, &mut m, &items)?;
         let output = self.split_output(output, &input.name, &mut m, &items)?;
+        self.check_finite(&m.pool, &m.nominal, (&states, &output), &items)?;
         let outputs = extra_outputs(outputs, tracks_speed, &mut m);
 
         let name = name.unwrap_or_else(|| {

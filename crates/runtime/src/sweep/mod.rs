@@ -24,6 +24,7 @@
 //! series is stored unless `verify` needs one. A variant that fails is a row with its error.
 
 mod exec;
+mod parquet;
 mod plan;
 mod rows;
 

@@ -6,15 +6,65 @@
 //! One walk over the DAG in post-order (iterative, each node once): a node whose children are all finite
 //! constants and whose own value is not finite is reported, with the parameters it holds.
 
+use super::error::{ModelError, ModelErrorKind};
+use super::expressions::{Item, Role};
+use super::spanned::Reader;
+use super::validated::{Output, State};
 use invsim_expr::{pow_f64, Id, Node, Pool, Symbol};
 use std::collections::HashMap;
+
+impl Reader<'_> {
+    /// Refuse the model, at the position of the expression that holds it, if a constant part of a state's f
+    /// or g or of the output's h is not finite at the parameters' values.
+    pub(super) fn check_finite(
+        &self,
+        pool: &Pool,
+        nominal: &HashMap<Symbol, f64>,
+        (states, output): (&[State], &Output),
+        items: &[Item],
+    ) -> Result<(), ModelError> {
+        let position = |roles: &[Role]| {
+            items
+                .iter()
+                .find(|it| roles.contains(&it.role))
+                .and_then(|it| it.src.at(0))
+        };
+        let mut roots = Vec::with_capacity(2 * states.len() + 1);
+        let mut at = Vec::with_capacity(roots.capacity());
+        for (i, s) in states.iter().enumerate() {
+            roots.push((format!("f of state `{}`", s.name), s.f));
+            at.push(position(&[Role::Rhs(i), Role::F(i)]));
+            roots.push((format!("g of state `{}`", s.name), s.g));
+            at.push(position(&[Role::Rhs(i), Role::G(i)]));
+        }
+        roots.push((format!("the output `{}`", output.name), output.h));
+        at.push(position(&[Role::H]));
+        let Some((k, (what, expr, value, params))) =
+            roots.iter().enumerate().find_map(|(k, root)| {
+                non_finite_constant(pool, std::slice::from_ref(root), nominal)
+                    .map(|found| (k, found))
+            })
+        else {
+            return Ok(());
+        };
+        Err(self.err(
+            at[k],
+            ModelErrorKind::NonFinite,
+            format!(
+                "{what} holds `{expr}` = {value} at the parameters' values ({params}): it is not finite, so α, \
+                 β or the zero dynamics would be infinite or NaN everywhere; correct the expression or the \
+                 parameter values"
+            ),
+        ))
+    }
+}
 
 /// Longest printed subexpression in the message, in characters.
 const SHOWN_CHARS: usize = 200;
 
 /// The first constant subexpression of the `roots` (named, in order) that is not finite at `nominal`:
 /// (root name, the subexpression printed, its value, the parameters in it with their values).
-pub(super) fn non_finite_constant(
+pub(crate) fn non_finite_constant(
     pool: &Pool,
     roots: &[(String, Id)],
     nominal: &HashMap<Symbol, f64>,
