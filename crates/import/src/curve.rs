@@ -130,13 +130,13 @@ fn check_table(x: &[f64], y: &[f64], path: &str) -> Result<(), ImportError> {
             ),
         ));
     }
-    if x.windows(2).any(|w| !(w[1] > w[0])) || x.iter().chain(y).any(|v| !v.is_finite()) {
+    if x.iter().chain(y).any(|v| !v.is_finite()) || x.windows(2).any(|w| w[1] <= w[0]) {
         return Err(ImportError::field(
             path,
             "grid must be finite and strictly increasing, values finite",
         ));
     }
-    if y.iter().any(|&e| !(e > 0.0 && e <= 1.0)) {
+    if y.iter().any(|&e| e <= 0.0 || e > 1.0) {
         return Err(ImportError::field(path, "efficiencies must lie in (0, 1]"));
     }
     Ok(())
