@@ -204,9 +204,12 @@ fn batch(
     let eta: Vec<&[f64]> = eta.iter().map(|v| &v[..]).collect();
     let mut states = vec![vec![1.0; len]; c.x.len()];
     let mut u = vec![0.0; len];
+    // The signals at their nominal values at every point.
+    let w_cols: Vec<Vec<f64>> = m.info().nominal_w().iter().map(|&v| vec![v; len]).collect();
+    let w: Vec<&[f64]> = w_cols.iter().map(|v| &v[..]).collect();
     let inverse = {
         let mut x: Vec<&mut [f64]> = states.iter_mut().map(|v| &mut v[..]).collect();
-        m.invert_batch(&xi, &eta, &c.yr[..len], &mut x, &mut u)
+        m.invert_batch(&xi, &eta, &w, &c.yr[..len], &mut x, &mut u)
     };
     let inverse = inverse.map(|()| {
         states.push(u);
@@ -217,7 +220,7 @@ fn batch(
     let mut out = vec![vec![0.0; len]; n_out];
     {
         let mut o: Vec<&mut [f64]> = out.iter_mut().map(|v| &mut v[..]).collect();
-        m.outputs_batch(&x, &c.u[..len], &mut o);
+        m.outputs_batch(&x, &w, &c.u[..len], &mut o);
     }
     (inverse.map_err(|(k, _)| k), out)
 }
@@ -261,44 +264,53 @@ fn compare(name: &str, file: &Path, compiled: &mut dyn InverseModel) -> Stats {
             columns.push(&x, u, &xi, &eta, yr);
             let both = |f: &dyn Fn(&dyn InverseModel) -> Vec<f64>| (f(interp), f(compiled));
 
-            let (a, g) = both(&|m| vec![m.h(&x)]);
+            let (a, g) = both(&|m| vec![m.h(&x, &m.info().nominal_w())]);
             c.add(&format!("{tag}h"), &a, &g);
             let (a, g) = both(&|m| {
                 let (mut s, mut e) = (vec![0.0; r], vec![0.0; ne]);
-                m.psi(&x, &mut s, &mut e);
+                m.psi(&x, &m.info().nominal_w(), &mut s, &mut e);
                 s.extend(e);
                 s
             });
             c.add(&format!("{tag}psi"), &a, &g);
             let (a, g) = both(&|m| {
                 let mut dx = vec![0.0; n];
-                m.rhs(&x, u, &mut dx);
+                m.rhs(&x, &m.info().nominal_w(), u, &mut dx);
                 dx
             });
             c.add(&format!("{tag}rhs"), &a, &g);
             let (a, g) = both(&|m| {
                 let mut out = vec![0.0; no];
-                m.outputs(&x, u, &mut out);
+                m.outputs(&x, &m.info().nominal_w(), u, &mut out);
                 out
             });
             c.add(&format!("{tag}outputs"), &a, &g);
-            let (a, g) = both(&|m| vec![m.alpha(&xi, &eta), m.beta(&xi, &eta)]);
+            let (a, g) = both(&|m| {
+                vec![
+                    m.alpha(&xi, &eta, &m.info().nominal_w()),
+                    m.beta(&xi, &eta, &m.info().nominal_w()),
+                ]
+            });
             c.add(&format!("{tag}alpha_beta"), &a, &g);
             let (a, g) = both(&|m| {
                 let mut q = vec![0.0; ne];
-                m.zero_dynamics(&xi, &eta, yr, &mut q);
+                m.zero_dynamics(&xi, &eta, &m.info().nominal_w(), yr, &mut q);
                 q
             });
             c.add(&format!("{tag}zero_dynamics"), &a, &g);
             // ψ⁻¹ and the fused inverse, from the same guess (used only by Newton's method).
             let solve = |m: &dyn InverseModel| {
                 let mut xs = vec![1.0; n];
-                let p = m.psi_inv(&xi, &eta, &mut xs).map(|()| xs);
+                let p = m
+                    .psi_inv(&xi, &eta, &m.info().nominal_w(), &mut xs)
+                    .map(|()| xs);
                 let mut xs2 = vec![1.0; n];
-                let q = m.invert(&xi, &eta, yr, &mut xs2).map(|u| {
-                    xs2.push(u);
-                    xs2
-                });
+                let q = m
+                    .invert(&xi, &eta, &m.info().nominal_w(), yr, &mut xs2)
+                    .map(|u| {
+                        xs2.push(u);
+                        xs2
+                    });
                 (p, q)
             };
             let ((pa, qa), (pg, qg)) = (solve(interp), solve(compiled));

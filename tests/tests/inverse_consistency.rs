@@ -77,8 +77,8 @@ fn si_engine_inverse_satisfies_the_original_equations_on_nedc() {
         let xi: Vec<f64> = (0..r).map(|i| yd[i][k]).collect();
         let x: Vec<f64> = xs.iter().map(|c| c[k]).collect();
         jac.eval(&xi, &mut j);
-        interp.rhs(&x, u[k], &mut dx);
-        interp.rhs(&x, 0.0, &mut f);
+        interp.rhs(&x, &[], u[k], &mut dx);
+        interp.rhs(&x, &[], 0.0, &mut f);
         let row: Vec<(f64, f64, f64)> = (0..n)
             .map(|s| {
                 // Chain rule: dx_s/dt = Σ_i ∂ψ⁻¹_s/∂ξ_i · y_d^(i+1).

@@ -115,15 +115,15 @@ mod runtime {
         let mut x = x0.to_vec();
         let mut ode = Dopri5::new(x.len(), 1e-10, 1e-12, 1e-3);
         let mut f = |t: f64, x: &[f64], dx: &mut [f64]| -> Result<(), StepFailure> {
-            model.rhs(x, u(t), dx);
+            model.rhs(x, &[], u(t), dx);
             Ok(())
         };
-        let mut y = vec![model.h(&x)];
+        let mut y = vec![model.h(&x, &[])];
         for w in times.windows(2) {
             ode.advance(w[0], w[1], &mut x, &mut f).unwrap_or_else(|e| {
                 panic!("replay of {} at t = {}: {e:?}", model.info().name, w[0])
             });
-            y.push(model.h(&x));
+            y.push(model.h(&x, &[]));
         }
         y
     }

@@ -77,6 +77,11 @@ pub struct ForwardArgs {
     /// Override a parameter: NAME=VALUE (repeatable).
     #[arg(long = "set", value_name = "NAME=VALUE")]
     set: Vec<String>,
+    /// Give a signal of the model's [signals]: NAME=FILE.csv (a time column and a column NAME) or NAME=VALUE
+    /// (constant); repeatable. The forward run uses the raw signal (linear between its samples).
+    #[arg(long = "signal", value_name = "NAME=FILE.csv|VALUE")]
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    signal: Vec<String>,
     /// Write the time series as CSV.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -108,8 +113,9 @@ pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
             cycle.name
         ))
     };
+    let signals = crate::signal_args::parse_signals(&args.signal)?;
     let (progress, bar) = crate::progress::start("forward");
-    let opts = ForwardOptions::builder()
+    let mut opts = ForwardOptions::builder()
         .progress(progress)
         .dt(args.dt)
         .engine(model.engine_name())
@@ -132,6 +138,7 @@ pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
         .time_limit_s(args.time_limit)
         .build()
         .map_err(stopped)?;
+    opts.signals = signals;
     let result = forward::forward(model.as_model(), &cycle, &opts);
     bar.finish();
     let mut result = result.map_err(stopped)?;

@@ -20,6 +20,7 @@ mod outputs;
 mod plotting;
 mod progress;
 mod provenance;
+mod signal_args;
 mod simulate;
 mod sweep_cmd;
 mod version;

@@ -30,6 +30,11 @@ pub struct SimulateArgs {
     /// Override a parameter: NAME=VALUE (repeatable).
     #[arg(long = "set", value_name = "NAME=VALUE")]
     set: Vec<String>,
+    /// Give a signal of the model's [signals]: NAME=FILE.csv (a time column and a column NAME) or NAME=VALUE
+    /// (constant); repeatable. The inverse and its replay (--verify) use the smoothed signal.
+    #[arg(long = "signal", value_name = "NAME=FILE.csv|VALUE")]
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    signal: Vec<String>,
     /// Write the time series as CSV.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -72,8 +77,9 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
             cycle.name
         ))
     };
+    let signals = crate::signal_args::parse_signals(&args.signal)?;
     let (progress, bar) = crate::progress::start("simulate");
-    let opts = SimulationOptions::builder()
+    let mut opts = SimulationOptions::builder()
         .progress(progress)
         .lookahead(args.lookahead)
         .dt(args.dt)
@@ -85,6 +91,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
         .keep_series(args.out.is_some() || args.plot.plot.is_some())
         .build()
         .map_err(stopped)?;
+    opts.signals = signals;
     let result = simulate(model.as_model(), &cycle, &opts);
     bar.finish();
     let mut result = result.map_err(stopped)?;

@@ -50,7 +50,7 @@ fn invert(c: &mut Criterion) {
             let mut acc = 0.0;
             for (xi, yr) in &pts {
                 acc += compiled
-                    .invert(black_box(xi), &[], black_box(*yr), &mut x)
+                    .invert(black_box(xi), &[], &[], black_box(*yr), &mut x)
                     .unwrap_or(f64::NAN)
                     + x[1];
             }
@@ -89,7 +89,14 @@ fn invert(c: &mut Criterion) {
         b.iter(|| {
             let xi: [&[f64]; 2] = [black_box(&xi1), black_box(&xi2)];
             compiled
-                .invert_batch(&xi, &[], black_box(&yr), &mut [&mut x1, &mut x2], &mut u)
+                .invert_batch(
+                    &xi,
+                    &[],
+                    &[],
+                    black_box(&yr),
+                    &mut [&mut x1, &mut x2],
+                    &mut u,
+                )
                 .unwrap_or(());
             u[POINTS - 1] + x2[POINTS - 1]
         })
@@ -121,7 +128,7 @@ fn invert(c: &mut Criterion) {
             let mut acc = 0.0;
             for (xi, yr) in &pts {
                 acc += interp
-                    .invert(black_box(xi), &[], black_box(*yr), &mut x)
+                    .invert(black_box(xi), &[], &[], black_box(*yr), &mut x)
                     .unwrap_or(f64::NAN)
                     + x[1];
             }
@@ -147,7 +154,7 @@ fn outputs(c: &mut Criterion) {
             let mut o = [0.0; 4];
             let mut acc = 0.0;
             for k in 0..POINTS {
-                compiled.outputs(black_box(&[v[k], p_i[k]]), black_box(m_at[k]), &mut o);
+                compiled.outputs(black_box(&[v[k], p_i[k]]), &[], black_box(m_at[k]), &mut o);
                 acc += o[3];
             }
             acc
@@ -160,6 +167,7 @@ fn outputs(c: &mut Criterion) {
             };
             compiled.outputs_batch(
                 &[black_box(&v), black_box(&p_i)],
+                &[],
                 black_box(&m_at),
                 &mut [o0, o1, o2, o3],
             );

@@ -33,6 +33,8 @@ pub(crate) const RESERVED_LOCALS: &[&str] = &[
     "N_ETA",
     "N_PARAMS",
     "N_OUTPUTS",
+    "NW",
+    "SIGNALS",
     "STATES",
     "INPUT",
     "OUTPUT",

@@ -34,7 +34,7 @@ fn tape(c: &mut Criterion) {
         b.iter(|| {
             let xi = &points[k & 1023];
             k += 1;
-            black_box(interp.alpha(black_box(xi), &[]) + interp.beta(black_box(xi), &[]))
+            black_box(interp.alpha(black_box(xi), &[], &[]) + interp.beta(black_box(xi), &[], &[]))
         })
     });
     // The tape of (α, β) specialised to the parameters, evaluated over a block of 1024 points.
@@ -65,7 +65,7 @@ fn tape(c: &mut Criterion) {
         b.iter(|| {
             let xi = &points[k & 1023];
             k += 1;
-            black_box(interp.invert(black_box(xi), &[], 0.1, &mut x).unwrap())
+            black_box(interp.invert(black_box(xi), &[], &[], 0.1, &mut x).unwrap())
         })
     });
 }

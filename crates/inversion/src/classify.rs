@@ -60,13 +60,14 @@ impl Derivation {
         };
         let mut xi = vec![0.0; self.relative_degree];
         xi[0] = y0;
-        let Ok(eta) = equilibrium(&model, &xi, 0.0, None, &default_starts(y0)) else {
+        let w = invsim_model_api::InverseModel::info(&model).nominal_w();
+        let Ok(eta) = equilibrium(&model, &xi, &w, 0.0, None, &default_starts(y0)) else {
             return unknown(format!(
                 "no equilibrium of the zero dynamics found at y = {y0} (Newton's method from several starting \
                  points); set the output's `nominal` value in the model file"
             ));
         };
-        let lin = Linearization::at(&model, &xi, &eta, 0.0);
+        let lin = Linearization::at(&model, &xi, &w, &eta, 0.0);
         let class = lin.class();
         let eigenvalues = lin.eigenvalues;
         let note = match class {

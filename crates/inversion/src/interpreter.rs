@@ -10,6 +10,7 @@ use crate::derive::{Derivation, Solution};
 use invsim_expr::{Id, Symbol, Tape};
 use invsim_model_api::{
     set_param_checked, EngineInfo, InverseModel, ModelError, ModelInfo, OutputInfo, ReferenceMap,
+    SignalInfo,
 };
 use thiserror::Error;
 
@@ -60,25 +61,37 @@ pub fn model_info(d: &Derivation) -> ModelInfo {
             speed: e.speed,
             torque: e.torque,
         }),
+        signals: m
+            .signals
+            .iter()
+            .map(|s| SignalInfo {
+                name: s.name.clone(),
+                unit: s.unit.clone(),
+                doc: s.doc.clone(),
+                default: s.default,
+                column: s.column.clone(),
+            })
+            .collect(),
     }
 }
 
-/// The tapes of one model, over (varying inputs, parameters).
+/// The tapes of one model, over (varying inputs, parameters); the signal values `w` are varying inputs of
+/// every tape, after the coordinates (x, or ξ and η).
 #[derive(Debug, Clone)]
 struct Tapes {
-    /// (ξ, η) → (x, α, β); empty when ψ⁻¹ is not closed-form.
+    /// (ξ, η, w) → (x, α, β); empty when ψ⁻¹ is not closed-form.
     invert: Tape,
-    /// (ξ, η) → (α, β); empty when ψ⁻¹ is not closed-form.
+    /// (ξ, η, w) → (α, β); empty when ψ⁻¹ is not closed-form.
     alpha_beta: Tape,
-    /// x → (ψ, ∂ψ/∂x row-major, α_x, β_x).
+    /// (x, w) → (ψ, ∂ψ/∂x row-major, α_x, β_x).
     newton: Tape,
-    /// x → h.
+    /// (x, w) → h.
     h: Tape,
-    /// (ξ, η, yr) → dη/dt when ψ⁻¹ is closed-form, else (x, yr) → dη/dt.
+    /// (ξ, η, w, yr) → dη/dt when ψ⁻¹ is closed-form, else (x, w, yr) → dη/dt.
     zero: Tape,
-    /// (x, u) → f + g u.
+    /// (x, w, u) → f + g u.
     rhs: Tape,
-    /// (x, u) → the `[outputs]`.
+    /// (x, w, u) → the `[outputs]`.
     outputs: Tape,
 }
 
@@ -129,9 +142,10 @@ impl Interpreter {
         let states = m.state_symbols();
         let u = m.input.symbol;
         let closed = d.psi_inv_closed();
-        let xi_eta_p = cat(&[&d.xi, &d.eta, &params]);
-        let x_p = cat(&[&states, &params]);
-        let x_u_p = cat(&[&states, &[u], &params]);
+        let w = &d.w;
+        let xi_eta_p = cat(&[&d.xi, &d.eta, w, &params]);
+        let x_p = cat(&[&states, w, &params]);
+        let x_u_p = cat(&[&states, w, &[u], &params]);
 
         let (invert, alpha_beta) = if closed {
             let mut exprs: Vec<Id> = d
@@ -167,14 +181,14 @@ impl Interpreter {
                 d,
                 "zero dynamics",
                 &d.zero_dynamics,
-                &cat(&[&d.xi, &d.eta, &[d.yr], &params]),
+                &cat(&[&d.xi, &d.eta, w, &[d.yr], &params]),
             )?
         } else {
             compile(
                 d,
                 "zero dynamics",
                 &d.zero_dynamics_x,
-                &cat(&[&states, &[d.yr], &params]),
+                &cat(&[&states, w, &[d.yr], &params]),
             )?
         };
         let rhs: Vec<Id> = m.states.iter().map(|s| s.rhs).collect();
@@ -213,12 +227,12 @@ impl Interpreter {
     }
 
     /// Newton's method on ψ(x) = (ξ, η) from the guess in `x`, with the analytic Jacobian (LU-solved).
-    fn newton(&self, xi: &[f64], eta: &[f64], x: &mut [f64]) -> Result<(), ModelError> {
+    fn newton(&self, xi: &[f64], eta: &[f64], w: &[f64], x: &mut [f64]) -> Result<(), ModelError> {
         let n = self.n;
         let mut buf = vec![0.0; n + n * n + 2];
         let mut residual = f64::INFINITY;
         for _ in 0..PSI_INV_NEWTON_MAX_ITER {
-            self.special.newton.eval(x, &mut buf);
+            self.special.newton.eval_parts(&[x, w], &mut buf);
             let target = |i: usize| if i < self.r { xi[i] } else { eta[i - self.r] };
             let res = nalgebra::DVector::from_fn(n, |i, _| buf[i] - target(i));
             residual = (0..n)
@@ -245,41 +259,41 @@ impl Interpreter {
     }
 
     /// (α, β) in the original states (the numeric-ψ⁻¹ path).
-    fn alpha_beta_x(&self, x: &[f64]) -> (f64, f64) {
+    fn alpha_beta_x(&self, x: &[f64], w: &[f64]) -> (f64, f64) {
         let n = self.n;
         let mut buf = vec![0.0; n + n * n + 2];
-        self.special.newton.eval(x, &mut buf);
+        self.special.newton.eval_parts(&[x, w], &mut buf);
         (buf[n + n * n], buf[n + n * n + 1])
     }
 
     /// (α, β) at (ξ, η), from the closed form or via Newton from x = 1.
-    fn alpha_beta(&self, xi: &[f64], eta: &[f64]) -> (f64, f64) {
+    fn alpha_beta(&self, xi: &[f64], eta: &[f64], w: &[f64]) -> (f64, f64) {
         if self.closed {
             let mut ab = [0.0; 2];
-            self.special.alpha_beta.eval_parts(&[xi, eta], &mut ab);
+            self.special.alpha_beta.eval_parts(&[xi, eta, w], &mut ab);
             (ab[0], ab[1])
         } else {
             let mut x = vec![1.0; self.n];
-            match self.newton(xi, eta, &mut x) {
-                Ok(()) => self.alpha_beta_x(&x),
+            match self.newton(xi, eta, w, &mut x) {
+                Ok(()) => self.alpha_beta_x(&x, w),
                 Err(_) => (f64::NAN, f64::NAN),
             }
         }
     }
 
     /// Closed-form (x, α, β) into `x`, returning (α, β).
-    fn invert_closed(&self, xi: &[f64], eta: &[f64], x: &mut [f64]) -> (f64, f64) {
+    fn invert_closed(&self, xi: &[f64], eta: &[f64], w: &[f64], x: &mut [f64]) -> (f64, f64) {
         let n = self.n;
         if n + 2 <= STACK {
             let mut buf = [0.0; STACK];
             self.special
                 .invert
-                .eval_parts(&[xi, eta], &mut buf[..n + 2]);
+                .eval_parts(&[xi, eta, w], &mut buf[..n + 2]);
             x.copy_from_slice(&buf[..n]);
             (buf[n], buf[n + 1])
         } else {
             let mut v = vec![0.0; n + 2];
-            self.special.invert.eval_parts(&[xi, eta], &mut v);
+            self.special.invert.eval_parts(&[xi, eta, w], &mut v);
             x.copy_from_slice(&v[..n]);
             (v[n], v[n + 1])
         }
@@ -298,49 +312,49 @@ impl InverseModel for Interpreter {
         self.special = self.generic.specialize(&self.params);
         Ok(())
     }
-    fn h(&self, x: &[f64]) -> f64 {
+    fn h(&self, x: &[f64], w: &[f64]) -> f64 {
         let mut out = [0.0];
-        self.special.h.eval(x, &mut out);
+        self.special.h.eval_parts(&[x, w], &mut out);
         out[0]
     }
-    fn psi(&self, x: &[f64], xi: &mut [f64], eta: &mut [f64]) {
+    fn psi(&self, x: &[f64], w: &[f64], xi: &mut [f64], eta: &mut [f64]) {
         let n = self.n;
         let mut buf = vec![0.0; n + n * n + 2];
-        self.special.newton.eval(x, &mut buf);
+        self.special.newton.eval_parts(&[x, w], &mut buf);
         xi.copy_from_slice(&buf[..self.r]);
         eta.copy_from_slice(&buf[self.r..n]);
     }
-    fn psi_inv(&self, xi: &[f64], eta: &[f64], x: &mut [f64]) -> Result<(), ModelError> {
+    fn psi_inv(&self, xi: &[f64], eta: &[f64], w: &[f64], x: &mut [f64]) -> Result<(), ModelError> {
         if self.closed {
-            self.invert_closed(xi, eta, x);
+            self.invert_closed(xi, eta, w, x);
             Ok(())
         } else {
-            self.newton(xi, eta, x)
+            self.newton(xi, eta, w, x)
         }
     }
-    fn alpha(&self, xi: &[f64], eta: &[f64]) -> f64 {
-        self.alpha_beta(xi, eta).0
+    fn alpha(&self, xi: &[f64], eta: &[f64], w: &[f64]) -> f64 {
+        self.alpha_beta(xi, eta, w).0
     }
-    fn beta(&self, xi: &[f64], eta: &[f64]) -> f64 {
-        self.alpha_beta(xi, eta).1
+    fn beta(&self, xi: &[f64], eta: &[f64], w: &[f64]) -> f64 {
+        self.alpha_beta(xi, eta, w).1
     }
-    fn zero_dynamics(&self, xi: &[f64], eta: &[f64], yr: f64, deta: &mut [f64]) {
+    fn zero_dynamics(&self, xi: &[f64], eta: &[f64], w: &[f64], yr: f64, deta: &mut [f64]) {
         if self.closed {
-            self.special.zero.eval_parts(&[xi, eta, &[yr]], deta);
+            self.special.zero.eval_parts(&[xi, eta, w, &[yr]], deta);
         } else {
             let mut x = vec![1.0; self.n];
-            if self.newton(xi, eta, &mut x).is_err() {
+            if self.newton(xi, eta, w, &mut x).is_err() {
                 deta.fill(f64::NAN);
                 return;
             }
-            self.special.zero.eval_parts(&[&x, &[yr]], deta);
+            self.special.zero.eval_parts(&[&x, w, &[yr]], deta);
         }
     }
-    fn rhs(&self, x: &[f64], u: f64, dx: &mut [f64]) {
-        self.special.rhs.eval_parts(&[x, &[u]], dx);
+    fn rhs(&self, x: &[f64], w: &[f64], u: f64, dx: &mut [f64]) {
+        self.special.rhs.eval_parts(&[x, w, &[u]], dx);
     }
-    fn outputs(&self, x: &[f64], u: f64, out: &mut [f64]) {
-        self.special.outputs.eval_parts(&[x, &[u]], out);
+    fn outputs(&self, x: &[f64], w: &[f64], u: f64, out: &mut [f64]) {
+        self.special.outputs.eval_parts(&[x, w, &[u]], out);
     }
     fn reference(&self) -> ReferenceMap {
         self.reference
@@ -350,19 +364,20 @@ impl InverseModel for Interpreter {
         &self,
         xi: &[&[f64]],
         eta: &[&[f64]],
+        w: &[&[f64]],
         yr: &[f64],
         x: &mut [&mut [f64]],
         u: &mut [f64],
     ) -> Result<(), (usize, ModelError)> {
         if !self.closed {
             // Newton point by point, warm-started from the previous point.
-            return invsim_model_api::invert_pointwise(self, xi, eta, yr, x, u);
+            return invsim_model_api::invert_pointwise(self, xi, eta, w, yr, x, u);
         }
         let m = yr.len();
         let mut alpha = vec![0.0; m];
         let mut beta = vec![0.0; m];
         {
-            let inputs: Vec<&[f64]> = xi.iter().chain(eta).copied().collect();
+            let inputs: Vec<&[f64]> = xi.iter().chain(eta).chain(w).copied().collect();
             let mut outs: Vec<&mut [f64]> = x.iter_mut().map(|c| &mut c[..m]).collect();
             outs.push(&mut alpha);
             outs.push(&mut beta);
@@ -374,24 +389,32 @@ impl InverseModel for Interpreter {
         Ok(())
     }
 
-    fn outputs_batch(&self, x: &[&[f64]], u: &[f64], out: &mut [&mut [f64]]) {
+    fn outputs_batch(&self, x: &[&[f64]], w: &[&[f64]], u: &[f64], out: &mut [&mut [f64]]) {
         if out.is_empty() {
             return;
         }
         let mut inputs: Vec<&[f64]> = x.iter().map(|c| &c[..u.len()]).collect();
+        inputs.extend(w.iter().map(|c| &c[..u.len()]));
         inputs.push(u);
         let mut cols: Vec<&mut [f64]> = out.iter_mut().map(|c| &mut c[..u.len()]).collect();
         self.special.outputs.eval_batch(&inputs, &mut cols);
     }
 
     /// One fused tape evaluation for (x, α, β) in the closed-form case; Newton from the guess otherwise.
-    fn invert(&self, xi: &[f64], eta: &[f64], yr: f64, x: &mut [f64]) -> Result<f64, ModelError> {
+    fn invert(
+        &self,
+        xi: &[f64],
+        eta: &[f64],
+        w: &[f64],
+        yr: f64,
+        x: &mut [f64],
+    ) -> Result<f64, ModelError> {
         if self.closed {
-            let (a, b) = self.invert_closed(xi, eta, x);
+            let (a, b) = self.invert_closed(xi, eta, w, x);
             return Ok((yr - a) / b);
         }
-        self.newton(xi, eta, x)?;
-        let (a, b) = self.alpha_beta_x(x);
+        self.newton(xi, eta, w, x)?;
+        let (a, b) = self.alpha_beta_x(x, w);
         Ok((yr - a) / b)
     }
 }

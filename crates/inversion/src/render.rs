@@ -146,7 +146,7 @@ impl Derivation {
         }
         let r = self.relative_degree;
         let c = self.classify();
-        json!({
+        let mut out = json!({
             "name": m.name,
             "states": m.states.iter().map(|s| s.name.clone()).collect::<Vec<_>>(),
             "input": m.input.name,
@@ -176,6 +176,36 @@ impl Derivation {
                 "note": c.note,
             },
             "warnings": self.warnings,
+        });
+        // Contract §5: the signals in file order (the key is left out for a model without signals, whose
+        // output is unchanged).
+        if !m.signals.is_empty() {
+            out["signals"] = json!(m.signals.iter().map(|s| s.name.clone()).collect::<Vec<_>>());
+        }
+        out
+    }
+
+    /// One line naming the signals, their defaults and columns (None without signals).
+    fn signals_line(&self) -> Option<String> {
+        let m = &self.model;
+        (!m.signals.is_empty()).then(|| {
+            let parts: Vec<String> = m
+                .signals
+                .iter()
+                .map(|s| {
+                    let default = s.default.map_or("none".to_string(), |d| d.to_string());
+                    format!(
+                        "{} (default {default}, column {})",
+                        s.name,
+                        s.column.as_deref().unwrap_or(&s.name)
+                    )
+                })
+                .collect();
+            format!(
+                "signals w = {}; S_dk is the k-th time derivative of the smoothed signal S, and every Lie \
+                 derivative is the total time derivative D",
+                parts.join(", ")
+            )
         })
     }
 
@@ -247,6 +277,9 @@ impl Derivation {
             self.show(m.output.h)
         );
         if let Some(line) = self.reference_line() {
+            let _ = writeln!(s, "{line}");
+        }
+        if let Some(line) = self.signals_line() {
             let _ = writeln!(s, "{line}");
         }
         let _ = writeln!(s, "\nvector fields (definitions inlined):");
@@ -399,6 +432,28 @@ impl Derivation {
                 );
             }
             s.push('\n');
+        }
+        if !m.signals.is_empty() {
+            let _ = writeln!(
+                s,
+                "| signal | default | cycle column | unit | description |\n|---|---|---|---|---|"
+            );
+            for g in &m.signals {
+                let _ = writeln!(
+                    s,
+                    "| ${}$ | {} | {} | {} | {} |",
+                    latex_symbol(&g.name),
+                    g.default.map_or("–".to_string(), |d| d.to_string()),
+                    g.column.as_deref().unwrap_or(&g.name),
+                    g.unit.as_deref().unwrap_or("–"),
+                    g.doc.as_deref().unwrap_or("")
+                );
+            }
+            let _ = writeln!(
+                s,
+                "\nSignals are exogenous: $S_{{dk}}$ is the $k$-th time derivative of the smoothed signal $S$, and \
+                 every Lie derivative below is the total time derivative along the states and the signals.\n"
+            );
         }
         if !m.outputs.is_empty() {
             let _ = writeln!(

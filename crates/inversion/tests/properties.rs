@@ -26,7 +26,8 @@ fn models() -> Vec<(String, Derivation)> {
             .collect();
         files.sort();
         for f in files {
-            if let Ok(d) = derive_file(&f) {
+            // Models with signals have their own property tests (total derivatives along x(t), w(t)).
+            if let Some(d) = derive_file(&f).ok().filter(|d| d.model.signals.is_empty()) {
                 out.push((f.display().to_string(), d));
             }
         }
@@ -119,11 +120,11 @@ proptest! {
             // A reachable (ξ, η): the image of a state.
             let x0 = state_point(&d, &u);
             let (mut xi, mut eta) = (vec![0.0; r], vec![0.0; n - r]);
-            interp.psi(&x0[..n], &mut xi, &mut eta);
+            interp.psi(&x0[..n], &[], &mut xi, &mut eta);
             let mut x = vec![1.0; n];
-            interp.psi_inv(&xi, &eta, &mut x).unwrap();
+            interp.psi_inv(&xi, &eta, &[], &mut x).unwrap();
             let (mut xi2, mut eta2) = (vec![0.0; r], vec![0.0; n - r]);
-            interp.psi(&x, &mut xi2, &mut eta2);
+            interp.psi(&x, &[], &mut xi2, &mut eta2);
             for (a, b) in xi.iter().chain(&eta).zip(xi2.iter().chain(&eta2)) {
                 prop_assert!((a - b).abs() <= 1e-9 * a.abs().max(1.0), "{name}: {a} vs {b} (x = {x:?})");
             }

@@ -212,9 +212,9 @@ h = "x1 + x2*exp(x2)"
     let interp = Interpreter::new(&d).unwrap();
     let x_true = [0.4, 0.3];
     let (mut xi, mut eta) = ([0.0], [0.0]);
-    interp.psi(&x_true, &mut xi, &mut eta);
+    interp.psi(&x_true, &[], &mut xi, &mut eta);
     let mut x = [0.0, 0.0];
-    interp.psi_inv(&xi, &eta, &mut x).unwrap();
+    interp.psi_inv(&xi, &eta, &[], &mut x).unwrap();
     assert!(
         (x[0] - x_true[0]).abs() < 1e-12 && (x[1] - x_true[1]).abs() < 1e-12,
         "{x:?}"
@@ -266,7 +266,7 @@ fn si_engine_reproduces_the_steady_state_check_values() {
     ] {
         let v = kmh / 3.6;
         let mut x = [0.0; 2];
-        let u = interp.invert(&[v, 0.0], &[], 0.0, &mut x).unwrap();
+        let u = interp.invert(&[v, 0.0], &[], &[], 0.0, &mut x).unwrap();
         assert!((x[0] - v).abs() < 1e-12);
         assert!(
             ((x[1] - p_i) / p_i).abs() < 0.5e-4,
@@ -282,9 +282,9 @@ fn si_engine_reproduces_the_steady_state_check_values() {
     // 5.67 l/100 km at 50 km/h: fuel volume flow / speed.
     let v = 50.0 / 3.6;
     let mut x = [0.0; 2];
-    let u = interp.invert(&[v, 0.0], &[], 0.0, &mut x).unwrap();
+    let u = interp.invert(&[v, 0.0], &[], &[], 0.0, &mut x).unwrap();
     let mut out = [0.0; 4];
-    interp.outputs(&x, u, &mut out);
+    interp.outputs(&x, &[], u, &mut out);
     let l_per_100km = out[1] / v * 1e5;
     assert!((l_per_100km - 5.67).abs() < 0.005, "{l_per_100km} l/100 km");
 }
@@ -296,7 +296,7 @@ fn si_engine_acceleration_check_values() {
     let interp = Interpreter::new(&d).unwrap();
     for (p_i, want) in [(0.95e5, 1.578), (0.2e5, -0.224)] {
         let mut dx = [0.0; 2];
-        interp.rhs(&[50.0 / 3.6, p_i], 0.0, &mut dx);
+        interp.rhs(&[50.0 / 3.6, p_i], &[], 0.0, &mut dx);
         assert!(
             (dx[0] - want).abs() < 0.0005,
             "dv/dt = {} at p_i = {p_i}",

@@ -49,6 +49,8 @@ pub struct ModelInfo {
     pub parameters: Vec<String>,
     /// The engine whose operating points the summary tabulates (the model file's `[engine]`), if any.
     pub engine: Option<EngineInfo>,
+    /// Exogenous signals (the model file's `[signals]`), in file order.
+    pub signals: Vec<SignalInfo>,
 }
 
 impl ModelInfo {
@@ -56,6 +58,36 @@ impl ModelInfo {
     pub fn n_states(&self) -> usize {
         self.states.len()
     }
+
+    /// Length of the signal-values slice `w` of every evaluation method: (r + 1) values per signal,
+    /// [S, S_d1, …, S_dr] for each signal S in file order (0 for a model without signals).
+    pub fn n_w(&self) -> usize {
+        self.signals.len() * (self.relative_degree + 1)
+    }
+
+    /// The signal values at a constant nominal point: each signal at its default (0 without one), every
+    /// derivative 0 (where `derive` classifies the zero dynamics).
+    pub fn nominal_w(&self) -> Vec<f64> {
+        let r = self.relative_degree;
+        let mut w = vec![0.0; self.n_w()];
+        for (i, s) in self.signals.iter().enumerate() {
+            w[i * (r + 1)] = s.default.unwrap_or(0.0);
+        }
+        w
+    }
+}
+
+/// One exogenous signal of the model's `[signals]` table: a time-varying quantity the model does not control
+/// (road grade, auxiliary load), known over the whole run in advance.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct SignalInfo {
+    pub name: String,
+    pub unit: Option<String>,
+    pub doc: Option<String>,
+    /// The value used when neither the command line nor the cycle file gives the signal.
+    pub default: Option<f64>,
+    /// The cycle file's column to read it from (`None`: the signal's name; `grade` also matches `cycGrade`).
+    pub column: Option<String>,
 }
 
 /// One entry of the model's `[outputs]` table.
@@ -124,7 +156,10 @@ pub enum ModelError {
 /// A derived model: α, β, ψ, ψ⁻¹, the zero dynamics, the original right-hand side and the extra outputs.
 ///
 /// Slices have the lengths given by [`ModelInfo`]: `xi` has r entries, `eta` n − r, `x` n, `outputs` the
-/// number of `[outputs]`. Implementations may panic on wrong lengths (a programming error, not user data).
+/// number of `[outputs]`, `w` [`ModelInfo::n_w`] (the signal values [S, S_d1, …, S_dr] per signal S in file
+/// order; empty for a model without signals). Implementations may panic on wrong lengths (a programming
+/// error, not user data). With signals, every Lie derivative is a total time derivative (the signals'
+/// derivatives enter through `w`), so ψ, ψ⁻¹, α, β and the zero dynamics depend on `w`.
 pub trait InverseModel: Send + Sync {
     /// Names, sizes and bounds.
     fn info(&self) -> &ModelInfo;
@@ -134,21 +169,21 @@ pub trait InverseModel: Send + Sync {
     fn set_param(&mut self, name: &str, value: f64) -> Result<(), ModelError>;
 
     /// The tracked output y = h(x).
-    fn h(&self, x: &[f64]) -> f64;
+    fn h(&self, x: &[f64], w: &[f64]) -> f64;
     /// Normal-form coordinates (ξ, η) = ψ(x).
-    fn psi(&self, x: &[f64], xi: &mut [f64], eta: &mut [f64]);
+    fn psi(&self, x: &[f64], w: &[f64], xi: &mut [f64], eta: &mut [f64]);
     /// x = ψ⁻¹(ξ, η). On entry `x` holds a guess, used only where ψ⁻¹ is solved numerically.
-    fn psi_inv(&self, xi: &[f64], eta: &[f64], x: &mut [f64]) -> Result<(), ModelError>;
+    fn psi_inv(&self, xi: &[f64], eta: &[f64], w: &[f64], x: &mut [f64]) -> Result<(), ModelError>;
     /// α(ξ, η) = L_f^r h ∘ ψ⁻¹.
-    fn alpha(&self, xi: &[f64], eta: &[f64]) -> f64;
+    fn alpha(&self, xi: &[f64], eta: &[f64], w: &[f64]) -> f64;
     /// β(ξ, η) = L_g L_f^{r−1} h ∘ ψ⁻¹.
-    fn beta(&self, xi: &[f64], eta: &[f64]) -> f64;
+    fn beta(&self, xi: &[f64], eta: &[f64], w: &[f64]) -> f64;
     /// dη/dt = q(ξ, η, y^(r)) = L_f η + L_g η · (y^(r) − α)/β, written into `deta`.
-    fn zero_dynamics(&self, xi: &[f64], eta: &[f64], yr: f64, deta: &mut [f64]);
+    fn zero_dynamics(&self, xi: &[f64], eta: &[f64], w: &[f64], yr: f64, deta: &mut [f64]);
     /// The original model dx/dt = f(x) + g(x) u, written into `dx`.
-    fn rhs(&self, x: &[f64], u: f64, dx: &mut [f64]);
+    fn rhs(&self, x: &[f64], w: &[f64], u: f64, dx: &mut [f64]);
     /// The extra outputs of `[outputs]` at (x, u), written into `out`.
-    fn outputs(&self, x: &[f64], u: f64, out: &mut [f64]);
+    fn outputs(&self, x: &[f64], w: &[f64], u: f64, out: &mut [f64]);
 
     /// How a drive cycle defines this output's reference (default: y_d is the smoothed cycle itself).
     fn reference(&self) -> ReferenceMap {
@@ -156,13 +191,20 @@ pub trait InverseModel: Send + Sync {
     }
 
     /// Inverse at one point: x = ψ⁻¹(ξ, η) into `x` and u = (y^(r) − α)/β returned (paper eq. 26).
-    fn invert(&self, xi: &[f64], eta: &[f64], yr: f64, x: &mut [f64]) -> Result<f64, ModelError> {
-        self.psi_inv(xi, eta, x)?;
-        Ok((yr - self.alpha(xi, eta)) / self.beta(xi, eta))
+    fn invert(
+        &self,
+        xi: &[f64],
+        eta: &[f64],
+        w: &[f64],
+        yr: f64,
+        x: &mut [f64],
+    ) -> Result<f64, ModelError> {
+        self.psi_inv(xi, eta, w, x)?;
+        Ok((yr - self.alpha(xi, eta, w)) / self.beta(xi, eta, w))
     }
 
     /// The inverse at many points, stored column-wise: ξ_i at point k is `xi[i][k]`, η_j is `eta[j][k]`,
-    /// y^(r) is `yr[k]`; x_s is written to `x[s][k]` and u to `u[k]`. On entry `x[s][0]` is the guess for the
+    /// the signal value w_l is `w[l][k]`, y^(r) is `yr[k]`; x_s is written to `x[s][k]` and u to `u[k]`. On entry `x[s][0]` is the guess for the
     /// first point (where ψ⁻¹ is numeric); each later point starts from its predecessor.
     ///
     /// Returns the index of the first point that fails, with its error. The default calls
@@ -171,23 +213,28 @@ pub trait InverseModel: Send + Sync {
         &self,
         xi: &[&[f64]],
         eta: &[&[f64]],
+        w: &[&[f64]],
         yr: &[f64],
         x: &mut [&mut [f64]],
         u: &mut [f64],
     ) -> Result<(), (usize, ModelError)> {
-        invert_pointwise(self, xi, eta, yr, x, u)
+        invert_pointwise(self, xi, eta, w, yr, x, u)
     }
 
-    /// The extra outputs at many points, column-wise: `x[s][k]`, `u[k]` in, `out[o][k]` out. The default
-    /// calls [`InverseModel::outputs`] point by point.
-    fn outputs_batch(&self, x: &[&[f64]], u: &[f64], out: &mut [&mut [f64]]) {
+    /// The extra outputs at many points, column-wise: `x[s][k]`, `w[l][k]`, `u[k]` in, `out[o][k]` out. The
+    /// default calls [`InverseModel::outputs`] point by point.
+    fn outputs_batch(&self, x: &[&[f64]], w: &[&[f64]], u: &[f64], out: &mut [&mut [f64]]) {
         let mut x_k = vec![0.0; x.len()];
+        let mut w_k = vec![0.0; w.len()];
         let mut o_k = vec![0.0; out.len()];
         for k in 0..u.len() {
             for (v, c) in x_k.iter_mut().zip(x) {
                 *v = c[k];
             }
-            self.outputs(&x_k, u[k], &mut o_k);
+            for (v, c) in w_k.iter_mut().zip(w) {
+                *v = c[k];
+            }
+            self.outputs(&x_k, &w_k, u[k], &mut o_k);
             for (c, &v) in out.iter_mut().zip(&o_k) {
                 c[k] = v;
             }
@@ -231,12 +278,14 @@ pub fn invert_pointwise<M: InverseModel + ?Sized>(
     model: &M,
     xi: &[&[f64]],
     eta: &[&[f64]],
+    w: &[&[f64]],
     yr: &[f64],
     x: &mut [&mut [f64]],
     u: &mut [f64],
 ) -> Result<(), (usize, ModelError)> {
     let mut xi_k = vec![0.0; xi.len()];
     let mut eta_k = vec![0.0; eta.len()];
+    let mut w_k = vec![0.0; w.len()];
     let mut x_k: Vec<f64> = x
         .iter()
         .map(|c| c.first().copied().unwrap_or(0.0))
@@ -248,8 +297,11 @@ pub fn invert_pointwise<M: InverseModel + ?Sized>(
         for (v, c) in eta_k.iter_mut().zip(eta) {
             *v = c[k];
         }
+        for (v, c) in w_k.iter_mut().zip(w) {
+            *v = c[k];
+        }
         u[k] = model
-            .invert(&xi_k, &eta_k, yr[k], &mut x_k)
+            .invert(&xi_k, &eta_k, &w_k, yr[k], &mut x_k)
             .map_err(|e| (k, e))?;
         for (c, &v) in x.iter_mut().zip(&x_k) {
             c[k] = v;

@@ -50,4 +50,6 @@ pub enum RunError {
         quantity: String,
         value: f64,
     },
+    #[error(transparent)]
+    Signal(#[from] crate::signals::SignalError),
 }

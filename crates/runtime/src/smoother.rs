@@ -37,6 +37,7 @@
 //! absolute), `R` likewise (about 10⁻¹⁶·a), the derivatives from the kernel's closed form.
 
 mod grid;
+mod signals;
 
 use crate::cycle::{Cycle, CycleError};
 use crate::kernel::Kernel;
@@ -75,6 +76,9 @@ pub struct Smoother {
     reference: ReferenceMap,
     /// Tables of the corners' kernel terms on the grids [`Smoother::eval_grid`] has seen.
     grid_cache: grid::GridCache,
+    /// The model's exogenous signals, smoothed with the same kernel (see `smoother/signals.rs`); empty
+    /// for a model without signals.
+    signals: Vec<Smoother>,
 }
 
 impl Smoother {
@@ -86,7 +90,12 @@ impl Smoother {
             return Err(SmootherError::InvalidLookahead(lookahead));
         }
         cycle.validate()?;
-        let (time, speed) = (&cycle.time, &cycle.speed);
+        Ok(Smoother::from_samples(&cycle.time, &cycle.speed, lookahead))
+    }
+
+    /// The smoother of any piecewise-linear signal with samples (`time`, `values`) (time strictly increasing,
+    /// at least one sample, every value finite: the caller has checked), held constant outside its span.
+    pub(crate) fn from_samples(time: &[f64], speed: &[f64], lookahead: f64) -> Smoother {
         let n = time.len();
         // s_i = slope on [t_i, t_{i+1}]; 0 after the last sample (the cycle is held there).
         let slope = |i: usize| {
@@ -126,7 +135,7 @@ impl Smoother {
         let bucket_start = (0..=buckets)
             .map(|b| corners.partition_point(|&c| c < origin + b as f64 * width))
             .collect();
-        Ok(Smoother {
+        Smoother {
             kernel: Kernel::new(lookahead),
             first_value: speed[0],
             corners,
@@ -138,7 +147,8 @@ impl Smoother {
             bucket_start,
             reference: ReferenceMap::IDENTITY,
             grid_cache: grid::GridCache::default(),
-        })
+            signals: Vec::new(),
+        }
     }
 
     /// The same smoother delivering the reference of an output that is not the cycle's speed itself:

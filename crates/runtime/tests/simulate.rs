@@ -86,7 +86,7 @@ fn si_engine_inverse_satisfies_original_equations_on_nedc() {
     let mut max_dp = 0.0_f64;
     for k in 0..res.len() {
         assert_eq!(v[k], yd0[k], "x1 = ξ1");
-        model.rhs(&[v[k], p_i[k]], u[k], &mut dx);
+        model.rhs(&[v[k], p_i[k]], &[], u[k], &mut dx);
         // dv/dt = ξ̇1 = y_d'.
         let scale_v = (c1 * v[k] * v[k]).abs()
             + (c2 * v[k].abs().powf(1.8)).abs()
@@ -112,7 +112,7 @@ fn si_engine_inverse_satisfies_original_equations_on_nedc() {
         );
         // The model's fused `invert` agrees with (y^(r) − α)/β.
         let xi = [yd0[k], yd1[k]];
-        let u_ab = (yd2[k] - model.alpha(&xi, &[])) / model.beta(&xi, &[]);
+        let u_ab = (yd2[k] - model.alpha(&xi, &[], &[])) / model.beta(&xi, &[], &[]);
         assert!((u_ab - u[k]).abs() <= 1e-12 * (c7 * u[k]).abs().max(scale_p) / c7);
         max_dp = max_dp.max(chain.abs());
     }
@@ -440,33 +440,39 @@ impl InverseModel for InternalDynamics {
     fn set_param(&mut self, name: &str, value: f64) -> Result<(), ModelError> {
         invsim_model_api::set_param_checked(&self.info, &mut self.k, name, value)
     }
-    fn h(&self, x: &[f64]) -> f64 {
+    fn h(&self, x: &[f64], _w: &[f64]) -> f64 {
         x[0]
     }
-    fn psi(&self, x: &[f64], xi: &mut [f64], eta: &mut [f64]) {
+    fn psi(&self, x: &[f64], _w: &[f64], xi: &mut [f64], eta: &mut [f64]) {
         xi.copy_from_slice(&x[..2]);
         eta[0] = x[2];
     }
-    fn psi_inv(&self, xi: &[f64], eta: &[f64], x: &mut [f64]) -> Result<(), ModelError> {
+    fn psi_inv(
+        &self,
+        xi: &[f64],
+        eta: &[f64],
+        _w: &[f64],
+        x: &mut [f64],
+    ) -> Result<(), ModelError> {
         x[..2].copy_from_slice(xi);
         x[2] = eta[0];
         Ok(())
     }
-    fn alpha(&self, xi: &[f64], eta: &[f64]) -> f64 {
+    fn alpha(&self, xi: &[f64], eta: &[f64], _w: &[f64]) -> f64 {
         -xi[0].sin() - xi[1] + eta[0]
     }
-    fn beta(&self, _xi: &[f64], _eta: &[f64]) -> f64 {
+    fn beta(&self, _xi: &[f64], _eta: &[f64], _w: &[f64]) -> f64 {
         1.0
     }
-    fn zero_dynamics(&self, xi: &[f64], eta: &[f64], yr: f64, deta: &mut [f64]) {
+    fn zero_dynamics(&self, xi: &[f64], eta: &[f64], _w: &[f64], yr: f64, deta: &mut [f64]) {
         deta[0] = -self.k[0] * eta[0] + self.s * xi[0] * (yr + xi[0].sin() + xi[1] - eta[0]);
     }
-    fn rhs(&self, x: &[f64], u: f64, dx: &mut [f64]) {
+    fn rhs(&self, x: &[f64], _w: &[f64], u: f64, dx: &mut [f64]) {
         dx[0] = x[1];
         dx[1] = -x[0].sin() - x[1] + x[2] + u;
         dx[2] = -self.k[0] * x[2] + self.s * x[0] * u;
     }
-    fn outputs(&self, _x: &[f64], _u: f64, _out: &mut [f64]) {}
+    fn outputs(&self, _x: &[f64], _w: &[f64], _u: f64, _out: &mut [f64]) {}
 }
 
 /// With s = −1 and a reference that goes to 3 m/s: stable at the start, unstable once y_d > k = 2; forced causal

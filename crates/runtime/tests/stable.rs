@@ -61,33 +61,39 @@ impl InverseModel for LinearNmp {
     fn set_param(&mut self, name: &str, value: f64) -> Result<(), ModelError> {
         set_param_checked(&self.info, &mut self.p, name, value)
     }
-    fn h(&self, x: &[f64]) -> f64 {
+    fn h(&self, x: &[f64], _w: &[f64]) -> f64 {
         x[0]
     }
-    fn psi(&self, x: &[f64], xi: &mut [f64], eta: &mut [f64]) {
+    fn psi(&self, x: &[f64], _w: &[f64], xi: &mut [f64], eta: &mut [f64]) {
         xi[0] = x[0];
         eta[0] = x[1];
     }
-    fn psi_inv(&self, xi: &[f64], eta: &[f64], x: &mut [f64]) -> Result<(), ModelError> {
+    fn psi_inv(
+        &self,
+        xi: &[f64],
+        eta: &[f64],
+        _w: &[f64],
+        x: &mut [f64],
+    ) -> Result<(), ModelError> {
         x[0] = xi[0];
         x[1] = eta[0];
         Ok(())
     }
-    fn alpha(&self, xi: &[f64], eta: &[f64]) -> f64 {
+    fn alpha(&self, xi: &[f64], eta: &[f64], _w: &[f64]) -> f64 {
         -self.p[0] * xi[0] + eta[0]
     }
-    fn beta(&self, _xi: &[f64], _eta: &[f64]) -> f64 {
+    fn beta(&self, _xi: &[f64], _eta: &[f64], _w: &[f64]) -> f64 {
         1.0
     }
-    fn zero_dynamics(&self, xi: &[f64], eta: &[f64], _yr: f64, deta: &mut [f64]) {
+    fn zero_dynamics(&self, xi: &[f64], eta: &[f64], _w: &[f64], _yr: f64, deta: &mut [f64]) {
         deta[0] = self.p[1] * eta[0] + self.p[2] * xi[0];
     }
-    fn rhs(&self, x: &[f64], u: f64, dx: &mut [f64]) {
+    fn rhs(&self, x: &[f64], _w: &[f64], u: f64, dx: &mut [f64]) {
         let [a, b, k] = self.p;
         dx[0] = -a * x[0] + x[1] + u;
         dx[1] = b * x[1] + k * x[0];
     }
-    fn outputs(&self, _x: &[f64], _u: f64, _out: &mut [f64]) {}
+    fn outputs(&self, _x: &[f64], _w: &[f64], _u: f64, _out: &mut [f64]) {}
 }
 
 /// Mixed zero dynamics: x1' = −a x1 + η1 + η2 + u, η1' = b η1 + k1 x1 (unstable, b > 0), η2' = −c η2 + k2 x1
@@ -138,36 +144,42 @@ impl InverseModel for LinearMixed {
     fn set_param(&mut self, name: &str, value: f64) -> Result<(), ModelError> {
         set_param_checked(&self.info, &mut self.p, name, value)
     }
-    fn h(&self, x: &[f64]) -> f64 {
+    fn h(&self, x: &[f64], _w: &[f64]) -> f64 {
         x[0]
     }
-    fn psi(&self, x: &[f64], xi: &mut [f64], eta: &mut [f64]) {
+    fn psi(&self, x: &[f64], _w: &[f64], xi: &mut [f64], eta: &mut [f64]) {
         xi[0] = x[0];
         eta.copy_from_slice(&x[1..]);
     }
-    fn psi_inv(&self, xi: &[f64], eta: &[f64], x: &mut [f64]) -> Result<(), ModelError> {
+    fn psi_inv(
+        &self,
+        xi: &[f64],
+        eta: &[f64],
+        _w: &[f64],
+        x: &mut [f64],
+    ) -> Result<(), ModelError> {
         x[0] = xi[0];
         x[1..].copy_from_slice(eta);
         Ok(())
     }
-    fn alpha(&self, xi: &[f64], eta: &[f64]) -> f64 {
+    fn alpha(&self, xi: &[f64], eta: &[f64], _w: &[f64]) -> f64 {
         -self.p[0] * xi[0] + eta[0] + eta[1]
     }
-    fn beta(&self, _xi: &[f64], _eta: &[f64]) -> f64 {
+    fn beta(&self, _xi: &[f64], _eta: &[f64], _w: &[f64]) -> f64 {
         1.0
     }
-    fn zero_dynamics(&self, xi: &[f64], eta: &[f64], _yr: f64, deta: &mut [f64]) {
+    fn zero_dynamics(&self, xi: &[f64], eta: &[f64], _w: &[f64], _yr: f64, deta: &mut [f64]) {
         let [_, b, c, k1, k2] = self.p;
         deta[0] = b * eta[0] + k1 * xi[0];
         deta[1] = -c * eta[1] + k2 * xi[0];
     }
-    fn rhs(&self, x: &[f64], u: f64, dx: &mut [f64]) {
+    fn rhs(&self, x: &[f64], _w: &[f64], u: f64, dx: &mut [f64]) {
         let [a, b, c, k1, k2] = self.p;
         dx[0] = -a * x[0] + x[1] + x[2] + u;
         dx[1] = b * x[1] + k1 * x[0];
         dx[2] = -c * x[2] + k2 * x[0];
     }
-    fn outputs(&self, _x: &[f64], _u: f64, _out: &mut [f64]) {}
+    fn outputs(&self, _x: &[f64], _w: &[f64], _u: f64, _out: &mut [f64]) {}
 }
 
 // --- exact solutions -----------------------------------------------------------------------------------------
@@ -591,7 +603,7 @@ fn diesel_gasflow_stable_inverse_is_bounded_and_tracks_while_causal_blows_up() {
         let mut y = [0.0; 3];
         smoother.eval(t, &mut y);
         let mut d = [0.0];
-        model.zero_dynamics(&y[..2], &[e], y[2], &mut d);
+        model.zero_dynamics(&y[..2], &[e], &[], y[2], &mut d);
         d[0]
     };
     let mut departed = None;

@@ -11,14 +11,14 @@ fn steady_state_matches_the_hand_calculation() {
     let model = vehicle::Model::default();
     let mut x = [0.0; 2];
     let u = model
-        .invert(&[20.0, 0.0], &[], 0.0, &mut x)
+        .invert(&[20.0, 0.0], &[], &[], 0.0, &mut x)
         .expect("closed-form inverse");
     assert!((x[0] - 20.0).abs() < 1e-12, "{x:?}");
     assert!((x[1] - 310.0).abs() < 1e-9, "{x:?}");
     assert!((u - 310.0).abs() < 1e-9, "{u}");
     // The original model is at rest there.
     let mut dx = [1.0; 2];
-    model.rhs(&x, u, &mut dx);
+    model.rhs(&x, &[], u, &mut dx);
     assert!(dx.iter().all(|d| d.abs() < 1e-12), "{dx:?}");
 }
 

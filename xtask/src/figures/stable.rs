@@ -317,7 +317,7 @@ fn diesel(root: &Path, out: &Path) -> Result<PathBuf, Failure> {
         let mut y = [0.0; 3];
         smoother.eval(t, &mut y);
         let mut d = [0.0];
-        model.zero_dynamics(&y[..2], &[e], y[2], &mut d);
+        model.zero_dynamics(&y[..2], &[e], &[], y[2], &mut d);
         d[0]
     };
     let k_c = t.iter().position(|&x| x >= t_c).unwrap_or(0);

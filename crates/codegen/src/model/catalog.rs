@@ -21,7 +21,7 @@ pub(super) fn functions(g: &Gen<'_>) -> Vec<Straight> {
     doc.extend(equations(g, &[("y".into(), "y".into())], &[m.output.h]));
     let mut fs = vec![Straight::new(
         FnKind::H,
-        vec![g.x_arg()],
+        g.with_w(vec![g.x_arg()]),
         vec![m.output.h],
         Shape::Scalar,
         doc,
@@ -34,7 +34,7 @@ pub(super) fn functions(g: &Gen<'_>) -> Vec<Straight> {
     doc.extend(equations(g, &lhs.psi(), &g.d.psi));
     fs.push(Straight::new(
         FnKind::Psi,
-        vec![g.x_arg()],
+        g.with_w(vec![g.x_arg()]),
         g.d.psi.clone(),
         Shape::Tuple(vec![
             Shape::array("R", g.d.relative_degree),
@@ -75,7 +75,7 @@ fn closed(g: &Gen<'_>, lhs: &Lhs) -> Vec<Straight> {
             Solution::Numeric => None,
         })
         .collect();
-    let xi_eta = || vec![g.xi_arg(), g.eta_arg()];
+    let xi_eta = || g.with_w(vec![g.xi_arg(), g.eta_arg()]);
     let mut doc =
         vec!["The states at normal-form coordinates: x = ψ⁻¹(ξ, η), in closed form.".to_string()];
     if !d.domain.is_empty() {
@@ -193,7 +193,7 @@ fn numeric(g: &Gen<'_>, lhs: &Lhs) -> Vec<Straight> {
     doc.extend(equations(g, &eq_lhs, &roots));
     let mut fs = vec![Straight::new(
         FnKind::PsiJacobian,
-        vec![g.x_arg()],
+        g.with_w(vec![g.x_arg()]),
         roots,
         Shape::Tuple(vec![
             Shape::array("N", n),
@@ -209,7 +209,7 @@ fn numeric(g: &Gen<'_>, lhs: &Lhs) -> Vec<Straight> {
     ));
     fs.push(Straight::new(
         FnKind::AlphaX,
-        vec![g.x_arg()],
+        g.with_w(vec![g.x_arg()]),
         vec![d.alpha_x],
         Shape::Scalar,
         doc,
@@ -217,7 +217,7 @@ fn numeric(g: &Gen<'_>, lhs: &Lhs) -> Vec<Straight> {
     let doc = beta_doc(g, "β in the states: L_g L_f^(r−1) h(x).", d.beta_x);
     fs.push(Straight::new(
         FnKind::BetaX,
-        vec![g.x_arg()],
+        g.with_w(vec![g.x_arg()]),
         vec![d.beta_x],
         Shape::Scalar,
         doc,
@@ -231,7 +231,11 @@ fn numeric(g: &Gen<'_>, lhs: &Lhs) -> Vec<Straight> {
         doc.extend(equations(g, &lhs.deta, &d.zero_dynamics_x));
         fs.push(Straight::new(
             FnKind::ZeroDynamicsX,
-            vec![g.x_arg(), Arg::Scalar(d.yr)],
+            {
+                let mut args = g.with_w(vec![g.x_arg()]);
+                args.push(Arg::Scalar(d.yr));
+                args
+            },
             d.zero_dynamics_x.clone(),
             Shape::array("N_ETA", d.eta.len()),
             doc,
@@ -253,9 +257,14 @@ fn original(g: &Gen<'_>, lhs: &Lhs) -> Vec<Straight> {
         String::new(),
     ];
     doc.extend(equations(g, &lhs.dot, &rhs));
+    let x_w_u = || {
+        let mut args = g.with_w(vec![g.x_arg()]);
+        args.push(Arg::Scalar(u));
+        args
+    };
     let mut fs = vec![Straight::new(
         FnKind::Rhs,
-        vec![g.x_arg(), Arg::Scalar(u)],
+        x_w_u(),
         rhs,
         Shape::array("N", g.d.n()),
         doc,
@@ -269,7 +278,7 @@ fn original(g: &Gen<'_>, lhs: &Lhs) -> Vec<Straight> {
         doc.extend(equations(g, &lhs.outputs, &outs));
         fs.push(Straight::new(
             FnKind::Outputs,
-            vec![g.x_arg(), Arg::Scalar(u)],
+            x_w_u(),
             outs,
             Shape::array("N_OUTPUTS", m.outputs.len()),
             doc,

@@ -192,6 +192,11 @@ impl<'d> Gen<'d> {
         all.extend(m.definitions.iter().map(|p| p.name.as_str()));
         all.extend(m.states.iter().map(|p| p.name.as_str()));
         all.push(m.input.name.as_str());
+        let w_names: Vec<String> =
+            d.w.iter()
+                .map(|&s| pool.symbol_name(s).to_string())
+                .collect();
+        all.extend(w_names.iter().map(String::as_str));
         let mut locals = Locals::new(&all);
         let mut taken: HashSet<String> = m.parameters.iter().map(|p| p.name.clone()).collect();
         let mut non_snake = false;
@@ -211,6 +216,9 @@ impl<'d> Gen<'d> {
             add(st.symbol, locals.local(&st.name), &mut non_snake);
         }
         add(m.input.symbol, locals.local(&m.input.name), &mut non_snake);
+        for (&s, name) in d.w.iter().zip(&w_names) {
+            add(s, locals.local(name), &mut non_snake);
+        }
         for &s in d.xi.iter().chain(&d.eta) {
             add(s, pool.symbol_name(s).to_string(), &mut non_snake);
         }
@@ -255,6 +263,23 @@ impl<'d> Gen<'d> {
             len: "N_ETA",
             syms: self.d.eta.clone(),
         }
+    }
+
+    /// Does the model have signals (so that every function takes their values `w`)?
+    pub(super) fn has_w(&self) -> bool {
+        !self.d.w.is_empty()
+    }
+
+    /// `args` followed by the signal values `w: &[f64; NW]` when the model has signals.
+    pub(super) fn with_w(&self, mut args: Vec<Arg>) -> Vec<Arg> {
+        if self.has_w() {
+            args.push(Arg::Array {
+                name: "w",
+                len: "NW",
+                syms: self.d.w.clone(),
+            });
+        }
+        args
     }
 }
 

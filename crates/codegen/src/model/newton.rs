@@ -21,6 +21,7 @@ pub(super) struct Newton {
 /// The Newton items of a model whose ψ⁻¹ is solved numerically.
 pub(super) fn newton(g: &Gen<'_>) -> Newton {
     let ne = g.d.eta.len();
+    let (wp, wa) = w_tokens(g);
     let mut methods = vec![methods(g)];
     if ne > 0 {
         methods.push(quote! {
@@ -30,14 +31,15 @@ pub(super) fn newton(g: &Gen<'_>) -> Newton {
                 &self,
                 xi: &[f64; R],
                 eta: &[f64; N_ETA],
+                #wp
                 yr: f64,
                 guess: &[f64; N],
             ) -> Result<[f64; N_ETA], ModelError> {
-                Ok(self.zero_dynamics_x(&self.psi_inv(xi, eta, guess)?, yr))
+                Ok(self.zero_dynamics_x(&self.psi_inv(xi, eta #wa, guess)? #wa, yr))
             }
         });
     }
-    let mut free = vec![free_functions()];
+    let mut free = vec![free_functions(g)];
     if ne > 0 {
         free.push(quote! {
             /// The zero dynamics at the parameters `p`; see [`Precomputed::zero_dynamics`].
@@ -46,10 +48,11 @@ pub(super) fn newton(g: &Gen<'_>) -> Newton {
                 p: &Params,
                 xi: &[f64; R],
                 eta: &[f64; N_ETA],
+                #wp
                 yr: f64,
                 guess: &[f64; N],
             ) -> Result<[f64; N_ETA], ModelError> {
-                Precomputed::new(p).zero_dynamics(xi, eta, yr, guess)
+                Precomputed::new(p).zero_dynamics(xi, eta #wa, yr, guess)
             }
         });
     }
@@ -60,8 +63,19 @@ pub(super) fn newton(g: &Gen<'_>) -> Newton {
     }
 }
 
+/// The signal values' parameter `w: &[f64; NW],` and the argument `, w` passed on, for a model with signals
+/// (both empty otherwise, so that the code of a model without signals is unchanged).
+pub(super) fn w_tokens(g: &Gen<'_>) -> (TokenStream, TokenStream) {
+    if g.has_w() {
+        (quote!(w: &[f64; NW],), quote!(, w))
+    } else {
+        (quote!(), quote!())
+    }
+}
+
 /// `psi_inv` by Newton's method, and α, β and the inverse at its solution.
 fn methods(g: &Gen<'_>) -> TokenStream {
+    let (wp, wa) = w_tokens(g);
     let (r, ne) = (g.d.relative_degree, g.d.eta.len());
     let lit = proc_macro2::Literal::usize_unsuffixed;
     let target: Vec<TokenStream> = (0..r)
@@ -87,13 +101,14 @@ fn methods(g: &Gen<'_>) -> TokenStream {
             &self,
             #xi_name: &[f64; R],
             #eta_name: &[f64; N_ETA],
+            #wp
             guess: &[f64; N],
         ) -> Result<[f64; N], ModelError> {
             let target: [f64; N] = [#(#target),*];
             let mut x = *guess;
             let mut residual = f64::INFINITY;
             for _ in 0..NEWTON_MAX_ITER {
-                let (value, jacobian) = self.psi_jacobian(&x);
+                let (value, jacobian) = self.psi_jacobian(&x #wa);
                 let mut step = [0.0; N];
                 residual = 0.0;
                 for ((s, v), t) in step.iter_mut().zip(value).zip(target) {
@@ -120,13 +135,13 @@ fn methods(g: &Gen<'_>) -> TokenStream {
         }
 
         /// α(ξ, η) = L_f^r h at x = ψ⁻¹(ξ, η) (Newton from `guess`); see [`Precomputed::alpha_x`].
-        pub fn alpha(&self, xi: &[f64; R], eta: &[f64; N_ETA], guess: &[f64; N]) -> Result<f64, ModelError> {
-            Ok(self.alpha_x(&self.psi_inv(xi, eta, guess)?))
+        pub fn alpha(&self, xi: &[f64; R], eta: &[f64; N_ETA], #wp guess: &[f64; N]) -> Result<f64, ModelError> {
+            Ok(self.alpha_x(&self.psi_inv(xi, eta #wa, guess)? #wa))
         }
 
         /// β(ξ, η) = L_g L_f^(r−1) h at x = ψ⁻¹(ξ, η) (Newton from `guess`); see [`Precomputed::beta_x`].
-        pub fn beta(&self, xi: &[f64; R], eta: &[f64; N_ETA], guess: &[f64; N]) -> Result<f64, ModelError> {
-            Ok(self.beta_x(&self.psi_inv(xi, eta, guess)?))
+        pub fn beta(&self, xi: &[f64; R], eta: &[f64; N_ETA], #wp guess: &[f64; N]) -> Result<f64, ModelError> {
+            Ok(self.beta_x(&self.psi_inv(xi, eta #wa, guess)? #wa))
         }
 
         /// The inverse at one point (paper eq. 26): x = ψ⁻¹(ξ, η) by Newton from `guess`, and
@@ -139,32 +154,34 @@ fn methods(g: &Gen<'_>) -> TokenStream {
             &self,
             xi: &[f64; R],
             eta: &[f64; N_ETA],
+            #wp
             yr: f64,
             guess: &[f64; N],
         ) -> Result<([f64; N], f64), ModelError> {
-            let x = self.psi_inv(xi, eta, guess)?;
-            Ok((x, (yr - self.alpha_x(&x)) / self.beta_x(&x)))
+            let x = self.psi_inv(xi, eta #wa, guess)?;
+            Ok((x, (yr - self.alpha_x(&x #wa)) / self.beta_x(&x #wa)))
         }
     }
 }
 
 /// The free wrappers of the Newton methods.
-fn free_functions() -> TokenStream {
+fn free_functions(g: &Gen<'_>) -> TokenStream {
+    let (wp, wa) = w_tokens(g);
     quote! {
         /// x = ψ⁻¹(ξ, η) by Newton's method at the parameters `p`; see [`Precomputed::psi_inv`].
         #[inline]
-        pub fn psi_inv(p: &Params, xi: &[f64; R], eta: &[f64; N_ETA], guess: &[f64; N]) -> Result<[f64; N], ModelError> {
-            Precomputed::new(p).psi_inv(xi, eta, guess)
+        pub fn psi_inv(p: &Params, xi: &[f64; R], eta: &[f64; N_ETA], #wp guess: &[f64; N]) -> Result<[f64; N], ModelError> {
+            Precomputed::new(p).psi_inv(xi, eta #wa, guess)
         }
         /// α(ξ, η) at the parameters `p`; see [`Precomputed::alpha`].
         #[inline]
-        pub fn alpha(p: &Params, xi: &[f64; R], eta: &[f64; N_ETA], guess: &[f64; N]) -> Result<f64, ModelError> {
-            Precomputed::new(p).alpha(xi, eta, guess)
+        pub fn alpha(p: &Params, xi: &[f64; R], eta: &[f64; N_ETA], #wp guess: &[f64; N]) -> Result<f64, ModelError> {
+            Precomputed::new(p).alpha(xi, eta #wa, guess)
         }
         /// β(ξ, η) at the parameters `p`; see [`Precomputed::beta`].
         #[inline]
-        pub fn beta(p: &Params, xi: &[f64; R], eta: &[f64; N_ETA], guess: &[f64; N]) -> Result<f64, ModelError> {
-            Precomputed::new(p).beta(xi, eta, guess)
+        pub fn beta(p: &Params, xi: &[f64; R], eta: &[f64; N_ETA], #wp guess: &[f64; N]) -> Result<f64, ModelError> {
+            Precomputed::new(p).beta(xi, eta #wa, guess)
         }
         /// The inverse at one point at the parameters `p`; see [`Precomputed::invert`].
         #[inline]
@@ -172,10 +189,11 @@ fn free_functions() -> TokenStream {
             p: &Params,
             xi: &[f64; R],
             eta: &[f64; N_ETA],
+            #wp
             yr: f64,
             guess: &[f64; N],
         ) -> Result<([f64; N], f64), ModelError> {
-            Precomputed::new(p).invert(xi, eta, yr, guess)
+            Precomputed::new(p).invert(xi, eta #wa, yr, guess)
         }
     }
 }

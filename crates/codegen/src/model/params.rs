@@ -33,6 +33,20 @@ pub(super) fn constants(g: &Gen<'_>, source_name: &str, batch: bool) -> TokenStr
     } else {
         quote!()
     };
+    // Only a model with signals has them (the code of every other model is unchanged).
+    let signal_consts = if g.d.w.is_empty() {
+        quote!()
+    } else {
+        let nw = proc_macro2::Literal::usize_unsuffixed(g.d.w.len());
+        let names: Vec<String> = g.d.model.signals.iter().map(|s| s.name.clone()).collect();
+        let ns = proc_macro2::Literal::usize_unsuffixed(names.len());
+        quote! {
+            /// Length of the signal values `w`: S, S_d1, …, S_dr for each signal S.
+            pub const NW: usize = #nw;
+            /// The signals' names, in the model file's order.
+            pub const SIGNALS: [&str; #ns] = [#(#names),*];
+        }
+    };
     quote! {
         /// Model name.
         pub const NAME: &str = #name;
@@ -65,7 +79,7 @@ pub(super) fn constants(g: &Gen<'_>, source_name: &str, batch: bool) -> TokenStr
         /// How a drive cycle defines the tracked output's reference: y_d = offset + scale · (smoothed cycle).
         pub const REFERENCE: ReferenceMap = ReferenceMap { offset: #ref_offset, scale: #ref_scale };
         #block_const
-
+        #signal_consts
     }
 }
 

@@ -12,10 +12,17 @@ pub(super) fn model(g: &Gen<'_>, invert_batch: bool) -> TokenStream {
     let m = &g.d.model;
     let ne = g.d.eta.len();
     let has_outputs = !m.outputs.is_empty();
-    let outputs_impl = outputs_impl(has_outputs);
-    let invert_batch_impl = invert_batch_impl(invert_batch);
-    let (psi_inv_impl, alpha_impl, beta_impl, zero_impl, invert_impl) =
-        if g.closed { closed(ne) } else { numeric(ne) };
+    let w = WTokens::new(g.has_w());
+    let outputs_impl = outputs_impl(has_outputs, &w);
+    let invert_batch_impl = invert_batch_impl(invert_batch, &w);
+    let (psi_inv_impl, alpha_impl, beta_impl, zero_impl, invert_impl) = if g.closed {
+        closed(ne, &w)
+    } else {
+        numeric(ne, &w)
+    };
+    let WTokens {
+        name: wn, arg: wa, ..
+    } = &w;
     let model_info = model_info(g);
     quote! {
         #model_info
@@ -67,11 +74,11 @@ pub(super) fn model(g: &Gen<'_>, invert_batch: bool) -> TokenStream {
                 self.set_parameters(params);
                 Ok(())
             }
-            fn h(&self, x: &[f64]) -> f64 {
-                self.pre.h(arr(x))
+            fn h(&self, x: &[f64], #wn: &[f64]) -> f64 {
+                self.pre.h(arr(x) #wa)
             }
-            fn psi(&self, x: &[f64], xi: &mut [f64], eta: &mut [f64]) {
-                let (a, b) = self.pre.psi(arr(x));
+            fn psi(&self, x: &[f64], #wn: &[f64], xi: &mut [f64], eta: &mut [f64]) {
+                let (a, b) = self.pre.psi(arr(x) #wa);
                 xi.copy_from_slice(&a);
                 eta.copy_from_slice(&b);
             }
@@ -79,8 +86,8 @@ pub(super) fn model(g: &Gen<'_>, invert_batch: bool) -> TokenStream {
             #alpha_impl
             #beta_impl
             #zero_impl
-            fn rhs(&self, x: &[f64], u: f64, dx: &mut [f64]) {
-                dx.copy_from_slice(&self.pre.rhs(arr(x), u));
+            fn rhs(&self, x: &[f64], #wn: &[f64], u: f64, dx: &mut [f64]) {
+                dx.copy_from_slice(&self.pre.rhs(arr(x) #wa, u));
             }
             #outputs_impl
             fn reference(&self) -> ReferenceMap {
@@ -117,6 +124,32 @@ pub(super) fn column_helpers() -> TokenStream {
     }
 }
 
+/// The signal values in the trait impl: the parameter's name (`_w` for a model without signals, whose
+/// `Precomputed` functions take none), `, arr(w)` and `, cols(w)` passed on (empty without signals).
+struct WTokens {
+    name: TokenStream,
+    arg: TokenStream,
+    cols: TokenStream,
+}
+
+impl WTokens {
+    fn new(has_w: bool) -> WTokens {
+        if has_w {
+            WTokens {
+                name: quote!(w),
+                arg: quote!(, arr(w)),
+                cols: quote!(, cols(w)),
+            }
+        } else {
+            WTokens {
+                name: quote!(_w),
+                arg: quote!(),
+                cols: quote!(),
+            }
+        }
+    }
+}
+
 /// `psi_inv`, `alpha`, `beta`, `zero_dynamics` and `invert` of the trait impl.
 type Impls = (
     TokenStream,
@@ -127,39 +160,42 @@ type Impls = (
 );
 
 /// The trait's functions for a closed-form ψ⁻¹.
-fn closed(ne: usize) -> Impls {
+fn closed(ne: usize, w: &WTokens) -> Impls {
+    let WTokens {
+        name: wn, arg: wa, ..
+    } = w;
     (
         quote! {
-            fn psi_inv(&self, xi: &[f64], eta: &[f64], x: &mut [f64]) -> Result<(), ModelError> {
-                x.copy_from_slice(&self.pre.psi_inv(arr(xi), arr(eta)));
+            fn psi_inv(&self, xi: &[f64], eta: &[f64], #wn: &[f64], x: &mut [f64]) -> Result<(), ModelError> {
+                x.copy_from_slice(&self.pre.psi_inv(arr(xi), arr(eta) #wa));
                 Ok(())
             }
         },
         quote! {
-            fn alpha(&self, xi: &[f64], eta: &[f64]) -> f64 {
-                self.pre.alpha(arr(xi), arr(eta))
+            fn alpha(&self, xi: &[f64], eta: &[f64], #wn: &[f64]) -> f64 {
+                self.pre.alpha(arr(xi), arr(eta) #wa)
             }
         },
         quote! {
-            fn beta(&self, xi: &[f64], eta: &[f64]) -> f64 {
-                self.pre.beta(arr(xi), arr(eta))
+            fn beta(&self, xi: &[f64], eta: &[f64], #wn: &[f64]) -> f64 {
+                self.pre.beta(arr(xi), arr(eta) #wa)
             }
         },
         if ne > 0 {
             quote! {
-                fn zero_dynamics(&self, xi: &[f64], eta: &[f64], yr: f64, deta: &mut [f64]) {
-                    deta.copy_from_slice(&self.pre.zero_dynamics(arr(xi), arr(eta), yr));
+                fn zero_dynamics(&self, xi: &[f64], eta: &[f64], #wn: &[f64], yr: f64, deta: &mut [f64]) {
+                    deta.copy_from_slice(&self.pre.zero_dynamics(arr(xi), arr(eta) #wa, yr));
                 }
             }
         } else {
             quote! {
-                fn zero_dynamics(&self, _xi: &[f64], _eta: &[f64], _yr: f64, _deta: &mut [f64]) {}
+                fn zero_dynamics(&self, _xi: &[f64], _eta: &[f64], _w: &[f64], _yr: f64, _deta: &mut [f64]) {}
             }
         },
         quote! {
             /// ψ⁻¹, α and β in one evaluation.
-            fn invert(&self, xi: &[f64], eta: &[f64], yr: f64, x: &mut [f64]) -> Result<f64, ModelError> {
-                let (states, u) = self.pre.invert(arr(xi), arr(eta), yr);
+            fn invert(&self, xi: &[f64], eta: &[f64], #wn: &[f64], yr: f64, x: &mut [f64]) -> Result<f64, ModelError> {
+                let (states, u) = self.pre.invert(arr(xi), arr(eta) #wa, yr);
                 x.copy_from_slice(&states);
                 Ok(u)
             }
@@ -168,32 +204,35 @@ fn closed(ne: usize) -> Impls {
 }
 
 /// The same through Newton's method (from x = 1, as the interpreter, or from the guess in `x`).
-fn numeric(ne: usize) -> Impls {
+fn numeric(ne: usize, w: &WTokens) -> Impls {
+    let WTokens {
+        name: wn, arg: wa, ..
+    } = w;
     (
         quote! {
-            fn psi_inv(&self, xi: &[f64], eta: &[f64], x: &mut [f64]) -> Result<(), ModelError> {
-                let states = self.pre.psi_inv(arr(xi), arr(eta), arr(x))?;
+            fn psi_inv(&self, xi: &[f64], eta: &[f64], #wn: &[f64], x: &mut [f64]) -> Result<(), ModelError> {
+                let states = self.pre.psi_inv(arr(xi), arr(eta) #wa, arr(x))?;
                 x.copy_from_slice(&states);
                 Ok(())
             }
         },
         quote! {
             /// Newton from x = 1 (as the interpreter); NaN if it does not converge.
-            fn alpha(&self, xi: &[f64], eta: &[f64]) -> f64 {
-                self.pre.alpha(arr(xi), arr(eta), &[1.0; N]).unwrap_or(f64::NAN)
+            fn alpha(&self, xi: &[f64], eta: &[f64], #wn: &[f64]) -> f64 {
+                self.pre.alpha(arr(xi), arr(eta) #wa, &[1.0; N]).unwrap_or(f64::NAN)
             }
         },
         quote! {
             /// Newton from x = 1 (as the interpreter); NaN if it does not converge.
-            fn beta(&self, xi: &[f64], eta: &[f64]) -> f64 {
-                self.pre.beta(arr(xi), arr(eta), &[1.0; N]).unwrap_or(f64::NAN)
+            fn beta(&self, xi: &[f64], eta: &[f64], #wn: &[f64]) -> f64 {
+                self.pre.beta(arr(xi), arr(eta) #wa, &[1.0; N]).unwrap_or(f64::NAN)
             }
         },
         if ne > 0 {
             quote! {
                 /// Newton from x = 1 (as the interpreter); NaN if it does not converge.
-                fn zero_dynamics(&self, xi: &[f64], eta: &[f64], yr: f64, deta: &mut [f64]) {
-                    match self.pre.zero_dynamics(arr(xi), arr(eta), yr, &[1.0; N]) {
+                fn zero_dynamics(&self, xi: &[f64], eta: &[f64], #wn: &[f64], yr: f64, deta: &mut [f64]) {
+                    match self.pre.zero_dynamics(arr(xi), arr(eta) #wa, yr, &[1.0; N]) {
                         Ok(q) => deta.copy_from_slice(&q),
                         Err(_) => deta.fill(f64::NAN),
                     }
@@ -201,13 +240,13 @@ fn numeric(ne: usize) -> Impls {
             }
         } else {
             quote! {
-                fn zero_dynamics(&self, _xi: &[f64], _eta: &[f64], _yr: f64, _deta: &mut [f64]) {}
+                fn zero_dynamics(&self, _xi: &[f64], _eta: &[f64], _w: &[f64], _yr: f64, _deta: &mut [f64]) {}
             }
         },
         quote! {
             /// Newton from the guess in `x`, then u = (y^(r) − α)/β at the solution.
-            fn invert(&self, xi: &[f64], eta: &[f64], yr: f64, x: &mut [f64]) -> Result<f64, ModelError> {
-                let (states, u) = self.pre.invert(arr(xi), arr(eta), yr, arr(x))?;
+            fn invert(&self, xi: &[f64], eta: &[f64], #wn: &[f64], yr: f64, x: &mut [f64]) -> Result<f64, ModelError> {
+                let (states, u) = self.pre.invert(arr(xi), arr(eta) #wa, yr, arr(x))?;
                 x.copy_from_slice(&states);
                 Ok(u)
             }
@@ -233,27 +272,35 @@ fn opt_string(v: &Option<String>) -> TokenStream {
 }
 
 /// The trait's `outputs` and `outputs_batch`.
-fn outputs_impl(has_outputs: bool) -> TokenStream {
+fn outputs_impl(has_outputs: bool, w: &WTokens) -> TokenStream {
+    let WTokens {
+        name: wn,
+        arg: wa,
+        cols: wc,
+    } = w;
     if has_outputs {
         quote! {
-            fn outputs(&self, x: &[f64], u: f64, out: &mut [f64]) {
-                out.copy_from_slice(&self.pre.outputs(arr(x), u));
+            fn outputs(&self, x: &[f64], #wn: &[f64], u: f64, out: &mut [f64]) {
+                out.copy_from_slice(&self.pre.outputs(arr(x) #wa, u));
             }
             /// The outputs over columns, block by block ([`Precomputed::outputs_batch`]).
-            fn outputs_batch(&self, x: &[&[f64]], u: &[f64], out: &mut [&mut [f64]]) {
-                self.pre.outputs_batch(cols(x), u, cols_mut(out));
+            fn outputs_batch(&self, x: &[&[f64]], #wn: &[&[f64]], u: &[f64], out: &mut [&mut [f64]]) {
+                self.pre.outputs_batch(cols(x) #wc, u, cols_mut(out));
             }
         }
     } else {
         quote! {
-            fn outputs(&self, _x: &[f64], _u: f64, _out: &mut [f64]) {}
-            fn outputs_batch(&self, _x: &[&[f64]], _u: &[f64], _out: &mut [&mut [f64]]) {}
+            fn outputs(&self, _x: &[f64], _w: &[f64], _u: f64, _out: &mut [f64]) {}
+            fn outputs_batch(&self, _x: &[&[f64]], _w: &[&[f64]], _u: &[f64], _out: &mut [&mut [f64]]) {}
         }
     }
 }
 
 /// The trait's `invert_batch`, when the model has `Precomputed::invert_batch`.
-fn invert_batch_impl(invert_batch: bool) -> TokenStream {
+fn invert_batch_impl(invert_batch: bool, w: &WTokens) -> TokenStream {
+    let WTokens {
+        name: wn, cols: wc, ..
+    } = w;
     if invert_batch {
         quote! {
             /// ψ⁻¹, α and β over columns, block by block ([`Precomputed::invert_batch`]).
@@ -261,11 +308,12 @@ fn invert_batch_impl(invert_batch: bool) -> TokenStream {
                 &self,
                 xi: &[&[f64]],
                 eta: &[&[f64]],
+                #wn: &[&[f64]],
                 yr: &[f64],
                 x: &mut [&mut [f64]],
                 u: &mut [f64],
             ) -> Result<(), (usize, ModelError)> {
-                self.pre.invert_batch(cols(xi), cols(eta), yr, cols_mut(x), u);
+                self.pre.invert_batch(cols(xi), cols(eta) #wc, yr, cols_mut(x), u);
                 Ok(())
             }
         }
@@ -304,6 +352,7 @@ fn model_info(g: &Gen<'_>) -> TokenStream {
         }
         None => quote!(None),
     };
+    let signals = signals_info(m);
     quote! {
         /// The model's static description (names, sizes, bounds), as the interpreter reports it.
         pub fn model_info() -> ModelInfo {
@@ -324,8 +373,28 @@ fn model_info(g: &Gen<'_>) -> TokenStream {
                 outputs: #outputs_vec,
                 parameters: PARAMETERS.iter().map(|s| s.to_string()).collect(),
                 engine: #engine,
+                signals: #signals,
             }
         }
 
     }
+}
+
+/// `ModelInfo::signals`: `Vec::new()` for a model without signals.
+fn signals_info(m: &invsim_inversion::Model) -> TokenStream {
+    if m.signals.is_empty() {
+        return quote!(Vec::new());
+    }
+    let items: Vec<TokenStream> = m
+        .signals
+        .iter()
+        .map(|s| {
+            let (name, unit, doc) = (&s.name, opt_string(&s.unit), opt_string(&s.doc));
+            let (default, column) = (opt_f64(s.default), opt_string(&s.column));
+            quote!(invsim_model_api::SignalInfo {
+                name: #name.to_string(), unit: #unit, doc: #doc, default: #default, column: #column
+            })
+        })
+        .collect();
+    quote!(Vec::from([#(#items),*]))
 }

@@ -851,6 +851,7 @@ pub mod si_engine {
                 speed: 2usize,
                 torque: 3usize,
             }),
+            signals: Vec::new(),
         }
     }
     /// The compiled model behind the runtime's [`InverseModel`] trait.
@@ -902,10 +903,10 @@ pub mod si_engine {
             self.set_parameters(params);
             Ok(())
         }
-        fn h(&self, x: &[f64]) -> f64 {
+        fn h(&self, x: &[f64], _w: &[f64]) -> f64 {
             self.pre.h(arr(x))
         }
-        fn psi(&self, x: &[f64], xi: &mut [f64], eta: &mut [f64]) {
+        fn psi(&self, x: &[f64], _w: &[f64], xi: &mut [f64], eta: &mut [f64]) {
             let (a, b) = self.pre.psi(arr(x));
             xi.copy_from_slice(&a);
             eta.copy_from_slice(&b);
@@ -914,26 +915,40 @@ pub mod si_engine {
             &self,
             xi: &[f64],
             eta: &[f64],
+            _w: &[f64],
             x: &mut [f64],
         ) -> Result<(), ModelError> {
             x.copy_from_slice(&self.pre.psi_inv(arr(xi), arr(eta)));
             Ok(())
         }
-        fn alpha(&self, xi: &[f64], eta: &[f64]) -> f64 {
+        fn alpha(&self, xi: &[f64], eta: &[f64], _w: &[f64]) -> f64 {
             self.pre.alpha(arr(xi), arr(eta))
         }
-        fn beta(&self, xi: &[f64], eta: &[f64]) -> f64 {
+        fn beta(&self, xi: &[f64], eta: &[f64], _w: &[f64]) -> f64 {
             self.pre.beta(arr(xi), arr(eta))
         }
-        fn zero_dynamics(&self, _xi: &[f64], _eta: &[f64], _yr: f64, _deta: &mut [f64]) {}
-        fn rhs(&self, x: &[f64], u: f64, dx: &mut [f64]) {
+        fn zero_dynamics(
+            &self,
+            _xi: &[f64],
+            _eta: &[f64],
+            _w: &[f64],
+            _yr: f64,
+            _deta: &mut [f64],
+        ) {}
+        fn rhs(&self, x: &[f64], _w: &[f64], u: f64, dx: &mut [f64]) {
             dx.copy_from_slice(&self.pre.rhs(arr(x), u));
         }
-        fn outputs(&self, x: &[f64], u: f64, out: &mut [f64]) {
+        fn outputs(&self, x: &[f64], _w: &[f64], u: f64, out: &mut [f64]) {
             out.copy_from_slice(&self.pre.outputs(arr(x), u));
         }
         /// The outputs over columns, block by block ([`Precomputed::outputs_batch`]).
-        fn outputs_batch(&self, x: &[&[f64]], u: &[f64], out: &mut [&mut [f64]]) {
+        fn outputs_batch(
+            &self,
+            x: &[&[f64]],
+            _w: &[&[f64]],
+            u: &[f64],
+            out: &mut [&mut [f64]],
+        ) {
             self.pre.outputs_batch(cols(x), u, cols_mut(out));
         }
         fn reference(&self) -> ReferenceMap {
@@ -944,6 +959,7 @@ pub mod si_engine {
             &self,
             xi: &[f64],
             eta: &[f64],
+            _w: &[f64],
             yr: f64,
             x: &mut [f64],
         ) -> Result<f64, ModelError> {
@@ -956,6 +972,7 @@ pub mod si_engine {
             &self,
             xi: &[&[f64]],
             eta: &[&[f64]],
+            _w: &[&[f64]],
             yr: &[f64],
             x: &mut [&mut [f64]],
             u: &mut [f64],

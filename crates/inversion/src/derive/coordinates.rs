@@ -4,7 +4,7 @@
 //! `rank.rs` (exact triangular elimination, then a numerical rank test at random probe points).
 
 use super::rank::RankTest;
-use crate::model::Model;
+use crate::model::{derivative_name, Model};
 use invsim_expr::{zero_test, Id, Pool, Rng, Symbol};
 use std::collections::HashMap;
 
@@ -20,7 +20,22 @@ pub(super) struct Coordinates {
     pub(super) rank_tests: usize,
 }
 
-/// Random probe points: parameters at nominal values, states uniformly in [0.2, 3].
+/// Every signal's symbol S and its derivatives' S_dk that the derivation has created, in file order.
+fn signal_symbols(model: &Model) -> Vec<Symbol> {
+    let mut out = Vec::new();
+    for s in &model.signals {
+        out.push(s.symbol);
+        for k in 1..=model.states.len() + 1 {
+            if let Some(d) = model.pool.find_symbol(&derivative_name(&s.name, k)) {
+                out.push(d);
+            }
+        }
+    }
+    out
+}
+
+/// Random probe points: parameters at nominal values, states uniformly in [0.2, 3] (signals and their
+/// derivatives too).
 fn probe_points(model: &Model, count: usize, seed: u64) -> Vec<HashMap<Symbol, f64>> {
     let mut rng = Rng::new(seed);
     let nominal = model.nominal();
@@ -32,6 +47,9 @@ fn probe_points(model: &Model, count: usize, seed: u64) -> Vec<HashMap<Symbol, f
                 m.insert(s, rng.uniform(0.2, 3.0));
             }
             m.insert(model.input.symbol, rng.uniform(0.2, 3.0));
+            for s in signal_symbols(model) {
+                m.insert(s, rng.uniform(0.2, 3.0));
+            }
             m
         })
         .collect()
@@ -50,6 +68,9 @@ fn wide_probe_points(model: &Model, count: usize, seed: u64) -> Vec<HashMap<Symb
                 m.insert(s, 10f64.powf(rng.uniform(-3.0, 7.0)));
             }
             m.insert(model.input.symbol, rng.uniform(0.2, 3.0));
+            for s in signal_symbols(model) {
+                m.insert(s, rng.uniform(0.2, 3.0));
+            }
             m
         })
         .collect()
@@ -154,6 +175,7 @@ pub(super) fn choose_coordinates(
 #[cfg(test)]
 mod tests {
     use super::super::relative_degree::{relative_degree, RelativeDegree};
+    use super::super::total_derivative::TotalDerivative;
     use super::*;
     use std::fmt::Write;
     use std::path::Path;
@@ -176,13 +198,17 @@ mod tests {
 
     /// The relative degree and the result of the choice of η with its number of rank tests.
     fn choose(mut model: Model) -> (usize, Result<Vec<usize>, usize>, usize) {
-        let f: Vec<Id> = model.states.iter().map(|s| s.f).collect();
-        let g: Vec<Id> = model.states.iter().map(|s| s.g).collect();
         let (states, nominal, h) = (model.state_symbols(), model.nominal(), model.output.h);
+        let field = TotalDerivative::new(&mut model, states.len() + 1);
         let mut warnings = Vec::new();
-        let Ok(RelativeDegree { r, lie, .. }) =
-            relative_degree(&mut model.pool, h, &f, &g, &states, &nominal, &mut warnings)
-        else {
+        let Ok(RelativeDegree { r, lie, .. }) = relative_degree(
+            &mut model.pool,
+            h,
+            &field,
+            states.len(),
+            &nominal,
+            &mut warnings,
+        ) else {
             panic!("no relative degree");
         };
         let (_, eta, _) = coordinate_symbols(&mut model.pool, r, states.len());

@@ -27,10 +27,12 @@ mod normal_form;
 mod psi_inv;
 mod rank;
 mod relative_degree;
+mod total_derivative;
 
 pub use lie::lie_derivative;
 pub use psi_inv::{isolate, Solution};
 pub use rank::SINGULAR_VALUE_TOL;
+pub use total_derivative::TotalDerivative;
 
 use crate::model::Model;
 use coordinates::{choose_coordinates, coordinate_symbols, Coordinates};
@@ -135,6 +137,9 @@ pub struct Derivation {
     pub zero_dynamics_x: Vec<Id>,
     /// The symbol `yr` (= y^(r)).
     pub yr: Symbol,
+    /// The signal values' symbols in the layout of `InverseModel`'s `w`: S, S_d1, …, S_dr per signal S in
+    /// file order (empty without signals).
+    pub w: Vec<Symbol>,
     /// Where β vanishes, in words.
     pub singular: Vec<String>,
     /// Conditions under which the closed-form ψ⁻¹ is valid (divisors nonzero, roots real, branches).
@@ -200,7 +205,6 @@ impl Derivation {
     pub fn new(model: Model) -> Result<Derivation, DeriveError> {
         let mut model = model;
         let n = model.states.len();
-        let states = model.state_symbols();
         let nominal = model.nominal();
         let f: Vec<Id> = model.states.iter().map(|s| s.f).collect();
         let g: Vec<Id> = model.states.iter().map(|s| s.g).collect();
@@ -211,9 +215,10 @@ impl Derivation {
         // No constant part of f, g or h may be infinite or NaN at the parameters' values.
         check_finite(&model, &nominal, &file)?;
 
-        // r: the first k with L_g L_f^(k-1) h ≢ 0.
+        // r: the first k with L_g D_f^(k-1) h ≢ 0, D the total derivative along states and signals.
         let h = model.output.h;
-        let found = relative_degree(&mut model.pool, h, &f, &g, &states, &nominal, &mut warnings);
+        let field = TotalDerivative::new(&mut model, n + 1);
+        let found = relative_degree(&mut model.pool, h, &field, n, &nominal, &mut warnings);
         let RelativeDegree {
             r,
             lie,
@@ -293,6 +298,7 @@ impl Derivation {
             zero_dynamics,
             zero_dynamics_x,
             yr,
+            w: field.w_symbols(r),
             singular,
             domain,
             warnings,

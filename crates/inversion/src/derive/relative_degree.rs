@@ -1,8 +1,9 @@
-//! The relative degree r: the first k with L_g L_f^{k−1} h ≢ 0 (Isidori, *Nonlinear Control Systems*,
+//! The relative degree r: the first k with L_g D_f^{k−1} h ≢ 0 (D_f the total derivative of
+//! `total_derivative.rs`, L_f when the model has no signals) (Isidori, *Nonlinear Control Systems*,
 //! 3rd ed., Def. 4.1.1, here "not identically zero" rather than "nonzero at x°", so that singular sets are
 //! reported, not hidden), along with L_f^k h for k = 0 … r and L_g L_f^k h for k = 0 … r − 1.
 
-use super::lie::lie_derivative;
+use super::total_derivative::TotalDerivative;
 use invsim_expr::{zero_test, DecidedBy, Id, Pool, Symbol, ZeroVerdict};
 use std::collections::HashMap;
 
@@ -37,18 +38,16 @@ pub(super) struct RelativeDegree {
 pub(super) fn relative_degree(
     pool: &mut Pool,
     h: Id,
-    f: &[Id],
-    g: &[Id],
-    states: &[Symbol],
+    field: &TotalDerivative,
+    n: usize,
     nominal: &HashMap<Symbol, f64>,
     warnings: &mut Vec<String>,
 ) -> Result<RelativeDegree, NoRelativeDegree> {
-    let n = states.len();
     let mut lie = vec![h];
     let mut lg_lie = Vec::new();
     let mut lg_decided_by = Vec::new();
     for k in 0..n {
-        let lg = lie_derivative(pool, lie[k], g, states);
+        let lg = field.gain(pool, lie[k]);
         let verdict = zero_test(pool, lg, nominal);
         lg_lie.push(lg);
         lg_decided_by.push(verdict.decided_by());
@@ -58,7 +57,7 @@ pub(super) fn relative_degree(
                 pool.display(lg)
             ));
         }
-        let next = lie_derivative(pool, lie[k], f, states);
+        let next = field.drift(pool, lie[k]);
         let nodes = pool.dag_size(&[next]);
         if nodes > MAX_LIE_DERIVATIVE_NODES {
             return Err(NoRelativeDegree::TooLarge { k: k + 1, nodes });

@@ -6,6 +6,7 @@ use super::error::{ModelError, ModelErrorKind};
 use super::expressions::{Item, Role};
 use super::names::{NameRef, Names};
 use super::raw::{RawDefinition, RawInput, RawModel, RawParameter, RawState};
+use super::signals::RawSignal;
 use super::spanned::Reader;
 use super::validated::{Definition, Parameter};
 use invsim_expr::limits::{MAX_DEPTH, MAX_POOL_NODES};
@@ -116,10 +117,10 @@ impl Interned {
         raw_parameters: Vec<RawParameter>,
         raw_definitions: Vec<RawDefinition>,
         states: &[RawState],
-        input: &RawInput,
+        (input, signals): (&RawInput, &[RawSignal]),
         items: &[Item],
     ) -> Result<Interned, TooLargeDefinition> {
-        // Symbols in a fixed order: parameters, definitions, states, input.
+        // Symbols in a fixed order: parameters, definitions, states, input, signals.
         let mut pool = Pool::new();
         let parameters: Vec<Parameter> = raw_parameters
             .into_iter()
@@ -140,6 +141,9 @@ impl Interned {
             pool.symbol(&s.name);
         }
         let u = pool.symbol(&input.name);
+        for s in signals {
+            pool.symbol(&s.name);
+        }
         let u_var = pool.var(u);
         let zero = pool.zero();
         let u_zero: HashMap<Symbol, Id> = HashMap::from([(u, zero)]);

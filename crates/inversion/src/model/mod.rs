@@ -39,6 +39,7 @@
 //! | `tree.rs` | the TOML tree with spans |
 //! | `values.rs` | a TOML value read as the type a key expects |
 //! | `names.rs` | identifiers, reserved names, collisions, "did you mean" |
+//! | `signals.rs` | the optional `[signals]` table and the reserved names `S_dk` of their derivatives |
 //! | `engine.rs` | the optional `[engine]` table: which outputs are the engine's speed and torque |
 //! | `raw.rs` | the file as read, checked for structure (check 2) |
 //! | `expressions.rs` | parsing each expression (check 4) |
@@ -49,7 +50,7 @@
 //! | `reader.rs` | the pipeline from bytes to [`Model`] |
 //!
 //! Imports go one way — each file imports only files listed before it: error, validated, spanned, tree,
-//! names, values, engine, raw, expressions, definitions, smooth, split, reader.
+//! names, values, signals, engine, raw, expressions, definitions, smooth, split, reader.
 
 mod definitions;
 mod engine;
@@ -59,6 +60,7 @@ pub(crate) mod finite;
 mod names;
 mod raw;
 mod reader;
+mod signals;
 mod smooth;
 mod spanned;
 mod split;
@@ -69,4 +71,7 @@ mod values;
 pub use error::{ModelError, ModelErrorKind};
 pub use expressions::{MAX_EXPRESSION_LEN, MAX_EXPRESSION_NESTING};
 pub use reader::MAX_MODEL_FILE_BYTES;
-pub use validated::{Definition, Engine, ExtraOutput, Input, Model, Output, Parameter, State};
+pub use signals::{derivative_name, MAX_SIGNAL_DERIVATIVE};
+pub use validated::{
+    Definition, Engine, ExtraOutput, Input, Model, Output, Parameter, Signal, State,
+};

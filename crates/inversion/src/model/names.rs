@@ -3,6 +3,7 @@
 //! result columns (`t`, `yd_N`, `etaN`), and "did you mean" hints by Levenshtein distance.
 
 use super::error::{ModelError, ModelErrorKind};
+use super::signals::reserved_derivative;
 use super::spanned::Reader;
 use invsim_expr::FUNCTIONS;
 use std::collections::HashMap;
@@ -64,6 +65,7 @@ pub(super) enum NameRef {
     Definition(usize),
     State(usize),
     Input,
+    Signal(usize),
 }
 
 impl NameRef {
@@ -73,6 +75,7 @@ impl NameRef {
             NameRef::Definition(_) => "a definition",
             NameRef::State(_) => "a state",
             NameRef::Input => "the input",
+            NameRef::Signal(_) => "a signal",
         }
     }
 }
@@ -145,7 +148,31 @@ impl Reader<'_> {
             }
             names.insert(name, (at, what));
         }
+        self.check_signal_derivatives(&decls)?;
         Ok(names)
+    }
+
+    /// The names `S_d1` … `S_d9` of a signal S are reserved for its derivatives: no declaration may take one.
+    fn check_signal_derivatives(&self, decls: &[Declaration<'_>]) -> Result<(), ModelError> {
+        let signals: Vec<&str> = decls
+            .iter()
+            .filter(|(_, _, w)| matches!(w, NameRef::Signal(_)))
+            .map(|(n, _, _)| *n)
+            .collect();
+        for &(name, at, what) in decls {
+            if let Some(s) = reserved_derivative(name, signals.iter().copied()) {
+                return Err(self.err(
+                    at,
+                    ModelErrorKind::ReservedName,
+                    format!(
+                        "reserved name `{name}` cannot be declared as {}: the names {s}_d1 … {s}_d9 are \
+                         reserved for the time derivatives of the signal `{s}`",
+                        what.describe()
+                    ),
+                ));
+            }
+        }
+        Ok(())
     }
 
     /// Extra outputs become CSV columns next to the states and the input: their names may not take a
@@ -159,6 +186,14 @@ impl Reader<'_> {
             let clash = match names.get(name) {
                 Some((_, NameRef::State(_))) => Some("a state"),
                 Some((_, NameRef::Input)) => Some("the input"),
+                Some((_, NameRef::Signal(_))) => Some("a signal"),
+                _ if names.iter().any(|(s, (_, w))| {
+                    matches!(w, NameRef::Signal(_))
+                        && reserved_derivative(name, std::iter::once(*s)).is_some()
+                }) =>
+                {
+                    Some("a column of signal derivatives (S_d1, S_d2, …)")
+                }
                 _ if name == "t" => Some("the time column `t`"),
                 _ if is_indexed(name, "yd_") => {
                     Some("a column of output derivatives (yd_0, yd_1, …)")

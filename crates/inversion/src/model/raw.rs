@@ -5,6 +5,7 @@
 use super::engine::RawEngine;
 use super::error::{ModelError, ModelErrorKind};
 use super::names::{is_identifier, Declaration, NameRef};
+use super::signals::RawSignal;
 use super::spanned::{string_content, Reader, Src};
 use super::tree::{get, get_key, key_at, tv_at, Entries, Kind, Tv};
 use std::collections::HashSet;
@@ -94,6 +95,8 @@ pub(super) struct RawModel {
     pub(super) output: RawOutput,
     pub(super) outputs: Vec<RawExtra>,
     pub(super) engine: Option<RawEngine>,
+    /// `[signals]`, in file order.
+    pub(super) signals: Vec<RawSignal>,
 }
 
 impl RawModel {
@@ -119,6 +122,12 @@ impl RawModel {
                 .map(|(i, s)| (s.name.as_str(), s.at, NameRef::State(i))),
         );
         decls.push((self.input.name.as_str(), self.input.at, NameRef::Input));
+        decls.extend(
+            self.signals
+                .iter()
+                .enumerate()
+                .map(|(i, s)| (s.name.as_str(), s.at, NameRef::Signal(i))),
+        );
         decls
     }
 }
@@ -135,10 +144,12 @@ struct Sections {
     output: Option<RawOutput>,
     outputs: Vec<RawExtra>,
     engine: Option<RawEngine>,
+    signals: Vec<RawSignal>,
 }
 
 const TOP_KEYS_SHOWN: &str =
-    "name, description, [parameters], [definitions], [states], [input], [output], [outputs], [engine]";
+    "name, description, [parameters], [definitions], [states], [input], [output], [outputs], [engine], \
+     [signals]";
 
 impl Reader<'_> {
     /// The top-level keys and sections; the required ones present.
@@ -182,6 +193,7 @@ impl Reader<'_> {
                 "output" => raw.output = Some(self.output(v)?),
                 "outputs" => raw.outputs = self.extra_outputs(self.table(v, "[outputs]")?)?,
                 "engine" => raw.engine = Some(self.engine(v)?),
+                "signals" => raw.signals = self.signals(self.table(v, "[signals]")?)?,
                 other => {
                     return Err(self.err(
                         key_at(k),
@@ -225,6 +237,7 @@ impl Reader<'_> {
             output,
             outputs: raw.outputs,
             engine: raw.engine,
+            signals: raw.signals,
         })
     }
 

@@ -8,7 +8,7 @@ use super::raw::RawModel;
 use super::spanned::Reader;
 use super::split::extra_outputs;
 use super::tree::Tv;
-use super::validated::{Input, Model};
+use super::validated::{Input, Model, Signal};
 use sha2::{Digest, Sha256};
 use std::io::Read;
 use std::path::Path;
@@ -115,6 +115,7 @@ impl Reader<'_> {
             output,
             outputs,
             engine,
+            signals,
         } = raw;
         let engine = {
             let names: Vec<&str> = outputs.iter().map(|o| o.name.as_str()).collect();
@@ -124,8 +125,19 @@ impl Reader<'_> {
         };
         let tracks_speed = output.reference_offset.unwrap_or(0.0) == 0.0
             && output.reference_scale.unwrap_or(1.0) == 1.0;
-        let mut m = Interned::new(parameters, definitions, &states, &input, &items)
+        let mut m = Interned::new(parameters, definitions, &states, (&input, &signals), &items)
             .map_err(|t| self.too_large_definition(t))?;
+        let signals: Vec<Signal> = signals
+            .into_iter()
+            .map(|s| Signal {
+                symbol: m.pool.symbol(&s.name),
+                name: s.name,
+                unit: s.unit,
+                doc: s.doc,
+                default: s.default,
+                column: s.column,
+            })
+            .collect();
         let states = self.split_states(states, &input.name, &mut m, &items)?;
         let output = self.split_output(output, &input.name, &mut m, &items)?;
         self.check_finite(&m.pool, &m.nominal, (&states, &output), &items)?;
@@ -159,6 +171,7 @@ impl Reader<'_> {
             output,
             outputs,
             engine,
+            signals,
         })
     }
 }

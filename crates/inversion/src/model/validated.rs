@@ -29,6 +29,22 @@ pub struct Model {
     pub outputs: Vec<ExtraOutput>,
     /// `[engine]`: which extra outputs are the engine's speed and torque.
     pub engine: Option<Engine>,
+    /// The exogenous signals of `[signals]`, in file order.
+    pub signals: Vec<Signal>,
+}
+
+/// An exogenous signal S (contract §5): a symbol in the expressions; its smoothed derivatives S_d1 … are
+/// symbols the derivation adds.
+#[derive(Debug, Clone)]
+pub struct Signal {
+    pub name: String,
+    pub symbol: Symbol,
+    pub unit: Option<String>,
+    pub doc: Option<String>,
+    /// Used when neither the command line nor the cycle file gives the signal.
+    pub default: Option<f64>,
+    /// The cycle file's column (`None`: the signal's name).
+    pub column: Option<String>,
 }
 
 /// The validated `[engine]`: indices of its speed and torque into [`Model::outputs`].

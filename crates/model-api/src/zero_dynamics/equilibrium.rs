@@ -84,10 +84,11 @@ pub fn default_starts(y: f64) -> Vec<f64> {
     starts
 }
 
-/// Damped Newton's method for q(ξ, η, y^(r)) = 0 from `eta`, at most `max_iter` iterations.
+/// Damped Newton's method for q(ξ, η, w, y^(r)) = 0 (signal values `w`) from `eta`, at most `max_iter` iterations.
 pub fn newton<M: InverseModel + ?Sized>(
     model: &M,
     xi: &[f64],
+    w: &[f64],
     yr: f64,
     mut eta: Vec<f64>,
     max_iter: usize,
@@ -96,7 +97,7 @@ pub fn newton<M: InverseModel + ?Sized>(
     let mut q = vec![0.0; m];
     let mut trial = vec![0.0; m];
     let mut q_trial = vec![0.0; m];
-    model.zero_dynamics(xi, &eta, yr, &mut q);
+    model.zero_dynamics(xi, &eta, w, yr, &mut q);
     for _ in 0..max_iter {
         let res = max_norm(&q);
         if !res.is_finite() {
@@ -105,7 +106,7 @@ pub fn newton<M: InverseModel + ?Sized>(
         if res == 0.0 {
             return Ok(eta);
         }
-        let step = jacobian(model, xi, &eta, yr)
+        let step = jacobian(model, xi, w, &eta, yr)
             .lu()
             .solve(&DVector::from_column_slice(&q))
             .filter(|s| s.iter().all(|v| v.is_finite()));
@@ -118,7 +119,7 @@ pub fn newton<M: InverseModel + ?Sized>(
             for i in 0..m {
                 trial[i] = eta[i] - lambda * step[i];
             }
-            model.zero_dynamics(xi, &trial, yr, &mut q_trial);
+            model.zero_dynamics(xi, &trial, w, yr, &mut q_trial);
             let r = max_norm(&q_trial);
             if r.is_finite() && r < res {
                 accepted = true;
@@ -152,6 +153,7 @@ pub fn newton<M: InverseModel + ?Sized>(
 pub fn equilibrium<M: InverseModel + ?Sized>(
     model: &M,
     xi: &[f64],
+    w: &[f64],
     yr: f64,
     guess: Option<&[f64]>,
     starts: &[f64],
@@ -163,7 +165,7 @@ pub fn equilibrium<M: InverseModel + ?Sized>(
         .chain(starts.iter().map(|&s| vec![s; m]));
     let mut first = None;
     for eta in attempts {
-        match newton(model, xi, yr, eta, EQUILIBRIUM_MAX_ITER) {
+        match newton(model, xi, w, yr, eta, EQUILIBRIUM_MAX_ITER) {
             Ok(e) => return Ok(e),
             Err(f) => {
                 first.get_or_insert(f);

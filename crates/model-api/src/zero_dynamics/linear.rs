@@ -42,6 +42,7 @@ impl JacobianWork {
         &mut self,
         model: &M,
         xi: &[f64],
+        w: &[f64],
         eta: &[f64],
         yr: f64,
     ) -> &[f64] {
@@ -51,9 +52,9 @@ impl JacobianWork {
         for (j, &eta_j) in eta.iter().enumerate() {
             let h = 1e-6 * eta_j.abs().max(1.0);
             self.eta[j] = eta_j + h;
-            model.zero_dynamics(xi, &self.eta, yr, &mut self.qp);
+            model.zero_dynamics(xi, &self.eta, w, yr, &mut self.qp);
             self.eta[j] = eta_j - h;
-            model.zero_dynamics(xi, &self.eta, yr, &mut self.qm);
+            model.zero_dynamics(xi, &self.eta, w, yr, &mut self.qm);
             self.eta[j] = eta_j;
             let column = &mut self.jac[j * n..(j + 1) * n];
             for ((d, p), m) in column.iter_mut().zip(&self.qp).zip(&self.qm) {
@@ -63,11 +64,11 @@ impl JacobianWork {
                 continue;
             }
             if !have_q0 {
-                model.zero_dynamics(xi, eta, yr, &mut self.q0);
+                model.zero_dynamics(xi, eta, w, yr, &mut self.q0);
                 have_q0 = true;
             }
             for side in [1.0, -1.0] {
-                if self.one_sided(model, (xi, yr), j, eta_j, side * h) {
+                if self.one_sided(model, (xi, w, yr), j, eta_j, side * h) {
                     break;
                 }
             }
@@ -81,16 +82,16 @@ impl JacobianWork {
     fn one_sided<M: InverseModel + ?Sized>(
         &mut self,
         model: &M,
-        (xi, yr): (&[f64], f64),
+        (xi, w, yr): (&[f64], &[f64], f64),
         j: usize,
         eta_j: f64,
         s: f64,
     ) -> bool {
         let n = self.n;
         self.eta[j] = eta_j + s;
-        model.zero_dynamics(xi, &self.eta, yr, &mut self.qp);
+        model.zero_dynamics(xi, &self.eta, w, yr, &mut self.qp);
         self.eta[j] = eta_j + 2.0 * s;
-        model.zero_dynamics(xi, &self.eta, yr, &mut self.qm);
+        model.zero_dynamics(xi, &self.eta, w, yr, &mut self.qm);
         self.eta[j] = eta_j;
         let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
         if !(finite(&self.q0) && finite(&self.qp) && finite(&self.qm)) {
@@ -108,12 +109,13 @@ impl JacobianWork {
 pub fn jacobian<M: InverseModel + ?Sized>(
     model: &M,
     xi: &[f64],
+    w: &[f64],
     eta: &[f64],
     yr: f64,
 ) -> DMatrix<f64> {
     let n = eta.len();
     let mut work = JacobianWork::new(n);
-    DMatrix::from_column_slice(n, n, work.jacobian(model, xi, eta, yr))
+    DMatrix::from_column_slice(n, n, work.jacobian(model, xi, w, eta, yr))
 }
 
 /// Eigenvalues [re, im] of a square matrix, sorted by decreasing real part (then imaginary part); empty if
@@ -150,8 +152,14 @@ pub struct Linearization {
 
 impl Linearization {
     /// Linearise the zero dynamics at (ξ, η, y^(r)).
-    pub fn at<M: InverseModel + ?Sized>(model: &M, xi: &[f64], eta: &[f64], yr: f64) -> Self {
-        Linearization::of(jacobian(model, xi, eta, yr))
+    pub fn at<M: InverseModel + ?Sized>(
+        model: &M,
+        xi: &[f64],
+        w: &[f64],
+        eta: &[f64],
+        yr: f64,
+    ) -> Self {
+        Linearization::of(jacobian(model, xi, w, eta, yr))
     }
 
     /// The eigenvalues and threshold of a given ∂q/∂η.

@@ -73,6 +73,22 @@ pub(super) struct Loop<'a, M: InverseModel + ?Sized> {
     /// Indices of the accumulated `[outputs]`, integrated as quadrature states, and their scratch buffer.
     pub(super) accumulate: Vec<usize>,
     pub(super) outs: Vec<f64>,
+    /// The model's signals (the forward run uses their RAW values, linear between samples, derivative slots
+    /// 0: the original model's rhs and outputs depend only on S) and the values `w` at the current point.
+    pub(super) signals: Vec<crate::smoother::Smoother>,
+    pub(super) w: Vec<f64>,
+}
+
+/// The raw signal values at `t` into `w` ([S, 0, …, 0] per signal).
+pub(super) fn raw_signals(signals: &[crate::smoother::Smoother], t: f64, w: &mut [f64]) {
+    if signals.is_empty() {
+        return;
+    }
+    w.fill(0.0);
+    let per = w.len() / signals.len();
+    for (s, chunk) in signals.iter().zip(w.chunks_mut(per)) {
+        chunk[0] = s.raw(t);
+    }
 }
 
 /// The driver's and the engine management's output at one point.
@@ -95,7 +111,8 @@ impl<M: InverseModel + ?Sized> Loop<'_, M> {
     pub(super) fn drive(&mut self, seg: usize, t: f64, z: &[f64]) -> Result<Drive, ForwardError> {
         let (x, integral) = (&z[..self.n], z[self.n]);
         let yc = self.raw.value(seg, t);
-        self.model.psi(x, &mut self.xi, &mut self.eta);
+        raw_signals(&self.signals, t, &mut self.w);
+        self.model.psi(x, &self.w, &mut self.xi, &mut self.eta);
         let y = self.xi[0];
         let ff = if self.feedforward {
             self.raw.slope[seg]
@@ -115,7 +132,7 @@ impl<M: InverseModel + ?Sized> Loop<'_, M> {
         self.guess.copy_from_slice(x);
         let demand = self
             .model
-            .invert(&self.xi, &self.eta, nu, &mut self.guess)
+            .invert(&self.xi, &self.eta, &self.w, nu, &mut self.guess)
             .map_err(|source| RunError::Model { t, source })?;
         let applied = if self.enforce {
             demand.max(self.lo).min(self.hi)
@@ -146,9 +163,9 @@ impl<M: InverseModel + ?Sized> Loop<'_, M> {
         let (dx, rest) = dz.split_at_mut(self.n);
         let (di, dq) = rest.split_at_mut(1);
         let x = &z[..self.n];
-        self.model.rhs(x, d.applied, dx);
+        self.model.rhs(x, &self.w, d.applied, dx);
         if !self.accumulate.is_empty() {
-            self.model.outputs(x, d.applied, &mut self.outs);
+            self.model.outputs(x, &self.w, d.applied, &mut self.outs);
             for (q, &o) in dq.iter_mut().zip(&self.accumulate) {
                 *q = self.outs[o];
             }
@@ -156,7 +173,7 @@ impl<M: InverseModel + ?Sized> Loop<'_, M> {
         dq[self.accumulate.len()] = d.y;
         let mut windup = 0.0;
         if d.applied != d.demand && self.k_aw > 0.0 {
-            let beta = self.model.beta(&self.xi, &self.eta);
+            let beta = self.model.beta(&self.xi, &self.eta, &self.w);
             windup = self.k_aw * beta * (d.applied - d.demand)
                 / self.omega.powi(self.inner.len() as i32);
         }

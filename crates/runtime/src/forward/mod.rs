@@ -132,8 +132,15 @@ pub fn forward<M: InverseModel + ?Sized>(
     let grid = Grid::new(t0, duration, opts.dt)?;
     let raw = RawCycle::new(cycle);
     let seg0 = raw.segment(t0);
-    let x0 = initial_state(model, &raw, seg0, t0, opts)?;
+    // The signals: raw (linear between samples), derivative slots 0.
+    let resolved = crate::signals::resolve(info, cycle, &opts.signals).map_err(RunError::from)?;
+    let signals = crate::signals::smoothers(&resolved, 1.0);
+    let mut w0 = vec![0.0; info.n_w()];
+    driver::raw_signals(&signals, t0, &mut w0);
+    let x0 = initial_state(model, (&raw, &w0), seg0, t0, opts)?;
     let mut lp = closed_loop(model, raw, opts);
+    lp.signals = signals;
+    lp.w = w0;
     // Start in equilibrium: without feed-forward the integral carries the cycle's initial slope.
     let mut z = x0.clone();
     z.push(if opts.feedforward || opts.ki == 0.0 {
@@ -174,7 +181,7 @@ pub fn forward<M: InverseModel + ?Sized>(
 /// equilibrium of the zero dynamics there (Newton from η = 0).
 fn initial_state<M: InverseModel + ?Sized>(
     model: &M,
-    raw: &RawCycle<'_>,
+    (raw, w0): (&RawCycle<'_>, &[f64]),
     seg0: usize,
     t0: f64,
     opts: &ForwardOptions,
@@ -210,11 +217,11 @@ fn initial_state<M: InverseModel + ?Sized>(
     let eta0 = if ne == 0 {
         Vec::new()
     } else {
-        start_equilibrium(model, &xi0, yr0, t0)?
+        start_equilibrium(model, (&xi0, w0), yr0, t0)?
     };
     let mut x = vec![0.0; n];
     model
-        .psi_inv(&xi0, &eta0, &mut x)
+        .psi_inv(&xi0, &eta0, w0, &mut x)
         .map_err(|source| RunError::Model { t: t0, source })?;
     if let Some(j) = x.iter().position(|v| !v.is_finite()) {
         return Err(ForwardError::InitialState {
@@ -228,12 +235,12 @@ fn initial_state<M: InverseModel + ?Sized>(
 /// The equilibrium of the zero dynamics at the start, by Newton's method from η = 0.
 fn start_equilibrium<M: InverseModel + ?Sized>(
     model: &M,
-    xi0: &[f64],
+    (xi0, w0): (&[f64], &[f64]),
     yr0: f64,
     t0: f64,
 ) -> Result<Vec<f64>, ForwardError> {
     let start = vec![0.0; model.info().n_eta];
-    match newton(model, xi0, yr0, start, EQUILIBRIUM_MAX_ITER) {
+    match newton(model, xi0, w0, yr0, start, EQUILIBRIUM_MAX_ITER) {
         Ok(eta) => Ok(eta),
         // q is not finite already at the start η = 0: stay there and let ψ⁻¹ tell what is not finite (the
         // state is what the user can act on, with x0).
@@ -278,6 +285,8 @@ fn closed_loop<'a, M: InverseModel + ?Sized>(
             .filter(|&i| info.outputs[i].accumulate)
             .collect(),
         outs: vec![0.0; info.outputs.len()],
+        signals: Vec::new(),
+        w: vec![0.0; info.n_w()],
     }
 }
 
@@ -307,7 +316,7 @@ fn drive<M: InverseModel + ?Sized, I: Integrator>(
 ) -> Result<OdeStats, ForwardError> {
     let model = lp.model;
     let d0 = lp.drive(seg0, t0, z)?;
-    rec.emit(model, (0, t0), z, d0)?;
+    rec.emit(model, (0, t0), z, d0, &lp.w)?;
     let t_last = grid.time(grid.n);
     let mut zk = z.to_vec();
     let (mut t, mut seg, mut k) = (t0, seg0, 1);
@@ -345,7 +354,7 @@ fn drive<M: InverseModel + ?Sized, I: Integrator>(
                 seg
             };
             let d = lp.drive(seg_k, tk, &zk)?;
-            rec.emit(model, (k, tk), &zk, d)?;
+            rec.emit(model, (k, tk), &zk, d, &lp.w)?;
             k += 1;
         }
         t = t_new;

@@ -121,6 +121,9 @@ pub struct ForwardOptions {
     pub time_limit_s: Option<f64>,
     /// Called with the fraction of the run done every few hundred samples (default: none).
     pub progress: crate::progress::Progress,
+    /// Signal values given on the command line (`--signal`); the others come from the cycle or the model's
+    /// defaults. The forward run uses the RAW signals (linear between samples).
+    pub signals: Vec<crate::signals::SignalInput>,
 }
 
 impl Default for ForwardOptions {
@@ -143,6 +146,7 @@ impl Default for ForwardOptions {
             max_steps: None,
             time_limit_s: None,
             progress: crate::progress::Progress::none(),
+            signals: Vec::new(),
         }
     }
 }

@@ -34,12 +34,13 @@ impl Layout {
             .iter()
             .position(|s| *s == info.output)
             .is_some_and(|j| {
+                let w = info.nominal_w();
                 let mut probe = x0.to_vec();
                 (0..3).all(|p| {
                     for (i, v) in probe.iter_mut().enumerate() {
                         *v = x0[i] * (1.0 + 0.1 * p as f64) + 0.01 * (p * (i + 1)) as f64;
                     }
-                    model.h(&probe) == probe[j]
+                    model.h(&probe, &w) == probe[j]
                 })
             });
         if !output_is_state {
@@ -152,10 +153,11 @@ impl<'a> Recorder<'a> {
         (k, t): (usize, f64),
         z: &[f64],
         d: Drive,
+        w: &[f64],
     ) -> Result<(), ForwardError> {
         let info = self.info;
         let x = &z[..info.n_states()];
-        model.outputs(x, d.applied, &mut self.outs);
+        model.outputs(x, w, d.applied, &mut self.outs);
         let bad = |quantity: String, value: f64| RunError::NonFinite { t, quantity, value };
         if let Some(j) = x.iter().position(|v| !v.is_finite()) {
             return Err(bad(info.states[j].clone(), x[j]).into());

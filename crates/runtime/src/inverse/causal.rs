@@ -27,6 +27,8 @@ pub(super) struct Causal {
     /// Check the eigenvalues every this many samples.
     check_every: usize,
     yd: [f64; MAX_DERIVATIVES],
+    /// The smoothed signal values at the current sample (`InverseModel`'s `w`).
+    w: Vec<f64>,
 }
 
 impl Causal {
@@ -43,10 +45,12 @@ impl Causal {
         let (r, ne) = (info.relative_degree, info.n_eta);
         let mut yd = [0.0_f64; MAX_DERIVATIVES];
         smoother.eval(t0, &mut yd[..=r]);
+        let mut w = vec![0.0; info.n_w()];
+        smoother.eval_signals(t0, &mut w);
         let (xi, yr) = (&yd[..r], yd[r]);
         let eta = match eta0 {
             Some(e) => e,
-            None => equilibrium(model, xi, yr, None, &default_starts(xi[0])).map_err(|f| {
+            None => equilibrium(model, xi, &w, yr, None, &default_starts(xi[0])).map_err(|f| {
                 SimulateError::ZeroDynamicsEquilibrium {
                     t: t0,
                     reason: f.to_string(),
@@ -54,8 +58,9 @@ impl Causal {
             })?,
         };
         let mut ws = JacobianWork::new(ne);
-        check_stability(model, t0, xi, &eta, yr, &mut ws)?;
+        check_stability(model, t0, (xi, &w), &eta, yr, &mut ws)?;
         Ok(Causal {
+            w,
             eta,
             integrator: Dopri5::new(ne, opts.rtol, opts.atol, opts.dt),
             ws,
@@ -78,13 +83,15 @@ impl Causal {
         if k > 0 {
             self.integrate(model, smoother, grid.time(k - 1), t, r)?;
         }
+        smoother.eval_signals(t, &mut self.w);
         let (xi, yr) = (&yd[..r], yd[r]);
+        let w = &self.w;
         if let Some(j) = self
             .eta
             .iter()
             .position(|v| !v.is_finite() || v.abs() > ETA_BLOWUP)
         {
-            let eigenvalues = eigenvalues_at(model, xi, &self.eta, yr, &mut self.ws);
+            let eigenvalues = eigenvalues_at(model, (xi, w), &self.eta, yr, &mut self.ws);
             return Err(SimulateError::UnstableZeroDynamics {
                 t,
                 eigenvalues,
@@ -92,7 +99,7 @@ impl Causal {
             });
         }
         if k % self.check_every == 0 && k > 0 {
-            check_stability(model, t, xi, &self.eta, yr, &mut self.ws)?;
+            check_stability(model, t, (xi, w), &self.eta, yr, &mut self.ws)?;
         }
         Ok(&self.eta)
     }
@@ -107,10 +114,12 @@ impl Causal {
         t: f64,
         r: usize,
     ) -> Result<(), SimulateError> {
+        let mut w_s = vec![0.0; self.w.len()];
         let mut q = |s: f64, e: &[f64], de: &mut [f64]| {
             let mut yd_s = [0.0_f64; MAX_DERIVATIVES];
             smoother.eval(s, &mut yd_s[..=r]);
-            model.zero_dynamics(&yd_s[..r], e, yd_s[r], de);
+            smoother.eval_signals(s, &mut w_s);
+            model.zero_dynamics(&yd_s[..r], e, &w_s, yd_s[r], de);
             Ok(())
         };
         let Err(err) = self.integrator.advance(t_prev, t, &mut self.eta, &mut q) else {
@@ -118,22 +127,25 @@ impl Causal {
         };
         let (t_fail, eta_fail) = (self.integrator.t_fail, &self.integrator.y_fail);
         smoother.eval(t_fail, &mut self.yd[..=r]);
+        smoother.eval_signals(t_fail, &mut self.w);
         let (xi, yr) = (&self.yd[..r], self.yd[r]);
+        let w = &self.w;
         if let Some(i) = eta_fail
             .iter()
             .position(|v| !v.is_finite() || v.abs() > ETA_BLOWUP)
         {
             return Err(SimulateError::UnstableZeroDynamics {
                 t: t_fail,
-                eigenvalues: eigenvalues_at(model, xi, eta_fail, yr, &mut self.ws),
+                eigenvalues: eigenvalues_at(model, (xi, w), eta_fail, yr, &mut self.ws),
                 detail: format!("eta{} = {} has blown up", i + 1, eta_fail[i]),
             });
         }
-        check_stability(model, t_fail, xi, eta_fail, yr, &mut self.ws)?;
+        check_stability(model, t_fail, (xi, w), eta_fail, yr, &mut self.ws)?;
         Err(err)
     }
 
-    /// x = ψ⁻¹(ξ, η) (the previous x as the guess) and u = (y_d^(r) − α)/β (paper eq. 26) at time t.
+    /// x = ψ⁻¹(ξ, η) (the previous x as the guess) and u = (y_d^(r) − α)/β (paper eq. 26) at time t (the
+    /// signal values of the last [`Causal::advance`], at the same sample).
     pub(super) fn invert<M: InverseModel + ?Sized>(
         &self,
         model: &M,
@@ -143,7 +155,7 @@ impl Causal {
     ) -> Result<f64, SimulateError> {
         let r = yd.len() - 1;
         model
-            .invert(&yd[..r], &self.eta, yd[r], x)
+            .invert(&yd[..r], &self.eta, &self.w, yd[r], x)
             .map_err(|source| RunError::Model { t, source }.into())
     }
 }
@@ -151,7 +163,7 @@ impl Causal {
 /// Eigenvalues [re, im] of ∂q/∂η at (ξ, η, y^(r)); empty if the Jacobian is not finite.
 fn eigenvalues_at<M: InverseModel + ?Sized>(
     model: &M,
-    xi: &[f64],
+    (xi, w): (&[f64], &[f64]),
     eta: &[f64],
     yr: f64,
     ws: &mut JacobianWork,
@@ -160,7 +172,7 @@ fn eigenvalues_at<M: InverseModel + ?Sized>(
     eigenvalues(&DMatrix::from_column_slice(
         n,
         n,
-        ws.jacobian(model, xi, eta, yr),
+        ws.jacobian(model, xi, w, eta, yr),
     ))
 }
 
@@ -170,13 +182,13 @@ fn eigenvalues_at<M: InverseModel + ?Sized>(
 fn check_stability<M: InverseModel + ?Sized>(
     model: &M,
     t: f64,
-    xi: &[f64],
+    (xi, w): (&[f64], &[f64]),
     eta: &[f64],
     yr: f64,
     ws: &mut JacobianWork,
 ) -> Result<(), SimulateError> {
     let n = eta.len();
-    let jac = ws.jacobian(model, xi, eta, yr);
+    let jac = ws.jacobian(model, xi, w, eta, yr);
     let tol = critical_tol(jac);
     // One internal coordinate: the Jacobian is the eigenvalue; no allocation needed on the stable path.
     if n == 1 && jac[0].is_finite() && jac[0] <= tol {

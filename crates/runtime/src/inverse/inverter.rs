@@ -19,6 +19,8 @@ pub(super) struct Block<'c, 'd> {
     pub k0: usize,
     pub time: &'c [f64],
     pub yd: &'c [&'c [f64]],
+    /// The smoothed signals' columns S, S_d1, …, S_dr per signal (`InverseModel`'s `w`, column-wise).
+    pub w: &'c [&'c [f64]],
     pub u: &'c mut [f64],
     pub x: &'c mut [&'d mut [f64]],
     pub eta: &'c mut [&'d mut [f64]],
@@ -106,7 +108,7 @@ impl<'a, M: InverseModel + ?Sized> Inverter<'a, M> {
         }
         let time = b.time;
         self.model
-            .invert_batch(&xi, &etas, b.yd[r], b.x, b.u)
+            .invert_batch(&xi, &etas, b.w, b.yd[r], b.x, b.u)
             .map_err(|(i, source)| RunError::Model { t: time[i], source })?;
         for (v, c) in self.x.iter_mut().zip(b.x.iter()) {
             *v = c[len - 1];

@@ -65,6 +65,9 @@ pub struct SimulationOptions {
     pub include_extension: bool,
     /// Called with the fraction of the run done after each block of samples (default: none).
     pub progress: Progress,
+    /// Signal values given on the command line (`--signal`); the others come from the cycle or the model's
+    /// defaults ([`crate::signals::resolve`]). The inverse and its replay use the smoothed signals.
+    pub signals: Vec<crate::signals::SignalInput>,
 }
 
 impl Default for SimulationOptions {
@@ -84,6 +87,7 @@ impl Default for SimulationOptions {
             max_pre_actuation: DEFAULT_MAX_PRE_ACTUATION,
             include_extension: false,
             progress: Progress::none(),
+            signals: Vec::new(),
         }
     }
 }

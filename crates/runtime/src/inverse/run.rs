@@ -69,13 +69,19 @@ fn check_eta0(
     }
 }
 
-/// The column names (`t`, `yd_0` … `yd_r`, the input, the states, `eta1` …, the outputs) and the input's index.
+/// The column names (`t`, `yd_0` … `yd_r`, per signal S `S`, `S_d1` … `S_dr` (contract §5), the input, the
+/// states, `eta1` …, the outputs) and the input's index.
 fn column_names(info: &ModelInfo) -> (Vec<String>, usize) {
     let r = info.relative_degree;
-    let mut columns =
-        Vec::with_capacity(2 + r + 1 + info.n_states() + info.n_eta + info.outputs.len());
+    let mut columns = Vec::with_capacity(
+        2 + r + 1 + info.n_w() + info.n_states() + info.n_eta + info.outputs.len(),
+    );
     columns.push("t".to_string());
     columns.extend((0..=r).map(|k| format!("yd_{k}")));
+    for s in &info.signals {
+        columns.push(s.name.clone());
+        columns.extend((1..=r).map(|k| format!("{}_d{k}", s.name)));
+    }
     let input_column = columns.len();
     columns.push(info.input.clone());
     columns.extend(info.states.iter().cloned());
@@ -229,10 +235,10 @@ impl<'c> Tally<'c> {
     }
 }
 
-/// Split a block's columns after y_d … y_d^(r) (`rest`: the input, the states, η, the outputs) into a
-/// [`Block`] with the times and the y_d columns `yd`.
+/// Split a block's columns after y_d … y_d^(r) and the signals (`rest`: the input, the states, η, the
+/// outputs) into a [`Block`] with the times, the y_d columns `yd` and the signal columns `w`.
 fn split<'c, 'd>(
-    (time, yd): (&'c [f64], &'c [&'c [f64]]),
+    (time, yd, w): (&'c [f64], &'c [&'c [f64]], &'c [&'c [f64]]),
     rest: &'c mut [&'d mut [f64]],
     k0: usize,
     info: &ModelInfo,
@@ -245,6 +251,7 @@ fn split<'c, 'd>(
         k0,
         time,
         yd,
+        w,
         u: &mut *u_col[0],
         x,
         eta,
@@ -312,17 +319,25 @@ fn run_blocks<M: InverseModel + ?Sized>(
             }
         }
         let r1 = info.relative_degree + 2;
+        let nw = info.n_w();
         fill_reference((smoother, shared), grid, &mut cols[..r1], (k0, k1), keep);
-        let (head, rest) = cols.split_at_mut(r1);
+        // The smoothed signals on the same grid block (a model with signals never uses a shared reference).
+        {
+            let (time, w) = cols.split_at_mut(r1);
+            smoother.eval_signals_grid(time[0], Some(grid.dt), &mut w[..nw]);
+        }
+        let (head, rest) = cols.split_at_mut(r1 + nw);
+        let (head, w_cols) = head.split_at(r1);
         let yd: Vec<&[f64]> = match shared {
             Some(s) if !keep => s.iter().map(|c| &c[k0..k1]).collect(),
             _ => head[1..].iter().map(|c| &**c).collect(),
         };
-        let mut b = split((&*head[0], &yd), rest, k0, info);
+        let w: Vec<&[f64]> = w_cols.iter().map(|c| &**c).collect();
+        let mut b = split((&*head[0], &yd, &w), rest, k0, info);
         inverter.fill(&mut b)?;
         {
             let xs: Vec<&[f64]> = b.x.iter().map(|c| &**c).collect();
-            model.outputs_batch(&xs, b.u, b.out);
+            model.outputs_batch(&xs, b.w, b.u, b.out);
         }
         check_finite(model, &b)?;
         tally.record_block(&b);
@@ -371,9 +386,16 @@ fn check_finite<M: InverseModel + ?Sized>(
     let i = (0..b.time.len()).find(|&i| !finite_at(i)).unwrap_or(0);
     let at = |cs: &[&mut [f64]]| cs.iter().map(|c| c[i]).collect::<Vec<f64>>();
     let yd_i: Vec<f64> = b.yd.iter().map(|c| c[i]).collect();
+    let w_i: Vec<f64> = b.w.iter().map(|c| c[i]).collect();
     let (x_i, eta_i, outs_i) = (at(b.x), at(b.eta), at(b.out));
     Err(non_finite(
-        model, b.time[i], &yd_i, &eta_i, b.u[i], &x_i, &outs_i,
+        model,
+        b.time[i],
+        (&yd_i, &w_i),
+        &eta_i,
+        b.u[i],
+        &x_i,
+        &outs_i,
     ))
 }
 
@@ -445,15 +467,22 @@ pub(super) fn run<M: InverseModel + ?Sized>(
     checks::check_lookahead(opts.lookahead, duration)?;
     let steps = grid.n;
     let eta0 = check_eta0(info, opts)?;
-    let shared = shared
-        .filter(|s| s.fits(opts.lookahead, opts.dt, r, model.reference()) && s.cycle == cycle.name);
+    // The signals (command line, cycle column or default), smoothed with the reference's kernel.
+    let resolved = crate::signals::resolve(info, cycle, &opts.signals).map_err(RunError::from)?;
+    let shared = shared.filter(|s| {
+        s.fits(opts.lookahead, opts.dt, r, model.reference())
+            && s.cycle == cycle.name
+            && info.signals.is_empty()
+    });
     let own;
     let (smoother, distance_warning) = match shared {
         Some(s) => (&s.smoother, s.distance_warning.clone()),
         None => {
             let raw = Smoother::new(cycle, opts.lookahead)?;
             let warning = checks::reference_distance_warning(&raw, cycle);
-            own = raw.with_reference(model.reference());
+            own = raw
+                .with_reference(model.reference())
+                .with_signals(crate::signals::smoothers(&resolved, opts.lookahead));
             (&own, warning)
         }
     };
@@ -495,6 +524,7 @@ pub(super) fn run<M: InverseModel + ?Sized>(
     run_blocks(model, yd, &grid, &mut inverter, &mut tally, &mut data, keep)?;
 
     let run = Finished {
+        smoother,
         grid,
         window,
         input_column,
@@ -515,7 +545,9 @@ pub(super) fn run<M: InverseModel + ?Sized>(
 }
 
 /// What the summary needs of the finished run.
-struct Finished {
+struct Finished<'s> {
+    /// The reference's smoother with the signals (the replay takes them from it).
+    smoother: &'s Smoother,
     grid: Grid,
     window: (usize, usize),
     input_column: usize,
@@ -608,7 +640,7 @@ fn summarise<M: InverseModel + ?Sized>(
     cycle: &Cycle,
     opts: &SimulationOptions,
     zd: &ZeroDynamicsPlan,
-    run: &Finished,
+    run: &Finished<'_>,
     tally: Tally<'_>,
     data: &mut [Vec<f64>],
 ) -> Result<Summary, SimulateError> {
@@ -627,8 +659,15 @@ fn summarise<M: InverseModel + ?Sized>(
     warnings.extend(run.distance_warning.clone());
     let (max_abs_tracking_error, rms_tracking_error) = if opts.verify {
         let state_column = run.input_column + 1;
-        let (max_abs, rms, verify_warnings) =
-            verify_forward(model, &run.grid, data, run.input_column, state_column, opts)?;
+        let (max_abs, rms, verify_warnings) = verify_forward(
+            model,
+            run.smoother,
+            &run.grid,
+            data,
+            run.input_column,
+            state_column,
+            opts,
+        )?;
         warnings.extend(verify_warnings);
         (Some(max_abs), Some(rms))
     } else {
@@ -678,7 +717,7 @@ fn summarise<M: InverseModel + ?Sized>(
 fn non_finite<M: InverseModel + ?Sized>(
     model: &M,
     t: f64,
-    yd: &[f64],
+    (yd, w): (&[f64], &[f64]),
     eta: &[f64],
     u: f64,
     x: &[f64],
@@ -691,7 +730,7 @@ fn non_finite<M: InverseModel + ?Sized>(
     }
     if !u.is_finite() {
         let r = info.relative_degree;
-        let beta = model.beta(&yd[..r], eta);
+        let beta = model.beta(&yd[..r], eta, w);
         if beta == 0.0 || !beta.is_finite() {
             return SimulateError::SingularDecoupling { t, beta };
         }

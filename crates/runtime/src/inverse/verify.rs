@@ -7,6 +7,7 @@ use super::options::SimulationOptions;
 use crate::grid::Grid;
 use crate::ode::Dopri5;
 use crate::report::fmt_sig;
+use crate::smoother::Smoother;
 
 /// Open-loop verification: simulate the original model dx/dt = f(x) + g(x)u forward from the inverse's state
 /// x(t_0) with the inverse's *sampled* input, and compare y = h(x) with y_d on the grid. `data` holds the run's
@@ -19,9 +20,11 @@ use crate::report::fmt_sig;
 /// original model is integrated with the same adaptive Dormand–Prince 5(4) method and tolerances as the zero
 /// dynamics, interval by interval (the interpolated input has a kink at every grid point, but is continuous,
 /// so the FSAL stage carries over). A model whose right-hand side is not finite along the replay is an error
-/// ([`SimulateError::Verification`]). Returns (max |y − y_d|, rms (y − y_d), warnings).
+/// ([`SimulateError::Verification`]). Returns (max |y − y_d|, rms (y − y_d), warnings). The replay takes the
+/// model's signals from `smoother` SMOOTHED (the signals the inverse used), evaluated at every stage time.
 pub(super) fn verify_forward<M: InverseModel + ?Sized>(
     model: &M,
+    smoother: &Smoother,
     grid: &Grid,
     data: &[Vec<f64>],
     input_column: usize,
@@ -29,6 +32,7 @@ pub(super) fn verify_forward<M: InverseModel + ?Sized>(
     opts: &SimulationOptions,
 ) -> Result<(f64, f64, Vec<String>), SimulateError> {
     let n = model.info().n_states();
+    let mut w_s = vec![0.0; model.info().n_w()];
     let u = &data[input_column];
     let yd0 = &data[1];
     let mut x: Vec<f64> = (0..n).map(|j| data[state_column + j][0]).collect();
@@ -43,7 +47,8 @@ pub(super) fn verify_forward<M: InverseModel + ?Sized>(
             let width = tb - ta;
             let mut rhs = |s: f64, x: &[f64], dx: &mut [f64]| -> Result<(), SimulateError> {
                 let w = ((s - ta) / width).clamp(0.0, 1.0);
-                model.rhs(x, ua + w * (ub - ua), dx);
+                smoother.eval_signals(s, &mut w_s);
+                model.rhs(x, &w_s, ua + w * (ub - ua), dx);
                 Ok(())
             };
             match integrator.advance(ta, tb, &mut x, &mut rhs) {
@@ -67,7 +72,8 @@ pub(super) fn verify_forward<M: InverseModel + ?Sized>(
                 ));
             }
         }
-        let err = model.h(&x) - yd0_k;
+        smoother.eval_signals(grid.time(k), &mut w_s);
+        let err = model.h(&x, &w_s) - yd0_k;
         max_abs = max_abs.max(err.abs());
         sum_sq += err * err;
     }

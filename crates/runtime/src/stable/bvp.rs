@@ -126,6 +126,9 @@ struct Bvp<'a, M: ?Sized> {
     h: f64,
     /// y_d … y_d^(r) at the nodes and the midpoints: half-node i at t_a + i h/2, row-wise (r + 1 per point).
     yd: Vec<f64>,
+    /// The smoothed signal values at the same points, row-wise (`nw` per point).
+    w: Vec<f64>,
+    nw: usize,
     /// Scale of each component of η (for norms).
     scale: Vec<f64>,
 }
@@ -150,6 +153,18 @@ impl<'a, M: InverseModel + ?Sized> Bvp<'a, M> {
                 *o = c[i];
             }
         }
+        let nw = info.n_w();
+        let mut w_cols = vec![vec![0.0; points]; nw];
+        {
+            let mut views: Vec<&mut [f64]> = w_cols.iter_mut().map(|c| c.as_mut_slice()).collect();
+            smoother.eval_signals_grid(&times, Some(h / 2.0), &mut views);
+        }
+        let mut w = vec![0.0; points * nw];
+        for (i, row) in w.chunks_exact_mut(nw.max(1)).enumerate().take(points) {
+            for (o, c) in row.iter_mut().zip(&w_cols) {
+                *o = c[i];
+            }
+        }
         Bvp {
             model,
             plan,
@@ -158,6 +173,8 @@ impl<'a, M: InverseModel + ?Sized> Bvp<'a, M> {
             k,
             h,
             yd,
+            w,
+            nw,
             scale: vec![1.0; m],
         }
     }
@@ -166,7 +183,14 @@ impl<'a, M: InverseModel + ?Sized> Bvp<'a, M> {
     #[inline]
     fn q(&self, i: usize, eta: &[f64], out: &mut [f64]) {
         let p = &self.yd[i * (self.r + 1)..(i + 1) * (self.r + 1)];
-        self.model.zero_dynamics(&p[..self.r], eta, p[self.r], out);
+        self.model
+            .zero_dynamics(&p[..self.r], eta, self.w_at(i), p[self.r], out);
+    }
+
+    /// The signal values at half-node i.
+    #[inline]
+    fn w_at(&self, i: usize) -> &[f64] {
+        &self.w[i * self.nw..(i + 1) * self.nw]
     }
 
     /// ∂q/∂η at half-node i by forward differences from the value `q0` there, into `jac` (row-major m × m).
@@ -219,7 +243,8 @@ impl<'a, M: InverseModel + ?Sized> Bvp<'a, M> {
         let mut previous = self.plan.eta_a.clone();
         for j in 0..=self.k {
             let p = &self.yd[2 * j * (r + 1)..(2 * j + 1) * (r + 1)];
-            if let Ok(e) = newton(self.model, &p[..r], p[r], previous.clone(), 8) {
+            let w = self.w_at(2 * j);
+            if let Ok(e) = newton(self.model, &p[..r], w, p[r], previous.clone(), 8) {
                 previous = e;
             }
             eta[j * m..(j + 1) * m].copy_from_slice(&previous);
@@ -581,7 +606,8 @@ fn dichotomy_check<M: InverseModel + ?Sized>(
     let every = ((1.0 / bvp.h).round() as usize).max(1);
     (0..=bvp.k).step_by(every).find_map(|j| {
         let p = &bvp.yd[2 * j * (r + 1)..(2 * j + 1) * (r + 1)];
-        let lin = Linearization::at(bvp.model, &p[..r], &eta[j * m..(j + 1) * m], p[r]);
+        let w = bvp.w_at(2 * j);
+        let lin = Linearization::at(bvp.model, &p[..r], w, &eta[j * m..(j + 1) * m], p[r]);
         (lin.eigenvalues.is_empty() || lin.unstable_count() != unstable)
             .then_some((bvp.plan.t_a + j as f64 * bvp.h, lin.eigenvalues))
     })

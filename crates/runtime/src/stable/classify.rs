@@ -38,8 +38,10 @@ fn level<M: InverseModel + ?Sized>(model: &M, y: f64, guess: Option<&[f64]>) -> 
     let r = model.info().relative_degree;
     let mut xi = [0.0; MAX_DERIVATIVES];
     xi[0] = y;
-    let eta = equilibrium(model, &xi[..r], 0.0, guess, &default_starts(y)).ok()?;
-    let lin = Linearization::at(model, &xi[..r], &eta, 0.0);
+    // The signals at their nominal values (defaults, derivatives 0): the classification is by output level.
+    let w = model.info().nominal_w();
+    let eta = equilibrium(model, &xi[..r], &w, 0.0, guess, &default_starts(y)).ok()?;
+    let lin = Linearization::at(model, &xi[..r], &w, &eta, 0.0);
     Some(Level {
         y,
         eta,

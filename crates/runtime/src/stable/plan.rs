@@ -42,17 +42,19 @@ pub(crate) fn plan<M: InverseModel + ?Sized>(
     let (r, m) = (info.relative_degree, info.n_eta);
     let fail = |reason: String| StableError::StableInversion { reason };
     let mut yd = [0.0; MAX_DERIVATIVES];
+    let mut w = vec![0.0; info.n_w()];
     let mut end = |t: f64,
                    guess: Option<&[f64]>|
      -> Result<(Vec<f64>, Linearization), StableError> {
         smoother.eval(t, &mut yd[..=r]);
-        let e = equilibrium(model, &yd[..r], yd[r], guess, &default_starts(yd[0])).map_err(|_| {
+        smoother.eval_signals(t, &mut w);
+        let e = equilibrium(model, &yd[..r], &w, yd[r], guess, &default_starts(yd[0])).map_err(|_| {
             fail(format!(
                 "no equilibrium of the zero dynamics for the constant reference y = {} at t = {t} s",
                 fmt_sig(yd[0], 8)
             ))
         })?;
-        let lin = Linearization::at(model, &yd[..r], &e, yd[r]);
+        let lin = Linearization::at(model, &yd[..r], &w, &e, yd[r]);
         Ok((e, lin))
     };
     let (eta_a, a_a) = end(t_a, guess)?;

@@ -173,33 +173,46 @@ impl InverseModel for SiEngine {
         self.update();
         Ok(())
     }
-    fn h(&self, x: &[f64]) -> f64 {
+    fn h(&self, x: &[f64], _w: &[f64]) -> f64 {
         x[0]
     }
-    fn psi(&self, x: &[f64], xi: &mut [f64], _eta: &mut [f64]) {
+    fn psi(&self, x: &[f64], _w: &[f64], xi: &mut [f64], _eta: &mut [f64]) {
         let [c1, c2, c3, c4, ..] = self.c;
         xi[0] = x[0];
         xi[1] = c1 * x[0] * x[0] + c2 * spow(x[0], 1.8) + c3 * x[1] + c4;
     }
-    fn psi_inv(&self, xi: &[f64], _eta: &[f64], x: &mut [f64]) -> Result<(), ModelError> {
+    fn psi_inv(
+        &self,
+        xi: &[f64],
+        _eta: &[f64],
+        _w: &[f64],
+        x: &mut [f64],
+    ) -> Result<(), ModelError> {
         x[0] = xi[0];
         x[1] = self.p_i(xi);
         Ok(())
     }
     /// α(ξ) = (1.8 c2 ξ1^0.8 + 2 c1 ξ1) ξ2 + c3 (c5 ξ1 + c6 ξ1 x2) (paper eq. 28).
-    fn alpha(&self, xi: &[f64], _eta: &[f64]) -> f64 {
+    fn alpha(&self, xi: &[f64], _eta: &[f64], _w: &[f64]) -> f64 {
         let [c1, c2, c3, _, c5, c6, _] = self.c;
         let x2 = self.p_i(xi);
         (1.8 * c2 * xi[0].abs().powf(0.8) + 2.0 * c1 * xi[0]) * xi[1]
             + c3 * (c5 * xi[0] + c6 * xi[0] * x2)
     }
     /// β = c3 c7 (paper eq. 28).
-    fn beta(&self, _xi: &[f64], _eta: &[f64]) -> f64 {
+    fn beta(&self, _xi: &[f64], _eta: &[f64], _w: &[f64]) -> f64 {
         self.c[2] * self.c[6]
     }
-    fn zero_dynamics(&self, _xi: &[f64], _eta: &[f64], _yr: f64, _deta: &mut [f64]) {}
+    fn zero_dynamics(&self, _xi: &[f64], _eta: &[f64], _w: &[f64], _yr: f64, _deta: &mut [f64]) {}
     /// ψ⁻¹ and u = (y^(r) − α)/β with the common subexpressions shared (one `powf`), as generated code does.
-    fn invert(&self, xi: &[f64], _eta: &[f64], yr: f64, x: &mut [f64]) -> Result<f64, ModelError> {
+    fn invert(
+        &self,
+        xi: &[f64],
+        _eta: &[f64],
+        _w: &[f64],
+        yr: f64,
+        x: &mut [f64],
+    ) -> Result<f64, ModelError> {
         let [c1, c2, c3, c4, c5, c6, c7] = self.c;
         let (v, dv) = (xi[0], xi[1]);
         // |v|^0.8 is d(v^1.8)/dv / 1.8 for the odd extension v^1.8 := v |v|^0.8.
@@ -210,7 +223,7 @@ impl InverseModel for SiEngine {
         let alpha = (1.8 * c2 * v08 + 2.0 * c1 * v) * dv + c3 * (c5 * v + c6 * v * p_i);
         Ok((yr - alpha) / (c3 * c7))
     }
-    fn rhs(&self, x: &[f64], u: f64, dx: &mut [f64]) {
+    fn rhs(&self, x: &[f64], _w: &[f64], u: f64, dx: &mut [f64]) {
         let [c1, c2, c3, c4, c5, c6, c7] = self.c;
         let v18 = if self.strict_domain {
             x[0].powf(1.8)
@@ -221,7 +234,7 @@ impl InverseModel for SiEngine {
         dx[1] = c5 * x[0] + c6 * x[0] * x[1] + c7 * u;
     }
     /// fuel = ṁ_at / (λ AFs) in kg/s, and its volume in l/s.
-    fn outputs(&self, _x: &[f64], u: f64, out: &mut [f64]) {
+    fn outputs(&self, _x: &[f64], _w: &[f64], u: f64, out: &mut [f64]) {
         let fuel = u * self.fuel_per_air;
         out[0] = fuel;
         out[1] = fuel / FUEL_DENSITY * 1000.0;
@@ -297,39 +310,45 @@ impl InverseModel for LinearR2 {
     fn set_param(&mut self, name: &str, value: f64) -> Result<(), ModelError> {
         set_param_checked(&self.info, &mut self.params, name, value)
     }
-    fn h(&self, x: &[f64]) -> f64 {
+    fn h(&self, x: &[f64], _w: &[f64]) -> f64 {
         x[0]
     }
-    fn psi(&self, x: &[f64], xi: &mut [f64], eta: &mut [f64]) {
+    fn psi(&self, x: &[f64], _w: &[f64], xi: &mut [f64], eta: &mut [f64]) {
         xi[0] = x[0];
         xi[1] = x[1];
         eta[0] = x[2];
     }
-    fn psi_inv(&self, xi: &[f64], eta: &[f64], x: &mut [f64]) -> Result<(), ModelError> {
+    fn psi_inv(
+        &self,
+        xi: &[f64],
+        eta: &[f64],
+        _w: &[f64],
+        x: &mut [f64],
+    ) -> Result<(), ModelError> {
         x[0] = xi[0];
         x[1] = xi[1];
         x[2] = eta[0];
         Ok(())
     }
-    fn alpha(&self, xi: &[f64], eta: &[f64]) -> f64 {
+    fn alpha(&self, xi: &[f64], eta: &[f64], _w: &[f64]) -> f64 {
         let [a0, a1, ..] = self.p();
         -a0 * xi[0] - a1 * xi[1] + eta[0]
     }
-    fn beta(&self, _xi: &[f64], _eta: &[f64]) -> f64 {
+    fn beta(&self, _xi: &[f64], _eta: &[f64], _w: &[f64]) -> f64 {
         1.0
     }
-    fn zero_dynamics(&self, xi: &[f64], eta: &[f64], yr: f64, deta: &mut [f64]) {
+    fn zero_dynamics(&self, xi: &[f64], eta: &[f64], _w: &[f64], yr: f64, deta: &mut [f64]) {
         let [_, _, k, b, c] = self.p();
-        let u = (yr - self.alpha(xi, eta)) / self.beta(xi, eta);
+        let u = (yr - self.alpha(xi, eta, &[])) / self.beta(xi, eta, &[]);
         deta[0] = -k * eta[0] + b * xi[0] + c * u;
     }
-    fn rhs(&self, x: &[f64], u: f64, dx: &mut [f64]) {
+    fn rhs(&self, x: &[f64], _w: &[f64], u: f64, dx: &mut [f64]) {
         let [a0, a1, k, b, c] = self.p();
         dx[0] = x[1];
         dx[1] = -a0 * x[0] - a1 * x[1] + x[2] + u;
         dx[2] = -k * x[2] + b * x[0] + c * u;
     }
-    fn outputs(&self, _x: &[f64], u: f64, out: &mut [f64]) {
+    fn outputs(&self, _x: &[f64], _w: &[f64], u: f64, out: &mut [f64]) {
         out[0] = u * u;
     }
 }
@@ -367,29 +386,29 @@ impl InverseModel for NanOutput {
     fn set_param(&mut self, name: &str, value: f64) -> Result<(), ModelError> {
         self.inner.set_param(name, value)
     }
-    fn h(&self, x: &[f64]) -> f64 {
-        self.inner.h(x)
+    fn h(&self, x: &[f64], w: &[f64]) -> f64 {
+        self.inner.h(x, w)
     }
-    fn psi(&self, x: &[f64], xi: &mut [f64], eta: &mut [f64]) {
-        self.inner.psi(x, xi, eta)
+    fn psi(&self, x: &[f64], w: &[f64], xi: &mut [f64], eta: &mut [f64]) {
+        self.inner.psi(x, w, xi, eta)
     }
-    fn psi_inv(&self, xi: &[f64], eta: &[f64], x: &mut [f64]) -> Result<(), ModelError> {
-        self.inner.psi_inv(xi, eta, x)
+    fn psi_inv(&self, xi: &[f64], eta: &[f64], w: &[f64], x: &mut [f64]) -> Result<(), ModelError> {
+        self.inner.psi_inv(xi, eta, w, x)
     }
-    fn alpha(&self, xi: &[f64], eta: &[f64]) -> f64 {
-        self.inner.alpha(xi, eta)
+    fn alpha(&self, xi: &[f64], eta: &[f64], w: &[f64]) -> f64 {
+        self.inner.alpha(xi, eta, w)
     }
-    fn beta(&self, xi: &[f64], eta: &[f64]) -> f64 {
-        self.inner.beta(xi, eta)
+    fn beta(&self, xi: &[f64], eta: &[f64], w: &[f64]) -> f64 {
+        self.inner.beta(xi, eta, w)
     }
-    fn zero_dynamics(&self, xi: &[f64], eta: &[f64], yr: f64, deta: &mut [f64]) {
-        self.inner.zero_dynamics(xi, eta, yr, deta)
+    fn zero_dynamics(&self, xi: &[f64], eta: &[f64], w: &[f64], yr: f64, deta: &mut [f64]) {
+        self.inner.zero_dynamics(xi, eta, w, yr, deta)
     }
-    fn rhs(&self, x: &[f64], u: f64, dx: &mut [f64]) {
-        self.inner.rhs(x, u, dx)
+    fn rhs(&self, x: &[f64], w: &[f64], u: f64, dx: &mut [f64]) {
+        self.inner.rhs(x, w, u, dx)
     }
-    fn outputs(&self, x: &[f64], u: f64, out: &mut [f64]) {
-        self.inner.outputs(x, u, &mut out[..2]);
+    fn outputs(&self, x: &[f64], w: &[f64], u: f64, out: &mut [f64]) {
+        self.inner.outputs(x, w, u, &mut out[..2]);
         out[2] = (self.v_max - x[0]).sqrt();
     }
 }
