@@ -4,7 +4,7 @@
 For each vehicle (2012 Ford Fusion, 2016 Nissan Leaf) the vehicle file is exported from the installed
 `fastsim` package and imported with `invsim import fastsim`; each cycle (UDDS, HWFET, WLTC class 3b) is run by
 FASTSim's `SimDrive.walk()` (trace misses allowed, and reported) and by `invsim simulate` on the same CSV
-trace. The table compares the fuel (kg, `fc.energy_fuel_joules` / specific energy) or the battery's chemical
+trace, and UDDS once more on a road with a varying grade. The table compares the fuel (kg, `fc.energy_fuel_joules` / specific energy) or the battery's chemical
 energy (kWh, `res.energy_out_chemical_joules`, = delta SOC x capacity). Exit status 1 when a difference is
 outside the tolerance (2 % on UDDS and HWFET, 4 % on WLTC 3b), 2 on a usage error.
 
@@ -61,6 +61,11 @@ def load_cycles(cycle_dir):
             out[name] = (label, tol, (d["time_seconds"], d["speed_meters_per_second"], d["grade"]))
         else:
             print(f"skipped: {label} (no {name}.csv in {cycle_dir or 'no cycle directory'}; FASTSim ships none)")
+    # The grade path too: UDDS on a road of grade 0.02 sin(t / 100 s) (FASTSim's ascent m g grade v, rolling
+    # resistance times cos(atan(grade)); invsim's `grade` signal from the cycle's grade column).
+    t, v, _ = out["udds"][2]
+    graded = [0.02 * math.sin(x / 100.0) for x in t]
+    out["udds_graded"] = ("UDDS+gr", 0.02, (t, v, graded))
     return out
 
 

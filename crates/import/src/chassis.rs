@@ -88,7 +88,6 @@ pub fn emit(doc: &Doc, model: &mut Model) -> Result<(), ImportError> {
     )?;
     model.constant("rho_a", AIR_DENSITY, "kg/m^3", "air density; FASTSim's constant (Air::get_density at its default elevation), not a field of the vehicle file");
     model.constant("g_0", GRAVITY, "m/s^2", "gravitational acceleration; FASTSim's constant uc::ACC_GRAV, not a field of the vehicle file");
-    model.constant("grade", 0.0, "-", "road grade, rise over run; FASTSim's cycle field `grade` (a parameter here: set it with --set grade=...)");
     model.def("m_eff", "m + n_w*J_w/r_w^2", "kg", "vehicle mass with the wheels' rotating inertia (FASTSim's wheel-inertia power 0.5 n_w J_w d(v/r_w)^2/dt)");
     model.def(
         "F_res",

@@ -99,6 +99,7 @@ impl Model {
                 quote(&p.doc)
             ));
         }
+        s.push_str(SIGNALS);
         s.push_str("\n[definitions]\n");
         for d in &self.defs {
             s.push_str(&render_item(d));
@@ -111,6 +112,13 @@ impl Model {
         s
     }
 }
+
+/// The road grade, FASTSim's cycle field `grade`: from the cycle file's `grade` (or `cycGrade`) column, or
+/// `--signal grade=…`, else 0.
+const SIGNALS: &str = r#"
+[signals]
+grade = { default = 0.0, column = "grade", unit = "-", doc = "road grade, rise over run; FASTSim's cycle field `grade` (the cycle file's grade or cycGrade column, or --signal grade=...)" }
+"#;
 
 /// Vehicle speed driven by the tractive force at the wheels (FASTSim's road-load equation, quasi-static in
 /// FASTSim; here the state of a relative-degree-one model).
