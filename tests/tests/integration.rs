@@ -1,4 +1,5 @@
 //! The integration tests of this crate in one test binary (one link instead of one per file):
+//! - `bev`: The battery-electric car against a hand integration of its equations on UDDS and HWFET, and its charge state
 //! - `codegen_vs_interpreter`: Generated code, compiled, agrees with the interpreter tape: every `InverseModel` method of every loadable
 //! - `docs_fresh`: The committed derived-equation documents (`docs/models/*.md`, `docs/README.md`) are what
 //! - `golden`: The generated source for `models/si_engine.toml` equals the reviewed copy in
@@ -9,6 +10,7 @@
 //!   smoothed signal against quadrature, si_engine_grade against its original equations, constant signal vs parameter, fuel vs grade
 //! - `tidy`: The workspace's habits as tests (rust-analyzer's `tidy`): every source file opens with `//!`, no function
 
+mod bev;
 mod codegen_vs_interpreter;
 mod docs_fresh;
 mod golden;

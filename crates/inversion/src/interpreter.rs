@@ -147,7 +147,7 @@ fn compile(
 /// isolated, (ξ, η, w, yr) → u.
 fn non_affine_tapes(d: &Derivation, params: &[Symbol]) -> Result<(Tape, Tape), InterpretError> {
     let u = d.model.input.symbol;
-    let (phi_exprs, sol_exprs): (Vec<Id>, Vec<Id>) = if d.affine || !d.psi_inv_closed() {
+    let (phi_exprs, sol_exprs): (Vec<Id>, Vec<Id>) = if d.yr_affine || !d.psi_inv_closed() {
         (Vec::new(), Vec::new())
     } else {
         (
@@ -196,7 +196,7 @@ impl Interpreter {
                     Solution::Numeric => None,
                 })
                 .collect();
-            if d.affine {
+            if d.yr_affine {
                 exprs.push(d.alpha);
                 exprs.push(d.beta);
                 (
@@ -219,7 +219,7 @@ impl Interpreter {
         for row in &d.jacobian {
             newton_exprs.extend(row.iter().copied());
         }
-        if d.affine {
+        if d.yr_affine {
             newton_exprs.push(d.alpha_x);
             newton_exprs.push(d.beta_x);
         } else {
@@ -272,7 +272,7 @@ impl Interpreter {
             n: states.len(),
             r: d.relative_degree,
             closed,
-            affine: d.affine,
+            affine: d.yr_affine,
             u_start: match (m.input.min, m.input.max) {
                 (Some(lo), Some(hi)) => 0.5 * (lo + hi),
                 (Some(b), None) | (None, Some(b)) => b,

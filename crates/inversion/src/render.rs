@@ -190,7 +190,7 @@ impl Derivation {
                 o.remove("alpha");
                 o.remove("beta");
             }
-            out["yr_equation"] = json!(self.show(self.alpha));
+            out["yr_equation"] = json!(self.show(self.yr_equation.unwrap_or(self.alpha)));
             out["input_solution"] = match self.input_solution {
                 Some(e) => json!(self.show(e)),
                 None => Value::Null,
@@ -337,8 +337,12 @@ impl Derivation {
         } else {
             let u = &m.input.name;
             let _ = writeln!(s, "\ny^(r) = yr, not affine in the input {u}:");
-            let _ = writeln!(s, "  yr = {}", self.show(self.alpha));
-            let _ = writeln!(s, "  d(yr)/d({u}) = {}", self.show(self.beta));
+            let _ = writeln!(
+                s,
+                "  yr = {}",
+                self.show(self.yr_equation.unwrap_or(self.alpha))
+            );
+            let _ = writeln!(s, "  d(yr)/d({u}) = {}", self.show(self.beta_x));
             match self.input_solution {
                 Some(e) => {
                     let _ = writeln!(s, "  {u} = {}", self.show(e));
@@ -631,8 +635,8 @@ impl Derivation {
                 s,
                 "## Input–output form\n\nThe model is not affine in the input: $y^{{(r)}} = \\varphi(\\xi, \\eta, w, u)$ \
                  with\n\n$$\n\\begin{{aligned}}\n\\varphi &= {} \\\\\n\\partial\\varphi/\\partial u &= {}\n\\end{{aligned}}\n$$\n\n{solution}",
-                self.tex(self.alpha),
-                self.tex(self.beta)
+                self.tex(self.yr_equation.unwrap_or(self.alpha)),
+                self.tex(self.beta_x)
             );
             return;
         }

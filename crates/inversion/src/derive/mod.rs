@@ -142,6 +142,12 @@ pub struct Derivation {
     /// `alpha` = φ ∘ ψ⁻¹ (the `yr_equation`, containing u), `beta` = ∂φ/∂u ∘ ψ⁻¹ (the decoupling term, which
     /// may contain u), `alpha_x`, `beta_x` the same in the states.
     pub affine: bool,
+    /// y^(r) is affine in the input (always for affine models; for a non-affine one when only internal
+    /// states are non-affine): then `alpha`, `beta`, `alpha_x`, `beta_x` are u-free and u = (yr − α)/β, so
+    /// every affine code path applies (the fused inverse, generated code).
+    pub yr_affine: bool,
+    /// Non-affine models: y^(r) = φ ∘ ψ⁻¹ in (ξ, η, w, u) (the JSON's `yr_equation`).
+    pub yr_equation: Option<Id>,
     /// Non-affine models: u from y^(r) = yr by isolation, in (ξ, η, w, yr) and in (x, w, yr); `None` where
     /// only Newton's method solves it (always `None` for affine models, whose u = (yr − α)/β).
     pub input_solution: Option<Id>,
@@ -289,6 +295,8 @@ impl Derivation {
         );
         let pool = &mut model.pool;
         let mut domain = domain;
+        let (mut alpha_x, mut beta_x) = (alpha_x, decoupling);
+        let (mut yr_affine, mut yr_equation) = (true, None);
         let (normal, input_solution, input_solution_x) = if affine {
             let nf = normal_form(
                 pool,
@@ -300,21 +308,23 @@ impl Derivation {
             );
             (nf, None, None)
         } else {
-            let na = non_affine::non_affine_form(
+            let na = non_affine::non_affine(
                 pool,
                 &coords,
                 (alpha_x, decoupling),
                 (&rhs, &eta_states),
-                (u, yr),
+                (u, yr, &nominal),
             );
-            domain.extend(na.domain);
+            (alpha_x, beta_x, yr_affine) = (na.alpha_x, na.beta_x, na.yr_affine);
+            yr_equation = Some(na.form.yr_equation);
+            domain.extend(na.form.domain);
             let nf = NormalForm {
-                alpha: na.yr_equation,
-                beta: na.dphi_du,
-                zero_dynamics: na.zero_dynamics,
-                zero_dynamics_x: na.zero_dynamics_x,
+                alpha: na.alpha,
+                beta: na.beta,
+                zero_dynamics: na.form.zero_dynamics,
+                zero_dynamics_x: na.form.zero_dynamics_x,
             };
-            (nf, na.input_solution, na.input_solution_x)
+            (nf, na.form.input_solution, na.form.input_solution_x)
         };
         let NormalForm {
             alpha,
@@ -357,11 +367,13 @@ impl Derivation {
             alpha,
             beta,
             alpha_x,
-            beta_x: decoupling,
+            beta_x,
             zero_dynamics,
             zero_dynamics_x,
             yr,
             affine,
+            yr_affine,
+            yr_equation,
             input_solution,
             input_solution_x,
             w: field.w_symbols(r),

@@ -83,8 +83,57 @@ pub(super) struct NonAffineForm {
     pub(super) domain: Vec<(Id, String)>,
 }
 
+/// The derivation's quantities of a non-affine model: where y^(r) = φ is itself affine in u (only internal
+/// states are non-affine, as a charge state with I²R losses), α = φ|_(u=0) and β = ∂φ/∂u are free of u and
+/// every affine code path (α, β, the fused inverse, generated code) applies; otherwise α and β are φ and
+/// ∂φ/∂u (both may contain u).
+pub(super) struct NonAffine {
+    pub(super) form: NonAffineForm,
+    pub(super) yr_affine: bool,
+    /// α, β in (ξ, η) and in the states.
+    pub(super) alpha: Id,
+    pub(super) beta: Id,
+    pub(super) alpha_x: Id,
+    pub(super) beta_x: Id,
+}
+
+/// [`NonAffine`] from φ = D^r h and ∂φ/∂u in the states.
+pub(super) fn non_affine(
+    pool: &mut Pool,
+    coords: &ToCoordinates<'_>,
+    (phi_x, dphi_x): (Id, Id),
+    (rhs, eta_states): (&[Id], &[usize]),
+    (u, yr, nominal): (Symbol, Symbol, &HashMap<Symbol, f64>),
+) -> NonAffine {
+    let form = non_affine_form(pool, coords, (phi_x, dphi_x), (rhs, eta_states), (u, yr));
+    let d2 = pool.diff(dphi_x, u);
+    let yr_affine = zero_test(pool, d2, nominal).is_zero();
+    if !yr_affine {
+        return NonAffine {
+            alpha: form.yr_equation,
+            beta: form.dphi_du,
+            alpha_x: phi_x,
+            beta_x: dphi_x,
+            form,
+            yr_affine,
+        };
+    }
+    let zero = pool.zero();
+    let u_zero = HashMap::from([(u, zero)]);
+    let alpha_x = pool.substitute(phi_x, &u_zero);
+    let beta_x = pool.substitute(dphi_x, &u_zero);
+    NonAffine {
+        alpha: coords.apply(pool, alpha_x),
+        beta: coords.apply(pool, beta_x),
+        alpha_x,
+        beta_x,
+        form,
+        yr_affine,
+    }
+}
+
 /// The normal form of a non-affine model from φ = D^r h and ∂φ/∂u in the states.
-pub(super) fn non_affine_form(
+fn non_affine_form(
     pool: &mut Pool,
     coords: &ToCoordinates<'_>,
     (phi_x, dphi_x): (Id, Id),
