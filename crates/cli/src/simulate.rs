@@ -62,13 +62,49 @@ pub struct SimulateArgs {
     /// inverted stably, non-causally, with pre- and post-actuation).
     #[arg(long)]
     causal: bool,
+    /// Models with modes: how a switch enters the new mode (`reentry`: the reference blends from the state
+    /// into the cycle; `quasi-static`: the state jumps by an impulse of the free input).
+    #[arg(long, value_enum, default_value_t = SwitchingArg::Reentry)]
+    switching: SwitchingArg,
+    /// Models with modes: the re-entry's transition time in seconds (default: the look-ahead).
+    #[arg(long)]
+    transition_time: Option<f64>,
     /// Keep the pre- and post-actuation samples of a stable inversion (t before the cycle's start and after its
     /// end) in the CSV, the plot and the summary's integrals.
     #[arg(long)]
     include_extension: bool,
 }
 
+/// `--switching`.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SwitchingArg {
+    Reentry,
+    QuasiStatic,
+}
+
 pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
+    if let Some(m) = crate::modal_cmd::read_modal(&args.model)? {
+        return crate::modal_cmd::simulate(
+            m,
+            &crate::modal_cmd::ModalRun {
+                model: &args.model,
+                cycle: &args.cycle,
+                max_cycle_bytes: args.max_cycle_bytes,
+                lookahead: args.lookahead,
+                dt: args.dt,
+                set: &args.set,
+                out: args.out.as_deref(),
+                summary_json: args.summary_json.as_deref(),
+                verify: args.verify,
+                switching: match args.switching {
+                    SwitchingArg::Reentry => invsim_runtime::modes::Switching::Reentry,
+                    SwitchingArg::QuasiStatic => invsim_runtime::modes::Switching::QuasiStatic,
+                },
+                transition_time: args.transition_time,
+            },
+        );
+    }
     let (mut outputs, cycle, model) = prepare_run(&RunRequest {
         model: &args.model,
         engine: args.engine,

@@ -18,6 +18,7 @@ pub mod grid;
 pub mod initial;
 pub mod inverse;
 pub mod kernel;
+pub mod modes;
 mod numfmt;
 pub mod ode;
 pub mod operating_points;

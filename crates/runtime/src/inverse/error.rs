@@ -45,6 +45,11 @@ pub enum SimulateError {
     RelativeDegreeTooHigh { relative_degree: usize, max: usize },
     #[error("cannot smooth the drive cycle: {0}")]
     Smoother(#[from] SmootherError),
+    #[error("at {at}: {}", super::map_check::describe(violation))]
+    MapOutsideGrid {
+        at: String,
+        violation: invsim_model_api::map::Violation,
+    },
     #[error(
         "the decoupling coefficient β(ξ, η) = L_g L_f^(r−1) h is {beta_} at t = {t_} s, so the input \
          u = (y^(r) − α)/β is undefined there: the relative degree is not well defined at this operating point",

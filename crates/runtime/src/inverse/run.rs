@@ -304,6 +304,7 @@ fn run_blocks<M: InverseModel + ?Sized>(
     } else {
         (0..data.len()).map(|_| vec![0.0; BLOCK]).collect()
     };
+    super::map_check::clear();
     let mut k0 = 0;
     while k0 < samples {
         let k1 = (k0 + BLOCK).min(samples);
@@ -340,6 +341,7 @@ fn run_blocks<M: InverseModel + ?Sized>(
             model.outputs_batch(&xs, b.w, b.u, b.out);
         }
         check_finite(model, &b)?;
+        super::map_check::check(model, &b)?;
         tally.record_block(&b);
         tally.progress.report(k1, samples);
         k0 = k1;
