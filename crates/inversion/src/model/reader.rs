@@ -129,8 +129,15 @@ impl Reader<'_> {
         };
         let tracks_speed = output.reference_offset.unwrap_or(0.0) == 0.0
             && output.reference_scale.unwrap_or(1.0) == 1.0;
-        let mut m = Interned::new(parameters, definitions, &states, (&input, &signals), &maps, &items)
-            .map_err(|t| self.too_large_definition(t))?;
+        let mut m = Interned::new(
+            parameters,
+            definitions,
+            &states,
+            (&input, &signals),
+            &maps,
+            &items,
+        )
+        .map_err(|t| self.too_large_definition(t))?;
         let signals: Vec<Signal> = signals
             .into_iter()
             .map(|s| Signal {
