@@ -14,6 +14,7 @@ mod engine;
 mod error;
 mod files;
 mod forward;
+mod map_args;
 mod outputs;
 mod plotting;
 mod progress;

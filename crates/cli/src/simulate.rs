@@ -35,6 +35,10 @@ pub struct SimulateArgs {
     #[arg(long = "signal", value_name = "NAME=FILE.csv|VALUE")]
     #[serde(skip_serializing_if = "Vec::is_empty")]
     signal: Vec<String>,
+    /// Replace a lookup map's grid and values: NAME=FILE.csv (the model file's map CSV format); repeatable.
+    #[arg(long = "map", value_name = "NAME=FILE.csv")]
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    map: Vec<String>,
     /// Write the time series as CSV.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -60,7 +64,7 @@ pub struct SimulateArgs {
 }
 
 pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
-    let (mut outputs, cycle, model) = prepare_run(&RunRequest {
+    let (mut outputs, cycle, mut model) = prepare_run(&RunRequest {
         model: &args.model,
         engine: args.engine,
         cycle: &args.cycle,
@@ -70,6 +74,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
         summary_json: args.summary_json.as_deref(),
         plot: &args.plot,
     })?;
+    crate::map_args::apply(&mut model, &args.map)?;
     let stopped = |e: SimulateError| {
         Failure::user(format!(
             "simulation of `{}` on `{}` stopped: {e}",

@@ -74,6 +74,7 @@ mod values;
 
 pub use error::{ModelError, ModelErrorKind};
 pub use expressions::{MAX_EXPRESSION_LEN, MAX_EXPRESSION_NESTING};
+pub use map_csv::read_map_file;
 pub use reader::MAX_MODEL_FILE_BYTES;
 pub use signals::{derivative_name, MAX_SIGNAL_DERIVATIVE};
 pub use validated::{
