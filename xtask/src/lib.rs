@@ -4,7 +4,8 @@
 //! * `gen MODEL [--out DIR]` — Rust source and Markdown derivation for one model file ([`gen`]);
 //! * `docs [--check]` — the derived-equation documents `docs/models/<name>.md` and `docs/README.md` ([`docs`]);
 //! * `golden [--bless]` — the golden copy of the generated si_engine source ([`golden`]);
-//! * `figures [--check]` — the SVG figures under `docs/figures/` ([`figures`]).
+//! * `figures [--check]` — the SVG figures under `docs/figures/` ([`figures`]);
+//! * `vehicles [--check]` — the FASTSim vehicle library `models/vehicles/` ([`vehicles`]).
 //!
 //! The tasks are a library so that the workspace's tests check exactly what the tasks write. Every file a task
 //! generates goes through [`ensure_file_contents`], which writes it only if it changed or, in check mode, fails
@@ -14,6 +15,7 @@ pub mod docs;
 pub mod figures;
 pub mod gen;
 pub mod golden;
+pub mod vehicles;
 
 use std::path::{Path, PathBuf};
 
@@ -67,6 +69,10 @@ pub fn model_files(root: &Path) -> Result<Vec<PathBuf>, Failure> {
         .filter_map(|e| e.ok())
         .map(|e| e.path())
         .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+        // Models with operating modes run through the interpreter: no generated code or document (yet).
+        .filter(|p| {
+            !std::fs::read_to_string(p).is_ok_and(|t| t.lines().any(|l| l.starts_with("[modes.")))
+        })
         .filter_map(|p| p.file_name().map(|f| Path::new("models").join(f)))
         .collect();
     files.sort();

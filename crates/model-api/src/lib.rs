@@ -55,6 +55,10 @@ pub struct ModelInfo {
     pub engine: Option<EngineInfo>,
     /// Exogenous signals (the model file's `[signals]`), in file order.
     pub signals: Vec<SignalInfo>,
+    /// Each state's `initial` value from the model file (`None` where it gives none), in state order.
+    pub state_initial: Vec<Option<f64>>,
+    /// Indices of the states chosen as the internal coordinates: η_j = x_{eta_states[j]}.
+    pub eta_states: Vec<usize>,
 }
 
 impl ModelInfo {

@@ -50,6 +50,9 @@
 //! | `split.rs` | the affine split rhs → f + g·u and its check (check 7) |
 //! | `validated.rs` | the validated [`Model`] |
 //! | `reader.rs` | the pipeline from bytes to [`Model`] |
+//! | `modal.rs` | the types of a model with several inputs and modes ([`ModalModel`]) |
+//! | `gearbox.rs` | `[gearbox]`: gear parameters and the shift schedule |
+//! | `modes.rs` | `[inputs]` and `[modes]`: one single-input tree per mode, built by the ordinary reader |
 //!
 //! Imports go one way — each file imports only files listed before it: error, validated, spanned, tree,
 //! names, values, signals, engine, map_csv, maps, raw, expressions, definitions, smooth, split, reader.
@@ -59,8 +62,11 @@ mod engine;
 mod error;
 mod expressions;
 pub(crate) mod finite;
+mod gearbox;
 mod map_csv;
 mod maps;
+mod modal;
+mod modes;
 mod names;
 mod raw;
 mod reader;
@@ -75,6 +81,10 @@ mod values;
 pub use error::{ModelError, ModelErrorKind};
 pub use expressions::{MAX_EXPRESSION_LEN, MAX_EXPRESSION_NESTING};
 pub use map_csv::read_map_file;
+pub use gearbox::MAX_GEARS;
+pub use modal::{
+    Gearbox, ModalInput, ModalModel, Mode, ModeRole, ModelFile, Schedule, SequenceOptions,
+};
 pub use reader::MAX_MODEL_FILE_BYTES;
 pub use signals::{derivative_name, MAX_SIGNAL_DERIVATIVE};
 pub use validated::{

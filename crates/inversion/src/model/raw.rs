@@ -46,6 +46,8 @@ pub(super) struct RawState {
     pub(super) equation: RawEquation,
     pub(super) unit: Option<String>,
     pub(super) doc: Option<String>,
+    /// `initial = VALUE`: the state's value at the start of a run where the inversion does not fix it.
+    pub(super) initial: Option<f64>,
 }
 
 /// `[input]` as written.
@@ -347,7 +349,7 @@ impl Reader<'_> {
                     ),
                 ));
             };
-            self.known_keys(t, &["rhs", "f", "g", "unit", "doc"], &what)?;
+            self.known_keys(t, &["rhs", "f", "g", "unit", "doc", "initial"], &what)?;
             let at_table = tv_at(v).or(key_at(k));
             let equation = match (get_key(t, "rhs"), get_key(t, "f"), get_key(t, "g")) {
                 (Some((_, rhs)), None, None) => RawEquation::Rhs(self.expression(rhs, &format!("{what}'s rhs"))?),
@@ -390,6 +392,9 @@ impl Reader<'_> {
                 equation,
                 unit: self.optional_string(t, "unit", &what)?,
                 doc: self.optional_string(t, "doc", &what)?,
+                initial: get(t, "initial")
+                    .map(|v| self.number(v, &format!("{what}'s `initial`")))
+                    .transpose()?,
             });
         }
         Ok(out)

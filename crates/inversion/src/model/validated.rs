@@ -112,6 +112,9 @@ pub struct State {
     pub f: Id,
     /// The input gain, free of the input.
     pub g: Id,
+    /// `initial = VALUE`: the value at the start of a run for a state the inversion does not fix (an internal
+    /// state); `None` when the model file gives none.
+    pub initial: Option<f64>,
 }
 
 /// The model's single input `u`.
