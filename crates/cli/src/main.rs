@@ -15,6 +15,7 @@ mod engine;
 mod error;
 mod files;
 mod forward;
+mod map_args;
 mod import_cmd;
 mod initial_args;
 mod modal_cmd;
