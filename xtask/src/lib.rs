@@ -4,7 +4,8 @@
 //! * `gen MODEL [--out DIR]` — Rust source and Markdown derivation for one model file ([`gen`]);
 //! * `docs [--check]` — the derived-equation documents `docs/models/<name>.md` and `docs/README.md` ([`docs`]);
 //! * `golden [--bless]` — the golden copy of the generated si_engine source ([`golden`]);
-//! * `figures [--check]` — the SVG figures under `docs/figures/` ([`figures`]).
+//! * `figures [--check]` — the SVG figures under `docs/figures/` ([`figures`]);
+//! * `vehicles [--check]` — the FASTSim vehicle library `models/vehicles/` ([`vehicles`]).
 //!
 //! The tasks are a library so that the workspace's tests check exactly what the tasks write. Every file a task
 //! generates goes through [`ensure_file_contents`], which writes it only if it changed or, in check mode, fails
@@ -14,6 +15,7 @@ pub mod docs;
 pub mod figures;
 pub mod gen;
 pub mod golden;
+pub mod vehicles;
 
 use std::path::{Path, PathBuf};
 

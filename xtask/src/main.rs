@@ -3,7 +3,7 @@
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 use std::process::ExitCode;
-use xtask::{docs, figures, gen, golden, workspace_root, Failure};
+use xtask::{docs, figures, gen, golden, vehicles, workspace_root, Failure};
 
 #[derive(Parser, Debug)]
 #[command(name = "xtask", about = "invsim developer tasks", long_about = None)]
@@ -37,6 +37,13 @@ enum Task {
     /// Regenerate the SVG figures in docs/figures/ (the paper's figures reproduced, and others).
     Figures {
         /// Render into a scratch directory and check that every figure renders; write nothing to docs/.
+        #[arg(long)]
+        check: bool,
+    },
+    /// Export the FASTSim vehicles of the library from the installed `fastsim` package into models/vehicles/
+    /// (NAME.yaml) and import them (NAME.toml).
+    Vehicles {
+        /// Export nothing (no Python needed): re-import the stored vehicle files and fail listing stale models.
         #[arg(long)]
         check: bool,
     },
@@ -76,6 +83,14 @@ fn main() -> ExitCode {
                 println!("blessed {}", path.display());
             } else {
                 println!("{} is up to date", path.display());
+            }
+        }),
+        Task::Vehicles { check } => vehicles::run(&root, check).map(|written| {
+            if written.is_empty() {
+                println!("vehicles are up to date");
+            }
+            for w in written {
+                println!("updated {}", w.display());
             }
         }),
         Task::Test { no_python } => run_tests(&root, no_python),

@@ -1,6 +1,7 @@
 //! The `invsim` command line: `derive` prints a model's inversion, `simulate` runs it along a drive cycle,
 //! `sweep` runs many parameter variants of it, `forward` runs the original model along the cycle with a PI
-//! driver, `cycles` lists the built-in drive cycles, `completions` prints a shell completion script.
+//! driver, `cycles` lists the built-in drive cycles, `import` turns
+//! a FASTSim vehicle file into a model file, `completions` prints a shell completion script.
 //!
 //! Exit status (contract §3): 0 on success, 2 on a user error (bad model or cycle file, bad option, a model
 //! the method cannot invert, a simulation that had to stop), 3 when some variants of a sweep failed, with a
@@ -14,6 +15,8 @@ mod engine;
 mod error;
 mod files;
 mod forward;
+mod import_cmd;
+mod initial_args;
 mod modal_cmd;
 mod outputs;
 mod plotting;
@@ -54,6 +57,8 @@ enum Command {
     Forward(forward::ForwardArgs),
     /// List the built-in drive cycles with their duration, distance and top speed.
     Cycles(cycles_cmd::CyclesArgs),
+    /// Import another tool's vehicle file as a model file (`invsim import fastsim VEHICLE.yaml`).
+    Import(import_cmd::ImportArgs),
     /// Print a shell completion script (bash, zsh, fish, elvish, powershell) on stdout.
     Completions(completions::CompletionsArgs),
 }
@@ -66,6 +71,7 @@ fn main() -> ExitCode {
         Command::Sweep(args) => sweep_cmd::run(&args),
         Command::Forward(args) => forward::run(&args),
         Command::Cycles(args) => cycles_cmd::run(&args),
+        Command::Import(args) => import_cmd::run(&args),
         Command::Completions(args) => completions::run(&args, Cli::command()),
     };
     match result {

@@ -15,6 +15,7 @@ pub mod cycle;
 mod error;
 pub mod forward;
 pub mod grid;
+pub mod initial;
 pub mod inverse;
 pub mod kernel;
 pub mod modes;

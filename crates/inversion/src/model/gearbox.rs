@@ -19,7 +19,7 @@ impl Reader<'_> {
     ) -> Result<Vec<(f64, Option<usize>)>, ModelError> {
         let at = tv_at(v);
         let bad = |m: String| self.err(at, ModelErrorKind::Schema, m);
-        if !matches!(v.kind, Kind::Array) {
+        if !matches!(v.kind, Kind::Array(_)) {
             return Err(bad(format!(
                 "{what} must be an array of numbers, found {}",
                 v.kind.type_name()

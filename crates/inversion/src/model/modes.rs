@@ -23,7 +23,7 @@ pub(super) fn clone_tv(v: &Tv) -> Tv {
             Kind::Float(x) => Kind::Float(*x),
             Kind::Bool(b) => Kind::Bool(*b),
             Kind::Datetime => Kind::Datetime,
-            Kind::Array => Kind::Array,
+            Kind::Array(items) => Kind::Array(items.iter().map(clone_tv).collect()),
             Kind::Table(e) => {
                 Kind::Table(e.iter().map(|(k, v)| (clone_key(k), clone_tv(v))).collect())
             }

@@ -9,7 +9,7 @@ use super::raw::RawModel;
 use super::spanned::Reader;
 use super::split::extra_outputs;
 use super::tree::Tv;
-use super::validated::{Input, Model, Signal};
+use super::validated::{Input, MapInfo, Model, Signal};
 use sha2::{Digest, Sha256};
 use std::io::Read;
 use std::path::Path;
@@ -132,6 +132,9 @@ impl Reader<'_> {
     /// The checks on meaning, in order: names, expressions, definitions, smoothness, the affine split.
     pub(super) fn build(&self, raw: RawModel, source_hash: String) -> Result<Model, ModelError> {
         let names = self.declare(raw.declarations())?;
+        let declared = raw.declarations().into_iter().map(|(n, at, _)| (n, at));
+        let outputs_declared = raw.outputs.iter().map(|e| (e.name.as_str(), e.at));
+        self.check_derivative_names(&raw.maps, declared.chain(outputs_declared))?;
         self.check_columns(&names, raw.outputs.iter().map(|e| (e.name.as_str(), e.at)))?;
         let items = self.parse_all(&raw, &names)?;
         let uses = self.definition_graph(&raw, &names, &items)?;
@@ -147,6 +150,7 @@ impl Reader<'_> {
             output,
             outputs,
             engine,
+            maps,
             signals,
         } = raw;
         let engine = {
@@ -157,8 +161,15 @@ impl Reader<'_> {
         };
         let tracks_speed = output.reference_offset.unwrap_or(0.0) == 0.0
             && output.reference_scale.unwrap_or(1.0) == 1.0;
-        let mut m = Interned::new(parameters, definitions, &states, (&input, &signals), &items)
-            .map_err(|t| self.too_large_definition(t))?;
+        let mut m = Interned::new(
+            parameters,
+            definitions,
+            &states,
+            (&input, &signals),
+            &maps,
+            &items,
+        )
+        .map_err(|t| self.too_large_definition(t))?;
         let signals: Vec<Signal> = signals
             .into_iter()
             .map(|s| Signal {
@@ -174,6 +185,18 @@ impl Reader<'_> {
         let output = self.split_output(output, &input.name, &mut m, &items)?;
         self.check_finite(&m.pool, &m.nominal, (&states, &output), &items)?;
         let outputs = extra_outputs(outputs, tracks_speed, &mut m);
+        let maps = maps
+            .into_iter()
+            .map(|r| MapInfo {
+                id: m.pool.find_map(&r.name).expect("declared by Interned::new"),
+                name: r.name,
+                args: r.args,
+                unit: r.unit,
+                doc: r.doc,
+                file: r.file,
+                data: r.data,
+            })
+            .collect();
 
         let name = name.unwrap_or_else(|| {
             self.file
@@ -203,6 +226,7 @@ impl Reader<'_> {
             output,
             outputs,
             engine,
+            maps,
             signals,
         })
     }

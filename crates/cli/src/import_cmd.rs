@@ -1,0 +1,57 @@
+//! `invsim import fastsim VEHICLE.yaml [--out MODEL.toml]`: a FASTSim 3 vehicle file as an invsim model file
+//! (the importer is the `invsim-import` crate); warnings on stderr, the model on stdout or into `--out`.
+
+use crate::error::Failure;
+use clap::{Args, Subcommand};
+use std::path::PathBuf;
+
+#[derive(Args, Debug)]
+pub struct ImportArgs {
+    #[command(subcommand)]
+    pub format: ImportFormat,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum ImportFormat {
+    /// A FASTSim 3 vehicle file (YAML; conventional or battery-electric).
+    Fastsim {
+        /// The vehicle file, e.g. from `fastsim.Vehicle.from_resource(name).to_yaml()`.
+        vehicle: PathBuf,
+        /// Write the model here instead of stdout.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+}
+
+pub fn run(args: &ImportArgs) -> Result<(), Failure> {
+    let ImportFormat::Fastsim { vehicle, out } = &args.format;
+    let shown = vehicle.display().to_string();
+    let text =
+        std::fs::read(vehicle).map_err(|e| Failure::user(format!("{shown}: cannot read: {e}")))?;
+    let text = String::from_utf8(text).map_err(|e| {
+        Failure::user(format!(
+            "{shown}: not UTF-8 text (byte {})",
+            e.utf8_error().valid_up_to()
+        ))
+    })?;
+    let source = vehicle
+        .file_name()
+        .map_or(shown.clone(), |n| n.to_string_lossy().into_owned());
+    let imported = invsim_import::import_fastsim(&text, &source).map_err(|e| match e {
+        invsim_import::ImportError::Yaml { .. } => Failure::user(format!("{shown}:{e}")),
+        other => Failure::user(format!("{shown}: {other}")),
+    })?;
+    for w in &imported.warnings {
+        eprintln!("invsim: warning: {shown}: {w}");
+    }
+    match out {
+        Some(path) => std::fs::write(path, &imported.model)
+            .map_err(|e| Failure::user(format!("{}: cannot write: {e}", path.display()))),
+        None => {
+            use std::io::Write;
+            std::io::stdout()
+                .write_all(imported.model.as_bytes())
+                .map_err(|e| Failure::user(format!("stdout: {e}")))
+        }
+    }
+}

@@ -1,0 +1,106 @@
+//! A conventional vehicle (`pt_type: Conv`): engine (fuel converter) with its efficiency curve over the load
+//! fraction, transmission efficiency, alternator efficiency for the auxiliary load, idle fuel power.
+
+use crate::chassis::positive;
+use crate::curve::{scalar, table};
+use crate::efficiency;
+use crate::error::ImportError;
+use crate::model::Model;
+use crate::yaml::Doc;
+
+const BASE: &str = "pt_type.Conv";
+
+/// Emit the powertrain. FASTSim (fuel_converter.rs, conv.rs): P_fc = max(P_w, 0)/η_t + P_aux/η_alt (the
+/// engine never absorbs braking power; the friction brakes do), η = e(P_fc / P_fc,max) from the table,
+/// P_fuel = max(P_fc/η, P_idle) while the engine runs (always, without stop-start), fuel mass = ∫ P_fuel / e_f.
+pub fn emit(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<(), ImportError> {
+    let p = |f: &str| format!("{BASE}.{f}");
+    model.field(
+        "P_fc_max",
+        positive(doc, &p("fc.pwr_out_max_watts"))?,
+        "W",
+        "engine peak power",
+        &p("fc.pwr_out_max_watts"),
+    )?;
+    let (eta_t, eta_t_path) = scalar(doc, &p("transmission.eff_interp"))?;
+    model.field("eta_t", eta_t, "-", "transmission efficiency", &eta_t_path)?;
+    model.field(
+        "eta_alt",
+        positive(doc, &p("alt_eff"))?,
+        "-",
+        "alternator efficiency (the auxiliary load drawn from the engine)",
+        &p("alt_eff"),
+    )?;
+    model.field(
+        "P_idle",
+        doc.num(&p("fc.pwr_idle_fuel_watts"))?,
+        "W",
+        "idle fuel power: the floor of the fuel power while the engine runs",
+        &p("fc.pwr_idle_fuel_watts"),
+    )?;
+    model.field(
+        "e_f",
+        positive(doc, &p("fs.specific_energy_joules_per_kilogram"))?,
+        "J/kg",
+        "fuel specific energy (lower heating value)",
+        &p("fs.specific_energy_joules_per_kilogram"),
+    )?;
+    let curve = table(doc, &p("fc.eff_interp_from_pwr_out"))?;
+    model.def("P_fc", "max(P_w, 0)/eta_t + P_aux/eta_alt", "W", "engine output power: traction through the transmission plus the auxiliary load through the alternator");
+    let eff = efficiency::emit(model, "fc", &curve, "P_fc/P_fc_max", "engine efficiency")?;
+    model.def(
+        "P_fuel",
+        &format!("max(P_fc/{eff}, P_idle)"),
+        "W",
+        "fuel power, at least the idle fuel power",
+    );
+    model.output("fuel", "P_fuel/e_f", "kg/s", "fuel mass flow", true);
+    model.output(
+        "fuel_energy",
+        "P_fuel",
+        "W",
+        "fuel power; its integral is FASTSim's `fc.energy_fuel_joules`",
+        true,
+    );
+    model.output("P_wheel", "P_w", "W", "tractive power at the wheels", false);
+    model.output(
+        "P_engine",
+        "P_fc",
+        "W",
+        "engine output power (traction and auxiliary load)",
+        false,
+    );
+    model.output(
+        "fc_load",
+        "P_fc/P_fc_max",
+        "-",
+        "engine load fraction; above 1 FASTSim would miss the trace",
+        false,
+    );
+    model.output("eff_engine", &eff, "-", "engine efficiency", false);
+    conv_controls(doc, warnings);
+    Ok(())
+}
+
+/// Stop-start and fuel cut-off: FASTSim's `pt_cntrl` and `dfco_cntrl`; only the plain engine that always runs
+/// and no cut-off are reproduced, anything else is named in a warning.
+fn conv_controls(doc: &Doc, warnings: &mut Vec<String>) {
+    let cntrl = format!("{BASE}.pt_cntrl");
+    if let Some(v) = doc.get(&cntrl) {
+        if v.as_str() != Some("Normal") {
+            warnings.push(format!("`{cntrl}` is not `Normal`: stop-start is not modelled (the engine runs all the time)"));
+        }
+    }
+    let dfco = format!("{BASE}.dfco_cntrl.dfco_enabled");
+    if doc.get(&dfco).and_then(serde_yaml::Value::as_bool) == Some(true) {
+        warnings.push(format!("`{dfco}` is true: deceleration fuel cut-off is not modelled (fuel is burnt at the idle floor while braking)"));
+    }
+    doc.mark(&format!("{BASE}.dfco_cntrl"));
+    if doc
+        .get(&format!("{BASE}.fc.thrml"))
+        .and_then(serde_yaml::Value::as_str)
+        == Some("None")
+    {
+        doc.mark(&format!("{BASE}.fc.thrml"));
+    }
+}

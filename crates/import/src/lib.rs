@@ -1,0 +1,22 @@
+//! Importers of other tools' vehicle files into invsim model files. FASTSim 3 (NREL, Apache-2.0): a
+//! conventional or battery-electric vehicle file becomes a model with one state (the vehicle speed), the
+//! tractive force at the wheels as input (negative = braking) and FASTSim's energy flows in `[outputs]`, every
+//! parameter carrying its unit and a doc naming the FASTSim field it came from. Hybrids and unknown powertrain
+//! types are refused; fields the model does not use are listed as warnings.
+
+mod bev;
+mod chassis;
+mod conv;
+mod curve;
+mod efficiency;
+mod error;
+mod fastsim;
+mod model;
+mod unsupported;
+mod yaml;
+
+pub use chassis::{AIR_DENSITY, GRAVITY};
+pub use error::ImportError;
+pub use fastsim::{import_fastsim, Imported, Powertrain};
+pub use yaml::lookup as yaml_lookup;
+pub use yaml::parse as parse_yaml;

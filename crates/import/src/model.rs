@@ -1,0 +1,190 @@
+//! The invsim model file being built: parameters (value, unit, doc naming the FASTSim field), definitions,
+//! the speed state driven by the tractive force, outputs; rendered as TOML text.
+
+use crate::error::ImportError;
+
+/// One parameter of the generated model.
+#[derive(Debug, Clone)]
+pub struct Param {
+    pub name: String,
+    pub value: f64,
+    pub unit: String,
+    pub doc: String,
+}
+
+/// One definition or output: name, expression, unit, doc, and for outputs whether it is accumulated.
+#[derive(Debug, Clone)]
+pub struct Item {
+    pub name: String,
+    pub expr: String,
+    pub unit: String,
+    pub doc: String,
+    pub accumulate: Option<bool>,
+}
+
+/// A model under construction.
+#[derive(Debug, Default)]
+pub struct Model {
+    pub name: String,
+    pub description: String,
+    pub header: Vec<String>,
+    pub params: Vec<Param>,
+    pub defs: Vec<Item>,
+    pub outputs: Vec<Item>,
+}
+
+impl Model {
+    /// A parameter read from the FASTSim field `path` (its doc names the field).
+    pub fn field(
+        &mut self,
+        name: &str,
+        value: f64,
+        unit: &str,
+        what: &str,
+        path: &str,
+    ) -> Result<(), ImportError> {
+        if !value.is_finite() {
+            return Err(ImportError::field(
+                path,
+                format!("{value} is not a finite number"),
+            ));
+        }
+        self.params.push(Param {
+            name: name.to_string(),
+            value,
+            unit: unit.to_string(),
+            doc: format!("{what}; FASTSim `{path}`"),
+        });
+        Ok(())
+    }
+
+    /// A parameter that is a constant of FASTSim's physics (not a field of the vehicle file).
+    pub fn constant(&mut self, name: &str, value: f64, unit: &str, doc: &str) {
+        self.params.push(Param {
+            name: name.to_string(),
+            value,
+            unit: unit.to_string(),
+            doc: doc.to_string(),
+        });
+    }
+
+    /// A definition.
+    pub fn def(&mut self, name: &str, expr: &str, unit: &str, doc: &str) {
+        self.defs.push(item(name, expr, unit, doc, None));
+    }
+
+    /// An extra output; `accumulate` integrates it over the run.
+    pub fn output(&mut self, name: &str, expr: &str, unit: &str, doc: &str, accumulate: bool) {
+        self.outputs
+            .push(item(name, expr, unit, doc, Some(accumulate)));
+    }
+
+    /// The TOML text of the model.
+    pub fn render(&self) -> String {
+        let mut s = String::new();
+        for line in &self.header {
+            s.push_str(&format!("# {line}\n").replace("# \n", "#\n"));
+        }
+        s.push_str(&format!("name = {}\n", quote(&self.name)));
+        s.push_str(&format!(
+            "description = {}\n\n[parameters]\n",
+            quote(&self.description)
+        ));
+        for p in &self.params {
+            s.push_str(&format!(
+                "{} = {{ value = {}, unit = {}, doc = {} }}\n",
+                p.name,
+                number(p.value),
+                quote(&p.unit),
+                quote(&p.doc)
+            ));
+        }
+        s.push_str(SIGNALS);
+        s.push_str("\n[definitions]\n");
+        for d in &self.defs {
+            s.push_str(&render_item(d));
+        }
+        s.push_str(STATE_AND_INPUT);
+        s.push_str("\n[outputs]\n");
+        for o in &self.outputs {
+            s.push_str(&render_item(o));
+        }
+        s
+    }
+}
+
+/// The road grade, FASTSim's cycle field `grade`: from the cycle file's `grade` (or `cycGrade`) column, or
+/// `--signal grade=…`, else 0.
+const SIGNALS: &str = r#"
+[signals]
+grade = { default = 0.0, column = "grade", unit = "-", doc = "road grade, rise over run; FASTSim's cycle field `grade` (the cycle file's grade or cycGrade column, or --signal grade=...)" }
+"#;
+
+/// Vehicle speed driven by the tractive force at the wheels (FASTSim's road-load equation, quasi-static in
+/// FASTSim; here the state of a relative-degree-one model).
+const STATE_AND_INPUT: &str = r#"
+[states]
+v = { rhs = "(F_t - F_res)/m_eff", unit = "m/s", doc = "vehicle speed: m_eff dv/dt = F_t - F_res" }
+
+[input]
+name = "F_t"
+unit = "N"
+doc = "tractive force at the wheels; negative = braking"
+
+[output]
+name = "v"
+h = "v"
+unit = "m/s"
+doc = "vehicle speed"
+"#;
+
+fn item(name: &str, expr: &str, unit: &str, doc: &str, accumulate: Option<bool>) -> Item {
+    Item {
+        name: name.to_string(),
+        expr: expr.to_string(),
+        unit: unit.to_string(),
+        doc: doc.to_string(),
+        accumulate,
+    }
+}
+
+fn render_item(i: &Item) -> String {
+    let acc = match i.accumulate {
+        Some(true) => ", accumulate = true",
+        _ => "",
+    };
+    format!(
+        "{} = {{ expr = {}, unit = {}{acc}, doc = {} }}\n",
+        i.name,
+        quote(&i.expr),
+        quote(&i.unit),
+        quote(&i.doc)
+    )
+}
+
+/// A TOML float that reads back to the same f64 (Rust's shortest round-trip form).
+pub fn number(x: f64) -> String {
+    let s = format!("{x:?}");
+    if s.contains(['.', 'e', 'E']) {
+        s
+    } else {
+        format!("{s}.0")
+    }
+}
+
+/// A TOML basic string.
+pub fn quote(s: &str) -> String {
+    let mut out = String::from("\"");
+    for c in s.chars() {
+        match c {
+            '"' => out.push_str("\\\""),
+            '\\' => out.push_str("\\\\"),
+            c if (c as u32) < 0x20 || c == '\u{7f}' => {
+                out.push_str(&format!("\\u{:04x}", c as u32))
+            }
+            c => out.push(c),
+        }
+    }
+    out.push('"');
+    out
+}

@@ -1,0 +1,9 @@
+//! The integration tests of this crate in one test binary:
+//! - `library`: the vehicle library `models/vehicles/` is what the importer makes of its stored FASTSim files;
+//! - `parameters`: every parameter of the imported Fusion and Leaf equals the vehicle file's field its doc names;
+//! - `refused`: hybrids, unknown powertrain types and malformed YAML are refused with a clear message.
+
+mod common;
+mod library;
+mod parameters;
+mod refused;

@@ -1,0 +1,46 @@
+//! Vehicle files the importer refuses: hybrids and unknown powertrain types (with the type named), malformed
+//! YAML (with line and column), a file without a total mass.
+
+use crate::common::vehicles_dir;
+use invsim_import::{import_fastsim, ImportError};
+
+#[test]
+fn hybrid_and_unknown_types_are_refused_by_name() {
+    for kind in ["HEV", "PHEV", "FuelCell"] {
+        let text = format!("name: x\npt_type:\n  {kind}:\n    res: {{}}\nchassis: {{}}\n");
+        match import_fastsim(&text, "x.yaml") {
+            Err(ImportError::Powertrain { kind: k, reason }) => {
+                assert_eq!(k, kind);
+                assert!(
+                    reason.contains("Conv") && reason.contains("BEV"),
+                    "{reason}"
+                );
+            }
+            other => panic!("{kind}: {other:?}"),
+        }
+    }
+}
+
+#[test]
+fn malformed_yaml_gives_line_and_column() {
+    let text = "name: x\npt_type:\n  Conv: [1, 2\nchassis: {}\n";
+    match import_fastsim(text, "x.yaml") {
+        Err(ImportError::Yaml { line, column, .. }) => {
+            assert!(line >= 3 && column >= 1, "{line}:{column}")
+        }
+        other => panic!("{other:?}"),
+    }
+    let e = import_fastsim("a: b: c\n", "x.yaml").unwrap_err();
+    assert!(e.to_string().starts_with("1:"), "{e}");
+}
+
+#[test]
+fn missing_mass_is_named() {
+    let text = std::fs::read_to_string(vehicles_dir().join("ford_fusion_2012.yaml")).unwrap();
+    let text = text.replace(
+        "\nmass_kilograms: 1644.2724500334996",
+        "\nmass_kilograms: ~",
+    );
+    let e = import_fastsim(&text, "f.yaml").unwrap_err();
+    assert!(e.to_string().contains("`mass_kilograms`"), "{e}");
+}

@@ -1,0 +1,161 @@
+#!/usr/bin/env python3
+"""Cross-check invsim against FASTSim 3 on FASTSim's own vehicles.
+
+For each vehicle (2012 Ford Fusion, 2016 Nissan Leaf) the vehicle file is exported from the installed
+`fastsim` package and imported with `invsim import fastsim`; each cycle (UDDS, HWFET, WLTC class 3b) is run by
+FASTSim's `SimDrive.walk()` (trace misses allowed, and reported) and by `invsim simulate` on the same CSV
+trace, and UDDS once more on a road with a varying grade. The table compares the fuel (kg, `fc.energy_fuel_joules` / specific energy) or the battery's chemical
+energy (kWh, `res.energy_out_chemical_joules`, = delta SOC x capacity). Exit status 1 when a difference is
+outside the tolerance (2 % on UDDS and HWFET, 4 % on WLTC 3b), 2 on a usage error.
+
+Usage: python tests/fastsim/crosscheck.py [--invsim PATH] [--cycles DIR] [--lookahead A] [--dt DT]
+  --invsim   the invsim binary (default: target/release/invsim of this repository)
+  --cycles   directory with udds.csv, hwfet.csv, wltc_3b.csv (FASTSim's legacy layout: cycSecs, cycMps,
+             cycGrade; default: ../shared/cycles beside the repository); without it, FASTSim's bundled
+             UDDS and HWFET are used and WLTC 3b is skipped with a message.
+"""
+
+import argparse
+import csv
+import json
+import math
+import os
+import subprocess
+import sys
+import tempfile
+
+import warnings
+
+warnings.filterwarnings("ignore", category=DeprecationWarning)
+import fastsim  # noqa: E402
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+VEHICLES = [
+    ("2012_Ford_Fusion.yaml", "fuel", "kg"),
+    ("2016 Nissan Leaf 30 kWh thrml.yaml", "battery_energy", "kWh"),
+]
+CYCLES = [("udds", "UDDS", 0.02), ("hwfet", "HWFET", 0.02), ("wltc_3b", "WLTC 3b", 0.04)]
+MPH = 0.44704
+
+
+def read_cycle(path):
+    """(time_s, speed_mps, grade) lists from a legacy FASTSim cycle CSV (BOM accepted)."""
+    t, v, g = [], [], []
+    with open(path, encoding="utf-8-sig", newline="") as f:
+        for row in csv.DictReader(f):
+            t.append(float(row["cycSecs"]))
+            v.append(float(row["cycMps"]))
+            g.append(float(row.get("cycGrade") or 0.0))
+    return t, v, g
+
+
+def load_cycles(cycle_dir):
+    """name -> (label, tolerance, (t, v, g)) for the cycles available."""
+    out = {}
+    for name, label, tol in CYCLES:
+        path = os.path.join(cycle_dir, name + ".csv") if cycle_dir else None
+        if path and os.path.exists(path):
+            out[name] = (label, tol, read_cycle(path))
+        elif name in ("udds", "hwfet"):
+            d = fastsim.Cycle.from_resource(name + ".csv").to_dict()
+            out[name] = (label, tol, (d["time_seconds"], d["speed_meters_per_second"], d["grade"]))
+        else:
+            print(f"skipped: {label} (no {name}.csv in {cycle_dir or 'no cycle directory'}; FASTSim ships none)")
+    # The grade path too: UDDS on a road of grade 0.02 sin(t / 100 s) (FASTSim's ascent m g grade v, rolling
+    # resistance times cos(atan(grade)); invsim's `grade` signal from the cycle's grade column).
+    t, v, _ = out["udds"][2]
+    graded = [0.02 * math.sin(x / 100.0) for x in t]
+    out["udds_graded"] = ("UDDS+gr", 0.02, (t, v, graded))
+    return out
+
+
+def fastsim_run(resource, trace, quantity):
+    """FASTSim's figure (kg or kWh) and its trace misses (steps, largest shortfall in m/s)."""
+    t, v, g = trace
+    veh = fastsim.Vehicle.from_resource(resource)
+    cyc = fastsim.Cycle.from_dict({"time_seconds": t, "speed_meters_per_second": v, "grade": g})
+    params = fastsim.SimParams.default().to_dict()
+    params["trace_miss_opts"] = "Allow"
+    sd = fastsim.SimDrive(veh, cyc, fastsim.SimParams.from_dict(params))
+    sd.walk()
+    r = sd.to_dict(flatten=True)
+    if quantity == "fuel":
+        energy = r["veh.pt_type.Conv.fc.history.energy_fuel_joules"][-1]
+        spec = r["veh.pt_type.Conv.fs.specific_energy_joules_per_kilogram"]
+        value = energy / spec
+    else:
+        value = r["veh.pt_type.BEV.res.history.energy_out_chemical_joules"][-1] / 3.6e6
+    ach = r["veh.history.speed_ach_meters_per_second"]
+    short = [vc - va for vc, va in zip(v, ach)]
+    misses = sum(1 for s in short if s > 0.01 * MPH)
+    return value, misses, max([0.0] + short)
+
+
+def write_csv(path, trace):
+    t, v, g = trace
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["time_s", "speed_mps", "grade"])
+        for row in zip(t, v, g):
+            w.writerow([repr(x) for x in row])
+
+
+def invsim_run(invsim, model, cycle_csv, quantity, args):
+    """invsim's figure for the same trace."""
+    with tempfile.TemporaryDirectory() as tmp:
+        summary = os.path.join(tmp, "s.json")
+        cmd = [invsim, "simulate", model, "--cycle", cycle_csv, "--lookahead", str(args.lookahead),
+               "--dt", str(args.dt), "--summary-json", summary]
+        subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+        with open(summary) as f:
+            return json.load(f)["integrals"][quantity]
+
+
+def import_vehicle(invsim, resource, tmp):
+    yaml_path = os.path.join(tmp, resource.replace(" ", "_"))
+    with open(yaml_path, "w") as f:
+        f.write(fastsim.Vehicle.from_resource(resource).to_yaml())
+    model = yaml_path[:-5] + ".toml"
+    subprocess.run([invsim, "import", "fastsim", yaml_path, "--out", model], check=True,
+                   stderr=subprocess.DEVNULL)
+    return model
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--invsim", default=os.path.join(ROOT, "target", "release", "invsim"))
+    ap.add_argument("--cycles", default=os.path.join(os.path.dirname(ROOT), "shared", "cycles"))
+    ap.add_argument("--lookahead", type=float, default=1.0)
+    ap.add_argument("--dt", type=float, default=0.1)
+    args = ap.parse_args()
+    if not os.path.exists(args.invsim):
+        print(f"crosscheck: no invsim binary at {args.invsim} (cargo build --release -p invsim)", file=sys.stderr)
+        return 2
+    cycles = load_cycles(args.cycles if os.path.isdir(args.cycles) else None)
+    print(f"FASTSim {fastsim.__version__} vs invsim (lookahead {args.lookahead} s, dt {args.dt} s)")
+    print(f"{'vehicle':<30} {'cycle':<8} {'FASTSim':>10} {'invsim':>10} {'unit':<4} {'diff':>7} {'tol':>4}"
+          f" {'FASTSim trace misses':<28} result")
+    failed = 0
+    with tempfile.TemporaryDirectory() as tmp:
+        for resource, quantity, unit in VEHICLES:
+            model = import_vehicle(args.invsim, resource, tmp)
+            for name, (label, tol, trace) in cycles.items():
+                cycle_csv = os.path.join(tmp, name + ".csv")
+                write_csv(cycle_csv, trace)
+                ref, misses, worst = fastsim_run(resource, trace, quantity)
+                ours = invsim_run(args.invsim, model, cycle_csv, quantity, args)
+                diff = ours / ref - 1.0
+                ok = math.isfinite(diff) and abs(diff) <= tol
+                failed += not ok
+                miss = f"{misses} steps, max {worst:.3f} m/s" if misses else "none"
+                print(f"{resource[:-5]:<30} {label:<8} {ref:>10.4f} {ours:>10.4f} {unit:<4} {100 * diff:>+6.2f}%"
+                      f" {100 * tol:>3.0f}% {miss:<28} {'ok' if ok else 'OUTSIDE TOLERANCE'}")
+    if failed:
+        print(f"crosscheck: {failed} figure(s) outside the tolerance", file=sys.stderr)
+        return 1
+    print("crosscheck: all figures within the tolerance")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
