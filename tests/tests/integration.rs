@@ -5,6 +5,8 @@
 //! - `golden`: The generated source for `models/si_engine.toml` equals the reviewed copy in
 //! - `inverse_consistency`: The inverse simulation satisfies the original model: along NEDC, at every sample, the state and input that
 //! - `known_answers`: One harness, every engine, every known-answer model: each model of `tests/models/known/` (listed with its
+//! - `signals`: Exogenous signals against independent references: total derivatives against finite differences, the
+//!   smoothed signal against quadrature, si_engine_grade against its original equations, constant signal vs parameter, fuel vs grade
 //! - `tidy`: The workspace's habits as tests (rust-analyzer's `tidy`): every source file opens with `//!`, no function
 
 mod codegen_vs_interpreter;
@@ -13,4 +15,5 @@ mod fusion_dynamic;
 mod golden;
 mod inverse_consistency;
 mod known_answers;
+mod signals;
 mod tidy;

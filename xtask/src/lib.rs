@@ -69,6 +69,10 @@ pub fn model_files(root: &Path) -> Result<Vec<PathBuf>, Failure> {
         .filter_map(|e| e.ok())
         .map(|e| e.path())
         .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+        // Models with operating modes run through the interpreter: no generated code or document (yet).
+        .filter(|p| {
+            !std::fs::read_to_string(p).is_ok_and(|t| t.lines().any(|l| l.starts_with("[modes.")))
+        })
         .filter_map(|p| p.file_name().map(|f| Path::new("models").join(f)))
         .collect();
     files.sort();

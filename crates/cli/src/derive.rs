@@ -15,6 +15,9 @@ pub enum Format {
 }
 
 pub fn run(path: &Path, format: Format) -> Result<(), Failure> {
+    if let Some(m) = crate::modal_cmd::read_modal(path)? {
+        return crate::modal_cmd::derive(m, format);
+    }
     let d = invsim_inversion::derive_file(path).map_err(|e| Failure::user(e.to_string()))?;
     d.check_printable()
         .map_err(|e| Failure::user(e.to_string()))?;

@@ -82,6 +82,15 @@ pub struct ForwardArgs {
     #[arg(long = "signal", value_name = "NAME=FILE.csv|VALUE")]
     #[serde(skip_serializing_if = "Vec::is_empty")]
     signal: Vec<String>,
+    /// The start value of an internal state: NAME=VALUE (repeatable; over the model file's `initial`): the run
+    /// starts there instead of at the equilibrium of the zero dynamics.
+    #[arg(
+        long = "initial",
+        value_name = "NAME=VALUE",
+        allow_hyphen_values = true
+    )]
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    initial: Vec<String>,
     /// Write the time series as CSV.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -114,6 +123,7 @@ pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
         ))
     };
     let signals = crate::signal_args::parse_signals(&args.signal)?;
+    let initial = crate::initial_args::parse_initial(&args.initial)?;
     let (progress, bar) = crate::progress::start("forward");
     let mut opts = ForwardOptions::builder()
         .progress(progress)
@@ -139,6 +149,7 @@ pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
         .build()
         .map_err(stopped)?;
     opts.signals = signals;
+    opts.initial = initial;
     let result = forward::forward(model.as_model(), &cycle, &opts);
     bar.finish();
     let mut result = result.map_err(stopped)?;

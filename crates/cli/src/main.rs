@@ -16,6 +16,8 @@ mod error;
 mod files;
 mod forward;
 mod import_cmd;
+mod initial_args;
+mod modal_cmd;
 mod outputs;
 mod plotting;
 mod progress;

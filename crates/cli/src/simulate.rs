@@ -35,6 +35,15 @@ pub struct SimulateArgs {
     #[arg(long = "signal", value_name = "NAME=FILE.csv|VALUE")]
     #[serde(skip_serializing_if = "Vec::is_empty")]
     signal: Vec<String>,
+    /// The start value of an internal state: NAME=VALUE (repeatable; over the model file's `initial`): a causal run
+    /// starts there instead of at the equilibrium of the zero dynamics.
+    #[arg(
+        long = "initial",
+        value_name = "NAME=VALUE",
+        allow_hyphen_values = true
+    )]
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    initial: Vec<String>,
     /// Write the time series as CSV.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -53,13 +62,49 @@ pub struct SimulateArgs {
     /// inverted stably, non-causally, with pre- and post-actuation).
     #[arg(long)]
     causal: bool,
+    /// Models with modes: how a switch enters the new mode (`reentry`: the reference blends from the state
+    /// into the cycle; `quasi-static`: the state jumps by an impulse of the free input).
+    #[arg(long, value_enum, default_value_t = SwitchingArg::Reentry)]
+    switching: SwitchingArg,
+    /// Models with modes: the re-entry's transition time in seconds (default: the look-ahead).
+    #[arg(long)]
+    transition_time: Option<f64>,
     /// Keep the pre- and post-actuation samples of a stable inversion (t before the cycle's start and after its
     /// end) in the CSV, the plot and the summary's integrals.
     #[arg(long)]
     include_extension: bool,
 }
 
+/// `--switching`.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SwitchingArg {
+    Reentry,
+    QuasiStatic,
+}
+
 pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
+    if let Some(m) = crate::modal_cmd::read_modal(&args.model)? {
+        return crate::modal_cmd::simulate(
+            m,
+            &crate::modal_cmd::ModalRun {
+                model: &args.model,
+                cycle: &args.cycle,
+                max_cycle_bytes: args.max_cycle_bytes,
+                lookahead: args.lookahead,
+                dt: args.dt,
+                set: &args.set,
+                out: args.out.as_deref(),
+                summary_json: args.summary_json.as_deref(),
+                verify: args.verify,
+                switching: match args.switching {
+                    SwitchingArg::Reentry => invsim_runtime::modes::Switching::Reentry,
+                    SwitchingArg::QuasiStatic => invsim_runtime::modes::Switching::QuasiStatic,
+                },
+                transition_time: args.transition_time,
+            },
+        );
+    }
     let (mut outputs, cycle, model) = prepare_run(&RunRequest {
         model: &args.model,
         engine: args.engine,
@@ -78,6 +123,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
         ))
     };
     let signals = crate::signal_args::parse_signals(&args.signal)?;
+    let initial = crate::initial_args::parse_initial(&args.initial)?;
     let (progress, bar) = crate::progress::start("simulate");
     let mut opts = SimulationOptions::builder()
         .progress(progress)
@@ -92,6 +138,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
         .build()
         .map_err(stopped)?;
     opts.signals = signals;
+    opts.initial = initial;
     let result = simulate(model.as_model(), &cycle, &opts);
     bar.finish();
     let mut result = result.map_err(stopped)?;

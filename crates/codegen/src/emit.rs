@@ -423,6 +423,11 @@ fn op_ex(
             Ex::Call("sign", vec![a])
         }
         Op::Call(f, a) => Ex::Method(Box::new(e(a)), method(f), vec![]),
+        Op::Map1(m, k, a) => map_call(m.index(), [k, 0], &[e(a)]),
+        Op::Map2(m, o, a, b) => {
+            let (a, b) = (e(a), e(b));
+            map_call(m.index(), o, &[a, b])
+        }
         Op::Call2(f, a, b) => {
             // min and max are symmetric: a constant goes in the argument (`v.max(0.0)`, not `0.0_f64.max(v)`).
             let (a, b) = if matches!(a, Val::Num(_) | Val::Pi) {
@@ -441,6 +446,18 @@ fn op_ex(
             Ex::Method(Box::new(a), m, vec![b])
         }
     }
+}
+
+/// `self.maps[m].partial(&[a, b], [I, J])`: one partial derivative of map `m` (contract §6) from the model's
+/// map data (`Precomputed::maps`).
+fn map_call(m: usize, o: [u8; 2], args: &[Ex]) -> Ex {
+    let m = Literal::usize_unsuffixed(m);
+    let (i, j) = (
+        Literal::usize_unsuffixed(o[0] as usize),
+        Literal::usize_unsuffixed(o[1] as usize),
+    );
+    let args = args.iter().map(|a| a.tokens(0));
+    Ex::Atom(quote!(self.maps[#m].partial(&[#(#args),*], [#i, #j])))
 }
 
 #[cfg(test)]

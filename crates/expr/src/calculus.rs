@@ -36,7 +36,9 @@ impl Pool {
     ///   (u^v)' = u^v (v' log u + v u'/u);
     /// * exp' = exp, log' = 1/u, sin' = cos, cos' = −sin, tan' = 1 + tan², sinh' = cosh, cosh' = sinh,
     ///   tanh' = 1 − tanh², atan' = 1/(1 + u²), abs' = sign, sign' = 0 (almost everywhere);
-    /// * min(a, b) = (a + b − |a − b|)/2 and max(a, b) = (a + b + |a − b|)/2 differentiated as such.
+    /// * min(a, b) = (a + b − |a − b|)/2 and max(a, b) = (a + b + |a − b|)/2 differentiated as such;
+    /// * a map call (contract §6): ∂/∂x M_dIJ(a, b) = M_d(I+1)J(a, b) ∂a/∂x + M_dI(J+1)(a, b) ∂b/∂x
+    ///   (1-D: d/dx M_dK(a) = M_d(K+1)(a) a'), the derivative maps.
     pub fn diff(&mut self, e: Id, x: Symbol) -> Id {
         let mut memo = HashMap::new();
         for id in self.deep_order(e) {
@@ -150,6 +152,18 @@ impl Pool {
                     Func2::Max => self.add(&[s, sdd]),
                 };
                 self.mul(&[half, r])
+            }
+            Node::Map(m, o, a) => {
+                let da = self.diff_memo(a, x, memo);
+                let outer = self.map_call(m, [o[0].saturating_add(1), 0], &[a]);
+                self.mul(&[outer, da])
+            }
+            Node::Map2(m, o, a, b) => {
+                let (da, db) = (self.diff_memo(a, x, memo), self.diff_memo(b, x, memo));
+                let ma = self.map_call(m, [o[0].saturating_add(1), o[1]], &[a, b]);
+                let mb = self.map_call(m, [o[0], o[1].saturating_add(1)], &[a, b]);
+                let (ta, tb) = (self.mul(&[ma, da]), self.mul(&[mb, db]));
+                self.add(&[ta, tb])
             }
         };
         memo.insert(e, d);
@@ -483,6 +497,14 @@ impl Pool {
                 let (ea, eb) = (self.expand_memo(a, memo)?, self.expand_memo(b, memo)?);
                 self.call2(f, ea, eb)
             }
+            Node::Map(m, o, a) => {
+                let ea = self.expand_memo(a, memo)?;
+                self.map_call(m, o, &[ea])
+            }
+            Node::Map2(m, o, a, b) => {
+                let (ea, eb) = (self.expand_memo(a, memo)?, self.expand_memo(b, memo)?);
+                self.map_call(m, o, &[ea, eb])
+            }
         };
         memo.insert(e, r);
         Ok(r)
@@ -508,6 +530,11 @@ impl Pool {
                 Node::Pow(b, p) => pow_f64(memo[b], self.as_number(*p), memo[p]),
                 Node::Call(f, a) => f.eval(memo[a]),
                 Node::Call2(f, a, b) => f.eval(memo[a], memo[b]),
+                Node::Map(m, o, a) => self.map_decl(*m).data.partial(&[memo[a]], map_orders(*o)),
+                Node::Map2(m, o, a, b) => self
+                    .map_decl(*m)
+                    .data
+                    .partial(&[memo[a], memo[b]], map_orders(*o)),
             };
             memo.insert(id, v);
         }
@@ -518,6 +545,11 @@ impl Pool {
     pub fn eval(&self, e: Id, values: &HashMap<Symbol, f64>) -> Result<f64, UnboundSymbol> {
         self.eval_with(e, &|s| values.get(&s).copied())
     }
+}
+
+/// Derivative orders of a map call as the kernel's map takes them.
+pub fn map_orders(o: crate::map::MapOrders) -> [usize; 2] {
+    [o[0] as usize, o[1] as usize]
 }
 
 /// b^p in f64 as every evaluator in invsim computes it: integer exponents by `powi`, ½ by `sqrt`,

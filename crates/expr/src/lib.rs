@@ -17,6 +17,7 @@ pub mod func;
 pub mod fxhash;
 pub mod limits;
 pub mod lower;
+pub mod map;
 pub mod number;
 pub mod parse;
 pub mod pool;
@@ -29,8 +30,9 @@ pub use calculus::{pow_f64, ExpansionTooLarge, UnboundSymbol, EXPAND_TERM_LIMIT}
 pub use func::{Func, Func2, FUNCTIONS, NON_SMOOTH_FUNCTIONS};
 pub use limits::{Measure, TooLarge};
 pub use lower::{Lowered, Strategy};
+pub use map::{MapDecl, MapId, MapOrders};
 pub use number::Number;
-pub use parse::{parse, Ast, AstKind, BinOp, ParseError};
+pub use parse::{parse, parse_with_maps, Ast, AstKind, BinOp, MapArity, ParseError};
 pub use pool::{Id, Node, Pool, Symbol};
 pub use print::latex_symbol;
 pub use rules::{FunctionRule, Rewrite, FUNCTION_RULES};

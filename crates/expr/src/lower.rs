@@ -27,6 +27,7 @@
 use crate::calculus::UnboundSymbol;
 use crate::func::{Func, Func2};
 use crate::fxhash::{FxHashMap, FxHashSet};
+use crate::map::MapId;
 use crate::number::Number;
 use crate::pool::{Id, Node, Pool, Symbol};
 use std::cmp::Ordering;
@@ -58,6 +59,10 @@ pub enum Op {
     PowVar(Val, Val),
     Call(Func, Val),
     Call2(Func2, Val, Val),
+    /// `M_dK(a)`: a 1-D map's K-th derivative (0: the map).
+    Map1(MapId, u8, Val),
+    /// `M_dIJ(a, b)`: a 2-D map's partial derivative of orders `[I, J]`.
+    Map2(MapId, [u8; 2], Val, Val),
 }
 
 /// The operands of one operation (at most three), without allocation.
@@ -96,6 +101,7 @@ impl Op {
             | Op::Mul(a, b)
             | Op::Div(a, b)
             | Op::PowVar(a, b)
+            | Op::Map2(_, _, a, b)
             | Op::Call2(_, a, b) => Operands::of(&[a, b]),
             Op::Powi(a, 2) => Operands::of(&[a, a]),
             Op::Powi(a, 3) => Operands::of(&[a, a, a]),
@@ -104,6 +110,7 @@ impl Op {
             | Op::Powi(a, _)
             | Op::Sqrt(a)
             | Op::Powf(a, _)
+            | Op::Map1(_, _, a)
             | Op::Call(_, a) => Operands::of(&[a]),
         }
     }
@@ -381,7 +388,7 @@ impl<'p> FnLowering<'_, 'p> {
         let pool = self.pool();
         for id in pool.topological(roots) {
             let whole = match pool.node(id) {
-                Node::Call(..) | Node::Call2(..) => true,
+                Node::Call(..) | Node::Call2(..) | Node::Map(..) | Node::Map2(..) => true,
                 Node::Add(_) => !self.inv.strategy.fold_signs,
                 _ => false,
             };
@@ -394,7 +401,9 @@ impl<'p> FnLowering<'_, 'p> {
 
     /// Emit `op` into the invariant arena when all its operands are invariant, else into this function's.
     fn emit(&mut self, op: Op) -> Val {
-        if op.operands().into_iter().all(|v| self.hoisted(v)) {
+        // A map call is never hoisted: its data may be replaced at run time, apart from the parameters.
+        let is_map = matches!(op, Op::Map1(..) | Op::Map2(..));
+        if !is_map && op.operands().into_iter().all(|v| self.hoisted(v)) {
             Val::Inv(self.inv.arena.push(op))
         } else {
             Val::Loc(self.arena.push(op))
@@ -450,6 +459,14 @@ impl<'p> FnLowering<'_, 'p> {
             Node::Call2(f, a, b) => {
                 let (a, b) = (self.lower(a)?, self.lower(b)?);
                 self.emit(Op::Call2(f, a, b))
+            }
+            Node::Map(m, o, a) => {
+                let a = self.lower(a)?;
+                self.emit(Op::Map1(m, o[0], a))
+            }
+            Node::Map2(m, o, a, b) => {
+                let (a, b) = (self.lower(a)?, self.lower(b)?);
+                self.emit(Op::Map2(m, o, a, b))
             }
         };
         self.memo.insert(e, v);

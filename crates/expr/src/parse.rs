@@ -107,8 +107,12 @@ enum Tok {
 /// error rather than a stack overflow. Model files are limited further by the reader (64 levels).
 pub const MAX_PARSE_DEPTH: usize = 500;
 
+/// The arity of a declared lookup map by name (`None`: not a map); see [`parse_with_maps`].
+pub type MapArity<'m> = &'m dyn Fn(&str) -> Option<usize>;
+
 struct Parser<'s> {
     src: &'s str,
+    maps: MapArity<'s>,
     pos: usize,
     tok: Tok,
     tok_span: Range<usize>,
@@ -325,7 +329,16 @@ impl<'s> Parser<'s> {
             }
             Tok::Ident(name) => {
                 self.advance()?;
+                let map = crate::map::resolve_call_name(&name, self.maps);
                 if self.tok != Tok::Op('(') {
+                    if map.is_some() {
+                        return self.err(
+                            span,
+                            format!(
+                                "map `{name}` must be called with its arguments, e.g. `{name}(x)`"
+                            ),
+                        );
+                    }
                     if FUNCTIONS.iter().any(|(f, _)| *f == name) {
                         return self.err(
                             span,
@@ -337,7 +350,8 @@ impl<'s> Parser<'s> {
                         span,
                     });
                 }
-                let Some(&(_, arity)) = FUNCTIONS.iter().find(|(f, _)| *f == name) else {
+                let builtin = FUNCTIONS.iter().find(|(f, _)| *f == name).map(|&(_, n)| n);
+                let Some(arity) = builtin.or(map.map(|m| m.1)) else {
                     let known: Vec<&str> = FUNCTIONS.iter().map(|(f, _)| *f).collect();
                     return self.err(
                         span,
@@ -413,6 +427,12 @@ impl<'s> Parser<'s> {
 
 /// Parse an expression of the contract's language into a syntax tree.
 pub fn parse(src: &str) -> Result<Ast, ParseError> {
+    parse_with_maps(src, &|_| None)
+}
+
+/// Parse with lookup maps declared (contract §6): a call of a map `M` or of a derivative map `M_dK`,
+/// `M_dIJ` is a [`AstKind::Call`] of that name with the map's arity.
+pub fn parse_with_maps(src: &str, maps: MapArity<'_>) -> Result<Ast, ParseError> {
     if src.trim().is_empty() {
         return Err(ParseError {
             span: 0..src.len(),
@@ -422,6 +442,7 @@ pub fn parse(src: &str) -> Result<Ast, ParseError> {
     }
     let mut p = Parser {
         src,
+        maps,
         pos: 0,
         tok: Tok::End,
         tok_span: 0..0,
@@ -473,6 +494,8 @@ impl Pool {
                             self.call(f, xs[0])
                         } else if let Some(f) = Func2::from_name(n) {
                             self.call2(f, xs[0], xs[1])
+                        } else if let Some((m, orders)) = self.resolve_map(n) {
+                            self.map_call(m, orders, &xs)
                         } else {
                             // The parser accepts only names from FUNCTIONS, all handled above.
                             unreachable!("function `{n}` accepted by the parser but not interned")
@@ -483,10 +506,20 @@ impl Pool {
         }
     }
 
-    /// Parse and intern in one step.
+    /// Parse and intern in one step; the pool's declared maps may be called.
     pub fn parse(&mut self, src: &str) -> Result<Id, ParseError> {
-        let ast = parse(src)?;
+        let ast = {
+            let arity = |n: &str| self.find_map(n).map(|m| self.map_decl(m).arity());
+            parse_with_maps(src, &arity)?
+        };
         Ok(self.from_ast(&ast))
+    }
+
+    /// The map and derivative orders a called name denotes (`eta_vol_d10` → eta_vol, [1, 0]).
+    pub fn resolve_map(&self, called: &str) -> Option<(crate::map::MapId, crate::map::MapOrders)> {
+        let arity = |n: &str| self.find_map(n).map(|m| self.map_decl(m).arity());
+        let (name, _, orders) = crate::map::resolve_call_name(called, arity)?;
+        Some((self.find_map(&name)?, orders))
     }
 }
 

@@ -15,6 +15,7 @@
 
 use crate::func::{Func, Func2};
 use crate::fxhash::FxHashSet;
+use crate::map::{MapDecl, MapId, MapOrders};
 use crate::number::Number;
 use crate::rules::{FunctionRule, Rewrite, FUNCTION_RULES};
 use std::cmp::Ordering;
@@ -60,6 +61,10 @@ pub enum Node {
     Pow(Id, Id),
     Call(Func, Id),
     Call2(Func2, Id, Id),
+    /// A 1-D map call `M_dK(a)` (orders `[K, 0]`; see [`crate::map`]).
+    Map(MapId, MapOrders, Id),
+    /// A 2-D map call `M_dIJ(a, b)` (orders `[I, J]`).
+    Map2(MapId, MapOrders, Id, Id),
 }
 
 /// An arena of interned expressions and symbols.
@@ -75,6 +80,9 @@ pub struct Pool {
     index: HashMap<Node, Id>,
     symbols: Vec<String>,
     symbol_index: HashMap<String, Symbol>,
+    /// Declared lookup maps, in declaration order.
+    maps: Vec<MapDecl>,
+    map_index: HashMap<String, MapId>,
 }
 
 impl std::fmt::Debug for Pool {
@@ -168,12 +176,12 @@ impl Pool {
                 .iter()
                 .flat_map(|&c| self.free[c.index()].iter().copied())
                 .collect(),
-            Node::Pow(a, b) | Node::Call2(_, a, b) => self.free[a.index()]
+            Node::Pow(a, b) | Node::Call2(_, a, b) | Node::Map2(_, _, a, b) => self.free[a.index()]
                 .iter()
                 .chain(self.free[b.index()].iter())
                 .copied()
                 .collect(),
-            Node::Call(_, a) => self.free[a.index()].to_vec(),
+            Node::Call(_, a) | Node::Map(_, _, a) => self.free[a.index()].to_vec(),
         };
         v.sort_unstable();
         v.dedup();
@@ -267,6 +275,8 @@ impl Pool {
             Node::Add(_) => 5,
             Node::Call(..) => 6,
             Node::Call2(..) => 7,
+            Node::Map(..) => 8,
+            Node::Map2(..) => 9,
         }
     }
 
@@ -331,6 +341,22 @@ impl Pool {
                 (Node::Call2(f, x1, x2), Node::Call2(g, y1, y2)) if f == g => {
                     stack.push(Item::Pair(*x2, *y2));
                     next = Some((*x1, *y1));
+                }
+                (Node::Map(m, o, x), Node::Map(n, p, y)) if m == n => {
+                    if o != p {
+                        return o.cmp(p);
+                    }
+                    next = Some((*x, *y));
+                }
+                (Node::Map2(m, o, x1, x2), Node::Map2(n, p, y1, y2)) if m == n => {
+                    if o != p {
+                        return o.cmp(p);
+                    }
+                    stack.push(Item::Pair(*x2, *y2));
+                    next = Some((*x1, *y1));
+                }
+                (Node::Map(m, ..), Node::Map(n, ..)) | (Node::Map2(m, ..), Node::Map2(n, ..)) => {
+                    return self.map_decl(*m).name.cmp(&self.map_decl(*n).name)
                 }
                 (Node::Call(f, _), Node::Call(g, _)) => return f.cmp(g),
                 (Node::Call2(f, ..), Node::Call2(g, ..)) => return f.cmp(g),
@@ -790,6 +816,46 @@ impl Pool {
         self.intern(Node::Call2(f, a, b))
     }
 
+    // ----- maps ---------------------------------------------------------------------------------------
+
+    /// Declares a lookup map (contract §6); a second declaration of the same name replaces its data.
+    pub fn declare_map(&mut self, decl: MapDecl) -> MapId {
+        if let Some(&id) = self.map_index.get(&decl.name) {
+            self.maps[id.index()] = decl;
+            return id;
+        }
+        let id = MapId(self.maps.len() as u32);
+        self.map_index.insert(decl.name.clone(), id);
+        self.maps.push(decl);
+        id
+    }
+
+    /// The declared maps, in declaration order ([`MapId::index`]).
+    pub fn maps(&self) -> &[MapDecl] {
+        &self.maps
+    }
+
+    /// A declared map.
+    pub fn map_decl(&self, id: MapId) -> &MapDecl {
+        &self.maps[id.index()]
+    }
+
+    /// The map declared as `name`.
+    pub fn find_map(&self, name: &str) -> Option<MapId> {
+        self.map_index.get(name).copied()
+    }
+
+    /// The call `∂^(I+J) M / ∂a^I ∂b^J (args)` (`orders = [I, J]`; 1-D: `[K, 0]`). `args.len()` must be the
+    /// map's arity. A map is never simplified away: it is an opaque smooth function of its arguments.
+    pub fn map_call(&mut self, map: MapId, orders: MapOrders, args: &[Id]) -> Id {
+        debug_assert_eq!(args.len(), self.map_decl(map).arity());
+        match args {
+            [a] => self.intern(Node::Map(map, [orders[0], 0], *a)),
+            [a, b, ..] => self.intern(Node::Map2(map, orders, *a, *b)),
+            [] => unreachable!("a map call has one or two arguments"),
+        }
+    }
+
     /// Rebuild a node from (possibly new) children through the canonical constructors.
     pub fn rebuild(&mut self, node: &Node, children: &[Id]) -> Id {
         match node {
@@ -799,6 +865,8 @@ impl Pool {
             Node::Pow(..) => self.pow(children[0], children[1]),
             Node::Call(f, _) => self.call(*f, children[0]),
             Node::Call2(f, ..) => self.call2(*f, children[0], children[1]),
+            Node::Map(m, o, _) => self.map_call(*m, *o, &children[..1]),
+            Node::Map2(m, o, ..) => self.map_call(*m, *o, &children[..2]),
         }
     }
 
@@ -807,8 +875,8 @@ impl Pool {
         match self.node(id) {
             Node::Num(_) | Node::Pi | Node::Sym(_) => Vec::new(),
             Node::Add(c) | Node::Mul(c) => c.to_vec(),
-            Node::Pow(a, b) | Node::Call2(_, a, b) => vec![*a, *b],
-            Node::Call(_, a) => vec![*a],
+            Node::Pow(a, b) | Node::Call2(_, a, b) | Node::Map2(_, _, a, b) => vec![*a, *b],
+            Node::Call(_, a) | Node::Map(_, _, a) => vec![*a],
         }
     }
 
@@ -823,11 +891,11 @@ impl Pool {
         match node {
             Node::Num(_) | Node::Pi | Node::Sym(_) => {}
             Node::Add(c) | Node::Mul(c) => c.iter().for_each(|&c| f(c)),
-            Node::Pow(a, b) | Node::Call2(_, a, b) => {
+            Node::Pow(a, b) | Node::Call2(_, a, b) | Node::Map2(_, _, a, b) => {
                 f(*a);
                 f(*b)
             }
-            Node::Call(_, a) => f(*a),
+            Node::Call(_, a) | Node::Map(_, _, a) => f(*a),
         }
     }
 
@@ -838,8 +906,10 @@ impl Pool {
         match self.node(id) {
             Node::Num(_) | Node::Pi | Node::Sym(_) => ChildSlice::Pair([id, id], 0),
             Node::Add(c) | Node::Mul(c) => ChildSlice::List(c),
-            Node::Pow(a, b) | Node::Call2(_, a, b) => ChildSlice::Pair([*a, *b], 2),
-            Node::Call(_, a) => ChildSlice::Pair([*a, *a], 1),
+            Node::Pow(a, b) | Node::Call2(_, a, b) | Node::Map2(_, _, a, b) => {
+                ChildSlice::Pair([*a, *b], 2)
+            }
+            Node::Call(_, a) | Node::Map(_, _, a) => ChildSlice::Pair([*a, *a], 1),
         }
     }
 

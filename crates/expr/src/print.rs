@@ -223,6 +223,8 @@ impl Printer<'_> {
                 self.wrap(s, own, ctx)
             }
             Node::Call(f, a) => self.call(*f, *a),
+            Node::Map(m, o, a) => self.map_call(*m, *o, &[*a]),
+            Node::Map2(m, o, a, b) => self.map_call(*m, *o, &[*a, *b]),
             Node::Call2(f, a, b) => {
                 let (a, b) = (self.expr(*a, 0), self.expr(*b, 0));
                 if self.latex() {
@@ -231,6 +233,27 @@ impl Printer<'_> {
                     format!("{}({a}, {b})", f.name())
                 }
             }
+        }
+    }
+
+    /// `M_dIJ(a, b)` (contract §6); in LaTeX `\mathrm{M}^{(1,0)}\left(a, b\right)`.
+    fn map_call(&self, m: crate::map::MapId, o: crate::map::MapOrders, args: &[Id]) -> String {
+        let decl = self.pool.map_decl(m);
+        let args: Vec<String> = args.iter().map(|&a| self.expr(a, 0)).collect();
+        if self.latex() {
+            let orders = match (args.len(), o) {
+                (_, [0, 0]) => String::new(),
+                (1, [k, _]) => format!("^{{({k})}}"),
+                (_, [i, j]) => format!("^{{({i},{j})}}"),
+            };
+            let name = decl.name.replace('_', "\\_");
+            format!(
+                "\\mathrm{{{name}}}{orders}\\left({}\\right)",
+                args.join(", ")
+            )
+        } else {
+            let name = crate::map::call_name(&decl.name, args.len(), o);
+            format!("{name}({})", args.join(", "))
         }
     }
 

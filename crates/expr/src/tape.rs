@@ -11,8 +11,10 @@ use crate::calculus::UnboundSymbol;
 use crate::func::{Func, Func2};
 use crate::fxhash::FxHashMap;
 use crate::lower::{self, Arena, Invariants, Lowered, Op, Strategy, Val};
+use crate::map::Map;
 use crate::pool::{Id, Pool, Symbol};
 use std::cell::RefCell;
+use std::sync::Arc;
 
 /// One instruction; operands are slot indices. Instruction `i` writes slot `first_op_slot + i`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -29,6 +31,8 @@ pub enum Instr {
     PowVar(u32, u32),
     Call(Func, u32),
     Call2(Func2, u32, u32),
+    /// Map `maps[m]`'s partial derivative of orders `[I, J]` at the slots (1-D: the second is the first).
+    Map(u32, [u8; 2], u32, u32),
 }
 
 /// Compiled expressions: slots are `[inputs | constants | instruction results]`.
@@ -40,6 +44,8 @@ pub struct Tape {
     consts: Vec<f64>,
     instrs: Vec<Instr>,
     outputs: Vec<u32>,
+    /// The data of every map declared in the pool, by [`crate::MapId::index`].
+    maps: Vec<Arc<Map>>,
 }
 
 /// Slot numbering of a lowered plan: inputs `[0, n)`, constants `[n, n + c)`, then the invariant arena's
@@ -112,10 +118,12 @@ impl<'a> Encoder<'a> {
             Op::PowVar(a, b) => Instr::PowVar(s(a), s(b)),
             Op::Call(f, a) => Instr::Call(f, s(a)),
             Op::Call2(f, a, b) => Instr::Call2(f, s(a), s(b)),
+            Op::Map1(m, k, a) => Instr::Map(m.index() as u32, [k, 0], s(a), s(a)),
+            Op::Map2(m, o, a, b) => Instr::Map(m.index() as u32, o, s(a), s(b)),
         }
     }
 
-    fn tape(self, lowered: &Lowered) -> Tape {
+    fn tape(self, lowered: &Lowered, maps: Vec<Arc<Map>>) -> Tape {
         let ops = self.inv.ops().iter().chain(lowered.arena.ops());
         let instrs = ops.map(|op| self.instr(op)).collect();
         let outputs = lowered.roots.iter().map(|&v| self.slot(v)).collect();
@@ -125,6 +133,7 @@ impl<'a> Encoder<'a> {
             consts: self.consts,
             instrs,
             outputs,
+            maps,
         }
     }
 }
@@ -170,6 +179,7 @@ impl Instr {
             | Instr::Mul(x, y)
             | Instr::Div(x, y)
             | Instr::PowVar(x, y)
+            | Instr::Map(_, _, x, y)
             | Instr::Call2(_, x, y) => [Some(x), Some(y)],
             Instr::Neg(x)
             | Instr::Recip(x)
@@ -194,6 +204,7 @@ impl Instr {
             Instr::PowVar(x, y) => Instr::PowVar(m(x), m(y)),
             Instr::Call(f, x) => Instr::Call(f, m(x)),
             Instr::Call2(f, x, y) => Instr::Call2(f, m(x), m(y)),
+            Instr::Map(k, o, x, y) => Instr::Map(k, o, m(x), m(y)),
         }
     }
 }
@@ -205,7 +216,8 @@ impl Tape {
     pub fn compile(pool: &Pool, outputs: &[Id], inputs: &[Symbol]) -> Result<Tape, UnboundSymbol> {
         let mut inv = Invariants::new(pool, &[], Strategy::TAPE);
         let lowered = lower::lower(&mut inv, outputs, inputs)?;
-        let tape = Encoder::new(inputs, inv.arena(), &lowered).tape(&lowered);
+        let maps = pool.maps().iter().map(|d| d.data.clone()).collect();
+        let tape = Encoder::new(inputs, inv.arena(), &lowered).tape(&lowered, maps);
         tape.validate();
         Ok(tape)
     }
@@ -234,7 +246,7 @@ impl Tape {
                 let mut one = [0.0];
                 // Evaluate this single instruction on the buffer.
                 let g = |s: u32| buf[s as usize];
-                one[0] = exec(ins, g);
+                one[0] = exec(ins, &self.maps, g);
                 buf[base + i] = one[0];
             }
         }
@@ -304,6 +316,7 @@ impl Tape {
             consts,
             instrs,
             outputs: self.outputs.iter().map(|&o| map[o as usize]).collect(),
+            maps: self.maps.clone(),
         };
         tape.validate();
         tape
@@ -361,7 +374,7 @@ impl Tape {
             // operand of instruction i names a slot below `base + i` (checked by `debug_validate`), and the
             // buffer holds at least `base + instrs.len()` slots (asserted above). Reads and the write are
             // therefore in bounds, and the write slot is never read by this instruction.
-            let v = exec(ins, |s: u32| unsafe { *ptr.add(s as usize) });
+            let v = exec(ins, &self.maps, |s: u32| unsafe { *ptr.add(s as usize) });
             unsafe { *ptr.add(base + i) = v };
         }
         for (o, &s) in out.iter_mut().zip(&self.outputs) {
@@ -443,6 +456,11 @@ impl Tape {
                         Instr::Sqrt(x) => map1(dst, col(x), f64::sqrt),
                         Instr::Powf(x, k) => map1(dst, col(x), |a| a.powf(k)),
                         Instr::Call(f, x) => map1(dst, col(x), |a| f.eval(a)),
+                        Instr::Map(m, o, x, y) => {
+                            let map = &self.maps[m as usize];
+                            let o = [o[0] as usize, o[1] as usize];
+                            zip2(dst, col(x), col(y), |a, b| map.partial(&[a, b], o))
+                        }
                     }
                 }
                 for (o, &sl) in self.outputs.iter().enumerate() {
@@ -488,8 +506,11 @@ impl Tape {
 
 /// Execute one instruction with operand values from `g`.
 #[inline(always)]
-fn exec(ins: &Instr, g: impl Fn(u32) -> f64) -> f64 {
+fn exec(ins: &Instr, maps: &[Arc<Map>], g: impl Fn(u32) -> f64) -> f64 {
     match *ins {
+        Instr::Map(m, o, x, y) => {
+            maps[m as usize].partial(&[g(x), g(y)], [o[0] as usize, o[1] as usize])
+        }
         Instr::Add(x, y) => g(x) + g(y),
         Instr::Sub(x, y) => g(x) - g(y),
         Instr::Mul(x, y) => g(x) * g(y),

@@ -151,10 +151,30 @@ pub fn eval_with_error(pool: &Pool, e: Id, values: &HashMap<Symbol, f64>) -> Opt
                 let ((av, ae), (bv, be)) = (memo[a], memo[b]);
                 (f.eval(av, bv), ae.max(be))
             }
+            // A map is probed through its generic surrogate, never its data (see `crate::map`).
+            Node::Map(m, o, a) => map_with_error(pool, *m, *o, &[memo[a]]),
+            Node::Map2(m, o, a, b) => map_with_error(pool, *m, *o, &[memo[a], memo[b]]),
         };
         memo.insert(id, ve);
     }
     memo.get(&e).copied()
+}
+
+/// A map call's surrogate value with its error bound: the arguments' errors through the slopes, and a few
+/// roundings of the sines' arguments (`c·a` carries |c·a|·U).
+fn map_with_error(
+    pool: &Pool,
+    m: crate::map::MapId,
+    o: crate::map::MapOrders,
+    args: &[(f64, f64)],
+) -> (f64, f64) {
+    let values: Vec<f64> = args.iter().map(|x| x.0).collect();
+    let (v, slope) = pool.map_decl(m).surrogate(o, &values);
+    let mut err = 4.0 * U * v.abs();
+    for (k, &(av, ae)) in args.iter().enumerate() {
+        err += slope[k] * (ae + 4.0 * U * (1.0 + av.abs()));
+    }
+    (v, err)
 }
 
 /// Is `e` identically zero? Symbols in `nominal` (parameters) are probed within ±20 % of their value,

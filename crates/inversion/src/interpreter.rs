@@ -61,6 +61,8 @@ pub fn model_info(d: &Derivation) -> ModelInfo {
             speed: e.speed,
             torque: e.torque,
         }),
+        state_initial: m.states.iter().map(|s| s.initial).collect(),
+        eta_states: d.eta_states.clone(),
         signals: m
             .signals
             .iter()

@@ -1,6 +1,8 @@
 //! Rendering a [`Derivation`] as JSON (the contract's `derive --format json`), plain text and Markdown
 //! (the derived-equation documents in `docs/models/`).
 
+mod maps;
+
 use crate::derive::{Derivation, Solution};
 use invsim_expr::{latex_symbol, DecidedBy, Id, TooLarge};
 use serde_json::{json, Map, Value};
@@ -126,7 +128,7 @@ impl Derivation {
     }
 
     /// The contract's JSON form of `invsim derive` (section 3), plus `domain`, `lie_zero_tests`, the output's
-    /// `reference` map and the classification of the zero dynamics at the nominal point
+    /// `reference` map, the classification of the zero dynamics at the nominal point and (models with maps) `maps`
     /// (`zero_dynamics_class`, `zero_dynamics_eigenvalues` as [re, im] pairs, `zero_dynamics_nominal`).
     pub fn to_json(&self) -> Value {
         let m = &self.model;
@@ -177,6 +179,12 @@ impl Derivation {
             },
             "warnings": self.warnings,
         });
+        // Only models with maps carry the object (the others' output is unchanged).
+        if !m.maps.is_empty() {
+            if let Value::Object(o) = &mut out {
+                o.insert("maps".into(), maps::maps_json(&m.maps));
+            }
+        }
         // Contract §5: the signals in file order (the key is left out for a model without signals, whose
         // output is unchanged).
         if !m.signals.is_empty() {

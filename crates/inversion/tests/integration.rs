@@ -6,6 +6,8 @@
 //! - `coordinates_scale`: The choice of η scales polynomially with the number of states (greedy rank test, at most n + 1 rank tests)
 //! - `derive_messages`: Nonsense that used to derive silently is refused with a located, typed error: constant subexpressions that
 //! - `fuzz_regressions`: Replays the fuzz regressions of the model reader, the expression parser and the derive pipeline
+//! - `maps`: Models with lookup maps: CSV and inline maps alike, Lie derivatives against finite differences, a map in h
+//!   solved by Newton, the JSON `maps` object, the interpreter.
 //! - `model_file`: Model-file reader: every malformed file in `tests/malformed/` fails where its header says, the shared
 //! - `properties`: Property tests of the derivation against independent numerical references: L_f h computed symbolically
 //! - `read_limits`: Model files are read through a size cap ([`MAX_MODEL_FILE_BYTES`]): devices, endless streams and huge
@@ -18,6 +20,7 @@ mod classify;
 mod coordinates_scale;
 mod derive_messages;
 mod fuzz_regressions;
+mod maps;
 mod model_file;
 mod properties;
 mod read_limits;

@@ -3,7 +3,7 @@
 //! Both the Rust code that `invsim-codegen` emits and the interpreter tape in `invsim-inversion` implement
 //! [`InverseModel`]; the runtime drives either through it. This crate is deliberately tiny so that generated
 //! model crates depend on it alone, not on the whole runtime; [`math`] holds the one numerical routine generated
-//! code needs beyond `std`, a vectorised x^y for its batch methods.
+//! code needs beyond `std`, a vectorised x^y for its batch methods, and [`map`] the smooth lookup maps.
 //!
 //! Notation (Isidori, *Nonlinear Control Systems*, 3rd ed., §4.1; Fröberg & Nielsen 2004, eq. 24–32):
 //! for x' = f(x) + g(x)u, y = h(x) with relative degree r, the normal-form coordinates are
@@ -14,6 +14,10 @@ use thiserror::Error;
 
 pub mod math;
 pub mod zero_dynamics;
+
+/// Smooth lookup maps (contract §6), evaluated by generated code and the interpreter alike; the one kernel
+/// implementation lives in `invsim-kernel`.
+pub use invsim_kernel::map;
 
 /// Static description of a model: names, sizes, bounds, units. Order of every list is the model file's order.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -51,6 +55,10 @@ pub struct ModelInfo {
     pub engine: Option<EngineInfo>,
     /// Exogenous signals (the model file's `[signals]`), in file order.
     pub signals: Vec<SignalInfo>,
+    /// Each state's `initial` value from the model file (`None` where it gives none), in state order.
+    pub state_initial: Vec<Option<f64>>,
+    /// Indices of the states chosen as the internal coordinates: η_j = x_{eta_states[j]}.
+    pub eta_states: Vec<usize>,
 }
 
 impl ModelInfo {

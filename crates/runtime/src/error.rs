@@ -52,4 +52,6 @@ pub enum RunError {
     },
     #[error(transparent)]
     Signal(#[from] crate::signals::SignalError),
+    #[error(transparent)]
+    Initial(#[from] crate::initial::InitialError),
 }

@@ -347,7 +347,7 @@ pub fn plot_svg(result: &SimulationResult, cycle: &Cycle, path: &Path) -> Result
         input_max: result.input_bounds[1],
         outputs: Vec::new(),
         parameters: Vec::new(),
-        signals: Vec::new(),
+        ..ModelInfo::default()
     };
     simulation_figure(result, cycle, &info, &[])?.write(path)
 }

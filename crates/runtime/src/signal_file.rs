@@ -62,9 +62,9 @@ pub fn parse_signal_file(
     let value_col = cells.iter().position(|c| *c == name);
     let (Some(tc), Some(vc)) = (time_col, value_col) else {
         let missing = if time_col.is_none() {
-            format!("a time column ({})", TIME_COLUMNS.join(", "))
+            format!("time column ({})", TIME_COLUMNS.join(", "))
         } else {
-            format!("a column named `{name}` (names are case-sensitive)")
+            format!("column named `{name}` (names are case-sensitive)")
         };
         return Err(err(
             h + 1,

@@ -5,6 +5,8 @@
 //! - `forward_budget`: The forward run's budgets (issue 15, defect 5): a closed loop made stiff or fast by absurd driver gains stops
 //! - `forward_integrals`: The forward run's integrals do not depend on the output grid (issue 15, defect 12): the accumulated outputs
 //! - `fuzz_regressions`: Replays the fuzz regressions of the drive-cycle reader (`fuzz/regressions/cycle_reader/*`) through the very
+//! - `modes`: Runs with operating modes: si_engine_5speed on the NEDC and the UDDS, and a two-mode linear model against
+//!   its exact solution (re-entry and quasi-static).
 //! - `nonsense_options`: Options that make no sense for the cycle (issue 15, defect 10): a look-ahead longer than a quarter of the
 //! - `plot`: The plots of every shipped model (`models/*.toml`, through the interpreter): the SVG parsed and its
 //! - `simulate`: Tests of the inverse-simulation driver against hand-written models with known answers.
@@ -19,6 +21,7 @@ mod forward;
 mod forward_budget;
 mod forward_integrals;
 mod fuzz_regressions;
+mod modes;
 mod nonsense_options;
 mod plot;
 mod simulate;

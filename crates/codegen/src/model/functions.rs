@@ -298,6 +298,8 @@ fn describe(pool: &mut Pool, arena: &Arena, v: Val, memo: &mut HashMap<usize, Id
     }
     let mut sub = |pool: &mut Pool, v: Val| describe(pool, arena, v, memo);
     let e = match arena.ops()[i] {
+        // Never hoisted (see `invsim_expr::lower`), so never an invariant to describe.
+        Op::Map1(..) | Op::Map2(..) => pool.zero(),
         Op::Add(a, b) => {
             let (a, b) = (sub(pool, a), sub(pool, b));
             pool.add2(a, b)

@@ -353,6 +353,12 @@ fn model_info(g: &Gen<'_>) -> TokenStream {
         None => quote!(None),
     };
     let signals = signals_info(m);
+    let state_initial: Vec<TokenStream> = m.states.iter().map(|s| opt_f64(s.initial)).collect();
+    let eta_states: Vec<proc_macro2::Literal> =
+        g.d.eta_states
+            .iter()
+            .map(|&j| proc_macro2::Literal::usize_unsuffixed(j))
+            .collect();
     quote! {
         /// The model's static description (names, sizes, bounds), as the interpreter reports it.
         pub fn model_info() -> ModelInfo {
@@ -374,6 +380,8 @@ fn model_info(g: &Gen<'_>) -> TokenStream {
                 parameters: PARAMETERS.iter().map(|s| s.to_string()).collect(),
                 engine: #engine,
                 signals: #signals,
+                state_initial: Vec::from([#(#state_initial),*]),
+                eta_states: Vec::from([#(#eta_states),*]),
             }
         }
 

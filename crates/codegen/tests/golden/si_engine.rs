@@ -852,6 +852,8 @@ pub mod si_engine {
                 torque: 3usize,
             }),
             signals: Vec::new(),
+            state_initial: Vec::from([None, None]),
+            eta_states: Vec::from([]),
         }
     }
     /// The compiled model behind the runtime's [`InverseModel`] trait.

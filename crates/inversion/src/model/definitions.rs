@@ -4,13 +4,14 @@
 
 use super::error::{ModelError, ModelErrorKind};
 use super::expressions::{Item, Role};
+use super::maps::RawMap;
 use super::names::{NameRef, Names};
 use super::raw::{RawDefinition, RawInput, RawModel, RawParameter, RawState};
 use super::signals::RawSignal;
 use super::spanned::Reader;
 use super::validated::{Definition, Parameter};
 use invsim_expr::limits::{MAX_DEPTH, MAX_POOL_NODES};
-use invsim_expr::{Id, Pool, Symbol};
+use invsim_expr::{Id, MapDecl, Pool, Symbol};
 use std::collections::HashMap;
 
 /// For each definition, the definitions its expression uses, with the offset of each use.
@@ -118,10 +119,15 @@ impl Interned {
         raw_definitions: Vec<RawDefinition>,
         states: &[RawState],
         (input, signals): (&RawInput, &[RawSignal]),
+        maps: &[RawMap],
         items: &[Item],
     ) -> Result<Interned, TooLargeDefinition> {
-        // Symbols in a fixed order: parameters, definitions, states, input, signals.
+        // Symbols in a fixed order: parameters, definitions, states, input, signals; maps declared before any
+        // call.
         let mut pool = Pool::new();
+        for m in maps {
+            pool.declare_map(MapDecl::new(&m.name, m.data.clone()));
+        }
         let parameters: Vec<Parameter> = raw_parameters
             .into_iter()
             .map(|p| Parameter {

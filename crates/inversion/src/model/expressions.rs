@@ -7,7 +7,7 @@ use super::names::{reserved_reason, suggestion, Names};
 use super::raw::{RawEquation, RawModel};
 use super::spanned::{Reader, Src};
 use super::values::underflows;
-use invsim_expr::{parse, Ast, AstKind};
+use invsim_expr::{parse_with_maps, Ast, AstKind};
 
 /// Longest expression accepted, in bytes. Real model expressions are a few hundred characters; the limit
 /// keeps every recursive pass over the expression (parsing, interning, differentiation) far from the
@@ -88,7 +88,7 @@ impl Reader<'_> {
 
         let mut items: Vec<Item> = Vec::with_capacity(pending.len());
         for (role, src) in pending {
-            let ast = self.parse_expression(src, &describe(raw, role))?;
+            let ast = self.parse_expression(src, &describe(raw, role), raw)?;
             for (name, span) in ast.identifiers() {
                 if name == "pi" || names.contains_key(name) {
                     continue;
@@ -112,7 +112,7 @@ impl Reader<'_> {
     }
 
     /// Parse one expression: not empty, not too large, valid syntax, finite number literals.
-    fn parse_expression(&self, src: &Src, what: &str) -> Result<Ast, ModelError> {
+    fn parse_expression(&self, src: &Src, what: &str, raw: &RawModel) -> Result<Ast, ModelError> {
         if src.text.trim().is_empty() {
             return Err(self.err(
                 src.value_start(),
@@ -141,7 +141,9 @@ impl Reader<'_> {
                 ),
             ));
         }
-        let ast = parse(&src.text).map_err(|e| {
+        // Maps (contract §6) are called like functions: `eta_vol(w_e, p_i)`, `eta_vol_d10(w_e, p_i)`.
+        let arity = |n: &str| raw.maps.iter().find(|m| m.name == n).map(|m| m.args.len());
+        let ast = parse_with_maps(&src.text, &arity).map_err(|e| {
             let message = match &e.opened {
                 Some(open) if src.content.is_some() => {
                     format!(

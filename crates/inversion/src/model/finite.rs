@@ -113,6 +113,8 @@ fn constant_value(
         Node::Pow(b, p) => pow_f64(get(b)?, pool.as_number(*p), get(p)?),
         Node::Call(f, a) => f.eval(get(a)?),
         Node::Call2(f, a, b) => f.eval(get(a)?, get(b)?),
+        // A map's data are finite by construction (and may be replaced at run time): never reported.
+        Node::Map(..) | Node::Map2(..) => return None,
     })
 }
 

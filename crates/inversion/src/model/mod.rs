@@ -41,6 +41,8 @@
 //! | `names.rs` | identifiers, reserved names, collisions, "did you mean" |
 //! | `signals.rs` | the optional `[signals]` table and the reserved names `S_dk` of their derivatives |
 //! | `engine.rs` | the optional `[engine]` table: which outputs are the engine's speed and torque |
+//! | `map_csv.rs` | a map's grid and values from a CSV file |
+//! | `maps.rs` | `[maps.NAME]` tables: grid, values, smoothing, extrapolation (contract §6) |
 //! | `raw.rs` | the file as read, checked for structure (check 2) |
 //! | `expressions.rs` | parsing each expression (check 4) |
 //! | `definitions.rs` | definition order, cycles and inlining (check 5) |
@@ -48,15 +50,23 @@
 //! | `split.rs` | the affine split rhs → f + g·u and its check (check 7) |
 //! | `validated.rs` | the validated [`Model`] |
 //! | `reader.rs` | the pipeline from bytes to [`Model`] |
+//! | `modal.rs` | the types of a model with several inputs and modes ([`ModalModel`]) |
+//! | `gearbox.rs` | `[gearbox]`: gear parameters and the shift schedule |
+//! | `modes.rs` | `[inputs]` and `[modes]`: one single-input tree per mode, built by the ordinary reader |
 //!
 //! Imports go one way — each file imports only files listed before it: error, validated, spanned, tree,
-//! names, values, signals, engine, raw, expressions, definitions, smooth, split, reader.
+//! names, values, signals, engine, map_csv, maps, raw, expressions, definitions, smooth, split, reader.
 
 mod definitions;
 mod engine;
 mod error;
 mod expressions;
 pub(crate) mod finite;
+mod gearbox;
+mod map_csv;
+mod maps;
+mod modal;
+mod modes;
 mod names;
 mod raw;
 mod reader;
@@ -70,8 +80,12 @@ mod values;
 
 pub use error::{ModelError, ModelErrorKind};
 pub use expressions::{MAX_EXPRESSION_LEN, MAX_EXPRESSION_NESTING};
+pub use gearbox::MAX_GEARS;
+pub use modal::{
+    Gearbox, ModalInput, ModalModel, Mode, ModeRole, ModelFile, Schedule, SequenceOptions,
+};
 pub use reader::MAX_MODEL_FILE_BYTES;
 pub use signals::{derivative_name, MAX_SIGNAL_DERIVATIVE};
 pub use validated::{
-    Definition, Engine, ExtraOutput, Input, Model, Output, Parameter, Signal, State,
+    Definition, Engine, ExtraOutput, Input, MapInfo, Model, Output, Parameter, Signal, State,
 };

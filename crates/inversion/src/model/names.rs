@@ -65,6 +65,8 @@ pub(super) enum NameRef {
     Definition(usize),
     State(usize),
     Input,
+    /// A lookup map of `[maps]` (contract §6).
+    Map(usize),
     Signal(usize),
 }
 
@@ -75,6 +77,7 @@ impl NameRef {
             NameRef::Definition(_) => "a definition",
             NameRef::State(_) => "a state",
             NameRef::Input => "the input",
+            NameRef::Map(_) => "a map",
             NameRef::Signal(_) => "a signal",
         }
     }

@@ -4,6 +4,7 @@
 
 use super::engine::RawEngine;
 use super::error::{ModelError, ModelErrorKind};
+use super::maps::RawMap;
 use super::names::{is_identifier, Declaration, NameRef};
 use super::signals::RawSignal;
 use super::spanned::{string_content, Reader, Src};
@@ -45,6 +46,8 @@ pub(super) struct RawState {
     pub(super) equation: RawEquation,
     pub(super) unit: Option<String>,
     pub(super) doc: Option<String>,
+    /// `initial = VALUE`: the state's value at the start of a run where the inversion does not fix it.
+    pub(super) initial: Option<f64>,
 }
 
 /// `[input]` as written.
@@ -95,6 +98,8 @@ pub(super) struct RawModel {
     pub(super) output: RawOutput,
     pub(super) outputs: Vec<RawExtra>,
     pub(super) engine: Option<RawEngine>,
+    /// `[maps]` (contract §6), in file order.
+    pub(super) maps: Vec<RawMap>,
     /// `[signals]`, in file order.
     pub(super) signals: Vec<RawSignal>,
 }
@@ -123,6 +128,12 @@ impl RawModel {
         );
         decls.push((self.input.name.as_str(), self.input.at, NameRef::Input));
         decls.extend(
+            self.maps
+                .iter()
+                .enumerate()
+                .map(|(i, m)| (m.name.as_str(), m.at, NameRef::Map(i))),
+        );
+        decls.extend(
             self.signals
                 .iter()
                 .enumerate()
@@ -144,12 +155,13 @@ struct Sections {
     output: Option<RawOutput>,
     outputs: Vec<RawExtra>,
     engine: Option<RawEngine>,
+    maps: Vec<RawMap>,
     signals: Vec<RawSignal>,
 }
 
 const TOP_KEYS_SHOWN: &str =
     "name, description, [parameters], [definitions], [states], [input], [output], [outputs], [engine], \
-     [signals]";
+     [signals], [maps]";
 
 impl Reader<'_> {
     /// The top-level keys and sections; the required ones present.
@@ -193,6 +205,7 @@ impl Reader<'_> {
                 "output" => raw.output = Some(self.output(v)?),
                 "outputs" => raw.outputs = self.extra_outputs(self.table(v, "[outputs]")?)?,
                 "engine" => raw.engine = Some(self.engine(v)?),
+                "maps" => raw.maps = self.maps(v)?,
                 "signals" => raw.signals = self.signals(self.table(v, "[signals]")?)?,
                 other => {
                     return Err(self.err(
@@ -237,6 +250,7 @@ impl Reader<'_> {
             output,
             outputs: raw.outputs,
             engine: raw.engine,
+            maps: raw.maps,
             signals: raw.signals,
         })
     }
@@ -335,7 +349,7 @@ impl Reader<'_> {
                     ),
                 ));
             };
-            self.known_keys(t, &["rhs", "f", "g", "unit", "doc"], &what)?;
+            self.known_keys(t, &["rhs", "f", "g", "unit", "doc", "initial"], &what)?;
             let at_table = tv_at(v).or(key_at(k));
             let equation = match (get_key(t, "rhs"), get_key(t, "f"), get_key(t, "g")) {
                 (Some((_, rhs)), None, None) => RawEquation::Rhs(self.expression(rhs, &format!("{what}'s rhs"))?),
@@ -378,6 +392,9 @@ impl Reader<'_> {
                 equation,
                 unit: self.optional_string(t, "unit", &what)?,
                 doc: self.optional_string(t, "doc", &what)?,
+                initial: get(t, "initial")
+                    .map(|v| self.number(v, &format!("{what}'s `initial`")))
+                    .transpose()?,
             });
         }
         Ok(out)

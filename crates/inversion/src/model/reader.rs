@@ -4,11 +4,12 @@
 
 use super::definitions::Interned;
 use super::error::{ModelError, ModelErrorKind};
+use super::modal::ModelFile;
 use super::raw::RawModel;
 use super::spanned::Reader;
 use super::split::extra_outputs;
 use super::tree::Tv;
-use super::validated::{Input, Model, Signal};
+use super::validated::{Input, MapInfo, Model, Signal};
 use sha2::{Digest, Sha256};
 use std::io::Read;
 use std::path::Path;
@@ -74,9 +75,41 @@ impl Model {
     }
 }
 
+impl ModelFile {
+    /// Read a model file that may declare modes (README "Modes"); one without is read exactly as
+    /// [`Model::from_path`] reads it.
+    pub fn from_path(path: &Path) -> Result<ModelFile, ModelError> {
+        let bytes = read_capped(path)?;
+        let text =
+            std::str::from_utf8(&bytes).map_err(|_| match Model::from_bytes(path, &bytes) {
+                Err(e) => e,
+                Ok(_) => Reader {
+                    file: path,
+                    text: "",
+                }
+                .err(None, ModelErrorKind::Io, "not UTF-8"),
+            })?;
+        ModelFile::from_str(path, text)
+    }
+
+    /// [`ModelFile::from_path`] on text; `file` is used in messages.
+    pub fn from_str(file: &Path, text: &str) -> Result<ModelFile, ModelError> {
+        let reader = Reader { file, text };
+        let (root, hash) = reader.parse_tree()?;
+        reader.read_file(&root, hash)
+    }
+}
+
 impl Reader<'_> {
     /// Parse the TOML (with spans), read its structure, then check its meaning.
     fn read(&self) -> Result<Model, ModelError> {
+        let (root, source_hash) = self.parse_tree()?;
+        let raw = self.structure(&root)?;
+        self.build(raw, source_hash)
+    }
+
+    /// The file's TOML tree (with spans) and the SHA-256 of its text.
+    pub(super) fn parse_tree(&self) -> Result<(Tv, String), ModelError> {
         let hash = Sha256::digest(self.text.as_bytes());
         let source_hash: String = hash.iter().map(|b| format!("{b:02x}")).collect();
         let root: Tv = toml::from_str(self.text).map_err(|e| {
@@ -93,13 +126,15 @@ impl Reader<'_> {
                 format!("TOML syntax error: {message}"),
             )
         })?;
-        let raw = self.structure(&root)?;
-        self.build(raw, source_hash)
+        Ok((root, source_hash))
     }
 
     /// The checks on meaning, in order: names, expressions, definitions, smoothness, the affine split.
-    fn build(&self, raw: RawModel, source_hash: String) -> Result<Model, ModelError> {
+    pub(super) fn build(&self, raw: RawModel, source_hash: String) -> Result<Model, ModelError> {
         let names = self.declare(raw.declarations())?;
+        let declared = raw.declarations().into_iter().map(|(n, at, _)| (n, at));
+        let outputs_declared = raw.outputs.iter().map(|e| (e.name.as_str(), e.at));
+        self.check_derivative_names(&raw.maps, declared.chain(outputs_declared))?;
         self.check_columns(&names, raw.outputs.iter().map(|e| (e.name.as_str(), e.at)))?;
         let items = self.parse_all(&raw, &names)?;
         let uses = self.definition_graph(&raw, &names, &items)?;
@@ -115,6 +150,7 @@ impl Reader<'_> {
             output,
             outputs,
             engine,
+            maps,
             signals,
         } = raw;
         let engine = {
@@ -125,8 +161,15 @@ impl Reader<'_> {
         };
         let tracks_speed = output.reference_offset.unwrap_or(0.0) == 0.0
             && output.reference_scale.unwrap_or(1.0) == 1.0;
-        let mut m = Interned::new(parameters, definitions, &states, (&input, &signals), &items)
-            .map_err(|t| self.too_large_definition(t))?;
+        let mut m = Interned::new(
+            parameters,
+            definitions,
+            &states,
+            (&input, &signals),
+            &maps,
+            &items,
+        )
+        .map_err(|t| self.too_large_definition(t))?;
         let signals: Vec<Signal> = signals
             .into_iter()
             .map(|s| Signal {
@@ -142,6 +185,18 @@ impl Reader<'_> {
         let output = self.split_output(output, &input.name, &mut m, &items)?;
         self.check_finite(&m.pool, &m.nominal, (&states, &output), &items)?;
         let outputs = extra_outputs(outputs, tracks_speed, &mut m);
+        let maps = maps
+            .into_iter()
+            .map(|r| MapInfo {
+                id: m.pool.find_map(&r.name).expect("declared by Interned::new"),
+                name: r.name,
+                args: r.args,
+                unit: r.unit,
+                doc: r.doc,
+                file: r.file,
+                data: r.data,
+            })
+            .collect();
 
         let name = name.unwrap_or_else(|| {
             self.file
@@ -171,6 +226,7 @@ impl Reader<'_> {
             output,
             outputs,
             engine,
+            maps,
             signals,
         })
     }

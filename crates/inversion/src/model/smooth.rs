@@ -1,6 +1,7 @@
 //! Smoothness: the non-smooth functions `abs`, `sign`, `min` and `max` may not enter f, g or h — neither
 //! directly in a state's rhs, f, g or the output's h, nor through a definition that reaches them — since
-//! the method differentiates f, g and h (Lie derivatives); they are allowed in `[outputs]`.
+//! the method differentiates f, g and h (Lie derivatives); they are allowed in `[outputs]`. The same holds for
+//! a map with `interp = "linear"` (plain (bi)linear interpolation, contract §6), its derivative maps included.
 
 use super::definitions::{def_uses, Uses};
 use super::error::{ModelError, ModelErrorKind};
@@ -8,6 +9,7 @@ use super::expressions::{describe, Item, Role};
 use super::names::Names;
 use super::raw::RawModel;
 use super::spanned::Reader;
+use invsim_expr::map::Interp;
 use invsim_expr::NON_SMOOTH_FUNCTIONS;
 
 impl Reader<'_> {
@@ -30,12 +32,21 @@ impl Reader<'_> {
                 }
             }
         }
+        let linear_map = |called: &str| {
+            raw.maps.iter().any(|m| {
+                m.data.settings().interp == Interp::Linear
+                    && (called == m.name
+                        || called
+                            .strip_prefix(m.name.as_str())
+                            .is_some_and(|r| r.starts_with("_d")))
+            })
+        };
         for item in items {
             let Some((call, span)) = item
                 .ast
                 .calls()
                 .into_iter()
-                .find(|(name, _)| NON_SMOOTH_FUNCTIONS.contains(name))
+                .find(|(name, _)| NON_SMOOTH_FUNCTIONS.contains(name) || linear_map(name))
             else {
                 continue;
             };
@@ -52,6 +63,16 @@ impl Reader<'_> {
                 Role::Extra(_) => continue,
                 role => describe(raw, role),
             };
+            if linear_map(call) {
+                return Err(self.err(
+                    at,
+                    ModelErrorKind::NonSmooth,
+                    format!(
+                        "map `{call}` has interp = \"linear\" (not smooth), so it may not enter f, g or h: use it only \
+                         in [outputs], or give it interp = \"smooth\" (found in {root})"
+                    ),
+                ));
+            }
             return Err(self.err(
                 at,
                 ModelErrorKind::NonSmooth,

@@ -85,6 +85,7 @@ impl Reader<'_> {
                 rhs,
                 f,
                 g,
+                initial: s.initial,
             });
         }
         Ok(states)

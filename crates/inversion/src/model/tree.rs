@@ -24,7 +24,8 @@ pub(super) struct Tv {
     pub(super) kind: Kind,
 }
 
-/// What a TOML value is (arrays and date-times are not read further: no key takes them).
+/// What a TOML value is (date-times are not read further: no key takes them; arrays hold their elements,
+/// for the grids and values of `[maps]`).
 #[derive(Debug)]
 pub(super) enum Kind {
     Str(String),
@@ -32,7 +33,7 @@ pub(super) enum Kind {
     Float(f64),
     Bool(bool),
     Datetime,
-    Array,
+    Array(Vec<Tv>),
     /// Entries in file order.
     Table(Vec<(Key, Tv)>),
 }
@@ -52,7 +53,7 @@ impl Kind {
             Kind::Float(_) => "a float",
             Kind::Bool(_) => "a boolean",
             Kind::Datetime => "a date-time",
-            Kind::Array => "an array",
+            Kind::Array(_) => "an array",
             Kind::Table(_) => "a table",
         }
     }
@@ -130,8 +131,11 @@ impl<'de> Visitor<'de> for TvVisitor {
         Ok(unspanned(Kind::Str(v)))
     }
     fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Tv, A::Error> {
-        while seq.next_element::<IgnoredAny>()?.is_some() {}
-        Ok(unspanned(Kind::Array))
+        let mut items = Vec::new();
+        while let Some(v) = seq.next_element::<Tv>()? {
+            items.push(v);
+        }
+        Ok(unspanned(Kind::Array(items)))
     }
     fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Tv, A::Error> {
         let Some(first) = map.next_key::<Key>()? else {

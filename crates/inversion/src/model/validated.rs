@@ -1,9 +1,11 @@
 //! The validated model: every name checked, definitions inlined, each state's right-hand side split into
 //! dx/dt = f(x) + g(x)·u, the output y = h(x) free of the input (contract section 2).
 
-use invsim_expr::{Id, Pool, Symbol};
+use invsim_expr::map::Map;
+use invsim_expr::{Id, MapId, Pool, Symbol};
 use std::collections::HashMap;
 use std::path::PathBuf;
+use std::sync::Arc;
 
 /// A validated model: every name checked, definitions inlined, each state's right-hand side split into
 /// `f + g·u`. All expressions live in [`Model::pool`]; parameters stay symbols (their values are the
@@ -29,8 +31,26 @@ pub struct Model {
     pub outputs: Vec<ExtraOutput>,
     /// `[engine]`: which extra outputs are the engine's speed and torque.
     pub engine: Option<Engine>,
+    /// `[maps]` (contract §6), in file order; each is declared in [`Model::pool`] under its name.
+    pub maps: Vec<MapInfo>,
     /// The exogenous signals of `[signals]`, in file order.
     pub signals: Vec<Signal>,
+}
+
+/// A lookup map of `[maps]` (contract §6).
+#[derive(Debug, Clone)]
+pub struct MapInfo {
+    pub name: String,
+    /// The map in [`Model::pool`].
+    pub id: MapId,
+    /// Argument names (for the docs); their number is the arity.
+    pub args: Vec<String>,
+    pub unit: Option<String>,
+    pub doc: Option<String>,
+    /// The CSV file the values came from, if any.
+    pub file: Option<PathBuf>,
+    /// Grid, values and settings.
+    pub data: Arc<Map>,
 }
 
 /// An exogenous signal S (contract §5): a symbol in the expressions; its smoothed derivatives S_d1 … are
@@ -92,6 +112,9 @@ pub struct State {
     pub f: Id,
     /// The input gain, free of the input.
     pub g: Id,
+    /// `initial = VALUE`: the value at the start of a run for a state the inversion does not fix (an internal
+    /// state); `None` when the model file gives none.
+    pub initial: Option<f64>,
 }
 
 /// The model's single input `u`.

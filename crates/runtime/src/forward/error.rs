@@ -51,7 +51,8 @@ pub enum ForwardError {
     #[error(
         "cannot find the initial state at t0 = {} s: {reason}; the run starts in the equilibrium ψ⁻¹ gives at \
          the cycle's first speed: start the cycle at a speed where that equilibrium exists (e.g. prepend a \
-         row at a speed the model can hold), or change the parameters with --set",
+         row at a speed the model can hold), change the parameters with --set, or give the internal states' start \
+         values with `initial = VALUE` on each internal state in the model file or --initial NAME=VALUE",
         num(*t)
     )]
     InitialState { t: f64, reason: String },

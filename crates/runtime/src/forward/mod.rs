@@ -177,8 +177,9 @@ pub fn forward<M: InverseModel + ?Sized>(
     })
 }
 
-/// The initial state: `opts.x0`, else ψ⁻¹ of the raw cycle's start, (y_c, y_c', 0, …), with η at the
-/// equilibrium of the zero dynamics there (Newton from η = 0).
+/// The initial state: `opts.x0`, else ψ⁻¹ of the raw cycle's start, (y_c, y_c', 0, …), with η from the
+/// internal states' start values (`initial =`, `--initial`) or else at the equilibrium of the zero dynamics
+/// there (Newton from η = 0).
 fn initial_state<M: InverseModel + ?Sized>(
     model: &M,
     (raw, w0): (&RawCycle<'_>, &[f64]),
@@ -214,10 +215,12 @@ fn initial_state<M: InverseModel + ?Sized>(
         xi0[1] = raw.slope[seg0];
     }
     let yr0 = if r == 1 { raw.slope[seg0] } else { 0.0 };
-    let eta0 = if ne == 0 {
-        Vec::new()
-    } else {
-        start_equilibrium(model, (&xi0, w0), yr0, t0)?
+    // The internal states' start values (`initial =`, `--initial`), else their equilibrium.
+    let given = crate::initial::initial_eta(info, &opts.initial).map_err(RunError::from)?;
+    let eta0 = match given.eta {
+        Some(e) => e,
+        None if ne == 0 => Vec::new(),
+        None => start_equilibrium(model, (&xi0, w0), yr0, t0)?,
     };
     let mut x = vec![0.0; n];
     model

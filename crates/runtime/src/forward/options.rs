@@ -124,6 +124,9 @@ pub struct ForwardOptions {
     /// Signal values given on the command line (`--signal`); the others come from the cycle or the model's
     /// defaults. The forward run uses the RAW signals (linear between samples).
     pub signals: Vec<crate::signals::SignalInput>,
+    /// Start values of states given on the command line (`--initial NAME=VALUE`), over the model file's
+    /// `initial`: the internal states start there instead of at the equilibrium of the zero dynamics.
+    pub initial: Vec<(String, f64)>,
 }
 
 impl Default for ForwardOptions {
@@ -147,6 +150,7 @@ impl Default for ForwardOptions {
             time_limit_s: None,
             progress: crate::progress::Progress::none(),
             signals: Vec::new(),
+            initial: Vec::new(),
         }
     }
 }

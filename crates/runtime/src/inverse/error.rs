@@ -45,6 +45,11 @@ pub enum SimulateError {
     RelativeDegreeTooHigh { relative_degree: usize, max: usize },
     #[error("cannot smooth the drive cycle: {0}")]
     Smoother(#[from] SmootherError),
+    #[error("at {at}: {}", super::map_check::describe(violation))]
+    MapOutsideGrid {
+        at: String,
+        violation: invsim_model_api::map::Violation,
+    },
     #[error(
         "the decoupling coefficient β(ξ, η) = L_g L_f^(r−1) h is {beta_} at t = {t_} s, so the input \
          u = (y^(r) − α)/β is undefined there: the relative degree is not well defined at this operating point",
@@ -54,8 +59,9 @@ pub enum SimulateError {
     #[error(
         "cannot find the initial internal state: Newton's method for the equilibrium q(ξ(t0), η, y_d^(r)(t0)) = 0 \
          at t0 = {} s {reason}; the run starts η in that equilibrium: start the cycle at a speed where it \
-         exists (e.g. prepend a row at a speed the model can hold), change the parameters with --set, or try \
-         another --lookahead (it changes y_d^(r)(t0))",
+         exists (e.g. prepend a row at a speed the model can hold), change the parameters with --set, try \
+         another --lookahead (it changes y_d^(r)(t0)), or give the internal states' start values with \
+         `initial = VALUE` on each internal state in the model file or --initial NAME=VALUE",
         num(*t)
     )]
     ZeroDynamicsEquilibrium { t: f64, reason: String },

@@ -21,6 +21,7 @@ mod causal;
 mod checks;
 mod error;
 mod inverter;
+mod map_check;
 mod options;
 mod reference;
 mod result;

@@ -68,6 +68,9 @@ pub struct SimulationOptions {
     /// Signal values given on the command line (`--signal`); the others come from the cycle or the model's
     /// defaults ([`crate::signals::resolve`]). The inverse and its replay use the smoothed signals.
     pub signals: Vec<crate::signals::SignalInput>,
+    /// Start values of states given on the command line (`--initial NAME=VALUE`), over the model file's
+    /// `initial` ([`crate::initial`]).
+    pub initial: Vec<(String, f64)>,
 }
 
 impl Default for SimulationOptions {
@@ -88,6 +91,7 @@ impl Default for SimulationOptions {
             include_extension: false,
             progress: Progress::none(),
             signals: Vec::new(),
+            initial: Vec::new(),
         }
     }
 }

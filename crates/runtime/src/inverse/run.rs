@@ -304,6 +304,7 @@ fn run_blocks<M: InverseModel + ?Sized>(
     } else {
         (0..data.len()).map(|_| vec![0.0; BLOCK]).collect()
     };
+    super::map_check::clear();
     let mut k0 = 0;
     while k0 < samples {
         let k1 = (k0 + BLOCK).min(samples);
@@ -340,6 +341,7 @@ fn run_blocks<M: InverseModel + ?Sized>(
             model.outputs_batch(&xs, b.w, b.u, b.out);
         }
         check_finite(model, &b)?;
+        super::map_check::check(model, &b)?;
         tally.record_block(&b);
         tally.progress.report(k1, samples);
         k0 = k1;
@@ -467,6 +469,8 @@ pub(super) fn run<M: InverseModel + ?Sized>(
     checks::check_lookahead(opts.lookahead, duration)?;
     let steps = grid.n;
     let eta0 = check_eta0(info, opts)?;
+    // Start values of the internal states (`initial =`, `--initial`), used by a causal run.
+    let initial = crate::initial::initial_eta(info, &opts.initial).map_err(RunError::from)?;
     // The signals (command line, cycle column or default), smoothed with the reference's kernel.
     let resolved = crate::signals::resolve(info, cycle, &opts.signals).map_err(RunError::from)?;
     let shared = shared.filter(|s| {
@@ -503,6 +507,20 @@ pub(super) fn run<M: InverseModel + ?Sized>(
         (t0, grid.time(grid.n), opts.dt),
         &stable_opts,
     )?;
+    let mut start_warnings = initial.warnings;
+    let eta0 = match (eta0, initial.eta) {
+        (Some(e), _) => Some(e),
+        (None, Some(e)) if zd.stable.is_none() => Some(e),
+        (None, Some(_)) => {
+            start_warnings.push(
+                "the internal states' initial values are ignored: stable inversion keeps its boundary \
+                 conditions (η bounded before the start and after the end of the cycle)"
+                    .to_string(),
+            );
+            None
+        }
+        (None, None) => None,
+    };
     if let Some(st) = &zd.stable {
         let extended = steps as f64 + (st.k_pre + st.k_post) as f64;
         check_samples(extended, extended * opts.dt, opts.dt)?;
@@ -525,6 +543,7 @@ pub(super) fn run<M: InverseModel + ?Sized>(
 
     let run = Finished {
         smoother,
+        start_warnings,
         grid,
         window,
         input_column,
@@ -548,6 +567,8 @@ pub(super) fn run<M: InverseModel + ?Sized>(
 struct Finished<'s> {
     /// The reference's smoother with the signals (the replay takes them from it).
     smoother: &'s Smoother,
+    /// About the initial values of `initial =` / `--initial`.
+    start_warnings: Vec<String>,
     grid: Grid,
     window: (usize, usize),
     input_column: usize,
@@ -657,6 +678,7 @@ fn summarise<M: InverseModel + ?Sized>(
     );
     let mut warnings = run_warnings(info, cycle, distance, &totals);
     warnings.extend(run.distance_warning.clone());
+    warnings.extend(run.start_warnings.iter().cloned());
     let (max_abs_tracking_error, rms_tracking_error) = if opts.verify {
         let state_column = run.input_column + 1;
         let (max_abs, rms, verify_warnings) = verify_forward(

@@ -1,4 +1,4 @@
-//! Construction of the kernel's tables (see [`crate::kernel`]): the piecewise polynomials of `K₁` and `R₁` on
+//! Construction of the kernel's tables (see the crate root): the piecewise polynomials of `K₁` and `R₁` on
 //! `[−1, 0]` and the derivative polynomials `S̃_n(q)`. Plain `std` only: `build.rs` includes this file to
 //! emit the tables as constants at compile time, and the kernel's tests run it again to check them.
 

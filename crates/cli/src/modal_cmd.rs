@@ -1,0 +1,268 @@
+//! `derive` and `simulate` for a model with operating modes (README "Modes"): every mode derived and run
+//! through the interpreter, the mode sequence by `invsim_runtime::modes`.
+
+use std::path::Path;
+
+use invsim_inversion::{Derivation, Interpreter, ModalModel, ModeRole, ModelFile, Schedule};
+use invsim_model_api::InverseModel;
+use invsim_runtime::modes::{
+    gears, GearSource, InputSpec, ModalOptions, ModalSpec, ModeSpec, Role, SequenceParams,
+    Switching,
+};
+use invsim_runtime::{output, Cycle};
+
+use crate::error::Failure;
+use crate::files::print_stdout;
+
+/// The file read as a model with modes, or `None` for an ordinary model (then read as before).
+pub fn read_modal(path: &Path) -> Result<Option<ModalModel>, Failure> {
+    match ModelFile::from_path(path) {
+        Ok(ModelFile::Modal(m)) => Ok(Some(*m)),
+        Ok(ModelFile::Single(_)) => Ok(None),
+        Err(e) => Err(Failure::user(e.to_string())),
+    }
+}
+
+/// A mode with its derivation.
+pub struct DerivedMode {
+    pub name: String,
+    pub family: String,
+    pub gear: Option<usize>,
+    pub role: ModeRole,
+    pub free: usize,
+    pub fixed: Vec<(usize, String)>,
+    pub d: Derivation,
+}
+
+/// Every mode's derivation (the returned model keeps everything but its modes).
+pub fn derive_modes(mut m: ModalModel) -> Result<(ModalModel, Vec<DerivedMode>), Failure> {
+    let mut out = Vec::new();
+    for mode in std::mem::take(&mut m.modes) {
+        let invsim_inversion::Mode {
+            name,
+            family,
+            gear,
+            role,
+            free,
+            fixed,
+            model,
+        } = mode;
+        let d = Derivation::new(model).map_err(|e| Failure::user(format!("mode `{name}`: {e}")))?;
+        d.check_printable()
+            .map_err(|e| Failure::user(format!("mode `{name}`: {e}")))?;
+        out.push(DerivedMode {
+            name,
+            family,
+            gear,
+            role,
+            free,
+            fixed,
+            d,
+        });
+    }
+    Ok((m, out))
+}
+
+fn role_of(r: ModeRole) -> Role {
+    match r {
+        ModeRole::Traction => Role::Traction,
+        ModeRole::Brake => Role::Brake,
+        ModeRole::Standstill => Role::Standstill,
+    }
+}
+
+/// `invsim derive` of a model with modes.
+pub fn derive(m: ModalModel, format: crate::derive::Format) -> Result<(), Failure> {
+    let (m, ds) = derive_modes(m)?;
+    let text = match format {
+        crate::derive::Format::Json => {
+            let modes: Vec<serde_json::Value> = ds
+                .iter()
+                .map(|mode| {
+                    let d = &mode.d;
+                    let fixed: serde_json::Map<String, serde_json::Value> = mode
+                        .fixed
+                        .iter()
+                        .map(|(i, e)| {
+                            (
+                                m.inputs[*i].name.clone(),
+                                serde_json::Value::String(e.clone()),
+                            )
+                        })
+                        .collect();
+                    serde_json::json!({
+                        "name": mode.name, "family": mode.family, "gear": mode.gear,
+                        "role": mode.role.as_str(), "free_input": m.inputs[mode.free].name,
+                        "fixed_inputs": fixed, "derivation": d.to_json(),
+                    })
+                })
+                .collect();
+            let inputs: Vec<&str> = m.inputs.iter().map(|i| i.name.as_str()).collect();
+            let v = serde_json::json!({ "name": m.name, "inputs": inputs, "modes": modes });
+            let mut s = serde_json::to_string_pretty(&v).map_err(|e| Failure::io(e.to_string()))?;
+            s.push('\n');
+            s
+        }
+        f => {
+            let mut s = format!("model {} with {} modes\n", m.name, ds.len());
+            for mode in &ds {
+                let d = &mode.d;
+                let fixed: Vec<String> = mode
+                    .fixed
+                    .iter()
+                    .map(|(i, e)| format!("{} = {e}", m.inputs[*i].name))
+                    .collect();
+                s.push_str(&format!(
+                    "\n== mode {} (role {}, free input {}, {}) ==\n",
+                    mode.name,
+                    mode.role.as_str(),
+                    m.inputs[mode.free].name,
+                    fixed.join(", ")
+                ));
+                s.push_str(&if f == crate::derive::Format::Markdown {
+                    d.to_markdown()
+                } else {
+                    d.to_text()
+                });
+            }
+            s
+        }
+    };
+    print_stdout(&text)
+}
+
+/// The options of `simulate` a modal run uses.
+pub struct ModalRun<'a> {
+    pub model: &'a Path,
+    pub cycle: &'a str,
+    pub max_cycle_bytes: u64,
+    pub lookahead: f64,
+    pub dt: f64,
+    pub set: &'a [String],
+    pub out: Option<&'a Path>,
+    pub summary_json: Option<&'a Path>,
+    pub verify: bool,
+    pub switching: Switching,
+    pub transition_time: Option<f64>,
+}
+
+fn gear_source(m: &ModalModel, cycle: &Cycle, spec: &str) -> Result<(usize, GearSource), Failure> {
+    let Some(g) = &m.gearbox else {
+        return Ok((1, GearSource::Fixed));
+    };
+    let src = match &g.schedule {
+        Schedule::Speed { up, down } => GearSource::Speed { up: up.clone(), down: down.clone() },
+        Schedule::Regulation => GearSource::Table(gears::regulation_table(&cycle.name).ok_or_else(|| {
+            Failure::user(format!(
+                "{}: the regulation's gear prescription exists for the built-in ece, eudc and nedc, not for `{}`",
+                m.file.display(),
+                cycle.name
+            ))
+        })?),
+        Schedule::Column(c) => {
+            if Cycle::builtin(spec).is_some() {
+                return Err(Failure::user(format!(
+                    "{}: the gearbox takes the gear from the cycle file's column `{c}`, but `{spec}` is a built-in cycle",
+                    m.file.display()
+                )));
+            }
+            GearSource::Table(
+                gears::column_table(Path::new(spec), c).map_err(|e| Failure::user(format!("{spec}: {e}")))?,
+            )
+        }
+    };
+    Ok((g.gears, src))
+}
+
+/// `invsim simulate` of a model with modes.
+pub fn simulate(m: ModalModel, run: &ModalRun<'_>) -> Result<(), Failure> {
+    let outputs = crate::outputs::Outputs::plan(
+        &crate::engine::run_inputs(run.model, run.cycle),
+        &[("--out", run.out), ("--summary-json", run.summary_json)],
+    )?;
+    let cycle = Cycle::load_with_limit(run.cycle, run.max_cycle_bytes)
+        .map_err(|e| Failure::user(e.to_string()))?;
+    let (gears_n, gear_source) = gear_source(&m, &cycle, run.cycle)?;
+    let (m, ds) = derive_modes(m)?;
+    let mut interps: Vec<Interpreter> = ds
+        .iter()
+        .map(|d| Interpreter::new(&d.d).map_err(|e| Failure::user(e.to_string())))
+        .collect::<Result<_, _>>()?;
+    for s in run.set {
+        let (name, value) = crate::engine::parse_set(s)?;
+        for i in interps.iter_mut() {
+            i.set_param(&name, value)
+                .map_err(|e| Failure::user(format!("--set {name}: {e}")))?;
+        }
+    }
+    let n_fixed = m.inputs.len() - 1;
+    let n_outputs = interps[0].info().outputs.len() - n_fixed;
+    let modes: Vec<ModeSpec<'_>> = ds
+        .iter()
+        .zip(&interps)
+        .map(|(mode, i)| {
+            let outs = &i.info().outputs;
+            let fixed_outputs = mode
+                .fixed
+                .iter()
+                .filter_map(|(j, _)| {
+                    let name = &m.inputs[*j].name;
+                    outs.iter().rposition(|o| &o.name == name).map(|o| (*j, o))
+                })
+                .collect();
+            ModeSpec {
+                name: mode.name.clone(),
+                family: mode.family.clone(),
+                role: role_of(mode.role),
+                gear: mode.gear,
+                free_input: mode.free,
+                fixed_outputs,
+                model: i as &dyn InverseModel,
+            }
+        })
+        .collect();
+    let spec = ModalSpec {
+        name: m.name.clone(),
+        inputs: m
+            .inputs
+            .iter()
+            .map(|i| InputSpec {
+                name: i.name.clone(),
+                unit: i.unit.clone(),
+                min: i.min,
+                max: i.max,
+            })
+            .collect(),
+        modes,
+        gears: gears_n,
+        gear_source,
+        sequence: SequenceParams {
+            standstill_below: m.sequence.standstill_below,
+            standstill_above: m.sequence.standstill_above,
+            brake_band: m.sequence.brake_band,
+            min_dwell: m.sequence.min_dwell,
+        },
+        n_outputs,
+    };
+    let opts = ModalOptions {
+        lookahead: run.lookahead,
+        dt: run.dt,
+        switching: run.switching,
+        transition_time: run.transition_time,
+        verify: run.verify,
+    };
+    let result = invsim_runtime::modes::simulate_modes(&spec, &cycle, &opts).map_err(|e| {
+        Failure::user(format!(
+            "simulation of `{}` on `{}` stopped: {e}",
+            run.model.display(),
+            cycle.name
+        ))
+    })?;
+    let mut outputs = outputs;
+    outputs.write("--out", |f| {
+        output::write_table_csv(&result.columns, &result.data, f)
+    })?;
+    outputs.write("--summary-json", |f| output::write_json(&result.summary, f))?;
+    outputs.commit()?;
+    print_stdout(&result.summary.to_text())
+}

@@ -1,0 +1,432 @@
+//! Smooth lookup maps (contract §6): the convolution of a 1-D or 2-D (bi)linear interpolant with the bump
+//! kernel, and all its partial derivatives, exact and in one pass.
+//!
+//! # Definition
+//!
+//! A map has a grid per argument (strictly increasing, at least two points), values at the grid points and an
+//! extrapolation rule. `L` is the (bi)linear interpolant, continued outside the grid by its end segments
+//! (`linear`, `error`) or by the edge values (`clamp`); in 2-D the continuation is the tensor product of the
+//! two axes' continuations (corner regions included). The smooth map is
+//!
+//! ```text
+//! M(a)    = ∫ k_h(s) L(a − s) ds,                      h = smooth · min_j (x_{j+1} − x_j),
+//! M(a, b) = ∫∫ k_hx(s) k_hy(σ) L(a − s, b − σ) ds dσ,   (product kernel, one half-width per axis)
+//! ```
+//!
+//! with `k_h` the drive-cycle kernel of half-width `h`. `L(a, b) = Σ_ij v_ij φ_i(a) ψ_j(b)` is a tensor
+//! product of hat functions, so `M(a, b) = Σ_ij v_ij Φ_i(a) Ψ_j(b)` with `Φ_i = k_hx * φ_i`, `Ψ_j = k_hy * ψ_j`
+//! and `∂^(p+q) M / ∂a^p ∂b^q = Σ_ij v_ij Φ_i^(p)(a) Ψ_j^(q)(b)`. Each smoothed basis function is closed-form
+//! (see `axis`): a sum over the grid corners within the kernel window, like the drive-cycle smoother. Because
+//! the kernel is even, `M = L` wherever `L` is (bi)linear on the window, in particular everywhere for
+//! (bi)linear data under `linear` extrapolation.
+//!
+//! With [`Interp::Linear`] no kernel is applied: `M = L` (plain (bi)linear, first derivatives piecewise
+//! constant, higher ones zero); the contract allows that only for maps used in outputs alone.
+
+mod axis;
+mod violation;
+
+use axis::{Axis, Basis};
+pub use violation::{take_violation, Violation};
+
+use crate::Kernel;
+
+/// How a map continues outside its grid (contract §6).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Extrapolate {
+    /// The end segments continue (the default).
+    Linear,
+    /// The edge values are held.
+    Clamp,
+    /// As `Linear` for the smoothing, but an argument outside the grid at run time is an error
+    /// (see [`Map::outside`]).
+    Error,
+}
+
+impl Extrapolate {
+    /// The rule's name in model files: `linear`, `clamp`, `error`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Extrapolate::Linear => "linear",
+            Extrapolate::Clamp => "clamp",
+            Extrapolate::Error => "error",
+        }
+    }
+
+    /// The rule of a name in model files.
+    pub fn from_name(name: &str) -> Option<Extrapolate> {
+        match name {
+            "linear" => Some(Extrapolate::Linear),
+            "clamp" => Some(Extrapolate::Clamp),
+            "error" => Some(Extrapolate::Error),
+            _ => None,
+        }
+    }
+}
+
+/// Smooth (kernel-convolved) or plain (bi)linear interpolation (contract §6).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Interp {
+    /// The interpolant convolved with the kernel: C-infinity (the default).
+    Smooth,
+    /// Plain (bi)linear interpolation (only for maps used in outputs alone).
+    Linear,
+}
+
+impl Interp {
+    /// The name in model files: `smooth`, `linear`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Interp::Smooth => "smooth",
+            Interp::Linear => "linear",
+        }
+    }
+
+    /// The interpolation of a name in model files.
+    pub fn from_name(name: &str) -> Option<Interp> {
+        match name {
+            "smooth" => Some(Interp::Smooth),
+            "linear" => Some(Interp::Linear),
+            _ => None,
+        }
+    }
+}
+
+/// The settings of a map besides its data (contract §6 defaults: 0.5, linear, smooth).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MapSettings {
+    /// Kernel half-width per axis as a multiple of the axis' smallest grid spacing (> 0).
+    pub smooth: f64,
+    pub extrapolate: Extrapolate,
+    pub interp: Interp,
+}
+
+impl Default for MapSettings {
+    fn default() -> Self {
+        MapSettings {
+            smooth: 0.5,
+            extrapolate: Extrapolate::Linear,
+            interp: Interp::Smooth,
+        }
+    }
+}
+
+/// A map's data that [`Map::new`] refuses.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MapError {
+    #[error("the {axis} grid has {len} point(s); a map needs at least 2")]
+    TooFewPoints { axis: &'static str, len: usize },
+    #[error("the {axis} grid is not strictly increasing: entry {index} ({value}) does not exceed the one before ({previous})")]
+    NotIncreasing {
+        axis: &'static str,
+        index: usize,
+        value: f64,
+        previous: f64,
+    },
+    #[error("the {axis} grid has a non-finite entry {index} ({value})")]
+    NonFiniteGrid {
+        axis: &'static str,
+        index: usize,
+        value: f64,
+    },
+    #[error("value {index} of the map is not finite ({value})")]
+    NonFiniteValue { index: usize, value: f64 },
+    #[error("the map has {got} values; its grid needs {expected}")]
+    Shape { expected: usize, got: usize },
+    #[error("smooth = {0} is not valid; expected a finite number > 0")]
+    Smooth(f64),
+}
+
+/// A 1-D or 2-D lookup map (see the module documentation).
+#[derive(Debug, Clone)]
+pub struct Map {
+    x: Axis,
+    y: Option<Axis>,
+    /// Row-major: `values[i · len(y) + j]` at `(x_i, y_j)`; 1-D: `values[i]`.
+    values: Vec<f64>,
+    settings: MapSettings,
+    /// Scratch sizes per axis for one basis evaluation and one order.
+    max_count: [usize; 2],
+    /// The map's name in messages (see [`Map::named`]).
+    name: std::sync::Arc<str>,
+}
+
+/// Scratch values on the stack per axis; larger windows (large `smooth` on uneven grids) use the heap.
+const STACK_SCRATCH: usize = 96;
+
+fn check_grid(axis: &'static str, grid: &[f64]) -> Result<(), MapError> {
+    if grid.len() < 2 {
+        return Err(MapError::TooFewPoints {
+            axis,
+            len: grid.len(),
+        });
+    }
+    for (index, &value) in grid.iter().enumerate() {
+        if !value.is_finite() {
+            return Err(MapError::NonFiniteGrid { axis, index, value });
+        }
+        if index > 0 && value <= grid[index - 1] {
+            return Err(MapError::NotIncreasing {
+                axis,
+                index,
+                value,
+                previous: grid[index - 1],
+            });
+        }
+    }
+    Ok(())
+}
+
+fn make_axis(axis: &'static str, grid: Vec<f64>, s: &MapSettings) -> Result<Axis, MapError> {
+    check_grid(axis, &grid)?;
+    let kernel = match s.interp {
+        Interp::Linear => None,
+        Interp::Smooth => {
+            if !(s.smooth > 0.0 && s.smooth.is_finite()) {
+                return Err(MapError::Smooth(s.smooth));
+            }
+            let spacing = grid
+                .windows(2)
+                .map(|w| w[1] - w[0])
+                .fold(f64::INFINITY, f64::min);
+            let h = s.smooth * spacing;
+            if !(h > 0.0 && h.is_finite()) {
+                return Err(MapError::Smooth(s.smooth));
+            }
+            Some(Kernel::new(h))
+        }
+    };
+    Ok(Axis {
+        grid,
+        extrapolate: s.extrapolate,
+        kernel,
+    })
+}
+
+fn check_values(values: &[f64], expected: usize) -> Result<(), MapError> {
+    if values.len() != expected {
+        return Err(MapError::Shape {
+            expected,
+            got: values.len(),
+        });
+    }
+    match values.iter().position(|v| !v.is_finite()) {
+        Some(index) => Err(MapError::NonFiniteValue {
+            index,
+            value: values[index],
+        }),
+        None => Ok(()),
+    }
+}
+
+impl Map {
+    /// A 1-D map `M(a)` with `values[i]` at `x[i]`.
+    pub fn new_1d(x: Vec<f64>, values: Vec<f64>, settings: MapSettings) -> Result<Map, MapError> {
+        let x = make_axis("x", x, &settings)?;
+        check_values(&values, x.len())?;
+        Ok(Map {
+            max_count: [x.max_count(), 0],
+            x,
+            y: None,
+            values,
+            settings,
+            name: "map".into(),
+        })
+    }
+
+    /// A 2-D map `M(a, b)` with `values[i · y.len() + j]` at `(x[i], y[j])` (row-major, one row per `x`).
+    pub fn new_2d(
+        x: Vec<f64>,
+        y: Vec<f64>,
+        values: Vec<f64>,
+        settings: MapSettings,
+    ) -> Result<Map, MapError> {
+        let x = make_axis("x", x, &settings)?;
+        let y = make_axis("y", y, &settings)?;
+        check_values(&values, x.len() * y.len())?;
+        Ok(Map {
+            max_count: [x.max_count(), y.max_count()],
+            x,
+            y: Some(y),
+            values,
+            settings,
+            name: "map".into(),
+        })
+    }
+
+    /// The map with `name` for messages (a [`Violation`] names it).
+    pub fn named(mut self, name: &str) -> Map {
+        self.name = name.into();
+        self
+    }
+
+    /// The map's name in messages.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// The number of arguments: 1 or 2.
+    pub fn arity(&self) -> usize {
+        if self.y.is_some() {
+            2
+        } else {
+            1
+        }
+    }
+
+    /// The settings the map was built with.
+    pub fn settings(&self) -> MapSettings {
+        self.settings
+    }
+
+    /// The grid of the first argument.
+    pub fn x(&self) -> &[f64] {
+        &self.x.grid
+    }
+
+    /// The grid of the second argument (2-D maps).
+    pub fn y(&self) -> Option<&[f64]> {
+        self.y.as_ref().map(|a| a.grid.as_slice())
+    }
+
+    /// The values, row-major (see [`Map::new_2d`]).
+    pub fn values(&self) -> &[f64] {
+        &self.values
+    }
+
+    /// Replaces the values (same grid; `--map NAME=FILE.csv`).
+    pub fn set_values(&mut self, values: Vec<f64>) -> Result<(), MapError> {
+        check_values(&values, self.values.len())?;
+        self.values = values;
+        Ok(())
+    }
+
+    /// Under `extrapolate = "error"`: the index of the first argument outside `[first, last]` of its grid
+    /// (NaN counts as outside), `None` if all are inside or the rule is another.
+    pub fn outside(&self, args: &[f64]) -> Option<usize> {
+        if self.settings.extrapolate != Extrapolate::Error {
+            return None;
+        }
+        let axes = [Some(&self.x), self.y.as_ref()];
+        args.iter().zip(axes).position(|(&a, axis)| {
+            axis.is_some_and(|ax| !(a >= ax.grid[0] && a <= ax.grid[ax.grid.len() - 1]))
+        })
+    }
+
+    /// Value and partial derivatives in one pass. 1-D: `out[n] = M^(n)(a)` for `n = 0 … out.len() − 1`
+    /// (`orders` is ignored). 2-D: `out[p · (orders[1] + 1) + q] = ∂^(p+q) M / ∂a^p ∂b^q` for
+    /// `p ≤ orders[0]`, `q ≤ orders[1]`; `out` must hold `(orders[0] + 1)(orders[1] + 1)` values.
+    /// A NaN argument gives NaN everywhere.
+    ///
+    /// Under `extrapolate = "error"` an argument outside the grid is recorded as this thread's
+    /// [`Violation`] (see [`take_violation`]); the value is still the linear continuation.
+    pub fn eval(&self, args: &[f64], orders: [usize; 2], out: &mut [f64]) {
+        if self.settings.extrapolate == Extrapolate::Error {
+            if let Some(k) = self.outside(args) {
+                let grid = if k == 0 {
+                    self.x()
+                } else {
+                    self.y().unwrap_or(self.x())
+                };
+                violation::record(&self.name, k, args[k], (grid[0], grid[grid.len() - 1]));
+            }
+        }
+        if args.iter().take(self.arity()).any(|a| a.is_nan()) {
+            out.fill(f64::NAN);
+            return;
+        }
+        match &self.y {
+            None => self.eval_1d(args[0], out),
+            Some(y) => self.eval_2d(y, args, orders, out),
+        }
+    }
+
+    /// One partial derivative: `orders[k]` times with respect to argument `k` (`orders[1]` ignored in 1-D).
+    pub fn partial(&self, args: &[f64], orders: [usize; 2]) -> f64 {
+        if self.y.is_none() {
+            let mut out = vec![0.0; orders[0] + 1];
+            self.eval(args, orders, &mut out);
+            return out[orders[0]];
+        }
+        let mut out = vec![0.0; (orders[0] + 1) * (orders[1] + 1)];
+        self.eval(args, orders, &mut out);
+        out[out.len() - 1]
+    }
+
+    fn eval_1d(&self, a: f64, out: &mut [f64]) {
+        let orders = out.len();
+        with_scratch(scratch_len(self.max_count[0], orders), |scratch| {
+            let basis = self.x.basis(a, orders, scratch);
+            out.fill(0.0);
+            for (k, row) in basis.values.chunks_exact(orders).enumerate() {
+                let v = self.values[basis.first + k];
+                for (o, &b) in out.iter_mut().zip(row) {
+                    *o += v * b;
+                }
+            }
+        });
+    }
+
+    fn eval_2d(&self, y: &Axis, args: &[f64], orders: [usize; 2], out: &mut [f64]) {
+        let (ox, oy) = (orders[0] + 1, orders[1] + 1);
+        let ny = y.len();
+        with_scratch(scratch_len(self.max_count[0], ox), |sx| {
+            with_scratch(scratch_len(self.max_count[1], oy), |sy| {
+                let bx = self.x.basis(args[0], ox, sx);
+                let by = y.basis(args[1], oy, sy);
+                contract(&self.values, ny, &bx, ox, &by, oy, out);
+            })
+        });
+    }
+}
+
+/// `out[p · oy + q] = Σ_ij v_ij Φ_i^(p) Ψ_j^(q)`: per row `i`, first `t_q = Σ_j v_ij Ψ_j^(q)`, then the
+/// outer product with `Φ_i^(p)`.
+fn contract(
+    values: &[f64],
+    ny: usize,
+    bx: &Basis<'_>,
+    ox: usize,
+    by: &Basis<'_>,
+    oy: usize,
+    out: &mut [f64],
+) {
+    out[..ox * oy].fill(0.0);
+    let mut row_sum = [0.0; 16];
+    let mut heap;
+    let t: &mut [f64] = if oy <= row_sum.len() {
+        &mut row_sum[..oy]
+    } else {
+        heap = vec![0.0; oy];
+        &mut heap
+    };
+    for ki in 0..bx.count {
+        let row = &values[(bx.first + ki) * ny..(bx.first + ki + 1) * ny];
+        t.fill(0.0);
+        for kj in 0..by.count {
+            let v = row[by.first + kj];
+            for (tq, &psi) in t.iter_mut().zip(&by.values[kj * oy..(kj + 1) * oy]) {
+                *tq += v * psi;
+            }
+        }
+        for (p, &phi) in bx.values[ki * ox..(ki + 1) * ox].iter().enumerate() {
+            for (o, &tq) in out[p * oy..(p + 1) * oy].iter_mut().zip(t.iter()) {
+                *o += phi * tq;
+            }
+        }
+    }
+}
+
+fn scratch_len(max_count: usize, orders: usize) -> usize {
+    max_count * orders + orders
+}
+
+/// Runs `f` with a zeroed scratch slice of `len` values, on the stack when it fits.
+fn with_scratch<R>(len: usize, f: impl FnOnce(&mut [f64]) -> R) -> R {
+    if len <= STACK_SCRATCH {
+        let mut buf = [0.0; STACK_SCRATCH];
+        f(&mut buf[..len])
+    } else {
+        f(&mut vec![0.0; len])
+    }
+}

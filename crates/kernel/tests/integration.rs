@@ -1,0 +1,4 @@
+//! Integration tests of invsim-kernel (one test binary; one file per topic).
+
+mod common;
+mod map;

@@ -1,0 +1,169 @@
+//! Inverse simulation of a model with operating modes (README "Modes"): one single-input
+//! [`InverseModel`] per mode, a mode sequence decided along the run — the gear from a schedule
+//! ([`gears`]), standstill from the smoothed reference, traction or braking from the solution itself — and
+//! switches that keep the physical state continuous.
+//!
+//! At a switch at t_s the state x(t_s) is that of the old mode. Two ways to enter the new mode:
+//! - **re-entry** (default): the new mode's reference starts from the ξ that x(t_s) gives in the new mode and
+//!   joins the smoothed cycle within the transition time ([`blend`]); every state stays continuous and the
+//!   input finite, and each transition's largest deviation from the cycle is reported.
+//! - **quasi-static**: the new mode's reference is the smoothed cycle at once; the state jumps to
+//!   ψ⁻¹(ξ_cycle, η(x(t_s))), realised as an impulse U of the free input along g(x): Δx = U g, so
+//!   U = g·Δx / g·g. Each accumulated output o is booked U · ∂o/∂u (∂o/∂u by central differences), and a part
+//!   of Δx that is not along g (no impulse of the input can make it) is reported.
+
+pub mod blend;
+pub mod gears;
+mod runner;
+mod summary;
+mod verify;
+
+use invsim_model_api::InverseModel;
+use thiserror::Error;
+
+pub use gears::{GearBox, GearSource};
+pub use runner::simulate_modes;
+pub use summary::{Impulse, ModalSummary, ModeTime, Transition};
+
+/// The signal values of a run with modes: models with modes have no `[signals]` yet (the run refuses them).
+pub(crate) const NO_SIGNALS: &[f64] = &[];
+
+/// What a mode is for (see `invsim_inversion::ModeRole`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Role {
+    Traction,
+    Brake,
+    Standstill,
+}
+
+/// One declared input of the model.
+#[derive(Debug, Clone, PartialEq)]
+pub struct InputSpec {
+    pub name: String,
+    pub unit: Option<String>,
+    pub min: Option<f64>,
+    pub max: Option<f64>,
+}
+
+/// One mode: its model (single free input), role and gear.
+pub struct ModeSpec<'m> {
+    pub name: String,
+    /// The `[modes.NAME]` table (all gears of a geared mode share it).
+    pub family: String,
+    pub role: Role,
+    pub gear: Option<usize>,
+    /// Index into [`ModalSpec::inputs`].
+    pub free_input: usize,
+    /// For each input that the mode fixes, (input index, index of the model output that holds its value).
+    pub fixed_outputs: Vec<(usize, usize)>,
+    pub model: &'m dyn InverseModel,
+}
+
+/// The options of the mode sequence.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SequenceParams {
+    pub standstill_below: f64,
+    pub standstill_above: f64,
+    /// Hysteresis band of the traction → brake switch (units of the traction input); default 1 % of the
+    /// traction input's range where it has both bounds, else 0.
+    pub brake_band: Option<f64>,
+    pub min_dwell: f64,
+}
+
+/// A model with modes, ready to run.
+pub struct ModalSpec<'m> {
+    pub name: String,
+    pub inputs: Vec<InputSpec>,
+    pub modes: Vec<ModeSpec<'m>>,
+    pub gears: usize,
+    pub gear_source: GearSource,
+    pub sequence: SequenceParams,
+    /// Number of the model's own `[outputs]` (the first ones of every mode's outputs; the rest hold fixed
+    /// inputs).
+    pub n_outputs: usize,
+}
+
+/// How a switch enters the new mode.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Switching {
+    Reentry,
+    QuasiStatic,
+}
+
+impl Switching {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Switching::Reentry => "reentry",
+            Switching::QuasiStatic => "quasi_static",
+        }
+    }
+}
+
+/// Options of a run with modes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModalOptions {
+    pub lookahead: f64,
+    pub dt: f64,
+    pub switching: Switching,
+    /// Transition time of the re-entry, s (default: the look-ahead).
+    pub transition_time: Option<f64>,
+    pub verify: bool,
+}
+
+impl Default for ModalOptions {
+    fn default() -> Self {
+        ModalOptions {
+            lookahead: 5.0,
+            dt: 0.1,
+            switching: Switching::Reentry,
+            transition_time: None,
+            verify: false,
+        }
+    }
+}
+
+/// Errors of a run with modes.
+#[derive(Debug, Error)]
+pub enum ModalError {
+    #[error("{0}")]
+    Run(#[from] crate::RunError),
+    #[error("mode `{mode}` at t = {t} s: {message}")]
+    Mode {
+        mode: String,
+        t: f64,
+        message: String,
+    },
+    #[error("{0}")]
+    Setup(String),
+}
+
+/// The result: summary and columns (`t`, `mode`, `gear`, `yd_0` … `yd_R`, every input, the states, the
+/// model's `[outputs]`).
+#[derive(Debug, Clone)]
+pub struct ModalResult {
+    pub summary: ModalSummary,
+    pub columns: Vec<String>,
+    pub units: Vec<Option<String>>,
+    pub data: Vec<Vec<f64>>,
+    /// Mode index at each sample (into the spec's modes).
+    pub mode: Vec<usize>,
+    /// The mode's free input at the end of each interval [t_k, t_{k+1}] before any switch at t_{k+1}.
+    pub u_end: Vec<f64>,
+    /// The state at the end of each interval [t_k, t_{k+1}] in its mode, before any switch at t_{k+1}.
+    pub x_end: Vec<Vec<f64>>,
+    /// The mode's solution at each sample: the state, the free input and the reference y^(0 … R) it tracked.
+    pub states: Vec<Vec<f64>>,
+    pub free: Vec<f64>,
+    pub yref: Vec<Vec<f64>>,
+    /// Impulse of the free input at each sample (quasi-static switches; 0 elsewhere).
+    pub impulse: Vec<f64>,
+}
+
+impl ModalResult {
+    pub fn column(&self, name: &str) -> Option<&[f64]> {
+        self.columns
+            .iter()
+            .position(|c| c == name)
+            .map(|i| self.data[i].as_slice())
+    }
+}

@@ -1,0 +1,349 @@
+//! The summary of a run with modes (time per mode, switches, transitions and impulses beside the figures of
+//! an ordinary run) and the result's columns.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+
+use serde::Serialize;
+
+use super::runner::{Ctx, Record};
+use super::verify::Tracking;
+use super::NO_SIGNALS;
+use super::{ModalOptions, ModalResult};
+use crate::cycle::Cycle;
+use crate::provenance::Provenance;
+use crate::report::Column;
+
+/// Time spent in one mode.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ModeTime {
+    pub name: String,
+    pub time_s: f64,
+    pub relative_degree: usize,
+}
+
+/// One switch and, for the re-entry, its transition's largest deviation |y − y_c| from the smoothed cycle.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Transition {
+    pub t: f64,
+    pub from: String,
+    pub to: String,
+    pub max_deviation: f64,
+}
+
+/// One impulse of the quasi-static option.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Impulse {
+    pub t: f64,
+    pub mode: String,
+    pub input: String,
+    /// ∫ u dt of the impulse (input unit · s).
+    pub amount: f64,
+    /// The part of the state jump no impulse of the input realises, relative to the state's size.
+    pub unrealisable: f64,
+    /// Booked into each of the model's `[outputs]` (0 for those not accumulated), in their order.
+    pub booked: Vec<f64>,
+}
+
+/// Extra bookings (none so far: the impulses carry theirs).
+#[derive(Debug, Default)]
+pub(super) struct Book;
+
+/// What `invsim simulate` prints and writes for a model with modes.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ModalSummary {
+    pub model: String,
+    pub cycle: String,
+    pub duration_s: f64,
+    pub distance_m: f64,
+    /// The largest relative degree over the modes.
+    pub relative_degree: usize,
+    pub engine: String,
+    pub samples: usize,
+    pub lookahead_s: f64,
+    pub dt_s: f64,
+    pub switching: String,
+    pub transition_time_s: f64,
+    pub integrals: BTreeMap<String, f64>,
+    pub per_100km: BTreeMap<String, f64>,
+    /// Intervals where a mode's free input leaves its bounds (no mode absorbs it).
+    pub input_bound_violations: Vec<[f64; 2]>,
+    pub modes: Vec<ModeTime>,
+    pub switches: usize,
+    pub transitions: Vec<Transition>,
+    pub max_transition_deviation: f64,
+    pub impulses: Vec<Impulse>,
+    /// The impulses' total booking per accumulated output.
+    pub impulse_booked: BTreeMap<String, f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_abs_tracking_error: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rms_tracking_error: Option<f64>,
+    pub columns: Vec<Column>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub provenance: Option<Provenance>,
+    pub warnings: Vec<String>,
+}
+
+/// Column names and units: `t`, `mode`, `gear`, `yd_0` … `yd_R`, the inputs, the states, the `[outputs]`.
+fn columns(ctx: &Ctx<'_, '_>) -> Vec<(String, Option<String>)> {
+    let spec = ctx.spec;
+    let info = spec.modes[0].model.info();
+    let mut c: Vec<(String, Option<String>)> = vec![
+        ("t".into(), Some("s".into())),
+        ("mode".into(), None),
+        ("gear".into(), None),
+    ];
+    c.extend((0..=ctx.r_max).map(|k| (format!("yd_{k}"), None)));
+    c.extend(spec.inputs.iter().map(|i| (i.name.clone(), i.unit.clone())));
+    c.extend(
+        info.states
+            .iter()
+            .cloned()
+            .zip(info.state_units.iter().cloned()),
+    );
+    c.extend(
+        info.outputs[..spec.n_outputs]
+            .iter()
+            .map(|o| (o.name.clone(), o.unit.clone())),
+    );
+    c
+}
+
+/// The value of every input at a sample of mode m.
+fn input_values(ctx: &Ctx<'_, '_>, m: usize, u: f64, outs: &[f64]) -> Vec<f64> {
+    let mode = &ctx.spec.modes[m];
+    (0..ctx.spec.inputs.len())
+        .map(|i| {
+            if i == mode.free_input {
+                u
+            } else {
+                mode.fixed_outputs
+                    .iter()
+                    .find(|(j, _)| *j == i)
+                    .map_or(f64::NAN, |(_, o)| outs[*o])
+            }
+        })
+        .collect()
+}
+
+/// Build the result: columns, integrals (trapezoids of each interval in its own mode, plus the impulses'
+/// bookings), time per mode, bound violations.
+pub(super) fn assemble(
+    ctx: &Ctx<'_, '_>,
+    cycle: &Cycle,
+    opts: &ModalOptions,
+    rec: Record,
+    verify: Option<Tracking>,
+    _book: Book,
+) -> ModalResult {
+    let spec = ctx.spec;
+    let cols = columns(ctx);
+    let ns = rec.t.len();
+    let mut data: Vec<Vec<f64>> = vec![Vec::with_capacity(ns); cols.len()];
+    let no = spec.n_outputs;
+    let info0 = spec.modes[0].model.info();
+    let mut integrals = vec![0.0; no];
+    let mut time = vec![0.0; spec.modes.len()];
+    let mut violations: Vec<[f64; 2]> = Vec::new();
+    let mut outside = false;
+    for k in 0..ns {
+        let (m, s) = (rec.mode[k], &rec.solved[k]);
+        let model = spec.modes[m].model;
+        let mut outs = vec![0.0; model.info().outputs.len()];
+        model.outputs(&s.x, NO_SIGNALS, s.u, &mut outs);
+        let mut row = vec![rec.t[k], m as f64, spec.modes[m].gear.unwrap_or(0) as f64];
+        row.extend_from_slice(&s.yref);
+        row.extend(input_values(ctx, m, s.u, &outs));
+        row.extend_from_slice(&s.x);
+        row.extend_from_slice(&outs[..no]);
+        for (c, v) in data.iter_mut().zip(row) {
+            c.push(v);
+        }
+        let info = model.info();
+        let tol = match (info.input_min, info.input_max) {
+            (Some(lo), Some(hi)) => 1e-9 * (hi - lo).max(1.0),
+            _ => 1e-9,
+        };
+        let out = info.input_min.is_some_and(|lo| s.u < lo - tol)
+            || info.input_max.is_some_and(|hi| s.u > hi + tol);
+        match (out, outside) {
+            (true, false) => violations.push([rec.t[k], rec.t[k]]),
+            (true, true) => {
+                if let Some(v) = violations.last_mut() {
+                    v[1] = rec.t[k];
+                }
+            }
+            _ => {}
+        }
+        outside = out;
+        if k + 1 < ns {
+            let mut end = vec![0.0; outs.len()];
+            model.outputs(&rec.x_end[k], NO_SIGNALS, rec.u_end[k], &mut end);
+            let dt = rec.t[k + 1] - rec.t[k];
+            for i in 0..no {
+                if info0.outputs[i].accumulate {
+                    integrals[i] += 0.5 * dt * (outs[i] + end[i]);
+                }
+            }
+            time[m] += dt;
+        }
+    }
+    let mut impulse_booked = BTreeMap::new();
+    for imp in &rec.impulses {
+        for i in 0..no {
+            if info0.outputs[i].accumulate {
+                integrals[i] += imp.booked[i];
+                *impulse_booked
+                    .entry(info0.outputs[i].name.clone())
+                    .or_insert(0.0) += imp.booked[i];
+            }
+        }
+    }
+    let distance = cycle.distance();
+    let mut ints = BTreeMap::new();
+    let mut per = BTreeMap::new();
+    for i in 0..no {
+        let o = &info0.outputs[i];
+        if o.accumulate {
+            ints.insert(o.name.clone(), integrals[i]);
+            if o.per_distance && distance > 0.0 {
+                per.insert(o.name.clone(), integrals[i] / distance * 1e5);
+            }
+        }
+    }
+    let modes: Vec<ModeTime> = spec
+        .modes
+        .iter()
+        .zip(&time)
+        .map(|(m, t)| ModeTime {
+            name: m.name.clone(),
+            time_s: *t,
+            relative_degree: m.model.info().relative_degree,
+        })
+        .collect();
+    let max_dev = rec
+        .transitions
+        .iter()
+        .map(|t| t.max_deviation)
+        .fold(0.0, f64::max);
+    let mut warnings = Vec::new();
+    if !violations.is_empty() {
+        warnings.push(format!(
+            "{} interval(s) where a mode's free input leaves its bounds and no mode absorbs it",
+            violations.len()
+        ));
+    }
+    let unrealisable = rec
+        .impulses
+        .iter()
+        .map(|i| i.unrealisable)
+        .fold(0.0, f64::max);
+    if unrealisable > 1e-9 {
+        warnings.push(format!(
+            "a quasi-static jump has a part ({unrealisable:.3e} of the state) that no impulse of the free input realises"
+        ));
+    }
+    let summary = ModalSummary {
+        model: info0.name.clone(),
+        cycle: cycle.name.clone(),
+        duration_s: cycle.duration(),
+        distance_m: distance,
+        relative_degree: ctx.r_max,
+        engine: "interpreted".into(),
+        samples: ns,
+        lookahead_s: opts.lookahead,
+        dt_s: opts.dt,
+        switching: opts.switching.as_str().into(),
+        transition_time_s: ctx.transition,
+        integrals: ints,
+        per_100km: per,
+        input_bound_violations: violations,
+        modes,
+        switches: rec.transitions.len(),
+        transitions: rec.transitions,
+        max_transition_deviation: max_dev,
+        impulses: rec.impulses,
+        impulse_booked,
+        max_abs_tracking_error: verify.as_ref().map(|v| v.max_abs),
+        rms_tracking_error: verify.as_ref().map(|v| v.rms),
+        columns: cols
+            .iter()
+            .map(|(n, u)| Column {
+                name: n.clone(),
+                unit: u.clone(),
+            })
+            .collect(),
+        provenance: None,
+        warnings,
+    };
+    ModalResult {
+        summary,
+        columns: cols.iter().map(|(n, _)| n.clone()).collect(),
+        units: cols.into_iter().map(|(_, u)| u).collect(),
+        data,
+        mode: rec.mode,
+        u_end: rec.u_end,
+        x_end: rec.x_end,
+        states: rec.solved.iter().map(|s| s.x.clone()).collect(),
+        free: rec.solved.iter().map(|s| s.u).collect(),
+        yref: rec.solved.into_iter().map(|s| s.yref).collect(),
+        impulse: rec.impulse,
+    }
+}
+
+impl ModalSummary {
+    /// The printed summary.
+    pub fn to_text(&self) -> String {
+        let mut s = String::new();
+        let _ = writeln!(s, "model: {} (modes)", self.model);
+        let _ = writeln!(
+            s,
+            "cycle: {}  duration: {} s  distance: {:.1} m  samples: {}  dt: {} s  look-ahead: {} s",
+            self.cycle, self.duration_s, self.distance_m, self.samples, self.dt_s, self.lookahead_s
+        );
+        let _ = writeln!(s, "engine: {}  switching: {}", self.engine, self.switching);
+        for (k, v) in &self.integrals {
+            let per = self
+                .per_100km
+                .get(k)
+                .map(|p| format!("  ({p:.4} per 100 km)"))
+                .unwrap_or_default();
+            let _ = writeln!(s, "integral {k}: {v:.6}{per}");
+        }
+        let _ = writeln!(s, "time per mode:");
+        for m in self.modes.iter().filter(|m| m.time_s > 0.0) {
+            let _ = writeln!(
+                s,
+                "  {:<16} {:>10.2} s  (r = {})",
+                m.name, m.time_s, m.relative_degree
+            );
+        }
+        let _ = writeln!(
+            s,
+            "switches: {}  largest transition deviation: {:.4e}",
+            self.switches, self.max_transition_deviation
+        );
+        if !self.impulses.is_empty() {
+            for (k, v) in &self.impulse_booked {
+                let _ = writeln!(s, "impulses: {} booked, {k}: {v:.6e}", self.impulses.len());
+            }
+        }
+        if self.input_bound_violations.is_empty() {
+            let _ = writeln!(s, "input bound violations: none");
+        } else {
+            let _ = writeln!(
+                s,
+                "input bound violations: {:?}",
+                self.input_bound_violations
+            );
+        }
+        if let (Some(m), Some(r)) = (self.max_abs_tracking_error, self.rms_tracking_error) {
+            let _ = writeln!(s, "tracking error (replay): max {m:.3e}, rms {r:.3e}");
+        }
+        for w in &self.warnings {
+            let _ = writeln!(s, "warning: {w}");
+        }
+        s
+    }
+}

@@ -1,0 +1,51 @@
+//! `--verify` for a run with modes: the computed input (linear between grid points within each interval)
+//! replayed through the original equations of the mode active on each interval, with the same switches
+//! (and, for the quasi-static option, the same impulses as state jumps Δx = U g(x)); the tracking error is
+//! |h(x_replay) − y_d| over the samples, y_d the reference the inverse tracked (transitions included).
+
+use super::runner::{Ctx, Record};
+use super::ModalError;
+use super::NO_SIGNALS;
+use crate::ode::{Dopri5, StepFailure};
+
+/// The replay's tracking error.
+pub(super) struct Tracking {
+    pub(super) max_abs: f64,
+    pub(super) rms: f64,
+}
+
+pub(super) fn replay(ctx: &Ctx<'_, '_>, rec: &Record) -> Result<Tracking, ModalError> {
+    let ns = rec.t.len();
+    let mut x = rec.solved[0].x.clone();
+    let (mut max_abs, mut sum2) = (0.0f64, 0.0f64);
+    let mut ode = Dopri5::new(x.len(), 1e-11, 1e-12, 1e-3);
+    for k in 0..ns {
+        let m = rec.mode[k];
+        let model = ctx.spec.modes[m].model;
+        if rec.impulse[k] != 0.0 {
+            for (xi, gi) in x.iter_mut().zip(&rec.impulse_dir[k]) {
+                *xi += rec.impulse[k] * gi;
+            }
+        }
+        let e = model.h(&x, NO_SIGNALS) - rec.solved[k].yref[0];
+        max_abs = max_abs.max(e.abs());
+        sum2 += e * e;
+        if k + 1 == ns {
+            break;
+        }
+        let (ta, tb) = (rec.t[k], rec.t[k + 1]);
+        let (ua, ub) = (rec.solved[k].u, rec.u_end[k]);
+        let mut f = |t: f64, y: &[f64], dy: &mut [f64]| -> Result<(), StepFailure> {
+            let s = (t - ta) / (tb - ta);
+            model.rhs(y, NO_SIGNALS, ua + s * (ub - ua), dy);
+            Ok(())
+        };
+        ode.restart();
+        ode.advance(ta, tb, &mut x, &mut f)
+            .map_err(|e: StepFailure| ctx.err(m, tb, format!("the replay failed: {}", e.reason)))?;
+    }
+    Ok(Tracking {
+        max_abs,
+        rms: (sum2 / ns as f64).sqrt(),
+    })
+}
