@@ -18,7 +18,10 @@ fn scratch(name: &str) -> PathBuf {
 /// A scratch workspace holding a copy of `models/` (its subdirectories too).
 fn scratch_root(name: &str) -> PathBuf {
     let root = scratch(name);
-    copy_tree(&xtask::workspace_root().join("models"), &root.join("models"));
+    copy_tree(
+        &xtask::workspace_root().join("models"),
+        &root.join("models"),
+    );
     root
 }
 
