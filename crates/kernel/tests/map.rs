@@ -383,12 +383,12 @@ fn partials_from_the_one_pass_memo_equal_fresh_evaluations() {
     let c = Map::new_1d(cx, cv, settings(0.5, Extrapolate::Clamp)).unwrap();
     let mut out = [0.0; 3];
     c.eval(&[1.2], [2, 0], &mut out);
-    for k in 0..3 {
-        assert_eq!(c.partial(&[1.2], [k, 0]), out[k]);
+    for (k, &want) in out.iter().enumerate() {
+        assert_eq!(c.partial(&[1.2], [k, 0]), want);
         assert_eq!(
             c.partial(&[1.2], [k, 7]),
-            out[k],
-            "1-D maps ignore the second order"
+            want,
+            "1-D: the second order is ignored"
         );
     }
 }
