@@ -109,6 +109,7 @@ pub struct ForwardArgs {
 }
 
 pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
+    crate::modal_cmd::refuse_modal(&args.model, "forward")?;
     let (mut outputs, cycle, mut model) = prepare_run(&RunRequest {
         model: &args.model,
         engine: args.engine,

@@ -159,6 +159,11 @@ pub enum ModelError {
          state guess may be far from the solution or the Jacobian singular"
     )]
     NewtonDidNotConverge { iterations: usize, residual: f64 },
+    #[error(
+        "no value of the input reaches y^(r) = {yr:e} here: the model is not affine in the input and \
+         y^(r) = φ(ξ, η, w, u) has no real root u (closest residual {residual:e})"
+    )]
+    NoInputSolution { yr: f64, residual: f64 },
     #[error("unknown map `{name}` (the model declares: {known})")]
     UnknownMap { name: String, known: String },
     #[error("cannot replace map `{name}`: {reason}")]
