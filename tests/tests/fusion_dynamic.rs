@@ -130,6 +130,21 @@ fn dynamic_fusion_keeps_the_imported_parameters() {
             shared += 1;
         }
     }
-    // chassis 7 + aux, transmission, fuel + rho_a, g_0 + the engine map (P_fc_max, P_idle, 24 points)
-    assert!(shared >= 7 + 3 + 2 + 26, "only {shared} shared parameters");
+    // chassis 7 + aux, transmission, fuel + rho_a, g_0 + P_fc_max, P_idle
+    assert!(shared >= 7 + 3 + 2 + 2, "only {shared} shared parameters");
+    // The engine efficiency table: the dynamic model's fc_x*, fc_e* are the imported model's map fc_map.
+    let text =
+        std::fs::read_to_string(root().join("models/vehicles/ford_fusion_2012.toml")).unwrap();
+    let table: toml::Table = text.parse().unwrap();
+    let fc_map = &table["maps"]["fc_map"];
+    for (key, prefix) in [("x", "fc_x"), ("values", "fc_e")] {
+        let list = fc_map[key].as_array().unwrap();
+        for (k, v) in list.iter().enumerate() {
+            let p = dynamic
+                .iter()
+                .find(|q| q.name == format!("{prefix}{k}"))
+                .unwrap();
+            assert_eq!(Some(p.value), v.as_float(), "{prefix}{k}");
+        }
+    }
 }
