@@ -52,7 +52,7 @@ pub fn emit(
     let eff = format!("eff_{prefix}");
     let sum = chunked_sum(model, prefix, step_terms(prefix, n, &x));
     let doc = format!(
-        "{what}: efficiency, FASTSim's step-wise interpolation (the grid point at or below the load)"
+        "{what}, FASTSim's step-wise interpolation of its table (the grid point at or below the load)"
     );
     model.def(&eff, &sum, "-", &doc);
     Ok(eff)
@@ -75,7 +75,7 @@ fn emit_map(model: &mut Model, prefix: &str, curve: &Curve, load: &str, what: &s
     });
     let eff = format!("eff_{prefix}");
     let doc = format!(
-        "{what}: efficiency, FASTSim's linear interpolation of the table (held at its end values outside it)"
+        "{what}, FASTSim's linear interpolation of its table (held at the end values outside it)"
     );
     model.def(&eff, &format!("{name}({load})"), "-", &doc);
     eff
