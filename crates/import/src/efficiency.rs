@@ -81,6 +81,15 @@ fn emit_map(model: &mut Model, prefix: &str, curve: &Curve, load: &str, what: &s
     eff
 }
 
+/// The table's efficiency at zero load as an expression of what [`emit`] wrote under `prefix`: the map at 0
+/// (linear) or the first value (step-wise, whose grid starts at zero load).
+pub fn at_zero_load(prefix: &str, curve: &Curve) -> String {
+    match curve.strategy {
+        Strategy::Linear => format!("{prefix}_map(0)"),
+        Strategy::StepLower => format!("{prefix}_e0"),
+    }
+}
+
 /// The steps of the step-wise interpolant.
 fn step_terms(prefix: &str, n: usize, x: &str) -> Vec<String> {
     let mut terms = vec![format!("{prefix}_e0")];
