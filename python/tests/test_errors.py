@@ -24,7 +24,7 @@ def test_unknown_symbol_has_position():
     assert str(err) in cli_error("derive", path)
 
 
-@pytest.mark.parametrize("name", ["bad_no_relative_degree.toml", "bad_nonaffine.toml"])
+@pytest.mark.parametrize("name", ["bad_no_relative_degree.toml"])
 def test_bad_shared_models(name):
     path = shared_model(name)
     with pytest.raises(invsim.InvsimError) as e:

@@ -1,19 +1,23 @@
 //! The integration tests of this crate in one test binary (one link instead of one per file):
+//! - `bev`: The battery-electric car against a hand integration of its equations on UDDS and HWFET, and its charge state
 //! - `codegen_vs_interpreter`: Generated code, compiled, agrees with the interpreter tape: every `InverseModel` method of every loadable
 //! - `docs_fresh`: The committed derived-equation documents (`docs/models/*.md`, `docs/README.md`) are what
 //! - `fusion_dynamic`: `models/ford_fusion_2012_dynamic.toml` on NEDC and UDDS: the inverse satisfies the original equations, the replay tracks, the imported parameters are kept
 //! - `golden`: The generated source for `models/si_engine.toml` equals the reviewed copy in
 //! - `inverse_consistency`: The inverse simulation satisfies the original model: along NEDC, at every sample, the state and input that
 //! - `known_answers`: One harness, every engine, every known-answer model: each model of `tests/models/known/` (listed with its
+//! - `non_affine`: Models not affine in the input, solved by isolation and by Newton's method, against their original equations
 //! - `signals`: Exogenous signals against independent references: total derivatives against finite differences, the
 //!   smoothed signal against quadrature, si_engine_grade against its original equations, constant signal vs parameter, fuel vs grade
 //! - `tidy`: The workspace's habits as tests (rust-analyzer's `tidy`): every source file opens with `//!`, no function
 
+mod bev;
 mod codegen_vs_interpreter;
 mod docs_fresh;
 mod fusion_dynamic;
 mod golden;
 mod inverse_consistency;
 mod known_answers;
+mod non_affine;
 mod signals;
 mod tidy;

@@ -51,7 +51,6 @@ fn derive_text_and_markdown() {
 fn shared_bad_models_exit_2_with_their_errors() {
     for (name, needle) in [
         ("bad_no_relative_degree", "does not depend on the input"),
-        ("bad_nonaffine", "not affine"),
         (
             "bad_unknown_symbol",
             "bad_unknown_symbol.toml:8:23: unknown name `c9`",

@@ -16,6 +16,11 @@ pub enum CodegenError {
     },
     #[error("the generated code for {what} does not parse: {message} (a bug in invsim-codegen)")]
     Syntax { what: String, message: String },
+    #[error(
+        "model `{model}`: its right-hand side is not affine in the input; generated code supports affine \
+         models only (run it with the interpreter: invsim simulate --engine interpreted)"
+    )]
+    NonAffine { model: String },
 }
 
 /// Any failure of [`generate_file`] or [`Builder::compile`].

@@ -15,6 +15,11 @@ pub fn header(source_name: &str, sha256: &str) -> String {
 /// `source_name` names the model file in the header and the docs (a file name, so the output does not depend
 /// on where the file was read from).
 pub fn generate(d: &Derivation, source_name: &str) -> Result<String, CodegenError> {
+    if !d.yr_affine {
+        return Err(CodegenError::NonAffine {
+            model: d.model.name.clone(),
+        });
+    }
     let out = model::module(d, source_name)?;
     format::format_file(
         out.tokens,

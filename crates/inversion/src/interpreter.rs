@@ -95,9 +95,27 @@ struct Tapes {
     rhs: Tape,
     /// (x, w, u) → the `[outputs]`.
     outputs: Tape,
+    /// Non-affine models: (ξ, η, w, u) → (φ, ∂φ/∂u), y^(r) = φ; empty for affine ones.
+    phi: Tape,
+    /// Non-affine models with an input solution: (ξ, η, w, yr) → u; empty otherwise.
+    solution: Tape,
 }
 
 impl Tapes {
+    fn set_map(&mut self, index: usize, data: &std::sync::Arc<invsim_model_api::map::Map>) {
+        for t in [
+            &mut self.invert,
+            &mut self.alpha_beta,
+            &mut self.newton,
+            &mut self.h,
+            &mut self.zero,
+            &mut self.rhs,
+            &mut self.outputs,
+        ] {
+            t.set_map(index, data.clone());
+        }
+    }
+
     fn specialize(&self, p: &[f64]) -> Tapes {
         Tapes {
             invert: self.invert.specialize(p),
@@ -107,6 +125,8 @@ impl Tapes {
             zero: self.zero.specialize(p),
             rhs: self.rhs.specialize(p),
             outputs: self.outputs.specialize(p),
+            phi: self.phi.specialize(p),
+            solution: self.solution.specialize(p),
         }
     }
 }
@@ -120,8 +140,15 @@ pub struct Interpreter {
     n: usize,
     r: usize,
     closed: bool,
+    /// Every right-hand side affine in the input (else u solves y^(r) = φ(ξ, η, w, u), see `solve_input`).
+    affine: bool,
+    /// Where Newton's method for u starts: the middle of [min, max], a bound if only one is given, else 0.
+    u_start: f64,
     generic: Tapes,
     special: Tapes,
+    /// The model's maps (contract §6) by `MapId` index, and their names.
+    maps: Vec<invsim_model_api::map::Map>,
+    map_names: Vec<String>,
 }
 
 fn compile(
@@ -131,6 +158,34 @@ fn compile(
     inputs: &[Symbol],
 ) -> Result<Tape, InterpretError> {
     Tape::compile(d.pool(), exprs, inputs).map_err(|source| InterpretError { what, source })
+}
+
+/// The tapes of a non-affine model (empty for an affine one): (ξ, η, w, u) → (φ, ∂φ/∂u) and, where u can be
+/// isolated, (ξ, η, w, yr) → u.
+fn non_affine_tapes(d: &Derivation, params: &[Symbol]) -> Result<(Tape, Tape), InterpretError> {
+    let u = d.model.input.symbol;
+    let (phi_exprs, sol_exprs): (Vec<Id>, Vec<Id>) = if d.yr_affine || !d.psi_inv_closed() {
+        (Vec::new(), Vec::new())
+    } else {
+        (
+            vec![d.alpha, d.beta],
+            d.input_solution.into_iter().collect(),
+        )
+    };
+    Ok((
+        compile(
+            d,
+            "y^(r) and its ∂/∂u",
+            &phi_exprs,
+            &cat(&[&d.xi, &d.eta, &d.w, &[u], params]),
+        )?,
+        compile(
+            d,
+            "the input solution",
+            &sol_exprs,
+            &cat(&[&d.xi, &d.eta, &d.w, &[d.yr], params]),
+        )?,
+    ))
 }
 
 fn cat(parts: &[&[Symbol]]) -> Vec<Symbol> {
@@ -158,12 +213,19 @@ impl Interpreter {
                     Solution::Numeric => None,
                 })
                 .collect();
-            exprs.push(d.alpha);
-            exprs.push(d.beta);
-            (
-                compile(d, "ψ⁻¹, α, β", &exprs, &xi_eta_p)?,
-                compile(d, "α, β", &[d.alpha, d.beta], &xi_eta_p)?,
-            )
+            if d.yr_affine {
+                exprs.push(d.alpha);
+                exprs.push(d.beta);
+                (
+                    compile(d, "ψ⁻¹, α, β", &exprs, &xi_eta_p)?,
+                    compile(d, "α, β", &[d.alpha, d.beta], &xi_eta_p)?,
+                )
+            } else {
+                (
+                    compile(d, "ψ⁻¹", &exprs, &xi_eta_p)?,
+                    compile(d, "α, β", &[], &xi_eta_p)?,
+                )
+            }
         } else {
             (
                 compile(d, "ψ⁻¹, α, β", &[], &xi_eta_p)?,
@@ -174,8 +236,14 @@ impl Interpreter {
         for row in &d.jacobian {
             newton_exprs.extend(row.iter().copied());
         }
-        newton_exprs.push(d.alpha_x);
-        newton_exprs.push(d.beta_x);
+        if d.yr_affine {
+            newton_exprs.push(d.alpha_x);
+            newton_exprs.push(d.beta_x);
+        } else {
+            // φ and ∂φ/∂u contain u: a non-affine model is solved in (ξ, η) (`phi`), these slots are unused.
+            newton_exprs.push(m.output.h);
+            newton_exprs.push(m.output.h);
+        }
         let newton = compile(d, "ψ and its Jacobian", &newton_exprs, &x_p)?;
         let h = compile(d, "h", &[m.output.h], &x_p)?;
         let zero = if closed {
@@ -183,7 +251,7 @@ impl Interpreter {
                 d,
                 "zero dynamics",
                 &d.zero_dynamics,
-                &cat(&[&d.xi, &d.eta, w, &[d.yr], &params]),
+                &cat(&[&d.xi, &d.eta, w, &[d.yr, u], &params]),
             )?
         } else {
             compile(
@@ -197,7 +265,10 @@ impl Interpreter {
         let rhs = compile(d, "f + g u", &rhs, &x_u_p)?;
         let outs: Vec<Id> = m.outputs.iter().map(|o| o.expr).collect();
         let outputs = compile(d, "outputs", &outs, &x_u_p)?;
+        let (phi, solution) = non_affine_tapes(d, &params)?;
         let generic = Tapes {
+            phi,
+            solution,
             invert,
             alpha_beta,
             newton,
@@ -218,8 +289,16 @@ impl Interpreter {
             n: states.len(),
             r: d.relative_degree,
             closed,
+            affine: d.yr_affine,
+            u_start: match (m.input.min, m.input.max) {
+                (Some(lo), Some(hi)) => 0.5 * (lo + hi),
+                (Some(b), None) | (None, Some(b)) => b,
+                (None, None) => 0.0,
+            },
             generic,
             special,
+            maps: d.pool().maps().iter().map(|m| (*m.data).clone()).collect(),
+            map_names: d.pool().maps().iter().map(|m| m.name.clone()).collect(),
         })
     }
 
@@ -260,6 +339,55 @@ impl Interpreter {
         })
     }
 
+    /// (φ, ∂φ/∂u) of a non-affine model at (ξ, η, w, u).
+    fn phi(&self, xi: &[f64], eta: &[f64], w: &[f64], u: f64) -> (f64, f64) {
+        let mut out = [0.0; 2];
+        self.special.phi.eval_parts(&[xi, eta, w, &[u]], &mut out);
+        (out[0], out[1])
+    }
+
+    /// u with y^(r) = φ(ξ, η, w, u) = yr (non-affine models): the input solution where u was isolated, else
+    /// Newton's method with the analytic ∂φ/∂u from the middle of the input's bounds (0 without bounds),
+    /// each step halved until |φ − yr| decreases; converged when the step is below 1e-12·(1 + |u|).
+    fn solve_input(&self, xi: &[f64], eta: &[f64], w: &[f64], yr: f64) -> Result<f64, ModelError> {
+        if self.special.solution.n_outputs() > 0 {
+            let mut u = [0.0];
+            self.special
+                .solution
+                .eval_parts(&[xi, eta, w, &[yr]], &mut u);
+            if !u[0].is_finite() {
+                return Err(ModelError::NoInputSolution {
+                    yr,
+                    residual: f64::NAN,
+                });
+            }
+            return Ok(u[0]);
+        }
+        let mut u = self.u_start;
+        let (mut phi, mut dphi) = self.phi(xi, eta, w, u);
+        let mut residual = (phi - yr).abs();
+        for _ in 0..PSI_INV_NEWTON_MAX_ITER {
+            let step = (phi - yr) / dphi;
+            if !step.is_finite() {
+                break;
+            }
+            if step.abs() <= 1e-12 * (1.0 + u.abs()) {
+                return Ok(u - step);
+            }
+            let mut lambda = 1.0;
+            loop {
+                let trial = u - lambda * step;
+                let (p, dp) = self.phi(xi, eta, w, trial);
+                if (p - yr).abs() < residual || lambda < 1e-6 {
+                    (u, phi, dphi, residual) = (trial, p, dp, (p - yr).abs());
+                    break;
+                }
+                lambda *= 0.5;
+            }
+        }
+        Err(ModelError::NoInputSolution { yr, residual })
+    }
+
     /// (α, β) in the original states (the numeric-ψ⁻¹ path).
     fn alpha_beta_x(&self, x: &[f64], w: &[f64]) -> (f64, f64) {
         let n = self.n;
@@ -270,6 +398,10 @@ impl Interpreter {
 
     /// (α, β) at (ξ, η), from the closed form or via Newton from x = 1.
     fn alpha_beta(&self, xi: &[f64], eta: &[f64], w: &[f64]) -> (f64, f64) {
+        if !self.affine {
+            // The linearisation at u = 0: y^(r) ≈ φ(0) + ∂φ/∂u(0)·u.
+            return self.phi(xi, eta, w, 0.0);
+        }
         if self.closed {
             let mut ab = [0.0; 2];
             self.special.alpha_beta.eval_parts(&[xi, eta, w], &mut ab);
@@ -314,6 +446,20 @@ impl InverseModel for Interpreter {
         self.special = self.generic.specialize(&self.params);
         Ok(())
     }
+    fn set_map(
+        &mut self,
+        name: &str,
+        data: (&[f64], Option<&[f64]>, &[f64]),
+    ) -> Result<(), ModelError> {
+        let names: Vec<&str> = self.map_names.iter().map(String::as_str).collect();
+        invsim_model_api::set_map_checked(&mut self.maps, &names, name, data)?;
+        if let Some(i) = names.iter().position(|n| *n == name) {
+            let data = std::sync::Arc::new(self.maps[i].clone());
+            self.generic.set_map(i, &data);
+            self.special = self.generic.specialize(&self.params);
+        }
+        Ok(())
+    }
     fn h(&self, x: &[f64], w: &[f64]) -> f64 {
         let mut out = [0.0];
         self.special.h.eval_parts(&[x, w], &mut out);
@@ -327,7 +473,12 @@ impl InverseModel for Interpreter {
         eta.copy_from_slice(&buf[self.r..n]);
     }
     fn psi_inv(&self, xi: &[f64], eta: &[f64], w: &[f64], x: &mut [f64]) -> Result<(), ModelError> {
-        if self.closed {
+        if self.closed && !self.affine {
+            let mut buf = vec![0.0; self.n];
+            self.special.invert.eval_parts(&[xi, eta, w], &mut buf);
+            x.copy_from_slice(&buf);
+            Ok(())
+        } else if self.closed {
             self.invert_closed(xi, eta, w, x);
             Ok(())
         } else {
@@ -342,7 +493,12 @@ impl InverseModel for Interpreter {
     }
     fn zero_dynamics(&self, xi: &[f64], eta: &[f64], w: &[f64], yr: f64, deta: &mut [f64]) {
         if self.closed {
-            self.special.zero.eval_parts(&[xi, eta, w, &[yr]], deta);
+            let u = if self.affine || self.special.solution.n_outputs() > 0 {
+                0.0
+            } else {
+                self.solve_input(xi, eta, w, yr).unwrap_or(f64::NAN)
+            };
+            self.special.zero.eval_parts(&[xi, eta, w, &[yr, u]], deta);
         } else {
             let mut x = vec![1.0; self.n];
             if self.newton(xi, eta, w, &mut x).is_err() {
@@ -371,7 +527,7 @@ impl InverseModel for Interpreter {
         x: &mut [&mut [f64]],
         u: &mut [f64],
     ) -> Result<(), (usize, ModelError)> {
-        if !self.closed {
+        if !self.closed || !self.affine {
             // Newton point by point, warm-started from the previous point.
             return invsim_model_api::invert_pointwise(self, xi, eta, w, yr, x, u);
         }
@@ -411,6 +567,13 @@ impl InverseModel for Interpreter {
         yr: f64,
         x: &mut [f64],
     ) -> Result<f64, ModelError> {
+        if self.closed && !self.affine {
+            let n = self.n;
+            let mut buf = vec![0.0; n];
+            self.special.invert.eval_parts(&[xi, eta, w], &mut buf);
+            x.copy_from_slice(&buf);
+            return self.solve_input(xi, eta, w, yr);
+        }
         if self.closed {
             let (a, b) = self.invert_closed(xi, eta, w, x);
             return Ok((yr - a) / b);

@@ -190,6 +190,24 @@ impl Derivation {
         if !m.signals.is_empty() {
             out["signals"] = json!(m.signals.iter().map(|s| s.name.clone()).collect::<Vec<_>>());
         }
+        // Contract §5: `affine`; a non-affine model has `yr_equation` and `input_solution` instead of α and β,
+        // and its `lie_derivatives` stop at k = r − 1.
+        out["affine"] = json!(self.affine);
+        if !self.affine {
+            if let Some(o) = out.as_object_mut() {
+                o.remove("alpha");
+                o.remove("beta");
+            }
+            out["yr_equation"] = json!(self.show(self.yr_equation.unwrap_or(self.alpha)));
+            out["input_solution"] = match self.input_solution {
+                Some(e) => json!(self.show(e)),
+                None => Value::Null,
+            };
+            out["lie_derivatives"] = json!(self.lie[..r]
+                .iter()
+                .map(|&e| self.show(e))
+                .collect::<Vec<_>>());
+        }
         out
     }
 
@@ -320,9 +338,28 @@ impl Derivation {
                 }
             }
         }
-        let _ = writeln!(s, "\ny^(r) = alpha + beta*u:");
-        let _ = writeln!(s, "  alpha = {}", self.show(self.alpha));
-        let _ = writeln!(s, "  beta  = {}", self.show(self.beta));
+        if self.affine {
+            let _ = writeln!(s, "\ny^(r) = alpha + beta*u:");
+            let _ = writeln!(s, "  alpha = {}", self.show(self.alpha));
+            let _ = writeln!(s, "  beta  = {}", self.show(self.beta));
+        } else {
+            let u = &m.input.name;
+            let _ = writeln!(s, "\ny^(r) = yr, not affine in the input {u}:");
+            let _ = writeln!(
+                s,
+                "  yr = {}",
+                self.show(self.yr_equation.unwrap_or(self.alpha))
+            );
+            let _ = writeln!(s, "  d(yr)/d({u}) = {}", self.show(self.beta_x));
+            match self.input_solution {
+                Some(e) => {
+                    let _ = writeln!(s, "  {u} = {}", self.show(e));
+                }
+                None => {
+                    let _ = writeln!(s, "  {u} = (solved by Newton's method with d(yr)/d({u}))");
+                }
+            }
+        }
         if !self.zero_dynamics.is_empty() {
             let _ = writeln!(s, "\nzero dynamics:");
             for (j, &q) in self.zero_dynamics.iter().enumerate() {
@@ -596,6 +633,21 @@ impl Derivation {
 
     /// α, β and the singular set.
     fn md_input_output(&self, s: &mut String) {
+        if !self.affine {
+            let solution = match self.input_solution {
+                Some(e) => format!("$$\n u = {}\n$$\n", self.tex(e)),
+                None => "$u$ is solved by Newton's method with the analytic $\\partial y^{(r)}/\\partial u$.\n"
+                    .to_string(),
+            };
+            let _ = writeln!(
+                s,
+                "## Input–output form\n\nThe model is not affine in the input: $y^{{(r)}} = \\varphi(\\xi, \\eta, w, u)$ \
+                 with\n\n$$\n\\begin{{aligned}}\n\\varphi &= {} \\\\\n\\partial\\varphi/\\partial u &= {}\n\\end{{aligned}}\n$$\n\n{solution}",
+                self.tex(self.yr_equation.unwrap_or(self.alpha)),
+                self.tex(self.beta_x)
+            );
+            return;
+        }
         let _ = writeln!(
             s,
             "## Input–output form\n\n$y^{{(r)}} = \\alpha(\\xi, \\eta) + \\beta(\\xi, \\eta)\\,u$, so \

@@ -110,12 +110,22 @@ fn bad_nonaffine() {
     let Some(p) = shared_model("bad_nonaffine") else {
         return;
     };
-    let err = derive_file(&p).unwrap_err().to_string();
-    assert!(
-        err.contains("`x2`") && err.contains("not affine in the input `u`"),
-        "{err}"
+    // Since contract §5 a valid non-affine model (the shared README): r = 2, y^(r) = u² − ξ1, u = √(yr + ξ1),
+    // decoupling 2u.
+    let d = derive_file(&p).unwrap();
+    assert!(!d.affine);
+    assert_eq!(d.relative_degree, 2);
+    let show = |e| d.pool().display(e);
+    assert_eq!(show(d.alpha), "u^2 - xi1");
+    assert_eq!(show(d.beta_x), "2*u");
+    assert_eq!(
+        d.input_solution.map(show).as_deref(),
+        Some("sqrt(xi1 + yr)")
     );
-    assert!(err.contains("bad_nonaffine.toml:6:"), "{err}");
+    let json = d.to_json();
+    assert_eq!(json["affine"], false);
+    assert_eq!(json["input_solution"], "sqrt(xi1 + yr)");
+    assert!(json.get("alpha").is_none() && json["lie_derivatives"].as_array().unwrap().len() == 2);
 }
 
 #[test]

@@ -135,10 +135,12 @@ pub enum MapError {
     Shape { expected: usize, got: usize },
     #[error("smooth = {0} is not valid; expected a finite number > 0")]
     Smooth(f64),
+    #[error("the map takes {expected} argument(s); the new data have {got}")]
+    Arity { expected: usize, got: usize },
 }
 
 /// A 1-D or 2-D lookup map (see the module documentation).
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Map {
     x: Axis,
     y: Option<Axis>,
@@ -294,7 +296,28 @@ impl Map {
         &self.values
     }
 
-    /// Replaces the values (same grid; `--map NAME=FILE.csv`).
+    /// A map with the same name and settings on new data (`--map NAME=FILE.csv`); the arity must stay.
+    pub fn with_data(
+        &self,
+        x: Vec<f64>,
+        y: Option<Vec<f64>>,
+        values: Vec<f64>,
+    ) -> Result<Map, MapError> {
+        let got = if y.is_some() { 2 } else { 1 };
+        if got != self.arity() {
+            return Err(MapError::Arity {
+                expected: self.arity(),
+                got,
+            });
+        }
+        let map = match y {
+            None => Map::new_1d(x, values, self.settings)?,
+            Some(y) => Map::new_2d(x, y, values, self.settings)?,
+        };
+        Ok(map.named(&self.name))
+    }
+
+    /// Replaces the values (same grid).
     pub fn set_values(&mut self, values: Vec<f64>) -> Result<(), MapError> {
         check_values(&values, self.values.len())?;
         self.values = values;
@@ -343,14 +366,21 @@ impl Map {
 
     /// One partial derivative: `orders[k]` times with respect to argument `k` (`orders[1]` ignored in 1-D).
     pub fn partial(&self, args: &[f64], orders: [usize; 2]) -> f64 {
-        if self.y.is_none() {
-            let mut out = vec![0.0; orders[0] + 1];
+        let len = if self.y.is_none() {
+            orders[0] + 1
+        } else {
+            (orders[0] + 1) * (orders[1] + 1)
+        };
+        let orders = [orders[0], if self.y.is_none() { 0 } else { orders[1] }];
+        if len <= 100 {
+            let mut out = [0.0; 100];
+            self.eval(args, orders, &mut out[..len]);
+            out[len - 1]
+        } else {
+            let mut out = vec![0.0; len];
             self.eval(args, orders, &mut out);
-            return out[orders[0]];
+            out[len - 1]
         }
-        let mut out = vec![0.0; (orders[0] + 1) * (orders[1] + 1)];
-        self.eval(args, orders, &mut out);
-        out[out.len() - 1]
     }
 
     fn eval_1d(&self, a: f64, out: &mut [f64]) {

@@ -23,6 +23,7 @@
 mod coordinates;
 mod domain;
 mod lie;
+mod non_affine;
 mod normal_form;
 mod psi_inv;
 mod rank;
@@ -137,6 +138,20 @@ pub struct Derivation {
     pub zero_dynamics_x: Vec<Id>,
     /// The symbol `yr` (= y^(r)).
     pub yr: Symbol,
+    /// Every right-hand side is affine in the input (contract §5). Otherwise `lie[r]` = y^(r) = φ(x, w, u),
+    /// `alpha` = φ ∘ ψ⁻¹ (the `yr_equation`, containing u), `beta` = ∂φ/∂u ∘ ψ⁻¹ (the decoupling term, which
+    /// may contain u), `alpha_x`, `beta_x` the same in the states.
+    pub affine: bool,
+    /// y^(r) is affine in the input (always for affine models; for a non-affine one when only internal
+    /// states are non-affine): then `alpha`, `beta`, `alpha_x`, `beta_x` are u-free and u = (yr − α)/β, so
+    /// every affine code path applies (the fused inverse, generated code).
+    pub yr_affine: bool,
+    /// Non-affine models: y^(r) = φ ∘ ψ⁻¹ in (ξ, η, w, u) (the JSON's `yr_equation`).
+    pub yr_equation: Option<Id>,
+    /// Non-affine models: u from y^(r) = yr by isolation, in (ξ, η, w, yr) and in (x, w, yr); `None` where
+    /// only Newton's method solves it (always `None` for affine models, whose u = (yr − α)/β).
+    pub input_solution: Option<Id>,
+    pub input_solution_x: Option<Id>,
     /// The signal values' symbols in the layout of `InverseModel`'s `w`: S, S_d1, …, S_dr per signal S in
     /// file order (empty without signals).
     pub w: Vec<Symbol>,
@@ -217,8 +232,25 @@ impl Derivation {
 
         // r: the first k with L_g D_f^(k-1) h ≢ 0, D the total derivative along states and signals.
         let h = model.output.h;
-        let field = TotalDerivative::new(&mut model, n + 1);
-        let found = relative_degree(&mut model.pool, h, &field, n, &nominal, &mut warnings);
+        let affine = model.is_affine();
+        let field = if affine {
+            TotalDerivative::new(&mut model, n + 1)
+        } else {
+            TotalDerivative::along_rhs(&mut model, n + 1)
+        };
+        let found = if affine {
+            relative_degree(&mut model.pool, h, &field, n, &nominal, &mut warnings)
+        } else {
+            let u = model.input.symbol;
+            non_affine::relative_degree_u(
+                &mut model.pool,
+                (h, u),
+                &field,
+                n,
+                &nominal,
+                &mut warnings,
+            )
+        };
         let RelativeDegree {
             r,
             lie,
@@ -252,29 +284,70 @@ impl Derivation {
         } = psi_inverse(&mut model, &lie, &xi, &eta, &eta_states, &mut warnings);
 
         // y^(r) = α + β u and the zero dynamics, in (ξ, η); then where β vanishes.
-        let pool = &mut model.pool;
         let coords = ToCoordinates {
             lie: &lie,
             xi: &xi,
             closed: &closed,
+        };
+        let (u, rhs): (Symbol, Vec<Id>) = (
+            model.input.symbol,
+            model.states.iter().map(|s| s.rhs).collect(),
+        );
+        let pool = &mut model.pool;
+        let mut domain = domain;
+        let (mut alpha_x, mut beta_x) = (alpha_x, decoupling);
+        let (mut yr_affine, mut yr_equation) = (true, None);
+        let (normal, input_solution, input_solution_x) = if affine {
+            let nf = normal_form(
+                pool,
+                &coords,
+                (alpha_x, decoupling),
+                (&f, &g),
+                &eta_states,
+                yr,
+            );
+            (nf, None, None)
+        } else {
+            let na = non_affine::non_affine(
+                pool,
+                &coords,
+                (alpha_x, decoupling),
+                (&rhs, &eta_states),
+                (u, yr, &nominal),
+            );
+            (alpha_x, beta_x, yr_affine) = (na.alpha_x, na.beta_x, na.yr_affine);
+            yr_equation = Some(na.form.yr_equation);
+            domain.extend(na.form.domain);
+            let nf = NormalForm {
+                alpha: na.alpha,
+                beta: na.beta,
+                zero_dynamics: na.form.zero_dynamics,
+                zero_dynamics_x: na.form.zero_dynamics_x,
+            };
+            (nf, na.form.input_solution, na.form.input_solution_x)
         };
         let NormalForm {
             alpha,
             beta,
             zero_dynamics,
             zero_dynamics_x,
-        } = normal_form(
-            pool,
-            &coords,
-            (alpha_x, decoupling),
-            (&f, &g),
-            &eta_states,
-            yr,
-        );
+        } = normal;
 
-        let singular = singular_set(pool, beta, &nominal, &xi, &eta);
+        // Where β (non-affine: ∂y^(r)/∂u, which may depend on u) vanishes.
+        let mut coords_u = eta.clone();
+        if !affine {
+            coords_u.push(u);
+        }
+        let singular = singular_set(pool, beta, &nominal, &xi, &coords_u);
         for s in &singular {
-            warnings.push(format!("β vanishes: {s}"));
+            if affine {
+                warnings.push(format!("β vanishes: {s}"));
+            } else {
+                warnings.push(format!(
+                    "∂y^(r)/∂{} vanishes: {s} (Newton's method for the input fails there)",
+                    model.input.name
+                ));
+            }
         }
         let domain = domain_conditions(pool, domain, &params);
 
@@ -294,10 +367,15 @@ impl Derivation {
             alpha,
             beta,
             alpha_x,
-            beta_x: decoupling,
+            beta_x,
             zero_dynamics,
             zero_dynamics_x,
             yr,
+            affine,
+            yr_affine,
+            yr_equation,
+            input_solution,
+            input_solution_x,
             w: field.w_symbols(r),
             singular,
             domain,

@@ -30,7 +30,7 @@ impl ToCoordinates<'_> {
     /// Express `e` in (ξ, η): first replace each L_f^k h (k < r) that occurs as a subterm by ξ_{k+1} (it
     /// often does: L_f^2 h contains L_f h when h is a state), then substitute ψ⁻¹ for the remaining states.
     /// This keeps α in the paper's structure (eq. 28) instead of re-expanding ξ2 in terms of ξ.
-    fn apply(&self, pool: &mut Pool, e: Id) -> Id {
+    pub(super) fn apply(&self, pool: &mut Pool, e: Id) -> Id {
         let mut e = e;
         for k in (1..self.xi.len()).rev() {
             let x = pool.var(self.xi[k]);

@@ -31,8 +31,19 @@ impl TotalDerivative {
     /// The field of `model` with each signal's derivatives up to order `orders` (D^k e needs S_dk for an e
     /// that depends on S, so `orders` = n + 1 covers every D^k h, k ≤ n + 1… up to α = D^r h).
     pub fn new(model: &mut Model, orders: usize) -> TotalDerivative {
+        let drift: Vec<Id> = model.states.iter().map(|s| s.f).collect();
+        TotalDerivative::with_drift(model, orders, drift)
+    }
+
+    /// The field whose drift is the whole right-hand side rhs(x, u) (for a model not affine in the input):
+    /// then `drift` is the total derivative D e with the input, and ∂(D e)/∂u replaces L_g e.
+    pub fn along_rhs(model: &mut Model, orders: usize) -> TotalDerivative {
+        let drift: Vec<Id> = model.states.iter().map(|s| s.rhs).collect();
+        TotalDerivative::with_drift(model, orders, drift)
+    }
+
+    fn with_drift(model: &mut Model, orders: usize, mut drift: Vec<Id>) -> TotalDerivative {
         let mut coordinates = model.state_symbols();
-        let mut drift: Vec<Id> = model.states.iter().map(|s| s.f).collect();
         let mut gain: Vec<Id> = model.states.iter().map(|s| s.g).collect();
         let mut chains = Vec::with_capacity(model.signals.len());
         let zero = model.pool.zero();

@@ -7,7 +7,7 @@ use super::definitions::Interned;
 use super::error::{ModelError, ModelErrorKind};
 use super::expressions::{Item, Role};
 use super::raw::{RawEquation, RawExtra, RawOutput, RawState};
-use super::spanned::{Reader, Src};
+use super::spanned::Reader;
 use super::validated::{ExtraOutput, Output, State};
 use invsim_expr::{zero_test, Id, Pool, Symbol};
 use std::collections::HashMap;
@@ -50,13 +50,15 @@ fn dependency_of(m: &Interned, items: &[Item], role: Role, input: &str) -> (Opti
     }
 }
 
-/// An expression for a message, cut to a readable length.
-fn abbreviate(text: String) -> String {
-    const MAX: usize = 200;
-    match text.char_indices().nth(MAX) {
-        Some((i, _)) => format!("{} …", &text[..i]),
-        None => text,
-    }
+/// rhs → (f, g, None): f = rhs|_{u=0}, g = ∂rhs/∂u|_{u=0} when ∂²rhs/∂u² ≡ 0; a right-hand side that is
+/// not affine in the input (contract §5) is kept whole: (rhs|_{u=0}, ∂rhs/∂u|_{u=0}, Some(rhs)).
+fn split_rhs(i: usize, m: &mut Interned) -> (Id, Id, Option<Id>) {
+    let rhs = m.pool.substitute(m.expr_of(Role::Rhs(i)), &m.inline);
+    let f = m.pool.substitute(rhs, &m.u_zero);
+    let g = m.pool.diff(rhs, m.u);
+    let g2 = m.pool.diff(g, m.u);
+    let nonaffine = !zero_test(&mut m.pool, g2, &m.nominal).is_zero();
+    (f, m.pool.substitute(g, &m.u_zero), nonaffine.then_some(rhs))
 }
 
 impl Reader<'_> {
@@ -71,12 +73,21 @@ impl Reader<'_> {
         let mut states = Vec::with_capacity(raw_states.len());
         for (i, s) in raw_states.into_iter().enumerate() {
             let symbol = m.pool.symbol(&s.name);
-            let (f, g) = match &s.equation {
-                RawEquation::Rhs(src) => self.split_rhs(&s, src, i, input, m)?,
-                RawEquation::Fg(..) => self.given_fg(&s, i, input, m, items)?,
+            let (f, g, nonaffine) = match &s.equation {
+                RawEquation::Rhs(_) => split_rhs(i, m),
+                RawEquation::Fg(..) => {
+                    let (f, g) = self.given_fg(&s, i, input, m, items)?;
+                    (f, g, None)
+                }
             };
-            let gu = m.pool.mul2(g, m.u_var);
-            let rhs = m.pool.add2(f, gu);
+            let affine = nonaffine.is_none();
+            let rhs = match nonaffine {
+                Some(rhs) => rhs,
+                None => {
+                    let gu = m.pool.mul2(g, m.u_var);
+                    m.pool.add2(f, gu)
+                }
+            };
             states.push(State {
                 name: s.name,
                 symbol,
@@ -86,40 +97,10 @@ impl Reader<'_> {
                 f,
                 g,
                 initial: s.initial,
+                affine,
             });
         }
         Ok(states)
-    }
-
-    /// rhs → (f, g): f = rhs|_{u=0}, g = ∂rhs/∂u|_{u=0}, after checking ∂²rhs/∂u² ≡ 0.
-    fn split_rhs(
-        &self,
-        s: &RawState,
-        src: &Src,
-        i: usize,
-        input: &str,
-        m: &mut Interned,
-    ) -> Result<(Id, Id), ModelError> {
-        let rhs = m.pool.substitute(m.expr_of(Role::Rhs(i)), &m.inline);
-        let f = m.pool.substitute(rhs, &m.u_zero);
-        let g = m.pool.diff(rhs, m.u);
-        let g2 = m.pool.diff(g, m.u);
-        if !zero_test(&mut m.pool, g2, &m.nominal).is_zero() {
-            return Err(self.err(
-                src.at(0),
-                ModelErrorKind::NotAffine,
-                format!(
-                    "state `{}`'s right-hand side is not affine in the input `{}`: ∂²/∂{}² = {} \
-                     (the method needs dx/dt = f(x) + g(x)·{})",
-                    s.name,
-                    input,
-                    input,
-                    abbreviate(m.pool.display(g2)),
-                    input
-                ),
-            ));
-        }
-        Ok((f, m.pool.substitute(g, &m.u_zero)))
     }
 
     /// Given f and g: each inlined and checked free of the input.

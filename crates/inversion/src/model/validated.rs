@@ -115,6 +115,9 @@ pub struct State {
     /// `initial = VALUE`: the value at the start of a run for a state the inversion does not fix (an internal
     /// state); `None` when the model file gives none.
     pub initial: Option<f64>,
+    /// `rhs` is affine in the input (then `rhs = f + g·u`); otherwise `rhs` is the whole right-hand side and
+    /// f, g are its value and slope at u = 0 (contract §5).
+    pub affine: bool,
 }
 
 /// The model's single input `u`.
@@ -179,6 +182,11 @@ impl Model {
             .iter()
             .map(|p| (p.symbol, p.value))
             .collect()
+    }
+
+    /// Every state's right-hand side is affine in the input.
+    pub fn is_affine(&self) -> bool {
+        self.states.iter().all(|s| s.affine)
     }
 
     /// The states' symbols, in file order.
