@@ -130,6 +130,17 @@ fn dynamic_fusion_keeps_the_imported_parameters() {
             shared += 1;
         }
     }
-    // chassis 7 + aux, transmission, fuel + rho_a, g_0 + the engine map (P_fc_max, P_idle, 24 points)
-    assert!(shared >= 7 + 3 + 2 + 26, "only {shared} shared parameters");
+    // chassis 7 + aux, transmission, fuel + rho_a, g_0 + P_fc_max, P_idle
+    assert!(shared >= 7 + 3 + 2 + 2, "only {shared} shared parameters");
+    // The engine efficiency table: the dynamic model's map fc_map is the imported model's, line for line.
+    let text = |p: &str| std::fs::read_to_string(root().join(p)).unwrap();
+    let map = |t: &str| {
+        let start = t.find("[maps.fc_map]").expect("an fc_map");
+        t[start..].split("\n\n").next().unwrap().to_string()
+    };
+    assert_eq!(
+        map(&text("models/ford_fusion_2012_dynamic.toml")),
+        map(&text("models/vehicles/ford_fusion_2012.toml")),
+        "the engine efficiency map is the imported one"
+    );
 }

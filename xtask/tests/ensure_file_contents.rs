@@ -15,16 +15,27 @@ fn scratch(name: &str) -> PathBuf {
     dir
 }
 
-/// A scratch workspace holding a copy of `models/`.
+/// A scratch workspace holding a copy of `models/` (its subdirectories too).
 fn scratch_root(name: &str) -> PathBuf {
     let root = scratch(name);
-    let models = xtask::workspace_root().join("models");
-    std::fs::create_dir_all(root.join("models")).unwrap();
-    for e in std::fs::read_dir(models).unwrap() {
-        let p = e.unwrap().path();
-        std::fs::copy(&p, root.join("models").join(p.file_name().unwrap())).unwrap();
-    }
+    copy_tree(
+        &xtask::workspace_root().join("models"),
+        &root.join("models"),
+    );
     root
+}
+
+fn copy_tree(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap() {
+        let p = e.unwrap().path();
+        let target = to.join(p.file_name().unwrap());
+        if p.is_dir() {
+            copy_tree(&p, &target);
+        } else {
+            std::fs::copy(&p, target).unwrap();
+        }
+    }
 }
 
 fn modified(path: &Path) -> std::time::SystemTime {

@@ -44,6 +44,17 @@ impl LoadedModel {
             LoadedModel::Compiled(m) => m.as_ref(),
         }
     }
+    /// Replace a lookup map's grid and values (`--map NAME=FILE.csv`).
+    pub fn set_map(
+        &mut self,
+        name: &str,
+        data: (&[f64], Option<&[f64]>, &[f64]),
+    ) -> Result<(), invsim_model_api::ModelError> {
+        match self {
+            LoadedModel::Interpreted(m) => m.set_map(name, data),
+            LoadedModel::Compiled(m) => m.set_map(name, data),
+        }
+    }
     pub fn set_param(
         &mut self,
         name: &str,

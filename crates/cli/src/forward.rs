@@ -82,6 +82,10 @@ pub struct ForwardArgs {
     #[arg(long = "signal", value_name = "NAME=FILE.csv|VALUE")]
     #[serde(skip_serializing_if = "Vec::is_empty")]
     signal: Vec<String>,
+    /// Replace a lookup map's grid and values: NAME=FILE.csv (the model file's map CSV format); repeatable.
+    #[arg(long = "map", value_name = "NAME=FILE.csv")]
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    map: Vec<String>,
     /// The start value of an internal state: NAME=VALUE (repeatable; over the model file's `initial`): the run
     /// starts there instead of at the equilibrium of the zero dynamics.
     #[arg(
@@ -105,7 +109,8 @@ pub struct ForwardArgs {
 }
 
 pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
-    let (mut outputs, cycle, model) = prepare_run(&RunRequest {
+    crate::modal_cmd::refuse_modal(&args.model, "forward")?;
+    let (mut outputs, cycle, mut model) = prepare_run(&RunRequest {
         model: &args.model,
         engine: args.engine,
         cycle: &args.cycle,
@@ -115,6 +120,7 @@ pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
         summary_json: args.summary_json.as_deref(),
         plot: &args.plot,
     })?;
+    crate::map_args::apply(&mut model, &args.map)?;
     let stopped = |e: ForwardError| {
         Failure::user(format!(
             "forward simulation of `{}` on `{}` stopped: {e}",

@@ -17,6 +17,7 @@ mod files;
 mod forward;
 mod import_cmd;
 mod initial_args;
+mod map_args;
 mod modal_cmd;
 mod outputs;
 mod plotting;

@@ -23,6 +23,19 @@ pub fn read_modal(path: &Path) -> Result<Option<ModalModel>, Failure> {
     }
 }
 
+/// `forward` and `sweep` do not run models with modes yet: exit 2 saying so (an unreadable file is left to
+/// the command's own reader and its message).
+pub fn refuse_modal(path: &Path, command: &str) -> Result<(), Failure> {
+    if let Ok(ModelFile::Modal(_)) = ModelFile::from_path(path) {
+        return Err(Failure::user(format!(
+            "{}: a model with operating modes runs with `invsim derive` and `invsim simulate`; `invsim {command}` \
+             does not run models with modes yet",
+            path.display()
+        )));
+    }
+    Ok(())
+}
+
 /// A mode with its derivation.
 pub struct DerivedMode {
     pub name: String,
@@ -190,6 +203,14 @@ pub fn simulate(m: ModalModel, run: &ModalRun<'_>) -> Result<(), Failure> {
         .collect::<Result<_, _>>()?;
     for s in run.set {
         let (name, value) = crate::engine::parse_set(s)?;
+        if m.gearbox
+            .as_ref()
+            .is_some_and(|g| g.parameters.iter().any(|(p, _)| *p == name))
+        {
+            return Err(Failure::user(format!(
+                "--set {name}: `{name}` is set per gear by the model's [gearbox]; change its values there"
+            )));
+        }
         for i in interps.iter_mut() {
             i.set_param(&name, value)
                 .map_err(|e| Failure::user(format!("--set {name}: {e}")))?;

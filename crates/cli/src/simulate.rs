@@ -35,6 +35,10 @@ pub struct SimulateArgs {
     #[arg(long = "signal", value_name = "NAME=FILE.csv|VALUE")]
     #[serde(skip_serializing_if = "Vec::is_empty")]
     signal: Vec<String>,
+    /// Replace a lookup map's grid and values: NAME=FILE.csv (the model file's map CSV format); repeatable.
+    #[arg(long = "map", value_name = "NAME=FILE.csv")]
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    map: Vec<String>,
     /// The start value of an internal state: NAME=VALUE (repeatable; over the model file's `initial`): a causal run
     /// starts there instead of at the equilibrium of the zero dynamics.
     #[arg(
@@ -105,7 +109,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
             },
         );
     }
-    let (mut outputs, cycle, model) = prepare_run(&RunRequest {
+    let (mut outputs, cycle, mut model) = prepare_run(&RunRequest {
         model: &args.model,
         engine: args.engine,
         cycle: &args.cycle,
@@ -115,6 +119,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
         summary_json: args.summary_json.as_deref(),
         plot: &args.plot,
     })?;
+    crate::map_args::apply(&mut model, &args.map)?;
     let stopped = |e: SimulateError| {
         Failure::user(format!(
             "simulation of `{}` on `{}` stopped: {e}",

@@ -268,6 +268,7 @@ fn is_parquet(path: &Path) -> bool {
 }
 
 pub fn run(args: &SweepArgs) -> Result<(), Failure> {
+    crate::modal_cmd::refuse_modal(&args.model, "sweep")?;
     let sets: Vec<(String, f64)> = args
         .set
         .iter()

@@ -18,6 +18,7 @@ mod context;
 mod docs;
 mod functions;
 mod lints;
+mod maps;
 mod newton;
 mod params;
 mod trait_impl;
@@ -59,19 +60,38 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
     let imports = imports(&g, batch.uses_pow_slice);
     let constants = params::constants(&g, source_name, batch.any());
     let params = params::params(&g);
-    let model = trait_impl::model(&g, batch.invert);
+    let map_tokens = maps::map_tokens(&g);
+    let model = trait_impl::model(
+        &g,
+        batch.invert,
+        map_tokens.as_ref().map(|m| &m.trait_method),
+    );
     let (k_fields, pre_lets, k_idents) = (&pre.fields, &pre.lets, &pre.idents);
+    let (map_items, map_field, map_init, map_use) = match &map_tokens {
+        Some(m) => (
+            m.items.clone(),
+            m.field.clone(),
+            m.init.clone(),
+            quote!(
+                use invsim_model_api::map::Map;
+            ),
+        ),
+        None => Default::default(),
+    };
     let batch_methods = &batch.methods;
     let body = quote! {
         #imports
+        #map_use
         #constants
         #params
+        #map_items
 
         /// A parameter set with its parameter-only subexpressions computed once, and the model's functions
         /// evaluated per point.
         #[derive(Debug, Clone, PartialEq)]
         pub struct Precomputed {
             params: Params,
+            #map_field
             #(#k_fields)*
         }
 
@@ -80,7 +100,7 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
             #[inline(always)]
             pub fn new(p: &Params) -> Precomputed {
                 #(#pre_lets)*
-                Precomputed { params: *p, #(#k_idents),* }
+                Precomputed { params: *p, #map_init #(#k_idents),* }
             }
 
             /// The parameters.

@@ -325,6 +325,14 @@ impl Tape {
     pub fn n_inputs(&self) -> usize {
         self.n_inputs
     }
+
+    /// Replaces the data of map `index` ([`crate::MapId::index`]); a specialised tape keeps the values it
+    /// folded (map calls of parameters alone), so specialise again after replacing.
+    pub fn set_map(&mut self, index: usize, data: Arc<Map>) {
+        if let Some(m) = self.maps.get_mut(index) {
+            *m = data;
+        }
+    }
     pub fn n_outputs(&self) -> usize {
         self.outputs.len()
     }

@@ -38,13 +38,16 @@ pub fn emit(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<
         "idle fuel power: the floor of the fuel power while the engine runs",
         &p("fc.pwr_idle_fuel_watts"),
     )?;
-    model.field(
-        "e_f",
-        positive(doc, &p("fs.specific_energy_joules_per_kilogram"))?,
-        "J/kg",
-        "fuel specific energy (lower heating value)",
-        &p("fs.specific_energy_joules_per_kilogram"),
-    )?;
+    let e_f_path = p("fs.specific_energy_joules_per_kilogram");
+    let e_f = doc
+        .opt_num(&e_f_path)?
+        .filter(|x| x.is_finite() && *x > 0.0);
+    match e_f {
+        Some(e_f) => model.field("e_f", e_f, "J/kg", "fuel specific energy (lower heating value)", &e_f_path)?,
+        None => warnings.push(format!(
+            "`{e_f_path}` is not set: the fuel is reported as energy (fuel_energy, J) only, not as mass"
+        )),
+    }
     let curve = table(doc, &p("fc.eff_interp_from_pwr_out"))?;
     model.def("P_fc", "max(P_w, 0)/eta_t + P_aux/eta_alt", "W", "engine output power: traction through the transmission plus the auxiliary load through the alternator");
     let eff = efficiency::emit(model, "fc", &curve, "P_fc/P_fc_max", "engine efficiency")?;
@@ -54,7 +57,9 @@ pub fn emit(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<
         "W",
         "fuel power, at least the idle fuel power",
     );
-    model.output("fuel", "P_fuel/e_f", "kg/s", "fuel mass flow", true);
+    if e_f.is_some() {
+        model.output("fuel", "P_fuel/e_f", "kg/s", "fuel mass flow", true);
+    }
     model.output(
         "fuel_energy",
         "P_fuel",

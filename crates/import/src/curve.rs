@@ -66,7 +66,7 @@ fn first_key(v: &Value) -> String {
         .to_string()
 }
 
-/// A 1-D table at `path` (grid strictly increasing, values in (0, 1]).
+/// A 1-D table at `path` (grid strictly increasing, values in [0, 1]).
 pub fn table(doc: &Doc, path: &str) -> Result<Curve, ImportError> {
     let grid_path = format!("{path}.data.grid");
     let grid = doc
@@ -136,8 +136,8 @@ fn check_table(x: &[f64], y: &[f64], path: &str) -> Result<(), ImportError> {
             "grid must be finite and strictly increasing, values finite",
         ));
     }
-    if y.iter().any(|&e| e <= 0.0 || e > 1.0) {
-        return Err(ImportError::field(path, "efficiencies must lie in (0, 1]"));
+    if y.iter().any(|&e| !(0.0..=1.0).contains(&e)) {
+        return Err(ImportError::field(path, "efficiencies must lie in [0, 1]"));
     }
     Ok(())
 }

@@ -1,12 +1,12 @@
-//! An efficiency table as model text: its grid points and values become parameters (docs naming their FASTSim
-//! fields) and the interpolation an exact expression in `[outputs]`-only definitions — piecewise linear as a
-//! hinge sum, e(X) = e_0 + s_0 (X − x_0) + Σ_k (s_k − s_{k−1}) max(X − x_k, 0) with s_k the slope of segment k,
-//! step-wise ("Step: Lower") as e(X) = e_0 + Σ_k (e_k − e_{k−1}) (1 − max(sign(x_k − X), 0)), which takes the
-//! value e_k on [x_k, x_{k+1}) exactly as FASTSim does; X is the load clamped to the grid.
+//! An efficiency table as model text, exact in `[outputs]`-only definitions: piecewise linear as a map with
+//! `interp = "linear"` (contract §6; the grid and values are the FASTSim table, held at the end values outside
+//! it), step-wise ("Step: Lower") with its grid points and values as parameters (docs naming their FASTSim
+//! fields) and e(X) = e_0 + Σ_k (e_k − e_{k−1}) (1 − max(sign(x_k − X), 0)), which takes the value e_k on
+//! [x_k, x_{k+1}) exactly as FASTSim does; X is the load clamped to the grid.
 
 use crate::curve::{Curve, Strategy};
 use crate::error::ImportError;
-use crate::model::Model;
+use crate::model::{LinearMap, Model};
 
 /// Terms per partial-sum definition (keeps every expression far below the 4000-byte limit).
 const CHUNK: usize = 12;
@@ -20,6 +20,9 @@ pub fn emit(
     load: &str,
     what: &str,
 ) -> Result<String, ImportError> {
+    if curve.strategy == Strategy::Linear {
+        return Ok(emit_map(model, prefix, curve, load, what));
+    }
     let n = curve.x.len();
     for k in 0..n {
         model.field(
@@ -46,48 +49,45 @@ pub fn emit(
         "-",
         &format!("{what}: load as the fraction FASTSim looks up, clamped to the grid"),
     );
-    let terms = match curve.strategy {
-        Strategy::Linear => linear_terms(model, prefix, n, &x),
-        Strategy::StepLower => step_terms(prefix, n, &x),
-    };
     let eff = format!("eff_{prefix}");
-    let sum = chunked_sum(model, prefix, terms);
-    let kind = match curve.strategy {
-        Strategy::Linear => "linear interpolation",
-        Strategy::StepLower => "step-wise interpolation (the grid point at or below the load)",
-    };
-    model.def(
-        &eff,
-        &sum,
-        "-",
-        &format!("{what}: efficiency, FASTSim's {kind} of the table"),
+    let sum = chunked_sum(model, prefix, step_terms(prefix, n, &x));
+    let doc = format!(
+        "{what}, FASTSim's step-wise interpolation of its table (the grid point at or below the load)"
     );
+    model.def(&eff, &sum, "-", &doc);
     Ok(eff)
 }
 
-/// Slopes s_k as definitions and the hinge terms of the linear interpolant.
-fn linear_terms(model: &mut Model, prefix: &str, n: usize, x: &str) -> Vec<String> {
-    for k in 0..n - 1 {
-        model.def(
-            &format!("{prefix}_s{k}"),
-            &format!(
-                "({p}_e{k1} - {p}_e{k})/({p}_x{k1} - {p}_x{k})",
-                p = prefix,
-                k1 = k + 1
-            ),
-            "-",
-            &format!("slope of segment {k} of the efficiency table"),
-        );
+/// A linear table as the map `{prefix}_map` (its doc names the FASTSim field) and `eff_{prefix}` calling it.
+fn emit_map(model: &mut Model, prefix: &str, curve: &Curve, load: &str, what: &str) -> String {
+    let name = format!("{prefix}_map");
+    model.maps.push(LinearMap {
+        name: name.clone(),
+        arg: "load".to_string(),
+        x: curve.x.clone(),
+        values: curve.y.clone(),
+        unit: "-".to_string(),
+        doc: format!(
+            "{what} over the load fraction, linear between the points as FASTSim interpolates it; FASTSim `{}` \
+             (x: `data.grid[0]`, values: `data.values`)",
+            curve.path
+        ),
+    });
+    let eff = format!("eff_{prefix}");
+    let doc = format!(
+        "{what}, FASTSim's linear interpolation of its table (held at the end values outside it)"
+    );
+    model.def(&eff, &format!("{name}({load})"), "-", &doc);
+    eff
+}
+
+/// The table's efficiency at zero load as an expression of what [`emit`] wrote under `prefix`: the map at 0
+/// (linear) or the first value (step-wise, whose grid starts at zero load).
+pub fn at_zero_load(prefix: &str, curve: &Curve) -> String {
+    match curve.strategy {
+        Strategy::Linear => format!("{prefix}_map(0)"),
+        Strategy::StepLower => format!("{prefix}_e0"),
     }
-    let mut terms = vec![format!("{prefix}_e0 + {prefix}_s0*({x} - {prefix}_x0)")];
-    for k in 1..n - 1 {
-        terms.push(format!(
-            "({p}_s{k} - {p}_s{km})*max({x} - {p}_x{k}, 0)",
-            p = prefix,
-            km = k - 1
-        ));
-    }
-    terms
 }
 
 /// The steps of the step-wise interpolant.

@@ -22,6 +22,17 @@ pub struct Item {
     pub accumulate: Option<bool>,
 }
 
+/// A 1-D map with plain linear interpolation (contract §6, `interp = "linear"`): exact, for `[outputs]` only.
+#[derive(Debug, Clone)]
+pub struct LinearMap {
+    pub name: String,
+    pub arg: String,
+    pub x: Vec<f64>,
+    pub values: Vec<f64>,
+    pub unit: String,
+    pub doc: String,
+}
+
 /// A model under construction.
 #[derive(Debug, Default)]
 pub struct Model {
@@ -31,6 +42,7 @@ pub struct Model {
     pub params: Vec<Param>,
     pub defs: Vec<Item>,
     pub outputs: Vec<Item>,
+    pub maps: Vec<LinearMap>,
 }
 
 impl Model {
@@ -100,6 +112,9 @@ impl Model {
             ));
         }
         s.push_str(SIGNALS);
+        for m in &self.maps {
+            s.push_str(&render_map(m));
+        }
         s.push_str("\n[definitions]\n");
         for d in &self.defs {
             s.push_str(&render_item(d));
@@ -146,6 +161,20 @@ fn item(name: &str, expr: &str, unit: &str, doc: &str, accumulate: Option<bool>)
         doc: doc.to_string(),
         accumulate,
     }
+}
+
+/// `[maps.NAME]` with its grid and values, linear between the points and held at the end values outside.
+fn render_map(m: &LinearMap) -> String {
+    let list = |v: &[f64]| v.iter().map(|x| number(*x)).collect::<Vec<_>>().join(", ");
+    format!(
+        "\n[maps.{}]\nargs = [{}]\nx = [{}]\nvalues = [{}]\ninterp = \"linear\"\nextrapolate = \"clamp\"\nunit = {}\ndoc = {}\n",
+        m.name,
+        quote(&m.arg),
+        list(&m.x),
+        list(&m.values),
+        quote(&m.unit),
+        quote(&m.doc)
+    )
 }
 
 fn render_item(i: &Item) -> String {

@@ -102,6 +102,20 @@ struct Tapes {
 }
 
 impl Tapes {
+    fn set_map(&mut self, index: usize, data: &std::sync::Arc<invsim_model_api::map::Map>) {
+        for t in [
+            &mut self.invert,
+            &mut self.alpha_beta,
+            &mut self.newton,
+            &mut self.h,
+            &mut self.zero,
+            &mut self.rhs,
+            &mut self.outputs,
+        ] {
+            t.set_map(index, data.clone());
+        }
+    }
+
     fn specialize(&self, p: &[f64]) -> Tapes {
         Tapes {
             invert: self.invert.specialize(p),
@@ -132,6 +146,9 @@ pub struct Interpreter {
     u_start: f64,
     generic: Tapes,
     special: Tapes,
+    /// The model's maps (contract §6) by `MapId` index, and their names.
+    maps: Vec<invsim_model_api::map::Map>,
+    map_names: Vec<String>,
 }
 
 fn compile(
@@ -280,6 +297,8 @@ impl Interpreter {
             },
             generic,
             special,
+            maps: d.pool().maps().iter().map(|m| (*m.data).clone()).collect(),
+            map_names: d.pool().maps().iter().map(|m| m.name.clone()).collect(),
         })
     }
 
@@ -425,6 +444,20 @@ impl InverseModel for Interpreter {
     fn set_param(&mut self, name: &str, value: f64) -> Result<(), ModelError> {
         set_param_checked(&self.info, &mut self.params, name, value)?;
         self.special = self.generic.specialize(&self.params);
+        Ok(())
+    }
+    fn set_map(
+        &mut self,
+        name: &str,
+        data: (&[f64], Option<&[f64]>, &[f64]),
+    ) -> Result<(), ModelError> {
+        let names: Vec<&str> = self.map_names.iter().map(String::as_str).collect();
+        invsim_model_api::set_map_checked(&mut self.maps, &names, name, data)?;
+        if let Some(i) = names.iter().position(|n| *n == name) {
+            let data = std::sync::Arc::new(self.maps[i].clone());
+            self.generic.set_map(i, &data);
+            self.special = self.generic.specialize(&self.params);
+        }
         Ok(())
     }
     fn h(&self, x: &[f64], w: &[f64]) -> f64 {

@@ -24,6 +24,7 @@
 //! constant, higher ones zero); the contract allows that only for maps used in outputs alone.
 
 mod axis;
+mod memo;
 mod violation;
 
 use axis::{Axis, Basis};
@@ -135,9 +136,12 @@ pub enum MapError {
     Shape { expected: usize, got: usize },
     #[error("smooth = {0} is not valid; expected a finite number > 0")]
     Smooth(f64),
+    #[error("the map takes {expected} argument(s); the new data have {got}")]
+    Arity { expected: usize, got: usize },
 }
 
-/// A 1-D or 2-D lookup map (see the module documentation).
+/// A 1-D or 2-D lookup map (see the module documentation). Equal maps have equal grids, values, settings
+/// and names.
 #[derive(Debug, Clone)]
 pub struct Map {
     x: Axis,
@@ -149,6 +153,27 @@ pub struct Map {
     max_count: [usize; 2],
     /// The map's name in messages (see [`Map::named`]).
     name: std::sync::Arc<str>,
+    /// Unique per data (clones share it): the key of the one-pass memo (`memo.rs`).
+    id: u64,
+}
+
+impl PartialEq for Map {
+    fn eq(&self, other: &Map) -> bool {
+        (&self.x, &self.y, &self.values, &self.settings, &self.name)
+            == (
+                &other.x,
+                &other.y,
+                &other.values,
+                &other.settings,
+                &other.name,
+            )
+    }
+}
+
+/// A fresh id for new map data.
+fn next_id() -> u64 {
+    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+    NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
 }
 
 /// Scratch values on the stack per axis; larger windows (large `smooth` on uneven grids) use the heap.
@@ -231,6 +256,7 @@ impl Map {
             values,
             settings,
             name: "map".into(),
+            id: next_id(),
         })
     }
 
@@ -251,6 +277,7 @@ impl Map {
             values,
             settings,
             name: "map".into(),
+            id: next_id(),
         })
     }
 
@@ -294,10 +321,32 @@ impl Map {
         &self.values
     }
 
-    /// Replaces the values (same grid; `--map NAME=FILE.csv`).
+    /// A map with the same name and settings on new data (`--map NAME=FILE.csv`); the arity must stay.
+    pub fn with_data(
+        &self,
+        x: Vec<f64>,
+        y: Option<Vec<f64>>,
+        values: Vec<f64>,
+    ) -> Result<Map, MapError> {
+        let got = if y.is_some() { 2 } else { 1 };
+        if got != self.arity() {
+            return Err(MapError::Arity {
+                expected: self.arity(),
+                got,
+            });
+        }
+        let map = match y {
+            None => Map::new_1d(x, values, self.settings)?,
+            Some(y) => Map::new_2d(x, y, values, self.settings)?,
+        };
+        Ok(map.named(&self.name))
+    }
+
+    /// Replaces the values (same grid).
     pub fn set_values(&mut self, values: Vec<f64>) -> Result<(), MapError> {
         check_values(&values, self.values.len())?;
         self.values = values;
+        self.id = next_id();
         Ok(())
     }
 
@@ -313,14 +362,9 @@ impl Map {
         })
     }
 
-    /// Value and partial derivatives in one pass. 1-D: `out[n] = M^(n)(a)` for `n = 0 … out.len() − 1`
-    /// (`orders` is ignored). 2-D: `out[p · (orders[1] + 1) + q] = ∂^(p+q) M / ∂a^p ∂b^q` for
-    /// `p ≤ orders[0]`, `q ≤ orders[1]`; `out` must hold `(orders[0] + 1)(orders[1] + 1)` values.
-    /// A NaN argument gives NaN everywhere.
-    ///
-    /// Under `extrapolate = "error"` an argument outside the grid is recorded as this thread's
-    /// [`Violation`] (see [`take_violation`]); the value is still the linear continuation.
-    pub fn eval(&self, args: &[f64], orders: [usize; 2], out: &mut [f64]) {
+    /// Under `extrapolate = "error"`: records an argument outside the grid as this thread's [`Violation`].
+    #[inline]
+    fn check_range(&self, args: &[f64]) {
         if self.settings.extrapolate == Extrapolate::Error {
             if let Some(k) = self.outside(args) {
                 let grid = if k == 0 {
@@ -331,6 +375,17 @@ impl Map {
                 violation::record(&self.name, k, args[k], (grid[0], grid[grid.len() - 1]));
             }
         }
+    }
+
+    /// Value and partial derivatives in one pass. 1-D: `out[n] = M^(n)(a)` for `n = 0 … out.len() − 1`
+    /// (`orders` is ignored). 2-D: `out[p · (orders[1] + 1) + q] = ∂^(p+q) M / ∂a^p ∂b^q` for
+    /// `p ≤ orders[0]`, `q ≤ orders[1]`; `out` must hold `(orders[0] + 1)(orders[1] + 1)` values.
+    /// A NaN argument gives NaN everywhere.
+    ///
+    /// Under `extrapolate = "error"` an argument outside the grid is recorded as this thread's
+    /// [`Violation`] (see [`take_violation`]); the value is still the linear continuation.
+    pub fn eval(&self, args: &[f64], orders: [usize; 2], out: &mut [f64]) {
+        self.check_range(args);
         if args.iter().take(self.arity()).any(|a| a.is_nan()) {
             out.fill(f64::NAN);
             return;
@@ -342,15 +397,38 @@ impl Map {
     }
 
     /// One partial derivative: `orders[k]` times with respect to argument `k` (`orders[1]` ignored in 1-D).
+    ///
+    /// Orders up to 2 per argument come from one evaluation of all of them per point (a per-thread memo of
+    /// the last few points), so `M`, `M_d10`, `M_d01`, `M_d11`, … at the same arguments cost one pass.
     pub fn partial(&self, args: &[f64], orders: [usize; 2]) -> f64 {
-        if self.y.is_none() {
-            let mut out = vec![0.0; orders[0] + 1];
-            self.eval(args, orders, &mut out);
-            return out[orders[0]];
+        self.check_range(args);
+        let two_d = self.y.is_some();
+        if orders[0] <= memo::MEMO_ORDER && (!two_d || orders[1] <= memo::MEMO_ORDER) {
+            let b = if two_d { args[1] } else { 0.0 };
+            let o = [orders[0], if two_d { orders[1] } else { 0 }];
+            if !two_d {
+                // 1-D: the memo's first row holds M, M', M''.
+                return memo::partial(self.id, [args[0], b], [0, o[0]], |out| {
+                    self.eval(&args[..1], [2, 0], &mut out[..3])
+                });
+            }
+            return memo::partial(self.id, [args[0], b], o, |out| self.eval(args, [2, 2], out));
         }
-        let mut out = vec![0.0; (orders[0] + 1) * (orders[1] + 1)];
-        self.eval(args, orders, &mut out);
-        out[out.len() - 1]
+        let len = if self.y.is_none() {
+            orders[0] + 1
+        } else {
+            (orders[0] + 1) * (orders[1] + 1)
+        };
+        let orders = [orders[0], if self.y.is_none() { 0 } else { orders[1] }];
+        if len <= 100 {
+            let mut out = [0.0; 100];
+            self.eval(args, orders, &mut out[..len]);
+            out[len - 1]
+        } else {
+            let mut out = vec![0.0; len];
+            self.eval(args, orders, &mut out);
+            out[len - 1]
+        }
     }
 
     fn eval_1d(&self, a: f64, out: &mut [f64]) {

@@ -164,6 +164,39 @@ pub enum ModelError {
          y^(r) = φ(ξ, η, w, u) has no real root u (closest residual {residual:e})"
     )]
     NoInputSolution { yr: f64, residual: f64 },
+    #[error("unknown map `{name}` (the model declares: {known})")]
+    UnknownMap { name: String, known: String },
+    #[error("cannot replace map `{name}`: {reason}")]
+    BadMap { name: String, reason: String },
+}
+
+/// Replace the data of the map `name` among `maps` (named in the same order by `names`), keeping its
+/// settings (shared by every implementation of [`InverseModel::set_map`]).
+pub fn set_map_checked(
+    maps: &mut [map::Map],
+    names: &[&str],
+    name: &str,
+    data: (&[f64], Option<&[f64]>, &[f64]),
+) -> Result<(), ModelError> {
+    let Some(i) = names.iter().position(|n| *n == name) else {
+        let known = if names.is_empty() {
+            "none".to_string()
+        } else {
+            names.join(", ")
+        };
+        return Err(ModelError::UnknownMap {
+            name: name.to_string(),
+            known,
+        });
+    };
+    let (x, y, values) = data;
+    maps[i] = maps[i]
+        .with_data(x.to_vec(), y.map(<[f64]>::to_vec), values.to_vec())
+        .map_err(|e| ModelError::BadMap {
+            name: name.to_string(),
+            reason: e.to_string(),
+        })?;
+    Ok(())
 }
 
 /// A derived model: α, β, ψ, ψ⁻¹, the zero dynamics, the original right-hand side and the extra outputs.
@@ -180,6 +213,15 @@ pub trait InverseModel: Send + Sync {
     fn params(&self) -> &[f64];
     /// Override one parameter by name (`--set NAME=VALUE`).
     fn set_param(&mut self, name: &str, value: f64) -> Result<(), ModelError>;
+    /// Replace a lookup map's grid and values, keeping its settings (`--map NAME=FILE.csv`, contract §6):
+    /// `data` = (x grid, y grid for a 2-D map, values row-major). Models without maps refuse every name.
+    fn set_map(
+        &mut self,
+        name: &str,
+        data: (&[f64], Option<&[f64]>, &[f64]),
+    ) -> Result<(), ModelError> {
+        set_map_checked(&mut [], &[], name, data)
+    }
 
     /// The tracked output y = h(x).
     fn h(&self, x: &[f64], w: &[f64]) -> f64;

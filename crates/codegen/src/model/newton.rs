@@ -94,7 +94,7 @@ fn methods(g: &Gen<'_>) -> TokenStream {
         /// The states at normal-form coordinates, x = ψ⁻¹(ξ, η), by Newton's method on ψ(x) = (ξ, η) with
         /// the analytic Jacobian, started from `guess`.
         ///
-        /// Stops when max_i |ψ_i(x) − target_i| / max(|target_i|, 1e-12) < [`NEWTON_TOL`]; after
+        /// Stops when max_i |ψ_i(x) − target_i| / max(|target_i|, 1) < [`NEWTON_TOL`] (as the interpreter); after
         /// [`NEWTON_MAX_ITER`] iterations, a singular Jacobian or a non-finite iterate it returns
         /// [`ModelError::NewtonDidNotConverge`], never an unconverged x.
         pub fn psi_inv(
@@ -113,7 +113,7 @@ fn methods(g: &Gen<'_>) -> TokenStream {
                 residual = 0.0;
                 for ((s, v), t) in step.iter_mut().zip(value).zip(target) {
                     *s = v - t;
-                    let scaled = (*s / t.abs().max(1e-12)).abs();
+                    let scaled = (*s / t.abs().max(1.0)).abs();
                     if scaled.is_nan() || scaled > residual {
                         residual = scaled;
                     }

@@ -8,7 +8,7 @@ use quote::quote;
 
 /// `model_info()`, `Model`, its `Default` and `InverseModel` impls and `arr`; `invert_batch`: the model has
 /// `Precomputed::invert_batch`.
-pub(super) fn model(g: &Gen<'_>, invert_batch: bool) -> TokenStream {
+pub(super) fn model(g: &Gen<'_>, invert_batch: bool, set_map: Option<&TokenStream>) -> TokenStream {
     let m = &g.d.model;
     let ne = g.d.eta.len();
     let has_outputs = !m.outputs.is_empty();
@@ -24,6 +24,12 @@ pub(super) fn model(g: &Gen<'_>, invert_batch: bool) -> TokenStream {
         name: wn, arg: wa, ..
     } = &w;
     let model_info = model_info(g);
+    // The maps (replaced by `set_map`) survive a change of the parameters.
+    let keep_maps = if set_map.is_some() {
+        quote!(let maps = std::mem::take(&mut self.pre.maps); self.pre = Precomputed::new(&params); self.pre.maps = maps;)
+    } else {
+        quote!(self.pre = Precomputed::new(&params);)
+    };
     quote! {
         #model_info
         /// The compiled model behind the runtime's [`InverseModel`] trait.
@@ -45,7 +51,7 @@ pub(super) fn model(g: &Gen<'_>, invert_batch: bool) -> TokenStream {
             }
             /// Replace the parameters (recomputing their subexpressions).
             pub fn set_parameters(&mut self, params: Params) {
-                self.pre = Precomputed::new(&params);
+                #keep_maps
                 self.values = params.to_array();
             }
             /// The precomputed evaluator (typed, array-based access to every function).
@@ -95,6 +101,7 @@ pub(super) fn model(g: &Gen<'_>, invert_batch: bool) -> TokenStream {
             }
             #invert_impl
             #invert_batch_impl
+            #set_map
         }
 
         /// The fixed-size array behind a slice of one of the model's dimensions (a wrong length is a bug in

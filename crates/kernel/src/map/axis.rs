@@ -31,7 +31,7 @@ use crate::Kernel;
 use super::Extrapolate;
 
 /// An axis of a map (see the module documentation).
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub(crate) struct Axis {
     pub(crate) grid: Vec<f64>,
     pub(crate) extrapolate: Extrapolate,

@@ -6,7 +6,7 @@ use invsim_model_api::InverseModel;
 
 use super::blend::Blend;
 use super::gears::GearBox;
-use super::summary::{Book, Impulse, Transition};
+use super::summary::{Impulse, Transition};
 use super::verify::replay;
 use super::NO_SIGNALS;
 use super::{ModalError, ModalOptions, ModalResult, ModalSpec, Role, Switching};
@@ -335,14 +335,7 @@ pub fn simulate_modes(
     } else {
         None
     };
-    Ok(super::summary::assemble(
-        &ctx,
-        cycle,
-        opts,
-        rec,
-        verify,
-        Book::default(),
-    ))
+    Ok(super::summary::assemble(&ctx, cycle, opts, rec, verify))
 }
 
 fn run_sequence(ctx: &Ctx<'_, '_>, grid: &Grid, opts: &ModalOptions) -> Result<Record, ModalError> {
@@ -438,9 +431,28 @@ fn decide(
 ) -> Result<Solved, ModalError> {
     let ys = ctx.smoothed(t);
     let gear = gearbox.gear(t, ys[0]);
-    if let Some(target) = pick(ctx.spec, seq.rung, gear).filter(|&m| m != seq.mode) {
-        let e = entry(ctx, seq.mode, target, t, &cur, opts.switching)?;
-        cur = commit(seq, rec, seq.rung, e);
+    // A new gear: the current rung in the new gear, else another rung of it, where the input is within its
+    // bounds; where none is, the gear change waits (a driver does not shift into a gear that cannot follow).
+    let same_gear = pick(ctx.spec, seq.rung, gear) == Some(seq.mode);
+    if !same_gear && ctx.spec.modes[seq.mode].gear.is_some() {
+        let mut rungs = vec![seq.rung];
+        rungs.extend(
+            (0..ladder(ctx.spec).len())
+                .map(Rung::Ladder)
+                .filter(|r| *r != seq.rung),
+        );
+        // Where the current mode cannot follow either, the gear changes regardless.
+        let forced = !feasible(ctx, seq.mode, cur.u, f64::NEG_INFINITY);
+        for (i, rung) in rungs.into_iter().enumerate() {
+            let Some(target) = pick(ctx.spec, rung, gear).filter(|&m| m != seq.mode) else {
+                continue;
+            };
+            let e = entry(ctx, seq.mode, target, t, &cur, opts.switching)?;
+            if feasible(ctx, target, e.solved.u, f64::NEG_INFINITY) || (forced && i == 0) {
+                cur = commit(seq, rec, rung, e);
+                break;
+            }
+        }
     }
     for _ in 0..4 {
         let mut moved = false;
@@ -450,15 +462,13 @@ fn decide(
             };
             let e = entry(ctx, seq.mode, target, t, &cur, opts.switching)?;
             let info = ctx.model(target).info();
-            let tol = tolerance(ctx, target);
             let lo = info.input_min.unwrap_or(f64::NEG_INFINITY);
             let least = if least.is_nan() {
                 lo + band(ctx, target)
             } else {
-                least.max(lo - tol)
+                least
             };
-            let hi = info.input_max.unwrap_or(f64::INFINITY) + tol;
-            if e.solved.u >= least && e.solved.u <= hi {
+            if feasible(ctx, target, e.solved.u, least) {
                 let ladder_move =
                     matches!((seq.rung, rung), (Rung::Ladder(a), Rung::Ladder(b)) if a != b);
                 if ladder_move {
@@ -477,6 +487,15 @@ fn decide(
         }
     }
     Ok(cur)
+}
+
+/// Whether mode m's free input u is within its bounds (up to the tolerance) and at least `least`.
+fn feasible(ctx: &Ctx<'_, '_>, m: usize, u: f64, least: f64) -> bool {
+    let info = ctx.model(m).info();
+    let tol = tolerance(ctx, m);
+    let lo = info.input_min.unwrap_or(f64::NEG_INFINITY) - tol;
+    let hi = info.input_max.unwrap_or(f64::INFINITY) + tol;
+    u >= lo.max(least) && u <= hi
 }
 
 /// What entering a mode gives: its η, blend, solution and the record of the switch.
@@ -549,9 +568,8 @@ fn entry(
 }
 
 /// The re-entry's initial deviations from the cycle: ξ_j − y_c^(j) for j < r of the new mode and, where the
-/// new mode tracks the same output as the old one (same reference map, same value), the old reference's
-/// higher derivatives as well (up to r_max), so that the reference — and with it the input — continues
-/// smoothly through the switch.
+/// new mode tracks the same output as the old one (same reference map, same value), the old reference's r-th
+/// derivative as well, so that the new mode's input (which depends on y^(r)) continues through the switch.
 fn deviations(
     ctx: &Ctx<'_, '_>,
     from: usize,
@@ -567,7 +585,7 @@ fn deviations(
         .first()
         .is_some_and(|x0| (x0 - prev.yref[0]).abs() <= 1e-9 * (1.0 + x0.abs()));
     if same_map && same_value {
-        e.extend((r..=ctx.r_max).map(|j| prev.yref[j] - yc[j]));
+        e.push(prev.yref[r] - yc[r]);
     }
     e
 }

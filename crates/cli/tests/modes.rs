@@ -1,0 +1,80 @@
+//! `invsim derive` and `invsim simulate` on a model with operating modes (`models/si_engine_5speed.toml`):
+//! every mode in the derivation, the summary's time per mode and switches, the CSV's mode and gear columns,
+//! the quasi-static option, and `forward` refusing such a model with exit 2.
+
+use crate::common::{invsim, json_file, root, stderr, tmp};
+
+fn model() -> String {
+    root()
+        .join("models/si_engine_5speed.toml")
+        .display()
+        .to_string()
+}
+
+#[test]
+fn derive_shows_every_mode() {
+    let o = invsim(&["derive", &model(), "--format", "json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON");
+    let modes = v["modes"].as_array().expect("modes");
+    assert_eq!(modes.len(), 16, "5 gears × drive, coast, overrun + idle");
+    assert_eq!(v["inputs"], serde_json::json!(["m_at", "F_b"]));
+    let idle = modes.iter().find(|m| m["name"] == "idle").expect("idle");
+    assert_eq!(idle["free_input"], "F_b");
+    assert_eq!(idle["derivation"]["relative_degree"], 1);
+    assert_eq!(modes[0]["derivation"]["relative_degree"], 2);
+    let text = invsim(&["derive", &model()]);
+    assert!(String::from_utf8_lossy(&text.stdout).contains("== mode overrun_3"));
+}
+
+#[test]
+fn simulate_reports_time_per_mode_and_writes_mode_columns() {
+    let (csv, json) = (tmp("modes-nedc.csv"), tmp("modes-nedc.json"));
+    let o = invsim(&[
+        "simulate",
+        &model(),
+        "--cycle",
+        "nedc",
+        "--out",
+        csv.to_str().expect("utf-8"),
+        "--summary-json",
+        json.to_str().expect("utf-8"),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let s = json_file(&json);
+    let total: f64 = s["modes"]
+        .as_array()
+        .expect("modes")
+        .iter()
+        .map(|m| m["time_s"].as_f64().unwrap_or(0.0))
+        .sum();
+    assert!((total - 1180.0).abs() < 1e-9, "{total}");
+    assert!(s["switches"].as_u64().expect("switches") > 50);
+    assert_eq!(s["input_bound_violations"], serde_json::json!([]));
+    let text = std::fs::read_to_string(&csv).expect("CSV");
+    assert!(
+        text.starts_with("t,mode,gear,yd_0,yd_1,yd_2,m_at,F_b,v,p_i,fuel"),
+        "{}",
+        &text[..80]
+    );
+    let qs = invsim(&[
+        "simulate",
+        &model(),
+        "--cycle",
+        "ece",
+        "--switching",
+        "quasi-static",
+    ]);
+    assert!(qs.status.success(), "{}", stderr(&qs));
+    assert!(String::from_utf8_lossy(&qs.stdout).contains("switching: quasi_static"));
+}
+
+#[test]
+fn forward_and_gear_overrides_are_refused() {
+    let o = invsim(&["forward", &model(), "--cycle", "ece"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("operating modes"), "{}", stderr(&o));
+    let o = invsim(&["simulate", &model(), "--cycle", "ece", "--set", "i_g=2"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("[gearbox]"), "{}", stderr(&o));
+}
