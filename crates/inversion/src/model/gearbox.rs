@@ -7,6 +7,9 @@ use super::modal::{Gearbox, Schedule};
 use super::spanned::Reader;
 use super::tree::{get, key_at, tv_at, Entries, Kind, Tv};
 
+/// Each gearbox parameter's name and its value per gear.
+type GearParameters = Vec<(String, Vec<f64>)>;
+
 /// Largest number of gears.
 pub const MAX_GEARS: usize = 32;
 
@@ -133,7 +136,7 @@ impl Reader<'_> {
         &self,
         entries: &Entries,
         at: &Tv,
-    ) -> Result<(usize, Vec<(String, Vec<f64>)>), ModelError> {
+    ) -> Result<(usize, GearParameters), ModelError> {
         let mut gears = None;
         let mut out = Vec::new();
         for (k, v) in entries {

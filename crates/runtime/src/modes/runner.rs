@@ -6,7 +6,7 @@ use invsim_model_api::InverseModel;
 
 use super::blend::Blend;
 use super::gears::GearBox;
-use super::summary::{Book, Impulse, Transition};
+use super::summary::{Impulse, Transition};
 use super::verify::replay;
 use super::NO_SIGNALS;
 use super::{ModalError, ModalOptions, ModalResult, ModalSpec, Role, Switching};
@@ -335,14 +335,7 @@ pub fn simulate_modes(
     } else {
         None
     };
-    Ok(super::summary::assemble(
-        &ctx,
-        cycle,
-        opts,
-        rec,
-        verify,
-        Book::default(),
-    ))
+    Ok(super::summary::assemble(&ctx, cycle, opts, rec, verify))
 }
 
 fn run_sequence(ctx: &Ctx<'_, '_>, grid: &Grid, opts: &ModalOptions) -> Result<Record, ModalError> {

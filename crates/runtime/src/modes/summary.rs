@@ -45,10 +45,6 @@ pub struct Impulse {
     pub booked: Vec<f64>,
 }
 
-/// Extra bookings (none so far: the impulses carry theirs).
-#[derive(Debug, Default)]
-pub(super) struct Book;
-
 /// What `invsim simulate` prints and writes for a model with modes.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ModalSummary {
@@ -135,7 +131,6 @@ pub(super) fn assemble(
     opts: &ModalOptions,
     rec: Record,
     verify: Option<Tracking>,
-    _book: Book,
 ) -> ModalResult {
     let spec = ctx.spec;
     let cols = columns(ctx);
@@ -181,9 +176,9 @@ pub(super) fn assemble(
             let mut end = vec![0.0; outs.len()];
             model.outputs(&rec.x_end[k], NO_SIGNALS, rec.u_end[k], &mut end);
             let dt = rec.t[k + 1] - rec.t[k];
-            for i in 0..no {
+            for (i, total) in integrals.iter_mut().enumerate() {
                 if info0.outputs[i].accumulate {
-                    integrals[i] += 0.5 * dt * (outs[i] + end[i]);
+                    *total += 0.5 * dt * (outs[i] + end[i]);
                 }
             }
             time[m] += dt;
@@ -191,24 +186,21 @@ pub(super) fn assemble(
     }
     let mut impulse_booked = BTreeMap::new();
     for imp in &rec.impulses {
-        for i in 0..no {
-            if info0.outputs[i].accumulate {
-                integrals[i] += imp.booked[i];
-                *impulse_booked
-                    .entry(info0.outputs[i].name.clone())
-                    .or_insert(0.0) += imp.booked[i];
+        for ((total, o), b) in integrals.iter_mut().zip(&info0.outputs).zip(&imp.booked) {
+            if o.accumulate {
+                *total += b;
+                *impulse_booked.entry(o.name.clone()).or_insert(0.0) += b;
             }
         }
     }
     let distance = cycle.distance();
     let mut ints = BTreeMap::new();
     let mut per = BTreeMap::new();
-    for i in 0..no {
-        let o = &info0.outputs[i];
+    for (o, total) in info0.outputs.iter().zip(&integrals) {
         if o.accumulate {
-            ints.insert(o.name.clone(), integrals[i]);
+            ints.insert(o.name.clone(), *total);
             if o.per_distance && distance > 0.0 {
-                per.insert(o.name.clone(), integrals[i] / distance * 1e5);
+                per.insert(o.name.clone(), total / distance * 1e5);
             }
         }
     }
