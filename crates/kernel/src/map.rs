@@ -177,7 +177,7 @@ fn next_id() -> u64 {
 }
 
 /// Scratch values on the stack per axis; larger windows (large `smooth` on uneven grids) use the heap.
-const STACK_SCRATCH: usize = 96;
+const STACK_SCRATCH: usize = 48;
 
 fn check_grid(axis: &'static str, grid: &[f64]) -> Result<(), MapError> {
     if grid.len() < 2 {
@@ -407,12 +407,20 @@ impl Map {
             let b = if two_d { args[1] } else { 0.0 };
             let o = [orders[0], if two_d { orders[1] } else { 0 }];
             if !two_d {
-                // 1-D: the memo's first row holds M, M', M''.
-                return memo::partial(self.id, [args[0], b], [0, o[0]], |out| {
-                    self.eval(&args[..1], [2, 0], &mut out[..3])
+                // 1-D: the memo's first row holds M, M' (and M'').
+                return memo::partial(self.id, [args[0], b], [0, o[0]], |cap, out| {
+                    self.eval(&args[..1], [cap, 0], &mut out[..cap + 1])
                 });
             }
-            return memo::partial(self.id, [args[0], b], o, |out| self.eval(args, [2, 2], out));
+            return memo::partial(self.id, [args[0], b], o, |cap, out| {
+                let w = cap + 1;
+                let mut dense = [0.0; memo::WIDTH];
+                self.eval(args, [cap, cap], &mut dense[..w * w]);
+                // Rows of `cap + 1` entries into the memo's rows of MEMO_ORDER + 1.
+                for p in 0..w {
+                    out[p * (memo::MEMO_ORDER + 1)..][..w].copy_from_slice(&dense[p * w..][..w]);
+                }
+            });
         }
         let len = if self.y.is_none() {
             orders[0] + 1
