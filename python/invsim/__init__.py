@@ -16,6 +16,7 @@ over variants in parallel. Errors are `InvsimError` (a `ValueError`) with `file`
 """
 
 import json
+import os
 
 from . import _invsim
 
@@ -41,11 +42,30 @@ def _params_list(params):
     return [(str(k), float(v)) for k, v in dict(params).items()]
 
 
-def _no_signals(signals):
-    if signals:
-        raise InvsimError(
-            "signals: this version of invsim has no [signals] (exogenous inputs); pass signals=None"
-        )
+def _signals_list(signals):
+    """`signals={name: value}` as the extension takes them: a number (constant over the run, like
+    `--signal grade=0.02`), a path (a signal file, like `--signal grade=FILE.csv`) or a pair (times, values)
+    of sequences or numpy arrays (linear between samples, held outside them)."""
+    out = []
+    for name, value in (signals or {}).items():
+        if isinstance(value, (str, os.PathLike)):
+            out.append((str(name), None, os.fspath(value), None))
+        elif isinstance(value, (tuple, list)) and len(value) == 2 and not isinstance(value[0], (int, float)):
+            times, values = value
+            out.append((str(name), None, None, ([float(t) for t in times], [float(v) for v in values])))
+        else:
+            try:
+                out.append((str(name), float(value), None, None))
+            except (TypeError, ValueError):
+                raise InvsimError(
+                    "signals[{!r}]: give a number, a file path or (times, values), not {!r}".format(name, value)
+                ) from None
+    return out
+
+
+def _initial_list(initial):
+    """`initial={state: value}` (the command line's `--initial NAME=VALUE`)."""
+    return [(str(k), float(v)) for k, v in (initial or {}).items()]
 
 
 class Result:
@@ -188,11 +208,13 @@ class Model:
         causal=False,
         include_extension=False,
         keep_series=True,
+        initial=None,
     ):
         """Inverse simulation on `cycle` (a built-in name or a cycle CSV path), like `invsim simulate`:
-        `params` overrides parameters (`--set`), `verify` replays the input through the original model.
-        `keep_series=False` computes every sample but keeps only the summary."""
-        _no_signals(signals)
+        `params` overrides parameters (`--set`), `signals` gives the model's `[signals]` (`--signal`: a number,
+        a signal file's path, or (times, values)), `initial` start values of internal states (`--initial`),
+        `verify` replays the input through the original model. `keep_series=False` computes every sample but
+        keeps only the summary."""
         summary, columns, arrays = self._m.simulate(
             str(cycle),
             float(dt),
@@ -202,13 +224,26 @@ class Model:
             bool(causal),
             bool(include_extension),
             bool(keep_series),
+            _signals_list(signals),
+            _initial_list(initial),
         )
         return Result(json.loads(summary), columns, arrays, self._units)
 
-    def sweep(self, params=None, cycles=("nedc",), dt=0.1, lookahead=5.0, base=None, verify=False, threads=None):
+    def sweep(
+        self,
+        params=None,
+        cycles=("nedc",),
+        dt=0.1,
+        lookahead=5.0,
+        base=None,
+        verify=False,
+        threads=None,
+        signals=None,
+        initial=None,
+    ):
         """Every variant on every cycle, in parallel (rayon; `threads` = None: all cores). `params` is a
         DataFrame (one row per variant, one column per parameter) or a dict of equal-length arrays; `base`
-        overrides parameters for all variants. Returns a pandas DataFrame with one row per variant x cycle
+        overrides parameters for all variants, `signals` and `initial` apply to every run (as in `simulate`). Returns a pandas DataFrame with one row per variant x cycle
         (variant-major): `variant`, `cycle`, every model parameter, `error` (None, or why the run failed: a
         failing variant never aborts the sweep) and the flattened summary (`integrals.fuel`, ...)."""
         if isinstance(cycles, str):
@@ -217,6 +252,15 @@ class Model:
         names, cols = _variants(params)
         # No parameter varies: one variant, the model's defaults (with `base`).
         param_names, rows = self._m.sweep(
-            names, cols, cycles, _params_list(base), float(dt), float(lookahead), bool(verify), threads
+            names,
+            cols,
+            cycles,
+            _params_list(base),
+            float(dt),
+            float(lookahead),
+            bool(verify),
+            threads,
+            _signals_list(signals),
+            _initial_list(initial),
         )
         return sweep_frame(param_names, rows, cycles, names, cols)

@@ -16,7 +16,7 @@ use pyo3::types::PyBytes;
 
 use engine::{EngineChoice, Loaded};
 use error::{to_py, Failure, InvsimError};
-use run::{load_cycle, run_one, RunOptions};
+use run::{load_cycle, run_one, PySignal, RunOptions};
 use sweep::{run_sweep, Variants};
 
 /// What `Model.simulate` returns: the summary as JSON, the column names and the columns.
@@ -116,7 +116,7 @@ impl Model {
     }
 
     /// One inverse simulation: (summary JSON, column names, columns as float64 arrays).
-    #[pyo3(signature = (cycle, dt, lookahead, params, verify, causal, include_extension, keep_series))]
+    #[pyo3(signature = (cycle, dt, lookahead, params, verify, causal, include_extension, keep_series, signals, initial))]
     #[allow(clippy::too_many_arguments)]
     fn simulate<'py>(
         &self,
@@ -129,6 +129,8 @@ impl Model {
         causal: bool,
         include_extension: bool,
         keep_series: bool,
+        signals: Vec<PySignal>,
+        initial: Vec<(String, f64)>,
     ) -> PyResult<RunOutput<'py>> {
         let opts = RunOptions {
             dt,
@@ -137,6 +139,8 @@ impl Model {
             causal,
             include_extension,
             keep_series,
+            signals,
+            initial,
         };
         let out = py.allow_threads(|| {
             let cycle = load_cycle(&cycle)?;
@@ -155,7 +159,7 @@ impl Model {
 
     /// A sweep: every variant (`names[j]` = `values[j][i]`) on every cycle, after the `base` settings.
     /// Returns the model's parameter names and one row per variant × cycle (variant-major).
-    #[pyo3(signature = (names, values, cycles, base, dt, lookahead, verify, threads))]
+    #[pyo3(signature = (names, values, cycles, base, dt, lookahead, verify, threads, signals, initial))]
     #[allow(clippy::too_many_arguments)]
     fn sweep(
         &self,
@@ -168,6 +172,8 @@ impl Model {
         lookahead: f64,
         verify: bool,
         threads: Option<usize>,
+        signals: Vec<PySignal>,
+        initial: Vec<(String, f64)>,
     ) -> PyResult<(Vec<String>, Vec<SweepRow>)> {
         let values: Vec<Vec<f64>> = values.iter().map(|a| a.as_array().to_vec()).collect();
         let variants = Variants { names, values };
@@ -178,6 +184,8 @@ impl Model {
             causal: false,
             include_extension: false,
             keep_series: false,
+            signals,
+            initial,
         };
         let rows = py.allow_threads(|| {
             let cycles = cycles

@@ -2,11 +2,23 @@
 //! parameters set, then `invsim_runtime::simulate`.
 
 use invsim_runtime::inverse::{simulate_shared, Reference};
-use invsim_runtime::{Cycle, SimulateError, SimulationOptions, SimulationResult};
+use invsim_runtime::signal_file::read_signal_file;
+use invsim_runtime::{
+    Cycle, SignalInput, SignalValue, SimulateError, SimulationOptions, SimulationResult,
+};
 
 use invsim_model_api::InverseModel;
 
 use crate::error::Failure;
+
+/// One signal as Python gives it (`signals={name: value}`): a constant, a signal file's path (the
+/// command line's `--signal NAME=FILE.csv`), or samples (times, values).
+pub type PySignal = (
+    String,
+    Option<f64>,
+    Option<String>,
+    Option<(Vec<f64>, Vec<f64>)>,
+);
 
 /// The options of a run (the keyword arguments of `Model.simulate` and `Model.sweep`).
 #[derive(Debug, Clone)]
@@ -17,6 +29,10 @@ pub struct RunOptions {
     pub causal: bool,
     pub include_extension: bool,
     pub keep_series: bool,
+    /// `--signal` values.
+    pub signals: Vec<PySignal>,
+    /// `--initial NAME=VALUE`.
+    pub initial: Vec<(String, f64)>,
 }
 
 impl RunOptions {
@@ -38,7 +54,66 @@ impl RunOptions {
             .keep_series(self.keep_series)
             .build()
             .map_err(|e| stopped(model_path, cycle, e))
+            .and_then(|mut o| {
+                o.signals = self
+                    .signals
+                    .iter()
+                    .map(signal_input)
+                    .collect::<Result<_, _>>()?;
+                o.initial = self.initial.clone();
+                Ok(o)
+            })
     }
+}
+
+/// A Python signal as the runtime's input, checked as the command line checks `--signal`: a finite constant,
+/// a readable signal file, or samples with strictly increasing finite times and finite values.
+fn signal_input((name, constant, file, series): &PySignal) -> Result<SignalInput, Failure> {
+    let bad = |why: String| Failure::msg(format!("signals[{name:?}]: {why}"));
+    let value = match (constant, file, series) {
+        (Some(v), _, _) if v.is_finite() => SignalValue::Constant(*v),
+        (Some(v), _, _) => return Err(bad(format!("the value {v} is not finite"))),
+        (None, Some(path), _) => read_signal_file(path.as_ref(), name)
+            .map_err(|e| Failure::in_file(format!("signal {name}: {e}"), path.clone()))?,
+        (None, None, Some((time, values))) => samples(time, values).map_err(bad)?,
+        (None, None, None) => {
+            return Err(bad("give a number, a file path or (times, values)".into()))
+        }
+    };
+    Ok(SignalInput {
+        name: name.clone(),
+        value,
+    })
+}
+
+/// Samples given as two sequences: equal lengths, at least one, times finite and strictly increasing, values
+/// finite.
+fn samples(time: &[f64], values: &[f64]) -> Result<SignalValue, String> {
+    if time.len() != values.len() || time.is_empty() {
+        return Err(format!(
+            "(times, values) must have equal, nonzero lengths, not {} and {}",
+            time.len(),
+            values.len()
+        ));
+    }
+    if let Some(i) = time.iter().position(|t| !t.is_finite()) {
+        return Err(format!("time {i} is not finite"));
+    }
+    if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+        return Err(format!("value {i} (at t = {}) is not finite", time[i]));
+    }
+    if let Some(i) = time.windows(2).position(|w| w[1] <= w[0]) {
+        return Err(format!(
+            "times must increase strictly: {} is followed by {}",
+            time[i],
+            time[i + 1]
+        ));
+    }
+    Ok(SignalValue::Series {
+        file: "(Python samples)".to_string(),
+        time: time.to_vec(),
+        values: values.to_vec(),
+    })
 }
 
 /// A built-in cycle by name or a cycle file by path; a file's errors name the file.

@@ -66,6 +66,13 @@ def test_compiled_engine_needs_builtin():
         invsim.Model(SI_ENGINE, engine="fast")
 
 
-def test_signals_not_supported(si_engine):
-    with pytest.raises(invsim.InvsimError, match="signals"):
+def test_unknown_or_bad_signals_are_errors(si_engine):
+    # si_engine has no [signals]: a signal given for it is an error naming it, as `--signal` is.
+    with pytest.raises(invsim.InvsimError, match="grade"):
         si_engine.simulate(cycle="nedc", signals={"grade": 0.01})
+    with pytest.raises(invsim.InvsimError, match="not finite"):
+        si_engine.simulate(cycle="nedc", signals={"grade": float("nan")})
+    with pytest.raises(invsim.InvsimError, match="increase strictly"):
+        si_engine.simulate(cycle="nedc", signals={"grade": ([0.0, 0.0], [0.0, 0.1])})
+    with pytest.raises(invsim.InvsimError, match="give a number"):
+        si_engine.simulate(cycle="nedc", signals={"grade": object()})

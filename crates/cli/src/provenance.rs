@@ -1,6 +1,7 @@
 //! The provenance of a run for its summary: invsim's version and git revision, the model file's path and
-//! SHA-256, the cycle (a built-in's name, or a file's path and SHA-256), the `--set` overrides and every
-//! option of the command by its command-line name (defaults included). The summary JSON is the run's record;
+//! SHA-256, the cycle (a built-in's name, or a file's path and SHA-256), the overrides of the model's data
+//! (`--set`, `--signal`, `--map`, `--initial`; a file given to `--signal` or `--map` with its SHA-256) and every
+//! other option of the command by its command-line name (defaults included). The summary JSON is the run's record;
 //! two runs that differ in anything but the output paths have different summaries.
 
 use std::io::Read;
@@ -39,8 +40,12 @@ fn sha256_file(path: &Path) -> Result<String, Failure> {
         .collect())
 }
 
-/// `args` as a JSON object keyed by command-line option name, without the model, the cycle and the overrides
-/// (recorded on their own).
+/// Options that override the model's data, recorded as overrides (`kind` is the option's name).
+const OVERRIDE_OPTIONS: [&str; 3] = ["signal", "map", "initial"];
+
+/// `args` as a JSON object keyed by command-line option name, without the model, the cycle and `--set`
+/// (recorded on their own); `--signal`, `--map` and `--initial` stay in it until [`record`] turns them into
+/// overrides.
 pub fn options_of(args: &impl Serialize) -> serde_json::Map<String, serde_json::Value> {
     match serde_json::to_value(args) {
         Ok(serde_json::Value::Object(map)) => map
@@ -49,6 +54,42 @@ pub fn options_of(args: &impl Serialize) -> serde_json::Map<String, serde_json::
             .collect(),
         _ => serde_json::Map::new(),
     }
+}
+
+/// `--signal`, `--map` and `--initial` values (`NAME=VALUE` strings) taken out of `options` as overrides: a
+/// number stays a number; anything else is a file, recorded as `{path, sha256}` so that two runs with
+/// different contents under one path are told apart.
+fn data_overrides(
+    options: &mut serde_json::Map<String, serde_json::Value>,
+) -> Result<Vec<Override>, Failure> {
+    let mut out = Vec::new();
+    for kind in OVERRIDE_OPTIONS {
+        let Some(serde_json::Value::Array(items)) = options.remove(kind) else {
+            continue;
+        };
+        for item in items.iter().filter_map(|v| v.as_str()) {
+            let Some((name, value)) = item.split_once('=') else {
+                continue;
+            };
+            let value = value.trim();
+            let value = match value
+                .parse::<f64>()
+                .ok()
+                .and_then(serde_json::Number::from_f64)
+            {
+                Some(n) => serde_json::Value::Number(n),
+                None => {
+                    serde_json::json!({ "path": value, "sha256": sha256_file(Path::new(value))? })
+                }
+            };
+            out.push(Override {
+                kind: kind.to_string(),
+                name: name.trim().to_string(),
+                value,
+            });
+        }
+    }
+    Ok(out)
 }
 
 /// `--set NAME=VALUE` as overrides (already checked by the run; a value that is not a number stays text).
@@ -80,7 +121,8 @@ pub struct RunRecord<'a> {
 }
 
 /// The provenance of a run.
-pub fn record(run: RunRecord<'_>) -> Result<Provenance, Failure> {
+pub fn record(mut run: RunRecord<'_>) -> Result<Provenance, Failure> {
+    let data = data_overrides(&mut run.options)?;
     let model_sha = match &run.info.source_hash {
         Some(h) => h.clone(),
         None => sha256_file(run.model)?,
@@ -107,7 +149,7 @@ pub fn record(run: RunRecord<'_>) -> Result<Provenance, Failure> {
             builtin,
             file,
         },
-        overrides: overrides(run.sets),
+        overrides: overrides(run.sets).into_iter().chain(data).collect(),
         options: run.options,
     })
 }

@@ -276,6 +276,49 @@ fn provenance_records_version_files_overrides_and_options() {
 }
 
 #[test]
+fn provenance_records_signal_files_with_their_hash_and_constant_signals() {
+    let grade = tmp("prov_grade.csv");
+    let json = tmp("prov_grade.json");
+    let record = |contents: &str| {
+        std::fs::write(&grade, contents).unwrap();
+        let o = invsim(&[
+            "simulate",
+            "models/si_engine_grade.toml",
+            "--cycle",
+            "ece",
+            "--signal",
+            &format!("grade={}", grade.display()),
+            "--signal",
+            "P_aux=750",
+            "--summary-json",
+            json.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        (stdout(&o), json_file(&json)["provenance"].clone())
+    };
+    let (text, p) = record("time_s,grade\n0,0\n195,0.02\n");
+    let overrides = p["overrides"].as_array().unwrap();
+    assert_eq!(overrides.len(), 2, "{p}");
+    assert_eq!(overrides[0]["kind"], "signal");
+    assert_eq!(overrides[0]["name"], "grade");
+    assert_eq!(overrides[0]["value"]["path"], grade.to_str().unwrap());
+    assert_eq!(overrides[0]["value"]["sha256"].as_str().unwrap().len(), 64);
+    assert_eq!(
+        overrides[1],
+        serde_json::json!({"kind": "signal", "name": "P_aux", "value": 750.0})
+    );
+    assert!(p["options"].get("signal").is_none(), "{p}");
+    assert!(text.contains("--signal grade="), "{text}");
+    assert!(text.contains("--signal P_aux=750"), "{text}");
+    // The same path with other contents: the record tells the runs apart.
+    let (_, q) = record("time_s,grade\n0,0\n195,0.03\n");
+    assert_ne!(
+        p["overrides"][0]["value"]["sha256"],
+        q["overrides"][0]["value"]["sha256"]
+    );
+}
+
+#[test]
 fn runs_that_differ_only_in_an_override_are_distinguishable() {
     // `--set m=1300` is si_engine's default: the numbers are the same, the record is not.
     let args = ["simulate", "models/si_engine.toml", "--cycle", "ece"];

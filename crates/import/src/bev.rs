@@ -63,7 +63,8 @@ pub fn emit(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<
         "P_em/P_em_max",
         "electric machine efficiency",
     )?;
-    model.def("P_el", &format!("max(P_em, 0)/{eff} + min(P_em, 0)*em_e0 + P_aux"), "W", "battery terminal power: machine input (regeneration at the zero-load efficiency) plus the auxiliary load");
+    let zero_load = efficiency::at_zero_load("em", &curve);
+    model.def("P_el", &format!("max(P_em, 0)/{eff} + min(P_em, 0)*{zero_load} + P_aux"), "W", "battery terminal power: machine input (regeneration at the zero-load efficiency) plus the auxiliary load");
     model.def(
         "P_chem",
         "max(P_el, 0)/eta_res + max(min(P_el, 0), -P_res_max)*eta_res",

@@ -52,7 +52,7 @@ pub fn emit(
     let eff = format!("eff_{prefix}");
     let sum = chunked_sum(model, prefix, step_terms(prefix, n, &x));
     let doc = format!(
-        "{what}: efficiency, FASTSim's step-wise interpolation (the grid point at or below the load)"
+        "{what}, FASTSim's step-wise interpolation of its table (the grid point at or below the load)"
     );
     model.def(&eff, &sum, "-", &doc);
     Ok(eff)
@@ -75,10 +75,19 @@ fn emit_map(model: &mut Model, prefix: &str, curve: &Curve, load: &str, what: &s
     });
     let eff = format!("eff_{prefix}");
     let doc = format!(
-        "{what}: efficiency, FASTSim's linear interpolation of the table (held at its end values outside it)"
+        "{what}, FASTSim's linear interpolation of its table (held at the end values outside it)"
     );
     model.def(&eff, &format!("{name}({load})"), "-", &doc);
     eff
+}
+
+/// The table's efficiency at zero load as an expression of what [`emit`] wrote under `prefix`: the map at 0
+/// (linear) or the first value (step-wise, whose grid starts at zero load).
+pub fn at_zero_load(prefix: &str, curve: &Curve) -> String {
+    match curve.strategy {
+        Strategy::Linear => format!("{prefix}_map(0)"),
+        Strategy::StepLower => format!("{prefix}_e0"),
+    }
 }
 
 /// The steps of the step-wise interpolant.

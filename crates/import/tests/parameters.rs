@@ -123,3 +123,28 @@ fn unused_fields_are_listed_in_a_warning() {
         "{all}"
     );
 }
+
+#[test]
+fn battery_electric_with_a_linear_motor_map_derives() {
+    // The Leaf's motor table made linear (as the Zoe's is): a map, regeneration at the map's zero-load value.
+    let text = std::fs::read_to_string(vehicles_dir().join("nissan_leaf_2016.yaml")).unwrap();
+    let text = text.replacen("strategy:\n          Step: Lower", "strategy: Linear", 1);
+    let imported = import_fastsim(&text, "linear.yaml").unwrap();
+    assert!(
+        imported.model.contains("[maps.em_map]"),
+        "{}",
+        imported.model
+    );
+    assert!(imported.model.contains("min(P_em, 0)*em_map(0)"));
+    let m = invsim_inversion::Model::from_bytes(
+        std::path::Path::new("linear.yaml"),
+        imported.model.as_bytes(),
+    )
+    .unwrap();
+    assert_eq!(
+        invsim_inversion::Derivation::new(m)
+            .unwrap()
+            .relative_degree,
+        1
+    );
+}

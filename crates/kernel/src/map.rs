@@ -24,6 +24,7 @@
 //! constant, higher ones zero); the contract allows that only for maps used in outputs alone.
 
 mod axis;
+mod memo;
 mod violation;
 
 use axis::{Axis, Basis};
@@ -139,8 +140,9 @@ pub enum MapError {
     Arity { expected: usize, got: usize },
 }
 
-/// A 1-D or 2-D lookup map (see the module documentation).
-#[derive(Debug, Clone, PartialEq)]
+/// A 1-D or 2-D lookup map (see the module documentation). Equal maps have equal grids, values, settings
+/// and names.
+#[derive(Debug, Clone)]
 pub struct Map {
     x: Axis,
     y: Option<Axis>,
@@ -151,6 +153,27 @@ pub struct Map {
     max_count: [usize; 2],
     /// The map's name in messages (see [`Map::named`]).
     name: std::sync::Arc<str>,
+    /// Unique per data (clones share it): the key of the one-pass memo (`memo.rs`).
+    id: u64,
+}
+
+impl PartialEq for Map {
+    fn eq(&self, other: &Map) -> bool {
+        (&self.x, &self.y, &self.values, &self.settings, &self.name)
+            == (
+                &other.x,
+                &other.y,
+                &other.values,
+                &other.settings,
+                &other.name,
+            )
+    }
+}
+
+/// A fresh id for new map data.
+fn next_id() -> u64 {
+    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+    NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
 }
 
 /// Scratch values on the stack per axis; larger windows (large `smooth` on uneven grids) use the heap.
@@ -233,6 +256,7 @@ impl Map {
             values,
             settings,
             name: "map".into(),
+            id: next_id(),
         })
     }
 
@@ -253,6 +277,7 @@ impl Map {
             values,
             settings,
             name: "map".into(),
+            id: next_id(),
         })
     }
 
@@ -321,6 +346,7 @@ impl Map {
     pub fn set_values(&mut self, values: Vec<f64>) -> Result<(), MapError> {
         check_values(&values, self.values.len())?;
         self.values = values;
+        self.id = next_id();
         Ok(())
     }
 
@@ -336,14 +362,9 @@ impl Map {
         })
     }
 
-    /// Value and partial derivatives in one pass. 1-D: `out[n] = M^(n)(a)` for `n = 0 … out.len() − 1`
-    /// (`orders` is ignored). 2-D: `out[p · (orders[1] + 1) + q] = ∂^(p+q) M / ∂a^p ∂b^q` for
-    /// `p ≤ orders[0]`, `q ≤ orders[1]`; `out` must hold `(orders[0] + 1)(orders[1] + 1)` values.
-    /// A NaN argument gives NaN everywhere.
-    ///
-    /// Under `extrapolate = "error"` an argument outside the grid is recorded as this thread's
-    /// [`Violation`] (see [`take_violation`]); the value is still the linear continuation.
-    pub fn eval(&self, args: &[f64], orders: [usize; 2], out: &mut [f64]) {
+    /// Under `extrapolate = "error"`: records an argument outside the grid as this thread's [`Violation`].
+    #[inline]
+    fn check_range(&self, args: &[f64]) {
         if self.settings.extrapolate == Extrapolate::Error {
             if let Some(k) = self.outside(args) {
                 let grid = if k == 0 {
@@ -354,6 +375,17 @@ impl Map {
                 violation::record(&self.name, k, args[k], (grid[0], grid[grid.len() - 1]));
             }
         }
+    }
+
+    /// Value and partial derivatives in one pass. 1-D: `out[n] = M^(n)(a)` for `n = 0 … out.len() − 1`
+    /// (`orders` is ignored). 2-D: `out[p · (orders[1] + 1) + q] = ∂^(p+q) M / ∂a^p ∂b^q` for
+    /// `p ≤ orders[0]`, `q ≤ orders[1]`; `out` must hold `(orders[0] + 1)(orders[1] + 1)` values.
+    /// A NaN argument gives NaN everywhere.
+    ///
+    /// Under `extrapolate = "error"` an argument outside the grid is recorded as this thread's
+    /// [`Violation`] (see [`take_violation`]); the value is still the linear continuation.
+    pub fn eval(&self, args: &[f64], orders: [usize; 2], out: &mut [f64]) {
+        self.check_range(args);
         if args.iter().take(self.arity()).any(|a| a.is_nan()) {
             out.fill(f64::NAN);
             return;
@@ -365,7 +397,23 @@ impl Map {
     }
 
     /// One partial derivative: `orders[k]` times with respect to argument `k` (`orders[1]` ignored in 1-D).
+    ///
+    /// Orders up to 2 per argument come from one evaluation of all of them per point (a per-thread memo of
+    /// the last few points), so `M`, `M_d10`, `M_d01`, `M_d11`, … at the same arguments cost one pass.
     pub fn partial(&self, args: &[f64], orders: [usize; 2]) -> f64 {
+        self.check_range(args);
+        let two_d = self.y.is_some();
+        if orders[0] <= memo::MEMO_ORDER && (!two_d || orders[1] <= memo::MEMO_ORDER) {
+            let b = if two_d { args[1] } else { 0.0 };
+            let o = [orders[0], if two_d { orders[1] } else { 0 }];
+            if !two_d {
+                // 1-D: the memo's first row holds M, M', M''.
+                return memo::partial(self.id, [args[0], b], [0, o[0]], |out| {
+                    self.eval(&args[..1], [2, 0], &mut out[..3])
+                });
+            }
+            return memo::partial(self.id, [args[0], b], o, |out| self.eval(args, [2, 2], out));
+        }
         let len = if self.y.is_none() {
             orders[0] + 1
         } else {

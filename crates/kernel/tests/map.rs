@@ -355,3 +355,40 @@ fn bad_data_are_refused() {
     ok.set_values(vec![2.0, 4.0]).unwrap();
     assert_eq!(ok.partial(&[0.5], [0, 0]), 3.0);
 }
+
+#[test]
+fn partials_from_the_one_pass_memo_equal_fresh_evaluations() {
+    let (x, y, v) = eta_grid();
+    let mut map = Map::new_2d(x, y, v, settings(0.5, Extrapolate::Linear)).unwrap();
+    let ab = [310.0, 6.1e4];
+    let mut full = [0.0; 16];
+    map.eval(&ab, [3, 3], &mut full);
+    // Orders ≤ 2 come from the memo after the first call, higher ones are evaluated each time.
+    for _ in 0..2 {
+        for p in 0..=3 {
+            for q in 0..=3 {
+                assert_eq!(
+                    map.partial(&ab, [p, q]).to_bits(),
+                    full[p * 4 + q].to_bits(),
+                    "d{p}{q}"
+                );
+            }
+        }
+    }
+    // New data, new memo key.
+    let doubled: Vec<f64> = map.values().iter().map(|v| 2.0 * v).collect();
+    map.set_values(doubled).unwrap();
+    assert_eq!(map.partial(&ab, [0, 0]), 2.0 * full[0]);
+    let (cx, cv) = curve();
+    let c = Map::new_1d(cx, cv, settings(0.5, Extrapolate::Clamp)).unwrap();
+    let mut out = [0.0; 3];
+    c.eval(&[1.2], [2, 0], &mut out);
+    for (k, &want) in out.iter().enumerate() {
+        assert_eq!(c.partial(&[1.2], [k, 0]), want);
+        assert_eq!(
+            c.partial(&[1.2], [k, 7]),
+            want,
+            "1-D: the second order is ignored"
+        );
+    }
+}

@@ -120,7 +120,11 @@ pub fn simulation_figure(
         data: &result.data,
     };
     let reference = || simulation_reference(result, cycle, info, x_range);
-    let panels = build_panels(info, &vars, columns, &reference, &input_title);
+    let exogenous = |i: usize| {
+        let smoothed = columns.get(&info.signals[i].name);
+        signal_raw_and_smoothed(info, i, result.signals.get(i), (t, smoothed), x_range)
+    };
+    let panels = build_panels(info, &vars, columns, (&reference, &exogenous), &input_title);
     let s = &result.summary;
     Ok(Figure {
         title: format!(
@@ -152,7 +156,11 @@ pub fn forward_figure(
         data: &result.data,
     };
     let reference = || forward_reference(result, info, reference);
-    let panels = build_panels(info, &vars, columns, &reference, &input_title);
+    // The forward run integrates with the raw signals: their panels show the raw curve alone.
+    let x_range = time_range(t);
+    let exogenous =
+        |i: usize| signal_raw_and_smoothed(info, i, result.signals.get(i), (&[], &[]), x_range);
+    let panels = build_panels(info, &vars, columns, (&reference, &exogenous), &input_title);
     let s = &result.summary;
     Ok(Figure {
         title: format!(
@@ -160,7 +168,7 @@ pub fn forward_figure(
             s.run.model, s.run.cycle
         ),
         x_label: "t [s]".to_string(),
-        x_range: time_range(t),
+        x_range,
         panels,
     })
 }
@@ -187,7 +195,7 @@ fn build_panels(
     info: &ModelInfo,
     vars: &[(String, Var)],
     columns: Columns<'_>,
-    reference: &dyn Fn() -> Panel,
+    (reference, exogenous): (&dyn Fn() -> Panel, &dyn Fn(usize) -> Panel),
     input_title: &str,
 ) -> Vec<Panel> {
     let t = columns.data.first().map_or(&[][..], Vec::as_slice);
@@ -197,6 +205,7 @@ fn build_panels(
     for (_, var) in vars {
         let panel = match *var {
             Var::Reference => reference(),
+            Var::Exogenous(i) => exogenous(i),
             Var::Input => input_panel(info, t, column(&info.input), input_title),
             Var::Signal(signal) => {
                 let name = match signal {
@@ -272,6 +281,69 @@ fn simulation_reference(
             },
             series("y_d (smoothed)".to_string(), REFERENCE, 2.0, r.time(), &yd),
         ],
+    }
+}
+
+/// The panel of exogenous signal `i`: its raw samples (linear between them, held outside their span) and,
+/// for an inverse run, the smoothed signal the inverse used (`smoothed`, on the times `t`).
+fn signal_raw_and_smoothed(
+    info: &ModelInfo,
+    i: usize,
+    raw: Option<&crate::signals::ResolvedSignal>,
+    (t, smoothed): (&[f64], &[f64]),
+    (t0, t1): (f64, f64),
+) -> Panel {
+    let s = &info.signals[i];
+    let mut series = Vec::new();
+    if let Some(raw) = raw {
+        // The raw signal's corners inside the plotted range, plus its values at the range's ends.
+        let at = |x: f64| {
+            let k = raw.time.partition_point(|&c| c <= x);
+            match (k.checked_sub(1), raw.time.get(k)) {
+                (Some(j), Some(&tn)) => {
+                    let w = (x - raw.time[j]) / (tn - raw.time[j]);
+                    raw.values[j] + w * (raw.values[j + 1] - raw.values[j])
+                }
+                (Some(j), None) => raw.values[j],
+                (None, _) => raw.values[0],
+            }
+        };
+        let mut points = vec![(t0, at(t0))];
+        points.extend(
+            raw.time
+                .iter()
+                .zip(&raw.values)
+                .filter(|(&x, _)| x > t0 && x < t1)
+                .map(|(&x, &v)| (x, v)),
+        );
+        points.push((t1, at(t1)));
+        let (ts, vs): (Vec<f64>, Vec<f64>) = points.into_iter().unzip();
+        series.push(panels::series(
+            format!("{} (raw, {})", s.name, raw.source),
+            CYCLE,
+            1.5,
+            &ts,
+            &vs,
+        ));
+    }
+    if !smoothed.is_empty() {
+        series.push(panels::series(
+            format!("{} (smoothed)", s.name),
+            REFERENCE,
+            2.0,
+            t,
+            smoothed,
+        ));
+    }
+    Panel {
+        var: s.name.clone(),
+        title: format!(
+            "signal {}: raw and smoothed with the reference's kernel",
+            s.name
+        ),
+        y_label: panels::with_unit(&s.name, s.unit.as_deref()),
+        y_zero: false,
+        series,
     }
 }
 

@@ -1,6 +1,6 @@
 //! Provenance of a run: what produced a summary — invsim's version and git revision, the model file and its
 //! SHA-256, the cycle (a built-in's name, or a file's path and SHA-256), every override of the model
-//! (`--set`, and later `--signal`, `--map`: `{kind, name, value}`) and every option. The summary JSON is the
+//! (`--set`, `--signal`, `--map`, `--initial`: `{kind, name, value}`, a file as `{path, sha256}`) and every option. The summary JSON is the
 //! run's provenance record (the CSV carries none: a leading comment line is not skipped by pandas' or polars'
 //! default CSV readers). The command line fills it in ([`crate::Summary::provenance`]).
 
@@ -25,8 +25,8 @@ pub struct CycleRecord {
     pub file: Option<FileRecord>,
 }
 
-/// One override of the model's data: `kind` `set` (a parameter, `value` a number), and in time `signal` or
-/// `map` (`value` a number or a file's path).
+/// One override of the model's data: `kind` `set` (a parameter, `value` a number), `signal` (a number, or a
+/// file as `{path, sha256}`), `map` (a file) or `initial` (a number).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Override {
     pub kind: String,
@@ -81,11 +81,18 @@ impl Provenance {
     }
 }
 
-/// A JSON value as a user writes it on a command line (strings without quotes, `null` as `none`).
+/// A JSON value as a user writes it on a command line (strings without quotes, `null` as `none`, a file
+/// `{path, sha256}` as `PATH (sha256 …)`).
 fn plain(v: &serde_json::Value) -> String {
     match v {
         serde_json::Value::String(s) => s.clone(),
         serde_json::Value::Null => "none".to_string(),
+        serde_json::Value::Object(o) => match (o.get("path"), o.get("sha256")) {
+            (Some(serde_json::Value::String(p)), Some(serde_json::Value::String(h))) => {
+                format!("{p} (sha256 {h})")
+            }
+            _ => v.to_string(),
+        },
         other => other.to_string(),
     }
 }

@@ -215,6 +215,103 @@ fn no_relative_degree(model: &Model, file: String, why: NoRelativeDegree) -> Der
     }
 }
 
+/// The total derivative's field (along f for affine models, along the whole rhs otherwise) and the relative
+/// degree it finds.
+fn find_relative_degree(
+    model: &mut Model,
+    n: usize,
+    nominal: &std::collections::HashMap<Symbol, f64>,
+    warnings: &mut Vec<String>,
+) -> (TotalDerivative, Result<RelativeDegree, NoRelativeDegree>) {
+    let h = model.output.h;
+    if model.is_affine() {
+        let field = TotalDerivative::new(model, n + 1);
+        let found = relative_degree(&mut model.pool, h, &field, n, nominal, warnings);
+        return (field, found);
+    }
+    let field = TotalDerivative::along_rhs(model, n + 1);
+    let u = model.input.symbol;
+    let found =
+        non_affine::relative_degree_u(&mut model.pool, (h, u), &field, n, nominal, warnings);
+    (field, found)
+}
+
+/// y^(r) in (ξ, η) and the zero dynamics: the affine normal form, or that of a non-affine model.
+struct Form {
+    normal: NormalForm,
+    alpha_x: Id,
+    beta_x: Id,
+    yr_affine: bool,
+    yr_equation: Option<Id>,
+    input_solution: Option<Id>,
+    input_solution_x: Option<Id>,
+    domain: Vec<(Id, String)>,
+}
+
+fn input_output_form(
+    affine: bool,
+    pool: &mut Pool,
+    coords: &ToCoordinates<'_>,
+    (alpha_x, decoupling): (Id, Id),
+    (f, g, rhs): (&[Id], &[Id], &[Id]),
+    (eta_states, u, yr, nominal): (
+        &[usize],
+        Symbol,
+        Symbol,
+        &std::collections::HashMap<Symbol, f64>,
+    ),
+) -> Form {
+    if affine {
+        let normal = normal_form(pool, coords, (alpha_x, decoupling), (f, g), eta_states, yr);
+        return Form {
+            normal,
+            alpha_x,
+            beta_x: decoupling,
+            yr_affine: true,
+            yr_equation: None,
+            input_solution: None,
+            input_solution_x: None,
+            domain: Vec::new(),
+        };
+    }
+    let na = non_affine::non_affine(
+        pool,
+        coords,
+        (alpha_x, decoupling),
+        (rhs, eta_states),
+        (u, yr, nominal),
+    );
+    Form {
+        normal: NormalForm {
+            alpha: na.alpha,
+            beta: na.beta,
+            zero_dynamics: na.form.zero_dynamics,
+            zero_dynamics_x: na.form.zero_dynamics_x,
+        },
+        alpha_x: na.alpha_x,
+        beta_x: na.beta_x,
+        yr_affine: na.yr_affine,
+        yr_equation: Some(na.form.yr_equation),
+        input_solution: na.form.input_solution,
+        input_solution_x: na.form.input_solution_x,
+        domain: na.form.domain,
+    }
+}
+
+/// The warnings for where β vanishes (non-affine models: ∂y^(r)/∂u).
+fn singular_warnings(singular: &[String], affine: bool, input: &str) -> Vec<String> {
+    singular
+        .iter()
+        .map(|s| {
+            if affine {
+                format!("β vanishes: {s}")
+            } else {
+                format!("∂y^(r)/∂{input} vanishes: {s} (Newton's method for the input fails there)")
+            }
+        })
+        .collect()
+}
+
 impl Derivation {
     /// Derive the normal form of a loaded model.
     pub fn new(model: Model) -> Result<Derivation, DeriveError> {
@@ -231,26 +328,8 @@ impl Derivation {
         check_finite(&model, &nominal, &file)?;
 
         // r: the first k with L_g D_f^(k-1) h ≢ 0, D the total derivative along states and signals.
-        let h = model.output.h;
         let affine = model.is_affine();
-        let field = if affine {
-            TotalDerivative::new(&mut model, n + 1)
-        } else {
-            TotalDerivative::along_rhs(&mut model, n + 1)
-        };
-        let found = if affine {
-            relative_degree(&mut model.pool, h, &field, n, &nominal, &mut warnings)
-        } else {
-            let u = model.input.symbol;
-            non_affine::relative_degree_u(
-                &mut model.pool,
-                (h, u),
-                &field,
-                n,
-                &nominal,
-                &mut warnings,
-            )
-        };
+        let (field, found) = find_relative_degree(&mut model, n, &nominal, &mut warnings);
         let RelativeDegree {
             r,
             lie,
@@ -289,43 +368,28 @@ impl Derivation {
             xi: &xi,
             closed: &closed,
         };
-        let (u, rhs): (Symbol, Vec<Id>) = (
-            model.input.symbol,
-            model.states.iter().map(|s| s.rhs).collect(),
-        );
+        let u = model.input.symbol;
+        let rhs: Vec<Id> = model.states.iter().map(|s| s.rhs).collect();
         let pool = &mut model.pool;
+        let Form {
+            normal,
+            alpha_x,
+            beta_x,
+            yr_affine,
+            yr_equation,
+            input_solution,
+            input_solution_x,
+            domain: more_domain,
+        } = input_output_form(
+            affine,
+            pool,
+            &coords,
+            (alpha_x, decoupling),
+            (&f, &g, &rhs),
+            (&eta_states, u, yr, &nominal),
+        );
         let mut domain = domain;
-        let (mut alpha_x, mut beta_x) = (alpha_x, decoupling);
-        let (mut yr_affine, mut yr_equation) = (true, None);
-        let (normal, input_solution, input_solution_x) = if affine {
-            let nf = normal_form(
-                pool,
-                &coords,
-                (alpha_x, decoupling),
-                (&f, &g),
-                &eta_states,
-                yr,
-            );
-            (nf, None, None)
-        } else {
-            let na = non_affine::non_affine(
-                pool,
-                &coords,
-                (alpha_x, decoupling),
-                (&rhs, &eta_states),
-                (u, yr, &nominal),
-            );
-            (alpha_x, beta_x, yr_affine) = (na.alpha_x, na.beta_x, na.yr_affine);
-            yr_equation = Some(na.form.yr_equation);
-            domain.extend(na.form.domain);
-            let nf = NormalForm {
-                alpha: na.alpha,
-                beta: na.beta,
-                zero_dynamics: na.form.zero_dynamics,
-                zero_dynamics_x: na.form.zero_dynamics_x,
-            };
-            (nf, na.form.input_solution, na.form.input_solution_x)
-        };
+        domain.extend(more_domain);
         let NormalForm {
             alpha,
             beta,
@@ -339,16 +403,7 @@ impl Derivation {
             coords_u.push(u);
         }
         let singular = singular_set(pool, beta, &nominal, &xi, &coords_u);
-        for s in &singular {
-            if affine {
-                warnings.push(format!("β vanishes: {s}"));
-            } else {
-                warnings.push(format!(
-                    "∂y^(r)/∂{} vanishes: {s} (Newton's method for the input fails there)",
-                    model.input.name
-                ));
-            }
-        }
+        warnings.extend(singular_warnings(&singular, affine, &model.input.name));
         let domain = domain_conditions(pool, domain, &params);
 
         Ok(Derivation {

@@ -113,9 +113,11 @@ fn grid(path: &Path, cells: &[&Cell<'_>], what: &str) -> Result<Vec<f64>, ModelE
     Ok(out)
 }
 
-/// A map's CSV file read on its own (`--map NAME=FILE.csv`): (x grid, y grid of a 2-D map, values
-/// row-major), 2-D when a row has 3 or more cells.
-pub fn read_map_file(path: &Path) -> Result<(Vec<f64>, Option<Vec<f64>>, Vec<f64>), ModelError> {
+/// A map's data: x grid, y grid of a 2-D map, values row-major.
+pub type MapData = (Vec<f64>, Option<Vec<f64>>, Vec<f64>);
+
+/// A map's CSV file read on its own (`--map NAME=FILE.csv`), 2-D when a row has 3 or more cells.
+pub fn read_map_file(path: &Path) -> Result<MapData, ModelError> {
     let g = read_csv(path, None)?;
     Ok((g.x, g.y, g.values))
 }

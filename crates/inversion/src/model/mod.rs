@@ -81,7 +81,7 @@ mod values;
 pub use error::{ModelError, ModelErrorKind};
 pub use expressions::{MAX_EXPRESSION_LEN, MAX_EXPRESSION_NESTING};
 pub use gearbox::MAX_GEARS;
-pub use map_csv::read_map_file;
+pub use map_csv::{read_map_file, MapData};
 pub use modal::{
     Gearbox, ModalInput, ModalModel, Mode, ModeRole, ModelFile, Schedule, SequenceOptions,
 };

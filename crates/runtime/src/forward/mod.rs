@@ -81,6 +81,8 @@ pub struct ForwardResult {
     pub columns: Vec<String>,
     pub data: Vec<Vec<f64>>,
     pub input_column: usize,
+    /// The model's signals as the run resolved them (the forward run uses them raw).
+    pub signals: Vec<crate::signals::ResolvedSignal>,
 }
 
 impl ForwardResult {
@@ -174,6 +176,7 @@ pub fn forward<M: InverseModel + ?Sized>(
         columns: layout.columns,
         data: rec.data,
         input_column: layout.input_column,
+        signals: resolved,
     })
 }
 

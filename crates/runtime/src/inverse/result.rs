@@ -17,6 +17,8 @@ pub struct SimulationResult {
     /// How the cycle defined the reference: y_d = offset + scale · (smoothed cycle) (the model's
     /// [`invsim_model_api::InverseModel::reference`]).
     pub reference: invsim_model_api::ReferenceMap,
+    /// The model's signals as the run resolved them (raw samples and where they came from).
+    pub signals: Vec<crate::signals::ResolvedSignal>,
 }
 
 impl SimulationResult {

@@ -560,6 +560,7 @@ pub(super) fn run<M: InverseModel + ?Sized>(
         input_column,
         input_bounds: [info.input_min, info.input_max],
         reference: smoother.reference(),
+        signals: resolved,
     })
 }
 

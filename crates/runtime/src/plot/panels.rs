@@ -27,6 +27,8 @@ pub(crate) enum Var {
     Reference,
     Input,
     Signal(Signal),
+    /// Exogenous signal i of the model's `[signals]`: its raw and its smoothed curve.
+    Exogenous(usize),
 }
 
 /// A panel of one column of the series (or its running integral).
@@ -42,6 +44,7 @@ pub(crate) enum Signal {
 /// accumulated output.
 pub fn valid_vars(info: &ModelInfo) -> Vec<String> {
     let mut v = vec!["reference".to_string(), "input".to_string()];
+    v.extend(info.signals.iter().map(|s| s.name.clone()));
     v.extend(info.states.iter().cloned());
     v.extend(info.outputs.iter().map(|o| o.name.clone()));
     v.extend(
@@ -53,10 +56,12 @@ pub fn valid_vars(info: &ModelInfo) -> Vec<String> {
     v
 }
 
-/// The panels drawn without `--plot-vars`: the reference, the input and the running integral of every
-/// accumulated output (the fuel used so far).
+/// The panels drawn without `--plot-vars`: the reference, each exogenous signal (raw and smoothed), the input
+/// and the running integral of every accumulated output (the fuel used so far).
 pub fn default_vars(info: &ModelInfo) -> Vec<String> {
-    let mut v = vec!["reference".to_string(), "input".to_string()];
+    let mut v = vec!["reference".to_string()];
+    v.extend(info.signals.iter().map(|s| s.name.clone()));
+    v.push("input".to_string());
     v.extend(
         info.outputs
             .iter()
@@ -74,6 +79,9 @@ pub(crate) fn resolve(info: &ModelInfo, name: &str) -> Option<Var> {
     }
     if name == "input" || name == info.input {
         return Some(Var::Input);
+    }
+    if let Some(i) = info.signals.iter().position(|s| s.name == name) {
+        return Some(Var::Exogenous(i));
     }
     if let Some(i) = info.states.iter().position(|s| s == name) {
         return Some(Var::Signal(Signal::State(i)));

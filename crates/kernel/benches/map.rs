@@ -1,0 +1,63 @@
+//! Benchmark: a 2-D smooth map lookup with its first and second partial derivatives (value, ∂a, ∂b, ∂aa, ∂ab,
+//! ∂bb in one pass: `Map::eval` with orders [2, 2]) over a batch of points spread over the grid, and the value
+//! alone; criterion reports the time per point. The grid is si_engine_maps' eta_vol (8 × 5, smooth 0.5).
+
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use invsim_kernel::map::{Extrapolate, Interp, Map, MapSettings};
+
+fn eta_vol() -> Map {
+    let x = vec![50.0, 100.0, 200.0, 300.0, 400.0, 500.0, 600.0, 700.0];
+    let y = vec![2.0e4, 4.0e4, 6.0e4, 8.0e4, 1.0e5];
+    let v: Vec<f64> = x
+        .iter()
+        .flat_map(|&w| {
+            y.iter()
+                .map(move |&p| (0.96 - 8000.0 / p) * (0.9 + 1e-4 * w))
+        })
+        .collect();
+    let s = MapSettings {
+        smooth: 0.5,
+        extrapolate: Extrapolate::Clamp,
+        interp: Interp::Smooth,
+    };
+    Map::new_2d(x, y, v, s).expect("valid map")
+}
+
+fn lookup(c: &mut Criterion) {
+    let map = eta_vol();
+    let n = 4096;
+    let points: Vec<[f64; 2]> = (0..n)
+        .map(|k| {
+            let t = k as f64 / n as f64;
+            [30.0 + 700.0 * t, 1.5e4 + 9.0e4 * ((7.0 * t).fract())]
+        })
+        .collect();
+    let mut group = c.benchmark_group("map2d");
+    group.throughput(Throughput::Elements(n as u64));
+    group.bench_function("value_first_second_partials", |b| {
+        let mut out = [0.0; 9];
+        b.iter(|| {
+            let mut acc = 0.0;
+            for p in &points {
+                map.eval(std::hint::black_box(p), [2, 2], &mut out);
+                acc += out[0] + out[1] + out[2] + out[3] + out[4] + out[6];
+            }
+            acc
+        })
+    });
+    group.bench_function("value", |b| {
+        let mut out = [0.0; 1];
+        b.iter(|| {
+            let mut acc = 0.0;
+            for p in &points {
+                map.eval(std::hint::black_box(p), [0, 0], &mut out);
+                acc += out[0];
+            }
+            acc
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, lookup);
+criterion_main!(benches);
