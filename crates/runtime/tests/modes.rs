@@ -294,3 +294,41 @@ fn gain_switch_quasi_static_jumps_and_books_the_impulse() {
     assert!(((iq - booked) - (ir - u_hand)).abs() < 1e-5);
     assert!(qs.summary.max_abs_tracking_error.expect("verified") < 1e-6);
 }
+
+#[test]
+fn five_speed_follows_the_regulation_gears_on_the_nedc() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models/si_engine_5speed.toml");
+    let text = std::fs::read_to_string(&path).expect("the model file");
+    let text = text
+        .replace("upshift   = [", "schedule = \"regulation\"\n# upshift = [")
+        .replace("downshift = [", "# downshift = [");
+    let l = load(&path, &text);
+    assert_eq!(
+        l.model.gearbox.as_ref().map(|g| &g.schedule),
+        Some(&invsim_inversion::Schedule::Regulation)
+    );
+    let table = invsim_runtime::modes::gears::regulation_table("nedc")
+        .expect("the NEDC has a prescription");
+    let cycle = Cycle::builtin("nedc").expect("built-in");
+    let opts = ModalOptions {
+        lookahead: 5.0,
+        dt: 0.1,
+        switching: Switching::Reentry,
+        transition_time: None,
+        verify: false,
+    };
+    let res = simulate_modes(&spec(&l, GearSource::Table(table)), &cycle, &opts)
+        .expect("the run succeeds");
+    let gear = res.column("gear").expect("gear column");
+    // ECE-15: 32 km/h in 2nd (t = 70 s), 50 km/h in 3rd (150 s); EUDC: 50 km/h in 4th, 100 km/h in 5th.
+    for (t, g) in [
+        (70.0, 2.0),
+        (150.0, 3.0),
+        (780.0 + 150.0, 4.0),
+        (780.0 + 300.0, 5.0),
+    ] {
+        let k = (t / 0.1_f64).round() as usize;
+        assert_eq!(gear[k], g, "gear at t = {t} s");
+    }
+    check_continuity(&res);
+}
