@@ -25,6 +25,7 @@ const TITLE_ROW: f64 = 40.0;
 const HEADER_ROW: f64 = 24.0;
 const LEGEND_ROW: f64 = 22.0;
 const PLOT_HEIGHT: f64 = 200.0;
+
 const TICK_ROW: f64 = 24.0;
 const PANEL_GAP: f64 = 16.0;
 const X_LABEL_ROW: f64 = 30.0;
@@ -222,17 +223,12 @@ fn write_panel(s: &mut String, k: usize, p: &Panel, y: &Axis, f: &Frame, top: f6
         f.left,
         f.right - f.left
     );
-    // A y label longer than the plot is high is set at the tick labels' size.
-    let size = if text_width(&p.y_label, LABEL_SIZE) <= PLOT_HEIGHT {
-        LABEL_SIZE
-    } else {
-        TICK_SIZE
-    };
+    let (y_label, size) = fit_y_label(&p.y_label);
     let (lx, ly) = (MARGIN + LABEL_SIZE * ASCENT, (y0 + y1) / 2.0);
     let _ = writeln!(
         s,
         r#"<text class="axis-label y" x="{lx:.2}" y="{ly:.2}" font-size="{size}" text-anchor="middle" transform="rotate(-90 {lx:.2} {ly:.2})">{}</text>"#,
-        esc(&p.y_label)
+        esc(&y_label)
     );
     s.push_str("</g>\n");
     y1 + TICK_ROW + PANEL_GAP
@@ -326,4 +322,56 @@ fn esc(s: &str) -> String {
         .replace('<', "&lt;")
         .replace('>', "&gt;")
         .replace('"', "&quot;")
+}
+
+/// A y label and its font size: the label size, or for a label longer than the plot is high the tick labels'
+/// size; a label too long even then is shortened so that it fits beside its plot at that size ("cumulative X"
+/// becomes "∫ X dt", then the middle of the name before the unit gives way to "…"). The panel's title keeps
+/// the whole name.
+fn fit_y_label(label: &str) -> (String, f64) {
+    if text_width(label, LABEL_SIZE) <= PLOT_HEIGHT {
+        return (label.to_string(), LABEL_SIZE);
+    }
+    let fits = |l: &str| text_width(l, TICK_SIZE) <= PLOT_HEIGHT;
+    if fits(label) {
+        return (label.to_string(), TICK_SIZE);
+    }
+    let (name, unit) = match label.rfind(" [") {
+        Some(i) => label.split_at(i),
+        None => (label, ""),
+    };
+    let short = match name.strip_prefix("cumulative ") {
+        Some(rest) => format!("∫ {rest} dt"),
+        None => name.to_string(),
+    };
+    let candidate = format!("{short}{unit}");
+    if fits(&candidate) {
+        return (candidate, TICK_SIZE);
+    }
+    let chars: Vec<char> = short.chars().collect();
+    for keep in (2..chars.len()).rev() {
+        let head: String = chars[..keep.div_ceil(2)].iter().collect();
+        let tail: String = chars[chars.len() - keep / 2..].iter().collect();
+        let candidate = format!("{head}…{tail}{unit}");
+        if fits(&candidate) {
+            return (candidate, TICK_SIZE);
+        }
+    }
+    (format!("…{unit}"), TICK_SIZE)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn long_y_labels_are_shortened_to_fit_at_the_tick_size() {
+        assert_eq!(fit_y_label("v [m/s]"), ("v [m/s]".to_string(), LABEL_SIZE));
+        let (l, size) = fit_y_label("cumulative fuel_no_cutoff [kg]");
+        assert_eq!((l.as_str(), size), ("∫ fuel_no_cutoff dt [kg]", TICK_SIZE));
+        let long = format!("{} [kW]", "x".repeat(80));
+        let (l, size) = fit_y_label(&long);
+        assert!(l.contains('…') && l.ends_with(" [kW]"), "{l}");
+        assert!(text_width(&l, size) <= PLOT_HEIGHT && size == TICK_SIZE);
+    }
 }
