@@ -85,8 +85,10 @@ pub fn derive_relative(root: &Path, rel: &Path) -> Result<invsim_inversion::Deri
     let path = root.join(rel);
     let bytes = std::fs::read(&path)
         .map_err(|e| Failure::io(format!("cannot read {}: {e}", path.display())))?;
-    let model = invsim_inversion::Model::from_bytes(rel, &bytes)
+    // Read under the real path (a map's CSV is found next to the model file), then record the relative one.
+    let mut model = invsim_inversion::Model::from_bytes(&path, &bytes)
         .map_err(|e| Failure::user(e.to_string()))?;
+    model.file = rel.to_path_buf();
     invsim_inversion::Derivation::new(model).map_err(|e| Failure::user(e.to_string()))
 }
 

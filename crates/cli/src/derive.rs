@@ -2,17 +2,10 @@
 
 use std::path::Path;
 
-use clap::ValueEnum;
-
 use crate::error::Failure;
 use crate::files::print_stdout;
 
-#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
-pub enum Format {
-    Text,
-    Json,
-    Markdown,
-}
+pub use crate::derive_format::Format;
 
 pub fn run(path: &Path, format: Format) -> Result<(), Failure> {
     if let Some(m) = crate::modal_cmd::read_modal(path)? {

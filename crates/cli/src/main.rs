@@ -11,6 +11,7 @@
 mod completions;
 mod cycles_cmd;
 mod derive;
+mod derive_format;
 mod engine;
 mod error;
 mod files;

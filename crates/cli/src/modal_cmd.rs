@@ -85,10 +85,10 @@ fn role_of(r: ModeRole) -> Role {
 }
 
 /// `invsim derive` of a model with modes.
-pub fn derive(m: ModalModel, format: crate::derive::Format) -> Result<(), Failure> {
+pub fn derive(m: ModalModel, format: crate::derive_format::Format) -> Result<(), Failure> {
     let (m, ds) = derive_modes(m)?;
     let text = match format {
-        crate::derive::Format::Json => {
+        crate::derive_format::Format::Json => {
             let modes: Vec<serde_json::Value> = ds
                 .iter()
                 .map(|mode| {
@@ -132,7 +132,7 @@ pub fn derive(m: ModalModel, format: crate::derive::Format) -> Result<(), Failur
                     m.inputs[mode.free].name,
                     fixed.join(", ")
                 ));
-                s.push_str(&if f == crate::derive::Format::Markdown {
+                s.push_str(&if f == crate::derive_format::Format::Markdown {
                     d.to_markdown()
                 } else {
                     d.to_text()

@@ -240,10 +240,14 @@ impl Reader<'_> {
     }
 
     fn inline_grid(&self, t: &Entries, what: &str, at: Option<usize>) -> Result<Grid, ModelError> {
-        let x = self.grid(
-            get(t, "x").expect("checked by the caller"),
-            &format!("{what}'s `x`"),
-        )?;
+        let Some(x) = get(t, "x") else {
+            return Err(self.err(
+                at,
+                ModelErrorKind::Schema,
+                format!("{what} needs `x` (the grid of its first argument) or `file`"),
+            ));
+        };
+        let x = self.grid(x, &format!("{what}'s `x`"))?;
         let Some(values) = get(t, "values") else {
             return Err(self.err(
                 at,

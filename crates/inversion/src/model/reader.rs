@@ -187,16 +187,29 @@ impl Reader<'_> {
         let outputs = extra_outputs(outputs, tracks_speed, &mut m);
         let maps = maps
             .into_iter()
-            .map(|r| MapInfo {
-                id: m.pool.find_map(&r.name).expect("declared by Interned::new"),
-                name: r.name,
-                args: r.args,
-                unit: r.unit,
-                doc: r.doc,
-                file: r.file,
-                data: r.data,
+            .map(|r| {
+                // Interned::new declares every map; a missing one would be a bug, reported, not a panic.
+                let id = m.pool.find_map(&r.name).ok_or_else(|| {
+                    self.err(
+                        None,
+                        ModelErrorKind::Schema,
+                        format!(
+                            "map `{}` was not declared (a bug in invsim's reader)",
+                            r.name
+                        ),
+                    )
+                })?;
+                Ok(MapInfo {
+                    id,
+                    name: r.name,
+                    args: r.args,
+                    unit: r.unit,
+                    doc: r.doc,
+                    file: r.file,
+                    data: r.data,
+                })
             })
-            .collect();
+            .collect::<Result<Vec<_>, ModelError>>()?;
 
         let name = name.unwrap_or_else(|| {
             self.file

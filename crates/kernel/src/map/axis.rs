@@ -28,7 +28,7 @@
 
 use crate::Kernel;
 
-use super::Extrapolate;
+use super::extrapolate::Extrapolate;
 
 /// An axis of a map (see the module documentation).
 #[derive(Debug, Clone, PartialEq)]

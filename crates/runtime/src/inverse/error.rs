@@ -45,7 +45,7 @@ pub enum SimulateError {
     RelativeDegreeTooHigh { relative_degree: usize, max: usize },
     #[error("cannot smooth the drive cycle: {0}")]
     Smoother(#[from] SmootherError),
-    #[error("at {at}: {}", super::map_check::describe(violation))]
+    #[error("at {at}: {violation}")]
     MapOutsideGrid {
         at: String,
         violation: invsim_model_api::map::Violation,

@@ -5,7 +5,7 @@
 //! sample whose own evaluation (rhs and outputs at that sample's states and input) repeats it, or, when the
 //! violation happened only between samples, names the block's time span.
 
-use invsim_model_api::map::{take_violation, Violation};
+use invsim_model_api::map::take_violation;
 use invsim_model_api::InverseModel;
 
 use super::error::SimulateError;
@@ -54,9 +54,4 @@ pub(super) fn check<M: InverseModel + ?Sized>(
         ),
         violation: first,
     })
-}
-
-/// The violation's fields for the message.
-pub(super) fn describe(v: &Violation) -> String {
-    v.to_string()
 }

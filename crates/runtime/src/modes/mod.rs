@@ -14,6 +14,7 @@
 
 pub mod blend;
 pub mod gears;
+mod record;
 mod runner;
 mod summary;
 mod verify;
@@ -22,8 +23,9 @@ use invsim_model_api::InverseModel;
 use thiserror::Error;
 
 pub use gears::{GearBox, GearSource};
+pub use record::{Impulse, ModeTime, Transition};
 pub use runner::simulate_modes;
-pub use summary::{Impulse, ModalSummary, ModeTime, Transition};
+pub use summary::ModalSummary;
 
 /// The signal values of a run with modes: models with modes have no `[signals]` yet (the run refuses them).
 pub(crate) const NO_SIGNALS: &[f64] = &[];

@@ -6,7 +6,7 @@ use invsim_model_api::InverseModel;
 
 use super::blend::Blend;
 use super::gears::GearBox;
-use super::summary::{Impulse, Transition};
+use super::record::{Ctx, Impulse, Record, Solved, Transition};
 use super::verify::replay;
 use super::NO_SIGNALS;
 use super::{ModalError, ModalOptions, ModalResult, ModalSpec, Role, Switching};
@@ -14,25 +14,6 @@ use crate::cycle::Cycle;
 use crate::grid::Grid;
 use crate::ode::{Dopri5, StepFailure};
 use crate::smoother::Smoother;
-
-/// The run's fixed context.
-pub(super) struct Ctx<'a, 'm> {
-    pub(super) spec: &'a ModalSpec<'m>,
-    pub(super) smoother: Smoother,
-    /// Highest relative degree over the modes (yd columns 0 … r_max).
-    pub(super) r_max: usize,
-    pub(super) n: usize,
-    pub(super) transition: f64,
-}
-
-/// One solved sample of a mode.
-#[derive(Debug, Clone)]
-pub(super) struct Solved {
-    pub(super) x: Vec<f64>,
-    pub(super) u: f64,
-    /// y^(0 … r_max) of the mode's reference (blend included).
-    pub(super) yref: Vec<f64>,
-}
 
 /// The sequence's state between samples.
 struct Seq {
@@ -277,19 +258,6 @@ fn wanted(ctx: &Ctx<'_, '_>, seq: &mut Seq, t: f64, u: f64, ys: &[f64]) -> Vec<(
         }
     }
     out
-}
-
-/// Everything recorded along the run.
-pub(super) struct Record {
-    pub(super) t: Vec<f64>,
-    pub(super) mode: Vec<usize>,
-    pub(super) solved: Vec<Solved>,
-    pub(super) u_end: Vec<f64>,
-    pub(super) x_end: Vec<Vec<f64>>,
-    pub(super) impulse: Vec<f64>,
-    pub(super) impulse_dir: Vec<Vec<f64>>,
-    pub(super) transitions: Vec<Transition>,
-    pub(super) impulses: Vec<Impulse>,
 }
 
 /// Simulate a model with modes inversely along `cycle`.

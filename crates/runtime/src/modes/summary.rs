@@ -6,44 +6,13 @@ use std::fmt::Write as _;
 
 use serde::Serialize;
 
-use super::runner::{Ctx, Record};
+use super::record::{Ctx, Impulse, ModeTime, Record, Transition};
 use super::verify::Tracking;
 use super::NO_SIGNALS;
 use super::{ModalOptions, ModalResult};
 use crate::cycle::Cycle;
 use crate::provenance::Provenance;
 use crate::report::Column;
-
-/// Time spent in one mode.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct ModeTime {
-    pub name: String,
-    pub time_s: f64,
-    pub relative_degree: usize,
-}
-
-/// One switch and, for the re-entry, its transition's largest deviation |y − y_c| from the smoothed cycle.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Transition {
-    pub t: f64,
-    pub from: String,
-    pub to: String,
-    pub max_deviation: f64,
-}
-
-/// One impulse of the quasi-static option.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Impulse {
-    pub t: f64,
-    pub mode: String,
-    pub input: String,
-    /// ∫ u dt of the impulse (input unit · s).
-    pub amount: f64,
-    /// The part of the state jump no impulse of the input realises, relative to the state's size.
-    pub unrealisable: f64,
-    /// Booked into each of the model's `[outputs]` (0 for those not accumulated), in their order.
-    pub booked: Vec<f64>,
-}
 
 /// What `invsim simulate` prints and writes for a model with modes.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -184,15 +153,7 @@ pub(super) fn assemble(
             time[m] += dt;
         }
     }
-    let mut impulse_booked = BTreeMap::new();
-    for imp in &rec.impulses {
-        for ((total, o), b) in integrals.iter_mut().zip(&info0.outputs).zip(&imp.booked) {
-            if o.accumulate {
-                *total += b;
-                *impulse_booked.entry(o.name.clone()).or_insert(0.0) += b;
-            }
-        }
-    }
+    let impulse_booked = book_impulses(&rec.impulses, &info0.outputs, &mut integrals);
     let distance = cycle.distance();
     let mut ints = BTreeMap::new();
     let mut per = BTreeMap::new();
@@ -219,23 +180,7 @@ pub(super) fn assemble(
         .iter()
         .map(|t| t.max_deviation)
         .fold(0.0, f64::max);
-    let mut warnings = Vec::new();
-    if !violations.is_empty() {
-        warnings.push(format!(
-            "{} interval(s) where a mode's free input leaves its bounds and no mode absorbs it",
-            violations.len()
-        ));
-    }
-    let unrealisable = rec
-        .impulses
-        .iter()
-        .map(|i| i.unrealisable)
-        .fold(0.0, f64::max);
-    if unrealisable > 1e-9 {
-        warnings.push(format!(
-            "a quasi-static jump has a part ({unrealisable:.3e} of the state) that no impulse of the free input realises"
-        ));
-    }
+    let warnings = warnings_of(&violations, &rec.impulses);
     let summary = ModalSummary {
         model: info0.name.clone(),
         cycle: cycle.name.clone(),
@@ -282,6 +227,43 @@ pub(super) fn assemble(
         yref: rec.solved.into_iter().map(|s| s.yref).collect(),
         impulse: rec.impulse,
     }
+}
+
+/// Add each quasi-static impulse's booking to the accumulated outputs' integrals; returns the bookings per
+/// output name.
+fn book_impulses(
+    impulses: &[Impulse],
+    outputs: &[invsim_model_api::OutputInfo],
+    integrals: &mut [f64],
+) -> BTreeMap<String, f64> {
+    let mut booked = BTreeMap::new();
+    for imp in impulses {
+        for ((total, o), b) in integrals.iter_mut().zip(outputs).zip(&imp.booked) {
+            if o.accumulate {
+                *total += b;
+                *booked.entry(o.name.clone()).or_insert(0.0) += b;
+            }
+        }
+    }
+    booked
+}
+
+/// The run's warnings: input-bound intervals no mode absorbs, and jumps no impulse realises.
+fn warnings_of(violations: &[[f64; 2]], impulses: &[Impulse]) -> Vec<String> {
+    let mut warnings = Vec::new();
+    if !violations.is_empty() {
+        warnings.push(format!(
+            "{} interval(s) where a mode's free input leaves its bounds and no mode absorbs it",
+            violations.len()
+        ));
+    }
+    let unrealisable = impulses.iter().map(|i| i.unrealisable).fold(0.0, f64::max);
+    if unrealisable > 1e-9 {
+        warnings.push(format!(
+            "a quasi-static jump has a part ({unrealisable:.3e} of the state) that no impulse of the free input realises"
+        ));
+    }
+    warnings
 }
 
 impl ModalSummary {

@@ -3,7 +3,7 @@
 //! (and, for the quasi-static option, the same impulses as state jumps Δx = U g(x)); the tracking error is
 //! |h(x_replay) − y_d| over the samples, y_d the reference the inverse tracked (transitions included).
 
-use super::runner::{Ctx, Record};
+use super::record::{Ctx, Record};
 use super::ModalError;
 use super::NO_SIGNALS;
 use crate::ode::{Dopri5, StepFailure};

@@ -1,0 +1,71 @@
+//! What a run with modes records as it goes and what its summary lists: the run's fixed context, each solved
+//! sample, the record of the whole run, and the time per mode, the switches and the quasi-static impulses.
+//! Shared by the runner, the replay and the summary (which import it; it imports none of them).
+
+use serde::Serialize;
+
+use super::ModalSpec;
+use crate::smoother::Smoother;
+
+/// Time spent in one mode.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ModeTime {
+    pub name: String,
+    pub time_s: f64,
+    pub relative_degree: usize,
+}
+
+/// One switch and, for the re-entry, its transition's largest deviation |y − y_c| from the smoothed cycle.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Transition {
+    pub t: f64,
+    pub from: String,
+    pub to: String,
+    pub max_deviation: f64,
+}
+
+/// One impulse of the quasi-static option.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Impulse {
+    pub t: f64,
+    pub mode: String,
+    pub input: String,
+    /// ∫ u dt of the impulse (input unit · s).
+    pub amount: f64,
+    /// The part of the state jump no impulse of the input realises, relative to the state's size.
+    pub unrealisable: f64,
+    /// Booked into each of the model's `[outputs]` (0 for those not accumulated), in their order.
+    pub booked: Vec<f64>,
+}
+
+/// The run's fixed context.
+pub(super) struct Ctx<'a, 'm> {
+    pub(super) spec: &'a ModalSpec<'m>,
+    pub(super) smoother: Smoother,
+    /// Highest relative degree over the modes (yd columns 0 … r_max).
+    pub(super) r_max: usize,
+    pub(super) n: usize,
+    pub(super) transition: f64,
+}
+
+/// One solved sample of a mode.
+#[derive(Debug, Clone)]
+pub(super) struct Solved {
+    pub(super) x: Vec<f64>,
+    pub(super) u: f64,
+    /// y^(0 … r_max) of the mode's reference (blend included).
+    pub(super) yref: Vec<f64>,
+}
+
+/// Everything recorded along the run.
+pub(super) struct Record {
+    pub(super) t: Vec<f64>,
+    pub(super) mode: Vec<usize>,
+    pub(super) solved: Vec<Solved>,
+    pub(super) u_end: Vec<f64>,
+    pub(super) x_end: Vec<Vec<f64>>,
+    pub(super) impulse: Vec<f64>,
+    pub(super) impulse_dir: Vec<Vec<f64>>,
+    pub(super) transitions: Vec<Transition>,
+    pub(super) impulses: Vec<Impulse>,
+}
