@@ -10,6 +10,7 @@
 
 mod completions;
 mod cycles_cmd;
+mod data_args;
 mod derive;
 mod derive_format;
 mod engine;

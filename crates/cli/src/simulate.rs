@@ -30,24 +30,9 @@ pub struct SimulateArgs {
     /// Override a parameter: NAME=VALUE (repeatable).
     #[arg(long = "set", value_name = "NAME=VALUE")]
     set: Vec<String>,
-    /// Give a signal of the model's [signals]: NAME=FILE.csv (a time column and a column NAME) or NAME=VALUE
-    /// (constant); repeatable. The inverse and its replay (--verify) use the smoothed signal.
-    #[arg(long = "signal", value_name = "NAME=FILE.csv|VALUE")]
-    #[serde(skip_serializing_if = "Vec::is_empty")]
-    signal: Vec<String>,
-    /// Replace a lookup map's grid and values: NAME=FILE.csv (the model file's map CSV format); repeatable.
-    #[arg(long = "map", value_name = "NAME=FILE.csv")]
-    #[serde(skip_serializing_if = "Vec::is_empty")]
-    map: Vec<String>,
-    /// The start value of an internal state: NAME=VALUE (repeatable; over the model file's `initial`): a causal run
-    /// starts there instead of at the equilibrium of the zero dynamics.
-    #[arg(
-        long = "initial",
-        value_name = "NAME=VALUE",
-        allow_hyphen_values = true
-    )]
-    #[serde(skip_serializing_if = "Vec::is_empty")]
-    initial: Vec<String>,
+    #[command(flatten)]
+    #[serde(flatten)]
+    data: crate::data_args::DataArgs,
     /// Write the time series as CSV.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -119,7 +104,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
         summary_json: args.summary_json.as_deref(),
         plot: &args.plot,
     })?;
-    crate::map_args::apply(&mut model, &args.map)?;
+    crate::map_args::apply(&mut model, &args.data.map)?;
     let stopped = |e: SimulateError| {
         Failure::user(format!(
             "simulation of `{}` on `{}` stopped: {e}",
@@ -127,8 +112,8 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
             cycle.name
         ))
     };
-    let signals = crate::signal_args::parse_signals(&args.signal)?;
-    let initial = crate::initial_args::parse_initial(&args.initial)?;
+    let signals = crate::signal_args::parse_signals(&args.data.signal)?;
+    let initial = crate::initial_args::parse_initial(&args.data.initial)?;
     let (progress, bar) = crate::progress::start("simulate");
     let mut opts = SimulationOptions::builder()
         .progress(progress)
