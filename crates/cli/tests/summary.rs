@@ -319,6 +319,41 @@ fn provenance_records_signal_files_with_their_hash_and_constant_signals() {
 }
 
 #[test]
+fn summaries_say_whether_a_signal_was_used_smoothed_or_raw() {
+    for (command, used) in [("simulate", "smoothed"), ("forward", "raw")] {
+        let json = tmp(&format!("signal_use_{command}.json"));
+        let o = invsim(&[
+            command,
+            "models/si_engine_grade.toml",
+            "--cycle",
+            "ece",
+            "--signal",
+            "P_aux=700",
+            "--summary-json",
+            json.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let text = stdout(&o);
+        assert!(
+            text.contains(&format!(
+                "grade = default, {used}; P_aux = command line (constant), {used}"
+            )),
+            "{text}"
+        );
+        let signals = &json_file(&json)["signals"];
+        assert_eq!(signals[1]["name"], "P_aux", "{signals}");
+        assert_eq!(signals[1]["used"], used, "{signals}");
+    }
+    // A model without signals has no `signals` key.
+    let (_, s, _) = run(
+        "no_signals",
+        &["simulate", "models/si_engine.toml", "--cycle", "ece"],
+        false,
+    );
+    assert!(s.get("signals").is_none());
+}
+
+#[test]
 fn runs_that_differ_only_in_an_override_are_distinguishable() {
     // `--set m=1300` is si_engine's default: the numbers are the same, the record is not.
     let args = ["simulate", "models/si_engine.toml", "--cycle", "ece"];

@@ -143,3 +143,38 @@ pub fn smoothers(signals: &[ResolvedSignal], lookahead: f64) -> Vec<Smoother> {
         .map(|s| Smoother::from_samples(&s.time, &s.values, lookahead))
         .collect()
 }
+
+/// How a run used one signal, for its summary: the signal, where its values came from, and whether the run
+/// took the smoothed signal (the inverse and its replay) or the raw one (the forward simulation).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct SignalUse {
+    pub name: String,
+    pub source: String,
+    /// `"smoothed"` or `"raw"`.
+    pub used: &'static str,
+}
+
+/// The summary's record of `resolved`, each `used` as given.
+pub fn signal_uses(resolved: &[ResolvedSignal], used: &'static str) -> Vec<SignalUse> {
+    resolved
+        .iter()
+        .map(|r| SignalUse {
+            name: r.name.clone(),
+            source: r.source.clone(),
+            used,
+        })
+        .collect()
+}
+
+/// The summary's text line for the signals (nothing without signals).
+pub fn write_signal_uses(s: &mut String, uses: &[SignalUse]) {
+    use std::fmt::Write as _;
+    if uses.is_empty() {
+        return;
+    }
+    let list: Vec<String> = uses
+        .iter()
+        .map(|u| format!("{} = {}, {}", u.name, u.source, u.used))
+        .collect();
+    let _ = writeln!(s, "signals: {}", list.join("; "));
+}

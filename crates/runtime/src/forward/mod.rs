@@ -171,6 +171,7 @@ pub fn forward<M: InverseModel + ?Sized>(
     };
     let mut summary = summarise(info, cycle, opts, &grid, &lp, rec.tally, stats);
     summary.columns = columns_with_units(info, &layout.columns);
+    summary.signals = crate::signals::signal_uses(&resolved, "raw");
     Ok(ForwardResult {
         summary,
         columns: layout.columns,
@@ -470,6 +471,7 @@ fn summarise<M: InverseModel + ?Sized>(
         rms_tracking_error: (tally.sum_sq / samples as f64).sqrt(),
         engine_operating_points: tally.operating.map(|op| op.finish(info, opts.dt)),
         columns: Vec::new(),
+        signals: Vec::new(),
         provenance: None,
         warnings,
     }

@@ -69,6 +69,9 @@ pub struct ForwardSummary {
     pub engine_operating_points: Option<OperatingPoints>,
     /// The CSV's columns with their units, in order.
     pub columns: Vec<Column>,
+    /// Each signal, where it came from and whether the run used it smoothed or raw (models with signals).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub signals: Vec<crate::signals::SignalUse>,
     /// What produced the run (filled in by the command line).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub provenance: Option<Provenance>,
@@ -92,6 +95,7 @@ impl ForwardSummary {
         let _ = writeln!(s, "relative degree: {}", self.relative_degree);
         let _ = writeln!(s, "samples: {}", self.samples);
         let _ = writeln!(s, "dt: {} s", fmt_sig(self.dt_s, 6));
+        crate::signals::write_signal_uses(&mut s, &self.signals);
         let d = &self.driver;
         let _ = writeln!(
             s,

@@ -553,6 +553,7 @@ pub(super) fn run<M: InverseModel + ?Sized>(
     };
     let mut summary = summarise(model, cycle, opts, &zd, &run, tally, &mut data)?;
     summary.columns = columns_with_units(info, &columns);
+    summary.signals = crate::signals::signal_uses(&resolved, "smoothed");
     Ok(SimulationResult {
         summary,
         columns,
@@ -730,6 +731,7 @@ fn summarise<M: InverseModel + ?Sized>(
         stable_inversion,
         engine_operating_points: tally.operating.map(|op| op.finish(info, opts.dt)),
         columns: Vec::new(),
+        signals: Vec::new(),
         provenance: None,
         warnings,
     })

@@ -56,6 +56,9 @@ pub struct Summary {
     pub engine_operating_points: Option<OperatingPoints>,
     /// The CSV's columns with their units, in order.
     pub columns: Vec<Column>,
+    /// Each signal, where it came from and whether the run used it smoothed or raw (models with signals).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub signals: Vec<crate::signals::SignalUse>,
     /// What produced the run (filled in by the command line).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub provenance: Option<Provenance>,
@@ -110,6 +113,7 @@ impl Summary {
         let _ = writeln!(s, "samples: {}", self.samples);
         let _ = writeln!(s, "dt: {} s", fmt_sig(self.dt_s, 6));
         let _ = writeln!(s, "look-ahead: {} s", fmt_sig(self.lookahead_s, 6));
+        crate::signals::write_signal_uses(&mut s, &self.signals);
         let output_unit = self.totals.output_unit.as_deref();
         self.reference
             .write_text(&mut s, output_unit, self.run.distance_m);
