@@ -15,12 +15,15 @@ def _cli_summary(tmp_path, *args):
     run_cli("simulate", GRADE, "--cycle", "ece", "--dt", "0.5", "--summary-json", out, *args)
     summary = json.loads(out.read_text())
     summary.pop("provenance", None)
+    # Where each signal came from (a file's path, Python samples) differs by construction; the numbers may not.
+    assert all(s["used"] == "smoothed" for s in summary.pop("signals"))
     return summary
 
 
 def _py_summary(**kwargs):
     summary = dict(invsim.Model(GRADE).simulate(cycle="ece", dt=0.5, **kwargs).summary)
     summary.pop("provenance", None)
+    assert all(s["used"] == "smoothed" for s in summary.pop("signals"))
     return summary
 
 
