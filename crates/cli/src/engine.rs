@@ -197,14 +197,21 @@ pub struct RunRequest<'a> {
     pub out: Option<&'a Path>,
     pub summary_json: Option<&'a Path>,
     pub plot: &'a crate::plotting::PlotArgs,
+    pub data: &'a crate::data_args::DataArgs,
+}
+
+/// The parsed `--signal` and `--initial` values of a run, for its options.
+pub struct RunData {
+    pub signals: Vec<invsim_runtime::SignalInput>,
+    pub initial: Vec<(String, f64)>,
 }
 
 /// The common start of `simulate` and `forward`: the outputs checked against the inputs and each other
-/// ([`crate::outputs::Outputs::plan`]), the cycle and the model loaded with the overrides, the plot options
-/// checked against the model — all before the run.
+/// ([`crate::outputs::Outputs::plan`]), the cycle and the model loaded with the overrides (`--set`, `--map`),
+/// the plot options checked against the model, `--signal` and `--initial` parsed — all before the run.
 pub fn prepare_run(
     req: &RunRequest<'_>,
-) -> Result<(crate::outputs::Outputs, Cycle, LoadedModel), Failure> {
+) -> Result<(crate::outputs::Outputs, Cycle, LoadedModel, RunData), Failure> {
     let outputs = crate::outputs::Outputs::plan(
         &run_inputs(req.model, req.cycle),
         &[
@@ -213,12 +220,17 @@ pub fn prepare_run(
             ("--plot", req.plot.plot.as_deref()),
         ],
     )?;
-    let (cycle, model) = load_run(
+    let (cycle, mut model) = load_run(
         req.model,
         req.engine,
         (req.cycle, req.max_cycle_bytes),
         req.set,
     )?;
     crate::plotting::check(req.plot, model.as_model().info())?;
-    Ok((outputs, cycle, model))
+    crate::map_args::apply(&req.data.map, |name, data| model.set_map(name, data))?;
+    let data = RunData {
+        signals: crate::signal_args::parse_signals(&req.data.signal)?,
+        initial: crate::initial_args::parse_initial(&req.data.initial)?,
+    };
+    Ok((outputs, cycle, model, data))
 }

@@ -95,7 +95,7 @@ pub struct ForwardArgs {
 
 pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
     crate::modal_cmd::refuse_modal(&args.model, "forward")?;
-    let (mut outputs, cycle, mut model) = prepare_run(&RunRequest {
+    let (mut outputs, cycle, model, data) = prepare_run(&RunRequest {
         model: &args.model,
         engine: args.engine,
         cycle: &args.cycle,
@@ -104,8 +104,8 @@ pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
         out: args.out.as_deref(),
         summary_json: args.summary_json.as_deref(),
         plot: &args.plot,
+        data: &args.data,
     })?;
-    crate::map_args::apply(&mut model, &args.data.map)?;
     let stopped = |e: ForwardError| {
         Failure::user(format!(
             "forward simulation of `{}` on `{}` stopped: {e}",
@@ -113,8 +113,6 @@ pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
             cycle.name
         ))
     };
-    let signals = crate::signal_args::parse_signals(&args.data.signal)?;
-    let initial = crate::initial_args::parse_initial(&args.data.initial)?;
     let (progress, bar) = crate::progress::start("forward");
     let mut opts = ForwardOptions::builder()
         .progress(progress)
@@ -139,8 +137,8 @@ pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
         .time_limit_s(args.time_limit)
         .build()
         .map_err(stopped)?;
-    opts.signals = signals;
-    opts.initial = initial;
+    opts.signals = data.signals;
+    opts.initial = data.initial;
     let result = forward::forward(model.as_model(), &cycle, &opts);
     bar.finish();
     let mut result = result.map_err(stopped)?;

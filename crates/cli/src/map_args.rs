@@ -2,12 +2,18 @@
 //! regenerating code; the map keeps its settings (smooth, extrapolate, interp) and its arity. The file's
 //! errors name FILE:LINE:COLUMN (the model file's CSV format).
 
-use crate::engine::LoadedModel;
 use crate::error::Failure;
+use std::fmt::Display;
 use std::path::Path;
 
-/// Apply every `--map` argument to `model`.
-pub fn apply(model: &mut LoadedModel, args: &[String]) -> Result<(), Failure> {
+/// A map's new data: its x grid, its y grid (2-D maps), its values.
+pub type MapData<'a> = (&'a [f64], Option<&'a [f64]>, &'a [f64]);
+
+/// Read every `--map` argument's file and hand it to `set_map` (the model's), in order.
+pub fn apply<E: Display>(
+    args: &[String],
+    mut set_map: impl FnMut(&str, MapData<'_>) -> Result<(), E>,
+) -> Result<(), Failure> {
     for arg in args {
         let Some((name, file)) = arg
             .split_once('=')
@@ -20,8 +26,7 @@ pub fn apply(model: &mut LoadedModel, args: &[String]) -> Result<(), Failure> {
         let name = name.trim();
         let (x, y, values) = invsim_inversion::read_map_file(Path::new(file))
             .map_err(|e| Failure::user(format!("--map {name}: {e}")))?;
-        model
-            .set_map(name, (&x, y.as_deref(), &values))
+        set_map(name, (&x, y.as_deref(), &values))
             .map_err(|e| Failure::user(format!("--map {name}: {e}")))?;
     }
     Ok(())

@@ -94,7 +94,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
             },
         );
     }
-    let (mut outputs, cycle, mut model) = prepare_run(&RunRequest {
+    let (mut outputs, cycle, model, data) = prepare_run(&RunRequest {
         model: &args.model,
         engine: args.engine,
         cycle: &args.cycle,
@@ -103,8 +103,8 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
         out: args.out.as_deref(),
         summary_json: args.summary_json.as_deref(),
         plot: &args.plot,
+        data: &args.data,
     })?;
-    crate::map_args::apply(&mut model, &args.data.map)?;
     let stopped = |e: SimulateError| {
         Failure::user(format!(
             "simulation of `{}` on `{}` stopped: {e}",
@@ -112,8 +112,6 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
             cycle.name
         ))
     };
-    let signals = crate::signal_args::parse_signals(&args.data.signal)?;
-    let initial = crate::initial_args::parse_initial(&args.data.initial)?;
     let (progress, bar) = crate::progress::start("simulate");
     let mut opts = SimulationOptions::builder()
         .progress(progress)
@@ -127,8 +125,8 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
         .keep_series(args.out.is_some() || args.plot.plot.is_some())
         .build()
         .map_err(stopped)?;
-    opts.signals = signals;
-    opts.initial = initial;
+    opts.signals = data.signals;
+    opts.initial = data.initial;
     let result = simulate(model.as_model(), &cycle, &opts);
     bar.finish();
     let mut result = result.map_err(stopped)?;
