@@ -129,14 +129,19 @@ def _variants(params):
     """Sweep variants from a DataFrame (pandas or polars) or a dict of equal-length arrays: (names, columns)."""
     import numpy as np
 
+    def column(v):
+        # Contiguous and aligned float64: an array that arrives unaligned (a slice of a buffer Dask or pickle
+        # deserialised in place) is copied, since the extension reads it as a slice of f64.
+        return np.require(np.atleast_1d(np.asarray(v, dtype=np.float64)), requirements=["C", "A"])
+
     if params is None:
         return [], []
     if hasattr(params, "to_dict") and hasattr(params, "columns"):
         names = [str(c) for c in params.columns]
-        cols = [np.ascontiguousarray(np.asarray(params[c], dtype=np.float64)) for c in params.columns]
+        cols = [column(params[c]) for c in params.columns]
     else:
         names = [str(k) for k in params]
-        cols = [np.ascontiguousarray(np.atleast_1d(np.asarray(v, dtype=np.float64))) for v in params.values()]
+        cols = [column(v) for v in params.values()]
     return names, cols
 
 

@@ -175,7 +175,7 @@ impl Model {
         signals: Vec<PySignal>,
         initial: Vec<(String, f64)>,
     ) -> PyResult<(Vec<String>, Vec<SweepRow>)> {
-        let values: Vec<Vec<f64>> = values.iter().map(|a| a.as_array().to_vec()).collect();
+        let values = variant_columns(&names, &values)?;
         let variants = Variants { names, values };
         let opts = RunOptions {
             dt,
@@ -251,4 +251,25 @@ fn _invsim(m: &Bound<'_, PyModule>) -> PyResult<()> {
         invsim_runtime::Cycle::builtin_names().to_vec(),
     )?;
     Ok(())
+}
+
+/// The sweep's parameter columns as vectors. Reading an array as a slice of f64 needs it aligned; the Python
+/// wrapper makes sure (`np.require(..., ["C", "A"])`), and an array that is not is refused here rather than
+/// read.
+fn variant_columns(
+    names: &[String],
+    values: &[PyReadonlyArray1<'_, f64>],
+) -> PyResult<Vec<Vec<f64>>> {
+    let mut out = Vec::with_capacity(values.len());
+    for (i, a) in values.iter().enumerate() {
+        let aligned: bool = a.as_any().getattr("flags")?.getattr("aligned")?.extract()?;
+        if !aligned {
+            let name = names.get(i).map_or("?", String::as_str);
+            return Err(pyo3::exceptions::PyValueError::new_err(format!(
+                "sweep column {name:?}: the array is not aligned (pass np.require(a, requirements=[\"A\"]))"
+            )));
+        }
+        out.push(a.as_array().to_vec());
+    }
+    Ok(out)
 }

@@ -1,7 +1,8 @@
 """Shared fixtures: the repository, the `invsim` command line to compare with, the shared models.
 
 The command line is `$INVSIM_BIN` if set, else the repository's `target/release/invsim` (built by
-`cargo build --release -p invsim`; `.ci/python` builds it), else `cargo run --release -q --`.
+`cargo build --release -p invsim`), else `cargo run --release -q --`. `.ci/python` sets it to the dev-profile
+build that `cargo test --workspace` has already made.
 """
 
 import json

@@ -98,3 +98,18 @@ def test_shared_model_sweep():
     for i, v in enumerate(values):
         single = _flatten(m.simulate(cycle="ece", params={name: v}, keep_series=False).summary)
         assert all(df.iloc[i][k] == x for k, x in single.items())
+
+
+def test_unaligned_columns_are_copied(si_engine):
+    # A float64 array starting one byte into its buffer, as Dask or pickle can hand over after deserialising
+    # in place: the wrapper copies it to an aligned array, and the extension refuses an unaligned one.
+    values = np.array([1200.0, 1350.0, 1500.0])
+    raw = np.zeros(values.nbytes + 1, dtype=np.uint8)
+    raw[1:] = values.view(np.uint8)
+    unaligned = np.frombuffer(raw[1:].data, dtype=np.float64)
+    assert not unaligned.flags.aligned
+    np.testing.assert_array_equal(unaligned, values)
+    got = si_engine.sweep(params={"m": unaligned}, cycles=["ece"])
+    pd.testing.assert_frame_equal(got, si_engine.sweep(params={"m": values}, cycles=["ece"]))
+    with pytest.raises(ValueError, match="not aligned"):
+        si_engine._m.sweep(["m"], [unaligned], ["ece"], [], 1.0, 5.0, False, None, [], [])

@@ -110,29 +110,88 @@ fn main() -> ExitCode {
     }
 }
 
-/// `cargo test --workspace`, then `bash .ci/python` unless `no_python`; the first failure stops.
+/// `cargo test --workspace`, then the Python package's tests (`.ci/python run DIR`) unless `no_python`. The
+/// venv and the test dependencies from PyPI (`.ci/python prepare DIR`, network-bound) are set up while the
+/// Rust tests compile; that step's output goes to `DIR/prepare.log`, shown when it fails. The first failure
+/// stops.
 fn run_tests(root: &std::path::Path, no_python: bool) -> Result<(), Failure> {
+    let dir = root.join("target").join("xtask-test-python");
+    let mut prepare = if no_python {
+        None
+    } else {
+        Some(spawn_prepare(root, &dir)?)
+    };
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-    let mut steps: Vec<(std::process::Command, &str)> = Vec::new();
     let mut rust = std::process::Command::new(&cargo);
     rust.args(["test", "--workspace"]);
-    steps.push((rust, "cargo test --workspace"));
-    if !no_python {
-        let mut python = std::process::Command::new("bash");
-        python.arg(root.join(".ci/python"));
-        steps.push((python, "bash .ci/python"));
-    }
-    for (mut cmd, what) in steps {
-        let status = cmd.current_dir(root).status().map_err(|e| Failure {
-            message: format!("cannot run `{what}`: {e}"),
-            code: 1,
-        })?;
-        if !status.success() {
-            return Err(Failure {
-                message: format!("`{what}` failed ({status})"),
-                code: 1,
-            });
+    if let Err(f) = run_step(root, rust, "cargo test --workspace") {
+        if let Some(child) = prepare.as_mut() {
+            // The Rust tests failed: the venv is not needed any more.
+            let _ = child.kill();
+            let _ = child.wait();
         }
+        return Err(f);
     }
-    Ok(())
+    let Some(mut child) = prepare else {
+        return Ok(());
+    };
+    let status = child.wait().map_err(|e| Failure {
+        message: format!("cannot wait for `bash .ci/python prepare`: {e}"),
+        code: 1,
+    })?;
+    if !status.success() {
+        let log = std::fs::read_to_string(dir.join("prepare.log")).unwrap_or_default();
+        eprintln!("{log}");
+        return Err(Failure {
+            message: format!("`bash .ci/python prepare` failed ({status})"),
+            code: 1,
+        });
+    }
+    let mut python = std::process::Command::new("bash");
+    python.arg(root.join(".ci/python")).arg("run").arg(&dir);
+    run_step(root, python, "bash .ci/python run")
+}
+
+/// Starts `bash .ci/python prepare DIR` in the background, its output into `DIR/prepare.log`.
+fn spawn_prepare(
+    root: &std::path::Path,
+    dir: &std::path::Path,
+) -> Result<std::process::Child, Failure> {
+    let fail = |what: &str, e: std::io::Error| Failure {
+        message: format!("cannot {what} {}: {e}", dir.display()),
+        code: 1,
+    };
+    std::fs::create_dir_all(dir).map_err(|e| fail("create", e))?;
+    let log =
+        std::fs::File::create(dir.join("prepare.log")).map_err(|e| fail("write a log in", e))?;
+    let err = log.try_clone().map_err(|e| fail("write a log in", e))?;
+    std::process::Command::new("bash")
+        .arg(root.join(".ci/python"))
+        .arg("prepare")
+        .arg(dir)
+        .current_dir(root)
+        .stdout(log)
+        .stderr(err)
+        .spawn()
+        .map_err(|e| fail("prepare a Python venv in", e))
+}
+
+/// Runs one step in `root`; an error unless it succeeds.
+fn run_step(
+    root: &std::path::Path,
+    mut cmd: std::process::Command,
+    what: &str,
+) -> Result<(), Failure> {
+    let status = cmd.current_dir(root).status().map_err(|e| Failure {
+        message: format!("cannot run `{what}`: {e}"),
+        code: 1,
+    })?;
+    if status.success() {
+        Ok(())
+    } else {
+        Err(Failure {
+            message: format!("`{what}` failed ({status})"),
+            code: 1,
+        })
+    }
 }
