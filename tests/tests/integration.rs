@@ -1,5 +1,7 @@
 //! The integration tests of this crate in one test binary (one link instead of one per file):
 //! - `bev`: The battery-electric car against a hand integration of its equations on UDDS and HWFET, and its charge state
+//! - `cycle_columns`: A signal read from any column of the cycle file, against the same samples given as a signal
+//!   file; a bad cell in a used column names file, line and column
 //! - `codegen_vs_interpreter`: Generated code, compiled, agrees with the interpreter tape: every `InverseModel` method of every loadable
 //! - `docs_fresh`: The committed derived-equation documents (`docs/models/*.md`, `docs/README.md`) are what
 //! - `fusion_dynamic`: `models/ford_fusion_2012_dynamic.toml` on NEDC and UDDS: the inverse satisfies the original equations, the replay tracks, the imported parameters are kept
@@ -13,6 +15,7 @@
 
 mod bev;
 mod codegen_vs_interpreter;
+mod cycle_columns;
 mod docs_fresh;
 mod fusion_dynamic;
 mod golden;

@@ -8,7 +8,7 @@
 use invsim_model_api::ModelInfo;
 use thiserror::Error;
 
-use crate::cycle::{Cycle, GRADE_COLUMNS};
+use crate::cycle::{BadCell, Cycle, GRADE_COLUMNS};
 use crate::smoother::Smoother;
 
 /// A signal's values as given on the command line.
@@ -58,15 +58,39 @@ pub enum SignalError {
     Missing { name: String, column: String },
     #[error("signal `{name}`: the constant value {value} is not finite")]
     NotFinite { name: String, value: f64 },
+    #[error(
+        "{}:{}:{}: signal `{name}` reads the cycle column `{column}`, whose cell `{}` is not a finite number",
+        cell.file, cell.line, cell.column, cell.text
+    )]
+    BadCell {
+        name: String,
+        column: String,
+        cell: BadCell,
+    },
 }
 
-/// The cycle's samples of the column `column`, if it has one: the cycle reader keeps the grade column
-/// (`grade` or `cycGrade`, contract §4), so a signal reads `grade` and `cycGrade` from it.
-fn cycle_column<'c>(cycle: &'c Cycle, column: &str) -> Option<&'c [f64]> {
-    if GRADE_COLUMNS.contains(&column) {
-        return cycle.grade.as_deref();
+/// The cycle's samples of the column `column`, if it has one: `grade` and `cycGrade` read the cycle's grade
+/// column (either name, contract §4), any other name the extra column of that header name
+/// (case-sensitive); a cell of it that is not a finite number is an error naming file, line and column.
+fn cycle_column<'c>(
+    cycle: &'c Cycle,
+    name: &str,
+    column: &str,
+) -> Result<Option<&'c [f64]>, SignalError> {
+    if GRADE_COLUMNS.contains(&column) && cycle.grade.is_some() {
+        return Ok(cycle.grade.as_deref());
     }
-    None
+    let Some(c) = cycle.columns.iter().find(|c| c.name == column) else {
+        return Ok(None);
+    };
+    match &c.bad {
+        Some(cell) => Err(SignalError::BadCell {
+            name: name.to_string(),
+            column: column.to_string(),
+            cell: cell.clone(),
+        }),
+        None => Ok(Some(&c.values)),
+    }
 }
 
 /// Every signal of the model, from the first source that applies (see the module documentation).
@@ -115,7 +139,7 @@ pub fn resolve(
                 time: time.clone(),
                 values: values.clone(),
             },
-            None => match (cycle_column(cycle, &column), s.default) {
+            None => match (cycle_column(cycle, &s.name, &column)?, s.default) {
                 (Some(values), _) => ResolvedSignal {
                     name: s.name.clone(),
                     source: format!("cycle column {column}"),
