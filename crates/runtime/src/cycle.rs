@@ -7,11 +7,13 @@
 
 mod builtin;
 mod columns;
+mod printable;
 
 pub use builtin::BuiltinCycle;
 use builtin::{BUILTINS, BUILTIN_NAMES};
 use columns::ExtraColumns;
 pub use columns::{BadCell, CycleColumn};
+use printable::printable;
 
 use std::fmt::Write as _;
 use std::io::Read as _;
@@ -793,23 +795,6 @@ fn bound(what: &str) -> Bound {
             "a vehicle's speed (check the column's unit)",
         )
     }
-}
-
-/// `text` for a message: control characters (a NUL byte) escaped, at most 40 characters.
-fn printable(text: &str) -> String {
-    let mut out = String::new();
-    for (i, c) in text.chars().enumerate() {
-        if i == 40 {
-            out.push('…');
-            break;
-        }
-        if c.is_control() {
-            out.extend(c.escape_default());
-        } else {
-            out.push(c);
-        }
-    }
-    out
 }
 
 /// The samples read so far.

@@ -5,6 +5,8 @@
 //! error naming file, line and column, while a text column no signal uses (a comment, a phase name) costs
 //! nothing.
 
+use super::printable::printable;
+
 /// The first cell of an extra column that is not a finite number: where it is and what it holds.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BadCell {
@@ -70,7 +72,7 @@ impl ExtraColumns {
                     file: file.to_string(),
                     line,
                     column: field_column(line_text, *index),
-                    text: super::printable(text),
+                    text: printable(text),
                 });
             }
         }
