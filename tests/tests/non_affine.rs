@@ -203,3 +203,68 @@ fn compiled_code_equals_the_interpreter_along_a_run() {
         }
     }
 }
+
+/// φ(F) = F³/10⁶ − 3F has three roots for |φ| < 2000 (folds at F = ±1000): Newton's root depends on the start.
+const FOLDS: &str = r#"
+name = "folds"
+[parameters]
+m = 1000.0
+[states]
+v = { rhs = "(F^3/1e6 - 3*F)/m" }
+[input]
+name = "F"
+min = -4400.0
+max = 2000.0
+[output]
+name = "v"
+h = "v"
+"#;
+
+/// Along a sequence of points Newton's method starts from the previous point's input, so it stays on the
+/// root it started on: from the middle of the bounds (−1200, the left branch F < −1000) without a guess,
+/// on the right branch (F > 1000) from a guess there; every root solves φ(F) = m·y^(r).
+#[test]
+fn newton_follows_the_root_it_starts_near() {
+    let d = derive(FOLDS);
+    assert!(!d.affine && d.input_solution.is_none());
+    let interp = Interpreter::new(&d).unwrap();
+    let phi = |f: f64| f * f * f / 1e6 - 3.0 * f;
+    // y^(r) from 1.5 down to −1.5 m/s² (φ from 1500 to −1500: three roots throughout).
+    let n = 61;
+    let yr: Vec<f64> = (0..n)
+        .map(|k| 1.5 - 3.0 * k as f64 / (n - 1) as f64)
+        .collect();
+    let xi_col = vec![10.0; n];
+    let xi: [&[f64]; 1] = [&xi_col];
+    for (guess, right) in [(f64::NAN, false), (1900.0, true)] {
+        let mut x_col = vec![0.0; n];
+        let mut u = vec![0.0; n];
+        u[0] = guess;
+        {
+            let mut x: [&mut [f64]; 1] = [&mut x_col];
+            invsim_model_api::invert_pointwise(&interp, &xi, &[], &[], &yr, &mut x, &mut u)
+                .unwrap();
+        }
+        for k in 0..n {
+            assert!(
+                (phi(u[k]) - 1000.0 * yr[k]).abs() < 1e-9 * 2000.0,
+                "k = {k}: φ({}) ≠ {}",
+                u[k],
+                1000.0 * yr[k]
+            );
+            assert_eq!(
+                u[k] > 1000.0,
+                right,
+                "k = {k}: u = {} left its branch",
+                u[k]
+            );
+            assert!(right || u[k] < -1000.0, "k = {k}: u = {}", u[k]);
+        }
+        // Continuous: neighbouring roots differ by far less than the branches' gap.
+        let jump = u
+            .windows(2)
+            .map(|p| (p[1] - p[0]).abs())
+            .fold(0.0, f64::max);
+        assert!(jump < 100.0, "largest step {jump}");
+    }
+}
