@@ -504,11 +504,23 @@ impl InverseModel for Interpreter {
         self.alpha_beta(xi, eta, w).1
     }
     fn zero_dynamics(&self, xi: &[f64], eta: &[f64], w: &[f64], yr: f64, deta: &mut [f64]) {
+        self.zero_dynamics_from(xi, eta, w, yr, f64::NAN, deta)
+    }
+    /// As [`InverseModel::zero_dynamics`]; an input solved by Newton starts from `u_guess`.
+    fn zero_dynamics_from(
+        &self,
+        xi: &[f64],
+        eta: &[f64],
+        w: &[f64],
+        yr: f64,
+        u_guess: f64,
+        deta: &mut [f64],
+    ) {
         if self.closed {
             let u = if self.affine || self.special.solution.n_outputs() > 0 {
                 0.0
             } else {
-                self.solve_input(xi, eta, w, yr, f64::NAN)
+                self.solve_input(xi, eta, w, yr, u_guess)
                     .unwrap_or(f64::NAN)
             };
             self.special.zero.eval_parts(&[xi, eta, w, &[yr, u]], deta);

@@ -275,6 +275,22 @@ pub trait InverseModel: Send + Sync {
         self.invert(xi, eta, w, yr, x)
     }
 
+    /// [`InverseModel::zero_dynamics`] where the input u in them solves y^(r) = φ(ξ, η, w, u) by Newton's
+    /// method: it starts from `u_guess` (the previous sample's input, as in [`InverseModel::invert_from`]),
+    /// so that η moves with the same root as the inverse; elsewhere the guess is ignored.
+    fn zero_dynamics_from(
+        &self,
+        xi: &[f64],
+        eta: &[f64],
+        w: &[f64],
+        yr: f64,
+        u_guess: f64,
+        deta: &mut [f64],
+    ) {
+        let _ = u_guess;
+        self.zero_dynamics(xi, eta, w, yr, deta)
+    }
+
     /// The inverse at many points, stored column-wise: ξ_i at point k is `xi[i][k]`, η_j is `eta[j][k]`,
     /// the signal value w_l is `w[l][k]`, y^(r) is `yr[k]`; x_s is written to `x[s][k]` and u to `u[k]`. On entry `x[s][0]` is the guess for the
     /// first point (where ψ⁻¹ is numeric) and `u[0]` the guess for its input (NaN: none, see

@@ -222,13 +222,20 @@ fn non_affine(ne: usize, isolated: bool, w: &WTokens) -> Impls {
     let psi_inv = closed(ne, w).0;
     // The zero dynamics take u: none where it is substituted by the input solution, else Newton's.
     let u = if isolated {
-        quote!(0.0)
+        quote!({
+            let _ = u_guess;
+            0.0
+        })
     } else {
-        quote!(self.pre.solve_input(arr(xi), arr(eta) #wa, yr, f64::NAN).unwrap_or(f64::NAN))
+        quote!(self.pre.solve_input(arr(xi), arr(eta) #wa, yr, u_guess).unwrap_or(f64::NAN))
     };
     let zero = if ne > 0 {
         quote! {
             fn zero_dynamics(&self, xi: &[f64], eta: &[f64], #wn: &[f64], yr: f64, deta: &mut [f64]) {
+                self.zero_dynamics_from(xi, eta, #wn, yr, f64::NAN, deta);
+            }
+            /// The zero dynamics at the input solving φ = y^(r) (Newton from `u_guess`).
+            fn zero_dynamics_from(&self, xi: &[f64], eta: &[f64], #wn: &[f64], yr: f64, u_guess: f64, deta: &mut [f64]) {
                 let u = #u;
                 deta.copy_from_slice(&self.pre.zero_dynamics(arr(xi), arr(eta) #wa, yr, u));
             }

@@ -118,11 +118,13 @@ impl Causal {
         r: usize,
     ) -> Result<(), SimulateError> {
         let mut w_s = vec![0.0; self.w.len()];
+        // An input solved by Newton's method starts from the last sample's (the root the inverse follows).
+        let u_prev = self.u;
         let mut q = |s: f64, e: &[f64], de: &mut [f64]| {
             let mut yd_s = [0.0_f64; MAX_DERIVATIVES];
             smoother.eval(s, &mut yd_s[..=r]);
             smoother.eval_signals(s, &mut w_s);
-            model.zero_dynamics(&yd_s[..r], e, &w_s, yd_s[r], de);
+            model.zero_dynamics_from(&yd_s[..r], e, &w_s, yd_s[r], u_prev, de);
             Ok(())
         };
         let Err(err) = self.integrator.advance(t_prev, t, &mut self.eta, &mut q) else {
