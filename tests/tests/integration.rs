@@ -1,7 +1,11 @@
 //! The integration tests of this crate in one test binary (one link instead of one per file):
 //! - `bev`: The battery-electric car against a hand integration of its equations on UDDS and HWFET, and its charge state
+//! - `cycle_columns`: A signal read from any column of the cycle file, against the same samples given as a signal
+//!   file; a bad cell in a used column names file, line and column
 //! - `codegen_vs_interpreter`: Generated code, compiled, agrees with the interpreter tape: every `InverseModel` method of every loadable
 //! - `docs_fresh`: The committed derived-equation documents (`docs/models/*.md`, `docs/README.md`) are what
+//! - `elevation`: Road grade from elevation over distance: a constant slope, a sinusoidal profile along the
+//!   smoothed reference's distance, fuel with the profile against the equivalent grade signal
 //! - `fusion_dynamic`: `models/ford_fusion_2012_dynamic.toml` on NEDC and UDDS: the inverse satisfies the original equations, the replay tracks, the imported parameters are kept
 //! - `golden`: The generated source for `models/si_engine.toml` equals the reviewed copy in
 //! - `inverse_consistency`: The inverse simulation satisfies the original model: along NEDC, at every sample, the state and input that
@@ -15,7 +19,9 @@
 
 mod bev;
 mod codegen_vs_interpreter;
+mod cycle_columns;
 mod docs_fresh;
+mod elevation;
 mod fusion_dynamic;
 mod golden;
 mod inverse_consistency;

@@ -69,6 +69,7 @@ mod runtime {
             time: vec![0.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0, 70.0],
             speed: vec![0.0, 0.0, 5.0, 5.0, 8.0, 8.0, 0.0, 0.0],
             grade: None,
+            columns: Vec::new(),
         }
     }
 

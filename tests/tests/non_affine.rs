@@ -128,3 +128,143 @@ fn an_affine_model_keeps_alpha_and_beta() {
         json["alpha"].is_string() && json["beta"].is_string() && json.get("yr_equation").is_none()
     );
 }
+
+/// The worst relative difference of two runs' input and state columns (relative to each column's peak).
+fn run_difference(
+    a: &invsim_runtime::SimulationResult,
+    b: &invsim_runtime::SimulationResult,
+    states: &[String],
+) -> f64 {
+    let mut cols = vec![(a.input(), b.input())];
+    for s in states {
+        cols.push((a.column(s).unwrap(), b.column(s).unwrap()));
+    }
+    let mut worst = 0.0f64;
+    for (x, y) in cols {
+        assert_eq!(x.len(), y.len());
+        let peak = x.iter().fold(0.0f64, |m, v| m.max(v.abs())).max(1e-300);
+        for (p, q) in x.iter().zip(y) {
+            worst = worst.max((p - q).abs() / peak);
+        }
+    }
+    worst
+}
+
+/// Generated code (compiled by this crate's build script from `tests/models/nonaffine_*.toml`, and
+/// `models/bev.toml` from `invsim-models`) runs as the interpreter does: Newton's method for the input from
+/// the previous sample's, the isolated input in closed form.
+#[test]
+fn compiled_code_equals_the_interpreter_along_a_run() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let cases: [(&str, std::path::PathBuf, Box<dyn InverseModel>); 3] = [
+        (
+            "nonaffine_isolated",
+            root.join("models/nonaffine_isolated.toml"),
+            invsim_tests::extra::builtin("nonaffine_isolated").expect("compiled"),
+        ),
+        (
+            "nonaffine_newton",
+            root.join("models/nonaffine_newton.toml"),
+            invsim_tests::extra::builtin("nonaffine_newton").expect("compiled"),
+        ),
+        (
+            "bev",
+            root.join("../models/bev.toml"),
+            invsim_models::builtin("bev").expect("compiled"),
+        ),
+    ];
+    let cycle = Cycle::builtin("udds").unwrap();
+    for (name, file, compiled) in cases {
+        let d = invsim_inversion::derive_file(&file).unwrap();
+        let interp = Interpreter::new(&d).unwrap();
+        let opts = |engine: &str| SimulationOptions {
+            dt: 0.1,
+            engine: engine.into(),
+            ..SimulationOptions::default()
+        };
+        let a = simulate(&interp, &cycle, &opts("interpreted")).unwrap();
+        let b = simulate(compiled.as_ref(), &cycle, &opts("compiled")).unwrap();
+        let states: Vec<String> = d.model.states.iter().map(|s| s.name.clone()).collect();
+        let worst = run_difference(&a, &b, &states);
+        eprintln!("{name}: compiled vs interpreted, worst relative difference {worst:e}");
+        assert!(worst < 1e-10, "{name}: compiled vs interpreted {worst:e}");
+        // Newton from the previous sample's input and from the middle of the bounds reach the same root.
+        if name == "nonaffine_newton" {
+            let (xi, eta, mut x) = ([10.0], [0.1], [0.0, 0.0]);
+            let from_middle = compiled.invert(&xi, &eta, &[], 0.5, &mut x).unwrap();
+            let warm = compiled
+                .invert_from(&xi, &eta, &[], 0.5, &mut x, from_middle + 7.0)
+                .unwrap();
+            let warm_interp = interp
+                .invert_from(&xi, &eta, &[], 0.5, &mut x, from_middle + 7.0)
+                .unwrap();
+            assert!((warm - from_middle).abs() < 1e-9 * from_middle.abs());
+            assert!((warm - warm_interp).abs() < 1e-12 * warm.abs());
+        }
+    }
+}
+
+/// φ(F) = F³/10⁶ − 3F has three roots for |φ| < 2000 (folds at F = ±1000): Newton's root depends on the start.
+const FOLDS: &str = r#"
+name = "folds"
+[parameters]
+m = 1000.0
+[states]
+v = { rhs = "(F^3/1e6 - 3*F)/m" }
+[input]
+name = "F"
+min = -4400.0
+max = 2000.0
+[output]
+name = "v"
+h = "v"
+"#;
+
+/// Along a sequence of points Newton's method starts from the previous point's input, so it stays on the
+/// root it started on: from the middle of the bounds (−1200, the left branch F < −1000) without a guess,
+/// on the right branch (F > 1000) from a guess there; every root solves φ(F) = m·y^(r).
+#[test]
+fn newton_follows_the_root_it_starts_near() {
+    let d = derive(FOLDS);
+    assert!(!d.affine && d.input_solution.is_none());
+    let interp = Interpreter::new(&d).unwrap();
+    let phi = |f: f64| f * f * f / 1e6 - 3.0 * f;
+    // y^(r) from 1.5 down to −1.5 m/s² (φ from 1500 to −1500: three roots throughout).
+    let n = 61;
+    let yr: Vec<f64> = (0..n)
+        .map(|k| 1.5 - 3.0 * k as f64 / (n - 1) as f64)
+        .collect();
+    let xi_col = vec![10.0; n];
+    let xi: [&[f64]; 1] = [&xi_col];
+    for (guess, right) in [(f64::NAN, false), (1900.0, true)] {
+        let mut x_col = vec![0.0; n];
+        let mut u = vec![0.0; n];
+        u[0] = guess;
+        {
+            let mut x: [&mut [f64]; 1] = [&mut x_col];
+            invsim_model_api::invert_pointwise(&interp, &xi, &[], &[], &yr, &mut x, &mut u)
+                .unwrap();
+        }
+        for k in 0..n {
+            assert!(
+                (phi(u[k]) - 1000.0 * yr[k]).abs() < 1e-9 * 2000.0,
+                "k = {k}: φ({}) ≠ {}",
+                u[k],
+                1000.0 * yr[k]
+            );
+            assert_eq!(
+                u[k] > 1000.0,
+                right,
+                "k = {k}: u = {} left its branch",
+                u[k]
+            );
+            assert!(right || u[k] < -1000.0, "k = {k}: u = {}", u[k]);
+        }
+        // Continuous: neighbouring roots differ by far less than the branches' gap.
+        let jump = u
+            .windows(2)
+            .map(|p| (p[1] - p[0]).abs())
+            .fold(0.0, f64::max);
+        assert!(jump < 100.0, "largest step {jump}");
+    }
+}

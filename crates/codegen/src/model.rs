@@ -4,6 +4,7 @@
 //! * [`functions`]: their lowering (one invariant arena for all), `Precomputed::new`, the methods and the
 //!   free wrappers, operands resolved by [`atoms`];
 //! * [`newton`]: ψ⁻¹ by Newton's method when it has no closed form;
+//! * [`solve_input`]: the input of a y^(r) that is not affine in it (isolated, or Newton's method);
 //! * [`batch`]: `invert_batch` and `outputs_batch` over columns of points;
 //! * [`params`]: the constants and `Params`;
 //! * [`trait_impl`]: `Model` and its `InverseModel` impl;
@@ -21,6 +22,7 @@ mod lints;
 mod maps;
 mod newton;
 mod params;
+mod solve_input;
 mod trait_impl;
 
 use crate::error::CodegenError;
@@ -50,6 +52,12 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
         methods.extend(newton.methods);
         free_fns.extend(newton.free);
         helpers.extend(newton.helpers);
+    }
+    if g.closed && !g.affine {
+        let solve = solve_input::solve_input(&g);
+        methods.extend(solve.methods);
+        free_fns.extend(solve.free);
+        helpers.extend(solve.helpers);
     }
     if pre.uses_sign || sign || batch.uses_sign {
         helpers.push(functions::sign_helper());

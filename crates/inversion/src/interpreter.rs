@@ -347,9 +347,17 @@ impl Interpreter {
     }
 
     /// u with y^(r) = φ(ξ, η, w, u) = yr (non-affine models): the input solution where u was isolated, else
-    /// Newton's method with the analytic ∂φ/∂u from the middle of the input's bounds (0 without bounds),
-    /// each step halved until |φ − yr| decreases; converged when the step is below 1e-12·(1 + |u|).
-    fn solve_input(&self, xi: &[f64], eta: &[f64], w: &[f64], yr: f64) -> Result<f64, ModelError> {
+    /// Newton's method with the analytic ∂φ/∂u from `start` (the previous sample's input; NaN: the middle of
+    /// the input's bounds, 0 without bounds), each step halved until |φ − yr| decreases; converged when the
+    /// step is below 1e-12·(1 + |u|).
+    fn solve_input(
+        &self,
+        xi: &[f64],
+        eta: &[f64],
+        w: &[f64],
+        yr: f64,
+        start: f64,
+    ) -> Result<f64, ModelError> {
         if self.special.solution.n_outputs() > 0 {
             let mut u = [0.0];
             self.special
@@ -363,7 +371,11 @@ impl Interpreter {
             }
             return Ok(u[0]);
         }
-        let mut u = self.u_start;
+        let mut u = if start.is_finite() {
+            start
+        } else {
+            self.u_start
+        };
         let (mut phi, mut dphi) = self.phi(xi, eta, w, u);
         let mut residual = (phi - yr).abs();
         for _ in 0..PSI_INV_NEWTON_MAX_ITER {
@@ -492,11 +504,24 @@ impl InverseModel for Interpreter {
         self.alpha_beta(xi, eta, w).1
     }
     fn zero_dynamics(&self, xi: &[f64], eta: &[f64], w: &[f64], yr: f64, deta: &mut [f64]) {
+        self.zero_dynamics_from(xi, eta, w, yr, f64::NAN, deta)
+    }
+    /// As [`InverseModel::zero_dynamics`]; an input solved by Newton starts from `u_guess`.
+    fn zero_dynamics_from(
+        &self,
+        xi: &[f64],
+        eta: &[f64],
+        w: &[f64],
+        yr: f64,
+        u_guess: f64,
+        deta: &mut [f64],
+    ) {
         if self.closed {
             let u = if self.affine || self.special.solution.n_outputs() > 0 {
                 0.0
             } else {
-                self.solve_input(xi, eta, w, yr).unwrap_or(f64::NAN)
+                self.solve_input(xi, eta, w, yr, u_guess)
+                    .unwrap_or(f64::NAN)
             };
             self.special.zero.eval_parts(&[xi, eta, w, &[yr, u]], deta);
         } else {
@@ -567,12 +592,25 @@ impl InverseModel for Interpreter {
         yr: f64,
         x: &mut [f64],
     ) -> Result<f64, ModelError> {
+        self.invert_from(xi, eta, w, yr, x, f64::NAN)
+    }
+
+    /// As [`InverseModel::invert`]; a non-affine y^(r) solved by Newton starts from `u_guess`.
+    fn invert_from(
+        &self,
+        xi: &[f64],
+        eta: &[f64],
+        w: &[f64],
+        yr: f64,
+        x: &mut [f64],
+        u_guess: f64,
+    ) -> Result<f64, ModelError> {
         if self.closed && !self.affine {
             let n = self.n;
             let mut buf = vec![0.0; n];
             self.special.invert.eval_parts(&[xi, eta, w], &mut buf);
             x.copy_from_slice(&buf);
-            return self.solve_input(xi, eta, w, yr);
+            return self.solve_input(xi, eta, w, yr, u_guess);
         }
         if self.closed {
             let (a, b) = self.invert_closed(xi, eta, w, x);

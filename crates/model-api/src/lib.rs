@@ -258,9 +258,43 @@ pub trait InverseModel: Send + Sync {
         Ok((yr - self.alpha(xi, eta, w)) / self.beta(xi, eta, w))
     }
 
+    /// [`InverseModel::invert`] with a guess for the input: where u solves y^(r) = φ(ξ, η, w, u) by Newton's
+    /// method (a model whose y^(r) is not affine in u, without a closed-form input solution), Newton starts
+    /// from `u_guess`, the previous sample's input, so that a run follows one continuous root; a NaN guess
+    /// starts from the model's own start (the middle of the input's bounds). Elsewhere the guess is ignored.
+    fn invert_from(
+        &self,
+        xi: &[f64],
+        eta: &[f64],
+        w: &[f64],
+        yr: f64,
+        x: &mut [f64],
+        u_guess: f64,
+    ) -> Result<f64, ModelError> {
+        let _ = u_guess;
+        self.invert(xi, eta, w, yr, x)
+    }
+
+    /// [`InverseModel::zero_dynamics`] where the input u in them solves y^(r) = φ(ξ, η, w, u) by Newton's
+    /// method: it starts from `u_guess` (the previous sample's input, as in [`InverseModel::invert_from`]),
+    /// so that η moves with the same root as the inverse; elsewhere the guess is ignored.
+    fn zero_dynamics_from(
+        &self,
+        xi: &[f64],
+        eta: &[f64],
+        w: &[f64],
+        yr: f64,
+        u_guess: f64,
+        deta: &mut [f64],
+    ) {
+        let _ = u_guess;
+        self.zero_dynamics(xi, eta, w, yr, deta)
+    }
+
     /// The inverse at many points, stored column-wise: ξ_i at point k is `xi[i][k]`, η_j is `eta[j][k]`,
     /// the signal value w_l is `w[l][k]`, y^(r) is `yr[k]`; x_s is written to `x[s][k]` and u to `u[k]`. On entry `x[s][0]` is the guess for the
-    /// first point (where ψ⁻¹ is numeric); each later point starts from its predecessor.
+    /// first point (where ψ⁻¹ is numeric) and `u[0]` the guess for its input (NaN: none, see
+    /// [`InverseModel::invert_from`]); each later point starts from its predecessor.
     ///
     /// Returns the index of the first point that fails, with its error. The default calls
     /// [`InverseModel::invert`] point by point; an interpreter overrides it to amortise its dispatch.
@@ -345,6 +379,8 @@ pub fn invert_pointwise<M: InverseModel + ?Sized>(
         .iter()
         .map(|c| c.first().copied().unwrap_or(0.0))
         .collect();
+    // The input's guess: the caller's for the first point, then the previous point's input.
+    let mut u_guess = u.first().copied().unwrap_or(f64::NAN);
     for k in 0..yr.len() {
         for (v, c) in xi_k.iter_mut().zip(xi) {
             *v = c[k];
@@ -356,8 +392,9 @@ pub fn invert_pointwise<M: InverseModel + ?Sized>(
             *v = c[k];
         }
         u[k] = model
-            .invert(&xi_k, &eta_k, &w_k, yr[k], &mut x_k)
+            .invert_from(&xi_k, &eta_k, &w_k, yr[k], &mut x_k, u_guess)
             .map_err(|e| (k, e))?;
+        u_guess = u[k];
         for (c, &v) in x.iter_mut().zip(&x_k) {
             c[k] = v;
         }

@@ -6,9 +6,14 @@
 //! input `y_c` that the smoother convolves with the paper's kernel (Fröberg & Nielsen 2004, eq. 33–35).
 
 mod builtin;
+mod columns;
+mod printable;
 
 pub use builtin::BuiltinCycle;
 use builtin::{BUILTINS, BUILTIN_NAMES};
+use columns::ExtraColumns;
+pub use columns::{BadCell, CycleColumn};
+use printable::printable;
 
 use std::fmt::Write as _;
 use std::io::Read as _;
@@ -39,6 +44,8 @@ pub struct Cycle {
     pub speed: Vec<f64>,
     /// Road grade (decimal) at each sample time, when the file has a grade column.
     pub grade: Option<Vec<f64>>,
+    /// The file's other columns by header name, for signals (contract §5); empty for a built-in cycle.
+    pub columns: Vec<CycleColumn>,
 }
 
 /// Errors from loading or checking a drive cycle. Every message names the file (or the cycle) and, where it
@@ -323,6 +330,7 @@ fn from_waypoints(name: &str, parts: &[(f64, &[(f64, f64)])]) -> Cycle {
         time,
         speed,
         grade: None,
+        columns: Vec::new(),
     }
 }
 
@@ -351,6 +359,7 @@ impl Cycle {
                 time,
                 speed,
                 grade: None,
+                columns: Vec::new(),
             }),
         }
     }
@@ -407,8 +416,9 @@ impl Cycle {
     /// The first non-blank row is the header (an optional UTF-8 byte-order mark is skipped; names are trimmed
     /// and matched ignoring ASCII case). Recognised columns: time `time_s`, `time_seconds`, `cycSecs`, `t`;
     /// speed `speed_mps`, `mps`, `cycMps`, `speed_meters_per_second` (m/s), `speed_kmh` (km/h), `speed_mph`
-    /// (mph); optional grade `grade`, `cycGrade`. Other columns are ignored, blank lines skipped. Every data
-    /// row must have as many fields as the header.
+    /// (mph); optional grade `grade`, `cycGrade`. Other columns are kept by name in [`Cycle::columns`] for
+    /// signals and checked only when a signal reads them; blank lines skipped. Every data row must have as
+    /// many fields as the header.
     pub fn from_csv_str(name: &str, text: &str) -> Result<Cycle, CycleError> {
         parse_csv(name.to_string(), name, text)
     }
@@ -593,6 +603,21 @@ impl<'a> Lines<'a> {
         1 + self.newlines.partition_point(|&i| i < byte + skipped) as u64
     }
 
+    /// The text of 1-based `line` (without its line break).
+    fn text_of(&self, line: u64) -> &'a str {
+        let i = line.saturating_sub(1) as usize;
+        let start = if i == 0 {
+            0
+        } else {
+            self.newlines.get(i - 1).map_or(self.text.len(), |&n| n + 1)
+        };
+        let end = self.newlines.get(i).copied().unwrap_or(self.text.len());
+        self.text
+            .get(start..end.max(start))
+            .unwrap_or("")
+            .trim_end_matches('\r')
+    }
+
     fn of(&self, r: &csv::StringRecord) -> u64 {
         r.position().map_or(0, |p| self.at(p.byte() as usize))
     }
@@ -617,6 +642,8 @@ struct Columns {
     speed: Column,
     unit: SpeedUnit,
     grade: Option<Column>,
+    /// Indices of the fields with no role (kept for signals, `cycle/columns.rs`).
+    extra: Vec<usize>,
     /// Number of fields of the header (every row must have as many).
     width: usize,
 }
@@ -650,8 +677,12 @@ fn choose_columns(file: &str, line: u64, names: &[String]) -> Result<Columns, Cy
     let mut time_col: Option<Column> = None;
     let mut speed_col: Option<(Column, SpeedUnit)> = None;
     let mut grade_col: Option<Column> = None;
+    let mut extra = Vec::new();
     for (index, n) in names.iter().enumerate() {
-        let Some(role) = role_of(n) else { continue };
+        let Some(role) = role_of(n) else {
+            extra.push(index);
+            continue;
+        };
         let (slot_name, kind) = match role {
             Role::Time => (time_col.as_ref().map(|c| (c.index, &c.name)), "time"),
             Role::Speed(_) => (speed_col.as_ref().map(|(c, _)| (c.index, &c.name)), "speed"),
@@ -697,6 +728,7 @@ fn choose_columns(file: &str, line: u64, names: &[String]) -> Result<Columns, Cy
         speed,
         unit,
         grade: grade_col,
+        extra,
         width: names.len(),
     })
 }
@@ -765,28 +797,12 @@ fn bound(what: &str) -> Bound {
     }
 }
 
-/// `text` for a message: control characters (a NUL byte) escaped, at most 40 characters.
-fn printable(text: &str) -> String {
-    let mut out = String::new();
-    for (i, c) in text.chars().enumerate() {
-        if i == 40 {
-            out.push('…');
-            break;
-        }
-        if c.is_control() {
-            out.extend(c.escape_default());
-        } else {
-            out.push(c);
-        }
-    }
-    out
-}
-
 /// The samples read so far.
 struct Samples {
     time: Vec<f64>,
     speed: Vec<f64>,
     grade: Option<Vec<f64>>,
+    extra: ExtraColumns,
 }
 
 impl Samples {
@@ -874,6 +890,7 @@ fn parse_csv(name: String, file: &str, text: &str) -> Result<Cycle, CycleError> 
         time: Vec::new(),
         speed: Vec::new(),
         grade: cols.grade.as_ref().map(|_| Vec::new()),
+        extra: ExtraColumns::new(&names, cols.extra.iter().copied()),
     };
     let (mut row, mut last_line) = (0usize, 0u64);
     for record in records {
@@ -889,6 +906,9 @@ fn parse_csv(name: String, file: &str, text: &str) -> Result<Cycle, CycleError> 
         };
         last_line = at.line;
         samples.push(&at, &record, &cols)?;
+        samples
+            .extra
+            .push(&record, (file, at.line, lines.text_of(at.line)));
     }
     if samples.time.len() < 2 {
         return Err(CycleError::TooFewRows {
@@ -911,5 +931,6 @@ fn parse_csv(name: String, file: &str, text: &str) -> Result<Cycle, CycleError> 
         time: samples.time,
         speed: samples.speed,
         grade: samples.grade,
+        columns: samples.extra.finish(),
     })
 }

@@ -12,6 +12,7 @@
 //! (writing results); [`sweep`] (parameter sweeps over many variants, on `inverse`).
 
 pub mod cycle;
+pub mod elevation;
 mod error;
 pub mod forward;
 pub mod grid;

@@ -1,14 +1,17 @@
 //! Where each of a model's exogenous signals comes from (contract §5), first that applies: the command
 //! line (`--signal NAME=FILE.csv` or `--signal NAME=VALUE`, given here as [`SignalInput`]s), the cycle file's
 //! column (`column`, default the signal's name; a signal named `grade` also matches `cycGrade`), the model's
-//! `default`. None of these is an error naming the signal. A raw signal is linear between its samples and
+//! `default`. A grade signal may come as elevation over distance instead (a route file, or the cycle's
+//! `elevation_m`/`elevation_ft` column), turned into grade along the run's distance (`elevation.rs`). None
+//! of these is an error naming the signal. A raw signal is linear between its samples and
 //! held outside its span; [`smoothers`] turns the resolved signals into smoothers with the reference's
 //! kernel and look-ahead (exact derivatives, `smoother/signals.rs`).
 
-use invsim_model_api::ModelInfo;
+use invsim_model_api::{ModelInfo, SignalInfo};
 use thiserror::Error;
 
-use crate::cycle::{Cycle, GRADE_COLUMNS};
+use crate::cycle::{BadCell, Cycle, GRADE_COLUMNS};
+use crate::elevation::{Along, Route, TooSteep, ELEVATION_COLUMNS};
 use crate::smoother::Smoother;
 
 /// A signal's values as given on the command line.
@@ -22,6 +25,9 @@ pub enum SignalValue {
         time: Vec<f64>,
         values: Vec<f64>,
     },
+    /// `--signal grade=ROUTE.csv`: elevation over distance, from `file`, read as grade along the run's
+    /// distance (`elevation.rs`).
+    Route { file: String, route: Route },
 }
 
 /// One `--signal NAME=…`.
@@ -58,22 +64,68 @@ pub enum SignalError {
     Missing { name: String, column: String },
     #[error("signal `{name}`: the constant value {value} is not finite")]
     NotFinite { name: String, value: f64 },
+    #[error(
+        "{}:{}:{}: signal `{name}` reads the cycle column `{column}`, whose cell `{}` is not a finite number",
+        cell.file, cell.line, cell.column, cell.text
+    )]
+    BadCell {
+        name: String,
+        column: String,
+        cell: BadCell,
+    },
+    #[error(
+        "signal `{name}`: {file} is a route profile (elevation over distance), which gives a road grade; only \
+         a grade signal (named `grade`, or reading the column `grade` or `cycGrade`) takes one"
+    )]
+    RouteNotGrade { name: String, file: String },
+    #[error("signal `{name}` from {origin}: {error}")]
+    TooSteep {
+        name: String,
+        origin: String,
+        error: TooSteep,
+    },
 }
 
-/// The cycle's samples of the column `column`, if it has one: the cycle reader keeps the grade column
-/// (`grade` or `cycGrade`, contract §4), so a signal reads `grade` and `cycGrade` from it.
-fn cycle_column<'c>(cycle: &'c Cycle, column: &str) -> Option<&'c [f64]> {
-    if GRADE_COLUMNS.contains(&column) {
-        return cycle.grade.as_deref();
+/// The cycle's samples of the column `column`, if it has one: `grade` and `cycGrade` read the cycle's grade
+/// column (either name, contract §4), any other name the extra column of that header name
+/// (case-sensitive); a cell of it that is not a finite number is an error naming file, line and column.
+fn cycle_column<'c>(
+    cycle: &'c Cycle,
+    name: &str,
+    column: &str,
+) -> Result<Option<&'c [f64]>, SignalError> {
+    if GRADE_COLUMNS.contains(&column) && cycle.grade.is_some() {
+        return Ok(cycle.grade.as_deref());
     }
-    None
+    let Some(c) = cycle.columns.iter().find(|c| c.name == column) else {
+        return Ok(None);
+    };
+    match &c.bad {
+        Some(cell) => Err(SignalError::BadCell {
+            name: name.to_string(),
+            column: column.to_string(),
+            cell: cell.clone(),
+        }),
+        None => Ok(Some(&c.values)),
+    }
 }
 
-/// Every signal of the model, from the first source that applies (see the module documentation).
+/// Every signal of the model, from the first source that applies (see the module documentation); a route
+/// profile (elevation over distance) is read along the raw cycle's distance (the forward simulation).
 pub fn resolve(
     info: &ModelInfo,
     cycle: &Cycle,
     given: &[SignalInput],
+) -> Result<Vec<ResolvedSignal>, SignalError> {
+    resolve_along(info, cycle, given, Along::Cycle)
+}
+
+/// [`resolve`] reading route profiles along `along` (the inverse: the smoothed reference's distance).
+pub fn resolve_along(
+    info: &ModelInfo,
+    cycle: &Cycle,
+    given: &[SignalInput],
+    along: Along,
 ) -> Result<Vec<ResolvedSignal>, SignalError> {
     for (i, g) in given.iter().enumerate() {
         if !info.signals.iter().any(|s| s.name == g.name) {
@@ -89,51 +141,103 @@ pub fn resolve(
             });
         }
     }
+    info.signals
+        .iter()
+        .map(|s| {
+            let value = given.iter().find(|g| g.name == s.name).map(|g| &g.value);
+            resolve_one(s, cycle, value, along)
+        })
+        .collect()
+}
+
+/// A signal is a grade (and may be given as elevation) when it is named `grade` or reads a grade column.
+fn is_grade(s: &SignalInfo) -> bool {
+    s.name == "grade"
+        || s.column
+            .as_deref()
+            .is_some_and(|c| GRADE_COLUMNS.contains(&c))
+}
+
+/// One signal from the command line's `value`, the cycle or its default.
+fn resolve_one(
+    s: &SignalInfo,
+    cycle: &Cycle,
+    value: Option<&SignalValue>,
+    along: Along,
+) -> Result<ResolvedSignal, SignalError> {
     let t0 = cycle.time.first().copied().unwrap_or(0.0);
-    let constant = |name: &str, source: String, value: f64| ResolvedSignal {
-        name: name.to_string(),
+    let series = |source: String, (time, values): (Vec<f64>, Vec<f64>)| ResolvedSignal {
+        name: s.name.clone(),
         source,
-        time: vec![t0],
-        values: vec![value],
+        time,
+        values,
     };
-    let mut out = Vec::with_capacity(info.signals.len());
-    for s in &info.signals {
-        let column = s.column.clone().unwrap_or_else(|| s.name.clone());
-        let resolved = match given.iter().find(|g| g.name == s.name).map(|g| &g.value) {
-            Some(SignalValue::Constant(v)) if !v.is_finite() => {
-                return Err(SignalError::NotFinite {
-                    name: s.name.clone(),
-                    value: *v,
-                })
+    let column = s.column.clone().unwrap_or_else(|| s.name.clone());
+    let steep = |source: &str, e| SignalError::TooSteep {
+        name: s.name.clone(),
+        origin: source.to_string(),
+        error: e,
+    };
+    match value {
+        Some(SignalValue::Constant(v)) if !v.is_finite() => Err(SignalError::NotFinite {
+            name: s.name.clone(),
+            value: *v,
+        }),
+        Some(SignalValue::Constant(v)) => Ok(series(
+            "command line (constant)".into(),
+            (vec![t0], vec![*v]),
+        )),
+        Some(SignalValue::Series { file, time, values }) => Ok(series(
+            format!("command line ({file})"),
+            (time.clone(), values.clone()),
+        )),
+        Some(SignalValue::Route { file, .. }) if !is_grade(s) => Err(SignalError::RouteNotGrade {
+            name: s.name.clone(),
+            file: file.clone(),
+        }),
+        Some(SignalValue::Route { file, route }) => {
+            let samples = route
+                .grade_over_time(cycle, along)
+                .map_err(|e| steep(file, e))?;
+            Ok(series(
+                format!("command line ({file}, elevation over distance)"),
+                samples,
+            ))
+        }
+        None => {
+            if let Some(values) = cycle_column(cycle, &s.name, &column)? {
+                let samples = (cycle.time.clone(), values.to_vec());
+                return Ok(series(format!("cycle column {column}"), samples));
             }
-            Some(SignalValue::Constant(v)) => {
-                constant(&s.name, "command line (constant)".to_string(), *v)
+            if let Some((name, route)) = cycle_elevation(s, cycle)? {
+                let samples = route
+                    .grade_over_time(cycle, along)
+                    .map_err(|e| steep(&format!("the cycle's column {name}"), e))?;
+                return Ok(series(format!("cycle column {name}, as grade"), samples));
             }
-            Some(SignalValue::Series { file, time, values }) => ResolvedSignal {
-                name: s.name.clone(),
-                source: format!("command line ({file})"),
-                time: time.clone(),
-                values: values.clone(),
-            },
-            None => match (cycle_column(cycle, &column), s.default) {
-                (Some(values), _) => ResolvedSignal {
+            match s.default {
+                Some(d) => Ok(series("default".into(), (vec![t0], vec![d]))),
+                None => Err(SignalError::Missing {
                     name: s.name.clone(),
-                    source: format!("cycle column {column}"),
-                    time: cycle.time.clone(),
-                    values: values.to_vec(),
-                },
-                (None, Some(d)) => constant(&s.name, "default".to_string(), d),
-                (None, None) => {
-                    return Err(SignalError::Missing {
-                        name: s.name.clone(),
-                        column,
-                    })
-                }
-            },
-        };
-        out.push(resolved);
+                    column,
+                }),
+            }
+        }
     }
-    Ok(out)
+}
+
+/// The route profile of the cycle's elevation column (`elevation_m`, `elevation_ft`) for a grade signal.
+fn cycle_elevation(s: &SignalInfo, cycle: &Cycle) -> Result<Option<(String, Route)>, SignalError> {
+    if !is_grade(s) {
+        return Ok(None);
+    }
+    for &(name, factor) in ELEVATION_COLUMNS {
+        if let Some(values) = cycle_column(cycle, &s.name, name)? {
+            let metres: Vec<f64> = values.iter().map(|h| h * factor).collect();
+            return Ok(Some((name.to_string(), Route::of_cycle(cycle, &metres))));
+        }
+    }
+    Ok(None)
 }
 
 /// The resolved signals smoothed with the kernel of half-width `lookahead` (the reference's).

@@ -411,6 +411,7 @@ mod tests {
             time,
             speed,
             grade: None,
+            columns: Vec::new(),
         };
         let s = Smoother::new(&cycle, 1.0).unwrap();
         let width = 1.0 / s.inv_width;

@@ -654,6 +654,7 @@ fn invalid_options_are_rejected() {
         time: vec![0.0, 0.0],
         speed: vec![0.0, 1.0],
         grade: None,
+        columns: Vec::new(),
     };
     assert!(matches!(
         forward::forward(model.as_ref(), &bad, &ForwardOptions::default()),

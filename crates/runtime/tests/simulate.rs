@@ -20,6 +20,7 @@ fn constant_speed(kmh: f64, duration: f64) -> Cycle {
         time: vec![0.0, duration],
         speed: vec![kmh / 3.6; 2],
         grade: None,
+        columns: Vec::new(),
     }
 }
 
@@ -485,6 +486,7 @@ fn zero_dynamics_becoming_unstable_along_the_run_are_detected() {
         time: vec![0.0, 10.0, 20.0, 100.0],
         speed: vec![0.0, 0.0, 3.0, 3.0],
         grade: None,
+        columns: Vec::new(),
     };
     let model = InternalDynamics::new(-1.0);
     let smoother = Smoother::new(&cycle, 5.0).unwrap();

@@ -627,7 +627,7 @@ proptest! {
             time.push(t);
             speed.push(v);
         }
-        let cycle = Cycle { name: "random".into(), time, speed, grade: None };
+        let cycle = Cycle { name: "random".into(), time, speed, grade: None, columns: Vec::new() };
         let s = Smoother::new(&cycle, a).unwrap();
         let (t0, t1) = (cycle.time[0] - a, cycle.time[cycle.time.len() - 1] + a);
         let t = t0 + frac * (t1 - t0);
@@ -719,6 +719,7 @@ fn grid_evaluation_matches_pointwise() {
         time: vec![0.0, 3.3, 7.05, 9.0, 20.123],
         speed: vec![0.0, 4.0, 4.0, 9.5, 0.0],
         grade: None,
+        columns: Vec::new(),
     };
     let mut ece_shifted = Cycle::builtin("ece").unwrap();
     for t in &mut ece_shifted.time {
@@ -812,6 +813,7 @@ fn grid_evaluation_beyond_the_table_budget() {
         time,
         speed,
         grade: None,
+        columns: Vec::new(),
     };
     let s = Smoother::new(&cycle, 2.0).unwrap();
     let times = grid_times(-2.5, 0.0005, 230_000);

@@ -306,6 +306,7 @@ fn ramp_cycle() -> Cycle {
         time: vec![0.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0],
         speed: vec![0.0, 5.0, 5.0, 8.0, 8.0, 0.0, 0.0],
         grade: None,
+        columns: Vec::new(),
     }
 }
 
@@ -404,6 +405,7 @@ fn linear_nmp_causal_integration_grows_without_bound() {
         time: vec![0.0, 10.0, 20.0, 30.0, 200.0],
         speed: vec![0.0, 5.0, 5.0, 2.0, 2.0],
         grade: None,
+        columns: Vec::new(),
     };
     let opts = SimulationOptions {
         dt: 0.01,

@@ -356,6 +356,7 @@ fn diesel(root: &Path, out: &Path) -> Result<PathBuf, Failure> {
         time: vec![0.0, 5.0, 5.5, 10.0],
         speed: vec![10.0, 10.0, 30.0, 30.0],
         grade: None,
+        columns: Vec::new(),
     };
     let pre = run(&model, &step, 0.25, true)?;
     let window = (4.0, 6.0);

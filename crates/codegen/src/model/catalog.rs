@@ -42,7 +42,9 @@ pub(super) fn functions(g: &Gen<'_>) -> Vec<Straight> {
         ]),
         doc,
     ));
-    if g.closed {
+    if g.closed && !g.affine {
+        fs.extend(non_affine(g, &lhs));
+    } else if g.closed {
         fs.extend(closed(g, &lhs));
     } else {
         fs.extend(numeric(g, &lhs));
@@ -63,8 +65,8 @@ fn beta_doc(g: &Gen<'_>, first: &str, e: Id) -> Vec<String> {
     doc
 }
 
-/// The functions of a closed-form ψ⁻¹, evaluated in (ξ, η).
-fn closed(g: &Gen<'_>, lhs: &Lhs) -> Vec<Straight> {
+/// ψ⁻¹ in closed form, in (ξ, η), and its roots.
+fn psi_inv(g: &Gen<'_>, lhs: &Lhs) -> (Straight, Vec<Id>) {
     let d = g.d;
     let n = d.n();
     let inv: Vec<Id> = d
@@ -84,13 +86,23 @@ fn closed(g: &Gen<'_>, lhs: &Lhs) -> Vec<Straight> {
     }
     doc.push(String::new());
     doc.extend(equations(g, &lhs.states, &inv));
-    let mut fs = vec![Straight::new(
+    let f = Straight::new(
         FnKind::PsiInv,
         xi_eta(),
         inv.clone(),
         Shape::array("N", n),
         doc,
-    )];
+    );
+    (f, inv)
+}
+
+/// The functions of a closed-form ψ⁻¹, evaluated in (ξ, η).
+fn closed(g: &Gen<'_>, lhs: &Lhs) -> Vec<Straight> {
+    let d = g.d;
+    let n = d.n();
+    let xi_eta = || g.with_w(vec![g.xi_arg(), g.eta_arg()]);
+    let (f, inv) = psi_inv(g, lhs);
+    let mut fs = vec![f];
     let mut doc = vec![
         "α(ξ, η) = L_f^r h ∘ ψ⁻¹, the drift term of y^(r) = α(ξ, η) + β(ξ, η)·u.".to_string(),
         String::new(),
@@ -137,6 +149,82 @@ fn closed(g: &Gen<'_>, lhs: &Lhs) -> Vec<Straight> {
         doc.extend(equations(g, &lhs.deta, &d.zero_dynamics));
         let mut args = xi_eta();
         args.push(Arg::Scalar(d.yr));
+        fs.push(Straight::new(
+            FnKind::ZeroDynamics,
+            args,
+            d.zero_dynamics.clone(),
+            Shape::array("N_ETA", d.eta.len()),
+            doc,
+        ));
+    }
+    fs
+}
+
+/// The functions of a closed-form ψ⁻¹ whose y^(r) = φ(ξ, η, w, u) is not affine in u: ψ⁻¹, φ with ∂φ/∂u
+/// (for Newton's method, `solve_input.rs`), the input solution where u was isolated, and the zero dynamics
+/// in (ξ, η, y^(r), u) (free of u where the input solution is substituted).
+fn non_affine(g: &Gen<'_>, lhs: &Lhs) -> Vec<Straight> {
+    let d = g.d;
+    let u = d.model.input.symbol;
+    let xi_eta = || g.with_w(vec![g.xi_arg(), g.eta_arg()]);
+    let mut fs = vec![psi_inv(g, lhs).0];
+    let mut doc = vec![
+        "y^(r) = φ(ξ, η, u), not affine in the input, and ∂φ/∂u, the derivative Newton's method takes."
+            .to_string(),
+    ];
+    if !d.singular.is_empty() {
+        doc.push(String::new());
+        doc.push(format!("∂φ/∂u vanishes {}.", d.singular.join("; ")));
+    }
+    doc.push(String::new());
+    let names = [
+        ("phi".into(), "\\varphi".into()),
+        (
+            "dphi_du".into(),
+            "\\frac{\\partial \\varphi}{\\partial u}".into(),
+        ),
+    ];
+    doc.extend(equations(g, &names, &[d.alpha, d.beta]));
+    let mut args = xi_eta();
+    args.push(Arg::Scalar(u));
+    fs.push(Straight::new(
+        FnKind::Phi,
+        args,
+        vec![d.alpha, d.beta],
+        Shape::Tuple(vec![Shape::Scalar, Shape::Scalar]),
+        doc,
+    ));
+    if let Some(sol) = d.input_solution {
+        let mut doc = vec![
+            "The input that gives y^(r) = `yr`, φ(ξ, η, u) = y^(r) solved for u by isolation."
+                .to_string(),
+        ];
+        if !d.domain.is_empty() {
+            doc.push(String::new());
+            doc.push(format!("Valid where: {}.", d.domain.join("; ")));
+        }
+        doc.push(String::new());
+        doc.extend(equations(g, &[("u".into(), "u".into())], &[sol]));
+        let mut args = xi_eta();
+        args.push(Arg::Scalar(d.yr));
+        fs.push(Straight::new(
+            FnKind::InputSolution,
+            args,
+            vec![sol],
+            Shape::Scalar,
+            doc,
+        ));
+    }
+    if !d.eta.is_empty() {
+        let mut doc = vec![
+            "The zero dynamics dη/dt = rhs_η(x, u) at x = ψ⁻¹(ξ, η) and the input u that gives y^(r)."
+                .to_string(),
+            String::new(),
+        ];
+        doc.extend(equations(g, &lhs.deta, &d.zero_dynamics));
+        let mut args = xi_eta();
+        args.push(Arg::Scalar(d.yr));
+        args.push(Arg::Scalar(u));
         fs.push(Straight::new(
             FnKind::ZeroDynamics,
             args,

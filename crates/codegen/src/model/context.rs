@@ -25,6 +25,8 @@ pub(super) enum FnKind {
     AlphaX,
     BetaX,
     ZeroDynamicsX,
+    Phi,
+    InputSolution,
     Rhs,
     Outputs,
 }
@@ -44,6 +46,8 @@ impl FnKind {
             FnKind::AlphaX => "alpha_x",
             FnKind::BetaX => "beta_x",
             FnKind::ZeroDynamicsX => "zero_dynamics_x",
+            FnKind::Phi => "phi",
+            FnKind::InputSolution => "input_solution",
             FnKind::Rhs => "rhs",
             FnKind::Outputs => "outputs",
         }
@@ -63,6 +67,8 @@ impl FnKind {
             FnKind::AlphaX => "α = L_f^r h in the states",
             FnKind::BetaX => "β = L_g L_f^(r−1) h in the states",
             FnKind::ZeroDynamicsX => "The zero dynamics in the states",
+            FnKind::Phi => "y^(r) = φ(ξ, η, u) and ∂φ/∂u",
+            FnKind::InputSolution => "The input u solving φ(ξ, η, u) = y^(r) in closed form",
             FnKind::Rhs => "dx/dt = f(x) + g(x)·u",
             FnKind::Outputs => "The extra outputs",
         }
@@ -177,6 +183,8 @@ pub(super) struct Gen<'d> {
     pub(super) d: &'d Derivation,
     pub(super) pool: &'d Pool,
     pub(super) closed: bool,
+    /// y^(r) affine in the input (else u solves y^(r) = φ(ξ, η, w, u), `solve_input.rs`).
+    pub(super) affine: bool,
     pub(super) fields: HashMap<Symbol, FieldName>,
     pub(super) locals: HashMap<Symbol, Ident>,
     /// Model names written in a non-snake-case spelling (fields or locals).
@@ -227,6 +235,7 @@ impl<'d> Gen<'d> {
             d,
             pool,
             closed: d.psi_inv_closed(),
+            affine: d.yr_affine,
             fields,
             locals: local_map,
             non_snake,

@@ -15,7 +15,9 @@ pub(super) fn model(g: &Gen<'_>, invert_batch: bool, set_map: Option<&TokenStrea
     let w = WTokens::new(g.has_w());
     let outputs_impl = outputs_impl(has_outputs, &w);
     let invert_batch_impl = invert_batch_impl(invert_batch, &w);
-    let (psi_inv_impl, alpha_impl, beta_impl, zero_impl, invert_impl) = if g.closed {
+    let (psi_inv_impl, alpha_impl, beta_impl, zero_impl, invert_impl) = if g.closed && !g.affine {
+        non_affine(ne, g.d.input_solution.is_some(), &w)
+    } else if g.closed {
         closed(ne, &w)
     } else {
         numeric(ne, &w)
@@ -203,6 +205,69 @@ fn closed(ne: usize, w: &WTokens) -> Impls {
             /// ψ⁻¹, α and β in one evaluation.
             fn invert(&self, xi: &[f64], eta: &[f64], #wn: &[f64], yr: f64, x: &mut [f64]) -> Result<f64, ModelError> {
                 let (states, u) = self.pre.invert(arr(xi), arr(eta) #wa, yr);
+                x.copy_from_slice(&states);
+                Ok(u)
+            }
+        },
+    )
+}
+
+/// The trait's functions for a closed-form ψ⁻¹ and a y^(r) = φ(ξ, η, w, u) not affine in u (as the
+/// interpreter: α and β are φ and ∂φ/∂u at u = 0, the linearisation there; the input from
+/// `Precomputed::solve_input`, by Newton's method from the guess where it was not isolated).
+fn non_affine(ne: usize, isolated: bool, w: &WTokens) -> Impls {
+    let WTokens {
+        name: wn, arg: wa, ..
+    } = w;
+    let psi_inv = closed(ne, w).0;
+    // The zero dynamics take u: none where it is substituted by the input solution, else Newton's.
+    let u = if isolated {
+        quote!({
+            let _ = u_guess;
+            0.0
+        })
+    } else {
+        quote!(self.pre.solve_input(arr(xi), arr(eta) #wa, yr, u_guess).unwrap_or(f64::NAN))
+    };
+    let zero = if ne > 0 {
+        quote! {
+            fn zero_dynamics(&self, xi: &[f64], eta: &[f64], #wn: &[f64], yr: f64, deta: &mut [f64]) {
+                self.zero_dynamics_from(xi, eta, #wn, yr, f64::NAN, deta);
+            }
+            /// The zero dynamics at the input solving φ = y^(r) (Newton from `u_guess`).
+            fn zero_dynamics_from(&self, xi: &[f64], eta: &[f64], #wn: &[f64], yr: f64, u_guess: f64, deta: &mut [f64]) {
+                let u = #u;
+                deta.copy_from_slice(&self.pre.zero_dynamics(arr(xi), arr(eta) #wa, yr, u));
+            }
+        }
+    } else {
+        quote! {
+            fn zero_dynamics(&self, _xi: &[f64], _eta: &[f64], _w: &[f64], _yr: f64, _deta: &mut [f64]) {}
+        }
+    };
+    (
+        psi_inv,
+        quote! {
+            /// φ at u = 0 (the linearisation y^(r) ≈ α + β·u there, as the interpreter).
+            fn alpha(&self, xi: &[f64], eta: &[f64], #wn: &[f64]) -> f64 {
+                self.pre.phi(arr(xi), arr(eta) #wa, 0.0).0
+            }
+        },
+        quote! {
+            /// ∂φ/∂u at u = 0.
+            fn beta(&self, xi: &[f64], eta: &[f64], #wn: &[f64]) -> f64 {
+                self.pre.phi(arr(xi), arr(eta) #wa, 0.0).1
+            }
+        },
+        zero,
+        quote! {
+            /// ψ⁻¹ and the input solving φ = y^(r) (Newton from the middle of the input's bounds).
+            fn invert(&self, xi: &[f64], eta: &[f64], #wn: &[f64], yr: f64, x: &mut [f64]) -> Result<f64, ModelError> {
+                self.invert_from(xi, eta, #wn, yr, x, f64::NAN)
+            }
+            /// ψ⁻¹ and the input solving φ = y^(r), Newton from `u_guess` (the previous sample's input).
+            fn invert_from(&self, xi: &[f64], eta: &[f64], #wn: &[f64], yr: f64, x: &mut [f64], u_guess: f64) -> Result<f64, ModelError> {
+                let (states, u) = self.pre.invert(arr(xi), arr(eta) #wa, yr, u_guess)?;
                 x.copy_from_slice(&states);
                 Ok(u)
             }

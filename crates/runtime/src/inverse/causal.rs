@@ -29,6 +29,8 @@ pub(super) struct Causal {
     yd: [f64; MAX_DERIVATIVES],
     /// The smoothed signal values at the current sample (`InverseModel`'s `w`).
     w: Vec<f64>,
+    /// The last sample's input: Newton's start for a non-affine y^(r) (NaN before the first sample).
+    u: f64,
 }
 
 impl Causal {
@@ -66,6 +68,7 @@ impl Causal {
             ws,
             check_every: ((opts.stability_check_interval / opts.dt).round() as usize).max(1),
             yd,
+            u: f64::NAN,
         })
     }
 
@@ -115,11 +118,13 @@ impl Causal {
         r: usize,
     ) -> Result<(), SimulateError> {
         let mut w_s = vec![0.0; self.w.len()];
+        // An input solved by Newton's method starts from the last sample's (the root the inverse follows).
+        let u_prev = self.u;
         let mut q = |s: f64, e: &[f64], de: &mut [f64]| {
             let mut yd_s = [0.0_f64; MAX_DERIVATIVES];
             smoother.eval(s, &mut yd_s[..=r]);
             smoother.eval_signals(s, &mut w_s);
-            model.zero_dynamics(&yd_s[..r], e, &w_s, yd_s[r], de);
+            model.zero_dynamics_from(&yd_s[..r], e, &w_s, yd_s[r], u_prev, de);
             Ok(())
         };
         let Err(err) = self.integrator.advance(t_prev, t, &mut self.eta, &mut q) else {
@@ -145,18 +150,21 @@ impl Causal {
     }
 
     /// x = ψ⁻¹(ξ, η) (the previous x as the guess) and u = (y_d^(r) − α)/β (paper eq. 26) at time t (the
-    /// signal values of the last [`Causal::advance`], at the same sample).
+    /// signal values of the last [`Causal::advance`], at the same sample); a u solved by Newton's method
+    /// starts from the previous sample's.
     pub(super) fn invert<M: InverseModel + ?Sized>(
-        &self,
+        &mut self,
         model: &M,
         t: f64,
         yd: &[f64],
         x: &mut [f64],
     ) -> Result<f64, SimulateError> {
         let r = yd.len() - 1;
-        model
-            .invert(&yd[..r], &self.eta, &self.w, yd[r], x)
-            .map_err(|source| RunError::Model { t, source }.into())
+        let u = model
+            .invert_from(&yd[..r], &self.eta, &self.w, yd[r], x, self.u)
+            .map_err(|source| RunError::Model { t, source })?;
+        self.u = u;
+        Ok(u)
     }
 }
 

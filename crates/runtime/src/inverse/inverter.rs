@@ -45,6 +45,8 @@ pub(super) struct Inverter<'a, M: ?Sized> {
     strategy: Strategy<'a>,
     /// The last sample's state: the guess for a numerically solved ψ⁻¹.
     x: Vec<f64>,
+    /// The last sample's input: Newton's start for a non-affine y^(r) (NaN before the first sample).
+    u: f64,
     eta: Vec<f64>,
 }
 
@@ -72,6 +74,7 @@ impl<'a, M: InverseModel + ?Sized> Inverter<'a, M> {
             grid,
             strategy,
             x: vec![0.0; info.n_states()],
+            u: f64::NAN,
             eta: vec![0.0; info.n_eta],
         })
     }
@@ -106,6 +109,9 @@ impl<'a, M: InverseModel + ?Sized> Inverter<'a, M> {
         for (c, &v) in b.x.iter_mut().zip(&self.x) {
             c[0] = v; // the guess for a numerically solved ψ⁻¹
         }
+        if let Some(u0) = b.u.first_mut() {
+            *u0 = self.u; // and for an input solved by Newton's method
+        }
         let time = b.time;
         self.model
             .invert_batch(&xi, &etas, b.w, b.yd[r], b.x, b.u)
@@ -113,6 +119,7 @@ impl<'a, M: InverseModel + ?Sized> Inverter<'a, M> {
         for (v, c) in self.x.iter_mut().zip(b.x.iter()) {
             *v = c[len - 1];
         }
+        self.u = b.u[len - 1];
         Ok(())
     }
 }

@@ -471,8 +471,13 @@ pub(super) fn run<M: InverseModel + ?Sized>(
     let eta0 = check_eta0(info, opts)?;
     // Start values of the internal states (`initial =`, `--initial`), used by a causal run.
     let initial = crate::initial::initial_eta(info, &opts.initial).map_err(RunError::from)?;
-    // The signals (command line, cycle column or default), smoothed with the reference's kernel.
-    let resolved = crate::signals::resolve(info, cycle, &opts.signals).map_err(RunError::from)?;
+    // The signals (command line, cycle column or default), smoothed with the reference's kernel; a route
+    // profile is read along the smoothed reference's distance.
+    let along = crate::elevation::Along::Smoothed {
+        lookahead: opts.lookahead,
+    };
+    let resolved =
+        crate::signals::resolve_along(info, cycle, &opts.signals, along).map_err(RunError::from)?;
     let shared = shared.filter(|s| {
         s.fits(opts.lookahead, opts.dt, r, model.reference())
             && s.cycle == cycle.name
