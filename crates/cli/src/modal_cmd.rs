@@ -187,21 +187,29 @@ fn gear_source(m: &ModalModel, cycle: &Cycle, spec: &str) -> Result<(usize, Gear
     Ok((g.gears, src))
 }
 
-/// `invsim simulate` of a model with modes.
-pub fn simulate(m: ModalModel, run: &ModalRun<'_>) -> Result<(), Failure> {
-    let outputs = crate::outputs::Outputs::plan(
-        &crate::engine::run_inputs(run.model, run.cycle),
-        &[("--out", run.out), ("--summary-json", run.summary_json)],
-    )?;
-    let cycle = Cycle::load_with_limit(run.cycle, run.max_cycle_bytes)
-        .map_err(|e| Failure::user(e.to_string()))?;
-    let (gears_n, gear_source) = gear_source(&m, &cycle, run.cycle)?;
+/// A model with modes ready to run: its modes derived and interpreted (with the `--set` overrides), and
+/// the gearbox's schedule for the cycle.
+pub struct Prepared {
+    pub model: ModalModel,
+    pub modes: Vec<DerivedMode>,
+    pub interps: Vec<Interpreter>,
+    pub gears: (usize, GearSource),
+}
+
+/// Derive and interpret every mode of `m` for a run on `cycle` (`cycle_spec` as given), with `set` applied.
+pub fn prepare(
+    m: ModalModel,
+    cycle: &Cycle,
+    cycle_spec: &str,
+    set: &[String],
+) -> Result<Prepared, Failure> {
+    let gears = gear_source(&m, cycle, cycle_spec)?;
     let (m, ds) = derive_modes(m)?;
     let mut interps: Vec<Interpreter> = ds
         .iter()
         .map(|d| Interpreter::new(&d.d).map_err(|e| Failure::user(e.to_string())))
         .collect::<Result<_, _>>()?;
-    for s in run.set {
+    for s in set {
         let (name, value) = crate::engine::parse_set(s)?;
         if m.gearbox
             .as_ref()
@@ -216,11 +224,23 @@ pub fn simulate(m: ModalModel, run: &ModalRun<'_>) -> Result<(), Failure> {
                 .map_err(|e| Failure::user(format!("--set {name}: {e}")))?;
         }
     }
+    Ok(Prepared {
+        model: m,
+        modes: ds,
+        interps,
+        gears,
+    })
+}
+
+/// The runtime's spec of a prepared model.
+pub fn spec(p: &Prepared) -> ModalSpec<'_> {
+    let m = &p.model;
     let n_fixed = m.inputs.len() - 1;
-    let n_outputs = interps[0].info().outputs.len() - n_fixed;
-    let modes: Vec<ModeSpec<'_>> = ds
+    let n_outputs = p.interps[0].info().outputs.len() - n_fixed;
+    let modes: Vec<ModeSpec<'_>> = p
+        .modes
         .iter()
-        .zip(&interps)
+        .zip(&p.interps)
         .map(|(mode, i)| {
             let outs = &i.info().outputs;
             let fixed_outputs = mode
@@ -242,7 +262,7 @@ pub fn simulate(m: ModalModel, run: &ModalRun<'_>) -> Result<(), Failure> {
             }
         })
         .collect();
-    let spec = ModalSpec {
+    ModalSpec {
         name: m.name.clone(),
         inputs: m
             .inputs
@@ -255,8 +275,8 @@ pub fn simulate(m: ModalModel, run: &ModalRun<'_>) -> Result<(), Failure> {
             })
             .collect(),
         modes,
-        gears: gears_n,
-        gear_source,
+        gears: p.gears.0,
+        gear_source: p.gears.1.clone(),
         sequence: SequenceParams {
             standstill_below: m.sequence.standstill_below,
             standstill_above: m.sequence.standstill_above,
@@ -264,7 +284,19 @@ pub fn simulate(m: ModalModel, run: &ModalRun<'_>) -> Result<(), Failure> {
             min_dwell: m.sequence.min_dwell,
         },
         n_outputs,
-    };
+    }
+}
+
+/// `invsim simulate` of a model with modes.
+pub fn simulate(m: ModalModel, run: &ModalRun<'_>) -> Result<(), Failure> {
+    let outputs = crate::outputs::Outputs::plan(
+        &crate::engine::run_inputs(run.model, run.cycle),
+        &[("--out", run.out), ("--summary-json", run.summary_json)],
+    )?;
+    let cycle = Cycle::load_with_limit(run.cycle, run.max_cycle_bytes)
+        .map_err(|e| Failure::user(e.to_string()))?;
+    let prepared = prepare(m, &cycle, run.cycle, run.set)?;
+    let spec = spec(&prepared);
     let opts = ModalOptions {
         lookahead: run.lookahead,
         dt: run.dt,

@@ -15,7 +15,9 @@
 //!   when the brake demand falls below its minimum;
 //! - standstill when the raw cycle is below `standstill_below`, not rising, and the vehicle has slowed below
 //!   that speed; left when the brake demand falls below its minimum while the cycle rises, or above
-//!   `standstill_above`.
+//!   `standstill_above`. At a standstill the brake demand is clipped at its minimum (the brake holds, it
+//!   never pushes: a demand below it is the car coming to rest against its rolling resistance, as in the
+//!   inverse), and that is no bound violation.
 //!
 //! The mode holds over [t_k, t_{k+1}] (a controller sampled at the output step, as the inverse switches at
 //! its samples); the state is continuous across every switch by construction, the integrator restarts there
@@ -104,10 +106,19 @@ pub fn forward_modes(
         reason: "the model has no traction mode".into(),
     })?;
     let x0 = initial_state(spec.modes[mode].model, (&raw, &[]), seg0, t0, opts)?;
+    // At a standstill the brake holds the car and never pushes it: a demand below the free input's minimum
+    // there (the car would roll against its rolling resistance) is clipped, whatever `bounds` says.
     let loops: Vec<Loop<'_, dyn InverseModel>> = spec
         .modes
         .iter()
-        .map(|m| closed_loop(m.model, RawCycle::new(cycle), opts))
+        .map(|m| {
+            let mut lp = closed_loop(m.model, RawCycle::new(cycle), opts);
+            if m.role == Role::Standstill && !lp.enforce {
+                lp.enforce = true;
+                lp.hi = f64::INFINITY;
+            }
+            lp
+        })
         .collect();
     // Start in equilibrium: without feed-forward the integral carries the cycle's initial slope.
     let mut z = x0.clone();

@@ -14,7 +14,7 @@ use super::{ForwardError, ForwardOptions};
 use crate::cycle::Cycle;
 use crate::error::RunError;
 use crate::grid::Grid;
-use crate::modes::ModalSpec;
+use crate::modes::{ModalSpec, Role};
 use crate::ode::OdeStats;
 use crate::operating_points::OperatingPointTally;
 use crate::progress::Progress;
@@ -90,8 +90,13 @@ impl<'a> ModalRecorder<'a> {
                         (Some(a), None) | (None, Some(a)) => a.abs(),
                         (None, None) => 0.0,
                     };
+                // At a standstill a demand below the minimum is clipped, not violated (see `modal`).
+                let lo = match m.role {
+                    Role::Standstill => None,
+                    _ => i.input_min,
+                };
                 (
-                    i.input_min.unwrap_or(f64::NEG_INFINITY) - tol,
+                    lo.unwrap_or(f64::NEG_INFINITY) - tol,
                     i.input_max.unwrap_or(f64::INFINITY) + tol,
                 )
             })
