@@ -154,6 +154,7 @@ pub struct ModalRun<'a> {
     pub set: &'a [String],
     pub out: Option<&'a Path>,
     pub summary_json: Option<&'a Path>,
+    pub plot: &'a crate::plotting::PlotArgs,
     pub verify: bool,
     pub switching: Switching,
     pub transition_time: Option<f64>,
@@ -291,12 +292,17 @@ pub fn spec(p: &Prepared) -> ModalSpec<'_> {
 pub fn simulate(m: ModalModel, run: &ModalRun<'_>) -> Result<(), Failure> {
     let outputs = crate::outputs::Outputs::plan(
         &crate::engine::run_inputs(run.model, run.cycle),
-        &[("--out", run.out), ("--summary-json", run.summary_json)],
+        &[
+            ("--out", run.out),
+            ("--summary-json", run.summary_json),
+            ("--plot", run.plot.plot.as_deref()),
+        ],
     )?;
     let cycle = Cycle::load_with_limit(run.cycle, run.max_cycle_bytes)
         .map_err(|e| Failure::user(e.to_string()))?;
     let prepared = prepare(m, &cycle, run.cycle, run.set)?;
     let spec = spec(&prepared);
+    crate::plotting::check_modal(run.plot, &spec)?;
     let opts = ModalOptions {
         lookahead: run.lookahead,
         dt: run.dt,
@@ -316,6 +322,9 @@ pub fn simulate(m: ModalModel, run: &ModalRun<'_>) -> Result<(), Failure> {
         output::write_table_csv(&result.columns, &result.data, f)
     })?;
     outputs.write("--summary-json", |f| output::write_json(&result.summary, f))?;
+    crate::plotting::write(run.plot, &mut outputs, |vars| {
+        invsim_runtime::plot::modal_simulation_figure(&result, &cycle, &spec, vars)
+    })?;
     outputs.commit()?;
     print_stdout(&result.summary.to_text())
 }

@@ -18,6 +18,7 @@ pub fn run(m: ModalModel, args: &ForwardArgs) -> Result<(), Failure> {
         &[
             ("--out", args.out.as_deref()),
             ("--summary-json", args.summary_json.as_deref()),
+            ("--plot", args.plot.plot.as_deref()),
         ],
     )?;
     if !args.data.signal.is_empty() || !args.data.map.is_empty() {
@@ -30,6 +31,7 @@ pub fn run(m: ModalModel, args: &ForwardArgs) -> Result<(), Failure> {
         .map_err(|e| Failure::user(e.to_string()))?;
     let prepared = crate::modal_cmd::prepare(m, &cycle, &args.cycle, &args.set)?;
     let spec = crate::modal_cmd::spec(&prepared);
+    crate::plotting::check_modal(&args.plot, &spec)?;
     let stopped = |e: ForwardError| {
         Failure::user(format!(
             "forward simulation of `{}` on `{}` stopped: {e}",
@@ -56,6 +58,9 @@ pub fn run(m: ModalModel, args: &ForwardArgs) -> Result<(), Failure> {
         output::write_table_csv(&result.columns, &result.data, f)
     })?;
     outputs.write("--summary-json", |f| output::write_json(&result.summary, f))?;
+    crate::plotting::write(&args.plot, &mut outputs, |vars| {
+        invsim_runtime::plot::modal_forward_figure(&result, &spec, vars)
+    })?;
     outputs.commit()?;
     print_stdout(&result.summary.to_text())
 }

@@ -1,7 +1,8 @@
 //! `invsim derive` and `invsim simulate` on a model with operating modes (`models/si_engine_5speed.toml`):
 //! every mode in the derivation, the summary's time per mode and switches, the CSV's mode and gear columns,
 //! the quasi-static option, `forward` through the modes (time per mode, switches, tracking error, the CSV's
-//! mode, gear and input columns), and `sweep` refusing such a model with exit 2.
+//! mode, gear and input columns), the plots (every input and the gear panel), and `sweep` refusing such a
+//! model with exit 2.
 
 use crate::common::{invsim, json_file, root, stderr, tmp};
 
@@ -132,4 +133,46 @@ fn forward_runs_the_modes_and_sweep_and_gear_overrides_are_refused() {
     let o = invsim(&["forward", &model(), "--cycle", "ece", "--set", "i_g=2"]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("[gearbox]"), "{}", stderr(&o));
+}
+
+#[test]
+fn simulate_and_forward_plot_the_inputs_and_the_gear() {
+    for command in ["simulate", "forward"] {
+        let svg = tmp(&format!("modes-{command}.svg"));
+        let o = invsim(&[
+            command,
+            &model(),
+            "--cycle",
+            "ece",
+            "--plot",
+            svg.to_str().expect("utf-8"),
+        ]);
+        assert!(o.status.success(), "{command}: {}", stderr(&o));
+        let text = std::fs::read_to_string(&svg).expect("SVG");
+        for var in ["reference", "m_at", "F_b", "gear", "cum:fuel"] {
+            assert!(
+                text.contains(&format!("data-var=\"{var}\"")),
+                "{command}: panel {var}"
+            );
+        }
+        assert!(text.contains("gear [-]") && text.contains("F_b [N]"));
+    }
+    let svg = tmp("modes-vars.svg");
+    let o = invsim(&[
+        "simulate",
+        &model(),
+        "--cycle",
+        "ece",
+        "--plot",
+        svg.to_str().expect("utf-8"),
+        "--plot-vars",
+        "speed",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("unknown panel `speed`"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!svg.exists(), "no plot written");
 }
