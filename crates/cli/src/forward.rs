@@ -123,10 +123,8 @@ pub(crate) fn options(
         .build()
 }
 
+/// `invsim forward` of an ordinary model (`modal_forward::run` decides which kind the model is).
 pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
-    if let Some(m) = crate::modal_cmd::read_modal(&args.model)? {
-        return crate::modal_forward::run(m, args);
-    }
     let (mut outputs, cycle, model, data) = prepare_run(&RunRequest {
         model: &args.model,
         engine: args.engine,

@@ -73,7 +73,7 @@ fn main() -> ExitCode {
         Command::Derive { model, format } => derive::run(&model, format),
         Command::Simulate(args) => simulate::run(&args),
         Command::Sweep(args) => sweep_cmd::run(&args),
-        Command::Forward(args) => forward::run(&args),
+        Command::Forward(args) => modal_forward::run(&args),
         Command::Cycles(args) => cycles_cmd::run(&args),
         Command::Import(args) => import_cmd::run(&args),
         Command::Completions(args) => completions::run(&args, Cli::command()),

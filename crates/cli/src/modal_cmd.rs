@@ -23,12 +23,21 @@ pub fn read_modal(path: &Path) -> Result<Option<ModalModel>, Failure> {
     }
 }
 
-/// `forward` and `sweep` do not run models with modes yet: exit 2 saying so (an unreadable file is left to
+/// The file read as a model with modes, or `None` for anything else (an ordinary model, or a file that does
+/// not read: the command's own reader then gives its message, as before).
+pub fn modal_if_readable(path: &Path) -> Option<ModalModel> {
+    match ModelFile::from_path(path) {
+        Ok(ModelFile::Modal(m)) => Some(*m),
+        _ => None,
+    }
+}
+
+/// `sweep` does not run models with modes yet: exit 2 saying so (an unreadable file is left to
 /// the command's own reader and its message).
 pub fn refuse_modal(path: &Path, command: &str) -> Result<(), Failure> {
     if let Ok(ModelFile::Modal(_)) = ModelFile::from_path(path) {
         return Err(Failure::user(format!(
-            "{}: a model with operating modes runs with `invsim derive` and `invsim simulate`; `invsim {command}` \
+            "{}: a model with operating modes runs with `invsim derive`, `invsim simulate` and `invsim forward`; `invsim {command}` \
              does not run models with modes yet",
             path.display()
         )));

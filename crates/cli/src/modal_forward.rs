@@ -1,4 +1,4 @@
-//! `invsim forward` of a model with operating modes (README "Modes"): every mode derived and run through
+//! `invsim forward` of a model with operating modes (and the dispatch of `invsim forward` by the kind of model) (README "Modes"): every mode derived and run through
 //! the interpreter, the forward run with the mode sequence by `invsim_runtime::forward::forward_modes`.
 
 use invsim_inversion::ModalModel;
@@ -11,8 +11,16 @@ use crate::files::print_stdout;
 use crate::forward::ForwardArgs;
 use crate::provenance;
 
+/// `invsim forward`: a model with modes here, any other by `forward::run`.
+pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
+    match crate::modal_cmd::modal_if_readable(&args.model) {
+        Some(m) => run_modal(m, args),
+        None => crate::forward::run(args),
+    }
+}
+
 /// `invsim forward MODEL` where MODEL has modes.
-pub fn run(m: ModalModel, args: &ForwardArgs) -> Result<(), Failure> {
+fn run_modal(m: ModalModel, args: &ForwardArgs) -> Result<(), Failure> {
     let mut outputs = crate::outputs::Outputs::plan(
         &crate::engine::run_inputs(&args.model, &args.cycle),
         &[

@@ -68,7 +68,8 @@ use invsim_model_api::zero_dynamics::{newton, EquilibriumFailure, EQUILIBRIUM_MA
 use record::{ForwardTally, Layout, Recorder};
 
 pub use error::ForwardError;
-pub use modal::{forward_modes, ModalForwardResult};
+pub use modal::forward_modes;
+pub use modal_record::ModalForwardResult;
 pub use modal_summary::{InputRange, ModalForwardSummary, ModeSwitch};
 pub use options::{
     default_step_budget, Bounds, ForwardOptions, ForwardOptionsBuilder, Method, DEFAULT_ATOL,

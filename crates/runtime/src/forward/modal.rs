@@ -28,8 +28,8 @@ use invsim_model_api::InverseModel;
 use super::budget::Budget;
 use super::driver::{Drive, Loop, RawCycle};
 use super::integrator::Integrator;
-use super::modal_record::ModalRecorder;
-use super::modal_summary::ModalForwardSummary;
+use super::modal_record::{ModalForwardResult, ModalRecorder};
+use super::modal_summary::SwitchAt;
 use super::{closed_loop, initial_state, ForwardError, ForwardOptions, Method};
 use crate::cycle::Cycle;
 use crate::error::RunError;
@@ -38,40 +38,15 @@ use crate::modes::sequence::{decide, has_role, pick, Moment, Place, Rung, Switch
 use crate::modes::{GearBox, ModalSpec, Role};
 use crate::ode::{Dopri5, OdeStats, Rosenbrock23};
 
-/// The result of a forward run with modes: summary and columns (`t`, `yc`, `mode`, `gear`, the output unless
-/// it is a state, every input applied, the states, the model's `[outputs]`).
-#[derive(Debug, Clone)]
-pub struct ModalForwardResult {
-    pub summary: ModalForwardSummary,
-    pub columns: Vec<String>,
-    pub units: Vec<Option<String>>,
-    pub data: Vec<Vec<f64>>,
-    /// Mode index (into the spec's modes) at each sample, after the decision there.
-    pub mode: Vec<usize>,
-}
-
-impl ModalForwardResult {
-    /// The column called `name`, if any.
-    pub fn column(&self, name: &str) -> Option<&[f64]> {
-        self.columns
-            .iter()
-            .position(|c| c == name)
-            .map(|i| self.data[i].as_slice())
-    }
-}
-
-/// One switch of the forward run: its time and the modes left and entered.
-pub(super) type SwitchAt = (f64, usize, usize);
-
 /// The run's modes, their closed loops and the sequence's state.
-pub(super) struct ModalRun<'s, 'a> {
-    pub(super) spec: &'s ModalSpec<'a>,
-    pub(super) loops: Vec<Loop<'a, dyn InverseModel + 'a>>,
+struct ModalRun<'s, 'a> {
+    spec: &'s ModalSpec<'a>,
+    loops: Vec<Loop<'a, dyn InverseModel + 'a>>,
     gearbox: GearBox,
-    pub(super) place: Place,
-    pub(super) gear: usize,
+    place: Place,
+    gear: usize,
     seg: usize,
-    pub(super) switches: Vec<SwitchAt>,
+    switches: Vec<SwitchAt>,
 }
 
 /// Simulate a model with modes forward along the raw `cycle`, closed by the PI driver (see the module docs).
@@ -150,7 +125,7 @@ pub fn forward_modes(
             drive_modes(&mut s, &mut run, &mut rec, (&grid, &budget), &mut z)?
         }
     };
-    Ok(rec.finish(&run, cycle, opts, stats))
+    Ok(rec.finish(spec, &run.switches, (cycle, opts), stats))
 }
 
 /// What a forward run with modes needs of the spec: modes, one state vector, the same accumulated outputs.
@@ -192,7 +167,7 @@ fn drive_modes<I: Integrator>(
 ) -> Result<OdeStats, ForwardError> {
     let t0 = grid.time(0);
     let d = run.decide(t0, z)?;
-    rec.emit(run, (0, t0), z, d)?;
+    rec.emit(run.spec, run.place.mode, (0, t0), z, d)?;
     for k in 1..=grid.n {
         let (ta, tb) = (grid.time(k - 1), grid.time(k));
         run.advance(stepper, budget, (ta, tb), z)?;
@@ -201,7 +176,7 @@ fn drive_modes<I: Integrator>(
         if run.place.mode != before {
             stepper.restart();
         }
-        rec.emit(run, (k, tb), z, d)?;
+        rec.emit(run.spec, run.place.mode, (k, tb), z, d)?;
     }
     Ok(stepper.stats())
 }

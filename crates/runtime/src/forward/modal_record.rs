@@ -6,8 +6,7 @@
 use invsim_model_api::InverseModel;
 
 use super::driver::Drive;
-use super::modal::{ModalForwardResult, ModalRun};
-use super::modal_summary::{self, Tally};
+use super::modal_summary::{self, ModalForwardSummary, SwitchAt, Tally};
 use super::record::Layout;
 use super::trace::TraceBand;
 use super::{ForwardError, ForwardOptions};
@@ -18,6 +17,28 @@ use crate::modes::{ModalSpec, Role};
 use crate::ode::OdeStats;
 use crate::operating_points::OperatingPointTally;
 use crate::progress::Progress;
+
+/// The result of a forward run with modes: summary and columns (`t`, `yc`, `mode`, `gear`, the output unless
+/// it is a state, every input applied, the states, the model's `[outputs]`).
+#[derive(Debug, Clone)]
+pub struct ModalForwardResult {
+    pub summary: ModalForwardSummary,
+    pub columns: Vec<String>,
+    pub units: Vec<Option<String>>,
+    pub data: Vec<Vec<f64>>,
+    /// Mode index (into the spec's modes) at each sample, after the decision there.
+    pub mode: Vec<usize>,
+}
+
+impl ModalForwardResult {
+    /// The column called `name`, if any.
+    pub fn column(&self, name: &str) -> Option<&[f64]> {
+        self.columns
+            .iter()
+            .position(|c| c == name)
+            .map(|i| self.data[i].as_slice())
+    }
+}
 
 /// Records the samples of a forward run with modes.
 pub(super) struct ModalRecorder<'a> {
@@ -120,13 +141,13 @@ impl<'a> ModalRecorder<'a> {
     /// Sample k at time t in the run's current mode: state z = (x, I, quadratures), that mode's drive `d`.
     pub(super) fn emit(
         &mut self,
-        run: &ModalRun<'_, '_>,
+        spec: &ModalSpec<'_>,
+        m: usize,
         (k, t): (usize, f64),
         z: &[f64],
         d: Drive,
     ) -> Result<(), ForwardError> {
-        let m = run.place.mode;
-        let mode = &run.spec.modes[m];
+        let mode = &spec.modes[m];
         let model: &dyn InverseModel = mode.model;
         let info = model.info();
         let x = &z[..info.n_states()];
@@ -141,7 +162,7 @@ impl<'a> ModalRecorder<'a> {
         if let Some(j) = self.outs.iter().position(|v| !v.is_finite()) {
             return Err(bad(info.outputs[j].name.clone(), self.outs[j]).into());
         }
-        let inputs: Vec<f64> = (0..run.spec.inputs.len())
+        let inputs: Vec<f64> = (0..spec.inputs.len())
             .map(|i| {
                 if i == mode.free_input {
                     d.applied
@@ -154,7 +175,8 @@ impl<'a> ModalRecorder<'a> {
             })
             .collect();
         if self.keep {
-            self.store(t, (m, run.gear_of(m)), x, d, &inputs);
+            let gear = mode.gear.unwrap_or(0) as f64;
+            self.store(t, (m, gear), x, d, &inputs);
         }
         if let Some((t_prev, m_prev)) = self.last {
             self.tally.time[m_prev] += t - t_prev;
@@ -192,14 +214,14 @@ impl<'a> ModalRecorder<'a> {
     /// The result of the finished run.
     pub(super) fn finish(
         self,
-        run: &ModalRun<'_, '_>,
-        cycle: &Cycle,
-        opts: &ForwardOptions,
+        spec: &ModalSpec<'_>,
+        switches: &[SwitchAt],
+        (cycle, opts): (&Cycle, &ForwardOptions),
         stats: OdeStats,
     ) -> ModalForwardResult {
         let mode = self.data.get(2).cloned().unwrap_or_default();
         let summary = modal_summary::summarise(
-            run,
+            (spec, switches),
             cycle,
             opts,
             (self.tally, stats),
@@ -212,12 +234,5 @@ impl<'a> ModalRecorder<'a> {
             data: self.data,
             mode: mode.iter().map(|&m| m as usize).collect(),
         }
-    }
-}
-
-impl ModalRun<'_, '_> {
-    /// The gear of mode m for the series (0 for an ungeared mode).
-    fn gear_of(&self, m: usize) -> f64 {
-        self.spec.modes[m].gear.unwrap_or(0) as f64
     }
 }

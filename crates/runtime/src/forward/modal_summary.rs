@@ -9,7 +9,6 @@ use serde::Serialize;
 
 use super::anti_windup_rate;
 use super::driver::Drive;
-use super::modal::ModalRun;
 use super::options::{Bounds, ForwardOptions};
 use super::summary::{DriverSummary, IntegratorSummary};
 use crate::cycle::Cycle;
@@ -21,6 +20,9 @@ use crate::report::{
     fmt_sig, integral_tables, unit_suffix, write_input_range, write_integrals, write_intervals,
     Column, CycleInfo, Intervals,
 };
+
+/// One switch of the forward run: its time and the modes left and entered (indices into the spec's modes).
+pub(super) type SwitchAt = (f64, usize, usize);
 
 /// One input over the run: the range of the values applied and its declared bounds.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -147,13 +149,12 @@ impl Tally {
 
 /// The summary of a finished forward run with modes.
 pub(super) fn summarise(
-    run: &ModalRun<'_, '_>,
+    (spec, switches): (&ModalSpec<'_>, &[SwitchAt]),
     cycle: &Cycle,
     opts: &ForwardOptions,
     (tally, stats): (Tally, OdeStats),
     (names, units): (&[String], &[Option<String>]),
 ) -> ModalForwardSummary {
-    let spec = run.spec;
     let info = spec.modes[0].model.info();
     let samples = tally.samples.max(1);
     let accumulate: Vec<usize> = (0..info.outputs.len())
@@ -220,9 +221,8 @@ pub(super) fn summarise(
                 relative_degree: m.model.info().relative_degree,
             })
             .collect(),
-        switches: run.switches.len(),
-        mode_switches: run
-            .switches
+        switches: switches.len(),
+        mode_switches: switches
             .iter()
             .map(|&(t, a, b)| ModeSwitch {
                 t,
