@@ -402,3 +402,27 @@ fn bad_names_and_formats_are_errors_listing_the_choices() {
         PlotFormat::Png
     );
 }
+
+/// A model with modes but no gearbox (si_engine_5speed without its `[gearbox]`: drive, coast, overrun and
+/// idle, one mode each) gets the mode's index as its sequence panel, titled with the modes' names.
+#[test]
+fn a_model_with_modes_but_no_gearbox_plots_the_mode_index() {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../models/si_engine_5speed.toml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let start = text.find("\n[gearbox]").unwrap() + 1;
+    let end = start + text[start..].find("\n[sequence]").unwrap() + 1;
+    let text = format!("{}{}", &text[..start], &text[end..]);
+    let l = crate::modes::support::load(&path, &text);
+    let spec = crate::modes::support::spec(&l, invsim_runtime::modes::GearSource::Fixed);
+    assert!(spec.modes.iter().all(|m| m.gear.is_none()));
+    let ece = Cycle::builtin("ece").unwrap();
+    let inv = simulate_modes(&spec, &ece, &ModalOptions::default()).unwrap();
+    let vars = modal_default_vars(&spec);
+    assert!(vars.contains(&"mode".to_string()) && !vars.contains(&"gear".to_string()));
+    let svg = modal_simulation_figure(&inv, &ece, &spec, &vars)
+        .unwrap()
+        .to_svg();
+    check_svg(&svg, &vars, "si_engine_5speed without a gearbox");
+    assert!(panel_labels(&svg).contains(&("mode".to_string(), "mode [index]".to_string())));
+    assert!(svg.contains("mode in force: 0 drive, 1 coast, 2 overrun, 3 idle"));
+}
