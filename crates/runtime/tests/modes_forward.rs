@@ -1,6 +1,7 @@
 //! The forward run with modes (`invsim_runtime::forward::forward_modes`) against the inverse run with modes:
 //! si_engine_5speed on the NEDC, the same fuel within 2 % and the same gear at every sample outside a short
-//! window around each shift, the tracking error to the raw cycle reported.
+//! window around each shift, the tracking error to the raw cycle reported; with the regulation's gear table,
+//! the prescribed gear at every geared sample.
 
 use invsim_runtime::forward::{forward_modes, ModalForwardResult};
 use invsim_runtime::modes::{simulate_modes, ModalOptions, ModalResult, Switching};

@@ -26,7 +26,8 @@ pub struct ModalForwardResult {
     pub columns: Vec<String>,
     pub units: Vec<Option<String>>,
     pub data: Vec<Vec<f64>>,
-    /// Mode index (into the spec's modes) at each sample, after the decision there.
+    /// Mode index (into the spec's modes) at each sample, after the decision there (empty, like the series,
+    /// without `keep_series`).
     pub mode: Vec<usize>,
 }
 
