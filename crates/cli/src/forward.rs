@@ -37,64 +37,94 @@ pub struct ForwardArgs {
     pub model: PathBuf,
     /// A built-in cycle (`invsim cycles` lists them: nedc, udds, wltc3b, …) or the path of a cycle CSV file.
     #[arg(long)]
-    cycle: String,
+    pub(crate) cycle: String,
     /// Largest cycle file read, in bytes (default 64 MiB).
     #[arg(long, value_name = "BYTES", default_value_t = invsim_runtime::cycle::MAX_CYCLE_BYTES)]
-    max_cycle_bytes: u64,
+    pub(crate) max_cycle_bytes: u64,
     /// Output step in seconds.
     #[arg(long, default_value_t = forward::DEFAULT_DT, allow_negative_numbers = true)]
-    dt: f64,
+    pub(crate) dt: f64,
     /// Driver's proportional gain: requested acceleration per unit of speed error (1/s).
     #[arg(long, default_value_t = forward::DRIVER_KP, allow_negative_numbers = true)]
-    kp: f64,
+    pub(crate) kp: f64,
     /// Driver's integral gain: requested acceleration per unit of integrated speed error (1/s²).
     #[arg(long, default_value_t = forward::DRIVER_KI, allow_negative_numbers = true)]
-    ki: f64,
+    pub(crate) ki: f64,
     /// Bandwidth of the engine management's response to the driver's request (rad/s).
     #[arg(long, default_value_t = forward::RESPONSE_OMEGA, allow_negative_numbers = true)]
-    response: f64,
+    pub(crate) response: f64,
     /// Leave out the driver's feed-forward of the cycle's slope.
     #[arg(long)]
-    no_feedforward: bool,
+    pub(crate) no_feedforward: bool,
     /// Ignore the model's input bounds (like the inverse) or enforce them.
     #[arg(long, value_enum, default_value_t = BoundsChoice::Ignore)]
-    bounds: BoundsChoice,
+    pub(crate) bounds: BoundsChoice,
     /// Integration method.
     #[arg(long, value_enum, default_value_t = MethodChoice::Dopri5)]
-    method: MethodChoice,
+    pub(crate) method: MethodChoice,
     /// Relative tolerance of the integrator.
     #[arg(long, default_value_t = forward::DEFAULT_RTOL, allow_negative_numbers = true)]
-    rtol: f64,
+    pub(crate) rtol: f64,
     /// Absolute tolerance of the integrator.
     #[arg(long, default_value_t = forward::DEFAULT_ATOL, allow_negative_numbers = true)]
-    atol: f64,
+    pub(crate) atol: f64,
     /// Stop after this many integrator steps (default: 2000 per second of the cycle, at least 100 000).
     #[arg(long, value_name = "N")]
-    max_steps: Option<usize>,
+    pub(crate) max_steps: Option<usize>,
     /// Stop once the integration has run this many seconds of wall-clock time (default: no limit).
     #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
-    time_limit: Option<f64>,
+    pub(crate) time_limit: Option<f64>,
     /// Override a parameter: NAME=VALUE (repeatable).
     #[arg(long = "set", value_name = "NAME=VALUE")]
-    set: Vec<String>,
+    pub(crate) set: Vec<String>,
     #[command(flatten)]
     #[serde(flatten)]
-    data: crate::data_args::DataArgs,
+    pub(crate) data: crate::data_args::DataArgs,
     /// Write the time series as CSV.
     #[arg(long)]
-    out: Option<PathBuf>,
+    pub(crate) out: Option<PathBuf>,
     /// Write the summary as JSON.
     #[arg(long)]
-    summary_json: Option<PathBuf>,
+    pub(crate) summary_json: Option<PathBuf>,
     /// Which implementation of the model to run.
     #[arg(long, value_enum, default_value_t = EngineChoice::Auto)]
-    engine: EngineChoice,
+    pub(crate) engine: EngineChoice,
     #[command(flatten)]
-    plot: crate::plotting::PlotArgs,
+    pub(crate) plot: crate::plotting::PlotArgs,
 }
 
+/// The forward options of the command line (`engine`: the implementation run, only reported).
+pub(crate) fn options(
+    args: &ForwardArgs,
+    engine: &str,
+    progress: invsim_runtime::Progress,
+) -> Result<ForwardOptions, ForwardError> {
+    ForwardOptions::builder()
+        .progress(progress)
+        .dt(args.dt)
+        .engine(engine)
+        .kp(args.kp)
+        .ki(args.ki)
+        .response(args.response)
+        .feedforward(!args.no_feedforward)
+        .bounds(match args.bounds {
+            BoundsChoice::Ignore => Bounds::Ignore,
+            BoundsChoice::Enforce => Bounds::Enforce,
+        })
+        .method(match args.method {
+            MethodChoice::Dopri5 => Method::Dopri5,
+            MethodChoice::Rosenbrock23 => Method::Rosenbrock23,
+        })
+        .rtol(args.rtol)
+        .atol(args.atol)
+        .keep_series(args.out.is_some() || args.plot.plot.is_some())
+        .max_steps(args.max_steps)
+        .time_limit_s(args.time_limit)
+        .build()
+}
+
+/// `invsim forward` of an ordinary model (`modal_forward::run` decides which kind the model is).
 pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
-    crate::modal_cmd::refuse_modal(&args.model, "forward")?;
     let (mut outputs, cycle, model, data) = prepare_run(&RunRequest {
         model: &args.model,
         engine: args.engine,
@@ -114,29 +144,7 @@ pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
         ))
     };
     let (progress, bar) = crate::progress::start("forward");
-    let mut opts = ForwardOptions::builder()
-        .progress(progress)
-        .dt(args.dt)
-        .engine(model.engine_name())
-        .kp(args.kp)
-        .ki(args.ki)
-        .response(args.response)
-        .feedforward(!args.no_feedforward)
-        .bounds(match args.bounds {
-            BoundsChoice::Ignore => Bounds::Ignore,
-            BoundsChoice::Enforce => Bounds::Enforce,
-        })
-        .method(match args.method {
-            MethodChoice::Dopri5 => Method::Dopri5,
-            MethodChoice::Rosenbrock23 => Method::Rosenbrock23,
-        })
-        .rtol(args.rtol)
-        .atol(args.atol)
-        .keep_series(args.out.is_some() || args.plot.plot.is_some())
-        .max_steps(args.max_steps)
-        .time_limit_s(args.time_limit)
-        .build()
-        .map_err(stopped)?;
+    let mut opts = options(args, model.engine_name(), progress).map_err(stopped)?;
     opts.signals = data.signals;
     opts.initial = data.initial;
     let result = forward::forward(model.as_model(), &cycle, &opts);

@@ -21,6 +21,7 @@ mod import_cmd;
 mod initial_args;
 mod map_args;
 mod modal_cmd;
+mod modal_forward;
 mod outputs;
 mod plotting;
 mod progress;
@@ -72,7 +73,7 @@ fn main() -> ExitCode {
         Command::Derive { model, format } => derive::run(&model, format),
         Command::Simulate(args) => simulate::run(&args),
         Command::Sweep(args) => sweep_cmd::run(&args),
-        Command::Forward(args) => forward::run(&args),
+        Command::Forward(args) => modal_forward::run(&args),
         Command::Cycles(args) => cycles_cmd::run(&args),
         Command::Import(args) => import_cmd::run(&args),
         Command::Completions(args) => completions::run(&args, Cli::command()),

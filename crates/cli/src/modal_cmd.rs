@@ -23,12 +23,21 @@ pub fn read_modal(path: &Path) -> Result<Option<ModalModel>, Failure> {
     }
 }
 
-/// `forward` and `sweep` do not run models with modes yet: exit 2 saying so (an unreadable file is left to
+/// The file read as a model with modes, or `None` for anything else (an ordinary model, or a file that does
+/// not read: the command's own reader then gives its message, as before).
+pub fn modal_if_readable(path: &Path) -> Option<ModalModel> {
+    match ModelFile::from_path(path) {
+        Ok(ModelFile::Modal(m)) => Some(*m),
+        _ => None,
+    }
+}
+
+/// `sweep` does not run models with modes yet: exit 2 saying so (an unreadable file is left to
 /// the command's own reader and its message).
 pub fn refuse_modal(path: &Path, command: &str) -> Result<(), Failure> {
     if let Ok(ModelFile::Modal(_)) = ModelFile::from_path(path) {
         return Err(Failure::user(format!(
-            "{}: a model with operating modes runs with `invsim derive` and `invsim simulate`; `invsim {command}` \
+            "{}: a model with operating modes runs with `invsim derive`, `invsim simulate` and `invsim forward`; `invsim {command}` \
              does not run models with modes yet",
             path.display()
         )));
@@ -154,6 +163,7 @@ pub struct ModalRun<'a> {
     pub set: &'a [String],
     pub out: Option<&'a Path>,
     pub summary_json: Option<&'a Path>,
+    pub plot: &'a crate::plotting::PlotArgs,
     pub verify: bool,
     pub switching: Switching,
     pub transition_time: Option<f64>,
@@ -187,21 +197,29 @@ fn gear_source(m: &ModalModel, cycle: &Cycle, spec: &str) -> Result<(usize, Gear
     Ok((g.gears, src))
 }
 
-/// `invsim simulate` of a model with modes.
-pub fn simulate(m: ModalModel, run: &ModalRun<'_>) -> Result<(), Failure> {
-    let outputs = crate::outputs::Outputs::plan(
-        &crate::engine::run_inputs(run.model, run.cycle),
-        &[("--out", run.out), ("--summary-json", run.summary_json)],
-    )?;
-    let cycle = Cycle::load_with_limit(run.cycle, run.max_cycle_bytes)
-        .map_err(|e| Failure::user(e.to_string()))?;
-    let (gears_n, gear_source) = gear_source(&m, &cycle, run.cycle)?;
+/// A model with modes ready to run: its modes derived and interpreted (with the `--set` overrides), and
+/// the gearbox's schedule for the cycle.
+pub struct Prepared {
+    pub model: ModalModel,
+    pub modes: Vec<DerivedMode>,
+    pub interps: Vec<Interpreter>,
+    pub gears: (usize, GearSource),
+}
+
+/// Derive and interpret every mode of `m` for a run on `cycle` (`cycle_spec` as given), with `set` applied.
+pub fn prepare(
+    m: ModalModel,
+    cycle: &Cycle,
+    cycle_spec: &str,
+    set: &[String],
+) -> Result<Prepared, Failure> {
+    let gears = gear_source(&m, cycle, cycle_spec)?;
     let (m, ds) = derive_modes(m)?;
     let mut interps: Vec<Interpreter> = ds
         .iter()
         .map(|d| Interpreter::new(&d.d).map_err(|e| Failure::user(e.to_string())))
         .collect::<Result<_, _>>()?;
-    for s in run.set {
+    for s in set {
         let (name, value) = crate::engine::parse_set(s)?;
         if m.gearbox
             .as_ref()
@@ -216,11 +234,23 @@ pub fn simulate(m: ModalModel, run: &ModalRun<'_>) -> Result<(), Failure> {
                 .map_err(|e| Failure::user(format!("--set {name}: {e}")))?;
         }
     }
+    Ok(Prepared {
+        model: m,
+        modes: ds,
+        interps,
+        gears,
+    })
+}
+
+/// The runtime's spec of a prepared model.
+pub fn spec(p: &Prepared) -> ModalSpec<'_> {
+    let m = &p.model;
     let n_fixed = m.inputs.len() - 1;
-    let n_outputs = interps[0].info().outputs.len() - n_fixed;
-    let modes: Vec<ModeSpec<'_>> = ds
+    let n_outputs = p.interps[0].info().outputs.len() - n_fixed;
+    let modes: Vec<ModeSpec<'_>> = p
+        .modes
         .iter()
-        .zip(&interps)
+        .zip(&p.interps)
         .map(|(mode, i)| {
             let outs = &i.info().outputs;
             let fixed_outputs = mode
@@ -242,7 +272,7 @@ pub fn simulate(m: ModalModel, run: &ModalRun<'_>) -> Result<(), Failure> {
             }
         })
         .collect();
-    let spec = ModalSpec {
+    ModalSpec {
         name: m.name.clone(),
         inputs: m
             .inputs
@@ -255,8 +285,8 @@ pub fn simulate(m: ModalModel, run: &ModalRun<'_>) -> Result<(), Failure> {
             })
             .collect(),
         modes,
-        gears: gears_n,
-        gear_source,
+        gears: p.gears.0,
+        gear_source: p.gears.1.clone(),
         sequence: SequenceParams {
             standstill_below: m.sequence.standstill_below,
             standstill_above: m.sequence.standstill_above,
@@ -264,7 +294,24 @@ pub fn simulate(m: ModalModel, run: &ModalRun<'_>) -> Result<(), Failure> {
             min_dwell: m.sequence.min_dwell,
         },
         n_outputs,
-    };
+    }
+}
+
+/// `invsim simulate` of a model with modes.
+pub fn simulate(m: ModalModel, run: &ModalRun<'_>) -> Result<(), Failure> {
+    let outputs = crate::outputs::Outputs::plan(
+        &crate::engine::run_inputs(run.model, run.cycle),
+        &[
+            ("--out", run.out),
+            ("--summary-json", run.summary_json),
+            ("--plot", run.plot.plot.as_deref()),
+        ],
+    )?;
+    let cycle = Cycle::load_with_limit(run.cycle, run.max_cycle_bytes)
+        .map_err(|e| Failure::user(e.to_string()))?;
+    let prepared = prepare(m, &cycle, run.cycle, run.set)?;
+    let spec = spec(&prepared);
+    crate::plotting::check_modal(run.plot, &spec)?;
     let opts = ModalOptions {
         lookahead: run.lookahead,
         dt: run.dt,
@@ -284,6 +331,9 @@ pub fn simulate(m: ModalModel, run: &ModalRun<'_>) -> Result<(), Failure> {
         output::write_table_csv(&result.columns, &result.data, f)
     })?;
     outputs.write("--summary-json", |f| output::write_json(&result.summary, f))?;
+    crate::plotting::write(run.plot, &mut outputs, |vars| {
+        invsim_runtime::plot::modal_simulation_figure(&result, &cycle, &spec, vars)
+    })?;
     outputs.commit()?;
     print_stdout(&result.summary.to_text())
 }

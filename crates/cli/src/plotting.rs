@@ -33,6 +33,18 @@ pub fn check(args: &PlotArgs, info: &ModelInfo) -> Result<(), Failure> {
     Ok(())
 }
 
+/// Check the plot options of a model with operating modes before the run.
+pub fn check_modal(
+    args: &PlotArgs,
+    spec: &invsim_runtime::modes::ModalSpec<'_>,
+) -> Result<(), Failure> {
+    if let Some(path) = &args.plot {
+        PlotFormat::from_path(path).map_err(user)?;
+        plot::check_modal_vars(spec, &args.plot_vars).map_err(user)?;
+    }
+    Ok(())
+}
+
 /// Write `figure` (built only when `--plot` was given) to the `--plot` file, through `outputs` (a temporary
 /// file renamed into place when every output of the run is written).
 pub fn write(

@@ -85,6 +85,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
                 set: &args.set,
                 out: args.out.as_deref(),
                 summary_json: args.summary_json.as_deref(),
+                plot: &args.plot,
                 verify: args.verify,
                 switching: match args.switching {
                     SwitchingArg::Reentry => invsim_runtime::modes::Switching::Reentry,

@@ -1,6 +1,8 @@
 //! `invsim derive` and `invsim simulate` on a model with operating modes (`models/si_engine_5speed.toml`):
 //! every mode in the derivation, the summary's time per mode and switches, the CSV's mode and gear columns,
-//! the quasi-static option, and `forward` refusing such a model with exit 2.
+//! the quasi-static option, `forward` through the modes (time per mode, switches, tracking error, the CSV's
+//! mode, gear and input columns), the plots (every input and the gear panel), and `sweep` refusing such a
+//! model with exit 2.
 
 use crate::common::{invsim, json_file, root, stderr, tmp};
 
@@ -70,11 +72,107 @@ fn simulate_reports_time_per_mode_and_writes_mode_columns() {
 }
 
 #[test]
-fn forward_and_gear_overrides_are_refused() {
-    let o = invsim(&["forward", &model(), "--cycle", "ece"]);
+fn forward_runs_the_modes_and_sweep_and_gear_overrides_are_refused() {
+    let (csv, json) = (tmp("modes-fwd-ece.csv"), tmp("modes-fwd-ece.json"));
+    let o = invsim(&[
+        "forward",
+        &model(),
+        "--cycle",
+        "ece",
+        "--out",
+        csv.to_str().expect("utf-8"),
+        "--summary-json",
+        json.to_str().expect("utf-8"),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    for line in [
+        "time per mode:",
+        "idle",
+        "switches: ",
+        "max abs tracking error: ",
+        "fuel_volume: ",
+    ] {
+        assert!(text.contains(line), "`{line}` in {text}");
+    }
+    let s = json_file(&json);
+    let total: f64 = s["modes"]
+        .as_array()
+        .expect("modes")
+        .iter()
+        .map(|m| m["time_s"].as_f64().unwrap_or(0.0))
+        .sum();
+    assert!((total - 195.0).abs() < 1e-6, "{total}");
+    assert!(s["switches"].as_u64().expect("switches") > 10);
+    assert_eq!(
+        s["mode_switches"].as_array().map(Vec::len),
+        s["switches"].as_u64().map(|n| n as usize)
+    );
+    assert!(s["max_abs_tracking_error"].as_f64().expect("tracking") > 0.0);
+    assert_eq!(s["inputs"][1]["name"], "F_b");
+    assert_eq!(s["provenance"]["command"], "forward");
+    let table = std::fs::read_to_string(&csv).expect("CSV");
+    assert!(
+        table.starts_with("t,yc,mode,gear,m_at,F_b,v,p_i,fuel"),
+        "{}",
+        &table[..80]
+    );
+    let o = invsim(&[
+        "sweep",
+        &model(),
+        "--cycle",
+        "ece",
+        "--grid",
+        "m=1200:1400:2",
+    ]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("operating modes"), "{}", stderr(&o));
     let o = invsim(&["simulate", &model(), "--cycle", "ece", "--set", "i_g=2"]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("[gearbox]"), "{}", stderr(&o));
+    let o = invsim(&["forward", &model(), "--cycle", "ece", "--set", "i_g=2"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("[gearbox]"), "{}", stderr(&o));
+}
+
+#[test]
+fn simulate_and_forward_plot_the_inputs_and_the_gear() {
+    for command in ["simulate", "forward"] {
+        let svg = tmp(&format!("modes-{command}.svg"));
+        let o = invsim(&[
+            command,
+            &model(),
+            "--cycle",
+            "ece",
+            "--plot",
+            svg.to_str().expect("utf-8"),
+        ]);
+        assert!(o.status.success(), "{command}: {}", stderr(&o));
+        let text = std::fs::read_to_string(&svg).expect("SVG");
+        for var in ["reference", "m_at", "F_b", "gear", "cum:fuel"] {
+            assert!(
+                text.contains(&format!("data-var=\"{var}\"")),
+                "{command}: panel {var}"
+            );
+        }
+        assert!(text.contains("gear [-]") && text.contains("F_b [N]"));
+    }
+    let svg = tmp("modes-vars.svg");
+    let o = invsim(&[
+        "simulate",
+        &model(),
+        "--cycle",
+        "ece",
+        "--plot",
+        svg.to_str().expect("utf-8"),
+        "--plot-vars",
+        "speed",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("unknown panel `speed`"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!svg.exists(), "no plot written");
 }

@@ -7,12 +7,16 @@
 //! extension, the PNG rasterised from the same SVG in pure Rust (resvg), so no system font is needed.
 //!
 //! Modules, in the one direction their imports go: `axis` (ranges, nice ticks), `font` (the embedded font:
-//! text widths, PNG), `figure` (the SVG layout), `panels` (what each `--plot-vars` name draws), this file.
+//! text widths, PNG), `figure` (the SVG layout), `panels` (what each `--plot-vars` name draws), `reference`
+//! (the reference panels' axis and raw cycle), `modal` (the figures of runs with operating modes, with the
+//! step panel of the mode sequence), this file.
 
 mod axis;
 mod figure;
 mod font;
+mod modal;
 mod panels;
+mod reference;
 
 use std::path::Path;
 
@@ -23,14 +27,17 @@ use crate::cycle::Cycle;
 use crate::forward::ForwardResult;
 use crate::inverse::SimulationResult;
 use panels::{input_panel, resolve, series, signal_panel, Var, CYCLE, REFERENCE};
+use reference::{raw_points, reference_axis, time_range};
 
 pub use figure::{
     Figure, Panel, Series, LABEL_SIZE, LEGEND_SIZE, PANEL_TITLE_SIZE, TICK_SIZE, TITLE_SIZE, WIDTH,
 };
 pub use font::{text_width, FONT_FAMILY};
+pub use modal::{
+    check_modal_vars, modal_default_vars, modal_forward_figure, modal_simulation_figure,
+    modal_valid_vars,
+};
 pub use panels::{default_vars, valid_vars, MAX_BUCKETS};
-
-const MPS_TO_KMH: f64 = 3.6;
 
 /// Why a plot could not be drawn or written.
 #[derive(Debug, Error)]
@@ -223,29 +230,6 @@ fn build_panels(
     panels
 }
 
-/// [t_first, t_last] (a unit interval after t_first if the run is a single sample).
-fn time_range(t: &[f64]) -> (f64, f64) {
-    let t0 = t.first().copied().unwrap_or(0.0);
-    let t1 = t.last().copied().unwrap_or(t0);
-    (t0, if t1 > t0 { t1 } else { t0 + 1.0 })
-}
-
-/// The y axis label, the factor from the output's unit to the axis unit and whether 0 belongs on the axis:
-/// a speed tracked as itself (identity reference) in km/h, any other output in its own unit.
-fn reference_axis(info: &ModelInfo, reference: ReferenceMap) -> (String, f64, bool) {
-    let speed =
-        reference.is_identity() && !matches!(info.output_unit.as_deref(), Some(u) if u != "m/s");
-    if speed {
-        ("speed [km/h]".to_string(), MPS_TO_KMH, true)
-    } else {
-        (
-            panels::with_unit(&info.output, info.output_unit.as_deref()),
-            1.0,
-            false,
-        )
-    }
-}
-
 /// The reference panel of an inverse run: the raw cycle (through the reference map) and y_d.
 fn simulation_reference(
     r: &SimulationResult,
@@ -422,25 +406,4 @@ pub fn plot_svg(result: &SimulationResult, cycle: &Cycle, path: &Path) -> Result
         ..ModelInfo::default()
     };
     simulation_figure(result, cycle, &info, &[])?.write(path)
-}
-
-/// The raw cycle's points within [t0, t1] (piecewise linear, its own breakpoints), through `value`, held
-/// beyond its ends (as the smoother does).
-fn raw_points(cycle: &Cycle, (t0, t1): (f64, f64), value: impl Fn(f64) -> f64) -> Vec<(f64, f64)> {
-    let mut v: Vec<(f64, f64)> = cycle
-        .time
-        .iter()
-        .zip(&cycle.speed)
-        .filter(|(&ti, _)| ti >= t0 && ti <= t1)
-        .map(|(&ti, &s)| (ti, value(s)))
-        .collect();
-    match v.first() {
-        Some(p) if p.0 <= t0 => {}
-        _ => v.insert(0, (t0, value(cycle.speed_at(t0)))),
-    }
-    match v.last() {
-        Some(p) if p.0 >= t1 => {}
-        _ => v.push((t1, value(cycle.speed_at(t1)))),
-    }
-    v
 }

@@ -5,6 +5,8 @@
 //! - `forward_budget`: The forward run's budgets (issue 15, defect 5): a closed loop made stiff or fast by absurd driver gains stops
 //! - `forward_integrals`: The forward run's integrals do not depend on the output grid (issue 15, defect 12): the accumulated outputs
 //! - `fuzz_regressions`: Replays the fuzz regressions of the drive-cycle reader (`fuzz/regressions/cycle_reader/*`) through the very
+//! - `modes_forward`: The forward run with modes against the inverse run with modes: si_engine_5speed on the NEDC,
+//!   fuel within 2 %, the same gears outside a short window around each shift, the tracking error reported.
 //! - `modes`: Runs with operating modes: si_engine_5speed on the NEDC and the UDDS, and a two-mode linear model against
 //!   its exact solution (re-entry and quasi-static).
 //! - `nonsense_options`: Options that make no sense for the cycle (issue 15, defect 10): a look-ahead longer than a quarter of the
@@ -24,6 +26,7 @@ mod forward_budget;
 mod forward_integrals;
 mod fuzz_regressions;
 mod modes;
+mod modes_forward;
 mod nonsense_options;
 mod plot;
 mod si_engine_maps;

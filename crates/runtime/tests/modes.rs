@@ -11,7 +11,7 @@ use invsim_runtime::modes::{simulate_modes, GearSource, ModalOptions, ModalResul
 use invsim_runtime::{Cycle, Smoother};
 
 #[path = "modes_support.rs"]
-mod support;
+pub(crate) mod support;
 
 use support::{five_speed, load, spec, speed_schedule, Loaded, W};
 

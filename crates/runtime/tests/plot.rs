@@ -1,4 +1,5 @@
-//! The plots of every shipped model (`models/*.toml`, through the interpreter): the SVG parsed and its
+//! The plots of every shipped model (`models/*.toml`, through the interpreter; those with operating modes
+//! inverse and forward, with their inputs and the gear panel): the SVG parsed and its
 //! elements checked (one panel per variable, axis labels with the model's units, a legend entry per curve,
 //! distinct bound colours, legible text, no text outside the canvas), the PNG decoded and checked for size and
 //! content.
@@ -7,9 +8,12 @@ use std::path::{Path, PathBuf};
 
 use invsim_inversion::{derive_file, Interpreter};
 use invsim_model_api::InverseModel;
+use invsim_runtime::forward::forward_modes;
+use invsim_runtime::modes::{simulate_modes, ModalOptions};
 use invsim_runtime::plot::{
-    self, default_vars, forward_figure, simulation_figure, text_width, valid_vars, PlotError,
-    PlotFormat, WIDTH,
+    self, default_vars, forward_figure, modal_default_vars, modal_forward_figure,
+    modal_simulation_figure, modal_valid_vars, simulation_figure, text_width, valid_vars,
+    PlotError, PlotFormat, WIDTH,
 };
 use invsim_runtime::{forward, simulate, Cycle, ForwardOptions, SimulationOptions};
 use resvg::tiny_skia::Pixmap;
@@ -20,7 +24,7 @@ fn models() -> Vec<PathBuf> {
         .unwrap()
         .map(|e| e.unwrap().path())
         .filter(|p| p.extension().is_some_and(|e| e == "toml"))
-        // Models with operating modes have their own plots (README "Modes").
+        // Models with operating modes are plotted by every_shipped_model_with_modes_plots_its_inputs_and_its_gear.
         .filter(|p| {
             !std::fs::read_to_string(p).is_ok_and(|t| t.lines().any(|l| l.starts_with("[modes.")))
         })
@@ -192,6 +196,120 @@ fn every_shipped_model_plots_with_units_legends_and_text_inside() {
     assert!(forwards >= 2, "forward plots of si_engine and driveline");
 }
 
+/// The shipped models with operating modes (`[modes.…]` tables).
+fn modal_models() -> Vec<PathBuf> {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../models");
+    let mut v: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .filter(|p| {
+            std::fs::read_to_string(p).is_ok_and(|t| t.lines().any(|l| l.starts_with("[modes.")))
+        })
+        .collect();
+    v.sort();
+    v
+}
+
+/// The panel names of an SVG, in order, and the y-axis label of each.
+fn panel_labels(svg: &str) -> Vec<(String, String)> {
+    let doc = roxmltree::Document::parse(svg).unwrap();
+    doc.descendants()
+        .filter(|n| n.attribute("class") == Some("panel"))
+        .map(|p| {
+            let label = p
+                .descendants()
+                .find(|n| n.attribute("class") == Some("axis-label y"))
+                .and_then(|n| n.text())
+                .unwrap_or("")
+                .to_string();
+            (p.attribute("data-var").unwrap().to_string(), label)
+        })
+        .collect()
+}
+
+/// Every shipped model with modes (si_engine_5speed) plotted inverse and forward on the NEDC: the same
+/// checks as every other model's plots, every input in a panel of its own with its unit, and under them the
+/// step panel of the gear (a curve of horizontal and vertical segments only, 0 … 5).
+#[test]
+fn every_shipped_model_with_modes_plots_its_inputs_and_its_gear() {
+    let models = modal_models();
+    assert!(!models.is_empty(), "si_engine_5speed is shipped");
+    let nedc = Cycle::builtin("nedc").unwrap();
+    for path in models {
+        let what = path.file_name().unwrap().to_string_lossy().to_string();
+        let text = std::fs::read_to_string(&path).unwrap();
+        let l = crate::modes::support::load(&path, &text);
+        let spec = crate::modes::support::spec(&l, crate::modes::support::speed_schedule(&l));
+        let opts = ModalOptions::default();
+        let inv = simulate_modes(&spec, &nedc, &opts).unwrap();
+        let fwd_opts = ForwardOptions::builder().keep_series(true).build().unwrap();
+        let fwd = forward_modes(&spec, &nedc, &fwd_opts).unwrap();
+        for vars in [modal_default_vars(&spec), modal_valid_vars(&spec)] {
+            let svg = modal_simulation_figure(&inv, &nedc, &spec, &vars)
+                .unwrap()
+                .to_svg();
+            check_svg(&svg, &vars, &format!("{what} simulate {vars:?}"));
+            let svg = modal_forward_figure(&fwd, &spec, &vars).unwrap().to_svg();
+            check_svg(&svg, &vars, &format!("{what} forward {vars:?}"));
+            assert!(
+                svg.contains("achieved"),
+                "{what}: forward shows the output achieved"
+            );
+        }
+        let svg = modal_simulation_figure(&inv, &nedc, &spec, &[])
+            .unwrap()
+            .to_svg();
+        let panels = panel_labels(&svg);
+        let names: Vec<&str> = panels.iter().map(|(n, _)| n.as_str()).collect();
+        assert_eq!(
+            &names[..5],
+            ["reference", "m_at", "F_b", "gear", "cum:fuel"],
+            "{what}: the gear under the inputs"
+        );
+        for (var, label) in [
+            ("m_at", "m_at [kg/s]"),
+            ("F_b", "F_b [N]"),
+            ("gear", "gear [-]"),
+        ] {
+            assert!(
+                panels.contains(&(var.to_string(), label.to_string())),
+                "{what}: {label}"
+            );
+        }
+        assert!(svg.contains("lower bound 0 N") && svg.contains("upper bound 15000 N"));
+        assert!(svg.contains("gear of the mode in force (0: idle)"));
+        // The gear curve is a staircase: consecutive points share their x or their y.
+        let doc = roxmltree::Document::parse(&svg).unwrap();
+        let gear = doc
+            .descendants()
+            .find(|n| n.attribute("data-var") == Some("gear"))
+            .unwrap();
+        let line = gear
+            .descendants()
+            .find(|n| n.attribute("class") == Some("series"))
+            .unwrap();
+        let pts: Vec<(f64, f64)> = line
+            .attribute("points")
+            .unwrap()
+            .split_whitespace()
+            .map(|p| {
+                let (x, y) = p.split_once(',').unwrap();
+                (x.parse().unwrap(), y.parse().unwrap())
+            })
+            .collect();
+        assert!(pts.len() > 60, "{what}: {} points", pts.len());
+        assert!(pts.windows(2).all(|w| w[0].0 == w[1].0 || w[0].1 == w[1].1));
+        let levels: std::collections::BTreeSet<i64> =
+            pts.iter().map(|p| p.1.round() as i64).collect();
+        assert_eq!(
+            levels.len(),
+            6,
+            "{what}: gears 0 … 5 drawn at distinct heights"
+        );
+    }
+}
+
 #[test]
 fn input_panel_has_both_bounds_in_the_legend_and_units_from_the_model() {
     let path = models()
@@ -283,4 +401,28 @@ fn bad_names_and_formats_are_errors_listing_the_choices() {
         PlotFormat::from_path("a.PNG".as_ref()).unwrap(),
         PlotFormat::Png
     );
+}
+
+/// A model with modes but no gearbox (si_engine_5speed without its `[gearbox]`: drive, coast, overrun and
+/// idle, one mode each) gets the mode's index as its sequence panel, titled with the modes' names.
+#[test]
+fn a_model_with_modes_but_no_gearbox_plots_the_mode_index() {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../models/si_engine_5speed.toml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let start = text.find("\n[gearbox]").unwrap() + 1;
+    let end = start + text[start..].find("\n[sequence]").unwrap() + 1;
+    let text = format!("{}{}", &text[..start], &text[end..]);
+    let l = crate::modes::support::load(&path, &text);
+    let spec = crate::modes::support::spec(&l, invsim_runtime::modes::GearSource::Fixed);
+    assert!(spec.modes.iter().all(|m| m.gear.is_none()));
+    let ece = Cycle::builtin("ece").unwrap();
+    let inv = simulate_modes(&spec, &ece, &ModalOptions::default()).unwrap();
+    let vars = modal_default_vars(&spec);
+    assert!(vars.contains(&"mode".to_string()) && !vars.contains(&"gear".to_string()));
+    let svg = modal_simulation_figure(&inv, &ece, &spec, &vars)
+        .unwrap()
+        .to_svg();
+    check_svg(&svg, &vars, "si_engine_5speed without a gearbox");
+    assert!(panel_labels(&svg).contains(&("mode".to_string(), "mode [index]".to_string())));
+    assert!(svg.contains("mode in force: 0 drive, 1 coast, 2 overrun, 3 idle"));
 }

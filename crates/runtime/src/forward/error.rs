@@ -56,6 +56,8 @@ pub enum ForwardError {
         num(*t)
     )]
     InitialState { t: f64, reason: String },
+    #[error("the forward run with modes cannot start: {reason}")]
+    Modes { reason: String },
     #[error("the forward integration failed at t = {} s: {reason}", num(*t))]
     Integration { t: f64, reason: String },
     /// A reason shared with the inverse simulation.

@@ -46,6 +46,9 @@ mod budget;
 mod driver;
 mod error;
 mod integrator;
+mod modal;
+mod modal_record;
+mod modal_summary;
 mod options;
 mod record;
 mod summary;
@@ -65,6 +68,9 @@ use invsim_model_api::zero_dynamics::{newton, EquilibriumFailure, EQUILIBRIUM_MA
 use record::{ForwardTally, Layout, Recorder};
 
 pub use error::ForwardError;
+pub use modal::forward_modes;
+pub use modal_record::ModalForwardResult;
+pub use modal_summary::{InputRange, ModalForwardSummary, ModeSwitch};
 pub use options::{
     default_step_budget, Bounds, ForwardOptions, ForwardOptionsBuilder, Method, DEFAULT_ATOL,
     DEFAULT_DT, DEFAULT_RTOL, DRIVER_KI, DRIVER_KP, MIN_STEP_BUDGET, MPH, RESPONSE_OMEGA,

@@ -16,6 +16,7 @@ pub mod blend;
 pub mod gears;
 mod record;
 mod runner;
+pub(crate) mod sequence;
 mod summary;
 mod verify;
 

@@ -7,6 +7,7 @@ use invsim_model_api::InverseModel;
 use super::blend::Blend;
 use super::gears::GearBox;
 use super::record::{Ctx, Impulse, Record, Solved, Transition};
+use super::sequence::{decide, has_role, pick, Moment, Place, Rung, Switcher};
 use super::verify::replay;
 use super::NO_SIGNALS;
 use super::{ModalError, ModalOptions, ModalResult, ModalSpec, Role, Switching};
@@ -17,15 +18,16 @@ use crate::smoother::Smoother;
 
 /// The sequence's state between samples.
 struct Seq {
-    mode: usize,
-    rung: Rung,
+    place: Place,
+    modal: Inner,
+}
+
+/// What the inverse keeps of its mode beside the sequence's place: η, the re-entry in progress.
+struct Inner {
     eta: Vec<f64>,
     blend: Option<Blend>,
     /// Index into the transitions of the blend in progress.
     open: Option<usize>,
-    /// Whether the brake band is armed (the traction input was above min + band since the last brake).
-    armed: bool,
-    last_switch: f64,
 }
 
 impl Ctx<'_, '_> {
@@ -154,112 +156,6 @@ impl Ctx<'_, '_> {
     }
 }
 
-/// A place in the sequence: standstill, or a rung of the ladder traction (0) → brake modes (1 …, in the
-/// model file's order: each deeper rung brakes more).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Rung {
-    Standstill,
-    Ladder(usize),
-}
-
-/// The families of the ladder: the first traction family, then every brake family, in file order.
-fn ladder<'s>(spec: &'s ModalSpec<'_>) -> Vec<&'s str> {
-    let mut out: Vec<&str> = Vec::new();
-    if let Some(m) = spec.modes.iter().find(|m| m.role == Role::Traction) {
-        out.push(&m.family);
-    }
-    for m in spec.modes.iter().filter(|m| m.role == Role::Brake) {
-        if !out.contains(&m.family.as_str()) {
-            out.push(&m.family);
-        }
-    }
-    out
-}
-
-/// The mode of a rung in a gear (the family's mode of that gear, else its ungeared or first mode).
-fn pick(spec: &ModalSpec<'_>, rung: Rung, gear: usize) -> Option<usize> {
-    let fits = |m: &super::ModeSpec<'_>| match rung {
-        Rung::Standstill => m.role == Role::Standstill,
-        Rung::Ladder(i) => ladder(spec).get(i).is_some_and(|f| *f == m.family),
-    };
-    spec.modes
-        .iter()
-        .position(|m| fits(m) && m.gear == Some(gear))
-        .or_else(|| spec.modes.iter().position(|m| fits(m) && m.gear.is_none()))
-        .or_else(|| spec.modes.iter().position(fits))
-}
-
-fn has_role(spec: &ModalSpec<'_>, role: Role) -> bool {
-    spec.modes.iter().any(|m| m.role == role)
-}
-
-/// The hysteresis band of a mode's free input: the sequence's `brake_band` for traction, else 1 % of the
-/// input's range (0 without both bounds).
-/// The tolerance of a bound check on mode m's free input: 1e-9 of its range (or of 1): a rung entered exactly
-/// at a bound (where the old mode's input crossed it) starts there up to rounding.
-fn tolerance(ctx: &Ctx<'_, '_>, m: usize) -> f64 {
-    let info = ctx.model(m).info();
-    match (info.input_min, info.input_max) {
-        (Some(lo), Some(hi)) => 1e-9 * (hi - lo).max(1.0),
-        _ => 1e-9,
-    }
-}
-
-fn band(ctx: &Ctx<'_, '_>, m: usize) -> f64 {
-    let info = ctx.model(m).info();
-    let default = match (info.input_min, info.input_max) {
-        (Some(lo), Some(hi)) => 0.01 * (hi - lo),
-        _ => 0.0,
-    };
-    match ctx.spec.modes[m].role {
-        Role::Traction => ctx.spec.sequence.brake_band.unwrap_or(0.0),
-        _ => default,
-    }
-}
-
-/// Where the sequence would like to go from the current mode's solution `u`, in order of preference, each
-/// with the least free input the target must then have (its minimum, or minimum + band for a deeper brake).
-fn wanted(ctx: &Ctx<'_, '_>, seq: &mut Seq, t: f64, u: f64, ys: &[f64]) -> Vec<(Rung, f64)> {
-    let spec = ctx.spec;
-    let info = ctx.model(seq.mode).info();
-    let lo = info.input_min.unwrap_or(f64::NEG_INFINITY) - tolerance(ctx, seq.mode);
-    let rungs = ladder(spec).len();
-    // Standstill is entered once a re-entry transition is over (the car then follows the cycle to rest).
-    let stopping = ys[0] < spec.sequence.standstill_below
-        && ys.get(1).is_none_or(|a| *a <= 0.0)
-        && seq.blend.as_ref().is_none_or(|b| b.done(t));
-    let dwell = t - seq.last_switch >= spec.sequence.min_dwell;
-    let mut out = Vec::new();
-    match seq.rung {
-        Rung::Standstill => {
-            // A brake force below its minimum while the reference stands or slows is rolling resistance at
-            // a standstill (the car would roll back), not a demand for traction.
-            let accelerating = ys.get(1).is_some_and(|a| *a > 0.0);
-            if (u < lo && accelerating) || ys[0] > spec.sequence.standstill_above {
-                out.push((Rung::Ladder(0), f64::NEG_INFINITY));
-            }
-        }
-        Rung::Ladder(i) => {
-            if stopping && has_role(spec, Role::Standstill) {
-                out.push((Rung::Standstill, f64::NEG_INFINITY));
-            }
-            if i == 0 {
-                let b = band(ctx, seq.mode);
-                seq.armed = seq.armed || u > lo + b;
-                let threshold = if seq.armed { lo + b } else { lo };
-                if u < threshold && dwell {
-                    out.extend((1..rungs).map(|j| (Rung::Ladder(j), f64::NEG_INFINITY)));
-                }
-            } else if u < lo && dwell {
-                out.extend((0..i).rev().map(|j| (Rung::Ladder(j), f64::NEG_INFINITY)));
-            } else if i + 1 < rungs {
-                out.push((Rung::Ladder(i + 1), f64::NAN));
-            }
-        }
-    }
-    out
-}
-
 /// Simulate a model with modes inversely along `cycle`.
 pub fn simulate_modes(
     spec: &ModalSpec<'_>,
@@ -322,15 +218,14 @@ fn run_sequence(ctx: &Ctx<'_, '_>, grid: &Grid, opts: &ModalOptions) -> Result<R
         pick(spec, rung, gear).ok_or_else(|| ModalError::Setup("no traction mode".into()))?;
     let eta = ctx.initial_eta(mode, t0)?;
     let mut seq = Seq {
-        mode,
-        rung,
-        eta,
-        blend: None,
-        open: None,
-        armed: true,
-        last_switch: f64::NEG_INFINITY,
+        place: Place::new(mode, rung),
+        modal: Inner {
+            eta,
+            blend: None,
+            open: None,
+        },
     };
-    let first = ctx.solve(mode, t0, &seq.eta, None, &vec![0.0; ctx.n])?;
+    let first = ctx.solve(mode, t0, &seq.modal.eta, None, &vec![0.0; ctx.n])?;
     let mut rec = Record {
         t: vec![t0],
         mode: vec![mode],
@@ -344,24 +239,25 @@ fn run_sequence(ctx: &Ctx<'_, '_>, grid: &Grid, opts: &ModalOptions) -> Result<R
     };
     let mut cur = first;
     // Decide at t0 too (a start that needs another mode at once).
-    cur = decide(ctx, &mut seq, &mut gearbox, t0, cur, &mut rec, opts)?;
+    cur = step_sequence(ctx, &mut seq, &mut gearbox, t0, cur, &mut rec, opts)?;
     rec.solved.push(cur.clone());
     for k in 1..=grid.n {
         let (ta, tb) = (grid.time(k - 1), grid.time(k));
-        ctx.advance_eta(seq.mode, (ta, tb), &mut seq.eta, seq.blend.as_ref())?;
-        let end = ctx.solve(seq.mode, tb, &seq.eta, seq.blend.as_ref(), &cur.x)?;
+        let (m, inner) = (seq.place.mode, &mut seq.modal);
+        ctx.advance_eta(m, (ta, tb), &mut inner.eta, inner.blend.as_ref())?;
+        let end = ctx.solve(m, tb, &inner.eta, inner.blend.as_ref(), &cur.x)?;
         rec.u_end.push(end.u);
         rec.x_end.push(end.x.clone());
         rec.t.push(tb);
         rec.impulse.push(0.0);
         rec.impulse_dir.push(Vec::new());
-        if seq.blend.as_ref().is_some_and(|b| b.done(tb)) {
-            seq.blend = None;
-            seq.open = None;
+        if seq.modal.blend.as_ref().is_some_and(|b| b.done(tb)) {
+            seq.modal.blend = None;
+            seq.modal.open = None;
         }
-        cur = decide(ctx, &mut seq, &mut gearbox, tb, end, &mut rec, opts)?;
+        cur = step_sequence(ctx, &mut seq, &mut gearbox, tb, end, &mut rec, opts)?;
         track_deviation(ctx, &seq, tb, &cur, &mut rec);
-        rec.mode.push(seq.mode);
+        rec.mode.push(seq.place.mode);
         rec.solved.push(cur.clone());
     }
     Ok(rec)
@@ -378,97 +274,76 @@ impl Ctx<'_, '_> {
 
 /// The largest deviation of the transition in progress.
 fn track_deviation(ctx: &Ctx<'_, '_>, seq: &Seq, t: f64, cur: &Solved, rec: &mut Record) {
-    if let Some(i) = seq.open {
-        let yc = ctx.cycle_reference(seq.mode, t);
+    if let Some(i) = seq.modal.open {
+        let yc = ctx.cycle_reference(seq.place.mode, t);
         let d = (cur.yref[0] - yc[0]).abs();
         let tr = &mut rec.transitions[i];
         tr.max_deviation = tr.max_deviation.max(d);
     }
 }
 
-/// Switch as long as the sequence wants another mode (at most a few times per sample): a new gear at once,
-/// another rung only where the target's free input is within its bounds there.
-fn decide(
+/// The sequence's decision at t (gear from the smoothed cycle's speed), entering each candidate mode from
+/// the continuous state by the inverse.
+fn step_sequence(
     ctx: &Ctx<'_, '_>,
     seq: &mut Seq,
     gearbox: &mut GearBox,
     t: f64,
-    mut cur: Solved,
+    cur: Solved,
     rec: &mut Record,
     opts: &ModalOptions,
 ) -> Result<Solved, ModalError> {
     let ys = ctx.smoothed(t);
     let gear = gearbox.gear(t, ys[0]);
-    // A new gear: the current rung in the new gear, else another rung of it, where the input is within its
-    // bounds; where none is, the gear change waits (a driver does not shift into a gear that cannot follow).
-    let same_gear = pick(ctx.spec, seq.rung, gear) == Some(seq.mode);
-    if !same_gear && ctx.spec.modes[seq.mode].gear.is_some() {
-        let mut rungs = vec![seq.rung];
-        rungs.extend(
-            (0..ladder(ctx.spec).len())
-                .map(Rung::Ladder)
-                .filter(|r| *r != seq.rung),
-        );
-        // Where the current mode cannot follow either, the gear changes regardless.
-        let forced = !feasible(ctx, seq.mode, cur.u, f64::NEG_INFINITY);
-        for (i, rung) in rungs.into_iter().enumerate() {
-            let Some(target) = pick(ctx.spec, rung, gear).filter(|&m| m != seq.mode) else {
-                continue;
-            };
-            let e = entry(ctx, seq.mode, target, t, &cur, opts.switching)?;
-            if feasible(ctx, target, e.solved.u, f64::NEG_INFINITY) || (forced && i == 0) {
-                cur = commit(seq, rec, rung, e);
-                break;
-            }
-        }
-    }
-    for _ in 0..4 {
-        let mut moved = false;
-        for (rung, least) in wanted(ctx, seq, t, cur.u, &ys) {
-            let Some(target) = pick(ctx.spec, rung, gear).filter(|&m| m != seq.mode) else {
-                continue;
-            };
-            let e = entry(ctx, seq.mode, target, t, &cur, opts.switching)?;
-            let info = ctx.model(target).info();
-            let lo = info.input_min.unwrap_or(f64::NEG_INFINITY);
-            let least = if least.is_nan() {
-                lo + band(ctx, target)
-            } else {
-                least
-            };
-            if feasible(ctx, target, e.solved.u, least) {
-                let ladder_move =
-                    matches!((seq.rung, rung), (Rung::Ladder(a), Rung::Ladder(b)) if a != b);
-                if ladder_move {
-                    seq.last_switch = t;
-                    if rung == Rung::Ladder(0) {
-                        seq.armed = false;
-                    }
-                }
-                cur = commit(seq, rec, rung, e);
-                moved = true;
-                break;
-            }
-        }
-        if !moved {
-            break;
-        }
-    }
-    Ok(cur)
+    let u = cur.u;
+    let mut sw = InverseEntry {
+        ctx,
+        inner: &mut seq.modal,
+        rec,
+        t,
+        switching: opts.switching,
+        cur,
+        pending: None,
+    };
+    let at = Moment { t, gear, ys: &ys };
+    decide(ctx.spec, &mut seq.place, at, u, &mut sw)?;
+    Ok(sw.cur)
 }
 
-/// Whether mode m's free input u is within its bounds (up to the tolerance) and at least `least`.
-fn feasible(ctx: &Ctx<'_, '_>, m: usize, u: f64, least: f64) -> bool {
-    let info = ctx.model(m).info();
-    let tol = tolerance(ctx, m);
-    let lo = info.input_min.unwrap_or(f64::NEG_INFINITY) - tol;
-    let hi = info.input_max.unwrap_or(f64::INFINITY) + tol;
-    u >= lo.max(least) && u <= hi
+/// The inverse's way into a candidate mode: the re-entry or the quasi-static jump from the current solution.
+struct InverseEntry<'c, 'a, 'm> {
+    ctx: &'c Ctx<'a, 'm>,
+    inner: &'c mut Inner,
+    rec: &'c mut Record,
+    t: f64,
+    switching: Switching,
+    cur: Solved,
+    pending: Option<Entry>,
+}
+
+impl Switcher for InverseEntry<'_, '_, '_> {
+    type Error = ModalError;
+
+    fn try_enter(&mut self, from: usize, target: usize) -> Result<f64, ModalError> {
+        let e = entry(self.ctx, from, target, self.t, &self.cur, self.switching)?;
+        let u = e.solved.u;
+        self.pending = Some(e);
+        Ok(u)
+    }
+
+    fn commit(&mut self) {
+        if let Some(e) = self.pending.take() {
+            self.cur = commit(self.inner, self.rec, e);
+        }
+    }
+
+    fn settled(&self) -> bool {
+        self.inner.blend.as_ref().is_none_or(|b| b.done(self.t))
+    }
 }
 
 /// What entering a mode gives: its η, blend, solution and the record of the switch.
 struct Entry {
-    target: usize,
     eta: Vec<f64>,
     blend: Option<Blend>,
     solved: Solved,
@@ -508,7 +383,6 @@ fn entry(
             let solved = ctx.solve(target, t, &eta, blend.as_ref(), &prev.x)?;
             let max_deviation = e.first().map_or(0.0, |d| d.abs());
             Ok(Entry {
-                target,
                 eta,
                 blend,
                 solved,
@@ -524,7 +398,6 @@ fn entry(
             let imp = impulse(ctx, target, t, &prev.x, &solved);
             let impulse = (imp.amount != 0.0).then(|| (imp, g_of(model, &solved.x)));
             Ok(Entry {
-                target,
                 eta,
                 blend: None,
                 solved,
@@ -558,10 +431,8 @@ fn deviations(
     e
 }
 
-/// Make an entry the sequence's state.
-fn commit(seq: &mut Seq, rec: &mut Record, rung: Rung, e: Entry) -> Solved {
-    seq.mode = e.target;
-    seq.rung = rung;
+/// Make an entry the inverse's state (the sequence's place is the caller's).
+fn commit(seq: &mut Inner, rec: &mut Record, e: Entry) -> Solved {
     seq.eta = e.eta;
     seq.blend = e.blend;
     rec.transitions.push(e.transition);

@@ -12,7 +12,7 @@ use super::NO_SIGNALS;
 use super::{ModalOptions, ModalResult};
 use crate::cycle::Cycle;
 use crate::provenance::Provenance;
-use crate::report::Column;
+use crate::report::{integral_unit, unit_suffix, Column};
 
 /// What `invsim simulate` prints and writes for a model with modes.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -31,6 +31,10 @@ pub struct ModalSummary {
     pub transition_time_s: f64,
     pub integrals: BTreeMap<String, f64>,
     pub per_100km: BTreeMap<String, f64>,
+    /// Accumulated output → unit of its integral (`kg` for an output in `kg/s`), where known.
+    pub integral_units: BTreeMap<String, String>,
+    /// The unit of the tracked output (and so of the transition deviations and the tracking errors).
+    pub output_unit: Option<String>,
     /// Intervals where a mode's free input leaves its bounds (no mode absorbs it).
     pub input_bound_violations: Vec<[f64; 2]>,
     pub modes: Vec<ModeTime>,
@@ -157,9 +161,13 @@ pub(super) fn assemble(
     let distance = cycle.distance();
     let mut ints = BTreeMap::new();
     let mut per = BTreeMap::new();
+    let mut integral_units = BTreeMap::new();
     for (o, total) in info0.outputs.iter().zip(&integrals) {
         if o.accumulate {
             ints.insert(o.name.clone(), *total);
+            if let Some(u) = o.unit.as_deref().and_then(integral_unit) {
+                integral_units.insert(o.name.clone(), u);
+            }
             if o.per_distance && distance > 0.0 {
                 per.insert(o.name.clone(), total / distance * 1e5);
             }
@@ -195,6 +203,8 @@ pub(super) fn assemble(
         transition_time_s: ctx.transition,
         integrals: ints,
         per_100km: per,
+        integral_units,
+        output_unit: info0.output_unit.clone(),
         input_bound_violations: violations,
         modes,
         switches: rec.transitions.len(),
@@ -278,13 +288,19 @@ impl ModalSummary {
         );
         let _ = writeln!(s, "engine: {}  switching: {}", self.engine, self.switching);
         for (k, v) in &self.integrals {
+            let unit = self.integral_units.get(k);
             let per = self
                 .per_100km
                 .get(k)
-                .map(|p| format!("  ({p:.4} per 100 km)"))
+                .map(|p| match unit {
+                    Some(u) => format!("  ({p:.4} {u}/100 km)"),
+                    None => format!("  ({p:.4} per 100 km)"),
+                })
                 .unwrap_or_default();
-            let _ = writeln!(s, "integral {k}: {v:.6}{per}");
+            let u = unit.map(|u| format!(" {u}")).unwrap_or_default();
+            let _ = writeln!(s, "integral {k}: {v:.6}{u}{per}");
         }
+        let yu = unit_suffix(self.output_unit.as_deref());
         let _ = writeln!(s, "time per mode:");
         for m in self.modes.iter().filter(|m| m.time_s > 0.0) {
             let _ = writeln!(
@@ -295,12 +311,21 @@ impl ModalSummary {
         }
         let _ = writeln!(
             s,
-            "switches: {}  largest transition deviation: {:.4e}",
+            "switches: {}  largest transition deviation: {:.4e}{yu}",
             self.switches, self.max_transition_deviation
         );
         if !self.impulses.is_empty() {
             for (k, v) in &self.impulse_booked {
-                let _ = writeln!(s, "impulses: {} booked, {k}: {v:.6e}", self.impulses.len());
+                let u = self
+                    .integral_units
+                    .get(k)
+                    .map(|u| format!(" {u}"))
+                    .unwrap_or_default();
+                let _ = writeln!(
+                    s,
+                    "impulses: {} booked, {k}: {v:.6e}{u}",
+                    self.impulses.len()
+                );
             }
         }
         if self.input_bound_violations.is_empty() {
@@ -313,7 +338,10 @@ impl ModalSummary {
             );
         }
         if let (Some(m), Some(r)) = (self.max_abs_tracking_error, self.rms_tracking_error) {
-            let _ = writeln!(s, "tracking error (replay): max {m:.3e}, rms {r:.3e}");
+            let _ = writeln!(
+                s,
+                "tracking error (replay): max {m:.3e}{yu}, rms {r:.3e}{yu}"
+            );
         }
         for w in &self.warnings {
             let _ = writeln!(s, "warning: {w}");

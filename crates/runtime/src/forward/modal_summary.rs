@@ -1,0 +1,374 @@
+//! What `invsim forward` prints and writes for a model with modes: the forward summary's figures (driver,
+//! integrator, integrals, trace misses, tracking error to the raw cycle) with every input's range, and the
+//! time per mode and the switches as in the inverse's modal summary.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+
+use serde::Serialize;
+
+use super::anti_windup_rate;
+use super::driver::Drive;
+use super::options::{Bounds, ForwardOptions};
+use super::summary::{DriverSummary, IntegratorSummary};
+use crate::cycle::Cycle;
+use crate::modes::{ModalSpec, ModeTime};
+use crate::ode::OdeStats;
+use crate::operating_points::{OperatingPointTally, OperatingPoints};
+use crate::provenance::Provenance;
+use crate::report::{
+    fmt_sig, integral_tables, unit_suffix, write_input_range, write_integrals, write_intervals,
+    Column, CycleInfo, Intervals,
+};
+
+/// One switch of the forward run: its time and the modes left and entered (indices into the spec's modes).
+pub(super) type SwitchAt = (f64, usize, usize);
+
+/// One input over the run: the range of the values applied and its declared bounds.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct InputRange {
+    pub name: String,
+    pub unit: Option<String>,
+    pub min: f64,
+    pub max: f64,
+    pub lower_bound: Option<f64>,
+    pub upper_bound: Option<f64>,
+}
+
+/// One switch: its time and the modes left and entered.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ModeSwitch {
+    pub t: f64,
+    pub from: String,
+    pub to: String,
+}
+
+/// What `invsim forward` prints and writes with `--summary-json` for a model with modes; the fields shared
+/// with [`super::ForwardSummary`] and [`crate::modes::ModalSummary`] mean the same.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ModalForwardSummary {
+    #[serde(flatten)]
+    pub run: CycleInfo,
+    /// ∫ y dt over the run (the distance the vehicle drove, when y is its speed).
+    pub distance_driven_m: f64,
+    /// The largest relative degree over the modes.
+    pub relative_degree: usize,
+    pub engine: String,
+    pub samples: usize,
+    pub dt_s: f64,
+    pub bounds: Bounds,
+    pub driver: DriverSummary,
+    pub integrator: IntegratorSummary,
+    /// Accumulated output → ∫ o dt (by the solver's quadrature states), per 100 km, unit of the integral.
+    pub integrals: BTreeMap<String, f64>,
+    pub integrals_per_100km: BTreeMap<String, f64>,
+    pub integral_units: BTreeMap<String, String>,
+    /// The unit of the tracked output (and so of the tracking errors).
+    pub output_unit: Option<String>,
+    /// Every declared input: the range applied and its bounds.
+    pub inputs: Vec<InputRange>,
+    /// Intervals where the free input's demand of the mode in force leaves that mode's bounds (no mode
+    /// absorbs it).
+    pub input_bound_violations: Vec<[f64; 2]>,
+    /// Time per mode (over the intervals each was in force; they add up to the run's span).
+    pub modes: Vec<ModeTime>,
+    pub switches: usize,
+    pub mode_switches: Vec<ModeSwitch>,
+    pub trace_misses: Vec<[f64; 2]>,
+    pub trace_miss_speed_tolerance: f64,
+    pub trace_miss_time_tolerance_s: f64,
+    /// max |y − y_c| and rms (y − y_c) over the samples, y_c the raw cycle.
+    pub max_abs_tracking_error: f64,
+    pub rms_tracking_error: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub engine_operating_points: Option<OperatingPoints>,
+    pub columns: Vec<Column>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub provenance: Option<Provenance>,
+    pub warnings: Vec<String>,
+}
+
+/// The bookkeeping of a forward run with modes over its samples.
+pub(super) struct Tally {
+    /// ∫ o dt of the accumulated outputs and ∫ y dt from t_0 to the last sample, by the solver.
+    integrals: Vec<f64>,
+    distance_driven: f64,
+    /// Each input's [min, max] applied.
+    ranges: Vec<[f64; 2]>,
+    violations: Intervals,
+    pub(super) misses: Intervals,
+    max_err: f64,
+    sum_sq: f64,
+    pub(super) operating: Option<OperatingPointTally>,
+    /// Seconds in each mode.
+    pub(super) time: Vec<f64>,
+    samples: usize,
+}
+
+impl Tally {
+    pub(super) fn new(spec: &ModalSpec<'_>, operating: Option<OperatingPointTally>) -> Tally {
+        let info = spec.modes[0].model.info();
+        let n_acc = info.outputs.iter().filter(|o| o.accumulate).count();
+        Tally {
+            integrals: vec![0.0; n_acc],
+            distance_driven: 0.0,
+            ranges: vec![[f64::INFINITY, f64::NEG_INFINITY]; spec.inputs.len()],
+            violations: Intervals::default(),
+            misses: Intervals::default(),
+            max_err: 0.0,
+            sum_sq: 0.0,
+            operating,
+            time: vec![0.0; spec.modes.len()],
+            samples: 0,
+        }
+    }
+
+    /// The sample at t: `quadrature` is z's tail (the integrals, then ∫ y dt), `inputs` every input applied,
+    /// `outside` whether the demand leaves the mode's bounds.
+    pub(super) fn count(
+        &mut self,
+        t: f64,
+        quadrature: &[f64],
+        d: Drive,
+        inputs: &[f64],
+        outside: bool,
+    ) {
+        let m = self.integrals.len();
+        self.integrals.copy_from_slice(&quadrature[..m]);
+        self.distance_driven = quadrature[m];
+        for (r, &u) in self.ranges.iter_mut().zip(inputs) {
+            *r = [r[0].min(u), r[1].max(u)];
+        }
+        self.violations.push(t, outside);
+        self.samples += 1;
+        let e = d.y - d.yc;
+        self.max_err = self.max_err.max(e.abs());
+        self.sum_sq += e * e;
+    }
+}
+
+/// The summary of a finished forward run with modes.
+pub(super) fn summarise(
+    (spec, switches): (&ModalSpec<'_>, &[SwitchAt]),
+    cycle: &Cycle,
+    opts: &ForwardOptions,
+    (tally, stats): (Tally, OdeStats),
+    (names, units): (&[String], &[Option<String>]),
+) -> ModalForwardSummary {
+    let info = spec.modes[0].model.info();
+    let samples = tally.samples.max(1);
+    let accumulate: Vec<usize> = (0..info.outputs.len())
+        .filter(|&i| info.outputs[i].accumulate)
+        .collect();
+    let tables = integral_tables(info, &accumulate, &tally.integrals, cycle.distance());
+    let violations = tally.violations.finish();
+    let trace_misses = tally.misses.finish();
+    let warnings = warnings(opts, &violations, &trace_misses);
+    let name = |m: usize| spec.modes[m].name.clone();
+    ModalForwardSummary {
+        run: CycleInfo::new(info, cycle, cycle.duration()),
+        distance_driven_m: tally.distance_driven,
+        relative_degree: spec
+            .modes
+            .iter()
+            .map(|m| m.model.info().relative_degree)
+            .max()
+            .unwrap_or(0),
+        engine: opts.engine.clone(),
+        samples,
+        dt_s: opts.dt,
+        bounds: opts.bounds,
+        driver: DriverSummary {
+            kp: opts.kp,
+            ki: opts.ki,
+            response_rad_s: opts.response,
+            feedforward: opts.feedforward,
+            anti_windup_tracking_time_s: Some(anti_windup_rate(opts.kp, opts.ki))
+                .filter(|k| *k > 0.0)
+                .map(|k| 1.0 / k),
+        },
+        integrator: IntegratorSummary {
+            method: opts.method,
+            rtol: opts.rtol,
+            atol: opts.atol,
+            stats,
+        },
+        integrals: tables.integrals,
+        integrals_per_100km: tables.per_100km,
+        integral_units: tables.units,
+        output_unit: info.output_unit.clone(),
+        inputs: spec
+            .inputs
+            .iter()
+            .zip(&tally.ranges)
+            .map(|(i, r)| InputRange {
+                name: i.name.clone(),
+                unit: i.unit.clone(),
+                min: r[0],
+                max: r[1],
+                lower_bound: i.min,
+                upper_bound: i.max,
+            })
+            .collect(),
+        input_bound_violations: violations,
+        modes: spec
+            .modes
+            .iter()
+            .zip(&tally.time)
+            .map(|(m, t)| ModeTime {
+                name: m.name.clone(),
+                time_s: *t,
+                relative_degree: m.model.info().relative_degree,
+            })
+            .collect(),
+        switches: switches.len(),
+        mode_switches: switches
+            .iter()
+            .map(|&(t, a, b)| ModeSwitch {
+                t,
+                from: name(a),
+                to: name(b),
+            })
+            .collect(),
+        trace_misses,
+        trace_miss_speed_tolerance: opts.trace_speed_tol,
+        trace_miss_time_tolerance_s: opts.trace_time_tol,
+        max_abs_tracking_error: tally.max_err,
+        rms_tracking_error: (tally.sum_sq / samples as f64).sqrt(),
+        engine_operating_points: tally.operating.map(|op| op.finish(info, opts.dt)),
+        columns: names
+            .iter()
+            .zip(units)
+            .map(|(n, u)| Column {
+                name: n.clone(),
+                unit: u.clone(),
+            })
+            .collect(),
+        provenance: None,
+        warnings,
+    }
+}
+
+/// The warnings of a forward run with modes: demands no mode absorbs, trace misses.
+fn warnings(opts: &ForwardOptions, violations: &[[f64; 2]], misses: &[[f64; 2]]) -> Vec<String> {
+    let mut w = Vec::new();
+    let total = |v: &[[f64; 2]]| fmt_sig(v.iter().map(|[a, b]| b - a).sum(), 4);
+    if !violations.is_empty() {
+        let what = match opts.bounds {
+            Bounds::Enforce => "clipped",
+            Bounds::Ignore => "applied as demanded, not clipped",
+        };
+        w.push(format!(
+            "the driver's demand leaves the bounds of the mode's free input, and no mode absorbs it, in {} \
+             interval(s), {} s in total; {what}",
+            violations.len(),
+            total(violations)
+        ));
+    }
+    if !misses.is_empty() {
+        w.push(format!(
+            "the vehicle misses the cycle's trace (± {} around the cycle within ± {} s) in {} interval(s), {} s in \
+             total",
+            fmt_sig(opts.trace_speed_tol, 4),
+            fmt_sig(opts.trace_time_tol, 4),
+            misses.len(),
+            total(misses)
+        ));
+    }
+    w
+}
+
+impl ModalForwardSummary {
+    /// Human-readable summary (what `invsim forward` prints for a model with modes).
+    pub fn to_text(&self) -> String {
+        let mut s = String::new();
+        self.run.write_model(&mut s);
+        let _ = writeln!(s, "engine: {} (modes)", self.engine);
+        let _ = writeln!(s, "cycle: {}", self.run.cycle);
+        let _ = writeln!(s, "duration: {} s", fmt_sig(self.run.duration_s, 6));
+        let _ = writeln!(
+            s,
+            "distance: {} m (driven {} m)",
+            fmt_sig(self.run.distance_m, 6),
+            fmt_sig(self.distance_driven_m, 6)
+        );
+        let _ = writeln!(
+            s,
+            "samples: {}  dt: {} s",
+            self.samples,
+            fmt_sig(self.dt_s, 6)
+        );
+        let d = &self.driver;
+        let _ = writeln!(
+            s,
+            "driver: PI on the error to the raw cycle, kp {}, ki {}, response {} rad/s, feed-forward {}, bounds {}; \
+             its request goes to the free input of the mode in force",
+            fmt_sig(d.kp, 4),
+            fmt_sig(d.ki, 4),
+            fmt_sig(d.response_rad_s, 4),
+            if d.feedforward { "on" } else { "off" },
+            self.bounds.as_str()
+        );
+        let g = &self.integrator;
+        let _ = writeln!(
+            s,
+            "integrator: {} (rtol {:e}, atol {:e}), {} steps, {} rejected, {} evaluations",
+            g.method.as_str(),
+            g.rtol,
+            g.atol,
+            g.stats.accepted,
+            g.stats.rejected,
+            g.stats.evaluations
+        );
+        write_integrals(
+            &mut s,
+            &self.integrals,
+            &self.integral_units,
+            &self.integrals_per_100km,
+        );
+        for i in &self.inputs {
+            write_input_range(
+                &mut s,
+                (&i.name, i.unit.as_deref()),
+                [i.min, i.max],
+                [i.lower_bound, i.upper_bound],
+            );
+        }
+        let _ = writeln!(s, "time per mode:");
+        for m in self.modes.iter().filter(|m| m.time_s > 0.0) {
+            let _ = writeln!(
+                s,
+                "  {:<16} {:>10.2} s  (r = {})",
+                m.name, m.time_s, m.relative_degree
+            );
+        }
+        let _ = writeln!(s, "switches: {}", self.switches);
+        write_intervals(
+            &mut s,
+            "input bound violations",
+            &self.input_bound_violations,
+        );
+        if let Some(op) = &self.engine_operating_points {
+            op.write_text(&mut s);
+        }
+        write_intervals(&mut s, "trace misses", &self.trace_misses);
+        let u = unit_suffix(self.output_unit.as_deref());
+        let _ = writeln!(
+            s,
+            "max abs tracking error: {}{u}",
+            fmt_sig(self.max_abs_tracking_error, 3)
+        );
+        let _ = writeln!(
+            s,
+            "rms tracking error: {}{u}",
+            fmt_sig(self.rms_tracking_error, 3)
+        );
+        if let Some(p) = &self.provenance {
+            p.write_text(&mut s);
+        }
+        for w in &self.warnings {
+            let _ = writeln!(s, "warning: {w}");
+        }
+        s
+    }
+}

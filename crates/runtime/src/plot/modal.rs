@@ -1,0 +1,401 @@
+//! The figures of a run with operating modes (README "Modes"), inverse or forward: the reference, one panel
+//! per declared input (traction and brake, each with its bounds), under them a step panel of the mode
+//! sequence — the gear of the mode in force (0 for an ungeared mode such as idle), or the mode's index with
+//! the modes' names for a model without a gearbox — and the running integral of every accumulated output.
+//! `--plot-vars` names: `reference`, each input, `gear` (or `mode`), the states, the `[outputs]`, `cum:NAME`.
+
+use invsim_model_api::ModelInfo;
+
+use super::figure::{Figure, Panel, Series, PANEL_TITLE_SIZE};
+use super::font::text_width;
+use super::panels::{self, input_panel, series, signal_panel, Signal, CYCLE, LOWER, REFERENCE};
+use super::reference::{raw_points, reference_axis, time_range};
+use super::PlotError;
+use crate::cycle::Cycle;
+use crate::forward::ModalForwardResult;
+use crate::modes::{ModalResult, ModalSpec};
+
+/// What a panel of a modal figure shows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum ModalVar {
+    Reference,
+    Input(usize),
+    Sequence,
+    Signal(Signal),
+}
+
+/// The name of the sequence panel: `gear` where some mode has a gear, else `mode`.
+fn sequence_name(spec: &ModalSpec<'_>) -> &'static str {
+    if spec.modes.iter().any(|m| m.gear.is_some()) {
+        "gear"
+    } else {
+        "mode"
+    }
+}
+
+fn info0<'s>(spec: &'s ModalSpec<'_>) -> &'s ModelInfo {
+    spec.modes[0].model.info()
+}
+
+/// Every `--plot-vars` name of a model with modes.
+pub fn modal_valid_vars(spec: &ModalSpec<'_>) -> Vec<String> {
+    let info = info0(spec);
+    let outputs = &info.outputs[..spec.n_outputs];
+    let mut v = vec!["reference".to_string()];
+    v.extend(spec.inputs.iter().map(|i| i.name.clone()));
+    v.push(sequence_name(spec).to_string());
+    v.extend(info.states.iter().cloned());
+    v.extend(outputs.iter().map(|o| o.name.clone()));
+    v.extend(
+        outputs
+            .iter()
+            .filter(|o| o.accumulate)
+            .map(|o| format!("cum:{}", o.name)),
+    );
+    v
+}
+
+/// The panels drawn without `--plot-vars`: the reference, every input, the mode sequence, the running
+/// integral of every accumulated output.
+pub fn modal_default_vars(spec: &ModalSpec<'_>) -> Vec<String> {
+    let outputs = &info0(spec).outputs[..spec.n_outputs];
+    let mut v = vec!["reference".to_string()];
+    v.extend(spec.inputs.iter().map(|i| i.name.clone()));
+    v.push(sequence_name(spec).to_string());
+    v.extend(
+        outputs
+            .iter()
+            .filter(|o| o.accumulate)
+            .map(|o| format!("cum:{}", o.name)),
+    );
+    v
+}
+
+fn resolve(spec: &ModalSpec<'_>, name: &str) -> Option<ModalVar> {
+    let info = info0(spec);
+    let outputs = &info.outputs[..spec.n_outputs];
+    if name == "reference" {
+        return Some(ModalVar::Reference);
+    }
+    if name == sequence_name(spec) {
+        return Some(ModalVar::Sequence);
+    }
+    if let Some(i) = spec.inputs.iter().position(|i| i.name == name) {
+        return Some(ModalVar::Input(i));
+    }
+    if let Some(i) = info.states.iter().position(|s| s == name) {
+        return Some(ModalVar::Signal(Signal::State(i)));
+    }
+    if let Some(i) = outputs.iter().position(|o| o.name == name) {
+        return Some(ModalVar::Signal(Signal::Output(i)));
+    }
+    let acc = name.strip_prefix("cum:")?;
+    outputs
+        .iter()
+        .position(|o| o.accumulate && o.name == acc)
+        .map(|i| ModalVar::Signal(Signal::Cumulative(i)))
+}
+
+fn resolve_all(spec: &ModalSpec<'_>, vars: &[String]) -> Result<Vec<ModalVar>, PlotError> {
+    let valid = || modal_valid_vars(spec).join(", ");
+    let names: Vec<String> = if vars.is_empty() {
+        modal_default_vars(spec)
+    } else {
+        vars.iter().map(|v| v.trim().to_string()).collect()
+    };
+    if names.iter().all(|n| n.is_empty()) {
+        return Err(PlotError::NoVars { valid: valid() });
+    }
+    names
+        .into_iter()
+        .filter(|n| !n.is_empty())
+        .map(|n| {
+            resolve(spec, &n).ok_or_else(|| PlotError::UnknownVar {
+                name: n,
+                valid: valid(),
+            })
+        })
+        .collect()
+}
+
+/// Check `vars` (`--plot-vars`) against a model with modes; empty means [`modal_default_vars`].
+pub fn check_modal_vars(spec: &ModalSpec<'_>, vars: &[String]) -> Result<(), PlotError> {
+    resolve_all(spec, vars).map(|_| ())
+}
+
+/// A run's columns by name.
+struct Columns<'r> {
+    names: &'r [String],
+    data: &'r [Vec<f64>],
+}
+
+impl<'r> Columns<'r> {
+    fn get(&self, name: &str) -> &'r [f64] {
+        self.names
+            .iter()
+            .position(|c| c == name)
+            .and_then(|i| self.data.get(i))
+            .map_or(&[], Vec::as_slice)
+    }
+}
+
+/// The figure of an inverse run with modes along `cycle`.
+pub fn modal_simulation_figure(
+    result: &ModalResult,
+    cycle: &Cycle,
+    spec: &ModalSpec<'_>,
+    vars: &[String],
+) -> Result<Figure, PlotError> {
+    let vars = resolve_all(spec, vars)?;
+    let cols = Columns {
+        names: &result.columns,
+        data: &result.data,
+    };
+    let t = cols.get("t");
+    if t.is_empty() {
+        return Err(PlotError::Empty);
+    }
+    let x_range = time_range(t);
+    let info = info0(spec);
+    let map = spec.modes[0].model.reference();
+    let reference = || {
+        let (y_label, factor, y_zero) = reference_axis(info, map);
+        let raw = raw_points(cycle, x_range, |s| factor * (map.offset + map.scale * s));
+        let yd: Vec<f64> = cols.get("yd_0").iter().map(|v| v * factor).collect();
+        Panel {
+            var: "reference".to_string(),
+            title: format!(
+                "reference of {}: the drive cycle and y_d of the mode in force (look-ahead a = {} s, re-entry \
+                 blends included)",
+                info.output, result.summary.lookahead_s
+            ),
+            y_label,
+            y_zero,
+            series: vec![
+                Series {
+                    label: "cycle (raw)".to_string(),
+                    color: CYCLE,
+                    width: 1.5,
+                    dashed: false,
+                    points: raw,
+                },
+                series("y_d (smoothed)".to_string(), REFERENCE, 2.0, t, &yd),
+            ],
+        }
+    };
+    let s = &result.summary;
+    Ok(Figure {
+        title: format!(
+            "{} on {}: inverse simulation with modes, look-ahead a = {} s",
+            s.model, s.cycle, s.lookahead_s
+        ),
+        x_label: "t [s]".to_string(),
+        x_range,
+        panels: build(
+            spec,
+            &vars,
+            &cols,
+            &reference,
+            "bounds reported, not clipped",
+        ),
+    })
+}
+
+/// The figure of a forward run with modes: its reference panel shows the raw cycle and the output achieved.
+pub fn modal_forward_figure(
+    result: &ModalForwardResult,
+    spec: &ModalSpec<'_>,
+    vars: &[String],
+) -> Result<Figure, PlotError> {
+    let vars = resolve_all(spec, vars)?;
+    let cols = Columns {
+        names: &result.columns,
+        data: &result.data,
+    };
+    let t = cols.get("t");
+    if t.is_empty() {
+        return Err(PlotError::Empty);
+    }
+    let info = info0(spec);
+    let reference = || {
+        let (y_label, factor, y_zero) = reference_axis(info, spec.modes[0].model.reference());
+        let scaled = |v: &[f64]| -> Vec<f64> { v.iter().map(|x| x * factor).collect() };
+        Panel {
+            var: "reference".to_string(),
+            title: format!("{}: the raw cycle and what the model achieved", info.output),
+            y_label,
+            y_zero,
+            series: vec![
+                series(
+                    "cycle y_c (raw)".into(),
+                    CYCLE,
+                    1.5,
+                    t,
+                    &scaled(cols.get("yc")),
+                ),
+                series(
+                    format!("achieved {}", info.output),
+                    REFERENCE,
+                    1.5,
+                    t,
+                    &scaled(cols.get(&info.output)),
+                ),
+            ],
+        }
+    };
+    let s = &result.summary;
+    Ok(Figure {
+        title: format!(
+            "{} on {}: forward simulation with modes and the PI driver",
+            s.run.model, s.run.cycle
+        ),
+        x_label: "t [s]".to_string(),
+        x_range: time_range(t),
+        panels: build(spec, &vars, &cols, &reference, "applied by the driver"),
+    })
+}
+
+/// The panels of `vars`; `how` ends each input panel's title.
+fn build(
+    spec: &ModalSpec<'_>,
+    vars: &[ModalVar],
+    cols: &Columns<'_>,
+    reference: &dyn Fn() -> Panel,
+    how: &str,
+) -> Vec<Panel> {
+    let info = info0(spec);
+    let t = cols.get("t");
+    let mut k = 0;
+    vars.iter()
+        .map(|var| match *var {
+            ModalVar::Reference => reference(),
+            ModalVar::Input(i) => modal_input_panel(spec, i, cols, how),
+            ModalVar::Sequence => sequence_panel(spec, t, cols),
+            ModalVar::Signal(signal) => {
+                let name = match signal {
+                    Signal::State(i) => &info.states[i],
+                    Signal::Output(i) | Signal::Cumulative(i) => &info.outputs[i].name,
+                };
+                k += 1;
+                signal_panel(info, signal, t, cols.get(name), k - 1)
+            }
+        })
+        .collect()
+}
+
+/// The panel of input i: its values over the run (free, or given by the mode in force) and its bounds.
+fn modal_input_panel(spec: &ModalSpec<'_>, i: usize, cols: &Columns<'_>, how: &str) -> Panel {
+    let input = &spec.inputs[i];
+    let info = ModelInfo {
+        input: input.name.clone(),
+        input_unit: input.unit.clone(),
+        input_min: input.min,
+        input_max: input.max,
+        ..info0(spec).clone()
+    };
+    let mut free: Vec<&str> = Vec::new();
+    for m in spec.modes.iter().filter(|m| m.free_input == i) {
+        if !free.contains(&m.family.as_str()) {
+            free.push(&m.family);
+        }
+    }
+    let title = format!(
+        "input {}: free in {}, the mode's value elsewhere ({how})",
+        input.name,
+        if free.is_empty() {
+            "no mode".to_string()
+        } else {
+            free.join(", ")
+        }
+    );
+    let mut p = input_panel(&info, cols.get("t"), cols.get(&input.name), &title);
+    p.var = input.name.clone();
+    p
+}
+
+/// The step panel of the mode sequence: the gear of the mode in force (0 for an ungeared mode), or the mode's
+/// index with the modes' names.
+fn sequence_panel(spec: &ModalSpec<'_>, t: &[f64], cols: &Columns<'_>) -> Panel {
+    let name = sequence_name(spec);
+    let v = cols.get(name);
+    let (title, y_label) = if name == "gear" {
+        let mut ungeared: Vec<&str> = Vec::new();
+        for m in spec.modes.iter().filter(|m| m.gear.is_none()) {
+            if !ungeared.contains(&m.family.as_str()) {
+                ungeared.push(&m.family);
+            }
+        }
+        let zero = if ungeared.is_empty() {
+            String::new()
+        } else {
+            format!(" (0: {})", ungeared.join(", "))
+        };
+        (format!("gear of the mode in force{zero}"), "gear [-]")
+    } else {
+        let names: Vec<String> = spec
+            .modes
+            .iter()
+            .enumerate()
+            .map(|(k, m)| format!("{k} {}", m.name))
+            .collect();
+        (
+            format!("mode in force: {}", names.join(", ")),
+            "mode [index]",
+        )
+    };
+    Panel {
+        var: name.to_string(),
+        title: fit(&title, 900.0),
+        y_label: y_label.to_string(),
+        y_zero: true,
+        series: vec![Series {
+            label: panels::with_unit(name, None),
+            color: LOWER,
+            width: 2.0,
+            dashed: false,
+            points: steps(t, v),
+        }],
+    }
+}
+
+/// The points of a step curve of v over t: each value held until the next change.
+fn steps(t: &[f64], v: &[f64]) -> Vec<(f64, f64)> {
+    let n = t.len().min(v.len());
+    let mut pts = Vec::new();
+    for k in 0..n {
+        if k == 0 {
+            pts.push((t[0], v[0]));
+        } else if v[k] != v[k - 1] {
+            pts.push((t[k], v[k - 1]));
+            pts.push((t[k], v[k]));
+        }
+    }
+    if n > 1 {
+        pts.push((t[n - 1], v[n - 1]));
+    }
+    pts
+}
+
+/// `text` cut to `width` px at the panel title's size (with an ellipsis).
+fn fit(text: &str, width: f64) -> String {
+    let size = PANEL_TITLE_SIZE;
+    if text_width(text, size) <= width {
+        return text.to_string();
+    }
+    let mut s: String = text.to_string();
+    while !s.is_empty() && text_width(&format!("{s} …"), size) > width {
+        s.pop();
+    }
+    format!("{} …", s.trim_end_matches([',', ' ']))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn steps_hold_each_value_until_it_changes() {
+        let p = steps(&[0.0, 1.0, 2.0, 3.0], &[1.0, 1.0, 2.0, 2.0]);
+        assert_eq!(p, vec![(0.0, 1.0), (2.0, 1.0), (2.0, 2.0), (3.0, 2.0)]);
+    }
+}
