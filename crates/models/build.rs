@@ -1,4 +1,5 @@
-//! Generates a Rust module for every `models/*.toml` of the repository, plus a registry of them, into
+//! Generates a Rust module for every `models/*.toml` of the repository (one module per mode, in a module of
+//! its own, for a model with operating modes), plus a registry of them, into
 //! `OUT_DIR` (see `src/lib.rs`). A model that fails to derive fails the build with the message
 //! `invsim derive` would print.
 
@@ -36,18 +37,7 @@ fn model_files(dir: &Path) -> std::io::Result<Vec<PathBuf>> {
     let mut files: Vec<PathBuf> = std::fs::read_dir(dir)?
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.extension().is_some_and(|x| x == "toml"))
-        .filter(|p| !has_modes(p))
         .collect();
     files.sort();
     Ok(files)
-}
-
-/// A model with operating modes (`[inputs.…]` / `[modes.…]` tables) runs through the interpreter: the
-/// generator compiles single-input models.
-fn has_modes(path: &Path) -> bool {
-    std::fs::read_to_string(path).is_ok_and(|t| {
-        t.lines()
-            .map(str::trim_start)
-            .any(|l| l.starts_with("[modes") || l.starts_with("[inputs"))
-    })
 }

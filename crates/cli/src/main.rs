@@ -21,6 +21,7 @@ mod import_cmd;
 mod initial_args;
 mod map_args;
 mod modal_cmd;
+mod modal_engine;
 mod modal_forward;
 mod outputs;
 mod plotting;

@@ -1,9 +1,9 @@
-//! `derive` and `simulate` for a model with operating modes (README "Modes"): every mode derived and run
-//! through the interpreter, the mode sequence by `invsim_runtime::modes`.
+//! `derive` and `simulate` for a model with operating modes (README "Modes"): every mode compiled or derived
+//! and interpreted (`modal_engine`), the mode sequence by `invsim_runtime::modes`.
 
 use std::path::Path;
 
-use invsim_inversion::{Derivation, Interpreter, ModalModel, ModeRole, ModelFile, Schedule};
+use invsim_inversion::{Derivation, ModalModel, ModeRole, ModelFile, Schedule};
 use invsim_model_api::InverseModel;
 use invsim_runtime::modes::{
     gears, GearSource, InputSpec, ModalOptions, ModalSpec, ModeSpec, Role, SequenceParams,
@@ -58,8 +58,14 @@ pub struct DerivedMode {
 
 /// Every mode's derivation (the returned model keeps everything but its modes).
 pub fn derive_modes(mut m: ModalModel) -> Result<(ModalModel, Vec<DerivedMode>), Failure> {
+    let out = derive_list(std::mem::take(&mut m.modes))?;
+    Ok((m, out))
+}
+
+/// The derivation of each of `modes`.
+pub fn derive_list(modes: Vec<invsim_inversion::Mode>) -> Result<Vec<DerivedMode>, Failure> {
     let mut out = Vec::new();
-    for mode in std::mem::take(&mut m.modes) {
+    for mode in modes {
         let invsim_inversion::Mode {
             name,
             family,
@@ -82,7 +88,7 @@ pub fn derive_modes(mut m: ModalModel) -> Result<(ModalModel, Vec<DerivedMode>),
             d,
         });
     }
-    Ok((m, out))
+    Ok(out)
 }
 
 fn role_of(r: ModeRole) -> Role {
@@ -167,6 +173,7 @@ pub struct ModalRun<'a> {
     pub verify: bool,
     pub switching: Switching,
     pub transition_time: Option<f64>,
+    pub engine: crate::engine::EngineChoice,
 }
 
 fn gear_source(m: &ModalModel, cycle: &Cycle, spec: &str) -> Result<(usize, GearSource), Failure> {
@@ -197,28 +204,28 @@ fn gear_source(m: &ModalModel, cycle: &Cycle, spec: &str) -> Result<(usize, Gear
     Ok((g.gears, src))
 }
 
-/// A model with modes ready to run: its modes derived and interpreted (with the `--set` overrides), and
-/// the gearbox's schedule for the cycle.
+/// A model with modes ready to run: its modes compiled or derived and interpreted (with the `--set`
+/// overrides), and the gearbox's schedule for the cycle.
 pub struct Prepared {
     pub model: ModalModel,
-    pub modes: Vec<DerivedMode>,
-    pub interps: Vec<Interpreter>,
+    pub modes: Vec<crate::modal_engine::ModeMeta>,
+    pub interps: Vec<Box<dyn InverseModel>>,
+    /// `compiled` or `interpreted`.
+    pub engine: &'static str,
     pub gears: (usize, GearSource),
 }
 
-/// Derive and interpret every mode of `m` for a run on `cycle` (`cycle_spec` as given), with `set` applied.
+/// Load every mode of `m` with `engine` for a run on `cycle` (`cycle_spec` as given), with `set` applied.
 pub fn prepare(
-    m: ModalModel,
+    mut m: ModalModel,
     cycle: &Cycle,
     cycle_spec: &str,
     set: &[String],
+    engine: crate::engine::EngineChoice,
 ) -> Result<Prepared, Failure> {
     let gears = gear_source(&m, cycle, cycle_spec)?;
-    let (m, ds) = derive_modes(m)?;
-    let mut interps: Vec<Interpreter> = ds
-        .iter()
-        .map(|d| Interpreter::new(&d.d).map_err(|e| Failure::user(e.to_string())))
-        .collect::<Result<_, _>>()?;
+    let loaded = crate::modal_engine::load_modes(&mut m, engine)?;
+    let mut interps = loaded.models;
     for s in set {
         let (name, value) = crate::engine::parse_set(s)?;
         if m.gearbox
@@ -236,8 +243,9 @@ pub fn prepare(
     }
     Ok(Prepared {
         model: m,
-        modes: ds,
+        modes: loaded.meta,
         interps,
+        engine: loaded.engine,
         gears,
     })
 }
@@ -268,7 +276,7 @@ pub fn spec(p: &Prepared) -> ModalSpec<'_> {
                 gear: mode.gear,
                 free_input: mode.free,
                 fixed_outputs,
-                model: i as &dyn InverseModel,
+                model: i.as_ref(),
             }
         })
         .collect();
@@ -309,7 +317,7 @@ pub fn simulate(m: ModalModel, run: &ModalRun<'_>) -> Result<(), Failure> {
     )?;
     let cycle = Cycle::load_with_limit(run.cycle, run.max_cycle_bytes)
         .map_err(|e| Failure::user(e.to_string()))?;
-    let prepared = prepare(m, &cycle, run.cycle, run.set)?;
+    let prepared = prepare(m, &cycle, run.cycle, run.set, run.engine)?;
     let spec = spec(&prepared);
     crate::plotting::check_modal(run.plot, &spec)?;
     let opts = ModalOptions {
@@ -319,13 +327,14 @@ pub fn simulate(m: ModalModel, run: &ModalRun<'_>) -> Result<(), Failure> {
         transition_time: run.transition_time,
         verify: run.verify,
     };
-    let result = invsim_runtime::modes::simulate_modes(&spec, &cycle, &opts).map_err(|e| {
+    let mut result = invsim_runtime::modes::simulate_modes(&spec, &cycle, &opts).map_err(|e| {
         Failure::user(format!(
             "simulation of `{}` on `{}` stopped: {e}",
             run.model.display(),
             cycle.name
         ))
     })?;
+    result.summary.engine = prepared.engine.to_string();
     let mut outputs = outputs;
     outputs.write("--out", |f| {
         output::write_table_csv(&result.columns, &result.data, f)

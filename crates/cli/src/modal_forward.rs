@@ -1,8 +1,7 @@
-//! `invsim forward` of a model with operating modes (and the dispatch of `invsim forward` by the kind of model) (README "Modes"): every mode derived and run through
-//! the interpreter, the forward run with the mode sequence by `invsim_runtime::forward::forward_modes`.
+//! `invsim forward` of a model with operating modes (and the dispatch of `invsim forward` by the kind of model) (README "Modes"): every mode compiled or derived and
+//! interpreted (`modal_engine`), the forward run with the mode sequence by `invsim_runtime::forward::forward_modes`.
 
 use invsim_inversion::ModalModel;
-use invsim_model_api::InverseModel;
 use invsim_runtime::forward::{forward_modes, ForwardError};
 use invsim_runtime::{output, Cycle};
 
@@ -37,7 +36,7 @@ fn run_modal(m: ModalModel, args: &ForwardArgs) -> Result<(), Failure> {
     }
     let cycle = Cycle::load_with_limit(&args.cycle, args.max_cycle_bytes)
         .map_err(|e| Failure::user(e.to_string()))?;
-    let prepared = crate::modal_cmd::prepare(m, &cycle, &args.cycle, &args.set)?;
+    let prepared = crate::modal_cmd::prepare(m, &cycle, &args.cycle, &args.set, args.engine)?;
     let spec = crate::modal_cmd::spec(&prepared);
     crate::plotting::check_modal(&args.plot, &spec)?;
     let stopped = |e: ForwardError| {
@@ -48,7 +47,7 @@ fn run_modal(m: ModalModel, args: &ForwardArgs) -> Result<(), Failure> {
         ))
     };
     let (progress, bar) = crate::progress::start("forward");
-    let mut opts = crate::forward::options(args, "interpreted", progress).map_err(stopped)?;
+    let mut opts = crate::forward::options(args, prepared.engine, progress).map_err(stopped)?;
     opts.initial = crate::initial_args::parse_initial(&args.data.initial)?;
     let result = forward_modes(&spec, &cycle, &opts);
     bar.finish();

@@ -45,6 +45,8 @@ pub struct Generated {
     pub path: PathBuf,
     /// Was the file (re)written? False when its contents were already up to date.
     pub written: bool,
+    /// The modes of a model with operating modes, in the file's order (empty for a single-mode model).
+    pub modes: Vec<String>,
 }
 
 impl Builder {
@@ -100,8 +102,8 @@ impl Builder {
             if self.cargo_metadata {
                 println!("cargo:rerun-if-changed={}", path.display());
             }
-            let d = invsim_inversion::derive_file(path)?;
-            let module = crate::names::module_name(&d.model.name);
+            let (name, hash, modes, rust) = generate_any(path)?;
+            let module = crate::names::module_name(&name);
             if let Some(first) = done.iter().find(|g| g.module == module) {
                 return Err(Error::DuplicateModule {
                     module,
@@ -109,19 +111,38 @@ impl Builder {
                     second: path.clone(),
                 });
             }
-            let rust = generate(&d, &source_name(path))?;
             let target = out_dir.join(format!("{module}.rs"));
             let written = write_if_changed(&target, &rust)?;
             done.push(Generated {
-                name: d.model.name.clone(),
+                name,
                 module,
                 source: path.clone(),
-                source_hash: d.model.source_hash.clone(),
+                source_hash: hash,
                 path: target,
                 written,
+                modes,
             });
         }
         Ok(done)
+    }
+}
+
+/// Read and derive one model file, single-mode or with modes: (name, SHA-256, modes, Rust source).
+fn generate_any(path: &Path) -> Result<(String, String, Vec<String>, String), Error> {
+    let file = invsim_inversion::ModelFile::from_path(path).map_err(invsim_inversion::Error::from)?;
+    match file {
+        invsim_inversion::ModelFile::Single(model) => {
+            let d = invsim_inversion::Derivation::new(*model).map_err(invsim_inversion::Error::from)?;
+            let rust = generate(&d, &source_name(path))?;
+            Ok((d.model.name.clone(), d.model.source_hash.clone(), Vec::new(), rust))
+        }
+        invsim_inversion::ModelFile::Modal(m) => {
+            let (name, hash) = (m.name.clone(), m.source_hash.clone());
+            let modes = crate::modal::derive_modes(*m)?;
+            let rust = crate::modal::generate_modal(&name, &hash, &modes, &source_name(path))?;
+            let names = modes.into_iter().map(|(n, _)| n).collect();
+            Ok((name, hash, names, rust))
+        }
     }
 }
 
@@ -138,16 +159,51 @@ pub(crate) fn write_if_changed(path: &Path, text: &str) -> Result<bool, Error> {
     Ok(true)
 }
 
+/// The registry's part for models with modes: `MODAL_MODELS` (name, SHA-256, model file name) and
+/// `modal_by_hash(sha256)`, every mode's model at its default parameters in the file's order.
+fn modal_registry(all: &[&Generated]) -> TokenStream {
+    let modal: Vec<&&Generated> = all.iter().filter(|g| !g.modes.is_empty()).collect();
+    let rows = modal.iter().map(|g| {
+        let (n, h, f) = (&g.name, &g.source_hash, source_name(&g.source));
+        quote!((#n, #h, #f))
+    });
+    let mut seen = std::collections::HashSet::new();
+    let arms: Vec<TokenStream> = modal
+        .iter()
+        .filter(|g| seen.insert(g.source_hash.clone()))
+        .map(|g| {
+            let (h, m) = (&g.source_hash, format_ident!("{}", g.module));
+            quote!(#h => Some(#m::models()),)
+        })
+        .collect();
+    quote! {
+        /// (name, SHA-256 of the model file, model file name) of every compiled model with operating modes,
+        /// sorted by name.
+        pub const MODAL_MODELS: &[(&str, &str, &str)] = &[#(#rows),*];
+
+        /// The compiled modes of the model with operating modes generated from a model file with this
+        /// SHA-256 (lower-case hex): every mode's model at its default parameters, in the file's order.
+        pub fn modal_by_hash(sha256: &str) -> Option<Vec<Box<dyn invsim_model_api::InverseModel>>> {
+            match sha256 {
+                #(#arms)*
+                _ => None,
+            }
+        }
+    }
+}
+
 /// Source of a registry over generated modules: `include!`s each file (by absolute path) and defines
 /// `NAMES`, `MODELS` (name, SHA-256, model file name), `names()`, `builtin(name)` and `by_hash(sha256)`,
 /// the last two returning the model at its default parameters as a boxed `InverseModel`.
 pub fn registry(models: &[Generated]) -> Result<String, CodegenError> {
-    let mut sorted: Vec<&Generated> = models.iter().collect();
-    sorted.sort_by(|a, b| a.name.cmp(&b.name));
-    let includes = sorted.iter().map(|g| {
+    let mut all: Vec<&Generated> = models.iter().collect();
+    all.sort_by(|a, b| a.name.cmp(&b.name));
+    let includes = all.iter().map(|g| {
         let p = g.path.display().to_string();
         quote!(include!(#p);)
     });
+    let modal = modal_registry(&all);
+    let sorted: Vec<&Generated> = all.iter().copied().filter(|g| g.modes.is_empty()).collect();
     let names: Vec<&str> = sorted.iter().map(|g| g.name.as_str()).collect();
     let rows = sorted.iter().map(|g| {
         let (n, h, f) = (&g.name, &g.source_hash, source_name(&g.source));
@@ -223,6 +279,8 @@ pub fn registry(models: &[Generated]) -> Result<String, CodegenError> {
         /// The compiled model generated from a model file with this SHA-256 (lower-case hex), at its default
         /// parameters.
         #by_hash
+
+        #modal
     };
     crate::format::format_file(
         tokens,

@@ -36,10 +36,12 @@ mod emit;
 mod error;
 mod format;
 mod generate;
+mod modal;
 mod model;
 mod names;
 
 pub use builder::{registry, Builder, Generated};
 pub use error::{CodegenError, Error};
 pub use generate::{generate, generate_file, header};
+pub use modal::{derive_modes, generate_modal, mode_module};
 pub use names::module_name;

@@ -41,6 +41,15 @@ pub(crate) struct ModuleOut {
 /// One model's module: constants, `Params`, `Precomputed` (the invariant values, the per-point methods,
 /// the batch methods), the free functions, `Model` with its trait impl, and the helpers they call.
 pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, CodegenError> {
+    module_named(d, source_name, &names::module_name(&d.model.name))
+}
+
+/// [`module`] under the module name `module` (a mode of a model with modes is named after its mode).
+pub(crate) fn module_named(
+    d: &Derivation,
+    source_name: &str,
+    module: &str,
+) -> Result<ModuleOut, CodegenError> {
     let g = Gen::new(d);
     let lowering = functions::lower_all(&g, catalog::functions(&g))?;
     let pre = functions::precomputed(&g, &lowering);
@@ -130,7 +139,7 @@ pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, Cod
     let (attrs, comments) = lints::attributes(&g, &body);
     let body = lints::with_pi_import(body);
     let mod_doc = docs::module_doc(&g, source_name);
-    let module_ident = format_ident!("{}", names::module_name(&d.model.name));
+    let module_ident = format_ident!("{}", module);
     let tokens = quote! {
         #mod_doc
         #attrs
