@@ -51,6 +51,15 @@ fn sampling_box(m: &dyn InverseModel) -> Box_ {
             b.eta = vec![(1.2e5, 4.0e5)];
             b.yr = (-1.0e6, 1.0e6);
         }
+        // Every mode of si_engine_5speed: v and p_i as for si_engine, the free input within its bounds
+        // (throttle air flow or brake force), ξ1 = v, ξ2 = dv/dt (drive), η = p_i (brake and idle modes).
+        "si_engine_5speed" => {
+            b.x = vec![(0.0, 40.0), (2.0e4, 1.0e5)];
+            b.u = (info.input_min.unwrap_or(0.0), info.input_max.unwrap_or(1.0));
+            b.xi = [(0.0, 40.0), (-3.0, 3.0)][..r].to_vec();
+            b.eta = vec![(2.0e4, 1.0e5); n - r];
+            b.yr = (-2.0, 2.0);
+        }
         // Fractional and negative powers of v need v > 0.
         "function_zoo" => {
             b.x[0] = (0.1, 3.0);
@@ -227,7 +236,16 @@ fn batch(
 
 fn compare(name: &str, file: &Path, compiled: &mut dyn InverseModel) -> Stats {
     let d = invsim_inversion::derive_file(file).unwrap_or_else(|e| panic!("{name}: {e}"));
-    let mut interp = Interpreter::new(&d).unwrap_or_else(|e| panic!("{name}: {e}"));
+    compare_derived(name, &d, compiled)
+}
+
+/// [`compare`] against the interpreter of the derivation `d`.
+fn compare_derived(
+    name: &str,
+    d: &invsim_inversion::Derivation,
+    compiled: &mut dyn InverseModel,
+) -> Stats {
+    let mut interp = Interpreter::new(d).unwrap_or_else(|e| panic!("{name}: {e}"));
     assert_eq!(compiled.info(), interp.info(), "{name}: ModelInfo");
     assert_eq!(
         compiled.params(),
@@ -441,6 +459,35 @@ fn builtin_models_agree_with_the_interpreter() {
     assert_eq!(invsim_models::names().len(), invsim_models::MODELS.len());
     assert!(invsim_models::builtin("no such model").is_none());
     assert!(invsim_models::by_hash("0000").is_none());
+}
+
+/// Every mode of every compiled model with operating modes against the interpreter of that mode's
+/// derivation (the modes read from the same file, in its order).
+#[test]
+fn builtin_modes_agree_with_the_interpreter() {
+    assert!(!invsim_models::MODAL_MODELS.is_empty());
+    for &(name, hash, file) in invsim_models::MODAL_MODELS {
+        let path = root().join("models").join(file);
+        let m = match invsim_inversion::ModelFile::from_path(&path) {
+            Ok(invsim_inversion::ModelFile::Modal(m)) => m,
+            other => panic!("{name}: not a model with modes: {other:?}"),
+        };
+        let mut compiled =
+            invsim_models::modal_by_hash(hash).unwrap_or_else(|| panic!("{name}: modal_by_hash"));
+        assert_eq!(compiled.len(), m.modes.len(), "{name}: number of modes");
+        for (mode, c) in m.modes.into_iter().zip(compiled.iter_mut()) {
+            let label = format!("{name}, mode {}", mode.name);
+            let d = invsim_inversion::Derivation::new(mode.model)
+                .unwrap_or_else(|e| panic!("{label}: {e}"));
+            let s = compare_derived(&label, &d, c.as_mut());
+            eprintln!(
+                "{label}: {} values compared ({} identical, {} NaN on both sides); largest difference {:.1e} relative",
+                s.compared, s.equal, s.nan, s.worst
+            );
+            assert!(s.nan * 10 < s.compared, "{label}: too many NaN");
+        }
+    }
+    assert!(invsim_models::modal_by_hash("0000").is_none());
 }
 
 #[test]

@@ -18,6 +18,7 @@ mod derive_bad_model;
 mod forward;
 mod hostile;
 mod modes;
+mod modes_compiled;
 mod outputs;
 mod plot;
 mod stable;
