@@ -25,7 +25,8 @@ fn every_model_has_a_document_in_the_index() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     let index =
         std::fs::read_to_string(root.join("docs/README.md")).expect("docs/README.md exists");
-    for name in invsim_models::names() {
+    let modal = invsim_models::MODAL_MODELS.iter().map(|m| m.0);
+    for name in invsim_models::names().iter().copied().chain(modal) {
         assert!(
             index.contains(&format!("(models/{name}.md)")),
             "docs/README.md does not link {name}"

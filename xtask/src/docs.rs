@@ -2,7 +2,8 @@
 //!
 //! For every `models/<file>.toml`, `docs/models/<name>.md` is [`invsim_inversion::Derivation::to_markdown`]
 //! (the model as written, f, g, h, the Lie derivatives, the relative degree, ξ, η, ψ⁻¹, α, β, the zero
-//! dynamics, singular set and domain); `docs/README.md` indexes them. Models are read under their
+//! dynamics, singular set and domain); for a model with operating modes, every mode's (as `invsim derive
+//! --format markdown` prints it); `docs/README.md` indexes them. Models are read under their
 //! repository-relative paths, so the documents do not depend on where the repository is checked out.
 //! `--check` writes nothing and fails, listing the stale files, when any differs.
 
@@ -24,8 +25,46 @@ pub fn expected(root: &Path) -> Result<Vec<(PathBuf, String)>, Failure> {
         ));
         rows.push((name, rel, d));
     }
-    out.push((PathBuf::from("docs/README.md"), index(&rows)));
+    let mut modal = Vec::new();
+    for rel in crate::modal_model_files(root)? {
+        let md = crate::derive_modal_relative(root, &rel)?;
+        let name = invsim_codegen::module_name(&md.name);
+        out.push((
+            PathBuf::from("docs/models").join(format!("{name}.md")),
+            md.to_markdown(),
+        ));
+        modal.push((name, rel, md));
+    }
+    let mut text = index(&rows);
+    text.push_str(&modal_index(&modal));
+    out.push((PathBuf::from("docs/README.md"), text));
     Ok(out)
+}
+
+/// The index's table of the models with operating modes (none: nothing).
+fn modal_index(rows: &[(String, PathBuf, invsim_codegen::ModalDerivation)]) -> String {
+    let mut s = String::new();
+    if rows.is_empty() {
+        return s;
+    }
+    let _ = writeln!(
+        s,
+        "\n## Models with operating modes\n\nEvery mode derived like a model of its own (the same text as \
+         `invsim derive MODEL --format markdown`); the code generator compiles one module per mode.\n"
+    );
+    let _ = writeln!(s, "| model | file | inputs | modes |");
+    let _ = writeln!(s, "|---|---|---|---|");
+    for (name, rel, md) in rows {
+        let modes: Vec<&str> = md.modes.iter().map(|m| m.name.as_str()).collect();
+        let _ = writeln!(
+            s,
+            "| [{name}](models/{name}.md) | `{}` | {} | {} |",
+            rel.display(),
+            md.inputs.join(", "),
+            modes.join(", ")
+        );
+    }
+    s
 }
 
 fn index(rows: &[(String, PathBuf, Derivation)]) -> String {

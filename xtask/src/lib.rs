@@ -60,8 +60,28 @@ pub fn workspace_root() -> PathBuf {
         .unwrap_or_else(|| PathBuf::from("."))
 }
 
-/// The model files `models/*.toml` under `root`, as paths relative to `root`, sorted.
+/// The single-mode model files `models/*.toml` under `root`, as paths relative to `root`, sorted.
 pub fn model_files(root: &Path) -> Result<Vec<PathBuf>, Failure> {
+    Ok(all_model_files(root)?
+        .into_iter()
+        .filter(|p| !has_modes(&root.join(p)))
+        .collect())
+}
+
+/// The model files with operating modes (`[modes.…]` tables) `models/*.toml` under `root`, as paths
+/// relative to `root`, sorted.
+pub fn modal_model_files(root: &Path) -> Result<Vec<PathBuf>, Failure> {
+    Ok(all_model_files(root)?
+        .into_iter()
+        .filter(|p| has_modes(&root.join(p)))
+        .collect())
+}
+
+fn has_modes(path: &Path) -> bool {
+    std::fs::read_to_string(path).is_ok_and(|t| t.lines().any(|l| l.starts_with("[modes.")))
+}
+
+fn all_model_files(root: &Path) -> Result<Vec<PathBuf>, Failure> {
     let dir = root.join("models");
     let entries = std::fs::read_dir(&dir)
         .map_err(|e| Failure::io(format!("cannot read {}: {e}", dir.display())))?;
@@ -69,14 +89,32 @@ pub fn model_files(root: &Path) -> Result<Vec<PathBuf>, Failure> {
         .filter_map(|e| e.ok())
         .map(|e| e.path())
         .filter(|p| p.extension().is_some_and(|x| x == "toml"))
-        // Models with operating modes run through the interpreter: no generated code or document (yet).
-        .filter(|p| {
-            !std::fs::read_to_string(p).is_ok_and(|t| t.lines().any(|l| l.starts_with("[modes.")))
-        })
         .filter_map(|p| p.file_name().map(|f| Path::new("models").join(f)))
         .collect();
     files.sort();
     Ok(files)
+}
+
+/// Load `root/rel`, a model with operating modes, and derive every mode, recording the file under `rel`.
+pub fn derive_modal_relative(
+    root: &Path,
+    rel: &Path,
+) -> Result<invsim_codegen::ModalDerivation, Failure> {
+    let path = root.join(rel);
+    match invsim_inversion::ModelFile::from_path(&path) {
+        Ok(invsim_inversion::ModelFile::Modal(mut m)) => {
+            // Recorded under the relative path, as `derive_relative` does.
+            for mode in &mut m.modes {
+                mode.model.file = rel.to_path_buf();
+            }
+            invsim_codegen::ModalDerivation::new(*m).map_err(|e| Failure::user(e.to_string()))
+        }
+        Ok(invsim_inversion::ModelFile::Single(_)) => Err(Failure::user(format!(
+            "{}: expected a model with operating modes",
+            rel.display()
+        ))),
+        Err(e) => Err(Failure::user(e.to_string())),
+    }
 }
 
 /// Load and derive `root/rel`, recording the file under its repository-relative path `rel` so that everything

@@ -32,7 +32,10 @@ pub fn load_modes(m: &mut ModalModel, choice: EngineChoice) -> Result<ModeModels
         _ => invsim_models::modal_by_hash(&m.source_hash).filter(|c| c.len() == m.modes.len()),
     };
     if let Some(models) = compiled {
-        let meta = std::mem::take(&mut m.modes).into_iter().map(meta_of).collect();
+        let meta = std::mem::take(&mut m.modes)
+            .into_iter()
+            .map(meta_of)
+            .collect();
         return Ok(ModeModels {
             meta,
             models,

@@ -129,19 +129,25 @@ impl Builder {
 
 /// Read and derive one model file, single-mode or with modes: (name, SHA-256, modes, Rust source).
 fn generate_any(path: &Path) -> Result<(String, String, Vec<String>, String), Error> {
-    let file = invsim_inversion::ModelFile::from_path(path).map_err(invsim_inversion::Error::from)?;
+    let file =
+        invsim_inversion::ModelFile::from_path(path).map_err(invsim_inversion::Error::from)?;
     match file {
         invsim_inversion::ModelFile::Single(model) => {
-            let d = invsim_inversion::Derivation::new(*model).map_err(invsim_inversion::Error::from)?;
+            let d =
+                invsim_inversion::Derivation::new(*model).map_err(invsim_inversion::Error::from)?;
             let rust = generate(&d, &source_name(path))?;
-            Ok((d.model.name.clone(), d.model.source_hash.clone(), Vec::new(), rust))
+            Ok((
+                d.model.name.clone(),
+                d.model.source_hash.clone(),
+                Vec::new(),
+                rust,
+            ))
         }
         invsim_inversion::ModelFile::Modal(m) => {
-            let (name, hash) = (m.name.clone(), m.source_hash.clone());
-            let modes = crate::modal::derive_modes(*m)?;
-            let rust = crate::modal::generate_modal(&name, &hash, &modes, &source_name(path))?;
-            let names = modes.into_iter().map(|(n, _)| n).collect();
-            Ok((name, hash, names, rust))
+            let md = crate::modal::ModalDerivation::new(*m)?;
+            let rust = crate::modal::generate_modal(&md, &source_name(path))?;
+            let names = md.modes.into_iter().map(|x| x.name).collect();
+            Ok((md.name, md.source_hash, names, rust))
         }
     }
 }

@@ -42,6 +42,7 @@ mod names;
 
 pub use builder::{registry, Builder, Generated};
 pub use error::{CodegenError, Error};
-pub use generate::{generate, generate_file, header};
-pub use modal::{derive_modes, generate_modal, mode_module};
+pub use format::header;
+pub use generate::{generate, generate_file};
+pub use modal::{generate_modal, mode_module, DerivedMode, ModalDerivation};
 pub use names::module_name;

@@ -4,3 +4,4 @@
 
 mod builder;
 mod imports;
+mod modal;

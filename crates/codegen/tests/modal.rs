@@ -1,0 +1,75 @@
+//! A model with operating modes (`models/si_engine_5speed.toml`) through the generator: one module per mode
+//! inside the model's module, the table of modes in the file's order, a registry entry for `modal_by_hash`
+//! and none for the single-mode `by_hash`, and the Markdown of every mode.
+
+use std::path::{Path, PathBuf};
+
+fn model() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models/si_engine_5speed.toml")
+}
+
+#[test]
+fn one_module_per_mode_and_a_table_of_modes() {
+    let out = std::env::temp_dir().join(format!("invsim-codegen-modal-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let g = invsim_codegen::Builder::new()
+        .model(model())
+        .out_dir(&out)
+        .cargo_metadata(false)
+        .compile()
+        .expect("si_engine_5speed compiles");
+    assert_eq!(g.len(), 1);
+    let g = &g[0];
+    assert_eq!(g.module, "si_engine_5speed");
+    assert_eq!(g.modes.len(), 16);
+    assert_eq!(g.modes[0], "drive_1");
+    assert_eq!(g.modes[15], "idle");
+    let text = std::fs::read_to_string(&g.path).expect("written");
+    assert!(text.starts_with(&invsim_codegen::header(
+        "si_engine_5speed.toml",
+        &g.source_hash
+    )));
+    let file = syn::parse_file(&text).expect("the file is Rust");
+    let syn::Item::Mod(outer) = &file.items[0] else {
+        panic!("the first item is the model's module")
+    };
+    let inner: Vec<String> = outer
+        .content
+        .as_ref()
+        .expect("inline module")
+        .1
+        .iter()
+        .filter_map(|i| match i {
+            syn::Item::Mod(m) => Some(m.ident.to_string()),
+            _ => None,
+        })
+        .collect();
+    let expected: Vec<String> = g
+        .modes
+        .iter()
+        .map(|m| invsim_codegen::mode_module(m))
+        .collect();
+    assert_eq!(inner, expected);
+    assert!(text.contains("pub const MODES: &[&str] = &[\n        \"drive_1\","));
+    let registry = invsim_codegen::registry(std::slice::from_ref(g)).expect("registry");
+    assert!(
+        registry.contains("pub const NAMES: &[&str] = &[];"),
+        "{registry}"
+    );
+    assert!(
+        registry.contains("Some(si_engine_5speed::models())"),
+        "{registry}"
+    );
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn generate_file_gives_every_mode_and_its_markdown() {
+    let (rust, markdown) = invsim_codegen::generate_file(&model()).expect("generates");
+    assert!(rust.contains("pub mod mode_overrun_3 {"));
+    assert!(markdown.starts_with("model si_engine_5speed with 16 modes\n"));
+    assert_eq!(markdown.matches("\n== mode ").count(), 16);
+    assert!(
+        markdown.contains("== mode idle (role standstill, free input F_b, m_at = m_at_idle) ==")
+    );
+}
