@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use invsim_inversion::{Derivation, ModalModel, ModeRole, ModelFile, Schedule};
+use invsim_inversion::{ModalModel, ModeRole, ModelFile, Schedule};
 use invsim_model_api::InverseModel;
 use invsim_runtime::modes::{
     gears, GearSource, InputSpec, ModalOptions, ModalSpec, ModeSpec, Role, SequenceParams,
@@ -45,50 +45,12 @@ pub fn refuse_modal(path: &Path, command: &str) -> Result<(), Failure> {
     Ok(())
 }
 
-/// A mode with its derivation.
-pub struct DerivedMode {
-    pub name: String,
-    pub family: String,
-    pub gear: Option<usize>,
-    pub role: ModeRole,
-    pub free: usize,
-    pub fixed: Vec<(usize, String)>,
-    pub d: Derivation,
-}
+pub use crate::modal_engine::DerivedMode;
 
 /// Every mode's derivation (the returned model keeps everything but its modes).
 pub fn derive_modes(mut m: ModalModel) -> Result<(ModalModel, Vec<DerivedMode>), Failure> {
-    let out = derive_list(std::mem::take(&mut m.modes))?;
+    let out = crate::modal_engine::derive_list(std::mem::take(&mut m.modes))?;
     Ok((m, out))
-}
-
-/// The derivation of each of `modes`.
-pub fn derive_list(modes: Vec<invsim_inversion::Mode>) -> Result<Vec<DerivedMode>, Failure> {
-    let mut out = Vec::new();
-    for mode in modes {
-        let invsim_inversion::Mode {
-            name,
-            family,
-            gear,
-            role,
-            free,
-            fixed,
-            model,
-        } = mode;
-        let d = Derivation::new(model).map_err(|e| Failure::user(format!("mode `{name}`: {e}")))?;
-        d.check_printable()
-            .map_err(|e| Failure::user(format!("mode `{name}`: {e}")))?;
-        out.push(DerivedMode {
-            name,
-            family,
-            gear,
-            role,
-            free,
-            fixed,
-            d,
-        });
-    }
-    Ok(out)
 }
 
 fn role_of(r: ModeRole) -> Role {

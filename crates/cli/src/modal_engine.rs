@@ -2,11 +2,51 @@
 //! model: the compiled modes (`invsim_models::modal_by_hash`) when the model file is byte-for-byte a built-in
 //! one (same SHA-256), else every mode derived and interpreted. Compiled modes are not derived at run time.
 
-use invsim_inversion::{Interpreter, ModalModel, ModeRole};
+use invsim_inversion::{Derivation, Interpreter, ModalModel, ModeRole};
 use invsim_model_api::InverseModel;
 
 use crate::engine::EngineChoice;
 use crate::error::Failure;
+
+/// A mode with its derivation.
+pub struct DerivedMode {
+    pub name: String,
+    pub family: String,
+    pub gear: Option<usize>,
+    pub role: ModeRole,
+    pub free: usize,
+    pub fixed: Vec<(usize, String)>,
+    pub d: Derivation,
+}
+
+/// The derivation of each of `modes`.
+pub fn derive_list(modes: Vec<invsim_inversion::Mode>) -> Result<Vec<DerivedMode>, Failure> {
+    let mut out = Vec::new();
+    for mode in modes {
+        let invsim_inversion::Mode {
+            name,
+            family,
+            gear,
+            role,
+            free,
+            fixed,
+            model,
+        } = mode;
+        let d = Derivation::new(model).map_err(|e| Failure::user(format!("mode `{name}`: {e}")))?;
+        d.check_printable()
+            .map_err(|e| Failure::user(format!("mode `{name}`: {e}")))?;
+        out.push(DerivedMode {
+            name,
+            family,
+            gear,
+            role,
+            free,
+            fixed,
+            d,
+        });
+    }
+    Ok(out)
+}
 
 /// What the run needs of a mode beside its model.
 pub struct ModeMeta {
@@ -45,7 +85,7 @@ pub fn load_modes(m: &mut ModalModel, choice: EngineChoice) -> Result<ModeModels
     if choice == EngineChoice::Compiled {
         return Err(no_compiled(m));
     }
-    let ds = crate::modal_cmd::derive_list(std::mem::take(&mut m.modes))?;
+    let ds = derive_list(std::mem::take(&mut m.modes))?;
     let mut meta = Vec::with_capacity(ds.len());
     let mut models: Vec<Box<dyn InverseModel>> = Vec::with_capacity(ds.len());
     for d in ds {
