@@ -83,29 +83,41 @@ pub fn mode_module(name: &str) -> String {
     format!("mode_{}", names::module_name(name))
 }
 
-/// Formatted Rust source of a model with modes from its modes' derivations.
+/// Formatted Rust source of a model with modes from its modes' derivations. A mode whose equations are
+/// those of an earlier mode (the gears of one `[modes.NAME]` table differ in parameter values only) is not
+/// generated again: its module re-exports the earlier mode's `Model` and `Params` and gives its own
+/// parameter values (`params()`, `model()`).
 pub fn generate_modal(m: &ModalDerivation, source_name: &str) -> Result<String, CodegenError> {
     let (name, sha256) = (m.name.as_str(), m.source_hash.as_str());
     let mut items = Vec::new();
     let mut comments = Vec::new();
-    for DerivedMode { name: mode, d, .. } in &m.modes {
-        if !d.yr_affine && !d.psi_inv_closed() {
+    // (mode index, canonical tokens) of every mode generated in full.
+    let mut primaries: Vec<(usize, String)> = Vec::new();
+    let mut ctors = Vec::new();
+    for (i, mode) in m.modes.iter().enumerate() {
+        if !mode.d.yr_affine && !mode.d.psi_inv_closed() {
             return Err(CodegenError::NonAffine {
-                model: format!("{name}, mode {mode}"),
+                model: format!("{name}, mode {}", mode.name),
             });
         }
-        let out = crate::model::module_named(d, source_name, &mode_module(mode))?;
+        let ident = format_ident!("{}", mode_module(&mode.name));
+        if let Some(j) = shares_code_with(m, i, &primaries, source_name)? {
+            let code = format_ident!("{}", mode_module(&m.modes[j].name));
+            items.push(sharer(&mode.name, &ident, &code, &mode.d));
+            ctors.push(quote!(Box::new(#ident::model())));
+            continue;
+        }
+        let out = crate::model::module_named(&mode.d, source_name, &mode_module(&mode.name))?;
+        primaries.push((i, canonical(&mode.d, source_name)?));
         items.push(out.tokens);
         comments.extend(out.comments);
+        ctors.push(quote!(Box::new(#ident::Model::default())));
     }
     let mode_names: Vec<&str> = m.modes.iter().map(|x| x.name.as_str()).collect();
-    let ctors = m.modes.iter().map(|x| {
-        let m = format_ident!("{}", mode_module(&x.name));
-        quote!(Box::new(#m::Model::default()))
-    });
     let doc = format!(
         " Generated code of the model `{name}` with {} operating modes, from {source_name}: one module per \
-         mode (an `InverseModel` with that mode's free input), `MODES` and `models()` in the file's order.",
+         mode (an `InverseModel` with that mode's free input; modes with the same equations share one), \
+         `MODES` and `models()` in the file's order.",
         m.modes.len()
     );
     let ident = format_ident!("{}", names::module_name(name));
@@ -127,4 +139,75 @@ pub fn generate_modal(m: &ModalDerivation, source_name: &str) -> Result<String, 
         }
     };
     format::format_file(tokens, &header(source_name, sha256), &comments, name)
+}
+
+/// The module of mode `d` under a fixed name, as text: two modes with equal text have the same code.
+fn canonical(d: &Derivation, source_name: &str) -> Result<String, CodegenError> {
+    Ok(crate::model::module_named(d, source_name, "mode")?
+        .tokens
+        .to_string())
+}
+
+/// The earlier mode generated in full whose code mode `i` has: the same parameters (names, in order) and,
+/// given that mode's parameter values, the same generated module.
+fn shares_code_with(
+    m: &ModalDerivation,
+    i: usize,
+    primaries: &[(usize, String)],
+    source_name: &str,
+) -> Result<Option<usize>, CodegenError> {
+    let d = &m.modes[i].d;
+    let names = |d: &Derivation| -> Vec<String> {
+        d.model.parameters.iter().map(|p| p.name.clone()).collect()
+    };
+    for (j, text) in primaries {
+        let p = &m.modes[*j].d;
+        if names(p) != names(d) {
+            continue;
+        }
+        let mut with_values = d.clone();
+        for (a, b) in with_values
+            .model
+            .parameters
+            .iter_mut()
+            .zip(&p.model.parameters)
+        {
+            a.value = b.value;
+        }
+        if canonical(&with_values, source_name)? == *text {
+            return Ok(Some(*j));
+        }
+    }
+    Ok(None)
+}
+
+/// The module of a mode that runs the code of the mode module `code` with its own parameter values.
+fn sharer(
+    mode: &str,
+    ident: &proc_macro2::Ident,
+    code: &proc_macro2::Ident,
+    d: &Derivation,
+) -> proc_macro2::TokenStream {
+    let doc = format!(
+        " Mode `{mode}`: the equations of [`{code}`](super::{code}) (generated once), with this mode's \
+         parameter values."
+    );
+    let values = crate::model::params_literal(d);
+    quote! {
+        #[doc = #doc]
+        #[allow(clippy::approx_constant)]
+        pub mod #ident {
+            pub use super::#code::{Model, Params};
+
+            /// This mode's parameter values (the model file's, with the mode's and the gearbox's).
+            pub fn params() -> Params {
+                #values
+            }
+
+            /// This mode's model at its parameter values.
+            pub fn model() -> Model {
+                Model::new(params())
+            }
+        }
+    }
 }

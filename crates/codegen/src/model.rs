@@ -150,6 +150,11 @@ pub(crate) fn module_named(
     Ok(ModuleOut { tokens, comments })
 }
 
+/// `d`'s parameter values as a literal of its module's `Params`.
+pub(crate) fn params_literal(d: &Derivation) -> TokenStream {
+    params::literal(&Gen::new(d))
+}
+
 /// The module's `use` items.
 fn imports(g: &Gen<'_>, uses_pow_slice: bool) -> TokenStream {
     let imports = if g.d.model.outputs.is_empty() {

@@ -1,5 +1,5 @@
 //! A model with operating modes (`models/si_engine_5speed.toml`) through the generator: one module per mode
-//! inside the model's module, the table of modes in the file's order, a registry entry for `modal_by_hash`
+//! inside the model's module (the gears of one family sharing their first gear's code), the table of modes in the file's order, a registry entry for `modal_by_hash`
 //! and none for the single-mode `by_hash`, and the Markdown of every mode.
 
 use std::path::{Path, PathBuf};
@@ -51,6 +51,19 @@ fn one_module_per_mode_and_a_table_of_modes() {
         .collect();
     assert_eq!(inner, expected);
     assert!(text.contains("pub const MODES: &[&str] = &[\n        \"drive_1\","));
+    // The gears of one family share the code of their first gear: 4 modules in full (drive, coast, overrun,
+    // idle), 12 that re-export one and give their parameter values.
+    assert_eq!(text.matches("pub struct Precomputed {").count(), 4);
+    assert_eq!(
+        text.matches("pub use super::mode_drive_1::{Model, Params};")
+            .count(),
+        4
+    );
+    assert_eq!(
+        text.matches("pub use super::mode_coast_1::{Model, Params};")
+            .count(),
+        4
+    );
     let registry = invsim_codegen::registry(std::slice::from_ref(g)).expect("registry");
     assert!(
         registry.contains("pub const NAMES: &[&str] = &[];"),

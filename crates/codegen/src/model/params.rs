@@ -83,6 +83,16 @@ pub(super) fn constants(g: &Gen<'_>, source_name: &str, batch: bool) -> TokenStr
     }
 }
 
+/// The model file's parameter values as a `Params` literal (`Params { m: 1300.0, … }`).
+pub(super) fn literal(g: &Gen<'_>) -> TokenStream {
+    let values = g.d.model.parameters.iter().map(|p| {
+        let id = &g.fields[&p.symbol].ident;
+        let v = emit::float_tokens(p.value, false);
+        quote!(#id: #v,)
+    });
+    quote!(Params { #(#values)* })
+}
+
 /// `Params`, its `Default` and its methods.
 pub(super) fn params(g: &Gen<'_>) -> TokenStream {
     let m = &g.d.model;
