@@ -182,6 +182,11 @@ fn modal_registry(all: &[&Generated]) -> TokenStream {
             quote!(#h => Some(#m::models()),)
         })
         .collect();
+    let body = if arms.is_empty() {
+        quote!(let _ = sha256; None)
+    } else {
+        quote!(match sha256 { #(#arms)* _ => None, })
+    };
     quote! {
         /// (name, SHA-256 of the model file, model file name) of every compiled model with operating modes,
         /// sorted by name.
@@ -190,10 +195,7 @@ fn modal_registry(all: &[&Generated]) -> TokenStream {
         /// The compiled modes of the model with operating modes generated from a model file with this
         /// SHA-256 (lower-case hex): every mode's model at its default parameters, in the file's order.
         pub fn modal_by_hash(sha256: &str) -> Option<Vec<Box<dyn invsim_model_api::InverseModel>>> {
-            match sha256 {
-                #(#arms)*
-                _ => None,
-            }
+            #body
         }
     }
 }
