@@ -189,15 +189,17 @@ fn sharer(
     d: &Derivation,
 ) -> proc_macro2::TokenStream {
     let doc = format!(
-        " Mode `{mode}`: the equations of [`{code}`](super::{code}) (generated once), with this mode's \
-         parameter values."
+        " Mode `{mode}`: the equations of the mode module `{code}` beside this one (generated once), with \
+         this mode's parameter values."
     );
     let values = crate::model::params_literal(d);
+    // The parent module, as a token (the path is the generated file's, not this crate's).
+    let parent = format_ident!("super");
     quote! {
         #[doc = #doc]
         #[allow(clippy::approx_constant)]
         pub mod #ident {
-            pub use super::#code::{Model, Params};
+            pub use #parent::#code::{Model, Params};
 
             /// This mode's parameter values (the model file's, with the mode's and the gearbox's).
             pub fn params() -> Params {
