@@ -53,9 +53,14 @@ pub(crate) fn ladder<'s>(spec: &'s ModalSpec<'_>) -> Vec<&'s str> {
 
 /// The mode of a rung in a gear (the family's mode of that gear, else its ungeared or first mode).
 pub(crate) fn pick(spec: &ModalSpec<'_>, rung: Rung, gear: usize) -> Option<usize> {
+    // The rung's family, looked up once (not for every mode tried).
+    let family = match rung {
+        Rung::Standstill => None,
+        Rung::Ladder(i) => ladder(spec).get(i).copied(),
+    };
     let fits = |m: &ModeSpec<'_>| match rung {
         Rung::Standstill => m.role == Role::Standstill,
-        Rung::Ladder(i) => ladder(spec).get(i).is_some_and(|f| *f == m.family),
+        Rung::Ladder(_) => family.is_some_and(|f| f == m.family),
     };
     spec.modes
         .iter()
