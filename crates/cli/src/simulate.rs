@@ -92,6 +92,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
                     SwitchingArg::QuasiStatic => invsim_runtime::modes::Switching::QuasiStatic,
                 },
                 transition_time: args.transition_time,
+                signals: &args.data.signal,
             },
         );
     }

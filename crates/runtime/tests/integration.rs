@@ -27,6 +27,7 @@ mod forward_integrals;
 mod fuzz_regressions;
 mod modes;
 mod modes_forward;
+mod modes_signals;
 mod nonsense_options;
 mod plot;
 mod si_engine_maps;

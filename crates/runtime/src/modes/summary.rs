@@ -8,7 +8,6 @@ use serde::Serialize;
 
 use super::record::{Ctx, Impulse, ModeTime, Record, Transition};
 use super::verify::Tracking;
-use super::NO_SIGNALS;
 use super::{ModalOptions, ModalResult};
 use crate::cycle::Cycle;
 use crate::provenance::Provenance;
@@ -49,6 +48,9 @@ pub struct ModalSummary {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub rms_tracking_error: Option<f64>,
     pub columns: Vec<Column>,
+    /// Each signal, where it came from and that the run used it smoothed (models with signals).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub signals: Vec<crate::signals::SignalUse>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub provenance: Option<Provenance>,
     pub warnings: Vec<String>,
@@ -119,7 +121,7 @@ pub(super) fn assemble(
         let (m, s) = (rec.mode[k], &rec.solved[k]);
         let model = spec.modes[m].model;
         let mut outs = vec![0.0; model.info().outputs.len()];
-        model.outputs(&s.x, NO_SIGNALS, s.u, &mut outs);
+        model.outputs(&s.x, &ctx.w(m, rec.t[k]), s.u, &mut outs);
         let mut row = vec![rec.t[k], m as f64, spec.modes[m].gear.unwrap_or(0) as f64];
         row.extend_from_slice(&s.yref);
         row.extend(input_values(ctx, m, s.u, &outs));
@@ -147,7 +149,12 @@ pub(super) fn assemble(
         outside = out;
         if k + 1 < ns {
             let mut end = vec![0.0; outs.len()];
-            model.outputs(&rec.x_end[k], NO_SIGNALS, rec.u_end[k], &mut end);
+            model.outputs(
+                &rec.x_end[k],
+                &ctx.w(m, rec.t[k + 1]),
+                rec.u_end[k],
+                &mut end,
+            );
             let dt = rec.t[k + 1] - rec.t[k];
             for (i, total) in integrals.iter_mut().enumerate() {
                 if info0.outputs[i].accumulate {
@@ -221,6 +228,7 @@ pub(super) fn assemble(
                 unit: u.clone(),
             })
             .collect(),
+        signals: Vec::new(),
         provenance: None,
         warnings,
     };
@@ -236,6 +244,7 @@ pub(super) fn assemble(
         free: rec.solved.iter().map(|s| s.u).collect(),
         yref: rec.solved.into_iter().map(|s| s.yref).collect(),
         impulse: rec.impulse,
+        signals: Vec::new(),
     }
 }
 
@@ -287,6 +296,7 @@ impl ModalSummary {
             self.cycle, self.duration_s, self.distance_m, self.samples, self.dt_s, self.lookahead_s
         );
         let _ = writeln!(s, "engine: {}  switching: {}", self.engine, self.switching);
+        crate::signals::write_signal_uses(&mut s, &self.signals);
         for (k, v) in &self.integrals {
             let unit = self.integral_units.get(k);
             let per = self
