@@ -28,6 +28,7 @@ mod fuzz_regressions;
 mod modes;
 mod modes_forward;
 mod modes_signals;
+mod modes_summary_blocks;
 mod nonsense_options;
 mod plot;
 mod si_engine_maps;

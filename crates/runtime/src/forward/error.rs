@@ -60,6 +60,12 @@ pub enum ForwardError {
     Modes { reason: String },
     #[error("the forward integration failed at t = {} s: {reason}", num(*t))]
     Integration { t: f64, reason: String },
+    /// A map under `extrapolate = "error"` was evaluated outside its grid (contract §6).
+    #[error("at {at}: {violation}")]
+    MapOutsideGrid {
+        at: String,
+        violation: invsim_model_api::map::Violation,
+    },
     /// A reason shared with the inverse simulation.
     #[error(transparent)]
     Run(#[from] RunError),

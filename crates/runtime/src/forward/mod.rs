@@ -54,6 +54,7 @@ mod record;
 mod summary;
 mod trace;
 
+use invsim_model_api::map::take_violation;
 use invsim_model_api::{InverseModel, ModelInfo};
 
 use crate::cycle::Cycle;
@@ -328,8 +329,11 @@ fn drive<M: InverseModel + ?Sized, I: Integrator>(
     z: &mut [f64],
 ) -> Result<OdeStats, ForwardError> {
     let model = lp.model;
+    // Forget map violations recorded before the run (a derivation, an earlier run on this thread).
+    let _ = take_violation();
     let d0 = lp.drive(seg0, t0, z)?;
     rec.emit(model, (0, t0), z, d0, &lp.w)?;
+    outside_grid(t0, t0)?;
     let t_last = grid.time(grid.n);
     let mut zk = z.to_vec();
     let (mut t, mut seg, mut k) = (t0, seg0, 1);
@@ -370,9 +374,28 @@ fn drive<M: InverseModel + ?Sized, I: Integrator>(
             rec.emit(model, (k, tk), &zk, d, &lp.w)?;
             k += 1;
         }
+        outside_grid(t, t_new)?;
         t = t_new;
     }
     Ok(stepper.stats())
+}
+
+/// `Err` when a map under `extrapolate = "error"` left its grid during the step from `t0` to `t1` (its stages,
+/// the driver and the samples served from it), naming the step.
+fn outside_grid(t0: f64, t1: f64) -> Result<(), ForwardError> {
+    let Some(violation) = take_violation() else {
+        return Ok(());
+    };
+    let at = if t0 == t1 {
+        format!("t = {} s", crate::error::num(t0))
+    } else {
+        format!(
+            "a time between t = {} s and t = {} s (an integration step)",
+            crate::error::num(t0),
+            crate::error::num(t1)
+        )
+    };
+    Err(ForwardError::MapOutsideGrid { at, violation })
 }
 
 /// The warnings of a forward run: nothing to enforce, bound violations, trace misses, road grade.

@@ -286,7 +286,7 @@ fn run_sequence(ctx: &Ctx<'_, '_>, grid: &Grid, opts: &ModalOptions) -> Result<R
 
 impl Ctx<'_, '_> {
     /// The smoothed cycle y_c, y_c' at t (unmapped: the sequence decides on the cycle's speed).
-    fn smoothed(&self, t: f64) -> [f64; 2] {
+    pub(super) fn smoothed(&self, t: f64) -> [f64; 2] {
         let mut y = [0.0; 2];
         self.smoother.eval(t, &mut y);
         y

@@ -10,7 +10,9 @@ use super::record::{Ctx, Impulse, ModeTime, Record, Transition};
 use super::verify::Tracking;
 use super::{ModalOptions, ModalResult};
 use crate::cycle::Cycle;
+use crate::operating_points::{OperatingPointTally, OperatingPoints};
 use crate::provenance::Provenance;
+use crate::reference_deviation::{DeviationTally, ReferenceDeviation};
 use crate::report::{integral_unit, unit_suffix, Column};
 
 /// What `invsim simulate` prints and writes for a model with modes.
@@ -43,6 +45,13 @@ pub struct ModalSummary {
     pub impulses: Vec<Impulse>,
     /// The impulses' total booking per accumulated output.
     pub impulse_booked: BTreeMap<String, f64>,
+    /// How far the smoothed cycle departs from the legal trace (cycle speed, m/s: every mode's reference is a
+    /// map of it).
+    #[serde(flatten)]
+    pub reference: ReferenceDeviation,
+    /// The time-weighted engine speed × torque histogram (models with an `[engine]`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub engine_operating_points: Option<OperatingPoints>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub max_abs_tracking_error: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -117,11 +126,19 @@ pub(super) fn assemble(
     let mut time = vec![0.0; spec.modes.len()];
     let mut violations: Vec<[f64; 2]> = Vec::new();
     let mut outside = false;
+    let mut deviation = DeviationTally::new(invsim_model_api::ReferenceMap::IDENTITY, opts.dt);
+    // The engine's outputs are among those every mode shares (the first n_outputs).
+    let mut operating = OperatingPointTally::new(info0, ns)
+        .filter(|_| info0.engine.is_some_and(|e| e.speed.max(e.torque) < no));
     for k in 0..ns {
         let (m, s) = (rec.mode[k], &rec.solved[k]);
         let model = spec.modes[m].model;
         let mut outs = vec![0.0; model.info().outputs.len()];
         model.outputs(&s.x, &ctx.w(m, rec.t[k]), s.u, &mut outs);
+        deviation.push(cycle, rec.t[k], ctx.smoothed(rec.t[k])[0]);
+        if let Some(op) = operating.as_mut() {
+            op.push(|i| outs[i]);
+        }
         let mut row = vec![rec.t[k], m as f64, spec.modes[m].gear.unwrap_or(0) as f64];
         row.extend_from_slice(&s.yref);
         row.extend(input_values(ctx, m, s.u, &outs));
@@ -219,6 +236,8 @@ pub(super) fn assemble(
         max_transition_deviation: max_dev,
         impulses: rec.impulses,
         impulse_booked,
+        reference: deviation.finish(),
+        engine_operating_points: operating.map(|op| op.finish(info0, opts.dt)),
         max_abs_tracking_error: verify.as_ref().map(|v| v.max_abs),
         rms_tracking_error: verify.as_ref().map(|v| v.rms),
         columns: cols
@@ -337,6 +356,11 @@ impl ModalSummary {
                     self.impulses.len()
                 );
             }
+        }
+        self.reference
+            .write_text(&mut s, Some("m/s"), self.distance_m);
+        if let Some(op) = &self.engine_operating_points {
+            op.write_text(&mut s);
         }
         if self.input_bound_violations.is_empty() {
             let _ = writeln!(s, "input bound violations: none");
