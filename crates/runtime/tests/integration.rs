@@ -24,6 +24,7 @@ mod cycle_limits;
 mod forward;
 mod forward_budget;
 mod forward_integrals;
+mod fusion_6speed;
 mod fuzz_regressions;
 mod modes;
 mod modes_forward;
