@@ -128,11 +128,11 @@ fn every_mode_satisfies_its_equations_with_a_varying_grade() {
     let gs = Smoother::new(&gcycle.expect("reads"), 5.0).expect("smoother");
     let t = res.column("t").expect("t").to_vec();
     let (mut worst1, mut worst2) = (0.0f64, 0.0f64);
-    for k in 0..res.free.len() {
+    for (k, &tk) in t.iter().enumerate() {
         let model = &l.interps[res.mode[k]];
         let r = model.info().relative_degree;
         let mut sg = vec![0.0; r + 1];
-        gs.eval(t[k], &mut sg);
+        gs.eval(tk, &mut sg);
         // The grade was smoothed shifted by 1 (a cycle's speed is not negative); smoothing is linear.
         sg[0] -= 1.0;
         let (x, u, y) = (&res.states[k], res.free[k], &res.yref[k]);
