@@ -13,15 +13,7 @@ fn features(args: &[&str]) -> BTreeMap<String, BTreeSet<String>> {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_string());
     let out = Command::new(cargo)
         .current_dir(&root)
-        .args([
-            "tree",
-            "--locked",
-            "--offline",
-            "--prefix",
-            "none",
-            "-f",
-            "{p}|{f}",
-        ])
+        .args(["tree", "--locked", "--prefix", "none", "-f", "{p}|{f}"])
         .args(args)
         .output()
         .expect("cargo tree runs");

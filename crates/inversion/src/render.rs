@@ -308,6 +308,13 @@ impl Derivation {
         if let Some(line) = self.signals_line() {
             let _ = writeln!(s, "{line}");
         }
+        if !m.maps.is_empty() {
+            let _ = write!(
+                s,
+                "maps (values in --format json):\n{}",
+                maps::maps_text(&m.maps)
+            );
+        }
         let _ = writeln!(s, "\nvector fields (definitions inlined):");
         for st in &m.states {
             let _ = writeln!(s, "  f_{} = {}", st.name, self.show(st.f));
@@ -498,6 +505,14 @@ impl Derivation {
                 s,
                 "\nSignals are exogenous: $S_{{dk}}$ is the $k$-th time derivative of the smoothed signal $S$, and \
                  every Lie derivative below is the total time derivative along the states and the signals.\n"
+            );
+        }
+        if !m.maps.is_empty() {
+            let _ = writeln!(
+                s,
+                "{}\nA map's partial derivatives print as derivative maps: $M_{{dIJ}}$ is \
+                 $\\partial^{{I+J}} M / \\partial a^I \\partial b^J$ (1-D: $M_{{dK}}$).\n",
+                maps::maps_markdown(&m.maps)
             );
         }
         if !m.outputs.is_empty() {

@@ -205,3 +205,35 @@ fn the_interpreter_evaluates_maps_like_the_pool() {
         );
     }
 }
+
+#[test]
+fn text_and_markdown_list_every_map_with_its_grid_and_values() {
+    let d = derive("render.toml", INLINE);
+    let text = d.to_text();
+    assert!(
+        text.contains("eta(a, b): a ∈ [0, 4] (4 points) × b ∈ [0, 3] (3 points); smooth, kernel half-width 0.7"),
+        "{text}"
+    );
+    assert!(
+        text.contains("loss(x): x ∈ [-1, 3] (4 points); smooth, kernel half-width 0.5 × the smallest spacing per axis; outside the grid: clamp"),
+        "{text}"
+    );
+    let md = d.to_markdown();
+    assert!(
+        md.contains("| `eta(a, b)` | a ∈ [0, 4] (4 points) × b ∈ [0, 3] (3 points) |"),
+        "{md}"
+    );
+    // Every row of the model's values, in order, under the second grid.
+    assert!(md.contains("| a \\ b | 0 | 2 | 3 |"), "{md}");
+    for row in [
+        "| 0 | 0.7 | 0.75 | 0.8 |",
+        "| 1 | 0.78 | 0.83 | 0.86 |",
+        "| 2 | 0.82 | 0.88 | 0.9 |",
+        "| 4 | 0.8 | 0.86 | 0.89 |",
+    ] {
+        assert!(md.contains(row), "{row} missing:\n{md}");
+    }
+    for row in ["| -1 | 0.2 |", "| 0 | 0 |", "| 1.5 | 0.3 |", "| 3 | 1.1 |"] {
+        assert!(md.contains(row), "{row} missing:\n{md}");
+    }
+}

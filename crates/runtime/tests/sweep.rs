@@ -204,3 +204,85 @@ fn grid_axes_are_full_factorial_last_fastest() {
     assert_eq!(v[1], [1000.0, 0.4]);
     assert_eq!(v[5], [2000.0, 0.4]);
 }
+
+/// si_engine_grade, compiled, with a grade signal from a series (a hill over the cycles' first minutes) and
+/// a constant auxiliary load.
+fn graded(grade_peak: f64) -> (Box<dyn InverseModel>, SimulationOptions) {
+    use invsim_runtime::signals::{SignalInput, SignalValue};
+    let model = invsim_models::builtin("si_engine_grade").expect("si_engine_grade is built in");
+    let mut o = opts("compiled", false);
+    let time: Vec<f64> = (0..=120).map(|k| 10.0 * k as f64).collect();
+    let values: Vec<f64> = time
+        .iter()
+        .map(|t| grade_peak * (std::f64::consts::PI * t / 600.0).sin().max(0.0))
+        .collect();
+    o.signals = vec![SignalInput {
+        name: "grade".into(),
+        value: SignalValue::Series {
+            file: "hill.csv".into(),
+            time,
+            values,
+        },
+    }];
+    (model, o)
+}
+
+#[test]
+fn a_model_with_signals_shares_the_reference_and_its_rows_equal_single_runs() {
+    let (model, o) = graded(0.04);
+    assert!(!model.info().signals.is_empty());
+    for threads in [1, 2] {
+        let result = sweep_of(
+            Sweep::new(|| invsim_models::builtin("si_engine_grade").expect("built in")),
+            &o,
+            threads,
+        );
+        assert_eq!(result.failed(), 0);
+        assert_rows_equal_single_runs(
+            &result,
+            invsim_models::builtin("si_engine_grade").expect("built in"),
+            &o,
+        );
+    }
+    // The hill costs fuel: each variant burns more than on the flat road.
+    let (_, flat) = graded(0.0);
+    let hill = sweep_of(
+        Sweep::new(|| invsim_models::builtin("si_engine_grade").expect("built in")),
+        &o,
+        1,
+    );
+    let level = sweep_of(
+        Sweep::new(|| invsim_models::builtin("si_engine_grade").expect("built in")),
+        &flat,
+        1,
+    );
+    for (a, b) in hill.rows.iter().zip(&level.rows) {
+        let (a, b) = (
+            a.outcome.as_ref().expect("ran"),
+            b.outcome.as_ref().expect("ran"),
+        );
+        assert!(a.integrals[0] > b.integrals[0], "{a:?} vs {b:?}");
+    }
+}
+
+#[test]
+fn a_reference_with_other_signal_sources_is_not_used() {
+    use invsim_runtime::inverse::{reference, simulate_shared};
+    let (model, hill) = graded(0.04);
+    let (_, flat) = graded(0.0);
+    let cycle = Cycle::builtin("ece").expect("built in");
+    let shared = reference(model.as_ref(), &cycle, &hill).expect("the reference");
+    // The run asks for the flat road: the hill's shared signals must not leak into it.
+    let got = simulate_shared(model.as_ref(), &cycle, &shared, &flat, Vec::new()).expect("runs");
+    let own = simulate(model.as_ref(), &cycle, &flat).expect("runs");
+    assert_eq!(got.summary, own.summary);
+    let with_hill =
+        simulate_shared(model.as_ref(), &cycle, &shared, &hill, Vec::new()).expect("runs");
+    assert_eq!(
+        with_hill.summary,
+        simulate(model.as_ref(), &cycle, &hill)
+            .expect("runs")
+            .summary
+    );
+    assert_ne!(with_hill.summary, got.summary);
+}

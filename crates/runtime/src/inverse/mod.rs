@@ -77,7 +77,7 @@ pub fn reference<M: InverseModel + ?Sized>(
     opts: &SimulationOptions,
 ) -> Result<Reference, SimulateError> {
     let info = model.info();
-    run::reference(cycle, model.reference(), info.relative_degree, opts)
+    run::reference(cycle, info, model.reference(), opts)
 }
 
 /// [`simulate_reusing`] on a reference computed beforehand by [`reference`]: the smoother is not rebuilt and,

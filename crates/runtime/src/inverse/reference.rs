@@ -1,10 +1,15 @@
 //! A smoothed reference computed once and shared by many inverse runs of the same cycle (parameter sweeps):
-//! the [`Smoother`] and y_d … y_d^(r) on the cycle's grid t_k = t_0 + k·dt.
+//! the [`Smoother`], y_d … y_d^(r) on the cycle's grid t_k = t_0 + k·dt, and the model's signals (resolved
+//! from their sources once, smoothed, and S^(k) on the same grid): a model parameter moves none of them.
 
 use invsim_model_api::ReferenceMap;
 
 use crate::grid::Grid;
+use crate::signals::{ResolvedSignal, SignalInput};
 use crate::smoother::Smoother;
+
+/// A shared reference's samples on the run's grid: y_d^(k) columns and S_i^(k) columns.
+pub(super) type SharedColumns<'a> = (&'a [Vec<f64>], &'a [Vec<f64>]);
 
 /// The smoothed reference of one cycle on one grid, for models of one relative degree and one reference map
 /// (built by [`super::reference`], used by [`super::simulate_shared`]).
@@ -21,6 +26,13 @@ pub struct Reference {
     pub(super) grid: Grid,
     /// y_d^(k)(t_j) in `yd[k][j]`, k = 0 … r, j = 0 … n.
     pub(super) yd: Vec<Vec<f64>>,
+    /// The model's signals as resolved for this cycle, the names they were resolved for, and the sources
+    /// given (`--signal`) they came from.
+    pub(super) signals: Vec<ResolvedSignal>,
+    pub(super) signal_names: Vec<String>,
+    pub(super) signal_inputs: Vec<SignalInput>,
+    /// S_i^(k)(t_j) in `w[i·(r+1) + k][j]` (the layout of the models' `w`).
+    pub(super) w: Vec<Vec<f64>>,
 }
 
 impl Reference {
@@ -57,9 +69,15 @@ impl Reference {
             && self.map() == map
     }
 
-    /// The shared samples when the run's grid is the reference's (no pre- or post-actuation).
-    pub(super) fn columns_for(&self, grid: &Grid) -> Option<&[Vec<f64>]> {
+    /// Whether a run of a model with these signals and these given sources can use the reference's signals.
+    pub(super) fn signals_fit(&self, names: &[String], given: &[SignalInput]) -> bool {
+        self.signal_names == names && self.signal_inputs == given
+    }
+
+    /// The shared samples, y_d^(k) and S_i^(k), when the run's grid is the reference's (no pre- or
+    /// post-actuation).
+    pub(super) fn columns_for(&self, grid: &Grid) -> Option<SharedColumns<'_>> {
         let same = grid.k0 == 0 && grid.n == self.grid.n && grid.t0 == self.grid.t0;
-        same.then_some(self.yd.as_slice())
+        same.then_some((self.yd.as_slice(), self.w.as_slice()))
     }
 }

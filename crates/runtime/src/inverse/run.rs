@@ -289,7 +289,7 @@ fn fill_reference(
 /// columns.
 fn run_blocks<M: InverseModel + ?Sized>(
     model: &M,
-    (smoother, shared): (&Smoother, Option<&[Vec<f64>]>),
+    (smoother, shared): (&Smoother, Option<super::reference::SharedColumns<'_>>),
     grid: &Grid,
     inverter: &mut Inverter<'_, M>,
     tally: &mut Tally<'_>,
@@ -321,19 +321,31 @@ fn run_blocks<M: InverseModel + ?Sized>(
         }
         let r1 = info.relative_degree + 2;
         let nw = info.n_w();
-        fill_reference((smoother, shared), grid, &mut cols[..r1], (k0, k1), keep);
-        // The smoothed signals on the same grid block (a model with signals never uses a shared reference).
+        let (shared_yd, shared_w) = (shared.map(|s| s.0), shared.map(|s| s.1));
+        fill_reference((smoother, shared_yd), grid, &mut cols[..r1], (k0, k1), keep);
+        // The smoothed signals on the same grid block, or the shared reference's.
         {
             let (time, w) = cols.split_at_mut(r1);
-            smoother.eval_signals_grid(time[0], Some(grid.dt), &mut w[..nw]);
+            match shared_w {
+                Some(sw) if keep => {
+                    for (c, s) in w[..nw].iter_mut().zip(sw) {
+                        c.copy_from_slice(&s[k0..k1]);
+                    }
+                }
+                Some(_) => {}
+                None => smoother.eval_signals_grid(time[0], Some(grid.dt), &mut w[..nw]),
+            }
         }
         let (head, rest) = cols.split_at_mut(r1 + nw);
         let (head, w_cols) = head.split_at(r1);
-        let yd: Vec<&[f64]> = match shared {
+        let yd: Vec<&[f64]> = match shared_yd {
             Some(s) if !keep => s.iter().map(|c| &c[k0..k1]).collect(),
             _ => head[1..].iter().map(|c| &**c).collect(),
         };
-        let w: Vec<&[f64]> = w_cols.iter().map(|c| &**c).collect();
+        let w: Vec<&[f64]> = match shared_w {
+            Some(sw) if !keep => sw.iter().map(|c| &c[k0..k1]).collect(),
+            _ => w_cols.iter().map(|c| &**c).collect(),
+        };
         let mut b = split((&*head[0], &yd, &w), rest, k0, info);
         inverter.fill(&mut b)?;
         {
@@ -416,14 +428,43 @@ fn reference_columns(smoother: &Smoother, grid: &Grid, r: usize) -> Vec<Vec<f64>
     yd
 }
 
-/// The smoothed reference of `cycle` for runs of models with relative degree `r` and reference map `map`
-/// with `opts`' look-ahead and dt (see [`Reference`]).
+/// The signals (command line, cycle column or default), to be smoothed with the reference's kernel; a route
+/// profile is read along the smoothed reference's distance.
+fn resolve_signals(
+    info: &invsim_model_api::ModelInfo,
+    cycle: &Cycle,
+    opts: &SimulationOptions,
+) -> Result<Vec<crate::signals::ResolvedSignal>, SimulateError> {
+    let along = crate::elevation::Along::Smoothed {
+        lookahead: opts.lookahead,
+    };
+    Ok(crate::signals::resolve_along(info, cycle, &opts.signals, along).map_err(RunError::from)?)
+}
+
+/// S_i^(k) of the smoother's signals on the grid, computed over the blocks a run uses (the same numbers).
+fn signal_columns(smoother: &Smoother, grid: &Grid, nw: usize) -> Vec<Vec<f64>> {
+    let samples = grid.samples();
+    let time: Vec<f64> = (0..samples).map(|k| grid.time(k)).collect();
+    let mut w = vec![vec![0.0; samples]; nw];
+    let mut k0 = 0;
+    while k0 < samples {
+        let k1 = (k0 + BLOCK).min(samples);
+        let mut cols: Vec<&mut [f64]> = w.iter_mut().map(|c| &mut c[k0..k1]).collect();
+        smoother.eval_signals_grid(&time[k0..k1], Some(grid.dt), &mut cols);
+        k0 = k1;
+    }
+    w
+}
+
+/// The smoothed reference of `cycle` for runs of models like `info` (relative degree, signals) with reference
+/// map `map`, with `opts`' look-ahead, dt and signal sources (see [`Reference`]).
 pub(super) fn reference(
     cycle: &Cycle,
+    info: &invsim_model_api::ModelInfo,
     map: invsim_model_api::ReferenceMap,
-    r: usize,
     opts: &SimulationOptions,
 ) -> Result<Reference, SimulateError> {
+    let r = info.relative_degree;
     opts.validate()?;
     if r + 1 > MAX_DERIVATIVES {
         return Err(SimulateError::RelativeDegreeTooHigh {
@@ -435,8 +476,12 @@ pub(super) fn reference(
     let grid = Grid::new(t0, duration, opts.dt)?;
     let raw = Smoother::new(cycle, opts.lookahead)?;
     let distance_warning = checks::reference_distance_warning(&raw, cycle);
-    let smoother = raw.with_reference(map);
+    let signals = resolve_signals(info, cycle, opts)?;
+    let smoother = raw
+        .with_reference(map)
+        .with_signals(crate::signals::smoothers(&signals, opts.lookahead));
     let yd = reference_columns(&smoother, &grid, r);
+    let w = signal_columns(&smoother, &grid, info.n_w());
     Ok(Reference {
         smoother,
         distance_warning,
@@ -444,6 +489,10 @@ pub(super) fn reference(
         lookahead: opts.lookahead,
         grid,
         yd,
+        signal_names: info.signals.iter().map(|s| s.name.clone()).collect(),
+        signal_inputs: opts.signals.clone(),
+        signals,
+        w,
     })
 }
 
@@ -471,18 +520,16 @@ pub(super) fn run<M: InverseModel + ?Sized>(
     let eta0 = check_eta0(info, opts)?;
     // Start values of the internal states (`initial =`, `--initial`), used by a causal run.
     let initial = crate::initial::initial_eta(info, &opts.initial).map_err(RunError::from)?;
-    // The signals (command line, cycle column or default), smoothed with the reference's kernel; a route
-    // profile is read along the smoothed reference's distance.
-    let along = crate::elevation::Along::Smoothed {
-        lookahead: opts.lookahead,
-    };
-    let resolved =
-        crate::signals::resolve_along(info, cycle, &opts.signals, along).map_err(RunError::from)?;
+    let names: Vec<String> = info.signals.iter().map(|s| s.name.clone()).collect();
     let shared = shared.filter(|s| {
         s.fits(opts.lookahead, opts.dt, r, model.reference())
             && s.cycle == cycle.name
-            && info.signals.is_empty()
+            && s.signals_fit(&names, &opts.signals)
     });
+    let resolved = match shared {
+        Some(s) => s.signals.clone(),
+        None => resolve_signals(info, cycle, opts)?,
+    };
     let own;
     let (smoother, distance_warning) = match shared {
         Some(s) => (&s.smoother, s.distance_warning.clone()),

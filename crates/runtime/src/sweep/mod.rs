@@ -17,7 +17,8 @@
 //! # Ok::<(), invsim_runtime::SweepError>(())
 //! ```
 //!
-//! The smoothed reference is computed once per cycle ([`crate::inverse::reference`]) and shared by every
+//! The smoothed reference and the model's smoothed signals are computed once per cycle
+//! ([`crate::inverse::reference`]) and shared by every
 //! variant ([`crate::inverse::simulate_shared`]): a row's figures are bit for bit those of
 //! [`crate::simulate()`] of the same variant. Variants run in parallel (rayon), each worker with its own copy
 //! of the model (made by the factory once per worker, then [`InverseModel::set_param`] per variant); no time
