@@ -147,23 +147,7 @@ pub(super) fn assemble(
         for (c, v) in data.iter_mut().zip(row) {
             c.push(v);
         }
-        let info = model.info();
-        let tol = match (info.input_min, info.input_max) {
-            (Some(lo), Some(hi)) => 1e-9 * (hi - lo).max(1.0),
-            _ => 1e-9,
-        };
-        let out = info.input_min.is_some_and(|lo| s.u < lo - tol)
-            || info.input_max.is_some_and(|hi| s.u > hi + tol);
-        match (out, outside) {
-            (true, false) => violations.push([rec.t[k], rec.t[k]]),
-            (true, true) => {
-                if let Some(v) = violations.last_mut() {
-                    v[1] = rec.t[k];
-                }
-            }
-            _ => {}
-        }
-        outside = out;
+        outside = track_violation(model.info(), (rec.t[k], s.u), outside, &mut violations);
         if k + 1 < ns {
             let mut end = vec![0.0; outs.len()];
             model.outputs(
@@ -265,6 +249,32 @@ pub(super) fn assemble(
         impulse: rec.impulse,
         signals: Vec::new(),
     }
+}
+
+/// Whether the free input `u` at t is outside its bounds (tolerance 1e-9 of its range); an interval of
+/// `violations` opens or extends there (`outside`: whether the previous sample was).
+fn track_violation(
+    info: &invsim_model_api::ModelInfo,
+    (t, u): (f64, f64),
+    outside: bool,
+    violations: &mut Vec<[f64; 2]>,
+) -> bool {
+    let tol = match (info.input_min, info.input_max) {
+        (Some(lo), Some(hi)) => 1e-9 * (hi - lo).max(1.0),
+        _ => 1e-9,
+    };
+    let out = info.input_min.is_some_and(|lo| u < lo - tol)
+        || info.input_max.is_some_and(|hi| u > hi + tol);
+    match (out, outside) {
+        (true, false) => violations.push([t, t]),
+        (true, true) => {
+            if let Some(v) = violations.last_mut() {
+                v[1] = t;
+            }
+        }
+        _ => {}
+    }
+    out
 }
 
 /// Add each quasi-static impulse's booking to the accumulated outputs' integrals; returns the bookings per
