@@ -136,6 +136,8 @@ pub struct ModalRun<'a> {
     pub switching: Switching,
     pub transition_time: Option<f64>,
     pub engine: crate::engine::EngineChoice,
+    /// `--signal NAME=FILE.csv|VALUE` as given.
+    pub signals: &'a [String],
 }
 
 fn gear_source(m: &ModalModel, cycle: &Cycle, spec: &str) -> Result<(usize, GearSource), Failure> {
@@ -289,13 +291,16 @@ pub fn simulate(m: ModalModel, run: &ModalRun<'_>) -> Result<(), Failure> {
         transition_time: run.transition_time,
         verify: run.verify,
     };
-    let mut result = invsim_runtime::modes::simulate_modes(&spec, &cycle, &opts).map_err(|e| {
-        Failure::user(format!(
-            "simulation of `{}` on `{}` stopped: {e}",
-            run.model.display(),
-            cycle.name
-        ))
-    })?;
+    let signals = crate::signal_args::parse_signals(run.signals)?;
+    let mut result =
+        invsim_runtime::modes::simulate_modes_with_signals(&spec, &cycle, &opts, &signals)
+            .map_err(|e| {
+                Failure::user(format!(
+                    "simulation of `{}` on `{}` stopped: {e}",
+                    run.model.display(),
+                    cycle.name
+                ))
+            })?;
     result.summary.engine = prepared.engine.to_string();
     let mut outputs = outputs;
     outputs.write("--out", |f| {

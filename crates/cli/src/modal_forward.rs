@@ -28,9 +28,9 @@ fn run_modal(m: ModalModel, args: &ForwardArgs) -> Result<(), Failure> {
             ("--plot", args.plot.plot.as_deref()),
         ],
     )?;
-    if !args.data.signal.is_empty() || !args.data.map.is_empty() {
+    if !args.data.map.is_empty() {
         return Err(Failure::user(format!(
-            "{}: a model with operating modes has no [signals] or [maps] to override yet (--signal, --map)",
+            "{}: a model with operating modes has no [maps] to override yet (--map)",
             args.model.display()
         )));
     }
@@ -49,6 +49,7 @@ fn run_modal(m: ModalModel, args: &ForwardArgs) -> Result<(), Failure> {
     let (progress, bar) = crate::progress::start("forward");
     let mut opts = crate::forward::options(args, prepared.engine, progress).map_err(stopped)?;
     opts.initial = crate::initial_args::parse_initial(&args.data.initial)?;
+    opts.signals = crate::signal_args::parse_signals(&args.data.signal)?;
     let result = forward_modes(&spec, &cycle, &opts);
     bar.finish();
     let mut result = result.map_err(stopped)?;

@@ -93,6 +93,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
                 },
                 transition_time: args.transition_time,
                 engine: args.engine,
+                signals: &args.data.signal,
             },
         );
     }

@@ -228,9 +228,9 @@ fn panel_labels(svg: &str) -> Vec<(String, String)> {
         .collect()
 }
 
-/// Every shipped model with modes (si_engine_5speed) plotted inverse and forward on the NEDC: the same
+/// Every shipped model with modes (si_engine_5speed, ford_fusion_2012_dynamic_6speed) plotted inverse and forward on the NEDC: the same
 /// checks as every other model's plots, every input in a panel of its own with its unit, and under them the
-/// step panel of the gear (a curve of horizontal and vertical segments only, 0 … 5).
+/// step panel of the gear (a curve of horizontal and vertical segments only, 0 … the number of gears).
 #[test]
 fn every_shipped_model_with_modes_plots_its_inputs_and_its_gear() {
     let models = modal_models();
@@ -277,7 +277,10 @@ fn every_shipped_model_with_modes_plots_its_inputs_and_its_gear() {
                 "{what}: {label}"
             );
         }
-        assert!(svg.contains("lower bound 0 N") && svg.contains("upper bound 15000 N"));
+        assert!(
+            svg.contains("lower bound 0 N") && svg.contains("upper bound 15000 N"),
+            "{what}: the brake's bounds"
+        );
         assert!(svg.contains("gear of the mode in force (0: idle)"));
         // The gear curve is a staircase: consecutive points share their x or their y.
         let doc = roxmltree::Document::parse(&svg).unwrap();
@@ -304,8 +307,9 @@ fn every_shipped_model_with_modes_plots_its_inputs_and_its_gear() {
             pts.iter().map(|p| p.1.round() as i64).collect();
         assert_eq!(
             levels.len(),
-            6,
-            "{what}: gears 0 … 5 drawn at distinct heights"
+            spec.gears + 1,
+            "{what}: gears 0 … {} drawn at distinct heights",
+            spec.gears
         );
     }
 }

@@ -63,7 +63,7 @@ pub fn forward_modes(
         }
         .into());
     }
-    check_spec(spec, opts)?;
+    check_spec(spec)?;
     let (t0, duration) = (cycle.time[0], cycle.duration());
     let grid = Grid::new(t0, duration, opts.dt)?;
     let raw = RawCycle::new(cycle);
@@ -80,7 +80,14 @@ pub fn forward_modes(
     let mode = pick(spec, rung, gear).ok_or_else(|| ForwardError::Modes {
         reason: "the model has no traction mode".into(),
     })?;
-    let x0 = initial_state(spec.modes[mode].model, (&raw, &[]), seg0, t0, opts)?;
+    // The signals, raw (linear between samples, derivative slots 0) as in the single-mode forward run; each
+    // mode takes them in its own layout (its relative degree).
+    let resolved = crate::signals::resolve(spec.modes[mode].model.info(), cycle, &opts.signals)
+        .map_err(RunError::from)?;
+    let signals = crate::signals::smoothers(&resolved, 1.0);
+    let mut w0 = vec![0.0; spec.modes[mode].model.info().n_w()];
+    super::driver::raw_signals(&signals, t0, &mut w0);
+    let x0 = initial_state(spec.modes[mode].model, (&raw, &w0), seg0, t0, opts)?;
     // At a standstill the brake holds the car and never pushes it: a demand below the free input's minimum
     // there (the car would roll against its rolling resistance) is clipped, whatever `bounds` says.
     let loops: Vec<Loop<'_, dyn InverseModel>> = spec
@@ -88,6 +95,7 @@ pub fn forward_modes(
         .iter()
         .map(|m| {
             let mut lp = closed_loop(m.model, RawCycle::new(cycle), opts);
+            lp.signals = signals.clone();
             if m.role == Role::Standstill && !lp.enforce {
                 lp.enforce = true;
                 lp.hi = f64::INFINITY;
@@ -125,11 +133,13 @@ pub fn forward_modes(
             drive_modes(&mut s, &mut run, &mut rec, (&grid, &budget), &mut z)?
         }
     };
-    Ok(rec.finish(spec, &run.switches, (cycle, opts), stats))
+    let mut result = rec.finish(spec, &run.switches, (cycle, opts), stats);
+    result.summary.signals = crate::signals::signal_uses(&resolved, "raw");
+    Ok(result)
 }
 
 /// What a forward run with modes needs of the spec: modes, one state vector, the same accumulated outputs.
-fn check_spec(spec: &ModalSpec<'_>, opts: &ForwardOptions) -> Result<(), ForwardError> {
+fn check_spec(spec: &ModalSpec<'_>) -> Result<(), ForwardError> {
     let fail = |reason: &str| {
         Err(ForwardError::Modes {
             reason: reason.to_string(),
@@ -138,10 +148,17 @@ fn check_spec(spec: &ModalSpec<'_>, opts: &ForwardOptions) -> Result<(), Forward
     let Some(first) = spec.modes.first() else {
         return fail("the model has no mode");
     };
-    if spec.modes.iter().any(|m| m.model.info().n_w() > 0) || !opts.signals.is_empty() {
-        return fail("a model with modes may not have [signals] yet");
-    }
     let info = first.model.info();
+    let names = |i: &invsim_model_api::ModelInfo| -> Vec<String> {
+        i.signals.iter().map(|s| s.name.clone()).collect()
+    };
+    if spec
+        .modes
+        .iter()
+        .any(|m| names(m.model.info()) != names(info))
+    {
+        return fail("every mode must declare the same signals");
+    }
     let acc = |i: &invsim_model_api::ModelInfo| -> Vec<usize> {
         (0..i.outputs.len())
             .filter(|&k| i.outputs[k].accumulate)
@@ -167,7 +184,13 @@ fn drive_modes<I: Integrator>(
 ) -> Result<OdeStats, ForwardError> {
     let t0 = grid.time(0);
     let d = run.decide(t0, z)?;
-    rec.emit(run.spec, run.place.mode, (0, t0), z, d)?;
+    rec.emit(
+        run.spec,
+        run.place.mode,
+        (0, t0),
+        z,
+        (d, &run.loops[run.place.mode].w),
+    )?;
     for k in 1..=grid.n {
         let (ta, tb) = (grid.time(k - 1), grid.time(k));
         run.advance(stepper, budget, (ta, tb), z)?;
@@ -176,7 +199,13 @@ fn drive_modes<I: Integrator>(
         if run.place.mode != before {
             stepper.restart();
         }
-        rec.emit(run.spec, run.place.mode, (k, tb), z, d)?;
+        rec.emit(
+            run.spec,
+            run.place.mode,
+            (k, tb),
+            z,
+            (d, &run.loops[run.place.mode].w),
+        )?;
     }
     Ok(stepper.stats())
 }

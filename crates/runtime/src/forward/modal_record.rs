@@ -139,20 +139,21 @@ impl<'a> ModalRecorder<'a> {
         }
     }
 
-    /// Sample k at time t in the run's current mode: state z = (x, I, quadratures), that mode's drive `d`.
+    /// Sample k at time t in the run's current mode: state z = (x, I, quadratures), that mode's drive `d` and
+    /// its raw signal values `w` at t.
     pub(super) fn emit(
         &mut self,
         spec: &ModalSpec<'_>,
         m: usize,
         (k, t): (usize, f64),
         z: &[f64],
-        d: Drive,
+        (d, w): (Drive, &[f64]),
     ) -> Result<(), ForwardError> {
         let mode = &spec.modes[m];
         let model: &dyn InverseModel = mode.model;
         let info = model.info();
         let x = &z[..info.n_states()];
-        model.outputs(x, &[], d.applied, &mut self.outs);
+        model.outputs(x, w, d.applied, &mut self.outs);
         let bad = |quantity: String, value: f64| RunError::NonFinite { t, quantity, value };
         if let Some(j) = x.iter().position(|v| !v.is_finite()) {
             return Err(bad(info.states[j].clone(), x[j]).into());

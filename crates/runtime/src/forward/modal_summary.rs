@@ -83,6 +83,9 @@ pub struct ModalForwardSummary {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub engine_operating_points: Option<OperatingPoints>,
     pub columns: Vec<Column>,
+    /// Each signal, where it came from and that the run used it raw (models with signals).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub signals: Vec<crate::signals::SignalUse>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub provenance: Option<Provenance>,
     pub warnings: Vec<String>,
@@ -244,6 +247,7 @@ pub(super) fn summarise(
                 unit: u.clone(),
             })
             .collect(),
+        signals: Vec::new(),
         provenance: None,
         warnings,
     }
@@ -284,6 +288,7 @@ impl ModalForwardSummary {
         let mut s = String::new();
         self.run.write_model(&mut s);
         let _ = writeln!(s, "engine: {} (modes)", self.engine);
+        crate::signals::write_signal_uses(&mut s, &self.signals);
         let _ = writeln!(s, "cycle: {}", self.run.cycle);
         let _ = writeln!(s, "duration: {} s", fmt_sig(self.run.duration_s, 6));
         let _ = writeln!(

@@ -17,6 +17,7 @@ pub mod gears;
 mod record;
 mod runner;
 pub(crate) mod sequence;
+mod signals;
 mod summary;
 mod verify;
 
@@ -25,11 +26,8 @@ use thiserror::Error;
 
 pub use gears::{GearBox, GearSource};
 pub use record::{Impulse, ModeTime, Transition};
-pub use runner::simulate_modes;
+pub use runner::{simulate_modes, simulate_modes_with_signals};
 pub use summary::ModalSummary;
-
-/// The signal values of a run with modes: models with modes have no `[signals]` yet (the run refuses them).
-pub(crate) const NO_SIGNALS: &[f64] = &[];
 
 /// What a mode is for (see `invsim_inversion::ModeRole`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -160,6 +158,8 @@ pub struct ModalResult {
     pub yref: Vec<Vec<f64>>,
     /// Impulse of the free input at each sample (quasi-static switches; 0 elsewhere).
     pub impulse: Vec<f64>,
+    /// The model's signals as the run resolved them (the run used them smoothed).
+    pub signals: Vec<crate::signals::ResolvedSignal>,
 }
 
 impl ModalResult {

@@ -8,12 +8,14 @@ use super::blend::Blend;
 use super::gears::GearBox;
 use super::record::{Ctx, Impulse, Record, Solved, Transition};
 use super::sequence::{decide, has_role, pick, Moment, Place, Rung, Switcher};
+use super::signals::resolve_modal;
 use super::verify::replay;
-use super::NO_SIGNALS;
 use super::{ModalError, ModalOptions, ModalResult, ModalSpec, Role, Switching};
 use crate::cycle::Cycle;
+use crate::elevation::Along;
 use crate::grid::Grid;
 use crate::ode::{Dopri5, StepFailure};
+use crate::signals::SignalInput;
 use crate::smoother::Smoother;
 
 /// The sequence's state between samples.
@@ -69,8 +71,9 @@ impl Ctx<'_, '_> {
         let r = model.info().relative_degree;
         let yref = self.reference(m, t, blend);
         let mut x = x_guess.to_vec();
+        let w = self.w(m, t);
         let u = model
-            .invert(&yref[..r], eta, NO_SIGNALS, yref[r], &mut x)
+            .invert(&yref[..r], eta, &w, yref[r], &mut x)
             .map_err(|e| self.err(m, t, e.to_string()))?;
         if !(u.is_finite() && x.iter().all(|v| v.is_finite())) {
             return Err(self.err(
@@ -106,7 +109,7 @@ impl Ctx<'_, '_> {
         let mut ode = Dopri5::new(eta.len(), 1e-10, 1e-12, (t1 - t0) / 4.0);
         let mut f = |t: f64, e: &[f64], de: &mut [f64]| -> Result<(), StepFailure> {
             let y = self.reference(m, t, blend);
-            model.zero_dynamics(&y[..r], e, NO_SIGNALS, y[r], de);
+            model.zero_dynamics(&y[..r], e, &self.w(m, t), y[r], de);
             Ok(())
         };
         ode.advance(t0, t1, eta, &mut f).map_err(|e: StepFailure| {
@@ -119,10 +122,11 @@ impl Ctx<'_, '_> {
         let model = self.model(m);
         let (r, ne) = (model.info().relative_degree, model.info().n_eta);
         let y = self.reference(m, t, None);
+        let w = self.w(m, t);
         let mut eta = vec![0.0; ne];
         let q = |e: &[f64]| {
             let mut d = vec![0.0; ne];
-            model.zero_dynamics(&y[..r], e, NO_SIGNALS, y[r], &mut d);
+            model.zero_dynamics(&y[..r], e, &w, y[r], &mut d);
             d
         };
         for _ in 0..60 {
@@ -156,23 +160,37 @@ impl Ctx<'_, '_> {
     }
 }
 
-/// Simulate a model with modes inversely along `cycle`.
+/// Simulate a model with modes inversely along `cycle` (a model with `[signals]` takes each from the cycle
+/// or its default; [`simulate_modes_with_signals`] gives them on the command line's terms).
 pub fn simulate_modes(
     spec: &ModalSpec<'_>,
     cycle: &Cycle,
     opts: &ModalOptions,
 ) -> Result<ModalResult, ModalError> {
+    simulate_modes_with_signals(spec, cycle, opts, &[])
+}
+
+/// Simulate a model with modes inversely along `cycle`, its signals from `signals` first (`--signal`), then
+/// the cycle's column, the cycle's elevation or the default (`crate::signals`); every mode's model calls take
+/// the smoothed signals and their derivatives.
+pub fn simulate_modes_with_signals(
+    spec: &ModalSpec<'_>,
+    cycle: &Cycle,
+    opts: &ModalOptions,
+    signals: &[SignalInput],
+) -> Result<ModalResult, ModalError> {
     if spec.modes.is_empty() {
         return Err(ModalError::Setup("the model has no mode".into()));
     }
-    if spec.modes.iter().any(|m| m.model.info().n_w() > 0) {
-        return Err(ModalError::Setup(
-            "a model with modes may not have [signals] yet".into(),
-        ));
-    }
     let grid = Grid::new(cycle.time[0], cycle.duration(), opts.dt)?;
-    let smoother =
-        Smoother::new(cycle, opts.lookahead).map_err(|e| ModalError::Setup(e.to_string()))?;
+    // A route profile is read along the smoothed reference's distance, as in a single-mode inverse run.
+    let along = Along::Smoothed {
+        lookahead: opts.lookahead,
+    };
+    let resolved = resolve_modal(spec, cycle, signals, along)?;
+    let smoother = Smoother::new(cycle, opts.lookahead)
+        .map_err(|e| ModalError::Setup(e.to_string()))?
+        .with_signals(crate::signals::smoothers(&resolved, opts.lookahead));
     let r_max = spec
         .modes
         .iter()
@@ -199,7 +217,10 @@ pub fn simulate_modes(
     } else {
         None
     };
-    Ok(super::summary::assemble(&ctx, cycle, opts, rec, verify))
+    let mut result = super::summary::assemble(&ctx, cycle, opts, rec, verify);
+    result.summary.signals = crate::signals::signal_uses(&resolved, "smoothed");
+    result.signals = resolved;
+    Ok(result)
 }
 
 fn run_sequence(ctx: &Ctx<'_, '_>, grid: &Grid, opts: &ModalOptions) -> Result<Record, ModalError> {
@@ -365,7 +386,8 @@ fn entry(
     let r = info.relative_degree;
     let mut xi = vec![0.0; r];
     let mut eta = vec![0.0; info.n_eta];
-    model.psi(&prev.x, NO_SIGNALS, &mut xi, &mut eta);
+    let w = ctx.w(target, t);
+    model.psi(&prev.x, &w, &mut xi, &mut eta);
     let yc = ctx.cycle_reference(target, t);
     let transition = Transition {
         t,
@@ -396,7 +418,7 @@ fn entry(
         Switching::QuasiStatic => {
             let solved = ctx.solve(target, t, &eta, None, &prev.x)?;
             let imp = impulse(ctx, target, t, &prev.x, &solved);
-            let impulse = (imp.amount != 0.0).then(|| (imp, g_of(model, &solved.x)));
+            let impulse = (imp.amount != 0.0).then(|| (imp, g_of(model, &solved.x, &w)));
             Ok(Entry {
                 eta,
                 blend: None,
@@ -446,19 +468,20 @@ fn commit(seq: &mut Inner, rec: &mut Record, e: Entry) -> Solved {
     e.solved
 }
 
-/// g(x) of an affine model: rhs(x, 1) − rhs(x, 0).
-pub(super) fn g_of(model: &dyn InverseModel, x: &[f64]) -> Vec<f64> {
+/// g(x, w) of an affine model: rhs(x, w, 1) − rhs(x, w, 0).
+pub(super) fn g_of(model: &dyn InverseModel, x: &[f64], w: &[f64]) -> Vec<f64> {
     let n = x.len();
     let (mut a, mut b) = (vec![0.0; n], vec![0.0; n]);
-    model.rhs(x, NO_SIGNALS, 1.0, &mut a);
-    model.rhs(x, NO_SIGNALS, 0.0, &mut b);
+    model.rhs(x, w, 1.0, &mut a);
+    model.rhs(x, w, 0.0, &mut b);
     a.iter().zip(&b).map(|(p, q)| p - q).collect()
 }
 
 /// The impulse U along g that realises the jump prev → s.x, with its booking in the accumulated outputs.
 fn impulse(ctx: &Ctx<'_, '_>, m: usize, t: f64, prev: &[f64], s: &Solved) -> Impulse {
     let model = ctx.model(m);
-    let g = g_of(model, &s.x);
+    let w = ctx.w(m, t);
+    let g = g_of(model, &s.x, &w);
     let dx: Vec<f64> = s.x.iter().zip(prev).map(|(a, b)| a - b).collect();
     let gg: f64 = g.iter().map(|v| v * v).sum();
     let amount = if gg > 0.0 {
@@ -474,8 +497,8 @@ fn impulse(ctx: &Ctx<'_, '_>, m: usize, t: f64, prev: &[f64], s: &Solved) -> Imp
     let no = model.info().outputs.len();
     let (mut op, mut om) = (vec![0.0; no], vec![0.0; no]);
     let h = 1e-6 * s.u.abs().max(1e-6);
-    model.outputs(&s.x, NO_SIGNALS, s.u + h, &mut op);
-    model.outputs(&s.x, NO_SIGNALS, s.u - h, &mut om);
+    model.outputs(&s.x, &w, s.u + h, &mut op);
+    model.outputs(&s.x, &w, s.u - h, &mut om);
     let booked: Vec<f64> = (0..ctx.spec.n_outputs)
         .map(|i| {
             if model.info().outputs[i].accumulate {

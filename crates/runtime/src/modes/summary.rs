@@ -8,7 +8,6 @@ use serde::Serialize;
 
 use super::record::{Ctx, Impulse, ModeTime, Record, Transition};
 use super::verify::Tracking;
-use super::NO_SIGNALS;
 use super::{ModalOptions, ModalResult};
 use crate::cycle::Cycle;
 use crate::operating_points::{OperatingPointTally, OperatingPoints};
@@ -58,6 +57,9 @@ pub struct ModalSummary {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub rms_tracking_error: Option<f64>,
     pub columns: Vec<Column>,
+    /// Each signal, where it came from and that the run used it smoothed (models with signals).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub signals: Vec<crate::signals::SignalUse>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub provenance: Option<Provenance>,
     pub warnings: Vec<String>,
@@ -132,7 +134,7 @@ pub(super) fn assemble(
         let (m, s) = (rec.mode[k], &rec.solved[k]);
         let model = spec.modes[m].model;
         let mut outs = vec![0.0; model.info().outputs.len()];
-        model.outputs(&s.x, NO_SIGNALS, s.u, &mut outs);
+        model.outputs(&s.x, &ctx.w(m, rec.t[k]), s.u, &mut outs);
         deviation.push(cycle, rec.t[k], ctx.smoothed(rec.t[k])[0]);
         if let Some(op) = operating.as_mut() {
             op.push(|i| outs[i]);
@@ -145,26 +147,15 @@ pub(super) fn assemble(
         for (c, v) in data.iter_mut().zip(row) {
             c.push(v);
         }
-        let info = model.info();
-        let tol = match (info.input_min, info.input_max) {
-            (Some(lo), Some(hi)) => 1e-9 * (hi - lo).max(1.0),
-            _ => 1e-9,
-        };
-        let out = info.input_min.is_some_and(|lo| s.u < lo - tol)
-            || info.input_max.is_some_and(|hi| s.u > hi + tol);
-        match (out, outside) {
-            (true, false) => violations.push([rec.t[k], rec.t[k]]),
-            (true, true) => {
-                if let Some(v) = violations.last_mut() {
-                    v[1] = rec.t[k];
-                }
-            }
-            _ => {}
-        }
-        outside = out;
+        outside = track_violation(model.info(), (rec.t[k], s.u), outside, &mut violations);
         if k + 1 < ns {
             let mut end = vec![0.0; outs.len()];
-            model.outputs(&rec.x_end[k], NO_SIGNALS, rec.u_end[k], &mut end);
+            model.outputs(
+                &rec.x_end[k],
+                &ctx.w(m, rec.t[k + 1]),
+                rec.u_end[k],
+                &mut end,
+            );
             let dt = rec.t[k + 1] - rec.t[k];
             for (i, total) in integrals.iter_mut().enumerate() {
                 if info0.outputs[i].accumulate {
@@ -240,6 +231,7 @@ pub(super) fn assemble(
                 unit: u.clone(),
             })
             .collect(),
+        signals: Vec::new(),
         provenance: None,
         warnings,
     };
@@ -255,7 +247,34 @@ pub(super) fn assemble(
         free: rec.solved.iter().map(|s| s.u).collect(),
         yref: rec.solved.into_iter().map(|s| s.yref).collect(),
         impulse: rec.impulse,
+        signals: Vec::new(),
     }
+}
+
+/// Whether the free input `u` at t is outside its bounds (tolerance 1e-9 of its range); an interval of
+/// `violations` opens or extends there (`outside`: whether the previous sample was).
+fn track_violation(
+    info: &invsim_model_api::ModelInfo,
+    (t, u): (f64, f64),
+    outside: bool,
+    violations: &mut Vec<[f64; 2]>,
+) -> bool {
+    let tol = match (info.input_min, info.input_max) {
+        (Some(lo), Some(hi)) => 1e-9 * (hi - lo).max(1.0),
+        _ => 1e-9,
+    };
+    let out = info.input_min.is_some_and(|lo| u < lo - tol)
+        || info.input_max.is_some_and(|hi| u > hi + tol);
+    match (out, outside) {
+        (true, false) => violations.push([t, t]),
+        (true, true) => {
+            if let Some(v) = violations.last_mut() {
+                v[1] = t;
+            }
+        }
+        _ => {}
+    }
+    out
 }
 
 /// Add each quasi-static impulse's booking to the accumulated outputs' integrals; returns the bookings per
@@ -306,6 +325,7 @@ impl ModalSummary {
             self.cycle, self.duration_s, self.distance_m, self.samples, self.dt_s, self.lookahead_s
         );
         let _ = writeln!(s, "engine: {}  switching: {}", self.engine, self.switching);
+        crate::signals::write_signal_uses(&mut s, &self.signals);
         for (k, v) in &self.integrals {
             let unit = self.integral_units.get(k);
             let per = self

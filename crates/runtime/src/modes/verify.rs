@@ -1,11 +1,10 @@
 //! `--verify` for a run with modes: the computed input (linear between grid points within each interval)
-//! replayed through the original equations of the mode active on each interval, with the same switches
+//! replayed through the original equations of the mode active on each interval (with the smoothed signals), with the same switches
 //! (and, for the quasi-static option, the same impulses as state jumps Δx = U g(x)); the tracking error is
 //! |h(x_replay) − y_d| over the samples, y_d the reference the inverse tracked (transitions included).
 
 use super::record::{Ctx, Record};
 use super::ModalError;
-use super::NO_SIGNALS;
 use crate::ode::{Dopri5, StepFailure};
 
 /// The replay's tracking error.
@@ -27,7 +26,7 @@ pub(super) fn replay(ctx: &Ctx<'_, '_>, rec: &Record) -> Result<Tracking, ModalE
                 *xi += rec.impulse[k] * gi;
             }
         }
-        let e = model.h(&x, NO_SIGNALS) - rec.solved[k].yref[0];
+        let e = model.h(&x, &ctx.w(m, rec.t[k])) - rec.solved[k].yref[0];
         max_abs = max_abs.max(e.abs());
         sum2 += e * e;
         if k + 1 == ns {
@@ -37,7 +36,7 @@ pub(super) fn replay(ctx: &Ctx<'_, '_>, rec: &Record) -> Result<Tracking, ModalE
         let (ua, ub) = (rec.solved[k].u, rec.u_end[k]);
         let mut f = |t: f64, y: &[f64], dy: &mut [f64]| -> Result<(), StepFailure> {
             let s = (t - ta) / (tb - ta);
-            model.rhs(y, NO_SIGNALS, ua + s * (ub - ua), dy);
+            model.rhs(y, &ctx.w(m, t), ua + s * (ub - ua), dy);
             Ok(())
         };
         ode.restart();
