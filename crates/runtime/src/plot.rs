@@ -87,8 +87,19 @@ pub fn check_vars(info: &ModelInfo, vars: &[String]) -> Result<(), PlotError> {
 
 fn resolve_all(info: &ModelInfo, vars: &[String]) -> Result<Vec<(String, Var)>, PlotError> {
     let valid = || valid_vars(info).join(", ");
+    resolve_names(vars, || default_vars(info), valid, |n| resolve(info, n))
+}
+
+/// `--plot-vars` names (trimmed, blanks dropped; none given: `defaults()`), each resolved by `resolve`; an
+/// unknown name, or only blanks, is an error listing `valid()`.
+pub(crate) fn resolve_names<T>(
+    vars: &[String],
+    defaults: impl FnOnce() -> Vec<String>,
+    valid: impl Fn() -> String,
+    resolve: impl Fn(&str) -> Option<T>,
+) -> Result<Vec<(String, T)>, PlotError> {
     let names: Vec<String> = if vars.is_empty() {
-        default_vars(info)
+        defaults()
     } else {
         vars.iter().map(|v| v.trim().to_string()).collect()
     };
@@ -98,7 +109,7 @@ fn resolve_all(info: &ModelInfo, vars: &[String]) -> Result<Vec<(String, Var)>, 
     names
         .into_iter()
         .filter(|n| !n.is_empty())
-        .map(|n| match resolve(info, &n) {
+        .map(|n| match resolve(&n) {
             Some(v) => Ok((n, v)),
             None => Err(PlotError::UnknownVar {
                 name: n,

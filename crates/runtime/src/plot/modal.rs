@@ -98,24 +98,13 @@ fn resolve(spec: &ModalSpec<'_>, name: &str) -> Option<ModalVar> {
 
 fn resolve_all(spec: &ModalSpec<'_>, vars: &[String]) -> Result<Vec<ModalVar>, PlotError> {
     let valid = || modal_valid_vars(spec).join(", ");
-    let names: Vec<String> = if vars.is_empty() {
-        modal_default_vars(spec)
-    } else {
-        vars.iter().map(|v| v.trim().to_string()).collect()
-    };
-    if names.iter().all(|n| n.is_empty()) {
-        return Err(PlotError::NoVars { valid: valid() });
-    }
-    names
-        .into_iter()
-        .filter(|n| !n.is_empty())
-        .map(|n| {
-            resolve(spec, &n).ok_or_else(|| PlotError::UnknownVar {
-                name: n,
-                valid: valid(),
-            })
-        })
-        .collect()
+    let vars = super::resolve_names(
+        vars,
+        || modal_default_vars(spec),
+        valid,
+        |n| resolve(spec, n),
+    )?;
+    Ok(vars.into_iter().map(|(_, v)| v).collect())
 }
 
 /// Check `vars` (`--plot-vars`) against a model with modes; empty means [`modal_default_vars`].
