@@ -10,7 +10,7 @@ use super::figure::{Figure, Panel, Series, PANEL_TITLE_SIZE};
 use super::font::text_width;
 use super::panels::{self, input_panel, series, signal_panel, Signal, CYCLE, LOWER, REFERENCE};
 use super::reference::{raw_points, reference_axis, time_range};
-use super::PlotError;
+use super::{Columns, PlotError};
 use crate::cycle::Cycle;
 use crate::forward::ModalForwardResult;
 use crate::modes::{ModalResult, ModalSpec};
@@ -110,22 +110,6 @@ fn resolve_all(spec: &ModalSpec<'_>, vars: &[String]) -> Result<Vec<ModalVar>, P
 /// Check `vars` (`--plot-vars`) against a model with modes; empty means [`modal_default_vars`].
 pub fn check_modal_vars(spec: &ModalSpec<'_>, vars: &[String]) -> Result<(), PlotError> {
     resolve_all(spec, vars).map(|_| ())
-}
-
-/// A run's columns by name.
-struct Columns<'r> {
-    names: &'r [String],
-    data: &'r [Vec<f64>],
-}
-
-impl<'r> Columns<'r> {
-    fn get(&self, name: &str) -> &'r [f64] {
-        self.names
-            .iter()
-            .position(|c| c == name)
-            .and_then(|i| self.data.get(i))
-            .map_or(&[], Vec::as_slice)
-    }
 }
 
 /// The figure of an inverse run with modes along `cycle`.
