@@ -415,17 +415,9 @@ fn check_finite<M: InverseModel + ?Sized>(
 
 /// y_d … y_d^(r) on the cycle's grid, evaluated over the blocks [`run_blocks`] uses.
 fn reference_columns(smoother: &Smoother, grid: &Grid, r: usize) -> Vec<Vec<f64>> {
-    let samples = grid.samples();
-    let time: Vec<f64> = (0..samples).map(|k| grid.time(k)).collect();
-    let mut yd = vec![vec![0.0; samples]; r + 1];
-    let mut k0 = 0;
-    while k0 < samples {
-        let k1 = (k0 + BLOCK).min(samples);
-        let mut cols: Vec<&mut [f64]> = yd.iter_mut().map(|c| &mut c[k0..k1]).collect();
-        smoother.eval_grid(&time[k0..k1], Some(grid.dt), &mut cols);
-        k0 = k1;
-    }
-    yd
+    grid_columns(grid, r + 1, |t, cols| {
+        smoother.eval_grid(t, Some(grid.dt), cols)
+    })
 }
 
 /// The signals (command line, cycle column or default), to be smoothed with the reference's kernel; a route
@@ -443,17 +435,25 @@ fn resolve_signals(
 
 /// S_i^(k) of the smoother's signals on the grid, computed over the blocks a run uses (the same numbers).
 fn signal_columns(smoother: &Smoother, grid: &Grid, nw: usize) -> Vec<Vec<f64>> {
+    grid_columns(grid, nw, |t, cols| {
+        smoother.eval_signals_grid(t, Some(grid.dt), cols)
+    })
+}
+
+/// `n` columns over the whole grid, filled by `eval(times, columns)` block by block (the blocks a run
+/// evaluates, so that the samples are bit for bit the run's own).
+fn grid_columns(grid: &Grid, n: usize, eval: impl Fn(&[f64], &mut [&mut [f64]])) -> Vec<Vec<f64>> {
     let samples = grid.samples();
     let time: Vec<f64> = (0..samples).map(|k| grid.time(k)).collect();
-    let mut w = vec![vec![0.0; samples]; nw];
+    let mut out = vec![vec![0.0; samples]; n];
     let mut k0 = 0;
     while k0 < samples {
         let k1 = (k0 + BLOCK).min(samples);
-        let mut cols: Vec<&mut [f64]> = w.iter_mut().map(|c| &mut c[k0..k1]).collect();
-        smoother.eval_signals_grid(&time[k0..k1], Some(grid.dt), &mut cols);
+        let mut cols: Vec<&mut [f64]> = out.iter_mut().map(|c| &mut c[k0..k1]).collect();
+        eval(&time[k0..k1], &mut cols);
         k0 = k1;
     }
-    w
+    out
 }
 
 /// The smoothed reference of `cycle` for runs of models like `info` (relative degree, signals) with reference
