@@ -5,6 +5,8 @@
 //! - `forward`: `invsim forward` and `invsim simulate --verify` as a user meets them: exit codes, the CSV and JSON layouts,
 //! - `hostile`: Hostile-input suite: every case in `tests/hostile/*.json` runs the built `invsim` binary on hostile model
 //! - `modes`: `invsim derive` and `invsim simulate` on a model with operating modes (si_engine_5speed).
+//! - `modes_plot_signals`: `--plot` of a model with operating modes and a road grade signal: the signal's panel in
+//!   `simulate` and `forward`, by default and by name.
 //! - `outputs`: Output files of `simulate` and `forward` on success: written in place, through links into the linked file,
 //! - `plot`: `--plot` and `--plot-vars` of `simulate` and `forward`: SVG and PNG by the extension, the chosen panels,
 //! - `stable`: `invsim` with unstable zero dynamics: the classification in `derive`, stable (non-causal) inversion selected
@@ -19,6 +21,7 @@ mod forward;
 mod hostile;
 mod modes;
 mod modes_compiled;
+mod modes_plot_signals;
 mod outputs;
 mod plot;
 mod stable;

@@ -88,7 +88,7 @@ fn texts(doc: &roxmltree::Document) -> Vec<Text> {
 }
 
 /// Check the SVG's structure: the panels `vars`, their labels, legends and the canvas.
-fn check_svg(svg: &str, vars: &[String], what: &str) {
+pub(crate) fn check_svg(svg: &str, vars: &[String], what: &str) {
     let doc = roxmltree::Document::parse(svg).unwrap_or_else(|e| panic!("{what}: {e}"));
     let root = doc.root_element();
     let (w, h) = (attr(root, "width"), attr(root, "height"));
