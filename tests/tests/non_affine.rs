@@ -199,6 +199,26 @@ fn compiled_numeric_psi_inv_with_a_non_affine_input_equals_the_interpreter() {
         // The run reaches the input's non-linear range (|u| > 0.5).
         let peak = a.input().iter().fold(0.0f64, |m, v| m.max(v.abs()));
         assert!(peak > 0.5, "{name}: |u| at most {peak}");
+        // A replaced map (`--map`) reaches φ and the input solution in both engines: a stronger actuator
+        // needs a smaller input.
+        let (mut interp, mut compiled) = (interp, compiled);
+        let grid = [-2.0, -1.0, 0.0, 1.0, 2.0];
+        let values = [-12000.0, -5600.0, 0.0, 5600.0, 12000.0];
+        for m in [&mut interp as &mut dyn InverseModel, compiled.as_mut()] {
+            m.set_map("force", (&grid, None, &values)).unwrap();
+        }
+        let c = simulate(&interp, &cycle, &opts("interpreted")).unwrap();
+        let d = simulate(compiled.as_ref(), &cycle, &opts("compiled")).unwrap();
+        let worst = run_difference(&c, &d, &names);
+        assert!(
+            worst < 1e-12,
+            "{name} with --map: compiled vs interpreted {worst:e}"
+        );
+        let strong = c.input().iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        assert!(
+            strong < 0.8 * peak,
+            "{name}: |u| {strong} with the stronger map, {peak} without"
+        );
     }
 }
 
