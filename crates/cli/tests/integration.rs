@@ -4,6 +4,7 @@
 //! - `derive_bad_model`: `invsim derive` on a model that cannot be loaded or inverted exits with status 2 and prints
 //! - `forward`: `invsim forward` and `invsim simulate --verify` as a user meets them: exit codes, the CSV and JSON layouts,
 //! - `hostile`: Hostile-input suite: every case in `tests/hostile/*.json` runs the built `invsim` binary on hostile model
+//! - `map_option`: `--map NAME=FILE.csv` for ordinary models and models with modes; unknown names and wrong arity exit 2.
 //! - `modes`: `invsim derive` and `invsim simulate` on a model with operating modes (si_engine_5speed).
 //! - `modes_plot_signals`: `--plot` of a model with operating modes and a road grade signal: the signal's panel in
 //!   `simulate` and `forward`, by default and by name.
@@ -19,6 +20,7 @@ mod conveniences;
 mod derive_bad_model;
 mod forward;
 mod hostile;
+mod map_option;
 mod modes;
 mod modes_compiled;
 mod modes_plot_signals;
