@@ -383,12 +383,16 @@ impl Map {
 
     fn eval_1d_small(&self, a: f64, out: &mut [f64]) {
         let b = self.x.small_basis(a);
-        out.fill(0.0);
+        // Summed in a fixed-size array (a `fill` of the short output would be a call to memset).
+        let mut sum = [0.0; 3];
         for (k, row) in b.values.iter().enumerate().take(b.count) {
             let v = self.values[b.first + k];
-            for (o, &phi) in out.iter_mut().zip(row) {
+            for (o, &phi) in sum.iter_mut().zip(row) {
                 *o += v * phi;
             }
+        }
+        for (o, &s) in out.iter_mut().zip(&sum) {
+            *o = s;
         }
     }
 

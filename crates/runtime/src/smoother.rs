@@ -105,10 +105,10 @@ impl Smoother {
                 0.0
             }
         };
-        let mut corners = Vec::new();
-        let mut jumps = Vec::new();
-        let mut value_at = Vec::new();
-        let mut slope_after = Vec::new();
+        let mut corners = Vec::with_capacity(n);
+        let mut jumps = Vec::with_capacity(n);
+        let mut value_at = Vec::with_capacity(n);
+        let mut slope_after = Vec::with_capacity(n);
         let mut before = 0.0;
         for (i, &t) in time.iter().enumerate() {
             let after = slope(i);
@@ -132,8 +132,17 @@ impl Smoother {
             1.0
         };
         let buckets = (span / width) as usize + 2;
+        // bucket_start[b] = the number of corners before origin + b·width: one walk along the sorted corners
+        // (the edges increase with b).
+        let mut below = 0;
         let bucket_start = (0..=buckets)
-            .map(|b| corners.partition_point(|&c| c < origin + b as f64 * width))
+            .map(|b| {
+                let edge = origin + b as f64 * width;
+                while below < corners.len() && corners[below] < edge {
+                    below += 1;
+                }
+                below
+            })
             .collect();
         Smoother {
             kernel: Kernel::new(lookahead),

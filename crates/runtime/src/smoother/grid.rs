@@ -195,8 +195,8 @@ pub(super) fn add_corners(
     let a = kernel.half_width();
     // Corners whose window (t_j − a, t_j + a) meets [t0, t_end].
     let first = corners.partition_point(|&c| c <= t0 - a);
-    let last = corners.partition_point(|&c| c < t_end + a);
-    if first >= last {
+    let last_corner = corners.partition_point(|&c| c < t_end + a);
+    if first >= last_corner {
         return;
     }
     let tol = 8.0 * f64::EPSILON * (t0.abs().max(t_end.abs()) + a);
@@ -205,7 +205,10 @@ pub(super) fn add_corners(
     let width = out.len();
     let mut terms = vec![0.0; width];
     let mut jd = Vec::new();
-    for j in first..last {
+    // The table of the previous corner with its phase: corners of one phase (every corner of a 1 Hz cycle
+    // on a grid dividing 1 s) take it without the cache's lock. The same key gives the same table.
+    let mut last: Option<(f64, Arc<PhaseTable>)> = None;
+    for j in first..last_corner {
         let (tj, jump) = (corners[j], jumps[j]);
         let table = grid.and_then(|h| {
             let steps = (tj - t0) / h;
@@ -218,19 +221,25 @@ pub(super) fn add_corners(
             let delta = Some(steps - mj)
                 .filter(|d| d.abs() > tol_steps)
                 .unwrap_or(0.0);
-            let m = (a / h).ceil() as usize + 1;
-            let key = Key {
-                h,
-                delta,
-                tol: tol_steps,
-                m,
-                width,
-            };
-            cache.get(kernel, key, call).map(|t| (t, mj as i64))
+            if last
+                .as_ref()
+                .is_none_or(|(d, _)| d.to_bits() != delta.to_bits())
+            {
+                let m = (a / h).ceil() as usize + 1;
+                let key = Key {
+                    h,
+                    delta,
+                    tol: tol_steps,
+                    m,
+                    width,
+                };
+                last = Some((delta, cache.get(kernel, key, call)?));
+            }
+            Some(mj as i64)
         });
-        match table {
-            Some((table, mj)) => scatter(&table, mj, tj, jump, times, &mut jd, out),
-            None => add_pointwise(kernel, tj, jump, times, &mut terms, out),
+        match (table, &last) {
+            (Some(mj), Some((_, table))) => scatter(table, mj, tj, jump, times, &mut jd, out),
+            _ => add_pointwise(kernel, tj, jump, times, &mut terms, out),
         }
     }
 }
