@@ -103,7 +103,7 @@ pub fn derive(m: ModalModel, format: crate::derive_format::Format) -> Result<(),
             s
         }
         f => {
-            let mut s = format!("model {} with {} modes\n", m.name, ds.len());
+            let mut s = invsim_inversion::render::modal_title(&m.name, ds.len());
             for mode in &ds {
                 let d = &mode.d;
                 let fixed: Vec<String> = mode
@@ -111,12 +111,11 @@ pub fn derive(m: ModalModel, format: crate::derive_format::Format) -> Result<(),
                     .iter()
                     .map(|(i, e)| format!("{} = {e}", m.inputs[*i].name))
                     .collect();
-                s.push_str(&format!(
-                    "\n== mode {} (role {}, free input {}, {}) ==\n",
-                    mode.name,
+                s.push_str(&invsim_inversion::render::mode_heading(
+                    &mode.name,
                     mode.role.as_str(),
-                    m.inputs[mode.free].name,
-                    fixed.join(", ")
+                    &m.inputs[mode.free].name,
+                    &fixed,
                 ));
                 s.push_str(&if f == crate::derive_format::Format::Markdown {
                     d.to_markdown()

@@ -29,6 +29,23 @@ fn derive_shows_every_mode() {
     assert!(String::from_utf8_lossy(&text.stdout).contains("== mode overrun_3"));
 }
 
+/// `derive --format markdown` of a model with modes (the CLI's rendering) is byte for byte the generated
+/// document `docs/models/<name>.md` (the code generator's rendering, kept fresh by the docs test).
+#[test]
+fn derive_markdown_equals_the_generated_document() {
+    for name in ["si_engine_5speed", "ford_fusion_2012_dynamic_6speed"] {
+        // Relative to the repository root (where the tests run), as the document names it.
+        let model = format!("models/{name}.toml");
+        let o = invsim(&["derive", &model, "--format", "markdown"]);
+        assert!(o.status.success(), "{name}: {}", stderr(&o));
+        let doc = std::fs::read(root().join(format!("docs/models/{name}.md"))).expect("document");
+        assert!(
+            o.stdout == doc,
+            "{name}: derive --format markdown differs from its document"
+        );
+    }
+}
+
 #[test]
 fn simulate_reports_time_per_mode_and_writes_mode_columns() {
     let (csv, json) = (tmp("modes-nedc.csv"), tmp("modes-nedc.json"));

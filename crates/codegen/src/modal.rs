@@ -58,19 +58,18 @@ impl ModalDerivation {
     /// title line, then per mode its role, free input and fixed inputs and
     /// [`Derivation::to_markdown`].
     pub fn to_markdown(&self) -> String {
-        let mut s = format!("model {} with {} modes\n", self.name, self.modes.len());
+        let mut s = invsim_inversion::render::modal_title(&self.name, self.modes.len());
         for mode in &self.modes {
             let fixed: Vec<String> = mode
                 .fixed
                 .iter()
                 .map(|(i, e)| format!("{} = {e}", self.inputs[*i]))
                 .collect();
-            s.push_str(&format!(
-                "\n== mode {} (role {}, free input {}, {}) ==\n",
-                mode.name,
+            s.push_str(&invsim_inversion::render::mode_heading(
+                &mode.name,
                 mode.role.as_str(),
-                self.inputs[mode.free],
-                fixed.join(", ")
+                &self.inputs[mode.free],
+                &fixed,
             ));
             s.push_str(&mode.d.to_markdown());
         }

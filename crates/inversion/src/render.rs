@@ -2,6 +2,9 @@
 //! (the derived-equation documents in `docs/models/`).
 
 mod maps;
+mod modes;
+
+pub use modes::{modal_title, mode_heading};
 
 use crate::derive::{Derivation, Solution};
 use invsim_expr::{latex_symbol, DecidedBy, Id, TooLarge};
