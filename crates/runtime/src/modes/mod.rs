@@ -15,6 +15,7 @@
 pub mod blend;
 pub mod gears;
 mod record;
+pub(crate) mod rules;
 mod runner;
 pub(crate) mod sequence;
 mod signals;

@@ -4,6 +4,7 @@
 
 use serde::Serialize;
 
+use super::rules::Rules;
 use super::ModalSpec;
 use crate::smoother::Smoother;
 
@@ -41,6 +42,8 @@ pub struct Impulse {
 /// The run's fixed context.
 pub(super) struct Ctx<'a, 'm> {
     pub(super) spec: &'a ModalSpec<'m>,
+    /// The sequence's rules of the spec (computed once).
+    pub(super) rules: Rules<'a, 'm>,
     pub(super) smoother: Smoother,
     /// Highest relative degree over the modes (yd columns 0 … r_max).
     pub(super) r_max: usize,
@@ -60,6 +63,8 @@ pub(super) struct Solved {
 /// Everything recorded along the run.
 pub(super) struct Record {
     pub(super) t: Vec<f64>,
+    /// The smoothed cycle's speed y_c(t) at each sample (unmapped).
+    pub(super) speed: Vec<f64>,
     pub(super) mode: Vec<usize>,
     pub(super) solved: Vec<Solved>,
     pub(super) u_end: Vec<f64>,

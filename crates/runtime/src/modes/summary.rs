@@ -90,21 +90,19 @@ fn columns(ctx: &Ctx<'_, '_>) -> Vec<(String, Option<String>)> {
     c
 }
 
-/// The value of every input at a sample of mode m.
-fn input_values(ctx: &Ctx<'_, '_>, m: usize, u: f64, outs: &[f64]) -> Vec<f64> {
+/// The value of every input at a sample of mode m, appended to `row`.
+fn input_values(ctx: &Ctx<'_, '_>, m: usize, u: f64, outs: &[f64], row: &mut Vec<f64>) {
     let mode = &ctx.spec.modes[m];
-    (0..ctx.spec.inputs.len())
-        .map(|i| {
-            if i == mode.free_input {
-                u
-            } else {
-                mode.fixed_outputs
-                    .iter()
-                    .find(|(j, _)| *j == i)
-                    .map_or(f64::NAN, |(_, o)| outs[*o])
-            }
-        })
-        .collect()
+    row.extend((0..ctx.spec.inputs.len()).map(|i| {
+        if i == mode.free_input {
+            u
+        } else {
+            mode.fixed_outputs
+                .iter()
+                .find(|(j, _)| *j == i)
+                .map_or(f64::NAN, |(_, o)| outs[*o])
+        }
+    }));
 }
 
 /// Build the result: columns, integrals (trapezoids of each interval in its own mode, plus the impulses'
@@ -130,32 +128,36 @@ pub(super) fn assemble(
     // The engine's outputs are among those every mode shares (the first n_outputs).
     let mut operating = OperatingPointTally::new(info0, ns)
         .filter(|_| info0.engine.is_some_and(|e| e.speed.max(e.torque) < no));
+    // Buffers of one sample, reused: the outputs at the sample and at the end of its interval, the signals,
+    // the row of the table.
+    let (mut outs, mut end, mut w, mut row) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for k in 0..ns {
         let (m, s) = (rec.mode[k], &rec.solved[k]);
         let model = spec.modes[m].model;
-        let mut outs = vec![0.0; model.info().outputs.len()];
-        model.outputs(&s.x, &ctx.w(m, rec.t[k]), s.u, &mut outs);
-        deviation.push(cycle, rec.t[k], ctx.smoothed(rec.t[k])[0]);
+        let (n_out, n_w) = (model.info().outputs.len(), model.info().n_w());
+        outs.clear();
+        outs.resize(n_out, 0.0);
+        ctx.w_into(m, rec.t[k], n_w, &mut w);
+        model.outputs(&s.x, &w, s.u, &mut outs);
+        deviation.push(cycle, rec.t[k], rec.speed[k]);
         if let Some(op) = operating.as_mut() {
             op.push(|i| outs[i]);
         }
-        let mut row = vec![rec.t[k], m as f64, spec.modes[m].gear.unwrap_or(0) as f64];
+        row.clear();
+        row.extend([rec.t[k], m as f64, spec.modes[m].gear.unwrap_or(0) as f64]);
         row.extend_from_slice(&s.yref);
-        row.extend(input_values(ctx, m, s.u, &outs));
+        input_values(ctx, m, s.u, &outs, &mut row);
         row.extend_from_slice(&s.x);
         row.extend_from_slice(&outs[..no]);
-        for (c, v) in data.iter_mut().zip(row) {
-            c.push(v);
+        for (c, v) in data.iter_mut().zip(&row) {
+            c.push(*v);
         }
         outside = track_violation(model.info(), (rec.t[k], s.u), outside, &mut violations);
         if k + 1 < ns {
-            let mut end = vec![0.0; outs.len()];
-            model.outputs(
-                &rec.x_end[k],
-                &ctx.w(m, rec.t[k + 1]),
-                rec.u_end[k],
-                &mut end,
-            );
+            end.clear();
+            end.resize(n_out, 0.0);
+            ctx.w_into(m, rec.t[k + 1], n_w, &mut w);
+            model.outputs(&rec.x_end[k], &w, rec.u_end[k], &mut end);
             let dt = rec.t[k + 1] - rec.t[k];
             for (i, total) in integrals.iter_mut().enumerate() {
                 if info0.outputs[i].accumulate {
@@ -235,6 +237,17 @@ pub(super) fn assemble(
         provenance: None,
         warnings,
     };
+    // The solved samples taken apart (moved, not copied).
+    let (mut states, mut free, mut yref) = (
+        Vec::with_capacity(ns),
+        Vec::with_capacity(ns),
+        Vec::with_capacity(ns),
+    );
+    for s in rec.solved {
+        states.push(s.x);
+        free.push(s.u);
+        yref.push(s.yref);
+    }
     ModalResult {
         summary,
         columns: cols.iter().map(|(n, _)| n.clone()).collect(),
@@ -243,9 +256,9 @@ pub(super) fn assemble(
         mode: rec.mode,
         u_end: rec.u_end,
         x_end: rec.x_end,
-        states: rec.solved.iter().map(|s| s.x.clone()).collect(),
-        free: rec.solved.iter().map(|s| s.u).collect(),
-        yref: rec.solved.into_iter().map(|s| s.yref).collect(),
+        states,
+        free,
+        yref,
         impulse: rec.impulse,
         signals: Vec::new(),
     }
