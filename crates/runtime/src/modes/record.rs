@@ -4,6 +4,7 @@
 
 use serde::Serialize;
 
+use super::rows::Rows;
 use super::rules::Rules;
 use super::ModalSpec;
 use crate::smoother::Smoother;
@@ -66,11 +67,23 @@ pub(super) struct Record {
     /// The smoothed cycle's speed y_c(t) at each sample (unmapped).
     pub(super) speed: Vec<f64>,
     pub(super) mode: Vec<usize>,
-    pub(super) solved: Vec<Solved>,
+    /// The solved samples: the state, the free input and the reference y^(0 … r_max) at each.
+    pub(super) states: Rows,
+    pub(super) free: Vec<f64>,
+    pub(super) yref: Rows,
     pub(super) u_end: Vec<f64>,
-    pub(super) x_end: Vec<Vec<f64>>,
+    pub(super) x_end: Rows,
     pub(super) impulse: Vec<f64>,
     pub(super) impulse_dir: Vec<Vec<f64>>,
     pub(super) transitions: Vec<Transition>,
     pub(super) impulses: Vec<Impulse>,
+}
+
+impl Record {
+    /// Record the solved sample `s`.
+    pub(super) fn push_solved(&mut self, s: &Solved) {
+        self.states.push(&s.x);
+        self.free.push(s.u);
+        self.yref.push(&s.yref);
+    }
 }

@@ -7,6 +7,7 @@ use invsim_model_api::InverseModel;
 use super::blend::Blend;
 use super::gears::GearBox;
 use super::record::{Ctx, Impulse, Record, Solved, Transition};
+use super::rows::Rows;
 use super::rules::Rules;
 use super::sequence::{decide, Moment, Place, Rung, Switcher};
 use super::signals::resolve_modal;
@@ -92,30 +93,52 @@ impl Ctx<'_, '_> {
     pub(super) fn solve(
         &self,
         m: usize,
-        (t, base): (f64, &[f64]),
+        at: (f64, &[f64]),
         eta: &[f64],
         blend: Option<&Blend>,
         x_guess: &[f64],
     ) -> Result<Solved, ModalError> {
+        let mut out = Solved {
+            x: Vec::with_capacity(x_guess.len()),
+            u: 0.0,
+            yref: Vec::with_capacity(self.r_max + 1),
+        };
+        self.solve_into(m, at, (eta, blend), x_guess, &mut out)?;
+        Ok(out)
+    }
+
+    /// [`Ctx::solve`] into the buffers of `out` (no allocation once they have grown).
+    fn solve_into(
+        &self,
+        m: usize,
+        (t, base): (f64, &[f64]),
+        (eta, blend): (&[f64], Option<&Blend>),
+        x_guess: &[f64],
+        out: &mut Solved,
+    ) -> Result<(), ModalError> {
         let model = self.model(m);
         let r = model.info().relative_degree;
-        let mut yref = self.cycle_reference(m, base);
+        out.yref.clear();
+        out.yref.extend_from_slice(&base[..=self.r_max]);
+        self.map_cycle(m, &mut out.yref);
         if let Some(b) = blend {
-            b.add(t, &mut yref);
+            b.add(t, &mut out.yref);
         }
-        let mut x = x_guess.to_vec();
+        out.x.clear();
+        out.x.extend_from_slice(x_guess);
         let w = self.w(m, t);
-        let u = model
-            .invert(&yref[..r], eta, &w, yref[r], &mut x)
+        let (x, yref) = (&mut out.x, &out.yref);
+        out.u = model
+            .invert(&yref[..r], eta, &w, yref[r], x)
             .map_err(|e| self.err(m, t, e.to_string()))?;
-        if !(u.is_finite() && x.iter().all(|v| v.is_finite())) {
+        if !(out.u.is_finite() && x.iter().all(|v| v.is_finite())) {
             return Err(self.err(
                 m,
                 t,
                 "the inverse is not finite (β vanishes or a state left its domain)".into(),
             ));
         }
-        Ok(Solved { x, u, yref })
+        Ok(())
     }
 
     pub(super) fn err(&self, m: usize, t: f64, message: String) -> ModalError {
@@ -146,9 +169,15 @@ impl Ctx<'_, '_> {
         let ZeroDynamics { ode, y, w } = zd;
         let ode = ode[m].get_or_insert_with(|| Dopri5::new(eta.len(), 1e-10, 1e-12, h0));
         ode.reset(h0);
+        // The reference and the signals depend on t alone: the two last stages of a Dormand–Prince step
+        // are both at t + h, so they are evaluated once for both (the same values).
+        let mut at = f64::NAN;
         let mut f = |t: f64, e: &[f64], de: &mut [f64]| -> Result<(), StepFailure> {
-            self.reference_into(m, t, blend, y);
-            self.w_into(m, t, n_w, w);
+            if t.to_bits() != at.to_bits() {
+                self.reference_into(m, t, blend, y);
+                self.w_into(m, t, n_w, w);
+                at = t;
+            }
             model.zero_dynamics(&y[..r], e, w, y[r], de);
             Ok(())
         };
@@ -292,13 +321,16 @@ fn run_sequence(ctx: &Ctx<'_, '_>, grid: &Grid, opts: &ModalOptions) -> Result<R
         },
     };
     let first = ctx.solve(mode, (t0, &base), &seq.modal.eta, None, &vec![0.0; ctx.n])?;
+    let (ns, n_yref) = (grid.samples(), ctx.r_max + 1);
     let mut rec = Record {
         t: vec![t0],
-        speed: Vec::with_capacity(grid.samples()),
+        speed: Vec::with_capacity(ns),
         mode: vec![mode],
-        solved: Vec::with_capacity(grid.samples()),
+        states: Rows::with_capacity(ctx.n, ns),
+        free: Vec::with_capacity(ns),
+        yref: Rows::with_capacity(n_yref, ns),
         u_end: Vec::with_capacity(grid.n),
-        x_end: Vec::with_capacity(grid.n),
+        x_end: Rows::with_capacity(ctx.n, grid.n),
         impulse: vec![0.0],
         impulse_dir: vec![Vec::new()],
         transitions: Vec::new(),
@@ -307,7 +339,7 @@ fn run_sequence(ctx: &Ctx<'_, '_>, grid: &Grid, opts: &ModalOptions) -> Result<R
     rec.speed.push(base[0]);
     let mut zd = ZeroDynamics::new(ctx);
     // Decide at t0 too (a start that needs another mode at once).
-    let cur = step_sequence(
+    let mut cur = step_sequence(
         ctx,
         &mut seq,
         &mut gearbox,
@@ -316,16 +348,18 @@ fn run_sequence(ctx: &Ctx<'_, '_>, grid: &Grid, opts: &ModalOptions) -> Result<R
         &mut rec,
         opts,
     )?;
-    rec.solved.push(cur);
+    rec.push_solved(&cur);
+    // The buffers of the next solution (the previous one's, once it is recorded).
+    let mut spare = cur.clone();
     for k in 1..=grid.n {
         let (ta, tb) = (grid.time(k - 1), grid.time(k));
         let (m, inner) = (seq.place.mode, &mut seq.modal);
         ctx.advance_eta(m, (ta, tb), &mut inner.eta, inner.blend.as_ref(), &mut zd)?;
         ctx.base_at(tb, &mut base);
-        let guess = rec.solved.last().map_or(&[][..], |s| &s.x);
-        let end = ctx.solve(m, (tb, &base), &inner.eta, inner.blend.as_ref(), guess)?;
-        rec.u_end.push(end.u);
-        rec.x_end.push(end.x.clone());
+        let local = (&inner.eta[..], inner.blend.as_ref());
+        ctx.solve_into(m, (tb, &base), local, &cur.x, &mut spare)?;
+        rec.u_end.push(spare.u);
+        rec.x_end.push(&spare.x);
         rec.t.push(tb);
         rec.speed.push(base[0]);
         rec.impulse.push(0.0);
@@ -334,18 +368,19 @@ fn run_sequence(ctx: &Ctx<'_, '_>, grid: &Grid, opts: &ModalOptions) -> Result<R
             seq.modal.blend = None;
             seq.modal.open = None;
         }
-        let cur = step_sequence(
+        let next = step_sequence(
             ctx,
             &mut seq,
             &mut gearbox,
             (tb, &base),
-            end,
+            spare,
             &mut rec,
             opts,
         )?;
-        track_deviation(ctx, &seq, &base, &cur, &mut rec);
+        track_deviation(ctx, &seq, &base, &next, &mut rec);
         rec.mode.push(seq.place.mode);
-        rec.solved.push(cur);
+        rec.push_solved(&next);
+        spare = std::mem::replace(&mut cur, next);
     }
     Ok(rec)
 }

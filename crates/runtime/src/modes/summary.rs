@@ -105,6 +105,124 @@ fn input_values(ctx: &Ctx<'_, '_>, m: usize, u: f64, outs: &[f64], row: &mut Vec
     }));
 }
 
+/// What one pass over the samples gathers: the table's columns, the integrals (trapezoids of each interval
+/// in its own mode), the time per mode, the bound violations, the reference's deviation and the engine's
+/// operating points.
+struct Tally {
+    data: Vec<Vec<f64>>,
+    integrals: Vec<f64>,
+    time: Vec<f64>,
+    violations: Vec<[f64; 2]>,
+    deviation: DeviationTally,
+    operating: Option<OperatingPointTally>,
+}
+
+/// Whether two slices hold the same numbers bit for bit (so that a function of them gives the same value).
+fn same_bits(a: &[f64], b: &[f64]) -> bool {
+    a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
+}
+
+/// The pass over the samples. The outputs at the end of an interval are those of the next sample where
+/// the run stayed in its mode (the same state, input and time): evaluated once for both.
+fn walk(
+    ctx: &Ctx<'_, '_>,
+    cycle: &Cycle,
+    opts: &ModalOptions,
+    rec: &Record,
+    n_cols: usize,
+) -> Tally {
+    let spec = ctx.spec;
+    let ns = rec.t.len();
+    let no = spec.n_outputs;
+    let info0 = spec.modes[0].model.info();
+    let mut tally = Tally {
+        data: vec![Vec::with_capacity(ns); n_cols],
+        integrals: vec![0.0; no],
+        time: vec![0.0; spec.modes.len()],
+        violations: Vec::new(),
+        deviation: DeviationTally::new(invsim_model_api::ReferenceMap::IDENTITY, opts.dt),
+        // The engine's outputs are among those every mode shares (the first n_outputs).
+        operating: OperatingPointTally::new(info0, ns)
+            .filter(|_| info0.engine.is_some_and(|e| e.speed.max(e.torque) < no)),
+    };
+    let mut outside = false;
+    // Buffers of one sample, reused: the outputs at the sample and at the end of its interval, the signals,
+    // the row of the table; `ready`: the outputs of this sample are in `outs` already.
+    let (mut outs, mut end, mut w, mut row) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let mut ready = false;
+    for k in 0..ns {
+        let (m, x, u) = (rec.mode[k], &rec.states[k], rec.free[k]);
+        let model = spec.modes[m].model;
+        let (n_out, n_w) = (model.info().outputs.len(), model.info().n_w());
+        if !ready {
+            outs.clear();
+            outs.resize(n_out, 0.0);
+            ctx.w_into(m, rec.t[k], n_w, &mut w);
+            model.outputs(x, &w, u, &mut outs);
+        }
+        ready = false;
+        tally.deviation.push(cycle, rec.t[k], rec.speed[k]);
+        if let Some(op) = tally.operating.as_mut() {
+            op.push(|i| outs[i]);
+        }
+        row.clear();
+        row.extend([rec.t[k], m as f64, spec.modes[m].gear.unwrap_or(0) as f64]);
+        row.extend_from_slice(&rec.yref[k]);
+        input_values(ctx, m, u, &outs, &mut row);
+        row.extend_from_slice(x);
+        row.extend_from_slice(&outs[..no]);
+        for (c, v) in tally.data.iter_mut().zip(&row) {
+            c.push(*v);
+        }
+        outside = track_violation(model.info(), (rec.t[k], u), outside, &mut tally.violations);
+        if k + 1 < ns {
+            end.clear();
+            end.resize(n_out, 0.0);
+            ctx.w_into(m, rec.t[k + 1], n_w, &mut w);
+            model.outputs(&rec.x_end[k], &w, rec.u_end[k], &mut end);
+            let dt = rec.t[k + 1] - rec.t[k];
+            for (i, total) in tally.integrals.iter_mut().enumerate() {
+                if info0.outputs[i].accumulate {
+                    *total += 0.5 * dt * (outs[i] + end[i]);
+                }
+            }
+            tally.time[m] += dt;
+            ready = rec.mode[k + 1] == m
+                && rec.u_end[k].to_bits() == rec.free[k + 1].to_bits()
+                && same_bits(&rec.x_end[k], &rec.states[k + 1]);
+            if ready {
+                std::mem::swap(&mut outs, &mut end);
+            }
+        }
+    }
+    tally
+}
+
+/// The accumulated outputs' integrals, per 100 km (those per distance) and units, by name.
+type Totals = (
+    BTreeMap<String, f64>,
+    BTreeMap<String, f64>,
+    BTreeMap<String, String>,
+);
+
+fn totals(outputs: &[invsim_model_api::OutputInfo], integrals: &[f64], distance: f64) -> Totals {
+    let mut ints = BTreeMap::new();
+    let mut per = BTreeMap::new();
+    let mut integral_units = BTreeMap::new();
+    for (o, total) in outputs.iter().zip(integrals) {
+        if o.accumulate {
+            ints.insert(o.name.clone(), *total);
+            if let Some(u) = o.unit.as_deref().and_then(integral_unit) {
+                integral_units.insert(o.name.clone(), u);
+            }
+            if o.per_distance && distance > 0.0 {
+                per.insert(o.name.clone(), total / distance * 1e5);
+            }
+        }
+    }
+    (ints, per, integral_units)
+}
+
 /// Build the result: columns, integrals (trapezoids of each interval in its own mode, plus the impulses'
 /// bookings), time per mode, bound violations.
 pub(super) fn assemble(
@@ -117,76 +235,15 @@ pub(super) fn assemble(
     let spec = ctx.spec;
     let cols = columns(ctx);
     let ns = rec.t.len();
-    let mut data: Vec<Vec<f64>> = vec![Vec::with_capacity(ns); cols.len()];
-    let no = spec.n_outputs;
     let info0 = spec.modes[0].model.info();
-    let mut integrals = vec![0.0; no];
-    let mut time = vec![0.0; spec.modes.len()];
-    let mut violations: Vec<[f64; 2]> = Vec::new();
-    let mut outside = false;
-    let mut deviation = DeviationTally::new(invsim_model_api::ReferenceMap::IDENTITY, opts.dt);
-    // The engine's outputs are among those every mode shares (the first n_outputs).
-    let mut operating = OperatingPointTally::new(info0, ns)
-        .filter(|_| info0.engine.is_some_and(|e| e.speed.max(e.torque) < no));
-    // Buffers of one sample, reused: the outputs at the sample and at the end of its interval, the signals,
-    // the row of the table.
-    let (mut outs, mut end, mut w, mut row) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-    for k in 0..ns {
-        let (m, s) = (rec.mode[k], &rec.solved[k]);
-        let model = spec.modes[m].model;
-        let (n_out, n_w) = (model.info().outputs.len(), model.info().n_w());
-        outs.clear();
-        outs.resize(n_out, 0.0);
-        ctx.w_into(m, rec.t[k], n_w, &mut w);
-        model.outputs(&s.x, &w, s.u, &mut outs);
-        deviation.push(cycle, rec.t[k], rec.speed[k]);
-        if let Some(op) = operating.as_mut() {
-            op.push(|i| outs[i]);
-        }
-        row.clear();
-        row.extend([rec.t[k], m as f64, spec.modes[m].gear.unwrap_or(0) as f64]);
-        row.extend_from_slice(&s.yref);
-        input_values(ctx, m, s.u, &outs, &mut row);
-        row.extend_from_slice(&s.x);
-        row.extend_from_slice(&outs[..no]);
-        for (c, v) in data.iter_mut().zip(&row) {
-            c.push(*v);
-        }
-        outside = track_violation(model.info(), (rec.t[k], s.u), outside, &mut violations);
-        if k + 1 < ns {
-            end.clear();
-            end.resize(n_out, 0.0);
-            ctx.w_into(m, rec.t[k + 1], n_w, &mut w);
-            model.outputs(&rec.x_end[k], &w, rec.u_end[k], &mut end);
-            let dt = rec.t[k + 1] - rec.t[k];
-            for (i, total) in integrals.iter_mut().enumerate() {
-                if info0.outputs[i].accumulate {
-                    *total += 0.5 * dt * (outs[i] + end[i]);
-                }
-            }
-            time[m] += dt;
-        }
-    }
-    let impulse_booked = book_impulses(&rec.impulses, &info0.outputs, &mut integrals);
+    let mut tally = walk(ctx, cycle, opts, &rec, cols.len());
+    let impulse_booked = book_impulses(&rec.impulses, &info0.outputs, &mut tally.integrals);
     let distance = cycle.distance();
-    let mut ints = BTreeMap::new();
-    let mut per = BTreeMap::new();
-    let mut integral_units = BTreeMap::new();
-    for (o, total) in info0.outputs.iter().zip(&integrals) {
-        if o.accumulate {
-            ints.insert(o.name.clone(), *total);
-            if let Some(u) = o.unit.as_deref().and_then(integral_unit) {
-                integral_units.insert(o.name.clone(), u);
-            }
-            if o.per_distance && distance > 0.0 {
-                per.insert(o.name.clone(), total / distance * 1e5);
-            }
-        }
-    }
+    let (ints, per, integral_units) = totals(&info0.outputs, &tally.integrals, distance);
     let modes: Vec<ModeTime> = spec
         .modes
         .iter()
-        .zip(&time)
+        .zip(&tally.time)
         .map(|(m, t)| ModeTime {
             name: m.name.clone(),
             time_s: *t,
@@ -198,7 +255,7 @@ pub(super) fn assemble(
         .iter()
         .map(|t| t.max_deviation)
         .fold(0.0, f64::max);
-    let warnings = warnings_of(&violations, &rec.impulses);
+    let warnings = warnings_of(&tally.violations, &rec.impulses);
     let summary = ModalSummary {
         model: info0.name.clone(),
         cycle: cycle.name.clone(),
@@ -215,15 +272,15 @@ pub(super) fn assemble(
         per_100km: per,
         integral_units,
         output_unit: info0.output_unit.clone(),
-        input_bound_violations: violations,
+        input_bound_violations: tally.violations,
         modes,
         switches: rec.transitions.len(),
         transitions: rec.transitions,
         max_transition_deviation: max_dev,
         impulses: rec.impulses,
         impulse_booked,
-        reference: deviation.finish(),
-        engine_operating_points: operating.map(|op| op.finish(info0, opts.dt)),
+        reference: tally.deviation.finish(),
+        engine_operating_points: tally.operating.map(|op| op.finish(info0, opts.dt)),
         max_abs_tracking_error: verify.as_ref().map(|v| v.max_abs),
         rms_tracking_error: verify.as_ref().map(|v| v.rms),
         columns: cols
@@ -237,28 +294,17 @@ pub(super) fn assemble(
         provenance: None,
         warnings,
     };
-    // The solved samples taken apart (moved, not copied).
-    let (mut states, mut free, mut yref) = (
-        Vec::with_capacity(ns),
-        Vec::with_capacity(ns),
-        Vec::with_capacity(ns),
-    );
-    for s in rec.solved {
-        states.push(s.x);
-        free.push(s.u);
-        yref.push(s.yref);
-    }
     ModalResult {
         summary,
         columns: cols.iter().map(|(n, _)| n.clone()).collect(),
         units: cols.into_iter().map(|(_, u)| u).collect(),
-        data,
+        data: tally.data,
         mode: rec.mode,
         u_end: rec.u_end,
         x_end: rec.x_end,
-        states,
-        free,
-        yref,
+        states: rec.states,
+        free: rec.free,
+        yref: rec.yref,
         impulse: rec.impulse,
         signals: Vec::new(),
     }
