@@ -151,10 +151,12 @@ impl Ctx<'_, '_> {
 
     /// Advance η of mode `m` over [t0, t1] by its zero dynamics along the (blended) reference; every interval
     /// starts afresh (no FSAL stage, initial step (t1 − t0)/4), with the integrator and buffers of `zd`.
+    /// `base0`: the smoothed cycle at the sample t0 ([`Ctx::base_at`]).
     fn advance_eta(
         &self,
         m: usize,
         (t0, t1): (f64, f64),
+        base0: &[f64],
         eta: &mut [f64],
         blend: Option<&Blend>,
         zd: &mut ZeroDynamics,
@@ -170,11 +172,20 @@ impl Ctx<'_, '_> {
         let ode = ode[m].get_or_insert_with(|| Dopri5::new(eta.len(), 1e-10, 1e-12, h0));
         ode.reset(h0);
         // The reference and the signals depend on t alone: the two last stages of a Dormand–Prince step
-        // are both at t + h, so they are evaluated once for both (the same values).
-        let mut at = f64::NAN;
+        // are both at t + h, so they are evaluated once for both (the same values), and the first stage at
+        // t0 is the sample's reference, mapped from `base0` as `reference_into` maps the smoother's values.
+        y[..=r].copy_from_slice(&base0[..=r]);
+        self.map_cycle(m, &mut y[..=r]);
+        if let Some(b) = blend {
+            b.add(t0, &mut y[..=r]);
+        }
+        self.w_into(m, t0, n_w, w);
+        let mut at = t0;
         let mut f = |t: f64, e: &[f64], de: &mut [f64]| -> Result<(), StepFailure> {
             if t.to_bits() != at.to_bits() {
-                self.reference_into(m, t, blend, y);
+                // y^(0 … r) only: the smoother evaluates each order on its own, so the values are those of
+                // a longer evaluation.
+                self.reference_into(m, t, blend, &mut y[..=r]);
                 self.w_into(m, t, n_w, w);
                 at = t;
             }
@@ -354,7 +365,14 @@ fn run_sequence(ctx: &Ctx<'_, '_>, grid: &Grid, opts: &ModalOptions) -> Result<R
     for k in 1..=grid.n {
         let (ta, tb) = (grid.time(k - 1), grid.time(k));
         let (m, inner) = (seq.place.mode, &mut seq.modal);
-        ctx.advance_eta(m, (ta, tb), &mut inner.eta, inner.blend.as_ref(), &mut zd)?;
+        ctx.advance_eta(
+            m,
+            (ta, tb),
+            &base,
+            &mut inner.eta,
+            inner.blend.as_ref(),
+            &mut zd,
+        )?;
         ctx.base_at(tb, &mut base);
         let local = (&inner.eta[..], inner.blend.as_ref());
         ctx.solve_into(m, (tb, &base), local, &cur.x, &mut spare)?;
