@@ -48,6 +48,12 @@ impl Rows {
         (0..self.rows).map(|k| &self[k])
     }
 
+    /// Column j: the j-th value of every row, in order.
+    pub fn column(&self, j: usize) -> impl Iterator<Item = f64> + '_ {
+        assert!(j < self.width, "column {j} of {}", self.width);
+        self.values.iter().skip(j).step_by(self.width).copied()
+    }
+
     /// The last row, if any.
     pub fn last(&self) -> Option<&[f64]> {
         self.rows.checked_sub(1).map(|k| &self[k])
@@ -78,6 +84,7 @@ mod tests {
         assert_eq!(r.last(), Some(&[3.0, 4.0][..]));
         let all: Vec<&[f64]> = r.iter().collect();
         assert_eq!(all, vec![&[1.0, 2.0][..], &[3.0, 4.0][..]]);
+        assert_eq!(r.column(1).collect::<Vec<f64>>(), vec![2.0, 4.0]);
         let mut empty = Rows::with_capacity(0, 0);
         empty.push(&[]);
         assert_eq!((empty.len(), &empty[0]), (1, &[][..]));

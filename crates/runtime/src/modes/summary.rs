@@ -7,6 +7,7 @@ use std::fmt::Write as _;
 use serde::Serialize;
 
 use super::record::{Ctx, Impulse, ModeTime, Record, Transition};
+use super::rows::Rows;
 use super::verify::Tracking;
 use super::{ModalOptions, ModalResult};
 use crate::cycle::Cycle;
@@ -90,9 +91,10 @@ fn columns(ctx: &Ctx<'_, '_>) -> Vec<(String, Option<String>)> {
     c
 }
 
-/// The value of every input at a sample of mode m, appended to `row`.
+/// The value of every input at a sample of mode m, into `row`.
 fn input_values(ctx: &Ctx<'_, '_>, m: usize, u: f64, outs: &[f64], row: &mut Vec<f64>) {
     let mode = &ctx.spec.modes[m];
+    row.clear();
     row.extend((0..ctx.spec.inputs.len()).map(|i| {
         if i == mode.free_input {
             u
@@ -109,7 +111,9 @@ fn input_values(ctx: &Ctx<'_, '_>, m: usize, u: f64, outs: &[f64], row: &mut Vec
 /// in its own mode), the time per mode, the bound violations, the reference's deviation and the engine's
 /// operating points.
 struct Tally {
-    data: Vec<Vec<f64>>,
+    /// Every input and the model's `[outputs]` at each sample.
+    inputs: Rows,
+    outputs: Rows,
     integrals: Vec<f64>,
     time: Vec<f64>,
     violations: Vec<[f64; 2]>,
@@ -124,19 +128,14 @@ fn same_bits(a: &[f64], b: &[f64]) -> bool {
 
 /// The pass over the samples. The outputs at the end of an interval are those of the next sample where
 /// the run stayed in its mode (the same state, input and time): evaluated once for both.
-fn walk(
-    ctx: &Ctx<'_, '_>,
-    cycle: &Cycle,
-    opts: &ModalOptions,
-    rec: &Record,
-    n_cols: usize,
-) -> Tally {
+fn walk(ctx: &Ctx<'_, '_>, cycle: &Cycle, opts: &ModalOptions, rec: &Record) -> Tally {
     let spec = ctx.spec;
     let ns = rec.t.len();
     let no = spec.n_outputs;
     let info0 = spec.modes[0].model.info();
     let mut tally = Tally {
-        data: vec![Vec::with_capacity(ns); n_cols],
+        inputs: Rows::with_capacity(spec.inputs.len(), ns),
+        outputs: Rows::with_capacity(no, ns),
         integrals: vec![0.0; no],
         time: vec![0.0; spec.modes.len()],
         violations: Vec::new(),
@@ -147,7 +146,7 @@ fn walk(
     };
     let mut outside = false;
     // Buffers of one sample, reused: the outputs at the sample and at the end of its interval, the signals,
-    // the row of the table; `ready`: the outputs of this sample are in `outs` already.
+    // the inputs; `ready`: the outputs of this sample are in `outs` already.
     let (mut outs, mut end, mut w, mut row) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let mut ready = false;
     for k in 0..ns {
@@ -165,15 +164,9 @@ fn walk(
         if let Some(op) = tally.operating.as_mut() {
             op.push(|i| outs[i]);
         }
-        row.clear();
-        row.extend([rec.t[k], m as f64, spec.modes[m].gear.unwrap_or(0) as f64]);
-        row.extend_from_slice(&rec.yref[k]);
         input_values(ctx, m, u, &outs, &mut row);
-        row.extend_from_slice(x);
-        row.extend_from_slice(&outs[..no]);
-        for (c, v) in tally.data.iter_mut().zip(&row) {
-            c.push(*v);
-        }
+        tally.inputs.push(&row);
+        tally.outputs.push(&outs[..no]);
         outside = track_violation(model.info(), (rec.t[k], u), outside, &mut tally.violations);
         if k + 1 < ns {
             end.clear();
@@ -196,6 +189,24 @@ fn walk(
         }
     }
     tally
+}
+
+/// The table's columns (see [`columns`]): t, mode, gear, y_d^(0 … R), the inputs, the states, the
+/// `[outputs]`, each copied column by column from the rows recorded.
+fn table(ctx: &Ctx<'_, '_>, rec: &Record, tally: &Tally) -> Vec<Vec<f64>> {
+    let spec = ctx.spec;
+    let mut data = vec![
+        rec.t.clone(),
+        rec.mode.iter().map(|&m| m as f64).collect(),
+        rec.mode
+            .iter()
+            .map(|&m| spec.modes[m].gear.unwrap_or(0) as f64)
+            .collect(),
+    ];
+    for rows in [&rec.yref, &tally.inputs, &rec.states, &tally.outputs] {
+        data.extend((0..rows.width()).map(|j| rows.column(j).collect()));
+    }
+    data
 }
 
 /// The accumulated outputs' integrals, per 100 km (those per distance) and units, by name.
@@ -236,7 +247,8 @@ pub(super) fn assemble(
     let cols = columns(ctx);
     let ns = rec.t.len();
     let info0 = spec.modes[0].model.info();
-    let mut tally = walk(ctx, cycle, opts, &rec, cols.len());
+    let mut tally = walk(ctx, cycle, opts, &rec);
+    let data = table(ctx, &rec, &tally);
     let impulse_booked = book_impulses(&rec.impulses, &info0.outputs, &mut tally.integrals);
     let distance = cycle.distance();
     let (ints, per, integral_units) = totals(&info0.outputs, &tally.integrals, distance);
@@ -298,7 +310,7 @@ pub(super) fn assemble(
         summary,
         columns: cols.iter().map(|(n, _)| n.clone()).collect(),
         units: cols.into_iter().map(|(_, u)| u).collect(),
-        data: tally.data,
+        data,
         mode: rec.mode,
         u_end: rec.u_end,
         x_end: rec.x_end,
