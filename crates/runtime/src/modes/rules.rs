@@ -141,3 +141,139 @@ impl<'s, 'm> Rules<'s, 'm> {
         u >= lo.max(least) && u <= hi
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use invsim_model_api::{InverseModel, ModelError, ModelInfo};
+
+    use super::*;
+    use crate::modes::{GearSource, ModeSpec, SequenceParams};
+
+    /// A model that only describes its free input's bounds (the sequence's rules ask nothing else).
+    struct Bounds(ModelInfo);
+
+    impl InverseModel for Bounds {
+        fn info(&self) -> &ModelInfo {
+            &self.0
+        }
+        fn params(&self) -> &[f64] {
+            &[]
+        }
+        fn set_param(&mut self, _: &str, _: f64) -> Result<(), ModelError> {
+            unreachable!("not asked by the rules")
+        }
+        fn h(&self, _: &[f64], _: &[f64]) -> f64 {
+            unreachable!("not asked by the rules")
+        }
+        fn psi(&self, _: &[f64], _: &[f64], _: &mut [f64], _: &mut [f64]) {}
+        fn psi_inv(
+            &self,
+            _: &[f64],
+            _: &[f64],
+            _: &[f64],
+            _: &mut [f64],
+        ) -> Result<(), ModelError> {
+            unreachable!("not asked by the rules")
+        }
+        fn alpha(&self, _: &[f64], _: &[f64], _: &[f64]) -> f64 {
+            unreachable!("not asked by the rules")
+        }
+        fn beta(&self, _: &[f64], _: &[f64], _: &[f64]) -> f64 {
+            unreachable!("not asked by the rules")
+        }
+        fn zero_dynamics(&self, _: &[f64], _: &[f64], _: &[f64], _: f64, _: &mut [f64]) {}
+        fn rhs(&self, _: &[f64], _: &[f64], _: f64, _: &mut [f64]) {}
+        fn outputs(&self, _: &[f64], _: &[f64], _: f64, _: &mut [f64]) {}
+    }
+
+    /// The rung's mode as the sequence defined it before the rules were tabulated: the ladder of family
+    /// names rebuilt and the modes scanned by family name.
+    fn pick_by_names(spec: &ModalSpec<'_>, rung: Rung, gear: usize) -> Option<usize> {
+        let family = match rung {
+            Rung::Standstill => None,
+            Rung::Ladder(i) => ladder(spec).get(i).copied(),
+        };
+        let fits = |m: &ModeSpec<'_>| match rung {
+            Rung::Standstill => m.role == Role::Standstill,
+            Rung::Ladder(_) => family.is_some_and(|f| f == m.family),
+        };
+        let modes = &spec.modes;
+        modes
+            .iter()
+            .position(|m| fits(m) && m.gear == Some(gear))
+            .or_else(|| modes.iter().position(|m| fits(m) && m.gear.is_none()))
+            .or_else(|| modes.iter().position(fits))
+    }
+
+    #[test]
+    fn tabulated_rules_agree_with_the_scan_by_family_names() {
+        let drive = Bounds(ModelInfo {
+            input_min: Some(0.0),
+            input_max: Some(0.1),
+            ..ModelInfo::default()
+        });
+        let brake = Bounds(ModelInfo {
+            input_min: Some(0.0),
+            input_max: Some(5000.0),
+            ..ModelInfo::default()
+        });
+        let mode = |name: &str, family: &str, role: Role, gear: Option<usize>| ModeSpec {
+            name: name.into(),
+            family: family.into(),
+            role,
+            gear,
+            free_input: 0,
+            fixed_outputs: Vec::new(),
+            model: if role == Role::Traction {
+                &drive
+            } else {
+                &brake
+            },
+        };
+        let spec = ModalSpec {
+            name: "test".into(),
+            inputs: Vec::new(),
+            modes: vec![
+                mode("idle", "idle", Role::Standstill, None),
+                mode("drive_1", "drive", Role::Traction, Some(1)),
+                mode("drive_2", "drive", Role::Traction, Some(2)),
+                mode("sport_1", "sport", Role::Traction, Some(1)),
+                mode("coast_2", "coast", Role::Brake, Some(2)),
+                mode("coast_1", "coast", Role::Brake, Some(1)),
+                mode("overrun", "overrun", Role::Brake, None),
+            ],
+            gears: 2,
+            gear_source: GearSource::Fixed,
+            sequence: SequenceParams {
+                standstill_below: 0.05,
+                standstill_above: 1.0,
+                brake_band: Some(0.002),
+                min_dwell: 0.0,
+            },
+            n_outputs: 0,
+        };
+        let rules = Rules::new(&spec);
+        assert_eq!((rules.rungs, rules.has_standstill), (3, true));
+        // Gears inside and beyond the table, rungs on and off the ladder.
+        for gear in 0..6 {
+            for rung in [0, 1, 2, 3, 7]
+                .map(Rung::Ladder)
+                .into_iter()
+                .chain([Rung::Standstill])
+            {
+                let expected = pick_by_names(&spec, rung, gear);
+                assert_eq!(rules.pick(rung, gear), expected, "{rung:?} in gear {gear}");
+            }
+        }
+        assert_eq!(rules.pick(Rung::Ladder(1), 1), Some(5));
+        assert_eq!(rules.pick(Rung::Ladder(0), 3), Some(1));
+        // Tolerance 1e-9 of the range (or of 1), band: the sequence's for traction, 1 % of the range else.
+        assert_eq!(rules.modes[1].tolerance, 1e-9);
+        assert_eq!(rules.modes[4].tolerance, 1e-9 * 5000.0);
+        assert_eq!((rules.modes[1].band, rules.modes[4].band), (0.002, 50.0));
+        assert!(rules.feasible(4, -4e-6, f64::NEG_INFINITY));
+        assert!(!rules.feasible(4, -6e-6, f64::NEG_INFINITY));
+        assert!(!rules.feasible(4, 10.0, 50.0));
+        assert!(rules.feasible(1, 0.1, 0.05) && !rules.feasible(1, 0.2, 0.05));
+    }
+}
