@@ -8,6 +8,7 @@ use serde::Serialize;
 
 use super::record::{Ctx, Impulse, ModeTime, Record, Transition};
 use super::rows::Rows;
+use super::rules::ModeRule;
 use super::verify::Tracking;
 use super::{ModalOptions, ModalResult};
 use crate::cycle::Cycle;
@@ -145,6 +146,13 @@ fn walk(ctx: &Ctx<'_, '_>, cycle: &Cycle, opts: &ModalOptions, rec: &Record) -> 
             .filter(|_| info0.engine.is_some_and(|e| e.speed.max(e.torque) < no)),
     };
     let mut outside = false;
+    // Each mode's number of outputs and of signal values, and the accumulated outputs (asked once).
+    let sizes: Vec<(usize, usize)> = spec
+        .modes
+        .iter()
+        .map(|m| (m.model.info().outputs.len(), m.model.info().n_w()))
+        .collect();
+    let accumulated: Vec<usize> = (0..no).filter(|&i| info0.outputs[i].accumulate).collect();
     // Buffers of one sample, reused: the outputs at the sample and at the end of its interval, the signals,
     // the inputs; `ready`: the outputs of this sample are in `outs` already.
     let (mut outs, mut end, mut w, mut row) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
@@ -152,7 +160,7 @@ fn walk(ctx: &Ctx<'_, '_>, cycle: &Cycle, opts: &ModalOptions, rec: &Record) -> 
     for k in 0..ns {
         let (m, x, u) = (rec.mode[k], &rec.states[k], rec.free[k]);
         let model = spec.modes[m].model;
-        let (n_out, n_w) = (model.info().outputs.len(), model.info().n_w());
+        let (n_out, n_w) = sizes[m];
         if !ready {
             outs.clear();
             outs.resize(n_out, 0.0);
@@ -167,17 +175,16 @@ fn walk(ctx: &Ctx<'_, '_>, cycle: &Cycle, opts: &ModalOptions, rec: &Record) -> 
         input_values(ctx, m, u, &outs, &mut row);
         tally.inputs.push(&row);
         tally.outputs.push(&outs[..no]);
-        outside = track_violation(model.info(), (rec.t[k], u), outside, &mut tally.violations);
+        let rule = &ctx.rules.modes[m];
+        outside = track_violation(rule, (rec.t[k], u), outside, &mut tally.violations);
         if k + 1 < ns {
             end.clear();
             end.resize(n_out, 0.0);
             ctx.w_into(m, rec.t[k + 1], n_w, &mut w);
             model.outputs(&rec.x_end[k], &w, rec.u_end[k], &mut end);
             let dt = rec.t[k + 1] - rec.t[k];
-            for (i, total) in tally.integrals.iter_mut().enumerate() {
-                if info0.outputs[i].accumulate {
-                    *total += 0.5 * dt * (outs[i] + end[i]);
-                }
+            for &i in &accumulated {
+                tally.integrals[i] += 0.5 * dt * (outs[i] + end[i]);
             }
             tally.time[m] += dt;
             ready = rec.mode[k + 1] == m
@@ -322,20 +329,17 @@ pub(super) fn assemble(
     }
 }
 
-/// Whether the free input `u` at t is outside its bounds (tolerance 1e-9 of its range); an interval of
-/// `violations` opens or extends there (`outside`: whether the previous sample was).
+/// Whether the free input `u` at t is outside its bounds (up to the mode's tolerance, 1e-9 of its range);
+/// an interval of `violations` opens or extends there (`outside`: whether the previous sample was).
 fn track_violation(
-    info: &invsim_model_api::ModelInfo,
+    rule: &ModeRule,
     (t, u): (f64, f64),
     outside: bool,
     violations: &mut Vec<[f64; 2]>,
 ) -> bool {
-    let tol = match (info.input_min, info.input_max) {
-        (Some(lo), Some(hi)) => 1e-9 * (hi - lo).max(1.0),
-        _ => 1e-9,
-    };
-    let out = info.input_min.is_some_and(|lo| u < lo - tol)
-        || info.input_max.is_some_and(|hi| u > hi + tol);
+    let tol = rule.tolerance;
+    let out = rule.input_min.is_some_and(|lo| u < lo - tol)
+        || rule.input_max.is_some_and(|hi| u > hi + tol);
     match (out, outside) {
         (true, false) => violations.push([t, t]),
         (true, true) => {
