@@ -1,4 +1,4 @@
-//! Emits the kernel's tables (the 128 pieces of `K₁`, `R₁` and the derivative polynomials, see
+//! Emits the kernel's tables (the 128 pieces of `K₁`, `R₁`, `h/C₀` and the derivative polynomials, see
 //! `src/construction.rs`) as constants into `OUT_DIR/kernel_tables.rs`, so that no program builds
 //! them (with its 131 072 cosines) at start-up.
 

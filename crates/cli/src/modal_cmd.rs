@@ -138,6 +138,8 @@ pub struct ModalRun<'a> {
     pub engine: crate::engine::EngineChoice,
     /// `--signal NAME=FILE.csv|VALUE` as given.
     pub signals: &'a [String],
+    /// `--map NAME=FILE.csv` as given.
+    pub maps: &'a [String],
 }
 
 fn gear_source(m: &ModalModel, cycle: &Cycle, spec: &str) -> Result<(usize, GearSource), Failure> {
@@ -179,12 +181,13 @@ pub struct Prepared {
     pub gears: (usize, GearSource),
 }
 
-/// Load every mode of `m` with `engine` for a run on `cycle` (`cycle_spec` as given), with `set` applied.
+/// Load every mode of `m` with `engine` for a run on `cycle` (`cycle_spec` as given), with `set` and
+/// `maps` (`--map`) applied.
 pub fn prepare(
     mut m: ModalModel,
     cycle: &Cycle,
     cycle_spec: &str,
-    set: &[String],
+    (set, maps): (&[String], &[String]),
     engine: crate::engine::EngineChoice,
 ) -> Result<Prepared, Failure> {
     let gears = gear_source(&m, cycle, cycle_spec)?;
@@ -205,6 +208,9 @@ pub fn prepare(
                 .map_err(|e| Failure::user(format!("--set {name}: {e}")))?;
         }
     }
+    crate::map_args::apply(maps, |name, data| {
+        set_map_in_modes(&mut interps, name, data)
+    })?;
     Ok(Prepared {
         model: m,
         modes: loaded.meta,
@@ -212,6 +218,31 @@ pub fn prepare(
         engine: loaded.engine,
         gears,
     })
+}
+
+/// `--map NAME=…` for a model with modes: every mode whose equations use the map takes the new data
+/// (modes are derived apart, so a mode that never calls the map has none); a name no mode knows is refused
+/// with the first mode's list of maps.
+fn set_map_in_modes(
+    interps: &mut [Box<dyn InverseModel>],
+    name: &str,
+    data: crate::map_args::MapData<'_>,
+) -> Result<(), invsim_model_api::ModelError> {
+    let mut unknown = None;
+    let mut applied = false;
+    for i in interps.iter_mut() {
+        match i.set_map(name, data) {
+            Ok(()) => applied = true,
+            Err(e @ invsim_model_api::ModelError::UnknownMap { .. }) => {
+                unknown.get_or_insert(e);
+            }
+            Err(e) => return Err(e),
+        }
+    }
+    match unknown {
+        Some(e) if !applied => Err(e),
+        _ => Ok(()),
+    }
 }
 
 /// The runtime's spec of a prepared model.
@@ -281,7 +312,7 @@ pub fn simulate(m: ModalModel, run: &ModalRun<'_>) -> Result<(), Failure> {
     )?;
     let cycle = Cycle::load_with_limit(run.cycle, run.max_cycle_bytes)
         .map_err(|e| Failure::user(e.to_string()))?;
-    let prepared = prepare(m, &cycle, run.cycle, run.set, run.engine)?;
+    let prepared = prepare(m, &cycle, run.cycle, (run.set, run.maps), run.engine)?;
     let spec = spec(&prepared);
     crate::plotting::check_modal(run.plot, &spec)?;
     let opts = ModalOptions {

@@ -28,15 +28,15 @@ fn run_modal(m: ModalModel, args: &ForwardArgs) -> Result<(), Failure> {
             ("--plot", args.plot.plot.as_deref()),
         ],
     )?;
-    if !args.data.map.is_empty() {
-        return Err(Failure::user(format!(
-            "{}: a model with operating modes has no [maps] to override yet (--map)",
-            args.model.display()
-        )));
-    }
     let cycle = Cycle::load_with_limit(&args.cycle, args.max_cycle_bytes)
         .map_err(|e| Failure::user(e.to_string()))?;
-    let prepared = crate::modal_cmd::prepare(m, &cycle, &args.cycle, &args.set, args.engine)?;
+    let prepared = crate::modal_cmd::prepare(
+        m,
+        &cycle,
+        &args.cycle,
+        (&args.set, &args.data.map),
+        args.engine,
+    )?;
     let spec = crate::modal_cmd::spec(&prepared);
     crate::plotting::check_modal(&args.plot, &spec)?;
     let stopped = |e: ForwardError| {

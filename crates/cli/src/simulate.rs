@@ -94,6 +94,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
                 transition_time: args.transition_time,
                 engine: args.engine,
                 signals: &args.data.signal,
+                maps: &args.data.map,
             },
         );
     }

@@ -4,6 +4,7 @@
 //! - `derive_bad_model`: `invsim derive` on a model that cannot be loaded or inverted exits with status 2 and prints
 //! - `forward`: `invsim forward` and `invsim simulate --verify` as a user meets them: exit codes, the CSV and JSON layouts,
 //! - `hostile`: Hostile-input suite: every case in `tests/hostile/*.json` runs the built `invsim` binary on hostile model
+//! - `map_option`: `--map NAME=FILE.csv` for ordinary models and models with modes; unknown names and wrong arity exit 2.
 //! - `modes`: `invsim derive` and `invsim simulate` on a model with operating modes (si_engine_5speed).
 //! - `outputs`: Output files of `simulate` and `forward` on success: written in place, through links into the linked file,
 //! - `plot`: `--plot` and `--plot-vars` of `simulate` and `forward`: SVG and PNG by the extension, the chosen panels,
@@ -17,6 +18,7 @@ mod conveniences;
 mod derive_bad_model;
 mod forward;
 mod hostile;
+mod map_option;
 mod modes;
 mod modes_compiled;
 mod outputs;

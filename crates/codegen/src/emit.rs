@@ -318,11 +318,21 @@ pub(crate) fn render_with(
             uses[j] += 1;
         }
     }
+    let bundles = map_bundles(arena, &reachable, given, temp);
+    let given = &|i: usize| given(i).or_else(|| bundles.member(i));
     let mut names: Vec<Option<Ident>> = vec![None; n];
     let mut lets = Vec::new();
     let mut flags = 0u8;
     let mut counter = 0;
     for i in 0..n {
+        if let Some((name, m, args)) = bundles.starts_at(i) {
+            let args: Vec<TokenStream> = args
+                .iter()
+                .map(|&a| val_ex(a, arena, &names, index, atom, given, &mut flags).tokens(0))
+                .collect();
+            let m = Literal::usize_unsuffixed(m);
+            lets.push(quote!(let #name = self.maps[#m].partials2(&[#(#args),*]);));
+        }
         if !reachable[i] || (uses[i] < 2 && !fixed.contains_key(&i)) {
             continue;
         }
@@ -446,6 +456,69 @@ fn op_ex(
             Ex::Method(Box::new(a), m, vec![b])
         }
     }
+}
+
+/// The map calls of a block that share their map and arguments (two or more, every order ≤ 2 per
+/// argument): each group is read from one `let mbK = self.maps[m].partials2(&[a, b]);` (value and partials
+/// in one pass), bound just before the group's first call; its calls become `mbK[p * 3 + q]`.
+struct Bundles {
+    /// Per arena value: its bundle's name and the index into the bundle.
+    member: HashMap<usize, (Ident, usize)>,
+    /// Per first call: the bundle's name, the map and the arguments.
+    start: HashMap<usize, (Ident, usize, Vec<Val>)>,
+}
+
+impl Bundles {
+    fn member(&self, i: usize) -> Option<Ex> {
+        self.member.get(&i).map(|(name, k)| {
+            let k = Literal::usize_unsuffixed(*k);
+            Ex::Atom(quote!(#name[#k]))
+        })
+    }
+
+    fn starts_at(&self, i: usize) -> Option<(Ident, usize, Vec<Val>)> {
+        self.start.get(&i).cloned()
+    }
+}
+
+fn map_bundles(
+    arena: &Arena,
+    reachable: &[bool],
+    given: &dyn Fn(usize) -> Option<Ex>,
+    temp: &str,
+) -> Bundles {
+    // (map, arguments) → the calls, in arena order, with their index into the bundle.
+    type Key = (usize, Vec<Val>);
+    let mut groups: Vec<(Key, Vec<(usize, usize)>)> = Vec::new();
+    for (i, op) in arena.ops().iter().enumerate() {
+        if !reachable[i] || given(i).is_some() {
+            continue;
+        }
+        let (key, k) = match *op {
+            Op::Map1(m, o, a) if o <= 2 => ((m.index(), vec![a]), o as usize),
+            Op::Map2(m, [p, q], a, b) if p <= 2 && q <= 2 => {
+                ((m.index(), vec![a, b]), 3 * p as usize + q as usize)
+            }
+            _ => continue,
+        };
+        match groups.iter_mut().find(|(g, _)| *g == key) {
+            Some((_, calls)) => calls.push((i, k)),
+            None => groups.push((key, vec![(i, k)])),
+        }
+    }
+    let mut b = Bundles {
+        member: HashMap::new(),
+        start: HashMap::new(),
+    };
+    let shared = groups.into_iter().filter(|(_, calls)| calls.len() >= 2);
+    for (count, ((m, args), calls)) in shared.enumerate() {
+        let name = Ident::new(&format!("{temp}mb{count}"), Span::call_site());
+        b.start.insert(calls[0].0, (name.clone(), m, args));
+        for (i, k) in calls {
+            b.member.insert(i, (name.clone(), k));
+        }
+    }
+    b
 }
 
 /// `self.maps[m].partial(&[a, b], [I, J])`: one partial derivative of map `m` (contract §6) from the model's

@@ -1,6 +1,7 @@
 //! Benchmark: a 2-D smooth map lookup with its first and second partial derivatives (value, ∂a, ∂b, ∂aa, ∂ab,
-//! ∂bb in one pass: `Map::eval` with orders [2, 2]) over a batch of points spread over the grid, and the value
-//! alone; criterion reports the time per point. The grid is si_engine_maps' eta_vol (8 × 5, smooth 0.5).
+//! ∂bb in one pass: `Map::eval` with orders [2, 2]) over a batch of points spread over the grid, the same through
+//! `Map::partials2` (the generated code's call, with its memo), and the value alone; criterion reports the
+//! time per point. The grid is si_engine_maps' eta_vol (8 × 5, smooth 0.5).
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use invsim_kernel::map::{Extrapolate, Interp, Map, MapSettings};
@@ -40,6 +41,18 @@ fn lookup(c: &mut Criterion) {
             let mut acc = 0.0;
             for p in &points {
                 map.eval(std::hint::black_box(p), [2, 2], &mut out);
+                acc += out[0] + out[1] + out[2] + out[3] + out[4] + out[6];
+            }
+            acc
+        })
+    });
+    // What generated code calls: every partial up to order 2 per argument through the per-thread memo
+    // (each point new, so every call evaluates).
+    group.bench_function("partials2_generated_code_call", |b| {
+        b.iter(|| {
+            let mut acc = 0.0;
+            for p in &points {
+                let out = map.partials2(std::hint::black_box(p));
                 acc += out[0] + out[1] + out[2] + out[3] + out[4] + out[6];
             }
             acc

@@ -49,14 +49,18 @@
 //! `K(u) = 1 − K(−u)`, `M(u) = M(−u)`, `R(u) = u + R(−u)`): 128 pieces, each a degree-11 polynomial
 //! obtained by interpolating `h` at 32 Chebyshev points, integrating the Chebyshev series exactly and
 //! accumulating the piece integrals in double-double arithmetic. The truncation error is below 10⁻¹⁸, so `K`
-//! is correct to rounding (≈ 10⁻¹⁶ absolute) and a call costs one table look-up. The tables (and the
-//! polynomials `S̃_n` of the orders 0–32) are built at compile time by `build.rs`, which runs the
-//! construction in `construction.rs`; nothing is built at start-up.
+//! is correct to rounding (≈ 10⁻¹⁶ absolute) and a call costs one table look-up. The kernel itself, `h/C₀`,
+//! has a table on the same pieces (degree 15, the interpolant of the same samples, its DCT taken of the
+//! samples' deviation from their mean so the sums' rounding stays below 10⁻¹⁷; error below 10⁻¹⁵ of the
+//! peak): the smooth maps take their value, slope and curvature from one look-up with no exponential
+//! ([`Kernel::corner_excess`]). The tables (and the polynomials `S̃_n` of the orders 0–32) are built at
+//! compile time by `build.rs`, which runs the construction in `construction.rs`; nothing is built at
+//! start-up.
 
 use std::fmt;
 
 use crate::construction::{
-    build_derivative_polys, Piece, PIECES, TABULATED_ORDERS, UNIT_NORMALISATION,
+    build_derivative_polys, Piece, DENSITY_COEFFS, PIECES, TABULATED_ORDERS, UNIT_NORMALISATION,
 };
 
 /// The tables as constants, emitted by `build.rs` from [`construction`] (bit for bit what it builds at run
@@ -259,6 +263,33 @@ impl Kernel {
         let (k, r) = self.tables.eval(v);
         (if u > 0.0 { 1.0 - k } else { k }, self.a * r)
     }
+
+    /// How a smoothed corner exceeds the sharp one, with two derivatives, from one table look-up and no
+    /// exponential: `[R(t) − t₊, K(t) − H(t), k(t)]` (`H` the unit step, `H(0) = 0`). All three vanish for
+    /// `|t| ≥ a`. The smooth lookup maps build their basis from it (value, slope and curvature).
+    ///
+    /// `R(t) − t₊ = R(−|t|)` and `k` are even, `K(t) − H(t) = K(−|t|)·sign` (`K(t) + K(−t) = 1`), so all
+    /// three come from the pieces on `[−1, 0]`; `k` from the density table (its error against the closed
+    /// form is below 10⁻¹⁵ of its peak, a test checks it).
+    #[inline]
+    pub fn corner_excess(&self, t: f64) -> [f64; 3] {
+        let u = t * self.inv_a;
+        if u.is_nan() {
+            return [f64::NAN; 3];
+        }
+        let v = -u.abs();
+        if v <= -1.0 {
+            return [0.0; 3];
+        }
+        // v ∈ (−1, 0]: the piece by an i64 conversion (cheaper than the saturating one to usize).
+        let x = (v + 1.0) * PIECES as f64;
+        let j = ((x as i64).clamp(0, PIECES as i64 - 1)) as usize;
+        let s = (v - (-1.0 + (j as f64 + 0.5) / PIECES as f64)) * (2.0 * PIECES as f64);
+        let [k, r] = estrin12(&self.tables.pieces[j], s);
+        let d = estrin16(&self.tables.density[j], s);
+        let (k, r, d) = (k.max(0.0), r.max(0.0), d.max(0.0));
+        [self.a * r, if u > 0.0 { -k } else { k }, d * self.inv_a]
+    }
 }
 
 /// `h^(n)(u)` for the unit kernel from the polynomial `S̃_n(q)` (coefficients in increasing powers of `q`).
@@ -291,23 +322,32 @@ fn horner(c: &[f64], x: f64) -> f64 {
 /// coefficients in the local variable `s ∈ [−1, 1]` of piece `j` (`u = −1 + (j + ½ + s/2)/PIECES`).
 struct UnitTables {
     pieces: &'static [Piece; PIECES],
+    /// `h(u)/C₀` on the same pieces.
+    density: &'static [[f64; DENSITY_COEFFS]; PIECES],
 }
 
 /// The unit kernel's tables, compiled in.
 static UNIT_TABLES: UnitTables = UnitTables {
     pieces: &tables::UNIT_PIECES,
+    density: &tables::UNIT_DENSITY,
 };
 
 impl UnitTables {
-    /// `(K₁(u), R₁(u))` for `u ∈ (−1, 0]`.
+    /// The piece `j` of `u ∈ (−1, 0]` and the local variable `s ∈ [−1, 1]` in it.
     #[inline]
-    fn eval(&self, u: f64) -> (f64, f64) {
+    fn locate(u: f64) -> (usize, f64) {
         let n = PIECES as f64;
         let x = (u + 1.0) * n;
         // x ∈ (0, PIECES]; truncation is the intended floor, clamped to the last piece.
         let j = (x as usize).min(PIECES - 1);
         let centre = -1.0 + (j as f64 + 0.5) / n;
-        let s = (u - centre) * (2.0 * n);
+        (j, (u - centre) * (2.0 * n))
+    }
+
+    /// `(K₁(u), R₁(u))` for `u ∈ (−1, 0]`.
+    #[inline]
+    fn eval(&self, u: f64) -> (f64, f64) {
+        let (j, s) = Self::locate(u);
         let [k, r] = estrin12(&self.pieces[j], s);
         // Near u = −1 both are below 10⁻²⁰; the clamp keeps rounding there from giving tiny negatives.
         (k.max(0.0), r.max(0.0))
@@ -336,6 +376,17 @@ fn estrin12(c: &Piece, s: f64) -> [f64; 2] {
     let mid = lin2(p45, p67, s2);
     let hi = lin2(p89, pab, s2);
     lin2(lin2(lo, mid, s4), hi, s8)
+}
+
+/// One degree-15 polynomial by Estrin's scheme.
+#[inline]
+fn estrin16(c: &[f64; DENSITY_COEFFS], s: f64) -> f64 {
+    let s2 = s * s;
+    let s4 = s2 * s2;
+    let s8 = s4 * s4;
+    let p = |i: usize| c[i] + c[i + 1] * s;
+    let q = |i: usize| p(i) + p(i + 2) * s2;
+    (q(0) + q(4) * s4) + (q(8) + q(12) * s4) * s8
 }
 
 #[cfg(test)]
@@ -372,6 +423,11 @@ mod tests {
                 }
             }
         }
+        let density = construction::build_density_pieces();
+        for (j, (built, compiled)) in density.iter().zip(UNIT_TABLES.density.iter()).enumerate() {
+            let bits = |p: &[f64]| p.iter().map(|c| c.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(built), bits(compiled), "density piece {j}");
+        }
         let polys = build_derivative_polys(TABULATED_ORDERS);
         for (n, (built, compiled)) in polys.iter().zip(tables::DERIVATIVE_POLYS).enumerate() {
             let bits = |p: &[f64]| p.iter().map(|c| c.to_bits()).collect::<Vec<_>>();
@@ -380,6 +436,27 @@ mod tests {
         // and the compiled source is what the construction prints now
         let compiled = include_str!(concat!(env!("OUT_DIR"), "/kernel_tables.rs"));
         assert!(construction::tables_source() == compiled);
+    }
+
+    /// The density table against the closed form `k(t) = e^(−w)/(C₀ a)`, and the other two entries of
+    /// [`Kernel::corner_excess`] against [`Kernel::ramp_offset`] and [`Kernel::integral`].
+    #[test]
+    fn corner_excess_matches_the_closed_forms() {
+        let k = Kernel::new(0.7);
+        let peak = k.value(0.0);
+        let mut worst = 0.0_f64;
+        for i in 0..=200_000 {
+            let t = -0.7 + 1.4 * i as f64 / 200_000.0;
+            let [r, kh, d] = k.corner_excess(t);
+            worst = worst.max((d - k.value(t)).abs() / peak);
+            assert_eq!(r, k.ramp_offset(t), "R − t₊ at {t}");
+            let step = if t > 0.0 { 1.0 } else { 0.0 };
+            assert!((kh - (k.integral(t) - step)).abs() < 2e-16, "K − H at {t}");
+        }
+        assert!(worst < 1e-15, "density table error {worst:e} of the peak");
+        assert_eq!(k.corner_excess(0.7), [0.0; 3]);
+        assert_eq!(k.corner_excess(-0.8), [0.0; 3]);
+        assert!(k.corner_excess(f64::NAN)[2].is_nan());
     }
 
     #[test]

@@ -26,6 +26,7 @@
 mod axis;
 mod extrapolate;
 mod memo;
+mod small;
 mod violation;
 
 use axis::{Axis, Basis};
@@ -120,6 +121,8 @@ pub struct Map {
     settings: MapSettings,
     /// Scratch sizes per axis for one basis evaluation and one order.
     max_count: [usize; 2],
+    /// Every axis is served by the fast path of `small.rs` (orders up to 2 per argument).
+    small: bool,
     /// The map's name in messages (see [`Map::named`]).
     name: std::sync::Arc<str>,
     /// Unique per data (clones share it): the key of the one-pass memo (`memo.rs`).
@@ -190,11 +193,7 @@ fn make_axis(axis: &'static str, grid: Vec<f64>, s: &MapSettings) -> Result<Axis
             Some(Kernel::new(h))
         }
     };
-    Ok(Axis {
-        grid,
-        extrapolate: s.extrapolate,
-        kernel,
-    })
+    Ok(Axis::new(grid, s.extrapolate, kernel))
 }
 
 fn check_values(values: &[f64], expected: usize) -> Result<(), MapError> {
@@ -220,6 +219,7 @@ impl Map {
         check_values(&values, x.len())?;
         Ok(Map {
             max_count: [x.max_count(), 0],
+            small: x.is_small(),
             x,
             y: None,
             values,
@@ -241,6 +241,7 @@ impl Map {
         check_values(&values, x.len() * y.len())?;
         Ok(Map {
             max_count: [x.max_count(), y.max_count()],
+            small: x.is_small() && y.is_small(),
             x,
             y: Some(y),
             values,
@@ -360,9 +361,51 @@ impl Map {
             return;
         }
         match &self.y {
+            None if self.small && out.len() <= 3 => self.eval_1d_small(args[0], out),
             None => self.eval_1d(args[0], out),
+            Some(y) if self.small && orders[0] <= 2 && orders[1] <= 2 => {
+                let r = small::contract(
+                    &self.values,
+                    y.len(),
+                    &self.x.small_basis(args[0]),
+                    &y.small_basis(args[1]),
+                );
+                let oy = orders[1] + 1;
+                for (p, row) in r.iter().enumerate().take(orders[0] + 1) {
+                    for (q, &v) in row.iter().enumerate().take(oy) {
+                        out[p * oy + q] = v;
+                    }
+                }
+            }
             Some(y) => self.eval_2d(y, args, orders, out),
         }
+    }
+
+    fn eval_1d_small(&self, a: f64, out: &mut [f64]) {
+        let b = self.x.small_basis(a);
+        out.fill(0.0);
+        for (k, row) in b.values.iter().enumerate().take(b.count) {
+            let v = self.values[b.first + k];
+            for (o, &phi) in out.iter_mut().zip(row) {
+                *o += v * phi;
+            }
+        }
+    }
+
+    /// The value and every partial derivative up to order 2 per argument at `args`, in one pass:
+    /// `out[p · 3 + q] = ∂^(p+q) M / ∂a^p ∂b^q` (1-D: `out[p] = M^(p)(a)`, the rest 0). Generated code reads
+    /// every map call of a function at the same arguments from one such array.
+    ///
+    /// Under `extrapolate = "error"` an argument outside the grid is recorded as for [`Map::eval`].
+    ///
+    /// Shares the per-thread memo of [`Map::partial`] (a single call at the same point is then a look-up).
+    pub fn partials2(&self, args: &[f64]) -> [f64; 9] {
+        self.check_range(args);
+        let b = if self.y.is_some() { args[1] } else { 0.0 };
+        memo::entry(self.id, [args[0], b], |out| match self.y {
+            None => self.eval(&args[..1], [2, 0], &mut out[..3]),
+            Some(_) => self.eval(args, [2, 2], out),
+        })
     }
 
     /// One partial derivative: `orders[k]` times with respect to argument `k` (`orders[1]` ignored in 1-D).
@@ -377,11 +420,11 @@ impl Map {
             let o = [orders[0], if two_d { orders[1] } else { 0 }];
             if !two_d {
                 // 1-D: the memo's first row holds M, M' (and M'').
-                return memo::partial(self.id, [args[0], b], [0, o[0]], |cap, out| {
+                return memo::partial(self.id, [args[0], b], [0, o[0]], self.small, |cap, out| {
                     self.eval(&args[..1], [cap, 0], &mut out[..cap + 1])
                 });
             }
-            return memo::partial(self.id, [args[0], b], o, |cap, out| {
+            return memo::partial(self.id, [args[0], b], o, self.small, |cap, out| {
                 let w = cap + 1;
                 let mut dense = [0.0; memo::WIDTH];
                 self.eval(args, [cap, cap], &mut dense[..w * w]);

@@ -2,8 +2,9 @@
 //! `Precomputed::maps` they are built into (replaceable at run time: `InverseModel::set_map`, `--map`), and
 //! the trait method. A model without maps gets none of this, so its generated code is unchanged.
 //!
-//! Calls are emitted as `self.maps[m].partial(&[a, b], [I, J])` (see `emit::map_call`): the value and each
-//! partial derivative from the kernel's closed form over the corners in the window.
+//! Calls are emitted as `self.maps[m].partial(&[a, b], [I, J])` (see `emit::map_call`), or, where a function
+//! calls one map at the same arguments more than once, read from one `self.maps[m].partials2(&[a, b])`
+//! (`emit::map_bundles`): the value and the partial derivatives from one pass over the corners in the window.
 
 use super::context::Gen;
 use proc_macro2::{Literal, TokenStream};

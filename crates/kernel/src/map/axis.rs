@@ -37,6 +37,10 @@ pub(crate) struct Axis {
     pub(crate) extrapolate: Extrapolate,
     /// `None` for plain (bi)linear interpolation.
     pub(crate) kernel: Option<Kernel>,
+    /// Per grid point `c`: the kink weights `w_ic` of `φ_{c−1}, φ_c, φ_{c+1}` (0 where `i` is off the grid).
+    pub(crate) weights: Vec<[f64; 3]>,
+    /// [`Axis::max_count`], computed once.
+    pub(crate) max_count: usize,
 }
 
 /// The smoothed basis functions at a point: `Φ_i^(n)` for `i = first … first + count − 1`, `n = 0 … orders−1`,
@@ -48,6 +52,28 @@ pub(crate) struct Basis<'a> {
 }
 
 impl Axis {
+    /// An axis on a checked grid (strictly increasing, at least two points).
+    pub(crate) fn new(grid: Vec<f64>, extrapolate: Extrapolate, kernel: Option<Kernel>) -> Axis {
+        let mut axis = Axis {
+            grid,
+            extrapolate,
+            kernel,
+            weights: Vec::new(),
+            max_count: 0,
+        };
+        let n = axis.grid.len();
+        axis.weights = (0..n)
+            .map(|c| {
+                std::array::from_fn(|k| match (c + k).checked_sub(1) {
+                    Some(i) if i < n => axis.corner_weight(i, c),
+                    _ => 0.0,
+                })
+            })
+            .collect();
+        axis.max_count = axis.count_bound();
+        axis
+    }
+
     /// The number of grid points.
     pub(crate) fn len(&self) -> usize {
         self.grid.len()
@@ -55,6 +81,10 @@ impl Axis {
 
     /// An upper bound on the number of basis functions [`Axis::basis`] returns at any point.
     pub(crate) fn max_count(&self) -> usize {
+        self.max_count
+    }
+
+    fn count_bound(&self) -> usize {
         let n = self.grid.len();
         let Some(kernel) = self.kernel else {
             return 2;
@@ -96,12 +126,19 @@ impl Axis {
         self.slope(i, c) - self.slope(i, c - 1)
     }
 
-    /// Writes the unsmoothed weights `φ_i(a)`, slopes `φ_i'(a)` of `a`'s region into `add(i, n, value)`.
-    fn plain(&self, a: f64, orders: usize, mut add: impl FnMut(usize, usize, f64)) {
+    /// Writes the unsmoothed weights `φ_i(a)`, slopes `φ_i'(a)` of `a`'s region into `add(i, n, value)`;
+    /// `p` is the number of grid points below `a` (region r: x_r < a ≤ x_{r+1}; −1 for a ≤ x_0, n − 1 for
+    /// a > x_{n−1}).
+    #[inline(always)]
+    pub(crate) fn plain(
+        &self,
+        a: f64,
+        p: usize,
+        orders: usize,
+        mut add: impl FnMut(usize, usize, f64),
+    ) {
         let g = &self.grid;
         let n = g.len();
-        // region r: x_r < a ≤ x_{r+1}; −1 for a ≤ x_0, n − 1 for a > x_{n−1}.
-        let p = g.partition_point(|&x| x < a);
         let clamp = self.extrapolate == Extrapolate::Clamp;
         if clamp && p == 0 {
             add(0, 0, 1.0);
@@ -150,7 +187,9 @@ impl Axis {
         let count = last - first + 1;
         let (values, corner) = scratch.split_at_mut(count * orders);
         values.fill(0.0);
-        self.plain(a, orders, |i, m, v| values[(i - first) * orders + m] += v);
+        self.plain(a, p, orders, |i, m, v| {
+            values[(i - first) * orders + m] += v
+        });
         if let Some(kernel) = self.kernel {
             for (c, &xc) in g.iter().enumerate().take(c_hi).skip(c_lo) {
                 corner_terms(&kernel, a - xc, &mut corner[..orders]);
@@ -173,15 +212,14 @@ impl Axis {
     }
 }
 
-/// `out[n]` = the smoothed corner's excess over the sharp one: `R(t) − t₊`, `K(t) − H(t)`, `k^(n−2)(t)`.
+/// `out[n]` = the smoothed corner's excess over the sharp one: `R(t) − t₊`, `K(t) − H(t)`, `k^(n−2)(t)`;
+/// the first three from [`Kernel::corner_excess`] (as the fast path of `small.rs` takes them, so both paths
+/// give the same numbers), the higher orders in closed form.
 fn corner_terms(kernel: &Kernel, t: f64, out: &mut [f64]) {
-    let (k, r) = kernel.integral_and_ramp_offset(t);
-    out[0] = r;
-    if out.len() > 1 {
-        // K(t) − H(t) = −K(−t) for t > 0 (K(t) + K(−t) = 1), computed without cancellation.
-        out[1] = if t > 0.0 { -kernel.integral(-t) } else { k };
-    }
-    if out.len() > 2 {
+    let low = kernel.corner_excess(t);
+    if out.len() > 3 {
         kernel.derivatives(t, &mut out[2..]);
     }
+    let n = out.len().min(3);
+    out[..n].copy_from_slice(&low[..n]);
 }

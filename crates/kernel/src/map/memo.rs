@@ -35,16 +35,17 @@ thread_local! {
 }
 
 /// The partial `[i, j]` at `args` of map `id` (ids start at 1). On a miss `eval(cap, out)` writes every
-/// partial up to order `cap` per argument (1, or 2 when `i` or `j` is 2) into `out`, row-major with rows of
-/// `MEMO_ORDER + 1`.
+/// partial up to order `cap` per argument (1, or 2 when `i` or `j` is 2 or the map is `small`: its second
+/// derivatives cost a table look-up, see `small.rs`) into `out`, row-major with rows of `MEMO_ORDER + 1`.
 pub(super) fn partial(
     id: u64,
     args: [f64; 2],
     [i, j]: [usize; 2],
+    small: bool,
     eval: impl FnOnce(usize, &mut [f64; WIDTH]),
 ) -> f64 {
     let key = [args[0].to_bits(), args[1].to_bits()];
-    let need = i.max(j).max(1);
+    let need = if small { MEMO_ORDER } else { i.max(j).max(1) };
     MEMO.with(|m| {
         let mut m = m.borrow_mut();
         let (slots, next) = &mut *m;
@@ -66,5 +67,33 @@ pub(super) fn partial(
             out,
         };
         out[i * (MEMO_ORDER + 1) + j]
+    })
+}
+
+/// Every partial up to order `MEMO_ORDER` per argument at `args` of map `id` (rows of `MEMO_ORDER + 1`), from
+/// the memo or from `eval(MEMO_ORDER, out)`, which then fills it.
+pub(super) fn entry(id: u64, args: [f64; 2], eval: impl FnOnce(&mut [f64; WIDTH])) -> [f64; WIDTH] {
+    let key = [args[0].to_bits(), args[1].to_bits()];
+    MEMO.with(|m| {
+        let mut m = m.borrow_mut();
+        let (slots, next) = &mut *m;
+        let at = slots.iter().position(|e| e.id == id && e.args == key);
+        if let Some(k) = at.filter(|&k| slots[k].cap >= MEMO_ORDER) {
+            return slots[k].out;
+        }
+        let mut out = [0.0; WIDTH];
+        eval(&mut out);
+        let k = at.unwrap_or_else(|| {
+            let k = *next;
+            *next = (k + 1) % SLOTS;
+            k
+        });
+        slots[k] = Entry {
+            id,
+            args: key,
+            cap: MEMO_ORDER,
+            out,
+        };
+        out
     })
 }
