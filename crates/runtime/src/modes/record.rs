@@ -80,6 +80,33 @@ pub(super) struct Record {
 }
 
 impl Record {
+    /// The record of a run of `samples` samples that starts at t0 (smoothed cycle's speed `speed0`) in
+    /// `mode`, its states and references of `n` and `n_yref` values.
+    pub(super) fn new(
+        (t0, speed0): (f64, f64),
+        mode: usize,
+        samples: usize,
+        (n, n_yref): (usize, usize),
+    ) -> Record {
+        let mut speed = Vec::with_capacity(samples);
+        speed.push(speed0);
+        let intervals = samples.saturating_sub(1);
+        Record {
+            t: vec![t0],
+            speed,
+            mode: vec![mode],
+            states: Rows::with_capacity(n, samples),
+            free: Vec::with_capacity(samples),
+            yref: Rows::with_capacity(n_yref, samples),
+            u_end: Vec::with_capacity(intervals),
+            x_end: Rows::with_capacity(n, intervals),
+            impulse: vec![0.0],
+            impulse_dir: vec![Vec::new()],
+            transitions: Vec::new(),
+            impulses: Vec::new(),
+        }
+    }
+
     /// Record the solved sample `s`.
     pub(super) fn push_solved(&mut self, s: &Solved) {
         self.states.push(&s.x);

@@ -7,7 +7,6 @@ use invsim_model_api::InverseModel;
 use super::blend::Blend;
 use super::gears::GearBox;
 use super::record::{Ctx, Impulse, Record, Solved, Transition};
-use super::rows::Rows;
 use super::rules::Rules;
 use super::sequence::{decide, Moment, Place, Rung, Switcher};
 use super::signals::resolve_modal;
@@ -332,22 +331,7 @@ fn run_sequence(ctx: &Ctx<'_, '_>, grid: &Grid, opts: &ModalOptions) -> Result<R
         },
     };
     let first = ctx.solve(mode, (t0, &base), &seq.modal.eta, None, &vec![0.0; ctx.n])?;
-    let (ns, n_yref) = (grid.samples(), ctx.r_max + 1);
-    let mut rec = Record {
-        t: vec![t0],
-        speed: Vec::with_capacity(ns),
-        mode: vec![mode],
-        states: Rows::with_capacity(ctx.n, ns),
-        free: Vec::with_capacity(ns),
-        yref: Rows::with_capacity(n_yref, ns),
-        u_end: Vec::with_capacity(grid.n),
-        x_end: Rows::with_capacity(ctx.n, grid.n),
-        impulse: vec![0.0],
-        impulse_dir: vec![Vec::new()],
-        transitions: Vec::new(),
-        impulses: Vec::new(),
-    };
-    rec.speed.push(base[0]);
+    let mut rec = Record::new((t0, base[0]), mode, grid.samples(), (ctx.n, ctx.r_max + 1));
     let mut zd = ZeroDynamics::new(ctx);
     // Decide at t0 too (a start that needs another mode at once).
     let mut cur = step_sequence(
