@@ -54,9 +54,29 @@ impl Rows {
         self.values.iter().skip(j).step_by(self.width).copied()
     }
 
+    /// Row k, if there is one.
+    pub fn get(&self, k: usize) -> Option<&[f64]> {
+        (k < self.rows).then(|| &self[k])
+    }
+
+    /// The first row, if any.
+    pub fn first(&self) -> Option<&[f64]> {
+        self.get(0)
+    }
+
     /// The last row, if any.
     pub fn last(&self) -> Option<&[f64]> {
         self.rows.checked_sub(1).map(|k| &self[k])
+    }
+}
+
+impl<'a> IntoIterator for &'a Rows {
+    type Item = &'a [f64];
+    type IntoIter = Box<dyn Iterator<Item = &'a [f64]> + 'a>;
+
+    /// The rows in order (`for row in &rows`).
+    fn into_iter(self) -> Self::IntoIter {
+        Box::new(self.iter())
     }
 }
 
@@ -85,6 +105,8 @@ mod tests {
         let all: Vec<&[f64]> = r.iter().collect();
         assert_eq!(all, vec![&[1.0, 2.0][..], &[3.0, 4.0][..]]);
         assert_eq!(r.column(1).collect::<Vec<f64>>(), vec![2.0, 4.0]);
+        assert_eq!((r.first(), r.get(2)), (Some(&[1.0, 2.0][..]), None));
+        assert_eq!((&r).into_iter().count(), 2);
         let mut empty = Rows::with_capacity(0, 0);
         empty.push(&[]);
         assert_eq!((empty.len(), &empty[0]), (1, &[][..]));
