@@ -52,16 +52,6 @@ fn compile_dir(dir: &Path, out: &Path, sub: &str) -> Result<(), Box<dyn std::err
                     .unwrap_or_default();
                 skipped.push((name, e.to_string()));
             }
-            // Generated code supports affine models only; a non-affine one runs on the interpreter.
-            Err(invsim_codegen::Error::Codegen(
-                e @ invsim_codegen::CodegenError::NonAffine { .. },
-            )) => {
-                let name = file
-                    .file_name()
-                    .map(|f| f.to_string_lossy().into_owned())
-                    .unwrap_or_default();
-                skipped.push((name, e.to_string()));
-            }
             Err(e) => return Err(e.into()),
         }
     }

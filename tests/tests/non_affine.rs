@@ -116,6 +116,27 @@ fn an_input_solved_by_newton_satisfies_the_original_equations() {
     assert!(eta < 1e-3, "dE/dt residual {eta:e}");
 }
 
+/// ψ⁻¹ through a lookup map (Newton's method for the actuator state) and a y^(r) not affine in the input,
+/// isolated (`nonaffine_map_isolated`, a battery-like square root) or by Newton's method
+/// (`nonaffine_map_newton`, u + b·u³): the inverse satisfies the original equations, dv/dt = y_d' and the
+/// actuator state's central differences follow its rhs(x, u).
+#[test]
+fn a_numeric_psi_inv_with_a_non_affine_input_satisfies_the_original_equations() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    for (name, isolated) in [
+        ("nonaffine_map_isolated", true),
+        ("nonaffine_map_newton", false),
+    ] {
+        let file = root.join(format!("models/{name}.toml"));
+        let d = invsim_inversion::derive_file(&file).unwrap();
+        assert!(!d.psi_inv_closed() && !d.yr_affine, "{name}");
+        assert_eq!(d.input_solution_x.is_some(), isolated, "{name}");
+        let (v, p) = residuals(&d);
+        assert!(v < 1e-9, "{name}: dv/dt residual {v:e}");
+        assert!(p < 1e-3, "{name}: dp/dt residual {p:e}");
+    }
+}
+
 #[test]
 fn an_affine_model_keeps_alpha_and_beta() {
     let d = invsim_inversion::derive_file(
@@ -129,14 +150,14 @@ fn an_affine_model_keeps_alpha_and_beta() {
     );
 }
 
-/// The worst relative difference of two runs' input and state columns (relative to each column's peak).
+/// The worst relative difference of two runs' input and named columns (relative to each column's peak).
 fn run_difference(
     a: &invsim_runtime::SimulationResult,
     b: &invsim_runtime::SimulationResult,
-    states: &[String],
+    names: &[String],
 ) -> f64 {
     let mut cols = vec![(a.input(), b.input())];
-    for s in states {
+    for s in names {
         cols.push((a.column(s).unwrap(), b.column(s).unwrap()));
     }
     let mut worst = 0.0f64;
@@ -148,6 +169,57 @@ fn run_difference(
         }
     }
     worst
+}
+
+/// Generated code of a numeric ψ⁻¹ with a y^(r) not affine in the input (compiled by this crate's build
+/// script from `tests/models/nonaffine_map_*.toml`) runs as the interpreter does on UDDS: Newton's method for x, then the input (isolated, or Newton's method from the previous
+/// sample's), the internal state integrated with the zero dynamics at that input; u, x and the outputs
+/// agree within 1e-12 relative.
+#[test]
+fn compiled_numeric_psi_inv_with_a_non_affine_input_equals_the_interpreter() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let cycle = Cycle::builtin("udds").unwrap();
+    for name in ["nonaffine_map_isolated", "nonaffine_map_newton"] {
+        let d = invsim_inversion::derive_file(&root.join(format!("models/{name}.toml"))).unwrap();
+        let interp = Interpreter::new(&d).unwrap();
+        let compiled = invsim_tests::extra::builtin(name).expect("compiled");
+        let mut names: Vec<String> = d.model.states.iter().map(|s| s.name.clone()).collect();
+        names.extend(d.model.outputs.iter().map(|o| o.name.clone()));
+        let opts = |engine: &str| SimulationOptions {
+            dt: 0.1,
+            engine: engine.into(),
+            ..SimulationOptions::default()
+        };
+        let a = simulate(&interp, &cycle, &opts("interpreted")).unwrap();
+        let b = simulate(compiled.as_ref(), &cycle, &opts("compiled")).unwrap();
+        assert_eq!(b.summary.engine, "compiled", "{name}");
+        let worst = run_difference(&a, &b, &names);
+        eprintln!("{name}: compiled vs interpreted {worst:e}");
+        assert!(worst < 1e-12, "{name}: compiled vs interpreted {worst:e}");
+        // The run reaches the input's non-linear range (|u| > 0.5).
+        let peak = a.input().iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        assert!(peak > 0.5, "{name}: |u| at most {peak}");
+        // A replaced map (`--map`) reaches φ and the input solution in both engines: a stronger actuator
+        // needs a smaller input.
+        let (mut interp, mut compiled) = (interp, compiled);
+        let grid = [-2.0, -1.0, 0.0, 1.0, 2.0];
+        let values = [-12000.0, -5600.0, 0.0, 5600.0, 12000.0];
+        for m in [&mut interp as &mut dyn InverseModel, compiled.as_mut()] {
+            m.set_map("force", (&grid, None, &values)).unwrap();
+        }
+        let c = simulate(&interp, &cycle, &opts("interpreted")).unwrap();
+        let d = simulate(compiled.as_ref(), &cycle, &opts("compiled")).unwrap();
+        let worst = run_difference(&c, &d, &names);
+        assert!(
+            worst < 1e-12,
+            "{name} with --map: compiled vs interpreted {worst:e}"
+        );
+        let strong = c.input().iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        assert!(
+            strong < 0.8 * peak,
+            "{name}: |u| {strong} with the stronger map, {peak} without"
+        );
+    }
 }
 
 /// Generated code (compiled by this crate's build script from `tests/models/nonaffine_*.toml`, and

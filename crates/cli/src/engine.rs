@@ -77,7 +77,20 @@ fn interpreted(d: &Derivation) -> Result<LoadedModel, Failure> {
 const MAX_HASHED_BYTES: u64 = 1 << 20;
 
 /// The SHA-256 (hex) of the model file's bytes, if it can be read and is at most [`MAX_HASHED_BYTES`] long.
+/// A command asks twice (does the file have modes, which engine runs it); the last answer is kept.
 fn file_hash(path: &Path) -> Option<String> {
+    use std::sync::Mutex;
+    static LAST: Mutex<Option<(std::path::PathBuf, Option<String>)>> = Mutex::new(None);
+    let mut last = LAST.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some((_, h)) = last.as_ref().filter(|(p, _)| p == path) {
+        return h.clone();
+    }
+    let h = hash_file(path);
+    *last = Some((path.to_path_buf(), h.clone()));
+    h
+}
+
+fn hash_file(path: &Path) -> Option<String> {
     use sha2::{Digest, Sha256};
     use std::io::Read;
     let mut bytes = Vec::new();
@@ -95,6 +108,12 @@ fn file_hash(path: &Path) -> Option<String> {
             .map(|b| format!("{b:02x}"))
             .collect(),
     )
+}
+
+/// Is the file byte-for-byte a built-in ordinary model? Then it has no modes and reads without errors, which
+/// the commands need not read the file to know (models with modes have a registry of their own).
+pub fn is_builtin_single(path: &Path) -> bool {
+    file_hash(path).is_some_and(|h| invsim_models::by_hash(&h).is_some())
 }
 
 /// Load `path` with the requested engine. A file whose SHA-256 matches a built-in model runs its compiled code

@@ -16,6 +16,9 @@ use crate::files::print_stdout;
 
 /// The file read as a model with modes, or `None` for an ordinary model (then read as before).
 pub fn read_modal(path: &Path) -> Result<Option<ModalModel>, Failure> {
+    if crate::engine::is_builtin_single(path) {
+        return Ok(None);
+    }
     match ModelFile::from_path(path) {
         Ok(ModelFile::Modal(m)) => Ok(Some(*m)),
         Ok(ModelFile::Single(_)) => Ok(None),
@@ -26,6 +29,9 @@ pub fn read_modal(path: &Path) -> Result<Option<ModalModel>, Failure> {
 /// The file read as a model with modes, or `None` for anything else (an ordinary model, or a file that does
 /// not read: the command's own reader then gives its message, as before).
 pub fn modal_if_readable(path: &Path) -> Option<ModalModel> {
+    if crate::engine::is_builtin_single(path) {
+        return None;
+    }
     match ModelFile::from_path(path) {
         Ok(ModelFile::Modal(m)) => Some(*m),
         _ => None,
@@ -35,6 +41,9 @@ pub fn modal_if_readable(path: &Path) -> Option<ModalModel> {
 /// `sweep` does not run models with modes yet: exit 2 saying so (an unreadable file is left to
 /// the command's own reader and its message).
 pub fn refuse_modal(path: &Path, command: &str) -> Result<(), Failure> {
+    if crate::engine::is_builtin_single(path) {
+        return Ok(());
+    }
     if let Ok(ModelFile::Modal(_)) = ModelFile::from_path(path) {
         return Err(Failure::user(format!(
             "{}: a model with operating modes runs with `invsim derive`, `invsim simulate` and `invsim forward`; `invsim {command}` \

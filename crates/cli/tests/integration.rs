@@ -6,6 +6,8 @@
 //! - `hostile`: Hostile-input suite: every case in `tests/hostile/*.json` runs the built `invsim` binary on hostile model
 //! - `map_option`: `--map NAME=FILE.csv` for ordinary models and models with modes; unknown names and wrong arity exit 2.
 //! - `modes`: `invsim derive` and `invsim simulate` on a model with operating modes (si_engine_5speed).
+//! - `modes_plot_signals`: `--plot` of a model with operating modes and a road grade signal: the signal's panel in
+//!   `simulate` and `forward`, by default and by name.
 //! - `outputs`: Output files of `simulate` and `forward` on success: written in place, through links into the linked file,
 //! - `plot`: `--plot` and `--plot-vars` of `simulate` and `forward`: SVG and PNG by the extension, the chosen panels,
 //! - `stable`: `invsim` with unstable zero dynamics: the classification in `derive`, stable (non-causal) inversion selected
@@ -21,6 +23,7 @@ mod hostile;
 mod map_option;
 mod modes;
 mod modes_compiled;
+mod modes_plot_signals;
 mod outputs;
 mod plot;
 mod stable;

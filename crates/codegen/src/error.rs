@@ -16,12 +16,6 @@ pub enum CodegenError {
     },
     #[error("the generated code for {what} does not parse: {message} (a bug in invsim-codegen)")]
     Syntax { what: String, message: String },
-    #[error(
-        "model `{model}`: its y^(r) is not affine in the input and its ψ⁻¹ has no closed form; generated \
-         code supports such models only with a closed-form ψ⁻¹ (run it with the interpreter: invsim simulate \
-         --engine interpreted)"
-    )]
-    NonAffine { model: String },
 }
 
 /// Any failure of [`generate_file`] or [`Builder::compile`].

@@ -11,12 +11,6 @@ use std::path::Path;
 /// `source_name` names the model file in the header and the docs (a file name, so the output does not depend
 /// on where the file was read from).
 pub fn generate(d: &Derivation, source_name: &str) -> Result<String, CodegenError> {
-    // A y^(r) not affine in the input is generated where ψ⁻¹ has a closed form (`model/solve_input.rs`).
-    if !d.yr_affine && !d.psi_inv_closed() {
-        return Err(CodegenError::NonAffine {
-            model: d.model.name.clone(),
-        });
-    }
     let out = model::module(d, source_name)?;
     format::format_file(
         out.tokens,

@@ -8,9 +8,10 @@
 //! * `Precomputed`: a parameter set with every parameter-only subexpression computed once, and the model's
 //!   functions per point — `h`, `psi`, `psi_inv` (closed form, or Newton's method on the analytic Jacobian with
 //!   a convergence error), `alpha`, `beta`, `invert`, `zero_dynamics`, `rhs`, `outputs` — each documented with
-//!   the equation it implements (plain and LaTeX); for a y^(r) not affine in the input (with a closed-form
-//!   ψ⁻¹), `phi` (φ and ∂φ/∂u), `input_solution` where u was isolated, and `solve_input` (Newton's method
-//!   from a given start, as the interpreter);
+//!   the equation it implements (plain and LaTeX); for a y^(r) not affine in the input, with a closed-form
+//!   ψ⁻¹ `phi` (φ and ∂φ/∂u), `input_solution` where u was isolated, and `solve_input` (Newton's method
+//!   from a given start, as the interpreter), with a numeric ψ⁻¹ the same in the states at Newton's x
+//!   (`phi_x`, `input_solution_x`, `solve_input_x`);
 //! * batch methods over columns of points, `invert_batch` (where ψ⁻¹ is in closed form) and `outputs_batch`:
 //!   block by block, the fractional powers of a block at once by `invsim_model_api::math::pow_pos_slice`, the
 //!   rest in loops that vectorise (see `model/batch.rs`);

@@ -95,11 +95,6 @@ pub fn generate_modal(m: &ModalDerivation, source_name: &str) -> Result<String, 
     let mut primaries: Vec<(usize, String)> = Vec::new();
     let mut ctors = Vec::new();
     for (i, mode) in m.modes.iter().enumerate() {
-        if !mode.d.yr_affine && !mode.d.psi_inv_closed() {
-            return Err(CodegenError::NonAffine {
-                model: format!("{name}, mode {}", mode.name),
-            });
-        }
         let ident = format_ident!("{}", mode_module(&mode.name));
         if let Some(j) = shares_code_with(m, i, &primaries, source_name)? {
             let code = format_ident!("{}", mode_module(&m.modes[j].name));

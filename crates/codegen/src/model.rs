@@ -4,7 +4,8 @@
 //! * [`functions`]: their lowering (one invariant arena for all), `Precomputed::new`, the methods and the
 //!   free wrappers, operands resolved by [`atoms`];
 //! * [`newton`]: ψ⁻¹ by Newton's method when it has no closed form;
-//! * [`solve_input`]: the input of a y^(r) that is not affine in it (isolated, or Newton's method);
+//! * [`solve_input`]: the input of a y^(r) that is not affine in it (isolated, or Newton's method), in
+//!   (ξ, η) or, where ψ⁻¹ is numeric, in the states at Newton's x;
 //! * [`batch`]: `invert_batch` and `outputs_batch` over columns of points;
 //! * [`params`]: the constants and `Params`;
 //! * [`trait_impl`]: `Model` and its `InverseModel` impl;
@@ -62,8 +63,12 @@ pub(crate) fn module_named(
         free_fns.extend(newton.free);
         helpers.extend(newton.helpers);
     }
-    if g.closed && !g.affine {
-        let solve = solve_input::solve_input(&g);
+    if !g.affine {
+        let solve = if g.closed {
+            solve_input::solve_input(&g)
+        } else {
+            solve_input::solve_input_x(&g)
+        };
         methods.extend(solve.methods);
         free_fns.extend(solve.free);
         helpers.extend(solve.helpers);

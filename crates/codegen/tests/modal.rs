@@ -86,3 +86,50 @@ fn generate_file_gives_every_mode_and_its_markdown() {
         markdown.contains("== mode idle (role standstill, free input F_b, m_at = m_at_idle) ==")
     );
 }
+
+/// A mode whose ψ⁻¹ goes through a lookup map (Newton's method for the actuator state p) and whose y^(r) is
+/// not affine in its free input (u + b·u³, Newton's method too) is generated like any other mode: ψ⁻¹ by
+/// Newton, then the input in the states (`phi_x`, `solve_input_x`).
+#[test]
+fn a_mode_with_a_numeric_psi_inv_and_a_non_affine_input_is_generated() {
+    const MODEL: &str = r#"
+name = "modal_map_nonaffine"
+[parameters]
+m = 1200.0
+tau = 0.3
+b = 0.2
+[states]
+v = { rhs = "(force(p) - 100*tanh(v/0.1))/m" }
+p = { rhs = "(u + b*u^3 - brk - p)/tau" }
+[inputs.u]
+[inputs.brk]
+[output]
+name = "v"
+h = "v"
+[modes.drive]
+inputs = { brk = 0.0 }
+[maps.force]
+x = [-2.0, 0.0, 2.0]
+values = [-6000.0, 0.0, 6000.0]
+smooth = 0.5
+"#;
+    let dir = std::env::temp_dir().join(format!("invsim-codegen-modal-na-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temporary directory");
+    let path = dir.join("modal_map_nonaffine.toml");
+    std::fs::write(&path, MODEL).expect("write the model");
+    let (rust, markdown) = invsim_codegen::generate_file(&path).expect("generates");
+    syn::parse_file(&rust).expect("the file is Rust");
+    for item in [
+        "pub mod mode_drive",
+        "pub fn psi_inv(",
+        "pub fn phi_x(",
+        "pub fn solve_input_x(",
+        "fn invert_from(",
+    ] {
+        assert!(rust.contains(item), "{item}");
+    }
+    assert!(
+        markdown.contains("solved numerically by Newton"),
+        "{markdown}"
+    );
+}

@@ -89,15 +89,18 @@ struct Tapes {
     newton: Tape,
     /// (x, w) → h.
     h: Tape,
-    /// (ξ, η, w, yr) → dη/dt when ψ⁻¹ is closed-form, else (x, w, yr) → dη/dt.
+    /// (ξ, η, w, yr, u) → dη/dt when ψ⁻¹ is closed-form, else (x, w, yr, u) → dη/dt (u only where the zero
+    /// dynamics contain the input: a non-affine y^(r) solved by Newton's method).
     zero: Tape,
     /// (x, w, u) → f + g u.
     rhs: Tape,
     /// (x, w, u) → the `[outputs]`.
     outputs: Tape,
-    /// Non-affine models: (ξ, η, w, u) → (φ, ∂φ/∂u), y^(r) = φ; empty for affine ones.
+    /// Non-affine models: (ξ, η, w, u) → (φ, ∂φ/∂u), y^(r) = φ, where ψ⁻¹ is closed-form, else
+    /// (x, w, u) → (φ, ∂φ/∂u) in the states; empty for affine ones.
     phi: Tape,
-    /// Non-affine models with an input solution: (ξ, η, w, yr) → u; empty otherwise.
+    /// Non-affine models with an input solution: (ξ, η, w, yr) → u where ψ⁻¹ is closed-form, else
+    /// (x, w, yr) → u; empty otherwise.
     solution: Tape,
 }
 
@@ -111,6 +114,8 @@ impl Tapes {
             &mut self.zero,
             &mut self.rhs,
             &mut self.outputs,
+            &mut self.phi,
+            &mut self.solution,
         ] {
             t.set_map(index, data.clone());
         }
@@ -161,15 +166,24 @@ fn compile(
 }
 
 /// The tapes of a non-affine model (empty for an affine one): (ξ, η, w, u) → (φ, ∂φ/∂u) and, where u can be
-/// isolated, (ξ, η, w, yr) → u.
+/// isolated, (ξ, η, w, yr) → u; where ψ⁻¹ is solved numerically the same in the states, (x, w, u) and
+/// (x, w, yr) (φ = D^r h and u isolated from φ(x, w, u) = yr, evaluated at Newton's x = ψ⁻¹(ξ, η)).
 fn non_affine_tapes(d: &Derivation, params: &[Symbol]) -> Result<(Tape, Tape), InterpretError> {
     let u = d.model.input.symbol;
-    let (phi_exprs, sol_exprs): (Vec<Id>, Vec<Id>) = if d.yr_affine || !d.psi_inv_closed() {
-        (Vec::new(), Vec::new())
-    } else {
+    let states = d.model.state_symbols();
+    let (phi_exprs, sol_exprs, coords): (Vec<Id>, Vec<Id>, Vec<Symbol>) = if d.yr_affine {
+        (Vec::new(), Vec::new(), Vec::new())
+    } else if d.psi_inv_closed() {
         (
             vec![d.alpha, d.beta],
             d.input_solution.into_iter().collect(),
+            cat(&[&d.xi, &d.eta]),
+        )
+    } else {
+        (
+            vec![d.alpha_x, d.beta_x],
+            d.input_solution_x.into_iter().collect(),
+            states,
         )
     };
     Ok((
@@ -177,13 +191,13 @@ fn non_affine_tapes(d: &Derivation, params: &[Symbol]) -> Result<(Tape, Tape), I
             d,
             "y^(r) and its ∂/∂u",
             &phi_exprs,
-            &cat(&[&d.xi, &d.eta, &d.w, &[u], params]),
+            &cat(&[&coords, &d.w, &[u], params]),
         )?,
         compile(
             d,
             "the input solution",
             &sol_exprs,
-            &cat(&[&d.xi, &d.eta, &d.w, &[d.yr], params]),
+            &cat(&[&coords, &d.w, &[d.yr], params]),
         )?,
     ))
 }
@@ -258,7 +272,7 @@ impl Interpreter {
                 d,
                 "zero dynamics",
                 &d.zero_dynamics_x,
-                &cat(&[&states, w, &[d.yr], &params]),
+                &cat(&[&states, w, &[d.yr, u], &params]),
             )?
         };
         let rhs: Vec<Id> = m.states.iter().map(|s| s.rhs).collect();
@@ -339,21 +353,23 @@ impl Interpreter {
         })
     }
 
-    /// (φ, ∂φ/∂u) of a non-affine model at (ξ, η, w, u).
-    fn phi(&self, xi: &[f64], eta: &[f64], w: &[f64], u: f64) -> (f64, f64) {
+    /// (φ, ∂φ/∂u) of a non-affine model at (coordinates, w, u): the coordinates are `[ξ, η]` where ψ⁻¹ is
+    /// closed-form, `[x]` where it is solved numerically.
+    fn phi(&self, at: [&[f64]; 2], w: &[f64], u: f64) -> (f64, f64) {
         let mut out = [0.0; 2];
-        self.special.phi.eval_parts(&[xi, eta, w, &[u]], &mut out);
+        self.special
+            .phi
+            .eval_parts(&[at[0], at[1], w, &[u]], &mut out);
         (out[0], out[1])
     }
 
     /// u with y^(r) = φ(ξ, η, w, u) = yr (non-affine models): the input solution where u was isolated, else
     /// Newton's method with the analytic ∂φ/∂u from `start` (the previous sample's input; NaN: the middle of
     /// the input's bounds, 0 without bounds), each step halved until |φ − yr| decreases; converged when the
-    /// step is below 1e-12·(1 + |u|).
+    /// step is below 1e-12·(1 + |u|). `at`: the coordinates as in [`Interpreter::phi`].
     fn solve_input(
         &self,
-        xi: &[f64],
-        eta: &[f64],
+        at: [&[f64]; 2],
         w: &[f64],
         yr: f64,
         start: f64,
@@ -362,7 +378,7 @@ impl Interpreter {
             let mut u = [0.0];
             self.special
                 .solution
-                .eval_parts(&[xi, eta, w, &[yr]], &mut u);
+                .eval_parts(&[at[0], at[1], w, &[yr]], &mut u);
             if !u[0].is_finite() {
                 return Err(ModelError::NoInputSolution {
                     yr,
@@ -376,7 +392,7 @@ impl Interpreter {
         } else {
             self.u_start
         };
-        let (mut phi, mut dphi) = self.phi(xi, eta, w, u);
+        let (mut phi, mut dphi) = self.phi(at, w, u);
         let mut residual = (phi - yr).abs();
         for _ in 0..PSI_INV_NEWTON_MAX_ITER {
             let step = (phi - yr) / dphi;
@@ -389,7 +405,7 @@ impl Interpreter {
             let mut lambda = 1.0;
             loop {
                 let trial = u - lambda * step;
-                let (p, dp) = self.phi(xi, eta, w, trial);
+                let (p, dp) = self.phi(at, w, trial);
                 if (p - yr).abs() < residual || lambda < 1e-6 {
                     (u, phi, dphi, residual) = (trial, p, dp, (p - yr).abs());
                     break;
@@ -410,9 +426,9 @@ impl Interpreter {
 
     /// (α, β) at (ξ, η), from the closed form or via Newton from x = 1.
     fn alpha_beta(&self, xi: &[f64], eta: &[f64], w: &[f64]) -> (f64, f64) {
-        if !self.affine {
+        if !self.affine && self.closed {
             // The linearisation at u = 0: y^(r) ≈ φ(0) + ∂φ/∂u(0)·u.
-            return self.phi(xi, eta, w, 0.0);
+            return self.phi([xi, eta], w, 0.0);
         }
         if self.closed {
             let mut ab = [0.0; 2];
@@ -421,6 +437,8 @@ impl Interpreter {
         } else {
             let mut x = vec![1.0; self.n];
             match self.newton(xi, eta, w, &mut x) {
+                // The linearisation at u = 0 in the states where y^(r) is not affine in u.
+                Ok(()) if !self.affine => self.phi([&x, &[]], w, 0.0),
                 Ok(()) => self.alpha_beta_x(&x, w),
                 Err(_) => (f64::NAN, f64::NAN),
             }
@@ -516,12 +534,14 @@ impl InverseModel for Interpreter {
         u_guess: f64,
         deta: &mut [f64],
     ) {
+        // The input in the zero dynamics: none where it is affine or isolated, else Newton's.
+        let newton_u = !self.affine && self.special.solution.n_outputs() == 0;
         if self.closed {
-            let u = if self.affine || self.special.solution.n_outputs() > 0 {
-                0.0
-            } else {
-                self.solve_input(xi, eta, w, yr, u_guess)
+            let u = if newton_u {
+                self.solve_input([xi, eta], w, yr, u_guess)
                     .unwrap_or(f64::NAN)
+            } else {
+                0.0
             };
             self.special.zero.eval_parts(&[xi, eta, w, &[yr, u]], deta);
         } else {
@@ -530,7 +550,13 @@ impl InverseModel for Interpreter {
                 deta.fill(f64::NAN);
                 return;
             }
-            self.special.zero.eval_parts(&[&x, w, &[yr]], deta);
+            let u = if newton_u {
+                self.solve_input([&x, &[]], w, yr, u_guess)
+                    .unwrap_or(f64::NAN)
+            } else {
+                0.0
+            };
+            self.special.zero.eval_parts(&[&x, w, &[yr, u]], deta);
         }
     }
     fn rhs(&self, x: &[f64], w: &[f64], u: f64, dx: &mut [f64]) {
@@ -610,13 +636,17 @@ impl InverseModel for Interpreter {
             let mut buf = vec![0.0; n];
             self.special.invert.eval_parts(&[xi, eta, w], &mut buf);
             x.copy_from_slice(&buf);
-            return self.solve_input(xi, eta, w, yr, u_guess);
+            return self.solve_input([xi, eta], w, yr, u_guess);
         }
         if self.closed {
             let (a, b) = self.invert_closed(xi, eta, w, x);
             return Ok((yr - a) / b);
         }
         self.newton(xi, eta, w, x)?;
+        if !self.affine {
+            // ψ⁻¹ by Newton's method, then u from φ(x, w, u) = y^(r) at that x.
+            return self.solve_input([&*x, &[]], w, yr, u_guess);
+        }
         let (a, b) = self.alpha_beta_x(x, w);
         Ok((yr - a) / b)
     }

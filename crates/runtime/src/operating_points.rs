@@ -33,11 +33,13 @@ pub struct OperatingPoints {
     pub total_time_s: f64,
 }
 
-/// Collects (speed, torque) of every sample of a run.
+/// Collects (speed, torque) of every sample of a run, and the range of the finite ones.
 #[derive(Debug, Clone)]
 pub(crate) struct OperatingPointTally {
     engine: EngineInfo,
     points: Vec<[f64; 2]>,
+    /// `[lo, hi]` of the finite speeds and of the finite torques (`lo > hi` while there is none).
+    range: [[f64; 2]; 2],
 }
 
 impl OperatingPointTally {
@@ -46,22 +48,42 @@ impl OperatingPointTally {
         info.engine.map(|engine| OperatingPointTally {
             engine,
             points: Vec::with_capacity(samples),
+            range: [[f64::INFINITY, f64::NEG_INFINITY]; 2],
         })
     }
 
     /// The sample whose extra outputs are `outputs`.
     #[inline]
     pub(crate) fn push(&mut self, outputs: impl Fn(usize) -> f64) {
-        self.points
-            .push([outputs(self.engine.speed), outputs(self.engine.torque)]);
+        self.add([outputs(self.engine.speed), outputs(self.engine.torque)]);
+    }
+
+    /// Consecutive samples given as columns: every extra output's values (`columns[o][i]`) for `range`.
+    pub(crate) fn extend(&mut self, columns: &[&mut [f64]], range: std::ops::Range<usize>) {
+        let (w, t) = (
+            &columns[self.engine.speed][range.clone()],
+            &columns[self.engine.torque][range],
+        );
+        self.points.reserve(w.len());
+        for (&w, &t) in w.iter().zip(t) {
+            self.add([w, t]);
+        }
+    }
+
+    #[inline]
+    fn add(&mut self, p: [f64; 2]) {
+        for (r, &v) in self.range.iter_mut().zip(&p) {
+            if v.is_finite() {
+                *r = [r[0].min(v), r[1].max(v)];
+            }
+        }
+        self.points.push(p);
     }
 
     /// The histogram of the samples, taken dt apart.
     pub(crate) fn finish(self, info: &ModelInfo, dt: f64) -> OperatingPoints {
-        let (speeds, torques): (Vec<f64>, Vec<f64>) =
-            self.points.iter().map(|&[w, t]| (w, t)).unzip();
-        let speed_edges = nice_edges(&speeds);
-        let torque_edges = nice_edges(&torques);
+        let speed_edges = nice_edges(self.range[0]);
+        let torque_edges = nice_edges(self.range[1]);
         let mut time_s = vec![vec![0.0; torque_edges.len() - 1]; speed_edges.len() - 1];
         let last = self.points.len().saturating_sub(1);
         for (k, &[w, t]) in self.points.iter().enumerate() {
@@ -129,13 +151,7 @@ impl OperatingPoints {
 }
 
 /// Equal bins of a nice width over the range of `values` (finite ones; at least one bin).
-fn nice_edges(values: &[f64]) -> Vec<f64> {
-    let (lo, hi) = values
-        .iter()
-        .filter(|v| v.is_finite())
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
-            (a.min(v), b.max(v))
-        });
+fn nice_edges([lo, hi]: [f64; 2]) -> Vec<f64> {
     if lo > hi {
         return vec![0.0, 1.0];
     }
@@ -167,7 +183,8 @@ fn bin(edges: &[f64], v: f64) -> usize {
         return 0;
     }
     let width = edges[1] - edges[0];
-    (((v - edges[0]) / width).floor() as usize).min(n - 1)
+    // (v − e₀)/width ≥ 0 here, so truncation is the floor (and +∞ saturates).
+    (((v - edges[0]) / width) as usize).min(n - 1)
 }
 
 #[cfg(test)]
@@ -176,13 +193,13 @@ mod tests {
 
     #[test]
     fn nice_bins_cover_the_range() {
-        let e = nice_edges(&[0.0, 3.3, 99.0]);
+        let e = nice_edges([0.0, 99.0]);
         assert_eq!(e[0], 0.0);
         assert!(*e.last().unwrap() > 99.0);
         assert_eq!(e[1] - e[0], 5.0);
         assert_eq!(bin(&e, 99.0), e.len() - 2);
         assert_eq!(bin(&e, 0.0), 0);
-        let flat = nice_edges(&[2.0, 2.0]);
+        let flat = nice_edges([2.0, 2.0]);
         assert!(flat[0] <= 2.0 && 2.0 < flat[1]);
     }
 }

@@ -8,10 +8,12 @@
 //!
 //! Modules, in the one direction their imports go: `axis` (ranges, nice ticks), `font` (the embedded font:
 //! text widths, PNG), `figure` (the SVG layout), `panels` (what each `--plot-vars` name draws), `reference`
-//! (the reference panels' axis and raw cycle), `modal` (the figures of runs with operating modes, with the
-//! step panel of the mode sequence), this file.
+//! (the reference panels' axis and raw cycle), `exogenous` (the panel of a `[signals]` signal, raw and
+//! smoothed), `modal` (the figures of runs with operating modes, with the step panel of the mode sequence),
+//! this file.
 
 mod axis;
+mod exogenous;
 mod figure;
 mod font;
 mod modal;
@@ -26,6 +28,7 @@ use thiserror::Error;
 use crate::cycle::Cycle;
 use crate::forward::ForwardResult;
 use crate::inverse::SimulationResult;
+use exogenous::signal_raw_and_smoothed;
 use panels::{input_panel, resolve, series, signal_panel, Var, CYCLE, REFERENCE};
 use reference::{raw_points, reference_axis, time_range};
 
@@ -276,69 +279,6 @@ fn simulation_reference(
             },
             series("y_d (smoothed)".to_string(), REFERENCE, 2.0, r.time(), &yd),
         ],
-    }
-}
-
-/// The panel of exogenous signal `i`: its raw samples (linear between them, held outside their span) and,
-/// for an inverse run, the smoothed signal the inverse used (`smoothed`, on the times `t`).
-fn signal_raw_and_smoothed(
-    info: &ModelInfo,
-    i: usize,
-    raw: Option<&crate::signals::ResolvedSignal>,
-    (t, smoothed): (&[f64], &[f64]),
-    (t0, t1): (f64, f64),
-) -> Panel {
-    let s = &info.signals[i];
-    let mut series = Vec::new();
-    if let Some(raw) = raw {
-        // The raw signal's corners inside the plotted range, plus its values at the range's ends.
-        let at = |x: f64| {
-            let k = raw.time.partition_point(|&c| c <= x);
-            match (k.checked_sub(1), raw.time.get(k)) {
-                (Some(j), Some(&tn)) => {
-                    let w = (x - raw.time[j]) / (tn - raw.time[j]);
-                    raw.values[j] + w * (raw.values[j + 1] - raw.values[j])
-                }
-                (Some(j), None) => raw.values[j],
-                (None, _) => raw.values[0],
-            }
-        };
-        let mut points = vec![(t0, at(t0))];
-        points.extend(
-            raw.time
-                .iter()
-                .zip(&raw.values)
-                .filter(|(&x, _)| x > t0 && x < t1)
-                .map(|(&x, &v)| (x, v)),
-        );
-        points.push((t1, at(t1)));
-        let (ts, vs): (Vec<f64>, Vec<f64>) = points.into_iter().unzip();
-        series.push(panels::series(
-            format!("{} (raw, {})", s.name, raw.source),
-            CYCLE,
-            1.5,
-            &ts,
-            &vs,
-        ));
-    }
-    if !smoothed.is_empty() {
-        series.push(panels::series(
-            format!("{} (smoothed)", s.name),
-            REFERENCE,
-            2.0,
-            t,
-            smoothed,
-        ));
-    }
-    Panel {
-        var: s.name.clone(),
-        title: format!(
-            "signal {}: raw and smoothed with the reference's kernel",
-            s.name
-        ),
-        y_label: panels::with_unit(&s.name, s.unit.as_deref()),
-        y_zero: false,
-        series,
     }
 }
 

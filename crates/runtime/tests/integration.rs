@@ -5,6 +5,8 @@
 //! - `forward_budget`: The forward run's budgets (issue 15, defect 5): a closed loop made stiff or fast by absurd driver gains stops
 //! - `forward_integrals`: The forward run's integrals do not depend on the output grid (issue 15, defect 12): the accumulated outputs
 //! - `fuzz_regressions`: Replays the fuzz regressions of the drive-cycle reader (`fuzz/regressions/cycle_reader/*`) through the very
+//! - `modes_plot_signals`: The plots of a model with operating modes and a road grade signal, inverse and
+//!   forward: the signal's panel with its raw and smoothed curves read back from the SVG.
 //! - `modes_forward`: The forward run with modes against the inverse run with modes: si_engine_5speed on the NEDC,
 //!   fuel within 2 %, the same gears outside a short window around each shift, the tracking error reported.
 //! - `modes`: Runs with operating modes: si_engine_5speed on the NEDC and the UDDS, and a two-mode linear model against
@@ -28,6 +30,7 @@ mod fusion_6speed;
 mod fuzz_regressions;
 mod modes;
 mod modes_forward;
+mod modes_plot_signals;
 mod modes_signals;
 mod modes_summary_blocks;
 mod nonsense_options;

@@ -16,7 +16,7 @@ use invsim_runtime::{Cycle, ForwardOptions, SignalInput, SignalValue, Smoother};
 use crate::modes::support::{five_speed, load, spec, speed_schedule, Loaded};
 
 /// si_engine_5speed with a `grade` signal (text of the shipped model with the grade added to F_res).
-fn graded() -> Loaded {
+pub(crate) fn graded() -> Loaded {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models/si_engine_5speed.toml");
     let text = std::fs::read_to_string(&path).expect("the model file");
     let old = r#"F_res  = { expr = "0.5*rho_a*C_d*A_f*v^2 + m*g_0*c_r*tanh(v/v_eps)","#;

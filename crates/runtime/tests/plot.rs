@@ -88,7 +88,7 @@ fn texts(doc: &roxmltree::Document) -> Vec<Text> {
 }
 
 /// Check the SVG's structure: the panels `vars`, their labels, legends and the canvas.
-fn check_svg(svg: &str, vars: &[String], what: &str) {
+pub(crate) fn check_svg(svg: &str, vars: &[String], what: &str) {
     let doc = roxmltree::Document::parse(svg).unwrap_or_else(|e| panic!("{what}: {e}"));
     let root = doc.root_element();
     let (w, h) = (attr(root, "width"), attr(root, "height"));
@@ -262,10 +262,23 @@ fn every_shipped_model_with_modes_plots_its_inputs_and_its_gear() {
             .to_svg();
         let panels = panel_labels(&svg);
         let names: Vec<&str> = panels.iter().map(|(n, _)| n.as_str()).collect();
+        // The signals (the 6-speed Fusion's grade) come right after the reference.
+        let signals: Vec<&str> = spec.modes[0]
+            .model
+            .info()
+            .signals
+            .iter()
+            .map(|s| s.name.as_str())
+            .collect();
+        let expected: Vec<&str> = ["reference"]
+            .into_iter()
+            .chain(signals.iter().copied())
+            .chain(["m_at", "F_b", "gear", "cum:fuel"])
+            .collect();
         assert_eq!(
-            &names[..5],
-            ["reference", "m_at", "F_b", "gear", "cum:fuel"],
-            "{what}: the gear under the inputs"
+            &names[..expected.len()],
+            expected,
+            "{what}: the signals after the reference, the gear under the inputs"
         );
         for (var, label) in [
             ("m_at", "m_at [kg/s]"),

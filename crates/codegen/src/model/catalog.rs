@@ -3,7 +3,9 @@
 //!
 //! * ψ⁻¹ in closed form: `psi_inv`, `alpha`, `beta`, `invert` and `zero_dynamics` are evaluated in (ξ, η);
 //! * ψ⁻¹ solved numerically: `psi_jacobian` (ψ and ∂ψ/∂x, for Newton's method in `newton`), and α, β and
-//!   the zero dynamics in the states (L_f^r h, L_g L_f^(r−1) h, f_η + g_η·u).
+//!   the zero dynamics in the states (L_f^r h, L_g L_f^(r−1) h, f_η + g_η·u);
+//! * ψ⁻¹ solved numerically and y^(r) not affine in u: `psi_jacobian`, and φ(x, w, u) = D^r h with ∂φ/∂u,
+//!   the input solution where u was isolated and the zero dynamics in the states (`solve_input`).
 
 use super::context::{Arg, FnKind, Gen, Shape, Straight};
 use super::docs::{equations, Lhs};
@@ -46,8 +48,10 @@ pub(super) fn functions(g: &Gen<'_>) -> Vec<Straight> {
         fs.extend(non_affine(g, &lhs));
     } else if g.closed {
         fs.extend(closed(g, &lhs));
-    } else {
+    } else if g.affine {
         fs.extend(numeric(g, &lhs));
+    } else {
+        fs.extend(numeric_non_affine(g, &lhs));
     }
     fs.extend(original(g, &lhs));
     fs
@@ -253,8 +257,8 @@ fn invert_doc() -> Vec<String> {
     ]
 }
 
-/// The functions of a numeric ψ⁻¹, evaluated in the states.
-fn numeric(g: &Gen<'_>, lhs: &Lhs) -> Vec<Straight> {
+/// ψ(x) and its Jacobian, for Newton's method on ψ(x) = (ξ, η).
+fn psi_jacobian(g: &Gen<'_>, lhs: &Lhs) -> Straight {
     let d = g.d;
     let n = d.n();
     let psi_lhs = lhs.psi();
@@ -279,7 +283,7 @@ fn numeric(g: &Gen<'_>, lhs: &Lhs) -> Vec<Straight> {
         String::new(),
     ];
     doc.extend(equations(g, &eq_lhs, &roots));
-    let mut fs = vec![Straight::new(
+    Straight::new(
         FnKind::PsiJacobian,
         g.with_w(vec![g.x_arg()]),
         roots,
@@ -288,7 +292,13 @@ fn numeric(g: &Gen<'_>, lhs: &Lhs) -> Vec<Straight> {
             Shape::Array("N", n, Box::new(Shape::array("N", n))),
         ]),
         doc,
-    )];
+    )
+}
+
+/// The functions of a numeric ψ⁻¹, evaluated in the states.
+fn numeric(g: &Gen<'_>, lhs: &Lhs) -> Vec<Straight> {
+    let d = g.d;
+    let mut fs = vec![psi_jacobian(g, lhs)];
     let mut doc = vec!["α in the states: L_f^r h(x).".to_string(), String::new()];
     doc.extend(equations(
         g,
@@ -324,6 +334,80 @@ fn numeric(g: &Gen<'_>, lhs: &Lhs) -> Vec<Straight> {
                 args.push(Arg::Scalar(d.yr));
                 args
             },
+            d.zero_dynamics_x.clone(),
+            Shape::array("N_ETA", d.eta.len()),
+            doc,
+        ));
+    }
+    fs
+}
+
+/// The functions of a numeric ψ⁻¹ whose y^(r) = φ(x, w, u) is not affine in u, in the states (as the
+/// interpreter: Newton's x = ψ⁻¹(ξ, η), then u from φ(x, w, u) = y^(r) at that x): ψ and its Jacobian, φ with
+/// ∂φ/∂u, the input solution where u was isolated, and the zero dynamics in (x, w, y^(r), u) (free of u
+/// where the input solution is substituted).
+fn numeric_non_affine(g: &Gen<'_>, lhs: &Lhs) -> Vec<Straight> {
+    let d = g.d;
+    let u = d.model.input.symbol;
+    let x_w = || g.with_w(vec![g.x_arg()]);
+    let mut fs = vec![psi_jacobian(g, lhs)];
+    let mut doc = vec![
+        "y^(r) = φ(x, u) = D^r h in the states, not affine in the input, and ∂φ/∂u, the derivative Newton's \
+         method takes."
+            .to_string(),
+    ];
+    if !d.singular.is_empty() {
+        doc.push(String::new());
+        doc.push(format!("∂φ/∂u vanishes {}.", d.singular.join("; ")));
+    }
+    doc.push(String::new());
+    let names = [
+        ("phi".into(), "\\varphi".into()),
+        (
+            "dphi_du".into(),
+            "\\frac{\\partial \\varphi}{\\partial u}".into(),
+        ),
+    ];
+    doc.extend(equations(g, &names, &[d.alpha_x, d.beta_x]));
+    let mut args = x_w();
+    args.push(Arg::Scalar(u));
+    fs.push(Straight::new(
+        FnKind::PhiX,
+        args,
+        vec![d.alpha_x, d.beta_x],
+        Shape::Tuple(vec![Shape::Scalar, Shape::Scalar]),
+        doc,
+    ));
+    if let Some(sol) = d.input_solution_x {
+        let mut doc = vec![
+            "The input that gives y^(r) = `yr`, φ(x, u) = y^(r) solved for u by isolation, in the states."
+                .to_string(),
+            String::new(),
+        ];
+        doc.extend(equations(g, &[("u".into(), "u".into())], &[sol]));
+        let mut args = x_w();
+        args.push(Arg::Scalar(d.yr));
+        fs.push(Straight::new(
+            FnKind::InputSolutionX,
+            args,
+            vec![sol],
+            Shape::Scalar,
+            doc,
+        ));
+    }
+    if !d.eta.is_empty() {
+        let mut doc = vec![
+            "The zero dynamics dη/dt = rhs_η(x, u) in the states, at the input u that gives y^(r)."
+                .to_string(),
+            String::new(),
+        ];
+        doc.extend(equations(g, &lhs.deta, &d.zero_dynamics_x));
+        let mut args = x_w();
+        args.push(Arg::Scalar(d.yr));
+        args.push(Arg::Scalar(u));
+        fs.push(Straight::new(
+            FnKind::ZeroDynamicsX,
+            args,
             d.zero_dynamics_x.clone(),
             Shape::array("N_ETA", d.eta.len()),
             doc,

@@ -27,6 +27,8 @@ pub(super) enum FnKind {
     ZeroDynamicsX,
     Phi,
     InputSolution,
+    PhiX,
+    InputSolutionX,
     Rhs,
     Outputs,
 }
@@ -48,6 +50,8 @@ impl FnKind {
             FnKind::ZeroDynamicsX => "zero_dynamics_x",
             FnKind::Phi => "phi",
             FnKind::InputSolution => "input_solution",
+            FnKind::PhiX => "phi_x",
+            FnKind::InputSolutionX => "input_solution_x",
             FnKind::Rhs => "rhs",
             FnKind::Outputs => "outputs",
         }
@@ -69,6 +73,10 @@ impl FnKind {
             FnKind::ZeroDynamicsX => "The zero dynamics in the states",
             FnKind::Phi => "y^(r) = φ(ξ, η, u) and ∂φ/∂u",
             FnKind::InputSolution => "The input u solving φ(ξ, η, u) = y^(r) in closed form",
+            FnKind::PhiX => "y^(r) = φ(x, u) and ∂φ/∂u in the states",
+            FnKind::InputSolutionX => {
+                "The input u solving φ(x, u) = y^(r) in closed form, in the states"
+            }
             FnKind::Rhs => "dx/dt = f(x) + g(x)·u",
             FnKind::Outputs => "The extra outputs",
         }
@@ -183,7 +191,8 @@ pub(super) struct Gen<'d> {
     pub(super) d: &'d Derivation,
     pub(super) pool: &'d Pool,
     pub(super) closed: bool,
-    /// y^(r) affine in the input (else u solves y^(r) = φ(ξ, η, w, u), `solve_input.rs`).
+    /// y^(r) affine in the input (else u solves y^(r) = φ(ξ, η, w, u), or φ(x, w, u) where ψ⁻¹ is numeric,
+    /// `solve_input.rs`).
     pub(super) affine: bool,
     pub(super) fields: HashMap<Symbol, FieldName>,
     pub(super) locals: HashMap<Symbol, Ident>,

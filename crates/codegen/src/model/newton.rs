@@ -1,7 +1,8 @@
 //! Newton's method for a ψ⁻¹ without closed form: `psi_inv` iterates on ψ(x) = (ξ, η) with the analytic
 //! Jacobian `psi_jacobian` (same iteration limit, tolerance and residual scaling as the interpreter); α, β,
 //! the inverse and the zero dynamics are then evaluated in the states at the solution (L_f^r h,
-//! L_g L_f^(r−1) h, f_η + g_η·u). Also the free wrappers, the LU solve and the constants.
+//! L_g L_f^(r−1) h, f_η + g_η·u); where y^(r) is not affine in u, the input at the solution comes from
+//! `solve_input.rs` instead. Also the free wrappers, the LU solve and the constants.
 
 use super::context::Gen;
 use crate::emit;
@@ -18,11 +19,19 @@ pub(super) struct Newton {
     pub(super) helpers: Vec<TokenStream>,
 }
 
-/// The Newton items of a model whose ψ⁻¹ is solved numerically.
+/// The Newton items of a model whose ψ⁻¹ is solved numerically (ψ⁻¹ alone where y^(r) is not affine in u).
 pub(super) fn newton(g: &Gen<'_>) -> Newton {
+    let helpers = vec![lu_solve(), constants()];
+    if !g.affine {
+        return Newton {
+            methods: vec![psi_inv_method(g)],
+            free: vec![psi_inv_free(g)],
+            helpers,
+        };
+    }
     let ne = g.d.eta.len();
     let (wp, wa) = w_tokens(g);
-    let mut methods = vec![methods(g)];
+    let mut methods = vec![psi_inv_method(g), methods(g)];
     if ne > 0 {
         methods.push(quote! {
             /// The zero dynamics dη/dt at x = ψ⁻¹(ξ, η) (Newton from `guess`); see
@@ -39,7 +48,7 @@ pub(super) fn newton(g: &Gen<'_>) -> Newton {
             }
         });
     }
-    let mut free = vec![free_functions(g)];
+    let mut free = vec![psi_inv_free(g), free_functions(g)];
     if ne > 0 {
         free.push(quote! {
             /// The zero dynamics at the parameters `p`; see [`Precomputed::zero_dynamics`].
@@ -59,7 +68,7 @@ pub(super) fn newton(g: &Gen<'_>) -> Newton {
     Newton {
         methods,
         free,
-        helpers: vec![lu_solve(), constants()],
+        helpers,
     }
 }
 
@@ -73,8 +82,8 @@ pub(super) fn w_tokens(g: &Gen<'_>) -> (TokenStream, TokenStream) {
     }
 }
 
-/// `psi_inv` by Newton's method, and α, β and the inverse at its solution.
-fn methods(g: &Gen<'_>) -> TokenStream {
+/// `psi_inv` by Newton's method.
+fn psi_inv_method(g: &Gen<'_>) -> TokenStream {
     let (wp, wa) = w_tokens(g);
     let (r, ne) = (g.d.relative_degree, g.d.eta.len());
     let lit = proc_macro2::Literal::usize_unsuffixed;
@@ -133,7 +142,13 @@ fn methods(g: &Gen<'_>) -> TokenStream {
             }
             Err(ModelError::NewtonDidNotConverge { iterations: NEWTON_MAX_ITER, residual })
         }
+    }
+}
 
+/// α, β and the inverse at the solution of `psi_inv`.
+fn methods(g: &Gen<'_>) -> TokenStream {
+    let (wp, wa) = w_tokens(g);
+    quote! {
         /// α(ξ, η) = L_f^r h at x = ψ⁻¹(ξ, η) (Newton from `guess`); see [`Precomputed::alpha_x`].
         pub fn alpha(&self, xi: &[f64; R], eta: &[f64; N_ETA], #wp guess: &[f64; N]) -> Result<f64, ModelError> {
             Ok(self.alpha_x(&self.psi_inv(xi, eta #wa, guess)? #wa))
@@ -164,8 +179,8 @@ fn methods(g: &Gen<'_>) -> TokenStream {
     }
 }
 
-/// The free wrappers of the Newton methods.
-fn free_functions(g: &Gen<'_>) -> TokenStream {
+/// The free wrapper of `psi_inv`.
+fn psi_inv_free(g: &Gen<'_>) -> TokenStream {
     let (wp, wa) = w_tokens(g);
     quote! {
         /// x = ψ⁻¹(ξ, η) by Newton's method at the parameters `p`; see [`Precomputed::psi_inv`].
@@ -173,6 +188,13 @@ fn free_functions(g: &Gen<'_>) -> TokenStream {
         pub fn psi_inv(p: &Params, xi: &[f64; R], eta: &[f64; N_ETA], #wp guess: &[f64; N]) -> Result<[f64; N], ModelError> {
             Precomputed::new(p).psi_inv(xi, eta #wa, guess)
         }
+    }
+}
+
+/// The free wrappers of α, β and the inverse.
+fn free_functions(g: &Gen<'_>) -> TokenStream {
+    let (wp, wa) = w_tokens(g);
+    quote! {
         /// α(ξ, η) at the parameters `p`; see [`Precomputed::alpha`].
         #[inline]
         pub fn alpha(p: &Params, xi: &[f64; R], eta: &[f64; N_ETA], #wp guess: &[f64; N]) -> Result<f64, ModelError> {

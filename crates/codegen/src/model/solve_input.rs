@@ -2,7 +2,9 @@
 //! solves it: the closed-form `input_solution` where the derivation isolated u, else Newton's method on
 //! φ(ξ, η, w, u) = y^(r) with the analytic ∂φ/∂u (`phi`), from a start (the previous sample's input, else the
 //! middle of the input's bounds), each step halved until |φ − y^(r)| decreases, converged when the step is
-//! below 1e-12·(1 + |u|). Also `invert` (ψ⁻¹ and the input), the free wrappers and the constants.
+//! below 1e-12·(1 + |u|). Also `invert` (ψ⁻¹ and the input), the free wrappers and the constants. Where ψ⁻¹
+//! is solved numerically ([`solve_input_x`]) the same iteration runs in the states: x = ψ⁻¹(ξ, η) by Newton's
+//! method (`newton.rs`), then u from φ(x, w, u) = y^(r) (`phi_x`, `input_solution_x`), as the interpreter.
 
 use super::context::Gen;
 use super::newton::w_tokens;
@@ -22,9 +24,9 @@ pub(super) struct SolveInput {
 pub(super) fn solve_input(g: &Gen<'_>) -> SolveInput {
     let (wp, wa) = w_tokens(g);
     let body = if g.d.input_solution.is_some() {
-        isolated(&wa)
+        isolated(quote!(self.input_solution(xi, eta #wa, yr)))
     } else {
-        newton(&wa)
+        newton(|u| quote!(self.phi(xi, eta #wa, #u)))
     };
     let methods = quote! {
         /// The input u with y^(r) = φ(ξ, η, u) = `yr`: the closed-form input solution where u was isolated
@@ -91,11 +93,11 @@ pub(super) fn solve_input(g: &Gen<'_>) -> SolveInput {
     }
 }
 
-/// `solve_input`'s body where u was isolated.
-fn isolated(wa: &TokenStream) -> TokenStream {
+/// `solve_input`'s body where u was isolated (`solution`: the call of the input solution).
+fn isolated(solution: TokenStream) -> TokenStream {
     quote! {
         let _ = start;
-        let u = self.input_solution(xi, eta #wa, yr);
+        let u = #solution;
         if !u.is_finite() {
             return Err(ModelError::NoInputSolution { yr, residual: f64::NAN });
         }
@@ -103,11 +105,13 @@ fn isolated(wa: &TokenStream) -> TokenStream {
     }
 }
 
-/// `solve_input`'s body by Newton's method (the interpreter's iteration, step for step).
-fn newton(wa: &TokenStream) -> TokenStream {
+/// `solve_input`'s body by Newton's method (the interpreter's iteration, step for step); `phi(u)` is the
+/// call of (φ, ∂φ/∂u) at the input `u`.
+fn newton(phi: impl Fn(TokenStream) -> TokenStream) -> TokenStream {
+    let (at_u, at_trial) = (phi(quote!(u)), phi(quote!(trial)));
     quote! {
         let mut u = if start.is_finite() { start } else { U_START };
-        let (mut phi, mut dphi) = self.phi(xi, eta #wa, u);
+        let (mut phi, mut dphi) = #at_u;
         let mut residual = (phi - yr).abs();
         for _ in 0..INPUT_NEWTON_MAX_ITER {
             let step = (phi - yr) / dphi;
@@ -120,7 +124,7 @@ fn newton(wa: &TokenStream) -> TokenStream {
             let mut lambda = 1.0;
             loop {
                 let trial = u - lambda * step;
-                let (p, dp) = self.phi(xi, eta #wa, trial);
+                let (p, dp) = #at_trial;
                 if (p - yr).abs() < residual || lambda < 1e-6 {
                     (u, phi, dphi, residual) = (trial, p, dp, (p - yr).abs());
                     break;
@@ -130,6 +134,124 @@ fn newton(wa: &TokenStream) -> TokenStream {
         }
         Err(ModelError::NoInputSolution { yr, residual })
     }
+}
+
+/// The items of a model with a numeric ψ⁻¹ and a non-affine y^(r): `solve_input_x` in the states, `invert`
+/// (ψ⁻¹ by Newton's method from a guess for x, then the input) and the zero dynamics at that point.
+pub(super) fn solve_input_x(g: &Gen<'_>) -> SolveInput {
+    let (wp, wa) = w_tokens(g);
+    let isolated_x = g.d.input_solution_x.is_some();
+    let body = if isolated_x {
+        isolated(quote!(self.input_solution_x(x #wa, yr)))
+    } else {
+        newton(|u| quote!(self.phi_x(x #wa, #u)))
+    };
+    let mut methods = vec![quote! {
+        /// The input u with y^(r) = φ(x, u) = `yr` in the states: the closed-form input solution where u was
+        /// isolated (a non-finite value is [`ModelError::NoInputSolution`]), else Newton's method with the
+        /// analytic ∂φ/∂u ([`Precomputed::phi_x`]) from `start` (the previous sample's input; NaN:
+        /// [`U_START`]), each step halved until |φ − yr| decreases, converged when the step is below
+        /// 1e-12·(1 + |u|); a y^(r) it does not reach in [`INPUT_NEWTON_MAX_ITER`] steps is
+        /// [`ModelError::NoInputSolution`].
+        pub fn solve_input_x(&self, x: &[f64; N], #wp yr: f64, start: f64) -> Result<f64, ModelError> {
+            #body
+        }
+
+        /// The inverse at one point: x = ψ⁻¹(ξ, η) by Newton's method from `guess`
+        /// ([`Precomputed::psi_inv`]), then the input that gives y^(r) = `yr` there
+        /// ([`Precomputed::solve_input_x`] from `start`).
+        pub fn invert(
+            &self,
+            xi: &[f64; R],
+            eta: &[f64; N_ETA],
+            #wp
+            yr: f64,
+            guess: &[f64; N],
+            start: f64,
+        ) -> Result<([f64; N], f64), ModelError> {
+            let x = self.psi_inv(xi, eta #wa, guess)?;
+            Ok((x, self.solve_input_x(&x #wa, yr, start)?))
+        }
+    }];
+    let mut free = vec![quote! {
+        /// The input in the states at the parameters `p`; see [`Precomputed::solve_input_x`].
+        #[inline]
+        pub fn solve_input_x(p: &Params, x: &[f64; N], #wp yr: f64, start: f64) -> Result<f64, ModelError> {
+            Precomputed::new(p).solve_input_x(x #wa, yr, start)
+        }
+
+        /// The inverse (x, u) at one point at the parameters `p`; see [`Precomputed::invert`].
+        #[inline]
+        pub fn invert(
+            p: &Params,
+            xi: &[f64; R],
+            eta: &[f64; N_ETA],
+            #wp
+            yr: f64,
+            guess: &[f64; N],
+            start: f64,
+        ) -> Result<([f64; N], f64), ModelError> {
+            Precomputed::new(p).invert(xi, eta #wa, yr, guess, start)
+        }
+    }];
+    if !g.d.eta.is_empty() {
+        let (m, f) = zero_dynamics_x(g, isolated_x);
+        methods.push(m);
+        free.push(f);
+    }
+    SolveInput {
+        methods,
+        free,
+        helpers: vec![constants(g)],
+    }
+}
+
+/// The zero dynamics at x = ψ⁻¹(ξ, η) (Newton from `guess`) and the input there (none where it was
+/// isolated and substituted, else [`Precomputed::solve_input_x`] from `start`, NaN where it fails, as the
+/// interpreter): the method and its free wrapper.
+fn zero_dynamics_x(g: &Gen<'_>, isolated: bool) -> (TokenStream, TokenStream) {
+    let (wp, wa) = w_tokens(g);
+    let u = if isolated {
+        quote!({
+            let _ = start;
+            0.0
+        })
+    } else {
+        quote!(self.solve_input_x(&x #wa, yr, start).unwrap_or(f64::NAN))
+    };
+    let method = quote! {
+        /// The zero dynamics dη/dt at x = ψ⁻¹(ξ, η) (Newton from `guess`) and the input that gives y^(r)
+        /// there (Newton from `start` where it was not isolated); see [`Precomputed::zero_dynamics_x`].
+        pub fn zero_dynamics(
+            &self,
+            xi: &[f64; R],
+            eta: &[f64; N_ETA],
+            #wp
+            yr: f64,
+            guess: &[f64; N],
+            start: f64,
+        ) -> Result<[f64; N_ETA], ModelError> {
+            let x = self.psi_inv(xi, eta #wa, guess)?;
+            let u = #u;
+            Ok(self.zero_dynamics_x(&x #wa, yr, u))
+        }
+    };
+    let free = quote! {
+        /// The zero dynamics at the parameters `p`; see [`Precomputed::zero_dynamics`].
+        #[inline]
+        pub fn zero_dynamics(
+            p: &Params,
+            xi: &[f64; R],
+            eta: &[f64; N_ETA],
+            #wp
+            yr: f64,
+            guess: &[f64; N],
+            start: f64,
+        ) -> Result<[f64; N_ETA], ModelError> {
+            Precomputed::new(p).zero_dynamics(xi, eta #wa, yr, guess, start)
+        }
+    };
+    (method, free)
 }
 
 /// Newton's start without a guess and its iteration limit.

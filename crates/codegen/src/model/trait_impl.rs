@@ -19,8 +19,10 @@ pub(super) fn model(g: &Gen<'_>, invert_batch: bool, set_map: Option<&TokenStrea
         non_affine(ne, g.d.input_solution.is_some(), &w)
     } else if g.closed {
         closed(ne, &w)
-    } else {
+    } else if g.affine {
         numeric(ne, &w)
+    } else {
+        numeric_non_affine(ne, &w)
     };
     let WTokens {
         name: wn, arg: wa, ..
@@ -321,6 +323,74 @@ fn numeric(ne: usize, w: &WTokens) -> Impls {
                 let (states, u) = self.pre.invert(arr(xi), arr(eta) #wa, yr, arr(x))?;
                 x.copy_from_slice(&states);
                 Ok(u)
+            }
+        },
+    )
+}
+
+/// The trait's functions for a numeric ψ⁻¹ and a y^(r) = φ(x, w, u) not affine in u, as the interpreter:
+/// x = ψ⁻¹(ξ, η) by Newton's method (from x = 1 for α, β and the zero dynamics, from the guess in `x` for
+/// the inverse), then φ and ∂φ/∂u at u = 0 (α, β: the linearisation there) or the input solving
+/// φ(x, w, u) = y^(r) (`Precomputed::solve_input_x`, Newton from `u_guess` where it was not isolated).
+fn numeric_non_affine(ne: usize, w: &WTokens) -> Impls {
+    let WTokens {
+        name: wn, arg: wa, ..
+    } = w;
+    let phi_at_zero = |part: TokenStream| {
+        quote! {
+            match self.pre.psi_inv(arr(xi), arr(eta) #wa, &[1.0; N]) {
+                Ok(x) => self.pre.phi_x(&x #wa, 0.0).#part,
+                Err(_) => f64::NAN,
+            }
+        }
+    };
+    let (alpha, beta) = (phi_at_zero(quote!(0)), phi_at_zero(quote!(1)));
+    let zero = if ne > 0 {
+        quote! {
+            fn zero_dynamics(&self, xi: &[f64], eta: &[f64], #wn: &[f64], yr: f64, deta: &mut [f64]) {
+                self.zero_dynamics_from(xi, eta, #wn, yr, f64::NAN, deta);
+            }
+            /// Newton from x = 1 (as the interpreter), the input from `u_guess`; NaN if ψ⁻¹ does not converge.
+            fn zero_dynamics_from(&self, xi: &[f64], eta: &[f64], #wn: &[f64], yr: f64, u_guess: f64, deta: &mut [f64]) {
+                match self.pre.zero_dynamics(arr(xi), arr(eta) #wa, yr, &[1.0; N], u_guess) {
+                    Ok(q) => deta.copy_from_slice(&q),
+                    Err(_) => deta.fill(f64::NAN),
+                }
+            }
+        }
+    } else {
+        quote! {
+            fn zero_dynamics(&self, _xi: &[f64], _eta: &[f64], _w: &[f64], _yr: f64, _deta: &mut [f64]) {}
+        }
+    };
+    (
+        numeric(ne, w).0,
+        quote! {
+            /// φ at u = 0 (the linearisation y^(r) ≈ α + β·u there), x by Newton from x = 1; NaN if it does
+            /// not converge.
+            fn alpha(&self, xi: &[f64], eta: &[f64], #wn: &[f64]) -> f64 {
+                #alpha
+            }
+        },
+        quote! {
+            /// ∂φ/∂u at u = 0, x by Newton from x = 1; NaN if it does not converge.
+            fn beta(&self, xi: &[f64], eta: &[f64], #wn: &[f64]) -> f64 {
+                #beta
+            }
+        },
+        zero,
+        quote! {
+            /// ψ⁻¹ by Newton from the guess in `x`, then the input solving φ = y^(r) (Newton from the middle
+            /// of the input's bounds).
+            fn invert(&self, xi: &[f64], eta: &[f64], #wn: &[f64], yr: f64, x: &mut [f64]) -> Result<f64, ModelError> {
+                self.invert_from(xi, eta, #wn, yr, x, f64::NAN)
+            }
+            /// ψ⁻¹ by Newton from the guess in `x` (written back once converged), then the input solving
+            /// φ(x, w, u) = y^(r) there, Newton from `u_guess` (the previous sample's input).
+            fn invert_from(&self, xi: &[f64], eta: &[f64], #wn: &[f64], yr: f64, x: &mut [f64], u_guess: f64) -> Result<f64, ModelError> {
+                let states = self.pre.psi_inv(arr(xi), arr(eta) #wa, arr(x))?;
+                x.copy_from_slice(&states);
+                self.pre.solve_input_x(&states #wa, yr, u_guess)
             }
         },
     )

@@ -139,6 +139,7 @@ pub fn forward_modes(
     };
     let mut result = rec.finish(spec, &run.switches, (cycle, opts), stats);
     result.summary.signals = crate::signals::signal_uses(&resolved, "raw");
+    result.signals = resolved;
     Ok(result)
 }
 

@@ -29,6 +29,8 @@ pub struct ModalForwardResult {
     /// Mode index (into the spec's modes) at each sample, after the decision there (empty, like the series,
     /// without `keep_series`).
     pub mode: Vec<usize>,
+    /// The model's signals as the run resolved them (the forward run uses them raw).
+    pub signals: Vec<crate::signals::ResolvedSignal>,
 }
 
 impl ModalForwardResult {
@@ -243,6 +245,7 @@ impl<'a> ModalRecorder<'a> {
             units: self.units,
             data: self.data,
             mode: mode.iter().map(|&m| m as usize).collect(),
+            signals: Vec::new(),
         }
     }
 }

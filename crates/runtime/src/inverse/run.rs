@@ -184,14 +184,14 @@ impl<'c> Tally<'c> {
         let (i0, i1) = (first - b.k0, end - b.k0);
         // Trapezoidal rule over the grid: ∫ o dt ≈ Σ_k dt·(o_k + o_{k+1})/2, the sum from k_lo on.
         let h = 0.5 * self.dt;
-        for i in i0..i1 {
-            let k = b.k0 + i;
-            if k >= self.k0 && k <= self.cycle_end {
-                self.deviation.push(self.cycle, b.time[i], b.yd[0][i]);
-            }
-            if let Some(op) = &mut self.operating {
-                op.push(|o| b.out[o][i]);
-            }
+        // The deviation over the samples in [t_0, cycle end].
+        let lo = self.k0.max(first).min(end);
+        let (d0, d1) = (lo - b.k0, (self.cycle_end + 1).min(end).max(lo) - b.k0);
+        for (&t, &yd) in b.time[d0..d1].iter().zip(&b.yd[0][d0..d1]) {
+            self.deviation.push(self.cycle, t, yd);
+        }
+        if let Some(op) = &mut self.operating {
+            op.extend(b.out, i0..i1);
         }
         for ((acc, prev), &o) in self
             .integrals

@@ -1,11 +1,15 @@
 //! The figures of a run with operating modes (README "Modes"), inverse or forward: the reference, one panel
 //! per declared input (traction and brake, each with its bounds), under them a step panel of the mode
 //! sequence — the gear of the mode in force (0 for an ungeared mode such as idle), or the mode's index with
-//! the modes' names for a model without a gearbox — and the running integral of every accumulated output.
-//! `--plot-vars` names: `reference`, each input, `gear` (or `mode`), the states, the `[outputs]`, `cum:NAME`.
+//! the modes' names for a model without a gearbox — and the running integral of every accumulated output;
+//! a model with `[signals]` adds one panel per signal after the reference, as single-mode figures do (raw
+//! and smoothed for the inverse run, raw for the forward run, which integrates with the raw signal).
+//! `--plot-vars` names: `reference`, each input, each signal, `gear` (or `mode`), the states, the
+//! `[outputs]`, `cum:NAME`.
 
 use invsim_model_api::ModelInfo;
 
+use super::exogenous::{signal_raw_and_smoothed, smoothed_at};
 use super::figure::{Figure, Panel, Series, PANEL_TITLE_SIZE};
 use super::font::text_width;
 use super::panels::{self, input_panel, series, signal_panel, Signal, CYCLE, LOWER, REFERENCE};
@@ -22,6 +26,8 @@ enum ModalVar {
     Input(usize),
     Sequence,
     Signal(Signal),
+    /// Exogenous signal i of the model's `[signals]`.
+    Exogenous(usize),
 }
 
 /// The name of the sequence panel: `gear` where some mode has a gear, else `mode`.
@@ -43,6 +49,7 @@ pub fn modal_valid_vars(spec: &ModalSpec<'_>) -> Vec<String> {
     let outputs = &info.outputs[..spec.n_outputs];
     let mut v = vec!["reference".to_string()];
     v.extend(spec.inputs.iter().map(|i| i.name.clone()));
+    v.extend(info.signals.iter().map(|s| s.name.clone()));
     v.push(sequence_name(spec).to_string());
     v.extend(info.states.iter().cloned());
     v.extend(outputs.iter().map(|o| o.name.clone()));
@@ -55,11 +62,13 @@ pub fn modal_valid_vars(spec: &ModalSpec<'_>) -> Vec<String> {
     v
 }
 
-/// The panels drawn without `--plot-vars`: the reference, every input, the mode sequence, the running
-/// integral of every accumulated output.
+/// The panels drawn without `--plot-vars`: the reference, each exogenous signal, every input, the mode
+/// sequence, the running integral of every accumulated output.
 pub fn modal_default_vars(spec: &ModalSpec<'_>) -> Vec<String> {
-    let outputs = &info0(spec).outputs[..spec.n_outputs];
+    let info = info0(spec);
+    let outputs = &info.outputs[..spec.n_outputs];
     let mut v = vec!["reference".to_string()];
+    v.extend(info.signals.iter().map(|s| s.name.clone()));
     v.extend(spec.inputs.iter().map(|i| i.name.clone()));
     v.push(sequence_name(spec).to_string());
     v.extend(
@@ -82,6 +91,9 @@ fn resolve(spec: &ModalSpec<'_>, name: &str) -> Option<ModalVar> {
     }
     if let Some(i) = spec.inputs.iter().position(|i| i.name == name) {
         return Some(ModalVar::Input(i));
+    }
+    if let Some(i) = info.signals.iter().position(|s| s.name == name) {
+        return Some(ModalVar::Exogenous(i));
     }
     if let Some(i) = info.states.iter().position(|s| s == name) {
         return Some(ModalVar::Signal(Signal::State(i)));
@@ -156,6 +168,13 @@ pub fn modal_simulation_figure(
             ],
         }
     };
+    // The raw signal and the smoothed one the modes took (smoothed again here: the series has no signal
+    // columns).
+    let exogenous = |i: usize| {
+        let raw = result.signals.get(i);
+        let smoothed = raw.map_or_else(Vec::new, |r| smoothed_at(r, result.summary.lookahead_s, t));
+        signal_raw_and_smoothed(info, i, raw, (t, &smoothed), x_range)
+    };
     let s = &result.summary;
     Ok(Figure {
         title: format!(
@@ -168,7 +187,7 @@ pub fn modal_simulation_figure(
             spec,
             &vars,
             &cols,
-            &reference,
+            (&reference, &exogenous),
             "bounds reported, not clipped",
         ),
     })
@@ -216,6 +235,10 @@ pub fn modal_forward_figure(
             ],
         }
     };
+    // The forward run integrates with the raw signals: their panels show the raw curve alone.
+    let x_range = time_range(t);
+    let exogenous =
+        |i: usize| signal_raw_and_smoothed(info, i, result.signals.get(i), (&[], &[]), x_range);
     let s = &result.summary;
     Ok(Figure {
         title: format!(
@@ -223,17 +246,23 @@ pub fn modal_forward_figure(
             s.run.model, s.run.cycle
         ),
         x_label: "t [s]".to_string(),
-        x_range: time_range(t),
-        panels: build(spec, &vars, &cols, &reference, "applied by the driver"),
+        x_range,
+        panels: build(
+            spec,
+            &vars,
+            &cols,
+            (&reference, &exogenous),
+            "applied by the driver",
+        ),
     })
 }
 
-/// The panels of `vars`; `how` ends each input panel's title.
+/// The panels of `vars` (`exogenous(i)`: the panel of signal i); `how` ends each input panel's title.
 fn build(
     spec: &ModalSpec<'_>,
     vars: &[ModalVar],
     cols: &Columns<'_>,
-    reference: &dyn Fn() -> Panel,
+    (reference, exogenous): (&dyn Fn() -> Panel, &dyn Fn(usize) -> Panel),
     how: &str,
 ) -> Vec<Panel> {
     let info = info0(spec);
@@ -242,6 +271,7 @@ fn build(
     vars.iter()
         .map(|var| match *var {
             ModalVar::Reference => reference(),
+            ModalVar::Exogenous(i) => exogenous(i),
             ModalVar::Input(i) => modal_input_panel(spec, i, cols, how),
             ModalVar::Sequence => sequence_panel(spec, t, cols),
             ModalVar::Signal(signal) => {
