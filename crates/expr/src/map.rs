@@ -113,18 +113,29 @@ impl MapDecl {
     }
 }
 
-/// The printed name of a map call: `M`, `M_dK` (1-D), `M_dIJ` (2-D).
+/// The printed name of a map call: `M`, `M_dK` (1-D), `M_dIJ` (2-D, I, J ≤ 9: contract §6), and beyond the
+/// contract's orders `M_dI_J` (2-D with an order above 9; 1-D takes any K, `M_d12`). Every name parses back
+/// ([`resolve_call_name`]) and no two orders share one.
 pub fn call_name(name: &str, arity: usize, orders: MapOrders) -> String {
     match (arity, orders) {
         (_, [0, 0]) => name.to_string(),
         (1, [k, _]) => format!("{name}_d{k}"),
-        (_, [i, j]) => format!("{name}_d{i}{j}"),
+        (_, [i, j]) if i <= 9 && j <= 9 => format!("{name}_d{i}{j}"),
+        (_, [i, j]) => format!("{name}_d{i}_{j}"),
     }
 }
 
-/// Splits a called name into a map name and derivative orders when it is one of `M`, `M_dK`, `M_dIJ` for a
-/// map `M` that `arity_of` knows (the name itself is tried first, so a map may be named `x_d1`… only if no
-/// map `x` exists, which the reader enforces).
+/// A derivative order written in decimal without leading zeros (so each order has one spelling).
+fn order(digits: &str) -> Option<u8> {
+    let canonical = !digits.is_empty()
+        && digits.bytes().all(|b| b.is_ascii_digit())
+        && (digits == "0" || !digits.starts_with('0'));
+    canonical.then(|| digits.parse().ok()).flatten()
+}
+
+/// Splits a called name into a map name and derivative orders when it is one of `M`, `M_dK`, `M_dIJ`,
+/// `M_dI_J` (see [`call_name`]) for a map `M` that `arity_of` knows (the name itself is tried first, so a map
+/// may be named `x_d1`… only if no map `x` exists, which the reader enforces).
 pub fn resolve_call_name(
     called: &str,
     arity_of: impl Fn(&str) -> Option<usize>,
@@ -132,19 +143,31 @@ pub fn resolve_call_name(
     if let Some(n) = arity_of(called) {
         return Some((called.to_string(), n, [0, 0]));
     }
+    // The orders are digits (and one `_`), so they follow the last `_d`.
     let at = called.rfind("_d")?;
     let (base, digits) = (&called[..at], &called[at + 2..]);
     let arity = arity_of(base)?;
-    let d: Vec<u8> = digits.bytes().map(|b| b.wrapping_sub(b'0')).collect();
-    if d.iter().any(|&x| x > 9) {
-        return None;
+    Some((base.to_string(), arity, orders_of(arity, digits)?))
+}
+
+/// The orders that `digits` (what follows `M_d`) spell for a map of `arity`, in [`call_name`]'s spelling.
+fn orders_of(arity: usize, digits: &str) -> Option<MapOrders> {
+    match arity {
+        1 => order(digits).filter(|&k| k > 0).map(|k| [k, 0]),
+        2 => match digits.split_once('_') {
+            Some((i, j)) => {
+                let (i, j) = (order(i)?, order(j)?);
+                (i > 9 || j > 9).then_some([i, j])
+            }
+            None => {
+                let d = digits.as_bytes();
+                let ok = d.len() == 2 && d.iter().all(u8::is_ascii_digit);
+                let o = [d.first()?.wrapping_sub(b'0'), d.get(1)?.wrapping_sub(b'0')];
+                (ok && o[0] + o[1] > 0).then_some(o)
+            }
+        },
+        _ => None,
     }
-    let orders = match (arity, d.as_slice()) {
-        (1, [k]) if *k > 0 => [*k, 0],
-        (2, [i, j]) if i + j > 0 => [*i, *j],
-        _ => return None,
-    };
-    Some((base.to_string(), arity, orders))
 }
 
 #[cfg(test)]
@@ -173,9 +196,27 @@ mod tests {
         assert_eq!(resolve_call_name("c_d0", arity), None);
         assert_eq!(resolve_call_name("eta_d00", arity), None);
         assert_eq!(resolve_call_name("eta_d1", arity), None);
-        assert_eq!(resolve_call_name("c_d12", arity), None);
+        assert_eq!(resolve_call_name("c_d012", arity), None);
+        assert_eq!(resolve_call_name("eta_d1_0", arity), None);
+        assert_eq!(resolve_call_name("eta_d010_1", arity), None);
         assert_eq!(resolve_call_name("other_d1", arity), None);
         assert_eq!(call_name("eta", 2, [0, 2]), "eta_d02");
         assert_eq!(call_name("c", 1, [4, 0]), "c_d4");
+        // Beyond the contract's orders 0…9: 1-D any K, 2-D `M_dI_J`; every name parses back.
+        for (name, n, o) in [
+            ("c", 1, [12, 0]),
+            ("eta", 2, [10, 0]),
+            ("eta", 2, [3, 11]),
+            ("eta", 2, [9, 9]),
+        ] {
+            let printed = call_name(name, n, o);
+            assert_eq!(
+                resolve_call_name(&printed, arity),
+                Some((name.to_string(), n, o)),
+                "{printed}"
+            );
+        }
+        assert_eq!(call_name("eta", 2, [10, 0]), "eta_d10_0");
+        assert_eq!(call_name("c", 1, [12, 0]), "c_d12");
     }
 }

@@ -299,11 +299,16 @@ impl Reader<'_> {
     }
 }
 
-/// Is `name` a derivative-map name `M_d<digits>` of the map `map` (reserved, contract §6)?
+/// Is `name` a derivative-map name `M_d<digits>` (or `M_d<digits>_<digits>`, the spelling of orders above 9)
+/// of the map `map` (reserved, contract §6)?
 fn is_derivative_name(name: &str, map: &str) -> bool {
+    let digits = |d: &str| !d.is_empty() && d.bytes().all(|b| b.is_ascii_digit());
     name.strip_prefix(map)
         .and_then(|rest| rest.strip_prefix("_d"))
-        .is_some_and(|d| !d.is_empty() && d.bytes().all(|b| b.is_ascii_digit()))
+        .is_some_and(|d| match d.split_once('_') {
+            Some((i, j)) => digits(i) && digits(j),
+            None => digits(d),
+        })
 }
 
 impl Reader<'_> {
@@ -328,5 +333,28 @@ impl Reader<'_> {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::is_derivative_name;
+
+    /// Every spelling of [`invsim_expr::map::call_name`] is reserved, the one of orders above 9 too.
+    #[test]
+    fn derivative_names_are_reserved_in_both_spellings() {
+        for name in ["eta_d10", "eta_d3", "eta_d10_0", "eta_d2_11"] {
+            assert!(is_derivative_name(name, "eta"), "{name}");
+        }
+        for name in [
+            "eta_d",
+            "eta_dx",
+            "eta_d1_",
+            "eta_d_1",
+            "eta2_d10",
+            "eta_d1_2_3",
+        ] {
+            assert!(!is_derivative_name(name, "eta"), "{name}");
+        }
     }
 }
