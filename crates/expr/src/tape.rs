@@ -467,7 +467,9 @@ impl Tape {
                         Instr::Map(m, o, x, y) => {
                             let map = &self.maps[m as usize];
                             let o = [o[0] as usize, o[1] as usize];
-                            zip2(dst, col(x), col(y), |a, b| map.partial(&[a, b], o))
+                            zip2(dst, col(x), col(y), |a, b| {
+                                map.partial_unmemoized(&[a, b], o)
+                            })
                         }
                     }
                 }

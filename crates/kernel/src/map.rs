@@ -434,13 +434,29 @@ impl Map {
                 }
             });
         }
+        self.fresh(args, orders)
+    }
+
+    /// [`Map::partial`] without the memo: for batch evaluation (a tape instruction runs over a column of
+    /// points, each new, where the memo would only add its bookkeeping). The same numbers.
+    pub fn partial_unmemoized(&self, args: &[f64], orders: [usize; 2]) -> f64 {
+        self.check_range(args);
+        self.fresh(args, orders)
+    }
+
+    fn fresh(&self, args: &[f64], orders: [usize; 2]) -> f64 {
         let len = if self.y.is_none() {
             orders[0] + 1
         } else {
             (orders[0] + 1) * (orders[1] + 1)
         };
         let orders = [orders[0], if self.y.is_none() { 0 } else { orders[1] }];
-        if len <= 100 {
+        if len <= 9 {
+            // Orders up to 2 per argument (the common case): a small array to clear.
+            let mut out = [0.0; 9];
+            self.eval(args, orders, &mut out[..len]);
+            out[len - 1]
+        } else if len <= 100 {
             let mut out = [0.0; 100];
             self.eval(args, orders, &mut out[..len]);
             out[len - 1]

@@ -302,7 +302,9 @@ fn run_blocks<M: InverseModel + ?Sized>(
     let mut scratch: Vec<Vec<f64>> = if keep {
         Vec::new()
     } else {
-        (0..data.len()).map(|_| vec![0.0; BLOCK]).collect()
+        (0..data.len())
+            .map(|_| vec![0.0; BLOCK.min(samples)])
+            .collect()
     };
     super::map_check::clear();
     let mut k0 = 0;
