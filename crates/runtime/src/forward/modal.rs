@@ -34,13 +34,15 @@ use super::{closed_loop, initial_state, ForwardError, ForwardOptions, Method};
 use crate::cycle::Cycle;
 use crate::error::RunError;
 use crate::grid::Grid;
-use crate::modes::sequence::{decide, has_role, pick, Moment, Place, Rung, Switcher};
+use crate::modes::rules::Rules;
+use crate::modes::sequence::{decide, Moment, Place, Rung, Switcher};
 use crate::modes::{GearBox, ModalSpec, Role};
 use crate::ode::{Dopri5, OdeStats, Rosenbrock23};
 
 /// The run's modes, their closed loops and the sequence's state.
 struct ModalRun<'s, 'a> {
     spec: &'s ModalSpec<'a>,
+    rules: Rules<'s, 'a>,
     loops: Vec<Loop<'a, dyn InverseModel + 'a>>,
     gearbox: GearBox,
     place: Place,
@@ -71,13 +73,14 @@ pub fn forward_modes(
     let y0 = raw.value(seg0, t0);
     let mut gearbox = GearBox::new(spec.gear_source.clone(), spec.gears);
     let gear = gearbox.gear(t0, y0);
-    let stand = y0 < spec.sequence.standstill_below && has_role(spec, Role::Standstill);
+    let rules = Rules::new(spec);
+    let stand = y0 < spec.sequence.standstill_below && rules.has_standstill;
     let rung = if stand {
         Rung::Standstill
     } else {
         Rung::Ladder(0)
     };
-    let mode = pick(spec, rung, gear).ok_or_else(|| ForwardError::Modes {
+    let mode = rules.pick(rung, gear).ok_or_else(|| ForwardError::Modes {
         reason: "the model has no traction mode".into(),
     })?;
     // The signals, raw (linear between samples, derivative slots 0) as in the single-mode forward run; each
@@ -113,6 +116,7 @@ pub fn forward_modes(
     z.resize(z.len() + loops[mode].accumulate.len() + 1, 0.0);
     let mut run = ModalRun {
         spec,
+        rules,
         loops,
         gearbox,
         place: Place::new(mode, rung),
@@ -278,7 +282,7 @@ impl<'a> ModalRun<'_, 'a> {
             gear: self.gear,
             ys: &ys,
         };
-        decide(self.spec, &mut self.place, at, d.demand, &mut sw)?;
+        decide(&self.rules, &mut self.place, at, d.demand, &mut sw)?;
         Ok(sw.cur)
     }
 }

@@ -51,6 +51,9 @@ pub(super) struct ModalRecorder<'a> {
     keep: bool,
     output_is_state: bool,
     outs: Vec<f64>,
+    /// Every input's value and the row of the series at the sample (buffers reused from sample to sample).
+    inputs: Vec<f64>,
+    row: Vec<f64>,
     band: TraceBand<'a>,
     /// Each mode's free-input bounds, widened by the rounding tolerance (1e-6 of the range).
     bounds: Vec<(f64, f64)>,
@@ -132,6 +135,8 @@ impl<'a> ModalRecorder<'a> {
             keep: opts.keep_series,
             output_is_state,
             outs: vec![0.0; info.outputs.len()],
+            inputs: Vec::with_capacity(spec.inputs.len()),
+            row: Vec::new(),
             band: TraceBand::new(cycle, opts.trace_time_tol, opts.trace_speed_tol),
             bounds,
             tally: Tally::new(spec, OperatingPointTally::new(info, stored)),
@@ -166,18 +171,18 @@ impl<'a> ModalRecorder<'a> {
         if let Some(j) = self.outs.iter().position(|v| !v.is_finite()) {
             return Err(bad(info.outputs[j].name.clone(), self.outs[j]).into());
         }
-        let inputs: Vec<f64> = (0..spec.inputs.len())
-            .map(|i| {
-                if i == mode.free_input {
-                    d.applied
-                } else {
-                    mode.fixed_outputs
-                        .iter()
-                        .find(|(j, _)| *j == i)
-                        .map_or(f64::NAN, |(_, o)| self.outs[*o])
-                }
-            })
-            .collect();
+        let mut inputs = std::mem::take(&mut self.inputs);
+        inputs.clear();
+        inputs.extend((0..spec.inputs.len()).map(|i| {
+            if i == mode.free_input {
+                d.applied
+            } else {
+                mode.fixed_outputs
+                    .iter()
+                    .find(|(j, _)| *j == i)
+                    .map_or(f64::NAN, |(_, o)| self.outs[*o])
+            }
+        }));
         if self.keep {
             let gear = mode.gear.unwrap_or(0) as f64;
             self.store(t, (m, gear), x, d, &inputs);
@@ -199,19 +204,22 @@ impl<'a> ModalRecorder<'a> {
         if k % 256 == 0 || k == self.n {
             self.progress.report(k, self.n);
         }
+        self.inputs = inputs;
         Ok(())
     }
 
     fn store(&mut self, t: f64, (m, gear): (usize, f64), x: &[f64], d: Drive, inputs: &[f64]) {
-        let mut row = vec![t, d.yc, m as f64, gear];
+        let row = &mut self.row;
+        row.clear();
+        row.extend([t, d.yc, m as f64, gear]);
         if !self.output_is_state {
             row.push(d.y);
         }
         row.extend_from_slice(inputs);
         row.extend_from_slice(x);
         row.extend_from_slice(&self.outs[..self.data.len() - row.len()]);
-        for (c, v) in self.data.iter_mut().zip(row) {
-            c.push(v);
+        for (c, v) in self.data.iter_mut().zip(row.iter()) {
+            c.push(*v);
         }
     }
 

@@ -28,8 +28,9 @@ pub fn smoothstep(m: usize) -> Vec<f64> {
 pub struct Blend {
     pub t_start: f64,
     pub duration: f64,
-    /// e(τ) in ascending powers of τ.
-    coeffs: Vec<f64>,
+    /// e(τ) and each of its derivatives e^(j)(τ), in ascending powers of τ (all computed once, at the
+    /// switch: the run evaluates the blend at every stage of every step of the transition).
+    derivatives: Vec<Vec<f64>>,
 }
 
 impl Blend {
@@ -66,7 +67,7 @@ impl Blend {
         Blend {
             t_start,
             duration,
-            coeffs,
+            derivatives: derivatives(coeffs),
         }
     }
 
@@ -81,21 +82,26 @@ impl Blend {
         if !(0.0..self.duration).contains(&tau) {
             return;
         }
-        let mut c = self.coeffs.clone();
-        for o in out.iter_mut() {
+        for (o, c) in out.iter_mut().zip(&self.derivatives) {
             *o += c.iter().rev().fold(0.0, |acc, &ci| acc * tau + ci);
-            // Differentiate the polynomial once.
-            c = c
-                .iter()
-                .enumerate()
-                .skip(1)
-                .map(|(i, ci)| ci * i as f64)
-                .collect();
-            if c.is_empty() {
-                break;
-            }
         }
     }
+}
+
+/// The polynomial with coefficients `c` (ascending powers) and each of its derivatives down to the constant
+/// one: d/dτ Σ c_i τ^i = Σ_{i ≥ 1} i c_i τ^(i−1).
+fn derivatives(c: Vec<f64>) -> Vec<Vec<f64>> {
+    let mut out = vec![c];
+    while let Some(last) = out.last().filter(|c| c.len() > 1) {
+        let next: Vec<f64> = last
+            .iter()
+            .enumerate()
+            .skip(1)
+            .map(|(i, ci)| ci * i as f64)
+            .collect();
+        out.push(next);
+    }
+    out
 }
 
 #[cfg(test)]

@@ -15,6 +15,8 @@
 pub mod blend;
 pub mod gears;
 mod record;
+mod rows;
+pub(crate) mod rules;
 mod runner;
 pub(crate) mod sequence;
 mod signals;
@@ -26,6 +28,7 @@ use thiserror::Error;
 
 pub use gears::{GearBox, GearSource};
 pub use record::{Impulse, ModeTime, Transition};
+pub use rows::Rows;
 pub use runner::{simulate_modes, simulate_modes_with_signals};
 pub use summary::ModalSummary;
 
@@ -151,11 +154,11 @@ pub struct ModalResult {
     /// The mode's free input at the end of each interval [t_k, t_{k+1}] before any switch at t_{k+1}.
     pub u_end: Vec<f64>,
     /// The state at the end of each interval [t_k, t_{k+1}] in its mode, before any switch at t_{k+1}.
-    pub x_end: Vec<Vec<f64>>,
+    pub x_end: Rows,
     /// The mode's solution at each sample: the state, the free input and the reference y^(0 … R) it tracked.
-    pub states: Vec<Vec<f64>>,
+    pub states: Rows,
     pub free: Vec<f64>,
-    pub yref: Vec<Vec<f64>>,
+    pub yref: Rows,
     /// Impulse of the free input at each sample (quasi-static switches; 0 elsewhere).
     pub impulse: Vec<f64>,
     /// The model's signals as the run resolved them (the run used them smoothed).

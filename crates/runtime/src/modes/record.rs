@@ -4,6 +4,8 @@
 
 use serde::Serialize;
 
+use super::rows::Rows;
+use super::rules::Rules;
 use super::ModalSpec;
 use crate::smoother::Smoother;
 
@@ -41,6 +43,8 @@ pub struct Impulse {
 /// The run's fixed context.
 pub(super) struct Ctx<'a, 'm> {
     pub(super) spec: &'a ModalSpec<'m>,
+    /// The sequence's rules of the spec (computed once).
+    pub(super) rules: Rules<'a, 'm>,
     pub(super) smoother: Smoother,
     /// Highest relative degree over the modes (yd columns 0 … r_max).
     pub(super) r_max: usize,
@@ -60,12 +64,53 @@ pub(super) struct Solved {
 /// Everything recorded along the run.
 pub(super) struct Record {
     pub(super) t: Vec<f64>,
+    /// The smoothed cycle's speed y_c(t) at each sample (unmapped).
+    pub(super) speed: Vec<f64>,
     pub(super) mode: Vec<usize>,
-    pub(super) solved: Vec<Solved>,
+    /// The solved samples: the state, the free input and the reference y^(0 … r_max) at each.
+    pub(super) states: Rows,
+    pub(super) free: Vec<f64>,
+    pub(super) yref: Rows,
     pub(super) u_end: Vec<f64>,
-    pub(super) x_end: Vec<Vec<f64>>,
+    pub(super) x_end: Rows,
     pub(super) impulse: Vec<f64>,
     pub(super) impulse_dir: Vec<Vec<f64>>,
     pub(super) transitions: Vec<Transition>,
     pub(super) impulses: Vec<Impulse>,
+}
+
+impl Record {
+    /// The record of a run of `samples` samples that starts at t0 (smoothed cycle's speed `speed0`) in
+    /// `mode`, its states and references of `n` and `n_yref` values.
+    pub(super) fn new(
+        (t0, speed0): (f64, f64),
+        mode: usize,
+        samples: usize,
+        (n, n_yref): (usize, usize),
+    ) -> Record {
+        let mut speed = Vec::with_capacity(samples);
+        speed.push(speed0);
+        let intervals = samples.saturating_sub(1);
+        Record {
+            t: vec![t0],
+            speed,
+            mode: vec![mode],
+            states: Rows::with_capacity(n, samples),
+            free: Vec::with_capacity(samples),
+            yref: Rows::with_capacity(n_yref, samples),
+            u_end: Vec::with_capacity(intervals),
+            x_end: Rows::with_capacity(n, intervals),
+            impulse: vec![0.0],
+            impulse_dir: vec![Vec::new()],
+            transitions: Vec::new(),
+            impulses: Vec::new(),
+        }
+    }
+
+    /// Record the solved sample `s`.
+    pub(super) fn push_solved(&mut self, s: &Solved) {
+        self.states.push(&s.x);
+        self.free.push(s.u);
+        self.yref.push(&s.yref);
+    }
 }

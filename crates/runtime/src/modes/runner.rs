@@ -7,10 +7,11 @@ use invsim_model_api::InverseModel;
 use super::blend::Blend;
 use super::gears::GearBox;
 use super::record::{Ctx, Impulse, Record, Solved, Transition};
-use super::sequence::{decide, has_role, pick, Moment, Place, Rung, Switcher};
+use super::rules::Rules;
+use super::sequence::{decide, Moment, Place, Rung, Switcher};
 use super::signals::resolve_modal;
 use super::verify::replay;
-use super::{ModalError, ModalOptions, ModalResult, ModalSpec, Role, Switching};
+use super::{ModalError, ModalOptions, ModalResult, ModalSpec, Switching};
 use crate::cycle::Cycle;
 use crate::elevation::Along;
 use crate::grid::Grid;
@@ -32,57 +33,111 @@ struct Inner {
     open: Option<usize>,
 }
 
+/// The integrator of the zero dynamics and the buffers of its right-hand side, built once per run (one
+/// integrator per mode with internal dynamics, at its first interval) and reused for every interval.
+pub(super) struct ZeroDynamics {
+    ode: Vec<Option<Dopri5>>,
+    y: Vec<f64>,
+    w: Vec<f64>,
+}
+
+impl ZeroDynamics {
+    fn new(ctx: &Ctx<'_, '_>) -> ZeroDynamics {
+        ZeroDynamics {
+            ode: ctx.spec.modes.iter().map(|_| None).collect(),
+            y: vec![0.0; ctx.r_max + 1],
+            w: Vec::new(),
+        }
+    }
+}
+
 impl Ctx<'_, '_> {
     fn model(&self, m: usize) -> &dyn InverseModel {
         self.spec.modes[m].model
     }
 
-    /// y^(0 … r_max) of mode `m`'s reference at t: its map of the smoothed cycle, plus the blend.
-    pub(super) fn reference(&self, m: usize, t: f64, blend: Option<&Blend>) -> Vec<f64> {
-        let mut y = self.cycle_reference(m, t);
-        if let Some(b) = blend {
-            b.add(t, &mut y);
-        }
-        y
+    /// The unmapped smoothed cycle y_c^(0 … max(r_max, 1)) at t into `base` (what every mode's reference at
+    /// a sample is a map of: evaluated once per sample).
+    pub(super) fn base_at(&self, t: f64, base: &mut [f64]) {
+        self.smoother.eval(t, base);
     }
 
-    /// The mode's map of the smoothed cycle, y_c^(0 … r_max).
-    fn cycle_reference(&self, m: usize, t: f64) -> Vec<f64> {
-        let mut y = vec![0.0; self.r_max + 1];
-        self.smoother.eval(t, &mut y);
+    /// y^(0 … r_max) of mode `m`'s reference at t into `y`: its map of the smoothed cycle, plus the blend.
+    fn reference_into(&self, m: usize, t: f64, blend: Option<&Blend>, y: &mut [f64]) {
+        self.smoother.eval(t, y);
+        self.map_cycle(m, y);
+        if let Some(b) = blend {
+            b.add(t, y);
+        }
+    }
+
+    /// Mode `m`'s map y = offset + scale · y_c (derivatives scaled) of the smoothed cycle in `y`, in place.
+    fn map_cycle(&self, m: usize, y: &mut [f64]) {
         let map = self.model(m).reference();
         for v in y.iter_mut() {
             *v *= map.scale;
         }
         y[0] += map.offset;
+    }
+
+    /// The mode's map of the smoothed cycle, y_c^(0 … r_max), from the sample's `base` ([`Ctx::base_at`]).
+    fn cycle_reference(&self, m: usize, base: &[f64]) -> Vec<f64> {
+        let mut y = base[..=self.r_max].to_vec();
+        self.map_cycle(m, &mut y);
         y
     }
 
-    /// The inverse of mode `m` at t with internal coordinates `eta` (x_guess: a guess for a numeric ψ⁻¹).
+    /// The inverse of mode `m` at the sample t (`base` its smoothed cycle) with internal coordinates `eta`
+    /// (x_guess: a guess for a numeric ψ⁻¹).
     pub(super) fn solve(
         &self,
         m: usize,
-        t: f64,
+        at: (f64, &[f64]),
         eta: &[f64],
         blend: Option<&Blend>,
         x_guess: &[f64],
     ) -> Result<Solved, ModalError> {
+        let mut out = Solved {
+            x: Vec::with_capacity(x_guess.len()),
+            u: 0.0,
+            yref: Vec::with_capacity(self.r_max + 1),
+        };
+        self.solve_into(m, at, (eta, blend), x_guess, &mut out)?;
+        Ok(out)
+    }
+
+    /// [`Ctx::solve`] into the buffers of `out` (no allocation once they have grown).
+    fn solve_into(
+        &self,
+        m: usize,
+        (t, base): (f64, &[f64]),
+        (eta, blend): (&[f64], Option<&Blend>),
+        x_guess: &[f64],
+        out: &mut Solved,
+    ) -> Result<(), ModalError> {
         let model = self.model(m);
         let r = model.info().relative_degree;
-        let yref = self.reference(m, t, blend);
-        let mut x = x_guess.to_vec();
+        out.yref.clear();
+        out.yref.extend_from_slice(&base[..=self.r_max]);
+        self.map_cycle(m, &mut out.yref);
+        if let Some(b) = blend {
+            b.add(t, &mut out.yref);
+        }
+        out.x.clear();
+        out.x.extend_from_slice(x_guess);
         let w = self.w(m, t);
-        let u = model
-            .invert(&yref[..r], eta, &w, yref[r], &mut x)
+        let (x, yref) = (&mut out.x, &out.yref);
+        out.u = model
+            .invert(&yref[..r], eta, &w, yref[r], x)
             .map_err(|e| self.err(m, t, e.to_string()))?;
-        if !(u.is_finite() && x.iter().all(|v| v.is_finite())) {
+        if !(out.u.is_finite() && x.iter().all(|v| v.is_finite())) {
             return Err(self.err(
                 m,
                 t,
                 "the inverse is not finite (β vanishes or a state left its domain)".into(),
             ));
         }
-        Ok(Solved { x, u, yref })
+        Ok(())
     }
 
     pub(super) fn err(&self, m: usize, t: f64, message: String) -> ModalError {
@@ -93,23 +148,47 @@ impl Ctx<'_, '_> {
         }
     }
 
-    /// Advance η of mode `m` over [t0, t1] by its zero dynamics along the (blended) reference.
+    /// Advance η of mode `m` over [t0, t1] by its zero dynamics along the (blended) reference; every interval
+    /// starts afresh (no FSAL stage, initial step (t1 − t0)/4), with the integrator and buffers of `zd`.
+    /// `base0`: the smoothed cycle at the sample t0 ([`Ctx::base_at`]).
     fn advance_eta(
         &self,
         m: usize,
         (t0, t1): (f64, f64),
+        base0: &[f64],
         eta: &mut [f64],
         blend: Option<&Blend>,
+        zd: &mut ZeroDynamics,
     ) -> Result<(), ModalError> {
         if eta.is_empty() {
             return Ok(());
         }
         let model = self.model(m);
         let r = model.info().relative_degree;
-        let mut ode = Dopri5::new(eta.len(), 1e-10, 1e-12, (t1 - t0) / 4.0);
+        let n_w = model.info().n_w();
+        let h0 = (t1 - t0) / 4.0;
+        let ZeroDynamics { ode, y, w } = zd;
+        let ode = ode[m].get_or_insert_with(|| Dopri5::new(eta.len(), 1e-10, 1e-12, h0));
+        ode.reset(h0);
+        // The reference and the signals depend on t alone: the two last stages of a Dormand–Prince step
+        // are both at t + h, so they are evaluated once for both (the same values), and the first stage at
+        // t0 is the sample's reference, mapped from `base0` as `reference_into` maps the smoother's values.
+        y[..=r].copy_from_slice(&base0[..=r]);
+        self.map_cycle(m, &mut y[..=r]);
+        if let Some(b) = blend {
+            b.add(t0, &mut y[..=r]);
+        }
+        self.w_into(m, t0, n_w, w);
+        let mut at = t0;
         let mut f = |t: f64, e: &[f64], de: &mut [f64]| -> Result<(), StepFailure> {
-            let y = self.reference(m, t, blend);
-            model.zero_dynamics(&y[..r], e, &self.w(m, t), y[r], de);
+            if t.to_bits() != at.to_bits() {
+                // y^(0 … r) only: the smoother evaluates each order on its own, so the values are those of
+                // a longer evaluation.
+                self.reference_into(m, t, blend, &mut y[..=r]);
+                self.w_into(m, t, n_w, w);
+                at = t;
+            }
+            model.zero_dynamics(&y[..r], e, w, y[r], de);
             Ok(())
         };
         ode.advance(t0, t1, eta, &mut f).map_err(|e: StepFailure| {
@@ -118,10 +197,10 @@ impl Ctx<'_, '_> {
     }
 
     /// η at the start: the zero dynamics' equilibrium for the reference at t (Newton, differences).
-    fn initial_eta(&self, m: usize, t: f64) -> Result<Vec<f64>, ModalError> {
+    fn initial_eta(&self, m: usize, (t, base): (f64, &[f64])) -> Result<Vec<f64>, ModalError> {
         let model = self.model(m);
         let (r, ne) = (model.info().relative_degree, model.info().n_eta);
-        let y = self.reference(m, t, None);
+        let y = self.cycle_reference(m, base);
         let w = self.w(m, t);
         let mut eta = vec![0.0; ne];
         let q = |e: &[f64]| {
@@ -206,6 +285,7 @@ pub fn simulate_modes_with_signals(
     }
     let ctx = Ctx {
         spec,
+        rules: Rules::new(spec),
         smoother,
         r_max,
         n,
@@ -227,17 +307,21 @@ fn run_sequence(ctx: &Ctx<'_, '_>, grid: &Grid, opts: &ModalOptions) -> Result<R
     let spec = ctx.spec;
     let mut gearbox = GearBox::new(spec.gear_source.clone(), spec.gears);
     let t0 = grid.time(0);
-    let ys0 = ctx.smoothed(t0);
-    let gear = gearbox.gear(t0, ys0[0]);
-    let stand = ys0[0] < spec.sequence.standstill_below && has_role(spec, Role::Standstill);
+    // The smoothed cycle at the sample, y_c^(0 … max(r_max, 1)), evaluated once per sample.
+    let mut base = vec![0.0; ctx.r_max.max(1) + 1];
+    ctx.base_at(t0, &mut base);
+    let gear = gearbox.gear(t0, base[0]);
+    let stand = base[0] < spec.sequence.standstill_below && ctx.rules.has_standstill;
     let rung = if stand {
         Rung::Standstill
     } else {
         Rung::Ladder(0)
     };
-    let mode =
-        pick(spec, rung, gear).ok_or_else(|| ModalError::Setup("no traction mode".into()))?;
-    let eta = ctx.initial_eta(mode, t0)?;
+    let mode = ctx
+        .rules
+        .pick(rung, gear)
+        .ok_or_else(|| ModalError::Setup("no traction mode".into()))?;
+    let eta = ctx.initial_eta(mode, (t0, &base))?;
     let mut seq = Seq {
         place: Place::new(mode, rung),
         modal: Inner {
@@ -246,88 +330,104 @@ fn run_sequence(ctx: &Ctx<'_, '_>, grid: &Grid, opts: &ModalOptions) -> Result<R
             open: None,
         },
     };
-    let first = ctx.solve(mode, t0, &seq.modal.eta, None, &vec![0.0; ctx.n])?;
-    let mut rec = Record {
-        t: vec![t0],
-        mode: vec![mode],
-        solved: Vec::with_capacity(grid.samples()),
-        u_end: Vec::with_capacity(grid.n),
-        x_end: Vec::with_capacity(grid.n),
-        impulse: vec![0.0],
-        impulse_dir: vec![Vec::new()],
-        transitions: Vec::new(),
-        impulses: Vec::new(),
-    };
-    let mut cur = first;
+    let first = ctx.solve(mode, (t0, &base), &seq.modal.eta, None, &vec![0.0; ctx.n])?;
+    let mut rec = Record::new((t0, base[0]), mode, grid.samples(), (ctx.n, ctx.r_max + 1));
+    let mut zd = ZeroDynamics::new(ctx);
     // Decide at t0 too (a start that needs another mode at once).
-    cur = step_sequence(ctx, &mut seq, &mut gearbox, t0, cur, &mut rec, opts)?;
-    rec.solved.push(cur.clone());
+    let mut cur = step_sequence(
+        ctx,
+        &mut seq,
+        &mut gearbox,
+        (t0, &base),
+        first,
+        &mut rec,
+        opts,
+    )?;
+    rec.push_solved(&cur);
+    // The buffers of the next solution (the previous one's, once it is recorded).
+    let mut spare = cur.clone();
     for k in 1..=grid.n {
         let (ta, tb) = (grid.time(k - 1), grid.time(k));
         let (m, inner) = (seq.place.mode, &mut seq.modal);
-        ctx.advance_eta(m, (ta, tb), &mut inner.eta, inner.blend.as_ref())?;
-        let end = ctx.solve(m, tb, &inner.eta, inner.blend.as_ref(), &cur.x)?;
-        rec.u_end.push(end.u);
-        rec.x_end.push(end.x.clone());
+        ctx.advance_eta(
+            m,
+            (ta, tb),
+            &base,
+            &mut inner.eta,
+            inner.blend.as_ref(),
+            &mut zd,
+        )?;
+        ctx.base_at(tb, &mut base);
+        let local = (&inner.eta[..], inner.blend.as_ref());
+        ctx.solve_into(m, (tb, &base), local, &cur.x, &mut spare)?;
+        rec.u_end.push(spare.u);
+        rec.x_end.push(&spare.x);
         rec.t.push(tb);
+        rec.speed.push(base[0]);
         rec.impulse.push(0.0);
         rec.impulse_dir.push(Vec::new());
         if seq.modal.blend.as_ref().is_some_and(|b| b.done(tb)) {
             seq.modal.blend = None;
             seq.modal.open = None;
         }
-        cur = step_sequence(ctx, &mut seq, &mut gearbox, tb, end, &mut rec, opts)?;
-        track_deviation(ctx, &seq, tb, &cur, &mut rec);
+        let next = step_sequence(
+            ctx,
+            &mut seq,
+            &mut gearbox,
+            (tb, &base),
+            spare,
+            &mut rec,
+            opts,
+        )?;
+        track_deviation(ctx, &seq, &base, &next, &mut rec);
         rec.mode.push(seq.place.mode);
-        rec.solved.push(cur.clone());
+        rec.push_solved(&next);
+        spare = std::mem::replace(&mut cur, next);
     }
     Ok(rec)
 }
 
-impl Ctx<'_, '_> {
-    /// The smoothed cycle y_c, y_c' at t (unmapped: the sequence decides on the cycle's speed).
-    pub(super) fn smoothed(&self, t: f64) -> [f64; 2] {
-        let mut y = [0.0; 2];
-        self.smoother.eval(t, &mut y);
-        y
-    }
-}
-
-/// The largest deviation of the transition in progress.
-fn track_deviation(ctx: &Ctx<'_, '_>, seq: &Seq, t: f64, cur: &Solved, rec: &mut Record) {
+/// The largest deviation of the transition in progress (`base`: the sample's smoothed cycle).
+fn track_deviation(ctx: &Ctx<'_, '_>, seq: &Seq, base: &[f64], cur: &Solved, rec: &mut Record) {
     if let Some(i) = seq.modal.open {
-        let yc = ctx.cycle_reference(seq.place.mode, t);
-        let d = (cur.yref[0] - yc[0]).abs();
+        let map = ctx.model(seq.place.mode).reference();
+        // y_c = offset + scale · base[0], as `map_cycle` computes it.
+        let yc = base[0] * map.scale + map.offset;
+        let d = (cur.yref[0] - yc).abs();
         let tr = &mut rec.transitions[i];
         tr.max_deviation = tr.max_deviation.max(d);
     }
 }
 
-/// The sequence's decision at t (gear from the smoothed cycle's speed), entering each candidate mode from
-/// the continuous state by the inverse.
+/// The sequence's decision at the sample t (gear from the smoothed cycle's speed `base[0]`), entering each
+/// candidate mode from the continuous state by the inverse.
 fn step_sequence(
     ctx: &Ctx<'_, '_>,
     seq: &mut Seq,
     gearbox: &mut GearBox,
-    t: f64,
+    (t, base): (f64, &[f64]),
     cur: Solved,
     rec: &mut Record,
     opts: &ModalOptions,
 ) -> Result<Solved, ModalError> {
-    let ys = ctx.smoothed(t);
-    let gear = gearbox.gear(t, ys[0]);
+    let gear = gearbox.gear(t, base[0]);
     let u = cur.u;
     let mut sw = InverseEntry {
         ctx,
         inner: &mut seq.modal,
         rec,
         t,
+        base,
         switching: opts.switching,
         cur,
         pending: None,
     };
-    let at = Moment { t, gear, ys: &ys };
-    decide(ctx.spec, &mut seq.place, at, u, &mut sw)?;
+    let at = Moment {
+        t,
+        gear,
+        ys: &base[..2],
+    };
+    decide(&ctx.rules, &mut seq.place, at, u, &mut sw)?;
     Ok(sw.cur)
 }
 
@@ -337,6 +437,8 @@ struct InverseEntry<'c, 'a, 'm> {
     inner: &'c mut Inner,
     rec: &'c mut Record,
     t: f64,
+    /// The sample's smoothed cycle.
+    base: &'c [f64],
     switching: Switching,
     cur: Solved,
     pending: Option<Entry>,
@@ -346,7 +448,8 @@ impl Switcher for InverseEntry<'_, '_, '_> {
     type Error = ModalError;
 
     fn try_enter(&mut self, from: usize, target: usize) -> Result<f64, ModalError> {
-        let e = entry(self.ctx, from, target, self.t, &self.cur, self.switching)?;
+        let at = (self.t, self.base);
+        let e = entry(self.ctx, (from, target), at, &self.cur, self.switching)?;
         let u = e.solved.u;
         self.pending = Some(e);
         Ok(u)
@@ -354,7 +457,7 @@ impl Switcher for InverseEntry<'_, '_, '_> {
 
     fn commit(&mut self) {
         if let Some(e) = self.pending.take() {
-            self.cur = commit(self.inner, self.rec, e);
+            self.cur = commit(self.ctx, self.inner, self.rec, e);
         }
     }
 
@@ -368,16 +471,15 @@ struct Entry {
     eta: Vec<f64>,
     blend: Option<Blend>,
     solved: Solved,
-    transition: Transition,
+    transition: Switch,
     impulse: Option<(Impulse, Vec<f64>)>,
 }
 
 /// Enter mode `target` at t from the continuous state `prev.x` (not yet committed).
 fn entry(
     ctx: &Ctx<'_, '_>,
-    from: usize,
-    target: usize,
-    t: f64,
+    (from, target): (usize, usize),
+    (t, base): (f64, &[f64]),
     prev: &Solved,
     switching: Switching,
 ) -> Result<Entry, ModalError> {
@@ -388,11 +490,12 @@ fn entry(
     let mut eta = vec![0.0; info.n_eta];
     let w = ctx.w(target, t);
     model.psi(&prev.x, &w, &mut xi, &mut eta);
-    let yc = ctx.cycle_reference(target, t);
-    let transition = Transition {
+    let yc = ctx.cycle_reference(target, base);
+    // The record of the switch, its names looked up only when the entry is committed.
+    let transition = Switch {
         t,
-        from: ctx.spec.modes[from].name.clone(),
-        to: ctx.spec.modes[target].name.clone(),
+        from,
+        to: target,
         max_deviation: 0.0,
     };
     match switching {
@@ -402,13 +505,13 @@ fn entry(
                 .iter()
                 .any(|d| *d != 0.0)
                 .then(|| Blend::new(t, ctx.transition, &e));
-            let solved = ctx.solve(target, t, &eta, blend.as_ref(), &prev.x)?;
+            let solved = ctx.solve(target, (t, base), &eta, blend.as_ref(), &prev.x)?;
             let max_deviation = e.first().map_or(0.0, |d| d.abs());
             Ok(Entry {
                 eta,
                 blend,
                 solved,
-                transition: Transition {
+                transition: Switch {
                     max_deviation,
                     ..transition
                 },
@@ -416,7 +519,7 @@ fn entry(
             })
         }
         Switching::QuasiStatic => {
-            let solved = ctx.solve(target, t, &eta, None, &prev.x)?;
+            let solved = ctx.solve(target, (t, base), &eta, None, &prev.x)?;
             let imp = impulse(ctx, target, t, &prev.x, &solved);
             let impulse = (imp.amount != 0.0).then(|| (imp, g_of(model, &solved.x, &w)));
             Ok(Entry {
@@ -453,11 +556,31 @@ fn deviations(
     e
 }
 
+/// A switch of an entry not yet committed: modes by index.
+#[derive(Debug, Clone, Copy)]
+struct Switch {
+    t: f64,
+    from: usize,
+    to: usize,
+    max_deviation: f64,
+}
+
 /// Make an entry the inverse's state (the sequence's place is the caller's).
-fn commit(seq: &mut Inner, rec: &mut Record, e: Entry) -> Solved {
+fn commit(ctx: &Ctx<'_, '_>, seq: &mut Inner, rec: &mut Record, e: Entry) -> Solved {
     seq.eta = e.eta;
     seq.blend = e.blend;
-    rec.transitions.push(e.transition);
+    let Switch {
+        t,
+        from,
+        to,
+        max_deviation,
+    } = e.transition;
+    rec.transitions.push(Transition {
+        t,
+        from: ctx.spec.modes[from].name.clone(),
+        to: ctx.spec.modes[to].name.clone(),
+        max_deviation,
+    });
     seq.open = seq.blend.as_ref().map(|_| rec.transitions.len() - 1);
     if let Some((imp, g)) = e.impulse {
         let k = rec.impulse.len() - 1;

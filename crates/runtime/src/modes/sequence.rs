@@ -4,15 +4,8 @@
 //! would have there (the inverse solves the mode's inverse, the forward run computes the engine management's
 //! demand in that mode).
 
-use super::{ModalSpec, ModeSpec, Role};
-
-/// A place in the sequence: standstill, or a rung of the ladder traction (0) → brake modes (1 …, in the
-/// model file's order: each deeper rung brakes more).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum Rung {
-    Standstill,
-    Ladder(usize),
-}
+use super::rules::Rules;
+pub(crate) use super::rules::Rung;
 
 /// Where the sequence is between two decisions.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -35,75 +28,6 @@ impl Place {
             last_switch: f64::NEG_INFINITY,
         }
     }
-}
-
-/// The families of the ladder: the first traction family, then every brake family, in file order.
-pub(crate) fn ladder<'s>(spec: &'s ModalSpec<'_>) -> Vec<&'s str> {
-    let mut out: Vec<&str> = Vec::new();
-    if let Some(m) = spec.modes.iter().find(|m| m.role == Role::Traction) {
-        out.push(&m.family);
-    }
-    for m in spec.modes.iter().filter(|m| m.role == Role::Brake) {
-        if !out.contains(&m.family.as_str()) {
-            out.push(&m.family);
-        }
-    }
-    out
-}
-
-/// The mode of a rung in a gear (the family's mode of that gear, else its ungeared or first mode).
-pub(crate) fn pick(spec: &ModalSpec<'_>, rung: Rung, gear: usize) -> Option<usize> {
-    // The rung's family, looked up once (not for every mode tried).
-    let family = match rung {
-        Rung::Standstill => None,
-        Rung::Ladder(i) => ladder(spec).get(i).copied(),
-    };
-    let fits = |m: &ModeSpec<'_>| match rung {
-        Rung::Standstill => m.role == Role::Standstill,
-        Rung::Ladder(_) => family.is_some_and(|f| f == m.family),
-    };
-    spec.modes
-        .iter()
-        .position(|m| fits(m) && m.gear == Some(gear))
-        .or_else(|| spec.modes.iter().position(|m| fits(m) && m.gear.is_none()))
-        .or_else(|| spec.modes.iter().position(fits))
-}
-
-pub(crate) fn has_role(spec: &ModalSpec<'_>, role: Role) -> bool {
-    spec.modes.iter().any(|m| m.role == role)
-}
-
-/// The tolerance of a bound check on mode m's free input: 1e-9 of its range (or of 1): a rung entered exactly
-/// at a bound (where the old mode's input crossed it) starts there up to rounding.
-pub(crate) fn tolerance(spec: &ModalSpec<'_>, m: usize) -> f64 {
-    let info = spec.modes[m].model.info();
-    match (info.input_min, info.input_max) {
-        (Some(lo), Some(hi)) => 1e-9 * (hi - lo).max(1.0),
-        _ => 1e-9,
-    }
-}
-
-/// The hysteresis band of a mode's free input: the sequence's `brake_band` for traction, else 1 % of the
-/// input's range (0 without both bounds).
-pub(crate) fn band(spec: &ModalSpec<'_>, m: usize) -> f64 {
-    let info = spec.modes[m].model.info();
-    let default = match (info.input_min, info.input_max) {
-        (Some(lo), Some(hi)) => 0.01 * (hi - lo),
-        _ => 0.0,
-    };
-    match spec.modes[m].role {
-        Role::Traction => spec.sequence.brake_band.unwrap_or(0.0),
-        _ => default,
-    }
-}
-
-/// Whether mode m's free input u is within its bounds (up to the tolerance) and at least `least`.
-pub(crate) fn feasible(spec: &ModalSpec<'_>, m: usize, u: f64, least: f64) -> bool {
-    let info = spec.modes[m].model.info();
-    let tol = tolerance(spec, m);
-    let lo = info.input_min.unwrap_or(f64::NEG_INFINITY) - tol;
-    let hi = info.input_max.unwrap_or(f64::INFINITY) + tol;
-    u >= lo.max(least) && u <= hi
 }
 
 /// What the run knows at the instant of a decision.
@@ -129,48 +53,80 @@ pub(crate) trait Switcher {
     fn settled(&self) -> bool;
 }
 
-/// Where the sequence would like to go from the current mode's free input `u`, in order of preference, each
-/// with the least free input the target must then have (its minimum, or minimum + band for a deeper brake).
+/// Where the sequence would like to go, in order of preference: standstill first where wanted, then the
+/// ladder rungs `lo..hi` (descending where `down`), each with the least free input the target must then have
+/// (its minimum, or minimum + band for a deeper brake: NaN).
+struct Wanted {
+    standstill: bool,
+    lo: usize,
+    hi: usize,
+    down: bool,
+    least: f64,
+}
+
+impl Wanted {
+    fn candidates(self) -> impl Iterator<Item = (Rung, f64)> {
+        let Wanted {
+            standstill,
+            lo,
+            hi,
+            down,
+            least,
+        } = self;
+        let first = standstill.then_some((Rung::Standstill, f64::NEG_INFINITY));
+        let ladder = (0..hi.saturating_sub(lo)).map(move |k| {
+            let j = if down { hi - 1 - k } else { lo + k };
+            (Rung::Ladder(j), least)
+        });
+        first.into_iter().chain(ladder)
+    }
+}
+
+/// Where the sequence would like to go from the current mode's free input `u` (see [`Wanted`]).
 fn wanted(
-    spec: &ModalSpec<'_>,
+    rules: &Rules<'_, '_>,
     place: &mut Place,
     at: Moment<'_>,
     u: f64,
     settled: bool,
-) -> Vec<(Rung, f64)> {
-    let (t, ys) = (at.t, at.ys);
-    let info = spec.modes[place.mode].model.info();
-    let lo = info.input_min.unwrap_or(f64::NEG_INFINITY) - tolerance(spec, place.mode);
-    let rungs = ladder(spec).len();
+) -> Wanted {
+    let (spec, (t, ys)) = (rules.spec, (at.t, at.ys));
+    let rule = &rules.modes[place.mode];
+    let lo = rule.input_min.unwrap_or(f64::NEG_INFINITY) - rule.tolerance;
+    let rungs = rules.rungs;
     // Standstill is entered once the run has settled (the car then follows the cycle to rest).
     let stopping =
         ys[0] < spec.sequence.standstill_below && ys.get(1).is_none_or(|a| *a <= 0.0) && settled;
     let dwell = t - place.last_switch >= spec.sequence.min_dwell;
-    let mut out = Vec::new();
+    let mut out = Wanted {
+        standstill: false,
+        lo: 0,
+        hi: 0,
+        down: false,
+        least: f64::NEG_INFINITY,
+    };
     match place.rung {
         Rung::Standstill => {
             // A brake force below its minimum while the reference stands or slows is rolling resistance at
             // a standstill (the car would roll back), not a demand for traction.
             let accelerating = ys.get(1).is_some_and(|a| *a > 0.0);
             if (u < lo && accelerating) || ys[0] > spec.sequence.standstill_above {
-                out.push((Rung::Ladder(0), f64::NEG_INFINITY));
+                out.hi = 1;
             }
         }
         Rung::Ladder(i) => {
-            if stopping && has_role(spec, Role::Standstill) {
-                out.push((Rung::Standstill, f64::NEG_INFINITY));
-            }
+            out.standstill = stopping && rules.has_standstill;
             if i == 0 {
-                let b = band(spec, place.mode);
+                let b = rule.band;
                 place.armed = place.armed || u > lo + b;
                 let threshold = if place.armed { lo + b } else { lo };
                 if u < threshold && dwell {
-                    out.extend((1..rungs).map(|j| (Rung::Ladder(j), f64::NEG_INFINITY)));
+                    (out.lo, out.hi) = (1, rungs);
                 }
             } else if u < lo && dwell {
-                out.extend((0..i).rev().map(|j| (Rung::Ladder(j), f64::NEG_INFINITY)));
+                (out.lo, out.hi, out.down) = (0, i, true);
             } else if i + 1 < rungs {
-                out.push((Rung::Ladder(i + 1), f64::NAN));
+                (out.lo, out.hi, out.least) = (i + 1, i + 2, f64::NAN);
             }
         }
     }
@@ -181,30 +137,30 @@ fn wanted(
 /// bounds; where none is, the gear change waits (a driver does not shift into a gear that cannot follow),
 /// unless the current mode cannot follow either. Returns the free input after the decision.
 fn change_gear<S: Switcher>(
-    spec: &ModalSpec<'_>,
+    rules: &Rules<'_, '_>,
     place: &mut Place,
     gear: usize,
     u: f64,
     sw: &mut S,
 ) -> Result<f64, S::Error> {
-    let same_gear = pick(spec, place.rung, gear) == Some(place.mode);
-    if same_gear || spec.modes[place.mode].gear.is_none() {
+    let same_gear = rules.pick(place.rung, gear) == Some(place.mode);
+    if same_gear || rules.modes[place.mode].gear.is_none() {
         return Ok(u);
     }
-    let mut rungs = vec![place.rung];
-    rungs.extend(
-        (0..ladder(spec).len())
+    let current = place.rung;
+    let rungs = std::iter::once(current).chain(
+        (0..rules.rungs)
             .map(Rung::Ladder)
-            .filter(|r| *r != place.rung),
+            .filter(move |r| *r != current),
     );
     // Where the current mode cannot follow either, the gear changes regardless.
-    let forced = !feasible(spec, place.mode, u, f64::NEG_INFINITY);
-    for (i, rung) in rungs.into_iter().enumerate() {
-        let Some(target) = pick(spec, rung, gear).filter(|&m| m != place.mode) else {
+    let forced = !rules.feasible(place.mode, u, f64::NEG_INFINITY);
+    for (i, rung) in rungs.enumerate() {
+        let Some(target) = rules.pick(rung, gear).filter(|&m| m != place.mode) else {
             continue;
         };
         let v = sw.try_enter(place.mode, target)?;
-        if feasible(spec, target, v, f64::NEG_INFINITY) || (forced && i == 0) {
+        if rules.feasible(target, v, f64::NEG_INFINITY) || (forced && i == 0) {
             sw.commit();
             place.mode = target;
             place.rung = rung;
@@ -218,28 +174,29 @@ fn change_gear<S: Switcher>(
 /// another rung only where the target's free input is within its bounds there. `u` is the current mode's
 /// free input; returns the free input of the mode decided on.
 pub(crate) fn decide<S: Switcher>(
-    spec: &ModalSpec<'_>,
+    rules: &Rules<'_, '_>,
     place: &mut Place,
     at: Moment<'_>,
     u: f64,
     sw: &mut S,
 ) -> Result<f64, S::Error> {
-    let mut u = change_gear(spec, place, at.gear, u, sw)?;
+    let mut u = change_gear(rules, place, at.gear, u, sw)?;
     for _ in 0..4 {
         let mut moved = false;
-        for (rung, least) in wanted(spec, place, at, u, sw.settled()) {
-            let Some(target) = pick(spec, rung, at.gear).filter(|&m| m != place.mode) else {
+        let wants = wanted(rules, place, at, u, sw.settled());
+        for (rung, least) in wants.candidates() {
+            let Some(target) = rules.pick(rung, at.gear).filter(|&m| m != place.mode) else {
                 continue;
             };
             let v = sw.try_enter(place.mode, target)?;
-            let info = spec.modes[target].model.info();
-            let lo = info.input_min.unwrap_or(f64::NEG_INFINITY);
+            let rule = &rules.modes[target];
+            let lo = rule.input_min.unwrap_or(f64::NEG_INFINITY);
             let least = if least.is_nan() {
-                lo + band(spec, target)
+                lo + rule.band
             } else {
                 least
             };
-            if feasible(spec, target, v, least) {
+            if rules.feasible(target, v, least) {
                 let ladder_move =
                     matches!((place.rung, rung), (Rung::Ladder(a), Rung::Ladder(b)) if a != b);
                 if ladder_move {

@@ -44,4 +44,12 @@ impl Ctx<'_, '_> {
         self.smoother.eval_signals(t, &mut w);
         w
     }
+
+    /// [`Ctx::w`] into the buffer `w` (resized to `n_w`, mode `m`'s layout).
+    pub(super) fn w_into(&self, m: usize, t: f64, n_w: usize, w: &mut Vec<f64>) {
+        debug_assert_eq!(n_w, self.spec.modes[m].model.info().n_w());
+        w.clear();
+        w.resize(n_w, 0.0);
+        self.smoother.eval_signals(t, w);
+    }
 }

@@ -7,6 +7,8 @@ use std::fmt::Write as _;
 use serde::Serialize;
 
 use super::record::{Ctx, Impulse, ModeTime, Record, Transition};
+use super::rows::Rows;
+use super::rules::ModeRule;
 use super::verify::Tracking;
 use super::{ModalOptions, ModalResult};
 use crate::cycle::Cycle;
@@ -90,21 +92,153 @@ fn columns(ctx: &Ctx<'_, '_>) -> Vec<(String, Option<String>)> {
     c
 }
 
-/// The value of every input at a sample of mode m.
-fn input_values(ctx: &Ctx<'_, '_>, m: usize, u: f64, outs: &[f64]) -> Vec<f64> {
+/// The value of every input at a sample of mode m, into `row`.
+fn input_values(ctx: &Ctx<'_, '_>, m: usize, u: f64, outs: &[f64], row: &mut Vec<f64>) {
     let mode = &ctx.spec.modes[m];
-    (0..ctx.spec.inputs.len())
-        .map(|i| {
-            if i == mode.free_input {
-                u
-            } else {
-                mode.fixed_outputs
-                    .iter()
-                    .find(|(j, _)| *j == i)
-                    .map_or(f64::NAN, |(_, o)| outs[*o])
+    row.clear();
+    row.extend((0..ctx.spec.inputs.len()).map(|i| {
+        if i == mode.free_input {
+            u
+        } else {
+            mode.fixed_outputs
+                .iter()
+                .find(|(j, _)| *j == i)
+                .map_or(f64::NAN, |(_, o)| outs[*o])
+        }
+    }));
+}
+
+/// What one pass over the samples gathers: the table's columns, the integrals (trapezoids of each interval
+/// in its own mode), the time per mode, the bound violations, the reference's deviation and the engine's
+/// operating points.
+struct Tally {
+    /// Every input and the model's `[outputs]` at each sample.
+    inputs: Rows,
+    outputs: Rows,
+    integrals: Vec<f64>,
+    time: Vec<f64>,
+    violations: Vec<[f64; 2]>,
+    deviation: DeviationTally,
+    operating: Option<OperatingPointTally>,
+}
+
+/// Whether two slices hold the same numbers bit for bit (so that a function of them gives the same value).
+fn same_bits(a: &[f64], b: &[f64]) -> bool {
+    a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
+}
+
+/// The pass over the samples. The outputs at the end of an interval are those of the next sample where
+/// the run stayed in its mode (the same state, input and time): evaluated once for both.
+fn walk(ctx: &Ctx<'_, '_>, cycle: &Cycle, opts: &ModalOptions, rec: &Record) -> Tally {
+    let spec = ctx.spec;
+    let ns = rec.t.len();
+    let no = spec.n_outputs;
+    let info0 = spec.modes[0].model.info();
+    let mut tally = Tally {
+        inputs: Rows::with_capacity(spec.inputs.len(), ns),
+        outputs: Rows::with_capacity(no, ns),
+        integrals: vec![0.0; no],
+        time: vec![0.0; spec.modes.len()],
+        violations: Vec::new(),
+        deviation: DeviationTally::new(invsim_model_api::ReferenceMap::IDENTITY, opts.dt),
+        // The engine's outputs are among those every mode shares (the first n_outputs).
+        operating: OperatingPointTally::new(info0, ns)
+            .filter(|_| info0.engine.is_some_and(|e| e.speed.max(e.torque) < no)),
+    };
+    let mut outside = false;
+    // Each mode's number of outputs and of signal values, and the accumulated outputs (asked once).
+    let sizes: Vec<(usize, usize)> = spec
+        .modes
+        .iter()
+        .map(|m| (m.model.info().outputs.len(), m.model.info().n_w()))
+        .collect();
+    let accumulated: Vec<usize> = (0..no).filter(|&i| info0.outputs[i].accumulate).collect();
+    // Buffers of one sample, reused: the outputs at the sample and at the end of its interval, the signals,
+    // the inputs; `ready`: the outputs of this sample are in `outs` already.
+    let (mut outs, mut end, mut w, mut row) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let mut ready = false;
+    for k in 0..ns {
+        let (m, x, u) = (rec.mode[k], &rec.states[k], rec.free[k]);
+        let model = spec.modes[m].model;
+        let (n_out, n_w) = sizes[m];
+        if !ready {
+            outs.clear();
+            outs.resize(n_out, 0.0);
+            ctx.w_into(m, rec.t[k], n_w, &mut w);
+            model.outputs(x, &w, u, &mut outs);
+        }
+        ready = false;
+        tally.deviation.push(cycle, rec.t[k], rec.speed[k]);
+        if let Some(op) = tally.operating.as_mut() {
+            op.push(|i| outs[i]);
+        }
+        input_values(ctx, m, u, &outs, &mut row);
+        tally.inputs.push(&row);
+        tally.outputs.push(&outs[..no]);
+        let rule = &ctx.rules.modes[m];
+        outside = track_violation(rule, (rec.t[k], u), outside, &mut tally.violations);
+        if k + 1 < ns {
+            end.clear();
+            end.resize(n_out, 0.0);
+            ctx.w_into(m, rec.t[k + 1], n_w, &mut w);
+            model.outputs(&rec.x_end[k], &w, rec.u_end[k], &mut end);
+            let dt = rec.t[k + 1] - rec.t[k];
+            for &i in &accumulated {
+                tally.integrals[i] += 0.5 * dt * (outs[i] + end[i]);
             }
-        })
-        .collect()
+            tally.time[m] += dt;
+            ready = rec.mode[k + 1] == m
+                && rec.u_end[k].to_bits() == rec.free[k + 1].to_bits()
+                && same_bits(&rec.x_end[k], &rec.states[k + 1]);
+            if ready {
+                std::mem::swap(&mut outs, &mut end);
+            }
+        }
+    }
+    tally
+}
+
+/// The table's columns (see [`columns`]): t, mode, gear, y_d^(0 … R), the inputs, the states, the
+/// `[outputs]`, each copied column by column from the rows recorded.
+fn table(ctx: &Ctx<'_, '_>, rec: &Record, tally: &Tally) -> Vec<Vec<f64>> {
+    let spec = ctx.spec;
+    let mut data = vec![
+        rec.t.clone(),
+        rec.mode.iter().map(|&m| m as f64).collect(),
+        rec.mode
+            .iter()
+            .map(|&m| spec.modes[m].gear.unwrap_or(0) as f64)
+            .collect(),
+    ];
+    for rows in [&rec.yref, &tally.inputs, &rec.states, &tally.outputs] {
+        data.extend((0..rows.width()).map(|j| rows.column(j).collect()));
+    }
+    data
+}
+
+/// The accumulated outputs' integrals, per 100 km (those per distance) and units, by name.
+type Totals = (
+    BTreeMap<String, f64>,
+    BTreeMap<String, f64>,
+    BTreeMap<String, String>,
+);
+
+fn totals(outputs: &[invsim_model_api::OutputInfo], integrals: &[f64], distance: f64) -> Totals {
+    let mut ints = BTreeMap::new();
+    let mut per = BTreeMap::new();
+    let mut integral_units = BTreeMap::new();
+    for (o, total) in outputs.iter().zip(integrals) {
+        if o.accumulate {
+            ints.insert(o.name.clone(), *total);
+            if let Some(u) = o.unit.as_deref().and_then(integral_unit) {
+                integral_units.insert(o.name.clone(), u);
+            }
+            if o.per_distance && distance > 0.0 {
+                per.insert(o.name.clone(), total / distance * 1e5);
+            }
+        }
+    }
+    (ints, per, integral_units)
 }
 
 /// Build the result: columns, integrals (trapezoids of each interval in its own mode, plus the impulses'
@@ -119,72 +253,16 @@ pub(super) fn assemble(
     let spec = ctx.spec;
     let cols = columns(ctx);
     let ns = rec.t.len();
-    let mut data: Vec<Vec<f64>> = vec![Vec::with_capacity(ns); cols.len()];
-    let no = spec.n_outputs;
     let info0 = spec.modes[0].model.info();
-    let mut integrals = vec![0.0; no];
-    let mut time = vec![0.0; spec.modes.len()];
-    let mut violations: Vec<[f64; 2]> = Vec::new();
-    let mut outside = false;
-    let mut deviation = DeviationTally::new(invsim_model_api::ReferenceMap::IDENTITY, opts.dt);
-    // The engine's outputs are among those every mode shares (the first n_outputs).
-    let mut operating = OperatingPointTally::new(info0, ns)
-        .filter(|_| info0.engine.is_some_and(|e| e.speed.max(e.torque) < no));
-    for k in 0..ns {
-        let (m, s) = (rec.mode[k], &rec.solved[k]);
-        let model = spec.modes[m].model;
-        let mut outs = vec![0.0; model.info().outputs.len()];
-        model.outputs(&s.x, &ctx.w(m, rec.t[k]), s.u, &mut outs);
-        deviation.push(cycle, rec.t[k], ctx.smoothed(rec.t[k])[0]);
-        if let Some(op) = operating.as_mut() {
-            op.push(|i| outs[i]);
-        }
-        let mut row = vec![rec.t[k], m as f64, spec.modes[m].gear.unwrap_or(0) as f64];
-        row.extend_from_slice(&s.yref);
-        row.extend(input_values(ctx, m, s.u, &outs));
-        row.extend_from_slice(&s.x);
-        row.extend_from_slice(&outs[..no]);
-        for (c, v) in data.iter_mut().zip(row) {
-            c.push(v);
-        }
-        outside = track_violation(model.info(), (rec.t[k], s.u), outside, &mut violations);
-        if k + 1 < ns {
-            let mut end = vec![0.0; outs.len()];
-            model.outputs(
-                &rec.x_end[k],
-                &ctx.w(m, rec.t[k + 1]),
-                rec.u_end[k],
-                &mut end,
-            );
-            let dt = rec.t[k + 1] - rec.t[k];
-            for (i, total) in integrals.iter_mut().enumerate() {
-                if info0.outputs[i].accumulate {
-                    *total += 0.5 * dt * (outs[i] + end[i]);
-                }
-            }
-            time[m] += dt;
-        }
-    }
-    let impulse_booked = book_impulses(&rec.impulses, &info0.outputs, &mut integrals);
+    let mut tally = walk(ctx, cycle, opts, &rec);
+    let data = table(ctx, &rec, &tally);
+    let impulse_booked = book_impulses(&rec.impulses, &info0.outputs, &mut tally.integrals);
     let distance = cycle.distance();
-    let mut ints = BTreeMap::new();
-    let mut per = BTreeMap::new();
-    let mut integral_units = BTreeMap::new();
-    for (o, total) in info0.outputs.iter().zip(&integrals) {
-        if o.accumulate {
-            ints.insert(o.name.clone(), *total);
-            if let Some(u) = o.unit.as_deref().and_then(integral_unit) {
-                integral_units.insert(o.name.clone(), u);
-            }
-            if o.per_distance && distance > 0.0 {
-                per.insert(o.name.clone(), total / distance * 1e5);
-            }
-        }
-    }
+    let (ints, per, integral_units) = totals(&info0.outputs, &tally.integrals, distance);
     let modes: Vec<ModeTime> = spec
         .modes
         .iter()
-        .zip(&time)
+        .zip(&tally.time)
         .map(|(m, t)| ModeTime {
             name: m.name.clone(),
             time_s: *t,
@@ -196,7 +274,7 @@ pub(super) fn assemble(
         .iter()
         .map(|t| t.max_deviation)
         .fold(0.0, f64::max);
-    let warnings = warnings_of(&violations, &rec.impulses);
+    let warnings = warnings_of(&tally.violations, &rec.impulses);
     let summary = ModalSummary {
         model: info0.name.clone(),
         cycle: cycle.name.clone(),
@@ -213,15 +291,15 @@ pub(super) fn assemble(
         per_100km: per,
         integral_units,
         output_unit: info0.output_unit.clone(),
-        input_bound_violations: violations,
+        input_bound_violations: tally.violations,
         modes,
         switches: rec.transitions.len(),
         transitions: rec.transitions,
         max_transition_deviation: max_dev,
         impulses: rec.impulses,
         impulse_booked,
-        reference: deviation.finish(),
-        engine_operating_points: operating.map(|op| op.finish(info0, opts.dt)),
+        reference: tally.deviation.finish(),
+        engine_operating_points: tally.operating.map(|op| op.finish(info0, opts.dt)),
         max_abs_tracking_error: verify.as_ref().map(|v| v.max_abs),
         rms_tracking_error: verify.as_ref().map(|v| v.rms),
         columns: cols
@@ -243,28 +321,25 @@ pub(super) fn assemble(
         mode: rec.mode,
         u_end: rec.u_end,
         x_end: rec.x_end,
-        states: rec.solved.iter().map(|s| s.x.clone()).collect(),
-        free: rec.solved.iter().map(|s| s.u).collect(),
-        yref: rec.solved.into_iter().map(|s| s.yref).collect(),
+        states: rec.states,
+        free: rec.free,
+        yref: rec.yref,
         impulse: rec.impulse,
         signals: Vec::new(),
     }
 }
 
-/// Whether the free input `u` at t is outside its bounds (tolerance 1e-9 of its range); an interval of
-/// `violations` opens or extends there (`outside`: whether the previous sample was).
+/// Whether the free input `u` at t is outside its bounds (up to the mode's tolerance, 1e-9 of its range);
+/// an interval of `violations` opens or extends there (`outside`: whether the previous sample was).
 fn track_violation(
-    info: &invsim_model_api::ModelInfo,
+    rule: &ModeRule,
     (t, u): (f64, f64),
     outside: bool,
     violations: &mut Vec<[f64; 2]>,
 ) -> bool {
-    let tol = match (info.input_min, info.input_max) {
-        (Some(lo), Some(hi)) => 1e-9 * (hi - lo).max(1.0),
-        _ => 1e-9,
-    };
-    let out = info.input_min.is_some_and(|lo| u < lo - tol)
-        || info.input_max.is_some_and(|hi| u > hi + tol);
+    let tol = rule.tolerance;
+    let out = rule.input_min.is_some_and(|lo| u < lo - tol)
+        || rule.input_max.is_some_and(|hi| u > hi + tol);
     match (out, outside) {
         (true, false) => violations.push([t, t]),
         (true, true) => {

@@ -15,7 +15,7 @@ pub(super) struct Tracking {
 
 pub(super) fn replay(ctx: &Ctx<'_, '_>, rec: &Record) -> Result<Tracking, ModalError> {
     let ns = rec.t.len();
-    let mut x = rec.solved[0].x.clone();
+    let mut x = rec.states[0].to_vec();
     let (mut max_abs, mut sum2) = (0.0f64, 0.0f64);
     let mut ode = Dopri5::new(x.len(), 1e-11, 1e-12, 1e-3);
     for k in 0..ns {
@@ -26,14 +26,14 @@ pub(super) fn replay(ctx: &Ctx<'_, '_>, rec: &Record) -> Result<Tracking, ModalE
                 *xi += rec.impulse[k] * gi;
             }
         }
-        let e = model.h(&x, &ctx.w(m, rec.t[k])) - rec.solved[k].yref[0];
+        let e = model.h(&x, &ctx.w(m, rec.t[k])) - rec.yref[k][0];
         max_abs = max_abs.max(e.abs());
         sum2 += e * e;
         if k + 1 == ns {
             break;
         }
         let (ta, tb) = (rec.t[k], rec.t[k + 1]);
-        let (ua, ub) = (rec.solved[k].u, rec.u_end[k]);
+        let (ua, ub) = (rec.free[k], rec.u_end[k]);
         let mut f = |t: f64, y: &[f64], dy: &mut [f64]| -> Result<(), StepFailure> {
             let s = (t - ta) / (tb - ta);
             model.rhs(y, &ctx.w(m, t), ua + s * (ub - ua), dy);
