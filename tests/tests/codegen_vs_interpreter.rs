@@ -459,6 +459,18 @@ fn builtin_models_agree_with_the_interpreter() {
     assert_eq!(invsim_models::names().len(), invsim_models::MODELS.len());
     assert!(invsim_models::builtin("no such model").is_none());
     assert!(invsim_models::by_hash("0000").is_none());
+    // by_source (what the command line uses) finds by the bytes what by_hash finds by their SHA-256, and a
+    // file that differs in one byte is none of them.
+    for &(name, _, file) in invsim_models::MODELS {
+        let mut bytes = std::fs::read(root().join("models").join(file)).expect("model file");
+        let found = invsim_models::by_source(&bytes).map(|m| m.info().name.clone());
+        assert_eq!(found.as_deref(), Some(name), "{name}: by_source");
+        bytes.push(b'\n');
+        assert!(
+            invsim_models::by_source(&bytes).is_none(),
+            "{name}: one byte more"
+        );
+    }
 }
 
 /// Every mode of every compiled model with operating modes against the interpreter of that mode's

@@ -72,48 +72,45 @@ fn interpreted(d: &Derivation) -> Result<LoadedModel, Failure> {
     Ok(LoadedModel::Interpreted(Box::new(interp)))
 }
 
-/// Bytes of a model file read for its hash; a larger file is no built-in model (the reader's own limits then
-/// apply).
-const MAX_HASHED_BYTES: u64 = 1 << 20;
+/// Bytes of a model file read to compare it with the built-in models; a larger file is none of them (the
+/// reader's own limits then apply).
+const MAX_COMPARED_BYTES: u64 = 1 << 20;
 
-/// The SHA-256 (hex) of the model file's bytes, if it can be read and is at most [`MAX_HASHED_BYTES`] long.
-/// A command asks twice (does the file have modes, which engine runs it); the last answer is kept.
-fn file_hash(path: &Path) -> Option<String> {
-    use std::sync::Mutex;
-    static LAST: Mutex<Option<(std::path::PathBuf, Option<String>)>> = Mutex::new(None);
+/// The model file's bytes, if it can be read and is at most [`MAX_COMPARED_BYTES`] long. A command asks twice
+/// (does the file have modes, which engine runs it); the last answer is kept.
+fn file_bytes(path: &Path) -> Option<std::sync::Arc<[u8]>> {
+    use std::sync::{Arc, Mutex};
+    type Last = Option<(std::path::PathBuf, Option<Arc<[u8]>>)>;
+    static LAST: Mutex<Last> = Mutex::new(None);
     let mut last = LAST.lock().unwrap_or_else(|e| e.into_inner());
-    if let Some((_, h)) = last.as_ref().filter(|(p, _)| p == path) {
-        return h.clone();
+    if let Some((_, b)) = last.as_ref().filter(|(p, _)| p == path) {
+        return b.clone();
     }
-    let h = hash_file(path);
-    *last = Some((path.to_path_buf(), h.clone()));
-    h
+    let b = read_bounded(path).map(Arc::from);
+    *last = Some((path.to_path_buf(), b.clone()));
+    b
 }
 
-fn hash_file(path: &Path) -> Option<String> {
-    use sha2::{Digest, Sha256};
+/// The compiled model built from a file with exactly the bytes of `path` (no hash computed).
+fn builtin_of(path: &Path) -> Option<Box<dyn invsim_model_api::InverseModel>> {
+    file_bytes(path).and_then(|b| invsim_models::by_source(&b))
+}
+
+fn read_bounded(path: &Path) -> Option<Vec<u8>> {
     use std::io::Read;
     let mut bytes = Vec::new();
     std::fs::File::open(path)
         .ok()?
-        .take(MAX_HASHED_BYTES + 1)
+        .take(MAX_COMPARED_BYTES + 1)
         .read_to_end(&mut bytes)
         .ok()?;
-    if bytes.len() as u64 > MAX_HASHED_BYTES {
-        return None;
-    }
-    Some(
-        Sha256::digest(&bytes)
-            .iter()
-            .map(|b| format!("{b:02x}"))
-            .collect(),
-    )
+    (bytes.len() as u64 <= MAX_COMPARED_BYTES).then_some(bytes)
 }
 
 /// Is the file byte-for-byte a built-in ordinary model? Then it has no modes and reads without errors, which
 /// the commands need not read the file to know (models with modes have a registry of their own).
 pub fn is_builtin_single(path: &Path) -> bool {
-    file_hash(path).is_some_and(|h| invsim_models::by_hash(&h).is_some())
+    builtin_of(path).is_some()
 }
 
 /// Load `path` with the requested engine. A file whose SHA-256 matches a built-in model runs its compiled code
@@ -123,7 +120,7 @@ pub fn is_builtin_single(path: &Path) -> bool {
 /// engine was asked for.
 pub fn load(path: &Path, choice: EngineChoice) -> Result<LoadedModel, Failure> {
     if choice != EngineChoice::Interpreted {
-        if let Some(m) = file_hash(path).and_then(|h| invsim_models::by_hash(&h)) {
+        if let Some(m) = builtin_of(path) {
             return Ok(LoadedModel::Compiled(m));
         }
     }

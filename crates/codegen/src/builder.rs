@@ -201,8 +201,8 @@ fn modal_registry(all: &[&Generated]) -> TokenStream {
 }
 
 /// Source of a registry over generated modules: `include!`s each file (by absolute path) and defines
-/// `NAMES`, `MODELS` (name, SHA-256, model file name), `names()`, `builtin(name)` and `by_hash(sha256)`,
-/// the last two returning the model at its default parameters as a boxed `InverseModel`.
+/// `NAMES`, `MODELS` (name, SHA-256, model file name), `names()`, `builtin(name)`, `by_hash(sha256)` and
+/// `by_source(bytes)`, the last three returning the model at its default parameters as a boxed `InverseModel`.
 pub fn registry(models: &[Generated]) -> Result<String, CodegenError> {
     let mut all: Vec<&Generated> = models.iter().collect();
     all.sort_by(|a, b| a.name.cmp(&b.name));
@@ -232,6 +232,15 @@ pub fn registry(models: &[Generated]) -> Result<String, CodegenError> {
         .map(|g| {
             let (h, c) = (&g.source_hash, ctor(g));
             quote!(#h => #c,)
+        })
+        .collect();
+    let mut seen = std::collections::HashSet::new();
+    let by_source: Vec<TokenStream> = sorted
+        .iter()
+        .filter(|g| seen.insert(g.source_hash.clone()))
+        .map(|g| {
+            let (p, c) = (g.source.display().to_string(), ctor(g));
+            quote!(if bytes == include_bytes!(#p).as_slice() { return #c; })
         })
         .collect();
     let (builtin, by_hash) = if sorted.is_empty() {
@@ -287,6 +296,14 @@ pub fn registry(models: &[Generated]) -> Result<String, CodegenError> {
         /// The compiled model generated from a model file with this SHA-256 (lower-case hex), at its default
         /// parameters.
         #by_hash
+
+        /// The compiled model generated from a model file with exactly these bytes, at its default
+        /// parameters (what [`by_hash`] finds, without hashing: a comparison of lengths, then of bytes).
+        pub fn by_source(bytes: &[u8]) -> Option<Box<dyn invsim_model_api::InverseModel>> {
+            let _ = bytes;
+            #(#by_source)*
+            None
+        }
 
         #modal
     };
