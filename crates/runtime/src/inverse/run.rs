@@ -298,13 +298,10 @@ fn run_blocks<M: InverseModel + ?Sized>(
 ) -> Result<(), SimulateError> {
     let info = model.info();
     let samples = grid.samples();
-    // Zeroed columns straight from the allocator (`vec![column; n]` would copy the first into the others).
-    let mut scratch: Vec<Vec<f64>> = if keep {
+    let mut scratch = if keep {
         Vec::new()
     } else {
-        (0..data.len())
-            .map(|_| vec![0.0; BLOCK.min(samples)])
-            .collect()
+        block_scratch(data.len(), BLOCK.min(samples))
     };
     super::map_check::clear();
     let mut k0 = 0;
@@ -360,7 +357,26 @@ fn run_blocks<M: InverseModel + ?Sized>(
         tally.progress.report(k1, samples);
         k0 = k1;
     }
+    SCRATCH.with(|s| *s.borrow_mut() = scratch);
     Ok(())
+}
+
+thread_local! {
+    /// The block columns of this thread's last summary-only run, reused by the next one (a sweep runs one
+    /// variant after another on each thread: fresh columns of this size would be mapped and unmapped by the
+    /// allocator, and their pages faulted in, for every variant).
+    static SCRATCH: std::cell::RefCell<Vec<Vec<f64>>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// `width` zeroed columns of `len` values, this thread's last ones where there are.
+fn block_scratch(width: usize, len: usize) -> Vec<Vec<f64>> {
+    let mut cols = SCRATCH.with(|s| std::mem::take(&mut *s.borrow_mut()));
+    cols.resize_with(width, Vec::new);
+    for c in &mut cols {
+        c.clear();
+        c.resize(len, 0.0);
+    }
+    cols
 }
 
 /// NaN exactly when an entry of `c` is not finite: Σ c_i·0 (x·0 is NaN for x = ±∞ or NaN, ±0 otherwise),
