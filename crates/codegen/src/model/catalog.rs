@@ -9,7 +9,7 @@
 
 use super::context::{Arg, FnKind, Gen, Shape, Straight};
 use super::docs::{equations, Lhs};
-use invsim_expr::{latex_symbol, Id};
+use invsim_expr::{latex_symbol, Id, Symbol};
 use invsim_inversion::Solution;
 
 /// The straight-line functions of this model.
@@ -169,13 +169,50 @@ fn closed(g: &Gen<'_>, lhs: &Lhs) -> Vec<Straight> {
 /// in (ξ, η, y^(r), u) (free of u where the input solution is substituted).
 fn non_affine(g: &Gen<'_>, lhs: &Lhs) -> Vec<Straight> {
     let d = g.d;
+    let first = psi_inv(g, lhs).0;
+    let coords = PhiCoords {
+        args: g.with_w(vec![g.xi_arg(), g.eta_arg()]),
+        kinds: [FnKind::Phi, FnKind::InputSolution, FnKind::ZeroDynamics],
+        phi: [d.alpha, d.beta],
+        solution: d.input_solution,
+        zero_dynamics: &d.zero_dynamics,
+        texts: [
+            "y^(r) = φ(ξ, η, u), not affine in the input, and ∂φ/∂u, the derivative Newton's method takes.",
+            "The input that gives y^(r) = `yr`, φ(ξ, η, u) = y^(r) solved for u by isolation.",
+            "The zero dynamics dη/dt = rhs_η(x, u) at x = ψ⁻¹(ξ, η) and the input u that gives y^(r).",
+        ],
+        with_domain: true,
+    };
+    phi_functions(g, lhs, first, coords)
+}
+
+/// Where φ, its input solution and the zero dynamics of a non-affine y^(r) are written: in (ξ, η) with a
+/// closed-form ψ⁻¹, or in the states with a numeric one; the functions' kinds, expressions and first doc
+/// lines.
+struct PhiCoords<'a> {
+    args: Vec<Arg>,
+    /// φ with ∂φ/∂u, the input solution, the zero dynamics.
+    kinds: [FnKind; 3],
+    phi: [Id; 2],
+    solution: Option<Id>,
+    zero_dynamics: &'a [Id],
+    texts: [&'static str; 3],
+    /// The input solution's doc lists where it is valid (the isolation's domain, found in (ξ, η)).
+    with_domain: bool,
+}
+
+/// `first` (ψ⁻¹ or ψ's Jacobian), then φ with ∂φ/∂u, the input solution where u was isolated, and the zero
+/// dynamics, in the coordinates of `c`.
+fn phi_functions(g: &Gen<'_>, lhs: &Lhs, first: Straight, c: PhiCoords<'_>) -> Vec<Straight> {
+    let d = g.d;
     let u = d.model.input.symbol;
-    let xi_eta = || g.with_w(vec![g.xi_arg(), g.eta_arg()]);
-    let mut fs = vec![psi_inv(g, lhs).0];
-    let mut doc = vec![
-        "y^(r) = φ(ξ, η, u), not affine in the input, and ∂φ/∂u, the derivative Newton's method takes."
-            .to_string(),
-    ];
+    let with = |extra: &[Symbol]| {
+        let mut args = c.args.clone();
+        args.extend(extra.iter().map(|&s| Arg::Scalar(s)));
+        args
+    };
+    let mut fs = vec![first];
+    let mut doc = vec![c.texts[0].to_string()];
     if !d.singular.is_empty() {
         doc.push(String::new());
         doc.push(format!("∂φ/∂u vanishes {}.", d.singular.join("; ")));
@@ -188,51 +225,37 @@ fn non_affine(g: &Gen<'_>, lhs: &Lhs) -> Vec<Straight> {
             "\\frac{\\partial \\varphi}{\\partial u}".into(),
         ),
     ];
-    doc.extend(equations(g, &names, &[d.alpha, d.beta]));
-    let mut args = xi_eta();
-    args.push(Arg::Scalar(u));
+    doc.extend(equations(g, &names, &c.phi));
     fs.push(Straight::new(
-        FnKind::Phi,
-        args,
-        vec![d.alpha, d.beta],
+        c.kinds[0],
+        with(&[u]),
+        c.phi.to_vec(),
         Shape::Tuple(vec![Shape::Scalar, Shape::Scalar]),
         doc,
     ));
-    if let Some(sol) = d.input_solution {
-        let mut doc = vec![
-            "The input that gives y^(r) = `yr`, φ(ξ, η, u) = y^(r) solved for u by isolation."
-                .to_string(),
-        ];
-        if !d.domain.is_empty() {
+    if let Some(sol) = c.solution {
+        let mut doc = vec![c.texts[1].to_string()];
+        if c.with_domain && !d.domain.is_empty() {
             doc.push(String::new());
             doc.push(format!("Valid where: {}.", d.domain.join("; ")));
         }
         doc.push(String::new());
         doc.extend(equations(g, &[("u".into(), "u".into())], &[sol]));
-        let mut args = xi_eta();
-        args.push(Arg::Scalar(d.yr));
         fs.push(Straight::new(
-            FnKind::InputSolution,
-            args,
+            c.kinds[1],
+            with(&[d.yr]),
             vec![sol],
             Shape::Scalar,
             doc,
         ));
     }
     if !d.eta.is_empty() {
-        let mut doc = vec![
-            "The zero dynamics dη/dt = rhs_η(x, u) at x = ψ⁻¹(ξ, η) and the input u that gives y^(r)."
-                .to_string(),
-            String::new(),
-        ];
-        doc.extend(equations(g, &lhs.deta, &d.zero_dynamics));
-        let mut args = xi_eta();
-        args.push(Arg::Scalar(d.yr));
-        args.push(Arg::Scalar(u));
+        let mut doc = vec![c.texts[2].to_string(), String::new()];
+        doc.extend(equations(g, &lhs.deta, c.zero_dynamics));
         fs.push(Straight::new(
-            FnKind::ZeroDynamics,
-            args,
-            d.zero_dynamics.clone(),
+            c.kinds[2],
+            with(&[d.yr, u]),
+            c.zero_dynamics.to_vec(),
             Shape::array("N_ETA", d.eta.len()),
             doc,
         ));
@@ -348,72 +371,25 @@ fn numeric(g: &Gen<'_>, lhs: &Lhs) -> Vec<Straight> {
 /// where the input solution is substituted).
 fn numeric_non_affine(g: &Gen<'_>, lhs: &Lhs) -> Vec<Straight> {
     let d = g.d;
-    let u = d.model.input.symbol;
-    let x_w = || g.with_w(vec![g.x_arg()]);
-    let mut fs = vec![psi_jacobian(g, lhs)];
-    let mut doc = vec![
-        "y^(r) = φ(x, u) = D^r h in the states, not affine in the input, and ∂φ/∂u, the derivative Newton's \
-         method takes."
-            .to_string(),
-    ];
-    if !d.singular.is_empty() {
-        doc.push(String::new());
-        doc.push(format!("∂φ/∂u vanishes {}.", d.singular.join("; ")));
-    }
-    doc.push(String::new());
-    let names = [
-        ("phi".into(), "\\varphi".into()),
-        (
-            "dphi_du".into(),
-            "\\frac{\\partial \\varphi}{\\partial u}".into(),
-        ),
-    ];
-    doc.extend(equations(g, &names, &[d.alpha_x, d.beta_x]));
-    let mut args = x_w();
-    args.push(Arg::Scalar(u));
-    fs.push(Straight::new(
-        FnKind::PhiX,
-        args,
-        vec![d.alpha_x, d.beta_x],
-        Shape::Tuple(vec![Shape::Scalar, Shape::Scalar]),
-        doc,
-    ));
-    if let Some(sol) = d.input_solution_x {
-        let mut doc = vec![
-            "The input that gives y^(r) = `yr`, φ(x, u) = y^(r) solved for u by isolation, in the states."
-                .to_string(),
-            String::new(),
-        ];
-        doc.extend(equations(g, &[("u".into(), "u".into())], &[sol]));
-        let mut args = x_w();
-        args.push(Arg::Scalar(d.yr));
-        fs.push(Straight::new(
+    let coords = PhiCoords {
+        args: g.with_w(vec![g.x_arg()]),
+        kinds: [
+            FnKind::PhiX,
             FnKind::InputSolutionX,
-            args,
-            vec![sol],
-            Shape::Scalar,
-            doc,
-        ));
-    }
-    if !d.eta.is_empty() {
-        let mut doc = vec![
-            "The zero dynamics dη/dt = rhs_η(x, u) in the states, at the input u that gives y^(r)."
-                .to_string(),
-            String::new(),
-        ];
-        doc.extend(equations(g, &lhs.deta, &d.zero_dynamics_x));
-        let mut args = x_w();
-        args.push(Arg::Scalar(d.yr));
-        args.push(Arg::Scalar(u));
-        fs.push(Straight::new(
             FnKind::ZeroDynamicsX,
-            args,
-            d.zero_dynamics_x.clone(),
-            Shape::array("N_ETA", d.eta.len()),
-            doc,
-        ));
-    }
-    fs
+        ],
+        phi: [d.alpha_x, d.beta_x],
+        solution: d.input_solution_x,
+        zero_dynamics: &d.zero_dynamics_x,
+        texts: [
+            "y^(r) = φ(x, u) = D^r h in the states, not affine in the input, and ∂φ/∂u, the derivative Newton's \
+             method takes.",
+            "The input that gives y^(r) = `yr`, φ(x, u) = y^(r) solved for u by isolation, in the states.",
+            "The zero dynamics dη/dt = rhs_η(x, u) in the states, at the input u that gives y^(r).",
+        ],
+        with_domain: false,
+    };
+    phi_functions(g, lhs, psi_jacobian(g, lhs), coords)
 }
 
 /// The original model's functions: the right-hand side and the extra outputs.

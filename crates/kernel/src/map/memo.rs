@@ -44,42 +44,33 @@ pub(super) fn partial(
     small: bool,
     eval: impl FnOnce(usize, &mut [f64; WIDTH]),
 ) -> f64 {
-    let key = [args[0].to_bits(), args[1].to_bits()];
     let need = if small { MEMO_ORDER } else { i.max(j).max(1) };
+    let at = i * (MEMO_ORDER + 1) + j;
+    fetch(id, args, need, |out| eval(need, out), |out| out[at])
+}
+
+/// Every partial up to order `MEMO_ORDER` per argument at `args` of map `id` (rows of `MEMO_ORDER + 1`), from
+/// the memo or from `eval(out)`, which then fills it.
+pub(super) fn entry(id: u64, args: [f64; 2], eval: impl FnOnce(&mut [f64; WIDTH])) -> [f64; WIDTH] {
+    fetch(id, args, MEMO_ORDER, eval, |out| *out)
+}
+
+/// `read` of the entry of map `id` at `args` holding at least the orders up to `need`: the memo's, or one
+/// `eval` fills (in the slot that held the point at lower orders, else the next in turn).
+fn fetch<R>(
+    id: u64,
+    args: [f64; 2],
+    need: usize,
+    eval: impl FnOnce(&mut [f64; WIDTH]),
+    read: impl FnOnce(&[f64; WIDTH]) -> R,
+) -> R {
+    let key = [args[0].to_bits(), args[1].to_bits()];
     MEMO.with(|m| {
         let mut m = m.borrow_mut();
         let (slots, next) = &mut *m;
         let at = slots.iter().position(|e| e.id == id && e.args == key);
         if let Some(k) = at.filter(|&k| slots[k].cap >= need) {
-            return slots[k].out[i * (MEMO_ORDER + 1) + j];
-        }
-        let mut out = [0.0; WIDTH];
-        eval(need, &mut out);
-        let k = at.unwrap_or_else(|| {
-            let k = *next;
-            *next = (k + 1) % SLOTS;
-            k
-        });
-        slots[k] = Entry {
-            id,
-            args: key,
-            cap: need,
-            out,
-        };
-        out[i * (MEMO_ORDER + 1) + j]
-    })
-}
-
-/// Every partial up to order `MEMO_ORDER` per argument at `args` of map `id` (rows of `MEMO_ORDER + 1`), from
-/// the memo or from `eval(MEMO_ORDER, out)`, which then fills it.
-pub(super) fn entry(id: u64, args: [f64; 2], eval: impl FnOnce(&mut [f64; WIDTH])) -> [f64; WIDTH] {
-    let key = [args[0].to_bits(), args[1].to_bits()];
-    MEMO.with(|m| {
-        let mut m = m.borrow_mut();
-        let (slots, next) = &mut *m;
-        let at = slots.iter().position(|e| e.id == id && e.args == key);
-        if let Some(k) = at.filter(|&k| slots[k].cap >= MEMO_ORDER) {
-            return slots[k].out;
+            return read(&slots[k].out);
         }
         let mut out = [0.0; WIDTH];
         eval(&mut out);
@@ -91,9 +82,9 @@ pub(super) fn entry(id: u64, args: [f64; 2], eval: impl FnOnce(&mut [f64; WIDTH]
         slots[k] = Entry {
             id,
             args: key,
-            cap: MEMO_ORDER,
+            cap: need,
             out,
         };
-        out
+        read(&out)
     })
 }
