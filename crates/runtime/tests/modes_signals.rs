@@ -62,10 +62,25 @@ fn grade_zero_equals_the_model_without_grade() {
     let cycle = Cycle::builtin("udds").expect("built-in");
     let a = run(&plain, &cycle, &[], false);
     let b = run(&grade, &cycle, &constant(0.0), false);
-    assert_eq!(a.columns, b.columns);
+    // The graded run has the smoothed signal and its derivatives right after yd_0 … yd_2 (contract §5),
+    // all zero for a constant zero grade; every other column is the plain run's.
+    let at = b
+        .columns
+        .iter()
+        .position(|c| c == "grade")
+        .expect("a grade column");
+    assert_eq!(b.columns[at - 1], "yd_2");
+    assert_eq!(b.columns[at..at + 3], ["grade", "grade_d1", "grade_d2"]);
+    for c in &b.data[at..at + 3] {
+        assert!(c.iter().all(|&v| v == 0.0));
+    }
+    let (mut b_cols, mut b_data) = (b.columns.clone(), b.data.clone());
+    b_cols.drain(at..at + 3);
+    b_data.drain(at..at + 3);
+    assert_eq!(a.columns, b_cols);
     assert_eq!(a.mode, b.mode);
     let mut worst = 0.0f64;
-    for (ca, cb) in a.data.iter().zip(&b.data) {
+    for (ca, cb) in a.data.iter().zip(&b_data) {
         for (x, y) in ca.iter().zip(cb) {
             if x != y {
                 worst = worst.max((x - y).abs() / x.abs().max(1.0));

@@ -67,7 +67,8 @@ pub struct ModalSummary {
     pub warnings: Vec<String>,
 }
 
-/// Column names and units: `t`, `mode`, `gear`, `yd_0` … `yd_R`, the inputs, the states, the `[outputs]`.
+/// Column names and units: `t`, `mode`, `gear`, `yd_0` … `yd_R`, per signal S `S`, `S_d1` … `S_dR`
+/// (contract §5, as the single-mode run), the inputs, the states, the `[outputs]`.
 fn columns(ctx: &Ctx<'_, '_>) -> Vec<(String, Option<String>)> {
     let spec = ctx.spec;
     let info = spec.modes[0].model.info();
@@ -77,6 +78,10 @@ fn columns(ctx: &Ctx<'_, '_>) -> Vec<(String, Option<String>)> {
         ("gear".into(), None),
     ];
     c.extend((0..=ctx.r_max).map(|k| (format!("yd_{k}"), None)));
+    for sig in &info.signals {
+        c.push((sig.name.clone(), sig.unit.clone()));
+        c.extend((1..=ctx.r_max).map(|k| (format!("{}_d{k}", sig.name), None)));
+    }
     c.extend(spec.inputs.iter().map(|i| (i.name.clone(), i.unit.clone())));
     c.extend(
         info.states
@@ -198,8 +203,9 @@ fn walk(ctx: &Ctx<'_, '_>, cycle: &Cycle, opts: &ModalOptions, rec: &Record) -> 
     tally
 }
 
-/// The table's columns (see [`columns`]): t, mode, gear, y_d^(0 … R), the inputs, the states, the
-/// `[outputs]`, each copied column by column from the rows recorded.
+/// The table's columns (see [`columns`]): t, mode, gear, y_d^(0 … R), the smoothed signals with their
+/// derivatives at the samples, the inputs, the states, the `[outputs]`, each copied column by column from
+/// the rows recorded.
 fn table(ctx: &Ctx<'_, '_>, rec: &Record, tally: &Tally) -> Vec<Vec<f64>> {
     let spec = ctx.spec;
     let mut data = vec![
@@ -210,10 +216,28 @@ fn table(ctx: &Ctx<'_, '_>, rec: &Record, tally: &Tally) -> Vec<Vec<f64>> {
             .map(|&m| spec.modes[m].gear.unwrap_or(0) as f64)
             .collect(),
     ];
-    for rows in [&rec.yref, &tally.inputs, &rec.states, &tally.outputs] {
-        data.extend((0..rows.width()).map(|j| rows.column(j).collect()));
+    let column = |rows: &Rows, j: usize| rows.column(j).collect::<Vec<f64>>();
+    data.extend((0..rec.yref.width()).map(|j| column(&rec.yref, j)));
+    let signals = signal_rows(ctx, &rec.t);
+    data.extend((0..signals.width()).map(|j| column(&signals, j)));
+    for rows in [&tally.inputs, &rec.states, &tally.outputs] {
+        data.extend((0..rows.width()).map(|j| column(rows, j)));
     }
     data
+}
+
+/// [S, S_d1, …, S_dR] of every signal at each sample time (none without signals).
+fn signal_rows(ctx: &Ctx<'_, '_>, t: &[f64]) -> Rows {
+    let n = ctx.spec.modes[0].model.info().signals.len() * (ctx.r_max + 1);
+    let mut rows = Rows::with_capacity(n, if n == 0 { 0 } else { t.len() });
+    if n > 0 {
+        let mut w = vec![0.0; n];
+        for &tk in t {
+            ctx.smoother.eval_signals(tk, &mut w);
+            rows.push(&w);
+        }
+    }
+    rows
 }
 
 /// The accumulated outputs' integrals, per 100 km (those per distance) and units, by name.

@@ -8,7 +8,6 @@ use invsim_model_api::ModelInfo;
 use super::figure::Panel;
 use super::panels::{self, with_unit, CYCLE, REFERENCE};
 use crate::signals::ResolvedSignal;
-use crate::smoother::Smoother;
 
 /// The panel of exogenous signal `i`: its raw samples (linear between them, held outside their span) and,
 /// for an inverse run, the smoothed signal the inverse used (`smoothed`, on the times `t`).
@@ -80,18 +79,4 @@ pub(super) fn signal_raw_and_smoothed(
         y_zero: false,
         series,
     }
-}
-
-/// The smoothed signal `raw` at the times `t`, with the kernel of half-width `lookahead` (the reference's):
-/// what the inverse run of a model with modes took (`crate::signals::smoothers`; its series holds no signal
-/// columns).
-pub(super) fn smoothed_at(raw: &ResolvedSignal, lookahead: f64, t: &[f64]) -> Vec<f64> {
-    let smoother = Smoother::from_samples(&raw.time, &raw.values, lookahead);
-    let mut value = [0.0];
-    t.iter()
-        .map(|&tk| {
-            smoother.eval(tk, &mut value);
-            value[0]
-        })
-        .collect()
 }

@@ -9,7 +9,7 @@
 
 use invsim_model_api::ModelInfo;
 
-use super::exogenous::{signal_raw_and_smoothed, smoothed_at};
+use super::exogenous::signal_raw_and_smoothed;
 use super::figure::{Figure, Panel, Series, PANEL_TITLE_SIZE};
 use super::font::text_width;
 use super::panels::{self, input_panel, series, signal_panel, Signal, CYCLE, LOWER, REFERENCE};
@@ -168,12 +168,10 @@ pub fn modal_simulation_figure(
             ],
         }
     };
-    // The raw signal and the smoothed one the modes took (smoothed again here: the series has no signal
-    // columns).
+    // The raw signal and the smoothed one the modes took (the series' column of the signal).
     let exogenous = |i: usize| {
-        let raw = result.signals.get(i);
-        let smoothed = raw.map_or_else(Vec::new, |r| smoothed_at(r, result.summary.lookahead_s, t));
-        signal_raw_and_smoothed(info, i, raw, (t, &smoothed), x_range)
+        let smoothed = cols.get(&info.signals[i].name);
+        signal_raw_and_smoothed(info, i, result.signals.get(i), (t, smoothed), x_range)
     };
     let s = &result.summary;
     Ok(Figure {
