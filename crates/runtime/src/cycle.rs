@@ -11,6 +11,7 @@ mod printable;
 
 pub use builtin::BuiltinCycle;
 use builtin::{BUILTINS, BUILTIN_NAMES};
+pub(crate) use columns::field_column;
 use columns::ExtraColumns;
 pub use columns::{BadCell, CycleColumn};
 use printable::printable;

@@ -8,7 +8,7 @@
 
 use thiserror::Error;
 
-use crate::cycle::TIME_COLUMNS;
+use crate::cycle::{field_column, TIME_COLUMNS};
 use crate::elevation::{Route, ELEVATION_COLUMNS};
 use crate::signals::SignalValue;
 
@@ -23,18 +23,6 @@ pub struct SignalFileError {
     pub line: usize,
     pub column: usize,
     pub message: String,
-}
-
-/// The column (1-based, in characters) where field `index` of `line` starts.
-fn field_column(line: &str, index: usize) -> usize {
-    let mut col = 1;
-    for (i, field) in line.split(',').enumerate() {
-        if i == index {
-            return col;
-        }
-        col += field.chars().count() + 1;
-    }
-    col
 }
 
 /// Route-profile columns of a signal file (elevation over distance, `elevation.rs`): distance and elevation

@@ -84,8 +84,9 @@ impl ExtraColumns {
 }
 
 /// The 1-based character column where field `index` of a comma-separated `line` starts (quoted fields that
-/// hold commas are not told apart: the column is then approximate).
-fn field_column(line: &str, index: usize) -> usize {
+/// hold commas are not told apart: the column is then approximate). Cycle files and signal files both
+/// report a bad cell by it.
+pub(crate) fn field_column(line: &str, index: usize) -> usize {
     let mut col = 1;
     for (i, field) in line.split(',').enumerate() {
         if i == index {
