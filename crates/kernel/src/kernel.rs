@@ -281,10 +281,7 @@ impl Kernel {
         if v <= -1.0 {
             return [0.0; 3];
         }
-        // v ∈ (−1, 0]: the piece by an i64 conversion (cheaper than the saturating one to usize).
-        let x = (v + 1.0) * PIECES as f64;
-        let j = ((x as i64).clamp(0, PIECES as i64 - 1)) as usize;
-        let s = (v - (-1.0 + (j as f64 + 0.5) / PIECES as f64)) * (2.0 * PIECES as f64);
+        let (j, s) = UnitTables::locate(v);
         let [k, r] = estrin12(&self.tables.pieces[j], s);
         let d = estrin16(&self.tables.density[j], s);
         let (k, r, d) = (k.max(0.0), r.max(0.0), d.max(0.0));
@@ -338,8 +335,9 @@ impl UnitTables {
     fn locate(u: f64) -> (usize, f64) {
         let n = PIECES as f64;
         let x = (u + 1.0) * n;
-        // x ∈ (0, PIECES]; truncation is the intended floor, clamped to the last piece.
-        let j = (x as usize).min(PIECES - 1);
+        // x ∈ (0, PIECES]; truncation is the intended floor, clamped to the last piece (through i64: cheaper
+        // than the saturating conversion to usize, the same piece).
+        let j = (x as i64).clamp(0, PIECES as i64 - 1) as usize;
         let centre = -1.0 + (j as f64 + 0.5) / n;
         (j, (u - centre) * (2.0 * n))
     }
