@@ -54,15 +54,64 @@ impl DeviationTally {
         }
     }
 
+    /// The samples `yd` at `times` (increasing, and after those of earlier calls): segment by segment of
+    /// the cycle, each sample as [`DeviationTally::push`] takes it (the same operations in the same order),
+    /// in a loop without its checks.
+    pub(crate) fn push_block(&mut self, cycle: &Cycle, times: &[f64], yd: &[f64]) {
+        let (time, speed) = (&cycle.time, &cycle.speed);
+        let n = time.len().min(speed.len());
+        let mut k = 0;
+        while k < times.len() {
+            let t = times[k];
+            // Before or at the start, at or after the end, an identity map missing: one by one.
+            if !self.map.is_identity() || n < 2 || t <= time[0] || t >= time[n - 1] {
+                self.push(cycle, t, yd[k]);
+                k += 1;
+                continue;
+            }
+            while self.segment + 2 < n && time[self.segment + 1] <= t {
+                self.segment += 1;
+            }
+            let i = self.segment;
+            // The samples in [time[i], time[i + 1]), before the end: y_c on one line.
+            let (t_i, t_next, v_i, v_next) = (time[i], time[i + 1], speed[i], speed[i + 1]);
+            let end = k + times[k..].partition_point(|&t| t < t_next.min(time[n - 1]));
+            let (mut max_abs, mut sum_sq, mut distance) =
+                (self.max_abs, self.sum_sq, self.distance);
+            let mut previous = self.previous;
+            for (&t, &y) in times[k..end].iter().zip(&yd[k..end]) {
+                let w = (t - t_i) / (t_next - t_i);
+                let e = y - (v_i + w * (v_next - v_i));
+                max_abs = max_abs.max(e.abs());
+                sum_sq += e * e;
+                if let Some(p) = previous {
+                    distance += 0.5 * self.dt * (p + y);
+                }
+                previous = Some(y);
+            }
+            (self.max_abs, self.sum_sq, self.distance) = (max_abs, sum_sq, distance);
+            self.previous = previous;
+            self.count += end - k;
+            k = end;
+        }
+    }
+
     /// The sample y_d at time `t` (times increasing from call to call).
     #[inline]
     pub(crate) fn push(&mut self, cycle: &Cycle, t: f64, yd: f64) {
-        let yc = self.map.offset + self.map.scale * self.cycle_at(cycle, t);
+        let y_c = self.cycle_at(cycle, t);
+        // The identity map as it is: yd − 0 = yd, yd / 1 = yd, and 0 + 1·y_c differs from y_c only in the
+        // sign of a zero, which e neither shows in |e| nor in e².
+        let (yc, v) = if self.map.is_identity() {
+            (y_c, yd)
+        } else {
+            let ReferenceMap { offset, scale } = self.map;
+            (offset + scale * y_c, (yd - offset) / scale)
+        };
         let e = yd - yc;
         self.max_abs = self.max_abs.max(e.abs());
         self.sum_sq += e * e;
         self.count += 1;
-        let v = (yd - self.map.offset) / self.map.scale;
         if let Some(p) = self.previous {
             self.distance += 0.5 * self.dt * (p + v);
         }
