@@ -57,6 +57,8 @@
 //! compile time by `build.rs`, which runs the construction in `construction.rs`; nothing is built at
 //! start-up.
 
+mod lanes;
+
 use std::fmt;
 
 use crate::construction::{

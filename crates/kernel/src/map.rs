@@ -24,6 +24,7 @@
 //! constant, higher ones zero); the contract allows that only for maps used in outputs alone.
 
 mod axis;
+mod batch;
 mod extrapolate;
 mod memo;
 mod small;
@@ -123,6 +124,10 @@ pub struct Map {
     max_count: [usize; 2],
     /// Every axis is served by the fast path of `small.rs` (orders up to 2 per argument).
     small: bool,
+    /// Every axis has the fixed-width basis of `batch.rs` ([`Map::partials2_batch`]'s fast path).
+    batch: bool,
+    /// The values padded with zeros for `batch.rs`.
+    padded: Vec<f64>,
     /// The map's name in messages (see [`Map::named`]).
     name: std::sync::Arc<str>,
     /// Unique per data (clones share it): the key of the one-pass memo (`memo.rs`).
@@ -220,6 +225,8 @@ impl Map {
         Ok(Map {
             max_count: [x.max_count(), 0],
             small: x.is_small(),
+            batch: batch::fits(&x, None),
+            padded: batch::pad(&values, x.len(), None),
             x,
             y: None,
             values,
@@ -242,6 +249,8 @@ impl Map {
         Ok(Map {
             max_count: [x.max_count(), y.max_count()],
             small: x.is_small() && y.is_small(),
+            batch: batch::fits(&x, Some(&y)),
+            padded: batch::pad(&values, x.len(), Some(y.len())),
             x,
             y: Some(y),
             values,
@@ -315,6 +324,7 @@ impl Map {
     /// Replaces the values (same grid).
     pub fn set_values(&mut self, values: Vec<f64>) -> Result<(), MapError> {
         check_values(&values, self.values.len())?;
+        self.padded = batch::pad(&values, self.x.len(), self.y.as_ref().map(Axis::len));
         self.values = values;
         self.id = next_id();
         Ok(())
@@ -356,6 +366,11 @@ impl Map {
     /// [`Violation`] (see [`take_violation`]); the value is still the linear continuation.
     pub fn eval(&self, args: &[f64], orders: [usize; 2], out: &mut [f64]) {
         self.check_range(args);
+        self.eval_unchecked(args, orders, out);
+    }
+
+    /// [`Map::eval`] without the range check.
+    fn eval_unchecked(&self, args: &[f64], orders: [usize; 2], out: &mut [f64]) {
         if args.iter().take(self.arity()).any(|a| a.is_nan()) {
             out.fill(f64::NAN);
             return;
@@ -410,6 +425,55 @@ impl Map {
             None => self.eval(&args[..1], [2, 0], &mut out[..3]),
             Some(_) => self.eval(args, [2, 2], out),
         })
+    }
+
+    /// [`Map::partials2`] at `n = a.len()` points at once, as structure of arrays: `out[k · n + i]` is entry
+    /// `k` of `partials2(&[a[i], b[i]])` for `k < 9` (2-D), or of `partials2(&[a[i]])` for `k < 3` (1-D:
+    /// `M, M', M''`; `b` is not read and may be empty). The same numbers as point by point.
+    ///
+    /// Maps whose windows hold at most one corner per axis (`smooth ≤ 0.5`, the default, and
+    /// `interp = "linear"`) take a fixed-width, branch-free path over chunks of points (see `batch.rs`),
+    /// compiled for AVX2 where the processor has it; others are evaluated point by point. No memo.
+    ///
+    /// Under `extrapolate = "error"` the first point with an argument outside the grid is recorded as for
+    /// [`Map::eval`].
+    ///
+    /// # Panics
+    ///
+    /// If `out` holds fewer than `9n` (1-D: `3n`) values, or a 2-D map's `b` fewer than `n`.
+    pub fn partials2_batch(&self, a: &[f64], b: &[f64], out: &mut [f64]) {
+        let n = a.len();
+        let two_d = self.y.is_some();
+        let width = if two_d { 9 } else { 3 };
+        assert!(out.len() >= width * n, "partials2_batch: `out` is too short");
+        assert!(!two_d || b.len() >= n, "partials2_batch: `b` is too short");
+        let b = if two_d { &b[..n] } else { &[][..] };
+        let args = |i: usize| [a[i], b.get(i).copied().unwrap_or(0.0)];
+        if self.settings.extrapolate == Extrapolate::Error {
+            if let Some(i) = (0..n).find(|&i| self.outside(&args(i)).is_some()) {
+                self.check_range(&args(i));
+            }
+        }
+        if !self.batch {
+            let mut one = [0.0; 9];
+            for i in 0..n {
+                let orders = if two_d { [2, 2] } else { [2, 0] };
+                self.eval_unchecked(&args(i)[..self.arity()], orders, &mut one[..width]);
+                for (k, &v) in one[..width].iter().enumerate() {
+                    out[k * n + i] = v;
+                }
+            }
+            return;
+        }
+        batch::dispatch(self, a, b, out);
+        // NaN arguments give NaN everywhere (as `eval`); the fixed-width path does not look at them.
+        for i in 0..n {
+            if a[i].is_nan() || b.get(i).is_some_and(|v| v.is_nan()) {
+                for k in 0..width {
+                    out[k * n + i] = f64::NAN;
+                }
+            }
+        }
     }
 
     /// One partial derivative: `orders[k]` times with respect to argument `k` (`orders[1]` ignored in 1-D).
