@@ -65,7 +65,11 @@ fn lookup(c: &mut Criterion) {
     group.bench_function("partials2_batch", |b| {
         let mut out = vec![0.0; 9 * n];
         b.iter(|| {
-            map.partials2_batch(std::hint::black_box(&a), std::hint::black_box(&bb), &mut out);
+            map.partials2_batch(
+                std::hint::black_box(&a),
+                std::hint::black_box(&bb),
+                &mut out,
+            );
             out[0] + out[n] + out[2 * n] + out[3 * n] + out[4 * n] + out[6 * n]
         })
     });
@@ -85,8 +89,12 @@ fn lookup(c: &mut Criterion) {
 
 /// The Fusion's `fc_map` (models/vehicles/ford_fusion_2012.toml) and a smooth 1-D curve on the same grid.
 fn curves() -> [(&'static str, Map); 2] {
-    let x = vec![0.0, 0.005, 0.015, 0.04, 0.06, 0.1, 0.14, 0.2, 0.4, 0.6, 0.8, 1.0];
-    let v = vec![0.1, 0.12, 0.16, 0.22, 0.28, 0.33, 0.35, 0.36, 0.35, 0.34, 0.32, 0.3];
+    let x = vec![
+        0.0, 0.005, 0.015, 0.04, 0.06, 0.1, 0.14, 0.2, 0.4, 0.6, 0.8, 1.0,
+    ];
+    let v = vec![
+        0.1, 0.12, 0.16, 0.22, 0.28, 0.33, 0.35, 0.36, 0.35, 0.34, 0.32, 0.3,
+    ];
     let linear = MapSettings {
         smooth: 0.5,
         extrapolate: Extrapolate::Clamp,

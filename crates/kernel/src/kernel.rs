@@ -59,6 +59,10 @@
 
 mod lanes;
 
+#[cfg(target_arch = "x86_64")]
+pub(crate) use lanes::Avx2;
+pub(crate) use lanes::F4;
+
 use std::fmt;
 
 use crate::construction::{

@@ -445,7 +445,10 @@ impl Map {
         let n = a.len();
         let two_d = self.y.is_some();
         let width = if two_d { 9 } else { 3 };
-        assert!(out.len() >= width * n, "partials2_batch: `out` is too short");
+        assert!(
+            out.len() >= width * n,
+            "partials2_batch: `out` is too short"
+        );
         assert!(!two_d || b.len() >= n, "partials2_batch: `b` is too short");
         let b = if two_d { &b[..n] } else { &[][..] };
         let args = |i: usize| [a[i], b.get(i).copied().unwrap_or(0.0)];

@@ -73,7 +73,9 @@ fn grid_2d(two_point_y: bool) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
 }
 
 fn min_spacing(g: &[f64]) -> f64 {
-    g.windows(2).map(|w| w[1] - w[0]).fold(f64::INFINITY, f64::min)
+    g.windows(2)
+        .map(|w| w[1] - w[0])
+        .fold(f64::INFINITY, f64::min)
 }
 
 /// `partials2_batch` against `partials2` at every point: within `1e-14 · max|v| / (hx^p hy^q)` (the map's
@@ -234,12 +236,21 @@ fn batch_partials_match_finite_differences() {
         map.partials2_batch(&[a], &[b], &mut out);
         out
     };
-    for (a, b) in [(310.0, 6.1e4), (105.0, 3.9e4), (45.0, 9.0e4), (690.0, 1.05e5)] {
+    for (a, b) in [
+        (310.0, 6.1e4),
+        (105.0, 3.9e4),
+        (45.0, 9.0e4),
+        (690.0, 1.05e5),
+    ] {
         let got = at(a, b);
         for k in 1..9 {
             let (p, q) = (k / 3, k % 3);
             // difference along a if p > 0 (entry k − 3), else along b (entry k − 1)
-            let (lower, step) = if p > 0 { (k - 3, 1e-3 * h[0]) } else { (k - 1, 1e-3 * h[1]) };
+            let (lower, step) = if p > 0 {
+                (k - 3, 1e-3 * h[0])
+            } else {
+                (k - 1, 1e-3 * h[1])
+            };
             let f = |s: f64| {
                 if p > 0 {
                     at(a + s, b)[lower]
@@ -278,7 +289,10 @@ fn batch_lengths_nan_and_the_error_rule() {
     map.partials2_batch(&a, &b, &mut out);
     for k in 0..9 {
         assert!(out[k * 4].is_finite() && out[k * 4 + 2].is_finite());
-        assert!(out[k * 4 + 1].is_nan() && out[k * 4 + 3].is_nan(), "entry {k}");
+        assert!(
+            out[k * 4 + 1].is_nan() && out[k * 4 + 3].is_nan(),
+            "entry {k}"
+        );
     }
     // The first point outside (NaN counts) is the one reported, as point-by-point calls would.
     let violation = take_violation().expect("argument outside the grid");

@@ -12,7 +12,94 @@
 use super::{tables, Kernel, UnitTables};
 use crate::construction::{COEFFS, DENSITY_COEFFS, PIECES};
 
-/// Four lanes: `[R₁, K₁, h/C₀, 0]`.
+/// Four lanes of `f64` with the few operations the batched map evaluation needs: a plain array, or an AVX2
+/// register ([`Avx2`], only where the processor has AVX2). Every operation is the lane-wise IEEE operation, so
+/// both give the same numbers.
+pub(crate) trait F4: Copy {
+    fn splat(x: f64) -> Self;
+    fn load(lanes: &[f64; 4]) -> Self;
+    fn add(self, other: Self) -> Self;
+    fn mul(self, other: Self) -> Self;
+    /// Lane-wise `max(self, 0)` for finite lanes (`f64::max`'s result).
+    fn max0(self) -> Self;
+    fn to_array(self) -> [f64; 4];
+
+    /// `self + c·x` per lane.
+    #[inline(always)]
+    fn add_mul(self, c: Self, x: Self) -> Self {
+        self.add(c.mul(x))
+    }
+}
+
+impl F4 for [f64; 4] {
+    #[inline(always)]
+    fn splat(x: f64) -> Self {
+        [x; 4]
+    }
+    #[inline(always)]
+    fn load(lanes: &[f64; 4]) -> Self {
+        *lanes
+    }
+    #[inline(always)]
+    fn add(self, o: Self) -> Self {
+        std::array::from_fn(|i| self[i] + o[i])
+    }
+    #[inline(always)]
+    fn mul(self, o: Self) -> Self {
+        std::array::from_fn(|i| self[i] * o[i])
+    }
+    #[inline(always)]
+    fn max0(self) -> Self {
+        self.map(|v| v.max(0.0))
+    }
+    #[inline(always)]
+    fn to_array(self) -> [f64; 4] {
+        self
+    }
+}
+
+/// An AVX2 register of four `f64`. Its operations are reached only from code compiled with
+/// `#[target_feature(enable = "avx2,fma")]` that runs after `is_x86_feature_detected!("avx2")` (the batched
+/// map's dispatch).
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy)]
+pub(crate) struct Avx2(std::arch::x86_64::__m256d);
+
+#[cfg(target_arch = "x86_64")]
+impl F4 for Avx2 {
+    // SAFETY (every method): AVX is available, see the type's documentation; loads read a `[f64; 4]`.
+    #[inline(always)]
+    fn splat(x: f64) -> Self {
+        Avx2(unsafe { std::arch::x86_64::_mm256_set1_pd(x) })
+    }
+    #[inline(always)]
+    fn load(lanes: &[f64; 4]) -> Self {
+        Avx2(unsafe { std::arch::x86_64::_mm256_loadu_pd(lanes.as_ptr()) })
+    }
+    #[inline(always)]
+    fn add(self, o: Self) -> Self {
+        Avx2(unsafe { std::arch::x86_64::_mm256_add_pd(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn mul(self, o: Self) -> Self {
+        Avx2(unsafe { std::arch::x86_64::_mm256_mul_pd(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn max0(self) -> Self {
+        // maxpd(x, 0) is x for x > 0 and 0 for x ≤ 0 (also −0): `f64::max(x, 0.0)` for finite x ≠ −0.
+        Avx2(unsafe {
+            std::arch::x86_64::_mm256_max_pd(self.0, std::arch::x86_64::_mm256_setzero_pd())
+        })
+    }
+    #[inline(always)]
+    fn to_array(self) -> [f64; 4] {
+        let mut out = [0.0; 4];
+        unsafe { std::arch::x86_64::_mm256_storeu_pd(out.as_mut_ptr(), self.0) };
+        out
+    }
+}
+
+/// Four lanes in the table: `[R₁, K₁, h/C₀, 0]`.
 type Lanes = [f64; 4];
 
 /// The unit kernel's tables per piece and power of `s`, interleaved (built at compile time).
@@ -37,46 +124,37 @@ const fn interleave() -> [[Lanes; DENSITY_COEFFS]; PIECES] {
     out
 }
 
-/// `c0 + c1·x` per lane.
-#[inline(always)]
-fn lin4(c0: Lanes, c1: Lanes, x: f64) -> Lanes {
-    [
-        c0[0] + c1[0] * x,
-        c0[1] + c1[1] * x,
-        c0[2] + c1[2] * x,
-        c0[3] + c1[3] * x,
-    ]
-}
-
 /// The degree-15 polynomials of one piece by `estrin16`'s scheme, per lane.
 #[inline(always)]
-fn estrin16x4(c: &[Lanes; DENSITY_COEFFS], s: f64) -> Lanes {
+fn estrin16x4<V: F4>(c: &[Lanes; DENSITY_COEFFS], s: f64) -> V {
     let s2 = s * s;
     let s4 = s2 * s2;
     let s8 = s4 * s4;
-    let p = |i: usize| lin4(c[i], c[i + 1], s);
-    let q = |i: usize| lin4(p(i), p(i + 2), s2);
-    lin4(lin4(q(0), q(4), s4), lin4(q(8), q(12), s4), s8)
+    let (s, s2, s4, s8) = (V::splat(s), V::splat(s2), V::splat(s4), V::splat(s8));
+    let p = |i: usize| V::load(&c[i]).add_mul(V::load(&c[i + 1]), s);
+    let q = |i: usize| p(i).add_mul(p(i + 2), s2);
+    q(0).add_mul(q(4), s4).add_mul(q(8).add_mul(q(12), s4), s8)
 }
 
 impl Kernel {
-    /// [`Kernel::corner_excess`] (`[R(t) − t₊, K(t) − H(t), k(t)]`) from the interleaved table, the same
-    /// numbers for every `t` but NaN, where it gives 0 (the batched map fills NaN for NaN arguments itself).
-    /// No branch on `t`: outside the support the piece at `u = −1` is evaluated and discarded.
+    /// [`Kernel::corner_excess`] (`[R(t) − t₊, K(t) − H(t), k(t)]`, fourth lane 0) from the interleaved table,
+    /// the same numbers for every `t` but NaN, where it gives 0 (the batched map fills NaN for NaN arguments
+    /// itself). No branch on `t`: outside the support the piece at `u = −1` is evaluated and scaled by 0.
     #[inline(always)]
-    pub(crate) fn corner_excess_lanes(&self, t: f64) -> [f64; 3] {
+    pub(crate) fn corner_excess_lanes<V: F4>(&self, t: f64) -> V {
         let u = t * self.inv_a;
         let v = -u.abs();
         let inside = v > -1.0;
         let (j, s) = UnitTables::locate(if inside { v } else { -1.0 });
-        let [r, k, d, _] = estrin16x4(&CORNER_LANES[j], s);
-        let (k, r, d) = (k.max(0.0), r.max(0.0), d.max(0.0));
-        let e = [self.a * r, if u > 0.0 { -k } else { k }, d * self.inv_a];
-        if inside {
-            e
+        // [a·R₁, ±K₁, (h/C₀)/a] from the non-negative parts; `k.max(0.0)` etc. as the scalar path.
+        let e = estrin16x4::<V>(&CORNER_LANES[j], s).max0();
+        let sign = if u > 0.0 { -1.0 } else { 1.0 };
+        let scale = if inside {
+            [self.a, sign, self.inv_a, 0.0]
         } else {
-            [0.0; 3]
-        }
+            [0.0; 4]
+        };
+        e.mul(V::load(&scale))
     }
 }
 
@@ -91,13 +169,29 @@ mod tests {
             let kernel = Kernel::new(h);
             for i in 0..=100_003 {
                 let t = h * (-1.2 + 2.4 * i as f64 / 100_003.0);
-                let (lanes, scalar) = (kernel.corner_excess_lanes(t), kernel.corner_excess(t));
+                let scalar = kernel.corner_excess(t);
+                let lanes = kernel.corner_excess_lanes::<[f64; 4]>(t);
                 for n in 0..3 {
-                    assert_eq!(lanes[n].to_bits(), scalar[n].to_bits(), "h {h}, t {t}, entry {n}");
+                    assert_eq!(
+                        lanes[n].to_bits(),
+                        scalar[n].to_bits(),
+                        "h {h}, t {t}, entry {n}"
+                    );
+                }
+                assert_eq!(lanes[3], 0.0);
+                #[cfg(target_arch = "x86_64")]
+                if std::is_x86_feature_detected!("avx2") {
+                    let avx2 = kernel.corner_excess_lanes::<Avx2>(t).to_array();
+                    assert_eq!(
+                        avx2.map(f64::to_bits),
+                        lanes.map(f64::to_bits),
+                        "AVX2, h {h}, t {t}"
+                    );
                 }
             }
             for t in [-h, h, 0.0, -0.0, f64::INFINITY, f64::NEG_INFINITY] {
-                assert_eq!(kernel.corner_excess_lanes(t), kernel.corner_excess(t), "t {t}");
+                let lanes = kernel.corner_excess_lanes::<[f64; 4]>(t);
+                assert_eq!(lanes[..3], kernel.corner_excess(t), "t {t}");
             }
         }
     }

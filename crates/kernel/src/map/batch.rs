@@ -22,32 +22,67 @@
 //!
 //! # Stages
 //!
-//! A chunk of points goes through each stage before the next starts (locate the region and the nearest
-//! corner on each axis, add the corner terms, contract), so the independent work of different points
-//! overlaps instead of waiting on one point's chain of dependent loads and products. The region comes from a
-//! branch-free binary search; no stage branches on the data.
+//! Points go in chunks of [`CHUNK`] through stages that each loop over the whole chunk before the next
+//! starts, structure of arrays over the points: count the grid points below each argument (fixed-width
+//! compares), gather the region's ends and the nearest corner (scalar loads), form the unsmoothed weights
+//! and slopes (vectorised across points), evaluate the corner terms (one 4-lane table evaluation per point,
+//! [`F4`]), add them (vectorised), gather the values and contract (vectorised). The independent work of
+//! different points overlaps instead of waiting on one point's chain of dependent loads and products, and
+//! no stage branches on the data.
 
 use super::axis::Axis;
 use super::extrapolate::Extrapolate;
 use super::Map;
+use crate::kernel::F4;
 
-/// Points per chunk.
+/// Points per chunk: every stage is a loop of this fixed length over arrays of this length (a last, shorter
+/// chunk is padded with the grids' first points and its extra results dropped).
 const CHUNK: usize = 32;
 
-/// One axis at a chunk's points: the padded index `c` of each point's basis (`Φ_0` is `φ_{c−1}`, padded
-/// index `c`), the offset `a − x_c` to the corner and the basis `phi[i][k][m] = Φ_{c−1+k}^(m)`.
+/// Grids up to this length are searched by counting the points below `a` (fixed-width, vectorised across
+/// the chunk's points); longer ones by a branch-free binary search per point.
+const COUNT_SEARCH: usize = 32;
+
+/// One chunk's numbers on one axis, structure of arrays over the points `i`.
 struct AxisChunk {
-    base: [usize; CHUNK],
+    /// The index `c_i` of the grid point nearest `a_i`: the padded index of `Φ_0 = φ_{c−1}`.
+    c: [usize; CHUNK],
+    /// `phi[k][m][i] = Φ_{c−1+k}^(m)(a_i)`.
+    phi: [[[f64; CHUNK]; 3]; 3],
+    /// The region's ends `x_r, x_{r+1}`; masks (all ones for true): the nearest corner's side (`c = r`),
+    /// whether `a ≤ x_0`, resp. `a > x_{n−1}` (the edges of `clamp`); then `t_i = a_i − x_c`.
+    x0: [f64; CHUNK],
+    x1: [f64; CHUNK],
+    near: [u64; CHUNK],
+    left: [u64; CHUNK],
+    right: [u64; CHUNK],
     t: [f64; CHUNK],
-    phi: [[[f64; 3]; 3]; CHUNK],
+}
+
+/// Everything a chunk needs, allocated once per call (the stages overwrite it; nothing is cleared per chunk).
+struct Scratch {
+    x: AxisChunk,
+    y: AxisChunk,
+    /// Corner terms `e[m][i] = E_m(t_i)` and kink weights `w[k][i] = w_{c−1+k, c}` of the axis at hand.
+    e: [[f64; CHUNK]; 3],
+    w: [[f64; CHUNK]; 3],
+    /// Values `v[k][l][i] = v_{c_x−1+k, c_y−1+l}` (1-D: `v[0][k][i] = v_{c−1+k}`).
+    v: [[[f64; CHUNK]; 3]; 3],
+    /// Results `res[3p + q][i]` (1-D: `res[m][i]`).
+    res: [[f64; CHUNK]; 9],
 }
 
 impl AxisChunk {
     fn new() -> AxisChunk {
         AxisChunk {
-            base: [0; CHUNK],
+            c: [0; CHUNK],
+            phi: [[[0.0; CHUNK]; 3]; 3],
+            x0: [0.0; CHUNK],
+            x1: [0.0; CHUNK],
+            near: [0; CHUNK],
+            left: [0; CHUNK],
+            right: [0; CHUNK],
             t: [0.0; CHUNK],
-            phi: [[[0.0; 3]; 3]; CHUNK],
         }
     }
 }
@@ -92,123 +127,230 @@ fn lower_bound(g: &[f64], a: f64) -> usize {
     base + usize::from(g[base] < a)
 }
 
-/// Stage 1 of an axis: region, nearest corner and the unsmoothed weights and slopes of `a`'s region
-/// (`Axis::plain`'s numbers), placed at the fixed-width offsets.
+/// `p[i]` = the number of grid points below `a[i]` (`NaN`: 0, as `partition_point`).
 #[inline(always)]
-fn locate(axis: &Axis, a: &[f64], ch: &mut AxisChunk) {
-    let g = axis.grid.as_slice();
-    let n = g.len();
-    let clamp = axis.extrapolate == Extrapolate::Clamp;
-    for (i, &a) in a.iter().enumerate() {
-        let p = lower_bound(g, a);
-        let r = p.saturating_sub(1).min(n - 2);
-        let (x0, x1) = (g[r], g[r + 1]);
-        let near_r = a - x0 <= x1 - a;
-        let c = if near_r { r } else { r + 1 };
-        let d = x1 - x0;
-        // φ_r = (x_{r+1} − a)/d, φ_{r+1} = (a − x_r)/d; under clamp the edge value outside the grid.
-        let mut plain = [[(x1 - a) / d, -1.0 / d, 0.0], [(a - x0) / d, 1.0 / d, 0.0]];
-        if clamp && p == 0 {
-            plain = [[1.0, 0.0, 0.0], [0.0; 3]];
+fn count_below(g: &[f64], a: &[f64; CHUNK], p: &mut [usize; CHUNK]) {
+    if g.len() <= COUNT_SEARCH {
+        // Counted in f64 lanes (compare, mask, add: one vector operation each), exact below 2⁵³.
+        let mut count = [0.0_f64; CHUNK];
+        for &x in g {
+            for (c, &a) in count.iter_mut().zip(a) {
+                *c += if x < a { 1.0 } else { 0.0 };
+            }
         }
-        if clamp && p == n {
-            plain = [[0.0; 3], [1.0, 0.0, 0.0]];
+        for (p, &c) in p.iter_mut().zip(&count) {
+            *p = c as i64 as usize;
         }
-        ch.phi[i] = if near_r {
-            [[0.0; 3], plain[0], plain[1]]
-        } else {
-            [plain[0], plain[1], [0.0; 3]]
-        };
-        ch.base[i] = c;
-        ch.t[i] = a - g[c];
+    } else {
+        for (p, &a) in p.iter_mut().zip(a) {
+            *p = lower_bound(g, a);
+        }
     }
 }
 
-/// Stage 2 of a smoothed axis: `Φ_{c−1+k} += w_{c−1+k, c} E(a − x_c)`.
+/// All ones for true, zeros for false.
 #[inline(always)]
-fn add_corners(axis: &Axis, len: usize, ch: &mut AxisChunk) {
+fn mask(b: bool) -> u64 {
+    u64::from(b).wrapping_neg()
+}
+
+/// Stage 1 of an axis: the region `r` (`x_r < a ≤ x_{r+1}`, clamped to the end intervals), its ends, the
+/// nearest corner `c ∈ {r, r + 1}` and the clamp's edge flags.
+#[inline(always)]
+fn locate(axis: &Axis, a: &[f64; CHUNK], ch: &mut AxisChunk) {
+    let g = axis.grid.as_slice();
+    let n = g.len();
+    let mut p = [0; CHUNK];
+    count_below(g, a, &mut p);
+    for i in 0..CHUNK {
+        let r = p[i].saturating_sub(1).min(n - 2);
+        let (x0, x1) = (g[r], g[r + 1]);
+        let near = a[i] - x0 <= x1 - a[i];
+        (ch.x0[i], ch.x1[i], ch.near[i]) = (x0, x1, mask(near));
+        ch.c[i] = r + usize::from(!near);
+        (ch.left[i], ch.right[i]) = (mask(p[i] == 0), mask(p[i] == n));
+    }
+}
+
+/// `mask ? a : b` on the bits (`mask` all ones or all zeros): the same number, vectorised as and/or.
+#[inline(always)]
+fn select(mask: u64, a: f64, b: f64) -> f64 {
+    f64::from_bits((a.to_bits() & mask) | (b.to_bits() & !mask))
+}
+
+/// Stage 2 of an axis: the unsmoothed weights and slopes of `a`'s region (`Axis::plain`'s numbers) at the
+/// fixed-width offsets (`φ_r, φ_{r+1}` at offsets 1, 2 when `c = r`, at 0, 1 when `c = r + 1`) and the
+/// offset `t = a − x_c` to the corner.
+#[inline(always)]
+fn plain(a: &[f64; CHUNK], ch: &mut AxisChunk, clamp: bool) {
+    let mut f = [[0.0; CHUNK]; 2];
+    let mut s = [[0.0; CHUNK]; 2];
+    for i in 0..CHUNK {
+        let (a, x0, x1) = (a[i], ch.x0[i], ch.x1[i]);
+        let d = x1 - x0;
+        // φ_r = (x_{r+1} − a)/d, φ_{r+1} = (a − x_r)/d.
+        (f[0][i], f[1][i]) = ((x1 - a) / d, (a - x0) / d);
+        (s[0][i], s[1][i]) = (-1.0 / d, 1.0 / d);
+    }
+    if clamp {
+        // The edge value outside the grid: φ_0 = 1 left of it, φ_{n−1} = 1 right of it, slopes 0.
+        for i in 0..CHUNK {
+            let (left, edge) = (ch.left[i], ch.left[i] | ch.right[i]);
+            f[0][i] = select(edge, select(left, 1.0, 0.0), f[0][i]);
+            f[1][i] = select(edge, select(left, 0.0, 1.0), f[1][i]);
+            s[0][i] = select(edge, 0.0, s[0][i]);
+            s[1][i] = select(edge, 0.0, s[1][i]);
+        }
+    }
+    let [k0, k1, k2] = &mut ch.phi;
+    for i in 0..CHUNK {
+        let near = ch.near[i];
+        for m in 0..2 {
+            let (lo, hi) = if m == 0 {
+                (f[0][i], f[1][i])
+            } else {
+                (s[0][i], s[1][i])
+            };
+            k0[m][i] = select(near, 0.0, lo);
+            k1[m][i] = select(near, lo, hi);
+            k2[m][i] = select(near, hi, 0.0);
+        }
+        (k0[2][i], k1[2][i], k2[2][i]) = (0.0, 0.0, 0.0);
+        ch.t[i] = a[i] - select(near, ch.x0[i], ch.x1[i]);
+    }
+}
+
+/// Stage 3 of a smoothed axis: `Φ_{c−1+k}^(m) += w_{c−1+k, c} E_m(a − x_c)`.
+#[inline(always)]
+fn add_corners<V: F4>(
+    axis: &Axis,
+    ch: &mut AxisChunk,
+    e: &mut [[f64; CHUNK]; 3],
+    w: &mut [[f64; CHUNK]; 3],
+) {
     let Some(kernel) = axis.kernel else {
         return;
     };
-    for i in 0..len {
-        let e = kernel.corner_excess_lanes(ch.t[i]);
-        let w = axis.weights[ch.base[i]];
-        for (row, &wk) in ch.phi[i].iter_mut().zip(&w) {
-            for (r, &em) in row.iter_mut().zip(&e) {
-                *r += wk * em;
+    for i in 0..CHUNK {
+        let lanes = kernel.corner_excess_lanes::<V>(ch.t[i]).to_array();
+        [e[0][i], e[1][i], e[2][i]] = [lanes[0], lanes[1], lanes[2]];
+        [w[0][i], w[1][i], w[2][i]] = axis.weights[ch.c[i]];
+    }
+    for i in 0..CHUNK {
+        for k in 0..3 {
+            for m in 0..3 {
+                ch.phi[k][m][i] += w[k][i] * e[m][i];
             }
         }
     }
 }
 
-/// Stage 3, 2-D: `out[(3p + q) · stride + i] = Σ_k Φ_k^(p) Σ_l v_kl Ψ_l^(q)` (`small::contract`'s order).
+/// Stage 4, 2-D: `res[3p + q] = Σ_k Φ_k^(p) Σ_l v_kl Ψ_l^(q)` (`small::contract`'s order, from 0).
 #[inline(always)]
-fn contract_2d(
-    padded: &[f64],
-    ny: usize,
-    (cx, cy): (&AxisChunk, &AxisChunk),
-    len: usize,
-    out: &mut [f64],
-    stride: usize,
-) {
+fn contract_2d(padded: &[f64], ny: usize, s: &mut Scratch) {
     let w = ny + 2;
-    for i in 0..len {
+    for i in 0..CHUNK {
+        for k in 0..3 {
+            let row = &padded[(s.x.c[i] + k) * w + s.y.c[i]..][..3];
+            [s.v[k][0][i], s.v[k][1][i], s.v[k][2][i]] = [row[0], row[1], row[2]];
+        }
+    }
+    let (phi, psi, v) = (&s.x.phi, &s.y.phi, &s.v);
+    for i in 0..CHUNK {
         let mut sum = [[0.0; 3]; 3];
-        for (k, phi) in cx.phi[i].iter().enumerate() {
-            let row = &padded[(cx.base[i] + k) * w + cy.base[i]..][..3];
+        for k in 0..3 {
             let mut t = [0.0; 3];
-            for (&v, psi) in row.iter().zip(&cy.phi[i]) {
-                for (tq, &s) in t.iter_mut().zip(psi) {
-                    *tq += v * s;
+            for l in 0..3 {
+                for q in 0..3 {
+                    t[q] += v[k][l][i] * psi[l][q][i];
                 }
             }
-            for (o, &ph) in sum.iter_mut().zip(phi) {
-                for (oq, &tq) in o.iter_mut().zip(&t) {
-                    *oq += ph * tq;
+            for p in 0..3 {
+                for q in 0..3 {
+                    sum[p][q] += phi[k][p][i] * t[q];
                 }
             }
         }
-        for (k, &s) in sum.iter().flatten().enumerate() {
-            out[k * stride + i] = s;
+        for p in 0..3 {
+            for q in 0..3 {
+                s.res[3 * p + q][i] = sum[p][q];
+            }
         }
     }
 }
 
-/// Stage 3, 1-D: `out[m · stride + i] = Σ_k v_k Φ_k^(m)` (`Map::eval_1d_small`'s order).
+/// Stage 4, 1-D: `res[m] = Σ_k v_k Φ_k^(m)` (`Map::eval_1d_small`'s order, from 0).
 #[inline(always)]
-fn contract_1d(padded: &[f64], cx: &AxisChunk, len: usize, out: &mut [f64], stride: usize) {
-    for i in 0..len {
+fn contract_1d(padded: &[f64], s: &mut Scratch) {
+    for i in 0..CHUNK {
+        let vals = &padded[s.x.c[i]..][..3];
+        [s.v[0][0][i], s.v[0][1][i], s.v[0][2][i]] = [vals[0], vals[1], vals[2]];
+    }
+    let (phi, v) = (&s.x.phi, &s.v[0]);
+    for i in 0..CHUNK {
         let mut sum = [0.0; 3];
-        for (k, phi) in cx.phi[i].iter().enumerate() {
-            let v = padded[cx.base[i] + k];
-            for (o, &f) in sum.iter_mut().zip(phi) {
-                *o += v * f;
+        for k in 0..3 {
+            for m in 0..3 {
+                sum[m] += v[k][i] * phi[k][m][i];
             }
         }
-        for (m, &s) in sum.iter().enumerate() {
-            out[m * stride + i] = s;
+        for m in 0..3 {
+            s.res[m][i] = sum[m];
         }
     }
+}
+
+/// `from` (at most [`CHUNK`] values), padded with `fill`.
+#[inline(always)]
+fn chunk_of(from: &[f64], fill: f64) -> [f64; CHUNK] {
+    let mut out = [fill; CHUNK];
+    out[..from.len()].copy_from_slice(from);
+    out
+}
+
+/// One axis through stages 1–3.
+#[inline(always)]
+fn axis_stages<V: F4>(
+    axis: &Axis,
+    a: &[f64; CHUNK],
+    ch: &mut AxisChunk,
+    e: &mut [[f64; CHUNK]; 3],
+    w: &mut [[f64; CHUNK]; 3],
+) {
+    locate(axis, a, ch);
+    plain(a, ch, axis.extrapolate == Extrapolate::Clamp);
+    add_corners::<V>(axis, ch, e, w);
 }
 
 /// The fixed-width path over all points (the map [`fits`]); `out` as [`Map::partials2_batch`] lays it out.
 #[inline(always)]
-fn run(map: &Map, a: &[f64], b: &[f64], out: &mut [f64]) {
+fn run<V: F4>(map: &Map, a: &[f64], b: &[f64], out: &mut [f64]) {
     let n = a.len();
-    let (mut cx, mut cy) = (AxisChunk::new(), AxisChunk::new());
+    let width = if map.y.is_some() { 9 } else { 3 };
+    let mut s = Box::new(Scratch {
+        x: AxisChunk::new(),
+        y: AxisChunk::new(),
+        e: [[0.0; CHUNK]; 3],
+        w: [[0.0; CHUNK]; 3],
+        v: [[[0.0; CHUNK]; 3]; 3],
+        res: [[0.0; CHUNK]; 9],
+    });
     let mut start = 0;
     while start < n {
         let len = CHUNK.min(n - start);
-        let o = &mut out[start..];
-        locate(&map.x, &a[start..start + len], &mut cx);
-        add_corners(&map.x, len, &mut cx);
+        let ax = chunk_of(&a[start..start + len], map.x.grid[0]);
+        let s = &mut *s;
+        axis_stages::<V>(&map.x, &ax, &mut s.x, &mut s.e, &mut s.w);
         match &map.y {
-            None => contract_1d(&map.padded, &cx, len, o, n),
+            None => contract_1d(&map.padded, s),
             Some(y) => {
-                locate(y, &b[start..start + len], &mut cy);
-                add_corners(y, len, &mut cy);
-                contract_2d(&map.padded, y.len(), (&cx, &cy), len, o, n);
+                let by = chunk_of(&b[start..start + len], y.grid[0]);
+                axis_stages::<V>(y, &by, &mut s.y, &mut s.e, &mut s.w);
+                contract_2d(&map.padded, y.len(), s);
             }
+        }
+        for (k, r) in s.res.iter().enumerate().take(width) {
+            out[k * n + start..][..len].copy_from_slice(&r[..len]);
         }
         start += len;
     }
@@ -219,7 +361,7 @@ fn run(map: &Map, a: &[f64], b: &[f64], out: &mut [f64]) {
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 unsafe fn run_avx2(map: &Map, a: &[f64], b: &[f64], out: &mut [f64]) {
-    run(map, a, b, out)
+    run::<crate::kernel::Avx2>(map, a, b, out)
 }
 
 /// [`run`] with the best instruction set this processor has.
@@ -229,5 +371,5 @@ pub(super) fn dispatch(map: &Map, a: &[f64], b: &[f64], out: &mut [f64]) {
         // SAFETY: the processor has the features `run_avx2` is compiled for.
         return unsafe { run_avx2(map, a, b, out) };
     }
-    run(map, a, b, out)
+    run::<[f64; 4]>(map, a, b, out)
 }
