@@ -30,6 +30,10 @@
 //! different points overlaps instead of waiting on one point's chain of dependent loads and products, and
 //! no stage branches on the data.
 
+// The stages index several arrays by the point `i` and small fixed orders: the form the vectoriser turns into
+// fixed-width loops across points.
+#![allow(clippy::needless_range_loop)]
+
 use super::axis::Axis;
 use super::extrapolate::Extrapolate;
 use super::Map;
