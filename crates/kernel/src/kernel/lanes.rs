@@ -3,11 +3,14 @@
 //! same numbers.
 //!
 //! Piece `j` of the unit kernel holds `K₁, R₁` (degree 11, `Piece`) and `h/C₀` (degree 15) in the local
-//! variable `s`. Interleaved per power of `s` as `[R₁, K₁, h/C₀, 0]`, with `K₁, R₁` padded by zero
-//! coefficients up to degree 15, one Estrin evaluation of degree 15 gives all three: for the padded lanes the
-//! top group `(c₁₂ + c₁₃ s) + (c₁₄ + c₁₅ s) s²` is exactly 0, so the sum reduces to the degree-11 scheme of
-//! `estrin12` operation for operation (`lo + mid·s⁴ + hi·s⁸`, with `hi + 0·s⁴ = hi`). Without fused
-//! multiply-adds (Rust never contracts `a + b·c`) every lane rounds as the scalar path does.
+//! variable `s`. Interleaved per power of `s` as rows `[R₁, K₁, h/C₀, h/C₀ of the power + 12]` (the fourth lane
+//! of rows 0–3 holds the density's coefficients 12–15, the other rows 0), one 4-lane Estrin pass over the 12
+//! rows gives: in lanes 0–2 the groups `q₀, q₄, q₈` of both schemes, and in lane 3 of `q₀` the density's top
+//! group `q₁₂ = (c₁₂ + c₁₃ s) + (c₁₄ + c₁₅ s) s²`, operation for operation as `estrin16` forms it. Moved to
+//! lane 2 (0 in the others) it completes `(q₀ + q₄ s⁴) + (q₈ + q₁₂ s⁴) s⁸`; for `K₁, R₁` the top group is 0 and
+//! `q₈ + 0·s⁴ = q₈`, so the sum is `estrin12`'s `lo + mid·s⁴ + hi·s⁸`. Without fused multiply-adds (Rust
+//! never contracts `a + b·c`) every lane rounds as the scalar path does. A piece is 384 bytes, six cache
+//! lines.
 
 use super::{tables, Kernel, UnitTables};
 use crate::construction::{COEFFS, DENSITY_COEFFS, PIECES};
@@ -22,6 +25,8 @@ pub(crate) trait F4: Copy {
     fn mul(self, other: Self) -> Self;
     /// Lane-wise `max(self, 0)` for finite lanes (`f64::max`'s result).
     fn max0(self) -> Self;
+    /// `[0, 0, self[3], 0]`.
+    fn lane3_to_2(self) -> Self;
     fn to_array(self) -> [f64; 4];
 
     /// `self + c·x` per lane.
@@ -51,6 +56,10 @@ impl F4 for [f64; 4] {
     #[inline(always)]
     fn max0(self) -> Self {
         self.map(|v| v.max(0.0))
+    }
+    #[inline(always)]
+    fn lane3_to_2(self) -> Self {
+        [0.0, 0.0, self[3], 0.0]
     }
     #[inline(always)]
     fn to_array(self) -> [f64; 4] {
@@ -92,6 +101,12 @@ impl F4 for Avx2 {
         })
     }
     #[inline(always)]
+    fn lane3_to_2(self) -> Self {
+        use std::arch::x86_64::{_mm256_blend_pd, _mm256_permute4x64_pd, _mm256_setzero_pd};
+        // Every lane = lane 3, then lane 2 of that over zeros (AVX2 is available: the type's documentation).
+        Avx2(unsafe { _mm256_blend_pd::<0b0100>(_mm256_setzero_pd(), _mm256_permute4x64_pd::<0xFF>(self.0)) })
+    }
+    #[inline(always)]
     fn to_array(self) -> [f64; 4] {
         let mut out = [0.0; 4];
         unsafe { std::arch::x86_64::_mm256_storeu_pd(out.as_mut_ptr(), self.0) };
@@ -99,24 +114,32 @@ impl F4 for Avx2 {
     }
 }
 
-/// Four lanes in the table: `[R₁, K₁, h/C₀, 0]`.
+/// Four lanes in the table: `[R₁, K₁, h/C₀, h/C₀ of the power + 12]`.
 type Lanes = [f64; 4];
 
-/// The unit kernel's tables per piece and power of `s`, interleaved (built at compile time).
-static CORNER_LANES: [[Lanes; DENSITY_COEFFS]; PIECES] = interleave();
+// The density's top group (coefficients 12–15) is the fourth lane of rows 0–3: the degrees are 11 and 15.
+const _: () = assert!(COEFFS == 12 && DENSITY_COEFFS == COEFFS + 4);
 
-const fn interleave() -> [[Lanes; DENSITY_COEFFS]; PIECES] {
-    let mut out = [[[0.0; 4]; DENSITY_COEFFS]; PIECES];
+/// One piece: `COEFFS` rows, aligned to whole cache lines.
+#[repr(align(64))]
+struct LanePiece([Lanes; COEFFS]);
+
+/// The unit kernel's tables per piece and power of `s`, interleaved (built at compile time).
+static CORNER_LANES: [LanePiece; PIECES] = interleave();
+
+const fn interleave() -> [LanePiece; PIECES] {
+    let mut out = [const { LanePiece([[0.0; 4]; COEFFS]) }; PIECES];
     let mut j = 0;
     while j < PIECES {
         let mut i = 0;
-        while i < DENSITY_COEFFS {
-            let [k, r] = if i < COEFFS {
-                tables::UNIT_PIECES[j][i]
+        while i < COEFFS {
+            let [k, r] = tables::UNIT_PIECES[j][i];
+            let top = if i + COEFFS < DENSITY_COEFFS {
+                tables::UNIT_DENSITY[j][i + COEFFS]
             } else {
-                [0.0, 0.0]
+                0.0
             };
-            out[j][i] = [r, k, tables::UNIT_DENSITY[j][i], 0.0];
+            out[j].0[i] = [r, k, tables::UNIT_DENSITY[j][i], top];
             i += 1;
         }
         j += 1;
@@ -124,16 +147,19 @@ const fn interleave() -> [[Lanes; DENSITY_COEFFS]; PIECES] {
     out
 }
 
-/// The degree-15 polynomials of one piece by `estrin16`'s scheme, per lane.
+/// `estrin12` of `K₁, R₁` and `estrin16` of `h/C₀` of one piece in lanes 0–2 (see the module documentation).
 #[inline(always)]
-fn estrin16x4<V: F4>(c: &[Lanes; DENSITY_COEFFS], s: f64) -> V {
+fn estrin_lanes<V: F4>(c: &LanePiece, s: f64) -> V {
+    let c = &c.0;
     let s2 = s * s;
     let s4 = s2 * s2;
     let s8 = s4 * s4;
     let (s, s2, s4, s8) = (V::splat(s), V::splat(s2), V::splat(s4), V::splat(s8));
     let p = |i: usize| V::load(&c[i]).add_mul(V::load(&c[i + 1]), s);
     let q = |i: usize| p(i).add_mul(p(i + 2), s2);
-    q(0).add_mul(q(4), s4).add_mul(q(8).add_mul(q(12), s4), s8)
+    let q0 = q(0);
+    q0.add_mul(q(4), s4)
+        .add_mul(q(8).add_mul(q0.lane3_to_2(), s4), s8)
 }
 
 impl Kernel {
@@ -147,7 +173,7 @@ impl Kernel {
         let inside = v > -1.0;
         let (j, s) = UnitTables::locate(if inside { v } else { -1.0 });
         // [a·R₁, ±K₁, (h/C₀)/a] from the non-negative parts; `k.max(0.0)` etc. as the scalar path.
-        let e = estrin16x4::<V>(&CORNER_LANES[j], s).max0();
+        let e = estrin_lanes::<V>(&CORNER_LANES[j], s).max0();
         let sign = if u > 0.0 { -1.0 } else { 1.0 };
         let scale = if inside {
             [self.a, sign, self.inv_a, 0.0]
@@ -178,7 +204,7 @@ mod tests {
                         "h {h}, t {t}, entry {n}"
                     );
                 }
-                assert_eq!(lanes[3], 0.0);
+                assert_eq!(lanes[3].to_bits(), 0);
                 #[cfg(target_arch = "x86_64")]
                 if std::is_x86_feature_detected!("avx2") {
                     let avx2 = kernel.corner_excess_lanes::<Avx2>(t).to_array();
