@@ -104,7 +104,9 @@ impl F4 for Avx2 {
     fn lane3_to_2(self) -> Self {
         use std::arch::x86_64::{_mm256_blend_pd, _mm256_permute4x64_pd, _mm256_setzero_pd};
         // Every lane = lane 3, then lane 2 of that over zeros (AVX2 is available: the type's documentation).
-        Avx2(unsafe { _mm256_blend_pd::<0b0100>(_mm256_setzero_pd(), _mm256_permute4x64_pd::<0xFF>(self.0)) })
+        Avx2(unsafe {
+            _mm256_blend_pd::<0b0100>(_mm256_setzero_pd(), _mm256_permute4x64_pd::<0xFF>(self.0))
+        })
     }
     #[inline(always)]
     fn to_array(self) -> [f64; 4] {

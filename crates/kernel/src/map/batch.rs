@@ -53,6 +53,8 @@ struct AxisChunk {
     c: [usize; CHUNK],
     /// `phi[k][m][i] = Φ_{c−1+k}^(m)(a_i)`.
     phi: [[[f64; CHUNK]; 3]; 3],
+    /// The kink weights `w[k][i] = w_{c−1+k, c}` of the corner.
+    w: [[f64; CHUNK]; 3],
     /// The region's ends `x_r, x_{r+1}`; masks (all ones for true): the nearest corner's side (`c = r`),
     /// whether `a ≤ x_0`, resp. `a > x_{n−1}` (the edges of `clamp`); then `t_i = a_i − x_c`.
     x0: [f64; CHUNK],
@@ -67,9 +69,8 @@ struct AxisChunk {
 struct Scratch {
     x: AxisChunk,
     y: AxisChunk,
-    /// Corner terms `e[m][i] = E_m(t_i)` and kink weights `w[k][i] = w_{c−1+k, c}` of the axis at hand.
+    /// Corner terms `e[m][i] = E_m(t_i)` of the axis at hand.
     e: [[f64; CHUNK]; 3],
-    w: [[f64; CHUNK]; 3],
     /// Values `v[k][l][i] = v_{c_x−1+k, c_y−1+l}` (1-D: `v[0][k][i] = v_{c−1+k}`).
     v: [[[f64; CHUNK]; 3]; 3],
     /// Results `res[3p + q][i]` (1-D: `res[m][i]`).
@@ -81,6 +82,7 @@ impl AxisChunk {
         AxisChunk {
             c: [0; CHUNK],
             phi: [[[0.0; CHUNK]; 3]; 3],
+            w: [[0.0; CHUNK]; 3],
             x0: [0.0; CHUNK],
             x1: [0.0; CHUNK],
             near: [0; CHUNK],
@@ -135,15 +137,15 @@ fn lower_bound(g: &[f64], a: f64) -> usize {
 #[inline(always)]
 fn count_below(g: &[f64], a: &[f64; CHUNK], p: &mut [usize; CHUNK]) {
     if g.len() <= COUNT_SEARCH {
-        // Counted in f64 lanes (compare, mask, add: one vector operation each), exact below 2⁵³.
-        let mut count = [0.0_f64; CHUNK];
+        // Compare and add across the chunk's points, one grid point at a time.
+        let mut count = [0_i64; CHUNK];
         for &x in g {
             for (c, &a) in count.iter_mut().zip(a) {
-                *c += if x < a { 1.0 } else { 0.0 };
+                *c += i64::from(x < a);
             }
         }
         for (p, &c) in p.iter_mut().zip(&count) {
-            *p = c as i64 as usize;
+            *p = c as usize;
         }
     } else {
         for (p, &a) in p.iter_mut().zip(a) {
@@ -164,6 +166,9 @@ fn mask(b: bool) -> u64 {
 fn locate(axis: &Axis, a: &[f64; CHUNK], ch: &mut AxisChunk) {
     let g = axis.grid.as_slice();
     let n = g.len();
+    // A grid has at least two points (`Map::new_*` checks); stated so that the indices below need no checks.
+    assert!(n >= 2 && axis.weights.len() == n);
+    let weights = &axis.weights[..n];
     let mut p = [0; CHUNK];
     count_below(g, a, &mut p);
     for i in 0..CHUNK {
@@ -171,7 +176,9 @@ fn locate(axis: &Axis, a: &[f64; CHUNK], ch: &mut AxisChunk) {
         let (x0, x1) = (g[r], g[r + 1]);
         let near = a[i] - x0 <= x1 - a[i];
         (ch.x0[i], ch.x1[i], ch.near[i]) = (x0, x1, mask(near));
-        ch.c[i] = r + usize::from(!near);
+        let c = r + usize::from(!near);
+        ch.c[i] = c;
+        [ch.w[0][i], ch.w[1][i], ch.w[2][i]] = weights[c];
         (ch.left[i], ch.right[i]) = (mask(p[i] == 0), mask(p[i] == n));
     }
 }
@@ -226,24 +233,18 @@ fn plain(a: &[f64; CHUNK], ch: &mut AxisChunk, clamp: bool) {
 
 /// Stage 3 of a smoothed axis: `Φ_{c−1+k}^(m) += w_{c−1+k, c} E_m(a − x_c)`.
 #[inline(always)]
-fn add_corners<V: F4>(
-    axis: &Axis,
-    ch: &mut AxisChunk,
-    e: &mut [[f64; CHUNK]; 3],
-    w: &mut [[f64; CHUNK]; 3],
-) {
+fn add_corners<V: F4>(axis: &Axis, ch: &mut AxisChunk, e: &mut [[f64; CHUNK]; 3]) {
     let Some(kernel) = axis.kernel else {
         return;
     };
     for i in 0..CHUNK {
         let lanes = kernel.corner_excess_lanes::<V>(ch.t[i]).to_array();
         [e[0][i], e[1][i], e[2][i]] = [lanes[0], lanes[1], lanes[2]];
-        [w[0][i], w[1][i], w[2][i]] = axis.weights[ch.c[i]];
     }
     for i in 0..CHUNK {
         for k in 0..3 {
             for m in 0..3 {
-                ch.phi[k][m][i] += w[k][i] * e[m][i];
+                ch.phi[k][m][i] += ch.w[k][i] * e[m][i];
             }
         }
     }
@@ -319,11 +320,10 @@ fn axis_stages<V: F4>(
     a: &[f64; CHUNK],
     ch: &mut AxisChunk,
     e: &mut [[f64; CHUNK]; 3],
-    w: &mut [[f64; CHUNK]; 3],
 ) {
     locate(axis, a, ch);
     plain(a, ch, axis.extrapolate == Extrapolate::Clamp);
-    add_corners::<V>(axis, ch, e, w);
+    add_corners::<V>(axis, ch, e);
 }
 
 /// The fixed-width path over all points (the map [`fits`]); `out` as [`Map::partials2_batch`] lays it out.
@@ -335,7 +335,6 @@ fn run<V: F4>(map: &Map, a: &[f64], b: &[f64], out: &mut [f64]) {
         x: AxisChunk::new(),
         y: AxisChunk::new(),
         e: [[0.0; CHUNK]; 3],
-        w: [[0.0; CHUNK]; 3],
         v: [[[0.0; CHUNK]; 3]; 3],
         res: [[0.0; CHUNK]; 9],
     });
@@ -344,12 +343,12 @@ fn run<V: F4>(map: &Map, a: &[f64], b: &[f64], out: &mut [f64]) {
         let len = CHUNK.min(n - start);
         let ax = chunk_of(&a[start..start + len], map.x.grid[0]);
         let s = &mut *s;
-        axis_stages::<V>(&map.x, &ax, &mut s.x, &mut s.e, &mut s.w);
+        axis_stages::<V>(&map.x, &ax, &mut s.x, &mut s.e);
         match &map.y {
             None => contract_1d(&map.padded, s),
             Some(y) => {
                 let by = chunk_of(&b[start..start + len], y.grid[0]);
-                axis_stages::<V>(y, &by, &mut s.y, &mut s.e, &mut s.w);
+                axis_stages::<V>(y, &by, &mut s.y, &mut s.e);
                 contract_2d(&map.padded, y.len(), s);
             }
         }
