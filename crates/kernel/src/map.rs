@@ -396,6 +396,16 @@ impl Map {
         }
     }
 
+    /// `eval_1d_small`'s entry `order` (≤ 2) alone: the same sum in the same order.
+    fn eval_1d_small_one(&self, a: f64, order: usize) -> f64 {
+        let b = self.x.small_basis(a);
+        let mut sum = 0.0;
+        for (k, row) in b.values.iter().enumerate().take(b.count) {
+            sum += self.values[b.first + k] * row[order];
+        }
+        sum
+    }
+
     fn eval_1d_small(&self, a: f64, out: &mut [f64]) {
         let b = self.x.small_basis(a);
         // Summed in a fixed-size array (a `fill` of the short output would be a call to memset).
@@ -510,12 +520,25 @@ impl Map {
 
     /// [`Map::partial`] without the memo: for batch evaluation (a tape instruction runs over a column of
     /// points, each new, where the memo would only add its bookkeeping). The same numbers.
+    #[inline]
     pub fn partial_unmemoized(&self, args: &[f64], orders: [usize; 2]) -> f64 {
         self.check_range(args);
         self.fresh(args, orders)
     }
 
+    /// One partial derivative, evaluated (the range check done by the caller).
     fn fresh(&self, args: &[f64], orders: [usize; 2]) -> f64 {
+        if self.y.is_none() && self.small && orders[0] <= 2 {
+            // 1-D, orders up to 2 (the interpreter's efficiency curves): one column of `eval_1d_small`.
+            let a = args[0];
+            if a.is_nan() {
+                return f64::NAN;
+            }
+            return match self.x.kernel {
+                None => self.x.plain_one(&self.values, a, orders[0]),
+                Some(_) => self.eval_1d_small_one(a, orders[0]),
+            };
+        }
         let len = if self.y.is_none() {
             orders[0] + 1
         } else {

@@ -1,7 +1,8 @@
 //! The batched map evaluation (`Map::partials2_batch`): the same numbers as `Map::partials2` point by point
 //! at many random points inside, at the edges and outside the grid for each extrapolation rule, 1-D and 2-D,
 //! on the fixed-width path and on the point-by-point one; against quadrature of the convolution and finite
-//! differences; NaN arguments and the `error` rule's report.
+//! differences; NaN arguments and the `error` rule's report. And the interpreter's one-partial call of a 1-D
+//! map against `Map::eval`, bit for bit.
 
 use crate::common::{convolve_1d, convolve_2d};
 use invsim_kernel::map::{take_violation, Extrapolate, Interp, Map, MapSettings};
@@ -300,4 +301,43 @@ fn batch_lengths_nan_and_the_error_rule() {
     assert_eq!(take_violation(), None);
     map.partials2_batch(&[300.0], &[5.0e4], &mut out);
     assert_eq!(take_violation(), None);
+}
+
+/// The interpreter's one-partial call (`partial_unmemoized`, and `partial` through its memo) gives
+/// `Map::eval`'s numbers bit for bit for 1-D maps, smooth and plain linear, every rule, orders 0–3.
+#[test]
+fn one_partial_of_a_1d_map_equals_eval_bit_for_bit() {
+    let (x, v) = curve();
+    let mut rng = Lcg(5);
+    for rule in RULES {
+        for (smooth, interp) in [
+            (0.5, Interp::Smooth),
+            (1.7, Interp::Smooth),
+            (0.5, Interp::Linear),
+        ] {
+            let map = Map::new_1d(x.clone(), v.clone(), settings(smooth, rule, interp)).unwrap();
+            let h = smooth * min_spacing(&x);
+            for a in points(&x, h, &mut rng, 2000) {
+                let mut want = [0.0; 4];
+                map.eval(&[a], [3, 0], &mut want);
+                for (order, &w) in want.iter().enumerate() {
+                    let got = map.partial_unmemoized(&[a, 0.0], [order, 0]);
+                    assert_eq!(
+                        got.to_bits(),
+                        w.to_bits(),
+                        "{rule:?} {interp:?} a = {a}, order {order}"
+                    );
+                    let memo = map.partial(&[a], [order, 0]);
+                    assert_eq!(
+                        memo.to_bits(),
+                        w.to_bits(),
+                        "memo: {rule:?} {interp:?} a = {a}"
+                    );
+                }
+            }
+            take_violation();
+            assert!(map.partial_unmemoized(&[f64::NAN], [1, 0]).is_nan());
+            take_violation();
+        }
+    }
 }
