@@ -237,10 +237,7 @@ fn add_corners<V: F4>(axis: &Axis, ch: &mut AxisChunk, e: &mut [[f64; CHUNK]; 3]
     let Some(kernel) = axis.kernel else {
         return;
     };
-    for i in 0..CHUNK {
-        let lanes = kernel.corner_excess_lanes::<V>(ch.t[i]).to_array();
-        [e[0][i], e[1][i], e[2][i]] = [lanes[0], lanes[1], lanes[2]];
-    }
+    kernel.corner_excess_chunk::<V, CHUNK>(&ch.t, e);
     for i in 0..CHUNK {
         for k in 0..3 {
             for m in 0..3 {
