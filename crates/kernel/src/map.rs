@@ -480,7 +480,8 @@ impl Map {
         }
         batch::dispatch(self, a, b, out);
         // NaN arguments give NaN everywhere (as `eval`); the fixed-width path does not look at them.
-        for i in 0..n {
+        let any_nan = a.iter().chain(b).fold(false, |any, v| any | v.is_nan());
+        for i in (0..n).filter(|_| any_nan) {
             if a[i].is_nan() || b.get(i).is_some_and(|v| v.is_nan()) {
                 for k in 0..width {
                     out[k * n + i] = f64::NAN;
