@@ -524,21 +524,29 @@ impl Map {
     #[inline]
     pub fn partial_unmemoized(&self, args: &[f64], orders: [usize; 2]) -> f64 {
         self.check_range(args);
+        if self.y.is_none() && self.small && orders[0] <= 2 {
+            // Inlined into the caller's loop: the interpreter's efficiency curves.
+            return self.one_1d_small(args[0], orders[0]);
+        }
         self.fresh(args, orders)
+    }
+
+    /// 1-D, orders up to 2, on the fast path: one column of `eval_1d_small` (plain linear: without the basis).
+    #[inline]
+    fn one_1d_small(&self, a: f64, order: usize) -> f64 {
+        if a.is_nan() {
+            return f64::NAN;
+        }
+        match self.x.kernel {
+            None => self.x.plain_one(&self.values, a, order),
+            Some(_) => self.eval_1d_small_one(a, order),
+        }
     }
 
     /// One partial derivative, evaluated (the range check done by the caller).
     fn fresh(&self, args: &[f64], orders: [usize; 2]) -> f64 {
         if self.y.is_none() && self.small && orders[0] <= 2 {
-            // 1-D, orders up to 2 (the interpreter's efficiency curves): one column of `eval_1d_small`.
-            let a = args[0];
-            if a.is_nan() {
-                return f64::NAN;
-            }
-            return match self.x.kernel {
-                None => self.x.plain_one(&self.values, a, orders[0]),
-                Some(_) => self.eval_1d_small_one(a, orders[0]),
-            };
+            return self.one_1d_small(args[0], orders[0]);
         }
         let len = if self.y.is_none() {
             orders[0] + 1
