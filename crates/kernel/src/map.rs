@@ -478,7 +478,12 @@ impl Map {
             }
             return;
         }
-        batch::dispatch(self, a, b, out);
+        let data = batch::Data {
+            x: &self.x,
+            y: self.y.as_ref(),
+            padded: &self.padded,
+        };
+        batch::dispatch(data, a, b, out);
         // NaN arguments give NaN everywhere (as `eval`); the fixed-width path does not look at them.
         let any_nan = a.iter().chain(b).fold(false, |any, v| any | v.is_nan());
         for i in (0..n).filter(|_| any_nan) {

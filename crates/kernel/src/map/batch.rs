@@ -1,5 +1,5 @@
 //! Batched evaluation: the value and every partial derivative up to order 2 per argument of a map at many
-//! points at once ([`Map::partials2_batch`]), the same numbers as [`Map::partials2`] point by point.
+//! points at once (`Map::partials2_batch`), the same numbers as `Map::partials2` point by point.
 //!
 //! # Fixed-width basis
 //!
@@ -36,7 +36,6 @@
 
 use super::axis::Axis;
 use super::extrapolate::Extrapolate;
-use super::Map;
 use crate::kernel::F4;
 
 /// Points per chunk: every stage is a loop of this fixed length over arrays of this length (a last, shorter
@@ -323,9 +322,18 @@ fn axis_stages<V: F4>(
     add_corners::<V>(axis, ch, e);
 }
 
-/// The fixed-width path over all points (the map [`fits`]); `out` as [`Map::partials2_batch`] lays it out.
+/// A map's axes and padded values: what the fixed-width path reads.
+#[derive(Clone, Copy)]
+pub(super) struct Data<'a> {
+    pub(super) x: &'a Axis,
+    pub(super) y: Option<&'a Axis>,
+    /// See [`pad`].
+    pub(super) padded: &'a [f64],
+}
+
+/// The fixed-width path over all points (the map [`fits`]); `out` as `Map::partials2_batch` lays it out.
 #[inline(always)]
-fn run<V: F4>(map: &Map, a: &[f64], b: &[f64], out: &mut [f64]) {
+fn run<V: F4>(map: Data<'_>, a: &[f64], b: &[f64], out: &mut [f64]) {
     let n = a.len();
     let width = if map.y.is_some() { 9 } else { 3 };
     let mut s = Box::new(Scratch {
@@ -340,13 +348,13 @@ fn run<V: F4>(map: &Map, a: &[f64], b: &[f64], out: &mut [f64]) {
         let len = CHUNK.min(n - start);
         let ax = chunk_of(&a[start..start + len], map.x.grid[0]);
         let s = &mut *s;
-        axis_stages::<V>(&map.x, &ax, &mut s.x, &mut s.e);
-        match &map.y {
-            None => contract_1d(&map.padded, s),
+        axis_stages::<V>(map.x, &ax, &mut s.x, &mut s.e);
+        match map.y {
+            None => contract_1d(map.padded, s),
             Some(y) => {
                 let by = chunk_of(&b[start..start + len], y.grid[0]);
                 axis_stages::<V>(y, &by, &mut s.y, &mut s.e);
-                contract_2d(&map.padded, y.len(), s);
+                contract_2d(map.padded, y.len(), s);
             }
         }
         for (k, r) in s.res.iter().enumerate().take(width) {
@@ -360,12 +368,12 @@ fn run<V: F4>(map: &Map, a: &[f64], b: &[f64], out: &mut [f64]) {
 /// numbers are those of the portable build).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn run_avx2(map: &Map, a: &[f64], b: &[f64], out: &mut [f64]) {
+unsafe fn run_avx2(map: Data<'_>, a: &[f64], b: &[f64], out: &mut [f64]) {
     run::<crate::kernel::Avx2>(map, a, b, out)
 }
 
 /// [`run`] with the best instruction set this processor has.
-pub(super) fn dispatch(map: &Map, a: &[f64], b: &[f64], out: &mut [f64]) {
+pub(super) fn dispatch(map: Data<'_>, a: &[f64], b: &[f64], out: &mut [f64]) {
     #[cfg(target_arch = "x86_64")]
     if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
         // SAFETY: the processor has the features `run_avx2` is compiled for.
