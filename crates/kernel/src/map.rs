@@ -652,3 +652,63 @@ fn with_scratch<R>(len: usize, f: impl FnOnce(&mut [f64]) -> R) -> R {
         f(&mut vec![0.0; len])
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The portable build of the fixed-width path (what a processor without AVX2 runs) gives `partials2`'s
+    /// numbers bit for bit, as the dispatched one does (the integration tests cover the dispatched one).
+    #[test]
+    fn the_portable_batch_path_equals_partials2() {
+        let x = vec![50.0, 100.0, 200.0, 300.0, 400.0, 500.0, 600.0, 700.0];
+        let y = vec![2.0e4, 4.0e4, 6.0e4, 8.0e4, 1.0e5];
+        let v: Vec<f64> = (0..40)
+            .map(|k| 0.5 + 0.01 * ((k * 7) % 11) as f64)
+            .collect();
+        let mut state = 1_u64;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for rule in [Extrapolate::Linear, Extrapolate::Clamp] {
+            for interp in [Interp::Smooth, Interp::Linear] {
+                let s = MapSettings {
+                    smooth: 0.5,
+                    extrapolate: rule,
+                    interp,
+                };
+                let maps = [
+                    Map::new_2d(x.clone(), y.clone(), v.clone(), s).expect("valid map"),
+                    Map::new_1d(x.clone(), v[..8].to_vec(), s).expect("valid map"),
+                ];
+                for map in &maps {
+                    let n = 77;
+                    let a: Vec<f64> = (0..n).map(|_| -100.0 + 900.0 * next()).collect();
+                    let b: Vec<f64> = (0..n).map(|_| 1.0e4 + 1.0e5 * next()).collect();
+                    let width = if map.arity() == 2 { 9 } else { 3 };
+                    let mut out = vec![0.0; width * n];
+                    let data = batch::Data {
+                        x: &map.x,
+                        y: map.y.as_ref(),
+                        padded: &map.padded,
+                    };
+                    let b_in = if map.arity() == 2 { &b[..] } else { &[][..] };
+                    batch::portable(data, &a, b_in, &mut out);
+                    for i in 0..n {
+                        let want = map.partials2(&[a[i], b[i]][..map.arity()]);
+                        for k in 0..width {
+                            assert_eq!(
+                                out[k * n + i].to_bits(),
+                                want[k].to_bits(),
+                                "{s:?} point {i} entry {k}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+}

@@ -372,6 +372,12 @@ unsafe fn run_avx2(map: Data<'_>, a: &[f64], b: &[f64], out: &mut [f64]) {
     run::<crate::kernel::Avx2>(map, a, b, out)
 }
 
+/// [`run`] built for any processor (what [`dispatch`] runs without AVX2), for the tests.
+#[cfg(test)]
+pub(super) fn portable(map: Data<'_>, a: &[f64], b: &[f64], out: &mut [f64]) {
+    run::<[f64; 4]>(map, a, b, out)
+}
+
 /// [`run`] with the best instruction set this processor has.
 pub(super) fn dispatch(map: Data<'_>, a: &[f64], b: &[f64], out: &mut [f64]) {
     #[cfg(target_arch = "x86_64")]
