@@ -1,8 +1,11 @@
 //! Batch kernels: `invert_batch` and `outputs_batch`, a model function evaluated over columns of points, block
-//! by block, with the fractional powers of a block taken at once by `invsim_model_api::math::pow_pos_slice`.
+//! by block, with the fractional powers of a block taken at once by `invsim_model_api::math::pow_pos_slice`
+//! and the lookup-map calls by `Map::partials2_batch`.
 //!
 //! The per-point function's lowered code is split at its fractional powers b^q (q a constant or a
-//! parameter-only value, b varying). A power's *level* is one more than the highest level of the powers its
+//! parameter-only value, b varying) and its map calls of orders ≤ 2 (one `partials2_batch` per map and
+//! arguments, into a buffer `mapv[j]` with entry e of point k at `e · len + k`; a map's arguments play the
+//! part of a power's base). A power's *level* is one more than the highest level of the powers (and maps) its
 //! base depends on. Over a block of points, loop l computes the bases of the level-(l + 1) powers into block
 //! buffers and `pow_pos_slice` raises them, for l = 0, 1, …; the last loop computes the function's results
 //! from the inputs and the powers. Every loop is straight-line `f64` code per point that LLVM vectorises (the
@@ -32,9 +35,24 @@ pub(super) struct SlicePow {
     exponent: Val,
 }
 
+/// The calls of one map at the same arguments (every order ≤ 2 per argument), evaluated a block at a time by
+/// `Map::partials2_batch`: the value and partials of `partials2` bit for bit, which every single call's
+/// `partial` equals (contract §6).
+pub(super) struct SliceMap {
+    /// Its calls: (arena index, entry of `partials2`: `3p + q` in 2-D, the order in 1-D).
+    calls: Vec<(usize, usize)>,
+    /// 1 + the highest level among the powers and maps its arguments depend on.
+    level: usize,
+    /// The map's index in `Precomputed::maps`.
+    map: usize,
+    /// `a` (and `b` of a 2-D map), each with whether it is an input column as it is.
+    args: Vec<(Val, bool)>,
+}
+
 /// How one function's lowered code splits into loops over a block.
 pub(super) struct Split {
     pows: Vec<SlicePow>,
+    maps: Vec<SliceMap>,
     /// Values computed in loop `l` and kept in a block buffer for later loops: (arena index, l).
     kept: Vec<(usize, usize)>,
     /// The number of loops: the highest level + 1.
@@ -46,6 +64,17 @@ fn slice_pow(op: Op, is_param: &dyn Fn(Val) -> bool) -> Option<(Val, Val)> {
     match op {
         Op::Powf(b, q) if !is_param(b) => Some((b, Val::Num(q))),
         Op::PowVar(b, e) if !is_param(b) && is_param(e) => Some((b, e)),
+        _ => None,
+    }
+}
+
+/// A map call taken a block at a time, as ((map, arguments), entry of `partials2`).
+fn slice_map(op: Op) -> Option<((usize, Vec<Val>), usize)> {
+    match op {
+        Op::Map1(m, o, a) if o <= 2 => Some(((m.index(), vec![a]), o as usize)),
+        Op::Map2(m, [p, q], a, b) if p <= 2 && q <= 2 => {
+            Some(((m.index(), vec![a, b]), 3 * p as usize + q as usize))
+        }
         _ => None,
     }
 }
@@ -85,8 +114,17 @@ impl Split {
         let live = reach(arena, roots, &|_| false);
         let mut level = vec![0usize; arena.ops().len()];
         let mut pows = Vec::new();
+        let mut maps: Vec<SliceMap> = Vec::new();
         for (i, &op) in arena.ops().iter().enumerate() {
             let of = |v: Val| loc(v).map_or(0, |j| level[j]);
+            if let Some(((map, args), k)) = slice_map(op) {
+                let l = args.iter().map(|&a| of(a)).max().unwrap_or(0) + 1;
+                level[i] = l;
+                if live[i] {
+                    add_call(&mut maps, map, &args, (i, k), l, is_param);
+                }
+                continue;
+            }
             level[i] = match slice_pow(op, is_param) {
                 Some((base, exponent)) => {
                     let l = of(base) + 1;
@@ -105,9 +143,12 @@ impl Split {
         }
         // Numbered in the order they are taken.
         pows.sort_by_key(|p| p.level);
-        let loops = pows.iter().map(|p| p.level).max().unwrap_or(0) + 1;
+        maps.sort_by_key(|m| m.level);
+        let top = pows.iter().map(|p| p.level);
+        let loops = top.chain(maps.iter().map(|m| m.level)).max().unwrap_or(0) + 1;
         let mut plan = Split {
             pows,
+            maps,
             kept: Vec::new(),
             loops,
         };
@@ -116,7 +157,7 @@ impl Split {
             let mut later = vec![false; arena.ops().len()];
             for m in l + 1..loops {
                 let r = reach(arena, &plan.roots(m, roots), &|i| {
-                    plan.given(i, l) || plan.pows.iter().any(|p| p.op == i && p.level <= m)
+                    plan.given(i, l) || plan.taken(i, m)
                 });
                 later.iter_mut().zip(r).for_each(|(a, b)| *a |= b);
             }
@@ -125,6 +166,7 @@ impl Split {
                     && later[i]
                     && expensive(arena.ops()[i])
                     && slice_pow(arena.ops()[i], is_param).is_none()
+                    && slice_map(arena.ops()[i]).is_none()
                 {
                     plan.kept.push((i, l));
                 }
@@ -133,10 +175,19 @@ impl Split {
         plan
     }
 
-    /// Is value `i` available from a block buffer in loop `l` (a power below level l + 1, or kept earlier)?
-    fn given(&self, i: usize, l: usize) -> bool {
+    /// Is value `i` a power or a map call taken a block at a time at a level ≤ `l`?
+    fn taken(&self, i: usize, l: usize) -> bool {
         self.pows.iter().any(|p| p.op == i && p.level <= l)
-            || self.kept.iter().any(|&(k, m)| k == i && m < l)
+            || self
+                .maps
+                .iter()
+                .any(|m| m.level <= l && m.calls.iter().any(|&(c, _)| c == i))
+    }
+
+    /// Is value `i` available from a block buffer in loop `l` (a power or map below level l + 1, or kept
+    /// earlier)?
+    fn given(&self, i: usize, l: usize) -> bool {
+        self.taken(i, l) || self.kept.iter().any(|&(k, m)| k == i && m < l)
     }
 
     /// What loop `l` computes: the function's roots in the last loop, else the bases of the next level's
@@ -154,6 +205,14 @@ impl Split {
                 out.push(p.base);
             }
         }
+        for m in self.maps.iter().filter(|m| m.level == l + 1) {
+            for &(a, column) in &m.args {
+                let given = loc(a).is_some_and(|b| self.given(b, l));
+                if !column && !given && !out.contains(&a) {
+                    out.push(a);
+                }
+            }
+        }
         for &(i, m) in &self.kept {
             if m == l && !out.contains(&Val::Loc(i)) {
                 out.push(Val::Loc(i));
@@ -165,6 +224,36 @@ impl Split {
     /// Does this function have powers to take a block at a time?
     pub(super) fn has_powers(&self) -> bool {
         !self.pows.is_empty()
+    }
+
+    /// Does this function have map calls to take a block at a time?
+    pub(super) fn has_maps(&self) -> bool {
+        !self.maps.is_empty()
+    }
+}
+
+/// Call `call` of `map` at `args` into its group (a new one at `level` if none has these arguments yet).
+fn add_call(
+    maps: &mut Vec<SliceMap>,
+    map: usize,
+    args: &[Val],
+    call: (usize, usize),
+    level: usize,
+    is_param: &dyn Fn(Val) -> bool,
+) {
+    let same =
+        |m: &&mut SliceMap| m.map == map && m.args.iter().map(|a| a.0).eq(args.iter().copied());
+    match maps.iter_mut().find(same) {
+        Some(m) => m.calls.push(call),
+        None => maps.push(SliceMap {
+            calls: vec![call],
+            level,
+            map,
+            args: args
+                .iter()
+                .map(|&a| (a, matches!(a, Val::Sym(_)) && !is_param(a)))
+                .collect(),
+        }),
     }
 }
 
@@ -290,6 +379,8 @@ struct Kernel<'a> {
     base_of: HashMap<Val, usize>,
     power_of: HashMap<usize, usize>,
     kept_of: HashMap<usize, usize>,
+    /// Per map call taken a block at a time: (its group, its entry).
+    map_of: HashMap<usize, (usize, usize)>,
     used_any: RefCell<HashSet<Symbol>>,
     uses_p: Cell<bool>,
     uses_sign: Cell<bool>,
@@ -336,6 +427,10 @@ impl<'a> Kernel<'a> {
             .enumerate()
             .map(|(j, &(i, _))| (i, j))
             .collect();
+        let mut map_of = HashMap::new();
+        for (j, m) in plan.maps.iter().enumerate() {
+            map_of.extend(m.calls.iter().map(|&(i, k)| (i, (j, k))));
+        }
         Kernel {
             g,
             f,
@@ -346,6 +441,7 @@ impl<'a> Kernel<'a> {
             base_of,
             power_of,
             kept_of,
+            map_of,
             used_any: RefCell::new(HashSet::new()),
             uses_p: Cell::new(false),
             uses_sign: Cell::new(false),
@@ -357,6 +453,18 @@ impl<'a> Kernel<'a> {
     fn given(&self, i: usize, lv: usize) -> Option<Ex> {
         if !self.plan.given(i, lv) {
             return None;
+        }
+        if let Some(&(j, e)) = self.map_of.get(&i) {
+            // Entry e of point k: `out[e · len + k]` (`Map::partials2_batch`).
+            let j = lit(j);
+            return Some(Ex::atom(match e {
+                0 => quote!(mapv[#j][k]),
+                1 => quote!(mapv[#j][len + k]),
+                e => {
+                    let e = lit(e);
+                    quote!(mapv[#j][#e * len + k])
+                }
+            }));
         }
         Some(match (self.power_of.get(&i), self.kept_of.get(&i)) {
             (Some(&j), _) => {
@@ -371,7 +479,7 @@ impl<'a> Kernel<'a> {
         })
     }
 
-    /// The loops with the powers between them.
+    /// The loops with the powers and the map calls between them.
     fn loops(&self) -> TokenStream {
         let mut loops = TokenStream::new();
         for lv in 0..self.plan.loops {
@@ -381,8 +489,54 @@ impl<'a> Kernel<'a> {
                     loops.extend(self.power(j, p, lv));
                 }
             }
+            for (j, m) in self.plan.maps.iter().enumerate() {
+                if m.level == lv + 1 {
+                    loops.extend(self.map_batch(j, m, lv));
+                }
+            }
         }
         loops
+    }
+
+    /// `partials2_batch` for map group `j` after loop `lv`: entry e of point k into `mapv[j][e · len + k]`.
+    fn map_batch(&self, j: usize, m: &SliceMap, lv: usize) -> TokenStream {
+        let a = self.source(m.args[0].0, lv);
+        let (b, width) = match m.args.get(1) {
+            Some(&(b, _)) => (self.source(b, lv), lit(9)),
+            None => (quote!(&[]), lit(3)),
+        };
+        let (j, map) = (lit(j), lit(m.map));
+        quote!(self.maps[#map].partials2_batch(#a, #b, &mut mapv[#j][..#width * len]);)
+    }
+
+    /// The block's values of `v` in loop `lv` as a `&[f64]` of `len` points: an input column, a power or map
+    /// entry taken before, a value kept, or a base computed by a loop.
+    fn source(&self, v: Val, lv: usize) -> TokenStream {
+        match v {
+            Val::Sym(s) if column_of(self.g, self.f, s).is_some() => {
+                column_of(self.g, self.f, s).unwrap_or_default()
+            }
+            Val::Loc(i) if self.power_of.contains_key(&i) && self.plan.given(i, lv) => {
+                let m = lit(self.power_of[&i]);
+                quote!(&power[#m][..len])
+            }
+            Val::Loc(i) if self.map_of.contains_key(&i) && self.plan.given(i, lv) => {
+                let (m, e) = self.map_of[&i];
+                let (m, e) = (lit(m), lit(e));
+                quote!(&mapv[#m][#e * len..][..len])
+            }
+            Val::Loc(i) if self.kept_of.contains_key(&i) => {
+                let m = lit(self.kept_of[&i]);
+                quote!(&kept[#m][..len])
+            }
+            v => match self.base_of.get(&v) {
+                Some(&b) => {
+                    let b = lit(b);
+                    quote!(&base[#b][..len])
+                }
+                None => quote!(&[]),
+            },
+        }
     }
 
     /// One loop over the block: per point, the inputs it reads, its `let`s and its stores.
@@ -510,28 +664,7 @@ impl<'a> Kernel<'a> {
 
     /// `pow_pos_slice` for power `j` after loop `lv`.
     fn power(&self, j: usize, p: &SlicePow, lv: usize) -> TokenStream {
-        let source = match p.base {
-            Val::Sym(s) => match column_of(self.g, self.f, s) {
-                Some(c) => c,
-                None => quote!(&[]),
-            },
-            // A power taken before, or a value kept by this loop or an earlier one: its buffer.
-            Val::Loc(i) if self.power_of.contains_key(&i) && self.plan.given(i, lv) => {
-                let m = lit(self.power_of[&i]);
-                quote!(&power[#m][..len])
-            }
-            Val::Loc(i) if self.kept_of.contains_key(&i) => {
-                let m = lit(self.kept_of[&i]);
-                quote!(&kept[#m][..len])
-            }
-            v => match self.base_of.get(&v) {
-                Some(&b) => {
-                    let b = lit(b);
-                    quote!(&base[#b][..len])
-                }
-                None => quote!(&[]),
-            },
-        };
+        let source = self.source(p.base, lv);
         let atoms = Atoms::new(self.g, self.k_names);
         let exponent = atoms.tokens(p.exponent);
         self.uses_p.set(self.uses_p.get() || atoms.uses_p());
@@ -542,7 +675,11 @@ impl<'a> Kernel<'a> {
     /// The column arguments and the block's slices of them (after the loops, which record what is read).
     fn columns(&self) -> (Vec<TokenStream>, TokenStream) {
         let used_any = self.used_any.borrow();
-        let pows = &self.plan.pows;
+        // The inputs read as whole columns: powers' bases and maps' arguments.
+        let mut sliced: Vec<Val> = self.plan.pows.iter().map(|p| p.base).collect();
+        for m in &self.plan.maps {
+            sliced.extend(m.args.iter().map(|a| a.0));
+        }
         let mut params = Vec::new();
         let mut slices = TokenStream::new();
         for a in &self.f.args {
@@ -550,9 +687,9 @@ impl<'a> Kernel<'a> {
                 Arg::Array { name, len, syms } => {
                     let len_id = format_ident!("{}", len);
                     let any = syms.iter().any(|s| used_any.contains(s))
-                        || pows
+                        || sliced
                             .iter()
-                            .any(|p| matches!(p.base, Val::Sym(s) if syms.contains(&s)));
+                            .any(|v| matches!(v, Val::Sym(s) if syms.contains(s)));
                     let id = format_ident!("{}", name);
                     if any {
                         params.push(quote!(#id: [&[f64]; #len_id]));
@@ -566,7 +703,7 @@ impl<'a> Kernel<'a> {
                     // Named even when no point reads it: its length is the number of points.
                     let id = &self.g.locals[s];
                     params.push(quote!(#id: &[f64]));
-                    let base = pows.iter().any(|p| p.base == Val::Sym(*s));
+                    let base = sliced.contains(&Val::Sym(*s));
                     if used_any.contains(s) || base {
                         slices.extend(quote!(let #id = &#id[start..end];));
                     }
@@ -631,12 +768,21 @@ impl<'a> Kernel<'a> {
     /// The method's documentation, from its first paragraph.
     fn doc(&self, mut doc: Vec<String>) -> TokenStream {
         doc.push(String::new());
-        doc.push(if self.plan.has_powers() {
-            "Block by block ([`BLOCK`] points): the fractional powers of a block at once, by [`pow_pos_slice`] \
-             (within 1 ulp of `powf`), everything else point by point in loops that vectorise."
-                .to_string()
-        } else {
+        let mut at_once = Vec::new();
+        if self.plan.has_powers() {
+            at_once.push("the fractional powers by [`pow_pos_slice`] (within 1 ulp of `powf`)");
+        }
+        if self.plan.has_maps() {
+            at_once.push("the map calls by `Map::partials2_batch` (bit for bit `partials2`)");
+        }
+        doc.push(if at_once.is_empty() {
             "Block by block ([`BLOCK`] points), point by point in loops that vectorise.".to_string()
+        } else {
+            format!(
+                "Block by block ([`BLOCK`] points): {} a block at once, everything else point by point in \
+                 loops that vectorise.",
+                at_once.join(", and ")
+            )
         });
         doc.push(String::new());
         doc.push("# Panics".to_string());
@@ -662,6 +808,10 @@ impl<'a> Kernel<'a> {
         if !self.plan.kept.is_empty() {
             let n = lit(self.plan.kept.len());
             scratch.extend(quote!(let mut kept = [[0.0; BLOCK]; #n];));
+        }
+        if self.plan.has_maps() {
+            let n = lit(self.plan.maps.len());
+            scratch.extend(quote!(let mut mapv = vec![[0.0; 9 * BLOCK]; #n];));
         }
         scratch.extend(buffers);
         scratch
@@ -693,11 +843,27 @@ fn column_of(g: &Gen<'_>, f: &Straight, s: Symbol) -> Option<TokenStream> {
 mod tests {
     use super::*;
     use invsim_expr::lower::{self, Invariants, Strategy};
-    use invsim_expr::Pool;
+    use invsim_expr::map::{Map, MapSettings};
+    use invsim_expr::{MapDecl, Pool};
+    use std::sync::Arc;
 
     /// The loop split of `src` with parameters `params` and the single input `v` (and `s`).
     fn plan_of(src: &str, params: &[&str]) -> (Split, Arena) {
         let mut pool = Pool::new();
+        let m = Map::new_2d(
+            vec![0.0, 1.0, 2.0],
+            vec![0.0, 1.0],
+            vec![1.0, 2.0, 0.5, 1.5, 3.0, 1.0],
+            MapSettings::default(),
+        )
+        .unwrap();
+        pool.declare_map(MapDecl::new("m", Arc::new(m)));
+        let c = Map::new_1d(
+            vec![0.0, 1.0, 3.0],
+            vec![1.0, 2.0, 0.5],
+            MapSettings::default(),
+        );
+        pool.declare_map(MapDecl::new("c", Arc::new(c.unwrap())));
         let e = pool.parse(src).unwrap();
         let ps: Vec<Symbol> = params.iter().map(|n| pool.symbol(n)).collect();
         let inputs = [pool.symbol("v"), pool.symbol("s")];
@@ -767,5 +933,34 @@ mod tests {
         let (p, _) = plan_of("(1 + v^2)^a + (1 + v^2)^b", &["a", "b"]);
         assert_eq!(levels(&p), vec![1, 1]);
         assert_eq!(p.roots(0, &[]).len(), 1, "one base for both powers");
+    }
+
+    fn map_levels(p: &Split) -> Vec<(usize, usize)> {
+        p.maps.iter().map(|m| (m.level, m.calls.len())).collect()
+    }
+
+    #[test]
+    fn calls_of_one_map_at_the_same_arguments_share_one_batch() {
+        let (p, _) = plan_of("m(2*v, s) + v*m_d10(2*v, s) + m_d02(2*v, s)", &[]);
+        assert_eq!((map_levels(&p), p.loops), (vec![(1, 3)], 2));
+        // Loop 0 computes the argument 2v; s is a column.
+        assert_eq!(p.roots(0, &[]), vec![p.maps[0].args[0].0]);
+        assert!(p.maps[0].args[1].1);
+    }
+
+    #[test]
+    fn a_map_of_a_map_and_a_power_of_a_map_take_levels() {
+        let (p, _) = plan_of("c(m(v, s)^0.3) + c(m(v, s))", &[]);
+        // m at level 1 (its arguments are columns), the power at 2, c of the power at 3, c of m at 2.
+        assert_eq!(map_levels(&p), vec![(1, 1), (2, 1), (3, 1)]);
+        assert_eq!((levels(&p), p.loops), (vec![2], 4));
+        assert!(p.roots(0, &[]).is_empty());
+    }
+
+    #[test]
+    fn orders_above_two_stay_point_by_point() {
+        let (p, _) = plan_of("c_d3(v) + m_d30(v, s)", &[]);
+        assert!(!p.has_maps());
+        assert_eq!(p.loops, 1);
     }
 }
