@@ -441,9 +441,11 @@ impl Tape {
                 buf[(self.n_inputs + c) * BATCH..(self.n_inputs + c + 1) * BATCH].fill(v);
             }
             let base = self.n_inputs + self.consts.len();
+            let mut maps = MapBlock::default();
             let mut start = 0;
             while start < points {
                 let len = BATCH.min(points - start);
+                maps.clear();
                 for (j, col) in inputs.iter().enumerate() {
                     buf[j * BATCH..j * BATCH + len].copy_from_slice(&col[start..start + len]);
                 }
@@ -465,6 +467,16 @@ impl Tape {
                         Instr::Sqrt(x) => map1(dst, col(x), f64::sqrt),
                         Instr::Powf(x, k) => map1(dst, col(x), |a| a.powf(k)),
                         Instr::Call(f, x) => map1(dst, col(x), |a| f.eval(a)),
+                        Instr::Map(m, o, x, y) if o[0] <= 2 && o[1] <= 2 => {
+                            let map = &self.maps[m as usize];
+                            let e = if map.arity() == 2 {
+                                3 * o[0] as usize + o[1] as usize
+                            } else {
+                                o[0] as usize
+                            };
+                            let v = maps.entries((m, x, y), map, col(x), col(y));
+                            dst.copy_from_slice(&v[e * len..][..len]);
+                        }
                         Instr::Map(m, o, x, y) => {
                             let map = &self.maps[m as usize];
                             let o = [o[0] as usize, o[1] as usize];
@@ -512,6 +524,44 @@ impl Tape {
     /// Evaluate into `out` with a per-thread scratch buffer (allocated once per thread, then reused).
     pub fn eval(&self, inputs: &[f64], out: &mut [f64]) {
         self.eval_parts(&[inputs], out)
+    }
+}
+
+/// The value and every partial up to order 2 of the maps of one block of [`Tape::eval_batch`], one
+/// `Map::partials2_batch` per (map, argument slots): computed at the group's first instruction, read by the
+/// others (`partials2_batch` is `partials2`, hence `partial`, bit for bit). The buffers are kept from block
+/// to block.
+#[derive(Default)]
+struct MapBlock {
+    /// (map, slot of a, slot of b) and its entries: entry e of point k at `e · len + k`.
+    groups: Vec<((u32, u32, u32), Vec<f64>)>,
+    /// The groups of the current block: the first `used`.
+    used: usize,
+}
+
+impl MapBlock {
+    fn clear(&mut self) {
+        self.used = 0;
+    }
+
+    /// The entries of `map` at the columns `a`, `b` (slots `key.1`, `key.2`) of this block.
+    fn entries(&mut self, key: (u32, u32, u32), map: &Map, a: &[f64], b: &[f64]) -> &[f64] {
+        let live = &self.groups[..self.used];
+        let j = match live.iter().position(|g| g.0 == key) {
+            Some(j) => j,
+            None => {
+                if self.used == self.groups.len() {
+                    self.groups.push((key, Vec::new()));
+                }
+                let g = &mut self.groups[self.used];
+                self.used += 1;
+                g.0 = key;
+                g.1.resize(9 * a.len(), 0.0);
+                map.partials2_batch(a, b, &mut g.1);
+                self.used - 1
+            }
+        };
+        &self.groups[j].1
     }
 }
 

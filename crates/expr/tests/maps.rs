@@ -132,3 +132,31 @@ fn latex_marks_the_derivative_orders() {
     let l = pool.latex(e);
     assert!(l.contains("\\mathrm{eta}^{(1,0)}"), "{l}");
 }
+
+#[test]
+fn the_batch_evaluator_equals_the_point_by_point_tape_bit_for_bit() {
+    // Map calls sharing arguments (one `partials2_batch` per block), a map of a map, an order-3 partial (point
+    // by point), over 150 points (two full blocks and a short one), inside the grid, at its nodes and outside.
+    let mut pool = pool_with_maps(false);
+    let src = "eta(w, p) + w*eta_d10(w, p) - eta_d02(w, p)*eta_d11(w, p) + c(eta(w, p)) \
+               + c_d2(w/200)*c_d1(w/200) + eta_d30(w, p) + c_d3(w/300)";
+    let e = pool.parse(src).unwrap();
+    let (w, p) = (pool.symbol("w"), pool.symbol("p"));
+    let tape = Tape::compile(&pool, &[e], &[w, p]).unwrap();
+    let n = 150;
+    let wc: Vec<f64> = (0..n).map(|k| 20.0 + 5.0 * k as f64).collect();
+    let pc: Vec<f64> = (0..n).map(|k| 1.0e4 + 800.0 * k as f64).collect();
+    let mut col = vec![0.0; n];
+    tape.eval_batch(&[&wc, &pc], &mut [&mut col]);
+    for k in 0..n {
+        let mut out = [0.0];
+        tape.eval(&[wc[k], pc[k]], &mut out);
+        assert_eq!(
+            col[k].to_bits(),
+            out[0].to_bits(),
+            "point {k}: {} vs {}",
+            col[k],
+            out[0]
+        );
+    }
+}
