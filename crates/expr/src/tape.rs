@@ -441,7 +441,7 @@ impl Tape {
                 buf[(self.n_inputs + c) * BATCH..(self.n_inputs + c + 1) * BATCH].fill(v);
             }
             let base = self.n_inputs + self.consts.len();
-            let mut maps = MapBlock::default();
+            let mut maps = MapBlock::new(&self.instrs);
             let mut start = 0;
             while start < points {
                 let len = BATCH.min(points - start);
@@ -467,7 +467,7 @@ impl Tape {
                         Instr::Sqrt(x) => map1(dst, col(x), f64::sqrt),
                         Instr::Powf(x, k) => map1(dst, col(x), |a| a.powf(k)),
                         Instr::Call(f, x) => map1(dst, col(x), |a| f.eval(a)),
-                        Instr::Map(m, o, x, y) if o[0] <= 2 && o[1] <= 2 => {
+                        Instr::Map(m, o, x, y) if maps.shared((m, o, x, y)) => {
                             let map = &self.maps[m as usize];
                             let e = if map.arity() == 2 {
                                 3 * o[0] as usize + o[1] as usize
@@ -531,8 +531,12 @@ impl Tape {
 /// `Map::partials2_batch` per (map, argument slots): computed at the group's first instruction, read by the
 /// others (`partials2_batch` is `partials2`, hence `partial`, bit for bit). The buffers are kept from block
 /// to block.
-#[derive(Default)]
+///
+/// Only groups of two or more instructions (orders ≤ 2 per argument) are taken this way: a lone call is
+/// cheaper point by point (`Map::partial_unmemoized` evaluates only the partial it needs).
 struct MapBlock {
+    /// (map, slot of a, slot of b) of the groups with two or more instructions.
+    shared: Vec<(u32, u32, u32)>,
     /// (map, slot of a, slot of b) and its entries: entry e of point k at `e · len + k`.
     groups: Vec<((u32, u32, u32), Vec<f64>)>,
     /// The groups of the current block: the first `used`.
@@ -540,6 +544,34 @@ struct MapBlock {
 }
 
 impl MapBlock {
+    fn new(instrs: &[Instr]) -> MapBlock {
+        let mut count: Vec<((u32, u32, u32), usize)> = Vec::new();
+        for ins in instrs {
+            if let Instr::Map(m, o, x, y) = *ins {
+                if o[0] <= 2 && o[1] <= 2 {
+                    match count.iter_mut().find(|c| c.0 == (m, x, y)) {
+                        Some(c) => c.1 += 1,
+                        None => count.push(((m, x, y), 1)),
+                    }
+                }
+            }
+        }
+        MapBlock {
+            shared: count
+                .into_iter()
+                .filter(|c| c.1 >= 2)
+                .map(|c| c.0)
+                .collect(),
+            groups: Vec::new(),
+            used: 0,
+        }
+    }
+
+    /// Is this map instruction taken a block at a time?
+    fn shared(&self, (m, o, x, y): (u32, [u8; 2], u32, u32)) -> bool {
+        o[0] <= 2 && o[1] <= 2 && self.shared.contains(&(m, x, y))
+    }
+
     fn clear(&mut self) {
         self.used = 0;
     }

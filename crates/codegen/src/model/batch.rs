@@ -770,18 +770,17 @@ impl<'a> Kernel<'a> {
         doc.push(String::new());
         let mut at_once = Vec::new();
         if self.plan.has_powers() {
-            at_once.push("the fractional powers by [`pow_pos_slice`] (within 1 ulp of `powf`)");
+            at_once.push("the fractional powers of a block at once, by [`pow_pos_slice`] (within 1 ulp of `powf`)");
         }
         if self.plan.has_maps() {
-            at_once.push("the map calls by `Map::partials2_batch` (bit for bit `partials2`)");
+            at_once.push("the map calls of a block at once, by `Map::partials2_batch` (bit for bit `partials2`)");
         }
         doc.push(if at_once.is_empty() {
             "Block by block ([`BLOCK`] points), point by point in loops that vectorise.".to_string()
         } else {
             format!(
-                "Block by block ([`BLOCK`] points): {} a block at once, everything else point by point in \
-                 loops that vectorise.",
-                at_once.join(", and ")
+                "Block by block ([`BLOCK`] points): {}, everything else point by point in loops that vectorise.",
+                at_once.join("; ")
             )
         });
         doc.push(String::new());
