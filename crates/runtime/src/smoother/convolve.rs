@@ -63,10 +63,11 @@ pub(super) fn slots(
         } else if delta.to_bits() != slots.delta.to_bits() {
             return None;
         }
-        let at = usize::try_from(mj + m as i64).ok().filter(|&at| at < len)?;
-        if slots.marked[at] {
+        let at = mj + m as i64;
+        if at < 0 || at as usize >= len || slots.marked[at as usize] {
             return None;
         }
+        let at = at as usize;
         (slots.jump[at], slots.time[at], slots.marked[at]) = (jump, tj, true);
     }
     Some(slots)
