@@ -44,7 +44,11 @@ struct Cli {
     command: Command,
 }
 
+/// Each command's arguments are built only when it is the one run (`defer`): building them all for every
+/// process was a fifth of a `simulate --dt 1` run's instructions. Its about is the variant's doc comment here,
+/// so an `Args` struct of a command carries none (clap would put it over this one).
 #[derive(Subcommand, Debug)]
+#[command(defer = true)]
 enum Command {
     /// Derive the relative degree, normal form, ψ⁻¹, α, β and zero dynamics of a model file.
     Derive {
@@ -63,7 +67,8 @@ enum Command {
     /// List the built-in drive cycles with their duration, distance and top speed.
     Cycles(cycles_cmd::CyclesArgs),
     /// Import another tool's vehicle file as a model file (`invsim import fastsim VEHICLE.yaml`).
-    Import(import_cmd::ImportArgs),
+    #[command(subcommand)]
+    Import(import_cmd::ImportFormat),
     /// Print a shell completion script (bash, zsh, fish, elvish, powershell) on stdout.
     Completions(completions::CompletionsArgs),
 }

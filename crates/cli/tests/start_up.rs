@@ -1,0 +1,89 @@
+//! What keeps an `invsim` process cheap to start without changing what it prints: each command's arguments
+//! are built only when it runs (clap's `defer`), which must leave every command's about, `help` tree and
+//! completions as they were; and on Linux the executable is linked at a fixed address (no relocations).
+
+use crate::common;
+use common::*;
+
+fn stdout(o: &std::process::Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// The `(name, about)` rows of the "Commands:" list of `invsim --help`.
+fn listed_commands() -> Vec<(String, String)> {
+    let o = invsim(&["--help"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    let list = text.split("Commands:\n").nth(1).expect("a Commands: list");
+    list.lines()
+        .take_while(|l| l.starts_with("  "))
+        .filter_map(|l| {
+            let (name, about) = l.trim().split_once(char::is_whitespace)?;
+            Some((name.to_string(), about.trim().to_string()))
+        })
+        .collect()
+}
+
+#[test]
+fn each_command_help_starts_with_the_about_the_command_list_gives_it() {
+    let commands = listed_commands();
+    let names: Vec<&str> = commands.iter().map(|(n, _)| n.as_str()).collect();
+    for expected in [
+        "derive",
+        "simulate",
+        "sweep",
+        "forward",
+        "cycles",
+        "import",
+        "completions",
+    ] {
+        assert!(
+            names.contains(&expected),
+            "{expected} not listed in {names:?}"
+        );
+    }
+    for (name, about) in commands.iter().filter(|(n, _)| n != "help") {
+        let o = invsim(&[name, "--help"]);
+        assert!(o.status.success(), "{name}: {}", stderr(&o));
+        let help = stdout(&o);
+        let first = help.lines().next().unwrap_or("");
+        // The list shows the first sentence without its final period, as the command's own help does.
+        assert_eq!(
+            first, about,
+            "{name} --help begins otherwise than its line in invsim --help"
+        );
+    }
+}
+
+#[test]
+fn help_and_completions_know_the_nested_import_command() {
+    let o = invsim(&["help", "import", "fastsim"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stdout(&o).contains("Usage: invsim import fastsim"),
+        "{}",
+        stdout(&o)
+    );
+    let o = invsim(&["completions", "bash"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let script = stdout(&o);
+    for case in [
+        "invsim__subcmd__import__subcmd__fastsim)",
+        "invsim__subcmd__help__subcmd__import__subcmd__fastsim)",
+    ] {
+        assert!(script.contains(case), "the bash script lacks {case}");
+    }
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn the_executable_is_linked_at_a_fixed_address() {
+    let bytes = std::fs::read(env!("CARGO_BIN_EXE_invsim")).unwrap();
+    assert_eq!(&bytes[..4], b"\x7fELF");
+    // e_type, a little-endian u16 at offset 16 of the ELF header: 2 = ET_EXEC, 3 = ET_DYN (a PIE).
+    let e_type = u16::from_le_bytes([bytes[16], bytes[17]]);
+    assert_eq!(
+        e_type, 2,
+        "invsim is not a fixed-address executable (e_type {e_type})"
+    );
+}
