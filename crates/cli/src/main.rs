@@ -9,6 +9,7 @@
 //! command has its module.
 
 mod completions;
+mod cycle_spec;
 mod cycles_cmd;
 mod data_args;
 mod derive;
