@@ -6,7 +6,9 @@
 //! Exit status (contract §3): 0 on success, 2 on a user error (bad model or cycle file, bad option, a model
 //! the method cannot invert, a simulation that had to stop), 3 when some variants of a sweep failed, with a
 //! one-paragraph message on stderr ([`error`]). This file only parses the command line and dispatches; each
-//! command has its module.
+//! command has its module. The process starts without std's runtime wrapper (`no_main`; [`process`] says
+//! why and what it does instead).
+#![cfg_attr(not(test), no_main)]
 
 mod completions;
 mod cycle_spec;
@@ -26,6 +28,7 @@ mod modal_engine;
 mod modal_forward;
 mod outputs;
 mod plotting;
+mod process;
 mod progress;
 mod provenance;
 mod signal_args;
@@ -34,7 +37,6 @@ mod sweep_cmd;
 mod version;
 
 use std::path::PathBuf;
-use std::process::ExitCode;
 
 use clap::{CommandFactory, Parser, Subcommand};
 
@@ -74,7 +76,21 @@ enum Command {
     Completions(completions::CompletionsArgs),
 }
 
-fn main() -> ExitCode {
+/// The entry point the C runtime calls (std's `lang_start` is not used, see [`process`]); the arguments are
+/// std's `env::args`, which glibc hands to std before `main`.
+#[cfg(not(test))]
+#[no_mangle]
+extern "C" fn main(
+    _argc: std::ffi::c_int,
+    _argv: *const *const std::ffi::c_char,
+) -> std::ffi::c_int {
+    process::start();
+    process::finish(std::panic::catch_unwind(run))
+}
+
+/// Parse the command line, run the command; the exit status.
+#[cfg_attr(test, allow(dead_code))] // the unit tests' harness has a main of its own
+fn run() -> u8 {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Derive { model, format } => derive::run(&model, format),
@@ -82,11 +98,11 @@ fn main() -> ExitCode {
         Command::Sweep(args) => sweep_cmd::run(&args),
         Command::Forward(args) => modal_forward::run(&args),
         Command::Cycles(args) => cycles_cmd::run(&args),
-        Command::Import(args) => import_cmd::run(&args),
+        Command::Import(format) => import_cmd::run(&format),
         Command::Completions(args) => completions::run(&args, Cli::command()),
     };
     match result {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(()) => 0,
         Err(f) => f.report(),
     }
 }

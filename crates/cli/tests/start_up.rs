@@ -1,6 +1,9 @@
 //! What keeps an `invsim` process cheap to start without changing what it prints: each command's arguments
 //! are built only when it runs (clap's `defer`), which must leave every command's about, `help` tree and
-//! completions as they were; and on Linux the executable is linked at a fixed address (no relocations).
+//! completions as they were; on Linux the executable is linked at a fixed address (no relocations); and the
+//! process starts without std's runtime wrapper (`src/process.rs`), so what that wrapper did for the command
+//! must still hold: a closed pipe on stdout is exit 2 (not death by `SIGPIPE`), a closed stdout is
+//! `/dev/null`.
 
 use crate::common;
 use common::*;
@@ -86,4 +89,63 @@ fn the_executable_is_linked_at_a_fixed_address() {
         e_type, 2,
         "invsim is not a fixed-address executable (e_type {e_type})"
     );
+}
+
+/// A pipe whose reading end is closed, its writing end for a child's stdout (close-on-exec, so that no other
+/// test's child keeps it open).
+#[cfg(target_os = "linux")]
+fn pipe_without_reader() -> std::process::Stdio {
+    use std::os::fd::{FromRawFd, OwnedFd};
+    let mut fds = [0; 2];
+    // SAFETY: pipe2 writes two descriptors into `fds`.
+    assert_eq!(unsafe { libc::pipe2(fds.as_mut_ptr(), libc::O_CLOEXEC) }, 0);
+    // SAFETY: both descriptors were just created and are owned by nothing else.
+    let (read, write) = unsafe { (OwnedFd::from_raw_fd(fds[0]), OwnedFd::from_raw_fd(fds[1])) };
+    drop(read);
+    std::process::Stdio::from(write)
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn a_closed_pipe_on_stdout_is_exit_2_with_a_message() {
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_invsim"))
+        .args([
+            "simulate",
+            "models/si_engine.toml",
+            "--cycle",
+            "nedc",
+            "--dt",
+            "1",
+        ])
+        .current_dir(root())
+        .stdout(pipe_without_reader())
+        .output()
+        .expect("run invsim");
+    assert_eq!(o.status.code(), Some(2), "{:?}: {}", o.status, stderr(&o));
+    assert!(
+        stderr(&o).contains("cannot write to stdout"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn a_closed_stdout_is_dev_null_for_the_command() {
+    // With fd 1 closed, /dev/stdout names nothing unless the process opened fd 1 on /dev/null at its start.
+    let o = std::process::Command::new("sh")
+        .args(["-c", "exec \"$0\" \"$@\" >&-", env!("CARGO_BIN_EXE_invsim")])
+        .args([
+            "simulate",
+            "models/si_engine.toml",
+            "--cycle",
+            "ece",
+            "--dt",
+            "1",
+        ])
+        .args(["--summary-json", "/dev/stdout"])
+        .current_dir(root())
+        .output()
+        .expect("run sh");
+    assert!(o.status.success(), "{:?}: {}", o.status, stderr(&o));
 }
