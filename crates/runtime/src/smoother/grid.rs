@@ -29,6 +29,7 @@
 
 use std::sync::{Arc, Mutex, MutexGuard};
 
+use super::convolve;
 use crate::kernel::Kernel;
 
 /// Most `f64` values kept in the tables of one smoother (16 MiB).
@@ -55,6 +56,7 @@ struct PhaseTable {
     h: f64,
     delta: f64,
     m: usize,
+    /// Orders served (`c_0 … c_{width−1}`; the table holds `c_width` too).
     width: usize,
     /// `width + 1` columns `c_0 … c_width`, then the column of `u_i`.
     values: Vec<f64>,
@@ -203,44 +205,78 @@ pub(super) fn add_corners(
     let grid = h.filter(|&h| is_regular(times, h, tol) && a / h < 1e9);
     let call = cache.begin();
     let width = out.len();
+    let corners = (&corners[first..last_corner], &jumps[first..last_corner]);
+    let m_of = |h: f64| (a / h).ceil() as usize + 1;
+    let key = |h: f64, delta: f64| Key {
+        h,
+        delta,
+        tol: tol / h,
+        m: m_of(h),
+        width,
+    };
+    if let Some(h) = grid.filter(|&h| convolve::worthwhile(corners.0.len(), times.len(), a, h)) {
+        let phase = |tj| corner_phase(tj, t0, h, tol / h);
+        // Corners filling the grid, one phase: one convolution over whole columns (`convolve.rs`).
+        let slots = convolve::slots(corners, times.len(), m_of(h), phase);
+        let table = slots
+            .as_ref()
+            .and_then(|s| cache.get(kernel, key(h, s.delta), call));
+        if let (Some(slots), Some(table)) = (slots, table) {
+            let mut columns: Vec<&[f64]> = (0..=width).map(|n| table.column(n)).collect();
+            columns.push(table.column(table.width + 1));
+            convolve::add(&slots, &convolve::Rows { columns }, times, out);
+            return;
+        }
+    }
     let mut terms = vec![0.0; width];
     let mut jd = Vec::new();
     // The table of the previous corner with its phase: corners of one phase (every corner of a 1 Hz cycle
     // on a grid dividing 1 s) take it without the cache's lock. The same key gives the same table.
     let mut last: Option<(f64, Arc<PhaseTable>)> = None;
-    for j in first..last_corner {
-        let (tj, jump) = (corners[j], jumps[j]);
+    for (&tj, &jump) in corners.0.iter().zip(corners.1) {
         let table = grid.and_then(|h| {
-            let steps = (tj - t0) / h;
-            let tol_steps = tol / h;
-            let mut mj = steps.round();
-            // δ ∈ (−½ + tol, ½ + tol]: a phase of ½ is one phase whichever way the rounding went.
-            if steps - mj < -0.5 + tol_steps {
-                mj -= 1.0;
-            }
-            let delta = Some(steps - mj)
-                .filter(|d| d.abs() > tol_steps)
-                .unwrap_or(0.0);
+            let (mj, delta) = corner_phase(tj, t0, h, tol / h);
             if last
                 .as_ref()
                 .is_none_or(|(d, _)| d.to_bits() != delta.to_bits())
             {
-                let m = (a / h).ceil() as usize + 1;
-                let key = Key {
-                    h,
-                    delta,
-                    tol: tol_steps,
-                    m,
-                    width,
-                };
-                last = Some((delta, cache.get(kernel, key, call)?));
+                last = Some((delta, cache.get(kernel, key(h, delta), call)?));
             }
-            Some(mj as i64)
+            Some(mj)
         });
         match (table, &last) {
             (Some(mj), Some((_, table))) => scatter(table, mj, tj, jump, times, &mut jd, out),
             _ => add_pointwise(kernel, tj, jump, times, &mut terms, out),
         }
+    }
+}
+
+/// The grid index `m_j` and phase `δ_j` of the corner at `tj` on the grid `t0 + k·h`: `(tj − t0)/h = m_j +
+/// δ_j` with `δ_j ∈ (−½ + tol, ½ + tol]` (a phase of ½ is one phase whichever way the rounding went), a
+/// phase within `tol` (in steps) of 0 taken as 0.
+fn corner_phase(tj: f64, t0: f64, h: f64, tol_steps: f64) -> (i64, f64) {
+    let steps = (tj - t0) / h;
+    let mut mj = nearest_whole(steps);
+    if steps - mj < -0.5 + tol_steps {
+        mj -= 1.0;
+    }
+    let delta = Some(steps - mj)
+        .filter(|d| d.abs() > tol_steps)
+        .unwrap_or(0.0);
+    (mj as i64, delta)
+}
+
+/// A whole number nearest to `x` (`|x| < 2⁵²`; ties either way, which [`corner_phase`] settles):
+/// truncation and one correction, as `f64::round` is a library call on the baseline x86-64 target.
+fn nearest_whole(x: f64) -> f64 {
+    let t = (x as i64) as f64;
+    let frac = x - t; // exact: t holds the leading bits of x
+    if frac > 0.5 {
+        t + 1.0
+    } else if frac < -0.5 {
+        t - 1.0
+    } else {
+        t
     }
 }
 
@@ -335,6 +371,29 @@ fn add_pointwise(
         corner_terms(kernel, times[k] - tj, terms);
         for (col, &c) in out.iter_mut().zip(terms.iter()) {
             col[k] += jump * c;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::nearest_whole;
+
+    /// `nearest_whole` is `f64::round` away from ties, and a tie goes to one of its two neighbours.
+    #[test]
+    fn nearest_whole_rounds() {
+        for i in -4000..4000 {
+            let probes = [
+                i as f64 * 0.37 + 1e-3,
+                -(i as f64) * 1.13,
+                i as f64 * 1e6 + 0.4999,
+            ];
+            for x in probes.into_iter().filter(|x| (x - x.trunc()).abs() != 0.5) {
+                assert_eq!(nearest_whole(x), x.round(), "x = {x}");
+            }
+            let tie = i as f64 + 0.5;
+            let r = nearest_whole(tie);
+            assert!(r == tie - 0.5 || r == tie + 0.5, "tie {tie} -> {r}");
         }
     }
 }
