@@ -1,4 +1,4 @@
-//! The start and the end of the `invsim` process. `main.rs` is `#![no_main]`: the C runtime calls its
+//! The start and the end of the `invsim` process on Unix. `main.rs` is `#![no_main]`: the C runtime calls its
 //! `extern "C" fn main` directly, without std's runtime wrapper, whose start-up reads `/proc/self/maps` (glibc's
 //! `pthread_getattr_np` for the main thread's stack guard) and installs the stack-overflow handler — about
 //! 0.11 M instructions, 8 page faults and 0.1 ms of a 1.5 ms `simulate --dt 1` process.
