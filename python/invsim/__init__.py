@@ -15,6 +15,7 @@ Everything runs in Rust without the GIL: `derive` is the command line's `invsim 
 over variants in parallel. Errors are `InvsimError` (a `ValueError`) with `file`, `line` and `column`.
 """
 
+import functools
 import json
 import os
 
@@ -73,10 +74,22 @@ class Result:
     handed over from Rust without a copy) and `units` (column name -> unit or None)."""
 
     def __init__(self, summary, columns, arrays, units):
-        self.summary = summary
+        # The run's summary as Rust keeps it: written as JSON and parsed when `summary` is first read.
+        self._summary = summary
         self.columns = list(columns)
         self.arrays = dict(zip(self.columns, arrays))
         self.units = {c: units.get(c) for c in self.columns}
+
+    @functools.cached_property
+    def summary(self):
+        """The summary (dict), as `invsim simulate --summary-json` writes it."""
+        return json.loads(self._summary.json())
+
+    def __getstate__(self):
+        # Pickled with its summary as a dict (the Rust object does not pickle).
+        state = dict(self.__dict__, summary=self.summary)
+        del state["_summary"]
+        return state
 
     def __len__(self):
         return self.summary["samples"] if not self.arrays else len(self.arrays["t"])
@@ -232,7 +245,7 @@ class Model:
             _signals_list(signals),
             _initial_list(initial),
         )
-        return Result(json.loads(summary), columns, arrays, self._units)
+        return Result(summary, columns, arrays, self._units)
 
     def sweep(
         self,

@@ -1,7 +1,8 @@
 //! The Rust extension `invsim._invsim` of the Python package `invsim`: a model loaded once (`Model`), its
 //! derivation as JSON, single inverse simulations returning their columns as numpy arrays (moved, not copied)
 //! and parameter sweeps. Every call runs without the GIL. The Python wrappers in `python/invsim/` turn the
-//! JSON into dicts and the columns into pandas and polars data frames.
+//! JSON into dicts (a run's summary when it is first read) and the columns into pandas and polars data
+//! frames.
 
 mod engine;
 mod error;
@@ -19,8 +20,21 @@ use error::{to_py, Failure, InvsimError};
 use run::{load_cycle, run_one, PySignal, RunOptions};
 use sweep::{run_sweep, Variants};
 
-/// What `Model.simulate` returns: the summary as JSON, the column names and the columns.
-type RunOutput<'py> = (String, Vec<String>, Vec<Bound<'py, PyArray1<f64>>>);
+/// What `Model.simulate` returns: the summary, the column names and the columns.
+type RunOutput<'py> = (RunSummary, Vec<String>, Vec<Bound<'py, PyArray1<f64>>>);
+
+/// The summary of one run, kept as Rust data: written as JSON (what `--summary-json` writes) when asked
+/// for, so that a run whose summary is not read does not pay for writing and parsing it.
+#[pyclass(module = "invsim._invsim", frozen)]
+struct RunSummary(invsim_runtime::Summary);
+
+#[pymethods]
+impl RunSummary {
+    /// The summary as JSON.
+    fn json(&self) -> PyResult<String> {
+        serde_json::to_string(&self.0).map_err(|e| InvsimError::new_err(e.to_string()))
+    }
+}
 /// One sweep row: variant, cycle index, every parameter's value, the summary JSON, the error.
 type SweepRow = (usize, usize, Vec<f64>, Option<String>, Option<String>);
 
@@ -115,7 +129,7 @@ impl Model {
         self.loaded.units.clone()
     }
 
-    /// One inverse simulation: (summary JSON, column names, columns as float64 arrays).
+    /// One inverse simulation: (summary, column names, columns as float64 arrays).
     #[pyo3(signature = (cycle, dt, lookahead, params, verify, causal, include_extension, keep_series, signals, initial))]
     #[allow(clippy::too_many_arguments)]
     fn simulate<'py>(
@@ -147,14 +161,12 @@ impl Model {
             let opts = opts.build(self.loaded.engine_name(), &self.path, &cycle.name)?;
             let m = self.loaded.with_params(&params)?;
             let r = run_one(m.as_ref(), &self.path, &cycle, &opts)?;
-            let json =
-                serde_json::to_string(&r.summary).map_err(|e| Failure::msg(e.to_string()))?;
-            Ok((json, r.columns, r.data))
+            Ok((r.summary, r.columns, r.data))
         });
-        let (json, columns, data) = to_py(py, out)?;
+        let (summary, columns, data) = to_py(py, out)?;
         // Each Vec becomes the buffer of its numpy array: no copy.
         let arrays = data.into_iter().map(|c| c.into_pyarray(py)).collect();
-        Ok((json, columns, arrays))
+        Ok((RunSummary(summary), columns, arrays))
     }
 
     /// A sweep: every variant (`names[j]` = `values[j][i]`) on every cycle, after the `base` settings.
@@ -244,6 +256,7 @@ fn check_variants(model: &Loaded, v: &Variants, base: &[(String, f64)]) -> Resul
 #[pymodule]
 fn _invsim(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Model>()?;
+    m.add_class::<RunSummary>()?;
     m.add("InvsimError", m.py().get_type::<InvsimError>())?;
     m.add("builtin_models", invsim_models::names())?;
     m.add(

@@ -104,3 +104,15 @@ def test_pickle_round_trip(si_engine):
     m = pickle.loads(pickle.dumps(si_engine))
     assert m.engine == "compiled" and m.derive() == si_engine.derive()
     assert m.simulate(cycle="ece").summary == si_engine.simulate(cycle="ece").summary
+
+
+def test_summary_is_read_once_and_pickles(si_engine):
+    """The summary is parsed when first read, the same dict each time after; a pickled result carries it."""
+    import pickle
+
+    r = si_engine.simulate(cycle="udds", dt=1.0, keep_series=False)
+    first = r.summary
+    assert r.summary is first
+    assert first["samples"] == 1370 and first["integrals"]["fuel"] > 0
+    back = pickle.loads(pickle.dumps(r))
+    assert back.summary == first and back.columns == r.columns

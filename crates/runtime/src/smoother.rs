@@ -348,13 +348,24 @@ impl Smoother {
     /// `out[0][k] = y_c(times[k])`, `out[1][k] = s(times[k])` (the slope after the last corner at or before
     /// the time), higher orders 0: segment by segment between the corners along the increasing grid.
     fn base_on_grid(&self, times: &[f64], out: &mut [&mut [f64]]) {
-        let orders = out.len();
         for col in out.iter_mut().skip(2) {
             col.fill(0.0);
         }
+        let next = self.corners.partition_point(|&c| c <= times[0]);
+        let t_end = times[times.len() - 1];
+        if 4 * (self.corners.partition_point(|&c| c <= t_end) - next) >= times.len() {
+            self.base_by_sample(times, next, out);
+        } else {
+            self.base_by_segment(times, next, out);
+        }
+    }
+
+    /// Orders 0 and 1 of [`Self::base_on_grid`] segment by segment between the corners (`next` the number of
+    /// corners at or before `times[0]`).
+    fn base_by_segment(&self, times: &[f64], mut next: usize, out: &mut [&mut [f64]]) {
+        let orders = out.len();
         let mut k = 0;
         // corners[next − 1] ≤ t < corners[next] on the current segment
-        let mut next = self.corners.partition_point(|&c| c <= times[0]);
         while k < times.len() {
             let end = match self.corners.get(next) {
                 Some(&c) => first_not_before(times, k, c),
@@ -379,6 +390,31 @@ impl Smoother {
             }
             k = end;
             next += 1;
+        }
+    }
+
+    /// [`Self::base_on_grid`] for corners about as many as the samples, whose segments are a sample or two
+    /// long: sample by sample, merging the grid with the corners (`next` the number of corners at or before
+    /// `times[0]`), the same numbers.
+    fn base_by_sample(&self, times: &[f64], mut next: usize, out: &mut [&mut [f64]]) {
+        let (y, rest) = out.split_at_mut(1);
+        let mut slope_col = rest.first_mut();
+        for (k, &t) in times.iter().enumerate() {
+            while self.corners.get(next).is_some_and(|&c| c <= t) {
+                next += 1;
+            }
+            let (v, slope) = match next.checked_sub(1) {
+                Some(i) if self.slope_after[i] == 0.0 => (self.value_at[i], self.slope_after[i]),
+                Some(i) => {
+                    let (v, slope, tj) = (self.value_at[i], self.slope_after[i], self.corners[i]);
+                    (v + slope * (t - tj), slope)
+                }
+                None => (self.first_value, 0.0),
+            };
+            y[0][k] = v;
+            if let Some(s) = slope_col.as_mut() {
+                s[k] = slope;
+            }
         }
     }
 
@@ -510,12 +546,32 @@ mod tests {
             time: udds.time.iter().map(|t| t + 0.5).collect(),
             ..udds.clone()
         };
-        for (cycle, lookahead) in [(&udds, 5.0), (&udds, 1.0), (&half, 2.0), (&udds, 0.7)] {
+        // Samples 0.1 s apart as i·0.1 on a grid of k/10: the two roundings differ, so the first-order
+        // corrections of the highest orders are not zero.
+        let tenth = Cycle {
+            name: "10 Hz".into(),
+            time: (0..600).map(|i| i as f64 * 0.1).collect(),
+            speed: (0..600).map(|i| ((i * 37) % 23) as f64 * 0.5).collect(),
+            ..udds.clone()
+        };
+        let cases = [
+            (&udds, 5.0, 1.0),
+            (&udds, 1.0, 1.0),
+            (&half, 2.0, 1.0),
+            (&udds, 0.7, 1.0),
+            (&tenth, 0.5, 0.1),
+        ];
+        for (cycle, lookahead, h) in cases {
             let s = Smoother::new(cycle, lookahead).unwrap();
-            let times: Vec<f64> = (0..1400).map(|k| k as f64 - 10.0).collect();
+            let times: Vec<f64> = (0..1400).map(|k| (k as f64 - 10.0) * h).collect();
+            let times: Vec<f64> = if h == 0.1 {
+                (0..640).map(|k| (k as f64 - 20.0) / 10.0).collect()
+            } else {
+                times
+            };
             let orders = 5;
-            let whole = on_grid(&s, &times, 1.0, orders, 4096);
-            let blocks = on_grid(&s, &times, 1.0, orders, 15);
+            let whole = on_grid(&s, &times, h, orders, 4096);
+            let blocks = on_grid(&s, &times, h, orders, 15);
             for n in 0..orders {
                 for (k, (a, b)) in whole[n].iter().zip(&blocks[n]).enumerate() {
                     assert_eq!(
@@ -535,6 +591,35 @@ mod tests {
                         (whole[n][k] - y[n]).abs() <= 1e-9 * scale,
                         "order {n}, t = {t}"
                     );
+                }
+            }
+        }
+    }
+
+    /// The base sample by sample and segment by segment: the same numbers, on grids finer and coarser than
+    /// the corners and shifted against them.
+    #[test]
+    fn base_by_sample_is_base_by_segment() {
+        let udds = Cycle::builtin("udds").unwrap();
+        let s = Smoother::new(&udds, 2.0).unwrap();
+        for (h, shift) in [
+            (1.0, 0.0),
+            (0.5, 0.25),
+            (3.0, 0.1),
+            (0.1, 0.0),
+            (1.0, -20.0),
+        ] {
+            let times: Vec<f64> = (0..1500).map(|k| k as f64 * h + shift).collect();
+            let next = s.corners.partition_point(|&c| c <= times[0]);
+            let mut a = vec![vec![0.0; times.len()]; 2];
+            let mut b = a.clone();
+            let mut va: Vec<&mut [f64]> = a.iter_mut().map(|c| &mut c[..]).collect();
+            let mut vb: Vec<&mut [f64]> = b.iter_mut().map(|c| &mut c[..]).collect();
+            s.base_by_sample(&times, next, &mut va);
+            s.base_by_segment(&times, next, &mut vb);
+            for (ca, cb) in a.iter().zip(&b) {
+                for (x, y) in ca.iter().zip(cb) {
+                    assert_eq!(x.to_bits(), y.to_bits(), "h = {h}");
                 }
             }
         }

@@ -89,11 +89,14 @@ pub(crate) fn smoothed_distance(cycle: &Cycle, kernel: &Kernel) -> f64 {
 /// [`DISTANCE_WARNING`] (`smoother` without a reference map, so y_d is the smoothed speed).
 ///
 /// The convolution moves speed only across the cycle's ends: ∫_{t0}^{t1} (k * y_c) dt = ∫ y_c(s) W(s) ds with
-/// W(s) = ∫_{t0}^{t1} k(t − s) dt = 1 except within a of an end, so |∫ y_d − ∫ y_c| ≤ 4 a v_max; below 1 % of
-/// the distance nothing is computed. Otherwise ∫ y_d dt comes from [`smoothed_distance`].
+/// W(s) = ∫_{t0}^{t1} k(t − s) dt, and W − 1_{[t0, t1]} is zero except within a of an end, where it is at most
+/// 1 in size, so |∫ y_d − ∫ y_c| ≤ 2 a (v_0 + v_1), v_0 and v_1 the largest |y_c| within a of either end
+/// ([`end_speeds`]); below 1 % of the distance nothing is computed (a cycle that starts and ends at rest for
+/// a). Otherwise ∫ y_d dt comes from [`smoothed_distance`].
 pub(super) fn reference_distance_warning(smoother: &Smoother, cycle: &Cycle) -> Option<String> {
     let (distance, a) = (cycle.distance(), smoother.lookahead());
-    if 4.0 * a * cycle.max_speed() <= DISTANCE_WARNING * distance {
+    let [v0, v1] = end_speeds(cycle, a);
+    if 2.0 * a * (v0 + v1) <= DISTANCE_WARNING * distance {
         return None;
     }
     let sum = smoothed_distance(cycle, &Kernel::new(a));
@@ -108,6 +111,23 @@ pub(super) fn reference_distance_warning(smoother: &Smoother, cycle: &Cycle) -> 
             num(a)
         )
     })
+}
+
+/// The largest |y_c| on [t0 − a, t0 + a] and on [t1 − a, t1 + a] (y_c held at its end values outside the
+/// cycle): the piecewise-linear y_c takes its extremes on an interval at its samples or at the interval's
+/// ends, so the samples inside with the one on either side bound it.
+fn end_speeds(cycle: &Cycle, a: f64) -> [f64; 2] {
+    let (time, speed) = (&cycle.time, &cycle.speed);
+    let n = time.len().min(speed.len());
+    let (Some(&t0), Some(&t1)) = (time.first(), time[..n].last()) else {
+        return [f64::NAN; 2];
+    };
+    let largest = |c: f64| {
+        let lo = time[..n].partition_point(|&x| x < c - a).saturating_sub(1);
+        let hi = (time[..n].partition_point(|&x| x <= c + a) + 1).min(n);
+        speed[lo..hi].iter().fold(0.0_f64, |m, v| m.max(v.abs()))
+    };
+    [largest(t0), largest(t1)]
 }
 
 #[cfg(test)]
@@ -155,5 +175,32 @@ mod tests {
         // the two agree with the cycle's own distance to far better than the 1 % the warning looks for.
         let d = smoothed_distance(&nedc, &Kernel::new(5.0));
         assert!((d - nedc.distance()).abs() < 1e-6 * nedc.distance(), "{d}");
+    }
+
+    /// The bound that skips the quadrature holds: |∫ y_d − ∫ y_c| ≤ 2a (v_0 + v_1) with the speeds near the
+    /// ends, on cycles at rest and moving at their ends, and it is 0 for the NEDC (at rest for 5 s at both).
+    #[test]
+    fn the_end_speeds_bound_the_distance_the_smoothing_moves() {
+        let nedc = Cycle::builtin("nedc").expect("built in");
+        let csv = "time_s,speed_mps\n0,3\n10,10\n30,8\n40,5\n";
+        let moving = Cycle::from_csv_str("moving", csv).expect("valid cycle");
+        assert_eq!(end_speeds(&moving, 4.0), [10.0, 8.0]);
+        assert_eq!(end_speeds(&moving, 12.0), [10.0, 10.0]);
+        assert_eq!(end_speeds(&nedc, 5.0), [0.0, 0.0]);
+        for (cycle, a) in [
+            (&moving, 4.0),
+            (&moving, 1.0),
+            (&moving, 15.0),
+            (&nedc, 60.0),
+        ] {
+            let moved = (smoothed_distance(cycle, &Kernel::new(a)) - cycle.distance()).abs();
+            let [v0, v1] = end_speeds(cycle, a);
+            assert!(
+                moved <= 2.0 * a * (v0 + v1),
+                "a = {a}: {moved} > {}",
+                2.0 * a * (v0 + v1)
+            );
+            assert!(moved > 0.0 || v0 + v1 == 0.0);
+        }
     }
 }

@@ -48,12 +48,13 @@ pub(super) fn slots(
     phase: impl Fn(f64) -> (i64, f64),
 ) -> Option<Slots> {
     let len = samples + 2 * m;
+    // LANES unmarked slots past the end: a block of lanes reads whole (see `accumulate`).
     let mut slots = Slots {
         delta: 0.0,
         m,
-        jump: vec![0.0; len],
-        time: vec![0.0; len],
-        marked: vec![false; len],
+        jump: vec![0.0; len + LANES],
+        time: vec![0.0; len + LANES],
+        marked: vec![false; len + LANES],
     };
     for (j, (&tj, &jump)) in times.iter().zip(jumps).enumerate() {
         let (mj, delta) = phase(tj);
@@ -77,71 +78,113 @@ pub(super) struct Rows<'a> {
     pub(super) columns: Vec<&'a [f64]>,
 }
 
+/// Samples accumulated together: each keeps its sum in a register over all the rows (the rows' loop
+/// carries one addition's latency; the lanes hide it and vectorise).
+const LANES: usize = 8;
+
 /// `out[n][k] += Σ_s J_s c_n(t_k − T_s)` over the marked slots (module docs), `out.len()` orders,
-/// `times` the grid.
-///
-/// `out` must hold the base, none of it −0 (module docs): then a row whose corrections `J_s d_k` all vanish
-/// (a grid on whole multiples of the step, such as 1 s on a 1 Hz cycle: `t_k − T_s = u_i` exactly) may
-/// drop them, `o + (J c + ±0) = o + J c` bit for bit.
+/// `times` the grid. `out` must hold the base, none of it −0 (module docs).
 pub(super) fn add(slots: &Slots, rows: &Rows<'_>, times: &[f64], out: &mut [&mut [f64]]) {
-    let (m, n) = (slots.m, times.len());
+    let n = times.len();
     let width = out.len();
     let u = rows.columns[width + 1];
-    let mut jd = vec![0.0; if width > 2 { n } else { 0 }];
-    for i in (0..=2 * m).rev() {
-        // Sample k takes slot s = k − (i − m), stored at k + 2m − i.
-        let at = 2 * m - i;
-        let jump = &slots.jump[at..at + n];
-        let corrected =
-            width > 2 && corrections(&mut jd, times, &slots.time[at..at + n], jump, u[i]);
-        for (order, col) in out.iter_mut().enumerate() {
-            let c = rows.columns[order][i];
-            let col = &mut col[..n];
-            match order {
-                2.. if corrected => {
-                    let dc = rows.columns[order + 1][i];
-                    for ((o, &j), &d) in col.iter_mut().zip(jump).zip(&jd) {
-                        *o += j * c + d * dc;
-                    }
-                }
-                _ => {
-                    for (o, &j) in col.iter_mut().zip(jump) {
-                        *o += j * c;
-                    }
-                }
-            }
+    for (order, col) in out.iter_mut().enumerate() {
+        let order_rows = OrderRows {
+            c: rows.columns[order],
+            dc: (order >= 2).then(|| rows.columns[order + 1]),
+            u,
+            settle: order == 1,
+        };
+        let col = &mut col[..n];
+        let body = n - n % LANES;
+        for k0 in (0..body).step_by(LANES) {
+            accumulate::<LANES>(slots, &order_rows, times, k0, col);
         }
-        if i == m {
-            settle_step(slots, times, out);
+        for k0 in body..n {
+            accumulate::<1>(slots, &order_rows, times, k0, col);
         }
     }
 }
 
-/// `jd[k] = J_s ((t_k − T_s) − u_i)` for one row; whether any is nonzero.
-fn corrections(jd: &mut [f64], times: &[f64], t_s: &[f64], jump: &[f64], u_i: f64) -> bool {
-    let mut bits = 0;
-    for (((d, &t), &ts), &j) in jd.iter_mut().zip(times).zip(t_s).zip(jump) {
-        *d = j * ((t - ts) - u_i);
-        bits |= d.to_bits() << 1; // the sign bit shifted out: ±0 gives 0
+/// One order's rows: `c_n(u_i)`, and for the orders n ≥ 2, which take the first-order corrections,
+/// `c_{n+1}(u_i)`.
+struct OrderRows<'a> {
+    c: &'a [f64],
+    dc: Option<&'a [f64]>,
+    u: &'a [f64],
+    /// Order 1: settle the step of `c_1` after row 0.
+    settle: bool,
+}
+
+/// Samples `k0 … k0 + L − 1` of one order: every row from `i = m` down to `−m` (stored `2m` … 0) added to
+/// each sample's sum in turn, the step settled right after row 0, as the scatter orders them.
+#[inline(always)]
+fn accumulate<const L: usize>(
+    slots: &Slots,
+    rows: &OrderRows<'_>,
+    times: &[f64],
+    k0: usize,
+    col: &mut [f64],
+) {
+    let m = slots.m;
+    let mut acc = [0.0; L];
+    acc.copy_from_slice(&col[k0..k0 + L]);
+    // Window w of the slots (stored from k0 + w) serves row i = 2m − w.
+    let jump = &slots.jump[k0..k0 + 2 * m + L];
+    match rows.dc {
+        // Orders ≥ 2: the term and its correction (no step to settle).
+        Some(dc) => {
+            let t = &times[k0..k0 + L];
+            let t_s = &slots.time[k0..k0 + 2 * m + L];
+            let rows = rows.c.iter().zip(dc).zip(rows.u).rev();
+            for ((((&c, &dc), &u_i), jump), t_s) in rows.zip(jump.windows(L)).zip(t_s.windows(L)) {
+                for l in 0..L {
+                    let jd = jump[l] * ((t[l] - t_s[l]) - u_i);
+                    acc[l] += jump[l] * c + jd * dc;
+                }
+            }
+        }
+        None => {
+            let (upper, lower) = rows.c.split_at(m); // rows 0 … m − 1 and m … 2m
+            let mut windows = jump.windows(L);
+            // (The rows first: zip takes from its first iterator first, and must not take a window past them.)
+            for (&c, window) in lower.iter().rev().zip(windows.by_ref()) {
+                add_row(&mut acc, window, c);
+            }
+            if rows.settle {
+                for (l, a) in acc.iter_mut().enumerate() {
+                    *a += step_correction(slots, times[k0 + l], k0 + l + m);
+                }
+            }
+            for (&c, window) in upper.iter().rev().zip(windows) {
+                add_row(&mut acc, window, c);
+            }
+        }
     }
-    bits != 0
+    col[k0..k0 + L].copy_from_slice(&acc);
+}
+
+/// `acc[l] += jump[l]·c`.
+#[inline(always)]
+fn add_row<const L: usize>(acc: &mut [f64; L], jump: &[f64], c: f64) {
+    for (a, &j) in acc.iter_mut().zip(jump) {
+        *a += j * c;
+    }
 }
 
 /// Row 0 (`u = −δh`): the table's `H(u)` in `c_1` against the base's "corner passed" (`t_j ≤ t_k`) for the
-/// corner on slot `k`, as the scatter settles it.
-fn settle_step(slots: &Slots, times: &[f64], out: &mut [&mut [f64]]) {
-    let Some(col) = out.get_mut(1) else {
-        return;
-    };
+/// corner on the slot stored at `at` (sample `k` at time `t`), as the scatter settles it: ∓J_s where the two
+/// disagree, 0 otherwise (adding 0 changes no sum that is not −0).
+fn step_correction(slots: &Slots, t: f64, at: usize) -> f64 {
+    if !slots.marked[at] {
+        return 0.0;
+    }
     let table_passed = -slots.delta >= 0.0;
-    let m = slots.m;
-    for (k, &t) in times.iter().enumerate() {
-        if slots.marked[k + m] {
-            let (tj, jump) = (slots.time[k + m], slots.jump[k + m]);
-            let passed = t >= tj;
-            if table_passed != passed {
-                col[k] += if passed { -jump } else { jump };
-            }
-        }
+    let (tj, jump) = (slots.time[at], slots.jump[at]);
+    let passed = t >= tj;
+    match (table_passed != passed, passed) {
+        (false, _) => 0.0,
+        (true, true) => -jump,
+        (true, false) => jump,
     }
 }
