@@ -6,9 +6,9 @@
 //! Exit status (contract §3): 0 on success, 2 on a user error (bad model or cycle file, bad option, a model
 //! the method cannot invert, a simulation that had to stop), 3 when some variants of a sweep failed, with a
 //! one-paragraph message on stderr ([`error`]). This file only parses the command line and dispatches; each
-//! command has its module. On Unix the process starts without std's runtime wrapper (`no_main`; `process.rs`
-//! says why and what it does instead).
-#![cfg_attr(all(unix, not(test)), no_main)]
+//! command has its module. On Linux with glibc the process starts without std's runtime wrapper (`no_main`;
+//! `process.rs` says why and what it does instead): there glibc hands the arguments to std before `main`.
+#![cfg_attr(all(target_os = "linux", target_env = "gnu", not(test)), no_main)]
 
 mod completions;
 mod cycle_spec;
@@ -28,7 +28,7 @@ mod modal_engine;
 mod modal_forward;
 mod outputs;
 mod plotting;
-#[cfg(unix)]
+#[cfg(all(target_os = "linux", target_env = "gnu"))]
 mod process;
 mod progress;
 mod provenance;
@@ -78,8 +78,8 @@ enum Command {
 }
 
 /// The entry point the C runtime calls (std's `lang_start` is not used, see `process.rs`); the arguments are
-/// std's `env::args`, which the C runtime hands to std before `main`.
-#[cfg(all(unix, not(test)))]
+/// std's `env::args`, which glibc hands to std (its `.init_array` entry) before `main`.
+#[cfg(all(target_os = "linux", target_env = "gnu", not(test)))]
 #[no_mangle]
 extern "C" fn main(
     _argc: std::ffi::c_int,
@@ -90,13 +90,13 @@ extern "C" fn main(
 }
 
 /// Elsewhere std's runtime wrapper starts the process (and gives a panic the status 101 too).
-#[cfg(not(unix))]
+#[cfg(not(all(target_os = "linux", target_env = "gnu")))]
 fn main() -> std::process::ExitCode {
     std::process::ExitCode::from(run())
 }
 
 /// Parse the command line, run the command; the exit status.
-#[cfg_attr(all(unix, test), allow(dead_code))] // the unit tests' harness has a main of its own
+#[cfg_attr(all(target_os = "linux", target_env = "gnu", test), allow(dead_code))] // the unit tests' harness has a main of its own
 fn run() -> u8 {
     let cli = Cli::parse();
     let result = match cli.command {

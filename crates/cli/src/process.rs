@@ -1,7 +1,8 @@
-//! The start and the end of the `invsim` process on Unix. `main.rs` is `#![no_main]`: the C runtime calls its
-//! `extern "C" fn main` directly, without std's runtime wrapper, whose start-up reads `/proc/self/maps` (glibc's
-//! `pthread_getattr_np` for the main thread's stack guard) and installs the stack-overflow handler — about
-//! 0.11 M instructions, 8 page faults and 0.1 ms of a 1.5 ms `simulate --dt 1` process.
+//! The start and the end of the `invsim` process on Linux with glibc. `main.rs` is `#![no_main]`: the C
+//! runtime calls its `extern "C" fn main` directly, without std's runtime wrapper, whose start-up reads
+//! `/proc/self/maps` (glibc's `pthread_getattr_np` for the main thread's stack guard) and installs the
+//! stack-overflow handler: about 0.11 M instructions, 8 page faults and 0.1 ms of a 1.5 ms `simulate --dt 1`
+//! process. (std still gets the arguments: glibc passes them to its `.init_array` entry before `main`.)
 //!
 //! What the command relies on of that wrapper is done here, as std does it: the standard streams are open
 //! ([`start`]), `SIGPIPE` is ignored so that a closed pipe is a write error (exit 2, contract §3), a panic
