@@ -46,9 +46,14 @@ fn watch_head() {
 /// relocations at every start (the pointers of clap's, serde's and the formatting machinery's tables in
 /// `.data.rel.ro`), each page they touch a copy-on-write page fault: about 40 of a `simulate` process's ~215
 /// page faults and 0.16 M of its instructions. The cost is the executable's address randomisation (the
-/// libraries, the heap and the stack stay randomised).
+/// libraries, the heap and the stack stay randomised). Not for a static build (`-C target-feature=+crt-static`
+/// in RUSTFLAGS, which rustc links with `-static-pie`: `-no-pie` after it makes a binary that crashes); one
+/// asked for with `cargo rustc -- -C target-feature=+crt-static` is not seen here, so it needs RUSTFLAGS.
 fn link_fixed_address() {
-    if std::env::var("CARGO_CFG_TARGET_OS").as_deref() == Ok("linux") {
+    let linux = std::env::var("CARGO_CFG_TARGET_OS").as_deref() == Ok("linux");
+    let features = std::env::var("CARGO_CFG_TARGET_FEATURE").unwrap_or_default();
+    let crt_static = features.split(',').any(|f| f == "crt-static");
+    if linux && !crt_static {
         println!("cargo:rustc-link-arg-bin=invsim=-no-pie");
     }
 }
