@@ -187,9 +187,8 @@ impl<'c> Tally<'c> {
         // The deviation over the samples in [t_0, cycle end].
         let lo = self.k0.max(first).min(end);
         let (d0, d1) = (lo - b.k0, (self.cycle_end + 1).min(end).max(lo) - b.k0);
-        for (&t, &yd) in b.time[d0..d1].iter().zip(&b.yd[0][d0..d1]) {
-            self.deviation.push(self.cycle, t, yd);
-        }
+        self.deviation
+            .push_block(self.cycle, &b.time[d0..d1], &b.yd[0][d0..d1]);
         if let Some(op) = &mut self.operating {
             op.extend(b.out, i0..i1);
         }
