@@ -778,6 +778,23 @@ impl Pool {
                 };
                 Some(self.num(v))
             }
+            Rewrite::OfAtan => {
+                let x = match self.node(arg) {
+                    Node::Call(Func::Atan, x) => *x,
+                    _ => return None,
+                };
+                // 1 + x², and its −½ power: cos(atan x); sin(atan x) = x·cos(atan x); tan(atan x) = x.
+                let (one, x2) = (self.int(1), self.powi(x, 2));
+                let hyp = self.add(&[one, x2]);
+                let minus_half = self.rational(-1, 2);
+                let cos = self.pow(hyp, minus_half);
+                match f {
+                    Func::Cos => Some(cos),
+                    Func::Sin => Some(self.mul(&[x, cos])),
+                    Func::Tan => Some(x),
+                    _ => None,
+                }
+            }
         }
     }
 

@@ -2,7 +2,8 @@
 //!
 //! Each [`FunctionRule`] is one identity applied when a call is constructed. They are exact identities on
 //! the function's real domain (Abramowitz & Stegun §4): `exp(log x) = x` holds wherever `log x` is defined,
-//! `log(exp x) = x` everywhere, odd functions pull out a sign, even functions drop it.
+//! `log(exp x) = x` everywhere, odd functions pull out a sign, even functions drop it, and the
+//! trigonometric functions of `atan x` are algebraic in `x`.
 
 use crate::func::Func;
 
@@ -21,6 +22,10 @@ pub enum Rewrite {
     Even,
     /// f(c) for a numeric c: |c|, sign(c).
     Numeric,
+    /// f(atan x) without the angle: cos(atan x) = (1 + x²)^(−1/2), sin(atan x) = x (1 + x²)^(−1/2),
+    /// tan(atan x) = x (the right triangle with legs 1 and x; A&S 4.4.35, every real x). A road load's
+    /// cos(atan(grade)) becomes one square root instead of two library calls.
+    OfAtan,
 }
 
 /// An identity applied when `func(·)` is constructed.
@@ -63,6 +68,9 @@ pub const FUNCTION_RULES: &[FunctionRule] = &[
     rule!("cos-even", Cos, Rewrite::Even),
     rule!("cosh-even", Cosh, Rewrite::Even),
     rule!("abs-even", Abs, Rewrite::Even),
+    rule!("cos-atan", Cos, Rewrite::OfAtan),
+    rule!("sin-atan", Sin, Rewrite::OfAtan),
+    rule!("tan-atan", Tan, Rewrite::OfAtan),
     rule!("abs-number", Abs, Rewrite::Numeric),
     rule!("sign-number", Sign, Rewrite::Numeric),
 ];

@@ -1,7 +1,10 @@
 //! Benchmark: a 2-D smooth map lookup with its first and second partial derivatives (value, ∂a, ∂b, ∂aa, ∂ab,
 //! ∂bb in one pass: `Map::eval` with orders [2, 2]) over a batch of points spread over the grid, the same through
-//! `Map::partials2` (the generated code's call, with its memo), and the value alone; criterion reports the
-//! time per point. The grid is si_engine_maps' eta_vol (8 × 5, smooth 0.5).
+//! `Map::partials2` (the generated code's call, with its memo), batched (`Map::partials2_batch`, structure of
+//! arrays), and the value alone; criterion reports the time per point. The grid is si_engine_maps' eta_vol
+//! (8 × 5, smooth 0.5). Then the same for 1-D maps: a smooth curve (M, M', M'' point by point and batched) and
+//! the imported Fusion's efficiency curve (12 points, `interp = "linear"`, clamp) as the interpreter's batch
+//! tape calls it (`Map::partial_unmemoized`, the value alone) and batched.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use invsim_kernel::map::{Extrapolate, Interp, Map, MapSettings};
@@ -58,6 +61,18 @@ fn lookup(c: &mut Criterion) {
             acc
         })
     });
+    let (a, bb): (Vec<f64>, Vec<f64>) = points.iter().map(|p| (p[0], p[1])).unzip();
+    group.bench_function("partials2_batch", |b| {
+        let mut out = vec![0.0; 9 * n];
+        b.iter(|| {
+            map.partials2_batch(
+                std::hint::black_box(&a),
+                std::hint::black_box(&bb),
+                &mut out,
+            );
+            out[0] + out[n] + out[2 * n] + out[3 * n] + out[4 * n] + out[6 * n]
+        })
+    });
     group.bench_function("value", |b| {
         let mut out = [0.0; 1];
         b.iter(|| {
@@ -72,5 +87,72 @@ fn lookup(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, lookup);
+/// The Fusion's `fc_map` (models/vehicles/ford_fusion_2012.toml) and a smooth 1-D curve on the same grid.
+fn curves() -> [(&'static str, Map); 2] {
+    let x = vec![
+        0.0, 0.005, 0.015, 0.04, 0.06, 0.1, 0.14, 0.2, 0.4, 0.6, 0.8, 1.0,
+    ];
+    let v = vec![
+        0.1, 0.12, 0.16, 0.22, 0.28, 0.33, 0.35, 0.36, 0.35, 0.34, 0.32, 0.3,
+    ];
+    let linear = MapSettings {
+        smooth: 0.5,
+        extrapolate: Extrapolate::Clamp,
+        interp: Interp::Linear,
+    };
+    let smooth = MapSettings {
+        interp: Interp::Smooth,
+        ..linear
+    };
+    [
+        (
+            "fusion_linear",
+            Map::new_1d(x.clone(), v.clone(), linear).expect("valid map"),
+        ),
+        ("smooth", Map::new_1d(x, v, smooth).expect("valid map")),
+    ]
+}
+
+/// The value at every point as the interpreter's batch tape asks for it, one call per point (a function of its
+/// own, so that a profile counts its calls: `Map::partial_unmemoized` inlines into this loop).
+#[inline(never)]
+fn values_unmemoized(map: &Map, a: &[f64]) -> f64 {
+    a.iter()
+        .map(|&x| map.partial_unmemoized(&[x, 0.0], [0, 0]))
+        .sum()
+}
+
+fn lookup_1d(c: &mut Criterion) {
+    let n = 4096;
+    let a: Vec<f64> = (0..n)
+        .map(|k| -0.05 + 1.1 * ((k as f64 * 0.618_034).fract()))
+        .collect();
+    let mut group = c.benchmark_group("map1d");
+    group.throughput(Throughput::Elements(n as u64));
+    for (name, map) in curves() {
+        group.bench_function(format!("{name}/partial_unmemoized_value"), |b| {
+            b.iter(|| values_unmemoized(&map, std::hint::black_box(&a)))
+        });
+        group.bench_function(format!("{name}/partials2"), |b| {
+            b.iter(|| {
+                let mut acc = 0.0;
+                for &x in &a {
+                    let out = map.partials2(&[std::hint::black_box(x)]);
+                    acc += out[0] + out[1] + out[2];
+                }
+                acc
+            })
+        });
+        group.bench_function(format!("{name}/partials2_batch"), |b| {
+            let mut out = vec![0.0; 3 * n];
+            b.iter(|| {
+                map.partials2_batch(std::hint::black_box(&a), &[], &mut out);
+                out[0] + out[n] + out[2 * n]
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, lookup, lookup_1d);
 criterion_main!(benches);

@@ -57,6 +57,12 @@
 //! compile time by `build.rs`, which runs the construction in `construction.rs`; nothing is built at
 //! start-up.
 
+mod lanes;
+
+#[cfg(target_arch = "x86_64")]
+pub(crate) use lanes::Avx2;
+pub(crate) use lanes::F4;
+
 use std::fmt;
 
 use crate::construction::{
@@ -335,9 +341,10 @@ impl UnitTables {
     fn locate(u: f64) -> (usize, f64) {
         let n = PIECES as f64;
         let x = (u + 1.0) * n;
-        // x ∈ (0, PIECES]; truncation is the intended floor, clamped to the last piece (through i64: cheaper
-        // than the saturating conversion to usize, the same piece).
-        let j = (x as i64).clamp(0, PIECES as i64 - 1) as usize;
+        // x ∈ (0, PIECES]; truncation is the intended floor, clamped to the last piece (through i32: cheaper
+        // than the saturating conversion to usize and, unlike i64, one vector instruction across the batched
+        // map's points; the same piece).
+        let j = (x as i32).clamp(0, PIECES as i32 - 1) as usize;
         let centre = -1.0 + (j as f64 + 0.5) / n;
         (j, (u - centre) * (2.0 * n))
     }

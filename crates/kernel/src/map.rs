@@ -24,6 +24,7 @@
 //! constant, higher ones zero); the contract allows that only for maps used in outputs alone.
 
 mod axis;
+mod batch;
 mod extrapolate;
 mod memo;
 mod small;
@@ -123,6 +124,10 @@ pub struct Map {
     max_count: [usize; 2],
     /// Every axis is served by the fast path of `small.rs` (orders up to 2 per argument).
     small: bool,
+    /// Every axis has the fixed-width basis of `batch.rs` ([`Map::partials2_batch`]'s fast path).
+    batch: bool,
+    /// The values padded with zeros for `batch.rs`.
+    padded: Vec<f64>,
     /// The map's name in messages (see [`Map::named`]).
     name: std::sync::Arc<str>,
     /// Unique per data (clones share it): the key of the one-pass memo (`memo.rs`).
@@ -220,6 +225,8 @@ impl Map {
         Ok(Map {
             max_count: [x.max_count(), 0],
             small: x.is_small(),
+            batch: batch::fits(&x, None),
+            padded: batch::pad(&values, x.len(), None),
             x,
             y: None,
             values,
@@ -242,6 +249,8 @@ impl Map {
         Ok(Map {
             max_count: [x.max_count(), y.max_count()],
             small: x.is_small() && y.is_small(),
+            batch: batch::fits(&x, Some(&y)),
+            padded: batch::pad(&values, x.len(), Some(y.len())),
             x,
             y: Some(y),
             values,
@@ -315,6 +324,7 @@ impl Map {
     /// Replaces the values (same grid).
     pub fn set_values(&mut self, values: Vec<f64>) -> Result<(), MapError> {
         check_values(&values, self.values.len())?;
+        self.padded = batch::pad(&values, self.x.len(), self.y.as_ref().map(Axis::len));
         self.values = values;
         self.id = next_id();
         Ok(())
@@ -356,6 +366,11 @@ impl Map {
     /// [`Violation`] (see [`take_violation`]); the value is still the linear continuation.
     pub fn eval(&self, args: &[f64], orders: [usize; 2], out: &mut [f64]) {
         self.check_range(args);
+        self.eval_unchecked(args, orders, out);
+    }
+
+    /// [`Map::eval`] without the range check.
+    fn eval_unchecked(&self, args: &[f64], orders: [usize; 2], out: &mut [f64]) {
         if args.iter().take(self.arity()).any(|a| a.is_nan()) {
             out.fill(f64::NAN);
             return;
@@ -379,6 +394,16 @@ impl Map {
             }
             Some(y) => self.eval_2d(y, args, orders, out),
         }
+    }
+
+    /// `eval_1d_small`'s entry `order` (≤ 2) alone: the same sum in the same order.
+    fn eval_1d_small_one(&self, a: f64, order: usize) -> f64 {
+        let b = self.x.small_basis(a);
+        let mut sum = 0.0;
+        for (k, row) in b.values.iter().enumerate().take(b.count) {
+            sum += self.values[b.first + k] * row[order];
+        }
+        sum
     }
 
     fn eval_1d_small(&self, a: f64, out: &mut [f64]) {
@@ -412,6 +437,64 @@ impl Map {
         })
     }
 
+    /// [`Map::partials2`] at `n = a.len()` points at once, as structure of arrays: `out[k · n + i]` is entry
+    /// `k` of `partials2(&[a[i], b[i]])` for `k < 9` (2-D), or of `partials2(&[a[i]])` for `k < 3` (1-D:
+    /// `M, M', M''`; `b` is not read and may be empty). The same numbers as point by point.
+    ///
+    /// Maps whose windows hold at most one corner per axis (`smooth ≤ 0.5`, the default, and
+    /// `interp = "linear"`) take a fixed-width, branch-free path over chunks of points (see `batch.rs`),
+    /// compiled for AVX2 where the processor has it; others are evaluated point by point. No memo.
+    ///
+    /// Under `extrapolate = "error"` the first point with an argument outside the grid is recorded as for
+    /// [`Map::eval`].
+    ///
+    /// # Panics
+    ///
+    /// If `out` holds fewer than `9n` (1-D: `3n`) values, or a 2-D map's `b` fewer than `n`.
+    pub fn partials2_batch(&self, a: &[f64], b: &[f64], out: &mut [f64]) {
+        let n = a.len();
+        let two_d = self.y.is_some();
+        let width = if two_d { 9 } else { 3 };
+        assert!(
+            out.len() >= width * n,
+            "partials2_batch: `out` is too short"
+        );
+        assert!(!two_d || b.len() >= n, "partials2_batch: `b` is too short");
+        let b = if two_d { &b[..n] } else { &[][..] };
+        let args = |i: usize| [a[i], b.get(i).copied().unwrap_or(0.0)];
+        if self.settings.extrapolate == Extrapolate::Error {
+            if let Some(i) = (0..n).find(|&i| self.outside(&args(i)).is_some()) {
+                self.check_range(&args(i));
+            }
+        }
+        if !self.batch {
+            let mut one = [0.0; 9];
+            for i in 0..n {
+                let orders = if two_d { [2, 2] } else { [2, 0] };
+                self.eval_unchecked(&args(i)[..self.arity()], orders, &mut one[..width]);
+                for (k, &v) in one[..width].iter().enumerate() {
+                    out[k * n + i] = v;
+                }
+            }
+            return;
+        }
+        let data = batch::Data {
+            x: &self.x,
+            y: self.y.as_ref(),
+            padded: &self.padded,
+        };
+        batch::dispatch(data, a, b, out);
+        // NaN arguments give NaN everywhere (as `eval`); the fixed-width path does not look at them.
+        let any_nan = a.iter().chain(b).fold(false, |any, v| any | v.is_nan());
+        for i in (0..n).filter(|_| any_nan) {
+            if a[i].is_nan() || b.get(i).is_some_and(|v| v.is_nan()) {
+                for k in 0..width {
+                    out[k * n + i] = f64::NAN;
+                }
+            }
+        }
+    }
+
     /// One partial derivative: `orders[k]` times with respect to argument `k` (`orders[1]` ignored in 1-D).
     ///
     /// Orders up to 2 per argument come from one evaluation of all of them per point (a per-thread memo of
@@ -443,12 +526,33 @@ impl Map {
 
     /// [`Map::partial`] without the memo: for batch evaluation (a tape instruction runs over a column of
     /// points, each new, where the memo would only add its bookkeeping). The same numbers.
+    #[inline]
     pub fn partial_unmemoized(&self, args: &[f64], orders: [usize; 2]) -> f64 {
         self.check_range(args);
+        if self.y.is_none() && self.small && orders[0] <= 2 {
+            // Inlined into the caller's loop: the interpreter's efficiency curves.
+            return self.one_1d_small(args[0], orders[0]);
+        }
         self.fresh(args, orders)
     }
 
+    /// 1-D, orders up to 2, on the fast path: one column of `eval_1d_small` (plain linear: without the basis).
+    #[inline]
+    fn one_1d_small(&self, a: f64, order: usize) -> f64 {
+        if a.is_nan() {
+            return f64::NAN;
+        }
+        match self.x.kernel {
+            None => self.x.plain_one(&self.values, a, order),
+            Some(_) => self.eval_1d_small_one(a, order),
+        }
+    }
+
+    /// One partial derivative, evaluated (the range check done by the caller).
     fn fresh(&self, args: &[f64], orders: [usize; 2]) -> f64 {
+        if self.y.is_none() && self.small && orders[0] <= 2 {
+            return self.one_1d_small(args[0], orders[0]);
+        }
         let len = if self.y.is_none() {
             orders[0] + 1
         } else {
@@ -546,5 +650,65 @@ fn with_scratch<R>(len: usize, f: impl FnOnce(&mut [f64]) -> R) -> R {
         f(&mut buf[..len])
     } else {
         f(&mut vec![0.0; len])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The portable build of the fixed-width path (what a processor without AVX2 runs) gives `partials2`'s
+    /// numbers bit for bit, as the dispatched one does (the integration tests cover the dispatched one).
+    #[test]
+    fn the_portable_batch_path_equals_partials2() {
+        let x = vec![50.0, 100.0, 200.0, 300.0, 400.0, 500.0, 600.0, 700.0];
+        let y = vec![2.0e4, 4.0e4, 6.0e4, 8.0e4, 1.0e5];
+        let v: Vec<f64> = (0..40)
+            .map(|k| 0.5 + 0.01 * ((k * 7) % 11) as f64)
+            .collect();
+        let mut state = 1_u64;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for rule in [Extrapolate::Linear, Extrapolate::Clamp] {
+            for interp in [Interp::Smooth, Interp::Linear] {
+                let s = MapSettings {
+                    smooth: 0.5,
+                    extrapolate: rule,
+                    interp,
+                };
+                let maps = [
+                    Map::new_2d(x.clone(), y.clone(), v.clone(), s).expect("valid map"),
+                    Map::new_1d(x.clone(), v[..8].to_vec(), s).expect("valid map"),
+                ];
+                for map in &maps {
+                    let n = 77;
+                    let a: Vec<f64> = (0..n).map(|_| -100.0 + 900.0 * next()).collect();
+                    let b: Vec<f64> = (0..n).map(|_| 1.0e4 + 1.0e5 * next()).collect();
+                    let width = if map.arity() == 2 { 9 } else { 3 };
+                    let mut out = vec![0.0; width * n];
+                    let data = batch::Data {
+                        x: &map.x,
+                        y: map.y.as_ref(),
+                        padded: &map.padded,
+                    };
+                    let b_in = if map.arity() == 2 { &b[..] } else { &[][..] };
+                    batch::portable(data, &a, b_in, &mut out);
+                    for i in 0..n {
+                        let want = map.partials2(&[a[i], b[i]][..map.arity()]);
+                        for k in 0..width {
+                            assert_eq!(
+                                out[k * n + i].to_bits(),
+                                want[k].to_bits(),
+                                "{s:?} point {i} entry {k}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
     }
 }

@@ -2,3 +2,4 @@
 
 mod common;
 mod map;
+mod map_batch;

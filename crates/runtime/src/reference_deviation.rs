@@ -133,6 +133,7 @@ impl DeviationTally {
 
     /// The raw cycle's speed at `t`: linear between samples, held outside (as [`Cycle::speed_at`]), with a
     /// cursor that only moves forward.
+    #[inline(always)]
     fn cycle_at(&mut self, cycle: &Cycle, t: f64) -> f64 {
         let (time, speed) = (&cycle.time, &cycle.speed);
         let n = time.len();

@@ -9,6 +9,7 @@
 //! the general path's numbers: orders 0 and 1 bit for bit, order 2 within 10⁻¹⁵ of the kernel's peak.
 
 use super::axis::Axis;
+use super::extrapolate::Extrapolate;
 
 /// Basis functions per axis the fast path holds.
 pub(super) const SMALL: usize = 4;
@@ -71,6 +72,35 @@ impl Axis {
             }
         }
         b
+    }
+}
+
+impl Axis {
+    /// A 1-D map without a kernel (`interp = "linear"`) at `a` (not NaN): entry `order` (≤ 2) of
+    /// `Map::eval_1d_small`, the same sum in the same order (`0 + v_r φ_r^(m) + v_{r+1} φ_{r+1}^(m)` with the
+    /// weights and slopes of `Axis::plain`; under `clamp` outside the grid the edge value, slopes 0) without
+    /// building the basis.
+    #[inline]
+    pub(super) fn plain_one(&self, values: &[f64], a: f64, order: usize) -> f64 {
+        let g = &self.grid;
+        let n = g.len();
+        let p = g.partition_point(|&x| x < a);
+        let k = p.saturating_sub(1).min(n - 2);
+        let clamp = self.extrapolate == Extrapolate::Clamp;
+        let (phi0, phi1) = if clamp && p == 0 {
+            ([1.0, 0.0], [0.0, 0.0])
+        } else if clamp && p == n {
+            ([0.0, 0.0], [1.0, 0.0])
+        } else {
+            let d = g[k + 1] - g[k];
+            ([(g[k + 1] - a) / d, -1.0 / d], [(a - g[k]) / d, 1.0 / d])
+        };
+        let (w0, w1) = match order {
+            0 => (phi0[0], phi1[0]),
+            1 => (phi0[1], phi1[1]),
+            _ => (0.0, 0.0),
+        };
+        0.0 + values[k] * w0 + values[k + 1] * w1
     }
 }
 
