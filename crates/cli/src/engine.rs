@@ -96,12 +96,18 @@ fn builtin_of(path: &Path) -> Option<Box<dyn invsim_model_api::InverseModel>> {
     file_bytes(path).and_then(|b| invsim_models::by_source(&b))
 }
 
+/// The file's bytes, read through the cap into a buffer sized by the file's length where it has one (one
+/// `read` for a model file instead of a dozen doubling ones).
 fn read_bounded(path: &Path) -> Option<Vec<u8>> {
     use std::io::Read;
-    let mut bytes = Vec::new();
-    std::fs::File::open(path)
-        .ok()?
-        .take(MAX_COMPARED_BYTES + 1)
+    let file = std::fs::File::open(path).ok()?;
+    let hint = file
+        .metadata()
+        .map_or(0, |m| m.len())
+        .min(MAX_COMPARED_BYTES);
+    // One byte more than the length, so that the read that finds the end needs no growth.
+    let mut bytes = Vec::with_capacity(hint as usize + 1);
+    file.take(MAX_COMPARED_BYTES + 1)
         .read_to_end(&mut bytes)
         .ok()?;
     (bytes.len() as u64 <= MAX_COMPARED_BYTES).then_some(bytes)
@@ -174,7 +180,7 @@ pub fn parse_set(s: &str) -> Result<(String, f64), Failure> {
 /// is a built-in).
 pub fn run_inputs<'a>(model: &'a Path, cycle: &'a str) -> Vec<(&'static str, &'a Path)> {
     let mut inputs = vec![("model file", model)];
-    if Cycle::builtin(cycle).is_none() {
+    if !crate::cycle_spec::is_builtin(cycle) {
         inputs.push(("cycle file", Path::new(cycle)));
     }
     inputs

@@ -3,8 +3,6 @@
 //! written or stdout closed), 1 only for an internal failure (a built-in table missing, a serialiser failing);
 //! the message is one paragraph on stderr.
 
-use std::process::ExitCode;
-
 /// A user-facing failure: the message and the exit status.
 pub struct Failure {
     pub message: String,
@@ -27,8 +25,8 @@ impl Failure {
     }
 
     /// Print the message as `invsim: error: …` on stderr; the exit status.
-    pub fn report(self) -> ExitCode {
+    pub fn report(self) -> u8 {
         eprintln!("invsim: error: {}", self.message);
-        ExitCode::from(self.code)
+        self.code
     }
 }

@@ -29,7 +29,8 @@ pub enum MethodChoice {
     Rosenbrock23,
 }
 
-/// Serialised (by command-line name) into the summary's provenance.
+// Serialised (by command-line name) into the summary's provenance. No doc comment: clap would
+// make it the command's about, over the one `main.rs` gives it (its arguments are built when the command runs).
 #[derive(clap::Args, Debug, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub struct ForwardArgs {

@@ -2,15 +2,11 @@
 //! (the importer is the `invsim-import` crate); warnings on stderr, the model on stdout or into `--out`.
 
 use crate::error::Failure;
-use clap::{Args, Subcommand};
+use clap::Subcommand;
 use std::path::PathBuf;
 
-#[derive(Args, Debug)]
-pub struct ImportArgs {
-    #[command(subcommand)]
-    pub format: ImportFormat,
-}
-
+/// The formats `invsim import` reads, each a command of its own (built with `invsim`'s command tree, not
+/// deferred with `import`'s arguments, so that clap's `help import fastsim` and the completions have them).
 #[derive(Subcommand, Debug)]
 pub enum ImportFormat {
     /// A FASTSim 3 vehicle file (YAML; conventional or battery-electric).
@@ -23,8 +19,8 @@ pub enum ImportFormat {
     },
 }
 
-pub fn run(args: &ImportArgs) -> Result<(), Failure> {
-    let ImportFormat::Fastsim { vehicle, out } = &args.format;
+pub fn run(format: &ImportFormat) -> Result<(), Failure> {
+    let ImportFormat::Fastsim { vehicle, out } = format;
     let shown = vehicle.display().to_string();
     let text =
         std::fs::read(vehicle).map_err(|e| Failure::user(format!("{shown}: cannot read: {e}")))?;

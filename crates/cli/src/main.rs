@@ -6,9 +6,12 @@
 //! Exit status (contract §3): 0 on success, 2 on a user error (bad model or cycle file, bad option, a model
 //! the method cannot invert, a simulation that had to stop), 3 when some variants of a sweep failed, with a
 //! one-paragraph message on stderr ([`error`]). This file only parses the command line and dispatches; each
-//! command has its module.
+//! command has its module. On Linux with glibc the process starts without std's runtime wrapper (`no_main`;
+//! `process.rs` says why and what it does instead): there glibc hands the arguments to std before `main`.
+#![cfg_attr(all(target_os = "linux", target_env = "gnu", not(test)), no_main)]
 
 mod completions;
+mod cycle_spec;
 mod cycles_cmd;
 mod data_args;
 mod derive;
@@ -25,6 +28,8 @@ mod modal_engine;
 mod modal_forward;
 mod outputs;
 mod plotting;
+#[cfg(all(target_os = "linux", target_env = "gnu"))]
+mod process;
 mod progress;
 mod provenance;
 mod signal_args;
@@ -33,7 +38,6 @@ mod sweep_cmd;
 mod version;
 
 use std::path::PathBuf;
-use std::process::ExitCode;
 
 use clap::{CommandFactory, Parser, Subcommand};
 
@@ -44,7 +48,11 @@ struct Cli {
     command: Command,
 }
 
+/// Each command's arguments are built only when it is the one run (`defer`): building them all for every
+/// process was a fifth of a `simulate --dt 1` run's instructions. Its about is the variant's doc comment here,
+/// so an `Args` struct of a command carries none (clap would put it over this one).
 #[derive(Subcommand, Debug)]
+#[command(defer = true)]
 enum Command {
     /// Derive the relative degree, normal form, ψ⁻¹, α, β and zero dynamics of a model file.
     Derive {
@@ -63,12 +71,33 @@ enum Command {
     /// List the built-in drive cycles with their duration, distance and top speed.
     Cycles(cycles_cmd::CyclesArgs),
     /// Import another tool's vehicle file as a model file (`invsim import fastsim VEHICLE.yaml`).
-    Import(import_cmd::ImportArgs),
+    #[command(subcommand)]
+    Import(import_cmd::ImportFormat),
     /// Print a shell completion script (bash, zsh, fish, elvish, powershell) on stdout.
     Completions(completions::CompletionsArgs),
 }
 
-fn main() -> ExitCode {
+/// The entry point the C runtime calls (std's `lang_start` is not used, see `process.rs`); the arguments are
+/// std's `env::args`, which glibc hands to std (its `.init_array` entry) before `main`.
+#[cfg(all(target_os = "linux", target_env = "gnu", not(test)))]
+#[no_mangle]
+extern "C" fn main(
+    _argc: std::ffi::c_int,
+    _argv: *const *const std::ffi::c_char,
+) -> std::ffi::c_int {
+    process::start();
+    process::finish(std::panic::catch_unwind(run))
+}
+
+/// Elsewhere std's runtime wrapper starts the process (and gives a panic the status 101 too).
+#[cfg(not(all(target_os = "linux", target_env = "gnu")))]
+fn main() -> std::process::ExitCode {
+    std::process::ExitCode::from(run())
+}
+
+/// Parse the command line, run the command; the exit status.
+#[cfg_attr(all(target_os = "linux", target_env = "gnu", test), allow(dead_code))] // the unit tests' harness has a main of its own
+fn run() -> u8 {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Derive { model, format } => derive::run(&model, format),
@@ -76,11 +105,11 @@ fn main() -> ExitCode {
         Command::Sweep(args) => sweep_cmd::run(&args),
         Command::Forward(args) => modal_forward::run(&args),
         Command::Cycles(args) => cycles_cmd::run(&args),
-        Command::Import(args) => import_cmd::run(&args),
+        Command::Import(format) => import_cmd::run(&format),
         Command::Completions(args) => completions::run(&args, Cli::command()),
     };
     match result {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(()) => 0,
         Err(f) => f.report(),
     }
 }

@@ -164,7 +164,7 @@ fn gear_source(m: &ModalModel, cycle: &Cycle, spec: &str) -> Result<(usize, Gear
             ))
         })?),
         Schedule::Column(c) => {
-            if Cycle::builtin(spec).is_some() {
+            if crate::cycle_spec::is_builtin(spec) {
                 return Err(Failure::user(format!(
                     "{}: the gearbox takes the gear from the cycle file's column `{c}`, but `{spec}` is a built-in cycle",
                     m.file.display()

@@ -11,7 +11,9 @@ use invsim_runtime::plot::{self, Figure, PlotError, PlotFormat};
 use crate::error::Failure;
 use crate::outputs::Outputs;
 
-/// The plot options shared by `simulate` and `forward` (serialised into the summary's provenance).
+// The plot options shared by `simulate` and `forward` (serialised into the summary's provenance). No doc
+// comment: clap would make it the command's about, over the one `main.rs` gives it (its arguments are built
+// when the command runs).
 #[derive(clap::Args, Debug, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub struct PlotArgs {

@@ -127,7 +127,7 @@ pub fn record(mut run: RunRecord<'_>) -> Result<Provenance, Failure> {
         Some(h) => h.clone(),
         None => sha256_file(run.model)?,
     };
-    let builtin = Cycle::builtin(run.cycle_spec).is_some();
+    let builtin = crate::cycle_spec::is_builtin(run.cycle_spec);
     let file = if builtin {
         None
     } else {

@@ -223,7 +223,7 @@ fn progress_bar(rows: usize) -> Option<ProgressBar> {
 fn plan_outputs(args: &SweepArgs) -> Result<Outputs, Failure> {
     let mut inputs = vec![("model file", args.model.as_path())];
     for c in args.cycle.iter().chain(&args.cycles) {
-        if Cycle::builtin(c.trim()).is_none() {
+        if !crate::cycle_spec::is_builtin(c) {
             inputs.push(("cycle file", Path::new(c.trim())));
         }
     }

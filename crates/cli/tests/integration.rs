@@ -11,6 +11,9 @@
 //! - `outputs`: Output files of `simulate` and `forward` on success: written in place, through links into the linked file,
 //! - `plot`: `--plot` and `--plot-vars` of `simulate` and `forward`: SVG and PNG by the extension, the chosen panels,
 //! - `stable`: `invsim` with unstable zero dynamics: the classification in `derive`, stable (non-causal) inversion selected
+//! - `start_up`: What keeps an `invsim` process cheap to start without changing what it prints: each command's
+//!   arguments built only when it runs, the about, `help` tree and completions as they were, a fixed-address
+//!   executable on Linux.
 //! - `summary`: The summaries answer the engineer's questions: units on every figure, how far the smoothed reference
 //! - `sweep`: `invsim sweep`: its rows equal `invsim simulate --set …` of the same variants bit for bit (compiled and
 
@@ -27,5 +30,6 @@ mod modes_plot_signals;
 mod outputs;
 mod plot;
 mod stable;
+mod start_up;
 mod summary;
 mod sweep;

@@ -65,10 +65,7 @@ impl DeviationTally {
             let segments =
                 time.partition_point(|&c| c <= last) - time.partition_point(|&c| c < first);
             if times.len() < 4 * segments {
-                for (&t, &y) in times.iter().zip(yd) {
-                    self.push(cycle, t, y);
-                }
-                return;
+                return self.push_samples(cycle, times, yd);
             }
         }
         let mut k = 0;
@@ -107,6 +104,45 @@ impl DeviationTally {
             self.count += end - k;
             k = end;
         }
+    }
+
+    /// [`DeviationTally::push`] for each sample in turn, the sums and the cycle's cursor in locals.
+    fn push_samples(&mut self, cycle: &Cycle, times: &[f64], yd: &[f64]) {
+        let (time, speed) = (&cycle.time, &cycle.speed);
+        let n = time.len().min(speed.len());
+        if !self.map.is_identity() || n < 2 {
+            for (&t, &y) in times.iter().zip(yd) {
+                self.push(cycle, t, y);
+            }
+            return;
+        }
+        let (mut max_abs, mut sum_sq, mut distance) = (self.max_abs, self.sum_sq, self.distance);
+        let (mut previous, mut segment) = (self.previous, self.segment);
+        for (&t, &y) in times.iter().zip(yd) {
+            // `cycle_at`, with the identity map (see `push`).
+            while segment + 2 < n && time[segment + 1] <= t {
+                segment += 1;
+            }
+            let yc = if t <= time[0] {
+                speed[0]
+            } else if t >= time[n - 1] {
+                speed[n - 1]
+            } else {
+                let i = segment;
+                let w = (t - time[i]) / (time[i + 1] - time[i]);
+                speed[i] + w * (speed[i + 1] - speed[i])
+            };
+            let e = y - yc;
+            max_abs = max_abs.max(e.abs());
+            sum_sq += e * e;
+            if let Some(p) = previous {
+                distance += 0.5 * self.dt * (p + y);
+            }
+            previous = Some(y);
+        }
+        (self.max_abs, self.sum_sq, self.distance) = (max_abs, sum_sq, distance);
+        (self.previous, self.segment) = (previous, segment);
+        self.count += times.len().min(yd.len());
     }
 
     /// The sample y_d at time `t` (times increasing from call to call).

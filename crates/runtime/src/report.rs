@@ -219,6 +219,11 @@ pub(crate) fn fmt_sig(v: f64, digits: usize) -> String {
     if !(-4..15).contains(&mag) {
         return format!("{:.*e}", digits.saturating_sub(1), v);
     }
+    // A whole number (|v| < 10¹⁵ here) prints as its digits whatever the decimals (they are zeros, trimmed):
+    // the integer's formatting, without the exact float formatting's cost.
+    if v == v.trunc() {
+        return (v as i64).to_string();
+    }
     let decimals = (digits as i32 - 1 - mag).max(0) as usize;
     let s = format!("{v:.decimals$}");
     if s.contains('.') {
@@ -408,6 +413,37 @@ pub(crate) fn write_intervals(s: &mut String, label: &str, intervals: &[[f64; 2]
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Whole numbers print as the formatted float does after its zeros are trimmed.
+    #[test]
+    fn whole_numbers_print_as_formatted() {
+        let slow = |v: f64, digits: usize| {
+            let mag = v.abs().log10().floor() as i32;
+            let decimals = (digits as i32 - 1 - mag).max(0) as usize;
+            let s = format!("{v:.decimals$}");
+            match s.contains('.') {
+                true => s.trim_end_matches('0').trim_end_matches('.').to_string(),
+                false => s,
+            }
+        };
+        for v in [
+            1.0,
+            -1.0,
+            7.0,
+            10.0,
+            120.0,
+            -300.0,
+            1180.0,
+            99999.0,
+            123456789.0,
+            4.0e14,
+            -9.0e14,
+        ] {
+            for digits in 1..8 {
+                assert_eq!(fmt_sig(v, digits), slow(v, digits), "{v} to {digits}");
+            }
+        }
+    }
 
     #[test]
     fn significant_digits() {

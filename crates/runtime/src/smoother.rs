@@ -97,32 +97,34 @@ impl Smoother {
     /// The smoother of any piecewise-linear signal with samples (`time`, `values`) (time strictly increasing,
     /// at least one sample, every value finite: the caller has checked), held constant outside its span.
     pub(crate) fn from_samples(time: &[f64], speed: &[f64], lookahead: f64) -> Smoother {
-        let n = time.len();
-        // s_i = slope on [t_i, t_{i+1}]; 0 after the last sample (the cycle is held there).
-        let slope = |i: usize| {
-            if i + 1 < n {
-                (speed[i + 1] - speed[i]) / (time[i + 1] - time[i])
-            } else {
-                0.0
-            }
-        };
-        let mut corners = Vec::with_capacity(n);
-        let mut jumps = Vec::with_capacity(n);
-        let mut value_at = Vec::with_capacity(n);
-        let mut slope_after = Vec::with_capacity(n);
+        let n = time.len().min(speed.len());
+        // s_i = slope on [t_i, t_{i+1}] (one vectorised pass); 0 after the last sample (the cycle is held
+        // there).
+        let mut slopes: Vec<f64> = time[..n]
+            .windows(2)
+            .zip(speed[..n].windows(2))
+            .map(|(t, v)| (v[1] - v[0]) / (t[1] - t[0]))
+            .collect();
+        slopes.push(0.0);
+        // Every sample is a corner but where the slope runs on unchanged; the slopes' changes, values and
+        // slopes of the corners are written in place and the lengths cut to the corners kept.
+        let (mut corners, mut jumps) = (vec![0.0; n], vec![0.0; n]);
+        let (mut value_at, mut slope_after) = (vec![0.0; n], vec![0.0; n]);
+        let mut kept = 0;
         let mut before = 0.0;
-        for (i, &t) in time.iter().enumerate() {
-            let after = slope(i);
+        for ((&t, &v), &after) in time[..n].iter().zip(&speed[..n]).zip(&slopes) {
             let jump = after - before;
-            if jump != 0.0 {
-                corners.push(t);
-                jumps.push(jump);
-                // + 0.0: −0 becomes +0, so that no sum of the grid evaluation starts at −0 (see
-                // `convolve.rs`), the same number otherwise.
-                value_at.push(speed[i] + 0.0);
-                slope_after.push(after + 0.0);
-            }
+            corners[kept] = t;
+            jumps[kept] = jump;
+            // + 0.0: −0 becomes +0, so that no sum of the grid evaluation starts at −0 (see
+            // `convolve.rs`), the same number otherwise.
+            value_at[kept] = v + 0.0;
+            slope_after[kept] = after + 0.0;
+            kept += usize::from(jump != 0.0);
             before = after;
+        }
+        for column in [&mut corners, &mut jumps, &mut value_at, &mut slope_after] {
+            column.truncate(kept);
         }
         // About two buckets per corner.
         let (origin, span) = match (corners.first(), corners.last()) {
@@ -398,20 +400,21 @@ impl Smoother {
     /// `times[0]`), the same numbers.
     fn base_by_sample(&self, times: &[f64], mut next: usize, out: &mut [&mut [f64]]) {
         let (y, rest) = out.split_at_mut(1);
-        let mut slope_col = rest.first_mut();
-        for (k, &t) in times.iter().enumerate() {
-            while self.corners.get(next).is_some_and(|&c| c <= t) {
+        let (y, mut slope_col) = (&mut y[0][..times.len()], rest.first_mut());
+        let c = &self.corners;
+        for (k, (&t, y)) in times.iter().zip(y.iter_mut()).enumerate() {
+            while next < c.len() && c[next] <= t {
                 next += 1;
             }
             let (v, slope) = match next.checked_sub(1) {
                 Some(i) if self.slope_after[i] == 0.0 => (self.value_at[i], self.slope_after[i]),
                 Some(i) => {
-                    let (v, slope, tj) = (self.value_at[i], self.slope_after[i], self.corners[i]);
+                    let (v, slope, tj) = (self.value_at[i], self.slope_after[i], c[i]);
                     (v + slope * (t - tj), slope)
                 }
                 None => (self.first_value, 0.0),
             };
-            y[0][k] = v;
+            *y = v;
             if let Some(s) = slope_col.as_mut() {
                 s[k] = slope;
             }

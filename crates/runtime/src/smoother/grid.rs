@@ -254,6 +254,7 @@ pub(super) fn add_corners(
 /// The grid index `m_j` and phase `δ_j` of the corner at `tj` on the grid `t0 + k·h`: `(tj − t0)/h = m_j +
 /// δ_j` with `δ_j ∈ (−½ + tol, ½ + tol]` (a phase of ½ is one phase whichever way the rounding went), a
 /// phase within `tol` (in steps) of 0 taken as 0.
+#[inline(always)]
 fn corner_phase(tj: f64, t0: f64, h: f64, tol_steps: f64) -> (i64, f64) {
     let steps = (tj - t0) / h;
     let mut mj = nearest_whole(steps);
@@ -268,6 +269,7 @@ fn corner_phase(tj: f64, t0: f64, h: f64, tol_steps: f64) -> (i64, f64) {
 
 /// A whole number nearest to `x` (`|x| < 2⁵²`; ties either way, which [`corner_phase`] settles):
 /// truncation and one correction, as `f64::round` is a library call on the baseline x86-64 target.
+#[inline(always)]
 fn nearest_whole(x: f64) -> f64 {
     let t = (x as i64) as f64;
     let frac = x - t; // exact: t holds the leading bits of x
