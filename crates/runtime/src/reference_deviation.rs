@@ -32,12 +32,32 @@ pub struct ReferenceDeviation {
 pub(crate) struct DeviationTally {
     map: ReferenceMap,
     segment: usize,
+    sums: Sums,
+    dt: f64,
+}
+
+/// The running sums of [`DeviationTally`].
+#[derive(Debug, Clone, Copy)]
+struct Sums {
     max_abs: f64,
     sum_sq: f64,
     count: usize,
     distance: f64,
     previous: Option<f64>,
-    dt: f64,
+}
+
+impl Sums {
+    /// One sample: deviation `e` = y_d − y_c, `v` = (y_d − offset)/scale; the trapezoid of v over `dt`.
+    #[inline(always)]
+    fn add(&mut self, e: f64, v: f64, dt: f64) {
+        self.max_abs = self.max_abs.max(e.abs());
+        self.sum_sq += e * e;
+        self.count += 1;
+        if let Some(p) = self.previous {
+            self.distance += 0.5 * dt * (p + v);
+        }
+        self.previous = Some(v);
+    }
 }
 
 impl DeviationTally {
@@ -45,69 +65,22 @@ impl DeviationTally {
         DeviationTally {
             map,
             segment: 0,
-            max_abs: 0.0,
-            sum_sq: 0.0,
-            count: 0,
-            distance: 0.0,
-            previous: None,
+            sums: Sums {
+                max_abs: 0.0,
+                sum_sq: 0.0,
+                count: 0,
+                distance: 0.0,
+                previous: None,
+            },
             dt,
         }
     }
 
-    /// The samples `yd` at `times` (increasing, and after those of earlier calls): segment by segment of
-    /// the cycle, each sample as [`DeviationTally::push`] takes it (the same operations in the same order),
-    /// in a loop without its checks.
+    /// The samples `yd` at `times` (increasing, and after those of earlier calls): each as
+    /// [`DeviationTally::push`] takes it (the same operations in the same order), the sums and the cycle's
+    /// cursor in locals; where the cycle's segments hold many samples (a fine grid), segment by segment,
+    /// without the per-sample checks.
     pub(crate) fn push_block(&mut self, cycle: &Cycle, times: &[f64], yd: &[f64]) {
-        let (time, speed) = (&cycle.time, &cycle.speed);
-        let n = time.len().min(speed.len());
-        // Segments of a sample or two (a coarse grid): sample by sample is cheaper.
-        if let (Some(&first), Some(&last)) = (times.first(), times.last()) {
-            let segments =
-                time.partition_point(|&c| c <= last) - time.partition_point(|&c| c < first);
-            if times.len() < 4 * segments {
-                return self.push_samples(cycle, times, yd);
-            }
-        }
-        let mut k = 0;
-        while k < times.len() {
-            let t = times[k];
-            // Before or at the start, at or after the end, an identity map missing: one by one.
-            if !self.map.is_identity() || n < 2 || t <= time[0] || t >= time[n - 1] {
-                self.push(cycle, t, yd[k]);
-                k += 1;
-                continue;
-            }
-            while self.segment + 2 < n && time[self.segment + 1] <= t {
-                self.segment += 1;
-            }
-            let i = self.segment;
-            // The samples in [time[i], time[i + 1]), before the end: y_c on one line.
-            let (t_i, t_next, v_i, v_next) = (time[i], time[i + 1], speed[i], speed[i + 1]);
-            // (A scan: a segment holds a sample or two on a coarse grid, a binary search would cost more.)
-            let limit = t_next.min(time[n - 1]);
-            let end = k + times[k..].iter().take_while(|&&t| t < limit).count();
-            let (mut max_abs, mut sum_sq, mut distance) =
-                (self.max_abs, self.sum_sq, self.distance);
-            let mut previous = self.previous;
-            for (&t, &y) in times[k..end].iter().zip(&yd[k..end]) {
-                let w = (t - t_i) / (t_next - t_i);
-                let e = y - (v_i + w * (v_next - v_i));
-                max_abs = max_abs.max(e.abs());
-                sum_sq += e * e;
-                if let Some(p) = previous {
-                    distance += 0.5 * self.dt * (p + y);
-                }
-                previous = Some(y);
-            }
-            (self.max_abs, self.sum_sq, self.distance) = (max_abs, sum_sq, distance);
-            self.previous = previous;
-            self.count += end - k;
-            k = end;
-        }
-    }
-
-    /// [`DeviationTally::push`] for each sample in turn, the sums and the cycle's cursor in locals.
-    fn push_samples(&mut self, cycle: &Cycle, times: &[f64], yd: &[f64]) {
         let (time, speed) = (&cycle.time, &cycle.speed);
         let n = time.len().min(speed.len());
         if !self.map.is_identity() || n < 2 {
@@ -116,33 +89,43 @@ impl DeviationTally {
             }
             return;
         }
-        let (mut max_abs, mut sum_sq, mut distance) = (self.max_abs, self.sum_sq, self.distance);
-        let (mut previous, mut segment) = (self.previous, self.segment);
-        for (&t, &y) in times.iter().zip(yd) {
+        let (Some(&first), Some(&last)) = (times.first(), times.last()) else {
+            return;
+        };
+        let segments = time.partition_point(|&c| c <= last) - time.partition_point(|&c| c < first);
+        let (mut sums, mut segment) = (self.sums, self.segment);
+        let mut k = 0;
+        while k < times.len().min(yd.len()) {
+            let t = times[k];
             // `cycle_at`, with the identity map (see `push`).
             while segment + 2 < n && time[segment + 1] <= t {
                 segment += 1;
             }
-            let yc = if t <= time[0] {
-                speed[0]
-            } else if t >= time[n - 1] {
-                speed[n - 1]
-            } else {
-                let i = segment;
-                let w = (t - time[i]) / (time[i + 1] - time[i]);
-                speed[i] + w * (speed[i + 1] - speed[i])
-            };
-            let e = y - yc;
-            max_abs = max_abs.max(e.abs());
-            sum_sq += e * e;
-            if let Some(p) = previous {
-                distance += 0.5 * self.dt * (p + y);
+            let i = segment;
+            if t <= time[0] || t >= time[n - 1] || times.len() < 4 * segments {
+                // At or beyond an end, or segments of a sample or two (a coarse grid): this sample.
+                let yc = if t <= time[0] {
+                    speed[0]
+                } else if t >= time[n - 1] {
+                    speed[n - 1]
+                } else {
+                    speed[i] + (t - time[i]) / (time[i + 1] - time[i]) * (speed[i + 1] - speed[i])
+                };
+                sums.add(yd[k] - yc, yd[k], self.dt);
+                k += 1;
+                continue;
             }
-            previous = Some(y);
+            // The samples in [time[i], time[i + 1]), before the end: y_c on one line. (A scan: the binary
+            // search is not cheaper for a segment's worth of samples.)
+            let (t_i, t_next, v_i, v_next) = (time[i], time[i + 1], speed[i], speed[i + 1]);
+            let end = k + times[k..].iter().take_while(|&&t| t < t_next).count();
+            for (&t, &y) in times[k..end].iter().zip(&yd[k..end]) {
+                let w = (t - t_i) / (t_next - t_i);
+                sums.add(y - (v_i + w * (v_next - v_i)), y, self.dt);
+            }
+            k = end;
         }
-        (self.max_abs, self.sum_sq, self.distance) = (max_abs, sum_sq, distance);
-        (self.previous, self.segment) = (previous, segment);
-        self.count += times.len().min(yd.len());
+        (self.sums, self.segment) = (sums, segment);
     }
 
     /// The sample y_d at time `t` (times increasing from call to call).
@@ -157,14 +140,7 @@ impl DeviationTally {
             let ReferenceMap { offset, scale } = self.map;
             (offset + scale * y_c, (yd - offset) / scale)
         };
-        let e = yd - yc;
-        self.max_abs = self.max_abs.max(e.abs());
-        self.sum_sq += e * e;
-        self.count += 1;
-        if let Some(p) = self.previous {
-            self.distance += 0.5 * self.dt * (p + v);
-        }
-        self.previous = Some(v);
+        self.sums.add(yd - yc, v, self.dt);
     }
 
     /// The raw cycle's speed at `t`: linear between samples, held outside (as [`Cycle::speed_at`]), with a
@@ -191,11 +167,12 @@ impl DeviationTally {
     }
 
     pub(crate) fn finish(self) -> ReferenceDeviation {
+        let s = self.sums;
         ReferenceDeviation {
-            reference_distance_m: self.distance,
-            reference_max_abs_deviation: self.max_abs,
-            reference_rms_deviation: if self.count > 0 {
-                (self.sum_sq / self.count as f64).sqrt()
+            reference_distance_m: s.distance,
+            reference_max_abs_deviation: s.max_abs,
+            reference_rms_deviation: if s.count > 0 {
+                (s.sum_sq / s.count as f64).sqrt()
             } else {
                 0.0
             },
@@ -263,7 +240,7 @@ mod tests {
                 for (t, y) in times.chunks(4096).zip(yd.chunks(4096)) {
                     blocks.push_block(&udds, t, y);
                 }
-                assert_eq!(one.count, blocks.count);
+                assert_eq!(one.sums.count, blocks.sums.count);
                 assert_eq!(finish_bits(one), finish_bits(blocks), "h = {h}");
             }
         }
