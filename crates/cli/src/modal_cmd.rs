@@ -89,11 +89,21 @@ pub fn derive(m: ModalModel, format: crate::derive_format::Format) -> Result<(),
                             )
                         })
                         .collect();
-                    serde_json::json!({
+                    let mut o = serde_json::json!({
                         "name": mode.name, "family": mode.family, "gear": mode.gear,
                         "role": mode.role.as_str(), "free_input": m.inputs[mode.free].name,
                         "fixed_inputs": fixed, "derivation": d.to_json(),
-                    })
+                    });
+                    if !mode.coupled.is_empty() {
+                        // The states the mode couples (`couple`), with their couplings as written.
+                        let couples: serde_json::Map<String, serde_json::Value> = mode
+                            .coupled
+                            .iter()
+                            .map(|(s, e)| (d.model.states[*s].name.clone(), e.clone().into()))
+                            .collect();
+                        o["couples"] = couples.into();
+                    }
+                    o
                 })
                 .collect();
             let inputs: Vec<&str> = m.inputs.iter().map(|i| i.name.as_str()).collect();
@@ -110,6 +120,9 @@ pub fn derive(m: ModalModel, format: crate::derive_format::Format) -> Result<(),
                     .fixed
                     .iter()
                     .map(|(i, e)| format!("{} = {e}", m.inputs[*i].name))
+                    .chain(mode.coupled.iter().map(|(s, e)| {
+                        invsim_inversion::render::coupling_text(&d.model.states[*s].name, e)
+                    }))
                     .collect();
                 s.push_str(&invsim_inversion::render::mode_heading(
                     &mode.name,
@@ -257,7 +270,7 @@ fn set_map_in_modes(
 pub fn spec(p: &Prepared) -> ModalSpec<'_> {
     let m = &p.model;
     let n_fixed = m.inputs.len() - 1;
-    let n_outputs = p.interps[0].info().outputs.len() - n_fixed;
+    let n_outputs = p.interps[0].info().outputs.len() - n_fixed - p.modes[0].coupled.len();
     let modes: Vec<ModeSpec<'_>> = p
         .modes
         .iter()
@@ -272,6 +285,14 @@ pub fn spec(p: &Prepared) -> ModalSpec<'_> {
                     outs.iter().rposition(|o| &o.name == name).map(|o| (*j, o))
                 })
                 .collect();
+            let coupled = mode
+                .coupled
+                .iter()
+                .filter_map(|(s, _)| {
+                    let name = invsim_inversion::coupling_name(&i.info().states[*s]);
+                    outs.iter().rposition(|o| o.name == name).map(|o| (*s, o))
+                })
+                .collect();
             ModeSpec {
                 name: mode.name.clone(),
                 family: mode.family.clone(),
@@ -279,6 +300,7 @@ pub fn spec(p: &Prepared) -> ModalSpec<'_> {
                 gear: mode.gear,
                 free_input: mode.free,
                 fixed_outputs,
+                coupled,
                 model: i.as_ref(),
             }
         })

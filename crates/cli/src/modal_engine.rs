@@ -16,6 +16,8 @@ pub struct DerivedMode {
     pub role: ModeRole,
     pub free: usize,
     pub fixed: Vec<(usize, String)>,
+    /// The states the mode couples (`couple`), with their couplings as written.
+    pub coupled: Vec<(usize, String)>,
     pub d: Derivation,
 }
 
@@ -30,6 +32,7 @@ pub fn derive_list(modes: Vec<invsim_inversion::Mode>) -> Result<Vec<DerivedMode
             role,
             free,
             fixed,
+            coupled,
             model,
         } = mode;
         let d = Derivation::new(model).map_err(|e| Failure::user(format!("mode `{name}`: {e}")))?;
@@ -42,6 +45,7 @@ pub fn derive_list(modes: Vec<invsim_inversion::Mode>) -> Result<Vec<DerivedMode
             role,
             free,
             fixed,
+            coupled,
             d,
         });
     }
@@ -56,6 +60,8 @@ pub struct ModeMeta {
     pub role: ModeRole,
     pub free: usize,
     pub fixed: Vec<(usize, String)>,
+    /// The states the mode couples (`couple`), with their couplings as written.
+    pub coupled: Vec<(usize, String)>,
 }
 
 /// Every mode's model, in the model file's order, and the engine that runs them.
@@ -98,6 +104,7 @@ pub fn load_modes(m: &mut ModalModel, choice: EngineChoice) -> Result<ModeModels
             role: d.role,
             free: d.free,
             fixed: d.fixed,
+            coupled: d.coupled,
         });
     }
     Ok(ModeModels {
@@ -115,6 +122,7 @@ fn meta_of(mode: invsim_inversion::Mode) -> ModeMeta {
         role: mode.role,
         free: mode.free,
         fixed: mode.fixed,
+        coupled: mode.coupled,
     }
 }
 

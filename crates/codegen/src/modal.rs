@@ -26,6 +26,8 @@ pub struct DerivedMode {
     pub free: usize,
     /// The other inputs' values: (input index, expression).
     pub fixed: Vec<(usize, String)>,
+    /// The states the mode couples (`couple`): (state index, coupling as written).
+    pub coupled: Vec<(usize, String)>,
     pub d: Derivation,
 }
 
@@ -42,6 +44,7 @@ impl ModalDerivation {
                     role: mode.role,
                     free: mode.free,
                     fixed: mode.fixed,
+                    coupled: mode.coupled,
                     d,
                 })
             })
@@ -64,6 +67,9 @@ impl ModalDerivation {
                 .fixed
                 .iter()
                 .map(|(i, e)| format!("{} = {e}", self.inputs[*i]))
+                .chain(mode.coupled.iter().map(|(s, e)| {
+                    invsim_inversion::render::coupling_text(&mode.d.model.states[*s].name, e)
+                }))
                 .collect();
             s.push_str(&invsim_inversion::render::mode_heading(
                 &mode.name,

@@ -4,7 +4,7 @@
 mod maps;
 mod modes;
 
-pub use modes::{modal_title, mode_heading};
+pub use modes::{coupling_text, modal_title, mode_heading};
 
 use crate::derive::{Derivation, Solution};
 use invsim_expr::{latex_symbol, DecidedBy, Id, TooLarge};

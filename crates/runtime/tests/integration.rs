@@ -7,6 +7,9 @@
 //! - `fuzz_regressions`: Replays the fuzz regressions of the drive-cycle reader (`fuzz/regressions/cycle_reader/*`) through the very
 //! - `modes_plot_signals`: The plots of a model with operating modes and a road grade signal, inverse and
 //!   forward: the signal's panel with its raw and smoothed curves read back from the SVG.
+//! - `modes_coupling`: States a mode couples to the others (`couple`): a coupled gain switch against the gain
+//!   switch's run and its coupling, and si_engine_5speed_clutch (the engine speed a state of its own at idle)
+//!   on the NEDC, inverse and forward, against si_engine_5speed.
 //! - `modes_forward`: The forward run with modes against the inverse run with modes: si_engine_5speed on the NEDC,
 //!   fuel within 2 %, the same gears outside a short window around each shift, the tracking error reported.
 //! - `modes`: Runs with operating modes: si_engine_5speed on the NEDC and the UDDS, and a two-mode linear model against
@@ -29,6 +32,7 @@ mod forward_integrals;
 mod fusion_6speed;
 mod fuzz_regressions;
 mod modes;
+mod modes_coupling;
 mod modes_forward;
 mod modes_plot_signals;
 mod modes_signals;

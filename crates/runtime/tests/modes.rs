@@ -173,7 +173,7 @@ fn five_speed_quasi_static_books_its_impulses() {
 
 /// A two-mode linear model: y = x1, x1' = k x2, x2' = −x2 + u (+ b, a second input held at 0); k = 1 in
 /// gear 1, 2 in gear 2, the gear switching at t_s = 30 s.
-const GAIN_SWITCH: &str = r#"
+pub(crate) const GAIN_SWITCH: &str = r#"
 name = "gain_switch"
 [parameters]
 k = 1.0
@@ -194,7 +194,7 @@ schedule = "cycle"
 inputs = { b = 0.0 }
 "#;
 
-const T_S: f64 = 30.0;
+pub(crate) const T_S: f64 = 30.0;
 
 fn gain_switch_run(switching: Switching) -> (ModalResult, Cycle) {
     let l = load(Path::new("gain_switch.toml"), GAIN_SWITCH);

@@ -11,8 +11,16 @@ use invsim_runtime::modes::{GearSource, InputSpec, ModalSpec, ModeSpec, Role, Se
 pub const W: &[f64] = &[];
 
 /// The modes of a model file, derived and interpreted, with the meta data the spec needs.
-/// A mode's name, family, gear, role, free input and fixed inputs.
-pub type Meta = (String, String, Option<usize>, ModeRole, usize, Vec<usize>);
+/// A mode's name, family, gear, role, free input, fixed inputs and coupled states.
+pub type Meta = (
+    String,
+    String,
+    Option<usize>,
+    ModeRole,
+    usize,
+    Vec<usize>,
+    Vec<usize>,
+);
 
 pub struct Loaded {
     pub model: ModalModel,
@@ -36,6 +44,7 @@ pub fn load(file: &Path, text: &str) -> Loaded {
             mode.role,
             mode.free,
             fixed,
+            mode.coupled.iter().map(|(s, _)| *s).collect(),
         ));
         let d = Derivation::new(mode.model).expect("the mode derives");
         interps.push(Interpreter::new(&d).expect("the interpreter builds"));
@@ -49,13 +58,21 @@ pub fn load(file: &Path, text: &str) -> Loaded {
 
 pub fn spec<'a>(l: &'a Loaded, gear_source: GearSource) -> ModalSpec<'a> {
     let n_fixed = l.model.inputs.len() - 1;
-    let n_outputs = l.interps[0].info().outputs.len() - n_fixed;
+    let n_outputs = l.interps[0].info().outputs.len() - n_fixed - l.meta[0].6.len();
     let modes = l
         .meta
         .iter()
         .zip(&l.interps)
-        .map(|((name, family, gear, role, free, fixed), i)| {
+        .map(|((name, family, gear, role, free, fixed, coupled), i)| {
             let outs = &i.info().outputs;
+            let coupled = coupled
+                .iter()
+                .map(|&s| {
+                    let name = invsim_inversion::coupling_name(&i.info().states[s]);
+                    let o = outs.iter().rposition(|o| o.name == name);
+                    (s, o.expect("the coupling's output"))
+                })
+                .collect();
             ModeSpec {
                 name: name.clone(),
                 family: family.clone(),
@@ -78,6 +95,7 @@ pub fn spec<'a>(l: &'a Loaded, gear_source: GearSource) -> ModalSpec<'a> {
                         )
                     })
                     .collect(),
+                coupled,
                 model: i as &dyn InverseModel,
             }
         })

@@ -57,6 +57,7 @@
 //! Imports go one way — each file imports only files listed before it: error, validated, spanned, tree,
 //! names, values, signals, engine, map_csv, maps, raw, expressions, definitions, smooth, split, reader.
 
+mod coupling;
 mod definitions;
 mod engine;
 mod error;
@@ -78,6 +79,7 @@ mod tree;
 mod validated;
 mod values;
 
+pub use coupling::coupling_name;
 pub use error::{ModelError, ModelErrorKind};
 pub use expressions::{MAX_EXPRESSION_LEN, MAX_EXPRESSION_NESTING};
 pub use gearbox::MAX_GEARS;

@@ -59,6 +59,9 @@ pub struct Mode {
     pub free: usize,
     /// The values of the other inputs as written (expression text), by input index.
     pub fixed: Vec<(usize, String)>,
+    /// The states the mode couples to the others (`couple`), by state index, with the coupling as written;
+    /// each is also the extra output `coupling_NAME` (after the fixed inputs' outputs).
+    pub coupled: Vec<(usize, String)>,
     /// The mode's model: its `[input]` the free input, the other inputs definitions, and each other input
     /// also an extra output of its name (appended after the file's `[outputs]`).
     pub model: Model,

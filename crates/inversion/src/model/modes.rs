@@ -82,6 +82,8 @@ pub(super) struct RawMode<'t> {
     pub(super) parameters: Option<&'t Entries>,
     pub(super) definitions: Option<&'t Entries>,
     pub(super) output: Option<&'t Entries>,
+    /// `couple = { s = "c(x)" }`: the states the mode ties to the others, with their couplings.
+    pub(super) couple: Vec<(&'t Key, &'t Tv)>,
 }
 
 impl Reader<'_> {
@@ -151,7 +153,8 @@ impl Reader<'_> {
                     _ => Vec::new(),
                 };
                 let tree = self.mode_tree(&base, raw, &inputs, &gear_params)?;
-                let model = self.build(self.structure(&tree)?, hash.clone())?;
+                let mut model = self.build(self.structure(&tree)?, hash.clone())?;
+                self.apply_couplings(&mut model, raw)?;
                 let name = match gear {
                     Some(n) => format!("{}_{n}", raw.name),
                     None => raw.name.clone(),
@@ -196,9 +199,22 @@ impl Reader<'_> {
                 (*i, text)
             })
             .collect();
+        let coupled = raw
+            .couple
+            .iter()
+            .filter_map(|(k, v)| {
+                let i = model.states.iter().position(|s| s.name == k.name)?;
+                let text = match &v.kind {
+                    Kind::Str(s) => s.clone(),
+                    _ => String::new(),
+                };
+                Some((i, text))
+            })
+            .collect();
         Mode {
             name,
             family: raw.name.clone(),
+            coupled,
             gear,
             role: raw.role,
             free: raw.free,
@@ -285,6 +301,7 @@ impl Reader<'_> {
             "parameters",
             "definitions",
             "output",
+            "couple",
             "doc",
         ];
         self.known_keys(t, &allowed, &what)?;
@@ -327,6 +344,15 @@ impl Reader<'_> {
             parameters: sub("parameters")?,
             definitions: sub("definitions")?,
             output: sub("output")?,
+            couple: match sub("couple")? {
+                Some(c) => {
+                    for (k, v) in c {
+                        self.string(v, &format!("{what}'s coupling of `{}`", k.name))?;
+                    }
+                    c.iter().map(|(k, v)| (k, v)).collect()
+                }
+                None => Vec::new(),
+            },
         })
     }
 
@@ -560,9 +586,87 @@ impl Reader<'_> {
         for (i, k, v) in &raw.fixed {
             insert_fixed_input(&mut top, &inputs[*i].name, k, v);
         }
+        for (k, v) in &raw.couple {
+            self.insert_coupling(&mut top, &raw.name, k, v)?;
+        }
         Ok(Tv {
             span: None,
             kind: Kind::Table(top),
+        })
+    }
+
+    /// A coupling `s = "c"` as the definition `coupling_s` (after every other definition, so that it may use
+    /// them all) and an extra output of that name (after the fixed inputs); `s` must be a state.
+    fn insert_coupling(
+        &self,
+        top: &mut [(Key, Tv)],
+        mode: &str,
+        k: &Key,
+        v: &Tv,
+    ) -> Result<(), ModelError> {
+        if !section_has(top, "states", &k.name) {
+            return Err(self.err(
+                key_at(k),
+                ModelErrorKind::UnknownName,
+                format!(
+                    "mode `{}` couples `{}`, which is not a state of the model (`couple` ties a state to the \
+                     others, e.g. couple = {{ w_e = \"i_g*i_f*v/r_w\" }})",
+                    mode.escape_debug(),
+                    k.name.escape_debug()
+                ),
+            ));
+        }
+        let name = super::coupling::coupling_name(&k.name);
+        if ["parameters", "definitions", "states", "outputs", "signals"]
+            .iter()
+            .any(|s| section_has(top, s, &name))
+        {
+            return Err(self.err(
+                key_at(k),
+                ModelErrorKind::InvalidName,
+                format!(
+                    "mode `{}` couples `{}`, and the coupling's name `{name}` is taken by the model; rename \
+                     that name",
+                    mode.escape_debug(),
+                    k.name.escape_debug()
+                ),
+            ));
+        }
+        if let Some(defs) = section_mut(top, "definitions") {
+            defs.push((key(&name, k.span.clone()), clone_tv(v)));
+        }
+        if let Some(outs) = section_mut(top, "outputs") {
+            let expr = Tv {
+                span: None,
+                kind: Kind::Str(name.clone()),
+            };
+            outs.push((key(&name, None), expr));
+        }
+        Ok(())
+    }
+
+    /// Tie each coupled state to its coupling in the mode's model ([`super::coupling`]).
+    fn apply_couplings(
+        &self,
+        model: &mut super::validated::Model,
+        raw: &RawMode<'_>,
+    ) -> Result<(), ModelError> {
+        let mut couplings = Vec::new();
+        for (k, _) in &raw.couple {
+            let name = super::coupling::coupling_name(&k.name);
+            let s = model.states.iter().position(|s| s.name == k.name);
+            let d = model.definitions.iter().find(|d| d.name == name);
+            if let (Some(s), Some(d)) = (s, d) {
+                couplings.push((s, d.inlined));
+            }
+        }
+        super::coupling::couple(model, &couplings).map_err(|(j, e)| {
+            let at = raw.couple.get(j).and_then(|(_, v)| tv_at(v));
+            self.err(
+                at,
+                e.kind,
+                format!("mode `{}`: {}", raw.name.escape_debug(), e.message),
+            )
         })
     }
 

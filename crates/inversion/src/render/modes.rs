@@ -6,6 +6,11 @@ pub fn modal_title(model: &str, modes: usize) -> String {
     format!("model {model} with {modes} modes\n")
 }
 
+/// A coupling in a mode heading: `w_e coupled to w_c`.
+pub fn coupling_text(state: &str, coupling: &str) -> String {
+    format!("{state} coupled to {coupling}")
+}
+
 /// `== mode NAME (role R, free input U, V = e, …) ==` before each mode's derivation; `fixed` are the other
 /// inputs with the values the mode gives them.
 pub fn mode_heading(mode: &str, role: &str, free_input: &str, fixed: &[String]) -> String {

@@ -90,7 +90,9 @@ pub fn forward_modes(
     let signals = crate::signals::smoothers(&resolved, 1.0);
     let mut w0 = vec![0.0; spec.modes[mode].model.info().n_w()];
     super::driver::raw_signals(&signals, t0, &mut w0);
-    let x0 = initial_state(spec.modes[mode].model, (&raw, &w0), seg0, t0, opts)?;
+    let mut x0 = initial_state(spec.modes[mode].model, (&raw, &w0), seg0, t0, opts)?;
+    // A start in a mode that couples states: they start at their couplings.
+    let _ = crate::modes::coupling::set_couplings(&spec.modes[mode], &mut x0, &w0, 0.0);
     // At a standstill the brake holds the car and never pushes it: a demand below the free input's minimum
     // there (the car would roll against its rolling resistance) is clipped, whatever `bounds` says.
     let loops: Vec<Loop<'_, dyn InverseModel>> = spec
@@ -203,6 +205,11 @@ fn drive_modes<I: Integrator>(
         let d = run.decide(tb, z)?;
         if run.place.mode != before {
             stepper.restart();
+            // The states the new mode couples (a clutch closing) at their couplings.
+            let mode = &run.spec.modes[run.place.mode];
+            let n = mode.model.info().n_states();
+            let w = &run.loops[run.place.mode].w;
+            let _ = crate::modes::coupling::set_couplings(mode, &mut z[..n], w, d.applied);
         }
         rec.emit(
             run.spec,

@@ -13,6 +13,7 @@
 //!   of Δx that is not along g (no impulse of the input can make it) is reported.
 
 pub mod blend;
+pub(crate) mod coupling;
 pub mod gears;
 mod record;
 mod rows;
@@ -27,7 +28,7 @@ use invsim_model_api::InverseModel;
 use thiserror::Error;
 
 pub use gears::{GearBox, GearSource};
-pub use record::{Impulse, ModeTime, Transition};
+pub use record::{CouplingReset, Impulse, ModeTime, Transition};
 pub use rows::Rows;
 pub use runner::{simulate_modes, simulate_modes_with_signals};
 pub use summary::ModalSummary;
@@ -60,6 +61,9 @@ pub struct ModeSpec<'m> {
     pub free_input: usize,
     /// For each input that the mode fixes, (input index, index of the model output that holds its value).
     pub fixed_outputs: Vec<(usize, usize)>,
+    /// For each state the mode couples to the others (`couple`, a clutch closed), (state index, index of the
+    /// model output that holds its coupling c(x)): entering the mode sets the state to c(x).
+    pub coupled: Vec<(usize, usize)>,
     pub model: &'m dyn InverseModel,
 }
 

@@ -40,6 +40,17 @@ pub struct Impulse {
     pub booked: Vec<f64>,
 }
 
+/// A state set to its coupling where a mode that couples it was entered with the state elsewhere (a clutch
+/// closing with slip); entries that find the state at its coupling are not listed.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CouplingReset {
+    pub t: f64,
+    pub mode: String,
+    pub state: String,
+    /// c(x) − s at the entry, in the state's unit.
+    pub jump: f64,
+}
+
 /// The run's fixed context.
 pub(super) struct Ctx<'a, 'm> {
     pub(super) spec: &'a ModalSpec<'m>,
@@ -77,6 +88,7 @@ pub(super) struct Record {
     pub(super) impulse_dir: Vec<Vec<f64>>,
     pub(super) transitions: Vec<Transition>,
     pub(super) impulses: Vec<Impulse>,
+    pub(super) resets: Vec<CouplingReset>,
 }
 
 impl Record {
@@ -104,6 +116,7 @@ impl Record {
             impulse_dir: vec![Vec::new()],
             transitions: Vec::new(),
             impulses: Vec::new(),
+            resets: Vec::new(),
         }
     }
 

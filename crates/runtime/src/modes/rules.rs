@@ -224,6 +224,7 @@ mod tests {
             gear,
             free_input: 0,
             fixed_outputs: Vec::new(),
+            coupled: Vec::new(),
             model: if role == Role::Traction {
                 &drive
             } else {

@@ -6,7 +6,7 @@ use invsim_model_api::InverseModel;
 
 use super::blend::Blend;
 use super::gears::GearBox;
-use super::record::{Ctx, Impulse, Record, Solved, Transition};
+use super::record::{CouplingReset, Ctx, Impulse, Record, Solved, Transition};
 use super::rules::Rules;
 use super::sequence::{decide, Moment, Place, Rung, Switcher};
 use super::signals::resolve_modal;
@@ -196,10 +196,21 @@ impl Ctx<'_, '_> {
         })
     }
 
-    /// η at the start: the zero dynamics' equilibrium for the reference at t (Newton, differences).
+    /// η at the start: the zero dynamics' equilibrium for the reference at t (Newton, differences). A state
+    /// the mode couples (`couple`) has no equilibrium of its own (it follows ċ): it is left out of the
+    /// iteration, which the other η do not depend on, and then set to its coupling at x = ψ⁻¹(ξ, η).
     fn initial_eta(&self, m: usize, (t, base): (f64, &[f64])) -> Result<Vec<f64>, ModalError> {
         let model = self.model(m);
-        let (r, ne) = (model.info().relative_degree, model.info().n_eta);
+        let info = model.info();
+        let (r, ne) = (info.relative_degree, info.n_eta);
+        let coupled = &self.spec.modes[m].coupled;
+        let free: Vec<usize> = (0..ne)
+            .filter(|&j| {
+                !coupled
+                    .iter()
+                    .any(|&(s, _)| info.eta_states.get(j) == Some(&s))
+            })
+            .collect();
         let y = self.cycle_reference(m, base);
         let w = self.w(m, t);
         let mut eta = vec![0.0; ne];
@@ -208,22 +219,23 @@ impl Ctx<'_, '_> {
             model.zero_dynamics(&y[..r], e, &w, y[r], &mut d);
             d
         };
+        let nf = free.len();
         for _ in 0..60 {
             let f0 = q(&eta);
-            if f0.iter().all(|v: &f64| v.abs() < 1e-12) {
+            if free.iter().all(|&i| f0[i].abs() < 1e-12) {
                 break;
             }
-            let mut jac = nalgebra::DMatrix::zeros(ne, ne);
-            for j in 0..ne {
+            let mut jac = nalgebra::DMatrix::zeros(nf, nf);
+            for (jj, &j) in free.iter().enumerate() {
                 let h = 1e-6 * eta[j].abs().max(1.0);
                 let mut e = eta.clone();
                 e[j] += h;
                 let f1 = q(&e);
-                for i in 0..ne {
-                    jac[(i, j)] = (f1[i] - f0[i]) / h;
+                for (ii, &i) in free.iter().enumerate() {
+                    jac[(ii, jj)] = (f1[i] - f0[i]) / h;
                 }
             }
-            let rhs = nalgebra::DVector::from_iterator(ne, f0.iter().map(|v| -v));
+            let rhs = nalgebra::DVector::from_iterator(nf, free.iter().map(|&i| -f0[i]));
             let Some(step) = jac.lu().solve(&rhs) else {
                 return Err(self.err(
                     m,
@@ -231,11 +243,38 @@ impl Ctx<'_, '_> {
                     "no equilibrium of the zero dynamics at the start".into(),
                 ));
             };
-            for j in 0..ne {
-                eta[j] += step[j];
+            for (jj, &j) in free.iter().enumerate() {
+                eta[j] += step[jj];
             }
         }
+        if nf < ne {
+            self.couple_initial_eta(m, (t, &y), &mut eta)?;
+        }
         Ok(eta)
+    }
+
+    /// The coupled η at the start: c(x) at x = ψ⁻¹(ξ, η) (c does not depend on the coupled states).
+    fn couple_initial_eta(
+        &self,
+        m: usize,
+        (t, y): (f64, &[f64]),
+        eta: &mut [f64],
+    ) -> Result<(), ModalError> {
+        let model = self.model(m);
+        let info = model.info();
+        let r = info.relative_degree;
+        let mut x = vec![0.0; self.n];
+        let w = self.w(m, t);
+        model
+            .invert(&y[..r], eta, &w, y[r], &mut x)
+            .map_err(|e| self.err(m, t, e.to_string()))?;
+        let _ = super::coupling::enter(self, m, t, &mut x, 0.0);
+        for (j, &s) in info.eta_states.iter().enumerate() {
+            if self.spec.modes[m].coupled.iter().any(|&(c, _)| c == s) {
+                eta[j] = x[s];
+            }
+        }
+        Ok(())
     }
 }
 
@@ -473,6 +512,8 @@ struct Entry {
     solved: Solved,
     transition: Switch,
     impulse: Option<(Impulse, Vec<f64>)>,
+    /// The states set to their couplings on entering (`couple`).
+    resets: Vec<CouplingReset>,
 }
 
 /// Enter mode `target` at t from the continuous state `prev.x` (not yet committed).
@@ -489,7 +530,25 @@ fn entry(
     let mut xi = vec![0.0; r];
     let mut eta = vec![0.0; info.n_eta];
     let w = ctx.w(target, t);
-    model.psi(&prev.x, &w, &mut xi, &mut eta);
+    // The state the new mode starts from: the old one, with the states the new mode couples at their
+    // couplings.
+    let mut x0 = std::borrow::Cow::Borrowed(&prev.x[..]);
+    let jumps = if ctx.spec.modes[target].coupled.is_empty() {
+        Vec::new()
+    } else {
+        super::coupling::enter(ctx, target, t, x0.to_mut(), prev.u)
+    };
+    let resets = jumps
+        .into_iter()
+        .map(|(s, jump)| CouplingReset {
+            t,
+            mode: ctx.spec.modes[target].name.clone(),
+            state: info.states[s].clone(),
+            jump,
+        })
+        .collect();
+    let x0 = &x0[..];
+    model.psi(x0, &w, &mut xi, &mut eta);
     let yc = ctx.cycle_reference(target, base);
     // The record of the switch, its names looked up only when the entry is committed.
     let transition = Switch {
@@ -505,7 +564,7 @@ fn entry(
                 .iter()
                 .any(|d| *d != 0.0)
                 .then(|| Blend::new(t, ctx.transition, &e));
-            let solved = ctx.solve(target, (t, base), &eta, blend.as_ref(), &prev.x)?;
+            let solved = ctx.solve(target, (t, base), &eta, blend.as_ref(), x0)?;
             let max_deviation = e.first().map_or(0.0, |d| d.abs());
             Ok(Entry {
                 eta,
@@ -516,11 +575,12 @@ fn entry(
                     ..transition
                 },
                 impulse: None,
+                resets,
             })
         }
         Switching::QuasiStatic => {
-            let solved = ctx.solve(target, (t, base), &eta, None, &prev.x)?;
-            let imp = impulse(ctx, target, t, &prev.x, &solved);
+            let solved = ctx.solve(target, (t, base), &eta, None, x0)?;
+            let imp = impulse(ctx, target, t, x0, &solved);
             let impulse = (imp.amount != 0.0).then(|| (imp, g_of(model, &solved.x, &w)));
             Ok(Entry {
                 eta,
@@ -528,6 +588,7 @@ fn entry(
                 solved,
                 transition,
                 impulse,
+                resets,
             })
         }
     }
@@ -582,6 +643,7 @@ fn commit(ctx: &Ctx<'_, '_>, seq: &mut Inner, rec: &mut Record, e: Entry) -> Sol
         max_deviation,
     });
     seq.open = seq.blend.as_ref().map(|_| rec.transitions.len() - 1);
+    rec.resets.extend(e.resets);
     if let Some((imp, g)) = e.impulse {
         let k = rec.impulse.len() - 1;
         rec.impulse[k] += imp.amount;

@@ -47,6 +47,9 @@ pub struct ModalSummary {
     pub impulses: Vec<Impulse>,
     /// The impulses' total booking per accumulated output.
     pub impulse_booked: BTreeMap<String, f64>,
+    /// States set to their coupling on entering a mode that couples them (models with `couple`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub coupling_resets: Vec<super::CouplingReset>,
     /// How far the smoothed cycle departs from the legal trace (cycle speed, m/s: every mode's reference is a
     /// map of it).
     #[serde(flatten)]
@@ -322,6 +325,7 @@ pub(super) fn assemble(
         max_transition_deviation: max_dev,
         impulses: rec.impulses,
         impulse_booked,
+        coupling_resets: rec.resets,
         reference: tally.deviation.finish(),
         engine_operating_points: tally.operating.map(|op| op.finish(info0, opts.dt)),
         max_abs_tracking_error: verify.as_ref().map(|v| v.max_abs),
@@ -413,6 +417,22 @@ fn warnings_of(violations: &[[f64; 2]], impulses: &[Impulse]) -> Vec<String> {
     warnings
 }
 
+/// The text line of the coupling resets, if any: how many entries set a coupled state, and the largest jump.
+fn resets_line(resets: &[super::CouplingReset]) -> Option<String> {
+    let big = resets
+        .iter()
+        .max_by(|a, b| a.jump.abs().total_cmp(&b.jump.abs()))?;
+    Some(format!(
+        "coupling resets: {} (entries that set a coupled state to its coupling: a gear shift, a clutch closing \
+         with slip), largest {} {:+.4e} entering {} at t = {} s",
+        resets.len(),
+        big.state,
+        big.jump,
+        big.mode,
+        big.t
+    ))
+}
+
 impl ModalSummary {
     /// The printed summary.
     pub fn to_text(&self) -> String {
@@ -465,6 +485,9 @@ impl ModalSummary {
                     self.impulses.len()
                 );
             }
+        }
+        if let Some(line) = resets_line(&self.coupling_resets) {
+            let _ = writeln!(s, "{line}");
         }
         self.reference
             .write_text(&mut s, Some("m/s"), self.distance_m);

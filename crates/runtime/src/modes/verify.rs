@@ -1,6 +1,7 @@
 //! `--verify` for a run with modes: the computed input (linear between grid points within each interval)
 //! replayed through the original equations of the mode active on each interval (with the smoothed signals), with the same switches
-//! (and, for the quasi-static option, the same impulses as state jumps Δx = U g(x)); the tracking error is
+//! (the states a new mode couples set to their couplings, and, for the quasi-static option, the same
+//! impulses as state jumps Δx = U g(x)); the tracking error is
 //! |h(x_replay) − y_d| over the samples, y_d the reference the inverse tracked (transitions included).
 
 use super::record::{Ctx, Record};
@@ -21,6 +22,10 @@ pub(super) fn replay(ctx: &Ctx<'_, '_>, rec: &Record) -> Result<Tracking, ModalE
     for k in 0..ns {
         let m = rec.mode[k];
         let model = ctx.spec.modes[m].model;
+        if k > 0 && rec.mode[k - 1] != m {
+            // The same entry as the inverse's: the states the new mode couples at their couplings.
+            let _ = super::coupling::enter(ctx, m, rec.t[k], &mut x, rec.free[k]);
+        }
         if rec.impulse[k] != 0.0 {
             for (xi, gi) in x.iter_mut().zip(&rec.impulse_dir[k]) {
                 *xi += rec.impulse[k] * gi;
