@@ -76,7 +76,9 @@ pub(crate) fn module_named(
     if pre.uses_sign || sign || batch.uses_sign {
         helpers.push(functions::sign_helper());
     }
-    if batch.any() {
+    // Where ψ⁻¹ is solved by Newton's method and y^(r) is affine in u, `invert_batch` is Newton's (newton.rs).
+    let newton_batch = !g.closed && g.affine;
+    if batch.any() || newton_batch {
         helpers.push(trait_impl::column_helpers());
     }
     let imports = imports(&g, batch.uses_pow_slice);
@@ -85,7 +87,7 @@ pub(crate) fn module_named(
     let map_tokens = maps::map_tokens(&g);
     let model = trait_impl::model(
         &g,
-        batch.invert,
+        batch.invert || newton_batch,
         map_tokens.as_ref().map(|m| &m.trait_method),
     );
     let (k_fields, pre_lets, k_idents) = (&pre.fields, &pre.lets, &pre.idents);

@@ -1,7 +1,9 @@
 //! `si_engine_maps` (a volumetric-efficiency map inside the dynamics, a BSFC map for an output) on the NEDC:
 //! the inverse satisfies the model's equations at every sample (1e-8 relative), the replay tracks, a constant
 //! eta_vol map gives si_engine's results (with s_i = that constant, y_i = 0) within 1e-9, and the compiled and
-//! the interpreted model agree (1e-12 relative on every closed-form function at the run's points).
+//! the interpreted model agree (1e-12 relative on every closed-form function at the run's points); the block
+//! inverse (`invert_batch`, Newton from sample to sample) is the point-by-point inverse bit for bit, and the
+//! NEDC run's numbers are those of the code before it (a checksum of their bits).
 
 use invsim_inversion::{Derivation, Interpreter, Model};
 use invsim_model_api::InverseModel;
@@ -169,4 +171,90 @@ fn the_map_option_replaces_data_in_both_engines_alike() {
     c.rhs(&[12.0, 4.0e4], &[], 0.01, &mut dc);
     i.rhs(&[12.0, 4.0e4], &[], 0.01, &mut di);
     assert!(close(dc[1], di[1], 1e-12), "{} vs {}", dc[1], di[1]);
+}
+
+/// FNV-1a over the bits of `columns`, sample by sample (the checksum of a run's numbers, bit for bit).
+fn bits_checksum(columns: &[&[f64]]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for k in 0..columns[0].len() {
+        for c in columns {
+            h = (h ^ c[k].to_bits()).wrapping_mul(0x0100_0000_01b3);
+        }
+    }
+    h
+}
+
+/// The compiled model's block path (`invert_batch`: Newton from sample to sample, ψ and its Jacobian at the
+/// previous solution reused) against the point-by-point inverse (`invert`, i.e. `psi_inv` then α and β), bit
+/// for bit, along the NEDC and from guesses far from the solution.
+#[test]
+fn the_block_inverse_is_the_pointwise_inverse_bit_for_bit() {
+    let m = compiled("si_engine_maps");
+    let r = run(m.as_ref(), false);
+    let (y0, y1, y2) = (col(&r, "yd_0"), col(&r, "yd_1"), col(&r, "yd_2"));
+    let starts: [[f64; 2]; 4] = [[0.0, 0.0], [1.0, 1.0], [30.0, 1.0e5], [5.0, 2.0e4]];
+    // Blocks of several lengths, each from its own first guess.
+    let mut k0 = 0;
+    for (b, len) in [1usize, 2, 7, 64, 255, 256, 1000, 4096].iter().cycle().enumerate() {
+        if k0 >= y0.len() {
+            break;
+        }
+        let k1 = (k0 + len).min(y0.len());
+        let guess = starts[b % starts.len()];
+        let (mut xs, mut ps, mut us) = (vec![0.0; k1 - k0], vec![0.0; k1 - k0], vec![f64::NAN; k1 - k0]);
+        xs[0] = guess[0];
+        ps[0] = guess[1];
+        {
+            let mut x: [&mut [f64]; 2] = [&mut xs, &mut ps];
+            m.invert_batch(&[&y0[k0..k1], &y1[k0..k1]], &[], &[], &y2[k0..k1], &mut x, &mut us)
+                .expect("the block inverse succeeds");
+        }
+        let mut x = guess.to_vec();
+        for k in k0..k1 {
+            let u = m.invert(&[y0[k], y1[k]], &[], &[], y2[k], &mut x).expect("the inverse succeeds");
+            let i = k - k0;
+            assert_eq!(u.to_bits(), us[i].to_bits(), "u at {k}: {u} vs {}", us[i]);
+            assert_eq!(x[0].to_bits(), xs[i].to_bits(), "v at {k}");
+            assert_eq!(x[1].to_bits(), ps[i].to_bits(), "p_i at {k}");
+        }
+        k0 = k1;
+    }
+}
+
+/// A point whose Newton iteration fails stops the block there with that point's index and the error of
+/// the point-by-point inverse; the points before it are written.
+#[test]
+fn the_block_inverse_reports_the_first_failing_point() {
+    let m = compiled("si_engine_maps");
+    let xi0 = [1.0, 2.0, 3.0, f64::NAN, 5.0];
+    let xi1 = [0.1, 0.2, 0.3, 0.4, 0.5];
+    let yr = [0.0; 5];
+    let (mut v, mut p, mut u) = ([10.0, 0.0, 0.0, 0.0, 0.0], [5.0e4, 0.0, 0.0, 0.0, 0.0], [f64::NAN; 5]);
+    let err = {
+        let mut x: [&mut [f64]; 2] = [&mut v, &mut p];
+        m.invert_batch(&[&xi0, &xi1], &[], &[], &yr, &mut x, &mut u)
+            .expect_err("NaN has no inverse")
+    };
+    assert_eq!(err.0, 3);
+    let mut x = vec![10.0, 5.0e4];
+    for k in 0..3 {
+        let uk = m.invert(&[xi0[k], xi1[k]], &[], &[], yr[k], &mut x).expect("finite points invert");
+        assert_eq!((uk.to_bits(), x[0].to_bits(), x[1].to_bits()), (u[k].to_bits(), v[k].to_bits(), p[k].to_bits()));
+    }
+    let scalar = m
+        .invert(&[xi0[3], xi1[3]], &[], &[], yr[3], &mut x)
+        .expect_err("NaN has no inverse");
+    assert_eq!(err.1.to_string(), scalar.to_string());
+}
+
+/// The run on the NEDC (dt = 0.1 s) gives the numbers of the code before the block inverse, bit for bit:
+/// the checksum of its input and states as `invsim simulate models/si_engine_maps.toml --cycle nedc --out …`
+/// of that code wrote them (11 801 samples, FNV-1a over the bits of m_at, v, p_i per sample).
+#[test]
+fn the_nedc_run_is_bit_for_bit_the_earlier_one() {
+    let m = compiled("si_engine_maps");
+    let r = run(m.as_ref(), false);
+    let columns = [col(&r, "m_at"), col(&r, "v"), col(&r, "p_i")];
+    assert_eq!(columns[0].len(), 11_801);
+    assert_eq!(bits_checksum(&columns), 0x0d98_9a1c_33c4_ea6f);
 }

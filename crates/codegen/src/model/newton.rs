@@ -31,7 +31,7 @@ pub(super) fn newton(g: &Gen<'_>) -> Newton {
     }
     let ne = g.d.eta.len();
     let (wp, wa) = w_tokens(g);
-    let mut methods = vec![psi_inv_method(g), methods(g)];
+    let mut methods = vec![psi_inv_method(g), methods(g), invert_batch_method(g)];
     if ne > 0 {
         methods.push(quote! {
             /// The zero dynamics dη/dt at x = ψ⁻¹(ξ, η) (Newton from `guess`); see
@@ -82,21 +82,29 @@ pub(super) fn w_tokens(g: &Gen<'_>) -> (TokenStream, TokenStream) {
     }
 }
 
-/// `psi_inv` by Newton's method.
-fn psi_inv_method(g: &Gen<'_>) -> TokenStream {
-    let (wp, wa) = w_tokens(g);
+/// ψ⁻¹'s target (ξ, η) as an array of N tokens, `xi[i]` and `eta[j]` followed by `index` (`[k]` for the
+/// columns of a batch, nothing for one point).
+fn target_tokens(g: &Gen<'_>, index: &TokenStream) -> Vec<TokenStream> {
     let (r, ne) = (g.d.relative_degree, g.d.eta.len());
     let lit = proc_macro2::Literal::usize_unsuffixed;
-    let target: Vec<TokenStream> = (0..r)
+    (0..r)
         .map(|i| {
             let i = lit(i);
-            quote!(xi[#i])
+            quote!(xi[#i] #index)
         })
         .chain((0..ne).map(|j| {
             let j = lit(j);
-            quote!(eta[#j])
+            quote!(eta[#j] #index)
         }))
-        .collect();
+        .collect()
+}
+
+/// `psi_inv` by Newton's method, and the iteration itself (`psi_newton`), which can start from ψ and its
+/// Jacobian at the guess when they are known.
+fn psi_inv_method(g: &Gen<'_>) -> TokenStream {
+    let (wp, wa) = w_tokens(g);
+    let (r, ne) = (g.d.relative_degree, g.d.eta.len());
+    let target = target_tokens(g, &quote!());
     let xi_name = if r > 0 { quote!(xi) } else { quote!(_xi) };
     let eta_name = if ne > 0 { quote!(eta) } else { quote!(_eta) };
     quote! {
@@ -114,13 +122,34 @@ fn psi_inv_method(g: &Gen<'_>) -> TokenStream {
             guess: &[f64; N],
         ) -> Result<[f64; N], ModelError> {
             let target: [f64; N] = [#(#target),*];
+            self.psi_newton(&target #wa, guess, None).map(|(x, _)| x)
+        }
+
+        /// Newton's iteration of [`Precomputed::psi_inv`] on ψ(x) = `target` from `guess`:
+        /// x ← x − (∂ψ/∂x)⁻¹ (ψ(x) − target) until the scaled residual is below [`NEWTON_TOL`]. `at_guess`,
+        /// when given, is (ψ, ∂ψ/∂x) at `guess` (they depend on x and the signal values only), used for the
+        /// first iteration instead of evaluating [`Precomputed::psi_jacobian`] there again. Returns the
+        /// solution with (ψ, ∂ψ/∂x) at it, which the last iteration evaluated: the next point's `at_guess`
+        /// when the solution is its guess.
+        #[allow(clippy::type_complexity)]
+        pub fn psi_newton(
+            &self,
+            target: &[f64; N],
+            #wp
+            guess: &[f64; N],
+            at_guess: Option<([f64; N], [[f64; N]; N])>,
+        ) -> Result<([f64; N], ([f64; N], [[f64; N]; N])), ModelError> {
             let mut x = *guess;
+            let mut known = at_guess;
             let mut residual = f64::INFINITY;
             for _ in 0..NEWTON_MAX_ITER {
-                let (value, jacobian) = self.psi_jacobian(&x #wa);
+                let (value, jacobian) = match known.take() {
+                    Some(at) => at,
+                    None => self.psi_jacobian(&x #wa),
+                };
                 let mut step = [0.0; N];
                 residual = 0.0;
-                for ((s, v), t) in step.iter_mut().zip(value).zip(target) {
+                for ((s, v), t) in step.iter_mut().zip(value).zip(*target) {
                     *s = v - t;
                     let scaled = (*s / t.abs().max(1.0)).abs();
                     if scaled.is_nan() || scaled > residual {
@@ -128,7 +157,7 @@ fn psi_inv_method(g: &Gen<'_>) -> TokenStream {
                     }
                 }
                 if residual < NEWTON_TOL {
-                    return Ok(x);
+                    return Ok((x, (value, jacobian)));
                 }
                 if !lu_solve(jacobian, &mut step) {
                     break;
@@ -141,6 +170,80 @@ fn psi_inv_method(g: &Gen<'_>) -> TokenStream {
                 }
             }
             Err(ModelError::NewtonDidNotConverge { iterations: NEWTON_MAX_ITER, residual })
+        }
+    }
+}
+
+/// `invert_batch` for an affine y^(r): the points in order, each Newton iteration started from the previous
+/// point's solution with ψ and ∂ψ/∂x there reused (see the generated doc).
+fn invert_batch_method(g: &Gen<'_>) -> TokenStream {
+    let ne = g.d.eta.len();
+    let (_, wa) = w_tokens(g);
+    let target = target_tokens(g, &quote!([k]));
+    let eta_name = if ne > 0 { quote!(eta) } else { quote!(_eta) };
+    // With signals, ψ and its Jacobian at the guess are reused only where the signal values are the same.
+    let (w_cols, w_point, known_ty, reuse, keep) = if g.has_w() {
+        (
+            quote!(w: [&[f64]; NW],),
+            quote!(let w: [f64; NW] = w.map(|c| c[k]);),
+            quote!(Option<([u64; NW], ([f64; N], [[f64; N]; N]))>),
+            quote!(known.take().filter(|(bits, _)| *bits == w.map(f64::to_bits)).map(|(_, at)| at)),
+            quote!(Some((w.map(f64::to_bits), at))),
+        )
+    } else {
+        (
+            quote!(),
+            quote!(),
+            quote!(Option<([f64; N], [[f64; N]; N])>),
+            quote!(known.take()),
+            quote!(Some(at)),
+        )
+    };
+    quote! {
+        /// [`Precomputed::invert`] at many points, stored column-wise: ξ_i at point k is `xi[i][k]`, η_j is
+        /// `eta[j][k]`, the signal value w_l is `w[l][k]`, y^(r) is `yr[k]`; x_s is written to `x[s][k]` and
+        /// u to `u[k]`.
+        ///
+        /// Point by point in order, each Newton iteration for ψ⁻¹ started from the previous point's solution
+        /// (the first from `x[s][0]`), as the runtime runs [`Precomputed::invert`] along a reference. ψ and
+        /// ∂ψ/∂x at that solution, which the previous point's last iteration evaluated, serve the first
+        /// iteration ([`Precomputed::psi_newton`]) instead of being evaluated again at the same x (and the
+        /// same signal values): the same numbers as [`Precomputed::invert`] bit for bit, one evaluation of
+        /// ψ's Jacobian fewer per point.
+        ///
+        /// Returns the index of the first point whose Newton iteration fails, with its error (the points
+        /// before it are written).
+        ///
+        /// # Panics
+        ///
+        /// If a column is shorter than `yr`.
+        pub fn invert_batch(
+            &self,
+            xi: [&[f64]; R],
+            #eta_name: [&[f64]; N_ETA],
+            #w_cols
+            yr: &[f64],
+            mut x: [&mut [f64]; N],
+            u: &mut [f64],
+        ) -> Result<(), (usize, ModelError)> {
+            let mut guess: [f64; N] = std::array::from_fn(|s| x[s].first().copied().unwrap_or(0.0));
+            // ψ and ∂ψ/∂x at `guess`, from the previous point's last Newton iteration.
+            let mut known: #known_ty = None;
+            for k in 0..yr.len() {
+                let target: [f64; N] = [#(#target),*];
+                #w_point
+                let at_guess = #reuse;
+                let (states, at) = self
+                    .psi_newton(&target #wa, &guess, at_guess)
+                    .map_err(|e| (k, e))?;
+                u[k] = (yr[k] - self.alpha_x(&states #wa)) / self.beta_x(&states #wa);
+                for (column, s) in x.iter_mut().zip(states) {
+                    column[k] = s;
+                }
+                guess = states;
+                known = #keep;
+            }
+            Ok(())
         }
     }
 }

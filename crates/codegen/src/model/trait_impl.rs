@@ -7,14 +7,14 @@ use proc_macro2::TokenStream;
 use quote::quote;
 
 /// `model_info()`, `Model`, its `Default` and `InverseModel` impls and `arr`; `invert_batch`: the model has
-/// `Precomputed::invert_batch`.
+/// `Precomputed::invert_batch` (a block kernel in closed form, Newton's method from point to point otherwise).
 pub(super) fn model(g: &Gen<'_>, invert_batch: bool, set_map: Option<&TokenStream>) -> TokenStream {
     let m = &g.d.model;
     let ne = g.d.eta.len();
     let has_outputs = !m.outputs.is_empty();
     let w = WTokens::new(g.has_w());
     let outputs_impl = outputs_impl(has_outputs, &w);
-    let invert_batch_impl = invert_batch_impl(invert_batch, &w);
+    let invert_batch_impl = invert_batch_impl(invert_batch, !g.closed, &w);
     let (psi_inv_impl, alpha_impl, beta_impl, zero_impl, invert_impl) = if g.closed && !g.affine {
         non_affine(ne, g.d.input_solution.is_some(), &w)
     } else if g.closed {
@@ -438,29 +438,39 @@ fn outputs_impl(has_outputs: bool, w: &WTokens) -> TokenStream {
     }
 }
 
-/// The trait's `invert_batch`, when the model has `Precomputed::invert_batch`.
-fn invert_batch_impl(invert_batch: bool, w: &WTokens) -> TokenStream {
+/// The trait's `invert_batch`, when the model has `Precomputed::invert_batch` (which returns the first failing
+/// point's error where ψ⁻¹ is solved by Newton's method, nothing where it is in closed form).
+fn invert_batch_impl(invert_batch: bool, numeric: bool, w: &WTokens) -> TokenStream {
     let WTokens {
         name: wn, cols: wc, ..
     } = w;
-    if invert_batch {
-        quote! {
-            /// ψ⁻¹, α and β over columns, block by block ([`Precomputed::invert_batch`]).
-            fn invert_batch(
-                &self,
-                xi: &[&[f64]],
-                eta: &[&[f64]],
-                #wn: &[&[f64]],
-                yr: &[f64],
-                x: &mut [&mut [f64]],
-                u: &mut [f64],
-            ) -> Result<(), (usize, ModelError)> {
-                self.pre.invert_batch(cols(xi), cols(eta) #wc, yr, cols_mut(x), u);
-                Ok(())
-            }
-        }
+    if !invert_batch {
+        return quote!();
+    }
+    let (doc, call) = if numeric {
+        (
+            quote!(#[doc = " ψ⁻¹ by Newton's method from point to point, α and β over columns ([`Precomputed::invert_batch`])."]),
+            quote!(self.pre.invert_batch(cols(xi), cols(eta) #wc, yr, cols_mut(x), u)),
+        )
     } else {
-        quote!()
+        (
+            quote!(#[doc = " ψ⁻¹, α and β over columns, block by block ([`Precomputed::invert_batch`])."]),
+            quote!(self.pre.invert_batch(cols(xi), cols(eta) #wc, yr, cols_mut(x), u); Ok(())),
+        )
+    };
+    quote! {
+        #doc
+        fn invert_batch(
+            &self,
+            xi: &[&[f64]],
+            eta: &[&[f64]],
+            #wn: &[&[f64]],
+            yr: &[f64],
+            x: &mut [&mut [f64]],
+            u: &mut [f64],
+        ) -> Result<(), (usize, ModelError)> {
+            #call
+        }
     }
 }
 
