@@ -321,7 +321,30 @@ fn psi_jacobian(g: &Gen<'_>, lhs: &Lhs) -> Straight {
 /// The functions of a numeric ψ⁻¹, evaluated in the states.
 fn numeric(g: &Gen<'_>, lhs: &Lhs) -> Vec<Straight> {
     let d = g.d;
-    let mut fs = vec![psi_jacobian(g, lhs)];
+    let jacobian = psi_jacobian(g, lhs);
+    // ψ, ∂ψ/∂x, α and β in one function: Newton's iteration along a block (`invert_batch`) evaluates it, so
+    // that α and β at the solution come with the last iteration's shared subexpressions.
+    let mut roots = jacobian.roots.clone();
+    roots.extend([d.alpha_x, d.beta_x]);
+    let n = d.n();
+    let fused = Straight::new(
+        FnKind::PsiJacobianAlphaBeta,
+        g.with_w(vec![g.x_arg()]),
+        roots,
+        Shape::Tuple(vec![
+            Shape::array("N", n),
+            Shape::Array("N", n, Box::new(Shape::array("N", n))),
+            Shape::Scalar,
+            Shape::Scalar,
+        ]),
+        vec![
+            "ψ(x), its Jacobian ∂ψ/∂x, α = L_f^r h(x) and β = L_g L_f^(r−1) h(x) in one pass: the numbers of \
+             [`Precomputed::psi_jacobian`], [`Precomputed::alpha_x`] and [`Precomputed::beta_x`], for the Newton \
+             iteration of [`Precomputed::invert_batch`]."
+                .to_string(),
+        ],
+    );
+    let mut fs = vec![jacobian, fused];
     let mut doc = vec!["α in the states: L_f^r h(x).".to_string(), String::new()];
     doc.extend(equations(
         g,

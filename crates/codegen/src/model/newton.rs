@@ -21,7 +21,7 @@ pub(super) struct Newton {
 
 /// The Newton items of a model whose ψ⁻¹ is solved numerically (ψ⁻¹ alone where y^(r) is not affine in u).
 pub(super) fn newton(g: &Gen<'_>) -> Newton {
-    let helpers = vec![lu_solve(), constants()];
+    let helpers = vec![psi_newton_fn(), lu_solve(), constants()];
     if !g.affine {
         return Newton {
             methods: vec![psi_inv_method(g)],
@@ -122,30 +122,38 @@ fn psi_inv_method(g: &Gen<'_>) -> TokenStream {
             guess: &[f64; N],
         ) -> Result<[f64; N], ModelError> {
             let target: [f64; N] = [#(#target),*];
-            self.psi_newton(&target #wa, guess, None).map(|(x, _)| x)
+            let jacobian = |x: &[f64; N]| {
+                let (value, jacobian) = self.psi_jacobian(x #wa);
+                (value, jacobian, ())
+            };
+            psi_newton(&target, guess, None, jacobian).map(|(x, _)| x)
         }
+    }
+}
 
+/// The free function `psi_newton`: Newton's iteration of `psi_inv`, with the function that evaluates ψ and
+/// ∂ψ/∂x (and whatever else is wanted at the solution) as an argument.
+fn psi_newton_fn() -> TokenStream {
+    quote! {
         /// Newton's iteration of [`Precomputed::psi_inv`] on ψ(x) = `target` from `guess`:
-        /// x ← x − (∂ψ/∂x)⁻¹ (ψ(x) − target) until the scaled residual is below [`NEWTON_TOL`]. `at_guess`,
-        /// when given, is (ψ, ∂ψ/∂x) at `guess` (they depend on x and the signal values only), used for the
-        /// first iteration instead of evaluating [`Precomputed::psi_jacobian`] there again. Returns the
-        /// solution with (ψ, ∂ψ/∂x) at it, which the last iteration evaluated: the next point's `at_guess`
-        /// when the solution is its guess.
+        /// x ← x − (∂ψ/∂x)⁻¹ (ψ(x) − target) until max_i |ψ_i(x) − target_i| / max(|target_i|, 1) <
+        /// [`NEWTON_TOL`]. `eval(x)` gives (ψ, ∂ψ/∂x, extra) at x; `at_guess`, when given, is `eval(guess)`
+        /// (known from elsewhere: the previous point's solution), used for the first iteration instead of
+        /// evaluating there again. Returns the solution with `eval` at it, which the last iteration evaluated.
         #[allow(clippy::type_complexity)]
-        pub fn psi_newton(
-            &self,
+        fn psi_newton<T>(
             target: &[f64; N],
-            #wp
             guess: &[f64; N],
-            at_guess: Option<([f64; N], [[f64; N]; N])>,
-        ) -> Result<([f64; N], ([f64; N], [[f64; N]; N])), ModelError> {
+            at_guess: Option<([f64; N], [[f64; N]; N], T)>,
+            eval: impl Fn(&[f64; N]) -> ([f64; N], [[f64; N]; N], T),
+        ) -> Result<([f64; N], ([f64; N], [[f64; N]; N], T)), ModelError> {
             let mut x = *guess;
             let mut known = at_guess;
             let mut residual = f64::INFINITY;
             for _ in 0..NEWTON_MAX_ITER {
-                let (value, jacobian) = match known.take() {
+                let (value, jacobian, extra) = match known.take() {
                     Some(at) => at,
-                    None => self.psi_jacobian(&x #wa),
+                    None => eval(&x),
                 };
                 let mut step = [0.0; N];
                 residual = 0.0;
@@ -157,7 +165,7 @@ fn psi_inv_method(g: &Gen<'_>) -> TokenStream {
                     }
                 }
                 if residual < NEWTON_TOL {
-                    return Ok((x, (value, jacobian)));
+                    return Ok((x, (value, jacobian, extra)));
                 }
                 if !lu_solve(jacobian, &mut step) {
                     break;
@@ -175,18 +183,18 @@ fn psi_inv_method(g: &Gen<'_>) -> TokenStream {
 }
 
 /// `invert_batch` for an affine y^(r): the points in order, each Newton iteration started from the previous
-/// point's solution with ψ and ∂ψ/∂x there reused (see the generated doc).
+/// point's solution with ψ and ∂ψ/∂x there reused, α and β from the last iteration (see the generated doc).
 fn invert_batch_method(g: &Gen<'_>) -> TokenStream {
     let ne = g.d.eta.len();
     let (_, wa) = w_tokens(g);
     let target = target_tokens(g, &quote!([k]));
     let eta_name = if ne > 0 { quote!(eta) } else { quote!(_eta) };
     // With signals, ψ and its Jacobian at the guess are reused only where the signal values are the same.
-    let (w_cols, w_point, known_ty, reuse, keep) = if g.has_w() {
+    let (w_cols, w_point, w_bits, reuse, keep) = if g.has_w() {
         (
             quote!(w: [&[f64]; NW],),
             quote!(let w: [f64; NW] = w.map(|c| c[k]);),
-            quote!(Option<([u64; NW], ([f64; N], [[f64; N]; N]))>),
+            quote!([u64; NW]),
             quote!(known.take().filter(|(bits, _)| *bits == w.map(f64::to_bits)).map(|(_, at)| at)),
             quote!(Some((w.map(f64::to_bits), at))),
         )
@@ -194,9 +202,9 @@ fn invert_batch_method(g: &Gen<'_>) -> TokenStream {
         (
             quote!(),
             quote!(),
-            quote!(Option<([f64; N], [[f64; N]; N])>),
-            quote!(known.take()),
-            quote!(Some(at)),
+            quote!(()),
+            quote!(known.take().map(|((), at)| at)),
+            quote!(Some(((), at))),
         )
     };
     quote! {
@@ -205,11 +213,11 @@ fn invert_batch_method(g: &Gen<'_>) -> TokenStream {
         /// u to `u[k]`.
         ///
         /// Point by point in order, each Newton iteration for ψ⁻¹ started from the previous point's solution
-        /// (the first from `x[s][0]`), as the runtime runs [`Precomputed::invert`] along a reference. ψ and
-        /// ∂ψ/∂x at that solution, which the previous point's last iteration evaluated, serve the first
-        /// iteration ([`Precomputed::psi_newton`]) instead of being evaluated again at the same x (and the
-        /// same signal values): the same numbers as [`Precomputed::invert`] bit for bit, one evaluation of
-        /// ψ's Jacobian fewer per point.
+        /// (the first from `x[s][0]`), as the runtime runs [`Precomputed::invert`] along a reference. Each
+        /// iteration evaluates [`Precomputed::psi_jacobian_alpha_beta`], so α and β at the solution,
+        /// u = (y^(r) − α)/β, come with the last iteration; ψ and ∂ψ/∂x there also serve the next point's
+        /// first iteration instead of being evaluated again at the same x (and the same signal values). The
+        /// same numbers as [`Precomputed::invert`] bit for bit.
         ///
         /// Returns the index of the first point whose Newton iteration fails, with its error (the points
         /// before it are written).
@@ -228,15 +236,18 @@ fn invert_batch_method(g: &Gen<'_>) -> TokenStream {
         ) -> Result<(), (usize, ModelError)> {
             let mut guess: [f64; N] = std::array::from_fn(|s| x[s].first().copied().unwrap_or(0.0));
             // ψ and ∂ψ/∂x at `guess`, from the previous point's last Newton iteration.
-            let mut known: #known_ty = None;
+            let mut known: Option<(#w_bits, ([f64; N], [[f64; N]; N], (f64, f64)))> = None;
             for k in 0..yr.len() {
                 let target: [f64; N] = [#(#target),*];
                 #w_point
                 let at_guess = #reuse;
-                let (states, at) = self
-                    .psi_newton(&target #wa, &guess, at_guess)
-                    .map_err(|e| (k, e))?;
-                u[k] = (yr[k] - self.alpha_x(&states #wa)) / self.beta_x(&states #wa);
+                let eval = |x: &[f64; N]| {
+                    let (value, jacobian, alpha, beta) = self.psi_jacobian_alpha_beta(x #wa);
+                    (value, jacobian, (alpha, beta))
+                };
+                let (states, at) = psi_newton(&target, &guess, at_guess, eval).map_err(|e| (k, e))?;
+                let (alpha, beta) = at.2;
+                u[k] = (yr[k] - alpha) / beta;
                 for (column, s) in x.iter_mut().zip(states) {
                     column[k] = s;
                 }
