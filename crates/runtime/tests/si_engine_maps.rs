@@ -195,23 +195,40 @@ fn the_block_inverse_is_the_pointwise_inverse_bit_for_bit() {
     let starts: [[f64; 2]; 4] = [[0.0, 0.0], [1.0, 1.0], [30.0, 1.0e5], [5.0, 2.0e4]];
     // Blocks of several lengths, each from its own first guess.
     let mut k0 = 0;
-    for (b, len) in [1usize, 2, 7, 64, 255, 256, 1000, 4096].iter().cycle().enumerate() {
+    for (b, len) in [1usize, 2, 7, 64, 255, 256, 1000, 4096]
+        .iter()
+        .cycle()
+        .enumerate()
+    {
         if k0 >= y0.len() {
             break;
         }
         let k1 = (k0 + len).min(y0.len());
         let guess = starts[b % starts.len()];
-        let (mut xs, mut ps, mut us) = (vec![0.0; k1 - k0], vec![0.0; k1 - k0], vec![f64::NAN; k1 - k0]);
+        let (mut xs, mut ps, mut us) = (
+            vec![0.0; k1 - k0],
+            vec![0.0; k1 - k0],
+            vec![f64::NAN; k1 - k0],
+        );
         xs[0] = guess[0];
         ps[0] = guess[1];
         {
             let mut x: [&mut [f64]; 2] = [&mut xs, &mut ps];
-            m.invert_batch(&[&y0[k0..k1], &y1[k0..k1]], &[], &[], &y2[k0..k1], &mut x, &mut us)
-                .expect("the block inverse succeeds");
+            m.invert_batch(
+                &[&y0[k0..k1], &y1[k0..k1]],
+                &[],
+                &[],
+                &y2[k0..k1],
+                &mut x,
+                &mut us,
+            )
+            .expect("the block inverse succeeds");
         }
         let mut x = guess.to_vec();
         for k in k0..k1 {
-            let u = m.invert(&[y0[k], y1[k]], &[], &[], y2[k], &mut x).expect("the inverse succeeds");
+            let u = m
+                .invert(&[y0[k], y1[k]], &[], &[], y2[k], &mut x)
+                .expect("the inverse succeeds");
             let i = k - k0;
             assert_eq!(u.to_bits(), us[i].to_bits(), "u at {k}: {u} vs {}", us[i]);
             assert_eq!(x[0].to_bits(), xs[i].to_bits(), "v at {k}");
@@ -229,7 +246,11 @@ fn the_block_inverse_reports_the_first_failing_point() {
     let xi0 = [1.0, 2.0, 3.0, f64::NAN, 5.0];
     let xi1 = [0.1, 0.2, 0.3, 0.4, 0.5];
     let yr = [0.0; 5];
-    let (mut v, mut p, mut u) = ([10.0, 0.0, 0.0, 0.0, 0.0], [5.0e4, 0.0, 0.0, 0.0, 0.0], [f64::NAN; 5]);
+    let (mut v, mut p, mut u) = (
+        [10.0, 0.0, 0.0, 0.0, 0.0],
+        [5.0e4, 0.0, 0.0, 0.0, 0.0],
+        [f64::NAN; 5],
+    );
     let err = {
         let mut x: [&mut [f64]; 2] = [&mut v, &mut p];
         m.invert_batch(&[&xi0, &xi1], &[], &[], &yr, &mut x, &mut u)
@@ -238,8 +259,13 @@ fn the_block_inverse_reports_the_first_failing_point() {
     assert_eq!(err.0, 3);
     let mut x = vec![10.0, 5.0e4];
     for k in 0..3 {
-        let uk = m.invert(&[xi0[k], xi1[k]], &[], &[], yr[k], &mut x).expect("finite points invert");
-        assert_eq!((uk.to_bits(), x[0].to_bits(), x[1].to_bits()), (u[k].to_bits(), v[k].to_bits(), p[k].to_bits()));
+        let uk = m
+            .invert(&[xi0[k], xi1[k]], &[], &[], yr[k], &mut x)
+            .expect("finite points invert");
+        assert_eq!(
+            (uk.to_bits(), x[0].to_bits(), x[1].to_bits()),
+            (u[k].to_bits(), v[k].to_bits(), p[k].to_bits())
+        );
     }
     let scalar = m
         .invert(&[xi0[3], xi1[3]], &[], &[], yr[3], &mut x)

@@ -2,7 +2,12 @@
 //! Jacobian `psi_jacobian` (same iteration limit, tolerance and residual scaling as the interpreter); α, β,
 //! the inverse and the zero dynamics are then evaluated in the states at the solution (L_f^r h,
 //! L_g L_f^(r−1) h, f_η + g_η·u); where y^(r) is not affine in u, the input at the solution comes from
-//! `solve_input.rs` instead. Also the free wrappers, the LU solve and the constants.
+//! `solve_input.rs` instead. Where y^(r) is affine in u, `invert_batch` runs the inverse along a block of
+//! samples: Newton from sample to sample as the runtime runs `invert` (each from the previous solution), every
+//! iteration evaluating `psi_jacobian_alpha_beta` (ψ, ∂ψ/∂x, α and β in one pass), so that α and β at the
+//! solution come with the last iteration and ψ, ∂ψ/∂x there serve the next sample's first iteration; the same
+//! operations in the same order per sample, so the numbers of `invert` bit for bit. Also the free wrappers,
+//! the iteration `psi_newton` over a given evaluation, the LU solve and the constants.
 
 use super::context::Gen;
 use crate::emit;
@@ -195,7 +200,10 @@ fn invert_batch_method(g: &Gen<'_>) -> TokenStream {
             quote!(w: [&[f64]; NW],),
             quote!(let w: [f64; NW] = w.map(|c| c[k]);),
             quote!([u64; NW]),
-            quote!(known.take().filter(|(bits, _)| *bits == w.map(f64::to_bits)).map(|(_, at)| at)),
+            quote!(known
+                .take()
+                .filter(|(bits, _)| *bits == w.map(f64::to_bits))
+                .map(|(_, at)| at)),
             quote!(Some((w.map(f64::to_bits), at))),
         )
     } else {
@@ -225,6 +233,7 @@ fn invert_batch_method(g: &Gen<'_>) -> TokenStream {
         /// # Panics
         ///
         /// If a column is shorter than `yr`.
+        #[allow(clippy::type_complexity)]
         pub fn invert_batch(
             &self,
             xi: [&[f64]; R],
