@@ -17,7 +17,7 @@
 //! - `nonsense_options`: Options that make no sense for the cycle (issue 15, defect 10): a look-ahead longer than a quarter of the
 //! - `plot`: The plots of every shipped model (`models/*.toml`, through the interpreter): the SVG parsed and its
 //! - `si_engine_maps`: si_engine_maps on the NEDC: inverse consistency, replay, a constant map equals si_engine, compiled vs
-//!   interpreted, `set_map`.
+//!   interpreted, `set_map`, the block inverse equals the pointwise one and the earlier run bit for bit.
 //! - `simulate`: Tests of the inverse-simulation driver against hand-written models with known answers.
 //! - `smoother`: Tests for the kernel (eq. 33–35 of Fröberg & Nielsen 2004) and the smoother: every value is checked
 //! - `stable`: Stable (non-causal) inversion of unstable zero dynamics (`invsim_runtime::stable`): linear non-minimum-phase
