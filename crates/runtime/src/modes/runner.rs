@@ -39,6 +39,9 @@ pub(super) struct ZeroDynamics {
     ode: Vec<Option<Dopri5>>,
     y: Vec<f64>,
     w: Vec<f64>,
+    /// The mode and end of the last interval integrated: an interval that continues it (same mode, starting
+    /// where it ended) starts with the step size the controller reached, any other with (t1 − t0)/4.
+    last: Option<(usize, f64)>,
 }
 
 impl ZeroDynamics {
@@ -47,6 +50,7 @@ impl ZeroDynamics {
             ode: ctx.spec.modes.iter().map(|_| None).collect(),
             y: vec![0.0; ctx.r_max + 1],
             w: Vec::new(),
+            last: None,
         }
     }
 }
@@ -118,13 +122,13 @@ impl Ctx<'_, '_> {
         let model = self.model(m);
         let r = model.info().relative_degree;
         out.yref.clear();
-        out.yref.extend_from_slice(&base[..=self.r_max]);
+        out.yref.extend(base[..=self.r_max].iter().copied());
         self.map_cycle(m, &mut out.yref);
         if let Some(b) = blend {
             b.add(t, &mut out.yref);
         }
         out.x.clear();
-        out.x.extend_from_slice(x_guess);
+        out.x.extend(x_guess.iter().copied());
         let w = self.w(m, t);
         let (x, yref) = (&mut out.x, &out.yref);
         out.u = model
@@ -148,8 +152,10 @@ impl Ctx<'_, '_> {
         }
     }
 
-    /// Advance η of mode `m` over [t0, t1] by its zero dynamics along the (blended) reference; every interval
-    /// starts afresh (no FSAL stage, initial step (t1 − t0)/4), with the integrator and buffers of `zd`.
+    /// Advance η of mode `m` over [t0, t1] by its zero dynamics along the (blended) reference, with the
+    /// integrator and buffers of `zd`. Every interval starts without an FSAL stage (η may have been set by a
+    /// switch); its first step is the one the step-size controller proposed at the end of the previous
+    /// interval where that was the same mode's, up to t1 − t0, else (t1 − t0)/4.
     /// `base0`: the smoothed cycle at the sample t0 ([`Ctx::base_at`]).
     fn advance_eta(
         &self,
@@ -166,9 +172,15 @@ impl Ctx<'_, '_> {
         let model = self.model(m);
         let r = model.info().relative_degree;
         let n_w = model.info().n_w();
-        let h0 = (t1 - t0) / 4.0;
-        let ZeroDynamics { ode, y, w } = zd;
-        let ode = ode[m].get_or_insert_with(|| Dopri5::new(eta.len(), 1e-10, 1e-12, h0));
+        let ZeroDynamics { ode, y, w, last } = zd;
+        let ode = ode[m].get_or_insert_with(|| Dopri5::new(eta.len(), 1e-10, 1e-12, t1 - t0));
+        let h0 = match *last {
+            Some((lm, lt)) if lm == m && lt.to_bits() == t0.to_bits() => {
+                ode.step_size().min(t1 - t0)
+            }
+            _ => (t1 - t0) / 4.0,
+        };
+        *last = Some((m, t1));
         ode.reset(h0);
         // The reference and the signals depend on t alone: the two last stages of a Dormand–Prince step
         // are both at t + h, so they are evaluated once for both (the same values), and the first stage at
