@@ -23,6 +23,7 @@ impl Rows {
     }
 
     /// Append a row (`row.len()` must be the width).
+    #[inline]
     pub fn push(&mut self, row: &[f64]) {
         assert_eq!(row.len(), self.width, "a row of another width");
         // A row is a few numbers: an element loop, not a `memcpy` call per row.
@@ -94,6 +95,7 @@ impl Index<usize> for Rows {
     type Output = [f64];
 
     /// Row k (panics beyond the last row).
+    #[inline]
     fn index(&self, k: usize) -> &[f64] {
         assert!(k < self.rows, "row {k} of {}", self.rows);
         &self.values[k * self.width..(k + 1) * self.width]

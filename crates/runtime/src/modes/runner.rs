@@ -4,6 +4,7 @@
 
 use invsim_model_api::InverseModel;
 
+use super::bases::Bases;
 use super::blend::Blend;
 use super::gears::GearBox;
 use super::record::{CouplingReset, Ctx, Impulse, Record, Solved, Transition};
@@ -60,12 +61,6 @@ impl Ctx<'_, '_> {
         self.spec.modes[m].model
     }
 
-    /// The unmapped smoothed cycle y_c^(0 … max(r_max, 1)) at t into `base` (what every mode's reference at
-    /// a sample is a map of: evaluated once per sample).
-    pub(super) fn base_at(&self, t: f64, base: &mut [f64]) {
-        self.smoother.eval(t, base);
-    }
-
     /// y^(0 … r_max) of mode `m`'s reference at t into `y`: its map of the smoothed cycle, plus the blend.
     fn reference_into(&self, m: usize, t: f64, blend: Option<&Blend>, y: &mut [f64]) {
         self.smoother.eval(t, y);
@@ -84,7 +79,7 @@ impl Ctx<'_, '_> {
         y[0] += map.offset;
     }
 
-    /// The mode's map of the smoothed cycle, y_c^(0 … r_max), from the sample's `base` ([`Ctx::base_at`]).
+    /// The mode's map of the smoothed cycle, y_c^(0 … r_max), from the sample's `base` (the run's `Bases`).
     fn cycle_reference(&self, m: usize, base: &[f64]) -> Vec<f64> {
         let mut y = base[..=self.r_max].to_vec();
         self.map_cycle(m, &mut y);
@@ -156,7 +151,7 @@ impl Ctx<'_, '_> {
     /// integrator and buffers of `zd`. Every interval starts without an FSAL stage (η may have been set by a
     /// switch); its first step is the one the step-size controller proposed at the end of the previous
     /// interval where that was the same mode's, up to t1 − t0, else (t1 − t0)/4.
-    /// `base0`: the smoothed cycle at the sample t0 ([`Ctx::base_at`]).
+    /// `base0`: the smoothed cycle at the sample t0 (the run's `Bases`).
     fn advance_eta(
         &self,
         m: usize,
@@ -358,9 +353,11 @@ fn run_sequence(ctx: &Ctx<'_, '_>, grid: &Grid, opts: &ModalOptions) -> Result<R
     let spec = ctx.spec;
     let mut gearbox = GearBox::new(spec.gear_source.clone(), spec.gears);
     let t0 = grid.time(0);
-    // The smoothed cycle at the sample, y_c^(0 … max(r_max, 1)), evaluated once per sample.
+    // The smoothed cycle at the sample, y_c^(0 … max(r_max, 1)) (what every mode's reference at a sample is
+    // a map of), evaluated on the grid block by block.
     let mut base = vec![0.0; ctx.r_max.max(1) + 1];
-    ctx.base_at(t0, &mut base);
+    let mut bases = Bases::new(base.len());
+    bases.at(&ctx.smoother, grid, 0, &mut base);
     let gear = gearbox.gear(t0, base[0]);
     let stand = base[0] < spec.sequence.standstill_below && ctx.rules.has_standstill;
     let rung = if stand {
@@ -408,7 +405,7 @@ fn run_sequence(ctx: &Ctx<'_, '_>, grid: &Grid, opts: &ModalOptions) -> Result<R
             inner.blend.as_ref(),
             &mut zd,
         )?;
-        ctx.base_at(tb, &mut base);
+        bases.at(&ctx.smoother, grid, k, &mut base);
         let local = (&inner.eta[..], inner.blend.as_ref());
         ctx.solve_into(m, (tb, &base), local, &cur.x, &mut spare)?;
         rec.u_end.push(spare.u);
