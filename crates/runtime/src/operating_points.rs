@@ -59,7 +59,14 @@ impl OperatingPointTally {
     #[inline]
     pub(crate) fn push(&mut self, outputs: impl Fn(usize) -> f64) {
         let (w, t) = (outputs(self.engine.speed), outputs(self.engine.torque));
-        self.extend_columns(&[w], &[t]);
+        // One sample: `extend_columns` for one value each, without its slice calls.
+        self.speeds.push(w);
+        self.torques.push(t);
+        for (r, v) in self.range.iter_mut().zip([w, t]) {
+            if v.is_finite() {
+                *r = [r[0].min(v), r[1].max(v)];
+            }
+        }
     }
 
     /// Consecutive samples given as columns: every extra output's values (`columns[o][i]`) for `range`.

@@ -12,6 +12,7 @@
 //!   U = g·Δx / g·g. Each accumulated output o is booked U · ∂o/∂u (∂o/∂u by central differences), and a part
 //!   of Δx that is not along g (no impulse of the input can make it) is reported.
 
+mod bases;
 pub mod blend;
 pub(crate) mod coupling;
 pub mod gears;

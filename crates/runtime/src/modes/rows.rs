@@ -23,9 +23,11 @@ impl Rows {
     }
 
     /// Append a row (`row.len()` must be the width).
+    #[inline]
     pub fn push(&mut self, row: &[f64]) {
         assert_eq!(row.len(), self.width, "a row of another width");
-        self.values.extend_from_slice(row);
+        // A row is a few numbers: an element loop, not a `memcpy` call per row.
+        self.values.extend(row.iter().copied());
         self.rows += 1;
     }
 
@@ -52,6 +54,15 @@ impl Rows {
     pub fn column(&self, j: usize) -> impl Iterator<Item = f64> + '_ {
         assert!(j < self.width, "column {j} of {}", self.width);
         self.values.iter().skip(j).step_by(self.width).copied()
+    }
+
+    /// Every column, in order: what [`Rows::column`] gives for each j, gathered by index into vectors of
+    /// known length (no strided iterator).
+    pub fn columns(&self) -> Vec<Vec<f64>> {
+        let w = self.width;
+        (0..w)
+            .map(|j| (0..self.rows).map(|k| self.values[k * w + j]).collect())
+            .collect()
     }
 
     /// Row k, if there is one.
@@ -84,6 +95,7 @@ impl Index<usize> for Rows {
     type Output = [f64];
 
     /// Row k (panics beyond the last row).
+    #[inline]
     fn index(&self, k: usize) -> &[f64] {
         assert!(k < self.rows, "row {k} of {}", self.rows);
         &self.values[k * self.width..(k + 1) * self.width]
@@ -105,6 +117,8 @@ mod tests {
         let all: Vec<&[f64]> = r.iter().collect();
         assert_eq!(all, vec![&[1.0, 2.0][..], &[3.0, 4.0][..]]);
         assert_eq!(r.column(1).collect::<Vec<f64>>(), vec![2.0, 4.0]);
+        assert_eq!(r.columns(), vec![vec![1.0, 3.0], vec![2.0, 4.0]]);
+        assert_eq!(Rows::with_capacity(0, 0).columns(), Vec::<Vec<f64>>::new());
         assert_eq!((r.first(), r.get(2)), (Some(&[1.0, 2.0][..]), None));
         assert_eq!((&r).into_iter().count(), 2);
         let mut empty = Rows::with_capacity(0, 0);

@@ -4,6 +4,7 @@
 
 use invsim_model_api::InverseModel;
 
+use super::bases::Bases;
 use super::blend::Blend;
 use super::gears::GearBox;
 use super::record::{CouplingReset, Ctx, Impulse, Record, Solved, Transition};
@@ -39,6 +40,9 @@ pub(super) struct ZeroDynamics {
     ode: Vec<Option<Dopri5>>,
     y: Vec<f64>,
     w: Vec<f64>,
+    /// The mode and end of the last interval integrated: an interval that continues it (same mode, starting
+    /// where it ended) starts with the step size the controller reached, any other with (t1 − t0)/4.
+    last: Option<(usize, f64)>,
 }
 
 impl ZeroDynamics {
@@ -47,6 +51,7 @@ impl ZeroDynamics {
             ode: ctx.spec.modes.iter().map(|_| None).collect(),
             y: vec![0.0; ctx.r_max + 1],
             w: Vec::new(),
+            last: None,
         }
     }
 }
@@ -54,12 +59,6 @@ impl ZeroDynamics {
 impl Ctx<'_, '_> {
     fn model(&self, m: usize) -> &dyn InverseModel {
         self.spec.modes[m].model
-    }
-
-    /// The unmapped smoothed cycle y_c^(0 … max(r_max, 1)) at t into `base` (what every mode's reference at
-    /// a sample is a map of: evaluated once per sample).
-    pub(super) fn base_at(&self, t: f64, base: &mut [f64]) {
-        self.smoother.eval(t, base);
     }
 
     /// y^(0 … r_max) of mode `m`'s reference at t into `y`: its map of the smoothed cycle, plus the blend.
@@ -80,7 +79,7 @@ impl Ctx<'_, '_> {
         y[0] += map.offset;
     }
 
-    /// The mode's map of the smoothed cycle, y_c^(0 … r_max), from the sample's `base` ([`Ctx::base_at`]).
+    /// The mode's map of the smoothed cycle, y_c^(0 … r_max), from the sample's `base` (the run's `Bases`).
     fn cycle_reference(&self, m: usize, base: &[f64]) -> Vec<f64> {
         let mut y = base[..=self.r_max].to_vec();
         self.map_cycle(m, &mut y);
@@ -118,13 +117,13 @@ impl Ctx<'_, '_> {
         let model = self.model(m);
         let r = model.info().relative_degree;
         out.yref.clear();
-        out.yref.extend_from_slice(&base[..=self.r_max]);
+        out.yref.extend(base[..=self.r_max].iter().copied());
         self.map_cycle(m, &mut out.yref);
         if let Some(b) = blend {
             b.add(t, &mut out.yref);
         }
         out.x.clear();
-        out.x.extend_from_slice(x_guess);
+        out.x.extend(x_guess.iter().copied());
         let w = self.w(m, t);
         let (x, yref) = (&mut out.x, &out.yref);
         out.u = model
@@ -148,9 +147,11 @@ impl Ctx<'_, '_> {
         }
     }
 
-    /// Advance η of mode `m` over [t0, t1] by its zero dynamics along the (blended) reference; every interval
-    /// starts afresh (no FSAL stage, initial step (t1 − t0)/4), with the integrator and buffers of `zd`.
-    /// `base0`: the smoothed cycle at the sample t0 ([`Ctx::base_at`]).
+    /// Advance η of mode `m` over [t0, t1] by its zero dynamics along the (blended) reference, with the
+    /// integrator and buffers of `zd`. Every interval starts without an FSAL stage (η may have been set by a
+    /// switch); its first step is the one the step-size controller proposed at the end of the previous
+    /// interval where that was the same mode's, up to t1 − t0, else (t1 − t0)/4.
+    /// `base0`: the smoothed cycle at the sample t0 (the run's `Bases`).
     fn advance_eta(
         &self,
         m: usize,
@@ -166,9 +167,15 @@ impl Ctx<'_, '_> {
         let model = self.model(m);
         let r = model.info().relative_degree;
         let n_w = model.info().n_w();
-        let h0 = (t1 - t0) / 4.0;
-        let ZeroDynamics { ode, y, w } = zd;
-        let ode = ode[m].get_or_insert_with(|| Dopri5::new(eta.len(), 1e-10, 1e-12, h0));
+        let ZeroDynamics { ode, y, w, last } = zd;
+        let ode = ode[m].get_or_insert_with(|| Dopri5::new(eta.len(), 1e-10, 1e-12, t1 - t0));
+        let h0 = match *last {
+            Some((lm, lt)) if lm == m && lt.to_bits() == t0.to_bits() => {
+                ode.step_size().min(t1 - t0)
+            }
+            _ => (t1 - t0) / 4.0,
+        };
+        *last = Some((m, t1));
         ode.reset(h0);
         // The reference and the signals depend on t alone: the two last stages of a Dormand–Prince step
         // are both at t + h, so they are evaluated once for both (the same values), and the first stage at
@@ -346,9 +353,11 @@ fn run_sequence(ctx: &Ctx<'_, '_>, grid: &Grid, opts: &ModalOptions) -> Result<R
     let spec = ctx.spec;
     let mut gearbox = GearBox::new(spec.gear_source.clone(), spec.gears);
     let t0 = grid.time(0);
-    // The smoothed cycle at the sample, y_c^(0 … max(r_max, 1)), evaluated once per sample.
+    // The smoothed cycle at the sample, y_c^(0 … max(r_max, 1)) (what every mode's reference at a sample is
+    // a map of), evaluated on the grid block by block.
     let mut base = vec![0.0; ctx.r_max.max(1) + 1];
-    ctx.base_at(t0, &mut base);
+    let mut bases = Bases::new(base.len());
+    bases.at(&ctx.smoother, grid, 0, &mut base);
     let gear = gearbox.gear(t0, base[0]);
     let stand = base[0] < spec.sequence.standstill_below && ctx.rules.has_standstill;
     let rung = if stand {
@@ -396,7 +405,7 @@ fn run_sequence(ctx: &Ctx<'_, '_>, grid: &Grid, opts: &ModalOptions) -> Result<R
             inner.blend.as_ref(),
             &mut zd,
         )?;
-        ctx.base_at(tb, &mut base);
+        bases.at(&ctx.smoother, grid, k, &mut base);
         let local = (&inner.eta[..], inner.blend.as_ref());
         ctx.solve_into(m, (tb, &base), local, &cur.x, &mut spare)?;
         rec.u_end.push(spare.u);

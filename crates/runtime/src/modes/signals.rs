@@ -40,6 +40,9 @@ pub(super) fn resolve_modal(
 impl Ctx<'_, '_> {
     /// The smoothed signals and their derivatives at t in mode `m`'s layout (empty without signals).
     pub(super) fn w(&self, m: usize, t: f64) -> Vec<f64> {
+        if self.smoother.signals().is_empty() {
+            return Vec::new();
+        }
         let mut w = vec![0.0; self.spec.modes[m].model.info().n_w()];
         self.smoother.eval_signals(t, &mut w);
         w
@@ -49,6 +52,9 @@ impl Ctx<'_, '_> {
     pub(super) fn w_into(&self, m: usize, t: f64, n_w: usize, w: &mut Vec<f64>) {
         debug_assert_eq!(n_w, self.spec.modes[m].model.info().n_w());
         w.clear();
+        if n_w == 0 {
+            return;
+        }
         w.resize(n_w, 0.0);
         self.smoother.eval_signals(t, w);
     }

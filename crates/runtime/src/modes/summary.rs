@@ -219,12 +219,10 @@ fn table(ctx: &Ctx<'_, '_>, rec: &Record, tally: &Tally) -> Vec<Vec<f64>> {
             .map(|&m| spec.modes[m].gear.unwrap_or(0) as f64)
             .collect(),
     ];
-    let column = |rows: &Rows, j: usize| rows.column(j).collect::<Vec<f64>>();
-    data.extend((0..rec.yref.width()).map(|j| column(&rec.yref, j)));
-    let signals = signal_rows(ctx, &rec.t);
-    data.extend((0..signals.width()).map(|j| column(&signals, j)));
+    data.extend(rec.yref.columns());
+    data.extend(signal_rows(ctx, &rec.t).columns());
     for rows in [&tally.inputs, &rec.states, &tally.outputs] {
-        data.extend((0..rows.width()).map(|j| column(rows, j)));
+        data.extend(rows.columns());
     }
     data
 }
