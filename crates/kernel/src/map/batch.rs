@@ -34,6 +34,8 @@
 // fixed-width loops across points.
 #![allow(clippy::needless_range_loop)]
 
+use std::cell::RefCell;
+
 use super::axis::Axis;
 use super::extrapolate::Extrapolate;
 use crate::kernel::F4;
@@ -64,7 +66,8 @@ struct AxisChunk {
     t: [f64; CHUNK],
 }
 
-/// Everything a chunk needs, allocated once per call (the stages overwrite it; nothing is cleared per chunk).
+/// Everything a chunk needs, one per thread (see [`with_scratch`]): the stages write every entry a chunk
+/// reads before reading it, so nothing is cleared per chunk or per call.
 struct Scratch {
     x: AxisChunk,
     y: AxisChunk,
@@ -74,6 +77,39 @@ struct Scratch {
     v: [[[f64; CHUNK]; 3]; 3],
     /// Results `res[3p + q][i]` (1-D: `res[m][i]`).
     res: [[f64; CHUNK]; 9],
+}
+
+impl Scratch {
+    fn new() -> Box<Scratch> {
+        Box::new(Scratch {
+            x: AxisChunk::new(),
+            y: AxisChunk::new(),
+            e: [[0.0; CHUNK]; 3],
+            v: [[[0.0; CHUNK]; 3]; 3],
+            res: [[0.0; CHUNK]; 9],
+        })
+    }
+}
+
+thread_local! {
+    /// This thread's scratch, allocated at its first batched evaluation and reused by every later one.
+    static SCRATCH: RefCell<Option<Box<Scratch>>> = const { RefCell::new(None) };
+}
+
+/// `f` on this thread's scratch; on a fresh one if it is in use or gone (a nested call, thread teardown).
+fn with_scratch<R>(f: impl FnOnce(&mut Scratch) -> R) -> R {
+    let mut f = Some(f);
+    let reused = SCRATCH.try_with(|cell| {
+        let mut slot = cell.try_borrow_mut().ok()?;
+        let f = f.take()?;
+        Some(f(slot.get_or_insert_with(Scratch::new)))
+    });
+    match (reused, f) {
+        (Ok(Some(r)), _) => r,
+        (_, Some(f)) => f(&mut Scratch::new()),
+        // `f` is taken only just before it runs, and then it returned `Some`.
+        (_, None) => unreachable!("the scratch closure ran and returned"),
+    }
 }
 
 impl AxisChunk {
@@ -333,21 +369,13 @@ pub(super) struct Data<'a> {
 
 /// The fixed-width path over all points (the map [`fits`]); `out` as `Map::partials2_batch` lays it out.
 #[inline(always)]
-fn run<V: F4>(map: Data<'_>, a: &[f64], b: &[f64], out: &mut [f64]) {
+fn run<V: F4>(map: Data<'_>, a: &[f64], b: &[f64], out: &mut [f64], s: &mut Scratch) {
     let n = a.len();
     let width = if map.y.is_some() { 9 } else { 3 };
-    let mut s = Box::new(Scratch {
-        x: AxisChunk::new(),
-        y: AxisChunk::new(),
-        e: [[0.0; CHUNK]; 3],
-        v: [[[0.0; CHUNK]; 3]; 3],
-        res: [[0.0; CHUNK]; 9],
-    });
     let mut start = 0;
     while start < n {
         let len = CHUNK.min(n - start);
         let ax = chunk_of(&a[start..start + len], map.x.grid[0]);
-        let s = &mut *s;
         axis_stages::<V>(map.x, &ax, &mut s.x, &mut s.e);
         match map.y {
             None => contract_1d(map.padded, s),
@@ -368,14 +396,14 @@ fn run<V: F4>(map: Data<'_>, a: &[f64], b: &[f64], out: &mut [f64]) {
 /// numbers are those of the portable build).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn run_avx2(map: Data<'_>, a: &[f64], b: &[f64], out: &mut [f64]) {
-    run::<crate::kernel::Avx2>(map, a, b, out)
+unsafe fn run_avx2(map: Data<'_>, a: &[f64], b: &[f64], out: &mut [f64], s: &mut Scratch) {
+    run::<crate::kernel::Avx2>(map, a, b, out, s)
 }
 
 /// [`run`] built for any processor (what [`dispatch`] runs without AVX2), for the tests.
 #[cfg(test)]
 pub(super) fn portable(map: Data<'_>, a: &[f64], b: &[f64], out: &mut [f64]) {
-    run::<[f64; 4]>(map, a, b, out)
+    with_scratch(|s| run::<[f64; 4]>(map, a, b, out, s))
 }
 
 /// [`run`] with the best instruction set this processor has.
@@ -383,7 +411,7 @@ pub(super) fn dispatch(map: Data<'_>, a: &[f64], b: &[f64], out: &mut [f64]) {
     #[cfg(target_arch = "x86_64")]
     if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
         // SAFETY: the processor has the features `run_avx2` is compiled for.
-        return unsafe { run_avx2(map, a, b, out) };
+        return with_scratch(|s| unsafe { run_avx2(map, a, b, out, s) });
     }
-    run::<[f64; 4]>(map, a, b, out)
+    with_scratch(|s| run::<[f64; 4]>(map, a, b, out, s))
 }
