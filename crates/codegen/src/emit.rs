@@ -278,7 +278,20 @@ pub(crate) fn render(
     fixed: &HashMap<usize, Ident>,
     temp: &str,
 ) -> Block {
-    render_with(arena, roots, index, atom, &|_| None, fixed, temp)
+    render_full(arena, roots, index, atom, &|_| None, fixed, temp, true)
+}
+
+/// [`render`] for a function whose map calls are at new points on every call (Newton's iterates): they call
+/// `Map::partials2_fresh` (no per-thread memo; the same numbers as `partials2`).
+pub(crate) fn render_fresh(
+    arena: &Arena,
+    roots: &[Val],
+    index: &dyn Fn(Val) -> Option<usize>,
+    atom: &dyn Fn(Val) -> Ex,
+    fixed: &HashMap<usize, Ident>,
+    temp: &str,
+) -> Block {
+    render_full(arena, roots, index, atom, &|_| None, fixed, temp, false)
 }
 
 /// [`render`], with some arena values computed elsewhere: `given(i)` is the expression that stands for value
@@ -292,6 +305,27 @@ pub(crate) fn render_with(
     fixed: &HashMap<usize, Ident>,
     temp: &str,
 ) -> Block {
+    render_full(arena, roots, index, atom, given, fixed, temp, true)
+}
+
+/// [`render_with`]; the map calls through the per-thread memo (`partials2`) if `memo`, else
+/// `partials2_fresh`.
+#[allow(clippy::too_many_arguments)]
+fn render_full(
+    arena: &Arena,
+    roots: &[Val],
+    index: &dyn Fn(Val) -> Option<usize>,
+    atom: &dyn Fn(Val) -> Ex,
+    given: &dyn Fn(usize) -> Option<Ex>,
+    fixed: &HashMap<usize, Ident>,
+    temp: &str,
+    memo: bool,
+) -> Block {
+    let map_fn = if memo {
+        quote!(partials2)
+    } else {
+        quote!(partials2_fresh)
+    };
     let n = arena.ops().len();
     let mut reachable = vec![false; n];
     let mut stack: Vec<usize> = roots.iter().filter_map(|&v| index(v)).collect();
@@ -331,7 +365,7 @@ pub(crate) fn render_with(
                 .map(|&a| val_ex(a, arena, &names, index, atom, given, &mut flags).tokens(0))
                 .collect();
             let m = Literal::usize_unsuffixed(m);
-            lets.push(quote!(let #name = self.maps[#m].partials2(&[#(#args),*]);));
+            lets.push(quote!(let #name = self.maps[#m].#map_fn(&[#(#args),*]);));
         }
         if !reachable[i] || (uses[i] < 2 && !fixed.contains_key(&i)) {
             continue;

@@ -437,6 +437,21 @@ impl Map {
         })
     }
 
+    /// [`Map::partials2`] without the per-thread memo: evaluated afresh, neither looked up nor stored. The same
+    /// numbers (a memo hit is what a fresh evaluation gives); for callers whose points are new on every call
+    /// (Newton's iterates), where the memo's look-up and store are pure overhead.
+    ///
+    /// Under `extrapolate = "error"` an argument outside the grid is recorded as for [`Map::eval`].
+    pub fn partials2_fresh(&self, args: &[f64]) -> [f64; 9] {
+        self.check_range(args);
+        let mut out = [0.0; 9];
+        match self.y {
+            None => self.eval(&args[..1], [2, 0], &mut out[..3]),
+            Some(_) => self.eval(args, [2, 2], &mut out),
+        }
+        out
+    }
+
     /// [`Map::partials2`] at `n = a.len()` points at once, as structure of arrays: `out[k · n + i]` is entry
     /// `k` of `partials2(&[a[i], b[i]])` for `k < 9` (2-D), or of `partials2(&[a[i]])` for `k < 3` (1-D:
     /// `M, M', M''`; `b` is not read and may be empty). The same numbers as point by point.

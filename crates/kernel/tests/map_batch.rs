@@ -80,7 +80,8 @@ fn min_spacing(g: &[f64]) -> f64 {
 }
 
 /// `partials2_batch` against `partials2` at every point: within `1e-14 · max|v| / (hx^p hy^q)` (the map's
-/// scale for that partial); returns how many entries were bit for bit equal and how many were compared.
+/// scale for that partial), and `partials2_fresh` bit for bit equal to `partials2`; returns how many
+/// entries of the batch were bit for bit equal and how many were compared.
 fn compare(map: &Map, a: &[f64], b: &[f64], h: [f64; 2]) -> (usize, usize) {
     let n = a.len();
     let two_d = map.arity() == 2;
@@ -95,6 +96,14 @@ fn compare(map: &Map, a: &[f64], b: &[f64], h: [f64; 2]) -> (usize, usize) {
         // Fresh point by point (another memo key: the memo holds only what a fresh evaluation gives).
         let want = map.partials2(&args);
         take_violation();
+        // Without the memo: the same bits, every entry.
+        let fresh = map.partials2_fresh(&args);
+        take_violation();
+        assert_eq!(
+            fresh.map(f64::to_bits),
+            want.map(f64::to_bits),
+            "partials2_fresh at {args:?}"
+        );
         for k in 0..width {
             let (p, q) = if two_d { (k / 3, k % 3) } else { (k, 0) };
             let scale = vmax / (h[0].powi(p as i32) * h[1].powi(q as i32));

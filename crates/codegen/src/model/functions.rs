@@ -141,7 +141,14 @@ fn method(
     };
     let atoms = Atoms::new(g, k_names);
     let atom = |v: Val| atoms.ex(v);
-    let block = emit::render(&l.arena, &l.roots, &loc_index, &atom, &HashMap::new(), "t");
+    // Newton's iteration (`invert_batch`) evaluates ψ, ∂ψ/∂x, α, β at a new x on every call: its map calls
+    // would miss the memo every time.
+    let render = if f.kind == FnKind::PsiJacobianAlphaBeta {
+        emit::render_fresh
+    } else {
+        emit::render
+    };
+    let block = render(&l.arena, &l.roots, &loc_index, &atom, &HashMap::new(), "t");
     let is_invert = f.kind == FnKind::Invert;
     let (params_sig, destructure, call_args) = signature(g, &f.args, &atoms.used(), is_invert);
     let p_let = if atoms.uses_p() {
