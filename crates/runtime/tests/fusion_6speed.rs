@@ -4,31 +4,14 @@
 //! the chain rule, the built-in cycles flat: the grade and its derivatives 0), the replay through the mode
 //! sequence tracks, every gear is used and the fuel is FASTSim's within the bounds docs/vehicles.md explains.
 
-use std::path::Path;
-
 use invsim_model_api::InverseModel;
 use invsim_runtime::modes::{simulate_modes, ModalOptions, Switching};
 use invsim_runtime::Cycle;
 
-use crate::modes::support::{load, spec, speed_schedule, Loaded};
+use crate::modes::support::{load_repo, partial, spec, speed_schedule, Loaded};
 
 fn fusion() -> Loaded {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../models/ford_fusion_2012_dynamic_6speed.toml");
-    let text = std::fs::read_to_string(&path).expect("the model file");
-    load(&path, &text)
-}
-
-/// ∂f/∂x_j by Richardson-extrapolated central differences (error O(h^4)).
-fn partial(f: &dyn Fn(&[f64]) -> f64, x: &[f64], j: usize) -> f64 {
-    let h = 1e-3 * x[j].abs().max(1e-2);
-    let d = |h: f64| {
-        let (mut a, mut b) = (x.to_vec(), x.to_vec());
-        a[j] += h;
-        b[j] -= h;
-        (f(&a) - f(&b)) / (2.0 * h)
-    };
-    (4.0 * d(h / 2.0) - d(h)) / 3.0
+    load_repo("models/ford_fusion_2012_dynamic_6speed.toml")
 }
 
 #[test]

@@ -13,7 +13,7 @@ use invsim_runtime::{Cycle, Smoother};
 #[path = "modes_support.rs"]
 pub(crate) mod support;
 
-use support::{five_speed, load, spec, speed_schedule, Loaded, W};
+use support::{five_speed, load, partial, spec, speed_schedule, Loaded, W};
 
 fn run(l: &Loaded, cycle: &Cycle, dt: f64, switching: Switching, verify: bool) -> ModalResult {
     let opts = ModalOptions {
@@ -26,35 +26,24 @@ fn run(l: &Loaded, cycle: &Cycle, dt: f64, switching: Switching, verify: bool) -
     simulate_modes(&spec(l, speed_schedule(l)), cycle, &opts).expect("the run succeeds")
 }
 
-/// ∂f/∂x_j by Richardson-extrapolated central differences (error O(h^4)).
-fn partial(f: &dyn Fn(&[f64]) -> f64, x: &[f64], j: usize) -> f64 {
-    let h = 1e-3 * x[j].abs().max(1e-2);
-    let d = |h: f64| {
-        let (mut a, mut b) = (x.to_vec(), x.to_vec());
-        a[j] += h;
-        b[j] -= h;
-        (f(&a) - f(&b)) / (2.0 * h)
-    };
-    (4.0 * d(h / 2.0) - d(h)) / 3.0
-}
-
 /// In every mode and at every sample: v' = rhs_v(x, u) is y_d', and for the modes with r = 2 also
-/// y_d'' = ∂rhs_v/∂x · rhs(x, u) (rhs_v does not depend on u there): the original equations.
-fn check_equations(l: &Loaded, res: &ModalResult) {
+/// y_d'' = Σ_j ∂rhs_v/∂x_j · rhs_j(x, u) (rhs_v does not depend on u there): the original equations. The
+/// output is the first state, v.
+pub(crate) fn check_equations(l: &Loaded, res: &ModalResult) {
     let (mut worst1, mut worst2) = (0.0f64, 0.0f64);
     for k in 0..res.free.len() {
         let model = &l.interps[res.mode[k]];
         let (x, u, y) = (&res.states[k], res.free[k], &res.yref[k]);
-        let mut dx = [0.0; 2];
+        let mut dx = vec![0.0; x.len()];
         model.rhs(x, W, u, &mut dx);
         worst1 = worst1.max((dx[0] - y[1]).abs() / y[1].abs().max(1.0));
         if model.info().relative_degree == 2 {
             let fv = |z: &[f64]| {
-                let mut d = [0.0; 2];
+                let mut d = vec![0.0; z.len()];
                 model.rhs(z, W, u, &mut d);
                 d[0]
             };
-            let ydd = partial(&fv, x, 0) * dx[0] + partial(&fv, x, 1) * dx[1];
+            let ydd: f64 = (0..x.len()).map(|j| partial(&fv, x, j) * dx[j]).sum();
             worst2 = worst2.max((ydd - y[2]).abs() / y[2].abs().max(1.0));
         }
     }

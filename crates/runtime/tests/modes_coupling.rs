@@ -9,14 +9,14 @@
 
 use std::path::Path;
 
-use invsim_model_api::InverseModel;
 use invsim_runtime::forward::forward_modes;
 use invsim_runtime::modes::{
     simulate_modes, GearSource, ModalOptions, ModalResult, ModalSpec, Switching,
 };
 use invsim_runtime::{Cycle, ForwardOptions};
 
-use crate::modes::support::{five_speed, load, spec, speed_schedule, Loaded, W};
+use crate::modes::check_equations;
+use crate::modes::support::{five_speed, load, load_repo, spec, speed_schedule, Loaded, W};
 use crate::modes::{GAIN_SWITCH, T_S};
 
 const COUPLED_SWITCH: &str = r#"
@@ -96,45 +96,7 @@ fn a_coupled_state_carries_the_gain_switch_and_resets_at_the_switch() {
 }
 
 fn clutch() -> Loaded {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../tests/models/si_engine_5speed_clutch.toml");
-    let text = std::fs::read_to_string(&path).expect("the model file");
-    load(&path, &text)
-}
-
-/// ∂f/∂x_j by Richardson-extrapolated central differences (error O(h^4)).
-fn partial(f: &dyn Fn(&[f64]) -> f64, x: &[f64], j: usize) -> f64 {
-    let h = 1e-3 * x[j].abs().max(1e-2);
-    let d = |h: f64| {
-        let (mut a, mut b) = (x.to_vec(), x.to_vec());
-        a[j] += h;
-        b[j] -= h;
-        (f(&a) - f(&b)) / (2.0 * h)
-    };
-    (4.0 * d(h / 2.0) - d(h)) / 3.0
-}
-
-/// At every sample the mode's original equations: v' = y_d', and y_d'' = Σ_j ∂rhs_v/∂x_j · rhs_j for r = 2.
-fn check_equations(l: &Loaded, res: &ModalResult) {
-    let (mut worst1, mut worst2) = (0.0f64, 0.0f64);
-    for k in 0..res.free.len() {
-        let model = &l.interps[res.mode[k]];
-        let (x, u, y) = (&res.states[k], res.free[k], &res.yref[k]);
-        let mut dx = [0.0; 3];
-        model.rhs(x, W, u, &mut dx);
-        worst1 = worst1.max((dx[0] - y[1]).abs() / y[1].abs().max(1.0));
-        if model.info().relative_degree == 2 {
-            let fv = |z: &[f64]| {
-                let mut d = [0.0; 3];
-                model.rhs(z, W, u, &mut d);
-                d[0]
-            };
-            let ydd: f64 = (0..3).map(|j| partial(&fv, x, j) * dx[j]).sum();
-            worst2 = worst2.max((ydd - y[2]).abs() / y[2].abs().max(1.0));
-        }
-    }
-    assert!(worst1 < 1e-8, "v' − y_d' up to {worst1:e} relative");
-    assert!(worst2 < 1e-8, "y'' − y_d'' up to {worst2:e} relative");
+    load_repo("tests/models/si_engine_5speed_clutch.toml")
 }
 
 /// v and p_i continuous across every switch; w_e too, except where the summary lists a reset (a shift,

@@ -13,7 +13,7 @@ use invsim_runtime::forward::forward_modes;
 use invsim_runtime::modes::{simulate_modes_with_signals, ModalOptions, ModalResult, Switching};
 use invsim_runtime::{Cycle, ForwardOptions, SignalInput, SignalValue, Smoother};
 
-use crate::modes::support::{five_speed, load, spec, speed_schedule, Loaded};
+use crate::modes::support::{five_speed, load, partial, spec, speed_schedule, Loaded};
 
 /// si_engine_5speed with a `grade` signal (text of the shipped model with the grade added to F_res).
 pub(crate) fn graded() -> Loaded {
@@ -106,18 +106,6 @@ fn hilly(name: &str, a: f64) -> Cycle {
         text.push_str(&format!("{t},{v},{g}\n"));
     }
     Cycle::from_csv_str(&format!("{name}_hilly"), &text).expect("the cycle reads")
-}
-
-/// ∂f/∂z_j by Richardson-extrapolated central differences (error O(h^4)).
-fn partial(f: &dyn Fn(&[f64]) -> f64, z: &[f64], j: usize) -> f64 {
-    let h = 1e-3 * z[j].abs().max(1e-2);
-    let d = |h: f64| {
-        let (mut a, mut b) = (z.to_vec(), z.to_vec());
-        a[j] += h;
-        b[j] -= h;
-        (f(&a) - f(&b)) / (2.0 * h)
-    };
-    (4.0 * d(h / 2.0) - d(h)) / 3.0
 }
 
 #[test]

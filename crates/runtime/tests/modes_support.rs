@@ -128,9 +128,28 @@ pub fn spec<'a>(l: &'a Loaded, gear_source: GearSource) -> ModalSpec<'a> {
 }
 
 pub fn five_speed() -> Loaded {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models/si_engine_5speed.toml");
+    load_repo("models/si_engine_5speed.toml")
+}
+
+/// A model file of the repository (path relative to its root), read and loaded.
+pub fn load_repo(rel: &str) -> Loaded {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../..")
+        .join(rel);
     let text = std::fs::read_to_string(&path).expect("the model file");
     load(&path, &text)
+}
+
+/// ∂f/∂x_j by Richardson-extrapolated central differences (error O(h^4)).
+pub fn partial(f: &dyn Fn(&[f64]) -> f64, x: &[f64], j: usize) -> f64 {
+    let h = 1e-3 * x[j].abs().max(1e-2);
+    let d = |h: f64| {
+        let (mut a, mut b) = (x.to_vec(), x.to_vec());
+        a[j] += h;
+        b[j] -= h;
+        (f(&a) - f(&b)) / (2.0 * h)
+    };
+    (4.0 * d(h / 2.0) - d(h)) / 3.0
 }
 
 pub fn speed_schedule(l: &Loaded) -> GearSource {
