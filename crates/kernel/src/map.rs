@@ -431,10 +431,22 @@ impl Map {
     pub fn partials2(&self, args: &[f64]) -> [f64; 9] {
         self.check_range(args);
         let b = if self.y.is_some() { args[1] } else { 0.0 };
-        memo::entry(self.id, [args[0], b], |out| match self.y {
-            None => self.eval(&args[..1], [2, 0], &mut out[..3]),
-            Some(_) => self.eval(args, [2, 2], out),
-        })
+        memo::entry(self.id, [args[0], b], |out| self.partials2_into(args, out))
+    }
+
+    /// The numbers of [`Map::partials2`] into `out`, without range check or memo: a 2-D map that
+    /// [`batch::fits`] at finite arguments by the fixed-width path of one point ([`batch::partials2_one`],
+    /// fixed-size loops; the same bits as [`Map::eval`], whose basis leaves out the terms that are exact
+    /// zeros there), every other case by [`Map::eval`].
+    #[inline]
+    fn partials2_into(&self, args: &[f64], out: &mut [f64; 9]) {
+        match &self.y {
+            None => self.eval_unchecked(&args[..1], [2, 0], &mut out[..3]),
+            Some(y) if self.batch && args[0].is_finite() && args[1].is_finite() => {
+                *out = batch::partials2_one(&self.x, y, &self.padded, args[0], args[1]);
+            }
+            Some(_) => self.eval_unchecked(args, [2, 2], out),
+        }
     }
 
     /// [`Map::partials2`] without the per-thread memo: evaluated afresh, neither looked up nor stored. The same
@@ -445,10 +457,7 @@ impl Map {
     pub fn partials2_fresh(&self, args: &[f64]) -> [f64; 9] {
         self.check_range(args);
         let mut out = [0.0; 9];
-        match self.y {
-            None => self.eval(&args[..1], [2, 0], &mut out[..3]),
-            Some(_) => self.eval(args, [2, 2], &mut out),
-        }
+        self.partials2_into(args, &mut out);
         out
     }
 

@@ -80,7 +80,7 @@ fn min_spacing(g: &[f64]) -> f64 {
 }
 
 /// `partials2_batch` against `partials2` at every point: within `1e-14 · max|v| / (hx^p hy^q)` (the map's
-/// scale for that partial), and `partials2_fresh` bit for bit equal to `partials2`; returns how many
+/// scale for that partial), and `partials2_fresh` and `eval` bit for bit equal to `partials2`; returns how many
 /// entries of the batch were bit for bit equal and how many were compared.
 fn compare(map: &Map, a: &[f64], b: &[f64], h: [f64; 2]) -> (usize, usize) {
     let n = a.len();
@@ -103,6 +103,26 @@ fn compare(map: &Map, a: &[f64], b: &[f64], h: [f64; 2]) -> (usize, usize) {
             fresh.map(f64::to_bits),
             want.map(f64::to_bits),
             "partials2_fresh at {args:?}"
+        );
+        // `eval` keeps the basis of variable length (`small.rs`): the same bits as the fixed-width path
+        // `partials2` takes at one point.
+        let mut by_eval = [f64::NAN; 9];
+        map.eval(
+            &args,
+            if two_d { [2, 2] } else { [2, 0] },
+            &mut by_eval[..width],
+        );
+        take_violation();
+        assert_eq!(
+            by_eval[..width]
+                .iter()
+                .map(|v| v.to_bits())
+                .collect::<Vec<_>>(),
+            want[..width]
+                .iter()
+                .map(|v| v.to_bits())
+                .collect::<Vec<_>>(),
+            "eval against partials2 at {args:?}"
         );
         for k in 0..width {
             let (p, q) = if two_d { (k / 3, k % 3) } else { (k, 0) };
