@@ -277,7 +277,7 @@ impl Kernel {
     /// `R(t) − t₊ = R(−|t|)` and `k` are even, `K(t) − H(t) = K(−|t|)·sign` (`K(t) + K(−t) = 1`), so all
     /// three come from the pieces on `[−1, 0]`; `k` from the density table (its error against the closed
     /// form is below 10⁻¹⁵ of its peak, a test checks it).
-    #[inline]
+    #[inline(always)]
     pub fn corner_excess(&self, t: f64) -> [f64; 3] {
         let u = t * self.inv_a;
         if u.is_nan() {
