@@ -502,6 +502,48 @@ fn builtin_modes_agree_with_the_interpreter() {
     assert!(invsim_models::modal_by_hash("0000").is_none());
 }
 
+/// What a run of a compiled model with modes reads (the headers, without each mode's model) equals what the
+/// full reader gives, mode by mode; a hash that compiled code does not claim reads nothing.
+#[test]
+fn mode_headers_equal_the_full_read() {
+    for &(name, hash, file) in invsim_models::MODAL_MODELS {
+        let path = root().join("models").join(file);
+        let full = match invsim_inversion::ModelFile::from_path(&path) {
+            Ok(invsim_inversion::ModelFile::Modal(m)) => m,
+            other => panic!("{name}: not a model with modes: {other:?}"),
+        };
+        let claims = |h: &str| h == hash;
+        let (light, headers) = invsim_inversion::ModelFile::modal_headers(&path, &claims)
+            .unwrap_or_else(|e| panic!("{name}: {e}"))
+            .unwrap_or_else(|| panic!("{name}: no headers for its own hash"));
+        assert_eq!(light.name, full.name, "{name}");
+        assert_eq!(light.description, full.description, "{name}");
+        assert_eq!(light.source_hash, full.source_hash, "{name}");
+        assert_eq!(light.source_hash, hash, "{name}");
+        assert_eq!(light.inputs, full.inputs, "{name}");
+        assert_eq!(light.gearbox, full.gearbox, "{name}");
+        assert_eq!(light.sequence, full.sequence, "{name}");
+        assert!(
+            light.modes.is_empty(),
+            "{name}: the light read builds no mode"
+        );
+        let expected: Vec<_> = full.modes.into_iter().map(|m| m.into_header()).collect();
+        assert_eq!(headers, expected, "{name}: headers");
+        let refuse = |_: &str| false;
+        let none = invsim_inversion::ModelFile::modal_headers(&path, &refuse)
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert!(
+            none.is_none(),
+            "{name}: read although no compiled code claims it"
+        );
+    }
+    // A file without modes has no headers even when its hash is claimed.
+    let single = root().join("models/si_engine.toml");
+    let any = |_: &str| true;
+    let got = invsim_inversion::ModelFile::modal_headers(&single, &any).expect("si_engine reads");
+    assert!(got.is_none());
+}
+
 #[test]
 fn test_models_agree_with_the_interpreter() {
     let dir = root().join("tests/models");

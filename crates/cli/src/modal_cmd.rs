@@ -14,6 +14,21 @@ use invsim_runtime::{output, Cycle};
 use crate::error::Failure;
 use crate::files::print_stdout;
 
+/// The file read as a model with modes for a run with `engine` (for compiled code without building each
+/// mode's model: `modal_engine::read_compiled`), or `None` for an ordinary model (then read as before).
+pub fn read_modal_run(
+    path: &Path,
+    engine: crate::engine::EngineChoice,
+) -> Result<Option<ModalRead>, Failure> {
+    if crate::engine::is_builtin_single(path) {
+        return Ok(None);
+    }
+    if let Some((m, loaded)) = crate::modal_engine::read_compiled(path, engine)? {
+        return Ok(Some(ModalRead::Compiled(m, loaded)));
+    }
+    Ok(read_modal(path)?.map(ModalRead::Full))
+}
+
 /// The file read as a model with modes, or `None` for an ordinary model (then read as before).
 pub fn read_modal(path: &Path) -> Result<Option<ModalModel>, Failure> {
     if crate::engine::is_builtin_single(path) {
@@ -54,7 +69,7 @@ pub fn refuse_modal(path: &Path, command: &str) -> Result<(), Failure> {
     Ok(())
 }
 
-pub use crate::modal_engine::DerivedMode;
+pub use crate::modal_engine::{DerivedMode, ModalRead};
 
 /// Every mode's derivation (the returned model keeps everything but its modes).
 pub fn derive_modes(mut m: ModalModel) -> Result<(ModalModel, Vec<DerivedMode>), Failure> {
@@ -195,24 +210,30 @@ fn gear_source(m: &ModalModel, cycle: &Cycle, spec: &str) -> Result<(usize, Gear
 /// overrides), and the gearbox's schedule for the cycle.
 pub struct Prepared {
     pub model: ModalModel,
-    pub modes: Vec<crate::modal_engine::ModeMeta>,
+    pub modes: Vec<invsim_inversion::ModeHeader>,
     pub interps: Vec<Box<dyn InverseModel>>,
     /// `compiled` or `interpreted`.
     pub engine: &'static str,
     pub gears: (usize, GearSource),
 }
 
-/// Load every mode of `m` with `engine` for a run on `cycle` (`cycle_spec` as given), with `set` and
+/// Load every mode of `read` with `engine` for a run on `cycle` (`cycle_spec` as given), with `set` and
 /// `maps` (`--map`) applied.
 pub fn prepare(
-    mut m: ModalModel,
+    read: ModalRead,
     cycle: &Cycle,
     cycle_spec: &str,
     (set, maps): (&[String], &[String]),
     engine: crate::engine::EngineChoice,
 ) -> Result<Prepared, Failure> {
-    let gears = gear_source(&m, cycle, cycle_spec)?;
-    let loaded = crate::modal_engine::load_modes(&mut m, engine)?;
+    let gears = gear_source(read.model(), cycle, cycle_spec)?;
+    let (m, loaded) = match read {
+        ModalRead::Full(mut m) => {
+            let loaded = crate::modal_engine::load_modes(&mut m, engine)?;
+            (m, loaded)
+        }
+        ModalRead::Compiled(m, loaded) => (m, loaded),
+    };
     let mut interps = loaded.models;
     for s in set {
         let (name, value) = crate::engine::parse_set(s)?;
@@ -331,7 +352,7 @@ pub fn spec(p: &Prepared) -> ModalSpec<'_> {
 }
 
 /// `invsim simulate` of a model with modes.
-pub fn simulate(m: ModalModel, run: &ModalRun<'_>) -> Result<(), Failure> {
+pub fn simulate(m: ModalRead, run: &ModalRun<'_>) -> Result<(), Failure> {
     let outputs = crate::outputs::Outputs::plan(
         &crate::engine::run_inputs(run.model, run.cycle),
         &[

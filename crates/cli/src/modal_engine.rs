@@ -1,8 +1,11 @@
 //! Choosing the engine for the modes of a model with operating modes, as `engine` does for a single-mode
 //! model: the compiled modes (`invsim_models::modal_by_hash`) when the model file is byte-for-byte a built-in
-//! one (same SHA-256), else every mode derived and interpreted. Compiled modes are not derived at run time.
+//! one (same SHA-256), else every mode derived and interpreted. Compiled modes are not derived at run time,
+//! and a file compiled code matches is read without building each mode's model (`read_compiled`).
 
-use invsim_inversion::{Derivation, Interpreter, ModalModel, ModeRole};
+use std::path::Path;
+
+use invsim_inversion::{Derivation, Interpreter, ModalModel, ModeHeader, ModeRole, ModelFile};
 use invsim_model_api::InverseModel;
 
 use crate::engine::EngineChoice;
@@ -52,21 +55,10 @@ pub fn derive_list(modes: Vec<invsim_inversion::Mode>) -> Result<Vec<DerivedMode
     Ok(out)
 }
 
-/// What the run needs of a mode beside its model.
-pub struct ModeMeta {
-    pub name: String,
-    pub family: String,
-    pub gear: Option<usize>,
-    pub role: ModeRole,
-    pub free: usize,
-    pub fixed: Vec<(usize, String)>,
-    /// The states the mode couples (`couple`), with their couplings as written.
-    pub coupled: Vec<(usize, String)>,
-}
-
 /// Every mode's model, in the model file's order, and the engine that runs them.
 pub struct ModeModels {
-    pub meta: Vec<ModeMeta>,
+    /// What the run needs of each mode beside its model.
+    pub meta: Vec<ModeHeader>,
     pub models: Vec<Box<dyn InverseModel>>,
     pub engine: &'static str,
 }
@@ -80,7 +72,7 @@ pub fn load_modes(m: &mut ModalModel, choice: EngineChoice) -> Result<ModeModels
     if let Some(models) = compiled {
         let meta = std::mem::take(&mut m.modes)
             .into_iter()
-            .map(meta_of)
+            .map(invsim_inversion::Mode::into_header)
             .collect();
         return Ok(ModeModels {
             meta,
@@ -97,7 +89,7 @@ pub fn load_modes(m: &mut ModalModel, choice: EngineChoice) -> Result<ModeModels
     for d in ds {
         let i = Interpreter::new(&d.d).map_err(|e| Failure::user(e.to_string()))?;
         models.push(Box::new(i));
-        meta.push(ModeMeta {
+        meta.push(ModeHeader {
             name: d.name,
             family: d.family,
             gear: d.gear,
@@ -114,16 +106,50 @@ pub fn load_modes(m: &mut ModalModel, choice: EngineChoice) -> Result<ModeModels
     })
 }
 
-fn meta_of(mode: invsim_inversion::Mode) -> ModeMeta {
-    ModeMeta {
-        name: mode.name,
-        family: mode.family,
-        gear: mode.gear,
-        role: mode.role,
-        free: mode.free,
-        fixed: mode.fixed,
-        coupled: mode.coupled,
+/// A model with modes as read for a run.
+pub enum ModalRead {
+    /// Every mode's model built: compiled code replaces them where it matches, else they are derived and
+    /// interpreted ([`load_modes`]).
+    Full(ModalModel),
+    /// The file is byte for byte one compiled code was made from: the model without its modes, and the
+    /// compiled modes.
+    Compiled(ModalModel, ModeModels),
+}
+
+impl ModalRead {
+    /// The model (without its modes in [`ModalRead::Compiled`]).
+    pub fn model(&self) -> &ModalModel {
+        match self {
+            ModalRead::Full(m) | ModalRead::Compiled(m, _) => m,
+        }
     }
+}
+
+/// The model at `path` with its compiled modes when `choice` allows compiled code and the file is byte for
+/// byte a built-in model with modes (every mode was checked when that code was generated from these
+/// bytes, so only the first mode's model is built); `None` otherwise, for [`ModelFile::from_path`] to read.
+pub fn read_compiled(
+    path: &Path,
+    choice: EngineChoice,
+) -> Result<Option<(ModalModel, ModeModels)>, Failure> {
+    if choice == EngineChoice::Interpreted {
+        return Ok(None);
+    }
+    let known = |hash: &str| invsim_models::modal_by_hash(hash).is_some();
+    let Some((m, meta)) =
+        ModelFile::modal_headers(path, &known).map_err(|e| Failure::user(e.to_string()))?
+    else {
+        return Ok(None);
+    };
+    let models = invsim_models::modal_by_hash(&m.source_hash).filter(|c| c.len() == meta.len());
+    Ok(models.map(|models| {
+        let loaded = ModeModels {
+            meta,
+            models,
+            engine: "compiled",
+        };
+        (m, loaded)
+    }))
 }
 
 fn no_compiled(m: &ModalModel) -> Failure {

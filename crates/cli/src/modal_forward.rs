@@ -31,7 +31,7 @@ fn run_modal(m: ModalModel, args: &ForwardArgs) -> Result<(), Failure> {
     let cycle = Cycle::load_with_limit(&args.cycle, args.max_cycle_bytes)
         .map_err(|e| Failure::user(e.to_string()))?;
     let prepared = crate::modal_cmd::prepare(
-        m,
+        crate::modal_cmd::ModalRead::Full(m),
         &cycle,
         &args.cycle,
         (&args.set, &args.data.map),

@@ -74,7 +74,7 @@ pub enum SwitchingArg {
 }
 
 pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
-    if let Some(m) = crate::modal_cmd::read_modal(&args.model)? {
+    if let Some(m) = crate::modal_cmd::read_modal_run(&args.model, args.engine)? {
         return crate::modal_cmd::simulate(
             m,
             &crate::modal_cmd::ModalRun {

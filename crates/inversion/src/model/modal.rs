@@ -45,6 +45,55 @@ impl ModeRole {
     }
 }
 
+/// What a run needs to know of a mode beside its model: its name, gear, role, inputs and couplings
+/// ([`Mode`] without the model; what [`ModelFile::modal_headers`] reads for a file compiled code was made
+/// from).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModeHeader {
+    /// `drive_3` for gear 3 of the geared mode `drive`, else the mode's name.
+    pub name: String,
+    /// The `[modes.NAME]` table it comes from.
+    pub family: String,
+    /// The gear (1-based) of a geared mode.
+    pub gear: Option<usize>,
+    pub role: ModeRole,
+    /// Index into [`ModalModel::inputs`] of the free input.
+    pub free: usize,
+    /// The values of the other inputs as written (expression text), by input index.
+    pub fixed: Vec<(usize, String)>,
+    /// The states the mode couples to the others (`couple`), by state index, with the coupling as written.
+    pub coupled: Vec<(usize, String)>,
+}
+
+impl Mode {
+    /// The mode with its model, from its header.
+    pub(super) fn new(h: ModeHeader, model: Model) -> Mode {
+        Mode {
+            name: h.name,
+            family: h.family,
+            gear: h.gear,
+            role: h.role,
+            free: h.free,
+            fixed: h.fixed,
+            coupled: h.coupled,
+            model,
+        }
+    }
+
+    /// The mode without its model.
+    pub fn into_header(self) -> ModeHeader {
+        ModeHeader {
+            name: self.name,
+            family: self.family,
+            gear: self.gear,
+            role: self.role,
+            free: self.free,
+            fixed: self.fixed,
+            coupled: self.coupled,
+        }
+    }
+}
+
 /// One operating mode: a single-input model of its own.
 #[derive(Debug)]
 pub struct Mode {

@@ -5,7 +5,9 @@
 //! positions, so every error in a mode names the file, line and column where it is written.
 
 use super::error::{ModelError, ModelErrorKind};
-use super::modal::{ModalInput, ModalModel, Mode, ModeRole, ModelFile, SequenceOptions};
+use super::modal::{
+    ModalInput, ModalModel, Mode, ModeHeader, ModeRole, ModelFile, SequenceOptions,
+};
 use super::spanned::Reader;
 use super::tree::{get, get_key, key_at, tv_at, Entries, Key, Kind, Tv};
 use std::collections::HashSet;
@@ -97,11 +99,37 @@ impl Reader<'_> {
             let raw = self.structure(root)?;
             return Ok(ModelFile::Single(Box::new(self.build(raw, hash)?)));
         }
-        self.read_modal(entries, hash)
-            .map(|m| ModelFile::Modal(Box::new(m)))
+        self.read_modal(entries, hash, true)
+            .map(|(m, _)| ModelFile::Modal(Box::new(m)))
     }
 
-    fn read_modal(&self, entries: &Entries, hash: String) -> Result<ModalModel, ModelError> {
+    /// A file with modes read for compiled code made from it (the same bytes, so every mode was checked
+    /// when the code was generated): the model without its modes and every mode's header. Only the first
+    /// mode's model is built (for the name, the description, the gearbox's parameters and the state order,
+    /// which every mode shares); `None` for a file without modes.
+    pub(super) fn read_headers(
+        &self,
+        root: &Tv,
+        hash: String,
+    ) -> Result<Option<(ModalModel, Vec<ModeHeader>)>, ModelError> {
+        let entries = self.table(root, "the model file")?;
+        if !entries
+            .iter()
+            .any(|(k, _)| MODAL_KEYS.contains(&k.name.as_str()))
+        {
+            return Ok(None);
+        }
+        self.read_modal(entries, hash, false).map(Some)
+    }
+
+    /// The modal model with every mode's model (`all`), or with no modes and every mode's header (only the
+    /// first mode's model built, see [`Reader::read_headers`]).
+    fn read_modal(
+        &self,
+        entries: &Entries,
+        hash: String,
+        all: bool,
+    ) -> Result<(ModalModel, Vec<ModeHeader>), ModelError> {
         if let Some((k, _)) = get_key(entries, "input") {
             return Err(self.err(
                 key_at(k),
@@ -137,7 +165,8 @@ impl Reader<'_> {
             .filter(|(k, _)| !MODAL_KEYS.contains(&k.name.as_str()))
             .map(|(k, v)| (k, v))
             .collect();
-        let mut modes = Vec::new();
+        let (mut modes, mut headers) = (Vec::new(), Vec::new());
+        let mut first: Option<super::validated::Model> = None;
         for raw in &raws {
             let gears: Vec<Option<usize>> = match (&gearbox, raw.geared) {
                 (Some(g), true) => (1..=g.gears).map(Some).collect(),
@@ -152,75 +181,48 @@ impl Reader<'_> {
                         .collect(),
                     _ => Vec::new(),
                 };
-                let tree = self.mode_tree(&base, raw, &inputs, &gear_params)?;
-                let mut model = self.build(self.structure(&tree)?, hash.clone())?;
-                self.apply_couplings(&mut model, raw)?;
                 let name = match gear {
                     Some(n) => format!("{}_{n}", raw.name),
                     None => raw.name.clone(),
                 };
-                modes.push(self.mode_of(raw, name, gear, model, &inputs));
+                if let (false, Some(f)) = (all, &first) {
+                    headers.push(header_of(raw, name, gear, &f.states));
+                    continue;
+                }
+                let tree = self.mode_tree(&base, raw, &inputs, &gear_params)?;
+                let mut model = self.build(self.structure(&tree)?, hash.clone())?;
+                self.apply_couplings(&mut model, raw)?;
+                let header = header_of(raw, name, gear, &model.states);
+                if all {
+                    modes.push(Mode::new(header, model));
+                } else {
+                    headers.push(header);
+                    first = Some(model);
+                }
             }
         }
+        let Some(f) = first.as_ref().or(modes.first().map(|m| &m.model)) else {
+            return Err(self.err(
+                tv_at(modes_tv),
+                ModelErrorKind::Schema,
+                "[modes] declares no mode",
+            ));
+        };
         if let Some(g) = &gearbox {
-            self.check_gear_parameters(g, &modes)?;
+            self.check_gear_parameters(g, f)?;
         }
-        let first = &modes[0].model;
-        Ok(ModalModel {
-            name: first.name.clone(),
-            description: first.description.clone(),
+        let (name, description) = (f.name.clone(), f.description.clone());
+        let model = ModalModel {
+            name,
+            description,
             file: self.file.to_path_buf(),
             source_hash: hash,
             inputs,
             gearbox,
             sequence,
             modes,
-        })
-    }
-
-    fn mode_of(
-        &self,
-        raw: &RawMode<'_>,
-        name: String,
-        gear: Option<usize>,
-        model: super::validated::Model,
-        _inputs: &[ModalInput],
-    ) -> Mode {
-        let fixed = raw
-            .fixed
-            .iter()
-            .map(|(i, _, v)| {
-                let text = match &v.kind {
-                    Kind::Str(s) => s.clone(),
-                    Kind::Int(n) => n.to_string(),
-                    Kind::Float(x) => format!("{x:?}"),
-                    _ => String::new(),
-                };
-                (*i, text)
-            })
-            .collect();
-        let coupled = raw
-            .couple
-            .iter()
-            .filter_map(|(k, v)| {
-                let i = model.states.iter().position(|s| s.name == k.name)?;
-                let text = match &v.kind {
-                    Kind::Str(s) => s.clone(),
-                    _ => String::new(),
-                };
-                Some((i, text))
-            })
-            .collect();
-        Mode {
-            name,
-            family: raw.name.clone(),
-            coupled,
-            gear,
-            role: raw.role,
-            free: raw.free,
-            fixed,
-            model,
-        }
+        };
+        Ok((model, headers))
     }
 
     pub(super) fn required<'t>(
@@ -471,10 +473,10 @@ impl Reader<'_> {
     fn check_gear_parameters(
         &self,
         g: &super::modal::Gearbox,
-        modes: &[Mode],
+        model: &super::validated::Model,
     ) -> Result<(), ModelError> {
         for (p, _) in &g.parameters {
-            if !modes[0].model.parameters.iter().any(|q| &q.name == p) {
+            if !model.parameters.iter().any(|q| &q.name == p) {
                 return Err(self.err(
                     None,
                     ModelErrorKind::UnknownName,
@@ -681,6 +683,50 @@ impl Reader<'_> {
                 k.name.escape_debug()
             ),
         )
+    }
+}
+
+/// The header of mode `name` (gear `gear`) of `raw`: its inputs' values and couplings as written, each coupled
+/// state by its index among `states` (the model's, which every mode keeps whole: `coupling.rs`).
+fn header_of(
+    raw: &RawMode<'_>,
+    name: String,
+    gear: Option<usize>,
+    states: &[super::validated::State],
+) -> ModeHeader {
+    let fixed = raw
+        .fixed
+        .iter()
+        .map(|(i, _, v)| {
+            let text = match &v.kind {
+                Kind::Str(s) => s.clone(),
+                Kind::Int(n) => n.to_string(),
+                Kind::Float(x) => format!("{x:?}"),
+                _ => String::new(),
+            };
+            (*i, text)
+        })
+        .collect();
+    let coupled = raw
+        .couple
+        .iter()
+        .filter_map(|(k, v)| {
+            let i = states.iter().position(|s| s.name == k.name)?;
+            let text = match &v.kind {
+                Kind::Str(s) => s.clone(),
+                _ => String::new(),
+            };
+            Some((i, text))
+        })
+        .collect();
+    ModeHeader {
+        name,
+        family: raw.name.clone(),
+        gear,
+        role: raw.role,
+        free: raw.free,
+        fixed,
+        coupled,
     }
 }
 

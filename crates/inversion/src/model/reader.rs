@@ -4,7 +4,7 @@
 
 use super::definitions::Interned;
 use super::error::{ModelError, ModelErrorKind};
-use super::modal::ModelFile;
+use super::modal::{ModalModel, ModeHeader, ModelFile};
 use super::raw::RawModel;
 use super::spanned::Reader;
 use super::split::extra_outputs;
@@ -92,6 +92,26 @@ impl ModelFile {
         ModelFile::from_str(path, text)
     }
 
+    /// A file with modes for which compiled code exists (`compiled(sha256)` says so: the code was generated
+    /// from these very bytes, which every mode's check passed then): the model without its modes, and every
+    /// mode's header, without building each mode's model. `None` when the file has no modes or `compiled`
+    /// refuses its hash (then [`ModelFile::from_path`] reads it in full).
+    pub fn modal_headers(
+        path: &Path,
+        compiled: &dyn Fn(&str) -> bool,
+    ) -> Result<Option<(ModalModel, Vec<ModeHeader>)>, ModelError> {
+        let bytes = read_capped(path)?;
+        let Ok(text) = std::str::from_utf8(&bytes) else {
+            return Ok(None);
+        };
+        if !compiled(&source_hash(text)) {
+            return Ok(None);
+        }
+        let reader = Reader { file: path, text };
+        let (root, hash) = reader.parse_tree()?;
+        reader.read_headers(&root, hash)
+    }
+
     /// [`ModelFile::from_path`] on text; `file` is used in messages.
     pub fn from_str(file: &Path, text: &str) -> Result<ModelFile, ModelError> {
         let reader = Reader { file, text };
@@ -110,8 +130,7 @@ impl Reader<'_> {
 
     /// The file's TOML tree (with spans) and the SHA-256 of its text.
     pub(super) fn parse_tree(&self) -> Result<(Tv, String), ModelError> {
-        let hash = Sha256::digest(self.text.as_bytes());
-        let source_hash: String = hash.iter().map(|b| format!("{b:02x}")).collect();
+        let source_hash = source_hash(self.text);
         let root: Tv = toml::from_str(self.text).map_err(|e| {
             let message = e
                 .message()
@@ -243,4 +262,12 @@ impl Reader<'_> {
             signals,
         })
     }
+}
+
+/// The SHA-256 of a model file's text, as lower-case hex (what compiled code is matched by).
+fn source_hash(text: &str) -> String {
+    Sha256::digest(text.as_bytes())
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
 }
