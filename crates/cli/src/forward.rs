@@ -1,14 +1,17 @@
-//! `invsim forward`: the forward simulation of a model along a drive cycle, closed by a PI driver.
+//! `invsim forward`: the forward simulation of a model (with or without modes) along a drive cycle, closed by a
+//! PI driver.
 
 use std::path::PathBuf;
 
 use clap::ValueEnum;
+use invsim_loader::{Loaded, LoadedModal, SingleModel};
 use invsim_runtime::forward::{self, Bounds, ForwardError, ForwardOptions, Method};
-use invsim_runtime::output;
+use invsim_runtime::{output, Cycle};
 
 use crate::engine::{prepare_run, EngineChoice, RunRequest};
 use crate::error::Failure;
 use crate::files::print_stdout;
+use crate::outputs::Outputs;
 use crate::provenance;
 
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum, serde::Serialize)]
@@ -124,9 +127,9 @@ pub(crate) fn options(
         .build()
 }
 
-/// `invsim forward` of an ordinary model (`modal_forward::run` decides which kind the model is).
+/// `invsim forward` of any model.
 pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
-    let (mut outputs, cycle, model, data) = prepare_run(&RunRequest {
+    let (outputs, cycle, model, data) = prepare_run(&RunRequest {
         model: &args.model,
         engine: args.engine,
         cycle: &args.cycle,
@@ -137,36 +140,86 @@ pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
         plot: &args.plot,
         data: &args.data,
     })?;
-    let stopped = |e: ForwardError| {
-        Failure::user(format!(
-            "forward simulation of `{}` on `{}` stopped: {e}",
-            args.model.display(),
-            cycle.name
-        ))
-    };
     let (progress, bar) = crate::progress::start("forward");
-    let mut opts = options(args, model.engine_name(), progress).map_err(stopped)?;
+    let mut opts =
+        options(args, model.engine_name(), progress).map_err(|e| stopped(args, &cycle, e))?;
     opts.signals = data.signals;
     opts.initial = data.initial;
-    let result = forward::forward(model.as_model(), &cycle, &opts);
+    let result = match &model {
+        Loaded::Single(m) => single(args, outputs, &cycle, m, &opts),
+        Loaded::Modal(m) => modal(args, outputs, &cycle, m, &opts),
+    };
     bar.finish();
-    let mut result = result.map_err(stopped)?;
-    result.summary.provenance = Some(provenance::record(provenance::RunRecord {
+    result
+}
+
+/// The message of a run that could not start or had to stop.
+fn stopped(args: &ForwardArgs, cycle: &Cycle, e: ForwardError) -> Failure {
+    Failure::user(format!(
+        "forward simulation of `{}` on `{}` stopped: {e}",
+        args.model.display(),
+        cycle.name
+    ))
+}
+
+/// The summary's record of what produced the run.
+fn record(
+    args: &ForwardArgs,
+    info: &invsim_model_api::ModelInfo,
+    cycle: &Cycle,
+) -> Result<invsim_runtime::Provenance, Failure> {
+    provenance::record(provenance::RunRecord {
         command: "forward",
         model: &args.model,
-        info: model.as_model().info(),
+        info,
         cycle_spec: &args.cycle,
-        cycle: &cycle,
+        cycle,
         sets: &args.set,
         options: provenance::options_of(args),
-    })?);
+    })
+}
+
+/// `forward` of a model without modes.
+fn single(
+    args: &ForwardArgs,
+    mut outputs: Outputs,
+    cycle: &Cycle,
+    model: &SingleModel,
+    opts: &ForwardOptions,
+) -> Result<(), Failure> {
+    let m = model.as_model();
+    let mut result = forward::forward(m, cycle, opts).map_err(|e| stopped(args, cycle, e))?;
+    result.summary.provenance = Some(record(args, m.info(), cycle)?);
     outputs.write("--out", |f| {
         output::write_table_csv(&result.columns, &result.data, f)
     })?;
     outputs.write("--summary-json", |f| output::write_json(&result.summary, f))?;
-    let m = model.as_model();
     crate::plotting::write(&args.plot, &mut outputs, |vars| {
         invsim_runtime::plot::forward_figure(&result, m.info(), m.reference(), vars)
+    })?;
+    outputs.commit()?;
+    print_stdout(&result.summary.to_text())
+}
+
+/// `forward` of a model with modes (the mode sequence by `forward::forward_modes`).
+fn modal(
+    args: &ForwardArgs,
+    mut outputs: Outputs,
+    cycle: &Cycle,
+    model: &LoadedModal,
+    opts: &ForwardOptions,
+) -> Result<(), Failure> {
+    let spec = crate::modal_cmd::spec(args.model.as_path(), model, cycle, &args.cycle)?;
+    crate::plotting::check_modal(&args.plot, &spec)?;
+    let mut result =
+        forward::forward_modes(&spec, cycle, opts).map_err(|e| stopped(args, cycle, e))?;
+    result.summary.provenance = Some(record(args, model.plant.first().info(), cycle)?);
+    outputs.write("--out", |f| {
+        output::write_table_csv(&result.columns, &result.data, f)
+    })?;
+    outputs.write("--summary-json", |f| output::write_json(&result.summary, f))?;
+    crate::plotting::write(&args.plot, &mut outputs, |vars| {
+        invsim_runtime::plot::modal_forward_figure(&result, &spec, vars)
     })?;
     outputs.commit()?;
     print_stdout(&result.summary.to_text())

@@ -24,8 +24,6 @@ mod import_cmd;
 mod initial_args;
 mod map_args;
 mod modal_cmd;
-mod modal_engine;
-mod modal_forward;
 mod outputs;
 mod plotting;
 #[cfg(all(target_os = "linux", target_env = "gnu"))]
@@ -103,7 +101,7 @@ fn run() -> u8 {
         Command::Derive { model, format } => derive::run(&model, format),
         Command::Simulate(args) => simulate::run(&args),
         Command::Sweep(args) => sweep_cmd::run(&args),
-        Command::Forward(args) => modal_forward::run(&args),
+        Command::Forward(args) => forward::run(&args),
         Command::Cycles(args) => cycles_cmd::run(&args),
         Command::Import(format) => import_cmd::run(&format),
         Command::Completions(args) => completions::run(&args, Cli::command()),

@@ -2,11 +2,14 @@
 
 use std::path::PathBuf;
 
-use invsim_runtime::{inverse, output, plot, simulate, SimulateError, SimulationOptions};
+use invsim_loader::{Loaded, LoadedModal, SingleModel};
+use invsim_runtime::modes::{simulate_modes_with_signals, ModalOptions, Switching};
+use invsim_runtime::{inverse, output, plot, simulate, Cycle, SimulationOptions};
 
-use crate::engine::{prepare_run, EngineChoice, RunRequest};
+use crate::engine::{prepare_run, EngineChoice, RunData, RunRequest};
 use crate::error::Failure;
 use crate::files::print_stdout;
+use crate::outputs::Outputs;
 use crate::provenance;
 
 // Serialised (by command-line name) into the summary's provenance. No doc comment: clap would
@@ -74,32 +77,7 @@ pub enum SwitchingArg {
 }
 
 pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
-    if let Some(m) = crate::modal_cmd::read_modal_run(&args.model, args.engine)? {
-        return crate::modal_cmd::simulate(
-            m,
-            &crate::modal_cmd::ModalRun {
-                model: &args.model,
-                cycle: &args.cycle,
-                max_cycle_bytes: args.max_cycle_bytes,
-                lookahead: args.lookahead,
-                dt: args.dt,
-                set: &args.set,
-                out: args.out.as_deref(),
-                summary_json: args.summary_json.as_deref(),
-                plot: &args.plot,
-                verify: args.verify,
-                switching: match args.switching {
-                    SwitchingArg::Reentry => invsim_runtime::modes::Switching::Reentry,
-                    SwitchingArg::QuasiStatic => invsim_runtime::modes::Switching::QuasiStatic,
-                },
-                transition_time: args.transition_time,
-                engine: args.engine,
-                signals: &args.data.signal,
-                maps: &args.data.map,
-            },
-        );
-    }
-    let (mut outputs, cycle, model, data) = prepare_run(&RunRequest {
+    let (outputs, cycle, model, data) = prepare_run(&RunRequest {
         model: &args.model,
         engine: args.engine,
         cycle: &args.cycle,
@@ -110,13 +88,29 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
         plot: &args.plot,
         data: &args.data,
     })?;
-    let stopped = |e: SimulateError| {
-        Failure::user(format!(
-            "simulation of `{}` on `{}` stopped: {e}",
-            args.model.display(),
-            cycle.name
-        ))
-    };
+    match model {
+        Loaded::Single(m) => single(args, outputs, &cycle, &m, data),
+        Loaded::Modal(m) => modal(args, outputs, &cycle, &m, &data),
+    }
+}
+
+/// The message of a run that could not start or had to stop.
+fn stopped(args: &SimulateArgs, cycle: &Cycle, e: impl std::fmt::Display) -> Failure {
+    Failure::user(format!(
+        "simulation of `{}` on `{}` stopped: {e}",
+        args.model.display(),
+        cycle.name
+    ))
+}
+
+/// `simulate` of a model without modes.
+fn single(
+    args: &SimulateArgs,
+    mut outputs: Outputs,
+    cycle: &Cycle,
+    model: &SingleModel,
+    data: RunData,
+) -> Result<(), Failure> {
     let (progress, bar) = crate::progress::start("simulate");
     let mut opts = SimulationOptions::builder()
         .progress(progress)
@@ -129,18 +123,18 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
         // Without --out or --plot only the summary is needed: no time series is stored.
         .keep_series(args.out.is_some() || args.plot.plot.is_some())
         .build()
-        .map_err(stopped)?;
+        .map_err(|e| stopped(args, cycle, e))?;
     opts.signals = data.signals;
     opts.initial = data.initial;
-    let result = simulate(model.as_model(), &cycle, &opts);
+    let result = simulate(model.as_model(), cycle, &opts);
     bar.finish();
-    let mut result = result.map_err(stopped)?;
+    let mut result = result.map_err(|e| stopped(args, cycle, e))?;
     result.summary.provenance = Some(provenance::record(provenance::RunRecord {
         command: "simulate",
         model: &args.model,
         info: model.as_model().info(),
         cycle_spec: &args.cycle,
-        cycle: &cycle,
+        cycle,
         sets: &args.set,
         options: provenance::options_of(args),
     })?);
@@ -149,7 +143,41 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
         output::write_summary_json(&result.summary, f)
     })?;
     crate::plotting::write(&args.plot, &mut outputs, |vars| {
-        plot::simulation_figure(&result, &cycle, model.as_model().info(), vars)
+        plot::simulation_figure(&result, cycle, model.as_model().info(), vars)
+    })?;
+    outputs.commit()?;
+    print_stdout(&result.summary.to_text())
+}
+
+/// `simulate` of a model with modes.
+fn modal(
+    args: &SimulateArgs,
+    mut outputs: Outputs,
+    cycle: &Cycle,
+    model: &LoadedModal,
+    data: &RunData,
+) -> Result<(), Failure> {
+    let spec = crate::modal_cmd::spec(args.model.as_path(), model, cycle, &args.cycle)?;
+    crate::plotting::check_modal(&args.plot, &spec)?;
+    let opts = ModalOptions {
+        lookahead: args.lookahead,
+        dt: args.dt,
+        switching: match args.switching {
+            SwitchingArg::Reentry => Switching::Reentry,
+            SwitchingArg::QuasiStatic => Switching::QuasiStatic,
+        },
+        transition_time: args.transition_time,
+        verify: args.verify,
+    };
+    let mut result = simulate_modes_with_signals(&spec, cycle, &opts, &data.signals)
+        .map_err(|e| stopped(args, cycle, e))?;
+    result.summary.engine = model.engine.to_string();
+    outputs.write("--out", |f| {
+        output::write_table_csv(&result.columns, &result.data, f)
+    })?;
+    outputs.write("--summary-json", |f| output::write_json(&result.summary, f))?;
+    crate::plotting::write(&args.plot, &mut outputs, |vars| {
+        plot::modal_simulation_figure(&result, cycle, &spec, vars)
     })?;
     outputs.commit()?;
     print_stdout(&result.summary.to_text())

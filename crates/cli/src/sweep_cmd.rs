@@ -6,10 +6,10 @@ use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
 use indicatif::{ProgressBar, ProgressStyle};
-use invsim_model_api::InverseModel;
+use invsim_loader::{Loaded, SingleModel};
 use invsim_runtime::{inverse, Cycle, SimulationOptions, Sweep, SweepBuilder, SweepResult};
 
-use crate::engine::{load, parse_set, EngineChoice, LoadedModel};
+use crate::engine::{load, parse_set, set_failure, EngineChoice};
 use crate::error::Failure;
 use crate::outputs::Outputs;
 
@@ -162,32 +162,19 @@ fn fields(line: &str) -> impl Iterator<Item = (usize, &str)> {
 
 /// The sweep's builder for the loaded model: copies of the interpreter, or fresh compiled models, each with the
 /// `--set` overrides.
-fn builder(model: LoadedModel, sets: Vec<(String, f64)>) -> Result<SweepBuilder, Failure> {
+fn builder(path: &Path, model: Loaded, sets: Vec<(String, f64)>) -> Result<SweepBuilder, Failure> {
+    let mut model = model;
+    for (name, value) in &sets {
+        model.set_param(name, *value).map_err(set_failure)?;
+    }
     match model {
-        LoadedModel::Interpreted(mut m) => {
-            for (name, value) in &sets {
-                m.set_param(name, *value)
-                    .map_err(|e| Failure::user(format!("--set {name}: {e}")))?;
-            }
-            Ok(Sweep::of(*m))
-        }
-        LoadedModel::Compiled(mut m) => {
-            for (name, value) in &sets {
-                m.set_param(name, *value)
-                    .map_err(|e| Failure::user(format!("--set {name}: {e}")))?;
-            }
-            let params = m.params().to_vec();
-            let names = m.info().parameters.clone();
-            let hash = m.info().source_hash.clone().unwrap_or_default();
-            Ok(Sweep::try_new(move || {
-                let mut fresh = invsim_models::by_hash(&hash)
-                    .ok_or_else(|| format!("no built-in model has the hash {hash}"))?;
-                for (name, &v) in names.iter().zip(&params) {
-                    fresh.set_param(name, v).map_err(|e| e.to_string())?;
-                }
-                Ok(fresh)
-            }))
-        }
+        Loaded::Single(SingleModel::Interpreted(m)) => Ok(Sweep::of(*m)),
+        Loaded::Single(m) => Ok(Sweep::try_new(move || m.fresh().map_err(|e| e.to_string()))),
+        Loaded::Modal(_) => Err(Failure::user(format!(
+            "{}: a model with operating modes runs with `invsim derive`, `invsim simulate` and `invsim forward`; `invsim sweep` \
+             does not run models with modes yet",
+            path.display()
+        ))),
     }
 }
 
@@ -268,7 +255,6 @@ fn is_parquet(path: &Path) -> bool {
 }
 
 pub fn run(args: &SweepArgs) -> Result<(), Failure> {
-    crate::modal_cmd::refuse_modal(&args.model, "sweep")?;
     let sets: Vec<(String, f64)> = args
         .set
         .iter()
@@ -295,7 +281,7 @@ pub fn run(args: &SweepArgs) -> Result<(), Failure> {
         .engine(model.engine_name())
         .build()
         .map_err(|e| failed(e.to_string()))?;
-    let mut b = builder(model, sets)?;
+    let mut b = builder(&args.model, model, sets)?;
     for c in &cycles {
         b = b.cycle(c);
     }

@@ -82,7 +82,12 @@ impl Mode {
 
     /// The mode without its model.
     pub fn into_header(self) -> ModeHeader {
-        ModeHeader {
+        self.into_parts().0
+    }
+
+    /// The mode's header and its model.
+    pub fn into_parts(self) -> (ModeHeader, Model) {
+        let header = ModeHeader {
             name: self.name,
             family: self.family,
             gear: self.gear,
@@ -90,7 +95,8 @@ impl Mode {
             free: self.free,
             fixed: self.fixed,
             coupled: self.coupled,
-        }
+        };
+        (header, self.model)
     }
 }
 

@@ -16,6 +16,7 @@ mod bases;
 pub mod blend;
 pub(crate) mod coupling;
 pub mod gears;
+pub mod plant;
 mod record;
 mod rows;
 pub(crate) mod rules;
@@ -29,6 +30,7 @@ use invsim_model_api::InverseModel;
 use thiserror::Error;
 
 pub use gears::{GearBox, GearSource};
+pub use plant::{GearSchedule, ModalPlant, ModalPlantBuilder, ModeMeta};
 pub use record::{CouplingReset, Impulse, ModeTime, Transition};
 pub use rows::Rows;
 pub use runner::{simulate_modes, simulate_modes_with_signals};

@@ -1,0 +1,121 @@
+//! Loading a model file and choosing the engine that runs it: the one way the command line and the Python
+//! package get from a path to something the runtime runs.
+//!
+//! [`load`] reads the file once and gives a [`Loaded`] model: without modes a [`SingleModel`] (compiled code
+//! where the file is byte for byte a built-in model's, else the derivation's interpreter tape), with modes a
+//! [`LoadedModal`] whose [`ModalPlant`](invsim_runtime::modes::ModalPlant) owns every mode's model (compiled
+//! or derived and interpreted the same way). A file that matches compiled code is not derived at run time.
+//!
+//! Modules: `choice` (the engine asked for), `error`, `single` and `modal` (the two kinds of model).
+
+mod choice;
+mod error;
+mod modal;
+mod single;
+
+use std::path::Path;
+
+use invsim_inversion::ModelFile;
+
+pub use choice::EngineChoice;
+pub use error::LoadError;
+pub use modal::{derive_modes, DerivedMode, LoadedModal};
+pub use single::SingleModel;
+
+/// A model file loaded for runs.
+pub enum Loaded {
+    /// A model without modes.
+    Single(SingleModel),
+    /// A model with operating modes.
+    Modal(LoadedModal),
+}
+
+impl Loaded {
+    /// `"compiled"` or `"interpreted"`.
+    pub fn engine_name(&self) -> &'static str {
+        match self {
+            Loaded::Single(m) => m.engine_name(),
+            Loaded::Modal(m) => m.engine,
+        }
+    }
+
+    /// Set parameter `name` (every mode's, for a model with modes).
+    pub fn set_param(&mut self, name: &str, value: f64) -> Result<(), LoadError> {
+        let err = |reason: String| LoadError::Parameter {
+            name: name.to_string(),
+            reason,
+        };
+        match self {
+            Loaded::Single(m) => m
+                .as_model_mut()
+                .set_param(name, value)
+                .map_err(|e| err(e.to_string())),
+            Loaded::Modal(m) => m
+                .plant
+                .set_param(name, value)
+                .map_err(|e| err(e.to_string())),
+        }
+    }
+
+    /// Replace a lookup map's grid and values (`--map NAME=FILE.csv`).
+    pub fn set_map(
+        &mut self,
+        name: &str,
+        data: (&[f64], Option<&[f64]>, &[f64]),
+    ) -> Result<(), invsim_model_api::ModelError> {
+        match self {
+            Loaded::Single(m) => m.as_model_mut().set_map(name, data),
+            Loaded::Modal(m) => m.plant.set_map(name, data),
+        }
+    }
+
+    /// The description of the model (of its first mode, for a model with modes: parameters, states and
+    /// `[outputs]` are every mode's).
+    pub fn info(&self) -> &invsim_model_api::ModelInfo {
+        match self {
+            Loaded::Single(m) => m.as_model().info(),
+            Loaded::Modal(m) => m.plant.first().info(),
+        }
+    }
+}
+
+/// Bytes of a model file read to compare it with the built-in models; a larger file is none of them (the
+/// reader's own limits then apply).
+const MAX_COMPARED_BYTES: u64 = 1 << 20;
+
+/// Load the model file at `path` with the engine `choice` asks for. A file whose bytes are a built-in model's
+/// runs its compiled code (with `auto` or `compiled`) without being derived: it is byte for byte the file the
+/// code was generated from, so its derivation succeeds and the compiled model carries everything the run
+/// needs. Any other file is read and derived first, so a bad file gives the same error whichever engine was
+/// asked for.
+pub fn load(path: &Path, choice: EngineChoice) -> Result<Loaded, LoadError> {
+    if choice != EngineChoice::Interpreted {
+        if let Some(m) = read_bounded(path).and_then(|b| single::builtin_of(&b)) {
+            return Ok(Loaded::Single(SingleModel::Compiled(m)));
+        }
+        if let Some(m) = modal::read_compiled(path)? {
+            return Ok(Loaded::Modal(m));
+        }
+    }
+    match ModelFile::from_path(path).map_err(|e| LoadError::Model(e.to_string()))? {
+        ModelFile::Single(model) => single::from_model(*model, path, choice).map(Loaded::Single),
+        ModelFile::Modal(m) => modal::from_model(*m, choice).map(Loaded::Modal),
+    }
+}
+
+/// The file's bytes, read through the cap into a buffer sized by the file's length where it has one (one
+/// `read` for a model file instead of a dozen doubling ones); `None` if it cannot be read or is too long.
+fn read_bounded(path: &Path) -> Option<Vec<u8>> {
+    use std::io::Read;
+    let file = std::fs::File::open(path).ok()?;
+    let hint = file
+        .metadata()
+        .map_or(0, |m| m.len())
+        .min(MAX_COMPARED_BYTES);
+    // One byte more than the length, so that the read that finds the end needs no growth.
+    let mut bytes = Vec::with_capacity(hint as usize + 1);
+    file.take(MAX_COMPARED_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .ok()?;
+    (bytes.len() as u64 <= MAX_COMPARED_BYTES).then_some(bytes)
+}
