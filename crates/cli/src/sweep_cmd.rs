@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use indicatif::{ProgressBar, ProgressStyle};
 use invsim_loader::{Loaded, SingleModel};
-use invsim_runtime::{inverse, Cycle, SimulationOptions, Sweep, SweepBuilder, SweepResult};
+use invsim_runtime::{inverse, Cycle, Plant, SimulationOptions, Sweep, SweepBuilder, SweepResult};
 
 use crate::engine::{load, parse_set, set_failure, EngineChoice};
 use crate::error::Failure;
@@ -160,9 +160,14 @@ fn fields(line: &str) -> impl Iterator<Item = (usize, &str)> {
     })
 }
 
-/// The sweep's builder for the loaded model: copies of the interpreter, or fresh compiled models, each with the
-/// `--set` overrides.
-fn builder(path: &Path, model: Loaded, sets: Vec<(String, f64)>) -> Result<SweepBuilder, Failure> {
+/// The sweep's builder for the loaded model, each worker's copy with the `--set` overrides: copies of the
+/// interpreter, fresh compiled models, or for a model with modes the file loaded again (as a single run
+/// loads it, so that every row equals that run).
+fn builder(
+    args: &SweepArgs,
+    model: Loaded,
+    sets: Vec<(String, f64)>,
+) -> Result<SweepBuilder, Failure> {
     let mut model = model;
     for (name, value) in &sets {
         model.set_param(name, *value).map_err(set_failure)?;
@@ -170,16 +175,24 @@ fn builder(path: &Path, model: Loaded, sets: Vec<(String, f64)>) -> Result<Sweep
     match model {
         Loaded::Single(SingleModel::Interpreted(m)) => Ok(Sweep::of(*m)),
         Loaded::Single(m) => Ok(Sweep::try_new(move || m.fresh().map_err(|e| e.to_string()))),
-        Loaded::Modal(_) => Err(Failure::user(format!(
-            "{}: a model with operating modes runs with `invsim derive`, `invsim simulate` and `invsim forward`; `invsim sweep` \
-             does not run models with modes yet",
-            path.display()
-        ))),
+        Loaded::Modal(_) => {
+            let (path, engine) = (args.model.clone(), args.engine);
+            Ok(Sweep::of_plants(move || {
+                let mut m = load(&path, engine).map_err(|f| f.message)?;
+                for (name, value) in &sets {
+                    m.set_param(name, *value).map_err(|e| e.to_string())?;
+                }
+                match m {
+                    Loaded::Modal(m) => Ok(Plant::Modal(m.plant)),
+                    Loaded::Single(_) => Err(format!("{} no longer has modes", path.display())),
+                }
+            }))
+        }
     }
 }
 
-/// The cycles of `--cycle` and `--cycles`, in that order.
-fn cycles(args: &SweepArgs) -> Result<Vec<Cycle>, Failure> {
+/// The cycles of `--cycle` and `--cycles`, in that order, each with its name or path as given.
+fn cycles(args: &SweepArgs) -> Result<Vec<(Cycle, &str)>, Failure> {
     let names: Vec<&String> = args.cycle.iter().chain(&args.cycles).collect();
     if names.is_empty() {
         return Err(Failure::user(
@@ -188,7 +201,10 @@ fn cycles(args: &SweepArgs) -> Result<Vec<Cycle>, Failure> {
     }
     names
         .iter()
-        .map(|c| Cycle::load(c.trim()).map_err(|e| Failure::user(e.to_string())))
+        .map(|c| {
+            let cycle = Cycle::load(c.trim()).map_err(|e| Failure::user(e.to_string()))?;
+            Ok((cycle, c.as_str()))
+        })
         .collect()
 }
 
@@ -281,9 +297,12 @@ pub fn run(args: &SweepArgs) -> Result<(), Failure> {
         .engine(model.engine_name())
         .build()
         .map_err(|e| failed(e.to_string()))?;
-    let mut b = builder(&args.model, model, sets)?;
-    for c in &cycles {
-        b = b.cycle(c);
+    let mut b = builder(args, model, sets)?;
+    for (c, spec) in &cycles {
+        b = match crate::cycle_spec::is_builtin(spec) {
+            true => b.cycle(c),
+            false => b.cycle_file(c, spec.trim()),
+        };
     }
     for (name, start, stop, n) in grid {
         b = b.grid(name, start, stop, n);

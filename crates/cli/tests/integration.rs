@@ -6,6 +6,8 @@
 //! - `hostile`: Hostile-input suite: every case in `tests/hostile/*.json` runs the built `invsim` binary on hostile model
 //! - `map_option`: `--map NAME=FILE.csv` for ordinary models and models with modes; unknown names and wrong arity exit 2.
 //! - `modes`: `invsim derive` and `invsim simulate` on a model with operating modes (si_engine_5speed).
+//! - `modes_sweep`: `invsim sweep` of models with operating modes: rows equal `simulate` bit for bit, the modes'
+//!   columns, a gearbox parameter refused.
 //! - `modes_plot_signals`: `--plot` of a model with operating modes and a road grade signal: the signal's panel in
 //!   `simulate` and `forward`, by default and by name.
 //! - `outputs`: Output files of `simulate` and `forward` on success: written in place, through links into the linked file,
@@ -27,6 +29,7 @@ mod map_option;
 mod modes;
 mod modes_compiled;
 mod modes_plot_signals;
+mod modes_sweep;
 mod outputs;
 mod plot;
 mod stable;

@@ -5,29 +5,13 @@
 //! model file that is not built in refuses `--engine compiled` with exit 2 and runs on the interpreter with
 //! `--engine auto`.
 
-use crate::common::{invsim, json_file, root, stderr, tmp};
+use crate::common::{invsim, json_file, read_csv, root, stderr, tmp};
 
 fn model() -> String {
     root()
         .join("models/si_engine_5speed.toml")
         .display()
         .to_string()
-}
-
-/// The CSV as (header, rows of fields).
-fn read_csv(path: &std::path::Path) -> (Vec<String>, Vec<Vec<String>>) {
-    let text = std::fs::read_to_string(path).expect("CSV");
-    let mut lines = text.lines();
-    let header = lines
-        .next()
-        .expect("header")
-        .split(',')
-        .map(str::to_string)
-        .collect();
-    let rows = lines
-        .map(|l| l.split(',').map(str::to_string).collect())
-        .collect();
-    (header, rows)
 }
 
 /// Run `simulate` with `engine` on `cycle` at dt = 0.01 s: (CSV, summary JSON, stdout).

@@ -5,28 +5,7 @@
 use crate::common;
 use std::collections::HashMap;
 
-use common::{invsim, json_file, stderr, tmp};
-
-/// The CSV written by a sweep: header and records.
-fn read_csv(path: &std::path::Path) -> (Vec<String>, Vec<Vec<String>>) {
-    let text = std::fs::read_to_string(path).expect("sweep wrote its CSV");
-    let mut reader = csv::Reader::from_reader(text.as_bytes());
-    let header = reader
-        .headers()
-        .expect("header")
-        .iter()
-        .map(String::from)
-        .collect();
-    let rows = reader
-        .records()
-        .map(|r| r.expect("record").iter().map(String::from).collect())
-        .collect();
-    (header, rows)
-}
-
-fn num(s: &str) -> f64 {
-    s.parse().unwrap_or_else(|_| panic!("`{s}` is a number"))
-}
+use common::{invsim, json_file, num, read_csv, stderr, tmp};
 
 /// Run the sweep with `extra` arguments and compare every row with `simulate --set` of its variant.
 fn check_against_simulate(engine: &str, threads: &str) {

@@ -24,6 +24,7 @@ mod numfmt;
 pub mod ode;
 pub mod operating_points;
 pub mod output;
+pub mod plant;
 pub mod plot;
 pub mod progress;
 pub mod provenance;
@@ -49,6 +50,7 @@ pub use inverse::{
 };
 pub use kernel::Kernel;
 pub use operating_points::OperatingPoints;
+pub use plant::Plant;
 pub use progress::Progress;
 pub use provenance::{CycleRecord, FileRecord, Override, Provenance};
 pub use reference_deviation::ReferenceDeviation;

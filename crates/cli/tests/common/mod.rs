@@ -44,3 +44,25 @@ pub fn shared(rel: &str) -> Option<String> {
 pub fn json_file(path: &Path) -> Value {
     serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
 }
+
+/// The CSV written by a command: header and records.
+pub fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
+    let text = std::fs::read_to_string(path).expect("the command wrote its CSV");
+    let mut reader = csv::Reader::from_reader(text.as_bytes());
+    let header = reader
+        .headers()
+        .expect("header")
+        .iter()
+        .map(String::from)
+        .collect();
+    let rows = reader
+        .records()
+        .map(|r| r.expect("record").iter().map(String::from).collect())
+        .collect();
+    (header, rows)
+}
+
+/// A CSV field as a number.
+pub fn num(s: &str) -> f64 {
+    s.parse().unwrap_or_else(|_| panic!("`{s}` is a number"))
+}

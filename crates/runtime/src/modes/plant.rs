@@ -103,19 +103,19 @@ impl ModalPlant {
         self.modes.iter().map(|(m, _)| m.name.clone()).collect()
     }
 
-    /// The parameters that can be set (the first mode's, less those the gearbox sets per gear).
+    /// The declared parameters (every mode's; those the gearbox sets per gear cannot be set on their own).
     pub fn parameters(&self) -> Vec<String> {
-        let declared = &self.first().info().parameters;
-        declared
-            .iter()
-            .filter(|p| !self.gear_parameters.contains(p))
-            .cloned()
-            .collect()
+        self.first().info().parameters.clone()
+    }
+
+    /// Is `name` a parameter the gearbox sets per gear?
+    pub fn is_gear_parameter(&self, name: &str) -> bool {
+        self.gear_parameters.iter().any(|p| p == name)
     }
 
     /// Set a parameter in every mode; a parameter the gearbox sets per gear is refused.
     pub fn set_param(&mut self, name: &str, value: f64) -> Result<(), ModalError> {
-        if self.gear_parameters.iter().any(|p| p == name) {
+        if self.is_gear_parameter(name) {
             return Err(ModalError::Setup(format!(
                 "`{name}` is set per gear by the model's [gearbox]; change its values there"
             )));

@@ -2,55 +2,68 @@
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use invsim_model_api::InverseModel;
 use rayon::prelude::*;
 
-use super::plan::Sweep;
+use super::plan::{Shared, Sweep};
 use super::rows::{Figures, SweepResult, SweepRow};
 use crate::cycle::Cycle;
-use crate::inverse::{simulate_shared, Reference};
+use crate::inverse::simulate_shared;
+use crate::modes::{simulate_modes_with_signals, ModalOptions, Switching};
+use crate::plant::Plant;
 
 /// A worker's model and the column buffers its runs reuse.
 struct Worker {
-    model: Result<Box<dyn InverseModel>, String>,
+    model: Result<Plant, String>,
     spare: Vec<Vec<f64>>,
 }
 
-/// Set the variant's parameters on `model` and run it on `cycle` with the shared `reference`, reusing and
-/// refilling the column buffers `spare`.
+/// Set the variant's parameters on `model` and run it on `cycle` with what its runs share, reusing and
+/// refilling the column buffers `spare` (a model without modes).
 fn run_variant(
     sweep: &Sweep,
-    model: &mut dyn InverseModel,
+    model: &mut Plant,
     spare: &mut Vec<Vec<f64>>,
-    (cycle, reference): (&Cycle, &Reference),
-    (params, integrals): (&[f64], &[String]),
+    (cycle, shared): (&Cycle, &Shared),
+    params: &[f64],
 ) -> Result<Figures, String> {
     for (name, &value) in sweep.names.iter().zip(params) {
         model
             .set_param(name, value)
             .map_err(|e| format!("{name} = {value}: {e}"))?;
     }
-    let buffers = std::mem::take(spare);
-    let result = simulate_shared(&*model, cycle, reference, &sweep.opts, buffers)
-        .map_err(|e| e.to_string())?;
-    *spare = result.data;
-    Ok(Figures::from_summary(&result.summary, integrals))
+    match (&*model, shared) {
+        (Plant::Single(m), Shared::Reference(reference)) => {
+            let buffers = std::mem::take(spare);
+            let result = simulate_shared(m.as_ref(), cycle, reference, &sweep.opts, buffers)
+                .map_err(|e| e.to_string())?;
+            *spare = result.data;
+            Ok(Figures::from_summary(&result.summary, &sweep.integrals))
+        }
+        (Plant::Modal(p), Shared::Gears(gears)) => {
+            let spec = p.spec(gears.clone());
+            let opts = ModalOptions {
+                lookahead: sweep.opts.lookahead,
+                dt: sweep.opts.dt,
+                switching: Switching::Reentry,
+                transition_time: None,
+                verify: sweep.opts.verify,
+            };
+            let result = simulate_modes_with_signals(&spec, cycle, &opts, &sweep.opts.signals)
+                .map_err(|e| e.to_string())?;
+            Ok(Figures::from_modal(&result, &spec, &sweep.integrals))
+        }
+        _ => Err("the worker's model is not of the kind the sweep was built for".to_string()),
+    }
 }
 
 /// Row `job` (variant job / cycles, cycle job % cycles) on `worker`'s model.
-fn run_one(sweep: &Sweep, worker: &mut Worker, integrals: &[String], job: usize) -> SweepRow {
+fn run_one(sweep: &Sweep, worker: &mut Worker, job: usize) -> SweepRow {
     let n_cycles = sweep.cycles.len();
     let (variant, c) = (job / n_cycles, job % n_cycles);
-    let (cycle, reference) = &sweep.cycles[c];
+    let (cycle, shared) = &sweep.cycles[c];
     let params = &sweep.variants[variant];
     let outcome = match &mut worker.model {
-        Ok(model) => run_variant(
-            sweep,
-            model.as_mut(),
-            &mut worker.spare,
-            (cycle, reference),
-            (params, integrals),
-        ),
+        Ok(model) => run_variant(sweep, model, &mut worker.spare, (cycle, shared), params),
         Err(e) => Err(e.clone()),
     };
     SweepRow {
@@ -63,17 +76,9 @@ fn run_one(sweep: &Sweep, worker: &mut Worker, integrals: &[String], job: usize)
 
 /// Every row of `sweep`, in order; `progress` is told the number of finished rows after each.
 pub(super) fn run(sweep: &Sweep, progress: &(dyn Fn(usize) + Sync)) -> SweepResult {
-    let info = &sweep.info;
-    let mut integrals: Vec<String> = info
-        .outputs
-        .iter()
-        .filter(|o| o.accumulate)
-        .map(|o| o.name.clone())
-        .collect();
-    integrals.sort();
     let done = AtomicUsize::new(0);
     let job = |worker: &mut Worker, j: usize| {
-        let row = run_one(sweep, worker, &integrals, j);
+        let row = run_one(sweep, worker, j);
         progress(done.fetch_add(1, Ordering::Relaxed) + 1);
         row
     };
@@ -83,10 +88,7 @@ pub(super) fn run(sweep: &Sweep, progress: &(dyn Fn(usize) + Sync)) -> SweepResu
     };
     let jobs = 0..sweep.len();
     let rows: Vec<SweepRow> = if sweep.threads == 1 {
-        let mut worker = Worker {
-            model: (sweep.factory)(),
-            spare: Vec::new(),
-        };
+        let mut worker = new_worker();
         jobs.map(|j| job(&mut worker, j)).collect()
     } else {
         let all = || {
@@ -101,11 +103,12 @@ pub(super) fn run(sweep: &Sweep, progress: &(dyn Fn(usize) + Sync)) -> SweepResu
         }
     };
     SweepResult {
-        model: info.name.clone(),
+        model: sweep.model.clone(),
         engine: sweep.opts.engine.clone(),
         parameters: sweep.names.clone(),
-        integrals,
+        integrals: sweep.integrals.clone(),
         verify: sweep.opts.verify,
+        modes: sweep.modes.clone(),
         rows,
     }
 }

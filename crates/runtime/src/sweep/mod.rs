@@ -29,6 +29,7 @@ mod parquet;
 mod plan;
 mod rows;
 
+use std::path::PathBuf;
 use std::sync::Arc;
 
 use invsim_model_api::InverseModel;
@@ -36,9 +37,11 @@ use thiserror::Error;
 
 use crate::cycle::Cycle;
 use crate::inverse::{SimulateError, SimulationOptions};
+use crate::plant::Plant;
+use plan::Shared;
 
 pub use plan::{ModelFactory, Sweep};
-pub use rows::{Figures, SweepResult, SweepRow};
+pub use rows::{Figures, ModeFigures, SweepResult, SweepRow};
 
 /// Why a sweep could not be built.
 #[derive(Debug, Error)]
@@ -59,6 +62,10 @@ pub enum SweepError {
     },
     #[error("unknown parameter `{name}` (the model declares: {known})")]
     UnknownParameter { name: String, known: String },
+    #[error("parameter `{name}`: {reason}")]
+    NotSettable { name: String, reason: String },
+    #[error("cycle `{cycle}`: {reason}")]
+    Gears { cycle: String, reason: String },
     #[error("cycle `{cycle}`: {source}")]
     Reference {
         cycle: String,
@@ -86,7 +93,8 @@ enum Design {
 /// Builds a [`Sweep`] (see [`Sweep::new`]); [`SweepBuilder::build`] checks everything once.
 pub struct SweepBuilder {
     factory: ModelFactory,
-    cycles: Vec<Cycle>,
+    /// Each cycle and the file it was read from (`None`: built in).
+    cycles: Vec<(Cycle, Option<PathBuf>)>,
     design: Design,
     table: Option<(Vec<String>, Vec<Vec<f64>>)>,
     errors: Vec<SweepError>,
@@ -118,6 +126,15 @@ impl Sweep {
     pub fn try_new<F>(factory: F) -> SweepBuilder
     where
         F: Fn() -> Result<Box<dyn InverseModel>, String> + Send + Sync + 'static,
+    {
+        Sweep::of_plants(move || factory().map(Plant::Single))
+    }
+
+    /// A sweep of any model, with or without modes: `factory` makes a copy at its base parameters (once per
+    /// worker) or says why it cannot.
+    pub fn of_plants<F>(factory: F) -> SweepBuilder
+    where
+        F: Fn() -> Result<Plant, String> + Send + Sync + 'static,
     {
         SweepBuilder {
             factory: Arc::new(factory),
@@ -166,9 +183,16 @@ impl Sweep {
 }
 
 impl SweepBuilder {
-    /// Add a cycle (its name labels the rows).
+    /// Add a built-in cycle, or a cycle file's (its name labels the rows).
     pub fn cycle(mut self, cycle: &Cycle) -> Self {
-        self.cycles.push(cycle.clone());
+        self.cycles.push((cycle.clone(), None));
+        self
+    }
+
+    /// Add a cycle read from `file` (a model whose gearbox takes the gear from a column of the cycle file
+    /// reads it there).
+    pub fn cycle_file(mut self, cycle: &Cycle, file: impl Into<PathBuf>) -> Self {
+        self.cycles.push((cycle.clone(), Some(file.into())));
         self
     }
 
@@ -248,18 +272,19 @@ impl SweepBuilder {
         opts.validate()?;
         let model = (self.factory)().map_err(SweepError::Model)?;
         let (names, variants) = expand(&self.design)?;
-        check_names(model.as_ref(), &names)?;
+        check_names(&model.parameters(), &names)?;
+        if let Some((name, reason)) = names
+            .iter()
+            .find_map(|n| model.not_settable(n).map(|r| (n.clone(), r)))
+        {
+            return Err(SweepError::NotSettable { name, reason });
+        }
         let cycles = self
             .cycles
             .into_iter()
-            .map(|c| {
-                let r = crate::inverse::reference(model.as_ref(), &c, &opts).map_err(|source| {
-                    SweepError::Reference {
-                        cycle: c.name.clone(),
-                        source: Box::new(source),
-                    }
-                })?;
-                Ok((c, Arc::new(r)))
+            .map(|(c, file)| {
+                let shared = shared(&model, &c, file.as_deref(), &opts)?;
+                Ok((c, shared))
             })
             .collect::<Result<Vec<_>, SweepError>>()?;
         let pool = match self.threads {
@@ -275,7 +300,9 @@ impl SweepBuilder {
             ),
         };
         Ok(Sweep {
-            info: model.info().clone(),
+            model: model.name().to_string(),
+            integrals: model.integrals(),
+            modes: model.mode_names(),
             factory: self.factory,
             cycles,
             names,
@@ -348,9 +375,33 @@ fn expand(design: &Design) -> Result<(Vec<String>, Vec<Vec<f64>>), SweepError> {
     }
 }
 
+/// What every run of `model` on `cycle` (read from `file`, `None` for a built-in) shares: the smoothed
+/// reference of a model without modes, the gear schedule of one with modes.
+fn shared(
+    model: &Plant,
+    cycle: &Cycle,
+    file: Option<&std::path::Path>,
+    opts: &SimulationOptions,
+) -> Result<Shared, SweepError> {
+    match model {
+        Plant::Single(m) => crate::inverse::reference(m.as_ref(), cycle, opts)
+            .map(|r| Shared::Reference(Arc::new(r)))
+            .map_err(|source| SweepError::Reference {
+                cycle: cycle.name.clone(),
+                source: Box::new(source),
+            }),
+        Plant::Modal(p) => p
+            .gear_source(cycle, file)
+            .map(Shared::Gears)
+            .map_err(|reason| SweepError::Gears {
+                cycle: cycle.name.clone(),
+                reason,
+            }),
+    }
+}
+
 /// Every swept name is a parameter of the model, and none twice.
-fn check_names(model: &dyn InverseModel, names: &[String]) -> Result<(), SweepError> {
-    let declared = &model.info().parameters;
+fn check_names(declared: &[String], names: &[String]) -> Result<(), SweepError> {
     for (i, name) in names.iter().enumerate() {
         if names[..i].contains(name) {
             return Err(SweepError::DuplicateParameter { name: name.clone() });

@@ -345,6 +345,20 @@ fn columns(result: &SweepResult) -> Vec<Column> {
         cols.push(dbl("max_abs_tracking_error".into(), true, &max));
         cols.push(dbl("rms_tracking_error".into(), true, &rms));
     }
+    if !result.modes.is_empty() {
+        let modes = |r: &SweepRow| ok(r).and_then(|f| f.modes);
+        cols.push(int("switches", true, &|r| {
+            modes(r).map(|m| m.switches as i64)
+        }));
+        cols.push(dbl("max_transition_deviation".into(), true, &|r| {
+            modes(r).map(|m| m.max_transition_deviation)
+        }));
+        for (j, m) in result.modes.iter().enumerate() {
+            cols.push(dbl(format!("time_{m}_s"), true, &|r| {
+                modes(r).and_then(|m| m.time_s.get(j).copied())
+            }));
+        }
+    }
     cols
 }
 

@@ -1,23 +1,35 @@
-//! A checked sweep's data: the model factory, the cycles with their shared references, the variants and the
-//! options (built by [`super::SweepBuilder`], run by `exec`).
+//! A checked sweep's data: the model factory, the cycles with what every run on them shares, the variants and
+//! the options (built by [`super::SweepBuilder`], run by `exec`).
 
 use std::sync::Arc;
 
-use invsim_model_api::{InverseModel, ModelInfo};
-
 use crate::cycle::Cycle;
 use crate::inverse::{Reference, SimulationOptions};
+use crate::modes::GearSource;
+use crate::plant::Plant;
 
 /// Makes a fresh copy of the swept model at its base parameters (called once per worker thread), or says why
 /// it cannot.
-pub type ModelFactory = Arc<dyn Fn() -> Result<Box<dyn InverseModel>, String> + Send + Sync>;
+pub type ModelFactory = Arc<dyn Fn() -> Result<Plant, String> + Send + Sync>;
 
-/// A checked sweep: the model, the variants, the cycles with their shared references; [`Sweep::run`] runs it.
+/// What every run on one cycle shares, made once when the sweep is built.
+pub(super) enum Shared {
+    /// A model without modes: the smoothed reference.
+    Reference(Arc<Reference>),
+    /// A model with modes: the gear schedule resolved for the cycle.
+    Gears(GearSource),
+}
+
+/// A checked sweep: the model, the variants, the cycles with their shared data; [`Sweep::run`] runs it.
 pub struct Sweep {
     pub(super) factory: ModelFactory,
-    /// The model's description (of the copy `build` made).
-    pub(super) info: ModelInfo,
-    pub(super) cycles: Vec<(Cycle, Arc<Reference>)>,
+    /// The model's name (of the copy `build` made).
+    pub(super) model: String,
+    /// The accumulated outputs, sorted.
+    pub(super) integrals: Vec<String>,
+    /// The modes' names (empty for a model without modes).
+    pub(super) modes: Vec<String>,
+    pub(super) cycles: Vec<(Cycle, Shared)>,
     pub(super) names: Vec<String>,
     pub(super) variants: Vec<Vec<f64>>,
     pub(super) opts: SimulationOptions,

@@ -3,6 +3,7 @@
 use std::io::Write;
 
 use crate::inverse::Summary;
+use crate::modes::{ModalResult, ModalSpec};
 
 /// The summary figures of one run (see [`crate::Summary`], whose numbers they are).
 #[derive(Debug, Clone, PartialEq)]
@@ -24,6 +25,19 @@ pub struct Figures {
     /// With `verify`: max |y − y_d| and rms (y − y_d) of the forward replay.
     pub max_abs_tracking_error: Option<f64>,
     pub rms_tracking_error: Option<f64>,
+    /// A model with modes: the time in each mode, the switches and the largest transition deviation.
+    pub modes: Option<ModeFigures>,
+}
+
+/// The figures of a run with modes beside those of every run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModeFigures {
+    /// Time in each mode, s, in the order of [`SweepResult::modes`].
+    pub time_s: Vec<f64>,
+    /// Number of mode switches.
+    pub switches: usize,
+    /// The largest deviation |y − y_c| of a re-entry from the smoothed cycle (the tracked output's unit).
+    pub max_transition_deviation: f64,
 }
 
 impl Figures {
@@ -43,9 +57,45 @@ impl Figures {
             input_min: totals.input_min,
             input_max: totals.input_max,
             violations: violations.len(),
-            violation_s: violations.iter().map(|[a, b]| b - a).sum(),
+            violation_s: total_length(violations),
             max_abs_tracking_error: summary.max_abs_tracking_error,
             rms_tracking_error: summary.rms_tracking_error,
+            modes: None,
+        }
+    }
+
+    /// The figures of a run with modes, integrals in the order of `integrals`. Its `input_min` and
+    /// `input_max` are those of the model's first declared input (the traction input: a throttle, a motor
+    /// torque), the violations those of every mode's free input.
+    pub fn from_modal(result: &ModalResult, spec: &ModalSpec<'_>, integrals: &[String]) -> Figures {
+        let s = &result.summary;
+        let pick = |map: &std::collections::BTreeMap<String, f64>| -> Vec<f64> {
+            let value = |name: &String| map.get(name).copied().unwrap_or(f64::NAN);
+            integrals.iter().map(value).collect()
+        };
+        let first = spec
+            .inputs
+            .first()
+            .and_then(|i| result.column(&i.name))
+            .unwrap_or(&[]);
+        let finite = || first.iter().copied().filter(|v| v.is_finite());
+        let violations = &s.input_bound_violations;
+        Figures {
+            samples: s.samples,
+            distance_m: s.distance_m,
+            integrals: pick(&s.integrals),
+            integrals_per_100km: pick(&s.per_100km),
+            input_min: finite().fold(f64::INFINITY, f64::min),
+            input_max: finite().fold(f64::NEG_INFINITY, f64::max),
+            violations: violations.len(),
+            violation_s: total_length(violations),
+            max_abs_tracking_error: s.max_abs_tracking_error,
+            rms_tracking_error: s.rms_tracking_error,
+            modes: Some(ModeFigures {
+                time_s: s.modes.iter().map(|m| m.time_s).collect(),
+                switches: s.switches,
+                max_transition_deviation: s.max_transition_deviation,
+            }),
         }
     }
 }
@@ -76,6 +126,8 @@ pub struct SweepResult {
     pub integrals: Vec<String>,
     /// Whether the rows have tracking errors.
     pub verify: bool,
+    /// The modes' names of a model with modes (then every row has their times), else empty.
+    pub modes: Vec<String>,
     /// Variant 0 on each cycle, then variant 1 on each cycle, ….
     pub rows: Vec<SweepRow>,
 }
@@ -88,7 +140,8 @@ impl SweepResult {
 
     /// The CSV header: `variant`, `cycle`, the parameters, `status`, `error`, `samples`, `distance_m`, the
     /// integrals, `NAME_per_100km` for each, `input_min`, `input_max`, `violations`, `violation_s`, and with
-    /// `verify` `max_abs_tracking_error`, `rms_tracking_error`.
+    /// `verify` `max_abs_tracking_error`, `rms_tracking_error`, and for a model with modes `switches`,
+    /// `max_transition_deviation` and `time_MODE_s` for each mode.
     pub fn header(&self) -> Vec<String> {
         let mut h = vec!["variant".to_string(), "cycle".to_string()];
         h.extend(self.parameters.iter().cloned());
@@ -99,6 +152,10 @@ impl SweepResult {
         if self.verify {
             h.extend(["max_abs_tracking_error", "rms_tracking_error"].map(String::from));
         }
+        if !self.modes.is_empty() {
+            h.extend(["switches", "max_transition_deviation"].map(String::from));
+            h.extend(self.modes.iter().map(|m| format!("time_{m}_s")));
+        }
         h
     }
 
@@ -107,7 +164,13 @@ impl SweepResult {
     pub fn record(&self, row: &SweepRow) -> Vec<String> {
         let mut r = vec![row.variant.to_string(), row.cycle.clone()];
         r.extend(row.params.iter().map(|v| v.to_string()));
-        let n_figures = 2 + 2 * self.integrals.len() + 4 + if self.verify { 2 } else { 0 };
+        let n_modal = if self.modes.is_empty() {
+            0
+        } else {
+            2 + self.modes.len()
+        };
+        let n_figures =
+            2 + 2 * self.integrals.len() + 4 + if self.verify { 2 } else { 0 } + n_modal;
         match &row.outcome {
             Err(e) => {
                 r.extend(["error".to_string(), e.clone()]);
@@ -124,6 +187,11 @@ impl SweepResult {
                     let opt = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
                     r.extend([opt(f.max_abs_tracking_error), opt(f.rms_tracking_error)]);
                 }
+                if let Some(m) = f.modes.as_ref().filter(|_| !self.modes.is_empty()) {
+                    r.push(m.switches.to_string());
+                    r.push(m.max_transition_deviation.to_string());
+                    r.extend(m.time_s.iter().map(|v| v.to_string()));
+                }
             }
         }
         r
@@ -139,4 +207,9 @@ impl SweepResult {
         out.flush()?;
         Ok(())
     }
+}
+
+/// The total length of `intervals`, s (+0 when there are none: an empty float sum is −0).
+fn total_length(intervals: &[[f64; 2]]) -> f64 {
+    intervals.iter().map(|[a, b]| b - a).sum::<f64>() + 0.0
 }
