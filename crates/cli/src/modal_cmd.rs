@@ -43,39 +43,7 @@ pub fn derive(mut m: ModalModel, format: crate::derive_format::Format) -> Result
         .map_err(|e| Failure::user(e.to_string()))?;
     let text = match format {
         crate::derive_format::Format::Json => {
-            let modes: Vec<serde_json::Value> = ds
-                .iter()
-                .map(|mode| {
-                    let (d, mode) = (&mode.d, &mode.header);
-                    let fixed: serde_json::Map<String, serde_json::Value> = mode
-                        .fixed
-                        .iter()
-                        .map(|(i, e)| {
-                            (
-                                m.inputs[*i].name.clone(),
-                                serde_json::Value::String(e.clone()),
-                            )
-                        })
-                        .collect();
-                    let mut o = serde_json::json!({
-                        "name": mode.name, "family": mode.family, "gear": mode.gear,
-                        "role": mode.role.as_str(), "free_input": m.inputs[mode.free].name,
-                        "fixed_inputs": fixed, "derivation": d.to_json(),
-                    });
-                    if !mode.coupled.is_empty() {
-                        // The states the mode couples (`couple`), with their couplings as written.
-                        let couples: serde_json::Map<String, serde_json::Value> = mode
-                            .coupled
-                            .iter()
-                            .map(|(s, e)| (d.model.states[*s].name.clone(), e.clone().into()))
-                            .collect();
-                        o["couples"] = couples.into();
-                    }
-                    o
-                })
-                .collect();
-            let inputs: Vec<&str> = m.inputs.iter().map(|i| i.name.as_str()).collect();
-            let v = serde_json::json!({ "name": m.name, "inputs": inputs, "modes": modes });
+            let v = invsim_loader::modal_derive_json(&m, &ds);
             let mut s = serde_json::to_string_pretty(&v).map_err(|e| Failure::io(e.to_string()))?;
             s.push('\n');
             s

@@ -171,7 +171,7 @@ fn modal(
     };
     let mut result = simulate_modes_with_signals(&spec, cycle, &opts, &data.signals)
         .map_err(|e| stopped(args, cycle, e))?;
-    result.summary.engine = model.engine.to_string();
+    result.summary.engine = model.engine_name().to_string();
     outputs.write("--out", |f| {
         output::write_table_csv(&result.columns, &result.data, f)
     })?;

@@ -161,13 +161,8 @@ fn fields(line: &str) -> impl Iterator<Item = (usize, &str)> {
 }
 
 /// The sweep's builder for the loaded model, each worker's copy with the `--set` overrides: copies of the
-/// interpreter, fresh compiled models, or for a model with modes the file loaded again (as a single run
-/// loads it, so that every row equals that run).
-fn builder(
-    args: &SweepArgs,
-    model: Loaded,
-    sets: Vec<(String, f64)>,
-) -> Result<SweepBuilder, Failure> {
+/// interpreter, fresh compiled models (for a model with modes, of every mode).
+fn builder(model: Loaded, sets: Vec<(String, f64)>) -> Result<SweepBuilder, Failure> {
     let mut model = model;
     for (name, value) in &sets {
         model.set_param(name, *value).map_err(set_failure)?;
@@ -175,19 +170,9 @@ fn builder(
     match model {
         Loaded::Single(SingleModel::Interpreted(m)) => Ok(Sweep::of(*m)),
         Loaded::Single(m) => Ok(Sweep::try_new(move || m.fresh().map_err(|e| e.to_string()))),
-        Loaded::Modal(_) => {
-            let (path, engine) = (args.model.clone(), args.engine);
-            Ok(Sweep::of_plants(move || {
-                let mut m = load(&path, engine).map_err(|f| f.message)?;
-                for (name, value) in &sets {
-                    m.set_param(name, *value).map_err(|e| e.to_string())?;
-                }
-                match m {
-                    Loaded::Modal(m) => Ok(Plant::Modal(m.plant)),
-                    Loaded::Single(_) => Err(format!("{} no longer has modes", path.display())),
-                }
-            }))
-        }
+        Loaded::Modal(m) => Ok(Sweep::of_plants(move || {
+            m.fresh().map(Plant::Modal).map_err(|e| e.to_string())
+        })),
     }
 }
 
@@ -297,7 +282,7 @@ pub fn run(args: &SweepArgs) -> Result<(), Failure> {
         .engine(model.engine_name())
         .build()
         .map_err(|e| failed(e.to_string()))?;
-    let mut b = builder(args, model, sets)?;
+    let mut b = builder(model, sets)?;
     for (c, spec) in &cycles {
         b = match crate::cycle_spec::is_builtin(spec) {
             true => b.cycle(c),

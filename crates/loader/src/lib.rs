@@ -19,7 +19,7 @@ use invsim_inversion::ModelFile;
 
 pub use choice::EngineChoice;
 pub use error::LoadError;
-pub use modal::{derive_modes, DerivedMode, LoadedModal};
+pub use modal::{derive_modes, modal_derive_json, DerivedMode, LoadedModal};
 pub use single::SingleModel;
 
 /// A model file loaded for runs.
@@ -35,7 +35,7 @@ impl Loaded {
     pub fn engine_name(&self) -> &'static str {
         match self {
             Loaded::Single(m) => m.engine_name(),
-            Loaded::Modal(m) => m.engine,
+            Loaded::Modal(m) => m.engine_name(),
         }
     }
 
@@ -93,11 +93,33 @@ pub fn load(path: &Path, choice: EngineChoice) -> Result<Loaded, LoadError> {
         if let Some(m) = read_bounded(path).and_then(|b| single::builtin_of(&b)) {
             return Ok(Loaded::Single(SingleModel::Compiled(m)));
         }
-        if let Some(m) = modal::read_compiled(path)? {
+        let read = |known: &dyn Fn(&str) -> bool| ModelFile::modal_headers(path, known);
+        if let Some(m) = modal::read_compiled(read)? {
             return Ok(Loaded::Modal(m));
         }
     }
-    match ModelFile::from_path(path).map_err(|e| LoadError::Model(e.to_string()))? {
+    let file = ModelFile::from_path(path).map_err(|e| LoadError::Model(e.to_string()))?;
+    from_file(file, path, choice)
+}
+
+/// [`load`] of a model file given as its bytes (`path` names it in messages).
+pub fn load_source(path: &Path, bytes: &[u8], choice: EngineChoice) -> Result<Loaded, LoadError> {
+    if choice != EngineChoice::Interpreted {
+        if let Some(m) = single::builtin_of(bytes) {
+            return Ok(Loaded::Single(SingleModel::Compiled(m)));
+        }
+        let read = |known: &dyn Fn(&str) -> bool| ModelFile::modal_headers_of(path, bytes, known);
+        if let Some(m) = modal::read_compiled(read)? {
+            return Ok(Loaded::Modal(m));
+        }
+    }
+    let file = ModelFile::from_bytes(path, bytes).map_err(|e| LoadError::Model(e.to_string()))?;
+    from_file(file, path, choice)
+}
+
+/// The model file `file` (read from `path`) run by the engine `choice` asks for.
+fn from_file(file: ModelFile, path: &Path, choice: EngineChoice) -> Result<Loaded, LoadError> {
+    match file {
         ModelFile::Single(model) => single::from_model(*model, path, choice).map(Loaded::Single),
         ModelFile::Modal(m) => modal::from_model(*m, choice).map(Loaded::Modal),
     }

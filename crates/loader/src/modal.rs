@@ -2,22 +2,67 @@
 //! built-in one (then it is read without building each mode's model: `ModelFile::modal_headers`), else every
 //! mode derived and interpreted; assembled into the runtime's [`ModalPlant`].
 
-use std::path::Path;
-
 use invsim_inversion::{
-    coupling_name, Derivation, Interpreter, ModalModel, Mode, ModeHeader, ModeRole, ModelFile,
-    Schedule,
+    coupling_name, Derivation, Interpreter, ModalModel, Mode, ModeHeader, ModeRole, Schedule,
 };
 use invsim_model_api::InverseModel;
 use invsim_runtime::modes::{GearSchedule, InputSpec, ModalPlant, ModeMeta, Role, SequenceParams};
 
 use crate::{EngineChoice, LoadError};
 
-/// A loaded model with modes and the engine that runs its modes.
+/// A loaded model with modes and where fresh copies of its modes' models come from.
 pub struct LoadedModal {
     pub plant: ModalPlant,
+    source: Source,
+}
+
+/// Where a fresh copy of every mode's model comes from.
+enum Source {
+    /// The compiled modes of the file with this SHA-256.
+    Compiled(String),
+    /// The interpreters as derived (at the file's parameters).
+    Interpreted(Vec<Interpreter>),
+}
+
+impl LoadedModal {
     /// `"compiled"` or `"interpreted"`.
-    pub engine: &'static str,
+    pub fn engine_name(&self) -> &'static str {
+        match self.source {
+            Source::Compiled(_) => "compiled",
+            Source::Interpreted(_) => "interpreted",
+        }
+    }
+
+    /// A fresh plant with every mode's parameters as they are now in this one (for a run of its own: a
+    /// worker of a sweep, a call from another thread). Maps replaced by `set_map` are not carried over.
+    pub fn fresh(&self) -> Result<ModalPlant, LoadError> {
+        let mut models = match &self.source {
+            Source::Compiled(hash) => invsim_models::modal_by_hash(hash).ok_or_else(|| {
+                LoadError::Model(format!("no built-in model has the hash {hash}"))
+            })?,
+            Source::Interpreted(prototypes) => interpreters(prototypes),
+        };
+        for (fresh, now) in models.iter_mut().zip(self.plant.models()) {
+            let info = now.info();
+            for (name, &v) in info.parameters.iter().zip(now.params()) {
+                fresh.set_param(name, v).map_err(|e| LoadError::Parameter {
+                    name: name.clone(),
+                    reason: e.to_string(),
+                })?;
+            }
+        }
+        self.plant
+            .with_models(models)
+            .map_err(|e| LoadError::Model(e.to_string()))
+    }
+}
+
+/// A copy of each interpreter, boxed for the runtime.
+fn interpreters(prototypes: &[Interpreter]) -> Vec<Box<dyn InverseModel>> {
+    prototypes
+        .iter()
+        .map(|i| Box::new(i.clone()) as Box<dyn InverseModel>)
+        .collect()
 }
 
 /// A mode with its derivation (what `derive` prints of a model with modes).
@@ -41,22 +86,65 @@ pub fn derive_modes(modes: Vec<Mode>) -> Result<Vec<DerivedMode>, LoadError> {
         .collect()
 }
 
-/// The model at `path` with its compiled modes, when the file is byte for byte a built-in model with modes
-/// (every mode was checked when that code was generated from these bytes, so only the first mode's model is
-/// built); `None` otherwise.
-pub(crate) fn read_compiled(path: &Path) -> Result<Option<LoadedModal>, LoadError> {
+/// The derivation of a model with modes as JSON (what `invsim derive --format json` prints):
+/// `{"name", "inputs", "modes": [{"name", "family", "gear", "role", "free_input", "fixed_inputs",
+/// "derivation", "couples"?}]}`.
+pub fn modal_derive_json(m: &ModalModel, modes: &[DerivedMode]) -> serde_json::Value {
+    use serde_json::{json, Map, Value};
+    let modes: Vec<Value> = modes
+        .iter()
+        .map(|mode| {
+            let (d, h) = (&mode.d, &mode.header);
+            let fixed: Map<String, Value> = h
+                .fixed
+                .iter()
+                .map(|(i, e)| (m.inputs[*i].name.clone(), Value::String(e.clone())))
+                .collect();
+            let mut o = json!({
+                "name": h.name, "family": h.family, "gear": h.gear,
+                "role": h.role.as_str(), "free_input": m.inputs[h.free].name,
+                "fixed_inputs": fixed, "derivation": d.to_json(),
+            });
+            if !h.coupled.is_empty() {
+                // The states the mode couples (`couple`), with their couplings as written.
+                let couples: Map<String, Value> = h
+                    .coupled
+                    .iter()
+                    .map(|(s, e)| (d.model.states[*s].name.clone(), e.clone().into()))
+                    .collect();
+                o["couples"] = couples.into();
+            }
+            o
+        })
+        .collect();
+    let inputs: Vec<&str> = m.inputs.iter().map(|i| i.name.as_str()).collect();
+    json!({ "name": m.name, "inputs": inputs, "modes": modes })
+}
+
+/// The model with its compiled modes, when the file is byte for byte a built-in model with modes (every mode
+/// was checked when that code was generated from these bytes, so only the first mode's model is built);
+/// `None` otherwise. `read` reads the file's headers for the hashes it is given to know
+/// (`ModelFile::modal_headers`).
+pub(crate) fn read_compiled(
+    read: impl FnOnce(&dyn Fn(&str) -> bool) -> HeaderRead,
+) -> Result<Option<LoadedModal>, LoadError> {
     let known = |hash: &str| invsim_models::modal_by_hash(hash).is_some();
-    let Some((m, headers)) =
-        ModelFile::modal_headers(path, &known).map_err(|e| LoadError::Model(e.to_string()))?
-    else {
+    let Some((m, headers)) = read(&known).map_err(|e| LoadError::Model(e.to_string()))? else {
         return Ok(None);
     };
     let models = invsim_models::modal_by_hash(&m.source_hash).filter(|c| c.len() == headers.len());
     match models {
-        Some(models) => assemble(&m, headers, models, "compiled").map(Some),
+        Some(models) => {
+            let source = Source::Compiled(m.source_hash.clone());
+            assemble(&m, headers, models, source).map(Some)
+        }
         None => Ok(None),
     }
 }
+
+/// What [`ModelFile::modal_headers`] gives.
+pub(crate) type HeaderRead =
+    Result<Option<(ModalModel, Vec<ModeHeader>)>, invsim_inversion::ModelError>;
 
 /// Every mode of `m` run by the engine `choice` asks for.
 pub(crate) fn from_model(
@@ -70,7 +158,8 @@ pub(crate) fn from_model(
     let modes = std::mem::take(&mut m.modes);
     if let Some(models) = compiled {
         let headers = modes.into_iter().map(Mode::into_header).collect();
-        return assemble(&m, headers, models, "compiled");
+        let source = Source::Compiled(m.source_hash.clone());
+        return assemble(&m, headers, models, source);
     }
     if choice == EngineChoice::Compiled {
         return Err(LoadError::NotBuiltIn {
@@ -84,13 +173,13 @@ pub(crate) fn from_model(
         });
     }
     let mut headers = Vec::with_capacity(modes.len());
-    let mut models: Vec<Box<dyn InverseModel>> = Vec::with_capacity(modes.len());
+    let mut prototypes = Vec::with_capacity(modes.len());
     for DerivedMode { header, d } in derive_modes(modes)? {
-        let i = Interpreter::new(&d).map_err(|e| LoadError::Model(e.to_string()))?;
-        models.push(Box::new(i));
+        prototypes.push(Interpreter::new(&d).map_err(|e| LoadError::Model(e.to_string()))?);
         headers.push(header);
     }
-    assemble(&m, headers, models, "interpreted")
+    let models = interpreters(&prototypes);
+    assemble(&m, headers, models, Source::Interpreted(prototypes))
 }
 
 /// The runtime's plant of `m`'s modes (`headers` and their `models`, in order).
@@ -98,7 +187,7 @@ fn assemble(
     m: &ModalModel,
     headers: Vec<ModeHeader>,
     models: Vec<Box<dyn InverseModel>>,
-    engine: &'static str,
+    source: Source,
 ) -> Result<LoadedModal, LoadError> {
     let inputs = m
         .inputs
@@ -135,7 +224,7 @@ fn assemble(
         b = b.mode(meta, model);
     }
     let plant = b.build().map_err(|e| LoadError::Model(e.to_string()))?;
-    Ok(LoadedModal { plant, engine })
+    Ok(LoadedModal { plant, source })
 }
 
 /// What the runtime needs of a mode: its fixed inputs and couplings as indices of the model's outputs that

@@ -79,17 +79,17 @@ impl ModelFile {
     /// Read a model file that may declare modes (README "Modes"); one without is read exactly as
     /// [`Model::from_path`] reads it.
     pub fn from_path(path: &Path) -> Result<ModelFile, ModelError> {
-        let bytes = read_capped(path)?;
+        ModelFile::from_bytes(path, &read_capped(path)?)
+    }
+
+    /// [`ModelFile::from_path`] on the file's bytes; `file` is used in messages.
+    pub fn from_bytes(file: &Path, bytes: &[u8]) -> Result<ModelFile, ModelError> {
         let text =
-            std::str::from_utf8(&bytes).map_err(|_| match Model::from_bytes(path, &bytes) {
+            std::str::from_utf8(bytes).map_err(|_| match Model::from_bytes(file, bytes) {
                 Err(e) => e,
-                Ok(_) => Reader {
-                    file: path,
-                    text: "",
-                }
-                .err(None, ModelErrorKind::Io, "not UTF-8"),
+                Ok(_) => Reader { file, text: "" }.err(None, ModelErrorKind::Io, "not UTF-8"),
             })?;
-        ModelFile::from_str(path, text)
+        ModelFile::from_str(file, text)
     }
 
     /// A file with modes for which compiled code exists (`compiled(sha256)` says so: the code was generated
@@ -100,14 +100,22 @@ impl ModelFile {
         path: &Path,
         compiled: &dyn Fn(&str) -> bool,
     ) -> Result<Option<(ModalModel, Vec<ModeHeader>)>, ModelError> {
-        let bytes = read_capped(path)?;
-        let Ok(text) = std::str::from_utf8(&bytes) else {
+        ModelFile::modal_headers_of(path, &read_capped(path)?, compiled)
+    }
+
+    /// [`ModelFile::modal_headers`] of the file's bytes; `file` is used in messages.
+    pub fn modal_headers_of(
+        file: &Path,
+        bytes: &[u8],
+        compiled: &dyn Fn(&str) -> bool,
+    ) -> Result<Option<(ModalModel, Vec<ModeHeader>)>, ModelError> {
+        let Ok(text) = std::str::from_utf8(bytes) else {
             return Ok(None);
         };
         if !compiled(&source_hash(text)) {
             return Ok(None);
         }
-        let reader = Reader { file: path, text };
+        let reader = Reader { file, text };
         let (root, hash) = reader.parse_tree()?;
         reader.read_headers(&root, hash)
     }

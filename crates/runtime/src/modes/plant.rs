@@ -180,6 +180,37 @@ impl ModalPlant {
         })
     }
 
+    /// The same plant with other models of its modes (fresh copies, in the same order).
+    pub fn with_models(
+        &self,
+        models: Vec<Box<dyn InverseModel>>,
+    ) -> Result<ModalPlant, ModalError> {
+        if models.len() != self.modes.len() {
+            return Err(ModalError::Setup(format!(
+                "{} models for the {} modes of `{}`",
+                models.len(),
+                self.modes.len(),
+                self.name
+            )));
+        }
+        let modes = self
+            .modes
+            .iter()
+            .zip(models)
+            .map(|((meta, _), m)| (meta.clone(), m))
+            .collect();
+        Ok(ModalPlant {
+            name: self.name.clone(),
+            inputs: self.inputs.clone(),
+            modes,
+            gears: self.gears,
+            schedule: self.schedule.clone(),
+            gear_parameters: self.gear_parameters.clone(),
+            sequence: self.sequence.clone(),
+            n_outputs: self.n_outputs,
+        })
+    }
+
     /// The runtime's view of the plant with the gear schedule resolved to `gear_source`.
     pub fn spec(&self, gear_source: GearSource) -> ModalSpec<'_> {
         let modes = self
