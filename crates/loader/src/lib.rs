@@ -27,7 +27,7 @@ pub enum Loaded {
     /// A model without modes.
     Single(SingleModel),
     /// A model with operating modes.
-    Modal(LoadedModal),
+    Modal(Box<LoadedModal>),
 }
 
 impl Loaded {
@@ -95,7 +95,7 @@ pub fn load(path: &Path, choice: EngineChoice) -> Result<Loaded, LoadError> {
         }
         let read = |known: &dyn Fn(&str) -> bool| ModelFile::modal_headers(path, known);
         if let Some(m) = modal::read_compiled(read)? {
-            return Ok(Loaded::Modal(m));
+            return Ok(Loaded::Modal(Box::new(m)));
         }
     }
     let file = ModelFile::from_path(path).map_err(|e| LoadError::Model(e.to_string()))?;
@@ -110,7 +110,7 @@ pub fn load_source(path: &Path, bytes: &[u8], choice: EngineChoice) -> Result<Lo
         }
         let read = |known: &dyn Fn(&str) -> bool| ModelFile::modal_headers_of(path, bytes, known);
         if let Some(m) = modal::read_compiled(read)? {
-            return Ok(Loaded::Modal(m));
+            return Ok(Loaded::Modal(Box::new(m)));
         }
     }
     let file = ModelFile::from_bytes(path, bytes).map_err(|e| LoadError::Model(e.to_string()))?;
@@ -121,7 +121,7 @@ pub fn load_source(path: &Path, bytes: &[u8], choice: EngineChoice) -> Result<Lo
 fn from_file(file: ModelFile, path: &Path, choice: EngineChoice) -> Result<Loaded, LoadError> {
     match file {
         ModelFile::Single(model) => single::from_model(*model, path, choice).map(Loaded::Single),
-        ModelFile::Modal(m) => modal::from_model(*m, choice).map(Loaded::Modal),
+        ModelFile::Modal(m) => modal::from_model(*m, choice).map(|m| Loaded::Modal(Box::new(m))),
     }
 }
 
