@@ -176,6 +176,8 @@ pub struct ModalRun<'a> {
     pub signals: &'a [String],
     /// `--map NAME=FILE.csv` as given.
     pub maps: &'a [String],
+    /// The command's options for the summary's provenance (`provenance::options_of`).
+    pub options: serde_json::Map<String, serde_json::Value>,
 }
 
 fn gear_source(m: &ModalModel, cycle: &Cycle, spec: &str) -> Result<(usize, GearSource), Failure> {
@@ -384,6 +386,15 @@ pub fn simulate(m: ModalRead, run: &ModalRun<'_>) -> Result<(), Failure> {
                 ))
             })?;
     result.summary.engine = prepared.engine.to_string();
+    result.summary.provenance = Some(crate::provenance::record(crate::provenance::RunRecord {
+        command: "simulate",
+        model: run.model,
+        info: prepared.interps[0].info(),
+        cycle_spec: run.cycle,
+        cycle: &cycle,
+        sets: run.set,
+        options: run.options.clone(),
+    })?);
     let mut outputs = outputs;
     outputs.write("--out", |f| {
         output::write_table_csv(&result.columns, &result.data, f)

@@ -96,6 +96,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
                 engine: args.engine,
                 signals: &args.data.signal,
                 maps: &args.data.map,
+                options: provenance::options_of(args),
             },
         );
     }
