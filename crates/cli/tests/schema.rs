@@ -175,23 +175,20 @@ fn is_modal(model: &str) -> bool {
 /// cycle's standstill (`diesel_gasflow`: its output is a boost pressure); such a run writes no summary.
 const NO_FORWARD_START: &str = "cannot find the initial state at t0";
 
-/// Run `invsim COMMAND MODEL` on the ECE at dt = 1 s, returning its summary JSON and the CSV's header, or
-/// `None` for a forward run that finds no initial state (see [`NO_FORWARD_START`]).
-fn run(command: &str, model: &str) -> Option<(Value, Vec<String>)> {
-    let tag = format!("{command}-{}", model.replace('/', "-"));
+/// Run `invsim COMMAND MODEL [EXTRA…]` on the ECE at dt = 1 s, returning its summary JSON and the CSV's
+/// header, or `None` for a forward run that finds no initial state (see [`NO_FORWARD_START`]).
+fn run(command: &str, model: &str, extra: &[&str]) -> Option<(Value, Vec<String>)> {
+    let tag = format!("{command}-{}{}", model.replace('/', "-"), extra.join(""));
     let (json, csv) = (tmp(&format!("{tag}.json")), tmp(&format!("{tag}.csv")));
-    let o = invsim(&[
-        command,
-        model,
-        "--cycle",
-        "ece",
-        "--dt",
-        "1",
+    let mut args = vec![command, model, "--cycle", "ece", "--dt", "1"];
+    args.extend(extra);
+    args.extend([
         "--summary-json",
         json.to_str().expect("utf-8"),
         "--out",
         csv.to_str().expect("utf-8"),
     ]);
+    let o = invsim(&args);
     if command == "forward" && !o.status.success() && stderr(&o).contains(NO_FORWARD_START) {
         eprintln!("skipping forward of {model}: it finds no initial state at the ECE's standstill");
         return None;
@@ -215,24 +212,12 @@ fn every_model_s_simulate_and_forward_summaries_follow_the_schema() {
     let models = shipped_models();
     for model in &models {
         for (command, def) in [("simulate", "simulate"), ("forward", "forward")] {
-            let Some((s, header)) = run(command, model) else {
+            let Some((s, header)) = run(command, model, &[]) else {
                 continue;
             };
             checked += 1;
             modal += usize::from(is_modal(model));
-            let mut errors = errors_of(&schema, def, &s);
-            // The whole schema (either kind of summary) holds too.
-            check(&schema, &schema, &s, "summary", &mut errors);
-            let columns: Vec<&str> = s["columns"]
-                .as_array()
-                .map(|c| c.iter().filter_map(|c| c["name"].as_str()).collect())
-                .unwrap_or_default();
-            if columns != header {
-                errors.push(format!("columns {columns:?} are not the CSV's {header:?}"));
-            }
-            if s["provenance"]["command"] != command {
-                errors.push(format!("provenance: {}", s["provenance"]));
-            }
+            let mut errors = summary_errors(&schema, (command, def), &s, &header);
             if is_modal(model) != s.get("modes").is_some() {
                 errors.push(format!("`modes` block: {:?}", s.get("modes")));
             }
@@ -247,6 +232,98 @@ fn every_model_s_simulate_and_forward_summaries_follow_the_schema() {
     // Every model's simulate, every forward but diesel_gasflow's; both commands of both models with modes.
     assert!(checked >= 2 * models.len() - 1, "{checked} runs checked");
     assert!(modal >= 4, "{modal} runs of models with modes checked");
+}
+
+/// Where the summary `s` of `command` (validated against `$defs/<def>` and the whole schema) breaks the
+/// schema, lists other columns than the CSV's `header`, or has no provenance of `command`.
+fn summary_errors(
+    schema: &Value,
+    (command, def): (&str, &str),
+    s: &Value,
+    header: &[String],
+) -> Vec<String> {
+    let mut errors = errors_of(schema, def, s);
+    // The whole schema (either kind of summary) holds too.
+    check(schema, schema, s, "summary", &mut errors);
+    let columns: Vec<&str> = s["columns"]
+        .as_array()
+        .map(|c| c.iter().filter_map(|c| c["name"].as_str()).collect())
+        .unwrap_or_default();
+    if columns != header {
+        errors.push(format!("columns {columns:?} are not the CSV's {header:?}"));
+    }
+    if s["provenance"]["command"] != command {
+        errors.push(format!("provenance: {}", s["provenance"]));
+    }
+    errors
+}
+
+/// The optional blocks follow the schema too: tracking errors (`--verify`), the quasi-static switching's
+/// impulses, coupling resets, a stable inversion's numbers, `forward` with the bounds enforced.
+#[test]
+fn summaries_with_their_optional_blocks_follow_the_schema() {
+    let schema = schema();
+    let mut failures = Vec::new();
+    let runs: [(&str, &str, &[&str], &[&str]); 6] = [
+        (
+            "simulate",
+            "models/si_engine.toml",
+            &["--verify"],
+            &["max_abs_tracking_error", "rms_tracking_error"],
+        ),
+        (
+            "simulate",
+            "models/diesel_gasflow.toml",
+            &["--verify"],
+            &["stable_inversion", "max_abs_tracking_error"],
+        ),
+        (
+            "simulate",
+            "models/si_engine_5speed.toml",
+            &["--verify", "--switching", "quasi-static"],
+            &["max_abs_tracking_error", "rms_tracking_error"],
+        ),
+        (
+            "simulate",
+            "models/ford_fusion_2012_dynamic_6speed.toml",
+            &["--verify"],
+            &["signals", "max_abs_tracking_error"],
+        ),
+        (
+            "forward",
+            "models/si_engine_5speed.toml",
+            &["--bounds", "enforce", "--method", "rosenbrock23"],
+            &["trace_misses"],
+        ),
+        (
+            "forward",
+            "models/ford_fusion_2012_dynamic_6speed.toml",
+            &["--bounds", "enforce"],
+            &["signals"],
+        ),
+    ];
+    for (command, model, extra, present) in runs {
+        let (s, header) = run(command, model, extra).expect("a summary");
+        let mut errors = summary_errors(&schema, (command, command), &s, &header);
+        errors.extend(
+            present
+                .iter()
+                .filter(|k| s.get(**k).is_none())
+                .map(|k| format!("`{k}` is missing")),
+        );
+        if extra.contains(&"quasi-static") {
+            let impulses = s["modes"]["impulses"].as_array().map_or(0, Vec::len);
+            if impulses == 0 || s["modes"]["switching"] != "quasi_static" {
+                errors.push(format!("quasi-static: {}", s["modes"]));
+            }
+        }
+        failures.extend(
+            errors
+                .into_iter()
+                .map(|e| format!("{command} {model} {extra:?}: {e}")),
+        );
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
 /// A parameter of `model` and its value (a modal model: its first mode's), from `invsim derive`.
