@@ -172,6 +172,15 @@ fn modal(
     let mut result = simulate_modes_with_signals(&spec, cycle, &opts, &data.signals)
         .map_err(|e| stopped(args, cycle, e))?;
     result.summary.engine = model.engine_name().to_string();
+    result.summary.provenance = Some(provenance::record(provenance::RunRecord {
+        command: "simulate",
+        model: &args.model,
+        info: model.plant.first().info(),
+        cycle_spec: &args.cycle,
+        cycle,
+        sets: &args.set,
+        options: provenance::options_of(args),
+    })?);
     outputs.write("--out", |f| {
         output::write_table_csv(&result.columns, &result.data, f)
     })?;

@@ -12,6 +12,8 @@
 //!   `simulate` and `forward`, by default and by name.
 //! - `outputs`: Output files of `simulate` and `forward` on success: written in place, through links into the linked file,
 //! - `plot`: `--plot` and `--plot-vars` of `simulate` and `forward`: SVG and PNG by the extension, the chosen panels,
+//! - `schema`: Every shipped model's `simulate` and `forward` summaries and `sweep` rows validate against
+//!   `docs/summary.schema.json`, checked by a small validator of the part of JSON Schema the schema uses.
 //! - `stable`: `invsim` with unstable zero dynamics: the classification in `derive`, stable (non-causal) inversion selected
 //! - `start_up`: What keeps an `invsim` process cheap to start without changing what it prints: each command's
 //!   arguments built only when it runs, the about, `help` tree and completions as they were, a fixed-address
@@ -32,6 +34,7 @@ mod modes_plot_signals;
 mod modes_sweep;
 mod outputs;
 mod plot;
+mod schema;
 mod stable;
 mod start_up;
 mod summary;

@@ -61,14 +61,14 @@ fn simulate_reports_time_per_mode_and_writes_mode_columns() {
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let s = json_file(&json);
-    let total: f64 = s["modes"]
+    let total: f64 = s["modes"]["per_mode"]
         .as_array()
         .expect("modes")
         .iter()
         .map(|m| m["time_s"].as_f64().unwrap_or(0.0))
         .sum();
     assert!((total - 1180.0).abs() < 1e-9, "{total}");
-    assert!(s["switches"].as_u64().expect("switches") > 50);
+    assert!(s["modes"]["switches"].as_u64().expect("switches") > 50);
     assert_eq!(s["input_bound_violations"], serde_json::json!([]));
     let text = std::fs::read_to_string(&csv).expect("CSV");
     assert!(
@@ -113,17 +113,17 @@ fn forward_and_sweep_run_the_modes_and_gear_overrides_are_refused() {
         assert!(text.contains(line), "`{line}` in {text}");
     }
     let s = json_file(&json);
-    let total: f64 = s["modes"]
+    let total: f64 = s["modes"]["per_mode"]
         .as_array()
         .expect("modes")
         .iter()
         .map(|m| m["time_s"].as_f64().unwrap_or(0.0))
         .sum();
     assert!((total - 195.0).abs() < 1e-6, "{total}");
-    assert!(s["switches"].as_u64().expect("switches") > 10);
+    assert!(s["modes"]["switches"].as_u64().expect("switches") > 10);
     assert_eq!(
-        s["mode_switches"].as_array().map(Vec::len),
-        s["switches"].as_u64().map(|n| n as usize)
+        s["modes"]["transitions"].as_array().map(Vec::len),
+        s["modes"]["switches"].as_u64().map(|n| n as usize)
     );
     assert!(s["max_abs_tracking_error"].as_f64().expect("tracking") > 0.0);
     assert_eq!(s["inputs"][1]["name"], "F_b");

@@ -74,10 +74,7 @@ fn check_against_simulate(model: &str, engine: &str, threads: &str) {
         // Bit for bit: the same f64 values.
         let integrals = s["integrals"].as_object().expect("integrals");
         assert!(integrals.contains_key("fuel"), "{model}");
-        let per_100km = s
-            .get("integrals_per_100km")
-            .or_else(|| s.get("per_100km"))
-            .expect("per 100 km");
+        let per_100km = &s["integrals_per_100km"];
         for (name, v) in integrals {
             assert_eq!(
                 num(&row[col[name.as_str()]]),
@@ -93,17 +90,17 @@ fn check_against_simulate(model: &str, engine: &str, threads: &str) {
         }
         assert_eq!(
             num(&row[col["switches"]]) as u64,
-            s["switches"].as_u64().unwrap()
+            s["modes"]["switches"].as_u64().unwrap()
         );
         assert!(
-            s["switches"].as_u64().unwrap() > 0,
+            s["modes"]["switches"].as_u64().unwrap() > 0,
             "{model} on {cycle} switches"
         );
         assert_eq!(
             num(&row[col["max_transition_deviation"]]),
-            s["max_transition_deviation"].as_f64().unwrap()
+            s["modes"]["max_transition_deviation"].as_f64().unwrap()
         );
-        let modes = s["modes"].as_array().expect("modes");
+        let modes = s["modes"]["per_mode"].as_array().expect("modes");
         let mut total = 0.0;
         for mode in modes {
             let name = format!("time_{}_s", mode["name"].as_str().unwrap());
@@ -115,6 +112,9 @@ fn check_against_simulate(model: &str, engine: &str, threads: &str) {
             (total - s["duration_s"].as_f64().unwrap()).abs() < 1e-6,
             "{model}: {total}"
         );
+        for key in ["input_min", "input_max"] {
+            assert_eq!(num(&row[col[key]]), s[key].as_f64().unwrap(), "{key}");
+        }
         let violations = s["input_bound_violations"].as_array().unwrap();
         assert_eq!(num(&row[col["violations"]]) as usize, violations.len());
     }

@@ -198,6 +198,48 @@ impl Totals {
     }
 }
 
+/// One input of a model with modes over the run: the range of the values it took (as the free input of the
+/// mode in force or as a fixed input) and its declared bounds.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct InputRange {
+    pub name: String,
+    pub unit: Option<String>,
+    pub min: f64,
+    pub max: f64,
+    pub lower_bound: Option<f64>,
+    pub upper_bound: Option<f64>,
+}
+
+impl Totals {
+    /// The totals of a run with modes: the integral tables as the run computed them, the headline input
+    /// `input` (the traction input: see `docs/reference.md`, "Summary") with its range and bounds, and the
+    /// intervals where the free input of the mode in force leaves its bounds.
+    pub(crate) fn of_modes(
+        (integrals, integrals_per_100km, integral_units): (
+            BTreeMap<String, f64>,
+            BTreeMap<String, f64>,
+            BTreeMap<String, String>,
+        ),
+        output_unit: Option<String>,
+        input: &InputRange,
+        violations: Vec<[f64; 2]>,
+    ) -> Totals {
+        Totals {
+            integrals,
+            integrals_per_100km,
+            integral_units,
+            input: input.name.clone(),
+            input_unit: input.unit.clone(),
+            output_unit,
+            input_min: input.min,
+            input_max: input.max,
+            input_lower_bound: input.lower_bound,
+            input_upper_bound: input.upper_bound,
+            input_bound_violations: violations,
+        }
+    }
+}
+
 /// The warning both runs give for a cycle with a non-zero road grade (no model has a grade input yet).
 pub(crate) fn grade_warning(cycle: &Cycle) -> Option<String> {
     cycle

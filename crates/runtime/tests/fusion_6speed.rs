@@ -57,13 +57,13 @@ fn fusion_6speed_satisfies_every_mode_tracks_and_burns_plausible_fuel() {
             err < 1e-3 * cycle.max_speed(),
             "{name}: replay error {err} m/s"
         );
-        let total: f64 = res.summary.modes.iter().map(|m| m.time_s).sum();
+        let total: f64 = res.summary.modes.per_mode.iter().map(|m| m.time_s).sum();
         assert!((total - cycle.duration()).abs() < 1e-9);
         let gears = res.column("gear").expect("gear");
         let top = gears.iter().fold(0.0f64, |a, g| a.max(*g));
         assert!(name == "udds" || top == 6.0, "{name}: top gear {top}");
-        let fuel = res.summary.integrals["fuel"];
-        let map = res.summary.integrals["fuel_fastsim_map"];
+        let fuel = res.summary.totals.integrals["fuel"];
+        let map = res.summary.totals.integrals["fuel_fastsim_map"];
         eprintln!("{name}: fuel {fuel:.3} kg, FASTSim's curve on this engine {map:.3} kg, FASTSim {fastsim} kg");
         // The mean-value engine burns more than FASTSim's efficiency curve (docs/vehicles.md): 10–35 %; the
         // curve applied to this engine's brake power is FASTSim's figure within 10 %.

@@ -77,18 +77,24 @@ fn five_speed_nedc_and_udds_satisfy_every_mode_and_keep_the_states_continuous() 
         check_equations(&l, &res);
         let switches = check_continuity(&res);
         assert!(switches > 20, "{name}: only {switches} switches");
-        let total: f64 = res.summary.modes.iter().map(|m| m.time_s).sum();
+        let total: f64 = res.summary.modes.per_mode.iter().map(|m| m.time_s).sum();
         assert!(
             (total - cycle.duration()).abs() < 1e-9,
             "{name}: time per mode adds up to {total}"
         );
-        let used = res.summary.modes.iter().filter(|m| m.time_s > 0.0).count();
+        let used = res
+            .summary
+            .modes
+            .per_mode
+            .iter()
+            .filter(|m| m.time_s > 0.0)
+            .count();
         assert!(used >= 10, "{name}: {used} modes used");
         if name == "nedc" {
             assert!(
-                res.summary.input_bound_violations.is_empty(),
+                res.summary.totals.input_bound_violations.is_empty(),
                 "{:?}",
-                res.summary.input_bound_violations
+                res.summary.totals.input_bound_violations
             );
         }
     }
@@ -119,7 +125,7 @@ fn five_speed_fuel_is_plausible_and_hwfet_below_udds() {
             Switching::Reentry,
             false,
         );
-        res.summary.per_100km["fuel_volume"]
+        res.summary.totals.integrals_per_100km["fuel_volume"]
     };
     let (nedc, udds, hwfet) = (per("nedc"), per("udds"), per("hwfet"));
     assert!(
@@ -138,15 +144,16 @@ fn five_speed_quasi_static_books_its_impulses() {
     let cycle = Cycle::builtin("nedc").expect("built-in");
     let qs = run(&l, &cycle, 0.1, Switching::QuasiStatic, false);
     let s = &qs.summary;
-    assert!(!s.impulses.is_empty());
+    assert!(!s.modes.impulses.is_empty());
     // Hand calculation: fuel = m_at/(lambda AFs) with the fuel on, so each impulse of m_at books U/14.7 kg.
     let hand: f64 = s
+        .modes
         .impulses
         .iter()
         .filter(|i| i.input == "m_at" && !i.mode.starts_with("overrun"))
         .map(|i| i.amount / 14.7)
         .sum();
-    let booked = s.impulse_booked["fuel"];
+    let booked = s.modes.impulse_booked["fuel"];
     assert!(
         (booked - hand).abs() <= 1e-6 * hand.abs().max(1e-6),
         "booked {booked} vs hand {hand}"
@@ -249,7 +256,7 @@ fn gain_switch_reentry_follows_its_exact_solution() {
     }
     assert!(worst < 1e-9, "u departs from the exact solution by {worst}");
     check_continuity(&res);
-    let dev = res.summary.transitions[0].max_deviation;
+    let dev = res.summary.modes.transitions[0].max_deviation;
     assert!(dev > 0.1 && dev < e1 * t_end, "largest deviation {dev}");
     let err = res.summary.max_abs_tracking_error.expect("verified");
     assert!(err < 1e-5, "replay error {err}");
@@ -272,13 +279,16 @@ fn gain_switch_quasi_static_jumps_and_books_the_impulse() {
     let mut yc = [0.0; 2];
     sm.eval(T_S, &mut yc);
     let u_hand = yc[1] * (1.0 / 2.0 - 1.0 / 1.0);
-    let booked = qs.summary.impulse_booked["U"];
+    let booked = qs.summary.modes.impulse_booked["U"];
     assert!(
         (booked - u_hand).abs() < 1e-9,
         "booked {booked}, by hand {u_hand}"
     );
     // ∫u = Δx2 + ∫x2 dt is the same for both once the impulse is booked; without it they differ by U.
-    let (iq, ir) = (qs.summary.integrals["U"], re.summary.integrals["U"]);
+    let (iq, ir) = (
+        qs.summary.totals.integrals["U"],
+        re.summary.totals.integrals["U"],
+    );
     assert!((iq - ir).abs() < 1e-5, "quasi-static {iq} vs re-entry {ir}");
     assert!(((iq - booked) - (ir - u_hand)).abs() < 1e-5);
     assert!(qs.summary.max_abs_tracking_error.expect("verified") < 1e-6);

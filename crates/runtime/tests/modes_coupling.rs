@@ -82,7 +82,7 @@ fn a_coupled_state_carries_the_gain_switch_and_resets_at_the_switch() {
             "s − k x2 = {e:e} at t = {tk}"
         );
     }
-    let resets = &coupled.summary.coupling_resets;
+    let resets = &coupled.summary.modes.coupling_resets;
     assert_eq!(resets.len(), 1, "{resets:?}");
     let k = t.iter().position(|&s| s >= T_S).expect("the switch sample");
     let x2 = coupled.x_end[k - 1][1];
@@ -116,7 +116,7 @@ fn check_continuity(res: &ModalResult) -> (usize, usize) {
                 "state {i} jumps at {tk}"
             );
         }
-        let reset = res.summary.coupling_resets.iter().find(|r| r.t == tk);
+        let reset = res.summary.modes.coupling_resets.iter().find(|r| r.t == tk);
         match reset {
             Some(r) => {
                 jumps += 1;
@@ -170,12 +170,15 @@ fn clutch_state_on_the_nedc_keeps_every_mode_and_the_fuel_of_the_five_speed() {
     check_coupling(&sp, &res);
     let vmax = cycle.speed.iter().fold(0.0f64, |m, v| m.max(*v));
     assert!(res.summary.max_abs_tracking_error.expect("verified") < 1e-3 * vmax);
-    assert!(res.summary.input_bound_violations.is_empty());
+    assert!(res.summary.totals.input_bound_violations.is_empty());
     // The same car with the engine at w_idle by definition at a standstill: the governor's engine burns
     // within 0.1 % of it.
     let f5 = five_speed();
     let r5 = simulate_modes(&spec(&f5, speed_schedule(&f5)), &cycle, &options(0.1)).expect("runs");
-    let (a, b) = (res.summary.integrals["fuel"], r5.summary.integrals["fuel"]);
+    let (a, b) = (
+        res.summary.totals.integrals["fuel"],
+        r5.summary.totals.integrals["fuel"],
+    );
     assert!(
         (a - b).abs() < 1e-3 * b,
         "fuel {a} against the five-speed's {b}"
@@ -187,7 +190,7 @@ fn clutch_state_on_the_nedc_keeps_every_mode_and_the_fuel_of_the_five_speed() {
         .build()
         .expect("options");
     let fwd = forward_modes(&sp, &cycle, &opts).expect("the forward run succeeds");
-    let ff = fwd.summary.integrals["fuel"];
+    let ff = fwd.summary.totals.integrals["fuel"];
     assert!(
         (ff - a).abs() < 0.02 * a,
         "forward fuel {ff} against the inverse's {a}"

@@ -78,7 +78,10 @@ fn five_speed_forward_matches_the_inverse_on_the_nedc() {
     let inv = inverse(&l, &cycle, 0.1);
     let fwd = forward(&l, &cycle, 0.1);
     let s = &fwd.summary;
-    let (fi, ff) = (inv.summary.integrals["fuel"], s.integrals["fuel"]);
+    let (fi, ff) = (
+        inv.summary.totals.integrals["fuel"],
+        s.totals.integrals["fuel"],
+    );
     assert!(
         ((ff - fi) / fi).abs() < 0.02,
         "forward fuel {ff} kg vs inverse {fi} kg"
@@ -118,21 +121,22 @@ fn five_speed_forward_matches_the_inverse_on_the_nedc() {
     assert!(s.rms_tracking_error > 0.0 && s.rms_tracking_error < s.max_abs_tracking_error);
     assert!(s.trace_misses.is_empty(), "{:?}", s.trace_misses);
     assert!(
-        s.input_bound_violations.is_empty(),
+        s.totals.input_bound_violations.is_empty(),
         "{:?}",
-        s.input_bound_violations
+        s.totals.input_bound_violations
     );
-    let total: f64 = s.modes.iter().map(|m| m.time_s).sum();
+    let total: f64 = s.modes.per_mode.iter().map(|m| m.time_s).sum();
     assert!(
         (total - cycle.duration()).abs() < 1e-6,
         "time per mode adds up to {total}"
     );
-    assert_eq!(s.switches, s.mode_switches.len());
-    assert!(s.switches > 50);
+    assert_eq!(s.modes.switches, s.modes.transitions.len());
+    assert!(s.modes.switches > 50);
     // Every brake and standstill family is used, and the inputs stay within their bounds.
     for family in ["drive", "coast", "overrun", "idle"] {
         assert!(
             s.modes
+                .per_mode
                 .iter()
                 .any(|m| m.name.starts_with(family) && m.time_s > 0.0),
             "{family} used"
@@ -185,5 +189,5 @@ fn five_speed_forward_follows_the_regulation_gears() {
         }
     }
     assert!(geared > 8000, "{geared} geared samples");
-    assert!(fwd.summary.input_bound_violations.is_empty());
+    assert!(fwd.summary.totals.input_bound_violations.is_empty());
 }

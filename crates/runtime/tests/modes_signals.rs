@@ -88,7 +88,7 @@ fn grade_zero_equals_the_model_without_grade() {
         }
     }
     assert!(worst <= 1e-15, "a column differs by {worst:e} relative");
-    assert_eq!(a.summary.integrals, b.summary.integrals);
+    assert_eq!(a.summary.totals.integrals, b.summary.totals.integrals);
     assert!(a.summary.signals.is_empty());
     let used = &b.summary.signals[0];
     assert_eq!(
@@ -198,6 +198,7 @@ fn fuel_on_a_grade_matches_the_work_against_gravity() {
         let traction = res
             .summary
             .modes
+            .per_mode
             .iter()
             .filter(|m| m.name.starts_with("drive"));
         let in_drive: f64 = traction.map(|m| m.time_s).sum();
@@ -205,7 +206,7 @@ fn fuel_on_a_grade_matches_the_work_against_gravity() {
             (in_drive - cycle.duration()).abs() < 1e-6,
             "grade {grade}: braked"
         );
-        (res.summary.integrals["fuel"], distance)
+        (res.summary.totals.integrals["fuel"], distance)
     };
     let (flat, distance) = fuel(0.0);
     for grade in [0.02, 0.04] {
@@ -223,7 +224,7 @@ fn fuel_on_a_grade_matches_the_work_against_gravity() {
     }
     // On a whole cycle with braking the fuel still rises with the grade.
     let udds = Cycle::builtin("udds").expect("built-in");
-    let on = |g: f64| run(&l, &udds, &constant(g), false).summary.integrals["fuel"];
+    let on = |g: f64| run(&l, &udds, &constant(g), false).summary.totals.integrals["fuel"];
     assert!(on(0.02) > on(0.0));
 }
 
@@ -240,7 +241,10 @@ fn forward_with_modes_on_a_grade_tracks_and_agrees_with_the_inverse() {
         .expect("options");
     let fwd = forward_modes(&spec(&l, speed_schedule(&l)), &cycle, &fopts).expect("forward runs");
     assert_eq!(fwd.summary.signals[0].used, "raw");
-    let (fi, ff) = (inv.summary.integrals["fuel"], fwd.summary.integrals["fuel"]);
+    let (fi, ff) = (
+        inv.summary.totals.integrals["fuel"],
+        fwd.summary.totals.integrals["fuel"],
+    );
     let rel = (ff - fi) / fi;
     let track = fwd.summary.max_abs_tracking_error;
     eprintln!("hilly UDDS: fuel inverse {fi:.5} kg, forward {ff:.5} kg ({:+.2} %), tracking {track:.3} m/s", 100.0 * rel);
@@ -266,5 +270,5 @@ fn forward_with_modes_on_a_grade_tracks_and_agrees_with_the_inverse() {
         "forward tracking {track} m/s, rms {rms}, missed {missed} s"
     );
     assert!(rel.abs() < 0.04, "forward fuel {ff} vs inverse {fi}");
-    assert!(ff > 0.0 && plain.summary.integrals["fuel"] != ff);
+    assert!(ff > 0.0 && plain.summary.totals.integrals["fuel"] != ff);
 }

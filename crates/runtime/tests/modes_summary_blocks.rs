@@ -67,9 +67,9 @@ fn five_speed_summary_has_the_reference_deviation_and_the_engine_operating_point
     let d = s.reference.reference_distance_m;
     assert!((d - simpson).abs() < 1e-3 * simpson, "{d} vs {simpson}");
     assert!(
-        (d - s.distance_m).abs() < 0.01 * s.distance_m,
+        (d - s.run.distance_m).abs() < 0.01 * s.run.distance_m,
         "{d} vs the cycle's {}",
-        s.distance_m
+        s.run.distance_m
     );
 
     // The histogram covers the run's span and its mean speed is the run's time-mean n_e (within half a bin).

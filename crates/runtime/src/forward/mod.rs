@@ -71,7 +71,7 @@ use record::{ForwardTally, Layout, Recorder};
 pub use error::ForwardError;
 pub use modal::forward_modes;
 pub use modal_record::ModalForwardResult;
-pub use modal_summary::{InputRange, ModalForwardSummary, ModeSwitch};
+pub use modal_summary::{ForwardModes, InputRange, ModalForwardSummary, ModeSwitch};
 pub use options::{
     default_step_budget, Bounds, ForwardOptions, ForwardOptionsBuilder, Method, DEFAULT_ATOL,
     DEFAULT_DT, DEFAULT_RTOL, DRIVER_KI, DRIVER_KP, MIN_STEP_BUDGET, MPH, RESPONSE_OMEGA,

@@ -2,7 +2,6 @@
 //! integrator, integrals, trace misses, tracking error to the raw cycle) with every input's range, and the
 //! time per mode and the switches as in the inverse's modal summary.
 
-use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
 use serde::Serialize;
@@ -18,22 +17,13 @@ use crate::operating_points::{OperatingPointTally, OperatingPoints};
 use crate::provenance::Provenance;
 use crate::report::{
     fmt_sig, integral_tables, unit_suffix, write_input_range, write_integrals, write_intervals,
-    Column, CycleInfo, Intervals,
+    Column, CycleInfo, Intervals, Totals,
 };
 
 /// One switch of the forward run: its time and the modes left and entered (indices into the spec's modes).
 pub(super) type SwitchAt = (f64, usize, usize);
 
-/// One input over the run: the range of the values applied and its declared bounds.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct InputRange {
-    pub name: String,
-    pub unit: Option<String>,
-    pub min: f64,
-    pub max: f64,
-    pub lower_bound: Option<f64>,
-    pub upper_bound: Option<f64>,
-}
+pub use crate::report::InputRange;
 
 /// One switch: its time and the modes left and entered.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -43,8 +33,10 @@ pub struct ModeSwitch {
     pub to: String,
 }
 
-/// What `invsim forward` prints and writes with `--summary-json` for a model with modes; the fields shared
-/// with [`super::ForwardSummary`] and [`crate::modes::ModalSummary`] mean the same.
+/// What `invsim forward` prints and writes with `--summary-json` for a model with modes: the keys of
+/// [`super::ForwardSummary`] (same names and meanings; the input block is the traction input's, see
+/// [`ModalSpec::traction_input`]) with every input's range in `inputs` and the modes' figures in the `modes`
+/// block (`docs/summary.schema.json`).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ModalForwardSummary {
     #[serde(flatten)]
@@ -59,21 +51,15 @@ pub struct ModalForwardSummary {
     pub bounds: Bounds,
     pub driver: DriverSummary,
     pub integrator: IntegratorSummary,
-    /// Accumulated output → ∫ o dt (by the solver's quadrature states), per 100 km, unit of the integral.
-    pub integrals: BTreeMap<String, f64>,
-    pub integrals_per_100km: BTreeMap<String, f64>,
-    pub integral_units: BTreeMap<String, String>,
-    /// The unit of the tracked output (and so of the tracking errors).
-    pub output_unit: Option<String>,
+    /// Integrals (by the solver's quadrature states), per 100 km and their units, the traction input's range
+    /// and bounds, and the intervals where the free input's demand of the mode in force leaves that mode's
+    /// bounds (no mode absorbs it); flattened.
+    #[serde(flatten)]
+    pub totals: Totals,
     /// Every declared input: the range applied and its bounds.
     pub inputs: Vec<InputRange>,
-    /// Intervals where the free input's demand of the mode in force leaves that mode's bounds (no mode
-    /// absorbs it).
-    pub input_bound_violations: Vec<[f64; 2]>,
-    /// Time per mode (over the intervals each was in force; they add up to the run's span).
-    pub modes: Vec<ModeTime>,
-    pub switches: usize,
-    pub mode_switches: Vec<ModeSwitch>,
+    /// Time per mode, the switches and their times.
+    pub modes: ForwardModes,
     pub trace_misses: Vec<[f64; 2]>,
     pub trace_miss_speed_tolerance: f64,
     pub trace_miss_time_tolerance_s: f64,
@@ -89,6 +75,15 @@ pub struct ModalForwardSummary {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub provenance: Option<Provenance>,
     pub warnings: Vec<String>,
+}
+
+/// The `modes` block of a forward run with modes.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ForwardModes {
+    /// Time per mode (over the intervals each was in force; they add up to the run's span).
+    pub per_mode: Vec<ModeTime>,
+    pub switches: usize,
+    pub transitions: Vec<ModeSwitch>,
 }
 
 /// The bookkeeping of a forward run with modes over its samples.
@@ -168,6 +163,13 @@ pub(super) fn summarise(
     let trace_misses = tally.misses.finish();
     let warnings = warnings(opts, &violations, &trace_misses);
     let name = |m: usize| spec.modes[m].name.clone();
+    let inputs = spec.input_ranges(&tally.ranges);
+    let totals = Totals::of_modes(
+        (tables.integrals, tables.per_100km, tables.units),
+        info.output_unit.clone(),
+        &inputs[spec.traction_input()],
+        violations,
+    );
     ModalForwardSummary {
         run: CycleInfo::new(info, cycle, cycle.duration()),
         distance_driven_m: tally.distance_driven,
@@ -196,43 +198,29 @@ pub(super) fn summarise(
             atol: opts.atol,
             stats,
         },
-        integrals: tables.integrals,
-        integrals_per_100km: tables.per_100km,
-        integral_units: tables.units,
-        output_unit: info.output_unit.clone(),
-        inputs: spec
-            .inputs
-            .iter()
-            .zip(&tally.ranges)
-            .map(|(i, r)| InputRange {
-                name: i.name.clone(),
-                unit: i.unit.clone(),
-                min: r[0],
-                max: r[1],
-                lower_bound: i.min,
-                upper_bound: i.max,
-            })
-            .collect(),
-        input_bound_violations: violations,
-        modes: spec
-            .modes
-            .iter()
-            .zip(&tally.time)
-            .map(|(m, t)| ModeTime {
-                name: m.name.clone(),
-                time_s: *t,
-                relative_degree: m.model.info().relative_degree,
-            })
-            .collect(),
-        switches: switches.len(),
-        mode_switches: switches
-            .iter()
-            .map(|&(t, a, b)| ModeSwitch {
-                t,
-                from: name(a),
-                to: name(b),
-            })
-            .collect(),
+        totals,
+        inputs,
+        modes: ForwardModes {
+            per_mode: spec
+                .modes
+                .iter()
+                .zip(&tally.time)
+                .map(|(m, t)| ModeTime {
+                    name: m.name.clone(),
+                    time_s: *t,
+                    relative_degree: m.model.info().relative_degree,
+                })
+                .collect(),
+            switches: switches.len(),
+            transitions: switches
+                .iter()
+                .map(|&(t, a, b)| ModeSwitch {
+                    t,
+                    from: name(a),
+                    to: name(b),
+                })
+                .collect(),
+        },
         trace_misses,
         trace_miss_speed_tolerance: opts.trace_speed_tol,
         trace_miss_time_tolerance_s: opts.trace_time_tol,
@@ -325,11 +313,12 @@ impl ModalForwardSummary {
             g.stats.rejected,
             g.stats.evaluations
         );
+        let t = &self.totals;
         write_integrals(
             &mut s,
-            &self.integrals,
-            &self.integral_units,
-            &self.integrals_per_100km,
+            &t.integrals,
+            &t.integral_units,
+            &t.integrals_per_100km,
         );
         for i in &self.inputs {
             write_input_range(
@@ -340,24 +329,20 @@ impl ModalForwardSummary {
             );
         }
         let _ = writeln!(s, "time per mode:");
-        for m in self.modes.iter().filter(|m| m.time_s > 0.0) {
+        for m in self.modes.per_mode.iter().filter(|m| m.time_s > 0.0) {
             let _ = writeln!(
                 s,
                 "  {:<16} {:>10.2} s  (r = {})",
                 m.name, m.time_s, m.relative_degree
             );
         }
-        let _ = writeln!(s, "switches: {}", self.switches);
-        write_intervals(
-            &mut s,
-            "input bound violations",
-            &self.input_bound_violations,
-        );
+        let _ = writeln!(s, "switches: {}", self.modes.switches);
+        write_intervals(&mut s, "input bound violations", &t.input_bound_violations);
         if let Some(op) = &self.engine_operating_points {
             op.write_text(&mut s);
         }
         write_intervals(&mut s, "trace misses", &self.trace_misses);
-        let u = unit_suffix(self.output_unit.as_deref());
+        let u = unit_suffix(t.output_unit.as_deref());
         let _ = writeln!(
             s,
             "max abs tracking error: {}{u}",

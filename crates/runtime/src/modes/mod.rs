@@ -34,7 +34,7 @@ pub use plant::{GearSchedule, ModalPlant, ModalPlantBuilder, ModeMeta};
 pub use record::{CouplingReset, Impulse, ModeTime, Transition};
 pub use rows::Rows;
 pub use runner::{simulate_modes, simulate_modes_with_signals};
-pub use summary::ModalSummary;
+pub use summary::{ModalSummary, ModesBlock};
 
 /// What a mode is for (see `invsim_inversion::ModeRole`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -92,6 +92,33 @@ pub struct ModalSpec<'m> {
     /// Number of the model's own `[outputs]` (the first ones of every mode's outputs; the rest hold fixed
     /// inputs).
     pub n_outputs: usize,
+}
+
+impl ModalSpec<'_> {
+    /// The traction input: the free input of the first traction mode (the throttle or fuel flow; the first
+    /// input for a model without a traction mode). The summaries report it as the run's `input`.
+    pub fn traction_input(&self) -> usize {
+        self.modes
+            .iter()
+            .find(|m| m.role == Role::Traction)
+            .map_or(0, |m| m.free_input)
+    }
+
+    /// Every input with the `ranges` ([min, max]) it took over a run and its declared bounds.
+    pub(crate) fn input_ranges(&self, ranges: &[[f64; 2]]) -> Vec<crate::report::InputRange> {
+        self.inputs
+            .iter()
+            .zip(ranges)
+            .map(|(i, r)| crate::report::InputRange {
+                name: i.name.clone(),
+                unit: i.unit.clone(),
+                min: r[0],
+                max: r[1],
+                lower_bound: i.min,
+                upper_bound: i.max,
+            })
+            .collect()
+    }
 }
 
 /// How a switch enters the new mode.

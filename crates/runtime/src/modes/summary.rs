@@ -15,34 +15,69 @@ use crate::cycle::Cycle;
 use crate::operating_points::{OperatingPointTally, OperatingPoints};
 use crate::provenance::Provenance;
 use crate::reference_deviation::{DeviationTally, ReferenceDeviation};
-use crate::report::{integral_unit, unit_suffix, Column};
+use crate::report::{
+    first_sentence, integral_unit, unit_suffix, write_input_range, Column, CycleInfo, InputRange,
+    Totals,
+};
 
-/// What `invsim simulate` prints and writes for a model with modes.
+/// What `invsim simulate` prints and writes for a model with modes: the keys of the single-mode summary
+/// ([`crate::Summary`], same names and meanings; the input block is the traction input's, see
+/// [`ModalSpec::traction_input`](super::ModalSpec::traction_input)) with every input's range in `inputs` and the
+/// modes' figures in the `modes` block (`docs/summary.schema.json`).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ModalSummary {
-    pub model: String,
-    pub cycle: String,
-    pub duration_s: f64,
-    pub distance_m: f64,
+    /// Model, cycle, duration and distance (flattened: `model`, `description`, `cycle`, `duration_s`,
+    /// `distance_m`).
+    #[serde(flatten)]
+    pub run: CycleInfo,
     /// The largest relative degree over the modes.
     pub relative_degree: usize,
     pub engine: String,
     pub samples: usize,
     pub lookahead_s: f64,
     pub dt_s: f64,
+    /// How far the smoothed cycle departs from the legal trace (cycle speed, m/s: every mode's reference is a
+    /// map of it).
+    #[serde(flatten)]
+    pub reference: ReferenceDeviation,
+    /// Integrals (per 100 km, units), the traction input's range and bounds, and the intervals where the free
+    /// input of the mode in force leaves its bounds and no mode absorbs it (flattened: `integrals` …
+    /// `input_bound_violations`).
+    #[serde(flatten)]
+    pub totals: Totals,
+    /// Every declared input: the range it took (free or fixed by the mode in force) and its bounds.
+    pub inputs: Vec<InputRange>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_abs_tracking_error: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rms_tracking_error: Option<f64>,
+    /// The modes' figures: switching, time per mode, switches, transitions, impulses, coupling resets.
+    pub modes: ModesBlock,
+    /// The time-weighted engine speed × torque histogram (models with an `[engine]`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub engine_operating_points: Option<OperatingPoints>,
+    pub columns: Vec<Column>,
+    /// Each signal, where it came from and that the run used it smoothed (models with signals).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub signals: Vec<crate::signals::SignalUse>,
+    /// What produced the run (filled in by the command line).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub provenance: Option<Provenance>,
+    pub warnings: Vec<String>,
+}
+
+/// The `modes` block of a run with modes.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ModesBlock {
+    /// `reentry` or `quasi_static`.
     pub switching: String,
+    /// The re-entry's transition time, s.
     pub transition_time_s: f64,
-    pub integrals: BTreeMap<String, f64>,
-    pub per_100km: BTreeMap<String, f64>,
-    /// Accumulated output → unit of its integral (`kg` for an output in `kg/s`), where known.
-    pub integral_units: BTreeMap<String, String>,
-    /// The unit of the tracked output (and so of the transition deviations and the tracking errors).
-    pub output_unit: Option<String>,
-    /// Intervals where a mode's free input leaves its bounds (no mode absorbs it).
-    pub input_bound_violations: Vec<[f64; 2]>,
-    pub modes: Vec<ModeTime>,
+    /// Time per mode (adding up to the duration) and each mode's relative degree, in the model's order.
+    pub per_mode: Vec<ModeTime>,
     pub switches: usize,
     pub transitions: Vec<Transition>,
+    /// The unit is the tracked output's (`output_unit`).
     pub max_transition_deviation: f64,
     pub impulses: Vec<Impulse>,
     /// The impulses' total booking per accumulated output.
@@ -50,24 +85,6 @@ pub struct ModalSummary {
     /// States set to their coupling on entering a mode that couples them (models with `couple`).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub coupling_resets: Vec<super::CouplingReset>,
-    /// How far the smoothed cycle departs from the legal trace (cycle speed, m/s: every mode's reference is a
-    /// map of it).
-    #[serde(flatten)]
-    pub reference: ReferenceDeviation,
-    /// The time-weighted engine speed × torque histogram (models with an `[engine]`).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub engine_operating_points: Option<OperatingPoints>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub max_abs_tracking_error: Option<f64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub rms_tracking_error: Option<f64>,
-    pub columns: Vec<Column>,
-    /// Each signal, where it came from and that the run used it smoothed (models with signals).
-    #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub signals: Vec<crate::signals::SignalUse>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub provenance: Option<Provenance>,
-    pub warnings: Vec<String>,
 }
 
 /// Column names and units: `t`, `mode`, `gear`, `yd_0` … `yd_R`, per signal S `S`, `S_d1` … `S_dR`
@@ -242,13 +259,13 @@ fn signal_rows(ctx: &Ctx<'_, '_>, t: &[f64]) -> Rows {
 }
 
 /// The accumulated outputs' integrals, per 100 km (those per distance) and units, by name.
-type Totals = (
+type Tables = (
     BTreeMap<String, f64>,
     BTreeMap<String, f64>,
     BTreeMap<String, String>,
 );
 
-fn totals(outputs: &[invsim_model_api::OutputInfo], integrals: &[f64], distance: f64) -> Totals {
+fn totals(outputs: &[invsim_model_api::OutputInfo], integrals: &[f64], distance: f64) -> Tables {
     let mut ints = BTreeMap::new();
     let mut per = BTreeMap::new();
     let mut integral_units = BTreeMap::new();
@@ -300,34 +317,48 @@ pub(super) fn assemble(
         .map(|t| t.max_deviation)
         .fold(0.0, f64::max);
     let warnings = warnings_of(&tally.violations, &rec.impulses);
+    // Each input's range over the samples (NaN where a mode neither frees nor reports it is skipped).
+    let ranges: Vec<[f64; 2]> = (0..tally.inputs.width())
+        .map(|j| {
+            tally
+                .inputs
+                .column(j)
+                .fold([f64::INFINITY, f64::NEG_INFINITY], |[lo, hi], u| {
+                    [lo.min(u), hi.max(u)]
+                })
+        })
+        .collect();
+    let inputs = spec.input_ranges(&ranges);
+    let totals = Totals::of_modes(
+        (ints, per, integral_units),
+        info0.output_unit.clone(),
+        &inputs[spec.traction_input()],
+        tally.violations,
+    );
     let summary = ModalSummary {
-        model: info0.name.clone(),
-        cycle: cycle.name.clone(),
-        duration_s: cycle.duration(),
-        distance_m: distance,
+        run: CycleInfo::new(info0, cycle, cycle.duration()),
         relative_degree: ctx.r_max,
         engine: "interpreted".into(),
         samples: ns,
         lookahead_s: opts.lookahead,
         dt_s: opts.dt,
-        switching: opts.switching.as_str().into(),
-        transition_time_s: ctx.transition,
-        integrals: ints,
-        per_100km: per,
-        integral_units,
-        output_unit: info0.output_unit.clone(),
-        input_bound_violations: tally.violations,
-        modes,
-        switches: rec.transitions.len(),
-        transitions: rec.transitions,
-        max_transition_deviation: max_dev,
-        impulses: rec.impulses,
-        impulse_booked,
-        coupling_resets: rec.resets,
         reference: tally.deviation.finish(),
-        engine_operating_points: tally.operating.map(|op| op.finish(info0, opts.dt)),
+        totals,
+        inputs,
         max_abs_tracking_error: verify.as_ref().map(|v| v.max_abs),
         rms_tracking_error: verify.as_ref().map(|v| v.rms),
+        modes: ModesBlock {
+            switching: opts.switching.as_str().into(),
+            transition_time_s: ctx.transition,
+            per_mode: modes,
+            switches: rec.transitions.len(),
+            transitions: rec.transitions,
+            max_transition_deviation: max_dev,
+            impulses: rec.impulses,
+            impulse_booked,
+            coupling_resets: rec.resets,
+        },
+        engine_operating_points: tally.operating.map(|op| op.finish(info0, opts.dt)),
         columns: cols
             .iter()
             .map(|(n, u)| Column {
@@ -435,18 +466,31 @@ impl ModalSummary {
     /// The printed summary.
     pub fn to_text(&self) -> String {
         let mut s = String::new();
-        let _ = writeln!(s, "model: {} (modes)", self.model);
+        let _ = writeln!(s, "model: {} (modes)", self.run.model);
+        if !self.run.description.trim().is_empty() {
+            let _ = writeln!(s, "description: {}", first_sentence(&self.run.description));
+        }
         let _ = writeln!(
             s,
             "cycle: {}  duration: {} s  distance: {:.1} m  samples: {}  dt: {} s  look-ahead: {} s",
-            self.cycle, self.duration_s, self.distance_m, self.samples, self.dt_s, self.lookahead_s
+            self.run.cycle,
+            self.run.duration_s,
+            self.run.distance_m,
+            self.samples,
+            self.dt_s,
+            self.lookahead_s
         );
-        let _ = writeln!(s, "engine: {}  switching: {}", self.engine, self.switching);
+        let _ = writeln!(
+            s,
+            "engine: {}  switching: {}",
+            self.engine, self.modes.switching
+        );
         crate::signals::write_signal_uses(&mut s, &self.signals);
-        for (k, v) in &self.integrals {
-            let unit = self.integral_units.get(k);
-            let per = self
-                .per_100km
+        let t = &self.totals;
+        for (k, v) in &t.integrals {
+            let unit = t.integral_units.get(k);
+            let per = t
+                .integrals_per_100km
                 .get(k)
                 .map(|p| match unit {
                     Some(u) => format!("  ({p:.4} {u}/100 km)"),
@@ -456,56 +500,60 @@ impl ModalSummary {
             let u = unit.map(|u| format!(" {u}")).unwrap_or_default();
             let _ = writeln!(s, "integral {k}: {v:.6}{u}{per}");
         }
-        let yu = unit_suffix(self.output_unit.as_deref());
+        for i in &self.inputs {
+            write_input_range(
+                &mut s,
+                (&i.name, i.unit.as_deref()),
+                [i.min, i.max],
+                [i.lower_bound, i.upper_bound],
+            );
+        }
+        let yu = unit_suffix(t.output_unit.as_deref());
+        let m = &self.modes;
         let _ = writeln!(s, "time per mode:");
-        for m in self.modes.iter().filter(|m| m.time_s > 0.0) {
+        for mode in m.per_mode.iter().filter(|m| m.time_s > 0.0) {
             let _ = writeln!(
                 s,
                 "  {:<16} {:>10.2} s  (r = {})",
-                m.name, m.time_s, m.relative_degree
+                mode.name, mode.time_s, mode.relative_degree
             );
         }
         let _ = writeln!(
             s,
             "switches: {}  largest transition deviation: {:.4e}{yu}",
-            self.switches, self.max_transition_deviation
+            m.switches, m.max_transition_deviation
         );
-        if !self.impulses.is_empty() {
-            for (k, v) in &self.impulse_booked {
-                let u = self
+        if !m.impulses.is_empty() {
+            for (k, v) in &m.impulse_booked {
+                let u = t
                     .integral_units
                     .get(k)
                     .map(|u| format!(" {u}"))
                     .unwrap_or_default();
-                let _ = writeln!(
-                    s,
-                    "impulses: {} booked, {k}: {v:.6e}{u}",
-                    self.impulses.len()
-                );
+                let _ = writeln!(s, "impulses: {} booked, {k}: {v:.6e}{u}", m.impulses.len());
             }
         }
-        if let Some(line) = resets_line(&self.coupling_resets) {
+        if let Some(line) = resets_line(&m.coupling_resets) {
             let _ = writeln!(s, "{line}");
         }
         self.reference
-            .write_text(&mut s, Some("m/s"), self.distance_m);
+            .write_text(&mut s, Some("m/s"), self.run.distance_m);
         if let Some(op) = &self.engine_operating_points {
             op.write_text(&mut s);
         }
-        if self.input_bound_violations.is_empty() {
+        if t.input_bound_violations.is_empty() {
             let _ = writeln!(s, "input bound violations: none");
         } else {
-            let _ = writeln!(
-                s,
-                "input bound violations: {:?}",
-                self.input_bound_violations
-            );
+            let _ = writeln!(s, "input bound violations: {:?}", t.input_bound_violations);
         }
         if let (Some(m), Some(r)) = (self.max_abs_tracking_error, self.rms_tracking_error) {
             let _ = writeln!(
                 s,
                 "tracking error (replay): max {m:.3e}{yu}, rms {r:.3e}{yu}"
             );
+        }
+        if let Some(p) = &self.provenance {
+            p.write_text(&mut s);
         }
         for w in &self.warnings {
             let _ = writeln!(s, "warning: {w}");

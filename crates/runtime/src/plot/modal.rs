@@ -177,7 +177,7 @@ pub fn modal_simulation_figure(
     Ok(Figure {
         title: format!(
             "{} on {}: inverse simulation with modes, look-ahead a = {} s",
-            s.model, s.cycle, s.lookahead_s
+            s.run.model, s.run.cycle, s.lookahead_s
         ),
         x_label: "t [s]".to_string(),
         x_range,

@@ -50,7 +50,7 @@ fn run_variant(
             };
             let result = simulate_modes_with_signals(&spec, cycle, &opts, &sweep.opts.signals)
                 .map_err(|e| e.to_string())?;
-            Ok(Figures::from_modal(&result, &spec, &sweep.integrals))
+            Ok(Figures::from_modal(&result.summary, &sweep.integrals))
         }
         _ => Err("the worker's model is not of the kind the sweep was built for".to_string()),
     }

@@ -3,7 +3,8 @@
 use std::io::Write;
 
 use crate::inverse::Summary;
-use crate::modes::{ModalResult, ModalSpec};
+use crate::modes::ModalSummary;
+use crate::report::Totals;
 
 /// The summary figures of one run (see [`crate::Summary`], whose numbers they are).
 #[derive(Debug, Clone, PartialEq)]
@@ -43,59 +44,51 @@ pub struct ModeFigures {
 impl Figures {
     /// The figures of `summary`, integrals in the order of `integrals`.
     pub fn from_summary(summary: &Summary, integrals: &[String]) -> Figures {
-        let totals = &summary.totals;
+        let tracking = (summary.max_abs_tracking_error, summary.rms_tracking_error);
+        let run = (summary.samples, summary.run.distance_m);
+        Figures::of(run, &summary.totals, tracking, integrals)
+    }
+
+    /// The figures of a run with modes, integrals in the order of `integrals`: its input block is the traction
+    /// input's, its violations those of every mode's free input.
+    pub fn from_modal(summary: &ModalSummary, integrals: &[String]) -> Figures {
+        let tracking = (summary.max_abs_tracking_error, summary.rms_tracking_error);
+        let run = (summary.samples, summary.run.distance_m);
+        let m = &summary.modes;
+        Figures {
+            modes: Some(ModeFigures {
+                time_s: m.per_mode.iter().map(|t| t.time_s).collect(),
+                switches: m.switches,
+                max_transition_deviation: m.max_transition_deviation,
+            }),
+            ..Figures::of(run, &summary.totals, tracking, integrals)
+        }
+    }
+
+    /// The figures every run has: (samples, distance), the totals, the tracking errors.
+    fn of(
+        (samples, distance_m): (usize, f64),
+        totals: &Totals,
+        (max_abs_tracking_error, rms_tracking_error): (Option<f64>, Option<f64>),
+        integrals: &[String],
+    ) -> Figures {
         let pick = |map: &std::collections::BTreeMap<String, f64>| -> Vec<f64> {
             let value = |name: &String| map.get(name).copied().unwrap_or(f64::NAN);
             integrals.iter().map(value).collect()
         };
         let violations = &totals.input_bound_violations;
         Figures {
-            samples: summary.samples,
-            distance_m: summary.run.distance_m,
+            samples,
+            distance_m,
             integrals: pick(&totals.integrals),
             integrals_per_100km: pick(&totals.integrals_per_100km),
             input_min: totals.input_min,
             input_max: totals.input_max,
             violations: violations.len(),
             violation_s: total_length(violations),
-            max_abs_tracking_error: summary.max_abs_tracking_error,
-            rms_tracking_error: summary.rms_tracking_error,
+            max_abs_tracking_error,
+            rms_tracking_error,
             modes: None,
-        }
-    }
-
-    /// The figures of a run with modes, integrals in the order of `integrals`. Its `input_min` and
-    /// `input_max` are those of the model's first declared input (the traction input: a throttle, a motor
-    /// torque), the violations those of every mode's free input.
-    pub fn from_modal(result: &ModalResult, spec: &ModalSpec<'_>, integrals: &[String]) -> Figures {
-        let s = &result.summary;
-        let pick = |map: &std::collections::BTreeMap<String, f64>| -> Vec<f64> {
-            let value = |name: &String| map.get(name).copied().unwrap_or(f64::NAN);
-            integrals.iter().map(value).collect()
-        };
-        let first = spec
-            .inputs
-            .first()
-            .and_then(|i| result.column(&i.name))
-            .unwrap_or(&[]);
-        let finite = || first.iter().copied().filter(|v| v.is_finite());
-        let violations = &s.input_bound_violations;
-        Figures {
-            samples: s.samples,
-            distance_m: s.distance_m,
-            integrals: pick(&s.integrals),
-            integrals_per_100km: pick(&s.per_100km),
-            input_min: finite().fold(f64::INFINITY, f64::min),
-            input_max: finite().fold(f64::NEG_INFINITY, f64::max),
-            violations: violations.len(),
-            violation_s: total_length(violations),
-            max_abs_tracking_error: s.max_abs_tracking_error,
-            rms_tracking_error: s.rms_tracking_error,
-            modes: Some(ModeFigures {
-                time_s: s.modes.iter().map(|m| m.time_s).collect(),
-                switches: s.switches,
-                max_transition_deviation: s.max_transition_deviation,
-            }),
         }
     }
 }
