@@ -211,6 +211,11 @@ class Model:
         """The engine that runs the model: "compiled" or "interpreted"."""
         return self._m.engine
 
+    @property
+    def modal(self):
+        """Whether the model has operating modes (a gearbox, idle, a friction brake: `[modes]`)."""
+        return self._m.modal
+
     def derive(self):
         """The derivation as a dict: exactly the JSON of `invsim derive MODEL --format json`."""
         return json.loads(self._m.derive_json())
@@ -227,13 +232,16 @@ class Model:
         include_extension=False,
         keep_series=True,
         initial=None,
+        switching="reentry",
+        transition_time=None,
     ):
         """Inverse simulation on `cycle` (a built-in name or a cycle CSV path), like `invsim simulate`:
         `params` overrides parameters (`--set`), `signals` gives the model's `[signals]` (`--signal`: a number,
         a signal file's path, or (times, values)), `initial` start values of internal states (`--initial`),
         `verify` replays the input through the original model. `keep_series=False` computes every sample but
-        keeps only the summary."""
-        summary, columns, arrays = self._m.simulate(
+        keeps only the summary. Models with modes: `switching` is "reentry" or "quasi-static" and
+        `transition_time` the re-entry's transition time in s (`--switching`, `--transition-time`)."""
+        summary, columns, arrays, units = self._m.simulate(
             str(cycle),
             float(dt),
             float(lookahead),
@@ -244,8 +252,54 @@ class Model:
             bool(keep_series),
             _signals_list(signals),
             _initial_list(initial),
+            str(switching),
+            None if transition_time is None else float(transition_time),
         )
-        return Result(summary, columns, arrays, self._units)
+        return Result(summary, columns, arrays, dict(units) if units else self._units)
+
+    def forward(
+        self,
+        cycle="nedc",
+        dt=0.1,
+        kp=None,
+        ki=None,
+        response=None,
+        feedforward=True,
+        bounds="ignore",
+        method="dopri5",
+        rtol=None,
+        atol=None,
+        max_steps=None,
+        params=None,
+        signals=None,
+        initial=None,
+        keep_series=True,
+    ):
+        """Forward simulation of the original model on `cycle`, closed by a PI driver on the raw cycle, like
+        `invsim forward` (with or without modes): `kp`, `ki` the driver's gains, `response` the engine
+        management's bandwidth, `feedforward` the driver's feed-forward of the cycle's slope, `bounds` "ignore"
+        or "enforce", `method` "dopri5" or "rosenbrock23", `rtol`, `atol` and `max_steps` the integrator's
+        tolerances and step budget (None: the command line's defaults); `params`, `signals`, `initial` as in
+        `simulate`. The summary is `invsim forward --summary-json`'s, the columns its `--out`."""
+        d = _invsim.forward_defaults
+        summary, columns, arrays, units = self._m.forward(
+            str(cycle),
+            float(dt),
+            float(d["kp"] if kp is None else kp),
+            float(d["ki"] if ki is None else ki),
+            float(d["response"] if response is None else response),
+            bool(feedforward),
+            str(bounds),
+            str(method),
+            float(d["rtol"] if rtol is None else rtol),
+            float(d["atol"] if atol is None else atol),
+            None if max_steps is None else int(max_steps),
+            _params_list(params),
+            bool(keep_series),
+            _signals_list(signals),
+            _initial_list(initial),
+        )
+        return Result(summary, columns, arrays, dict(units))
 
     def sweep(
         self,

@@ -1,129 +1,134 @@
-//! Loading a model and choosing the engine that runs it: compiled code for a built-in model whose file's
-//! SHA-256 matches one the extension was built with (`invsim_models::by_hash`), the interpreter tape
-//! otherwise. This is the rule of the command line's `--engine auto|compiled|interpreted`
-//! (crates/cli/src/engine.rs), repeated here in a few lines because it lives in the command-line crate.
+//! Loading a model for Python: `invsim_loader::load_source`, the command line's rule of `--engine auto|
+//! compiled|interpreted` (compiled code for a file that is byte for byte a built-in model's, with or without
+//! modes; the interpreter otherwise), with the derivation as the command line's `derive --format json` prints
+//! it and, for a model without modes, the unit of every column.
 
 use std::path::Path;
+use std::sync::OnceLock;
 
-use invsim_inversion::{Derivation, Interpreter, Model};
+use invsim_inversion::{Derivation, Model, ModelFile};
+use invsim_loader::LoadError;
+pub use invsim_loader::{EngineChoice, Loaded as Kind};
 use invsim_model_api::InverseModel;
+use invsim_runtime::modes::ModalPlant;
 
 use crate::error::Failure;
 
-/// The engine asked for.
-#[derive(Copy, Clone, Debug, PartialEq, Eq)]
-pub enum EngineChoice {
-    Auto,
-    Compiled,
-    Interpreted,
-}
-
-impl EngineChoice {
-    /// `"auto"`, `"compiled"` or `"interpreted"`.
-    pub fn parse(s: &str) -> Result<EngineChoice, Failure> {
-        match s {
-            "auto" => Ok(EngineChoice::Auto),
-            "compiled" => Ok(EngineChoice::Compiled),
-            "interpreted" => Ok(EngineChoice::Interpreted),
-            _ => Err(Failure::msg(format!(
-                "engine `{s}`: expected \"auto\", \"compiled\" or \"interpreted\""
-            ))),
-        }
-    }
-}
-
-/// How the model runs.
-enum Kind {
-    /// Generated code of the built-in model with this file hash.
-    Compiled(String),
-    /// The interpreter, a prototype cloned for each run.
-    Interpreted(Box<Interpreter>),
-}
-
-/// A loaded model: what `derive` prints, the units of its result columns and a factory of runnable
-/// instances.
+/// A loaded model.
 pub struct Loaded {
-    kind: Kind,
-    /// The derivation as the command line's `derive --format json` prints it (compact).
-    pub derive_json: String,
-    /// Unit of each column of a run's series, by column name (`None`: not declared).
+    pub kind: Kind,
+    /// The derivation as JSON, made when first asked for (compact).
+    derive_json: OnceLock<Result<String, Failure>>,
+    /// Unit of each column of an inverse run's series of a model without modes, by column name (empty for a
+    /// model with modes: its runs carry their units).
     pub units: Vec<(String, Option<String>)>,
 }
 
 impl Loaded {
-    /// Load and derive the model file `path` given as `bytes`, with the requested engine. The model is always
-    /// derived first, so a bad file gives the same error whichever engine was asked for.
+    /// Load the model file `path` given as `bytes`, with the requested engine: a bad file gives the same error
+    /// whichever engine was asked for.
     pub fn new(path: &Path, bytes: &[u8], choice: EngineChoice) -> Result<Loaded, Failure> {
-        let model = Model::from_bytes(path, bytes)?;
-        let d = Derivation::new(model).map_err(invsim_inversion::Error::from)?;
-        let derive_json =
-            serde_json::to_string(&d.to_json()).map_err(|e| Failure::msg(e.to_string()))?;
-        let units = column_units(&d);
-        let hash = d.model.source_hash.clone();
-        let builtin = invsim_models::by_hash(&hash).is_some();
-        let kind = match choice {
-            EngineChoice::Auto | EngineChoice::Compiled if builtin => Kind::Compiled(hash),
-            EngineChoice::Compiled => return Err(not_builtin(path, &hash)),
-            _ => Kind::Interpreted(Box::new(
-                Interpreter::new(&d).map_err(invsim_inversion::Error::from)?,
-            )),
+        let kind = invsim_loader::load_source(path, bytes, choice).map_err(|e| failure(e, path))?;
+        let (units, json) = match &kind {
+            Kind::Single(_) => {
+                let d = Derivation::new(Model::from_bytes(path, bytes)?)
+                    .map_err(invsim_inversion::Error::from)?;
+                let json =
+                    serde_json::to_string(&d.to_json()).map_err(|e| Failure::msg(e.to_string()));
+                (column_units(&d), OnceLock::from(json))
+            }
+            Kind::Modal(_) => (Vec::new(), OnceLock::new()),
         };
         Ok(Loaded {
             kind,
-            derive_json,
+            derive_json: json,
             units,
         })
     }
 
+    /// The derivation as JSON (of every mode, for a model with modes), from the file's `bytes`.
+    pub fn derive_json(&self, path: &Path, bytes: &[u8]) -> Result<&str, Failure> {
+        let made = self.derive_json.get_or_init(|| {
+            let Ok(ModelFile::Modal(mut m)) = ModelFile::from_bytes(path, bytes) else {
+                return Err(Failure::msg("the model file changed kind"));
+            };
+            let modes = std::mem::take(&mut m.modes);
+            let ds = invsim_loader::derive_modes(modes).map_err(|e| failure(e, path))?;
+            let v = invsim_loader::modal_derive_json(&m, &ds);
+            serde_json::to_string(&v).map_err(|e| Failure::msg(e.to_string()))
+        });
+        made.as_deref().map_err(Clone::clone)
+    }
+
     /// `"compiled"` or `"interpreted"` (the summary's `engine`).
     pub fn engine_name(&self) -> &'static str {
-        match self.kind {
-            Kind::Compiled(_) => "compiled",
-            Kind::Interpreted(_) => "interpreted",
-        }
+        self.kind.engine_name()
     }
 
-    /// A fresh instance with the file's parameter values, for one run.
-    pub fn instance(&self) -> Result<Box<dyn InverseModel>, Failure> {
-        match &self.kind {
-            Kind::Compiled(hash) => invsim_models::by_hash(hash)
-                .ok_or_else(|| Failure::msg(format!("no compiled model with hash {hash}"))),
-            Kind::Interpreted(p) => Ok(Box::new(p.as_ref().clone())),
-        }
+    /// The model's declared parameters.
+    pub fn parameters(&self) -> Vec<String> {
+        self.kind.info().parameters.clone()
     }
 
-    /// A fresh instance with `params` set (in order), each value finite.
-    pub fn with_params(&self, params: &[(String, f64)]) -> Result<Box<dyn InverseModel>, Failure> {
-        let mut m = self.instance()?;
+    /// A fresh instance of a model without modes with `params` set (in order), each value finite.
+    pub fn single(&self, params: &[(String, f64)]) -> Result<Box<dyn InverseModel>, Failure> {
+        let Kind::Single(m) = &self.kind else {
+            return Err(Failure::msg("the model has operating modes"));
+        };
+        let mut m = m.fresh().map_err(|e| Failure::msg(e.to_string()))?;
         for (name, value) in params {
-            set_param(m.as_mut(), name, *value)?;
+            check_finite(name, *value)?;
+            m.set_param(name, *value)
+                .map_err(|e| Failure::msg(format!("parameter {name}: {e}")))?;
         }
         Ok(m)
     }
-}
 
-/// Set one parameter, as `--set NAME=VALUE` does (the value must be finite).
-pub fn set_param(m: &mut dyn InverseModel, name: &str, value: f64) -> Result<(), Failure> {
-    if !value.is_finite() {
-        return Err(Failure::msg(format!(
-            "parameter {name} = {value}: the value must be finite"
-        )));
+    /// A fresh copy of a model with modes with `params` set (in every mode), each value finite.
+    pub fn modal(&self, params: &[(String, f64)]) -> Result<ModalPlant, Failure> {
+        let Kind::Modal(m) = &self.kind else {
+            return Err(Failure::msg("the model has no operating modes"));
+        };
+        let mut p = m.fresh().map_err(|e| Failure::msg(e.to_string()))?;
+        for (name, value) in params {
+            check_finite(name, *value)?;
+            p.set_param(name, *value)
+                .map_err(|e| Failure::msg(format!("parameter {name}: {e}")))?;
+        }
+        Ok(p)
     }
-    m.set_param(name, value)
-        .map_err(|e| Failure::msg(format!("parameter {name}: {e}")))
 }
 
-fn not_builtin(path: &Path, hash: &str) -> Failure {
-    Failure::in_file(
-        format!(
-            "no compiled code for `{}`: the file (sha256 {hash}) matches none of the built-in models this \
-             extension was built with ({}; a built-in model must be byte-for-byte the file in models/); use \
-             engine=\"interpreted\", or engine=\"auto\" to fall back to the interpreter",
-            path.display(),
-            invsim_models::names().join(", ")
+/// A parameter value must be finite (as `--set NAME=VALUE`).
+fn check_finite(name: &str, value: f64) -> Result<(), Failure> {
+    if value.is_finite() {
+        return Ok(());
+    }
+    Err(Failure::msg(format!(
+        "parameter {name} = {value}: the value must be finite"
+    )))
+}
+
+/// The loader's error with its position where it has one; for compiled code asked of a file that is none of
+/// the built-in models, how to ask for the interpreter.
+fn failure(e: LoadError, path: &Path) -> Failure {
+    match e {
+        LoadError::Model(e) => Failure::from(*e),
+        LoadError::Mode { mode, source } => {
+            let f = Failure::from(*source);
+            Failure {
+                message: format!("mode `{mode}`: {}", f.message),
+                ..f
+            }
+        }
+        e @ LoadError::NotBuiltIn { .. } => Failure::in_file(
+            format!(
+                "{e}; use engine=\"interpreted\", or engine=\"auto\" to fall back to the interpreter"
+            ),
+            path.display().to_string(),
         ),
-        path.display().to_string(),
-    )
+        e => Failure::msg(e.to_string()),
+    }
 }
 
 /// The unit of every column of `simulate`'s series (contract §3: `t`, `yd_0` … `yd_r`, the input, the states,

@@ -6,6 +6,7 @@
 
 mod engine;
 mod error;
+mod forward;
 mod run;
 mod sweep;
 
@@ -17,16 +18,23 @@ use pyo3::types::PyBytes;
 
 use engine::{EngineChoice, Loaded};
 use error::{to_py, Failure, InvsimError};
-use run::{load_cycle, run_one, PySignal, RunOptions};
+use forward::{forward_one, ForwardRequest};
+use run::{load_cycle, simulate_any, Output, PySignal, RunOptions};
 use sweep::{run_sweep, Variants};
 
-/// What `Model.simulate` returns: the summary, the column names and the columns.
-type RunOutput<'py> = (RunSummary, Vec<String>, Vec<Bound<'py, PyArray1<f64>>>);
+/// What `Model.simulate` and `Model.forward` return: the summary, the column names, the columns and their
+/// units.
+type RunOutput<'py> = (
+    RunSummary,
+    Vec<String>,
+    Vec<Bound<'py, PyArray1<f64>>>,
+    Vec<(String, Option<String>)>,
+);
 
 /// The summary of one run, kept as Rust data: written as JSON (what `--summary-json` writes) when asked
 /// for, so that a run whose summary is not read does not pay for writing and parsing it.
 #[pyclass(module = "invsim._invsim", frozen)]
-struct RunSummary(invsim_runtime::Summary);
+struct RunSummary(run::RunSummary);
 
 #[pymethods]
 impl RunSummary {
@@ -34,6 +42,12 @@ impl RunSummary {
     fn json(&self) -> PyResult<String> {
         serde_json::to_string(&self.0).map_err(|e| InvsimError::new_err(e.to_string()))
     }
+}
+
+/// A run's output as Python gets it: each column's Vec becomes the buffer of its numpy array (no copy).
+fn to_python(py: Python<'_>, (summary, columns, data, units): Output) -> RunOutput<'_> {
+    let arrays = data.into_iter().map(|c| c.into_pyarray(py)).collect();
+    (RunSummary(summary), columns, arrays, units)
 }
 /// One sweep row: variant, cycle index, every parameter's value, the summary JSON, the error.
 type SweepRow = (usize, usize, Vec<f64>, Option<String>, Option<String>);
@@ -50,7 +64,9 @@ struct Model {
 impl Model {
     fn load(py: Python<'_>, path: String, source: Vec<u8>, engine: String) -> PyResult<Model> {
         let loaded = py.allow_threads(|| {
-            let choice = EngineChoice::parse(&engine)?;
+            let choice: EngineChoice = engine
+                .parse()
+                .map_err(|e: invsim_loader::LoadError| Failure::msg(e.to_string()))?;
             Loaded::new(&PathBuf::from(&path), &source, choice)
         });
         Ok(Model {
@@ -120,17 +136,30 @@ impl Model {
     }
 
     /// The derivation as JSON (the command line's `invsim derive --format json`).
-    fn derive_json(&self) -> &str {
-        &self.loaded.derive_json
+    fn derive_json(&self, py: Python<'_>) -> PyResult<String> {
+        let json = py.allow_threads(|| {
+            let path = PathBuf::from(&self.path);
+            self.loaded
+                .derive_json(&path, &self.source)
+                .map(str::to_string)
+        });
+        to_py(py, json)
     }
 
-    /// The unit of every column a run can have, as (name, unit or None).
+    /// Whether the model has operating modes.
+    #[getter]
+    fn modal(&self) -> bool {
+        matches!(self.loaded.kind, engine::Kind::Modal(_))
+    }
+
+    /// The unit of every column an inverse run of a model without modes can have, as (name, unit or None)
+    /// (runs of a model with modes and forward runs carry their units).
     fn column_units(&self) -> Vec<(String, Option<String>)> {
         self.loaded.units.clone()
     }
 
-    /// One inverse simulation: (summary, column names, columns as float64 arrays).
-    #[pyo3(signature = (cycle, dt, lookahead, params, verify, causal, include_extension, keep_series, signals, initial))]
+    /// One inverse simulation: (summary, column names, columns as float64 arrays, units).
+    #[pyo3(signature = (cycle, dt, lookahead, params, verify, causal, include_extension, keep_series, signals, initial, switching, transition_time))]
     #[allow(clippy::too_many_arguments)]
     fn simulate<'py>(
         &self,
@@ -145,6 +174,8 @@ impl Model {
         keep_series: bool,
         signals: Vec<PySignal>,
         initial: Vec<(String, f64)>,
+        switching: String,
+        transition_time: Option<f64>,
     ) -> PyResult<RunOutput<'py>> {
         let opts = RunOptions {
             dt,
@@ -155,18 +186,53 @@ impl Model {
             keep_series,
             signals,
             initial,
+            switching,
+            transition_time,
         };
-        let out = py.allow_threads(|| {
-            let cycle = load_cycle(&cycle)?;
-            let opts = opts.build(self.loaded.engine_name(), &self.path, &cycle.name)?;
-            let m = self.loaded.with_params(&params)?;
-            let r = run_one(m.as_ref(), &self.path, &cycle, &opts)?;
-            Ok((r.summary, r.columns, r.data))
-        });
-        let (summary, columns, data) = to_py(py, out)?;
-        // Each Vec becomes the buffer of its numpy array: no copy.
-        let arrays = data.into_iter().map(|c| c.into_pyarray(py)).collect();
-        Ok((RunSummary(summary), columns, arrays))
+        let out =
+            py.allow_threads(|| simulate_any(&self.loaded, &self.path, &cycle, &params, &opts));
+        Ok(to_python(py, to_py(py, out)?))
+    }
+
+    /// One forward simulation with the PI driver: (summary, column names, columns, units).
+    #[pyo3(signature = (cycle, dt, kp, ki, response, feedforward, bounds, method, rtol, atol, max_steps, params, keep_series, signals, initial))]
+    #[allow(clippy::too_many_arguments)]
+    fn forward<'py>(
+        &self,
+        py: Python<'py>,
+        cycle: String,
+        dt: f64,
+        kp: f64,
+        ki: f64,
+        response: f64,
+        feedforward: bool,
+        bounds: String,
+        method: String,
+        rtol: f64,
+        atol: f64,
+        max_steps: Option<usize>,
+        params: Vec<(String, f64)>,
+        keep_series: bool,
+        signals: Vec<PySignal>,
+        initial: Vec<(String, f64)>,
+    ) -> PyResult<RunOutput<'py>> {
+        let req = ForwardRequest {
+            dt,
+            kp,
+            ki,
+            response,
+            feedforward,
+            bounds,
+            method,
+            rtol,
+            atol,
+            max_steps,
+            keep_series,
+            signals,
+            initial,
+        };
+        let out = py.allow_threads(|| forward_one(&self.loaded, &self.path, &cycle, &params, &req));
+        Ok(to_python(py, to_py(py, out)?))
     }
 
     /// A sweep: every variant (`names[j]` = `values[j][i]`) on every cycle, after the `base` settings.
@@ -198,27 +264,30 @@ impl Model {
             keep_series: false,
             signals,
             initial,
+            switching: "reentry".to_string(),
+            transition_time: None,
         };
         let rows = py.allow_threads(|| {
-            let cycles = cycles
+            let loaded_cycles = cycles
                 .iter()
                 .map(|c| load_cycle(c))
                 .collect::<Result<Vec<_>, _>>()?;
-            let first = cycles.first().map_or("", |c| c.name.as_str());
+            let first = loaded_cycles.first().map_or("", |c| c.name.as_str());
+            let modal = opts.modal()?;
             let opts = opts.build(self.loaded.engine_name(), &self.path, first)?;
-            check_variants(&self.loaded, &variants, &base)?;
+            check_variants(&self.loaded, &variants)?;
             run_sweep(
                 &self.loaded,
                 &self.path,
-                &cycles,
+                (&loaded_cycles, &cycles),
                 &variants,
                 &base,
-                &opts,
+                (&opts, &modal),
                 threads,
             )
         });
         let rows = to_py(py, rows)?;
-        let param_names = to_py(py, self.loaded.instance())?.info().parameters.clone();
+        let param_names = self.loaded.parameters();
         let rows = rows
             .into_iter()
             .map(|r| {
@@ -234,7 +303,7 @@ impl Model {
 }
 
 /// A sweep's parameter names must be the model's and its columns of one length: else no row could run.
-fn check_variants(model: &Loaded, v: &Variants, base: &[(String, f64)]) -> Result<(), Failure> {
+fn check_variants(model: &Loaded, v: &Variants) -> Result<(), Failure> {
     if let Some(c) = v.values.iter().find(|c| c.len() != v.len()) {
         return Err(Failure::msg(format!(
             "sweep parameters: every column must have one value per variant ({} and {})",
@@ -242,7 +311,7 @@ fn check_variants(model: &Loaded, v: &Variants, base: &[(String, f64)]) -> Resul
             c.len()
         )));
     }
-    let known = model.with_params(base)?.info().parameters.clone();
+    let known = model.parameters();
     if let Some(name) = v.names.iter().find(|n| !known.contains(n)) {
         return Err(Failure::msg(format!(
             "sweep parameter `{name}`: the model has no such parameter (its parameters: {})",
@@ -259,6 +328,19 @@ fn _invsim(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<RunSummary>()?;
     m.add("InvsimError", m.py().get_type::<InvsimError>())?;
     m.add("builtin_models", invsim_models::names())?;
+    // The command line's defaults of `invsim forward` (Model.forward's None).
+    let defaults = pyo3::types::PyDict::new(m.py());
+    use invsim_runtime::forward as f;
+    for (name, value) in [
+        ("kp", f::DRIVER_KP),
+        ("ki", f::DRIVER_KI),
+        ("response", f::RESPONSE_OMEGA),
+        ("rtol", f::DEFAULT_RTOL),
+        ("atol", f::DEFAULT_ATOL),
+    ] {
+        defaults.set_item(name, value)?;
+    }
+    m.add("forward_defaults", defaults)?;
     m.add(
         "builtin_cycles",
         invsim_runtime::Cycle::builtin_names().to_vec(),

@@ -1,15 +1,41 @@
 //! One inverse simulation, as `invsim simulate` runs it: the cycle, the options, the model with its
-//! parameters set, then `invsim_runtime::simulate`.
+//! parameters set, then `invsim_runtime::simulate` (a model without modes) or the mode sequence of
+//! `invsim_runtime::modes` (a model with modes).
 
+use invsim_runtime::forward::{ForwardSummary, ModalForwardSummary};
 use invsim_runtime::inverse::{simulate_shared, Reference};
+use invsim_runtime::modes::{
+    simulate_modes_with_signals, GearSource, ModalOptions, ModalPlant, ModalSummary, Switching,
+};
 use invsim_runtime::signal_file::read_signal_file;
 use invsim_runtime::{
-    Cycle, SignalInput, SignalValue, SimulateError, SimulationOptions, SimulationResult,
+    Cycle, SignalInput, SignalValue, SimulationOptions, SimulationResult, Summary,
 };
 
 use invsim_model_api::InverseModel;
 
+use crate::engine::{Kind, Loaded};
 use crate::error::Failure;
+
+/// The summary of one run, kept as Rust data: written as JSON (what `--summary-json` writes) when asked
+/// for, so that a run whose summary is not read does not pay for writing and parsing it.
+#[derive(serde::Serialize)]
+#[serde(untagged)]
+pub enum RunSummary {
+    Inverse(Summary),
+    Modal(ModalSummary),
+    Forward(ForwardSummary),
+    ModalForward(ModalForwardSummary),
+}
+
+/// What a run returns: the summary, the column names, the columns and each column's unit (for a model
+/// without modes' inverse run: none, the model's derivation gives them).
+pub type Output = (
+    RunSummary,
+    Vec<String>,
+    Vec<Vec<f64>>,
+    Vec<(String, Option<String>)>,
+);
 
 /// One signal as Python gives it (`signals={name: value}`): a constant, a signal file's path (the
 /// command line's `--signal NAME=FILE.csv`), or samples (times, values).
@@ -33,6 +59,9 @@ pub struct RunOptions {
     pub signals: Vec<PySignal>,
     /// `--initial NAME=VALUE`.
     pub initial: Vec<(String, f64)>,
+    /// Models with modes: `"reentry"` or `"quasi-static"`, and the re-entry's transition time.
+    pub switching: String,
+    pub transition_time: Option<f64>,
 }
 
 impl RunOptions {
@@ -68,7 +97,7 @@ impl RunOptions {
 
 /// A Python signal as the runtime's input, checked as the command line checks `--signal`: a finite constant,
 /// a readable signal file, or samples with strictly increasing finite times and finite values.
-fn signal_input((name, constant, file, series): &PySignal) -> Result<SignalInput, Failure> {
+pub fn signal_input((name, constant, file, series): &PySignal) -> Result<SignalInput, Failure> {
     let bad = |why: String| Failure::msg(format!("signals[{name:?}]: {why}"));
     let value = match (constant, file, series) {
         (Some(v), _, _) if v.is_finite() => SignalValue::Constant(*v),
@@ -150,8 +179,84 @@ pub fn run_one_shared(
 }
 
 /// The command line's message for a run that could not start or had to stop.
-fn stopped(model_path: &str, cycle: &str, e: SimulateError) -> Failure {
+fn stopped(model_path: &str, cycle: &str, e: impl std::fmt::Display) -> Failure {
     Failure::msg(format!(
         "simulation of `{model_path}` on `{cycle}` stopped: {e}"
     ))
+}
+
+impl RunOptions {
+    /// The options of a run with modes.
+    pub fn modal(&self) -> Result<ModalOptions, Failure> {
+        let switching = match self.switching.as_str() {
+            "reentry" => Switching::Reentry,
+            "quasi-static" => Switching::QuasiStatic,
+            s => {
+                return Err(Failure::msg(format!(
+                    "switching `{s}`: expected \"reentry\" or \"quasi-static\""
+                )))
+            }
+        };
+        Ok(ModalOptions {
+            lookahead: self.lookahead,
+            dt: self.dt,
+            switching,
+            transition_time: self.transition_time,
+            verify: self.verify,
+        })
+    }
+}
+
+/// The gear schedule of `plant` (loaded from `model_path`) for `cycle` (`spec` as given: a built-in name or
+/// the cycle file's path).
+pub fn gear_source(
+    plant: &ModalPlant,
+    model_path: &str,
+    cycle: &Cycle,
+    spec: &str,
+) -> Result<GearSource, Failure> {
+    let file = Cycle::builtin(spec)
+        .is_none()
+        .then(|| std::path::Path::new(spec));
+    plant
+        .gear_source(cycle, file)
+        .map_err(|e| Failure::in_file(format!("{model_path}: {e}"), model_path))
+}
+
+/// One inverse run of `model` with `params` set on `cycle_spec`, as `invsim simulate` runs it.
+pub fn simulate_any(
+    model: &Loaded,
+    model_path: &str,
+    cycle_spec: &str,
+    params: &[(String, f64)],
+    opts: &RunOptions,
+) -> Result<Output, Failure> {
+    let cycle = load_cycle(cycle_spec)?;
+    let sim_opts = opts.build(model.engine_name(), model_path, &cycle.name)?;
+    match &model.kind {
+        Kind::Single(_) => {
+            let m = model.single(params)?;
+            let r = run_one(m.as_ref(), model_path, &cycle, &sim_opts)?;
+            Ok((
+                RunSummary::Inverse(r.summary),
+                r.columns,
+                r.data,
+                Vec::new(),
+            ))
+        }
+        Kind::Modal(_) => {
+            let plant = model.modal(params)?;
+            let spec = plant.spec(gear_source(&plant, model_path, &cycle, cycle_spec)?);
+            let mut r =
+                simulate_modes_with_signals(&spec, &cycle, &opts.modal()?, &sim_opts.signals)
+                    .map_err(|e| stopped(model_path, &cycle.name, e))?;
+            r.summary.engine = model.engine_name().to_string();
+            let units = r.columns.iter().cloned().zip(r.units).collect();
+            let (columns, data) = match opts.keep_series {
+                true => (r.columns, r.data),
+                false => (Vec::new(), Vec::new()),
+            };
+            Ok((RunSummary::Modal(r.summary), columns, data, units))
+        }
+    }
 }

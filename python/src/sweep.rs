@@ -7,12 +7,13 @@
 //! the same variant; unlike `Sweep`, each row keeps the whole summary (the JSON `--summary-json` writes).
 
 use invsim_runtime::inverse::{reference, Reference};
+use invsim_runtime::modes::{simulate_modes_with_signals, GearSource, ModalOptions};
 use invsim_runtime::{Cycle, SimulationOptions};
 use rayon::prelude::*;
 
-use crate::engine::Loaded;
+use crate::engine::{Kind, Loaded};
 use crate::error::Failure;
-use crate::run::{run_one, run_one_shared};
+use crate::run::{gear_source, run_one, run_one_shared};
 
 /// The variants of a sweep, stored column by column: `values[j][i]` is parameter `names[j]` of variant i.
 #[derive(Debug, Clone)]
@@ -52,39 +53,51 @@ pub struct Row {
 
 /// Run every variant on every cycle; `threads` = `None` uses rayon's global pool. Rows are in the order
 /// variant 0 on each cycle, variant 1 on each cycle, …
+#[allow(clippy::too_many_arguments)]
 pub fn run_sweep(
     model: &Loaded,
     model_path: &str,
-    cycles: &[Cycle],
+    (cycles, specs): (&[Cycle], &[String]),
     variants: &Variants,
     base: &[(String, f64)],
-    opts: &SimulationOptions,
+    (opts, modal): (&SimulationOptions, &ModalOptions),
     threads: Option<usize>,
 ) -> Result<Vec<Row>, Failure> {
     let jobs = variants.len() * cycles.len();
-    let references = shared_references(model, cycles, base, opts);
+    let shared = match &model.kind {
+        Kind::Single(_) => Shared::References(shared_references(model, cycles, base, opts)),
+        Kind::Modal(m) => Shared::Gears(
+            cycles
+                .iter()
+                .zip(specs)
+                .map(|(c, s)| gear_source(&m.plant, model_path, c, s))
+                .collect(),
+        ),
+    };
     let one = |job: usize| {
         let (i, c) = (job / cycles.len(), job % cycles.len());
         let params = variants.params(base, i);
-        let instance = model.with_params(&params);
-        let values = instance
-            .as_ref()
-            .map(|m| m.params().to_vec())
-            .unwrap_or_default();
-        let summary = instance
-            .and_then(|m| match &references[c] {
-                Some(r) => run_one_shared(m.as_ref(), model_path, &cycles[c], r, opts),
-                None => run_one(m.as_ref(), model_path, &cycles[c], opts),
-            })
-            .and_then(|r| {
-                serde_json::to_string(&r.summary).map_err(|e| Failure::msg(e.to_string()))
-            })
-            .map_err(|f| f.message);
+        let (values, summary) = match &shared {
+            Shared::References(references) => single_row(
+                model,
+                model_path,
+                (&cycles[c], &references[c]),
+                &params,
+                opts,
+            ),
+            Shared::Gears(gears) => modal_row(
+                model,
+                model_path,
+                (&cycles[c], &gears[c]),
+                &params,
+                (opts, modal),
+            ),
+        };
         Row {
             variant: i,
             cycle: c,
             params: values,
-            summary,
+            summary: summary.map_err(|f| f.message),
         }
     };
     let run = || (0..jobs).into_par_iter().map(one).collect::<Vec<Row>>();
@@ -98,6 +111,64 @@ pub fn run_sweep(
     }
 }
 
+/// What every run on one cycle shares.
+enum Shared {
+    /// A model without modes: each cycle's smoothed reference, where it could be made.
+    References(Vec<Option<Reference>>),
+    /// A model with modes: each cycle's gear schedule (or why there is none).
+    Gears(Vec<Result<GearSource, Failure>>),
+}
+
+/// One row of a model without modes: every parameter's value and the summary JSON.
+fn single_row(
+    model: &Loaded,
+    model_path: &str,
+    (cycle, reference): (&Cycle, &Option<Reference>),
+    params: &[(String, f64)],
+    opts: &SimulationOptions,
+) -> (Vec<f64>, Result<String, Failure>) {
+    let instance = model.single(params);
+    let values = instance
+        .as_ref()
+        .map(|m| m.params().to_vec())
+        .unwrap_or_default();
+    let summary = instance
+        .and_then(|m| match reference {
+            Some(r) => run_one_shared(m.as_ref(), model_path, cycle, r, opts),
+            None => run_one(m.as_ref(), model_path, cycle, opts),
+        })
+        .and_then(|r| serde_json::to_string(&r.summary).map_err(|e| Failure::msg(e.to_string())));
+    (values, summary)
+}
+
+/// One row of a model with modes: every parameter's value (the first mode's) and the summary JSON.
+fn modal_row(
+    model: &Loaded,
+    model_path: &str,
+    (cycle, gears): (&Cycle, &Result<GearSource, Failure>),
+    params: &[(String, f64)],
+    (opts, modal): (&SimulationOptions, &ModalOptions),
+) -> (Vec<f64>, Result<String, Failure>) {
+    let plant = model.modal(params);
+    let values = plant
+        .as_ref()
+        .map(|p| p.first().params().to_vec())
+        .unwrap_or_default();
+    let summary = plant.and_then(|p| {
+        let spec = p.spec(gears.clone()?);
+        let mut r =
+            simulate_modes_with_signals(&spec, cycle, modal, &opts.signals).map_err(|e| {
+                Failure::msg(format!(
+                    "simulation of `{model_path}` on `{}` stopped: {e}",
+                    cycle.name
+                ))
+            })?;
+        r.summary.engine = model.engine_name().to_string();
+        serde_json::to_string(&r.summary).map_err(|e| Failure::msg(e.to_string()))
+    });
+    (values, summary)
+}
+
 /// The smoothed reference of every cycle, made once with the `base` settings. A variant whose parameters move
 /// the reference map (an output offset or scale that is a parameter) does not fit it and smooths its cycle
 /// itself (see `simulate_shared`), so sharing never changes a figure. Where no reference can be made (bad
@@ -108,7 +179,7 @@ fn shared_references(
     base: &[(String, f64)],
     opts: &SimulationOptions,
 ) -> Vec<Option<Reference>> {
-    let m = model.with_params(base).ok();
+    let m = model.single(base).ok();
     cycles
         .iter()
         .map(|c| m.as_ref().and_then(|m| reference(m.as_ref(), c, opts).ok()))

@@ -5,7 +5,9 @@ import pandas as pd
 import pytest
 
 distributed = pytest.importorskip("distributed", reason="Dask's distributed scheduler is not installed")
+import invsim  # noqa: E402
 import invsim.dask  # noqa: E402
+from conftest import REPO  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -38,3 +40,13 @@ def test_dask_sweep_equals_local(si_engine, client):
     pd.testing.assert_frame_equal(spread, local)
     # The partitions ran in both worker processes.
     assert len(client.scheduler_info()["workers"]) == 2
+
+
+def test_dask_sweep_of_a_model_with_modes(client):
+    # The 5-speed car travels to the workers as its file's bytes and runs its compiled modes there.
+    model = invsim.Model(REPO / "models" / "si_engine_5speed.toml")
+    params = {"m": [1200.0, 1350.0, 1500.0, 1650.0]}
+    local = model.sweep(params=params, cycles=["ece"], dt=0.5)
+    spread = invsim.dask.sweep(model, params, cycles=["ece"], npartitions=2, client=client, dt=0.5, threads=1)
+    pd.testing.assert_frame_equal(spread, local)
+    assert spread["error"].isna().all() and (spread["modes.switches"] > 0).all()

@@ -98,7 +98,7 @@ pub fn load(path: &Path, choice: EngineChoice) -> Result<Loaded, LoadError> {
             return Ok(Loaded::Modal(Box::new(m)));
         }
     }
-    let file = ModelFile::from_path(path).map_err(|e| LoadError::Model(e.to_string()))?;
+    let file = ModelFile::from_path(path)?;
     from_file(file, path, choice)
 }
 
@@ -113,7 +113,7 @@ pub fn load_source(path: &Path, bytes: &[u8], choice: EngineChoice) -> Result<Lo
             return Ok(Loaded::Modal(Box::new(m)));
         }
     }
-    let file = ModelFile::from_bytes(path, bytes).map_err(|e| LoadError::Model(e.to_string()))?;
+    let file = ModelFile::from_bytes(path, bytes)?;
     from_file(file, path, choice)
 }
 

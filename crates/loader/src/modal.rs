@@ -38,7 +38,7 @@ impl LoadedModal {
     pub fn fresh(&self) -> Result<ModalPlant, LoadError> {
         let mut models = match &self.source {
             Source::Compiled(hash) => invsim_models::modal_by_hash(hash).ok_or_else(|| {
-                LoadError::Model(format!("no built-in model has the hash {hash}"))
+                LoadError::Setup(format!("no built-in model has the hash {hash}"))
             })?,
             Source::Interpreted(prototypes) => interpreters(prototypes),
         };
@@ -53,7 +53,7 @@ impl LoadedModal {
         }
         self.plant
             .with_models(models)
-            .map_err(|e| LoadError::Model(e.to_string()))
+            .map_err(|e| LoadError::Setup(e.to_string()))
     }
 }
 
@@ -77,10 +77,14 @@ pub fn derive_modes(modes: Vec<Mode>) -> Result<Vec<DerivedMode>, LoadError> {
         .into_iter()
         .map(|mode| {
             let name = mode.name.clone();
-            let at = |e: String| LoadError::Model(format!("mode `{name}`: {e}"));
+            let at = |e: invsim_inversion::Error| LoadError::Mode {
+                mode: name.clone(),
+                source: Box::new(e),
+            };
             let (header, model) = mode.into_parts();
-            let d = Derivation::new(model).map_err(|e| at(e.to_string()))?;
-            d.check_printable().map_err(|e| at(e.to_string()))?;
+            let d = Derivation::new(model).map_err(|e| at(e.into()))?;
+            d.check_printable()
+                .map_err(|e| LoadError::Setup(format!("mode `{name}`: {e}")))?;
             Ok(DerivedMode { header, d })
         })
         .collect()
@@ -129,7 +133,7 @@ pub(crate) fn read_compiled(
     read: impl FnOnce(&dyn Fn(&str) -> bool) -> HeaderRead,
 ) -> Result<Option<LoadedModal>, LoadError> {
     let known = |hash: &str| invsim_models::modal_by_hash(hash).is_some();
-    let Some((m, headers)) = read(&known).map_err(|e| LoadError::Model(e.to_string()))? else {
+    let Some((m, headers)) = read(&known)? else {
         return Ok(None);
     };
     let models = invsim_models::modal_by_hash(&m.source_hash).filter(|c| c.len() == headers.len());
@@ -175,7 +179,7 @@ pub(crate) fn from_model(
     let mut headers = Vec::with_capacity(modes.len());
     let mut prototypes = Vec::with_capacity(modes.len());
     for DerivedMode { header, d } in derive_modes(modes)? {
-        prototypes.push(Interpreter::new(&d).map_err(|e| LoadError::Model(e.to_string()))?);
+        prototypes.push(Interpreter::new(&d)?);
         headers.push(header);
     }
     let models = interpreters(&prototypes);
@@ -223,7 +227,7 @@ fn assemble(
         let meta = meta_of(m, h, model.as_ref());
         b = b.mode(meta, model);
     }
-    let plant = b.build().map_err(|e| LoadError::Model(e.to_string()))?;
+    let plant = b.build().map_err(|e| LoadError::Setup(e.to_string()))?;
     Ok(LoadedModal { plant, source })
 }
 

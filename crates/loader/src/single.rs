@@ -50,7 +50,7 @@ impl SingleModel {
                 let info = m.info();
                 let hash = info.source_hash.clone().unwrap_or_default();
                 let mut fresh = invsim_models::by_hash(&hash).ok_or_else(|| {
-                    LoadError::Model(format!("no built-in model has the hash {hash}"))
+                    LoadError::Setup(format!("no built-in model has the hash {hash}"))
                 })?;
                 for (name, &v) in info.parameters.iter().zip(m.params()) {
                     fresh.set_param(name, v).map_err(|e| LoadError::Parameter {
@@ -75,7 +75,7 @@ pub(crate) fn from_model(
     path: &Path,
     choice: EngineChoice,
 ) -> Result<SingleModel, LoadError> {
-    let d = Derivation::new(model).map_err(|e| LoadError::Model(e.to_string()))?;
+    let d = Derivation::new(model)?;
     let hash = &d.model.source_hash;
     match (choice, invsim_models::by_hash(hash)) {
         (EngineChoice::Auto | EngineChoice::Compiled, Some(m)) => Ok(SingleModel::Compiled(m)),
@@ -93,6 +93,6 @@ pub(crate) fn from_model(
 }
 
 fn interpreted(d: &Derivation) -> Result<SingleModel, LoadError> {
-    let interp = Interpreter::new(d).map_err(|e| LoadError::Model(e.to_string()))?;
+    let interp = Interpreter::new(d)?;
     Ok(SingleModel::Interpreted(Box::new(interp)))
 }
