@@ -11,6 +11,7 @@ use invsim_loader::LoadError;
 pub use invsim_loader::{EngineChoice, Loaded as Kind};
 use invsim_model_api::InverseModel;
 use invsim_runtime::modes::ModalPlant;
+use invsim_runtime::Plant;
 
 use crate::error::Failure;
 
@@ -68,6 +69,14 @@ impl Loaded {
     /// The model's declared parameters.
     pub fn parameters(&self) -> Vec<String> {
         self.kind.info().parameters.clone()
+    }
+
+    /// A fresh copy of the model with `params` set, as the runtime runs it.
+    pub fn plant(&self, params: &[(String, f64)]) -> Result<Plant, Failure> {
+        match &self.kind {
+            Kind::Single(_) => self.single(params).map(Plant::Single),
+            Kind::Modal(_) => self.modal(params).map(Plant::Modal),
+        }
     }
 
     /// A fresh instance of a model without modes with `params` set (in order), each value finite.

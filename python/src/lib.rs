@@ -273,7 +273,6 @@ impl Model {
                 .map(|c| load_cycle(c))
                 .collect::<Result<Vec<_>, _>>()?;
             let first = loaded_cycles.first().map_or("", |c| c.name.as_str());
-            let modal = opts.modal()?;
             let opts = opts.build(self.loaded.engine_name(), &self.path, first)?;
             check_variants(&self.loaded, &variants)?;
             run_sweep(
@@ -282,7 +281,7 @@ impl Model {
                 (&loaded_cycles, &cycles),
                 &variants,
                 &base,
-                (&opts, &modal),
+                &opts,
                 threads,
             )
         });

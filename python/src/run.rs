@@ -4,17 +4,16 @@
 
 use invsim_runtime::forward::{ForwardSummary, ModalForwardSummary};
 use invsim_runtime::inverse::{simulate_shared, Reference};
-use invsim_runtime::modes::{
-    simulate_modes_with_signals, GearSource, ModalOptions, ModalPlant, ModalSummary, Switching,
-};
+use invsim_runtime::modes::{GearSource, ModalPlant, ModalSummary, Switching};
 use invsim_runtime::signal_file::read_signal_file;
 use invsim_runtime::{
-    Cycle, SignalInput, SignalValue, SimulationOptions, SimulationResult, Summary,
+    Cycle, RunFailure, RunResult, SignalInput, SignalValue, SimulationOptions, SimulationResult,
+    Summary,
 };
 
 use invsim_model_api::InverseModel;
 
-use crate::engine::{Kind, Loaded};
+use crate::engine::Loaded;
 use crate::error::Failure;
 
 /// The summary of one run, kept as Rust data: written as JSON (what `--summary-json` writes) when asked
@@ -81,6 +80,8 @@ impl RunOptions {
             .causal(self.causal)
             .include_extension(self.include_extension)
             .keep_series(self.keep_series)
+            .switching(self.switching()?)
+            .transition_time(self.transition_time)
             .build()
             .map_err(|e| stopped(model_path, cycle, e))
             .and_then(|mut o| {
@@ -92,6 +93,19 @@ impl RunOptions {
                 o.initial = self.initial.clone();
                 Ok(o)
             })
+    }
+}
+
+impl RunOptions {
+    /// How a switch of a model with modes enters the new mode.
+    fn switching(&self) -> Result<Switching, Failure> {
+        match self.switching.as_str() {
+            "reentry" => Ok(Switching::Reentry),
+            "quasi-static" => Ok(Switching::QuasiStatic),
+            s => Err(Failure::msg(format!(
+                "switching `{s}`: expected \"reentry\" or \"quasi-static\""
+            ))),
+        }
     }
 }
 
@@ -185,28 +199,6 @@ fn stopped(model_path: &str, cycle: &str, e: impl std::fmt::Display) -> Failure 
     ))
 }
 
-impl RunOptions {
-    /// The options of a run with modes.
-    pub fn modal(&self) -> Result<ModalOptions, Failure> {
-        let switching = match self.switching.as_str() {
-            "reentry" => Switching::Reentry,
-            "quasi-static" => Switching::QuasiStatic,
-            s => {
-                return Err(Failure::msg(format!(
-                    "switching `{s}`: expected \"reentry\" or \"quasi-static\""
-                )))
-            }
-        };
-        Ok(ModalOptions {
-            lookahead: self.lookahead,
-            dt: self.dt,
-            switching,
-            transition_time: self.transition_time,
-            verify: self.verify,
-        })
-    }
-}
-
 /// The gear schedule of `plant` (loaded from `model_path`) for `cycle` (`spec` as given: a built-in name or
 /// the cycle file's path).
 pub fn gear_source(
@@ -223,6 +215,14 @@ pub fn gear_source(
         .map_err(|e| Failure::in_file(format!("{model_path}: {e}"), model_path))
 }
 
+/// The command line's message for a run of the model at `model_path` on `cycle` that failed.
+pub fn run_failure(model_path: &str, cycle: &str, e: RunFailure) -> Failure {
+    match e {
+        RunFailure::Gears(e) => Failure::in_file(format!("{model_path}: {e}"), model_path),
+        e => stopped(model_path, cycle, e),
+    }
+}
+
 /// One inverse run of `model` with `params` set on `cycle_spec`, as `invsim simulate` runs it.
 pub fn simulate_any(
     model: &Loaded,
@@ -233,30 +233,31 @@ pub fn simulate_any(
 ) -> Result<Output, Failure> {
     let cycle = load_cycle(cycle_spec)?;
     let sim_opts = opts.build(model.engine_name(), model_path, &cycle.name)?;
-    match &model.kind {
-        Kind::Single(_) => {
-            let m = model.single(params)?;
-            let r = run_one(m.as_ref(), model_path, &cycle, &sim_opts)?;
-            Ok((
-                RunSummary::Inverse(r.summary),
-                r.columns,
-                r.data,
-                Vec::new(),
-            ))
-        }
-        Kind::Modal(_) => {
-            let plant = model.modal(params)?;
-            let spec = plant.spec(gear_source(&plant, model_path, &cycle, cycle_spec)?);
-            let mut r =
-                simulate_modes_with_signals(&spec, &cycle, &opts.modal()?, &sim_opts.signals)
-                    .map_err(|e| stopped(model_path, &cycle.name, e))?;
-            r.summary.engine = model.engine_name().to_string();
+    let plant = model.plant(params)?;
+    let file = Cycle::builtin(cycle_spec)
+        .is_none()
+        .then(|| std::path::Path::new(cycle_spec));
+    let result = plant
+        .simulate(&cycle, file, &sim_opts)
+        .map_err(|e| match e {
+            RunFailure::Gears(e) => Failure::in_file(format!("{model_path}: {e}"), model_path),
+            e => stopped(model_path, &cycle.name, e),
+        })?;
+    Ok(match result {
+        RunResult::Single(r) => (
+            RunSummary::Inverse(r.summary),
+            r.columns,
+            r.data,
+            Vec::new(),
+        ),
+        RunResult::Modal(r, _) => {
+            let r = *r;
             let units = r.columns.iter().cloned().zip(r.units).collect();
             let (columns, data) = match opts.keep_series {
                 true => (r.columns, r.data),
                 false => (Vec::new(), Vec::new()),
             };
-            Ok((RunSummary::Modal(r.summary), columns, data, units))
+            (RunSummary::Modal(r.summary), columns, data, units)
         }
-    }
+    })
 }

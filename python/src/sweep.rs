@@ -7,13 +7,13 @@
 //! the same variant; unlike `Sweep`, each row keeps the whole summary (the JSON `--summary-json` writes).
 
 use invsim_runtime::inverse::{reference, Reference};
-use invsim_runtime::modes::{simulate_modes_with_signals, GearSource, ModalOptions};
 use invsim_runtime::{Cycle, SimulationOptions};
+use invsim_runtime::{Plant, RunResult};
 use rayon::prelude::*;
 
 use crate::engine::{Kind, Loaded};
 use crate::error::Failure;
-use crate::run::{gear_source, run_one, run_one_shared};
+use crate::run::{run_failure, run_one, run_one_shared};
 
 /// The variants of a sweep, stored column by column: `values[j][i]` is parameter `names[j]` of variant i.
 #[derive(Debug, Clone)]
@@ -60,38 +60,22 @@ pub fn run_sweep(
     (cycles, specs): (&[Cycle], &[String]),
     variants: &Variants,
     base: &[(String, f64)],
-    (opts, modal): (&SimulationOptions, &ModalOptions),
+    opts: &SimulationOptions,
     threads: Option<usize>,
 ) -> Result<Vec<Row>, Failure> {
     let jobs = variants.len() * cycles.len();
-    let shared = match &model.kind {
-        Kind::Single(_) => Shared::References(shared_references(model, cycles, base, opts)),
-        Kind::Modal(m) => Shared::Gears(
-            cycles
-                .iter()
-                .zip(specs)
-                .map(|(c, s)| gear_source(&m.plant, model_path, c, s))
-                .collect(),
-        ),
+    let references = match &model.kind {
+        Kind::Single(_) => shared_references(model, cycles, base, opts),
+        Kind::Modal(_) => Vec::new(),
     };
     let one = |job: usize| {
         let (i, c) = (job / cycles.len(), job % cycles.len());
         let params = variants.params(base, i);
-        let (values, summary) = match &shared {
-            Shared::References(references) => single_row(
-                model,
-                model_path,
-                (&cycles[c], &references[c]),
-                &params,
-                opts,
-            ),
-            Shared::Gears(gears) => modal_row(
-                model,
-                model_path,
-                (&cycles[c], &gears[c]),
-                &params,
-                (opts, modal),
-            ),
+        let (values, summary) = match references.get(c) {
+            Some(reference) => {
+                single_row(model, model_path, (&cycles[c], reference), &params, opts)
+            }
+            None => modal_row(model, model_path, (&cycles[c], &specs[c]), &params, opts),
         };
         Row {
             variant: i,
@@ -109,14 +93,6 @@ pub fn run_sweep(
             .map(|pool| pool.install(run))
             .map_err(|e| Failure::msg(format!("cannot start {n} threads: {e}"))),
     }
-}
-
-/// What every run on one cycle shares.
-enum Shared {
-    /// A model without modes: each cycle's smoothed reference, where it could be made.
-    References(Vec<Option<Reference>>),
-    /// A model with modes: each cycle's gear schedule (or why there is none).
-    Gears(Vec<Result<GearSource, Failure>>),
 }
 
 /// One row of a model without modes: every parameter's value and the summary JSON.
@@ -141,30 +117,33 @@ fn single_row(
     (values, summary)
 }
 
-/// One row of a model with modes: every parameter's value (the first mode's) and the summary JSON.
+/// One row of a model with modes (`simulate` of its variant on `cycle`, read from `spec`): every
+/// parameter's value (the first mode's) and the summary JSON.
 fn modal_row(
     model: &Loaded,
     model_path: &str,
-    (cycle, gears): (&Cycle, &Result<GearSource, Failure>),
+    (cycle, spec): (&Cycle, &str),
     params: &[(String, f64)],
-    (opts, modal): (&SimulationOptions, &ModalOptions),
+    opts: &SimulationOptions,
 ) -> (Vec<f64>, Result<String, Failure>) {
-    let plant = model.modal(params);
-    let values = plant
-        .as_ref()
-        .map(|p| p.first().params().to_vec())
-        .unwrap_or_default();
+    let plant = model.plant(params);
+    let values = match &plant {
+        Ok(Plant::Modal(p)) => p.first().params().to_vec(),
+        Ok(Plant::Single(m)) => m.params().to_vec(),
+        Err(_) => Vec::new(),
+    };
     let summary = plant.and_then(|p| {
-        let spec = p.spec(gears.clone()?);
-        let mut r =
-            simulate_modes_with_signals(&spec, cycle, modal, &opts.signals).map_err(|e| {
-                Failure::msg(format!(
-                    "simulation of `{model_path}` on `{}` stopped: {e}",
-                    cycle.name
-                ))
-            })?;
-        r.summary.engine = model.engine_name().to_string();
-        serde_json::to_string(&r.summary).map_err(|e| Failure::msg(e.to_string()))
+        let file = Cycle::builtin(spec)
+            .is_none()
+            .then(|| std::path::Path::new(spec));
+        let r = p
+            .simulate(cycle, file, opts)
+            .map_err(|e| run_failure(model_path, &cycle.name, e))?;
+        match r {
+            RunResult::Modal(r, _) => serde_json::to_string(&r.summary),
+            RunResult::Single(r) => serde_json::to_string(&r.summary),
+        }
+        .map_err(|e| Failure::msg(e.to_string()))
     });
     (values, summary)
 }

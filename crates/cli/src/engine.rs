@@ -144,8 +144,12 @@ pub fn prepare_run(
         (req.cycle, req.max_cycle_bytes),
         req.set,
     )?;
-    if let Loaded::Single(m) = &model {
-        crate::plotting::check(req.plot, m.as_model().info())?;
+    match &model {
+        Loaded::Single(m) => crate::plotting::check(req.plot, m.as_model().info())?,
+        Loaded::Modal(m) => crate::plotting::check_modal(
+            req.plot,
+            &m.plant.spec(invsim_runtime::modes::GearSource::Fixed),
+        )?,
     }
     crate::map_args::apply(&req.data.map, |name, data| model.set_map(name, data))?;
     let data = RunData {

@@ -210,7 +210,6 @@ fn modal(
     opts: &ForwardOptions,
 ) -> Result<(), Failure> {
     let spec = crate::modal_cmd::spec(args.model.as_path(), model, cycle, &args.cycle)?;
-    crate::plotting::check_modal(&args.plot, &spec)?;
     let mut result =
         forward::forward_modes(&spec, cycle, opts).map_err(|e| stopped(args, cycle, e))?;
     result.summary.provenance = Some(record(args, model.plant.first().info(), cycle)?);

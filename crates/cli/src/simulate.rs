@@ -1,15 +1,13 @@
 //! `invsim simulate`: the inverse simulation of a model along a drive cycle.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
-use invsim_loader::{Loaded, LoadedModal, SingleModel};
-use invsim_runtime::modes::{simulate_modes_with_signals, ModalOptions, Switching};
-use invsim_runtime::{inverse, output, plot, simulate, Cycle, SimulationOptions};
+use invsim_runtime::modes::Switching;
+use invsim_runtime::{inverse, RunFailure, SimulationOptions};
 
-use crate::engine::{prepare_run, EngineChoice, RunData, RunRequest};
+use crate::engine::{prepare_run, EngineChoice, RunRequest};
 use crate::error::Failure;
 use crate::files::print_stdout;
-use crate::outputs::Outputs;
 use crate::provenance;
 
 // Serialised (by command-line name) into the summary's provenance. No doc comment: clap would
@@ -77,7 +75,7 @@ pub enum SwitchingArg {
 }
 
 pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
-    let (outputs, cycle, model, data) = prepare_run(&RunRequest {
+    let (mut outputs, cycle, model, data) = prepare_run(&RunRequest {
         model: &args.model,
         engine: args.engine,
         cycle: &args.cycle,
@@ -88,106 +86,56 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
         plot: &args.plot,
         data: &args.data,
     })?;
-    match model {
-        Loaded::Single(m) => single(args, outputs, &cycle, &m, data),
-        Loaded::Modal(m) => modal(args, outputs, &cycle, &m, &data),
-    }
-}
-
-/// The message of a run that could not start or had to stop.
-fn stopped(args: &SimulateArgs, cycle: &Cycle, e: impl std::fmt::Display) -> Failure {
-    Failure::user(format!(
-        "simulation of `{}` on `{}` stopped: {e}",
-        args.model.display(),
-        cycle.name
-    ))
-}
-
-/// `simulate` of a model without modes.
-fn single(
-    args: &SimulateArgs,
-    mut outputs: Outputs,
-    cycle: &Cycle,
-    model: &SingleModel,
-    data: RunData,
-) -> Result<(), Failure> {
+    let stopped = |e: &dyn std::fmt::Display| {
+        Failure::user(format!(
+            "simulation of `{}` on `{}` stopped: {e}",
+            args.model.display(),
+            cycle.name
+        ))
+    };
+    let engine = model.engine_name();
+    let plant = model.into_plant();
     let (progress, bar) = crate::progress::start("simulate");
     let mut opts = SimulationOptions::builder()
         .progress(progress)
         .lookahead(args.lookahead)
         .dt(args.dt)
-        .engine(model.engine_name())
+        .engine(engine)
         .verify(args.verify)
         .causal(args.causal)
         .include_extension(args.include_extension)
         // Without --out or --plot only the summary is needed: no time series is stored.
         .keep_series(args.out.is_some() || args.plot.plot.is_some())
-        .build()
-        .map_err(|e| stopped(args, cycle, e))?;
-    opts.signals = data.signals;
-    opts.initial = data.initial;
-    let result = simulate(model.as_model(), cycle, &opts);
-    bar.finish();
-    let mut result = result.map_err(|e| stopped(args, cycle, e))?;
-    result.summary.provenance = Some(provenance::record(provenance::RunRecord {
-        command: "simulate",
-        model: &args.model,
-        info: model.as_model().info(),
-        cycle_spec: &args.cycle,
-        cycle,
-        sets: &args.set,
-        options: provenance::options_of(args),
-    })?);
-    outputs.write("--out", |f| output::write_csv(&result, f))?;
-    outputs.write("--summary-json", |f| {
-        output::write_summary_json(&result.summary, f)
-    })?;
-    crate::plotting::write(&args.plot, &mut outputs, |vars| {
-        plot::simulation_figure(&result, cycle, model.as_model().info(), vars)
-    })?;
-    outputs.commit()?;
-    print_stdout(&result.summary.to_text())
-}
-
-/// `simulate` of a model with modes.
-fn modal(
-    args: &SimulateArgs,
-    mut outputs: Outputs,
-    cycle: &Cycle,
-    model: &LoadedModal,
-    data: &RunData,
-) -> Result<(), Failure> {
-    let spec = crate::modal_cmd::spec(args.model.as_path(), model, cycle, &args.cycle)?;
-    crate::plotting::check_modal(&args.plot, &spec)?;
-    let opts = ModalOptions {
-        lookahead: args.lookahead,
-        dt: args.dt,
-        switching: match args.switching {
+        .switching(match args.switching {
             SwitchingArg::Reentry => Switching::Reentry,
             SwitchingArg::QuasiStatic => Switching::QuasiStatic,
-        },
-        transition_time: args.transition_time,
-        verify: args.verify,
-    };
-    let mut result = simulate_modes_with_signals(&spec, cycle, &opts, &data.signals)
-        .map_err(|e| stopped(args, cycle, e))?;
-    result.summary.engine = model.engine_name().to_string();
-    result.summary.provenance = Some(provenance::record(provenance::RunRecord {
+        })
+        .transition_time(args.transition_time)
+        .build()
+        .map_err(|e| stopped(&e))?;
+    opts.signals = data.signals;
+    opts.initial = data.initial;
+    let file = (!crate::cycle_spec::is_builtin(&args.cycle)).then(|| Path::new(&args.cycle));
+    let result = plant.simulate(&cycle, file, &opts);
+    bar.finish();
+    let mut result = result.map_err(|e| match e {
+        RunFailure::Gears(e) => Failure::user(format!("{}: {e}", args.model.display())),
+        e => stopped(&e),
+    })?;
+    result.set_provenance(provenance::record(provenance::RunRecord {
         command: "simulate",
         model: &args.model,
-        info: model.plant.first().info(),
+        info: plant.info(),
         cycle_spec: &args.cycle,
-        cycle,
+        cycle: &cycle,
         sets: &args.set,
         options: provenance::options_of(args),
     })?);
-    outputs.write("--out", |f| {
-        output::write_table_csv(&result.columns, &result.data, f)
-    })?;
-    outputs.write("--summary-json", |f| output::write_json(&result.summary, f))?;
+    outputs.write("--out", |f| result.write_csv(f))?;
+    outputs.write("--summary-json", |f| result.write_summary_json(f))?;
     crate::plotting::write(&args.plot, &mut outputs, |vars| {
-        plot::modal_simulation_figure(&result, cycle, &spec, vars)
+        plant.figure(&result, &cycle, vars)
     })?;
     outputs.commit()?;
-    print_stdout(&result.summary.to_text())
+    print_stdout(&result.summary_text())
 }

@@ -194,3 +194,33 @@ fn simulate_and_forward_plot_the_inputs_and_the_gear() {
     );
     assert!(!svg.exists(), "no plot written");
 }
+
+/// What a model with modes cannot take is refused before the run, naming it: a start value of an internal
+/// state (`--initial`) and a transition time that is not positive.
+#[test]
+fn initial_states_and_a_bad_transition_time_are_refused() {
+    let o = invsim(&[
+        "simulate",
+        &model(),
+        "--cycle",
+        "ece",
+        "--initial",
+        "p_i=50000",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("p_i") && stderr(&o).contains("models without modes"),
+        "{}",
+        stderr(&o)
+    );
+    let o = invsim(&[
+        "simulate",
+        &model(),
+        "--cycle",
+        "ece",
+        "--transition-time",
+        "0",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("transition time 0 s"), "{}", stderr(&o));
+}

@@ -69,6 +69,15 @@ impl Loaded {
         }
     }
 
+    /// The model as the runtime runs it.
+    pub fn into_plant(self) -> invsim_runtime::Plant {
+        match self {
+            Loaded::Single(SingleModel::Interpreted(m)) => invsim_runtime::Plant::Single(m),
+            Loaded::Single(SingleModel::Compiled(m)) => invsim_runtime::Plant::Single(m),
+            Loaded::Modal(m) => invsim_runtime::Plant::Modal(m.plant),
+        }
+    }
+
     /// The description of the model (of its first mode, for a model with modes: parameters, states and
     /// `[outputs]` are every mode's).
     pub fn info(&self) -> &invsim_model_api::ModelInfo {

@@ -21,6 +21,15 @@ impl Plant {
         }
     }
 
+    /// The description of the model (of its first mode, for a model with modes: parameters, states and
+    /// `[outputs]` are every mode's).
+    pub fn info(&self) -> &invsim_model_api::ModelInfo {
+        match self {
+            Plant::Single(m) => m.info(),
+            Plant::Modal(p) => p.first().info(),
+        }
+    }
+
     /// The declared parameters ([`Plant::not_settable`] says which cannot be set on their own).
     pub fn parameters(&self) -> Vec<String> {
         match self {

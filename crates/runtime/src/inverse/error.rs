@@ -36,6 +36,11 @@ pub enum SimulateError {
         v0_ = num(*.0)
     )]
     InvalidCheckInterval(f64),
+    #[error(
+        "invalid transition time {v0_} s: it must be a positive, finite number of seconds",
+        v0_ = num(*.0)
+    )]
+    InvalidTransitionTime(f64),
     #[error("invalid initial internal state eta0: {reason}")]
     InvalidEta0 { reason: String },
     #[error(

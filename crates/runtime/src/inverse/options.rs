@@ -2,6 +2,7 @@
 
 use super::error::SimulateError;
 use crate::grid::check_dt;
+use crate::modes::Switching;
 use crate::progress::Progress;
 
 /// Default kernel half-width a, s (`--lookahead`).
@@ -71,6 +72,10 @@ pub struct SimulationOptions {
     /// Start values of states given on the command line (`--initial NAME=VALUE`), over the model file's
     /// `initial` ([`crate::initial`]).
     pub initial: Vec<(String, f64)>,
+    /// Models with modes: how a switch enters the new mode (default re-entry).
+    pub switching: Switching,
+    /// Models with modes: the re-entry's transition time, s (default: the look-ahead).
+    pub transition_time: Option<f64>,
 }
 
 impl Default for SimulationOptions {
@@ -92,6 +97,8 @@ impl Default for SimulationOptions {
             progress: Progress::none(),
             signals: Vec::new(),
             initial: Vec::new(),
+            switching: Switching::Reentry,
+            transition_time: None,
         }
     }
 }
@@ -127,6 +134,9 @@ impl SimulationOptions {
             return Err(SimulateError::InvalidCheckInterval(
                 self.stability_check_interval,
             ));
+        }
+        if let Some(t) = self.transition_time.filter(|t| !tol_ok(*t)) {
+            return Err(SimulateError::InvalidTransitionTime(t));
         }
         Ok(())
     }
@@ -174,6 +184,10 @@ setters! {
     max_pre_actuation: f64,
     /// Keep the pre- and post-actuation samples.
     include_extension: bool,
+    /// Models with modes: how a switch enters the new mode.
+    switching: Switching,
+    /// Models with modes: the re-entry's transition time, s.
+    transition_time: Option<f64>,
 }
 
 impl SimulationOptionsBuilder {

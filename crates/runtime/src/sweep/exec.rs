@@ -8,8 +8,9 @@ use super::plan::{Shared, Sweep};
 use super::rows::{Figures, SweepResult, SweepRow};
 use crate::cycle::Cycle;
 use crate::inverse::simulate_shared;
-use crate::modes::{simulate_modes_with_signals, ModalOptions, Switching};
+use crate::modes::simulate_modes_with_signals;
 use crate::plant::Plant;
+use crate::run::modal_options;
 
 /// A worker's model and the column buffers its runs reuse.
 struct Worker {
@@ -41,13 +42,7 @@ fn run_variant(
         }
         (Plant::Modal(p), Shared::Gears(gears)) => {
             let spec = p.spec(gears.clone());
-            let opts = ModalOptions {
-                lookahead: sweep.opts.lookahead,
-                dt: sweep.opts.dt,
-                switching: Switching::Reentry,
-                transition_time: None,
-                verify: sweep.opts.verify,
-            };
+            let opts = modal_options(&sweep.opts);
             let result = simulate_modes_with_signals(&spec, cycle, &opts, &sweep.opts.signals)
                 .map_err(|e| e.to_string())?;
             Ok(Figures::from_modal(&result.summary, &sweep.integrals))

@@ -1,0 +1,165 @@
+//! One inverse run of any model, the spine every front end shares: [`Plant::simulate`] takes the options
+//! built and validated once ([`SimulationOptions`]) and plugs in the solver the model needs — the inverse
+//! (causal or stable, [`crate::inverse`]) for a model without modes, the mode sequence ([`crate::modes`]) for
+//! one with modes — and gives a [`RunResult`] that writes its table, summary, text and figure the same way
+//! whatever ran.
+
+use std::io::{self, Write};
+use std::path::Path;
+
+use thiserror::Error;
+
+use crate::cycle::Cycle;
+use crate::inverse::{simulate, SimulateError, SimulationOptions, SimulationResult};
+use crate::modes::{
+    simulate_modes_with_signals, GearSource, ModalError, ModalOptions, ModalResult,
+};
+use crate::plant::Plant;
+use crate::plot::{self, Figure, PlotError};
+use crate::provenance::Provenance;
+
+/// Why a run could not start or had to stop.
+#[derive(Debug, Error)]
+pub enum RunFailure {
+    #[error(transparent)]
+    Inverse(#[from] SimulateError),
+    #[error(transparent)]
+    Modes(#[from] ModalError),
+    /// The gearbox's schedule does not exist for the cycle.
+    #[error("{0}")]
+    Gears(String),
+}
+
+/// The result of one inverse run.
+pub enum RunResult {
+    Single(Box<SimulationResult>),
+    /// A run with modes, with the gear schedule it ran with (its figure needs the modes again).
+    Modal(Box<ModalResult>, GearSource),
+}
+
+/// The options of the mode sequence taken from a run's options.
+pub fn modal_options(opts: &SimulationOptions) -> ModalOptions {
+    ModalOptions {
+        lookahead: opts.lookahead,
+        dt: opts.dt,
+        switching: opts.switching,
+        transition_time: opts.transition_time,
+        verify: opts.verify,
+    }
+}
+
+impl Plant {
+    /// Run the model inversely along `cycle` (read from `file`, `None` for a built-in cycle). A model with
+    /// modes refuses start values of internal states (`initial`): its modes start from the cycle's standstill.
+    pub fn simulate(
+        &self,
+        cycle: &Cycle,
+        file: Option<&Path>,
+        opts: &SimulationOptions,
+    ) -> Result<RunResult, RunFailure> {
+        opts.validate()?;
+        match self {
+            Plant::Single(m) => Ok(RunResult::Single(Box::new(simulate(
+                m.as_ref(),
+                cycle,
+                opts,
+            )?))),
+            Plant::Modal(p) => {
+                if let Some((name, _)) = opts.initial.first() {
+                    return Err(RunFailure::Modes(ModalError::Setup(format!(
+                        "initial value of `{name}`: a model with modes starts every mode from the cycle's \
+                         first sample; start values of internal states apply to models without modes"
+                    ))));
+                }
+                let gears = p.gear_source(cycle, file).map_err(RunFailure::Gears)?;
+                let spec = p.spec(gears.clone());
+                let mut r =
+                    simulate_modes_with_signals(&spec, cycle, &modal_options(opts), &opts.signals)?;
+                r.summary.engine = opts.engine.clone();
+                Ok(RunResult::Modal(Box::new(r), gears))
+            }
+        }
+    }
+
+    /// The figure of `result` (a run of this model on `cycle`) with the panels `vars` (empty: the default).
+    pub fn figure(
+        &self,
+        result: &RunResult,
+        cycle: &Cycle,
+        vars: &[String],
+    ) -> Result<Figure, PlotError> {
+        match (self, result) {
+            (Plant::Single(m), RunResult::Single(r)) => {
+                plot::simulation_figure(r, cycle, m.info(), vars)
+            }
+            (Plant::Modal(p), RunResult::Modal(r, gears)) => {
+                plot::modal_simulation_figure(r, cycle, &p.spec(gears.clone()), vars)
+            }
+            _ => Err(PlotError::Empty),
+        }
+    }
+}
+
+impl RunResult {
+    /// The table's column names.
+    pub fn columns(&self) -> &[String] {
+        match self {
+            RunResult::Single(r) => &r.columns,
+            RunResult::Modal(r, _) => &r.columns,
+        }
+    }
+
+    /// The table, column by column.
+    pub fn data(&self) -> &[Vec<f64>] {
+        match self {
+            RunResult::Single(r) => &r.data,
+            RunResult::Modal(r, _) => &r.data,
+        }
+    }
+
+    /// Each column's unit, in the table's order.
+    pub fn units(&self) -> Vec<Option<String>> {
+        match self {
+            RunResult::Single(r) => {
+                let unit = |c: &String| {
+                    r.summary
+                        .columns
+                        .iter()
+                        .find(|k| &k.name == c)
+                        .and_then(|k| k.unit.clone())
+                };
+                r.columns.iter().map(unit).collect()
+            }
+            RunResult::Modal(r, _) => r.units.clone(),
+        }
+    }
+
+    /// Record what produced the run (the command line's invocation).
+    pub fn set_provenance(&mut self, p: Provenance) {
+        match self {
+            RunResult::Single(r) => r.summary.provenance = Some(p),
+            RunResult::Modal(r, _) => r.summary.provenance = Some(p),
+        }
+    }
+
+    /// The summary as text (what `invsim simulate` prints).
+    pub fn summary_text(&self) -> String {
+        match self {
+            RunResult::Single(r) => r.summary.to_text(),
+            RunResult::Modal(r, _) => r.summary.to_text(),
+        }
+    }
+
+    /// Write the summary as JSON (`--summary-json`).
+    pub fn write_summary_json<W: Write>(&self, w: W) -> io::Result<()> {
+        match self {
+            RunResult::Single(r) => crate::output::write_json(&r.summary, w),
+            RunResult::Modal(r, _) => crate::output::write_json(&r.summary, w),
+        }
+    }
+
+    /// Write the table as CSV (`--out`).
+    pub fn write_csv<W: Write>(&self, w: W) -> io::Result<()> {
+        crate::output::write_table_csv(self.columns(), self.data(), w)
+    }
+}
