@@ -1,4 +1,5 @@
-"""Time per run, from Python: invsim's inverse simulation of si_engine on UDDS at dt = 1 s against FASTSim 3's
+"""Time per run, from Python: invsim's inverse simulation of si_engine and of the 6-speed dynamic 2012 Ford Fusion
+(gearbox, idle, fuel cut-off and friction brake as modes) on UDDS at dt = 1 s against FASTSim 3's
 `SimDrive(veh, cyc).walk()` of the 2012 Ford Fusion on UDDS (FASTSim only if it is installed).
 
     python python/examples/perf_vs_fastsim.py [REPEATS]
@@ -54,14 +55,21 @@ def main():
     read = median_time(lambda: model.simulate(cycle="udds", dt=1.0).summary["integrals"], repeats)
     print("invsim si_engine UDDS dt=1 ({}): {:.3f} ms per run, {:.3f} ms summary only, {:.3f} ms with the "
           "summary read".format(model.engine, full * 1e3, light * 1e3, read * 1e3))
+    fusion = invsim.Model(REPO / "models" / "ford_fusion_2012_dynamic_6speed.toml")
+    car = median_time(lambda: fusion.simulate(cycle="udds", dt=1.0), repeats)
+    car_light = median_time(lambda: fusion.simulate(cycle="udds", dt=1.0, keep_series=False), repeats)
+    print("invsim 6-speed dynamic Fusion UDDS dt=1 ({}): {:.3f} ms per run, {:.3f} ms summary only".format(
+        fusion.engine, car * 1e3, car_light * 1e3))
     run = fastsim_run()
     if run is None:
         print("FASTSim is not installed (pip install fastsim): no comparison")
         return
     fs = median_time(run, max(5, repeats // 5))
     print("FASTSim 2012 Fusion UDDS walk(): {:.3f} ms per run".format(fs * 1e3))
-    print("ratio: {:.0f}x (series kept), {:.0f}x (summary only), {:.0f}x (summary read)".format(
+    print("ratio si_engine: {:.0f}x (series kept), {:.0f}x (summary only), {:.0f}x (summary read)".format(
         fs / full, fs / light, fs / read))
+    print("ratio 6-speed dynamic Fusion: {:.1f}x (series kept), {:.1f}x (summary only)".format(
+        fs / car, fs / car_light))
 
 
 if __name__ == "__main__":

@@ -1,7 +1,8 @@
 //! Every shipped model's `simulate` and `forward` summaries and `sweep` rows validate against
 //! `docs/summary.schema.json` (one schema for single-mode models and models with modes), checked by a small
 //! validator of the part of JSON Schema (draft 2020-12) the schema uses: `type`, `enum`, `required`,
-//! `properties`, `additionalProperties`, `items`, `minItems`, `maxItems`, `anyOf`, `not` and local `$ref`s;
+//! `properties`, `patternProperties`, `additionalProperties`, `items`, `minItems`, `maxItems`, `anyOf`, `not`
+//! and local `$ref`s;
 //! any other keyword is refused, so the schema cannot silently use one this validator ignores.
 
 use crate::common;
@@ -65,11 +66,26 @@ fn check(root: &Value, schema: &Value, value: &Value, path: &str, errors: &mut V
                     }
                 }
             }
+            "patternProperties" => {
+                if let Some(o) = value.as_object() {
+                    for (k, v) in o {
+                        for (pattern, sub) in arg.as_object().expect("patternProperties object") {
+                            if matches_pattern(pattern, k) {
+                                check(root, sub, v, &format!("{path}.{k}"), errors);
+                            }
+                        }
+                    }
+                }
+            }
             "additionalProperties" => {
                 if let Some(o) = value.as_object() {
                     let known = schema.get("properties").and_then(Value::as_object);
+                    let patterns = schema.get("patternProperties").and_then(Value::as_object);
                     for (k, v) in o {
-                        if !known.is_some_and(|p| p.contains_key(k)) {
+                        let named = known.is_some_and(|p| p.contains_key(k));
+                        let matched =
+                            patterns.is_some_and(|p| p.keys().any(|pat| matches_pattern(pat, k)));
+                        if !named && !matched {
                             check(root, arg, v, &format!("{path}.{k}"), errors);
                         }
                     }
@@ -119,6 +135,14 @@ fn check(root: &Value, schema: &Value, value: &Value, path: &str, errors: &mut V
             k => panic!("docs/summary.schema.json uses `{k}`, which this validator does not check"),
         }
     }
+}
+
+/// Does `key` match the JSON Schema `pattern` (an ECMA-262 regular expression; the ones the schema uses are
+/// also Rust `regex` syntax)?
+fn matches_pattern(pattern: &str, key: &str) -> bool {
+    regex::Regex::new(pattern)
+        .unwrap_or_else(|e| panic!("pattern `{pattern}`: {e}"))
+        .is_match(key)
 }
 
 fn has_type(v: &Value, t: &str) -> bool {
@@ -342,10 +366,6 @@ fn some_parameter(model: &str) -> (String, f64) {
     (name.clone(), value.as_f64().expect("number"))
 }
 
-/// `sweep` refuses models with modes today with this message; such a model is skipped (saying so) until
-/// `sweep` runs them, and from then on its rows are validated like every other model's.
-const MODAL_REFUSAL: &str = "does not run models with modes yet";
-
 #[test]
 fn every_model_s_sweep_rows_follow_the_schema() {
     let schema = schema();
@@ -368,12 +388,6 @@ fn every_model_s_sweep_rows_follow_the_schema() {
             "--out",
             csv.to_str().expect("utf-8"),
         ]);
-        if !o.status.success() && stderr(&o).contains(MODAL_REFUSAL) {
-            eprintln!(
-                "skipping sweep of {model}: `invsim sweep` does not run models with modes yet"
-            );
-            continue;
-        }
         assert!(o.status.success(), "sweep {model}: {}", stderr(&o));
         let mut reader = csv::Reader::from_path(&csv).expect("sweep CSV");
         let header: Vec<String> = reader
@@ -382,6 +396,14 @@ fn every_model_s_sweep_rows_follow_the_schema() {
             .iter()
             .map(String::from)
             .collect();
+        // A model with modes has its modes' columns, named by the schema (not merely allowed as numbers).
+        let modal_columns = ["switches", "max_transition_deviation", "time_idle_s"];
+        for c in modal_columns.iter().filter(|_| is_modal(&model)) {
+            assert!(
+                header.iter().any(|h| h == c),
+                "sweep {model}: no column {c}"
+            );
+        }
         let mut rows = 0;
         for record in reader.records() {
             let record = record.expect("row");
