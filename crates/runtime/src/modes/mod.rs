@@ -15,6 +15,7 @@
 mod bases;
 pub mod blend;
 pub(crate) mod coupling;
+mod fine;
 pub mod gears;
 mod record;
 mod rows;
@@ -31,7 +32,10 @@ use thiserror::Error;
 pub use gears::{GearBox, GearSource};
 pub use record::{CouplingReset, Impulse, ModeTime, Transition};
 pub use rows::Rows;
-pub use runner::{simulate_modes, simulate_modes_with_signals};
+pub use runner::{
+    simulate_modes, simulate_modes_with_reference, simulate_modes_with_signals,
+    ZeroDynamicsReference,
+};
 pub use summary::ModalSummary;
 
 /// What a mode is for (see `invsim_inversion::ModeRole`).
