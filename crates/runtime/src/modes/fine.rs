@@ -22,7 +22,7 @@ use crate::smoother::Smoother;
 /// The largest sub-grid step, s.
 const H_MAX: f64 = 0.02;
 /// Sub-grid intervals per block.
-const BLOCK: usize = 512;
+const BLOCK: usize = 128;
 
 /// The smoothed cycle and signals on the block of the sub-grid in hand.
 pub(super) struct FineReference {
@@ -81,17 +81,13 @@ impl FineReference {
             self.fill(smoother, i);
         }
         let k = i - self.start;
-        let basis = hermite((t - self.times[k]) * self.inv_h, self.h);
+        let b = hermite((t - self.times[k]) * self.inv_h, self.h);
         let stride = self.quantities * self.orders;
-        let (p0, p1) = self.pts[k * stride..(k + 2) * stride].split_at(stride);
-        // Order j of quantity c from orders j, j + 1, j + 2 at both ends.
+        let p = &self.pts[k * stride..(k + 2) * stride];
+        // Order j of quantity c (at = c·orders + j) from orders j, j + 1, j + 2 at both ends.
         let interpolate = |at: usize| -> f64 {
-            basis[0] * p0[at]
-                + basis[1] * p0[at + 1]
-                + basis[2] * p0[at + 2]
-                + basis[3] * p1[at]
-                + basis[4] * p1[at + 1]
-                + basis[5] * p1[at + 2]
+            let (q0, q1) = (&p[at..at + 3], &p[stride + at..stride + at + 3]);
+            b[0] * q0[0] + b[1] * q0[1] + b[2] * q0[2] + b[3] * q1[0] + b[4] * q1[1] + b[5] * q1[2]
         };
         for (j, v) in y.iter_mut().enumerate() {
             *v = interpolate(j);
@@ -129,16 +125,19 @@ impl FineReference {
 
 /// H_0(s), h H_1(s), h² H_2(s), H_3(s), h H_4(s), h² H_5(s) (module docs).
 fn hermite(s: f64, h: f64) -> [f64; 6] {
-    let (s2, s3) = (s * s, s * s * s);
-    let (s4, s5) = (s3 * s, s3 * s2);
-    let h3 = 10.0 * s3 - 15.0 * s4 + 6.0 * s5;
+    // In Horner form: H_3 = s³(10 − 15s + 6s²), H_1 = s(1 − s²(6 − 8s + 3s²)), H_2 = s²(1 − s(3 − 3s + s²))/2,
+    // H_4 = −s³(4 − 7s + 3s²), H_5 = s³(1 − 2s + s²)/2.
+    let s2 = s * s;
+    let s3 = s2 * s;
+    let h3 = s3 * (10.0 + s * (6.0 * s - 15.0));
+    let hh = 0.5 * h * h;
     [
         1.0 - h3,
-        h * (s - 6.0 * s3 + 8.0 * s4 - 3.0 * s5),
-        0.5 * h * h * (s2 - 3.0 * s3 + 3.0 * s4 - s5),
+        h * s * (1.0 - s2 * (6.0 + s * (3.0 * s - 8.0))),
+        hh * s2 * (1.0 - s * (3.0 + s * (s - 3.0))),
         h3,
-        h * (-4.0 * s3 + 7.0 * s4 - 3.0 * s5),
-        0.5 * h * h * (s3 - 2.0 * s4 + s5),
+        -h * s3 * (4.0 + s * (3.0 * s - 7.0)),
+        hh * s3 * (1.0 + s * (s - 2.0)),
     ]
 }
 

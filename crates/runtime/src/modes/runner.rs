@@ -227,13 +227,18 @@ impl Ctx<'_, '_> {
         }
         self.w_into(m, t0, n_w, w);
         let mut at = t0;
+        let map = model.reference();
         let mut f = |t: f64, e: &[f64], de: &mut [f64]| -> Result<(), StepFailure> {
             if t.to_bits() != at.to_bits() {
                 if let Some(fine) = fine.as_mut() {
                     // y_c^(0 … r) and the signals interpolated on the sub-grid, then the mode's map and the
                     // blend as `reference_into` applies them.
                     fine.eval(&self.smoother, t, &mut y[..=r], &mut w[..n_w]);
-                    self.map_cycle(m, &mut y[..=r]);
+                    // The mode's map, as `map_cycle` applies it.
+                    for v in y[..=r].iter_mut() {
+                        *v *= map.scale;
+                    }
+                    y[0] += map.offset;
                     if let Some(b) = blend {
                         b.add(t, &mut y[..=r]);
                     }
