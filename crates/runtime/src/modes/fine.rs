@@ -83,26 +83,31 @@ impl FineReference {
         let k = i - self.start;
         let b = hermite((t - self.times[k]) * self.inv_h, self.h);
         let stride = self.quantities * self.orders;
-        let p = &self.pts[k * stride..(k + 2) * stride];
-        // Order j of quantity c (at = c·orders + j) from orders j, j + 1, j + 2 at both ends.
-        let interpolate = |at: usize| -> f64 {
-            let (q0, q1) = (&p[at..at + 3], &p[stride + at..stride + at + 3]);
-            b[0] * q0[0] + b[1] * q0[1] + b[2] * q0[2] + b[3] * q1[0] + b[4] * q1[1] + b[5] * q1[2]
-        };
-        for (j, v) in y.iter_mut().enumerate() {
-            *v = interpolate(j);
-        }
-        if self.quantities > 1 {
-            let per = w.len() / (self.quantities - 1);
-            for (c, chunk) in w.chunks_mut(per).enumerate() {
-                for (j, v) in chunk.iter_mut().enumerate() {
-                    *v = interpolate((c + 1) * self.orders + j);
-                }
+        let (p0, p1) = self.pts[k * stride..(k + 2) * stride].split_at(stride);
+        let per = y.len();
+        // Order j of quantity c (at = c·orders + j) from orders j, j + 1, j + 2 at both ends; signal c's
+        // r + 1 values (r + 1 = y.len()) go to w[(c − 1)·(r + 1) …].
+        for c in 0..self.quantities {
+            let out = if c == 0 {
+                &mut y[..]
+            } else {
+                &mut w[(c - 1) * per..c * per]
+            };
+            let at = c * self.orders;
+            let (q0, q1) = (&p0[at..at + per + 2], &p1[at..at + per + 2]);
+            for j in 0..per {
+                out[j] = b[0] * q0[j]
+                    + b[1] * q0[j + 1]
+                    + b[2] * q0[j + 2]
+                    + b[3] * q1[j]
+                    + b[4] * q1[j + 1]
+                    + b[5] * q1[j + 2];
             }
         }
     }
 
     /// Evaluate the block whose first interval is i.
+    #[inline(never)]
     fn fill(&mut self, smoother: &Smoother, i: usize) {
         let end = (i + BLOCK).min(self.last);
         self.times.clear();
