@@ -95,13 +95,13 @@ impl FineReference {
             };
             let at = c * self.orders;
             let (q0, q1) = (&p0[at..at + per + 2], &p1[at..at + per + 2]);
-            for j in 0..per {
-                out[j] = b[0] * q0[j]
-                    + b[1] * q0[j + 1]
-                    + b[2] * q0[j + 2]
-                    + b[3] * q1[j]
-                    + b[4] * q1[j + 1]
-                    + b[5] * q1[j + 2];
+            for ((v, f0), f1) in out.iter_mut().zip(q0.windows(3)).zip(q1.windows(3)) {
+                *v = b[0] * f0[0]
+                    + b[1] * f0[1]
+                    + b[2] * f0[2]
+                    + b[3] * f1[0]
+                    + b[4] * f1[1]
+                    + b[5] * f1[2];
             }
         }
     }
