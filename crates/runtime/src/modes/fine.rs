@@ -1,6 +1,6 @@
 //! The reference and the signals of the zero dynamics at any time of an interval, from a fine sub-grid: the
 //! smoothed cycle (and each smoothed signal) is evaluated with [`Smoother::eval_grid`] on the grid
-//! t_i = t_0 + i·h, h = dt/⌈dt/H_MAX⌉, block by block, orders 0 … q + 2 (q the highest relative degree of a
+//! t_i = t_0 + i·h, h = dt/⌈dt/h_max⌉ with h_max = a/250 (a the look-ahead), block by block, orders 0 … q + 2 (q the highest relative degree of a
 //! mode with internal dynamics), and the order k ≤ q between t_i and t_{i+1} is the quintic Hermite
 //! interpolant of f = y^(k) from f, f', f'' at both ends (s = (t − t_i)/h):
 //!
@@ -13,14 +13,15 @@
 //!
 //! With the look-ahead a = 5 s, max |k^(m)| is 5.9, 84 and 2 200 for m = 4, 5, 6, so with the slope changes of
 //! the built-in cycles (a few m/s³ within ±a) and h ≤ 0.02 s the bound is below 10⁻¹² for y and y' and about
-//! 10⁻¹¹ for y''; a test checks the interpolant against the pointwise [`Smoother::eval`] on the built-in
-//! cycles. The adaptive integrator's stage times then cost a few multiply-adds each instead of a pointwise
+//! 10⁻¹¹ for y''. Since k^(m) scales as a^(−m−1), y^(k+6) h⁶ depends on h/a alone: h_max = a/250 keeps the
+//! bound for every look-ahead. A test checks the interpolant against the pointwise [`Smoother::eval`] on the
+//! built-in cycles. The adaptive integrator's stage times then cost a few multiply-adds each instead of a pointwise
 //! evaluation of every corner's kernel terms.
 
 use crate::smoother::Smoother;
 
-/// The largest sub-grid step, s.
-const H_MAX: f64 = 0.02;
+/// The largest sub-grid step per second of look-ahead (0.02 s at a = 5 s).
+const H_MAX_PER_LOOKAHEAD: f64 = 0.004;
 /// Sub-grid intervals per block.
 const BLOCK: usize = 128;
 
@@ -46,9 +47,15 @@ pub(super) struct FineReference {
 }
 
 impl FineReference {
-    /// The sub-grid of a run on t_0 + k·dt, k = 0 … n, for relative degrees up to `q`.
-    pub(super) fn new(smoother: &Smoother, (t0, dt, n): (f64, f64, usize), q: usize) -> Self {
-        let sub = (dt / H_MAX).ceil().max(1.0) as usize;
+    /// The sub-grid of a run on t_0 + k·dt, k = 0 … n, with look-ahead `lookahead`, for relative degrees up
+    /// to `q`.
+    pub(super) fn new(
+        smoother: &Smoother,
+        (t0, dt, n): (f64, f64, usize),
+        lookahead: f64,
+        q: usize,
+    ) -> Self {
+        let sub = (dt / (H_MAX_PER_LOOKAHEAD * lookahead)).ceil().max(1.0) as usize;
         let orders = q + 3;
         let quantities = 1 + smoother.signals().len();
         let h = dt / sub as f64;
@@ -157,21 +164,21 @@ mod tests {
     #[test]
     fn sub_grid_interpolant_equals_the_pointwise_smoother() {
         let golden = 0.5 * (5f64.sqrt() - 1.0);
-        for name in ["nedc", "udds", "wltc3b"] {
+        for (name, a) in [("nedc", 5.0), ("udds", 5.0), ("wltc3b", 5.0), ("udds", 1.0)] {
             let cycle = Cycle::builtin(name).expect("built-in");
             let grade: Vec<f64> = cycle
                 .time
                 .iter()
                 .map(|t| 0.02 * (std::f64::consts::TAU * t / 60.0).sin())
                 .collect();
-            let signal = Smoother::from_samples(&cycle.time, &grade, 5.0);
-            let smoother = Smoother::new(&cycle, 5.0)
+            let signal = Smoother::from_samples(&cycle.time, &grade, a);
+            let smoother = Smoother::new(&cycle, a)
                 .expect("smoother")
                 .with_signals(vec![signal]);
             let (t0, span) = (cycle.time[0], cycle.duration());
             for dt in [0.01, 0.1, 1.0] {
                 let n = (span / dt).floor() as usize;
-                let mut fine = FineReference::new(&smoother, (t0, dt, n), 2);
+                let mut fine = FineReference::new(&smoother, (t0, dt, n), a, 2);
                 let points = 20_000;
                 let (mut worst, mut scale) = ([0.0f64; 6], [0.0f64; 6]);
                 for i in 0..points {
@@ -190,7 +197,7 @@ mod tests {
                 }
                 for k in 0..6 {
                     let rel = worst[k] / (1.0 + scale[k]);
-                    assert!(rel < 1e-11, "{name} dt {dt} column {k}: {rel:e}");
+                    assert!(rel < 1e-11, "{name} a {a} dt {dt} column {k}: {rel:e}");
                 }
             }
         }

@@ -50,7 +50,12 @@ pub(super) struct ZeroDynamics {
 }
 
 impl ZeroDynamics {
-    fn new(ctx: &Ctx<'_, '_>, grid: &Grid, how: ZeroDynamicsReference) -> ZeroDynamics {
+    fn new(
+        ctx: &Ctx<'_, '_>,
+        grid: &Grid,
+        lookahead: f64,
+        how: ZeroDynamicsReference,
+    ) -> ZeroDynamics {
         // q: the highest relative degree of a mode with internal dynamics (none: nothing to integrate).
         let q = ctx
             .spec
@@ -64,6 +69,7 @@ impl ZeroDynamics {
             (ZeroDynamicsReference::SubGrid, Some(q)) => Some(FineReference::new(
                 &ctx.smoother,
                 (grid.time(0), grid.dt, grid.n),
+                lookahead,
                 q,
             )),
             _ => None,
@@ -82,8 +88,8 @@ impl ZeroDynamics {
 /// signals at the integrator's stage times.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum ZeroDynamicsReference {
-    /// The quintic Hermite interpolant of the smoothed cycle on a sub-grid of step ≤ 0.02 s evaluated block
-    /// by block (`modes/fine.rs`; within 10⁻¹¹ of the pointwise values).
+    /// The quintic Hermite interpolant of the smoothed cycle on a sub-grid of step ≤ a/250 (0.02 s at the
+    /// look-ahead a = 5 s) evaluated block by block (`modes/fine.rs`; within 10⁻¹¹ of the pointwise values).
     #[default]
     SubGrid,
     /// The smoother evaluated at every stage time (the reference the sub-grid is tested against).
@@ -451,7 +457,7 @@ fn run_sequence(
     };
     let first = ctx.solve(mode, (t0, &base), &seq.modal.eta, None, &vec![0.0; ctx.n])?;
     let mut rec = Record::new((t0, base[0]), mode, grid.samples(), (ctx.n, ctx.r_max + 1));
-    let mut zd = ZeroDynamics::new(ctx, grid, zd);
+    let mut zd = ZeroDynamics::new(ctx, grid, opts.lookahead, zd);
     // Decide at t0 too (a start that needs another mode at once).
     let mut cur = step_sequence(
         ctx,
