@@ -214,7 +214,10 @@ impl Ctx<'_, '_> {
             last,
             fine,
         } = zd;
-        let ode = ode[m].get_or_insert_with(|| Dopri5::new(eta.len(), 1e-10, 1e-12, t1 - t0));
+        // No dense output: η is needed at the interval's end only.
+        let ode = ode[m].get_or_insert_with(|| {
+            Dopri5::new(eta.len(), 1e-10, 1e-12, t1 - t0).without_dense_output()
+        });
         let h0 = match *last {
             Some((lm, lt)) if lm == m && lt.to_bits() == t0.to_bits() => {
                 ode.step_size().min(t1 - t0)
