@@ -92,6 +92,8 @@ pub struct Dopri5 {
     pub y_fail: Vec<f64>,
     /// The leading components that enter the error norm and the stiffness test (all by default).
     n_err: usize,
+    /// Whether `accept` prepares the dense output (see [`Dopri5::without_dense_output`]).
+    dense_output: bool,
 }
 
 const C2: f64 = 1.0 / 5.0;
@@ -159,6 +161,7 @@ impl Dopri5 {
             t_fail: 0.0,
             y_fail: vec![0.0; n],
             n_err: n,
+            dense_output: true,
         }
     }
 
@@ -167,6 +170,14 @@ impl Dopri5 {
     /// them leaves the solution of the first `m` unchanged.
     pub fn error_components(mut self, m: usize) -> Self {
         self.n_err = m;
+        self
+    }
+
+    /// No dense output: an accepted step skips the continuous extension's coefficients (the steps and the
+    /// solution are the same bit for bit) and [`Dopri5::dense`] gives NaN. For a caller that only needs the
+    /// solution at the ends of its calls.
+    pub fn without_dense_output(mut self) -> Self {
+        self.dense_output = false;
         self
     }
 
@@ -297,19 +308,21 @@ impl Dopri5 {
         // Stiffness: h·ρ ≈ h‖k7 − k6‖ / ‖ŷ − y₆‖, y₆ the argument of the 6th stage (both at t + h).
         let (mut num, mut den) = (0.0, 0.0);
         let m = self.n_err.min(n);
-        for i in 0..n {
-            let ydiff = self.y_new[i] - y[i];
-            let bspl = h * k1[i] - ydiff;
-            r1[i] = y[i];
-            r2[i] = ydiff;
-            r3[i] = bspl;
-            r4[i] = ydiff - h * k7[i] - bspl;
-            r5[i] =
-                h * (D1 * k1[i] + D3 * k3[i] + D4 * k4[i] + D5 * k5[i] + D6 * k6[i] + D7 * k7[i]);
-            if i < m {
-                num += (k7[i] - k6[i]) * (k7[i] - k6[i]);
-                den += (self.y_new[i] - self.y_stage[i]) * (self.y_new[i] - self.y_stage[i]);
+        if self.dense_output {
+            for i in 0..n {
+                let ydiff = self.y_new[i] - y[i];
+                let bspl = h * k1[i] - ydiff;
+                r1[i] = y[i];
+                r2[i] = ydiff;
+                r3[i] = bspl;
+                r4[i] = ydiff - h * k7[i] - bspl;
+                r5[i] = h
+                    * (D1 * k1[i] + D3 * k3[i] + D4 * k4[i] + D5 * k5[i] + D6 * k6[i] + D7 * k7[i]);
             }
+        }
+        for i in 0..m {
+            num += (k7[i] - k6[i]) * (k7[i] - k6[i]);
+            den += (self.y_new[i] - self.y_stage[i]) * (self.y_new[i] - self.y_stage[i]);
         }
         self.last_h_rho = if den > 0.0 {
             h * (num / den).sqrt()
@@ -339,6 +352,10 @@ impl Dopri5 {
     /// The continuous extension of the last accepted step at `t` (4th order; exact at both ends):
     /// y(t_old + θh) = r1 + θ(r2 + (1 − θ)(r3 + θ(r4 + (1 − θ) r5))).
     pub fn dense(&self, t: f64, out: &mut [f64]) {
+        if !self.dense_output {
+            out.fill(f64::NAN);
+            return;
+        }
         let theta = if self.h_old > 0.0 {
             (t - self.t_old) / self.h_old
         } else {

@@ -220,6 +220,42 @@ fn dopri5_error_is_proportional_to_the_tolerance() {
     assert!(errors[2] < 1e-8, "{errors:?}");
 }
 
+/// Without dense output the steps and the solution are the same bit for bit (only the continuous extension's
+/// coefficients are skipped, and `dense` gives NaN).
+#[test]
+fn dopri5_without_dense_output_takes_the_same_steps() {
+    let p = SinLogistic;
+    let (t0, t1) = p.t_span();
+    let run = |dense: bool| {
+        let ode = Dopri5::new(2, 1e-9, 1e-9, 1e-3);
+        let mut ode = if dense {
+            ode
+        } else {
+            ode.without_dense_output()
+        };
+        let mut y = vec![0.0; 2];
+        p.solution(t0, &mut y);
+        let mut f = |t: f64, y: &[f64], dy: &mut [f64]| -> Result<(), StepFailure> {
+            p.rhs(t, y, dy);
+            Ok(())
+        };
+        let mut path = Vec::new();
+        for k in 1..=10 {
+            let t = t0 + (t1 - t0) * k as f64 / 10.0;
+            ode.advance(path.last().map_or(t0, |&(s, _, _)| s), t, &mut y, &mut f)
+                .unwrap();
+            path.push((t, y[0].to_bits(), y[1].to_bits()));
+        }
+        let mut mid = [0.0; 2];
+        ode.dense(t1, &mut mid);
+        (path, ode.stats.accepted, ode.stats.rejected, mid[0])
+    };
+    let (with, without) = (run(true), run(false));
+    assert_eq!(with.0, without.0);
+    assert_eq!((with.1, with.2), (without.1, without.2));
+    assert!(with.3.is_finite() && without.3.is_nan());
+}
+
 /// On a stiff problem (λ = −1e5) the L-stable Rosenbrock method takes steps far beyond 1/|λ|, limited by its
 /// accuracy only, while Dormand–Prince is held at its stability border h·|λ| ≈ 3.3, which its stiffness test
 /// reports.

@@ -14,6 +14,8 @@
 //!   fuel within 2 %, the same gears outside a short window around each shift, the tracking error reported.
 //! - `modes`: Runs with operating modes: si_engine_5speed on the NEDC and the UDDS, and a two-mode linear model against
 //!   its exact solution (re-entry and quasi-static).
+//! - `modes_zero_dynamics`: The zero dynamics' reference from the sub-grid against the smoother evaluated pointwise:
+//!   si_engine_5speed and ford_fusion_2012_dynamic_6speed on the NEDC, UDDS and WLTC at dt 0.1 and 0.01 s.
 //! - `nonsense_options`: Options that make no sense for the cycle (issue 15, defect 10): a look-ahead longer than a quarter of the
 //! - `plot`: The plots of every shipped model (`models/*.toml`, through the interpreter): the SVG parsed and its
 //! - `si_engine_maps`: si_engine_maps on the NEDC: inverse consistency, replay, a constant map equals si_engine, compiled vs
@@ -37,6 +39,7 @@ mod modes_forward;
 mod modes_plot_signals;
 mod modes_signals;
 mod modes_summary_blocks;
+mod modes_zero_dynamics;
 mod nonsense_options;
 mod plot;
 mod si_engine_maps;

@@ -15,6 +15,7 @@
 mod bases;
 pub mod blend;
 pub(crate) mod coupling;
+mod fine;
 pub mod gears;
 pub mod plant;
 mod record;
@@ -33,7 +34,10 @@ pub use gears::{GearBox, GearSource};
 pub use plant::{GearSchedule, ModalPlant, ModalPlantBuilder, ModeMeta};
 pub use record::{CouplingReset, Impulse, ModeTime, Transition};
 pub use rows::Rows;
-pub use runner::{simulate_modes, simulate_modes_with_signals};
+pub use runner::{
+    simulate_modes, simulate_modes_with_reference, simulate_modes_with_signals,
+    ZeroDynamicsReference,
+};
 pub use summary::{ModalSummary, ModesBlock};
 
 /// What a mode is for (see `invsim_inversion::ModeRole`).

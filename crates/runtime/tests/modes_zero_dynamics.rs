@@ -1,0 +1,81 @@
+//! The zero dynamics' reference from the sub-grid (the default) against the smoother evaluated pointwise at
+//! every stage time: si_engine_5speed and ford_fusion_2012_dynamic_6speed (r = 2, a grade signal) on the
+//! NEDC, UDDS and WLTC class 3b at dt = 0.1 and 0.01 s, the same modes at every sample, every state within
+//! 1e-9 relative and every integral (fuel) within 1e-9 relative.
+
+use invsim_runtime::modes::{
+    simulate_modes_with_reference, ModalOptions, ModalResult, Switching, ZeroDynamicsReference,
+};
+use invsim_runtime::Cycle;
+
+use crate::modes::support::{load_repo, spec, speed_schedule};
+
+/// The largest deviation of the sub-grid run from the pointwise one: states (relative to the larger
+/// magnitude of the state at the sample and 1e-3 of its largest over the run: a speed
+/// that passes through 0 at a standstill has no relative error of its own there) and integrals (relative).
+fn deviation(a: &ModalResult, b: &ModalResult) -> (f64, f64) {
+    assert_eq!(a.mode, b.mode, "the same mode at every sample");
+    let n = a.states[0].len();
+    let peak: Vec<f64> = (0..n)
+        .map(|j| {
+            (0..a.mode.len())
+                .map(|k| b.states[k][j].abs())
+                .fold(0.0, f64::max)
+        })
+        .collect();
+    let mut states = 0.0f64;
+    for k in 0..a.mode.len() {
+        for (j, &top) in peak.iter().enumerate() {
+            let (x, y) = (a.states[k][j], b.states[k][j]);
+            let scale = x.abs().max(y.abs()).max(1e-3 * top);
+            if scale > 0.0 {
+                states = states.max((x - y).abs() / scale);
+            }
+        }
+    }
+    let mut integrals = 0.0f64;
+    for (name, x) in &a.summary.integrals {
+        let y = b.summary.integrals[name];
+        integrals = integrals.max((x - y).abs() / x.abs().max(y.abs()).max(f64::MIN_POSITIVE));
+    }
+    (states, integrals)
+}
+
+#[test]
+fn sub_grid_zero_dynamics_equal_the_pointwise_ones() {
+    for file in [
+        "models/si_engine_5speed.toml",
+        "models/ford_fusion_2012_dynamic_6speed.toml",
+    ] {
+        let l = load_repo(file);
+        let s = spec(&l, speed_schedule(&l));
+        for cycle in ["nedc", "udds", "wltc3b"] {
+            let cycle = Cycle::builtin(cycle).expect("built-in");
+            for dt in [0.1, 0.01] {
+                let opts = ModalOptions {
+                    dt,
+                    switching: Switching::Reentry,
+                    ..ModalOptions::default()
+                };
+                let run = |zd| simulate_modes_with_reference(&s, &cycle, &opts, &[], zd);
+                let fine = run(ZeroDynamicsReference::SubGrid).expect("sub-grid run");
+                let pointwise = run(ZeroDynamicsReference::Pointwise).expect("pointwise run");
+                let (states, integrals) = deviation(&fine, &pointwise);
+                eprintln!(
+                    "{file} {} dt {dt}: states {states:e}, integrals {integrals:e}",
+                    cycle.name
+                );
+                assert!(
+                    states < 1e-9,
+                    "{file} {} dt {dt}: states {states:e}",
+                    cycle.name
+                );
+                assert!(
+                    integrals < 1e-9,
+                    "{file} {} dt {dt}: integrals {integrals:e}",
+                    cycle.name
+                );
+            }
+        }
+    }
+}
