@@ -34,8 +34,8 @@ fn deviation(a: &ModalResult, b: &ModalResult) -> (f64, f64) {
         }
     }
     let mut integrals = 0.0f64;
-    for (name, x) in &a.summary.integrals {
-        let y = b.summary.integrals[name];
+    for (name, x) in &a.summary.totals.integrals {
+        let y = b.summary.totals.integrals[name];
         integrals = integrals.max((x - y).abs() / x.abs().max(y.abs()).max(f64::MIN_POSITIVE));
     }
     (states, integrals)
