@@ -27,6 +27,7 @@ mod axis;
 mod batch;
 mod extrapolate;
 mod memo;
+mod one;
 mod small;
 mod violation;
 
@@ -435,7 +436,7 @@ impl Map {
     }
 
     /// The numbers of [`Map::partials2`] into `out`, without range check or memo: a 2-D map that
-    /// [`batch::fits`] at finite arguments by the fixed-width path of one point ([`batch::partials2_one`],
+    /// [`batch::fits`] at finite arguments by the fixed-width path of one point ([`one::partials2_one`],
     /// fixed-size loops; the same bits as [`Map::eval`], whose basis leaves out the terms that are exact
     /// zeros there), every other case by [`Map::eval`].
     #[inline]
@@ -443,7 +444,7 @@ impl Map {
         match &self.y {
             None => self.eval_unchecked(&args[..1], [2, 0], &mut out[..3]),
             Some(y) if self.batch && args[0].is_finite() && args[1].is_finite() => {
-                *out = batch::partials2_one(&self.x, y, &self.padded, args[0], args[1]);
+                *out = one::partials2_one(&self.x, y, &self.padded, args[0], args[1]);
             }
             Some(_) => self.eval_unchecked(args, [2, 2], out),
         }
@@ -680,6 +681,43 @@ fn with_scratch<R>(len: usize, f: impl FnOnce(&mut [f64]) -> R) -> R {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The portable build of the one-point path (what a processor without AVX2 runs for `partials2`) gives
+    /// `eval`'s numbers bit for bit (the integration tests cover the dispatched one), inside, at and outside
+    /// the grid's edges, under both rules that continue the map.
+    #[test]
+    fn the_portable_one_point_path_equals_eval() {
+        let x = vec![50.0, 100.0, 200.0, 300.0, 400.0, 500.0, 600.0, 700.0];
+        let y = vec![2.0e4, 4.0e4, 6.0e4, 8.0e4, 1.0e5];
+        let v: Vec<f64> = (0..40)
+            .map(|k| 0.5 + 0.01 * ((k * 7) % 11) as f64)
+            .collect();
+        for rule in [Extrapolate::Linear, Extrapolate::Clamp] {
+            for interp in [Interp::Smooth, Interp::Linear] {
+                let s = MapSettings {
+                    smooth: 0.5,
+                    extrapolate: rule,
+                    interp,
+                };
+                let map = Map::new_2d(x.clone(), y.clone(), v.clone(), s).expect("valid map");
+                let y_axis = map.y.as_ref().expect("a 2-D map");
+                for i in 0..=400 {
+                    for j in 0..=60 {
+                        let a = -40.0 + 2.0 * i as f64 + 0.37 * (j % 3) as f64;
+                        let b = 5.0e3 + 1.75e3 * j as f64;
+                        let got = one::portable(&map.x, y_axis, &map.padded, a, b);
+                        let mut want = [0.0; 9];
+                        map.eval(&[a, b], [2, 2], &mut want);
+                        assert_eq!(
+                            got.map(f64::to_bits),
+                            want.map(f64::to_bits),
+                            "{s:?} at ({a}, {b})"
+                        );
+                    }
+                }
+            }
+        }
+    }
 
     /// The portable build of the fixed-width path (what a processor without AVX2 runs) gives `partials2`'s
     /// numbers bit for bit, as the dispatched one does (the integration tests cover the dispatched one).

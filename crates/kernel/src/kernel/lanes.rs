@@ -190,6 +190,23 @@ impl<const N: usize> CornerChunk<N> {
 }
 
 impl Kernel {
+    /// [`Kernel::corner_excess`] at one `t` from the 4-lane table: the same numbers (one lane of
+    /// [`Kernel::corner_excess_chunk`]).
+    #[inline(always)]
+    pub(crate) fn corner_excess_lanes<V: F4>(&self, t: f64) -> [f64; 3] {
+        let u = t * self.inv_a;
+        if u.is_nan() {
+            return [f64::NAN; 3];
+        }
+        let v = -u.abs();
+        if v <= -1.0 {
+            return [0.0; 3];
+        }
+        let (j, s) = UnitTables::locate(v);
+        let [r, k, d, _] = estrin_lanes::<V>(&CORNER_LANES[j], s).max0().to_array();
+        [self.a * r, if u > 0.0 { -k } else { k }, d * self.inv_a]
+    }
+
     /// [`Kernel::corner_excess`] (`[R(t) − t₊, K(t) − H(t), k(t)]`) at a chunk of offsets, structure of
     /// arrays: `e[m][i]` is entry `m` at `t[i]`; the same numbers for every `t` but NaN, where it gives 0 (the
     /// batched map fills NaN for NaN arguments itself). The piece and the factors `[a, ±1, 1/a]` are found
@@ -241,7 +258,15 @@ impl Kernel {
 mod tests {
     use super::*;
 
-    /// Bit for bit the scalar corner excess, inside the support, at its ends and outside, portable and AVX2.
+    /// [`Kernel::corner_excess_lanes`] in AVX2 registers.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn one_lane_avx2(kernel: &Kernel, t: f64) -> [f64; 3] {
+        kernel.corner_excess_lanes::<Avx2>(t)
+    }
+
+    /// Bit for bit the scalar corner excess, inside the support, at its ends and outside, portable and AVX2,
+    /// a chunk at a time and one point at a time.
     #[test]
     fn lanes_equal_the_scalar_corner_excess() {
         const N: usize = 64;
@@ -257,6 +282,12 @@ mod tests {
                 kernel.corner_excess_chunk::<[f64; 4], N>(&t, &mut e, &mut CornerChunk::new());
                 for (i, &t) in chunk.iter().enumerate() {
                     let scalar = kernel.corner_excess(t);
+                    let one = kernel.corner_excess_lanes::<[f64; 4]>(t);
+                    assert_eq!(
+                        one.map(f64::to_bits),
+                        scalar.map(f64::to_bits),
+                        "one lane, t {t}"
+                    );
                     for n in 0..3 {
                         assert_eq!(
                             e[n][i].to_bits(),
@@ -274,6 +305,16 @@ mod tests {
                         e.map(|r| r.map(f64::to_bits)),
                         "AVX2, h {h}"
                     );
+                    for (i, &t) in chunk.iter().enumerate() {
+                        // SAFETY: the processor has AVX2 (checked above); `Avx2`'s operations need it.
+                        let one = unsafe { one_lane_avx2(&kernel, t) };
+                        let want = [e[0][i], e[1][i], e[2][i]];
+                        assert_eq!(
+                            one.map(f64::to_bits),
+                            want.map(f64::to_bits),
+                            "AVX2 one lane, t {t}"
+                        );
+                    }
                 }
             }
         }

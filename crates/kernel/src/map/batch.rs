@@ -153,7 +153,7 @@ pub(super) fn pad(values: &[f64], nx: usize, ny: Option<usize>) -> Vec<f64> {
 
 /// The number of grid points below `a` (`partition_point(|x| x < a)`) without a data-dependent branch.
 #[inline(always)]
-fn lower_bound(g: &[f64], a: f64) -> usize {
+pub(super) fn lower_bound(g: &[f64], a: f64) -> usize {
     let mut base = 0;
     let mut len = g.len();
     while len > 1 {
@@ -462,74 +462,4 @@ pub(super) fn dispatch(map: Data<'_>, a: &[f64], b: &[f64], out: &mut [f64]) {
         return with_scratch(|s| unsafe { run_avx2(map, a, b, out, s) });
     }
     with_scratch(|s| run::<[f64; 4]>(map, a, b, out, s))
-}
-
-/// One axis of one point through stages 1–3 (`a` finite): the padded index `c` of `Φ_0 = φ_{c−1}` and
-/// `phi[k][m] = Φ_{c−1+k}^(m)(a)`, each entry by the operations [`locate`] and [`add_corners`]
-/// apply to a lane of a chunk.
-#[inline(always)]
-fn axis_one(axis: &Axis, a: f64) -> (usize, [[f64; 3]; 3]) {
-    let g = axis.grid.as_slice();
-    let n = g.len();
-    assert!(n >= 2 && axis.weights.len() == n);
-    let p = lower_bound(g, a);
-    let r = p.saturating_sub(1).min(n - 2);
-    let (x0, x1) = (g[r], g[r + 1]);
-    let near = a - x0 <= x1 - a;
-    let c = r + usize::from(!near);
-    let d = x1 - x0;
-    // φ_r = (x_{r+1} − a)/d, φ_{r+1} = (a − x_r)/d; under `clamp` outside the grid the edge value, slopes 0.
-    let (mut f, mut s) = ([(x1 - a) / d, (a - x0) / d], [-1.0 / d, 1.0 / d]);
-    if axis.extrapolate == Extrapolate::Clamp && (p == 0 || p == n) {
-        f = if p == 0 { [1.0, 0.0] } else { [0.0, 1.0] };
-        s = [0.0, 0.0];
-    }
-    // φ_r, φ_{r+1} at offsets 1, 2 when c = r, at 0, 1 when c = r + 1.
-    let mut phi = if near {
-        [[0.0, 0.0, 0.0], [f[0], s[0], 0.0], [f[1], s[1], 0.0]]
-    } else {
-        [[f[0], s[0], 0.0], [f[1], s[1], 0.0], [0.0, 0.0, 0.0]]
-    };
-    if let Some(kernel) = axis.kernel {
-        let e = kernel.corner_excess(a - if near { x0 } else { x1 });
-        let w = axis.weights[c];
-        for k in 0..3 {
-            for m in 0..3 {
-                phi[k][m] += w[k] * e[m];
-            }
-        }
-    }
-    (c, phi)
-}
-
-/// [`Map::partials2`](super::Map::partials2) of a 2-D map that [`fits`] at one point with finite
-/// arguments: the fixed-width path of one lane ([`axis_one`] per axis, then [`contract_2d`]'s sums in its
-/// order), so the same numbers as the batch and as the point-by-point path of `small.rs`, with fixed-size
-/// loops and no basis of variable length.
-pub(super) fn partials2_one(x: &Axis, y: &Axis, padded: &[f64], a: f64, b: f64) -> [f64; 9] {
-    let (cx, phi) = axis_one(x, a);
-    let (cy, psi) = axis_one(y, b);
-    let w = y.len() + 2;
-    let mut sum = [[0.0; 3]; 3];
-    for k in 0..3 {
-        let v = &padded[(cx + k) * w + cy..][..3];
-        let mut t = [0.0; 3];
-        for l in 0..3 {
-            for q in 0..3 {
-                t[q] += v[l] * psi[l][q];
-            }
-        }
-        for p in 0..3 {
-            for q in 0..3 {
-                sum[p][q] += phi[k][p] * t[q];
-            }
-        }
-    }
-    let mut out = [0.0; 9];
-    for p in 0..3 {
-        for q in 0..3 {
-            out[3 * p + q] = sum[p][q];
-        }
-    }
-    out
 }
