@@ -477,14 +477,31 @@ impl Map {
     ///
     /// If `out` holds fewer than `9n` (1-D: `3n`) values, or a 2-D map's `b` fewer than `n`.
     pub fn partials2_batch(&self, a: &[f64], b: &[f64], out: &mut [f64]) {
+        self.batch(a, b, out, false);
+    }
+
+    /// The value alone of [`Map::partials2_batch`]: `out[i]` is entry 0 of `partials2(&[a[i], b[i]])`
+    /// (1-D: of `partials2(&[a[i]])`, `b` not read), the same number, without the partial derivatives
+    /// (for callers that read only the value, such as outputs).
+    ///
+    /// # Panics
+    ///
+    /// If `out` holds fewer than `n = a.len()` values, or a 2-D map's `b` fewer than `n`.
+    pub fn values_batch(&self, a: &[f64], b: &[f64], out: &mut [f64]) {
+        self.batch(a, b, out, true);
+    }
+
+    /// [`Map::partials2_batch`], or its values alone.
+    fn batch(&self, a: &[f64], b: &[f64], out: &mut [f64], value: bool) {
         let n = a.len();
         let two_d = self.y.is_some();
-        let width = if two_d { 9 } else { 3 };
-        assert!(
-            out.len() >= width * n,
-            "partials2_batch: `out` is too short"
-        );
-        assert!(!two_d || b.len() >= n, "partials2_batch: `b` is too short");
+        let width = match (value, two_d) {
+            (true, _) => 1,
+            (false, true) => 9,
+            (false, false) => 3,
+        };
+        assert!(out.len() >= width * n, "map batch: `out` is too short");
+        assert!(!two_d || b.len() >= n, "map batch: `b` is too short");
         let b = if two_d { &b[..n] } else { &[][..] };
         let args = |i: usize| [a[i], b.get(i).copied().unwrap_or(0.0)];
         if self.settings.extrapolate == Extrapolate::Error {
@@ -494,9 +511,10 @@ impl Map {
         }
         if !self.batch {
             let mut one = [0.0; 9];
+            let full = if two_d { 9 } else { 3 };
             for i in 0..n {
                 let orders = if two_d { [2, 2] } else { [2, 0] };
-                self.eval_unchecked(&args(i)[..self.arity()], orders, &mut one[..width]);
+                self.eval_unchecked(&args(i)[..self.arity()], orders, &mut one[..full]);
                 for (k, &v) in one[..width].iter().enumerate() {
                     out[k * n + i] = v;
                 }
@@ -508,7 +526,7 @@ impl Map {
             y: self.y.as_ref(),
             padded: &self.padded,
         };
-        batch::dispatch(data, a, b, out);
+        batch::dispatch(data, a, b, out, value);
         // NaN arguments give NaN everywhere (as `eval`); the fixed-width path does not look at them.
         let any_nan = a.iter().chain(b).fold(false, |any, v| any | v.is_nan());
         for i in (0..n).filter(|_| any_nan) {
@@ -758,7 +776,12 @@ mod tests {
                         padded: &map.padded,
                     };
                     let b_in = if map.arity() == 2 { &b[..] } else { &[][..] };
-                    batch::portable(data, &a, b_in, &mut out);
+                    batch::portable(data, &a, b_in, &mut out, false);
+                    let mut values = vec![0.0; n];
+                    batch::portable(data, &a, b_in, &mut values, true);
+                    for i in 0..n {
+                        assert_eq!(values[i].to_bits(), out[i].to_bits(), "{s:?} value {i}");
+                    }
                     for i in 0..n {
                         let want = map.partials2(&[a[i], b[i]][..map.arity()]);
                         for k in 0..width {

@@ -261,15 +261,16 @@ fn locate(axis: &Axis, a: &[f64; CHUNK], ch: &mut AxisChunk) {
 
 /// Stage 3 of a smoothed axis: `Φ_{c−1+k}^(m) += w_{c−1+k, c} E_m(a − x_c)`.
 #[inline(always)]
-fn add_corners<V: F4>(axis: &Axis, ch: &mut AxisChunk, c: &mut Corners) {
+fn add_corners<V: F4, const VALUE: bool>(axis: &Axis, ch: &mut AxisChunk, c: &mut Corners) {
     let Some(kernel) = axis.kernel else {
         return;
     };
     let e = &mut c.e;
     kernel.corner_excess_chunk::<V, CHUNK>(&ch.t, e, &mut c.work);
+    let orders = if VALUE { 1 } else { 3 };
     for i in 0..CHUNK {
         for k in 0..3 {
-            for m in 0..3 {
+            for m in 0..orders {
                 ch.phi[k][m][i] += ch.w[k][i] * e[m][i];
             }
         }
@@ -342,6 +343,57 @@ fn contract_1d(
     }
 }
 
+/// Stage 4, 2-D, the value alone: `res = Σ_k Φ_k Σ_l v_kl Ψ_l` (entry 0 of [`contract_2d`], its terms in
+/// its order).
+#[inline(always)]
+fn contract_2d_value(
+    padded: &[f64],
+    ny: usize,
+    (x, y): (&AxisChunk, &AxisChunk),
+    v: &mut [[[f64; CHUNK]; 3]; 3],
+    res: &mut [f64; CHUNK],
+) {
+    let w = ny + 2;
+    for i in 0..CHUNK {
+        for k in 0..3 {
+            let row = &padded[(x.c[i] + k) * w + y.c[i]..][..3];
+            [v[k][0][i], v[k][1][i], v[k][2][i]] = [row[0], row[1], row[2]];
+        }
+    }
+    for i in 0..CHUNK {
+        let mut sum = 0.0;
+        for k in 0..3 {
+            let mut t = 0.0;
+            for l in 0..3 {
+                t += v[k][l][i] * y.phi[l][0][i];
+            }
+            sum += x.phi[k][0][i] * t;
+        }
+        res[i] = sum;
+    }
+}
+
+/// Stage 4, 1-D, the value alone: `res = Σ_k v_k Φ_k` (entry 0 of [`contract_1d`]).
+#[inline(always)]
+fn contract_1d_value(
+    padded: &[f64],
+    x: &AxisChunk,
+    v: &mut [[f64; CHUNK]; 3],
+    res: &mut [f64; CHUNK],
+) {
+    for i in 0..CHUNK {
+        let vals = &padded[x.c[i]..][..3];
+        [v[0][i], v[1][i], v[2][i]] = [vals[0], vals[1], vals[2]];
+    }
+    for i in 0..CHUNK {
+        let mut sum = 0.0;
+        for k in 0..3 {
+            sum += v[k][i] * x.phi[k][0][i];
+        }
+        res[i] = sum;
+    }
+}
+
 /// `from` (fewer than [`CHUNK`] values: the last chunk) padded with `fill`.
 #[inline(always)]
 fn chunk_of(from: &[f64], fill: f64) -> [f64; CHUNK] {
@@ -382,9 +434,14 @@ fn rows<const W: usize>(out: &mut [f64], n: usize, start: usize) -> [&mut [f64; 
 
 /// One axis through stages 1–3.
 #[inline(always)]
-fn axis_stages<V: F4>(axis: &Axis, a: &[f64; CHUNK], ch: &mut AxisChunk, c: &mut Corners) {
+fn axis_stages<V: F4, const VALUE: bool>(
+    axis: &Axis,
+    a: &[f64; CHUNK],
+    ch: &mut AxisChunk,
+    c: &mut Corners,
+) {
     locate(axis, a, ch);
-    add_corners::<V>(axis, ch, c);
+    add_corners::<V, VALUE>(axis, ch, c);
 }
 
 /// A map's axes and padded values: what the fixed-width path reads.
@@ -396,22 +453,40 @@ pub(super) struct Data<'a> {
     pub(super) padded: &'a [f64],
 }
 
-/// The fixed-width path over all points (the map [`fits`]); `out` as `Map::partials2_batch` lays it out.
+/// The fixed-width path over all points (the map [`fits`]); `out` as `Map::partials2_batch` lays it out, or
+/// with `VALUE` the values alone (`Map::values_batch`: stage 3 adds the corner terms of order 0 only, stage 4
+/// forms the one sum `Σ_k Φ_k Σ_l v_kl Ψ_l`, the terms and order of entry 0 of the full contraction).
 /// Whole chunks read their arguments in place and write their results into `out` directly; the last,
 /// shorter one goes through the scratch.
 #[inline(always)]
-fn run<V: F4>(map: Data<'_>, a: &[f64], b: &[f64], out: &mut [f64], s: &mut Scratch) {
+fn run<V: F4, const VALUE: bool>(
+    map: Data<'_>,
+    a: &[f64],
+    b: &[f64],
+    out: &mut [f64],
+    s: &mut Scratch,
+) {
     let n = a.len();
     let mut start = 0;
     let (mut buf_a, mut buf_b) = ([0.0; CHUNK], [0.0; CHUNK]);
     while start < n {
         let len = CHUNK.min(n - start);
+        let whole = len == CHUNK;
         let ax = chunk(a, start, len, map.x.grid[0], &mut buf_a);
-        axis_stages::<V>(map.x, ax, &mut s.x, &mut s.corners);
-        let width = match map.y {
-            None => {
+        axis_stages::<V, VALUE>(map.x, ax, &mut s.x, &mut s.corners);
+        let width = match (map.y, VALUE) {
+            (None, true) => {
+                let [res] = if whole {
+                    rows(out, n, start)
+                } else {
+                    [&mut s.res[0]]
+                };
+                contract_1d_value(map.padded, &s.x, &mut s.v[0], res);
+                1
+            }
+            (None, false) => {
                 let v = &mut s.v[0];
-                if len == CHUNK {
+                if whole {
                     contract_1d(map.padded, &s.x, v, rows(out, n, start));
                 } else {
                     let [r0, r1, r2, ..] = &mut s.res;
@@ -419,19 +494,29 @@ fn run<V: F4>(map: Data<'_>, a: &[f64], b: &[f64], out: &mut [f64], s: &mut Scra
                 }
                 3
             }
-            Some(y) => {
+            (Some(y), _) => {
                 let by = chunk(b, start, len, y.grid[0], &mut buf_b);
-                axis_stages::<V>(y, by, &mut s.y, &mut s.corners);
+                axis_stages::<V, VALUE>(y, by, &mut s.y, &mut s.corners);
                 let axes = (&s.x, &s.y);
-                if len == CHUNK {
-                    contract_2d(map.padded, y.len(), axes, &mut s.v, rows(out, n, start));
+                if VALUE {
+                    let [res] = if whole {
+                        rows(out, n, start)
+                    } else {
+                        [&mut s.res[0]]
+                    };
+                    contract_2d_value(map.padded, y.len(), axes, &mut s.v, res);
+                    1
                 } else {
-                    contract_2d(map.padded, y.len(), axes, &mut s.v, s.res.each_mut());
+                    if whole {
+                        contract_2d(map.padded, y.len(), axes, &mut s.v, rows(out, n, start));
+                    } else {
+                        contract_2d(map.padded, y.len(), axes, &mut s.v, s.res.each_mut());
+                    }
+                    9
                 }
-                9
             }
         };
-        if len < CHUNK {
+        if !whole {
             for (k, r) in s.res.iter().enumerate().take(width) {
                 out[k * n + start..][..len].copy_from_slice(&r[..len]);
             }
@@ -444,22 +529,39 @@ fn run<V: F4>(map: Data<'_>, a: &[f64], b: &[f64], out: &mut [f64], s: &mut Scra
 /// numbers are those of the portable build).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn run_avx2(map: Data<'_>, a: &[f64], b: &[f64], out: &mut [f64], s: &mut Scratch) {
-    run::<crate::kernel::Avx2>(map, a, b, out, s)
+unsafe fn run_avx2<const VALUE: bool>(
+    map: Data<'_>,
+    a: &[f64],
+    b: &[f64],
+    out: &mut [f64],
+    s: &mut Scratch,
+) {
+    run::<crate::kernel::Avx2, VALUE>(map, a, b, out, s)
 }
 
 /// [`run`] built for any processor (what [`dispatch`] runs without AVX2), for the tests.
 #[cfg(test)]
-pub(super) fn portable(map: Data<'_>, a: &[f64], b: &[f64], out: &mut [f64]) {
-    with_scratch(|s| run::<[f64; 4]>(map, a, b, out, s))
+pub(super) fn portable(map: Data<'_>, a: &[f64], b: &[f64], out: &mut [f64], value: bool) {
+    with_scratch(|s| match value {
+        true => run::<[f64; 4], true>(map, a, b, out, s),
+        false => run::<[f64; 4], false>(map, a, b, out, s),
+    })
 }
 
-/// [`run`] with the best instruction set this processor has.
-pub(super) fn dispatch(map: Data<'_>, a: &[f64], b: &[f64], out: &mut [f64]) {
+/// [`run`] with the best instruction set this processor has (`value`: the values alone).
+pub(super) fn dispatch(map: Data<'_>, a: &[f64], b: &[f64], out: &mut [f64], value: bool) {
     #[cfg(target_arch = "x86_64")]
     if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
         // SAFETY: the processor has the features `run_avx2` is compiled for.
-        return with_scratch(|s| unsafe { run_avx2(map, a, b, out, s) });
+        return with_scratch(|s| unsafe {
+            match value {
+                true => run_avx2::<true>(map, a, b, out, s),
+                false => run_avx2::<false>(map, a, b, out, s),
+            }
+        });
     }
-    with_scratch(|s| run::<[f64; 4]>(map, a, b, out, s))
+    with_scratch(|s| match value {
+        true => run::<[f64; 4], true>(map, a, b, out, s),
+        false => run::<[f64; 4], false>(map, a, b, out, s),
+    })
 }
