@@ -510,10 +510,22 @@ impl Map {
             }
         }
         if !self.batch {
+            // Point by point; the values alone by `eval`'s order 0 (the value does not depend on the orders
+            // asked for, as the memo relies on).
             let mut one = [0.0; 9];
-            let full = if two_d { 9 } else { 3 };
+            let full = if value {
+                1
+            } else if two_d {
+                9
+            } else {
+                3
+            };
             for i in 0..n {
-                let orders = if two_d { [2, 2] } else { [2, 0] };
+                let orders = match (value, two_d) {
+                    (true, _) => [0, 0],
+                    (false, true) => [2, 2],
+                    (false, false) => [2, 0],
+                };
                 self.eval_unchecked(&args(i)[..self.arity()], orders, &mut one[..full]);
                 for (k, &v) in one[..width].iter().enumerate() {
                     out[k * n + i] = v;
