@@ -25,6 +25,7 @@
 
 mod axis;
 mod batch;
+mod contract;
 mod extrapolate;
 mod memo;
 mod one;

@@ -28,9 +28,10 @@
 //! the nearest corner and form the unsmoothed weights and slopes (vectorised across points), gather the
 //! corner's kink weights (scalar loads), evaluate the corner terms (one 4-lane table evaluation per point
 //! inside the kernel's support, [`F4`]; +0 outside, where the evaluation would give +0), add them
-//! (vectorised), gather the values and contract (vectorised). A whole chunk reads its arguments in place and
-//! writes its results into the output directly. The independent work of different points overlaps instead
-//! of waiting on one point's chain of dependent loads and products, and no stage branches on the data.
+//! (vectorised), gather the values and contract (vectorised, `contract.rs`). A whole chunk reads its
+//! arguments in place and writes its results into the output directly. The independent work of different
+//! points overlaps instead of waiting on one point's chain of dependent loads and products, and no stage
+//! branches on the data.
 
 // The stages index several arrays by the point `i` and small fixed orders: the form the vectoriser turns into
 // fixed-width loops across points.
@@ -39,23 +40,24 @@
 use std::cell::RefCell;
 
 use super::axis::Axis;
+use super::contract::{contract_1d, contract_1d_value, contract_2d, contract_2d_value};
 use super::extrapolate::Extrapolate;
 use crate::kernel::{CornerChunk, F4};
 
 /// Points per chunk: every stage is a loop of this fixed length over arrays of this length (a last, shorter
 /// chunk is padded with the grids' first points and its extra results dropped).
-const CHUNK: usize = 32;
+pub(super) const CHUNK: usize = 32;
 
 /// Grids up to this length are searched by counting the points below `a` (fixed-width, vectorised across
 /// the chunk's points); longer ones by a branch-free binary search per point.
 const COUNT_SEARCH: usize = 32;
 
 /// One chunk's numbers on one axis, structure of arrays over the points `i`.
-struct AxisChunk {
+pub(super) struct AxisChunk {
     /// The index `c_i` of the grid point nearest `a_i`: the padded index of `Φ_0 = φ_{c−1}`.
-    c: [usize; CHUNK],
+    pub(super) c: [usize; CHUNK],
     /// `phi[k][m][i] = Φ_{c−1+k}^(m)(a_i)`.
-    phi: [[[f64; CHUNK]; 3]; 3],
+    pub(super) phi: [[[f64; CHUNK]; 3]; 3],
     /// The kink weights `w[k][i] = w_{c−1+k, c}` of the corner.
     w: [[f64; CHUNK]; 3],
     /// `t_i = a_i − x_c`, the offset to the nearest corner.
@@ -274,123 +276,6 @@ fn add_corners<V: F4, const VALUE: bool>(axis: &Axis, ch: &mut AxisChunk, c: &mu
                 ch.phi[k][m][i] += ch.w[k][i] * e[m][i];
             }
         }
-    }
-}
-
-/// Stage 4, 2-D: `res[3p + q] = Σ_k Φ_k^(p) Σ_l v_kl Ψ_l^(q)` (`small::contract`'s order, from 0).
-#[inline(always)]
-fn contract_2d(
-    padded: &[f64],
-    ny: usize,
-    (x, y): (&AxisChunk, &AxisChunk),
-    v: &mut [[[f64; CHUNK]; 3]; 3],
-    res: [&mut [f64; CHUNK]; 9],
-) {
-    let w = ny + 2;
-    for i in 0..CHUNK {
-        for k in 0..3 {
-            let row = &padded[(x.c[i] + k) * w + y.c[i]..][..3];
-            [v[k][0][i], v[k][1][i], v[k][2][i]] = [row[0], row[1], row[2]];
-        }
-    }
-    let (phi, psi) = (&x.phi, &y.phi);
-    for i in 0..CHUNK {
-        let mut sum = [[0.0; 3]; 3];
-        for k in 0..3 {
-            let mut t = [0.0; 3];
-            for l in 0..3 {
-                for q in 0..3 {
-                    t[q] += v[k][l][i] * psi[l][q][i];
-                }
-            }
-            for p in 0..3 {
-                for q in 0..3 {
-                    sum[p][q] += phi[k][p][i] * t[q];
-                }
-            }
-        }
-        for p in 0..3 {
-            for q in 0..3 {
-                res[3 * p + q][i] = sum[p][q];
-            }
-        }
-    }
-}
-
-/// Stage 4, 1-D: `res[m] = Σ_k v_k Φ_k^(m)` (`Map::eval_1d_small`'s order, from 0).
-#[inline(always)]
-fn contract_1d(
-    padded: &[f64],
-    x: &AxisChunk,
-    v: &mut [[f64; CHUNK]; 3],
-    res: [&mut [f64; CHUNK]; 3],
-) {
-    for i in 0..CHUNK {
-        let vals = &padded[x.c[i]..][..3];
-        [v[0][i], v[1][i], v[2][i]] = [vals[0], vals[1], vals[2]];
-    }
-    let phi = &x.phi;
-    for i in 0..CHUNK {
-        let mut sum = [0.0; 3];
-        for k in 0..3 {
-            for m in 0..3 {
-                sum[m] += v[k][i] * phi[k][m][i];
-            }
-        }
-        for m in 0..3 {
-            res[m][i] = sum[m];
-        }
-    }
-}
-
-/// Stage 4, 2-D, the value alone: `res = Σ_k Φ_k Σ_l v_kl Ψ_l` (entry 0 of [`contract_2d`], its terms in
-/// its order).
-#[inline(always)]
-fn contract_2d_value(
-    padded: &[f64],
-    ny: usize,
-    (x, y): (&AxisChunk, &AxisChunk),
-    v: &mut [[[f64; CHUNK]; 3]; 3],
-    res: &mut [f64; CHUNK],
-) {
-    let w = ny + 2;
-    for i in 0..CHUNK {
-        for k in 0..3 {
-            let row = &padded[(x.c[i] + k) * w + y.c[i]..][..3];
-            [v[k][0][i], v[k][1][i], v[k][2][i]] = [row[0], row[1], row[2]];
-        }
-    }
-    for i in 0..CHUNK {
-        let mut sum = 0.0;
-        for k in 0..3 {
-            let mut t = 0.0;
-            for l in 0..3 {
-                t += v[k][l][i] * y.phi[l][0][i];
-            }
-            sum += x.phi[k][0][i] * t;
-        }
-        res[i] = sum;
-    }
-}
-
-/// Stage 4, 1-D, the value alone: `res = Σ_k v_k Φ_k` (entry 0 of [`contract_1d`]).
-#[inline(always)]
-fn contract_1d_value(
-    padded: &[f64],
-    x: &AxisChunk,
-    v: &mut [[f64; CHUNK]; 3],
-    res: &mut [f64; CHUNK],
-) {
-    for i in 0..CHUNK {
-        let vals = &padded[x.c[i]..][..3];
-        [v[0][i], v[1][i], v[2][i]] = [vals[0], vals[1], vals[2]];
-    }
-    for i in 0..CHUNK {
-        let mut sum = 0.0;
-        for k in 0..3 {
-            sum += v[k][i] * x.phi[k][0][i];
-        }
-        res[i] = sum;
     }
 }
 
