@@ -477,6 +477,10 @@ impl Tape {
                             let v = maps.entries((m, x, y), map, col(x), col(y));
                             dst.copy_from_slice(&v[e * len..][..len]);
                         }
+                        Instr::Map(m, [0, 0], x, y) if self.maps[m as usize].arity() == 2 => {
+                            // A lone value of a 2-D map: the block at once (the same numbers).
+                            self.maps[m as usize].values_batch(col(x), col(y), dst)
+                        }
                         Instr::Map(m, o, x, y) => {
                             let map = &self.maps[m as usize];
                             let o = [o[0] as usize, o[1] as usize];
@@ -533,7 +537,8 @@ impl Tape {
 /// to block.
 ///
 /// Only groups of two or more instructions (orders ≤ 2 per argument) are taken this way: a lone call is
-/// cheaper point by point (`Map::partial_unmemoized` evaluates only the partial it needs).
+/// cheaper point by point (`Map::partial_unmemoized` evaluates only the partial it needs), except the lone
+/// value of a 2-D map, taken a block at a time by `Map::values_batch`.
 struct MapBlock {
     /// (map, slot of a, slot of b) of the groups with two or more instructions.
     shared: Vec<(u32, u32, u32)>,

@@ -160,3 +160,23 @@ fn the_batch_evaluator_equals_the_point_by_point_tape_bit_for_bit() {
         );
     }
 }
+
+#[test]
+fn lone_values_of_a_2d_map_in_the_batch_evaluator_equal_the_point_by_point_tape() {
+    // Two lone value calls of a 2-D map at different arguments (each a block at a time by `values_batch`) and
+    // a 1-D map, over 150 points inside the grid, at its nodes and outside.
+    let mut pool = pool_with_maps(false);
+    let e = pool.parse("eta(w, p)*w + c(w/200) - eta(2*w, p)").unwrap();
+    let (w, p) = (pool.symbol("w"), pool.symbol("p"));
+    let tape = Tape::compile(&pool, &[e], &[w, p]).unwrap();
+    let n = 150;
+    let wc: Vec<f64> = (0..n).map(|k| 20.0 + 5.0 * k as f64).collect();
+    let pc: Vec<f64> = (0..n).map(|k| 1.0e4 + 800.0 * k as f64).collect();
+    let mut col = vec![0.0; n];
+    tape.eval_batch(&[&wc, &pc], &mut [&mut col]);
+    for k in 0..n {
+        let mut out = [0.0];
+        tape.eval(&[wc[k], pc[k]], &mut out);
+        assert_eq!(col[k].to_bits(), out[0].to_bits(), "point {k}");
+    }
+}

@@ -1,10 +1,14 @@
 //! Benchmark: a 2-D smooth map lookup with its first and second partial derivatives (value, ∂a, ∂b, ∂aa, ∂ab,
 //! ∂bb in one pass: `Map::eval` with orders [2, 2]) over a batch of points spread over the grid, the same through
 //! `Map::partials2` (the generated code's call, with its memo), batched (`Map::partials2_batch`, structure of
-//! arrays), and the value alone; criterion reports the time per point. The grid is si_engine_maps' eta_vol
-//! (8 × 5, smooth 0.5). Then the same for 1-D maps: a smooth curve (M, M', M'' point by point and batched) and
-//! the imported Fusion's efficiency curve (12 points, `interp = "linear"`, clamp) as the interpreter's batch
-//! tape calls it (`Map::partial_unmemoized`, the value alone) and batched.
+//! arrays), the value alone batched (`Map::values_batch`), every partial without the memo
+//! (`Map::partials2_fresh`, Newton's call) and the value alone; criterion reports the time per point. The
+//! grid is si_engine_maps' eta_vol (8 × 5, smooth 0.5). Then the same for 1-D maps: a smooth curve (M, M', M''
+//! point by point and batched) and the imported Fusion's efficiency curve (12 points, `interp = "linear"`,
+//! clamp) as the interpreter's batch tape calls it (`Map::partial_unmemoized`, the value alone) and batched.
+//!
+//! Criterion times the wall clock: on a machine shared with other work the figures include the time the
+//! benchmark waited for a processor.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use invsim_kernel::map::{Extrapolate, Interp, Map, MapSettings};
@@ -71,6 +75,28 @@ fn lookup(c: &mut Criterion) {
                 &mut out,
             );
             out[0] + out[n] + out[2 * n] + out[3 * n] + out[4 * n] + out[6 * n]
+        })
+    });
+    group.bench_function("values_batch", |b| {
+        let mut out = vec![0.0; n];
+        b.iter(|| {
+            map.values_batch(
+                std::hint::black_box(&a),
+                std::hint::black_box(&bb),
+                &mut out,
+            );
+            out[0] + out[n / 2]
+        })
+    });
+    // What Newton's iterations in generated code call: every partial up to order 2, no memo.
+    group.bench_function("partials2_fresh", |b| {
+        b.iter(|| {
+            let mut acc = 0.0;
+            for p in &points {
+                let out = map.partials2_fresh(std::hint::black_box(p));
+                acc += out[0] + out[1] + out[2] + out[3] + out[4] + out[6];
+            }
+            acc
         })
     });
     group.bench_function("value", |b| {

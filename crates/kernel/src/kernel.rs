@@ -61,7 +61,7 @@ mod lanes;
 
 #[cfg(target_arch = "x86_64")]
 pub(crate) use lanes::Avx2;
-pub(crate) use lanes::F4;
+pub(crate) use lanes::{CornerChunk, F4};
 
 use std::fmt;
 

@@ -25,8 +25,10 @@
 
 mod axis;
 mod batch;
+mod contract;
 mod extrapolate;
 mod memo;
+mod one;
 mod small;
 mod violation;
 
@@ -435,7 +437,7 @@ impl Map {
     }
 
     /// The numbers of [`Map::partials2`] into `out`, without range check or memo: a 2-D map that
-    /// [`batch::fits`] at finite arguments by the fixed-width path of one point ([`batch::partials2_one`],
+    /// [`batch::fits`] at finite arguments by the fixed-width path of one point ([`one::partials2_one`],
     /// fixed-size loops; the same bits as [`Map::eval`], whose basis leaves out the terms that are exact
     /// zeros there), every other case by [`Map::eval`].
     #[inline]
@@ -443,7 +445,7 @@ impl Map {
         match &self.y {
             None => self.eval_unchecked(&args[..1], [2, 0], &mut out[..3]),
             Some(y) if self.batch && args[0].is_finite() && args[1].is_finite() => {
-                *out = batch::partials2_one(&self.x, y, &self.padded, args[0], args[1]);
+                *out = one::partials2_one(&self.x, y, &self.padded, args[0], args[1]);
             }
             Some(_) => self.eval_unchecked(args, [2, 2], out),
         }
@@ -476,14 +478,31 @@ impl Map {
     ///
     /// If `out` holds fewer than `9n` (1-D: `3n`) values, or a 2-D map's `b` fewer than `n`.
     pub fn partials2_batch(&self, a: &[f64], b: &[f64], out: &mut [f64]) {
+        self.batch(a, b, out, false);
+    }
+
+    /// The value alone of [`Map::partials2_batch`]: `out[i]` is entry 0 of `partials2(&[a[i], b[i]])`
+    /// (1-D: of `partials2(&[a[i]])`, `b` not read), the same number, without the partial derivatives
+    /// (for callers that read only the value, such as outputs).
+    ///
+    /// # Panics
+    ///
+    /// If `out` holds fewer than `n = a.len()` values, or a 2-D map's `b` fewer than `n`.
+    pub fn values_batch(&self, a: &[f64], b: &[f64], out: &mut [f64]) {
+        self.batch(a, b, out, true);
+    }
+
+    /// [`Map::partials2_batch`], or its values alone.
+    fn batch(&self, a: &[f64], b: &[f64], out: &mut [f64], value: bool) {
         let n = a.len();
         let two_d = self.y.is_some();
-        let width = if two_d { 9 } else { 3 };
-        assert!(
-            out.len() >= width * n,
-            "partials2_batch: `out` is too short"
-        );
-        assert!(!two_d || b.len() >= n, "partials2_batch: `b` is too short");
+        let width = match (value, two_d) {
+            (true, _) => 1,
+            (false, true) => 9,
+            (false, false) => 3,
+        };
+        assert!(out.len() >= width * n, "map batch: `out` is too short");
+        assert!(!two_d || b.len() >= n, "map batch: `b` is too short");
         let b = if two_d { &b[..n] } else { &[][..] };
         let args = |i: usize| [a[i], b.get(i).copied().unwrap_or(0.0)];
         if self.settings.extrapolate == Extrapolate::Error {
@@ -492,10 +511,23 @@ impl Map {
             }
         }
         if !self.batch {
+            // Point by point; the values alone by `eval`'s order 0 (the value does not depend on the orders
+            // asked for, as the memo relies on).
             let mut one = [0.0; 9];
+            let full = if value {
+                1
+            } else if two_d {
+                9
+            } else {
+                3
+            };
             for i in 0..n {
-                let orders = if two_d { [2, 2] } else { [2, 0] };
-                self.eval_unchecked(&args(i)[..self.arity()], orders, &mut one[..width]);
+                let orders = match (value, two_d) {
+                    (true, _) => [0, 0],
+                    (false, true) => [2, 2],
+                    (false, false) => [2, 0],
+                };
+                self.eval_unchecked(&args(i)[..self.arity()], orders, &mut one[..full]);
                 for (k, &v) in one[..width].iter().enumerate() {
                     out[k * n + i] = v;
                 }
@@ -507,7 +539,7 @@ impl Map {
             y: self.y.as_ref(),
             padded: &self.padded,
         };
-        batch::dispatch(data, a, b, out);
+        batch::dispatch(data, a, b, out, value);
         // NaN arguments give NaN everywhere (as `eval`); the fixed-width path does not look at them.
         let any_nan = a.iter().chain(b).fold(false, |any, v| any | v.is_nan());
         for i in (0..n).filter(|_| any_nan) {
@@ -681,6 +713,43 @@ fn with_scratch<R>(len: usize, f: impl FnOnce(&mut [f64]) -> R) -> R {
 mod tests {
     use super::*;
 
+    /// The portable build of the one-point path (what a processor without AVX2 runs for `partials2`) gives
+    /// `eval`'s numbers bit for bit (the integration tests cover the dispatched one), inside, at and outside
+    /// the grid's edges, under both rules that continue the map.
+    #[test]
+    fn the_portable_one_point_path_equals_eval() {
+        let x = vec![50.0, 100.0, 200.0, 300.0, 400.0, 500.0, 600.0, 700.0];
+        let y = vec![2.0e4, 4.0e4, 6.0e4, 8.0e4, 1.0e5];
+        let v: Vec<f64> = (0..40)
+            .map(|k| 0.5 + 0.01 * ((k * 7) % 11) as f64)
+            .collect();
+        for rule in [Extrapolate::Linear, Extrapolate::Clamp] {
+            for interp in [Interp::Smooth, Interp::Linear] {
+                let s = MapSettings {
+                    smooth: 0.5,
+                    extrapolate: rule,
+                    interp,
+                };
+                let map = Map::new_2d(x.clone(), y.clone(), v.clone(), s).expect("valid map");
+                let y_axis = map.y.as_ref().expect("a 2-D map");
+                for i in 0..=400 {
+                    for j in 0..=60 {
+                        let a = -40.0 + 2.0 * i as f64 + 0.37 * (j % 3) as f64;
+                        let b = 5.0e3 + 1.75e3 * j as f64;
+                        let got = one::portable(&map.x, y_axis, &map.padded, a, b);
+                        let mut want = [0.0; 9];
+                        map.eval(&[a, b], [2, 2], &mut want);
+                        assert_eq!(
+                            got.map(f64::to_bits),
+                            want.map(f64::to_bits),
+                            "{s:?} at ({a}, {b})"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
     /// The portable build of the fixed-width path (what a processor without AVX2 runs) gives `partials2`'s
     /// numbers bit for bit, as the dispatched one does (the integration tests cover the dispatched one).
     #[test]
@@ -720,7 +789,12 @@ mod tests {
                         padded: &map.padded,
                     };
                     let b_in = if map.arity() == 2 { &b[..] } else { &[][..] };
-                    batch::portable(data, &a, b_in, &mut out);
+                    batch::portable(data, &a, b_in, &mut out, false);
+                    let mut values = vec![0.0; n];
+                    batch::portable(data, &a, b_in, &mut values, true);
+                    for i in 0..n {
+                        assert_eq!(values[i].to_bits(), out[i].to_bits(), "{s:?} value {i}");
+                    }
                     for i in 0..n {
                         let want = map.partials2(&[a[i], b[i]][..map.arity()]);
                         for k in 0..width {

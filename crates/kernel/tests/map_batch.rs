@@ -89,6 +89,13 @@ fn compare(map: &Map, a: &[f64], b: &[f64], h: [f64; 2]) -> (usize, usize) {
     let mut out = vec![f64::NAN; width * n];
     map.partials2_batch(a, b, &mut out);
     take_violation();
+    // The values alone: entry 0 of the batch, bit for bit.
+    let mut values = vec![f64::NAN; n];
+    map.values_batch(a, b, &mut values);
+    take_violation();
+    for (i, v) in values.iter().enumerate() {
+        assert_eq!(v.to_bits(), out[i].to_bits(), "values_batch at point {i}");
+    }
     let vmax = map.values().iter().fold(0.0_f64, |m, v| m.max(v.abs()));
     let (mut same, mut total) = (0, 0);
     for i in 0..n {
@@ -328,6 +335,13 @@ fn batch_lengths_nan_and_the_error_rule() {
     assert_eq!((&*violation.map, violation.arg), ("eta_vol", 0));
     assert!(violation.value.is_nan());
     assert_eq!(take_violation(), None);
+    // The values alone: the same NaNs and the same report.
+    let mut values = [0.0; 4];
+    map.values_batch(&a, &b, &mut values);
+    assert_eq!(values.map(f64::is_nan), [false, true, false, true]);
+    assert_eq!(values[2].to_bits(), out[2].to_bits());
+    let violation = take_violation().expect("argument outside the grid");
+    assert_eq!((&*violation.map, violation.arg), ("eta_vol", 0));
     map.partials2_batch(&[300.0], &[5.0e4], &mut out);
     assert_eq!(take_violation(), None);
 }

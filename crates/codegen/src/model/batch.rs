@@ -1,6 +1,6 @@
 //! Batch kernels: `invert_batch` and `outputs_batch`, a model function evaluated over columns of points, block
 //! by block, with the fractional powers of a block taken at once by `invsim_model_api::math::pow_pos_slice`
-//! and the lookup-map calls by `Map::partials2_batch`.
+//! and the lookup-map calls by `Map::partials2_batch` (`Map::values_batch` where only the value is read).
 //!
 //! The per-point function's lowered code is split at its fractional powers b^q (q a constant or a
 //! parameter-only value, b varying) and its map calls of orders ≤ 2 (one `partials2_batch` per map and
@@ -498,7 +498,8 @@ impl<'a> Kernel<'a> {
         loops
     }
 
-    /// `partials2_batch` for map group `j` after loop `lv`: entry e of point k into `mapv[j][e · len + k]`.
+    /// `partials2_batch` for map group `j` after loop `lv`: entry e of point k into `mapv[j][e · len + k]`;
+    /// `values_batch` (entry 0 alone, the same number) when the group reads only the value.
     fn map_batch(&self, j: usize, m: &SliceMap, lv: usize) -> TokenStream {
         let a = self.source(m.args[0].0, lv);
         let (b, width) = match m.args.get(1) {
@@ -506,6 +507,9 @@ impl<'a> Kernel<'a> {
             None => (quote!(&[]), lit(3)),
         };
         let (j, map) = (lit(j), lit(m.map));
+        if m.calls.iter().all(|&(_, e)| e == 0) {
+            return quote!(self.maps[#map].values_batch(#a, #b, &mut mapv[#j][..len]););
+        }
         quote!(self.maps[#map].partials2_batch(#a, #b, &mut mapv[#j][..#width * len]);)
     }
 
@@ -773,7 +777,7 @@ impl<'a> Kernel<'a> {
             at_once.push("the fractional powers of a block at once, by [`pow_pos_slice`] (within 1 ulp of `powf`)");
         }
         if self.plan.has_maps() {
-            at_once.push("the map calls of a block at once, by `Map::partials2_batch` (bit for bit `partials2`)");
+            at_once.push("the map calls of a block at once, by `Map::partials2_batch` or, where only the value is read, `Map::values_batch` (bit for bit `partials2`)");
         }
         doc.push(if at_once.is_empty() {
             "Block by block ([`BLOCK`] points), point by point in loops that vectorise.".to_string()

@@ -348,14 +348,29 @@ fn lu_solve() -> TokenStream {
     quote! {
         /// Solves a·s = b in place of `b` by Gaussian elimination with partial pivoting; `false` when `a`
         /// is singular.
+        ///
+        /// The pivot of column k is the first row i ≥ k of largest |a_ik|, exchanged with row k. The rows are
+        /// indexed by loop counters only (the exchange is a select per row i > k: whether i is the pivot), so
+        /// for a model's fixed N the loops unroll and the matrix stays in registers.
+        #[inline(always)]
         fn lu_solve(mut a: [[f64; N]; N], b: &mut [f64; N]) -> bool {
             for k in 0..N {
-                let pivot = (k..N).fold(k, |best, i| if a[i][k].abs() > a[best][k].abs() { i } else { best });
-                if a[pivot][k] == 0.0 {
+                let (mut pivot, mut largest) = (k, a[k][k].abs());
+                for (i, ai) in a.iter().enumerate().skip(k + 1) {
+                    if ai[k].abs() > largest {
+                        (pivot, largest) = (i, ai[k].abs());
+                    }
+                }
+                if largest == 0.0 {
                     return false;
                 }
-                a.swap(k, pivot);
-                b.swap(k, pivot);
+                for i in k + 1..N {
+                    let swap = i == pivot;
+                    let (x, y) = (a[k], a[i]);
+                    (a[k], a[i]) = if swap { (y, x) } else { (x, y) };
+                    let (x, y) = (b[k], b[i]);
+                    (b[k], b[i]) = if swap { (y, x) } else { (x, y) };
+                }
                 let (row, bk) = (a[k], b[k]);
                 for (ai, bi) in a.iter_mut().zip(b.iter_mut()).skip(k + 1) {
                     let factor = ai[k] / row[k];

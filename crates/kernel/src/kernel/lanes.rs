@@ -164,39 +164,89 @@ fn estrin_lanes<V: F4>(c: &LanePiece, s: f64) -> V {
         .add_mul(q(8).add_mul(q0.lane3_to_2(), s4), s8)
 }
 
+/// The working arrays of [`Kernel::corner_excess_chunk`] for `N` points, kept by the caller from chunk to
+/// chunk: every entry a call reads it has written before.
+pub(crate) struct CornerChunk<const N: usize> {
+    /// The piece and the local variable of each point's `−|u|`.
+    j: [usize; N],
+    s: [f64; N],
+    /// The factors `[a, ±1, 1/a]` (0 outside the support).
+    scale: [[f64; N]; 3],
+    /// Whether the point lies inside the support, and the first `count` of `listed`: those that do.
+    inside: [bool; N],
+    listed: [usize; N],
+}
+
+impl<const N: usize> CornerChunk<N> {
+    pub(crate) fn new() -> CornerChunk<N> {
+        CornerChunk {
+            j: [0; N],
+            s: [0.0; N],
+            scale: [[0.0; N]; 3],
+            inside: [false; N],
+            listed: [0; N],
+        }
+    }
+}
+
 impl Kernel {
+    /// [`Kernel::corner_excess`] at one `t` from the 4-lane table: the same numbers (one lane of
+    /// [`Kernel::corner_excess_chunk`]).
+    #[inline(always)]
+    pub(crate) fn corner_excess_lanes<V: F4>(&self, t: f64) -> [f64; 3] {
+        let u = t * self.inv_a;
+        if u.is_nan() {
+            return [f64::NAN; 3];
+        }
+        let v = -u.abs();
+        if v <= -1.0 {
+            return [0.0; 3];
+        }
+        let (j, s) = UnitTables::locate(v);
+        let [r, k, d, _] = estrin_lanes::<V>(&CORNER_LANES[j], s).max0().to_array();
+        [self.a * r, if u > 0.0 { -k } else { k }, d * self.inv_a]
+    }
+
     /// [`Kernel::corner_excess`] (`[R(t) − t₊, K(t) − H(t), k(t)]`) at a chunk of offsets, structure of
     /// arrays: `e[m][i]` is entry `m` at `t[i]`; the same numbers for every `t` but NaN, where it gives 0 (the
     /// batched map fills NaN for NaN arguments itself). The piece and the factors `[a, ±1, 1/a]` are found
     /// across the chunk first (vectorised; outside the support the piece at `u = −1` and the factors 0), then
-    /// each point's piece is evaluated in the lanes, then scaled (vectorised): `R − t₊ = a·R₁`,
-    /// `K − H = ±K₁`, `k = (h/C₀)/a` from the non-negative parts (`k.max(0.0)` etc. as the scalar path).
+    /// the piece of each point inside the support is evaluated in the lanes, then scaled (vectorised):
+    /// `R − t₊ = a·R₁`, `K − H = ±K₁`, `k = (h/C₀)/a` from the non-negative parts (`k.max(0.0)` etc. as the
+    /// scalar path). Outside the support the table's value (finite, ≥ 0) times the factor 0 would be +0:
+    /// the entry is set to +0 there instead of evaluated.
     #[inline(always)]
     pub(crate) fn corner_excess_chunk<V: F4, const N: usize>(
         &self,
         t: &[f64; N],
         e: &mut [[f64; N]; 3],
+        w: &mut CornerChunk<N>,
     ) {
-        let mut j = [0; N];
-        let mut s = [0.0; N];
-        let mut scale = [[0.0; N]; 3];
         for i in 0..N {
             let u = t[i] * self.inv_a;
             let v = -u.abs();
             let inside = v > -1.0;
-            (j[i], s[i]) = UnitTables::locate(if inside { v } else { -1.0 });
+            w.inside[i] = inside;
+            (w.j[i], w.s[i]) = UnitTables::locate(if inside { v } else { -1.0 });
             let sign = if u > 0.0 { -1.0 } else { 1.0 };
-            scale[0][i] = if inside { self.a } else { 0.0 };
-            scale[1][i] = if inside { sign } else { 0.0 };
-            scale[2][i] = if inside { self.inv_a } else { 0.0 };
+            w.scale[0][i] = if inside { self.a } else { 0.0 };
+            w.scale[1][i] = if inside { sign } else { 0.0 };
+            w.scale[2][i] = if inside { self.inv_a } else { 0.0 };
+            (e[0][i], e[1][i], e[2][i]) = (0.0, 0.0, 0.0);
         }
+        // The points inside the support, listed without a branch.
+        let mut count = 0;
         for i in 0..N {
-            let raw = estrin_lanes::<V>(&CORNER_LANES[j[i]], s[i])
+            w.listed[count] = i;
+            count += usize::from(w.inside[i]);
+        }
+        for &i in &w.listed[..count] {
+            let raw = estrin_lanes::<V>(&CORNER_LANES[w.j[i]], w.s[i])
                 .max0()
                 .to_array();
             [e[0][i], e[1][i], e[2][i]] = [raw[0], raw[1], raw[2]];
         }
-        for (e_m, scale_m) in e.iter_mut().zip(&scale) {
+        for (e_m, scale_m) in e.iter_mut().zip(&w.scale) {
             for (e, &f) in e_m.iter_mut().zip(scale_m) {
                 *e *= f;
             }
@@ -208,7 +258,15 @@ impl Kernel {
 mod tests {
     use super::*;
 
-    /// Bit for bit the scalar corner excess, inside the support, at its ends and outside, portable and AVX2.
+    /// [`Kernel::corner_excess_lanes`] in AVX2 registers.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn one_lane_avx2(kernel: &Kernel, t: f64) -> [f64; 3] {
+        kernel.corner_excess_lanes::<Avx2>(t)
+    }
+
+    /// Bit for bit the scalar corner excess, inside the support, at its ends and outside, portable and AVX2,
+    /// a chunk at a time and one point at a time.
     #[test]
     fn lanes_equal_the_scalar_corner_excess() {
         const N: usize = 64;
@@ -221,9 +279,15 @@ mod tests {
             for chunk in ts.chunks(N) {
                 let t: [f64; N] = std::array::from_fn(|i| chunk.get(i).copied().unwrap_or(0.0));
                 let mut e = [[0.0; N]; 3];
-                kernel.corner_excess_chunk::<[f64; 4], N>(&t, &mut e);
+                kernel.corner_excess_chunk::<[f64; 4], N>(&t, &mut e, &mut CornerChunk::new());
                 for (i, &t) in chunk.iter().enumerate() {
                     let scalar = kernel.corner_excess(t);
+                    let one = kernel.corner_excess_lanes::<[f64; 4]>(t);
+                    assert_eq!(
+                        one.map(f64::to_bits),
+                        scalar.map(f64::to_bits),
+                        "one lane, t {t}"
+                    );
                     for n in 0..3 {
                         assert_eq!(
                             e[n][i].to_bits(),
@@ -235,12 +299,22 @@ mod tests {
                 #[cfg(target_arch = "x86_64")]
                 if std::is_x86_feature_detected!("avx2") {
                     let mut avx2 = [[0.0; N]; 3];
-                    kernel.corner_excess_chunk::<Avx2, N>(&t, &mut avx2);
+                    kernel.corner_excess_chunk::<Avx2, N>(&t, &mut avx2, &mut CornerChunk::new());
                     assert_eq!(
                         avx2.map(|r| r.map(f64::to_bits)),
                         e.map(|r| r.map(f64::to_bits)),
                         "AVX2, h {h}"
                     );
+                    for (i, &t) in chunk.iter().enumerate() {
+                        // SAFETY: the processor has AVX2 (checked above); `Avx2`'s operations need it.
+                        let one = unsafe { one_lane_avx2(&kernel, t) };
+                        let want = [e[0][i], e[1][i], e[2][i]];
+                        assert_eq!(
+                            one.map(f64::to_bits),
+                            want.map(f64::to_bits),
+                            "AVX2 one lane, t {t}"
+                        );
+                    }
                 }
             }
         }

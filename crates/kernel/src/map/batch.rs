@@ -24,11 +24,14 @@
 //!
 //! Points go in chunks of [`CHUNK`] through stages that each loop over the whole chunk before the next
 //! starts, structure of arrays over the points: count the grid points below each argument (fixed-width
-//! compares), gather the region's ends and the nearest corner (scalar loads), form the unsmoothed weights
-//! and slopes (vectorised across points), evaluate the corner terms (one 4-lane table evaluation per point,
-//! [`F4`]), add them (vectorised), gather the values and contract (vectorised). The independent work of
-//! different points overlaps instead of waiting on one point's chain of dependent loads and products, and
-//! no stage branches on the data.
+//! compares) and clamp the count to the region (vectorised), gather the region's ends (scalar loads), find
+//! the nearest corner and form the unsmoothed weights and slopes (vectorised across points), gather the
+//! corner's kink weights (scalar loads), evaluate the corner terms (one 4-lane table evaluation per point
+//! inside the kernel's support, [`F4`]; +0 outside, where the evaluation would give +0), add them
+//! (vectorised), gather the values and contract (vectorised, `contract.rs`). A whole chunk reads its
+//! arguments in place and writes its results into the output directly. The independent work of different
+//! points overlaps instead of waiting on one point's chain of dependent loads and products, and no stage
+//! branches on the data.
 
 // The stages index several arrays by the point `i` and small fixed orders: the form the vectoriser turns into
 // fixed-width loops across points.
@@ -37,32 +40,27 @@
 use std::cell::RefCell;
 
 use super::axis::Axis;
+use super::contract::{contract_1d, contract_1d_value, contract_2d, contract_2d_value};
 use super::extrapolate::Extrapolate;
-use crate::kernel::F4;
+use crate::kernel::{CornerChunk, F4};
 
 /// Points per chunk: every stage is a loop of this fixed length over arrays of this length (a last, shorter
 /// chunk is padded with the grids' first points and its extra results dropped).
-const CHUNK: usize = 32;
+pub(super) const CHUNK: usize = 32;
 
 /// Grids up to this length are searched by counting the points below `a` (fixed-width, vectorised across
 /// the chunk's points); longer ones by a branch-free binary search per point.
 const COUNT_SEARCH: usize = 32;
 
 /// One chunk's numbers on one axis, structure of arrays over the points `i`.
-struct AxisChunk {
+pub(super) struct AxisChunk {
     /// The index `c_i` of the grid point nearest `a_i`: the padded index of `Φ_0 = φ_{c−1}`.
-    c: [usize; CHUNK],
+    pub(super) c: [usize; CHUNK],
     /// `phi[k][m][i] = Φ_{c−1+k}^(m)(a_i)`.
-    phi: [[[f64; CHUNK]; 3]; 3],
+    pub(super) phi: [[[f64; CHUNK]; 3]; 3],
     /// The kink weights `w[k][i] = w_{c−1+k, c}` of the corner.
     w: [[f64; CHUNK]; 3],
-    /// The region's ends `x_r, x_{r+1}`; masks (all ones for true): the nearest corner's side (`c = r`),
-    /// whether `a ≤ x_0`, resp. `a > x_{n−1}` (the edges of `clamp`); then `t_i = a_i − x_c`.
-    x0: [f64; CHUNK],
-    x1: [f64; CHUNK],
-    near: [u64; CHUNK],
-    left: [u64; CHUNK],
-    right: [u64; CHUNK],
+    /// `t_i = a_i − x_c`, the offset to the nearest corner.
     t: [f64; CHUNK],
 }
 
@@ -71,12 +69,18 @@ struct AxisChunk {
 struct Scratch {
     x: AxisChunk,
     y: AxisChunk,
-    /// Corner terms `e[m][i] = E_m(t_i)` of the axis at hand.
-    e: [[f64; CHUNK]; 3],
+    /// The corner terms of the axis at hand.
+    corners: Corners,
     /// Values `v[k][l][i] = v_{c_x−1+k, c_y−1+l}` (1-D: `v[0][k][i] = v_{c−1+k}`).
     v: [[[f64; CHUNK]; 3]; 3],
     /// Results `res[3p + q][i]` (1-D: `res[m][i]`).
     res: [[f64; CHUNK]; 9],
+}
+
+/// Corner terms `e[m][i] = E_m(t_i)` of the axis at hand, and the working arrays that find them.
+struct Corners {
+    e: [[f64; CHUNK]; 3],
+    work: CornerChunk<CHUNK>,
 }
 
 impl Scratch {
@@ -84,7 +88,10 @@ impl Scratch {
         Box::new(Scratch {
             x: AxisChunk::new(),
             y: AxisChunk::new(),
-            e: [[0.0; CHUNK]; 3],
+            corners: Corners {
+                e: [[0.0; CHUNK]; 3],
+                work: CornerChunk::new(),
+            },
             v: [[[0.0; CHUNK]; 3]; 3],
             res: [[0.0; CHUNK]; 9],
         })
@@ -118,11 +125,6 @@ impl AxisChunk {
             c: [0; CHUNK],
             phi: [[[0.0; CHUNK]; 3]; 3],
             w: [[0.0; CHUNK]; 3],
-            x0: [0.0; CHUNK],
-            x1: [0.0; CHUNK],
-            near: [0; CHUNK],
-            left: [0; CHUNK],
-            right: [0; CHUNK],
             t: [0.0; CHUNK],
         }
     }
@@ -153,7 +155,7 @@ pub(super) fn pad(values: &[f64], nx: usize, ny: Option<usize>) -> Vec<f64> {
 
 /// The number of grid points below `a` (`partition_point(|x| x < a)`) without a data-dependent branch.
 #[inline(always)]
-fn lower_bound(g: &[f64], a: f64) -> usize {
+pub(super) fn lower_bound(g: &[f64], a: f64) -> usize {
     let mut base = 0;
     let mut len = g.len();
     while len > 1 {
@@ -170,23 +172,21 @@ fn lower_bound(g: &[f64], a: f64) -> usize {
 
 /// `p[i]` = the number of grid points below `a[i]` (`NaN`: 0, as `partition_point`).
 #[inline(always)]
-fn count_below(g: &[f64], a: &[f64; CHUNK], p: &mut [usize; CHUNK]) {
+fn count_below(g: &[f64], a: &[f64; CHUNK]) -> [i64; CHUNK] {
+    let mut count = [0_i64; CHUNK];
     if g.len() <= COUNT_SEARCH {
         // Compare and add across the chunk's points, one grid point at a time.
-        let mut count = [0_i64; CHUNK];
         for &x in g {
             for (c, &a) in count.iter_mut().zip(a) {
                 *c += i64::from(x < a);
             }
         }
-        for (p, &c) in p.iter_mut().zip(&count) {
-            *p = c as usize;
-        }
     } else {
-        for (p, &a) in p.iter_mut().zip(a) {
-            *p = lower_bound(g, a);
+        for (c, &a) in count.iter_mut().zip(a) {
+            *c = lower_bound(g, a) as i64;
         }
     }
+    count
 }
 
 /// All ones for true, zeros for false.
@@ -195,8 +195,18 @@ fn mask(b: bool) -> u64 {
     u64::from(b).wrapping_neg()
 }
 
-/// Stage 1 of an axis: the region `r` (`x_r < a ≤ x_{r+1}`, clamped to the end intervals), its ends, the
-/// nearest corner `c ∈ {r, r + 1}` and the clamp's edge flags.
+/// `mask ? a : b` on the bits (`mask` all ones or all zeros): the same number, vectorised as and/or.
+#[inline(always)]
+fn select(mask: u64, a: f64, b: f64) -> f64 {
+    f64::from_bits((a.to_bits() & mask) | (b.to_bits() & !mask))
+}
+
+/// Stages 1–2 of an axis. The region `r` (`x_r < a ≤ x_{r+1}`, clamped to the end intervals) from the count
+/// `p` of grid points below `a` (vectorised), its ends `x_r, x_{r+1}` (scalar loads), then vectorised: the
+/// nearest corner `c ∈ {r, r + 1}`, the offset `t = a − x_c`, the unsmoothed weights and slopes of the region
+/// (`Axis::plain`'s numbers, under `clamp` the edge value outside the grid) at the fixed-width offsets
+/// (`φ_r, φ_{r+1}` at offsets 1, 2 when `c = r`, at 0, 1 when `c = r + 1`); last the kink weights of `c`
+/// (scalar loads).
 #[inline(always)]
 fn locate(axis: &Axis, a: &[f64; CHUNK], ch: &mut AxisChunk) {
     let g = axis.grid.as_slice();
@@ -204,140 +214,72 @@ fn locate(axis: &Axis, a: &[f64; CHUNK], ch: &mut AxisChunk) {
     // A grid has at least two points (`Map::new_*` checks); stated so that the indices below need no checks.
     assert!(n >= 2 && axis.weights.len() == n);
     let weights = &axis.weights[..n];
-    let mut p = [0; CHUNK];
-    count_below(g, a, &mut p);
+    let clamp = axis.extrapolate == Extrapolate::Clamp;
+    let p = count_below(g, a);
+    let mut r = [0_usize; CHUNK];
     for i in 0..CHUNK {
-        let r = p[i].saturating_sub(1).min(n - 2);
-        let (x0, x1) = (g[r], g[r + 1]);
-        let near = a[i] - x0 <= x1 - a[i];
-        (ch.x0[i], ch.x1[i], ch.near[i]) = (x0, x1, mask(near));
-        let c = r + usize::from(!near);
-        ch.c[i] = c;
-        [ch.w[0][i], ch.w[1][i], ch.w[2][i]] = weights[c];
-        (ch.left[i], ch.right[i]) = (mask(p[i] == 0), mask(p[i] == n));
+        r[i] = (p[i] - 1).clamp(0, n as i64 - 2) as usize;
     }
-}
-
-/// `mask ? a : b` on the bits (`mask` all ones or all zeros): the same number, vectorised as and/or.
-#[inline(always)]
-fn select(mask: u64, a: f64, b: f64) -> f64 {
-    f64::from_bits((a.to_bits() & mask) | (b.to_bits() & !mask))
-}
-
-/// Stage 2 of an axis: the unsmoothed weights and slopes of `a`'s region (`Axis::plain`'s numbers) at the
-/// fixed-width offsets (`φ_r, φ_{r+1}` at offsets 1, 2 when `c = r`, at 0, 1 when `c = r + 1`) and the
-/// offset `t = a − x_c` to the corner.
-#[inline(always)]
-fn plain(a: &[f64; CHUNK], ch: &mut AxisChunk, clamp: bool) {
-    let mut f = [[0.0; CHUNK]; 2];
-    let mut s = [[0.0; CHUNK]; 2];
+    let (mut x0, mut x1) = ([0.0; CHUNK], [0.0; CHUNK]);
     for i in 0..CHUNK {
-        let (a, x0, x1) = (a[i], ch.x0[i], ch.x1[i]);
-        let d = x1 - x0;
-        // φ_r = (x_{r+1} − a)/d, φ_{r+1} = (a − x_r)/d.
-        (f[0][i], f[1][i]) = ((x1 - a) / d, (a - x0) / d);
-        (s[0][i], s[1][i]) = (-1.0 / d, 1.0 / d);
-    }
-    if clamp {
-        // The edge value outside the grid: φ_0 = 1 left of it, φ_{n−1} = 1 right of it, slopes 0.
-        for i in 0..CHUNK {
-            let (left, edge) = (ch.left[i], ch.left[i] | ch.right[i]);
-            f[0][i] = select(edge, select(left, 1.0, 0.0), f[0][i]);
-            f[1][i] = select(edge, select(left, 0.0, 1.0), f[1][i]);
-            s[0][i] = select(edge, 0.0, s[0][i]);
-            s[1][i] = select(edge, 0.0, s[1][i]);
-        }
+        let ends = &g[r[i]..][..2];
+        (x0[i], x1[i]) = (ends[0], ends[1]);
     }
     let [k0, k1, k2] = &mut ch.phi;
     for i in 0..CHUNK {
-        let near = ch.near[i];
-        for m in 0..2 {
-            let (lo, hi) = if m == 0 {
-                (f[0][i], f[1][i])
-            } else {
-                (s[0][i], s[1][i])
-            };
-            k0[m][i] = select(near, 0.0, lo);
-            k1[m][i] = select(near, lo, hi);
-            k2[m][i] = select(near, hi, 0.0);
+        let (a, x0, x1) = (a[i], x0[i], x1[i]);
+        let near = mask(a - x0 <= x1 - a);
+        ch.c[i] = r[i] + (!near & 1) as usize;
+        ch.t[i] = a - select(near, x0, x1);
+        let d = x1 - x0;
+        // φ_r = (x_{r+1} − a)/d, φ_{r+1} = (a − x_r)/d; slopes ∓1/d.
+        let (mut f0, mut f1) = ((x1 - a) / d, (a - x0) / d);
+        let (mut s0, mut s1) = (-1.0 / d, 1.0 / d);
+        if clamp {
+            // The edge value outside the grid: φ_0 = 1 left of it, φ_{n−1} = 1 right of it, slopes 0.
+            let (left, right) = (mask(p[i] == 0), mask(p[i] == n as i64));
+            let edge = left | right;
+            f0 = select(edge, select(left, 1.0, 0.0), f0);
+            f1 = select(edge, select(left, 0.0, 1.0), f1);
+            s0 = select(edge, 0.0, s0);
+            s1 = select(edge, 0.0, s1);
         }
+        (k0[0][i], k1[0][i], k2[0][i]) = (
+            select(near, 0.0, f0),
+            select(near, f0, f1),
+            select(near, f1, 0.0),
+        );
+        (k0[1][i], k1[1][i], k2[1][i]) = (
+            select(near, 0.0, s0),
+            select(near, s0, s1),
+            select(near, s1, 0.0),
+        );
         (k0[2][i], k1[2][i], k2[2][i]) = (0.0, 0.0, 0.0);
-        ch.t[i] = a[i] - select(near, ch.x0[i], ch.x1[i]);
+    }
+    for i in 0..CHUNK {
+        [ch.w[0][i], ch.w[1][i], ch.w[2][i]] = weights[ch.c[i]];
     }
 }
 
 /// Stage 3 of a smoothed axis: `Φ_{c−1+k}^(m) += w_{c−1+k, c} E_m(a − x_c)`.
 #[inline(always)]
-fn add_corners<V: F4>(axis: &Axis, ch: &mut AxisChunk, e: &mut [[f64; CHUNK]; 3]) {
+fn add_corners<V: F4, const VALUE: bool>(axis: &Axis, ch: &mut AxisChunk, c: &mut Corners) {
     let Some(kernel) = axis.kernel else {
         return;
     };
-    kernel.corner_excess_chunk::<V, CHUNK>(&ch.t, e);
+    let e = &mut c.e;
+    kernel.corner_excess_chunk::<V, CHUNK>(&ch.t, e, &mut c.work);
+    let orders = if VALUE { 1 } else { 3 };
     for i in 0..CHUNK {
         for k in 0..3 {
-            for m in 0..3 {
+            for m in 0..orders {
                 ch.phi[k][m][i] += ch.w[k][i] * e[m][i];
             }
         }
     }
 }
 
-/// Stage 4, 2-D: `res[3p + q] = Σ_k Φ_k^(p) Σ_l v_kl Ψ_l^(q)` (`small::contract`'s order, from 0).
-#[inline(always)]
-fn contract_2d(padded: &[f64], ny: usize, s: &mut Scratch) {
-    let w = ny + 2;
-    for i in 0..CHUNK {
-        for k in 0..3 {
-            let row = &padded[(s.x.c[i] + k) * w + s.y.c[i]..][..3];
-            [s.v[k][0][i], s.v[k][1][i], s.v[k][2][i]] = [row[0], row[1], row[2]];
-        }
-    }
-    let (phi, psi, v) = (&s.x.phi, &s.y.phi, &s.v);
-    for i in 0..CHUNK {
-        let mut sum = [[0.0; 3]; 3];
-        for k in 0..3 {
-            let mut t = [0.0; 3];
-            for l in 0..3 {
-                for q in 0..3 {
-                    t[q] += v[k][l][i] * psi[l][q][i];
-                }
-            }
-            for p in 0..3 {
-                for q in 0..3 {
-                    sum[p][q] += phi[k][p][i] * t[q];
-                }
-            }
-        }
-        for p in 0..3 {
-            for q in 0..3 {
-                s.res[3 * p + q][i] = sum[p][q];
-            }
-        }
-    }
-}
-
-/// Stage 4, 1-D: `res[m] = Σ_k v_k Φ_k^(m)` (`Map::eval_1d_small`'s order, from 0).
-#[inline(always)]
-fn contract_1d(padded: &[f64], s: &mut Scratch) {
-    for i in 0..CHUNK {
-        let vals = &padded[s.x.c[i]..][..3];
-        [s.v[0][0][i], s.v[0][1][i], s.v[0][2][i]] = [vals[0], vals[1], vals[2]];
-    }
-    let (phi, v) = (&s.x.phi, &s.v[0]);
-    for i in 0..CHUNK {
-        let mut sum = [0.0; 3];
-        for k in 0..3 {
-            for m in 0..3 {
-                sum[m] += v[k][i] * phi[k][m][i];
-            }
-        }
-        for m in 0..3 {
-            s.res[m][i] = sum[m];
-        }
-    }
-}
-
-/// `from` (at most [`CHUNK`] values), padded with `fill`.
+/// `from` (fewer than [`CHUNK`] values: the last chunk) padded with `fill`.
 #[inline(always)]
 fn chunk_of(from: &[f64], fill: f64) -> [f64; CHUNK] {
     let mut out = [fill; CHUNK];
@@ -345,17 +287,46 @@ fn chunk_of(from: &[f64], fill: f64) -> [f64; CHUNK] {
     out
 }
 
+/// The chunk of `a` from `start` (`len` points): in place when whole, else padded into `buf`.
+#[inline(always)]
+fn chunk<'a>(
+    a: &'a [f64],
+    start: usize,
+    len: usize,
+    fill: f64,
+    buf: &'a mut [f64; CHUNK],
+) -> &'a [f64; CHUNK] {
+    let from = &a[start..start + len];
+    match <&[f64; CHUNK]>::try_from(from) {
+        Ok(whole) => whole,
+        Err(_) => {
+            *buf = chunk_of(from, fill);
+            buf
+        }
+    }
+}
+
+/// Rows `k < W` of `out` (`n` values each) from `start` on, one whole chunk each.
+#[inline(always)]
+fn rows<const W: usize>(out: &mut [f64], n: usize, start: usize) -> [&mut [f64; CHUNK]; W] {
+    let mut rest = out;
+    std::array::from_fn(|_| {
+        let (row, tail) = std::mem::take(&mut rest).split_at_mut(n);
+        rest = tail;
+        <&mut [f64; CHUNK]>::try_from(&mut row[start..start + CHUNK]).expect("a whole chunk")
+    })
+}
+
 /// One axis through stages 1–3.
 #[inline(always)]
-fn axis_stages<V: F4>(
+fn axis_stages<V: F4, const VALUE: bool>(
     axis: &Axis,
     a: &[f64; CHUNK],
     ch: &mut AxisChunk,
-    e: &mut [[f64; CHUNK]; 3],
+    c: &mut Corners,
 ) {
     locate(axis, a, ch);
-    plain(a, ch, axis.extrapolate == Extrapolate::Clamp);
-    add_corners::<V>(axis, ch, e);
+    add_corners::<V, VALUE>(axis, ch, c);
 }
 
 /// A map's axes and padded values: what the fixed-width path reads.
@@ -367,26 +338,73 @@ pub(super) struct Data<'a> {
     pub(super) padded: &'a [f64],
 }
 
-/// The fixed-width path over all points (the map [`fits`]); `out` as `Map::partials2_batch` lays it out.
+/// The fixed-width path over all points (the map [`fits`]); `out` as `Map::partials2_batch` lays it out, or
+/// with `VALUE` the values alone (`Map::values_batch`: stage 3 adds the corner terms of order 0 only, stage 4
+/// forms the one sum `Σ_k Φ_k Σ_l v_kl Ψ_l`, the terms and order of entry 0 of the full contraction).
+/// Whole chunks read their arguments in place and write their results into `out` directly; the last,
+/// shorter one goes through the scratch.
 #[inline(always)]
-fn run<V: F4>(map: Data<'_>, a: &[f64], b: &[f64], out: &mut [f64], s: &mut Scratch) {
+fn run<V: F4, const VALUE: bool>(
+    map: Data<'_>,
+    a: &[f64],
+    b: &[f64],
+    out: &mut [f64],
+    s: &mut Scratch,
+) {
     let n = a.len();
-    let width = if map.y.is_some() { 9 } else { 3 };
     let mut start = 0;
+    let (mut buf_a, mut buf_b) = ([0.0; CHUNK], [0.0; CHUNK]);
     while start < n {
         let len = CHUNK.min(n - start);
-        let ax = chunk_of(&a[start..start + len], map.x.grid[0]);
-        axis_stages::<V>(map.x, &ax, &mut s.x, &mut s.e);
-        match map.y {
-            None => contract_1d(map.padded, s),
-            Some(y) => {
-                let by = chunk_of(&b[start..start + len], y.grid[0]);
-                axis_stages::<V>(y, &by, &mut s.y, &mut s.e);
-                contract_2d(map.padded, y.len(), s);
+        let whole = len == CHUNK;
+        let ax = chunk(a, start, len, map.x.grid[0], &mut buf_a);
+        axis_stages::<V, VALUE>(map.x, ax, &mut s.x, &mut s.corners);
+        let width = match (map.y, VALUE) {
+            (None, true) => {
+                let [res] = if whole {
+                    rows(out, n, start)
+                } else {
+                    [&mut s.res[0]]
+                };
+                contract_1d_value(map.padded, &s.x, &mut s.v[0], res);
+                1
             }
-        }
-        for (k, r) in s.res.iter().enumerate().take(width) {
-            out[k * n + start..][..len].copy_from_slice(&r[..len]);
+            (None, false) => {
+                let v = &mut s.v[0];
+                if whole {
+                    contract_1d(map.padded, &s.x, v, rows(out, n, start));
+                } else {
+                    let [r0, r1, r2, ..] = &mut s.res;
+                    contract_1d(map.padded, &s.x, v, [r0, r1, r2]);
+                }
+                3
+            }
+            (Some(y), _) => {
+                let by = chunk(b, start, len, y.grid[0], &mut buf_b);
+                axis_stages::<V, VALUE>(y, by, &mut s.y, &mut s.corners);
+                let axes = (&s.x, &s.y);
+                if VALUE {
+                    let [res] = if whole {
+                        rows(out, n, start)
+                    } else {
+                        [&mut s.res[0]]
+                    };
+                    contract_2d_value(map.padded, y.len(), axes, &mut s.v, res);
+                    1
+                } else {
+                    if whole {
+                        contract_2d(map.padded, y.len(), axes, &mut s.v, rows(out, n, start));
+                    } else {
+                        contract_2d(map.padded, y.len(), axes, &mut s.v, s.res.each_mut());
+                    }
+                    9
+                }
+            }
+        };
+        if !whole {
+            for (k, r) in s.res.iter().enumerate().take(width) {
+                out[k * n + start..][..len].copy_from_slice(&r[..len]);
+            }
         }
         start += len;
     }
@@ -396,92 +414,39 @@ fn run<V: F4>(map: Data<'_>, a: &[f64], b: &[f64], out: &mut [f64], s: &mut Scra
 /// numbers are those of the portable build).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn run_avx2(map: Data<'_>, a: &[f64], b: &[f64], out: &mut [f64], s: &mut Scratch) {
-    run::<crate::kernel::Avx2>(map, a, b, out, s)
+unsafe fn run_avx2<const VALUE: bool>(
+    map: Data<'_>,
+    a: &[f64],
+    b: &[f64],
+    out: &mut [f64],
+    s: &mut Scratch,
+) {
+    run::<crate::kernel::Avx2, VALUE>(map, a, b, out, s)
 }
 
 /// [`run`] built for any processor (what [`dispatch`] runs without AVX2), for the tests.
 #[cfg(test)]
-pub(super) fn portable(map: Data<'_>, a: &[f64], b: &[f64], out: &mut [f64]) {
-    with_scratch(|s| run::<[f64; 4]>(map, a, b, out, s))
+pub(super) fn portable(map: Data<'_>, a: &[f64], b: &[f64], out: &mut [f64], value: bool) {
+    with_scratch(|s| match value {
+        true => run::<[f64; 4], true>(map, a, b, out, s),
+        false => run::<[f64; 4], false>(map, a, b, out, s),
+    })
 }
 
-/// [`run`] with the best instruction set this processor has.
-pub(super) fn dispatch(map: Data<'_>, a: &[f64], b: &[f64], out: &mut [f64]) {
+/// [`run`] with the best instruction set this processor has (`value`: the values alone).
+pub(super) fn dispatch(map: Data<'_>, a: &[f64], b: &[f64], out: &mut [f64], value: bool) {
     #[cfg(target_arch = "x86_64")]
     if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
         // SAFETY: the processor has the features `run_avx2` is compiled for.
-        return with_scratch(|s| unsafe { run_avx2(map, a, b, out, s) });
-    }
-    with_scratch(|s| run::<[f64; 4]>(map, a, b, out, s))
-}
-
-/// One axis of one point through stages 1–3 (`a` finite): the padded index `c` of `Φ_0 = φ_{c−1}` and
-/// `phi[k][m] = Φ_{c−1+k}^(m)(a)`, each entry by the operations [`locate`], [`plain`] and [`add_corners`]
-/// apply to a lane of a chunk.
-#[inline(always)]
-fn axis_one(axis: &Axis, a: f64) -> (usize, [[f64; 3]; 3]) {
-    let g = axis.grid.as_slice();
-    let n = g.len();
-    assert!(n >= 2 && axis.weights.len() == n);
-    let p = lower_bound(g, a);
-    let r = p.saturating_sub(1).min(n - 2);
-    let (x0, x1) = (g[r], g[r + 1]);
-    let near = a - x0 <= x1 - a;
-    let c = r + usize::from(!near);
-    let d = x1 - x0;
-    // φ_r = (x_{r+1} − a)/d, φ_{r+1} = (a − x_r)/d; under `clamp` outside the grid the edge value, slopes 0.
-    let (mut f, mut s) = ([(x1 - a) / d, (a - x0) / d], [-1.0 / d, 1.0 / d]);
-    if axis.extrapolate == Extrapolate::Clamp && (p == 0 || p == n) {
-        f = if p == 0 { [1.0, 0.0] } else { [0.0, 1.0] };
-        s = [0.0, 0.0];
-    }
-    // φ_r, φ_{r+1} at offsets 1, 2 when c = r, at 0, 1 when c = r + 1.
-    let mut phi = if near {
-        [[0.0, 0.0, 0.0], [f[0], s[0], 0.0], [f[1], s[1], 0.0]]
-    } else {
-        [[f[0], s[0], 0.0], [f[1], s[1], 0.0], [0.0, 0.0, 0.0]]
-    };
-    if let Some(kernel) = axis.kernel {
-        let e = kernel.corner_excess(a - if near { x0 } else { x1 });
-        let w = axis.weights[c];
-        for k in 0..3 {
-            for m in 0..3 {
-                phi[k][m] += w[k] * e[m];
+        return with_scratch(|s| unsafe {
+            match value {
+                true => run_avx2::<true>(map, a, b, out, s),
+                false => run_avx2::<false>(map, a, b, out, s),
             }
-        }
+        });
     }
-    (c, phi)
-}
-
-/// [`Map::partials2`](super::Map::partials2) of a 2-D map that [`fits`] at one point with finite
-/// arguments: the fixed-width path of one lane ([`axis_one`] per axis, then [`contract_2d`]'s sums in its
-/// order), so the same numbers as the batch and as the point-by-point path of `small.rs`, with fixed-size
-/// loops and no basis of variable length.
-pub(super) fn partials2_one(x: &Axis, y: &Axis, padded: &[f64], a: f64, b: f64) -> [f64; 9] {
-    let (cx, phi) = axis_one(x, a);
-    let (cy, psi) = axis_one(y, b);
-    let w = y.len() + 2;
-    let mut sum = [[0.0; 3]; 3];
-    for k in 0..3 {
-        let v = &padded[(cx + k) * w + cy..][..3];
-        let mut t = [0.0; 3];
-        for l in 0..3 {
-            for q in 0..3 {
-                t[q] += v[l] * psi[l][q];
-            }
-        }
-        for p in 0..3 {
-            for q in 0..3 {
-                sum[p][q] += phi[k][p] * t[q];
-            }
-        }
-    }
-    let mut out = [0.0; 9];
-    for p in 0..3 {
-        for q in 0..3 {
-            out[3 * p + q] = sum[p][q];
-        }
-    }
-    out
+    with_scratch(|s| match value {
+        true => run::<[f64; 4], true>(map, a, b, out, s),
+        false => run::<[f64; 4], false>(map, a, b, out, s),
+    })
 }
