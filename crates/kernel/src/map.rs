@@ -25,6 +25,7 @@
 
 mod axis;
 mod batch;
+mod chunk;
 mod contract;
 mod extrapolate;
 mod memo;

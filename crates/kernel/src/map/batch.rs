@@ -40,29 +40,14 @@
 use std::cell::RefCell;
 
 use super::axis::Axis;
+use super::chunk::{AxisChunk, CHUNK};
 use super::contract::{contract_1d, contract_1d_value, contract_2d, contract_2d_value};
 use super::extrapolate::Extrapolate;
 use crate::kernel::{CornerChunk, F4};
 
-/// Points per chunk: every stage is a loop of this fixed length over arrays of this length (a last, shorter
-/// chunk is padded with the grids' first points and its extra results dropped).
-pub(super) const CHUNK: usize = 32;
-
 /// Grids up to this length are searched by counting the points below `a` (fixed-width, vectorised across
 /// the chunk's points); longer ones by a branch-free binary search per point.
 const COUNT_SEARCH: usize = 32;
-
-/// One chunk's numbers on one axis, structure of arrays over the points `i`.
-pub(super) struct AxisChunk {
-    /// The index `c_i` of the grid point nearest `a_i`: the padded index of `Φ_0 = φ_{c−1}`.
-    pub(super) c: [usize; CHUNK],
-    /// `phi[k][m][i] = Φ_{c−1+k}^(m)(a_i)`.
-    pub(super) phi: [[[f64; CHUNK]; 3]; 3],
-    /// The kink weights `w[k][i] = w_{c−1+k, c}` of the corner.
-    w: [[f64; CHUNK]; 3],
-    /// `t_i = a_i − x_c`, the offset to the nearest corner.
-    t: [f64; CHUNK],
-}
 
 /// Everything a chunk needs, one per thread (see [`with_scratch`]): the stages write every entry a chunk
 /// reads before reading it, so nothing is cleared per chunk or per call.
@@ -313,8 +298,26 @@ fn rows<const W: usize>(out: &mut [f64], n: usize, start: usize) -> [&mut [f64; 
     std::array::from_fn(|_| {
         let (row, tail) = std::mem::take(&mut rest).split_at_mut(n);
         rest = tail;
-        <&mut [f64; CHUNK]>::try_from(&mut row[start..start + CHUNK]).expect("a whole chunk")
+        // `row[start..]` holds at least a whole chunk: the caller pads the last one.
+        let (chunk, _) = row[start..].split_at_mut(CHUNK);
+        chunk_mut(chunk)
     })
+}
+
+/// A slice of exactly [`CHUNK`] values as an array (every call passes such a slice).
+#[inline(always)]
+fn chunk_mut(s: &mut [f64]) -> &mut [f64; CHUNK] {
+    let len = s.len();
+    match s.first_chunk_mut::<CHUNK>() {
+        Some(c) => c,
+        None => unreachable_chunk(len),
+    }
+}
+
+#[cold]
+#[inline(never)]
+fn unreachable_chunk(len: usize) -> ! {
+    panic!("a chunk of {len} values, not {CHUNK}")
 }
 
 /// One axis through stages 1–3.

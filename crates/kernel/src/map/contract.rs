@@ -13,7 +13,7 @@
 // fixed-width loops across points.
 #![allow(clippy::needless_range_loop)]
 
-use super::batch::{AxisChunk, CHUNK};
+use super::chunk::{AxisChunk, CHUNK};
 
 /// Stage 4, 2-D: `res[3p + q] = Σ_k Φ_k^(p) Σ_l v_kl Ψ_l^(q)` (`small::contract`'s order, from 0).
 #[inline(always)]
