@@ -1,11 +1,13 @@
 //! `Model.forward`: the forward simulation of any model (with or without modes) along a cycle, closed by the
 //! command line's PI driver, as `invsim forward` runs it.
 
-use invsim_runtime::forward::{self, Bounds, ForwardOptions, Method};
+use invsim_runtime::forward::{Bounds, ForwardOptions, Method};
 
-use crate::engine::{Kind, Loaded};
+use invsim_runtime::{Cycle, RunFailure, RunResult};
+
+use crate::engine::Loaded;
 use crate::error::Failure;
-use crate::run::{gear_source, load_cycle, signal_input, Output, PySignal, RunSummary};
+use crate::run::{load_cycle, signal_input, Output, PySignal, RunSummary};
 
 /// The options of a forward run (the keyword arguments of `Model.forward`; `None`: the command line's
 /// default).
@@ -95,31 +97,28 @@ pub fn forward_one(
         ))
     };
     let opts = req.options(model.engine_name(), &stopped)?;
-    match &model.kind {
-        Kind::Single(_) => {
-            let m = model.single(params)?;
-            let r =
-                forward::forward(m.as_ref(), &cycle, &opts).map_err(|e| stopped(e.to_string()))?;
-            let units = r
-                .summary
-                .columns
-                .iter()
-                .map(|c| (c.name.clone(), c.unit.clone()))
-                .collect();
-            Ok((RunSummary::Forward(r.summary), r.columns, r.data, units))
-        }
-        Kind::Modal(_) => {
-            let plant = model.modal(params)?;
-            let spec = plant.spec(gear_source(&plant, model_path, &cycle, cycle_spec)?);
-            let r =
-                forward::forward_modes(&spec, &cycle, &opts).map_err(|e| stopped(e.to_string()))?;
-            let units = r.columns.iter().cloned().zip(r.units).collect();
-            Ok((
-                RunSummary::ModalForward(r.summary),
-                r.columns,
-                r.data,
-                units,
-            ))
-        }
-    }
+    let plant = model.plant(params)?;
+    let file = Cycle::builtin(cycle_spec)
+        .is_none()
+        .then(|| std::path::Path::new(cycle_spec));
+    let result = plant.forward(&cycle, file, &opts).map_err(|e| match e {
+        RunFailure::Gears(e) => Failure::in_file(format!("{model_path}: {e}"), model_path),
+        e => stopped(e.to_string()),
+    })?;
+    let units = result
+        .columns()
+        .iter()
+        .cloned()
+        .zip(result.units())
+        .collect();
+    Ok(match result {
+        RunResult::Forward(r) => (RunSummary::Forward(r.summary), r.columns, r.data, units),
+        RunResult::ModalForward(r, _) => (
+            RunSummary::ModalForward(r.summary),
+            r.columns,
+            r.data,
+            units,
+        ),
+        _ => return Err(Failure::msg("a forward run gave an inverse result")),
+    })
 }

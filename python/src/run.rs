@@ -4,7 +4,7 @@
 
 use invsim_runtime::forward::{ForwardSummary, ModalForwardSummary};
 use invsim_runtime::inverse::{simulate_shared, Reference};
-use invsim_runtime::modes::{GearSource, ModalPlant, ModalSummary, Switching};
+use invsim_runtime::modes::{ModalSummary, Switching};
 use invsim_runtime::signal_file::read_signal_file;
 use invsim_runtime::{
     Cycle, RunFailure, RunResult, SignalInput, SignalValue, SimulationOptions, SimulationResult,
@@ -199,22 +199,6 @@ fn stopped(model_path: &str, cycle: &str, e: impl std::fmt::Display) -> Failure 
     ))
 }
 
-/// The gear schedule of `plant` (loaded from `model_path`) for `cycle` (`spec` as given: a built-in name or
-/// the cycle file's path).
-pub fn gear_source(
-    plant: &ModalPlant,
-    model_path: &str,
-    cycle: &Cycle,
-    spec: &str,
-) -> Result<GearSource, Failure> {
-    let file = Cycle::builtin(spec)
-        .is_none()
-        .then(|| std::path::Path::new(spec));
-    plant
-        .gear_source(cycle, file)
-        .map_err(|e| Failure::in_file(format!("{model_path}: {e}"), model_path))
-}
-
 /// The command line's message for a run of the model at `model_path` on `cycle` that failed.
 pub fn run_failure(model_path: &str, cycle: &str, e: RunFailure) -> Failure {
     match e {
@@ -259,5 +243,6 @@ pub fn simulate_any(
             };
             (RunSummary::Modal(r.summary), columns, data, units)
         }
+        _ => return Err(Failure::msg("an inverse run gave a forward result")),
     })
 }

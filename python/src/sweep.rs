@@ -7,8 +7,8 @@
 //! the same variant; unlike `Sweep`, each row keeps the whole summary (the JSON `--summary-json` writes).
 
 use invsim_runtime::inverse::{reference, Reference};
+use invsim_runtime::Plant;
 use invsim_runtime::{Cycle, SimulationOptions};
-use invsim_runtime::{Plant, RunResult};
 use rayon::prelude::*;
 
 use crate::engine::{Kind, Loaded};
@@ -139,11 +139,10 @@ fn modal_row(
         let r = p
             .simulate(cycle, file, opts)
             .map_err(|e| run_failure(model_path, &cycle.name, e))?;
-        match r {
-            RunResult::Modal(r, _) => serde_json::to_string(&r.summary),
-            RunResult::Single(r) => serde_json::to_string(&r.summary),
-        }
-        .map_err(|e| Failure::msg(e.to_string()))
+        let mut json = Vec::new();
+        r.write_summary_json(&mut json)
+            .map_err(|e| Failure::msg(e.to_string()))?;
+        String::from_utf8(json).map_err(|e| Failure::msg(e.to_string()))
     });
     (values, summary)
 }

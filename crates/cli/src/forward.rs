@@ -1,17 +1,15 @@
 //! `invsim forward`: the forward simulation of a model (with or without modes) along a drive cycle, closed by a
 //! PI driver.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use clap::ValueEnum;
-use invsim_loader::{Loaded, LoadedModal, SingleModel};
 use invsim_runtime::forward::{self, Bounds, ForwardError, ForwardOptions, Method};
-use invsim_runtime::{output, Cycle};
+use invsim_runtime::RunFailure;
 
 use crate::engine::{prepare_run, EngineChoice, RunRequest};
 use crate::error::Failure;
 use crate::files::print_stdout;
-use crate::outputs::Outputs;
 use crate::provenance;
 
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum, serde::Serialize)]
@@ -129,7 +127,7 @@ pub(crate) fn options(
 
 /// `invsim forward` of any model.
 pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
-    let (outputs, cycle, model, data) = prepare_run(&RunRequest {
+    let (mut outputs, cycle, model, data) = prepare_run(&RunRequest {
         model: &args.model,
         engine: args.engine,
         cycle: &args.cycle,
@@ -140,86 +138,39 @@ pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
         plot: &args.plot,
         data: &args.data,
     })?;
+    let stopped = |e: &dyn std::fmt::Display| {
+        Failure::user(format!(
+            "forward simulation of `{}` on `{}` stopped: {e}",
+            args.model.display(),
+            cycle.name
+        ))
+    };
     let (progress, bar) = crate::progress::start("forward");
-    let mut opts =
-        options(args, model.engine_name(), progress).map_err(|e| stopped(args, &cycle, e))?;
+    let mut opts = options(args, model.engine_name(), progress).map_err(|e| stopped(&e))?;
     opts.signals = data.signals;
     opts.initial = data.initial;
-    let result = match &model {
-        Loaded::Single(m) => single(args, outputs, &cycle, m, &opts),
-        Loaded::Modal(m) => modal(args, outputs, &cycle, m, &opts),
-    };
+    let plant = model.into_plant();
+    let file = (!crate::cycle_spec::is_builtin(&args.cycle)).then(|| Path::new(&args.cycle));
+    let result = plant.forward(&cycle, file, &opts);
     bar.finish();
-    result
-}
-
-/// The message of a run that could not start or had to stop.
-fn stopped(args: &ForwardArgs, cycle: &Cycle, e: ForwardError) -> Failure {
-    Failure::user(format!(
-        "forward simulation of `{}` on `{}` stopped: {e}",
-        args.model.display(),
-        cycle.name
-    ))
-}
-
-/// The summary's record of what produced the run.
-fn record(
-    args: &ForwardArgs,
-    info: &invsim_model_api::ModelInfo,
-    cycle: &Cycle,
-) -> Result<invsim_runtime::Provenance, Failure> {
-    provenance::record(provenance::RunRecord {
+    let mut result = result.map_err(|e| match e {
+        RunFailure::Gears(e) => Failure::user(format!("{}: {e}", args.model.display())),
+        e => stopped(&e),
+    })?;
+    result.set_provenance(provenance::record(provenance::RunRecord {
         command: "forward",
         model: &args.model,
-        info,
+        info: plant.info(),
         cycle_spec: &args.cycle,
-        cycle,
+        cycle: &cycle,
         sets: &args.set,
         options: provenance::options_of(args),
-    })
-}
-
-/// `forward` of a model without modes.
-fn single(
-    args: &ForwardArgs,
-    mut outputs: Outputs,
-    cycle: &Cycle,
-    model: &SingleModel,
-    opts: &ForwardOptions,
-) -> Result<(), Failure> {
-    let m = model.as_model();
-    let mut result = forward::forward(m, cycle, opts).map_err(|e| stopped(args, cycle, e))?;
-    result.summary.provenance = Some(record(args, m.info(), cycle)?);
-    outputs.write("--out", |f| {
-        output::write_table_csv(&result.columns, &result.data, f)
-    })?;
-    outputs.write("--summary-json", |f| output::write_json(&result.summary, f))?;
+    })?);
+    outputs.write("--out", |f| result.write_csv(f))?;
+    outputs.write("--summary-json", |f| result.write_summary_json(f))?;
     crate::plotting::write(&args.plot, &mut outputs, |vars| {
-        invsim_runtime::plot::forward_figure(&result, m.info(), m.reference(), vars)
+        plant.figure(&result, &cycle, vars)
     })?;
     outputs.commit()?;
-    print_stdout(&result.summary.to_text())
-}
-
-/// `forward` of a model with modes (the mode sequence by `forward::forward_modes`).
-fn modal(
-    args: &ForwardArgs,
-    mut outputs: Outputs,
-    cycle: &Cycle,
-    model: &LoadedModal,
-    opts: &ForwardOptions,
-) -> Result<(), Failure> {
-    let spec = crate::modal_cmd::spec(args.model.as_path(), model, cycle, &args.cycle)?;
-    let mut result =
-        forward::forward_modes(&spec, cycle, opts).map_err(|e| stopped(args, cycle, e))?;
-    result.summary.provenance = Some(record(args, model.plant.first().info(), cycle)?);
-    outputs.write("--out", |f| {
-        output::write_table_csv(&result.columns, &result.data, f)
-    })?;
-    outputs.write("--summary-json", |f| output::write_json(&result.summary, f))?;
-    crate::plotting::write(&args.plot, &mut outputs, |vars| {
-        invsim_runtime::plot::modal_forward_figure(&result, &spec, vars)
-    })?;
-    outputs.commit()?;
-    print_stdout(&result.summary.to_text())
+    print_stdout(&result.summary_text())
 }

@@ -23,7 +23,6 @@ mod forward;
 mod import_cmd;
 mod initial_args;
 mod map_args;
-mod modal_cmd;
 mod outputs;
 mod plotting;
 #[cfg(all(target_os = "linux", target_env = "gnu"))]

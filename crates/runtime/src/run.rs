@@ -1,8 +1,8 @@
-//! One inverse run of any model, the spine every front end shares: [`Plant::simulate`] takes the options
-//! built and validated once ([`SimulationOptions`]) and plugs in the solver the model needs — the inverse
-//! (causal or stable, [`crate::inverse`]) for a model without modes, the mode sequence ([`crate::modes`]) for
-//! one with modes — and gives a [`RunResult`] that writes its table, summary, text and figure the same way
-//! whatever ran.
+//! One run of any model, the spine every front end shares: [`Plant::simulate`] takes the options built and
+//! validated once ([`SimulationOptions`]) and plugs in the solver the model needs — the inverse (causal or
+//! stable, [`crate::inverse`]) for a model without modes, the mode sequence ([`crate::modes`]) for one with
+//! modes — and [`Plant::forward`] the forward simulation with the driver ([`crate::forward`]) of either; both
+//! give a [`RunResult`] that writes its table, summary, text and figure the same way whatever ran.
 
 use std::io::{self, Write};
 use std::path::Path;
@@ -10,6 +10,8 @@ use std::path::Path;
 use thiserror::Error;
 
 use crate::cycle::Cycle;
+use crate::forward::ModalForwardResult;
+use crate::forward::{forward, forward_modes, ForwardError, ForwardOptions, ForwardResult};
 use crate::inverse::{simulate, SimulateError, SimulationOptions, SimulationResult};
 use crate::modes::{
     simulate_modes_with_signals, GearSource, ModalError, ModalOptions, ModalResult,
@@ -25,16 +27,23 @@ pub enum RunFailure {
     Inverse(#[from] SimulateError),
     #[error(transparent)]
     Modes(#[from] ModalError),
+    #[error(transparent)]
+    Forward(#[from] ForwardError),
     /// The gearbox's schedule does not exist for the cycle.
     #[error("{0}")]
     Gears(String),
 }
 
-/// The result of one inverse run.
+/// The result of one run.
 pub enum RunResult {
+    /// An inverse run of a model without modes.
     Single(Box<SimulationResult>),
-    /// A run with modes, with the gear schedule it ran with (its figure needs the modes again).
+    /// An inverse run with modes, with the gear schedule it ran with (its figure needs the modes again).
     Modal(Box<ModalResult>, GearSource),
+    /// A forward run of a model without modes.
+    Forward(Box<ForwardResult>),
+    /// A forward run with modes, with its gear schedule.
+    ModalForward(Box<ModalForwardResult>, GearSource),
 }
 
 /// The options of the mode sequence taken from a run's options.
@@ -81,6 +90,28 @@ impl Plant {
         }
     }
 
+    /// Run the model forward along `cycle` (read from `file`, `None` for a built-in cycle), closed by the
+    /// driver of `opts`.
+    pub fn forward(
+        &self,
+        cycle: &Cycle,
+        file: Option<&Path>,
+        opts: &ForwardOptions,
+    ) -> Result<RunResult, RunFailure> {
+        match self {
+            Plant::Single(m) => Ok(RunResult::Forward(Box::new(forward(
+                m.as_ref(),
+                cycle,
+                opts,
+            )?))),
+            Plant::Modal(p) => {
+                let gears = p.gear_source(cycle, file).map_err(RunFailure::Gears)?;
+                let r = forward_modes(&p.spec(gears.clone()), cycle, opts)?;
+                Ok(RunResult::ModalForward(Box::new(r), gears))
+            }
+        }
+    }
+
     /// The figure of `result` (a run of this model on `cycle`) with the panels `vars` (empty: the default).
     pub fn figure(
         &self,
@@ -95,6 +126,12 @@ impl Plant {
             (Plant::Modal(p), RunResult::Modal(r, gears)) => {
                 plot::modal_simulation_figure(r, cycle, &p.spec(gears.clone()), vars)
             }
+            (Plant::Single(m), RunResult::Forward(r)) => {
+                plot::forward_figure(r, m.info(), m.reference(), vars)
+            }
+            (Plant::Modal(p), RunResult::ModalForward(r, gears)) => {
+                plot::modal_forward_figure(r, &p.spec(gears.clone()), vars)
+            }
             _ => Err(PlotError::Empty),
         }
     }
@@ -106,6 +143,8 @@ impl RunResult {
         match self {
             RunResult::Single(r) => &r.columns,
             RunResult::Modal(r, _) => &r.columns,
+            RunResult::Forward(r) => &r.columns,
+            RunResult::ModalForward(r, _) => &r.columns,
         }
     }
 
@@ -114,23 +153,25 @@ impl RunResult {
         match self {
             RunResult::Single(r) => &r.data,
             RunResult::Modal(r, _) => &r.data,
+            RunResult::Forward(r) => &r.data,
+            RunResult::ModalForward(r, _) => &r.data,
         }
     }
 
     /// Each column's unit, in the table's order.
     pub fn units(&self) -> Vec<Option<String>> {
+        let by_name = |columns: &[crate::Column]| -> Vec<Option<String>> {
+            let unit = |c: &String| {
+                let k = columns.iter().find(|k| &k.name == c);
+                k.and_then(|k| k.unit.clone())
+            };
+            self.columns().iter().map(unit).collect()
+        };
         match self {
-            RunResult::Single(r) => {
-                let unit = |c: &String| {
-                    r.summary
-                        .columns
-                        .iter()
-                        .find(|k| &k.name == c)
-                        .and_then(|k| k.unit.clone())
-                };
-                r.columns.iter().map(unit).collect()
-            }
+            RunResult::Single(r) => by_name(&r.summary.columns),
             RunResult::Modal(r, _) => r.units.clone(),
+            RunResult::Forward(r) => by_name(&r.summary.columns),
+            RunResult::ModalForward(r, _) => r.units.clone(),
         }
     }
 
@@ -139,6 +180,8 @@ impl RunResult {
         match self {
             RunResult::Single(r) => r.summary.provenance = Some(p),
             RunResult::Modal(r, _) => r.summary.provenance = Some(p),
+            RunResult::Forward(r) => r.summary.provenance = Some(p),
+            RunResult::ModalForward(r, _) => r.summary.provenance = Some(p),
         }
     }
 
@@ -147,6 +190,8 @@ impl RunResult {
         match self {
             RunResult::Single(r) => r.summary.to_text(),
             RunResult::Modal(r, _) => r.summary.to_text(),
+            RunResult::Forward(r) => r.summary.to_text(),
+            RunResult::ModalForward(r, _) => r.summary.to_text(),
         }
     }
 
@@ -155,6 +200,8 @@ impl RunResult {
         match self {
             RunResult::Single(r) => crate::output::write_json(&r.summary, w),
             RunResult::Modal(r, _) => crate::output::write_json(&r.summary, w),
+            RunResult::Forward(r) => crate::output::write_json(&r.summary, w),
+            RunResult::ModalForward(r, _) => crate::output::write_json(&r.summary, w),
         }
     }
 
