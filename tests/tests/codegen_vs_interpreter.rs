@@ -529,6 +529,42 @@ fn mode_headers_equal_the_full_read() {
         );
         let expected: Vec<_> = full.modes.into_iter().map(|m| m.into_header()).collect();
         assert_eq!(headers, expected, "{name}: headers");
+        // With what the compiled code knows of the file, no mode is built at all, and the read is the same.
+        let compiled = invsim_models::modal_by_hash(hash).expect("compiled modes");
+        let info = compiled[0].info();
+        let facts = invsim_inversion::ModalFacts {
+            name: info.name.clone(),
+            description: Some(info.description.clone()).filter(|d| !d.is_empty()),
+            parameters: info.parameters.clone(),
+            states: info.states.clone(),
+        };
+        let bytes = std::fs::read(&path).expect("model file");
+        let knows = |h: &str| (h == hash).then(|| Some(facts.clone()));
+        let (bare, bare_headers) =
+            invsim_inversion::ModelFile::modal_headers_of(&path, &bytes, &knows)
+                .unwrap_or_else(|e| panic!("{name}: {e}"))
+                .unwrap_or_else(|| panic!("{name}: no headers for its own hash"));
+        assert_eq!(
+            bare_headers, expected,
+            "{name}: headers from the compiled facts"
+        );
+        assert_eq!(
+            (
+                &bare.name,
+                &bare.description,
+                &bare.inputs,
+                &bare.gearbox,
+                &bare.sequence
+            ),
+            (
+                &light.name,
+                &light.description,
+                &light.inputs,
+                &light.gearbox,
+                &light.sequence
+            ),
+            "{name}: the model from the compiled facts"
+        );
         let refuse = |_: &str| false;
         let none = invsim_inversion::ModelFile::modal_headers(&path, &refuse)
             .unwrap_or_else(|e| panic!("{name}: {e}"));

@@ -99,12 +99,10 @@ const MAX_COMPARED_BYTES: u64 = 1 << 20;
 /// asked for.
 pub fn load(path: &Path, choice: EngineChoice) -> Result<Loaded, LoadError> {
     if choice != EngineChoice::Interpreted {
-        if let Some(m) = read_bounded(path).and_then(|b| single::builtin_of(&b)) {
-            return Ok(Loaded::Single(SingleModel::Compiled(m)));
-        }
-        let read = |known: &dyn Fn(&str) -> bool| ModelFile::modal_headers(path, known);
-        if let Some(m) = modal::read_compiled(read)? {
-            return Ok(Loaded::Modal(Box::new(m)));
+        if let Some(bytes) = read_bounded(path) {
+            if let Some(m) = compiled(path, &bytes)? {
+                return Ok(m);
+            }
         }
     }
     let file = ModelFile::from_path(path)?;
@@ -114,16 +112,20 @@ pub fn load(path: &Path, choice: EngineChoice) -> Result<Loaded, LoadError> {
 /// [`load`] of a model file given as its bytes (`path` names it in messages).
 pub fn load_source(path: &Path, bytes: &[u8], choice: EngineChoice) -> Result<Loaded, LoadError> {
     if choice != EngineChoice::Interpreted {
-        if let Some(m) = single::builtin_of(bytes) {
-            return Ok(Loaded::Single(SingleModel::Compiled(m)));
-        }
-        let read = |known: &dyn Fn(&str) -> bool| ModelFile::modal_headers_of(path, bytes, known);
-        if let Some(m) = modal::read_compiled(read)? {
-            return Ok(Loaded::Modal(Box::new(m)));
+        if let Some(m) = compiled(path, bytes)? {
+            return Ok(m);
         }
     }
     let file = ModelFile::from_bytes(path, bytes)?;
     from_file(file, path, choice)
+}
+
+/// The compiled code made from a file with exactly these bytes, with or without modes, if any.
+fn compiled(path: &Path, bytes: &[u8]) -> Result<Option<Loaded>, LoadError> {
+    if let Some(m) = single::builtin_of(bytes) {
+        return Ok(Some(Loaded::Single(SingleModel::Compiled(m))));
+    }
+    Ok(modal::read_compiled(path, bytes)?.map(|m| Loaded::Modal(Box::new(m))))
 }
 
 /// The model file `file` (read from `path`) run by the engine `choice` asks for.

@@ -2,8 +2,12 @@
 //! built-in one (then it is read without building each mode's model: `ModelFile::modal_headers`), else every
 //! mode derived and interpreted; assembled into the runtime's [`ModalPlant`].
 
+use std::cell::RefCell;
+use std::path::Path;
+
 use invsim_inversion::{
-    coupling_name, Derivation, Interpreter, ModalModel, Mode, ModeHeader, ModeRole, Schedule,
+    coupling_name, Derivation, Interpreter, ModalFacts, ModalModel, Mode, ModeHeader, ModeRole,
+    ModelFile, Schedule,
 };
 use invsim_model_api::InverseModel;
 use invsim_runtime::modes::{GearSchedule, InputSpec, ModalPlant, ModeMeta, Role, SequenceParams};
@@ -125,19 +129,28 @@ pub fn modal_derive_json(m: &ModalModel, modes: &[DerivedMode]) -> serde_json::V
     json!({ "name": m.name, "inputs": inputs, "modes": modes })
 }
 
-/// The model with its compiled modes, when the file is byte for byte a built-in model with modes (every mode
-/// was checked when that code was generated from these bytes, so only the first mode's model is built);
-/// `None` otherwise. `read` reads the file's headers for the hashes it is given to know
-/// (`ModelFile::modal_headers`).
-pub(crate) fn read_compiled(
-    read: impl FnOnce(&dyn Fn(&str) -> bool) -> HeaderRead,
-) -> Result<Option<LoadedModal>, LoadError> {
-    let known = |hash: &str| invsim_models::modal_by_hash(hash).is_some();
-    let Some((m, headers)) = read(&known)? else {
+/// The model with its compiled modes, when the file's bytes are byte for byte a built-in model with modes
+/// (every mode was checked when that code was generated from these bytes): read without building any mode's
+/// equations, the model's name, description, parameters and states taken from the compiled code
+/// (`ModelFile::modal_headers_of`); `None` otherwise.
+pub(crate) fn read_compiled(file: &Path, bytes: &[u8]) -> Result<Option<LoadedModal>, LoadError> {
+    let found: RefCell<Option<Vec<Box<dyn InverseModel>>>> = RefCell::new(None);
+    let known = |hash: &str| {
+        let models = invsim_models::modal_by_hash(hash)?;
+        let info = models.first()?.info();
+        let facts = ModalFacts {
+            name: info.name.clone(),
+            description: Some(info.description.clone()).filter(|d| !d.is_empty()),
+            parameters: info.parameters.clone(),
+            states: info.states.clone(),
+        };
+        *found.borrow_mut() = Some(models);
+        Some(Some(facts))
+    };
+    let Some((m, headers)) = ModelFile::modal_headers_of(file, bytes, &known)? else {
         return Ok(None);
     };
-    let models = invsim_models::modal_by_hash(&m.source_hash).filter(|c| c.len() == headers.len());
-    match models {
+    match found.take().filter(|c| c.len() == headers.len()) {
         Some(models) => {
             let source = Source::Compiled(m.source_hash.clone());
             assemble(&m, headers, models, source).map(Some)
@@ -145,10 +158,6 @@ pub(crate) fn read_compiled(
         None => Ok(None),
     }
 }
-
-/// What [`ModelFile::modal_headers`] gives.
-pub(crate) type HeaderRead =
-    Result<Option<(ModalModel, Vec<ModeHeader>)>, invsim_inversion::ModelError>;
 
 /// Every mode of `m` run by the engine `choice` asks for.
 pub(crate) fn from_model(

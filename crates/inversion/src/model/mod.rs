@@ -85,7 +85,7 @@ pub use expressions::{MAX_EXPRESSION_LEN, MAX_EXPRESSION_NESTING};
 pub use gearbox::MAX_GEARS;
 pub use map_csv::{read_map_file, MapData};
 pub use modal::{
-    Gearbox, ModalInput, ModalModel, Mode, ModeHeader, ModeRole, ModelFile, Schedule,
+    Gearbox, ModalFacts, ModalInput, ModalModel, Mode, ModeHeader, ModeRole, ModelFile, Schedule,
     SequenceOptions,
 };
 pub use reader::MAX_MODEL_FILE_BYTES;

@@ -100,6 +100,24 @@ impl Mode {
     }
 }
 
+/// What compiled code made from a file with modes knows of it (the first mode's description: every mode has
+/// the model's name, description, parameters and states), so that a run of that code reads only the file's
+/// modes, inputs, gearbox and sequence ([`ModelFile::modal_headers_of`]) and builds no mode's equations.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModalFacts {
+    pub name: String,
+    pub description: Option<String>,
+    pub parameters: Vec<String>,
+    pub states: Vec<String>,
+}
+
+impl ModalFacts {
+    /// The index of the state called `name`.
+    pub fn state_index(&self, name: &str) -> Option<usize> {
+        self.states.iter().position(|s| s == name)
+    }
+}
+
 /// One operating mode: a single-input model of its own.
 #[derive(Debug)]
 pub struct Mode {

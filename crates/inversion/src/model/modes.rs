@@ -6,7 +6,7 @@
 
 use super::error::{ModelError, ModelErrorKind};
 use super::modal::{
-    ModalInput, ModalModel, Mode, ModeHeader, ModeRole, ModelFile, SequenceOptions,
+    ModalFacts, ModalInput, ModalModel, Mode, ModeHeader, ModeRole, ModelFile, SequenceOptions,
 };
 use super::spanned::Reader;
 use super::tree::{get, get_key, key_at, tv_at, Entries, Key, Kind, Tv};
@@ -99,7 +99,7 @@ impl Reader<'_> {
             let raw = self.structure(root)?;
             return Ok(ModelFile::Single(Box::new(self.build(raw, hash)?)));
         }
-        self.read_modal(entries, hash, true)
+        self.read_modal(entries, hash, Read::All)
             .map(|(m, _)| ModelFile::Modal(Box::new(m)))
     }
 
@@ -111,6 +111,7 @@ impl Reader<'_> {
         &self,
         root: &Tv,
         hash: String,
+        facts: Option<&ModalFacts>,
     ) -> Result<Option<(ModalModel, Vec<ModeHeader>)>, ModelError> {
         let entries = self.table(root, "the model file")?;
         if !entries
@@ -119,7 +120,8 @@ impl Reader<'_> {
         {
             return Ok(None);
         }
-        self.read_modal(entries, hash, false).map(Some)
+        self.read_modal(entries, hash, Read::Headers(facts))
+            .map(Some)
     }
 
     /// The modal model with every mode's model (`all`), or with no modes and every mode's header (only the
@@ -128,8 +130,13 @@ impl Reader<'_> {
         &self,
         entries: &Entries,
         hash: String,
-        all: bool,
+        read: Read<'_>,
     ) -> Result<(ModalModel, Vec<ModeHeader>), ModelError> {
+        let all = matches!(read, Read::All);
+        let facts = match read {
+            Read::Headers(f) => f,
+            Read::All => None,
+        };
         if let Some((k, _)) = get_key(entries, "input") {
             return Err(self.err(
                 key_at(k),
@@ -185,14 +192,18 @@ impl Reader<'_> {
                     Some(n) => format!("{}_{n}", raw.name),
                     None => raw.name.clone(),
                 };
+                if let Some(f) = facts {
+                    headers.push(header_of(raw, name, gear, &|s| f.state_index(s)));
+                    continue;
+                }
                 if let (false, Some(f)) = (all, &first) {
-                    headers.push(header_of(raw, name, gear, &f.states));
+                    headers.push(header_of(raw, name, gear, &|s| state_index(&f.states, s)));
                     continue;
                 }
                 let tree = self.mode_tree(&base, raw, &inputs, &gear_params)?;
                 let mut model = self.build(self.structure(&tree)?, hash.clone())?;
                 self.apply_couplings(&mut model, raw)?;
-                let header = header_of(raw, name, gear, &model.states);
+                let header = header_of(raw, name, gear, &|s| state_index(&model.states, s));
                 if all {
                     modes.push(Mode::new(header, model));
                 } else {
@@ -201,17 +212,30 @@ impl Reader<'_> {
                 }
             }
         }
-        let Some(f) = first.as_ref().or(modes.first().map(|m| &m.model)) else {
-            return Err(self.err(
-                tv_at(modes_tv),
-                ModelErrorKind::Schema,
-                "[modes] declares no mode",
-            ));
-        };
+        let built = first.as_ref().or(modes.first().map(|m| &m.model));
+        let (name, description, parameters): (String, Option<String>, Vec<&str>) =
+            match (facts, built) {
+                (Some(f), _) => (
+                    f.name.clone(),
+                    f.description.clone(),
+                    f.parameters.iter().map(String::as_str).collect(),
+                ),
+                (None, Some(m)) => (
+                    m.name.clone(),
+                    m.description.clone(),
+                    m.parameters.iter().map(|p| p.name.as_str()).collect(),
+                ),
+                (None, None) => {
+                    return Err(self.err(
+                        tv_at(modes_tv),
+                        ModelErrorKind::Schema,
+                        "[modes] declares no mode",
+                    ))
+                }
+            };
         if let Some(g) = &gearbox {
-            self.check_gear_parameters(g, f)?;
+            self.check_gear_parameters(g, &parameters)?;
         }
-        let (name, description) = (f.name.clone(), f.description.clone());
         let model = ModalModel {
             name,
             description,
@@ -473,10 +497,10 @@ impl Reader<'_> {
     fn check_gear_parameters(
         &self,
         g: &super::modal::Gearbox,
-        model: &super::validated::Model,
+        parameters: &[&str],
     ) -> Result<(), ModelError> {
         for (p, _) in &g.parameters {
-            if !model.parameters.iter().any(|q| &q.name == p) {
+            if !parameters.contains(&p.as_str()) {
                 return Err(self.err(
                     None,
                     ModelErrorKind::UnknownName,
@@ -686,13 +710,27 @@ impl Reader<'_> {
     }
 }
 
+/// How much of a file with modes to read.
+enum Read<'f> {
+    /// Every mode's model built.
+    All,
+    /// Only the headers; the model's name, description, parameters and states from what compiled code knows of
+    /// the file (`Some`), or from the first mode's model, built for them.
+    Headers(Option<&'f ModalFacts>),
+}
+
+/// The index of the state called `name` among `states`.
+fn state_index(states: &[super::validated::State], name: &str) -> Option<usize> {
+    states.iter().position(|s| s.name == name)
+}
+
 /// The header of mode `name` (gear `gear`) of `raw`: its inputs' values and couplings as written, each coupled
 /// state by its index among `states` (the model's, which every mode keeps whole: `coupling.rs`).
 fn header_of(
     raw: &RawMode<'_>,
     name: String,
     gear: Option<usize>,
-    states: &[super::validated::State],
+    state_index: &dyn Fn(&str) -> Option<usize>,
 ) -> ModeHeader {
     let fixed = raw
         .fixed
@@ -711,7 +749,7 @@ fn header_of(
         .couple
         .iter()
         .filter_map(|(k, v)| {
-            let i = states.iter().position(|s| s.name == k.name)?;
+            let i = state_index(&k.name)?;
             let text = match &v.kind {
                 Kind::Str(s) => s.clone(),
                 _ => String::new(),

@@ -4,7 +4,7 @@
 
 use super::definitions::Interned;
 use super::error::{ModelError, ModelErrorKind};
-use super::modal::{ModalModel, ModeHeader, ModelFile};
+use super::modal::{ModalFacts, ModalModel, ModeHeader, ModelFile};
 use super::raw::RawModel;
 use super::spanned::Reader;
 use super::split::extra_outputs;
@@ -100,24 +100,28 @@ impl ModelFile {
         path: &Path,
         compiled: &dyn Fn(&str) -> bool,
     ) -> Result<Option<(ModalModel, Vec<ModeHeader>)>, ModelError> {
-        ModelFile::modal_headers_of(path, &read_capped(path)?, compiled)
+        let claims = |hash: &str| compiled(hash).then_some(None);
+        ModelFile::modal_headers_of(path, &read_capped(path)?, &claims)
     }
 
-    /// [`ModelFile::modal_headers`] of the file's bytes; `file` is used in messages.
+    /// [`ModelFile::modal_headers`] of the file's bytes (`file` names it in messages), where `compiled` gives
+    /// for a hash it claims what the compiled code knows of the file (`Some(Some(facts))`: then no mode's
+    /// model is built at all; `Some(None)`: the first mode's model is built for the name, description,
+    /// parameters and states).
     pub fn modal_headers_of(
         file: &Path,
         bytes: &[u8],
-        compiled: &dyn Fn(&str) -> bool,
+        compiled: &dyn Fn(&str) -> Option<Option<ModalFacts>>,
     ) -> Result<Option<(ModalModel, Vec<ModeHeader>)>, ModelError> {
         let Ok(text) = std::str::from_utf8(bytes) else {
             return Ok(None);
         };
-        if !compiled(&source_hash(text)) {
+        let Some(facts) = compiled(&source_hash(text)) else {
             return Ok(None);
-        }
+        };
         let reader = Reader { file, text };
         let (root, hash) = reader.parse_tree()?;
-        reader.read_headers(&root, hash)
+        reader.read_headers(&root, hash, facts.as_ref())
     }
 
     /// [`ModelFile::from_path`] on text; `file` is used in messages.
