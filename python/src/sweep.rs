@@ -88,7 +88,7 @@ pub fn run_sweep(
     match threads {
         None => Ok(run()),
         Some(n) => rayon::ThreadPoolBuilder::new()
-            .num_threads(n)
+            .num_threads(invsim_runtime::sweep::worker_threads(n, jobs))
             .build()
             .map(|pool| pool.install(run))
             .map_err(|e| Failure::msg(format!("cannot start {n} threads: {e}"))),

@@ -36,7 +36,7 @@ pub struct SweepArgs {
     /// A CSV file of variants: a header of parameter names, one row of values per variant.
     #[arg(long, value_name = "PARAMS.csv")]
     table: Option<PathBuf>,
-    /// Worker threads (default: one per core).
+    /// Worker threads (default: one per core; at most one per run and 4 per core are started).
     #[arg(long, default_value_t = 0)]
     threads: usize,
     /// Write the rows to this file: Parquet if its name ends in `.parquet`, else CSV (default: CSV on stdout).
@@ -301,6 +301,14 @@ pub fn run(args: &SweepArgs) -> Result<(), Failure> {
         .threads(args.threads)
         .build();
     let sweep = sweep.map_err(|e| failed(e.to_string()))?;
+    if args.threads > 0 && sweep.threads() < args.threads {
+        eprintln!(
+            "invsim: note: --threads {}: using {} worker thread(s) (at most one per run, {} per core)",
+            args.threads,
+            sweep.threads(),
+            invsim_runtime::sweep::MAX_THREADS_PER_CORE
+        );
+    }
     let bar = progress_bar(sweep.len());
     let result = match &bar {
         Some(bar) => sweep.run_with_progress(&|n| bar.set_position(n as u64)),

@@ -205,3 +205,34 @@ fn a_table_runs_one_variant_per_row() {
         .unwrap()
         .starts_with("1,ece,1500,0.35,ok,"));
 }
+
+/// `--threads` far beyond the runs starts one thread per run at most (not ten thousand), says so, and gives
+/// the same rows as one thread.
+#[test]
+fn threads_are_capped_by_the_runs() {
+    let run = |threads: &str| {
+        let o = invsim(&[
+            "sweep",
+            "models/si_engine.toml",
+            "--cycle",
+            "ece",
+            "--dt",
+            "1",
+            "--grid",
+            "m=1200:1400:2",
+            "--threads",
+            threads,
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        o
+    };
+    let many = run("10000");
+    assert!(
+        stderr(&many).contains("--threads 10000: using 2 worker thread(s)"),
+        "{}",
+        stderr(&many)
+    );
+    let one = run("1");
+    assert!(!stderr(&one).contains("worker thread"), "{}", stderr(&one));
+    assert_eq!(many.stdout, one.stdout);
+}

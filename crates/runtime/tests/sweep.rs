@@ -286,3 +286,27 @@ fn a_reference_with_other_signal_sources_is_not_used() {
     );
     assert_ne!(with_hill.summary, got.summary);
 }
+
+/// The worker threads a sweep starts: rayon's choice for 0, else at most one per run and
+/// `MAX_THREADS_PER_CORE` per core, at least one.
+#[test]
+fn worker_threads_are_bounded_by_runs_and_cores() {
+    use invsim_runtime::sweep::{worker_threads, MAX_THREADS_PER_CORE};
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    assert_eq!(worker_threads(0, 100), 0);
+    assert_eq!(worker_threads(5, 2), 2);
+    assert_eq!(worker_threads(1, 100), 1);
+    assert_eq!(worker_threads(3, 0), 1);
+    assert_eq!(
+        worker_threads(10_000, 1_000_000),
+        MAX_THREADS_PER_CORE * cores
+    );
+    let sweep = Sweep::new(|| invsim_models::builtin("si_engine").expect("built in"))
+        .cycle(&Cycle::builtin("ece").expect("built in"))
+        .grid("m", 1000.0, 1600.0, 3)
+        .threads(10_000)
+        .build()
+        .expect("sweep");
+    assert_eq!(sweep.threads(), 3);
+    assert_eq!(sweep.run().rows.len(), 3);
+}

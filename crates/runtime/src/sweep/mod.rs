@@ -161,6 +161,10 @@ impl Sweep {
     pub fn variants(&self) -> &[Vec<f64>] {
         &self.variants
     }
+    /// The worker threads the sweep starts (0: rayon's global pool, one per core).
+    pub fn threads(&self) -> usize {
+        self.threads
+    }
     /// Number of rows [`Sweep::run`] returns: variants × cycles.
     pub fn len(&self) -> usize {
         self.variants.len() * self.cycles.len()
@@ -237,7 +241,8 @@ impl SweepBuilder {
         self
     }
 
-    /// Number of worker threads (0, the default: rayon's choice, one per core).
+    /// Number of worker threads (0, the default: rayon's choice, one per core); at most one per run and
+    /// [`MAX_THREADS_PER_CORE`] per core are started ([`worker_threads`], [`Sweep::threads`]).
     pub fn threads(mut self, threads: usize) -> Self {
         self.threads = threads;
         self
@@ -287,7 +292,8 @@ impl SweepBuilder {
                 Ok((c, shared))
             })
             .collect::<Result<Vec<_>, SweepError>>()?;
-        let pool = match self.threads {
+        let threads = worker_threads(self.threads, variants.len() * cycles.len());
+        let pool = match threads {
             0 | 1 => None,
             n => Some(
                 rayon::ThreadPoolBuilder::new()
@@ -308,10 +314,24 @@ impl SweepBuilder {
             names,
             variants,
             opts,
-            threads: self.threads,
+            threads,
             pool,
         })
     }
+}
+
+/// Worker threads per core a sweep starts at most: more only wait for a core, each with a copy of the model.
+pub const MAX_THREADS_PER_CORE: usize = 4;
+
+/// The worker threads a sweep of `jobs` runs starts when `requested` are asked for (0: rayon's choice, one
+/// per core): never more than there are runs, nor more than [`MAX_THREADS_PER_CORE`] per core of this
+/// machine, and at least one.
+pub fn worker_threads(requested: usize, jobs: usize) -> usize {
+    if requested == 0 {
+        return 0;
+    }
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    requested.min(jobs).min(MAX_THREADS_PER_CORE * cores).max(1)
 }
 
 /// `n` values evenly from `start` to `stop`: start + i·(stop − start)/(n − 1), i = 0 … n − 1 (the last is
