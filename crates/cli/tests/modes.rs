@@ -224,3 +224,42 @@ fn initial_states_and_a_bad_transition_time_are_refused() {
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("transition time 0 s"), "{}", stderr(&o));
 }
+
+/// The look-ahead is checked against the cycle and the step for a model with modes as for any other: far
+/// below dt (the samples would miss the smoothed transitions) and longer than a quarter of the cycle are
+/// refused, naming the bound.
+#[test]
+fn a_lookahead_outside_its_bounds_is_refused_with_modes_too() {
+    for (model, what) in [
+        (model(), "modes"),
+        ("models/si_engine.toml".to_string(), "single"),
+    ] {
+        let o = invsim(&[
+            "simulate",
+            &model,
+            "--cycle",
+            "nedc",
+            "--lookahead",
+            "0.001",
+        ]);
+        assert_eq!(o.status.code(), Some(2), "{what}: {}", stderr(&o));
+        assert!(
+            stderr(&o).contains("at least 0.05 s"),
+            "{what}: {}",
+            stderr(&o)
+        );
+        let o = invsim(&["simulate", &model, "--cycle", "ece", "--lookahead", "60"]);
+        assert_eq!(o.status.code(), Some(2), "{what}: {}", stderr(&o));
+        assert!(stderr(&o).contains("too long"), "{what}: {}", stderr(&o));
+    }
+    // Half the step is enough.
+    let o = invsim(&[
+        "simulate",
+        &model(),
+        "--cycle",
+        "ece",
+        "--lookahead",
+        "0.05",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}

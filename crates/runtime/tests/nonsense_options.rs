@@ -72,5 +72,11 @@ fn steps_that_leave_too_few_samples_are_refused() {
         let e = forward::forward(si_engine().as_ref(), &c, &opts).expect_err("refused");
         assert!(e.to_string().contains("fewer than the 10"), "{e}");
     }
-    assert!(inverse("ece", 5.0, 195.0 / 9.0).is_ok());
+    // Ten samples are enough, with a look-ahead of at least half the step (the kernel's window spans a step).
+    assert!(inverse("ece", 12.0, 195.0 / 9.0).is_ok());
+    let e = inverse("ece", 5.0, 195.0 / 9.0).expect_err("a = 5 s at dt = 21.7 s is too short");
+    assert!(
+        matches!(e, SimulateError::LookaheadTooShort { min, .. } if (min - 195.0 / 18.0).abs() < 1e-12),
+        "{e}"
+    );
 }

@@ -17,6 +17,13 @@ pub enum SimulateError {
     )]
     InvalidLookahead(f64),
     #[error(
+        "the look-ahead a = {} s is too short for the output step dt = {} s: the kernel's window 2a is narrower \
+         than a step, so the samples miss the smoothed transitions and the integrals come out wrong; use a \
+         look-ahead of at least {} s (half the step), or a smaller --dt",
+        num(*lookahead), num(*dt), num(*min)
+    )]
+    LookaheadTooShort { lookahead: f64, dt: f64, min: f64 },
+    #[error(
         "the look-ahead a = {} s is too long for a cycle of {} s: the kernel's window 2a would smooth the \
          cycle away; use a look-ahead of at most {} s (a quarter of the cycle)",
         num(*lookahead), num(*duration), num(*max)

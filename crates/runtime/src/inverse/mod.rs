@@ -18,7 +18,7 @@
 //! which then stops with [`SimulateError::UnstableZeroDynamics`].
 
 mod causal;
-mod checks;
+pub(crate) mod checks;
 mod error;
 mod inverter;
 mod map_check;
@@ -34,7 +34,7 @@ use invsim_model_api::InverseModel;
 use crate::cycle::Cycle;
 
 pub use causal::ETA_BLOWUP;
-pub use checks::{DISTANCE_WARNING, MAX_LOOKAHEAD_FRACTION};
+pub use checks::{DISTANCE_WARNING, MAX_LOOKAHEAD_FRACTION, MIN_LOOKAHEAD_PER_DT};
 pub use error::SimulateError;
 pub use options::{
     SimulationOptions, SimulationOptionsBuilder, DEFAULT_ATOL, DEFAULT_DT, DEFAULT_LOOKAHEAD,

@@ -491,6 +491,7 @@ pub(super) fn reference(
     }
     let (t0, duration) = check_cycle(cycle)?;
     let grid = Grid::new(t0, duration, opts.dt)?;
+    checks::check_lookahead(opts.lookahead, duration, opts.dt)?;
     let raw = Smoother::new(cycle, opts.lookahead)?;
     let distance_warning = checks::reference_distance_warning(&raw, cycle);
     let signals = resolve_signals(info, cycle, opts)?;
@@ -532,7 +533,7 @@ pub(super) fn run<M: InverseModel + ?Sized>(
     }
     let (t0, duration) = check_cycle(cycle)?;
     let mut grid = Grid::new(t0, duration, opts.dt)?;
-    checks::check_lookahead(opts.lookahead, duration)?;
+    checks::check_lookahead(opts.lookahead, duration, opts.dt)?;
     let steps = grid.n;
     let eta0 = check_eta0(info, opts)?;
     // Start values of the internal states (`initial =`, `--initial`), used by a causal run.

@@ -383,6 +383,8 @@ pub fn simulate_modes_with_reference(
         return Err(ModalError::Setup("the model has no mode".into()));
     }
     let grid = Grid::new(cycle.time[0], cycle.duration(), opts.dt)?;
+    crate::inverse::checks::check_lookahead(opts.lookahead, cycle.duration(), opts.dt)
+        .map_err(|e| ModalError::Setup(e.to_string()))?;
     // A route profile is read along the smoothed reference's distance, as in a single-mode inverse run.
     let along = Along::Smoothed {
         lookahead: opts.lookahead,
