@@ -379,3 +379,43 @@ fn runs_that_differ_only_in_an_override_are_distinguishable() {
     assert_ne!(json_same, json_other);
     assert_ne!(text_same, text_other);
 }
+
+/// A cycle with a road grade: a model with a grade signal takes it and says nothing about ignoring it (its fuel
+/// rises on the climb); a model without one warns that the grade is ignored.
+#[test]
+fn the_grade_warning_names_only_models_that_ignore_it() {
+    let cycle = tmp("graded-cycle.csv");
+    let mut text = String::from("time_s,speed_mps,grade\n");
+    for k in 0..=200 {
+        let t = k as f64;
+        let v = if t < 20.0 { t * 0.5 } else { 10.0 };
+        text.push_str(&format!("{t},{v},0.03\n"));
+    }
+    std::fs::write(&cycle, text).expect("cycle file");
+    let warned = |model: &str| {
+        let json = tmp(&format!("graded-{}.json", model.replace('/', "-")));
+        let o = invsim(&[
+            "simulate",
+            model,
+            "--cycle",
+            cycle.to_str().expect("utf-8"),
+            "--summary-json",
+            json.to_str().expect("utf-8"),
+        ]);
+        assert!(o.status.success(), "{model}: {}", stderr(&o));
+        let s = json_file(&json);
+        let warnings = s["warnings"].as_array().expect("warnings").clone();
+        warnings.iter().any(|w| {
+            w.as_str()
+                .is_some_and(|w| w.contains("road grade is ignored"))
+        })
+    };
+    assert!(
+        !warned("models/si_engine_grade.toml"),
+        "the grade model uses the grade"
+    );
+    assert!(
+        warned("models/si_engine.toml"),
+        "si_engine has no grade input"
+    );
+}

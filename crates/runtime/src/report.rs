@@ -240,15 +240,6 @@ impl Totals {
     }
 }
 
-/// The warning both runs give for a cycle with a non-zero road grade (no model has a grade input yet).
-pub(crate) fn grade_warning(cycle: &Cycle) -> Option<String> {
-    cycle
-        .grade
-        .as_ref()
-        .is_some_and(|g| g.iter().any(|&v| v != 0.0))
-        .then(|| "the cycle's road grade is ignored (the model has no grade input)".to_string())
-}
-
 /// `v` with `digits` significant digits, in positional notation for moderate magnitudes.
 pub(crate) fn fmt_sig(v: f64, digits: usize) -> String {
     if !v.is_finite() {

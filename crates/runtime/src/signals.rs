@@ -150,6 +150,17 @@ pub fn resolve_along(
         .collect()
 }
 
+/// The warning both runs give for a cycle with a non-zero road grade that `info`'s model does not take (it has
+/// no grade signal: a signal named `grade` or reading the column `grade` or `cycGrade`).
+pub(crate) fn grade_warning(info: &ModelInfo, cycle: &Cycle) -> Option<String> {
+    let graded = cycle
+        .grade
+        .as_ref()
+        .is_some_and(|g| g.iter().any(|&v| v != 0.0));
+    (graded && !info.signals.iter().any(is_grade))
+        .then(|| "the cycle's road grade is ignored (the model has no grade input)".to_string())
+}
+
 /// A signal is a grade (and may be given as elevation) when it is named `grade` or reads a grade column.
 fn is_grade(s: &SignalInfo) -> bool {
     s.name == "grade"

@@ -61,7 +61,7 @@ use crate::cycle::Cycle;
 use crate::error::RunError;
 use crate::grid::Grid;
 use crate::ode::{Dopri5, OdeStats, Rosenbrock23};
-use crate::report::{columns_with_units, fmt_sig, grade_warning, CycleInfo, Totals};
+use crate::report::{columns_with_units, fmt_sig, CycleInfo, Totals};
 use budget::Budget;
 use driver::{binomial, Loop, RawCycle};
 use integrator::Integrator;
@@ -439,7 +439,7 @@ fn forward_warnings(
             fmt_sig(total, 4)
         ));
     }
-    warnings.extend(grade_warning(cycle));
+    warnings.extend(crate::signals::grade_warning(info, cycle));
     warnings
 }
 

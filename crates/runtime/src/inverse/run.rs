@@ -17,7 +17,7 @@ use crate::operating_points::OperatingPointTally;
 use crate::progress::Progress;
 use crate::reference_deviation::DeviationTally;
 use crate::report::{
-    columns_with_units, fmt_sig, format_eigenvalues, grade_warning, CycleInfo, Intervals, Totals,
+    columns_with_units, fmt_sig, format_eigenvalues, CycleInfo, Intervals, Totals,
 };
 use crate::smoother::Smoother;
 use crate::stable::{self, StableOptions, ZeroDynamicsPlan};
@@ -660,7 +660,7 @@ fn run_warnings(info: &ModelInfo, cycle: &Cycle, distance: f64, totals: &Totals)
             "the cycle covers no distance ({distance} m): no per-100-km figures"
         ));
     }
-    warnings.extend(grade_warning(cycle));
+    warnings.extend(crate::signals::grade_warning(info, cycle));
     let violations = &totals.input_bound_violations;
     if !violations.is_empty() {
         let total: f64 = violations.iter().map(|[a, b]| b - a).sum();
