@@ -3,11 +3,11 @@
 
 use invsim_runtime::forward::{Bounds, ForwardOptions, Method};
 
-use invsim_runtime::{Cycle, RunFailure, RunResult};
+use invsim_runtime::{RunFailure, RunResult};
 
 use crate::engine::Loaded;
 use crate::error::Failure;
-use crate::run::{load_cycle, signal_input, Output, PySignal, RunSummary};
+use crate::run::{cycle_file, load_cycle, signal_input, Output, PySignal, RunSummary};
 
 /// The options of a forward run (the keyword arguments of `Model.forward`; `None`: the command line's
 /// default).
@@ -98,9 +98,7 @@ pub fn forward_one(
     };
     let opts = req.options(model.engine_name(), &stopped)?;
     let plant = model.plant(params)?;
-    let file = Cycle::builtin(cycle_spec)
-        .is_none()
-        .then(|| std::path::Path::new(cycle_spec));
+    let file = cycle_file(cycle_spec);
     let result = plant.forward(&cycle, file, &opts).map_err(|e| match e {
         RunFailure::Gears(e) => Failure::in_file(format!("{model_path}: {e}"), model_path),
         e => stopped(e.to_string()),

@@ -159,6 +159,13 @@ fn samples(time: &[f64], values: &[f64]) -> Result<SignalValue, String> {
     })
 }
 
+/// The cycle file `spec` names (`None` for a built-in cycle): a gearbox may take its gear from a column there.
+pub fn cycle_file(spec: &str) -> Option<&std::path::Path> {
+    Cycle::builtin(spec)
+        .is_none()
+        .then(|| std::path::Path::new(spec))
+}
+
 /// A built-in cycle by name or a cycle file by path; a file's errors name the file.
 pub fn load_cycle(spec: &str) -> Result<Cycle, Failure> {
     Cycle::load(spec).map_err(|e| {
@@ -218,9 +225,7 @@ pub fn simulate_any(
     let cycle = load_cycle(cycle_spec)?;
     let sim_opts = opts.build(model.engine_name(), model_path, &cycle.name)?;
     let plant = model.plant(params)?;
-    let file = Cycle::builtin(cycle_spec)
-        .is_none()
-        .then(|| std::path::Path::new(cycle_spec));
+    let file = cycle_file(cycle_spec);
     let result = plant
         .simulate(&cycle, file, &sim_opts)
         .map_err(|e| match e {

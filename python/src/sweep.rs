@@ -13,7 +13,7 @@ use rayon::prelude::*;
 
 use crate::engine::{Kind, Loaded};
 use crate::error::Failure;
-use crate::run::{run_failure, run_one, run_one_shared};
+use crate::run::{cycle_file, run_failure, run_one, run_one_shared};
 
 /// The variants of a sweep, stored column by column: `values[j][i]` is parameter `names[j]` of variant i.
 #[derive(Debug, Clone)]
@@ -133,9 +133,7 @@ fn modal_row(
         Err(_) => Vec::new(),
     };
     let summary = plant.and_then(|p| {
-        let file = Cycle::builtin(spec)
-            .is_none()
-            .then(|| std::path::Path::new(spec));
+        let file = cycle_file(spec);
         let r = p
             .simulate(cycle, file, opts)
             .map_err(|e| run_failure(model_path, &cycle.name, e))?;

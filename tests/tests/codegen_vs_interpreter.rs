@@ -531,13 +531,7 @@ fn mode_headers_equal_the_full_read() {
         assert_eq!(headers, expected, "{name}: headers");
         // With what the compiled code knows of the file, no mode is built at all, and the read is the same.
         let compiled = invsim_models::modal_by_hash(hash).expect("compiled modes");
-        let info = compiled[0].info();
-        let facts = invsim_inversion::ModalFacts {
-            name: info.name.clone(),
-            description: Some(info.description.clone()).filter(|d| !d.is_empty()),
-            parameters: info.parameters.clone(),
-            states: info.states.clone(),
-        };
+        let facts = invsim_inversion::ModalFacts::from_info(compiled[0].info());
         let bytes = std::fs::read(&path).expect("model file");
         let knows = |h: &str| (h == hash).then(|| Some(facts.clone()));
         let (bare, bare_headers) =

@@ -158,3 +158,23 @@ pub fn prepare_run(
     };
     Ok((outputs, cycle, model, data))
 }
+
+/// The cycle file a run reads (`None` for a built-in cycle): a gearbox may take its gear from a column there.
+pub fn cycle_file(spec: &str) -> Option<&Path> {
+    (!crate::cycle_spec::is_builtin(spec)).then(|| Path::new(spec))
+}
+
+/// The end of `simulate` and `forward`: the finished run of `plant` on `cycle` written to `--out`,
+/// `--summary-json` and `--plot` (through `outputs`), and its summary printed.
+pub fn write_run(
+    plot: &crate::plotting::PlotArgs,
+    mut outputs: crate::outputs::Outputs,
+    (plant, cycle): (&invsim_runtime::Plant, &Cycle),
+    result: &invsim_runtime::RunResult,
+) -> Result<(), Failure> {
+    outputs.write("--out", |f| result.write_csv(f))?;
+    outputs.write("--summary-json", |f| result.write_summary_json(f))?;
+    crate::plotting::write(plot, &mut outputs, |vars| plant.figure(result, cycle, vars))?;
+    outputs.commit()?;
+    crate::files::print_stdout(&result.summary_text())
+}

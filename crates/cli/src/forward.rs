@@ -1,7 +1,7 @@
 //! `invsim forward`: the forward simulation of a model (with or without modes) along a drive cycle, closed by a
 //! PI driver.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use clap::ValueEnum;
 use invsim_runtime::forward::{self, Bounds, ForwardError, ForwardOptions, Method};
@@ -9,7 +9,6 @@ use invsim_runtime::RunFailure;
 
 use crate::engine::{prepare_run, EngineChoice, RunRequest};
 use crate::error::Failure;
-use crate::files::print_stdout;
 use crate::provenance;
 
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum, serde::Serialize)]
@@ -127,7 +126,7 @@ pub(crate) fn options(
 
 /// `invsim forward` of any model.
 pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
-    let (mut outputs, cycle, model, data) = prepare_run(&RunRequest {
+    let (outputs, cycle, model, data) = prepare_run(&RunRequest {
         model: &args.model,
         engine: args.engine,
         cycle: &args.cycle,
@@ -150,7 +149,7 @@ pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
     opts.signals = data.signals;
     opts.initial = data.initial;
     let plant = model.into_plant();
-    let file = (!crate::cycle_spec::is_builtin(&args.cycle)).then(|| Path::new(&args.cycle));
+    let file = crate::engine::cycle_file(&args.cycle);
     let result = plant.forward(&cycle, file, &opts);
     bar.finish();
     let mut result = result.map_err(|e| match e {
@@ -166,11 +165,5 @@ pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
         sets: &args.set,
         options: provenance::options_of(args),
     })?);
-    outputs.write("--out", |f| result.write_csv(f))?;
-    outputs.write("--summary-json", |f| result.write_summary_json(f))?;
-    crate::plotting::write(&args.plot, &mut outputs, |vars| {
-        plant.figure(&result, &cycle, vars)
-    })?;
-    outputs.commit()?;
-    print_stdout(&result.summary_text())
+    crate::engine::write_run(&args.plot, outputs, (&plant, &cycle), &result)
 }

@@ -1,13 +1,12 @@
 //! `invsim simulate`: the inverse simulation of a model along a drive cycle.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use invsim_runtime::modes::Switching;
 use invsim_runtime::{inverse, RunFailure, SimulationOptions};
 
 use crate::engine::{prepare_run, EngineChoice, RunRequest};
 use crate::error::Failure;
-use crate::files::print_stdout;
 use crate::provenance;
 
 // Serialised (by command-line name) into the summary's provenance. No doc comment: clap would
@@ -75,7 +74,7 @@ pub enum SwitchingArg {
 }
 
 pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
-    let (mut outputs, cycle, model, data) = prepare_run(&RunRequest {
+    let (outputs, cycle, model, data) = prepare_run(&RunRequest {
         model: &args.model,
         engine: args.engine,
         cycle: &args.cycle,
@@ -115,7 +114,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
         .map_err(|e| stopped(&e))?;
     opts.signals = data.signals;
     opts.initial = data.initial;
-    let file = (!crate::cycle_spec::is_builtin(&args.cycle)).then(|| Path::new(&args.cycle));
+    let file = crate::engine::cycle_file(&args.cycle);
     let result = plant.simulate(&cycle, file, &opts);
     bar.finish();
     let mut result = result.map_err(|e| match e {
@@ -131,11 +130,5 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
         sets: &args.set,
         options: provenance::options_of(args),
     })?);
-    outputs.write("--out", |f| result.write_csv(f))?;
-    outputs.write("--summary-json", |f| result.write_summary_json(f))?;
-    crate::plotting::write(&args.plot, &mut outputs, |vars| {
-        plant.figure(&result, &cycle, vars)
-    })?;
-    outputs.commit()?;
-    print_stdout(&result.summary_text())
+    crate::engine::write_run(&args.plot, outputs, (&plant, &cycle), &result)
 }

@@ -137,13 +137,7 @@ pub(crate) fn read_compiled(file: &Path, bytes: &[u8]) -> Result<Option<LoadedMo
     let found: RefCell<Option<Vec<Box<dyn InverseModel>>>> = RefCell::new(None);
     let known = |hash: &str| {
         let models = invsim_models::modal_by_hash(hash)?;
-        let info = models.first()?.info();
-        let facts = ModalFacts {
-            name: info.name.clone(),
-            description: Some(info.description.clone()).filter(|d| !d.is_empty()),
-            parameters: info.parameters.clone(),
-            states: info.states.clone(),
-        };
+        let facts = ModalFacts::from_info(models.first()?.info());
         *found.borrow_mut() = Some(models);
         Some(Some(facts))
     };

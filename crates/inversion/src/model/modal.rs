@@ -112,6 +112,16 @@ pub struct ModalFacts {
 }
 
 impl ModalFacts {
+    /// What the description of a mode's compiled code says of its file.
+    pub fn from_info(info: &invsim_model_api::ModelInfo) -> ModalFacts {
+        ModalFacts {
+            name: info.name.clone(),
+            description: Some(info.description.clone()).filter(|d| !d.is_empty()),
+            parameters: info.parameters.clone(),
+            states: info.states.clone(),
+        }
+    }
+
     /// The index of the state called `name`.
     pub fn state_index(&self, name: &str) -> Option<usize> {
         self.states.iter().position(|s| s == name)
