@@ -65,6 +65,7 @@ mod runtime {
     /// At rest for 10 s (so that a causal run starts from rest), two plateaus, at rest for the last 10 s.
     fn cycle() -> Cycle {
         Cycle {
+            tolerance: invsim_runtime::cycle::Tolerance::EPA,
             name: "known_ramps".into(),
             time: vec![0.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0, 70.0],
             speed: vec![0.0, 0.0, 5.0, 5.0, 8.0, 8.0, 0.0, 0.0],

@@ -22,6 +22,10 @@ pub struct SimulateArgs {
     /// Largest cycle file read, in bytes (default 64 MiB).
     #[arg(long, value_name = "BYTES", default_value_t = invsim_runtime::cycle::MAX_CYCLE_BYTES)]
     max_cycle_bytes: u64,
+    /// The cycle's speed-tolerance band, SPEED_KMH,TIME_S (default: its regulation's, EPA ±2 mph, ±1 s for
+    /// UDDS, HWFET and cycle files, UNECE ±2 km/h, ±1 s for the NEDC and the WLTC).
+    #[arg(long, value_name = "SPEED_KMH,TIME_S")]
+    tolerance: Option<String>,
     /// Kernel half-width a in seconds: the driver's look-ahead.
     #[arg(long, default_value_t = inverse::DEFAULT_LOOKAHEAD, allow_negative_numbers = true)]
     lookahead: f64,
@@ -74,7 +78,7 @@ pub enum SwitchingArg {
 }
 
 pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
-    let (outputs, cycle, model, data) = prepare_run(&RunRequest {
+    let (outputs, mut cycle, model, data) = prepare_run(&RunRequest {
         model: &args.model,
         engine: args.engine,
         cycle: &args.cycle,
@@ -85,6 +89,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
         plot: &args.plot,
         data: &args.data,
     })?;
+    crate::cycle_spec::apply_tolerance(&mut cycle, args.tolerance.as_deref())?;
     let stopped = |e: &dyn std::fmt::Display| {
         Failure::user(format!(
             "simulation of `{}` on `{}` stopped: {e}",

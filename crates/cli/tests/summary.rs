@@ -419,3 +419,102 @@ fn the_grade_warning_names_only_models_that_ignore_it() {
         "si_engine has no grade input"
     );
 }
+
+/// The reference against the cycle's tolerance band: WLTC at a 5 s look-ahead leaves the UNECE band (±2 km/h,
+/// ±1 s) at 67 of its 10 Hz samples, by 0.40 m/s at 958.2 s, and the run warns with that time; UDDS stays
+/// inside the EPA band (±2 mph, ±1 s) without a warning; `--tolerance` gives a CSV cycle its own band.
+#[test]
+fn tolerance_band_is_reported_and_warned() {
+    let wltc = [
+        "simulate",
+        "models/si_engine.toml",
+        "--cycle",
+        "wltc3b",
+        "--dt",
+        "0.1",
+        "--lookahead",
+        "5",
+    ];
+    let (text, json, _) = run("band_wltc", &wltc, false);
+    let band = &json["tolerance_band"];
+    assert_eq!(band["source"], "UNECE");
+    assert!((band["speed_tolerance_mps"].as_f64().unwrap() - 2.0 / 3.6).abs() < 1e-15);
+    assert_eq!(band["samples_checked"], 18001);
+    assert_eq!(band["samples_outside"], 67);
+    assert!((band["worst_time_s"].as_f64().unwrap() - 958.2).abs() < 1e-9);
+    let excess = band["max_excess_mps"].as_f64().unwrap();
+    assert!((excess - 0.4013).abs() < 1e-4, "{excess}");
+    let warning = json["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(Value::as_str)
+        .find(|w| w.contains("tolerance band"))
+        .expect("a warning about the band");
+    assert!(
+        warning.contains("t = 958.2 s") && warning.contains("67 of 18001"),
+        "{warning}"
+    );
+    assert!(text.contains("warning: the smoothed reference leaves the cycle's tolerance band"));
+
+    let (text, json, _) = run(
+        "band_udds",
+        &[
+            "simulate",
+            "models/si_engine.toml",
+            "--cycle",
+            "udds",
+            "--dt",
+            "1",
+        ],
+        false,
+    );
+    assert_eq!(json["tolerance_band"]["source"], "EPA");
+    assert_eq!(json["tolerance_band"]["samples_outside"], 0);
+    assert!(json["tolerance_band"].get("worst_time_s").is_none());
+    assert!(
+        text.contains("tolerance band EPA ±2 mph, ±1 s: inside at every sample"),
+        "{text}"
+    );
+    assert!(!text.contains("leaves the cycle's tolerance band"));
+
+    // A ramp 0 → 20 m/s in 20 s and back: the 5 s look-ahead rounds the peak off by far more than a 0.1 km/h
+    // band with no time tolerance allows, and well within a 30 km/h one.
+    let csv = tmp("band_ramp.csv");
+    std::fs::write(&csv, "time_s,speed_mps\n0,0\n20,20\n40,0\n60,0\n").unwrap();
+    for (tol, outside) in [("0.1,0", true), ("30,1", false)] {
+        let (_, json, _) = run(
+            "band_ramp",
+            &[
+                "simulate",
+                "models/si_engine.toml",
+                "--cycle",
+                csv.to_str().unwrap(),
+                "--tolerance",
+                tol,
+            ],
+            false,
+        );
+        let band = &json["tolerance_band"];
+        assert_eq!(band["source"], "user");
+        assert_eq!(
+            band["samples_outside"].as_u64().unwrap() > 0,
+            outside,
+            "{tol}"
+        );
+    }
+    let o = invsim(&[
+        "simulate",
+        "models/si_engine.toml",
+        "--cycle",
+        csv.to_str().unwrap(),
+        "--tolerance",
+        "2",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("expected SPEED_KMH,TIME_S"),
+        "{}",
+        stderr(&o)
+    );
+}

@@ -8,6 +8,7 @@
 mod builtin;
 mod columns;
 mod printable;
+mod tolerance;
 
 pub use builtin::BuiltinCycle;
 use builtin::{BUILTINS, BUILTIN_NAMES};
@@ -15,6 +16,7 @@ pub(crate) use columns::field_column;
 use columns::ExtraColumns;
 pub use columns::{BadCell, CycleColumn};
 use printable::printable;
+pub use tolerance::{Tolerance, ToleranceError, MAX_TOLERANCE_KMH, MAX_TOLERANCE_S};
 
 use std::fmt::Write as _;
 use std::io::Read as _;
@@ -47,6 +49,9 @@ pub struct Cycle {
     pub grade: Option<Vec<f64>>,
     /// The file's other columns by header name, for signals (contract §5); empty for a built-in cycle.
     pub columns: Vec<CycleColumn>,
+    /// The speed tolerance its regulation allows ([`Tolerance::EPA`] for UDDS, HWFET and CSV files unless
+    /// the user gives another, [`Tolerance::UNECE`] for the NEDC and the WLTC).
+    pub tolerance: Tolerance,
 }
 
 /// Errors from loading or checking a drive cycle. Every message names the file (or the cycle) and, where it
@@ -332,6 +337,7 @@ fn from_waypoints(name: &str, parts: &[(f64, &[(f64, f64)])]) -> Cycle {
         speed,
         grade: None,
         columns: Vec::new(),
+        tolerance: Tolerance::UNECE,
     }
 }
 
@@ -361,6 +367,11 @@ impl Cycle {
                 speed,
                 grade: None,
                 columns: Vec::new(),
+                tolerance: if other.starts_with("wltc") {
+                    Tolerance::UNECE
+                } else {
+                    Tolerance::EPA
+                },
             }),
         }
     }
@@ -950,5 +961,6 @@ fn parse_csv(name: String, file: &str, text: &str) -> Result<Cycle, CycleError> 
         speed: samples.speed,
         grade: samples.grade,
         columns: samples.extra.finish(),
+        tolerance: Tolerance::EPA,
     })
 }

@@ -36,6 +36,7 @@ pub mod signals;
 pub mod smoother;
 pub mod stable;
 pub mod sweep;
+pub mod tolerance_band;
 
 /// The inverse simulation under its former module name.
 pub use inverse as simulate;

@@ -12,8 +12,9 @@ use std::fmt::Write as _;
 use invsim_model_api::ReferenceMap;
 use serde::Serialize;
 
-use crate::cycle::Cycle;
+use crate::cycle::{Cycle, Tolerance};
 use crate::report::{fmt_sig, unit_suffix};
+use crate::tolerance_band::{BandExcess, BandTally};
 
 /// The reference's departure from the cycle (JSON keys flattened into the inverse summary).
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -25,6 +26,8 @@ pub struct ReferenceDeviation {
     pub reference_max_abs_deviation: f64,
     /// sqrt(mean (y_d − y_c)²) over the cycle's samples, in the output's unit.
     pub reference_rms_deviation: f64,
+    /// Where the reference leaves the cycle's tolerance band ([`crate::tolerance_band`]).
+    pub tolerance_band: BandExcess,
 }
 
 /// Accumulates [`ReferenceDeviation`] sample by sample, in increasing time.
@@ -34,6 +37,7 @@ pub(crate) struct DeviationTally {
     segment: usize,
     sums: Sums,
     dt: f64,
+    band: BandTally,
 }
 
 /// The running sums of [`DeviationTally`].
@@ -61,8 +65,9 @@ impl Sums {
 }
 
 impl DeviationTally {
-    pub(crate) fn new(map: ReferenceMap, dt: f64) -> DeviationTally {
+    pub(crate) fn new(map: ReferenceMap, dt: f64, tolerance: Tolerance) -> DeviationTally {
         DeviationTally {
+            band: BandTally::new(tolerance),
             map,
             segment: 0,
             sums: Sums {
@@ -94,6 +99,7 @@ impl DeviationTally {
         };
         let segments = time.partition_point(|&c| c <= last) - time.partition_point(|&c| c < first);
         let (mut sums, mut segment) = (self.sums, self.segment);
+        let (dv, dt) = (self.band.speed_tolerance(), self.dt);
         let mut k = 0;
         while k < times.len().min(yd.len()) {
             let t = times[k];
@@ -111,7 +117,10 @@ impl DeviationTally {
                 } else {
                     speed[i] + (t - time[i]) / (time[i + 1] - time[i]) * (speed[i + 1] - speed[i])
                 };
-                sums.add(yd[k] - yc, yd[k], self.dt);
+                sums.add(yd[k] - yc, yd[k], dt);
+                if (yd[k] - yc).abs() > dv {
+                    self.band.envelope_check(cycle, t, yd[k]);
+                }
                 k += 1;
                 continue;
             }
@@ -121,7 +130,11 @@ impl DeviationTally {
             let end = k + times[k..].iter().take_while(|&&t| t < t_next).count();
             for (&t, &y) in times[k..end].iter().zip(&yd[k..end]) {
                 let w = (t - t_i) / (t_next - t_i);
-                sums.add(y - (v_i + w * (v_next - v_i)), y, self.dt);
+                let e = y - (v_i + w * (v_next - v_i));
+                sums.add(e, y, dt);
+                if e.abs() > dv {
+                    self.band.envelope_check(cycle, t, y);
+                }
             }
             k = end;
         }
@@ -141,6 +154,7 @@ impl DeviationTally {
             (offset + scale * y_c, (yd - offset) / scale)
         };
         self.sums.add(yd - yc, v, self.dt);
+        self.band.push(cycle, t, v, v - y_c);
     }
 
     /// The raw cycle's speed at `t`: linear between samples, held outside (as [`Cycle::speed_at`]), with a
@@ -176,6 +190,7 @@ impl DeviationTally {
             } else {
                 0.0
             },
+            tolerance_band: self.band.finish(s.count),
         }
     }
 }
@@ -192,6 +207,7 @@ impl ReferenceDeviation {
             fmt_sig(self.reference_distance_m, 6),
             fmt_sig(cycle_m, 6)
         );
+        let _ = writeln!(s, "{}", self.tolerance_band.text());
     }
 }
 
@@ -232,11 +248,11 @@ mod tests {
                     .iter()
                     .map(|&t| map.offset + map.scale * (udds.speed_at(t) + 0.01 * (t * 0.37).sin()))
                     .collect();
-                let mut one = DeviationTally::new(map, h);
+                let mut one = DeviationTally::new(map, h, udds.tolerance);
                 for (&t, &y) in times.iter().zip(&yd) {
                     one.push(&udds, t, y);
                 }
-                let mut blocks = DeviationTally::new(map, h);
+                let mut blocks = DeviationTally::new(map, h, udds.tolerance);
                 for (t, y) in times.chunks(4096).zip(yd.chunks(4096)) {
                     blocks.push_block(&udds, t, y);
                 }

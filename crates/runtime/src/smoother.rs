@@ -478,6 +478,7 @@ mod tests {
             speed.push(((i * 37) % 11) as f64);
         }
         let cycle = Cycle {
+            tolerance: crate::cycle::Tolerance::EPA,
             name: "irregular".into(),
             time,
             speed,

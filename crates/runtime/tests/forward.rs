@@ -686,6 +686,7 @@ fn invalid_options_are_rejected() {
         Err(ForwardError::InvalidX0 { .. })
     ));
     let bad = Cycle {
+        tolerance: invsim_runtime::cycle::Tolerance::EPA,
         name: "bad".into(),
         time: vec![0.0, 0.0],
         speed: vec![0.0, 1.0],

@@ -16,6 +16,7 @@ fn nedc() -> Cycle {
 
 fn constant_speed(kmh: f64, duration: f64) -> Cycle {
     Cycle {
+        tolerance: invsim_runtime::cycle::Tolerance::EPA,
         name: format!("constant {kmh} km/h"),
         time: vec![0.0, duration],
         speed: vec![kmh / 3.6; 2],
@@ -482,6 +483,7 @@ impl InverseModel for InternalDynamics {
 #[test]
 fn zero_dynamics_becoming_unstable_along_the_run_are_detected() {
     let cycle = Cycle {
+        tolerance: invsim_runtime::cycle::Tolerance::EPA,
         name: "up".into(),
         time: vec![0.0, 10.0, 20.0, 100.0],
         speed: vec![0.0, 0.0, 3.0, 3.0],

@@ -627,7 +627,7 @@ proptest! {
             time.push(t);
             speed.push(v);
         }
-        let cycle = Cycle { name: "random".into(), time, speed, grade: None, columns: Vec::new() };
+        let cycle = Cycle { tolerance: invsim_runtime::cycle::Tolerance::EPA, name: "random".into(), time, speed, grade: None, columns: Vec::new() };
         let s = Smoother::new(&cycle, a).unwrap();
         let (t0, t1) = (cycle.time[0] - a, cycle.time[cycle.time.len() - 1] + a);
         let t = t0 + frac * (t1 - t0);
@@ -715,6 +715,7 @@ fn grid_error(
 fn grid_evaluation_matches_pointwise() {
     let nedc = Cycle::builtin("nedc").unwrap();
     let odd = Cycle {
+        tolerance: invsim_runtime::cycle::Tolerance::EPA,
         name: "odd".into(),
         time: vec![0.0, 3.3, 7.05, 9.0, 20.123],
         speed: vec![0.0, 4.0, 4.0, 9.5, 0.0],
@@ -809,6 +810,7 @@ fn grid_evaluation_beyond_the_table_budget() {
         speed.push(rng.gen_range(0.0..30.0));
     }
     let cycle = Cycle {
+        tolerance: invsim_runtime::cycle::Tolerance::EPA,
         name: "random".into(),
         time,
         speed,

@@ -302,6 +302,7 @@ impl Weighted {
 /// A cycle that starts to move at t = 0 (so the stable inverse needs input before t = 0) and ends at rest.
 fn ramp_cycle() -> Cycle {
     Cycle {
+        tolerance: invsim_runtime::cycle::Tolerance::EPA,
         name: "ramps".into(),
         time: vec![0.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0],
         speed: vec![0.0, 5.0, 5.0, 8.0, 8.0, 0.0, 0.0],
@@ -401,6 +402,7 @@ fn linear_nmp_causal_integration_grows_without_bound() {
     let model = LinearNmp::new(0.5, 2.0, 0.5);
     let [_, b, k] = model.p;
     let cycle = Cycle {
+        tolerance: invsim_runtime::cycle::Tolerance::EPA,
         name: "long".into(),
         time: vec![0.0, 10.0, 20.0, 30.0, 200.0],
         speed: vec![0.0, 5.0, 5.0, 2.0, 2.0],

@@ -352,6 +352,7 @@ fn diesel(root: &Path, out: &Path) -> Result<PathBuf, Failure> {
 
     // Pre-actuation: a fast demand step from 1.7 to 2.5 bar, short look-ahead, extended grid kept.
     let step = Cycle {
+        tolerance: invsim_runtime::cycle::Tolerance::EPA,
         name: "boost step".into(),
         time: vec![0.0, 5.0, 5.5, 10.0],
         speed: vec![10.0, 10.0, 30.0, 30.0],

@@ -158,7 +158,7 @@ impl<'c> Tally<'c> {
             dt: grid.dt,
             cycle_end: grid.k0 + steps,
             cycle,
-            deviation: DeviationTally::new(model.reference(), grid.dt),
+            deviation: DeviationTally::new(model.reference(), grid.dt, cycle.tolerance),
             operating: OperatingPointTally::new(info, window.1 - window.0 + 1),
             progress,
         }
@@ -768,6 +768,8 @@ fn summarise<M: InverseModel + ?Sized>(
         (None, None)
     };
     let (k_lo, k_hi) = run.window;
+    let reference = tally.deviation.finish();
+    warnings.extend(reference.tolerance_band.warning());
     if run.keep && (k_lo, k_hi) != (0, run.grid.n) {
         for column in data.iter_mut() {
             column.truncate(k_hi + 1);
@@ -788,7 +790,7 @@ fn summarise<M: InverseModel + ?Sized>(
         samples: k_hi - k_lo + 1,
         lookahead_s: opts.lookahead,
         dt_s: opts.dt,
-        reference: tally.deviation.finish(),
+        reference,
         totals,
         max_abs_tracking_error,
         rms_tracking_error,

@@ -165,7 +165,11 @@ fn walk(ctx: &Ctx<'_, '_>, cycle: &Cycle, opts: &ModalOptions, rec: &Record) -> 
         integrals: vec![0.0; no],
         time: vec![0.0; spec.modes.len()],
         violations: Vec::new(),
-        deviation: DeviationTally::new(invsim_model_api::ReferenceMap::IDENTITY, opts.dt),
+        deviation: DeviationTally::new(
+            invsim_model_api::ReferenceMap::IDENTITY,
+            opts.dt,
+            cycle.tolerance,
+        ),
         // The engine's outputs are among those every mode shares (the first n_outputs).
         operating: OperatingPointTally::new(info0, ns)
             .filter(|_| info0.engine.is_some_and(|e| e.speed.max(e.torque) < no)),
@@ -316,7 +320,9 @@ pub(super) fn assemble(
         .iter()
         .map(|t| t.max_deviation)
         .fold(0.0, f64::max);
-    let warnings = warnings_of(&tally.violations, &rec.impulses);
+    let mut warnings = warnings_of(&tally.violations, &rec.impulses);
+    let reference = tally.deviation.finish();
+    warnings.extend(reference.tolerance_band.warning());
     // Each input's range over the samples (NaN where a mode neither frees nor reports it is skipped).
     let ranges: Vec<[f64; 2]> = (0..tally.inputs.width())
         .map(|j| {
@@ -342,7 +348,7 @@ pub(super) fn assemble(
         samples: ns,
         lookahead_s: opts.lookahead,
         dt_s: opts.dt,
-        reference: tally.deviation.finish(),
+        reference,
         totals,
         inputs,
         max_abs_tracking_error: verify.as_ref().map(|v| v.max_abs),
