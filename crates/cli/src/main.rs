@@ -22,6 +22,7 @@ mod files;
 mod forward;
 mod import_cmd;
 mod initial_args;
+mod lookahead_arg;
 mod map_args;
 mod outputs;
 mod plotting;

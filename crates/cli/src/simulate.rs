@@ -7,6 +7,7 @@ use invsim_runtime::{inverse, RunFailure, SimulationOptions};
 
 use crate::engine::{prepare_run, EngineChoice, RunRequest};
 use crate::error::Failure;
+use crate::lookahead_arg::LookaheadArg;
 use crate::provenance;
 
 // Serialised (by command-line name) into the summary's provenance. No doc comment: clap would
@@ -26,9 +27,11 @@ pub struct SimulateArgs {
     /// UDDS, HWFET and cycle files, UNECE ±2 km/h, ±1 s for the NEDC and the WLTC).
     #[arg(long, value_name = "SPEED_KMH,TIME_S")]
     tolerance: Option<String>,
-    /// Kernel half-width a in seconds: the driver's look-ahead.
-    #[arg(long, default_value_t = inverse::DEFAULT_LOOKAHEAD, allow_negative_numbers = true)]
-    lookahead: f64,
+    /// Kernel half-width a in seconds: the driver's look-ahead; `auto` chooses the longest that keeps the
+    /// reference inside the cycle's tolerance band with its cycle energy within 1 % of the trace's.
+    #[arg(long, value_name = "A|auto", allow_negative_numbers = true,
+          default_value_t = LookaheadArg::Seconds(inverse::DEFAULT_LOOKAHEAD))]
+    lookahead: LookaheadArg,
     /// Output step in seconds.
     #[arg(long, default_value_t = inverse::DEFAULT_DT, allow_negative_numbers = true)]
     dt: f64,
@@ -100,9 +103,10 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
     let engine = model.engine_name();
     let plant = model.into_plant();
     let (progress, bar) = crate::progress::start("simulate");
-    let mut opts = SimulationOptions::builder()
+    let mut opts = args
+        .lookahead
+        .apply(SimulationOptions::builder())
         .progress(progress)
-        .lookahead(args.lookahead)
         .dt(args.dt)
         .engine(engine)
         .verify(args.verify)

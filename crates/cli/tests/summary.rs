@@ -518,3 +518,70 @@ fn tolerance_band_is_reported_and_warned() {
         stderr(&o)
     );
 }
+
+/// `--lookahead auto` on every built-in cycle and on a cycle file with its own tolerance: the chosen
+/// look-ahead keeps the reference inside the band at every sample, with the cycle energy within 1 % of the
+/// trace's, and the summary says so; the fuel lies between the exact trace's side (a = 0.5 s) and the 5 s
+/// default's.
+#[test]
+fn auto_lookahead_stays_inside_the_band() {
+    let csv = tmp("auto_ramps.csv");
+    std::fs::write(
+        &csv,
+        "time_s,speed_mps\n0,0\n10,0\n25,15\n60,15\n70,25\n100,25\n120,0\n140,0\n",
+    )
+    .unwrap();
+    let mut cases: Vec<(String, Vec<&str>)> = invsim_runtime::Cycle::builtin_names()
+        .iter()
+        .map(|c| (c.to_string(), vec![]))
+        .collect();
+    cases.push((
+        csv.to_str().unwrap().to_string(),
+        vec!["--tolerance", "1,0.5"],
+    ));
+    for (cycle, extra) in &cases {
+        let mut args = vec![
+            "simulate",
+            "models/si_engine.toml",
+            "--cycle",
+            cycle,
+            "--lookahead",
+            "auto",
+        ];
+        args.extend(extra.iter().copied());
+        let (text, json, _) = run("auto_la", &args, false);
+        let choice = &json["lookahead_choice"];
+        assert_eq!(choice["method"], "auto", "{cycle}");
+        assert_eq!(choice["accepted"], true, "{cycle}");
+        assert!(
+            choice["energy_deviation"].as_f64().unwrap().abs() <= 0.01,
+            "{cycle}"
+        );
+        assert_eq!(choice["lookahead_s"], json["lookahead_s"], "{cycle}");
+        assert_eq!(
+            json["tolerance_band"]["samples_outside"], 0,
+            "{cycle}: {text}"
+        );
+        assert!(text.contains("look-ahead chosen: auto"), "{cycle}");
+        let fuel = |a: &str| {
+            let mut args = vec![
+                "simulate",
+                "models/si_engine.toml",
+                "--cycle",
+                cycle,
+                "--lookahead",
+                a,
+            ];
+            args.extend(extra.iter().copied());
+            run("auto_la_fixed", &args, false).1["integrals"]["fuel"]
+                .as_f64()
+                .unwrap()
+        };
+        let auto = json["integrals"]["fuel"].as_f64().unwrap();
+        let (exact, smooth) = (fuel("0.5"), fuel("5"));
+        assert!(
+            (auto - exact).abs() <= (smooth - exact).abs() + 1e-12,
+            "{cycle}: auto {auto}, a = 0.5 s {exact}, a = 5 s {smooth}"
+        );
+    }
+}

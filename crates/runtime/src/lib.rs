@@ -19,6 +19,7 @@ pub mod grid;
 pub mod initial;
 pub mod inverse;
 pub mod kernel;
+pub mod lookahead;
 pub mod modes;
 mod numfmt;
 pub mod ode;

@@ -67,6 +67,17 @@ impl Plant {
         opts: &SimulationOptions,
     ) -> Result<RunResult, RunFailure> {
         opts.validate()?;
+        if opts.lookahead_auto {
+            let choice = crate::lookahead::choose(cycle, opts.dt).map_err(SimulateError::from)?;
+            let fixed = SimulationOptions {
+                lookahead: choice.lookahead_s,
+                lookahead_auto: false,
+                ..opts.clone()
+            };
+            let mut result = self.simulate(cycle, file, &fixed)?;
+            result.set_lookahead_choice(choice);
+            return Ok(result);
+        }
         match self {
             Plant::Single(m) => Ok(RunResult::Single(Box::new(simulate(
                 m.as_ref(),
@@ -176,6 +187,15 @@ impl RunResult {
     }
 
     /// Record what produced the run (the command line's invocation).
+    /// Record how `--lookahead auto` chose the look-ahead (inverse runs).
+    pub fn set_lookahead_choice(&mut self, c: crate::lookahead::LookaheadChoice) {
+        match self {
+            RunResult::Single(r) => r.summary.lookahead_choice = Some(c),
+            RunResult::Modal(r, _) => r.summary.lookahead_choice = Some(c),
+            RunResult::Forward(_) | RunResult::ModalForward(..) => {}
+        }
+    }
+
     pub fn set_provenance(&mut self, p: Provenance) {
         match self {
             RunResult::Single(r) => r.summary.provenance = Some(p),

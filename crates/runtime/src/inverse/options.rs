@@ -76,6 +76,9 @@ pub struct SimulationOptions {
     pub switching: Switching,
     /// Models with modes: the re-entry's transition time, s (default: the look-ahead).
     pub transition_time: Option<f64>,
+    /// `--lookahead auto`: the run chooses the look-ahead for its cycle and dt ([`crate::lookahead::choose`])
+    /// and `lookahead` is not used (default `false`).
+    pub lookahead_auto: bool,
 }
 
 impl Default for SimulationOptions {
@@ -99,6 +102,7 @@ impl Default for SimulationOptions {
             initial: Vec::new(),
             switching: Switching::Reentry,
             transition_time: None,
+            lookahead_auto: false,
         }
     }
 }
@@ -188,6 +192,8 @@ setters! {
     switching: Switching,
     /// Models with modes: the re-entry's transition time, s.
     transition_time: Option<f64>,
+    /// Choose the look-ahead for the cycle and dt.
+    lookahead_auto: bool,
 }
 
 impl SimulationOptionsBuilder {

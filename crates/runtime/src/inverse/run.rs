@@ -789,6 +789,7 @@ fn summarise<M: InverseModel + ?Sized>(
         engine: opts.engine.clone(),
         samples: k_hi - k_lo + 1,
         lookahead_s: opts.lookahead,
+        lookahead_choice: None,
         dt_s: opts.dt,
         reference,
         totals,

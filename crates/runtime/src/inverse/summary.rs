@@ -20,6 +20,9 @@ pub struct Summary {
     pub engine: String,
     pub samples: usize,
     pub lookahead_s: f64,
+    /// How `--lookahead auto` chose `lookahead_s` (absent for a given look-ahead).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lookahead_choice: Option<crate::lookahead::LookaheadChoice>,
     pub dt_s: f64,
     /// How far y_d departs from the cycle and the distance it covers (flattened: `reference_distance_m`,
     /// `reference_max_abs_deviation`, `reference_rms_deviation`).
@@ -113,6 +116,9 @@ impl Summary {
         let _ = writeln!(s, "samples: {}", self.samples);
         let _ = writeln!(s, "dt: {} s", fmt_sig(self.dt_s, 6));
         let _ = writeln!(s, "look-ahead: {} s", fmt_sig(self.lookahead_s, 6));
+        if let Some(c) = &self.lookahead_choice {
+            let _ = writeln!(s, "{}", c.text());
+        }
         crate::signals::write_signal_uses(&mut s, &self.signals);
         let output_unit = self.totals.output_unit.as_deref();
         self.reference

@@ -35,6 +35,9 @@ pub struct ModalSummary {
     pub engine: String,
     pub samples: usize,
     pub lookahead_s: f64,
+    /// How `--lookahead auto` chose `lookahead_s` (absent for a given look-ahead).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lookahead_choice: Option<crate::lookahead::LookaheadChoice>,
     pub dt_s: f64,
     /// How far the smoothed cycle departs from the legal trace (cycle speed, m/s: every mode's reference is a
     /// map of it).
@@ -347,6 +350,7 @@ pub(super) fn assemble(
         engine: "interpreted".into(),
         samples: ns,
         lookahead_s: opts.lookahead,
+        lookahead_choice: None,
         dt_s: opts.dt,
         reference,
         totals,
@@ -486,6 +490,9 @@ impl ModalSummary {
             self.dt_s,
             self.lookahead_s
         );
+        if let Some(c) = &self.lookahead_choice {
+            let _ = writeln!(s, "{}", c.text());
+        }
         let _ = writeln!(
             s,
             "engine: {}  switching: {}",
