@@ -21,8 +21,10 @@ struct Scan {
     indents: Vec<usize>,
     /// Inside a quoted scalar: its quote character.
     quote: Option<char>,
-    /// Inside a block scalar (`|`, `>`): the indentation of the line that opened it.
-    block_scalar: Option<usize>,
+    /// Inside a block scalar (`|`, `>`): the indentation of the line that opened it and, once its first
+    /// line is read, the indentation of its content (YAML 1.2 §8.1.1.1: detected from the first non-empty
+    /// line; a less indented line ends the scalar).
+    block_scalar: Option<(usize, Option<usize>)>,
 }
 
 /// `Err` with the line and column where the nesting of `text` first exceeds [`MAX_YAML_DEPTH`].
@@ -51,11 +53,18 @@ impl Scan {
     fn line(&mut self, line: &str) -> Result<(), usize> {
         let indent = line.len() - line.trim_start_matches(' ').len();
         let content = line[indent..].trim_end();
-        if let Some(opened) = self.block_scalar {
-            if content.is_empty() || indent > opened {
+        if let Some((opened, content_indent)) = self.block_scalar {
+            if content.is_empty() {
                 return Ok(());
             }
-            self.block_scalar = None;
+            match content_indent {
+                None if indent > opened => {
+                    self.block_scalar = Some((opened, Some(indent)));
+                    return Ok(());
+                }
+                Some(ci) if indent >= ci => return Ok(()),
+                _ => self.block_scalar = None,
+            }
         }
         if content.is_empty() || content.starts_with('#') {
             return Ok(());
@@ -79,9 +88,12 @@ impl Scan {
     }
 
     /// The characters of a line from its indentation on: quotes, comments, flow brackets, compact `- `
-    /// entries and block-scalar indicators.
+    /// entries and block-scalar indicators. Every `[` and `{` outside quotes and comments counts (also in a
+    /// plain scalar, where the parser would not open a collection: an overcount, never an undercount of the
+    /// flow levels whose scanning is quadratic).
     fn scan_chars(&mut self, line: &str, indent: usize) -> Result<(), usize> {
-        // Whether the next character starts a node (after indentation, `- `, `: `, `? `, `[`, `{`, `,`).
+        // Whether the next character starts a node, where a quote opens a quoted scalar: after the
+        // indentation, `- `, `: `, `? `, and in a flow collection after `[`, `{` and `,`.
         let mut node_start = self.quote.is_none();
         let mut prev = ' ';
         let mut chars = line.char_indices().skip(indent).peekable();
@@ -90,10 +102,9 @@ impl Scan {
             column += 1;
             let next = chars.peek().map_or(' ', |&(_, n)| n);
             if let Some(q) = self.quote {
-                if c == q && q == '\'' && next == '\'' {
-                    chars.next();
-                    column += 1;
-                } else if c == '\\' && q == '"' {
+                // `''` in a single-quoted scalar and `\x` in a double-quoted one do not end it.
+                let escaped = (c == q && q == '\'' && next == '\'') || (c == '\\' && q == '"');
+                if escaped {
                     chars.next();
                     column += 1;
                 } else if c == q {
@@ -105,7 +116,7 @@ impl Scan {
             match c {
                 '#' if prev == ' ' || prev == '\t' => return Ok(()),
                 '"' | '\'' if node_start => self.quote = Some(c),
-                '[' | '{' if node_start || self.flow > 0 => {
+                '[' | '{' => {
                     self.flow += 1;
                     if self.depth() > MAX_YAML_DEPTH {
                         return Err(column);
@@ -124,15 +135,18 @@ impl Scan {
                         .trim_start_matches(|r: char| r == '+' || r == '-' || r.is_ascii_digit())
                         .trim_start();
                     if rest.is_empty() || rest.starts_with('#') {
-                        self.block_scalar = Some(indent);
+                        self.block_scalar = Some((indent, None));
                         return Ok(());
                     }
                 }
                 _ => {}
             }
             node_start = match c {
-                ' ' | '\t' => node_start || matches!(prev, ':' | '-' | '?' | ','),
-                '[' | '{' | ',' => true,
+                ' ' | '\t' => {
+                    node_start || matches!(prev, ':' | '-' | '?') || (prev == ',' && self.flow > 0)
+                }
+                '[' | '{' => true,
+                ',' => self.flow > 0,
                 _ => false,
             };
             prev = c;
@@ -161,5 +175,11 @@ mod tests {
         let dashes = "- ".repeat(MAX_YAML_DEPTH + 1);
         assert!(check(&format!("{dashes}x\n")).is_err());
         assert!(check("a: |\n  [[[[\n   [[[\nb: x\n").is_ok());
+        // Brackets hidden behind a tag, or after a quote in a block plain scalar, still count.
+        let deep = "[".repeat(MAX_YAML_DEPTH);
+        assert!(check(&format!("a: !t {deep}\n")).is_err());
+        assert!(check(&format!("a: b, 'c\nd: {deep}\n")).is_err());
+        // A block scalar ends at its first less indented line.
+        assert!(check(&format!("a: |\n    x\n  {deep}\n")).is_err());
     }
 }
