@@ -22,21 +22,13 @@ pub enum ImportFormat {
 pub fn run(format: &ImportFormat) -> Result<(), Failure> {
     let ImportFormat::Fastsim { vehicle, out } = format;
     let shown = vehicle.display().to_string();
-    let text =
-        std::fs::read(vehicle).map_err(|e| Failure::user(format!("{shown}: cannot read: {e}")))?;
-    let text = String::from_utf8(text).map_err(|e| {
-        Failure::user(format!(
-            "{shown}: not UTF-8 text (byte {})",
-            e.utf8_error().valid_up_to()
-        ))
-    })?;
+    let text = invsim_import::read_vehicle_file(vehicle)
+        .map_err(|e| Failure::user(e.message_for(&shown)))?;
     let source = vehicle
         .file_name()
         .map_or(shown.clone(), |n| n.to_string_lossy().into_owned());
-    let imported = invsim_import::import_fastsim(&text, &source).map_err(|e| match e {
-        invsim_import::ImportError::Yaml { .. } => Failure::user(format!("{shown}:{e}")),
-        other => Failure::user(format!("{shown}: {other}")),
-    })?;
+    let imported = invsim_import::import_fastsim(&text, &source)
+        .map_err(|e| Failure::user(e.message_for(&shown)))?;
     for w in &imported.warnings {
         eprintln!("invsim: warning: {shown}: {w}");
     }

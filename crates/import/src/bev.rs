@@ -1,7 +1,6 @@
 //! A battery-electric vehicle (`pt_type: BEV`): transmission, electric machine with its efficiency table
 //! (regeneration at the table's zero-load efficiency), battery with a constant round-trip efficiency.
 
-use crate::chassis::positive;
 use crate::curve::{scalar, table};
 use crate::efficiency;
 use crate::error::ImportError;
@@ -21,7 +20,7 @@ pub fn emit(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<
     model.field("eta_t", eta_t, "-", "transmission efficiency", &eta_t_path)?;
     model.field(
         "P_em_max",
-        positive(doc, &p("em.pwr_out_max_watts"))?,
+        doc.num(&p("em.pwr_out_max_watts"))?,
         "W",
         "electric machine peak power (drive and regeneration)",
         &p("em.pwr_out_max_watts"),
@@ -36,14 +35,14 @@ pub fn emit(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<
     )?;
     model.field(
         "P_res_max",
-        positive(doc, &p("res.pwr_out_max_watts"))?,
+        doc.num(&p("res.pwr_out_max_watts"))?,
         "W",
         "battery peak power (discharge and charge)",
         &p("res.pwr_out_max_watts"),
     )?;
     model.field(
         "E_res",
-        positive(doc, &p("res.energy_capacity_joules"))?,
+        doc.num(&p("res.energy_capacity_joules"))?,
         "J",
         "battery capacity",
         &p("res.energy_capacity_joules"),

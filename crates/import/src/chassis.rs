@@ -13,7 +13,8 @@ pub const AIR_DENSITY: f64 = 1.17285;
 /// FASTSim's gravitational acceleration (m/s²), `uc::ACC_GRAV`.
 pub const GRAVITY: f64 = 9.8;
 
-/// Emit the chassis parameters and the road-load definitions:
+/// Emit the chassis parameters (each checked against its range in `limits.rs` by `Model::field`) and the
+/// road-load definitions:
 /// m_eff = m + n_w J_w / r_w² (FASTSim books the wheels' kinetic energy ½ n_w J_w (v/r_w)² as its own power
 /// term), F_res = ½ ρ C_d A v² + m g (c_r cos(atan(grade)) + grade) (FASTSim's drag, rolling and ascent
 /// powers divided by the speed: it takes the ascent as g · grade, not g · sin(atan(grade))).
@@ -26,9 +27,6 @@ pub fn emit(doc: &Doc, model: &mut Model) -> Result<(), ImportError> {
              loaded; export the file with `fastsim.Vehicle.from_file(...).to_yaml()`)",
         ));
     };
-    if mass <= 0.0 {
-        return Err(ImportError::field("mass_kilograms", "must be positive"));
-    }
     model.field(
         "m",
         mass,
@@ -53,7 +51,7 @@ pub fn emit(doc: &Doc, model: &mut Model) -> Result<(), ImportError> {
     )?;
     model.field(
         "r_w",
-        positive(doc, &c("wheel_radius_meters"))?,
+        doc.num(&c("wheel_radius_meters"))?,
         "m",
         "wheel radius",
         &c("wheel_radius_meters"),
@@ -109,17 +107,4 @@ pub fn emit(doc: &Doc, model: &mut Model) -> Result<(), ImportError> {
         doc.mark(&c(f));
     }
     Ok(())
-}
-
-/// A required positive number.
-pub fn positive(doc: &Doc, path: &str) -> Result<f64, ImportError> {
-    let x = doc.num(path)?;
-    if x > 0.0 && x.is_finite() {
-        Ok(x)
-    } else {
-        Err(ImportError::field(
-            path,
-            format!("must be a positive number, found {x}"),
-        ))
-    }
 }

@@ -1,7 +1,6 @@
 //! A conventional vehicle (`pt_type: Conv`): engine (fuel converter) with its efficiency curve over the load
 //! fraction, transmission efficiency, alternator efficiency for the auxiliary load, idle fuel power.
 
-use crate::chassis::positive;
 use crate::curve::{scalar, table};
 use crate::efficiency;
 use crate::error::ImportError;
@@ -17,7 +16,7 @@ pub fn emit(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<
     let p = |f: &str| format!("{BASE}.{f}");
     model.field(
         "P_fc_max",
-        positive(doc, &p("fc.pwr_out_max_watts"))?,
+        doc.num(&p("fc.pwr_out_max_watts"))?,
         "W",
         "engine peak power",
         &p("fc.pwr_out_max_watts"),
@@ -26,7 +25,7 @@ pub fn emit(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<
     model.field("eta_t", eta_t, "-", "transmission efficiency", &eta_t_path)?;
     model.field(
         "eta_alt",
-        positive(doc, &p("alt_eff"))?,
+        doc.num(&p("alt_eff"))?,
         "-",
         "alternator efficiency (the auxiliary load drawn from the engine)",
         &p("alt_eff"),
@@ -39,9 +38,8 @@ pub fn emit(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<
         &p("fc.pwr_idle_fuel_watts"),
     )?;
     let e_f_path = p("fs.specific_energy_joules_per_kilogram");
-    let e_f = doc
-        .opt_num(&e_f_path)?
-        .filter(|x| x.is_finite() && *x > 0.0);
+    // Unset (null or FASTSim's `.nan`): fuel as energy only; set: checked against its range like every field.
+    let e_f = doc.opt_num(&e_f_path)?.filter(|x| !x.is_nan());
     match e_f {
         Some(e_f) => model.field("e_f", e_f, "J/kg", "fuel specific energy (lower heating value)", &e_f_path)?,
         None => warnings.push(format!(

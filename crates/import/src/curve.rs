@@ -66,7 +66,7 @@ fn first_key(v: &Value) -> String {
         .to_string()
 }
 
-/// A 1-D table at `path` (grid strictly increasing, values in [0, 1]).
+/// A 1-D table at `path` (grid strictly increasing, every grid point and value in its range, `limits.rs`).
 pub fn table(doc: &Doc, path: &str) -> Result<Curve, ImportError> {
     let grid_path = format!("{path}.data.grid");
     let grid = doc
@@ -90,15 +90,16 @@ pub fn table(doc: &Doc, path: &str) -> Result<Curve, ImportError> {
         .get(&values_path)
         .ok_or_else(|| ImportError::field(&values_path, "missing"))?;
     let y = numbers(values, &values_path)?;
-    check_table(&x, &y, path)?;
     let strategy = strategy(doc, path)?;
     doc.mark(&format!("{path}.extrapolate"));
-    Ok(Curve {
+    let curve = Curve {
         path: path.to_string(),
         x,
         y,
         strategy,
-    })
+    };
+    check_table(&curve)?;
+    Ok(curve)
 }
 
 /// A list of numbers.
@@ -118,11 +119,14 @@ fn numbers(v: &Value, path: &str) -> Result<Vec<f64>, ImportError> {
         .collect()
 }
 
-/// Grid strictly increasing with at least two points, as many values as grid points, all finite.
-fn check_table(x: &[f64], y: &[f64], path: &str) -> Result<(), ImportError> {
+/// At least two grid points and one value each, every point and value finite and in its range (`limits.rs`:
+/// load fractions in [0, 1], efficiencies in (0, 1]), the grid strictly increasing; an error names the first
+/// offending point or value.
+fn check_table(c: &Curve) -> Result<(), ImportError> {
+    let (x, y) = (&c.x, &c.y);
     if x.len() < 2 || x.len() != y.len() {
         return Err(ImportError::field(
-            path,
+            &c.path,
             format!(
                 "needs at least two grid points and one value each ({} and {})",
                 x.len(),
@@ -130,14 +134,34 @@ fn check_table(x: &[f64], y: &[f64], path: &str) -> Result<(), ImportError> {
             ),
         ));
     }
-    if x.iter().chain(y).any(|v| !v.is_finite()) || x.windows(2).any(|w| w[1] <= w[0]) {
-        return Err(ImportError::field(
-            path,
-            "grid must be finite and strictly increasing, values finite",
-        ));
+    for (k, &xk) in x.iter().enumerate() {
+        let path = c.x_path(k);
+        if !xk.is_finite() {
+            return Err(ImportError::field(
+                &path,
+                format!("{xk} is not a finite number"),
+            ));
+        }
+        crate::limits::check(&path, xk)?;
+        if k > 0 && xk <= x[k - 1] {
+            return Err(ImportError::field(
+                &path,
+                format!(
+                    "{xk} follows {}: the grid must be strictly increasing",
+                    x[k - 1]
+                ),
+            ));
+        }
     }
-    if y.iter().any(|&e| !(0.0..=1.0).contains(&e)) {
-        return Err(ImportError::field(path, "efficiencies must lie in [0, 1]"));
+    for (k, &yk) in y.iter().enumerate() {
+        let path = c.y_path(k);
+        if !yk.is_finite() {
+            return Err(ImportError::field(
+                &path,
+                format!("{yk} is not a finite number"),
+            ));
+        }
+        crate::limits::check(&path, yk)?;
     }
     Ok(())
 }

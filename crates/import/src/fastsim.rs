@@ -23,8 +23,13 @@ pub struct Imported {
     pub warnings: Vec<String>,
 }
 
-/// Import the FASTSim 3 vehicle file `text`; `source` names it in the generated header.
+/// Import the FASTSim 3 vehicle file `text`; `source` names it in the generated header. A field error
+/// carries the line and column of the field's value in `text` (when the file has the field).
 pub fn import_fastsim(text: &str, source: &str) -> Result<Imported, ImportError> {
+    import(text, source).map_err(|e| e.located(text))
+}
+
+fn import(text: &str, source: &str) -> Result<Imported, ImportError> {
     let doc = Doc::new(parse(text)?);
     let powertrain = powertrain(&doc)?;
     let vehicle = doc

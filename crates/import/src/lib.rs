@@ -2,21 +2,30 @@
 //! conventional or battery-electric vehicle file becomes a model with one state (the vehicle speed), the
 //! tractive force at the wheels as input (negative = braking) and FASTSim's energy flows in `[outputs]`, every
 //! parameter carrying its unit and a doc naming the FASTSim field it came from. Hybrids and unknown powertrain
-//! types are refused; fields the model does not use are listed as warnings.
+//! types are refused; fields the model does not use are listed as warnings. Every field read is checked against
+//! its physical range (`limits.rs`); the file is read through a byte cap (`read.rs`) and its nesting depth is
+//! capped before it is parsed (`depth.rs`).
 
 mod bev;
 mod chassis;
 mod conv;
 mod curve;
+mod depth;
 mod efficiency;
 mod error;
 mod fastsim;
+mod limits;
+mod locate;
 mod model;
+mod read;
 mod unsupported;
 mod yaml;
 
 pub use chassis::{AIR_DENSITY, GRAVITY};
+pub use depth::MAX_YAML_DEPTH;
 pub use error::ImportError;
 pub use fastsim::{import_fastsim, Imported, Powertrain};
+pub use limits::{describe as describe_range, Range, FIELDS as FIELD_RANGES};
+pub use read::{read_vehicle_file, MAX_VEHICLE_FILE_BYTES};
 pub use yaml::lookup as yaml_lookup;
 pub use yaml::parse as parse_yaml;

@@ -46,7 +46,8 @@ pub struct Model {
 }
 
 impl Model {
-    /// A parameter read from the FASTSim field `path` (its doc names the field).
+    /// A parameter read from the FASTSim field `path` (its doc names the field), finite and in the field's
+    /// physical range (`limits.rs`).
     pub fn field(
         &mut self,
         name: &str,
@@ -61,6 +62,7 @@ impl Model {
                 format!("{value} is not a finite number"),
             ));
         }
+        crate::limits::check(path, value)?;
         self.params.push(Param {
             name: name.to_string(),
             value,
@@ -95,7 +97,7 @@ impl Model {
     pub fn render(&self) -> String {
         let mut s = String::new();
         for line in &self.header {
-            s.push_str(&format!("# {line}\n").replace("# \n", "#\n"));
+            s.push_str(&format!("# {}\n", comment(line)).replace("# \n", "#\n"));
         }
         s.push_str(&format!("name = {}\n", quote(&self.name)));
         s.push_str(&format!(
@@ -201,19 +203,33 @@ pub fn number(x: f64) -> String {
     }
 }
 
-/// A TOML basic string.
+/// A TOML basic string (TOML 1.0 §String): `"` and `\` escaped, every control character (C0, DEL, C1) as
+/// `\uXXXX`, so that any text (a vehicle name with line breaks or quotes) stays one string.
 pub fn quote(s: &str) -> String {
     let mut out = String::from("\"");
     for c in s.chars() {
         match c {
             '"' => out.push_str("\\\""),
             '\\' => out.push_str("\\\\"),
-            c if (c as u32) < 0x20 || c == '\u{7f}' => {
-                out.push_str(&format!("\\u{:04x}", c as u32))
-            }
+            c if c.is_control() => out.push_str(&format!("\\u{:04x}", c as u32)),
             c => out.push(c),
         }
     }
     out.push('"');
+    out
+}
+
+/// The text of a TOML comment line: a comment ends at the line break and may hold no control character but
+/// tab (TOML 1.0 §Comment), so every other control character is written as `\uXXXX` (a vehicle name or a
+/// file name with a line break cannot end the comment and add TOML).
+pub fn comment(s: &str) -> String {
+    let mut out = String::with_capacity(s.len());
+    for c in s.chars() {
+        if c.is_control() && c != '\t' {
+            out.push_str(&format!("\\u{:04x}", c as u32));
+        } else {
+            out.push(c);
+        }
+    }
     out
 }

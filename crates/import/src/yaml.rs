@@ -6,8 +6,10 @@ use serde_yaml::Value;
 use std::cell::RefCell;
 use std::collections::BTreeSet;
 
-/// Parse `text` as YAML; a syntax error carries its 1-based line and column.
+/// Parse `text` as YAML; a syntax error carries its 1-based line and column. The nesting depth is checked
+/// first, in linear time (`depth.rs`).
 pub fn parse(text: &str) -> Result<Value, ImportError> {
+    crate::depth::check(text)?;
     serde_yaml::from_str::<Value>(text).map_err(|e| {
         let (line, column) = e.location().map_or((1, 1), |l| (l.line(), l.column()));
         ImportError::Yaml {

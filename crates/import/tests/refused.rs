@@ -1,5 +1,6 @@
 //! Vehicle files the importer refuses: hybrids and unknown powertrain types (with the type named), malformed
-//! YAML (with line and column), a file without a total mass.
+//! YAML (with line and column), YAML nested deeper than the cap (at once, with line and column), a file
+//! without a total mass.
 
 use crate::common::vehicles_dir;
 use invsim_import::{import_fastsim, ImportError};
@@ -32,6 +33,28 @@ fn malformed_yaml_gives_line_and_column() {
     }
     let e = import_fastsim("a: b: c\n", "x.yaml").unwrap_err();
     assert!(e.to_string().starts_with("1:"), "{e}");
+}
+
+#[test]
+fn deep_nesting_is_refused_at_once_with_line_and_column() {
+    // 10^5 unclosed `[` (the YAML reader took time quadratic in the depth, then hit its recursion limit):
+    // refused at the `[` that opens level 65 (the top-level mapping is the first level).
+    let text = format!("name: x\nmass_kilograms: {}\n", "[".repeat(100_000));
+    match import_fastsim(&text, "x.yaml") {
+        Err(ImportError::Yaml {
+            line,
+            column,
+            message,
+        }) => {
+            let cap = invsim_import::MAX_YAML_DEPTH;
+            assert_eq!((line, column), (2, 16 + cap), "{message}");
+            assert!(
+                message.contains(&format!("deeper than {cap} levels")),
+                "{message}"
+            );
+        }
+        other => panic!("{other:?}"),
+    }
 }
 
 #[test]

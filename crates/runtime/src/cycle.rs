@@ -677,14 +677,21 @@ struct Columns {
     width: usize,
 }
 
-/// The header's trimmed names, each as `` `name` ``, comma-separated (for messages).
+/// Most header names a message lists (a header of 10⁵ names would make a message of megabytes).
+const LISTED_NAMES: usize = 20;
+
+/// The header's trimmed names, each as `` `name` `` (control characters escaped, at most 40 characters),
+/// comma-separated, the first [`LISTED_NAMES`] and how many more (for messages).
 fn list_names(names: &[String]) -> String {
     let mut s = String::new();
-    for (i, n) in names.iter().enumerate() {
+    for (i, n) in names.iter().take(LISTED_NAMES).enumerate() {
         if i > 0 {
             s.push_str(", ");
         }
-        let _ = write!(s, "`{n}`");
+        let _ = write!(s, "`{}`", printable(n));
+    }
+    if names.len() > LISTED_NAMES {
+        let _ = write!(s, " and {} more", names.len() - LISTED_NAMES);
     }
     if s.is_empty() {
         s.push_str("no names");

@@ -112,7 +112,7 @@ pub fn parse_signal_file(
         return Err(err(
             h + 1,
             1,
-            format!("the header has no {missing}; found: {}", cells.join(", ")),
+            format!("the header has no {missing}; found: {}", listed(&cells)),
         ));
     };
     let (x, y) = read_pairs(&err, lines, &pair, route)?;
@@ -138,6 +138,24 @@ pub fn parse_signal_file(
             values: y,
         }
     })
+}
+
+/// Most header names a message lists (a header of 10⁵ names would make a message of megabytes).
+const LISTED_NAMES: usize = 20;
+
+/// The first [`LISTED_NAMES`] names of a header, comma-separated (control characters escaped), and how many
+/// more there are.
+fn listed(cells: &[&str]) -> String {
+    let shown: Vec<String> = cells
+        .iter()
+        .take(LISTED_NAMES)
+        .map(|c| c.escape_debug().to_string())
+        .collect();
+    let mut s = shown.join(", ");
+    if cells.len() > LISTED_NAMES {
+        s.push_str(&format!(" and {} more", cells.len() - LISTED_NAMES));
+    }
+    s
 }
 
 fn names(columns: &[(&str, f64)]) -> String {
@@ -254,6 +272,14 @@ mod tests {
         assert_eq!((e.line, e.column), (3, 3), "{e}");
         let e = parse_signal_file("g.csv", "t,slope\n0,0.01\n", "grade").unwrap_err();
         assert_eq!(e.line, 1, "{e}");
+        let wide: String = (0..1000).map(|i| format!(",c{i}")).collect();
+        let e = parse_signal_file(
+            "g.csv",
+            &format!("t{wide}\n0{}\n", ",1".repeat(1000)),
+            "grade",
+        )
+        .unwrap_err();
+        assert!(e.message.ends_with("found: t, c0, c1, c2, c3, c4, c5, c6, c7, c8, c9, c10, c11, c12, c13, c14, c15, c16, c17, c18 and 981 more"), "{e}");
     }
 
     #[test]

@@ -47,16 +47,17 @@ fn rows(text: &str) -> Vec<Vec<Cell<'_>>> {
         if trimmed.is_empty() || trimmed.starts_with('#') {
             continue;
         }
+        // The 1-based character column of each cell, counted as the line is split (linear in its length).
         let mut cells = Vec::new();
-        let mut start = 0;
+        let mut chars = 0;
         for piece in line.split(',') {
             let lead = piece.len() - piece.trim_start().len();
             cells.push(Cell {
                 text: piece.trim(),
                 line: i + 1,
-                column: line[..start + lead].chars().count() + 1,
+                column: chars + piece[..lead].chars().count() + 1,
             });
-            start += piece.len() + 1;
+            chars += piece.chars().count() + 1;
         }
         out.push(cells);
     }

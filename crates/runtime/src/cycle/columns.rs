@@ -6,6 +6,7 @@
 //! nothing.
 
 use super::printable::printable;
+use std::collections::HashSet;
 
 /// The first cell of an extra column that is not a finite number: where it is and what it holds.
 #[derive(Debug, Clone, PartialEq)]
@@ -36,12 +37,13 @@ pub(super) struct ExtraColumns {
 
 impl ExtraColumns {
     /// The header fields at `indices` (the ones with no role), by name; an empty name is skipped, a repeated
-    /// name keeps its first column.
+    /// name keeps its first column (a set of the names seen: linear in the number of columns).
     pub(super) fn new(names: &[String], indices: impl Iterator<Item = usize>) -> ExtraColumns {
         let mut columns: Vec<(usize, CycleColumn)> = Vec::new();
+        let mut seen: HashSet<&str> = HashSet::new();
         for i in indices {
             let name = &names[i];
-            if name.is_empty() || columns.iter().any(|(_, c)| &c.name == name) {
+            if name.is_empty() || !seen.insert(name.as_str()) {
                 continue;
             }
             columns.push((
@@ -57,12 +59,14 @@ impl ExtraColumns {
     }
 
     /// Append the cells of one data row; `line_text` is the row's text (for the character column of a bad
-    /// cell), `file` and `line` where it is.
+    /// cell), `file` and `line` where it is. The columns where the row's fields start are counted once per row,
+    /// when its first bad cell needs them (linear in the row's length, whatever the number of bad cells).
     pub(super) fn push(
         &mut self,
         record: &csv::StringRecord,
         (file, line, line_text): (&str, u64, &str),
     ) {
+        let mut starts: Option<Vec<usize>> = None;
         for (index, column) in &mut self.columns {
             let text = record.get(*index).unwrap_or("").trim();
             let value = text.parse::<f64>().ok().filter(|v| v.is_finite());
@@ -71,7 +75,7 @@ impl ExtraColumns {
                 column.bad = Some(BadCell {
                     file: file.to_string(),
                     line,
-                    column: field_column(line_text, *index),
+                    column: field_starts(&mut starts, line_text, *index),
                     text: printable(text),
                 });
             }
@@ -81,6 +85,25 @@ impl ExtraColumns {
     pub(super) fn finish(self) -> Vec<CycleColumn> {
         self.columns.into_iter().map(|(_, c)| c).collect()
     }
+}
+
+/// The 1-based character column where field `index` of `line` starts, from the columns of every field of the
+/// line (`starts`, counted on the first call for the line).
+fn field_starts(starts: &mut Option<Vec<usize>>, line: &str, index: usize) -> usize {
+    let starts = starts.get_or_insert_with(|| {
+        let mut col = 1;
+        line.split(',')
+            .map(|field| {
+                let start = col;
+                col += field.chars().count() + 1;
+                start
+            })
+            .collect()
+    });
+    starts
+        .get(index)
+        .copied()
+        .unwrap_or_else(|| field_column(line, index))
 }
 
 /// The 1-based character column where field `index` of a comma-separated `line` starts (quoted fields that
@@ -99,11 +122,15 @@ pub(crate) fn field_column(line: &str, index: usize) -> usize {
 
 #[cfg(test)]
 mod tests {
-    use super::field_column;
+    use super::{field_column, field_starts};
 
     #[test]
     fn columns_count_characters() {
         assert_eq!(field_column("1,ä2,x", 0), 1);
         assert_eq!(field_column("1,ä2,x", 2), 6);
+        let mut starts = None;
+        assert_eq!(field_starts(&mut starts, "1,ä2,x", 2), 6);
+        assert_eq!(field_starts(&mut starts, "1,ä2,x", 1), 3);
+        assert_eq!(starts, Some(vec![1, 3, 6]));
     }
 }

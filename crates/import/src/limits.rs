@@ -1,0 +1,248 @@
+//! The physical range of every vehicle-file field the importer reads, in one table: a value outside it
+//! (a transmission efficiency of 5 that would halve the fuel, an efficiency of 0 that divides by zero at run
+//! time, a negative auxiliary load that would cancel the fuel) is refused naming the field, its value and
+//! the range. Every number that enters the model goes through [`check`] (`Model::field` and the efficiency
+//! tables of `curve.rs`); a field missing from the table is refused too, so none is imported unchecked.
+
+use crate::error::ImportError;
+
+/// An interval of allowed values: bounds (infinite for none), whether each bound is allowed, whether the
+/// value must be a whole number.
+#[derive(Debug, Clone, Copy)]
+pub struct Range {
+    pub lo: f64,
+    pub lo_closed: bool,
+    pub hi: f64,
+    pub hi_closed: bool,
+    pub integer: bool,
+}
+
+/// (0, ∞): masses, powers that must exist (peak powers), capacities, lengths, areas, specific energies.
+const POSITIVE: Range = range(0.0, false, f64::INFINITY, false);
+/// [0, ∞): loads drawn but never supplied (auxiliary load, idle fuel power), inertias, the drag coefficient.
+const NON_NEGATIVE: Range = range(0.0, true, f64::INFINITY, false);
+/// (0, 1]: an efficiency, output over input power: above 1 creates energy, 0 divides by zero.
+const EFFICIENCY: Range = range(0.0, false, 1.0, true);
+/// [0, 1]: a fraction (a load as a fraction of peak power; a rolling-resistance coefficient, force over
+/// weight).
+const FRACTION: Range = range(0.0, true, 1.0, true);
+/// A count: a whole number ≥ 1.
+const COUNT: Range = Range {
+    integer: true,
+    ..range(1.0, true, f64::INFINITY, false)
+};
+
+const fn range(lo: f64, lo_closed: bool, hi: f64, hi_closed: bool) -> Range {
+    Range {
+        lo,
+        lo_closed,
+        hi,
+        hi_closed,
+        integer: false,
+    }
+}
+
+/// Every field the importer reads: its path in the vehicle file (`[]` stands for any index of a table's
+/// grid or values; a `{Constant: x}` efficiency is checked under the path of the field that holds it), its
+/// range and what it is.
+pub const FIELDS: &[(&str, Range, &str)] = &[
+    ("mass_kilograms", POSITIVE, "the vehicle's total mass"),
+    (
+        "pwr_aux_base_watts",
+        NON_NEGATIVE,
+        "the auxiliary load (drawn, never supplied)",
+    ),
+    (
+        "chassis.wheel_inertia_kilogram_square_meters",
+        NON_NEGATIVE,
+        "a wheel's rotating inertia",
+    ),
+    ("chassis.num_wheels", COUNT, "the number of wheels"),
+    ("chassis.wheel_radius_meters", POSITIVE, "the wheel radius"),
+    (
+        "chassis.drag_coef",
+        NON_NEGATIVE,
+        "the aerodynamic drag coefficient",
+    ),
+    (
+        "chassis.frontal_area_square_meters",
+        POSITIVE,
+        "the frontal area",
+    ),
+    (
+        "chassis.wheel_rr_coef",
+        FRACTION,
+        "the rolling-resistance coefficient (force over weight)",
+    ),
+    (
+        "pt_type.Conv.fc.pwr_out_max_watts",
+        POSITIVE,
+        "the engine's peak power",
+    ),
+    (
+        "pt_type.Conv.transmission.eff_interp",
+        EFFICIENCY,
+        "the transmission efficiency",
+    ),
+    (
+        "pt_type.Conv.alt_eff",
+        EFFICIENCY,
+        "the alternator efficiency",
+    ),
+    (
+        "pt_type.Conv.fc.pwr_idle_fuel_watts",
+        NON_NEGATIVE,
+        "the idle fuel power",
+    ),
+    (
+        "pt_type.Conv.fs.specific_energy_joules_per_kilogram",
+        POSITIVE,
+        "the fuel's specific energy",
+    ),
+    (
+        "pt_type.Conv.fc.eff_interp_from_pwr_out.data.grid[0][]",
+        FRACTION,
+        "a load grid point of the engine efficiency table (a fraction of peak power)",
+    ),
+    (
+        "pt_type.Conv.fc.eff_interp_from_pwr_out.data.values[]",
+        EFFICIENCY,
+        "an engine efficiency",
+    ),
+    (
+        "pt_type.BEV.transmission.eff_interp",
+        EFFICIENCY,
+        "the transmission efficiency",
+    ),
+    (
+        "pt_type.BEV.em.pwr_out_max_watts",
+        POSITIVE,
+        "the electric machine's peak power",
+    ),
+    (
+        "pt_type.BEV.res.eff_interp",
+        EFFICIENCY,
+        "the battery efficiency",
+    ),
+    (
+        "pt_type.BEV.res.pwr_out_max_watts",
+        POSITIVE,
+        "the battery's peak power",
+    ),
+    (
+        "pt_type.BEV.res.energy_capacity_joules",
+        POSITIVE,
+        "the battery capacity",
+    ),
+    (
+        "pt_type.BEV.em.eff_interp_achieved.data.grid[0][]",
+        FRACTION,
+        "a load grid point of the machine efficiency table (a fraction of peak power)",
+    ),
+    (
+        "pt_type.BEV.em.eff_interp_achieved.data.values[]",
+        EFFICIENCY,
+        "an electric machine efficiency",
+    ),
+];
+
+/// The table's key of a field path: a trailing `.Constant` dropped, the last index written `[]`.
+fn key(path: &str) -> String {
+    let path = path.strip_suffix(".Constant").unwrap_or(path);
+    match path.rfind('[') {
+        Some(open)
+            if path.ends_with(']')
+                && path[open + 1..path.len() - 1]
+                    .bytes()
+                    .all(|b| b.is_ascii_digit()) =>
+        {
+            format!("{}[]", &path[..open])
+        }
+        _ => path.to_string(),
+    }
+}
+
+/// `Ok` when the finite `value` of the field at `path` lies in the field's range; otherwise an error naming
+/// the field, the value and the range.
+pub fn check(path: &str, value: f64) -> Result<(), ImportError> {
+    let key = key(path);
+    let Some((_, r, what)) = FIELDS.iter().find(|(k, _, _)| *k == key) else {
+        return Err(ImportError::field(
+            path,
+            "no physical range is known for this field (a defect of the importer: every field it reads has one)",
+        ));
+    };
+    let above = if r.lo_closed {
+        value >= r.lo
+    } else {
+        value > r.lo
+    };
+    let below = if r.hi_closed {
+        value <= r.hi
+    } else {
+        value < r.hi
+    };
+    let whole = !r.integer || value.fract() == 0.0;
+    if above && below && whole {
+        return Ok(());
+    }
+    Err(ImportError::field(
+        path,
+        format!(
+            "{value} is outside the range of {what}: expected {}",
+            describe(r)
+        ),
+    ))
+}
+
+/// The range as text: `(0, 1]`, `[0, ∞)`, `a whole number in [1, ∞)`.
+pub fn describe(r: &Range) -> String {
+    let bound = |x: f64| {
+        if x.is_infinite() {
+            "∞".to_string()
+        } else {
+            format!("{x}")
+        }
+    };
+    let text = format!(
+        "{}{}, {}{}",
+        if r.lo_closed { '[' } else { '(' },
+        bound(r.lo),
+        bound(r.hi),
+        if r.hi_closed { ']' } else { ')' }
+    );
+    if r.integer {
+        format!("a whole number in {text}")
+    } else {
+        format!("a value in {text}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{check, key};
+
+    #[test]
+    fn keys_and_ranges() {
+        assert_eq!(
+            key("pt_type.BEV.res.eff_interp.Constant"),
+            "pt_type.BEV.res.eff_interp"
+        );
+        assert_eq!(
+            key("pt_type.Conv.fc.eff_interp_from_pwr_out.data.grid[0][11]"),
+            "pt_type.Conv.fc.eff_interp_from_pwr_out.data.grid[0][]"
+        );
+        assert!(check("pt_type.Conv.transmission.eff_interp", 1.0).is_ok());
+        let e = check("pt_type.Conv.transmission.eff_interp", 5.0).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "field `pt_type.Conv.transmission.eff_interp`: 5 is outside the range of the transmission \
+             efficiency: expected a value in (0, 1]"
+        );
+        assert!(check("pt_type.Conv.transmission.eff_interp", 0.0).is_err());
+        assert!(check("pwr_aux_base_watts", 0.0).is_ok());
+        assert!(check("pwr_aux_base_watts", -700.0).is_err());
+        assert!(check("chassis.num_wheels", 2.5).is_err());
+        assert!(check("chassis.unknown_field", 1.0).is_err());
+    }
+}
