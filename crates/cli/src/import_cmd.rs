@@ -21,6 +21,12 @@ pub enum ImportFormat {
 
 pub fn run(format: &ImportFormat) -> Result<(), Failure> {
     let ImportFormat::Fastsim { vehicle, out } = format;
+    // `--out` checked before anything is read: not the vehicle file (whatever the spelling), written through
+    // a temporary file renamed into place (`crate::outputs`).
+    let mut outputs = crate::outputs::Outputs::plan(
+        &crate::inputs::Inputs::new().file("vehicle file", vehicle),
+        &[("--out", out.as_deref())],
+    )?;
     let shown = vehicle.display().to_string();
     let text =
         std::fs::read(vehicle).map_err(|e| Failure::user(format!("{shown}: cannot read: {e}")))?;
@@ -38,16 +44,14 @@ pub fn run(format: &ImportFormat) -> Result<(), Failure> {
         other => Failure::user(format!("{shown}: {other}")),
     })?;
     for w in &imported.warnings {
-        eprintln!("invsim: warning: {shown}: {w}");
+        crate::error::warn(&format!("{shown}: {w}"));
     }
     match out {
-        Some(path) => std::fs::write(path, &imported.model)
-            .map_err(|e| Failure::user(format!("{}: cannot write: {e}", path.display()))),
-        None => {
+        Some(_) => {
             use std::io::Write;
-            std::io::stdout()
-                .write_all(imported.model.as_bytes())
-                .map_err(|e| Failure::user(format!("stdout: {e}")))
+            outputs.write("--out", |mut f| f.write_all(imported.model.as_bytes()))?;
+            outputs.commit()
         }
+        None => crate::files::print_stdout(&imported.model),
     }
 }
