@@ -2,13 +2,18 @@
 //! file and the map CSV files it names (`[maps] … file = …`, `invsim_loader::map_files`), the cycle files,
 //! the `--map NAME=FILE` and `--signal NAME=FILE` files, a sweep's `--table`, an import's vehicle file. An
 //! output is refused when it is any of them (by canonical path or by device and inode), so no run writes onto
-//! a file it reads.
+//! a file it reads. The model file is read for its map files only when the list is asked for, i.e. when a
+//! run has a file output (a run without one does not parse its model file twice).
 
 use std::path::{Path, PathBuf};
 
-/// The input files of one run: (what the file is, its path as given or resolved).
+/// The input files of one run: (what the file is, its path as given or resolved), and the model files whose
+/// map files are inputs too.
 #[derive(Default)]
-pub struct Inputs(Vec<(&'static str, PathBuf)>);
+pub struct Inputs {
+    files: Vec<(&'static str, PathBuf)>,
+    models: Vec<PathBuf>,
+}
 
 impl Inputs {
     /// No inputs yet.
@@ -18,18 +23,14 @@ impl Inputs {
 
     /// Any file the run reads, named `what` in a refusal.
     pub fn file(mut self, what: &'static str, path: &Path) -> Inputs {
-        self.0.push((what, path.to_path_buf()));
+        self.files.push((what, path.to_path_buf()));
         self
     }
 
     /// The model file and the map CSV files it names.
-    pub fn model(self, path: &Path) -> Inputs {
-        let maps = invsim_loader::map_files(path);
-        let mut s = self.file("model file", path);
-        for m in maps {
-            s.0.push(("map file named in the model's [maps]", m));
-        }
-        s
+    pub fn model(mut self, path: &Path) -> Inputs {
+        self.models.push(path.to_path_buf());
+        self.file("model file", path)
     }
 
     /// A `--cycle` argument: a file unless it names a built-in cycle.
@@ -44,19 +45,25 @@ impl Inputs {
     pub fn data(mut self, data: &crate::data_args::DataArgs) -> Inputs {
         for arg in &data.map {
             if let Some((_, file)) = crate::map_args::split(arg) {
-                self.0.push(("--map file", PathBuf::from(file)));
+                self.files.push(("--map file", PathBuf::from(file)));
             }
         }
         for arg in &data.signal {
             if let Some(file) = crate::signal_args::file_of(arg) {
-                self.0.push(("--signal file", PathBuf::from(file)));
+                self.files.push(("--signal file", PathBuf::from(file)));
             }
         }
         self
     }
 
-    /// The list, in the order gathered.
-    pub fn list(&self) -> &[(&'static str, PathBuf)] {
-        &self.0
+    /// The list, in the order gathered, then the map files of each model file.
+    pub fn list(&self) -> Vec<(&'static str, PathBuf)> {
+        let mut all = self.files.clone();
+        for model in &self.models {
+            for m in invsim_loader::map_files(model) {
+                all.push(("map file named in the model's [maps]", m));
+            }
+        }
+        all
     }
 }

@@ -221,15 +221,8 @@ impl Outputs {
         inputs: &crate::inputs::Inputs,
         outputs: &[(&'static str, Option<&Path>)],
     ) -> Result<Outputs, Failure> {
-        let inputs: Vec<(&str, &Path, PathBuf)> = inputs
-            .list()
-            .iter()
-            .filter_map(|(what, p)| {
-                std::fs::canonicalize(p)
-                    .ok()
-                    .map(|c| (*what, p.as_path(), c))
-            })
-            .collect();
+        // Resolved once, at the first output that is a file (a run without one reads no model file for it).
+        let mut resolved: Option<Vec<(&str, PathBuf, PathBuf)>> = None;
         let mut plan = Outputs {
             planned: Vec::new(),
             committed: false,
@@ -249,6 +242,13 @@ impl Outputs {
             }
             let canon = canonical_output(flag, path)?;
             let id = file_id(&canon);
+            let inputs = resolved.get_or_insert_with(|| {
+                inputs
+                    .list()
+                    .into_iter()
+                    .filter_map(|(what, p)| std::fs::canonicalize(&p).ok().map(|c| (what, p, c)))
+                    .collect()
+            });
             if let Some((what, p, _)) = inputs
                 .iter()
                 .find(|(_, _, c)| *c == canon || (id.is_some() && file_id(c) == id))
