@@ -26,17 +26,88 @@ pub fn map_files(path: &Path) -> Vec<PathBuf> {
     let Ok(text) = std::str::from_utf8(&bytes) else {
         return Vec::new();
     };
-    let Ok(doc) = text.parse::<toml::Table>() else {
+    let keys = file_keys(text);
+    if keys == 0 {
         return Vec::new();
-    };
+    }
+    // The `[maps…]` sections alone are an eighth of si_engine_maps.toml: parsed first, the whole file only if
+    // they do not account for every `file` key.
     let base = path.parent().unwrap_or(Path::new(""));
-    let Some(maps) = doc.get("maps").and_then(toml::Value::as_table) else {
-        return Vec::new();
+    let files = |t: &str| -> Option<Vec<PathBuf>> {
+        let doc = toml::from_str::<Doc>(t).ok()?;
+        Some(
+            doc.maps
+                .into_values()
+                .filter_map(|m| m.file)
+                .map(|name| base.join(name))
+                .collect(),
+        )
     };
-    maps.values()
-        .filter_map(|m| m.get("file").and_then(toml::Value::as_str))
-        .map(|name| base.join(name))
-        .collect()
+    match files(&maps_sections(text)) {
+        Some(found) if found.len() >= keys => found,
+        _ => files(text).unwrap_or_default(),
+    }
+}
+
+/// The part of a model file read here: `[maps.NAME] file = "…"`; every other key is skipped.
+#[derive(serde::Deserialize)]
+struct Doc {
+    #[serde(default)]
+    maps: std::collections::BTreeMap<String, MapEntry>,
+}
+
+#[derive(serde::Deserialize)]
+struct MapEntry {
+    #[serde(default)]
+    file: Option<String>,
+}
+
+/// How many keys of the text may be `file`: a key `file` (bare, quoted or the last part of a dotted key) is
+/// the letters `file`, an optional closing quote and blanks before its `=`. A key spelled with escapes
+/// (`"fil\u0065"`) cannot be seen this way: a backslash anywhere counts as one more. Zero for a model without
+/// map files (most), which is then not parsed again.
+fn file_keys(text: &str) -> usize {
+    let b = text.as_bytes();
+    let escaped = usize::from(memchr::memchr(b'\\', b).is_some());
+    let keys = memchr::memmem::find_iter(b, b"file")
+        .filter(|&i| {
+            let rest = &b[i + 4..];
+            let rest = rest
+                .strip_prefix(b"\"")
+                .or(rest.strip_prefix(b"'"))
+                .unwrap_or(rest);
+            let blanks = rest
+                .iter()
+                .take_while(|&&c| c == b' ' || c == b'\t')
+                .count();
+            rest.get(blanks) == Some(&b'=')
+        })
+        .count();
+    keys + escaped
+}
+
+/// The lines of the text's `[maps…]` sections (from such a header to the next header) and every other line
+/// that may hold a `file` key, in order. A line inside a multi-line value that looks like a header may cut a
+/// section short: the caller then finds fewer files than [`file_keys`] and parses the whole file.
+fn maps_sections(text: &str) -> String {
+    let mut out = String::new();
+    let mut in_maps = false;
+    for line in text.lines() {
+        let t = line.trim_start();
+        let key = t.trim_start_matches(['[', ' ', '\t']);
+        let header = t.starts_with('[')
+            && key.starts_with(|c: char| {
+                c.is_ascii_alphabetic() || c == '_' || c == '"' || c == '\''
+            });
+        if header {
+            in_maps = key.trim_start_matches(['"', '\'']).starts_with("maps");
+        }
+        if in_maps || file_keys(line) > 0 {
+            out.push_str(line);
+            out.push('\n');
+        }
+    }
+    out
 }
 
 #[cfg(test)]
@@ -55,7 +126,24 @@ mod tests {
         )
         .unwrap();
         assert_eq!(map_files(&model), [dir.join("a.csv"), dir.join("../c.csv")]);
-        std::fs::write(&model, "not [ toml").unwrap();
+        std::fs::write(
+            &model,
+            "name = \"m\"\n[maps.a]\n\"fil\\u0065\" = \"e.csv\"\n",
+        )
+        .unwrap();
+        assert_eq!(map_files(&model), [dir.join("e.csv")]);
+        std::fs::write(&model, "name = \"file\"  # a profile = nothing\n").unwrap();
+        assert_eq!(file_keys("name = \"file\"  # a profile: nothing\n"), 0);
+        assert_eq!(file_keys("[maps.a]\n'file'\t= \"a.csv\"\nb.file = 1\n"), 2);
+        assert!(map_files(&model).is_empty());
+        // A line of a multi-line array that looks like a header cuts the section: the whole file is parsed.
+        std::fs::write(
+            &model,
+            "[maps.a]\nvalues = [\n [\"q\"],\n]\nfile = \"a.csv\"\n[maps.b]\nfile = \"b.csv\"\n",
+        )
+        .unwrap();
+        assert_eq!(map_files(&model), [dir.join("a.csv"), dir.join("b.csv")]);
+        std::fs::write(&model, "not [ toml file = 1").unwrap();
         assert!(map_files(&model).is_empty());
         assert!(map_files(&dir.join("missing.toml")).is_empty());
         std::fs::remove_dir_all(&dir).unwrap();
