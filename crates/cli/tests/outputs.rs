@@ -1,6 +1,8 @@
-//! Output files of `simulate` and `forward` on success: written in place, through links into the linked file,
-//! onto character devices directly, and no temporary file left behind (the refusals are hostile cases in
-//! `tests/hostile/`).
+//! Output files of `simulate`, `forward` and `sweep`: written in place, through links into the linked file,
+//! onto character devices directly, keeping a replaced file's mode and hard links, read-only files refused,
+//! names up to 255 bytes, and no temporary file left behind — on success, failure or SIGINT/SIGTERM/SIGHUP;
+//! a stderr or stdout that cannot be written keeps the exit status (the refusals of inputs are hostile cases
+//! in `tests/hostile/`).
 
 use crate::common;
 use common::*;
