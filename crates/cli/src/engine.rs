@@ -69,16 +69,6 @@ pub fn parse_set(s: &str) -> Result<(String, f64), Failure> {
     Ok((name.trim().to_string(), v))
 }
 
-/// The input files of a run, for the check of its outputs: the model file and the cycle file (unless the cycle
-/// is a built-in).
-pub fn run_inputs<'a>(model: &'a Path, cycle: &'a str) -> Vec<(&'static str, &'a Path)> {
-    let mut inputs = vec![("model file", model)];
-    if !crate::cycle_spec::is_builtin(cycle) {
-        inputs.push(("cycle file", Path::new(cycle)));
-    }
-    inputs
-}
-
 /// `--set NAME=VALUE` refused (`NAME: why`).
 pub fn set_failure(e: invsim_loader::LoadError) -> Failure {
     Failure::user(format!("--set {e}"))
@@ -124,14 +114,18 @@ pub struct RunData {
     pub initial: Vec<(String, f64)>,
 }
 
-/// The common start of `simulate` and `forward`: the outputs checked against the inputs and each other
-/// ([`crate::outputs::Outputs::plan`]), the cycle and the model loaded with the overrides (`--set`, `--map`),
+/// The common start of `simulate` and `forward`: the outputs checked against every input file
+/// ([`crate::inputs`]) and each other ([`crate::outputs::Outputs::plan`]), the cycle and the model loaded with the overrides (`--set`, `--map`),
 /// the plot options checked against the model, `--signal` and `--initial` parsed — all before the run.
 pub fn prepare_run(
     req: &RunRequest<'_>,
 ) -> Result<(crate::outputs::Outputs, Cycle, Loaded, RunData), Failure> {
+    let inputs = crate::inputs::Inputs::new()
+        .model(req.model)
+        .cycle(req.cycle)
+        .data(req.data);
     let outputs = crate::outputs::Outputs::plan(
-        &run_inputs(req.model, req.cycle),
+        &inputs,
         &[
             ("--out", req.out),
             ("--summary-json", req.summary_json),

@@ -2,6 +2,12 @@
 //! option, a model the method cannot invert, a simulation that had to stop, an output file that cannot be
 //! written or stdout closed), 1 only for an internal failure (a built-in table missing, a serialiser failing);
 //! the message is one paragraph on stderr.
+//!
+//! A stderr that cannot be written (`2>/dev/full`, a closed pipe) loses the message, never the exit status:
+//! every line for stderr goes through [`stderr_line`], which ignores a write error (a warning or note that
+//! cannot be printed does not fail a run that succeeded; a failure keeps its status).
+
+use std::io::Write;
 
 /// A user-facing failure: the message and the exit status.
 pub struct Failure {
@@ -26,7 +32,17 @@ impl Failure {
 
     /// Print the message as `invsim: error: …` on stderr; the exit status.
     pub fn report(self) -> u8 {
-        eprintln!("invsim: error: {}", self.message);
+        stderr_line(&format!("invsim: error: {}", self.message));
         self.code
     }
+}
+
+/// Write `line` and a newline on stderr; a write error is ignored (see the module docs).
+pub fn stderr_line(line: &str) {
+    let _ = writeln!(std::io::stderr().lock(), "{line}");
+}
+
+/// `invsim: warning: …` on stderr.
+pub fn warn(text: &str) {
+    stderr_line(&format!("invsim: warning: {text}"));
 }

@@ -21,6 +21,12 @@ pub enum ImportFormat {
 
 pub fn run(format: &ImportFormat) -> Result<(), Failure> {
     let ImportFormat::Fastsim { vehicle, out } = format;
+    // `--out` checked before anything is read: not the vehicle file (whatever the spelling), written through
+    // a temporary file renamed into place (`crate::outputs`).
+    let mut outputs = crate::outputs::Outputs::plan(
+        &crate::inputs::Inputs::new().file("vehicle file", vehicle),
+        &[("--out", out.as_deref())],
+    )?;
     let shown = vehicle.display().to_string();
     let text = invsim_import::read_vehicle_file(vehicle)
         .map_err(|e| Failure::user(e.message_for(&shown)))?;
@@ -30,16 +36,14 @@ pub fn run(format: &ImportFormat) -> Result<(), Failure> {
     let imported = invsim_import::import_fastsim(&text, &source)
         .map_err(|e| Failure::user(e.message_for(&shown)))?;
     for w in &imported.warnings {
-        eprintln!("invsim: warning: {shown}: {w}");
+        crate::error::warn(&format!("{shown}: {w}"));
     }
     match out {
-        Some(path) => std::fs::write(path, &imported.model)
-            .map_err(|e| Failure::user(format!("{}: cannot write: {e}", path.display()))),
-        None => {
+        Some(_) => {
             use std::io::Write;
-            std::io::stdout()
-                .write_all(imported.model.as_bytes())
-                .map_err(|e| Failure::user(format!("stdout: {e}")))
+            outputs.write("--out", |mut f| f.write_all(imported.model.as_bytes()))?;
+            outputs.commit()
         }
+        None => crate::files::print_stdout(&imported.model),
     }
 }

@@ -22,6 +22,8 @@ mod files;
 mod forward;
 mod import_cmd;
 mod initial_args;
+mod inputs;
+mod interrupt;
 mod lookahead_arg;
 mod map_args;
 mod outputs;

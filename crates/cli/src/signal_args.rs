@@ -10,6 +10,14 @@ pub fn parse_signals(args: &[String]) -> Result<Vec<SignalInput>, Failure> {
     args.iter().map(|a| parse_one(a)).collect()
 }
 
+/// The file a `--signal NAME=FILE.csv|VALUE` argument reads: its value when that is not a number (`None`
+/// for a constant or a malformed argument).
+pub fn file_of(arg: &str) -> Option<&str> {
+    let (name, value) = arg.split_once('=')?;
+    let (name, value) = (name.trim(), value.trim());
+    (!name.is_empty() && !value.is_empty() && value.parse::<f64>().is_err()).then_some(value)
+}
+
 fn parse_one(arg: &str) -> Result<SignalInput, Failure> {
     let Some((name, value)) = arg.split_once('=') else {
         return Err(Failure::user(format!(

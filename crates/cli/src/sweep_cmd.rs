@@ -207,16 +207,15 @@ fn progress_bar(rows: usize) -> Option<ProgressBar> {
     Some(bar)
 }
 
-/// The sweep's `--out` checked against its inputs (model, cycle files, parameter table) before the run.
+/// The sweep's `--out` checked against its inputs (model and its map CSV files, cycle files, parameter
+/// table: [`crate::inputs`]) before the run.
 fn plan_outputs(args: &SweepArgs) -> Result<Outputs, Failure> {
-    let mut inputs = vec![("model file", args.model.as_path())];
+    let mut inputs = crate::inputs::Inputs::new().model(&args.model);
     for c in args.cycle.iter().chain(&args.cycles) {
-        if !crate::cycle_spec::is_builtin(c) {
-            inputs.push(("cycle file", Path::new(c.trim())));
-        }
+        inputs = inputs.cycle(c);
     }
     if let Some(table) = &args.table {
-        inputs.push(("parameter table", table.as_path()));
+        inputs = inputs.file("parameter table", table);
     }
     Outputs::plan(&inputs, &[("--out", args.out.as_deref())])
 }
@@ -244,7 +243,7 @@ fn write_rows(
         }
         None => result
             .write_csv(std::io::stdout().lock())
-            .map_err(|e| Failure::io(format!("cannot write to stdout: {e}"))),
+            .map_err(|e| Failure::user(format!("cannot write to stdout: {e}"))),
     }
 }
 
@@ -302,12 +301,12 @@ pub fn run(args: &SweepArgs) -> Result<(), Failure> {
         .build();
     let sweep = sweep.map_err(|e| failed(e.to_string()))?;
     if args.threads > 0 && sweep.threads() < args.threads {
-        eprintln!(
+        crate::error::stderr_line(&format!(
             "invsim: note: --threads {}: using {} worker thread(s) (at most one per run, {} per core)",
             args.threads,
             sweep.threads(),
             invsim_runtime::sweep::MAX_THREADS_PER_CORE
-        );
+        ));
     }
     let bar = progress_bar(sweep.len());
     let result = match &bar {

@@ -6,10 +6,12 @@
 //! [`LoadedModal`] whose [`ModalPlant`](invsim_runtime::modes::ModalPlant) owns every mode's model (compiled
 //! or derived and interpreted the same way). A file that matches compiled code is not derived at run time.
 //!
-//! Modules: `choice` (the engine asked for), `error`, `single` and `modal` (the two kinds of model).
+//! Modules: `choice` (the engine asked for), `error`, `single` and `modal` (the two kinds of model),
+//! `map_files` (the map CSV files a model file names, inputs of a run).
 
 mod choice;
 mod error;
+mod map_files;
 mod modal;
 mod single;
 
@@ -19,6 +21,7 @@ use invsim_inversion::ModelFile;
 
 pub use choice::EngineChoice;
 pub use error::LoadError;
+pub use map_files::map_files;
 pub use modal::{derive_modes, modal_derive_json, DerivedMode, LoadedModal};
 pub use single::SingleModel;
 
