@@ -23,6 +23,7 @@ mod forward;
 mod import_cmd;
 mod initial_args;
 mod map_args;
+mod number_arg;
 mod outputs;
 mod plotting;
 #[cfg(all(target_os = "linux", target_env = "gnu"))]
