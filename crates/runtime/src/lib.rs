@@ -20,7 +20,7 @@ pub mod initial;
 pub mod inverse;
 pub mod kernel;
 pub mod modes;
-mod numfmt;
+pub mod numfmt;
 pub mod ode;
 pub mod operating_points;
 pub mod output;
@@ -36,6 +36,7 @@ pub mod signals;
 pub mod smoother;
 pub mod stable;
 pub mod sweep;
+pub mod textfmt;
 
 /// The inverse simulation under its former module name.
 pub use inverse as simulate;
