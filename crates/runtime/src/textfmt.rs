@@ -3,11 +3,11 @@
 //! the terminal. Used by the text summary here and by every message of the command line.
 
 use std::borrow::Cow;
-use std::fmt::Write as _;
 
 /// `s` with every control character (Unicode category Cc: U+0000–U+001F, U+007F–U+009F) written as Rust's
-/// `\u{…}` escape (ESC → `\u{1b}`), except line feeds where `keep_newlines` (a multi-line text such as the
-/// summary, whose lines are its own). Borrowed when there is nothing to escape (the common case).
+/// escape (`char::escape_default`: ESC → `\u{1b}`, CR → `\r`, tab → `\t`), except line feeds where
+/// `keep_newlines` (a multi-line text such as the summary, whose lines are its own). Borrowed when there is
+/// nothing to escape (the common case).
 pub fn escape_controls(s: &str, keep_newlines: bool) -> Cow<'_, str> {
     let escaped = |c: char| c.is_control() && !(keep_newlines && c == '\n');
     if !s.chars().any(escaped) {
@@ -16,7 +16,7 @@ pub fn escape_controls(s: &str, keep_newlines: bool) -> Cow<'_, str> {
     let mut out = String::with_capacity(s.len() + 8);
     for c in s.chars() {
         if escaped(c) {
-            let _ = write!(out, "\\u{{{:x}}}", c as u32);
+            out.extend(c.escape_default());
         } else {
             out.push(c);
         }
@@ -32,8 +32,8 @@ mod tests {
     fn control_characters_are_escaped() {
         assert_eq!(escape_controls("plain.csv", false), "plain.csv");
         assert_eq!(escape_controls("a\u{1b}[2Jb", false), "a\\u{1b}[2Jb");
-        assert_eq!(escape_controls("x\ry\u{7}", false), "x\\u{d}y\\u{7}");
-        assert_eq!(escape_controls("a\nb", false), "a\\u{a}b");
+        assert_eq!(escape_controls("x\ry\u{7}", false), "x\\ry\\u{7}");
+        assert_eq!(escape_controls("a\nb\t", false), "a\\nb\\t");
         assert_eq!(escape_controls("a\nb\u{9b}", true), "a\nb\\u{9b}");
         assert_eq!(escape_controls("kein Ärger ✓", false), "kein Ärger ✓");
     }
