@@ -70,9 +70,18 @@ fn write_f64<W: Write>(w: &mut W, v: f64) -> io::Result<()> {
     if !v.is_finite() {
         return write!(w, "{v}");
     }
+    if v == 0.0 {
+        // The commonest value of a run's series (a vehicle at rest): no formatting at all.
+        return w.write_all(if v.is_sign_negative() {
+            b"-0.0"
+        } else {
+            b"0.0"
+        });
+    }
     if a < 1e16 && v == v.trunc() {
-        // Whole numbers below 1e16, 0 and -0 included: `Display` writes the digits alone.
-        return write!(w, "{v}.0");
+        // Whole numbers below 1e16 are exact as i64 and written as its digits (faster than the float's
+        // `Display`, which writes the same digits), then `.0`.
+        return write!(w, "{}.0", v as i64);
     }
     if (1e-5..1e16).contains(&a) {
         // Not whole: `Display` writes a decimal point.
