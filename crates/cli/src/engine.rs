@@ -50,22 +50,12 @@ pub fn parse_set(s: &str) -> Result<(String, f64), Failure> {
             "--set `{s}`: expected NAME=VALUE, e.g. --set m=1500"
         ))
     })?;
-    let v: f64 = value
-        .trim()
-        .parse()
-        .map_err(|_| Failure::user(format!("--set `{s}`: `{}` is not a number", value.trim())))?;
-    if !v.is_finite() {
-        return Err(Failure::user(format!(
-            "--set `{s}`: the value must be finite"
-        )));
-    }
-    let mantissa = value.trim().split(['e', 'E']).next().unwrap_or("");
-    if v == 0.0 && mantissa.bytes().any(|b| (b'1'..=b'9').contains(&b)) {
-        return Err(Failure::user(format!(
-            "--set `{s}`: `{}` is out of range: it underflows to 0 (below 5e-324, the smallest number)",
-            value.trim()
-        )));
-    }
+    let v = crate::number_arg::parse_number(value).map_err(|e| match e {
+        crate::number_arg::NumberError::NotFinite => {
+            Failure::user(format!("--set `{s}`: the value must be finite"))
+        }
+        e => Failure::user(format!("--set `{s}`: {}", e.describe(value.trim()))),
+    })?;
     Ok((name.trim().to_string(), v))
 }
 

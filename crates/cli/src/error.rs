@@ -16,16 +16,18 @@ pub struct Failure {
 }
 
 impl Failure {
+    /// A user error (exit 2). The message's control characters (from a file name, a model's text) are escaped
+    /// (`\u{1b}`): it goes to a terminal as one paragraph.
     pub fn user(message: impl Into<String>) -> Failure {
         Failure {
-            message: message.into(),
+            message: escaped(message.into()),
             code: 2,
         }
     }
     /// An internal failure, not caused by the user's input (exit 1).
     pub fn io(message: impl Into<String>) -> Failure {
         Failure {
-            message: message.into(),
+            message: escaped(message.into()),
             code: 1,
         }
     }
@@ -42,7 +44,15 @@ pub fn stderr_line(line: &str) {
     let _ = writeln!(std::io::stderr().lock(), "{line}");
 }
 
-/// `invsim: warning: …` on stderr.
+/// `invsim: warning: …` on stderr, its control characters escaped.
 pub fn warn(text: &str) {
-    stderr_line(&format!("invsim: warning: {text}"));
+    stderr_line(&format!("invsim: warning: {}", escaped(text.to_string())));
+}
+
+/// `message` with its control characters escaped ([`invsim_runtime::textfmt::escape_controls`]).
+fn escaped(message: String) -> String {
+    match invsim_runtime::textfmt::escape_controls(&message, false) {
+        std::borrow::Cow::Borrowed(_) => message,
+        std::borrow::Cow::Owned(s) => s,
+    }
 }

@@ -26,6 +26,7 @@ mod inputs;
 mod interrupt;
 mod lookahead_arg;
 mod map_args;
+mod number_arg;
 mod outputs;
 mod plotting;
 #[cfg(all(target_os = "linux", target_env = "gnu"))]

@@ -11,6 +11,7 @@ use invsim_runtime::{inverse, Cycle, Plant, SimulationOptions, Sweep, SweepBuild
 
 use crate::engine::{load, parse_set, set_failure, EngineChoice};
 use crate::error::Failure;
+use crate::number_arg::parse_number;
 use crate::outputs::Outputs;
 
 /// Exit status of a sweep in which some variants failed (their rows say why).
@@ -71,14 +72,17 @@ fn parse_grid(s: &str) -> Result<(String, f64, f64, usize), Failure> {
     let [start, stop, n] = parts[..] else {
         return Err(bad(&format!("{} `:`-separated fields, not 3", parts.len())));
     };
-    let num = |v: &str| match v.parse::<f64>() {
-        Ok(x) if x.is_finite() => Ok(x),
-        _ => Err(bad(&format!("`{v}` is not a finite number"))),
-    };
+    let num = |v: &str| parse_number(v).map_err(|e| bad(&e.describe(v)));
     let n: usize = match n.parse() {
         Ok(n) if n >= 1 => n,
         _ => return Err(bad(&format!("N = `{n}` is not a whole number ≥ 1"))),
     };
+    if n > invsim_runtime::sweep::MAX_RUNS {
+        let max = invsim_runtime::sweep::MAX_RUNS;
+        return Err(bad(&format!(
+            "N = {n} values exceed the limit of {max} runs a sweep makes"
+        )));
+    }
     let name = name.trim();
     if name.is_empty() {
         return Err(bad("the parameter name is empty"));
@@ -86,11 +90,40 @@ fn parse_grid(s: &str) -> Result<(String, f64, f64, usize), Failure> {
     Ok((name.to_string(), num(start)?, num(stop)?, n))
 }
 
+/// Largest parameter table read, in bytes: the cycle files' cap (64 MiB), far above the
+/// [`invsim_runtime::sweep::MAX_RUNS`] rows of a few numbers a sweep makes at most; `/dev/zero` stops there.
+pub const MAX_TABLE_BYTES: u64 = invsim_runtime::cycle::MAX_CYCLE_BYTES;
+
+/// The text of the table file `path`, read through [`MAX_TABLE_BYTES`] (a larger file is refused without
+/// reading the rest).
+fn read_table_text(path: &Path) -> Result<String, Failure> {
+    use std::io::Read as _;
+    let cannot = |e: std::io::Error| Failure::user(format!("cannot read {}: {e}", path.display()));
+    let file = std::fs::File::open(path).map_err(cannot)?;
+    let mut bytes = Vec::new();
+    file.take(MAX_TABLE_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(cannot)?;
+    if bytes.len() as u64 > MAX_TABLE_BYTES {
+        return Err(Failure::user(format!(
+            "{}: the parameter table is larger than {MAX_TABLE_BYTES} bytes (64 MiB), the limit of a table",
+            path.display()
+        )));
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        Failure::user(format!(
+            "{}: not UTF-8 text (invalid byte at offset {})",
+            path.display(),
+            e.utf8_error().valid_up_to()
+        ))
+    })
+}
+
 /// Read a table of variants: a header of parameter names, then one row of finite numbers per variant
-/// (blank lines skipped). Errors name FILE:LINE:COLUMN.
+/// (blank lines skipped; at least one, at most [`invsim_runtime::sweep::MAX_RUNS`]), each read by the number
+/// rule of `--set` ([`parse_number`]). Errors name FILE:LINE:COLUMN.
 pub fn read_table(path: &Path) -> Result<(Vec<String>, Vec<Vec<f64>>), Failure> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| Failure::user(format!("cannot read {}: {e}", path.display())))?;
+    let text = read_table_text(path)?;
     let at = |line: usize, col: usize, what: String| {
         Failure::user(format!("{}:{line}:{col}: {what}", path.display()))
     };
@@ -113,7 +146,17 @@ pub fn read_table(path: &Path) -> Result<(Vec<String>, Vec<Vec<f64>>), Failure> 
         return Err(at(1, col, "empty parameter name in the header".into()));
     }
     let mut rows = Vec::new();
+    let mut last_line = 1;
     for (line, l) in lines {
+        last_line = line;
+        if rows.len() == invsim_runtime::sweep::MAX_RUNS {
+            let max = invsim_runtime::sweep::MAX_RUNS;
+            return Err(at(
+                line,
+                1,
+                format!("more than {max} rows of variants, the limit of runs a sweep makes"),
+            ));
+        }
         let mut row = Vec::with_capacity(names.len());
         for (i, (col, field)) in fields(l).enumerate() {
             let Some(name) = names.get(i) else {
@@ -126,13 +169,10 @@ pub fn read_table(path: &Path) -> Result<(Vec<String>, Vec<Vec<f64>>), Failure> 
                     ),
                 ));
             };
-            match field.trim().parse::<f64>() {
-                Ok(v) if v.is_finite() => row.push(v),
-                _ => {
-                    let what = format!(
-                        "`{}` is not a finite number (parameter `{name}`)",
-                        field.trim()
-                    );
+            match parse_number(field) {
+                Ok(v) => row.push(v),
+                Err(e) => {
+                    let what = format!("{} (parameter `{name}`)", e.describe(field.trim()));
                     return Err(at(line, col, what));
                 }
             }
@@ -147,7 +187,25 @@ pub fn read_table(path: &Path) -> Result<(Vec<String>, Vec<Vec<f64>>), Failure> 
         }
         rows.push(row);
     }
+    if rows.is_empty() {
+        return Err(at(
+            last_line + 1,
+            1,
+            "the table has no variants: expected a row of values after the header".into(),
+        ));
+    }
     Ok((names, rows))
+}
+
+/// A parameter both overridden by `--set` and swept (by `--grid` or `--table`, named by `how`) is refused: the
+/// sweep's values would silently win over the `--set` value.
+fn check_not_set(sets: &[(String, f64)], swept: &[String], how: &str) -> Result<(), Failure> {
+    match sets.iter().find(|(name, _)| swept.contains(name)) {
+        Some((name, _)) => Err(Failure::user(format!(
+            "parameter `{name}` is both set (--set) and swept ({how}): give one of the two"
+        ))),
+        None => Ok(()),
+    }
 }
 
 /// The comma-separated fields of a line with the 1-based column (in characters) where each starts.
@@ -265,12 +323,31 @@ pub fn run(args: &SweepArgs) -> Result<(), Failure> {
         .iter()
         .map(|g| parse_grid(g))
         .collect::<Result<_, _>>()?;
-    let table = args.table.as_deref().map(read_table).transpose()?;
-    if grid.is_empty() && table.is_none() {
+    if grid.is_empty() && args.table.is_none() {
         return Err(Failure::user(
             "sweep needs --grid NAME=START:STOP:N (repeatable) or --table PARAMS.csv",
         ));
     }
+    let n_cycles = args.cycle.iter().count() + args.cycles.len();
+    let sizes: Vec<usize> = grid.iter().map(|g| g.3).collect();
+    invsim_runtime::sweep::count_runs(
+        &sizes,
+        n_cycles,
+        &match sizes.len() {
+            1 => "1 grid axis".to_string(),
+            n => format!("{n} grid axes"),
+        },
+    )
+    .map_err(|e| Failure::user(format!("sweep: {e}")))?;
+    let table = args.table.as_deref().map(read_table).transpose()?;
+    if let Some((names, rows)) = &table {
+        let what = format!("a table of {} rows", rows.len());
+        invsim_runtime::sweep::count_runs(&[rows.len()], n_cycles, &what)
+            .map_err(|e| Failure::user(format!("sweep: {e}")))?;
+        check_not_set(&sets, names, "--table")?;
+    }
+    let swept: Vec<String> = grid.iter().map(|g| g.0.clone()).collect();
+    check_not_set(&sets, &swept, "--grid")?;
     let outputs = plan_outputs(args)?;
     let cycles = cycles(args)?;
     let model = load(&args.model, args.engine)?;

@@ -203,7 +203,7 @@ fn a_table_runs_one_variant_per_row() {
         .lines()
         .nth(2)
         .unwrap()
-        .starts_with("1,ece,1500,0.35,ok,"));
+        .starts_with("1,ece,1500.0,0.35,ok,"));
 }
 
 /// `--threads` far beyond the runs starts one thread per run at most (not ten thousand), says so, and gives

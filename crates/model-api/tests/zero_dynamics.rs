@@ -100,7 +100,7 @@ fn newton_finds_the_equilibrium_and_reports_a_singular_start() {
     );
     assert_eq!(
         from_zero.unwrap_err().to_string(),
-        "met a singular Jacobian ∂q/∂η at η = [0.0]"
+        "met a singular Jacobian ∂q/∂η at η = [0]"
     );
 }
 

@@ -490,17 +490,22 @@ impl Cycle {
         }
         for (i, (&t, &v)) in self.time.iter().zip(&self.speed).enumerate() {
             if !t.is_finite() {
-                return Err(invalid(format!("time {t} at sample {i} is not finite")));
+                return Err(invalid(format!(
+                    "time {} at sample {i} is not finite",
+                    num(t)
+                )));
             }
             if !v.is_finite() || v < 0.0 {
                 return Err(invalid(format!(
-                    "speed {v} at sample {i}; expected a finite speed ≥ 0"
+                    "speed {} at sample {i}; expected a finite speed ≥ 0",
+                    num(v)
                 )));
             }
             if i > 0 && t <= self.time[i - 1] {
                 return Err(invalid(format!(
-                    "time {t} at sample {i} is not after {}; expected strictly increasing times",
-                    self.time[i - 1]
+                    "time {} at sample {i} is not after {}; expected strictly increasing times",
+                    num(t),
+                    num(self.time[i - 1])
                 )));
             }
         }

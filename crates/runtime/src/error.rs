@@ -38,6 +38,23 @@ pub enum RunError {
         dt: f64,
         min: usize,
     },
+    #[error(
+        "the time series of {samples} samples × {columns} columns at dt = {} s would take {} GiB, more than the \
+         limit of {} GiB for a stored series (--out, --plot); use a --dt of at least {} s, or leave out --out and \
+         --plot (the summary needs no stored series)",
+        num(*dt), num(*bytes / (1u64 << 30) as f64),
+        *max_bytes >> 30, num(*min_dt)
+    )]
+    RecordTooLarge {
+        samples: usize,
+        columns: usize,
+        bytes: f64,
+        dt: f64,
+        /// The smallest step whose series fits.
+        min_dt: f64,
+        /// The limit, bytes.
+        max_bytes: u64,
+    },
     #[error("the model failed at t = {} s: {source}", num(*t))]
     Model {
         t: f64,

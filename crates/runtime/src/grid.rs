@@ -9,6 +9,14 @@ pub const MAX_DERIVATIVES: usize = 10;
 /// Largest number of output samples a run may produce (guards against absurd `--dt`).
 pub const MAX_SAMPLES: usize = 50_000_000;
 
+/// Most bytes the stored time series of a run (kept for `--out` and `--plot`) may take: samples × columns ×
+/// 8 bytes ≤ 1 GiB, checked before it is allocated ([`check_record`]). Its CSV would be about 2.5 times
+/// larger (some 20 characters a number): 1 GiB is 10 million samples of the 11 columns of `si_engine`, NEDC
+/// at `--dt 1.1e-4` and a 3 GB file, beyond what a spreadsheet or a plot can use. NEDC at `--dt 3e-5` with
+/// `--out` (39 million samples, 5 GB of memory) is refused at once; a run without a stored series (the
+/// summary only) streams any sample count up to [`MAX_SAMPLES`].
+pub const MAX_RECORD_BYTES: u64 = 1 << 30;
+
 /// Fewest output samples a run may produce: fewer (`--dt` about as long as the cycle) leave no time series
 /// worth the name and integrals of one or two trapezoids.
 pub const MIN_SAMPLES: usize = 10;
@@ -30,6 +38,24 @@ pub fn check_samples(steps: f64, duration: f64, dt: f64) -> Result<(), RunError>
             duration,
             dt,
             max: MAX_SAMPLES,
+        });
+    }
+    Ok(())
+}
+
+/// `Err(RecordTooLarge)` if a stored series of `samples` samples × `columns` columns of 8 bytes exceeds
+/// [`MAX_RECORD_BYTES`] (`dt` for the message's advice: the step that would fit).
+pub fn check_record(samples: usize, columns: usize, dt: f64) -> Result<(), RunError> {
+    let bytes = samples as f64 * columns as f64 * 8.0;
+    if bytes > MAX_RECORD_BYTES as f64 {
+        return Err(RunError::RecordTooLarge {
+            samples,
+            columns,
+            bytes,
+            dt,
+            // Rounded up by 1e-5 (the message prints six digits): the step advised fits.
+            min_dt: dt * bytes / MAX_RECORD_BYTES as f64 * (1.0 + 1e-5),
+            max_bytes: MAX_RECORD_BYTES,
         });
     }
     Ok(())

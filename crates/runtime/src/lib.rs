@@ -21,7 +21,7 @@ pub mod inverse;
 pub mod kernel;
 pub mod lookahead;
 pub mod modes;
-mod numfmt;
+pub mod numfmt;
 pub mod ode;
 pub mod operating_points;
 pub mod output;
@@ -37,6 +37,7 @@ pub mod signals;
 pub mod smoother;
 pub mod stable;
 pub mod sweep;
+pub mod textfmt;
 pub mod tolerance_band;
 
 /// The inverse simulation under its former module name.

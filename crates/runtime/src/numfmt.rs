@@ -8,7 +8,7 @@ const MESSAGE_DIGITS: usize = 6;
 /// `v` for a message: as written when that takes at most [`MESSAGE_DIGITS`] significant digits (0.1, 1180,
 /// 1000000000 below 1e15), else rounded to them, positional for 1e-4 ≤ |v| < 1e6 and with an exponent
 /// otherwise (1e300, not 301 digits).
-pub(crate) fn num(v: f64) -> String {
+pub fn num(v: f64) -> String {
     if !v.is_finite() || v == 0.0 {
         return format!("{v}");
     }

@@ -1,8 +1,11 @@
 //! Writing results: the per-sample CSV of `invsim simulate --out` and the JSON summary (contract §3).
 //!
 //! Numbers are written in full precision: the shortest decimal that reads back as the same `f64`, in positional
-//! notation for 1e-5 ≤ |v| < 1e16 and in exponent notation (`1.25e-7`) otherwise; non-finite values (which a
-//! successful run never produces) are written as `NaN`, `inf`, `-inf`.
+//! notation for 1e-5 ≤ |v| < 1e16 and in exponent notation (`1.25e-7`) otherwise, and always as a float —
+//! with a decimal point in the digits (`0.0`, `1180.0`, `1.0e-7`), so that every reader (polars, pandas,
+//! numpy, spreadsheets) types a column as floating point whatever its first rows hold (polars typed a column
+//! starting with `0` as integers and then failed on `0.05`); non-finite values (which a successful run never
+//! produces) are written as `NaN`, `inf`, `-inf`.
 
 use std::io::{self, BufWriter, Write};
 
@@ -59,13 +62,73 @@ fn write_field<W: Write>(w: &mut W, s: &str) -> io::Result<()> {
     }
 }
 
-/// Shortest round-trip representation of `v` (Rust's `Display`/`LowerExp` without precision are both exact).
+/// Shortest round-trip representation of `v` (Rust's `Display`/`LowerExp` without precision are both exact),
+/// always with a decimal point (see the module's doc): a whole number gets `.0` (`Display` writes none), an
+/// exponent's mantissa too (`1e-7` → `1.0e-7`).
 fn write_f64<W: Write>(w: &mut W, v: f64) -> io::Result<()> {
     let a = v.abs();
-    if v == 0.0 || !v.is_finite() || (1e-5..1e16).contains(&a) {
-        write!(w, "{v}")
-    } else {
-        write!(w, "{v:e}")
+    if !v.is_finite() {
+        return write!(w, "{v}");
+    }
+    if v == 0.0 {
+        // The commonest value of a run's series (a vehicle at rest): no formatting at all.
+        return w.write_all(if v.is_sign_negative() {
+            b"-0.0"
+        } else {
+            b"0.0"
+        });
+    }
+    if a < 1e16 && v == v.trunc() {
+        // Whole numbers below 1e16 are exact as i64 and written as its digits (faster than the float's
+        // `Display`, which writes the same digits), then `.0`.
+        return write!(w, "{}.0", v as i64);
+    }
+    if (1e-5..1e16).contains(&a) {
+        // Not whole: `Display` writes a decimal point.
+        return write!(w, "{v}");
+    }
+    let mut text = NumText::default();
+    let _ = std::fmt::Write::write_fmt(&mut text, format_args!("{v:e}"));
+    let digits = text.as_bytes();
+    match digits.iter().position(|&b| b == b'e') {
+        Some(e) if !digits[..e].contains(&b'.') => {
+            w.write_all(&digits[..e])?;
+            w.write_all(b".0")?;
+            w.write_all(&digits[e..])
+        }
+        _ => w.write_all(digits),
+    }
+}
+
+/// `v` as [`write_csv`] writes it (`0.0`, `1180.0`, `0.05`, `1.0e-7`): for other tables of results (the
+/// sweep's rows).
+pub fn float_text(v: f64) -> String {
+    let mut b = Vec::with_capacity(24);
+    // Writing to a `Vec` cannot fail.
+    let _ = write_f64(&mut b, v);
+    String::from_utf8_lossy(&b).into_owned()
+}
+
+/// The text of one number, on the stack (the longest `{:e}` of an `f64` is 24 bytes: `-2.2250738585072014e-308`).
+#[derive(Default)]
+struct NumText {
+    buf: [u8; 32],
+    len: usize,
+}
+
+impl NumText {
+    fn as_bytes(&self) -> &[u8] {
+        &self.buf[..self.len]
+    }
+}
+
+impl std::fmt::Write for NumText {
+    fn write_str(&mut self, s: &str) -> std::fmt::Result {
+        let end = self.len + s.len();
+        let slot = self.buf.get_mut(self.len..end).ok_or(std::fmt::Error)?;
+        slot.copy_from_slice(s.as_bytes());
+        self.len = end;
+        Ok(())
     }
 }
 
@@ -100,8 +163,36 @@ mod tests {
             );
         }
         assert_eq!(fmt(0.1), "0.1");
-        assert_eq!(fmt(1180.0), "1180");
+        assert_eq!(fmt(1180.0), "1180.0");
         assert_eq!(fmt(-2.5e-9), "-2.5e-9");
+    }
+
+    #[test]
+    fn every_number_is_written_as_a_float() {
+        let cases = [
+            (0.0, "0.0"),
+            (-0.0, "-0.0"),
+            (2.0, "2.0"),
+            (-1180.0, "-1180.0"),
+            (0.05, "0.05"),
+            (1e-5, "0.00001"),
+            (1e-7, "1.0e-7"),
+            (-3e-300, "-3.0e-300"),
+            (1e16, "1.0e16"),
+            (1.5e20, "1.5e20"),
+            (9_007_199_254_740_992.0, "9007199254740992.0"),
+            (f64::MAX, "1.7976931348623157e308"),
+            (5e-324, "5.0e-324"),
+            (f64::NAN, "NaN"),
+            (f64::INFINITY, "inf"),
+        ];
+        for (v, text) in cases {
+            assert_eq!(fmt(v), text, "{v:e}");
+            assert_eq!(float_text(v), text);
+            if v.is_finite() {
+                assert_eq!(text.parse::<f64>().unwrap().to_bits(), v.to_bits());
+            }
+        }
     }
 
     #[test]

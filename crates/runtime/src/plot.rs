@@ -53,6 +53,11 @@ pub enum PlotError {
     UnknownVar { name: String, valid: String },
     #[error("--plot-vars: no panel given; this model's panels are: {valid}")]
     NoVars { valid: String },
+    #[error(
+        "--plot-vars: {given} panels, more than the {max} a plot draws (each panel is 200 pixels high); plot \
+         fewer variables, or several plots"
+    )]
+    TooManyPanels { given: usize, max: usize },
     #[error("cannot render the plot as PNG: {0}")]
     Render(String),
     #[error("cannot write the plot {path}: {message}")]
@@ -93,8 +98,13 @@ fn resolve_all(info: &ModelInfo, vars: &[String]) -> Result<Vec<(String, Var)>, 
     resolve_names(vars, || default_vars(info), valid, |n| resolve(info, n))
 }
 
+/// Most panels a plot draws: 64 panels are a figure about 19 000 pixels high (a 75 MB image in memory as
+/// PNG), beyond what a screen or a page shows; checked before the run ([`check_vars`]), so that
+/// `--plot-vars` repeating a name 2000 times (a 2 GB image) is refused at once.
+pub const MAX_PANELS: usize = 64;
+
 /// `--plot-vars` names (trimmed, blanks dropped; none given: `defaults()`), each resolved by `resolve`; an
-/// unknown name, or only blanks, is an error listing `valid()`.
+/// unknown name, or only blanks, is an error listing `valid()`; more than [`MAX_PANELS`] is an error.
 pub(crate) fn resolve_names<T>(
     vars: &[String],
     defaults: impl FnOnce() -> Vec<String>,
@@ -108,6 +118,13 @@ pub(crate) fn resolve_names<T>(
     };
     if names.iter().all(|n| n.is_empty()) {
         return Err(PlotError::NoVars { valid: valid() });
+    }
+    let given = names.iter().filter(|n| !n.is_empty()).count();
+    if given > MAX_PANELS {
+        return Err(PlotError::TooManyPanels {
+            given,
+            max: MAX_PANELS,
+        });
     }
     names
         .into_iter()

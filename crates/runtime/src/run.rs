@@ -206,13 +206,16 @@ impl RunResult {
     }
 
     /// The summary as text (what `invsim simulate` prints).
+    /// User strings in it (the model's name and description, the cycle's and the files' names, warnings) have
+    /// their control characters escaped ([`crate::textfmt::escape_controls`]): the text goes to a terminal.
     pub fn summary_text(&self) -> String {
-        match self {
+        let text = match self {
             RunResult::Single(r) => r.summary.to_text(),
             RunResult::Modal(r, _) => r.summary.to_text(),
             RunResult::Forward(r) => r.summary.to_text(),
             RunResult::ModalForward(r, _) => r.summary.to_text(),
-        }
+        };
+        crate::textfmt::escape_controls(&text, true).into_owned()
     }
 
     /// Write the summary as JSON (`--summary-json`).

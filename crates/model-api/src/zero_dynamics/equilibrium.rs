@@ -40,25 +40,54 @@ pub enum EquilibriumFailure {
 impl fmt::Display for EquilibriumFailure {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            EquilibriumFailure::NonFinite { eta } => write!(f, "met a non-finite q at η = {eta:?}"),
+            EquilibriumFailure::NonFinite { eta } => {
+                write!(f, "met a non-finite q at η = {}", short_list(eta))
+            }
             EquilibriumFailure::Singular { eta } => {
-                write!(f, "met a singular Jacobian ∂q/∂η at η = {eta:?}")
+                write!(
+                    f,
+                    "met a singular Jacobian ∂q/∂η at η = {}",
+                    short_list(eta)
+                )
             }
-            EquilibriumFailure::Stalled { eta, residual } => {
-                write!(f, "stalled at η = {eta:?} with residual {residual:e}")
-            }
+            EquilibriumFailure::Stalled { eta, residual } => write!(
+                f,
+                "stalled at η = {} with residual {}",
+                short_list(eta),
+                short(*residual)
+            ),
             EquilibriumFailure::NoConvergence {
                 iterations,
                 residual,
             } => write!(
                 f,
-                "did not converge in {iterations} iterations (residual {residual:e})"
+                "did not converge in {iterations} iterations (residual {})",
+                short(*residual)
             ),
         }
     }
 }
 
 impl std::error::Error for EquilibriumFailure {}
+
+/// `v` for a message with at most six significant digits (the rule of every number in a message): `0`,
+/// `1.04517e15`, `-2.5e-3`, `NaN`.
+fn short(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let s = format!("{v:.5e}");
+    match s.split_once('e') {
+        Some((m, e)) => format!("{}e{e}", m.trim_end_matches('0').trim_end_matches('.')),
+        None => s,
+    }
+}
+
+/// `[a, b, …]` of [`short`] numbers.
+fn short_list(v: &[f64]) -> String {
+    let items: Vec<String> = v.iter().map(|&x| short(x)).collect();
+    format!("[{}]", items.join(", "))
+}
 
 /// Max norm that propagates NaN (f64::max would drop it).
 fn max_norm(v: &[f64]) -> f64 {

@@ -160,6 +160,9 @@ pub fn forward<M: InverseModel + ?Sized>(
     // The quadrature states of the accumulated outputs and of ∫ y dt start at 0.
     z.resize(z.len() + lp.accumulate.len() + 1, 0.0);
     let layout = Layout::new(model, &x0);
+    if opts.keep_series {
+        crate::grid::check_record(grid.samples(), layout.columns.len(), opts.dt)?;
+    }
     let mut rec = Recorder::new(info, cycle, &grid, &layout, opts);
     // The error control and the stiffness test see (x, I) only: the quadrature states ride along.
     let (nz, n_err, h0) = (z.len(), info.n_states() + 1, opts.dt.min(0.01));

@@ -126,6 +126,10 @@ pub fn forward_modes(
         seg: seg0,
         switches: Vec::new(),
     };
+    if opts.keep_series {
+        let columns = super::modal_record::layout(spec, &x0).0.len();
+        crate::grid::check_record(grid.samples(), columns, opts.dt)?;
+    }
     let mut rec = ModalRecorder::new(spec, cycle, &grid, opts, &x0);
     let (nz, n_err, h0) = (z.len(), x0.len() + 1, opts.dt.min(0.01));
     let budget = Budget::new(opts, duration, (t0, grid.time(grid.n)));

@@ -66,7 +66,7 @@ pub(super) struct ModalRecorder<'a> {
 
 /// The columns and their units: `t`, `yc`, `mode`, `gear`, the output (unless it is a state), every
 /// input, the states, the model's `[outputs]`.
-fn layout(spec: &ModalSpec<'_>, x0: &[f64]) -> (Vec<String>, Vec<Option<String>>, bool) {
+pub(super) fn layout(spec: &ModalSpec<'_>, x0: &[f64]) -> (Vec<String>, Vec<Option<String>>, bool) {
     let model = spec.modes[0].model;
     let info = model.info();
     let output_is_state = Layout::new(model, x0).output_is_state;

@@ -98,7 +98,11 @@ impl Causal {
             return Err(SimulateError::UnstableZeroDynamics {
                 t,
                 eigenvalues,
-                detail: format!("eta{} = {} has blown up", j + 1, self.eta[j]),
+                detail: format!(
+                    "eta{} = {} has blown up",
+                    j + 1,
+                    crate::numfmt::num(self.eta[j])
+                ),
             });
         }
         if k % self.check_every == 0 && k > 0 {
@@ -142,7 +146,11 @@ impl Causal {
             return Err(SimulateError::UnstableZeroDynamics {
                 t: t_fail,
                 eigenvalues: eigenvalues_at(model, (xi, w), eta_fail, yr, &mut self.ws),
-                detail: format!("eta{} = {} has blown up", i + 1, eta_fail[i]),
+                detail: format!(
+                    "eta{} = {} has blown up",
+                    i + 1,
+                    crate::numfmt::num(eta_fail[i])
+                ),
             });
         }
         check_stability(model, t_fail, (xi, w), eta_fail, yr, &mut self.ws)?;

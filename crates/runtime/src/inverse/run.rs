@@ -605,6 +605,7 @@ pub(super) fn run<M: InverseModel + ?Sized>(
     let (columns, input_column) = column_names(info);
     let keep = opts.keep_series || opts.verify;
     let stored = if keep { grid.samples() } else { 0 };
+    crate::grid::check_record(stored, columns.len(), opts.dt)?;
     let mut data = allocate(spare, columns.len(), stored, &grid);
     let mut inverter = Inverter::new(model, smoother, grid, &zd, eta0, opts)?;
     let mut tally = Tally::new(model, (cycle, steps), &grid, window, opts.progress.clone());

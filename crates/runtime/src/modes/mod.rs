@@ -169,7 +169,7 @@ impl Default for ModalOptions {
 pub enum ModalError {
     #[error("{0}")]
     Run(#[from] crate::RunError),
-    #[error("mode `{mode}` at t = {t} s: {message}")]
+    #[error("mode `{mode}` at t = {} s: {message}", crate::numfmt::num(*t))]
     Mode {
         mode: String,
         t: f64,

@@ -461,6 +461,10 @@ fn run_sequence(
         },
     };
     let first = ctx.solve(mode, (t0, &base), &seq.modal.eta, None, &vec![0.0; ctx.n])?;
+    // The record holds per sample t, speed, mode, the free input, the n states and the r_max + 1 references,
+    // per step the input and the n states at its end.
+    let per_sample = 2 * ctx.n + ctx.r_max + 6;
+    crate::grid::check_record(grid.samples(), per_sample, opts.dt)?;
     let mut rec = Record::new((t0, base[0]), mode, grid.samples(), (ctx.n, ctx.r_max + 1));
     let mut zd = ZeroDynamics::new(ctx, grid, opts.lookahead, zd);
     // Decide at t0 too (a start that needs another mode at once).

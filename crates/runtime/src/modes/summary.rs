@@ -16,8 +16,8 @@ use crate::operating_points::{OperatingPointTally, OperatingPoints};
 use crate::provenance::Provenance;
 use crate::reference_deviation::{DeviationTally, ReferenceDeviation};
 use crate::report::{
-    first_sentence, integral_unit, unit_suffix, write_input_range, Column, CycleInfo, InputRange,
-    Totals,
+    first_sentence, fmt_sig, integral_unit, unit_suffix, write_input_range, Column, CycleInfo,
+    InputRange, Totals,
 };
 
 /// What `invsim simulate` prints and writes for a model with modes: the keys of the single-mode summary
@@ -472,6 +472,16 @@ fn resets_line(resets: &[super::CouplingReset]) -> Option<String> {
     ))
 }
 
+/// `v` with `decimals` decimals (`0.563233`) below 1e15 in magnitude, else six significant digits with an
+/// exponent (`1.79769e308`, not 309 digits).
+fn fixed(v: f64, decimals: usize) -> String {
+    if v.abs() < 1e15 {
+        format!("{v:.decimals$}")
+    } else {
+        fmt_sig(v, 6)
+    }
+}
+
 impl ModalSummary {
     /// The printed summary.
     pub fn to_text(&self) -> String {
@@ -506,12 +516,12 @@ impl ModalSummary {
                 .integrals_per_100km
                 .get(k)
                 .map(|p| match unit {
-                    Some(u) => format!("  ({p:.4} {u}/100 km)"),
-                    None => format!("  ({p:.4} per 100 km)"),
+                    Some(u) => format!("  ({} {u}/100 km)", fixed(*p, 4)),
+                    None => format!("  ({} per 100 km)", fixed(*p, 4)),
                 })
                 .unwrap_or_default();
             let u = unit.map(|u| format!(" {u}")).unwrap_or_default();
-            let _ = writeln!(s, "integral {k}: {v:.6}{u}{per}");
+            let _ = writeln!(s, "integral {k}: {}{u}{per}", fixed(*v, 6));
         }
         for i in &self.inputs {
             write_input_range(

@@ -35,7 +35,12 @@ pub(crate) const ASCENT: f64 = 0.76;
 /// Descent below the baseline, as a fraction of the font size.
 pub(crate) const DESCENT: f64 = 0.24;
 
-/// Rasterise `svg` (at its own size, one pixel per SVG unit) to PNG bytes with the embedded font.
+/// Most pixels of a PNG plot (4 bytes each in memory): 1000 pixels wide × 32 768 high, 128 MiB, above the
+/// 64 panels a plot draws at most.
+const MAX_PNG_PIXELS: u64 = 1000 * 32_768;
+
+/// Rasterise `svg` (at its own size, one pixel per SVG unit) to PNG bytes with the embedded font; an image
+/// above [`MAX_PNG_PIXELS`] is refused before its pixels are allocated.
 pub(crate) fn svg_to_png(svg: &str) -> Result<Vec<u8>, String> {
     let mut db = usvg::fontdb::Database::new();
     db.load_font_data(dejavu::sans::regular().to_vec());
@@ -47,6 +52,13 @@ pub(crate) fn svg_to_png(svg: &str) -> Result<Vec<u8>, String> {
     };
     let tree = usvg::Tree::from_str(svg, &opts).map_err(|e| e.to_string())?;
     let size = tree.size().to_int_size();
+    if u64::from(size.width()) * u64::from(size.height()) > MAX_PNG_PIXELS {
+        return Err(format!(
+            "a {}×{} image exceeds the limit of {MAX_PNG_PIXELS} pixels",
+            size.width(),
+            size.height()
+        ));
+    }
     let mut pixmap = tiny_skia::Pixmap::new(size.width(), size.height())
         .ok_or_else(|| format!("cannot allocate a {}×{} image", size.width(), size.height()))?;
     pixmap.fill(tiny_skia::Color::WHITE);

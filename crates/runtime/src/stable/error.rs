@@ -27,8 +27,9 @@ pub enum StableError {
         eigenvalues_to: Vec<[f64; 2]>,
     },
     #[error(
-        "stable inversion needs {needed} s of {which}-actuation for the zero dynamics to decay to the tolerance \
-         (slowest decay rate {rate} 1/s), more than the limit of {max} s"
+        "stable inversion needs {} s of {which}-actuation for the zero dynamics to decay to the tolerance \
+         (slowest decay rate {} 1/s), more than the limit of {} s",
+        crate::numfmt::num(*needed), crate::numfmt::num(*rate), crate::numfmt::num(*max)
     )]
     PreActuationTooLong {
         which: &'static str,

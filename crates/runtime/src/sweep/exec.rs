@@ -30,7 +30,7 @@ fn run_variant(
     for (name, &value) in sweep.names.iter().zip(params) {
         model
             .set_param(name, value)
-            .map_err(|e| format!("{name} = {value}: {e}"))?;
+            .map_err(|e| format!("{name} = {}: {e}", crate::numfmt::num(value)))?;
     }
     match (&*model, shared) {
         (Plant::Single(m), Shared::Reference(reference)) => {

@@ -76,6 +76,49 @@ pub enum SweepError {
     Options(Box<SimulateError>),
     #[error("cannot start {threads} worker threads: {reason}")]
     Threads { threads: usize, reason: String },
+    #[error(
+        "{} runs ({what}) exceed the limit of {max} runs a sweep makes; sweep fewer values",
+        crate::numfmt::num(*runs)
+    )]
+    TooManyRuns {
+        /// The runs asked for (a float: the product of the axes' sizes may exceed every integer type).
+        runs: f64,
+        /// How they come about: "3 grid axes × 2 cycles", "a table of 2000000 rows × 1 cycle".
+        what: String,
+        max: usize,
+    },
+}
+
+/// Most runs (variants × cycles) a sweep makes: every run is a whole simulation (milliseconds to seconds
+/// each, so 10⁶ runs already take hours of CPU time) and its row (a few hundred bytes) is kept until the
+/// table is written; 10⁶ rows stay in the hundreds of MiB. Checked before any variant is made
+/// ([`count_runs`]): `--grid m=1000:1800:1000000000`, or two axes of 10⁵ values, is refused at once.
+pub const MAX_RUNS: usize = 1_000_000;
+
+/// The number of runs of a sweep whose design has variants of `sizes` (one size per grid axis — the variants
+/// are their product, computed with overflow checks — or the table's row count alone) on `cycles` cycles;
+/// more than [`MAX_RUNS`] is [`SweepError::TooManyRuns`] (`what` describes the design for the message).
+pub fn count_runs(sizes: &[usize], cycles: usize, what: &str) -> Result<usize, SweepError> {
+    let exact = sizes
+        .iter()
+        .try_fold(cycles.max(1), |acc, &n| acc.checked_mul(n));
+    match exact {
+        Some(runs) if runs <= MAX_RUNS => Ok(runs),
+        _ => {
+            let runs = sizes
+                .iter()
+                .fold(cycles.max(1) as f64, |acc, &n| acc * n as f64);
+            let cycles = match cycles.max(1) {
+                1 => "1 cycle".to_string(),
+                n => format!("{n} cycles"),
+            };
+            Err(SweepError::TooManyRuns {
+                runs,
+                what: format!("{what} × {cycles}"),
+                max: MAX_RUNS,
+            })
+        }
+    }
 }
 
 /// How the variants' parameter values are given.
@@ -201,9 +244,13 @@ impl SweepBuilder {
     }
 
     /// Add a grid axis: `n` values of parameter `name` evenly from `start` to `stop` (both included;
-    /// n = 1 gives `start`). Several axes make a full-factorial design, the last added varying fastest.
+    /// n = 1 gives `start`). Several axes make a full-factorial design, the last added varying fastest. An
+    /// axis of more than [`MAX_RUNS`] values is refused here, before its values are made.
     pub fn grid(self, name: impl Into<String>, start: f64, stop: f64, n: usize) -> Self {
         let name = name.into();
+        if let Err(e) = count_runs(&[n], 1, &format!("grid axis `{name}` of {n} values")) {
+            return self.fail(e);
+        }
         match grid_values(start, stop, n) {
             Ok(v) => self.values(name, v),
             Err(reason) => self.fail(SweepError::BadAxis { name, reason }),
@@ -275,6 +322,11 @@ impl SweepBuilder {
         opts.verify = self.verify;
         opts.keep_series = false;
         opts.validate()?;
+        count_runs(
+            &design_sizes(&self.design),
+            self.cycles.len(),
+            &describe(&self.design),
+        )?;
         let model = (self.factory)().map_err(SweepError::Model)?;
         let (names, variants) = expand(&self.design)?;
         check_names(&model.parameters(), &names)?;
@@ -355,6 +407,23 @@ fn grid_values(start: f64, stop: f64, n: usize) -> Result<Vec<f64>, String> {
                 })
                 .collect())
         }
+    }
+}
+
+/// The sizes whose product is a design's variant count: each grid axis's, or the table's row count.
+fn design_sizes(design: &Design) -> Vec<usize> {
+    match design {
+        Design::Grid(axes) => axes.iter().map(|(_, v)| v.len()).collect(),
+        Design::Table { rows, .. } => vec![rows.len()],
+    }
+}
+
+/// A design for a message: "3 grid axes", "a table of 20 rows".
+fn describe(design: &Design) -> String {
+    match design {
+        Design::Grid(axes) if axes.len() == 1 => "1 grid axis".to_string(),
+        Design::Grid(axes) => format!("{} grid axes", axes.len()),
+        Design::Table { rows, .. } => format!("a table of {} rows", rows.len()),
     }
 }
 

@@ -152,11 +152,13 @@ impl SweepResult {
         h
     }
 
-    /// The fields of `row` under [`SweepResult::header`]; numbers in Rust's shortest round-trip form, empty
-    /// fields where a failed run has no figure.
+    /// The fields of `row` under [`SweepResult::header`]; numbers in Rust's shortest round-trip form, the
+    /// floats always with a decimal point as in the run's CSV ([`crate::output::float_text`]: `1000.0`, not
+    /// `1000`, whole counts as integers), empty fields where a failed run has no figure.
     pub fn record(&self, row: &SweepRow) -> Vec<String> {
+        let float = crate::output::float_text;
         let mut r = vec![row.variant.to_string(), row.cycle.clone()];
-        r.extend(row.params.iter().map(|v| v.to_string()));
+        r.extend(row.params.iter().map(|&v| float(v)));
         let n_modal = if self.modes.is_empty() {
             0
         } else {
@@ -171,19 +173,19 @@ impl SweepResult {
             }
             Ok(f) => {
                 r.extend(["ok".to_string(), String::new(), f.samples.to_string()]);
-                r.push(f.distance_m.to_string());
-                r.extend(f.integrals.iter().map(|v| v.to_string()));
-                r.extend(f.integrals_per_100km.iter().map(|v| v.to_string()));
-                r.extend([f.input_min, f.input_max].map(|v| v.to_string()));
-                r.extend([f.violations.to_string(), f.violation_s.to_string()]);
+                r.push(float(f.distance_m));
+                r.extend(f.integrals.iter().map(|&v| float(v)));
+                r.extend(f.integrals_per_100km.iter().map(|&v| float(v)));
+                r.extend([f.input_min, f.input_max].map(float));
+                r.extend([f.violations.to_string(), float(f.violation_s)]);
                 if self.verify {
-                    let opt = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
+                    let opt = |v: Option<f64>| v.map_or(String::new(), float);
                     r.extend([opt(f.max_abs_tracking_error), opt(f.rms_tracking_error)]);
                 }
                 if let Some(m) = f.modes.as_ref().filter(|_| !self.modes.is_empty()) {
                     r.push(m.switches.to_string());
-                    r.push(m.max_transition_deviation.to_string());
-                    r.extend(m.time_s.iter().map(|v| v.to_string()));
+                    r.push(float(m.max_transition_deviation));
+                    r.extend(m.time_s.iter().map(|&v| float(v)));
                 }
             }
         }
