@@ -320,6 +320,12 @@ impl Derivation {
         }
         let _ = writeln!(s, "\nvector fields (definitions inlined):");
         for st in &m.states {
+            if !st.affine {
+                // Not affine in the input: f and g at u = 0 are not what the method uses (and g may be
+                // undefined there, as for k_T·sqrt(P)); the whole right-hand side is.
+                let _ = writeln!(s, "  rhs_{} = {}", st.name, self.show(st.rhs));
+                continue;
+            }
             let _ = writeln!(s, "  f_{} = {}", st.name, self.show(st.f));
             let _ = writeln!(s, "  g_{} = {}", st.name, self.show(st.g));
         }
