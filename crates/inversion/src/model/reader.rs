@@ -225,7 +225,7 @@ impl Reader<'_> {
             .collect();
         self.check_defined(
             &mut m.pool,
-            &m.nominal,
+            (&m.nominal, &m.inline),
             &items,
             (&described, &definition_symbols),
         )?;

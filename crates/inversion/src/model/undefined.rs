@@ -23,10 +23,12 @@ struct Found {
     why: String,
 }
 
-/// What an expression's names stand for: parameters at their values, constant definitions at theirs.
+/// What an expression's names stand for: parameters at their values, constant definitions at theirs, and
+/// every definition for its inlined expression (`0/d` with `d = v - v` is 0/0, not 0·d⁻¹ = 0).
 struct Values<'a> {
     nominal: &'a HashMap<Symbol, f64>,
     definitions: HashMap<Symbol, f64>,
+    inline: &'a HashMap<Symbol, Id>,
 }
 
 impl Values<'_> {
@@ -48,13 +50,14 @@ impl Reader<'_> {
     pub(super) fn check_defined(
         &self,
         pool: &mut Pool,
-        nominal: &HashMap<Symbol, f64>,
+        (nominal, inline): (&HashMap<Symbol, f64>, &HashMap<Symbol, Id>),
         items: &[Item],
         (what, definitions): (&[String], &[Option<Symbol>]),
     ) -> Result<(), ModelError> {
         let mut values = Values {
             nominal,
             definitions: HashMap::new(),
+            inline,
         };
         // Definitions first, in order (each uses only earlier ones), so that their values are known.
         let mut order: Vec<usize> = (0..items.len()).collect();
@@ -114,7 +117,10 @@ fn walk(pool: &mut Pool, values: &Values, ast: &Ast) -> Result<(Id, Option<f64>)
         ids.push(id);
         vals.push(v);
     }
-    let id = pool.from_ast_node(ast, &ids);
+    let mut id = pool.from_ast_node(ast, &ids);
+    if let Some(&inlined) = pool.as_symbol(id).and_then(|s| values.inline.get(&s)) {
+        id = inlined;
+    }
     let value = value_of(pool, values, ast, &ids, &vals);
     if let Some(v) = value.filter(|v| !v.is_finite()) {
         return Err(Found {
