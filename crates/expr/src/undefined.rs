@@ -31,7 +31,7 @@ impl Pool {
             _ if self.is_one(d) => Vec::new(),
             _ => vec![d],
         };
-        self.keep_beside(lead, undefined, |fs| Node::Mul(fs))
+        self.keep_beside(lead, undefined, Node::Mul)
     }
 
     /// The sum of `terms`, at least one undefined: the defined terms added canonically, the undefined ones
@@ -49,7 +49,7 @@ impl Pool {
             _ if self.is_zero(d) => Vec::new(),
             _ => vec![d],
         };
-        self.keep_beside(lead, undefined, |ts| Node::Add(ts))
+        self.keep_beside(lead, undefined, Node::Add)
     }
 
     /// The operands of nested nodes of one kind (`inner` gives a node's operands if it is of that kind).

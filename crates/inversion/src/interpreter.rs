@@ -393,7 +393,9 @@ impl Interpreter {
             // thrust from k_T·sqrt(P)).
             let (phi, _) = self.phi(at, w, u[0]);
             let residual = (phi - yr).abs();
-            if !(residual <= ISOLATED_INPUT_TOL * (1.0 + yr.abs() + phi.abs())) {
+            // NaN is refused too.
+            let solves = residual <= ISOLATED_INPUT_TOL * (1.0 + yr.abs() + phi.abs());
+            if !solves {
                 return Err(ModelError::NoInputSolution { yr, residual });
             }
             return Ok(u[0]);

@@ -110,7 +110,8 @@ fn isolated(solution: TokenStream, phi: TokenStream) -> TokenStream {
         // The closed form holds on its branch's domain only (sqrt(P) = R gives P = R² for R ≥ 0).
         let (phi, _) = #phi;
         let residual = (phi - yr).abs();
-        if !(residual <= #tol * (1.0 + yr.abs() + phi.abs())) {
+        let solves = residual <= #tol * (1.0 + yr.abs() + phi.abs());
+        if !solves {
             return Err(ModelError::NoInputSolution { yr, residual });
         }
         Ok(u)

@@ -187,7 +187,7 @@ fn innermost(pool: &Pool, id: Id) -> String {
         let v = pool.constant(n).filter(|v| !v.is_finite())?;
         let mut children_defined = true;
         pool.for_each_child(n, |c| children_defined &= !pool.is_undefined(c));
-        children_defined.then(|| (n, v))
+        children_defined.then_some((n, v))
     });
     match found {
         Some((n, v)) if n != id => format!(" (it holds `{}` = {v})", shown(pool.display(n))),
