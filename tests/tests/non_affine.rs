@@ -340,3 +340,87 @@ fn newton_follows_the_root_it_starts_near() {
         assert!(jump < 100.0, "largest step {jump}");
     }
 }
+
+/// Thrust k_T·sqrt(P) from a power P ≥ 0: not affine in P, and g = ∂rhs/∂P = k_T/(2 m sqrt(P)) is 1/0 at
+/// P = 0, where the method never evaluates it (the rhs is solved for P).
+const SQRT_THRUST: &str = r#"
+name = "sqrt_thrust"
+[parameters]
+m = 1200.0
+c = 0.4
+k_T = 40.0
+[states]
+v = { rhs = "(k_T*sqrt(P) - c*v^2)/m" }
+[input]
+name = "P"
+min = 0
+max = 200000
+[output]
+name = "v"
+h = "v"
+"#;
+
+/// A cycle the sqrt thrust can follow (it cannot brake): at rest for 10 s, then 0.2 m/s² up to 20 m/s,
+/// held to 200 s.
+fn ramp() -> Cycle {
+    let mut text = String::from("t,speed_mps\n");
+    for t in 0..=200 {
+        let v = if t < 10 {
+            0.0
+        } else {
+            (0.2 * (t - 10) as f64).min(20.0)
+        };
+        text.push_str(&format!("{t},{v}\n"));
+    }
+    Cycle::from_csv_str("ramp", &text).unwrap()
+}
+
+/// The model with thrust k_T·sqrt(P) derives (its g at P = 0 is not checked), and the interpreted run's
+/// input is the closed form P = ((m·v' + c·v²)/k_T)² at the smoothed reference's speed and acceleration at
+/// every sample.
+#[test]
+fn a_square_root_thrust_derives_and_runs_as_its_closed_form() {
+    let d = derive(SQRT_THRUST);
+    assert!(!d.affine);
+    let interp = Interpreter::new(&d).unwrap();
+    let opts = SimulationOptions {
+        dt: 0.1,
+        engine: "interpreted".into(),
+        ..SimulationOptions::default()
+    };
+    let res = simulate(&interp, &ramp(), &opts).unwrap();
+    let (p, v, yd1) = (res.input(), res.column("v").unwrap(), res.yd(1).unwrap());
+    let (m, c, k_t) = (1200.0, 0.4, 40.0);
+    let mut worst = 0.0f64;
+    for k in 0..res.len() {
+        let expected = ((m * yd1[k] + c * v[k] * v[k]) / k_t).powi(2);
+        worst = worst.max((p[k] - expected).abs() / (1.0 + expected));
+    }
+    assert!(worst < 1e-9, "P against its closed form: {worst:e}");
+    // Half-way up the ramp (t = 60 s): v = 10 m/s, v' = 0.2 m/s²: P = ((240 + 40)/40)² = 49.
+    let k = (60.0 / 0.1) as usize;
+    assert!(
+        (v[k] - 10.0).abs() < 1e-9 && (p[k] - 49.0).abs() < 1e-6,
+        "{} {}",
+        v[k],
+        p[k]
+    );
+}
+
+/// Where the reference needs a braking force, no P ≥ 0 gives it: the closed form P = (F/k_T)² would give a
+/// positive P with thrust +|F| (the wrong sign); the run stops with the input that cannot be reached.
+#[test]
+fn a_square_root_thrust_cannot_brake_and_says_so() {
+    let d = derive(SQRT_THRUST);
+    let interp = Interpreter::new(&d).unwrap();
+    let opts = SimulationOptions {
+        dt: 0.1,
+        engine: "interpreted".into(),
+        ..SimulationOptions::default()
+    };
+    let text = match simulate(&interp, &Cycle::builtin("udds").unwrap(), &opts) {
+        Err(e) => e.to_string(),
+        Ok(_) => panic!("UDDS brakes harder than the drag, yet the run succeeded"),
+    };
+    assert!(text.contains("no value of the input reaches"), "{text}");
+}

@@ -3,6 +3,7 @@
 //! Each traversal memoises per node, so shared subterms are visited once and results stay shared.
 
 use crate::func::{Func, Func2};
+use crate::number::pow_f64;
 use crate::number::Number;
 use crate::pool::{Id, Node, Pool, Symbol};
 use std::collections::HashMap;
@@ -49,7 +50,13 @@ impl Pool {
 
     fn diff_memo(&mut self, e: Id, x: Symbol, memo: &mut HashMap<Id, Id>) -> Id {
         if !self.depends_on(e, x) {
-            return self.zero();
+            // d/dx of an undefined constant is undefined: 0·(1/0), never 0 (`crate::undefined`).
+            let zero = self.zero();
+            return if self.is_undefined(e) {
+                self.mul(&[zero, e])
+            } else {
+                zero
+            };
         }
         if let Some(&d) = memo.get(&e) {
             return d;
@@ -550,17 +557,6 @@ impl Pool {
 /// Derivative orders of a map call as the kernel's map takes them.
 pub fn map_orders(o: crate::map::MapOrders) -> [usize; 2] {
     [o[0] as usize, o[1] as usize]
-}
-
-/// b^p in f64 as every evaluator in invsim computes it: integer exponents by `powi`, ½ by `sqrt`,
-/// anything else by `powf`.
-pub fn pow_f64(b: f64, exact: Option<Number>, p: f64) -> f64 {
-    match exact {
-        Some(n) if n.as_integer().is_some_and(|k| k.abs() <= i32::MAX as i128) => b.powi(p as i32),
-        Some(n) if n == Number::ratio(1, 2) => b.sqrt(),
-        Some(n) if n == Number::ratio(-1, 2) => 1.0 / b.sqrt(),
-        _ => b.powf(p),
-    }
 }
 
 #[cfg(test)]

@@ -24,14 +24,15 @@ pub mod pool;
 pub mod print;
 pub mod rules;
 pub mod tape;
+pub mod undefined;
 pub mod zero;
 
-pub use calculus::{pow_f64, ExpansionTooLarge, UnboundSymbol, EXPAND_TERM_LIMIT};
+pub use calculus::{ExpansionTooLarge, UnboundSymbol, EXPAND_TERM_LIMIT};
 pub use func::{Func, Func2, FUNCTIONS, NON_SMOOTH_FUNCTIONS};
 pub use limits::{Measure, TooLarge};
 pub use lower::{Lowered, Strategy};
 pub use map::{MapDecl, MapId, MapOrders};
-pub use number::Number;
+pub use number::{pow_f64, Number};
 pub use parse::{parse, parse_with_maps, Ast, AstKind, BinOp, MapArity, ParseError};
 pub use pool::{Id, Node, Pool, Symbol};
 pub use print::latex_symbol;

@@ -346,6 +346,17 @@ impl fmt::Display for Number {
     }
 }
 
+/// b^p in f64 as every evaluator in invsim computes it: integer exponents by `powi`, ½ by `sqrt`,
+/// anything else by `powf`.
+pub fn pow_f64(b: f64, exact: Option<Number>, p: f64) -> f64 {
+    match exact {
+        Some(n) if n.as_integer().is_some_and(|k| k.abs() <= i32::MAX as i128) => b.powi(p as i32),
+        Some(n) if n == Number::ratio(1, 2) => b.sqrt(),
+        Some(n) if n == Number::ratio(-1, 2) => 1.0 / b.sqrt(),
+        _ => b.powf(p),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -466,16 +466,25 @@ pub fn parse_with_maps(src: &str, maps: MapArity<'_>) -> Result<Ast, ParseError>
 impl Pool {
     /// Intern a syntax tree in canonical form. Identifiers become symbols, except `pi`.
     pub fn from_ast(&mut self, ast: &Ast) -> Id {
+        let children: Vec<Id> = match &ast.kind {
+            AstKind::Num(_) | AstKind::Ident(_) => Vec::new(),
+            AstKind::Neg(a) => vec![self.from_ast(a)],
+            AstKind::Binary(_, a, b) => vec![self.from_ast(a), self.from_ast(b)],
+            AstKind::Call(_, args) => args.iter().map(|a| self.from_ast(a)).collect(),
+        };
+        self.from_ast_node(ast, &children)
+    }
+
+    /// Intern one node of a syntax tree whose operands are already interned as `children` (in order: the
+    /// operand of a sign, the two of a binary operator, a call's arguments), as [`Pool::from_ast`] does.
+    pub fn from_ast_node(&mut self, ast: &Ast, children: &[Id]) -> Id {
         match &ast.kind {
             AstKind::Num(n) => self.num(*n),
             AstKind::Ident(name) if name == "pi" => self.pi(),
             AstKind::Ident(name) => self.sym(name),
-            AstKind::Neg(a) => {
-                let a = self.from_ast(a);
-                self.neg(a)
-            }
-            AstKind::Binary(op, a, b) => {
-                let (a, b) = (self.from_ast(a), self.from_ast(b));
+            AstKind::Neg(_) => self.neg(children[0]),
+            AstKind::Binary(op, ..) => {
+                let (a, b) = (children[0], children[1]);
                 match op {
                     BinOp::Add => self.add2(a, b),
                     BinOp::Sub => self.sub(a, b),
@@ -484,8 +493,8 @@ impl Pool {
                     BinOp::Pow => self.pow(a, b),
                 }
             }
-            AstKind::Call(name, args) => {
-                let xs: Vec<Id> = args.iter().map(|a| self.from_ast(a)).collect();
+            AstKind::Call(name, _) => {
+                let xs = children;
                 match name.as_str() {
                     "sqrt" => self.sqrt(xs[0]),
                     "pow" => self.pow(xs[0], xs[1]),
@@ -495,7 +504,7 @@ impl Pool {
                         } else if let Some(f) = Func2::from_name(n) {
                             self.call2(f, xs[0], xs[1])
                         } else if let Some((m, orders)) = self.resolve_map(n) {
-                            self.map_call(m, orders, &xs)
+                            self.map_call(m, orders, xs)
                         } else {
                             // The parser accepts only names from FUNCTIONS, all handled above.
                             unreachable!("function `{n}` accepted by the parser but not interned")

@@ -11,12 +11,17 @@
 //!   `(x·y)^n → x^n·y^n` for integer n, numeric coefficients distributed over sums (`2(x+y) → 2x + 2y`);
 //! * the function identities in [`crate::rules::FUNCTION_RULES`] (kept as data, applied by [`Pool::call`]).
 //!
+//! No identity removes an undefined part (see [`crate::undefined`]): a node free of symbols whose value is
+//! not finite (`1/0`, `log(0)`, `sqrt(-1)`, an overflow), or any node above one, is *undefined*, and the
+//! constructors leave it in place: `0·(1/0)` stays a product, `(v − v)/(v − v)` becomes `0·(1/0)` (0/0),
+//! never 0. Every identity above holds only where both sides are defined.
+//!
 //! Nothing here expands products of sums, so expressions never blow up; see [`Pool::expand`] for that.
 
 use crate::func::{Func, Func2};
 use crate::fxhash::FxHashSet;
 use crate::map::{MapDecl, MapId, MapOrders};
-use crate::number::Number;
+use crate::number::{pow_f64, Number};
 use crate::rules::{FunctionRule, Rewrite, FUNCTION_RULES};
 use std::cmp::Ordering;
 use std::collections::HashMap;
@@ -77,6 +82,10 @@ pub struct Pool {
     depth: Vec<u32>,
     /// Written size of each node, saturating (see [`crate::limits`]).
     written: Vec<u64>,
+    /// The value of each node free of symbols and maps (`None` for the others).
+    value: Vec<Option<f64>>,
+    /// Is the node undefined: its value not finite, or a child undefined (see [`crate::undefined`])?
+    undefined: Vec<bool>,
     index: HashMap<Node, Id>,
     symbols: Vec<String>,
     symbol_index: HashMap<String, Symbol>,
@@ -149,7 +158,7 @@ impl Pool {
         syms.iter().any(|&s| self.depends_on(id, s))
     }
 
-    fn intern(&mut self, node: Node) -> Id {
+    pub(crate) fn intern(&mut self, node: Node) -> Id {
         if let Some(&id) = self.index.get(&node) {
             return id;
         }
@@ -161,11 +170,43 @@ impl Pool {
         });
         self.depth.push(depth.saturating_add(1));
         self.written.push(written);
+        let value = self.constant_value(&node);
+        let mut undefined = value.is_some_and(|v| !v.is_finite());
+        Self::for_each_child_of(&node, |c| undefined |= self.undefined[c.index()]);
+        self.value.push(value);
+        self.undefined.push(undefined);
         let id = Id(u32::try_from(self.nodes.len()).expect("expression pool exceeded 2^32 nodes"));
         self.nodes.push(node.clone());
         self.free.push(free);
         self.index.insert(node, id);
         id
+    }
+
+    /// The value of a node free of symbols and maps, from its children's values, computed as every
+    /// evaluator in invsim computes it (`pow_f64`, [`Func::eval`]).
+    fn constant_value(&self, node: &Node) -> Option<f64> {
+        let v = |c: &Id| self.value[c.index()];
+        Some(match node {
+            Node::Num(n) => n.to_f64(),
+            Node::Pi => std::f64::consts::PI,
+            Node::Sym(_) | Node::Map(..) | Node::Map2(..) => return None,
+            Node::Add(ts) => ts.iter().map(v).sum::<Option<f64>>()?,
+            Node::Mul(fs) => fs.iter().map(v).product::<Option<f64>>()?,
+            Node::Pow(b, e) => pow_f64(v(b)?, self.as_number(*e), v(e)?),
+            Node::Call(f, a) => f.eval(v(a)?),
+            Node::Call2(f, a, b) => f.eval(v(a)?, v(b)?),
+        })
+    }
+
+    /// Is `id` undefined: free of symbols with a value that is not finite (`1/0`, `log(0)`, `sqrt(-1)`),
+    /// or built on such a part (`u/0`, `0·log(0)`)? See [`crate::undefined`].
+    pub fn is_undefined(&self, id: Id) -> bool {
+        self.undefined[id.index()]
+    }
+
+    /// The value of `id` if it is free of symbols and maps (numbers, π and functions of them).
+    pub fn constant(&self, id: Id) -> Option<f64> {
+        self.value[id.index()]
     }
 
     fn collect_free(&self, node: &Node) -> Box<[Symbol]> {
@@ -403,6 +444,9 @@ impl Pool {
     /// has coprime integer-or-rational coefficients and a positive first non-numeric term. `None` when the
     /// content is 1, the expression is not a sum, or a coefficient is inexact.
     pub fn content(&mut self, e: Id) -> Option<(Number, Id)> {
+        if self.is_undefined(e) {
+            return None;
+        }
         let Node::Add(ts) = self.node(e) else {
             return None;
         };
@@ -441,6 +485,15 @@ impl Pool {
 
     /// Canonical n-ary sum.
     pub fn add(&mut self, terms: &[Id]) -> Id {
+        let sum = self.add_canonical(terms);
+        if self.is_undefined(sum) || !terms.iter().any(|&t| self.is_undefined(t)) {
+            return sum;
+        }
+        // An undefined term was cancelled (1/0 − 1/0): keep it (`crate::undefined`).
+        self.add_keeping_undefined(terms)
+    }
+
+    fn add_canonical(&mut self, terms: &[Id]) -> Id {
         let mut constant = Number::ZERO;
         let mut order: Vec<Id> = Vec::new();
         let mut coeff: HashMap<Id, Number> = HashMap::new();
@@ -515,6 +568,15 @@ impl Pool {
 
     /// Canonical n-ary product.
     pub fn mul(&mut self, factors: &[Id]) -> Id {
+        let product = self.mul_canonical(factors);
+        if self.is_undefined(product) || !factors.iter().any(|&f| self.is_undefined(f)) {
+            return product;
+        }
+        // An undefined factor was multiplied away (0·(1/0)): keep it (`crate::undefined`).
+        self.mul_keeping_undefined(factors)
+    }
+
+    fn mul_canonical(&mut self, factors: &[Id]) -> Id {
         let mut coeff = Number::ONE;
         let mut order: Vec<Id> = Vec::new();
         let mut exps: HashMap<Id, Vec<Id>> = HashMap::new();
@@ -626,6 +688,15 @@ impl Pool {
 
     /// Canonical power b^e.
     pub fn pow(&mut self, b: Id, e: Id) -> Id {
+        let p = self.pow_canonical(b, e);
+        if self.is_undefined(p) || !(self.is_undefined(b) || self.is_undefined(e)) {
+            return p;
+        }
+        // An identity removed an undefined operand ((1/0)^0 = 1, (1/0)^(−1) = 0): not applied.
+        self.intern(Node::Pow(b, e))
+    }
+
+    fn pow_canonical(&mut self, b: Id, e: Id) -> Id {
         let en = self.as_number(e);
         if let Some(en) = en {
             if en.is_zero() {
@@ -738,6 +809,15 @@ impl Pool {
 
     /// Canonical one-argument function call, applying the first matching rule of [`FUNCTION_RULES`].
     pub fn call(&mut self, f: Func, a: Id) -> Id {
+        let c = self.call_canonical(f, a);
+        if self.is_undefined(c) || !self.is_undefined(a) {
+            return c;
+        }
+        // A rule removed an undefined argument (exp(log(0)) = 0, sign(0/0) = 1): not applied.
+        self.intern(Node::Call(f, a))
+    }
+
+    fn call_canonical(&mut self, f: Func, a: Id) -> Id {
         for rule in FUNCTION_RULES.iter().filter(|r| r.func == f) {
             if let Some(r) = self.apply_rule(rule, a) {
                 return r;
@@ -815,6 +895,10 @@ impl Pool {
 
     /// Canonical two-argument call (`min`, `max`).
     pub fn call2(&mut self, f: Func2, a: Id, b: Id) -> Id {
+        if self.is_undefined(a) || self.is_undefined(b) {
+            // min(1/0, 1) is not 1: no identity applies (`crate::undefined`).
+            return self.intern(Node::Call2(f, a, b));
+        }
         if a == b {
             return a;
         }

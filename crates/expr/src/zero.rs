@@ -121,7 +121,7 @@ pub fn eval_with_error(pool: &Pool, e: Id, values: &HashMap<Symbol, f64>) -> Opt
             }
             Node::Pow(b, p) => {
                 let ((bv, be), (pv, pe)) = (memo[b], memo[p]);
-                let v = crate::calculus::pow_f64(bv, pool.as_number(*p), pv);
+                let v = crate::number::pow_f64(bv, pool.as_number(*p), pv);
                 let db = if bv != 0.0 { (pv * v / bv).abs() } else { 0.0 };
                 let dp = if bv > 0.0 { (v * bv.ln()).abs() } else { 0.0 };
                 (

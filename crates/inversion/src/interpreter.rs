@@ -24,7 +24,9 @@ pub struct InterpretError {
     pub source: invsim_expr::UnboundSymbol,
 }
 
-use invsim_model_api::zero_dynamics::{PSI_INV_NEWTON_MAX_ITER, PSI_INV_NEWTON_TOL};
+use invsim_model_api::zero_dynamics::{
+    ISOLATED_INPUT_TOL, PSI_INV_NEWTON_MAX_ITER, PSI_INV_NEWTON_TOL,
+};
 
 /// Largest state dimension evaluated with stack buffers (larger models use the heap).
 const STACK: usize = 16;
@@ -363,7 +365,8 @@ impl Interpreter {
         (out[0], out[1])
     }
 
-    /// u with y^(r) = φ(ξ, η, w, u) = yr (non-affine models): the input solution where u was isolated, else
+    /// u with y^(r) = φ(ξ, η, w, u) = yr (non-affine models): the input solution where u was isolated (checked
+    /// to satisfy φ(u) = yr within [`ISOLATED_INPUT_TOL`], relative), else
     /// Newton's method with the analytic ∂φ/∂u from `start` (the previous sample's input; NaN: the middle of
     /// the input's bounds, 0 without bounds), each step halved until |φ − yr| decreases; converged when the
     /// step is below 1e-12·(1 + |u|). `at`: the coordinates as in [`Interpreter::phi`].
@@ -384,6 +387,16 @@ impl Interpreter {
                     yr,
                     residual: f64::NAN,
                 });
+            }
+            // The isolated u holds only on its branch's domain (sqrt(P) = R gives P = R², a root only for
+            // R ≥ 0): outside it φ(u) ≠ yr, and the reference needs a value no input reaches (a negative
+            // thrust from k_T·sqrt(P)).
+            let (phi, _) = self.phi(at, w, u[0]);
+            let residual = (phi - yr).abs();
+            // NaN is refused too.
+            let solves = residual <= ISOLATED_INPUT_TOL * (1.0 + yr.abs() + phi.abs());
+            if !solves {
+                return Err(ModelError::NoInputSolution { yr, residual });
             }
             return Ok(u[0]);
         }

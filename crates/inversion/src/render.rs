@@ -320,6 +320,13 @@ impl Derivation {
         }
         let _ = writeln!(s, "\nvector fields (definitions inlined):");
         for st in &m.states {
+            let pool = &m.pool;
+            if !st.affine && (pool.is_undefined(st.f) || pool.is_undefined(st.g)) {
+                // Not affine in the input, and f or g at u = 0 undefined (g = k_T/(2·m·sqrt(P)) at P = 0):
+                // the method uses the whole right-hand side, which is shown instead.
+                let _ = writeln!(s, "  rhs_{} = {}", st.name, self.show(st.rhs));
+                continue;
+            }
             let _ = writeln!(s, "  f_{} = {}", st.name, self.show(st.f));
             let _ = writeln!(s, "  g_{} = {}", st.name, self.show(st.g));
         }

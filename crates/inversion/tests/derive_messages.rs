@@ -26,14 +26,15 @@ fn constant_parts_that_are_not_finite_are_refused_naming_them() {
         ("0.0", "-x1 + u/m", "1/m"),
         ("2.0", "sqrt(-1)*x1 + u", "sqrt(-1)"),
         ("0", "log(m)*x1 + u", "log(m)"),
-        ("-1", "(-x1 + u)/sqrt(m)", "m"),
+        ("-1", "(-x1 + u)/sqrt(m)", "sqrt(m)"),
     ] {
-        // The reader refuses it at the state's expression (the rhs of x2 starts at line 5, column 15).
+        // The reader refuses it where the part is written in the rhs of x2 (line 5, from column 15).
         let e = Model::from_str(Path::new("m.toml"), &text(m, rhs)).expect_err("not finite");
         assert_eq!(e.kind, ModelErrorKind::NonFinite, "{rhs}");
         let msg = e.to_string();
+        let column = 15 + rhs.find(shown).unwrap_or(0);
         assert!(
-            msg.starts_with("m.toml:5:15:") && msg.contains("state `x2`"),
+            msg.starts_with(&format!("m.toml:5:{column}:")) && msg.contains("state `x2`"),
             "{msg}"
         );
         assert!(msg.contains(shown), "{rhs}: {msg}");

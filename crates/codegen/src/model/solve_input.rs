@@ -9,7 +9,7 @@
 use super::context::Gen;
 use super::newton::w_tokens;
 use crate::emit;
-use invsim_model_api::zero_dynamics::PSI_INV_NEWTON_MAX_ITER;
+use invsim_model_api::zero_dynamics::{ISOLATED_INPUT_TOL, PSI_INV_NEWTON_MAX_ITER};
 use proc_macro2::TokenStream;
 use quote::quote;
 
@@ -24,13 +24,17 @@ pub(super) struct SolveInput {
 pub(super) fn solve_input(g: &Gen<'_>) -> SolveInput {
     let (wp, wa) = w_tokens(g);
     let body = if g.d.input_solution.is_some() {
-        isolated(quote!(self.input_solution(xi, eta #wa, yr)))
+        isolated(
+            quote!(self.input_solution(xi, eta #wa, yr)),
+            quote!(self.phi(xi, eta #wa, u)),
+        )
     } else {
         newton(|u| quote!(self.phi(xi, eta #wa, #u)))
     };
     let methods = quote! {
         /// The input u with y^(r) = φ(ξ, η, u) = `yr`: the closed-form input solution where u was isolated
-        /// (a non-finite value is [`ModelError::NoInputSolution`]), else Newton's method with the analytic
+        /// (a non-finite value, or one off the closed form's domain where |φ − yr| exceeds 1e-6 relative, is
+        /// [`ModelError::NoInputSolution`]), else Newton's method with the analytic
         /// ∂φ/∂u ([`Precomputed::phi`]) from `start` (the previous sample's input; NaN: [`U_START`]), each
         /// step halved until |φ − yr| decreases, converged when the step is below 1e-12·(1 + |u|); a y^(r)
         /// it does not reach in [`INPUT_NEWTON_MAX_ITER`] steps is [`ModelError::NoInputSolution`].
@@ -93,13 +97,22 @@ pub(super) fn solve_input(g: &Gen<'_>) -> SolveInput {
     }
 }
 
-/// `solve_input`'s body where u was isolated (`solution`: the call of the input solution).
-fn isolated(solution: TokenStream) -> TokenStream {
+/// `solve_input`'s body where u was isolated (`solution`: the call of the input solution; `phi`: of (φ, ∂φ/∂u) at
+/// `u`, to check that u solves φ = yr, off the closed form's domain it does not).
+fn isolated(solution: TokenStream, phi: TokenStream) -> TokenStream {
+    let tol = emit::float_tokens(ISOLATED_INPUT_TOL, false);
     quote! {
         let _ = start;
         let u = #solution;
         if !u.is_finite() {
             return Err(ModelError::NoInputSolution { yr, residual: f64::NAN });
+        }
+        // The closed form holds on its branch's domain only (sqrt(P) = R gives P = R² for R ≥ 0).
+        let (phi, _) = #phi;
+        let residual = (phi - yr).abs();
+        let solves = residual <= #tol * (1.0 + yr.abs() + phi.abs());
+        if !solves {
+            return Err(ModelError::NoInputSolution { yr, residual });
         }
         Ok(u)
     }
@@ -142,13 +155,17 @@ pub(super) fn solve_input_x(g: &Gen<'_>) -> SolveInput {
     let (wp, wa) = w_tokens(g);
     let isolated_x = g.d.input_solution_x.is_some();
     let body = if isolated_x {
-        isolated(quote!(self.input_solution_x(x #wa, yr)))
+        isolated(
+            quote!(self.input_solution_x(x #wa, yr)),
+            quote!(self.phi_x(x #wa, u)),
+        )
     } else {
         newton(|u| quote!(self.phi_x(x #wa, #u)))
     };
     let mut methods = vec![quote! {
         /// The input u with y^(r) = φ(x, u) = `yr` in the states: the closed-form input solution where u was
-        /// isolated (a non-finite value is [`ModelError::NoInputSolution`]), else Newton's method with the
+        /// isolated (a non-finite value, or one off the closed form's domain where |φ − yr| exceeds 1e-6
+        /// relative, is [`ModelError::NoInputSolution`]), else Newton's method with the
         /// analytic ∂φ/∂u ([`Precomputed::phi_x`]) from `start` (the previous sample's input; NaN:
         /// [`U_START`]), each step halved until |φ − yr| decreases, converged when the step is below
         /// 1e-12·(1 + |u|); a y^(r) it does not reach in [`INPUT_NEWTON_MAX_ITER`] steps is

@@ -162,7 +162,8 @@ pub struct Derivation {
     pub warnings: Vec<String>,
 }
 
-/// `Err(NotFinite)` naming the first constant subexpression of f, g or h that is not finite at `nominal`.
+/// `Err(NotFinite)` naming the first constant subexpression of f, g (the rhs of a non-affine state) or h that
+/// is not finite at `nominal`.
 fn check_finite(
     model: &Model,
     nominal: &std::collections::HashMap<Symbol, f64>,
@@ -172,10 +173,16 @@ fn check_finite(
         .states
         .iter()
         .flat_map(|s| {
-            [
-                (format!("f of state `{}`", s.name), s.f),
-                (format!("g of state `{}`", s.name), s.g),
-            ]
+            // A non-affine state's f and g at u = 0 are not evaluated by the method (its rhs is solved
+            // for u), and may be undefined where the rhs is not (g of k_T·sqrt(P) at P = 0): its rhs.
+            if s.affine {
+                vec![
+                    (format!("f of state `{}`", s.name), s.f),
+                    (format!("g of state `{}`", s.name), s.g),
+                ]
+            } else {
+                vec![(format!("the right-hand side of state `{}`", s.name), s.rhs)]
+            }
         })
         .chain([(
             format!("the output `{}`", model.output.name),

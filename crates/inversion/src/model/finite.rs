@@ -3,6 +3,11 @@
 //! the input — makes f, g or h (and so α, β or the zero dynamics) infinite or NaN at every point, so the
 //! derivation is refused with an error naming it, instead of printing `β = -inf`.
 //!
+//! For a state whose right-hand side is not affine in the input (contract §5), f = rhs|_{u=0} and
+//! g = ∂rhs/∂u|_{u=0} are not what the method evaluates (it solves rhs(x, u) for u numerically or by
+//! isolation), and they may be undefined where the rhs is not: thrust k_T·sqrt(P) has g = k_T/(2 sqrt(P))
+//! = 1/0 at P = 0. There the whole rhs is checked, with the input left a symbol.
+//!
 //! One walk over the DAG in post-order (iterative, each node once): a node whose children are all finite
 //! constants and whose own value is not finite is reported, with the parameters it holds.
 
@@ -32,6 +37,11 @@ impl Reader<'_> {
         let mut roots = Vec::with_capacity(2 * states.len() + 1);
         let mut at = Vec::with_capacity(roots.capacity());
         for (i, s) in states.iter().enumerate() {
+            if !s.affine {
+                roots.push((format!("the right-hand side of state `{}`", s.name), s.rhs));
+                at.push(position(&[Role::Rhs(i)]));
+                continue;
+            }
             roots.push((format!("f of state `{}`", s.name), s.f));
             at.push(position(&[Role::Rhs(i), Role::F(i)]));
             roots.push((format!("g of state `{}`", s.name), s.g));

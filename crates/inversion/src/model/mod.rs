@@ -16,7 +16,9 @@
 //!    [`MAX_EXPRESSION_NESTING`] levels deep, syntax, finite number literals, known names;
 //! 5. definitions: no cycles, and only earlier definitions used;
 //! 6. `abs`, `sign`, `min`, `max` only where they cannot reach f, g or h;
-//! 7. symbolic: `h` free of the input, given `f`/`g` free of the input, each `rhs` affine in the input
+//! 7. no undefined part in any expression as written (`0/0`, `0*log(0)`, `(v-v)/(v-v)`, `1/m` with
+//!    `m = 0`): simplification never removes one, so it is refused where it is written;
+//! 8. symbolic: `h` free of the input, given `f`/`g` free of the input, each `rhs` affine in the input
 //!    (∂²rhs/∂u² identically zero by [`invsim_expr::zero_test`] at the nominal parameter values).
 //!
 //! Besides the forms of the contract, the reader accepts: a definition as a table
@@ -47,7 +49,8 @@
 //! | `expressions.rs` | parsing each expression (check 4) |
 //! | `definitions.rs` | definition order, cycles and inlining (check 5) |
 //! | `smooth.rs` | where `abs`, `sign`, `min`, `max` may appear (check 6) |
-//! | `split.rs` | the affine split rhs → f + g·u and its check (check 7) |
+//! | `undefined.rs` | undefined parts of the expressions as written (check 7) |
+//! | `split.rs` | the affine split rhs → f + g·u and its check (check 8) |
 //! | `validated.rs` | the validated [`Model`] |
 //! | `reader.rs` | the pipeline from bytes to [`Model`] |
 //! | `modal.rs` | the types of a model with several inputs and modes ([`ModalModel`]) |
@@ -55,7 +58,8 @@
 //! | `modes.rs` | `[inputs]` and `[modes]`: one single-input tree per mode, built by the ordinary reader |
 //!
 //! Imports go one way — each file imports only files listed before it: error, validated, spanned, tree,
-//! names, values, signals, engine, map_csv, maps, raw, expressions, definitions, smooth, split, reader.
+//! names, values, signals, engine, map_csv, maps, raw, expressions, definitions, smooth, undefined, split,
+//! reader.
 
 mod coupling;
 mod definitions;
@@ -76,6 +80,7 @@ mod smooth;
 mod spanned;
 mod split;
 mod tree;
+mod undefined;
 mod validated;
 mod values;
 

@@ -1,9 +1,12 @@
 //! Reading a model file: bytes → UTF-8 text → a TOML tree with spans → the sections checked for structure
 //! → names → expressions → definitions → smoothness → the affine split → a validated [`Model`]. The
-//! stages run in this order so that a file with several problems reports the most basic one first.
+//! stages run in this order so that a file with several problems reports the most basic one first. Undefined
+//! parts of the expressions as written (`0/0`, `log(0)`, `(v-v)/(v-v)`) are refused right after the
+//! definitions are inlined (`undefined.rs`), before the split could hide them.
 
 use super::definitions::Interned;
 use super::error::{ModelError, ModelErrorKind};
+use super::expressions::{describe, Role};
 use super::modal::{ModalFacts, ModalModel, ModeHeader, ModelFile};
 use super::raw::RawModel;
 use super::spanned::Reader;
@@ -170,6 +173,7 @@ impl Reader<'_> {
         let items = self.parse_all(&raw, &names)?;
         let uses = self.definition_graph(&raw, &names, &items)?;
         self.check_smooth(&raw, &names, &items, &uses)?;
+        let described: Vec<String> = items.iter().map(|it| describe(&raw, it.role)).collect();
 
         let RawModel {
             name,
@@ -212,6 +216,19 @@ impl Reader<'_> {
                 column: s.column,
             })
             .collect();
+        let definition_symbols: Vec<_> = items
+            .iter()
+            .map(|it| match it.role {
+                Role::Definition(i) => m.definitions.get(i).map(|d| d.symbol),
+                _ => None,
+            })
+            .collect();
+        self.check_defined(
+            &mut m.pool,
+            (&m.nominal, &m.inline),
+            &items,
+            (&described, &definition_symbols),
+        )?;
         let states = self.split_states(states, &input.name, &mut m, &items)?;
         let output = self.split_output(output, &input.name, &mut m, &items)?;
         self.check_finite(&m.pool, &m.nominal, (&states, &output), &items)?;

@@ -33,3 +33,8 @@ pub use threshold::{critical_tol, CRITICAL_ABS_TOL, CRITICAL_REL_TOL};
 pub const PSI_INV_NEWTON_MAX_ITER: usize = 50;
 /// ψ⁻¹'s Newton iteration stops when every residual, relative to max(|target|, 1), is below this.
 pub const PSI_INV_NEWTON_TOL: f64 = 1e-13;
+/// Largest |φ(u) − yr| / (1 + |yr| + |φ(u)|) accepted for an input u isolated in closed form from
+/// φ(ξ, η, w, u) = yr (interpreter and generated code alike). The closed form holds only on its branch's
+/// domain (sqrt(P) = R gives P = R², a root only for R ≥ 0); rounding errs ~1e-15 relative, a u off the
+/// domain by the order of φ itself, and is refused as no input reaching yr.
+pub const ISOLATED_INPUT_TOL: f64 = 1e-6;
