@@ -36,6 +36,14 @@ builtin_models = list(_invsim.builtin_models)
 builtin_cycles = list(_invsim.builtin_cycles)
 
 
+def _lookahead(lookahead):
+    """`lookahead` for the engine: seconds, or None for "auto" (the longest look-ahead whose reference stays
+    inside the cycle's tolerance band with its cycle energy within 1 % of the trace's, as `--lookahead auto`)."""
+    if isinstance(lookahead, str) and lookahead.strip().lower() == "auto":
+        return None
+    return float(lookahead)
+
+
 def _params_list(params):
     """A dict of parameter overrides as a list of (name, float), in the dict's order."""
     if params is None:
@@ -224,7 +232,7 @@ class Model:
         self,
         cycle="nedc",
         dt=0.1,
-        lookahead=5.0,
+        lookahead="auto",
         params=None,
         signals=None,
         verify=False,
@@ -244,7 +252,7 @@ class Model:
         summary, columns, arrays, units = self._m.simulate(
             str(cycle),
             float(dt),
-            float(lookahead),
+            _lookahead(lookahead),
             _params_list(params),
             bool(verify),
             bool(causal),
@@ -306,7 +314,7 @@ class Model:
         params=None,
         cycles=("nedc",),
         dt=0.1,
-        lookahead=5.0,
+        lookahead="auto",
         base=None,
         verify=False,
         threads=None,
@@ -329,7 +337,7 @@ class Model:
             cycles,
             _params_list(base),
             float(dt),
-            float(lookahead),
+            _lookahead(lookahead),
             bool(verify),
             threads,
             _signals_list(signals),

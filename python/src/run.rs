@@ -49,7 +49,8 @@ pub type PySignal = (
 #[derive(Debug, Clone)]
 pub struct RunOptions {
     pub dt: f64,
-    pub lookahead: f64,
+    /// The look-ahead, s; `None`: `auto` (`invsim_runtime::lookahead`).
+    pub lookahead: Option<f64>,
     pub verify: bool,
     pub causal: bool,
     pub include_extension: bool,
@@ -72,8 +73,11 @@ impl RunOptions {
         model_path: &str,
         cycle: &str,
     ) -> Result<SimulationOptions, Failure> {
-        SimulationOptions::builder()
-            .lookahead(self.lookahead)
+        let builder = match self.lookahead {
+            Some(a) => SimulationOptions::builder().lookahead(a),
+            None => SimulationOptions::builder().lookahead_auto(true),
+        };
+        builder
             .dt(self.dt)
             .engine(engine)
             .verify(self.verify)

@@ -14,6 +14,7 @@ use rayon::prelude::*;
 use crate::engine::{Kind, Loaded};
 use crate::error::Failure;
 use crate::run::{cycle_file, run_failure, run_one, run_one_shared};
+use invsim_runtime::lookahead::LookaheadChoice;
 
 /// The variants of a sweep, stored column by column: `values[j][i]` is parameter `names[j]` of variant i.
 #[derive(Debug, Clone)]
@@ -64,18 +65,37 @@ pub fn run_sweep(
     threads: Option<usize>,
 ) -> Result<Vec<Row>, Failure> {
     let jobs = variants.len() * cycles.len();
+    // Each cycle's options: `auto` resolved once per cycle (the choice depends on the cycle and dt only).
+    let resolved = cycles
+        .iter()
+        .map(|c| {
+            invsim_runtime::lookahead::resolve(opts, c)
+                .map_err(|e| run_failure(model_path, &c.name, e.into()))
+        })
+        .collect::<Result<Vec<_>, Failure>>()?;
     let references = match &model.kind {
-        Kind::Single(_) => shared_references(model, cycles, base, opts),
+        Kind::Single(_) => shared_references(model, cycles, base, &resolved),
         Kind::Modal(_) => Vec::new(),
     };
     let one = |job: usize| {
         let (i, c) = (job / cycles.len(), job % cycles.len());
         let params = variants.params(base, i);
+        let (opts, choice) = &resolved[c];
         let (values, summary) = match references.get(c) {
-            Some(reference) => {
-                single_row(model, model_path, (&cycles[c], reference), &params, opts)
-            }
-            None => modal_row(model, model_path, (&cycles[c], &specs[c]), &params, opts),
+            Some(reference) => single_row(
+                model,
+                model_path,
+                (&cycles[c], reference),
+                &params,
+                (opts, choice),
+            ),
+            None => modal_row(
+                model,
+                model_path,
+                (&cycles[c], &specs[c]),
+                &params,
+                (opts, choice),
+            ),
         };
         Row {
             variant: i,
@@ -101,7 +121,7 @@ fn single_row(
     model_path: &str,
     (cycle, reference): (&Cycle, &Option<Reference>),
     params: &[(String, f64)],
-    opts: &SimulationOptions,
+    (opts, choice): (&SimulationOptions, &Option<LookaheadChoice>),
 ) -> (Vec<f64>, Result<String, Failure>) {
     let instance = model.single(params);
     let values = instance
@@ -113,7 +133,10 @@ fn single_row(
             Some(r) => run_one_shared(m.as_ref(), model_path, cycle, r, opts),
             None => run_one(m.as_ref(), model_path, cycle, opts),
         })
-        .and_then(|r| serde_json::to_string(&r.summary).map_err(|e| Failure::msg(e.to_string())));
+        .and_then(|mut r| {
+            r.summary.lookahead_choice = choice.clone();
+            serde_json::to_string(&r.summary).map_err(|e| Failure::msg(e.to_string()))
+        });
     (values, summary)
 }
 
@@ -124,7 +147,7 @@ fn modal_row(
     model_path: &str,
     (cycle, spec): (&Cycle, &str),
     params: &[(String, f64)],
-    opts: &SimulationOptions,
+    (opts, choice): (&SimulationOptions, &Option<LookaheadChoice>),
 ) -> (Vec<f64>, Result<String, Failure>) {
     let plant = model.plant(params);
     let values = match &plant {
@@ -134,9 +157,12 @@ fn modal_row(
     };
     let summary = plant.and_then(|p| {
         let file = cycle_file(spec);
-        let r = p
+        let mut r = p
             .simulate(cycle, file, opts)
             .map_err(|e| run_failure(model_path, &cycle.name, e))?;
+        if let Some(c) = choice {
+            r.set_lookahead_choice(c.clone());
+        }
         let mut json = Vec::new();
         r.write_summary_json(&mut json)
             .map_err(|e| Failure::msg(e.to_string()))?;
@@ -153,11 +179,12 @@ fn shared_references(
     model: &Loaded,
     cycles: &[Cycle],
     base: &[(String, f64)],
-    opts: &SimulationOptions,
+    resolved: &[(SimulationOptions, Option<LookaheadChoice>)],
 ) -> Vec<Option<Reference>> {
     let m = model.single(base).ok();
     cycles
         .iter()
-        .map(|c| m.as_ref().and_then(|m| reference(m.as_ref(), c, opts).ok()))
+        .zip(resolved)
+        .map(|(c, (opts, _))| m.as_ref().and_then(|m| reference(m.as_ref(), c, opts).ok()))
         .collect()
 }

@@ -116,3 +116,20 @@ def test_summary_is_read_once_and_pickles(si_engine):
     assert first["samples"] == 1370 and first["integrals"]["fuel"] > 0
     back = pickle.loads(pickle.dumps(r))
     assert back.summary == first and back.columns == r.columns
+
+
+def test_default_lookahead_is_auto_as_on_the_command_line(si_engine, tmp_path):
+    """Without `lookahead` the package chooses it per cycle as `invsim simulate` does by default: the same
+    look-ahead, the same choice block, the same fuel; `lookahead="auto"` is the same run."""
+    r = si_engine.simulate(cycle="udds", dt=0.1)
+    summary, frame = cli_run(tmp_path, SI_ENGINE, "--cycle", "udds", "--dt", "0.1")
+    choice = r.summary["lookahead_choice"]
+    assert choice["method"] == "auto" and choice["accepted"] is True
+    assert r.summary["lookahead_s"] == summary["lookahead_s"] == choice["lookahead_s"] == 1.0
+    assert r.summary["lookahead_choice"] == summary["lookahead_choice"]
+    assert r.summary["tolerance_band"]["samples_outside"] == 0
+    assert r.summary["integrals"]["fuel"] == summary["integrals"]["fuel"]
+    again = si_engine.simulate(cycle="udds", dt=0.1, lookahead="auto")
+    assert again.summary["integrals"]["fuel"] == r.summary["integrals"]["fuel"]
+    fixed = si_engine.simulate(cycle="udds", dt=0.1, lookahead=5.0)
+    assert "lookahead_choice" not in fixed.summary and fixed.summary["lookahead_s"] == 5.0

@@ -8,9 +8,10 @@ trace, and UDDS once more on a road with a varying grade. The table compares the
 energy (kWh, `res.energy_out_chemical_joules`, = delta SOC x capacity). Exit status 1 when a difference is
 outside the tolerance (2 % on UDDS and HWFET, 4 % on WLTC 3b), 2 on a usage error.
 
-Usage: python tests/fastsim/crosscheck.py [--invsim PATH] [--cycles DIR] [--lookahead A] [--dt DT] [--all]
+Usage: python tests/fastsim/crosscheck.py [--invsim PATH] [--cycles DIR] [--lookahead A|auto] [--dt DT] [--all]
   --invsim   the invsim binary (default: target/release/invsim of this repository)
   --all      also FASTSim's 2022 Tesla Model 3 and 2022 Renault Zoe
+  --lookahead  seconds, or auto (default, as `invsim simulate`'s)
   --cycles   directory with udds.csv, hwfet.csv, wltc_3b.csv (FASTSim's legacy layout: cycSecs, cycMps,
              cycGrade; default: ../shared/cycles beside the repository); without it, FASTSim's bundled
              UDDS and HWFET are used and WLTC 3b is skipped with a message.
@@ -132,7 +133,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--invsim", default=os.path.join(ROOT, "target", "release", "invsim"))
     ap.add_argument("--cycles", default=os.path.join(os.path.dirname(ROOT), "shared", "cycles"))
-    ap.add_argument("--lookahead", type=float, default=1.0)
+    ap.add_argument("--lookahead", default="auto", help="seconds, or auto (the default of `invsim simulate`)")
     ap.add_argument("--dt", type=float, default=0.1)
     ap.add_argument("--all", action="store_true", help="also the Tesla Model 3 and the Renault Zoe")
     args = ap.parse_args()
@@ -140,7 +141,8 @@ def main():
         print(f"crosscheck: no invsim binary at {args.invsim} (cargo build --release -p invsim)", file=sys.stderr)
         return 2
     cycles = load_cycles(args.cycles if os.path.isdir(args.cycles) else None)
-    print(f"FASTSim {fastsim.__version__} vs invsim (lookahead {args.lookahead} s, dt {args.dt} s)")
+    unit = "" if str(args.lookahead) == "auto" else " s"
+    print(f"FASTSim {fastsim.__version__} vs invsim (lookahead {args.lookahead}{unit}, dt {args.dt} s)")
     print(f"{'vehicle':<30} {'cycle':<8} {'FASTSim':>10} {'invsim':>10} {'unit':<4} {'diff':>7} {'tol':>4}"
           f" {'FASTSim trace misses':<28} result")
     failed = 0

@@ -45,6 +45,9 @@ impl serde::Serialize for LookaheadArg {
 }
 
 impl LookaheadArg {
+    /// The default of `simulate` and `sweep`: chosen per cycle.
+    pub const DEFAULT: LookaheadArg = LookaheadArg::Auto;
+
     /// The options builder with this look-ahead.
     pub fn apply(
         self,

@@ -30,7 +30,7 @@ pub struct SimulateArgs {
     /// Kernel half-width a in seconds: the driver's look-ahead; `auto` chooses the longest that keeps the
     /// reference inside the cycle's tolerance band with its cycle energy within 1 % of the trace's.
     #[arg(long, value_name = "A|auto", allow_negative_numbers = true,
-          default_value_t = LookaheadArg::Seconds(inverse::DEFAULT_LOOKAHEAD))]
+          default_value_t = LookaheadArg::DEFAULT)]
     lookahead: LookaheadArg,
     /// Output step in seconds.
     #[arg(long, default_value_t = inverse::DEFAULT_DT, allow_negative_numbers = true)]

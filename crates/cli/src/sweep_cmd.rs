@@ -46,9 +46,10 @@ pub struct SweepArgs {
     /// Replay every variant's input through the original model and report its tracking error.
     #[arg(long)]
     verify: bool,
-    /// Kernel half-width a in seconds: the driver's look-ahead.
-    #[arg(long, default_value_t = inverse::DEFAULT_LOOKAHEAD)]
-    lookahead: f64,
+    /// Kernel half-width a in seconds: the driver's look-ahead; `auto` chooses it per cycle (as `simulate`).
+    #[arg(long, value_name = "A|auto", allow_negative_numbers = true,
+          default_value_t = crate::lookahead_arg::LookaheadArg::DEFAULT)]
+    lookahead: crate::lookahead_arg::LookaheadArg,
     /// Output step in seconds.
     #[arg(long, default_value_t = inverse::DEFAULT_DT)]
     dt: f64,
@@ -352,8 +353,9 @@ pub fn run(args: &SweepArgs) -> Result<(), Failure> {
     let cycles = cycles(args)?;
     let model = load(&args.model, args.engine)?;
     let failed = |e: String| Failure::user(format!("sweep of `{}`: {e}", args.model.display()));
-    let opts = SimulationOptions::builder()
-        .lookahead(args.lookahead)
+    let opts = args
+        .lookahead
+        .apply(SimulationOptions::builder())
         .dt(args.dt)
         .engine(model.engine_name())
         .build()

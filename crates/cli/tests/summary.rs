@@ -77,6 +77,8 @@ fn si_engine_summary_has_units_reference_deviation_histogram_and_columns() {
             "--cycle",
             "nedc",
             "--verify",
+            "--lookahead",
+            "5",
         ],
         true,
     );

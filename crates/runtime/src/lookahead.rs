@@ -25,6 +25,7 @@
 use serde::Serialize;
 
 use crate::cycle::Cycle;
+use crate::inverse::SimulateError;
 use crate::smoother::{Smoother, SmootherError};
 use crate::tolerance_band::BandTally;
 
@@ -94,17 +95,20 @@ fn energy(v: impl Iterator<Item = (f64, f64)>, dt: f64) -> f64 {
         * dt
 }
 
+/// Samples evaluated at once: the grids are walked in blocks, so no allocation grows with the cycle.
+const BLOCK: usize = 4096;
+
 /// The trace v_c at increasing `times`, and its slope there (that of the segment holding t, the mean of both
-/// sides at a sample; 0 outside the samples).
-fn trace_on(cycle: &Cycle, times: &[f64]) -> (Vec<f64>, Vec<f64>) {
+/// sides at a sample; 0 outside the samples), into `v` and `s`.
+fn trace_on(cycle: &Cycle, times: &[f64], v: &mut Vec<f64>, s: &mut Vec<f64>) {
     let (time, speed) = (&cycle.time, &cycle.speed);
     let n = time.len().min(speed.len());
     let slope = |i: usize| (speed[i + 1] - speed[i]) / (time[i + 1] - time[i]);
-    let mut i = 0;
-    let (mut v, mut s) = (
-        Vec::with_capacity(times.len()),
-        Vec::with_capacity(times.len()),
-    );
+    let mut i = times
+        .first()
+        .map_or(0, |&t| time.partition_point(|&c| c <= t).saturating_sub(1));
+    v.clear();
+    s.clear();
     for &t in times {
         while i + 2 < n && time[i + 1] <= t {
             i += 1;
@@ -114,97 +118,151 @@ fn trace_on(cycle: &Cycle, times: &[f64]) -> (Vec<f64>, Vec<f64>) {
         } else if t > time[n - 1] {
             (speed[n - 1], 0.0)
         } else {
-            let b = slope(i);
             let at_sample = |j: usize| (t - time[j]).abs() <= 1e-9 * t.abs().max(1.0);
             let b = if at_sample(i) {
-                0.5 * (b + if i > 0 { slope(i - 1) } else { 0.0 })
+                0.5 * (slope(i) + if i > 0 { slope(i - 1) } else { 0.0 })
             } else if at_sample(i + 1) {
-                0.5 * (b + if i + 2 < n { slope(i + 1) } else { 0.0 })
+                0.5 * (slope(i) + if i + 2 < n { slope(i + 1) } else { 0.0 })
             } else {
-                b
+                slope(i)
             };
-            (
-                speed[i] + (speed[i + 1] - speed[i]) / (time[i + 1] - time[i]) * (t - time[i]),
-                b,
-            )
+            (speed[i] + slope(i) * (t - time[i]), b)
         };
         v.push(value);
         s.push(b);
     }
-    (v, s)
 }
 
-/// The grids a candidate is judged on: the run's (t_0 + k·dt, for the band and, when dt ≤
-/// [`ENERGY_STEP`], the energy) and otherwise the energy's midpoints, with the trace on them.
+/// A regular grid t_k = t_0 + k·h, k = 0 … n − 1.
+#[derive(Debug, Clone, Copy)]
+struct Grid {
+    t0: f64,
+    h: f64,
+    n: usize,
+}
+
+impl Grid {
+    /// The output grid of a run: t_0 + k·dt up to the cycle's end (as `crate::grid::Grid` builds it).
+    fn run(cycle: &Cycle, dt: f64) -> Grid {
+        let steps = (cycle.duration() / dt).round() as usize;
+        Grid {
+            t0: cycle.time.first().copied().unwrap_or(0.0),
+            h: dt,
+            n: steps + 1,
+        }
+    }
+
+    /// The midpoints of about `step` wide cells over the cycle.
+    fn midpoints(cycle: &Cycle, step: f64) -> Grid {
+        let duration = cycle.duration();
+        let m = ((duration / step).ceil() as usize).max(1);
+        let h = duration / m as f64;
+        Grid {
+            t0: cycle.time.first().copied().unwrap_or(0.0) + 0.5 * h,
+            h,
+            n: m,
+        }
+    }
+
+    /// Call `f` with the times of each block of at most [`BLOCK`] samples, in order.
+    fn blocks(&self, mut f: impl FnMut(&[f64])) {
+        let mut times = Vec::with_capacity(BLOCK.min(self.n));
+        let mut k0 = 0;
+        while k0 < self.n {
+            let k1 = (k0 + BLOCK).min(self.n);
+            times.clear();
+            times.extend((k0..k1).map(|k| self.t0 + k as f64 * self.h));
+            f(&times);
+            k0 = k1;
+        }
+    }
+}
+
+/// What one pass over a grid measured: the reference's samples outside the band (when asked) and the
+/// energies of the reference and the trace (when asked).
+#[derive(Debug, Default)]
+struct Pass {
+    outside: usize,
+    energy: f64,
+    trace_energy: f64,
+}
+
+/// One pass of `smoother` (none: the trace alone) over `grid`, checking the band if `band` and summing the
+/// energies if `energies`.
+fn pass(
+    cycle: &Cycle,
+    smoother: Option<&Smoother>,
+    grid: Grid,
+    (band, energies): (bool, bool),
+) -> Pass {
+    let mut tally = BandTally::new(cycle.tolerance);
+    let (mut e, mut e_trace) = (0.0, 0.0);
+    let (mut y, mut dy, mut v, mut s) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    grid.blocks(|times| {
+        trace_on(cycle, times, &mut v, &mut s);
+        if energies {
+            e_trace += energy(v.iter().copied().zip(s.iter().copied()), grid.h);
+        }
+        let Some(smoother) = smoother else { return };
+        y.resize(times.len(), 0.0);
+        dy.resize(times.len(), 0.0);
+        if energies {
+            smoother.eval_grid(times, Some(grid.h), &mut [&mut y[..], &mut dy[..]]);
+            e += energy(y.iter().copied().zip(dy.iter().copied()), grid.h);
+        } else {
+            smoother.eval_grid(times, Some(grid.h), &mut [&mut y[..]]);
+        }
+        if band {
+            for ((&t, &yd), &c) in times.iter().zip(&y).zip(&v) {
+                tally.push(cycle, t, yd, yd - c);
+            }
+        }
+    });
+    Pass {
+        outside: tally.finish(grid.n).samples_outside,
+        energy: e,
+        trace_energy: e_trace,
+    }
+}
+
+/// The grids the bisection judges on: the band's and, when it differs, the energy's.
+#[derive(Debug, Clone, Copy)]
 struct Grids {
-    run: Vec<f64>,
-    dt: f64,
-    trace_run: Vec<f64>,
-    /// The energy's midpoints and their step (`None`: the run's grid).
-    midpoints: Option<(Vec<f64>, f64)>,
+    band: Grid,
+    energy: Option<Grid>,
     e_trace: f64,
 }
 
 impl Grids {
+    /// The run's grid when dt ≤ [`ENERGY_STEP`] (both tests on it), else the run's grid for the band and
+    /// midpoints [`ENERGY_STEP`] apart for the energy.
     fn new(cycle: &Cycle, dt: f64) -> Grids {
-        let (t0, duration) = (cycle.time.first().copied().unwrap_or(0.0), cycle.duration());
-        let steps = (duration / dt).round() as usize;
-        let run: Vec<f64> = (0..=steps).map(|k| t0 + k as f64 * dt).collect();
-        let (trace_run, slope_run) = trace_on(cycle, &run);
-        let (midpoints, e_trace) = if dt <= ENERGY_STEP {
-            (None, energy(trace_run.iter().copied().zip(slope_run), dt))
-        } else {
-            let m = ((duration / ENERGY_STEP).ceil() as usize).max(1);
-            let h = duration / m as f64;
-            let mid: Vec<f64> = (0..m).map(|k| t0 + (k as f64 + 0.5) * h).collect();
-            let (v, slope) = trace_on(cycle, &mid);
-            (Some((mid, h)), energy(v.into_iter().zip(slope), h))
-        };
+        let band = Grid::run(cycle, dt);
+        let energy = (dt > ENERGY_STEP).then(|| Grid::midpoints(cycle, ENERGY_STEP));
+        let e_trace = pass(cycle, None, energy.unwrap_or(band), (false, true)).trace_energy;
         Grids {
-            run,
-            dt,
-            trace_run,
-            midpoints,
+            band,
+            energy,
             e_trace,
         }
     }
 }
 
-/// The samples of the reference `v` on the grid `times` (the trace `trace` there) outside the band.
-fn outside_count(cycle: &Cycle, (times, trace): (&[f64], &[f64]), v: &[f64]) -> usize {
-    let mut band = BandTally::new(cycle.tolerance);
-    for ((&t, &y), &c) in times.iter().zip(v).zip(trace) {
-        band.push(cycle, t, y, y - c);
-    }
-    band.finish(times.len()).samples_outside
-}
-
-/// Whether look-ahead `a`'s reference stays inside the band on the grid `grids.run` (without the energy).
-fn inside_band(cycle: &Cycle, a: f64, grids: &Grids) -> Result<bool, SmootherError> {
-    let mut v = vec![0.0; grids.run.len()];
-    Smoother::new(cycle, a)?.eval_grid(&grids.run, Some(grids.dt), &mut [&mut v[..]]);
-    Ok(outside_count(cycle, (&grids.run, &grids.trace_run), &v) == 0)
-}
-
 /// Judge look-ahead `a` on the `grids`.
 fn judge(cycle: &Cycle, a: f64, grids: &Grids) -> Result<Verdict, SmootherError> {
     let smoother = Smoother::new(cycle, a)?;
-    let n = grids.run.len();
-    let (mut v, mut dv) = (vec![0.0; n], vec![0.0; n]);
-    let e = match &grids.midpoints {
+    let (outside, e) = match grids.energy {
         None => {
-            smoother.eval_grid(&grids.run, Some(grids.dt), &mut [&mut v[..], &mut dv[..]]);
-            energy(v.iter().copied().zip(dv.iter().copied()), grids.dt)
+            let p = pass(cycle, Some(&smoother), grids.band, (true, true));
+            (p.outside, p.energy)
         }
-        Some((mid, h)) => {
-            smoother.eval_grid(&grids.run, Some(grids.dt), &mut [&mut v[..]]);
-            let (mut y, mut dy) = (vec![0.0; mid.len()], vec![0.0; mid.len()]);
-            smoother.eval_grid(mid, Some(*h), &mut [&mut y[..], &mut dy[..]]);
-            energy(y.into_iter().zip(dy), *h)
-        }
+        Some(grid) => (
+            pass(cycle, Some(&smoother), grids.band, (true, false)).outside,
+            pass(cycle, Some(&smoother), grid, (false, true)).energy,
+        ),
     };
     Ok(Verdict {
-        inside: outside_count(cycle, (&grids.run, &grids.trace_run), &v) == 0,
+        inside: outside == 0,
         energy_deviation: if grids.e_trace > 0.0 {
             e / grids.e_trace - 1.0
         } else {
@@ -213,10 +271,18 @@ fn judge(cycle: &Cycle, a: f64, grids: &Grids) -> Result<Verdict, SmootherError>
     })
 }
 
-/// The look-ahead for `cycle` on the grid t_0 + k·dt (see the module docs). `dt` is assumed valid (checked
-/// by the options); the candidates outside [dt/2, duration/4] are skipped.
-pub fn choose(cycle: &Cycle, dt: f64) -> Result<LookaheadChoice, SmootherError> {
+/// Whether look-ahead `a`'s reference stays inside the band on the run's grid (the energy not asked).
+fn inside_band(cycle: &Cycle, a: f64, dt: f64) -> Result<bool, SmootherError> {
+    let smoother = Smoother::new(cycle, a)?;
+    Ok(pass(cycle, Some(&smoother), Grid::run(cycle, dt), (true, false)).outside == 0)
+}
+
+/// The look-ahead for `cycle` on the grid t_0 + k·dt (see the module docs). The grid is checked first as
+/// the run checks it (dt valid, between 10 and `crate::grid::MAX_SAMPLES` samples); the candidates outside
+/// [dt/2, duration/4] are skipped.
+pub fn choose(cycle: &Cycle, dt: f64) -> Result<LookaheadChoice, SimulateError> {
     let duration = cycle.duration();
+    crate::grid::Grid::new(cycle.time.first().copied().unwrap_or(0.0), duration, dt)?;
     let allowed: Vec<f64> = CANDIDATES
         .into_iter()
         .filter(|&a| {
@@ -250,9 +316,8 @@ pub fn choose(cycle: &Cycle, dt: f64) -> Result<LookaheadChoice, SmootherError> 
             first_unknown = mid + 1;
         }
     }
-    if dt < MIN_SEARCH_STEP && hi < allowed.len() {
-        let run = Grids::new(cycle, dt);
-        while hi < allowed.len() && !inside_band(cycle, allowed[hi], &run)? {
+    if dt < MIN_SEARCH_STEP {
+        while hi < allowed.len() && !inside_band(cycle, allowed[hi], dt)? {
             hi += 1;
             if let Some(&a) = allowed.get(hi) {
                 tried.push(a);
@@ -277,6 +342,24 @@ pub fn choose(cycle: &Cycle, dt: f64) -> Result<LookaheadChoice, SmootherError> 
         energy_deviation,
         tried_s: tried,
     })
+}
+
+/// `opts` for a run on `cycle`: with `lookahead_auto`, the look-ahead [`choose`]n and the choice; else the
+/// options as they are and `None`.
+pub fn resolve(
+    opts: &crate::inverse::SimulationOptions,
+    cycle: &Cycle,
+) -> Result<(crate::inverse::SimulationOptions, Option<LookaheadChoice>), SimulateError> {
+    if !opts.lookahead_auto {
+        return Ok((opts.clone(), None));
+    }
+    let choice = choose(cycle, opts.dt)?;
+    let resolved = crate::inverse::SimulationOptions {
+        lookahead: choice.lookahead_s,
+        lookahead_auto: false,
+        ..opts.clone()
+    };
+    Ok((resolved, Some(choice)))
 }
 
 #[cfg(test)]

@@ -68,14 +68,11 @@ impl Plant {
     ) -> Result<RunResult, RunFailure> {
         opts.validate()?;
         if opts.lookahead_auto {
-            let choice = crate::lookahead::choose(cycle, opts.dt).map_err(SimulateError::from)?;
-            let fixed = SimulationOptions {
-                lookahead: choice.lookahead_s,
-                lookahead_auto: false,
-                ..opts.clone()
-            };
+            let (fixed, choice) = crate::lookahead::resolve(opts, cycle)?;
             let mut result = self.simulate(cycle, file, &fixed)?;
-            result.set_lookahead_choice(choice);
+            if let Some(choice) = choice {
+                result.set_lookahead_choice(choice);
+            }
             return Ok(result);
         }
         match self {

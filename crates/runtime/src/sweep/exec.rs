@@ -7,7 +7,7 @@ use rayon::prelude::*;
 use super::plan::{Shared, Sweep};
 use super::rows::{Figures, SweepResult, SweepRow};
 use crate::cycle::Cycle;
-use crate::inverse::simulate_shared;
+use crate::inverse::{simulate_shared, SimulationOptions};
 use crate::modes::simulate_modes_with_signals;
 use crate::plant::Plant;
 use crate::run::modal_options;
@@ -24,7 +24,7 @@ fn run_variant(
     sweep: &Sweep,
     model: &mut Plant,
     spare: &mut Vec<Vec<f64>>,
-    (cycle, shared): (&Cycle, &Shared),
+    (cycle, shared, opts): (&Cycle, &Shared, &SimulationOptions),
     params: &[f64],
 ) -> Result<Figures, String> {
     for (name, &value) in sweep.names.iter().zip(params) {
@@ -35,15 +35,15 @@ fn run_variant(
     match (&*model, shared) {
         (Plant::Single(m), Shared::Reference(reference)) => {
             let buffers = std::mem::take(spare);
-            let result = simulate_shared(m.as_ref(), cycle, reference, &sweep.opts, buffers)
+            let result = simulate_shared(m.as_ref(), cycle, reference, opts, buffers)
                 .map_err(|e| e.to_string())?;
             *spare = result.data;
             Ok(Figures::from_summary(&result.summary, &sweep.integrals))
         }
         (Plant::Modal(p), Shared::Gears(gears)) => {
             let spec = p.spec(gears.clone());
-            let opts = modal_options(&sweep.opts);
-            let result = simulate_modes_with_signals(&spec, cycle, &opts, &sweep.opts.signals)
+            let modal = modal_options(opts);
+            let result = simulate_modes_with_signals(&spec, cycle, &modal, &opts.signals)
                 .map_err(|e| e.to_string())?;
             Ok(Figures::from_modal(&result.summary, &sweep.integrals))
         }
@@ -55,10 +55,16 @@ fn run_variant(
 fn run_one(sweep: &Sweep, worker: &mut Worker, job: usize) -> SweepRow {
     let n_cycles = sweep.cycles.len();
     let (variant, c) = (job / n_cycles, job % n_cycles);
-    let (cycle, shared) = &sweep.cycles[c];
+    let (cycle, shared, opts) = &sweep.cycles[c];
     let params = &sweep.variants[variant];
     let outcome = match &mut worker.model {
-        Ok(model) => run_variant(sweep, model, &mut worker.spare, (cycle, shared), params),
+        Ok(model) => run_variant(
+            sweep,
+            model,
+            &mut worker.spare,
+            (cycle, shared, opts),
+            params,
+        ),
         Err(e) => Err(e.clone()),
     };
     SweepRow {

@@ -340,8 +340,14 @@ impl SweepBuilder {
             .cycles
             .into_iter()
             .map(|(c, file)| {
+                // One choice of look-ahead per cycle (it depends on the cycle and dt, not on the variant).
+                let (opts, _) =
+                    crate::lookahead::resolve(&opts, &c).map_err(|e| SweepError::Reference {
+                        cycle: c.name.clone(),
+                        source: Box::new(e),
+                    })?;
                 let shared = shared(&model, &c, file.as_deref(), &opts)?;
-                Ok((c, shared))
+                Ok((c, shared, opts))
             })
             .collect::<Result<Vec<_>, SweepError>>()?;
         let threads = worker_threads(self.threads, variants.len() * cycles.len());

@@ -29,7 +29,9 @@ pub struct Sweep {
     pub(super) integrals: Vec<String>,
     /// The modes' names (empty for a model without modes).
     pub(super) modes: Vec<String>,
-    pub(super) cycles: Vec<(Cycle, Shared)>,
+    /// Each cycle with what its runs share and their options (the look-ahead chosen for the cycle when the
+    /// options ask for `auto`).
+    pub(super) cycles: Vec<(Cycle, Shared, SimulationOptions)>,
     pub(super) names: Vec<String>,
     pub(super) variants: Vec<Vec<f64>>,
     pub(super) opts: SimulationOptions,
