@@ -41,13 +41,15 @@ pub struct BandExcess {
     pub worst_time_s: Option<f64>,
 }
 
-/// Accumulates [`BandExcess`] sample by sample, in increasing time.
+/// The trace's extremes over [t − Δt, t + Δt] for increasing t (the envelope of the band before its ±Δv):
+/// the one place the band of a regulation is computed, for the reference ([`BandTally`]) and for the speed a
+/// forward run drives (its trace misses).
 #[derive(Debug, Clone)]
-pub(crate) struct BandTally {
-    tolerance: Tolerance,
-    /// The first sample not yet queued (time ≥ t + Δt at the last sample).
+pub(crate) struct Envelope {
+    time_s: f64,
+    /// The first sample not yet queued (time ≥ t + Δt at the last t).
     next: usize,
-    /// The first sample after t − Δt at the last sample.
+    /// The first sample after t − Δt at the last t.
     first: usize,
     /// Sample indices inside the window, speeds decreasing (front: the largest) and increasing (front: the
     /// smallest).
@@ -55,6 +57,13 @@ pub(crate) struct BandTally {
     minima: VecDeque<usize>,
     last_t: f64,
     piece: Option<Piece>,
+}
+
+/// Accumulates [`BandExcess`] sample by sample, in increasing time.
+#[derive(Debug, Clone)]
+pub(crate) struct BandTally {
+    tolerance: Tolerance,
+    envelope: Envelope,
     result: BandExcess,
 }
 
@@ -86,12 +95,7 @@ impl BandTally {
     pub(crate) fn new(tolerance: Tolerance) -> BandTally {
         BandTally {
             tolerance,
-            next: 0,
-            first: 0,
-            maxima: VecDeque::new(),
-            minima: VecDeque::new(),
-            last_t: f64::NEG_INFINITY,
-            piece: None,
+            envelope: Envelope::new(tolerance.time_s),
             result: BandExcess {
                 speed_tolerance_mps: tolerance.speed_mps,
                 time_tolerance_s: tolerance.time_s,
@@ -124,20 +128,59 @@ impl BandTally {
     /// The excess at `t` from the envelope of the trace over [t − Δt, t + Δt].
     #[inline(never)]
     pub(crate) fn envelope_check(&mut self, cycle: &Cycle, t: f64, v: f64) {
+        let Some((bottom, top)) = self.envelope.at(cycle, t) else {
+            return;
+        };
+        let dv = self.tolerance.speed_mps;
+        let excess = (v - (top + dv)).max((bottom - dv) - v);
+        if excess > EXCESS_FLOOR_MPS {
+            let r = &mut self.result;
+            r.samples_outside += 1;
+            if excess > r.max_excess_mps {
+                r.max_excess_mps = excess;
+                r.worst_time_s = Some(t);
+            }
+        }
+    }
+
+    /// The result after `samples` output samples were pushed.
+    pub(crate) fn finish(self, samples: usize) -> BandExcess {
+        BandExcess {
+            samples_checked: samples,
+            ..self.result
+        }
+    }
+}
+
+impl Envelope {
+    pub(crate) fn new(time_s: f64) -> Envelope {
+        Envelope {
+            time_s,
+            next: 0,
+            first: 0,
+            maxima: VecDeque::new(),
+            minima: VecDeque::new(),
+            last_t: f64::NEG_INFINITY,
+            piece: None,
+        }
+    }
+
+    /// (min, max) of the trace over [t − Δt, t + Δt] (`None` for an empty cycle or a NaN time). On a
+    /// linear piece the extremes lie at an end, so they are those of the trace at t ± Δt and of the samples
+    /// strictly inside: a monotone queue over the samples gives the latter in O(1) amortised (the window only
+    /// moves forward; a t before the last starts it afresh), and while the window holds the same samples the
+    /// ends are lines in t, kept.
+    pub(crate) fn at(&mut self, cycle: &Cycle, t: f64) -> Option<(f64, f64)> {
         let (time, speed) = (&cycle.time[..], &cycle.speed[..]);
         let n = time.len().min(speed.len());
         if n == 0 || t.is_nan() {
-            return;
+            return None;
         }
         if t < self.last_t {
-            // Not in increasing time: start the window afresh (the result stays valid).
-            (self.next, self.first, self.last_t) = (0, 0, f64::NEG_INFINITY);
-            self.piece = None;
-            self.maxima.clear();
-            self.minima.clear();
+            *self = Envelope::new(self.time_s);
         }
         self.last_t = t;
-        let (lo_t, hi_t) = (t - self.tolerance.time_s, t + self.tolerance.time_s);
+        let (lo_t, hi_t) = (t - self.time_s, t + self.time_s);
         while self.next < n && time[self.next] < hi_t {
             let (i, s) = (self.next, speed[self.next]);
             while self.maxima.back().is_some_and(|&j| speed[j] <= s) {
@@ -170,8 +213,8 @@ impl BandTally {
                         front(&self.minima, f64::INFINITY),
                     ),
                     ends: [
-                        trace_line(time, speed, self.first, -self.tolerance.time_s),
-                        trace_line(time, speed, self.next, self.tolerance.time_s),
+                        trace_line(time, speed, self.first, -self.time_s),
+                        trace_line(time, speed, self.next, self.time_s),
                     ],
                 };
                 self.piece = Some(p);
@@ -180,26 +223,7 @@ impl BandTally {
         };
         let [(a0, b0), (a1, b1)] = piece.ends;
         let (e0, e1) = (a0 + b0 * t, a1 + b1 * t);
-        let top = e0.max(e1).max(piece.inner.0);
-        let bottom = e0.min(e1).min(piece.inner.1);
-        let dv = self.tolerance.speed_mps;
-        let excess = (v - (top + dv)).max((bottom - dv) - v);
-        if excess > EXCESS_FLOOR_MPS {
-            let r = &mut self.result;
-            r.samples_outside += 1;
-            if excess > r.max_excess_mps {
-                r.max_excess_mps = excess;
-                r.worst_time_s = Some(t);
-            }
-        }
-    }
-
-    /// The result after `samples` output samples were pushed.
-    pub(crate) fn finish(self, samples: usize) -> BandExcess {
-        BandExcess {
-            samples_checked: samples,
-            ..self.result
-        }
+        Some((e0.min(e1).min(piece.inner.1), e0.max(e1).max(piece.inner.0)))
     }
 }
 
