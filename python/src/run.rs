@@ -3,7 +3,10 @@
 //! `invsim_runtime::modes` (a model with modes).
 
 use invsim_runtime::forward::{ForwardSummary, ModalForwardSummary};
-use invsim_runtime::inverse::{simulate_shared, Reference};
+use std::sync::Mutex;
+
+use invsim_runtime::inverse::{simulate_shared, Reference, SimulateError};
+use invsim_runtime::lookahead::LookaheadChoice;
 use invsim_runtime::modes::{ModalSummary, Switching};
 use invsim_runtime::signal_file::read_signal_file;
 use invsim_runtime::{
@@ -218,6 +221,52 @@ pub fn run_failure(model_path: &str, cycle: &str, e: RunFailure) -> Failure {
     }
 }
 
+/// Cycles whose `--lookahead auto` choice is remembered (the most recent ones).
+const REMEMBERED_CHOICES: usize = 16;
+
+/// `opts` with `auto` resolved for `cycle` ([`invsim_runtime::lookahead::resolve`]), the choice remembered
+/// for the last [`REMEMBERED_CHOICES`] (cycle, dt): a script runs the same cycle many times, and the choice
+/// depends on the cycle (its samples and tolerance) and dt only, so a repeated run gets the same choice
+/// without the search.
+fn resolve_remembered(
+    opts: &SimulationOptions,
+    cycle: &Cycle,
+) -> Result<(SimulationOptions, Option<LookaheadChoice>), SimulateError> {
+    type Memo = Vec<(Cycle, u64, LookaheadChoice)>;
+    static MEMO: Mutex<Memo> = Mutex::new(Vec::new());
+    if !opts.lookahead_auto {
+        return Ok((opts.clone(), None));
+    }
+    let dt = opts.dt.to_bits();
+    let known = MEMO.lock().ok().and_then(|m| {
+        m.iter()
+            .find(|(c, d, _)| *d == dt && c == cycle)
+            .map(|(_, _, choice)| choice.clone())
+    });
+    let choice = match known {
+        Some(choice) => choice,
+        None => {
+            let (_, choice) = invsim_runtime::lookahead::resolve(opts, cycle)?;
+            let Some(choice) = choice else {
+                return Ok((opts.clone(), None));
+            };
+            if let Ok(mut m) = MEMO.lock() {
+                if m.len() >= REMEMBERED_CHOICES {
+                    m.remove(0);
+                }
+                m.push((cycle.clone(), dt, choice.clone()));
+            }
+            choice
+        }
+    };
+    let resolved = SimulationOptions {
+        lookahead: choice.lookahead_s,
+        lookahead_auto: false,
+        ..opts.clone()
+    };
+    Ok((resolved, Some(choice)))
+}
+
 /// One inverse run of `model` with `params` set on `cycle_spec`, as `invsim simulate` runs it.
 pub fn simulate_any(
     model: &Loaded,
@@ -228,14 +277,19 @@ pub fn simulate_any(
 ) -> Result<Output, Failure> {
     let cycle = load_cycle(cycle_spec)?;
     let sim_opts = opts.build(model.engine_name(), model_path, &cycle.name)?;
+    let (sim_opts, choice) =
+        resolve_remembered(&sim_opts, &cycle).map_err(|e| stopped(model_path, &cycle.name, e))?;
     let plant = model.plant(params)?;
     let file = cycle_file(cycle_spec);
-    let result = plant
+    let mut result = plant
         .simulate(&cycle, file, &sim_opts)
         .map_err(|e| match e {
             RunFailure::Gears(e) => Failure::in_file(format!("{model_path}: {e}"), model_path),
             e => stopped(model_path, &cycle.name, e),
         })?;
+    if let Some(choice) = choice {
+        result.set_lookahead_choice(choice);
+    }
     Ok(match result {
         RunResult::Single(r) => (
             RunSummary::Inverse(r.summary),

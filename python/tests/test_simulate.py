@@ -133,3 +133,20 @@ def test_default_lookahead_is_auto_as_on_the_command_line(si_engine, tmp_path):
     assert again.summary["integrals"]["fuel"] == r.summary["integrals"]["fuel"]
     fixed = si_engine.simulate(cycle="udds", dt=0.1, lookahead=5.0)
     assert "lookahead_choice" not in fixed.summary and fixed.summary["lookahead_s"] == 5.0
+
+
+def test_auto_lookahead_follows_a_changed_cycle_file(si_engine, tmp_path):
+    """The package remembers the choice per cycle, by the cycle's contents: a cycle file rewritten between two
+    runs gets the choice the command line makes for its new contents."""
+    path = tmp_path / "c.csv"
+    gentle = "time_s,speed_mps\n0,0\n10,0\n40,20\n100,20\n130,0\n160,0\n"
+    sharp = "time_s,speed_mps\n0,0\n10,0\n14,8\n16,3\n20,12\n24,0\n60,0\n64,9\n66,2\n70,0\n100,0\n"
+    chosen = []
+    for text in (gentle, sharp, gentle):
+        path.write_text(text)
+        r = si_engine.simulate(cycle=str(path), dt=0.1)
+        cli, _ = cli_run(tmp_path, SI_ENGINE, "--cycle", str(path), "--dt", "0.1")
+        assert r.summary["lookahead_choice"] == cli["lookahead_choice"]
+        assert r.summary["integrals"]["fuel"] == cli["integrals"]["fuel"]
+        chosen.append(r.summary["lookahead_s"])
+    assert chosen == [2.5, 0.1, 2.5]
