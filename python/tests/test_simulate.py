@@ -118,21 +118,19 @@ def test_summary_is_read_once_and_pickles(si_engine):
     assert back.summary == first and back.columns == r.columns
 
 
-def test_default_lookahead_is_auto_as_on_the_command_line(si_engine, tmp_path):
-    """Without `lookahead` the package chooses it per cycle as `invsim simulate` does by default: the same
-    look-ahead, the same choice block, the same fuel; `lookahead="auto"` is the same run."""
-    r = si_engine.simulate(cycle="udds", dt=0.1)
-    summary, frame = cli_run(tmp_path, SI_ENGINE, "--cycle", "udds", "--dt", "0.1")
+def test_auto_lookahead_as_on_the_command_line(si_engine, tmp_path):
+    """`lookahead="auto"` chooses the look-ahead per cycle as `invsim simulate --lookahead auto` does: the same
+    look-ahead, the same choice block, the same fuel; the default stays 5 s, as on the command line."""
+    r = si_engine.simulate(cycle="udds", dt=0.1, lookahead="auto")
+    summary, frame = cli_run(tmp_path, SI_ENGINE, "--cycle", "udds", "--dt", "0.1", "--lookahead", "auto")
     choice = r.summary["lookahead_choice"]
     assert choice["method"] == "auto" and choice["accepted"] is True
     assert r.summary["lookahead_s"] == summary["lookahead_s"] == choice["lookahead_s"] == 1.0
     assert r.summary["lookahead_choice"] == summary["lookahead_choice"]
     assert r.summary["tolerance_band"]["samples_outside"] == 0
     assert r.summary["integrals"]["fuel"] == summary["integrals"]["fuel"]
-    again = si_engine.simulate(cycle="udds", dt=0.1, lookahead="auto")
-    assert again.summary["integrals"]["fuel"] == r.summary["integrals"]["fuel"]
-    fixed = si_engine.simulate(cycle="udds", dt=0.1, lookahead=5.0)
-    assert "lookahead_choice" not in fixed.summary and fixed.summary["lookahead_s"] == 5.0
+    default = si_engine.simulate(cycle="udds", dt=0.1)
+    assert "lookahead_choice" not in default.summary and default.summary["lookahead_s"] == 5.0
 
 
 def test_auto_lookahead_follows_a_changed_cycle_file(si_engine, tmp_path):
@@ -144,8 +142,8 @@ def test_auto_lookahead_follows_a_changed_cycle_file(si_engine, tmp_path):
     chosen = []
     for text in (gentle, sharp, gentle):
         path.write_text(text)
-        r = si_engine.simulate(cycle=str(path), dt=0.1)
-        cli, _ = cli_run(tmp_path, SI_ENGINE, "--cycle", str(path), "--dt", "0.1")
+        r = si_engine.simulate(cycle=str(path), dt=0.1, lookahead="auto")
+        cli, _ = cli_run(tmp_path, SI_ENGINE, "--cycle", str(path), "--dt", "0.1", "--lookahead", "auto")
         assert r.summary["lookahead_choice"] == cli["lookahead_choice"]
         assert r.summary["integrals"]["fuel"] == cli["integrals"]["fuel"]
         chosen.append(r.summary["lookahead_s"])

@@ -11,7 +11,7 @@ outside the tolerance (2 % on UDDS and HWFET, 4 % on WLTC 3b), 2 on a usage erro
 Usage: python tests/fastsim/crosscheck.py [--invsim PATH] [--cycles DIR] [--lookahead A|auto] [--dt DT] [--all]
   --invsim   the invsim binary (default: target/release/invsim of this repository)
   --all      also FASTSim's 2022 Tesla Model 3 and 2022 Renault Zoe
-  --lookahead  seconds, or auto (default, as `invsim simulate`'s)
+  --lookahead  seconds, or auto (the default here: the look-ahead chosen per cycle, docs/lookahead.md)
   --cycles   directory with udds.csv, hwfet.csv, wltc_3b.csv (FASTSim's legacy layout: cycSecs, cycMps,
              cycGrade; default: ../shared/cycles beside the repository); without it, FASTSim's bundled
              UDDS and HWFET are used and WLTC 3b is skipped with a message.
@@ -133,7 +133,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--invsim", default=os.path.join(ROOT, "target", "release", "invsim"))
     ap.add_argument("--cycles", default=os.path.join(os.path.dirname(ROOT), "shared", "cycles"))
-    ap.add_argument("--lookahead", default="auto", help="seconds, or auto (the default of `invsim simulate`)")
+    ap.add_argument("--lookahead", default="auto", help="seconds, or auto (the look-ahead chosen per cycle)")
     ap.add_argument("--dt", type=float, default=0.1)
     ap.add_argument("--all", action="store_true", help="also the Tesla Model 3 and the Renault Zoe")
     args = ap.parse_args()

@@ -45,8 +45,9 @@ impl serde::Serialize for LookaheadArg {
 }
 
 impl LookaheadArg {
-    /// The default of `simulate` and `sweep`: chosen per cycle.
-    pub const DEFAULT: LookaheadArg = LookaheadArg::Auto;
+    /// The default of `simulate` and `sweep`: 5 s (the interface contract, §3).
+    pub const DEFAULT: LookaheadArg =
+        LookaheadArg::Seconds(invsim_runtime::inverse::DEFAULT_LOOKAHEAD);
 
     /// The options builder with this look-ahead.
     pub fn apply(
