@@ -259,12 +259,10 @@ fn resolve_remembered(
             choice
         }
     };
-    let resolved = SimulationOptions {
-        lookahead: choice.lookahead_s,
-        lookahead_auto: false,
-        ..opts.clone()
-    };
-    Ok((resolved, Some(choice)))
+    Ok((
+        invsim_runtime::lookahead::with_choice(opts, &choice),
+        Some(choice),
+    ))
 }
 
 /// One inverse run of `model` with `params` set on `cycle_spec`, as `invsim simulate` runs it.

@@ -28,11 +28,8 @@ pub fn apply_tolerance(cycle: &mut Cycle, tolerance: Option<&str>) -> Result<(),
         ))
     };
     let (speed, time) = spec.split_once(',').ok_or_else(|| bad("no comma".into()))?;
-    let number = |s: &str| {
-        s.trim()
-            .parse::<f64>()
-            .map_err(|_| bad(format!("`{}` is not a number", s.trim())))
-    };
+    let number =
+        |s: &str| crate::number_arg::parse_number(s).map_err(|e| bad(e.describe(s.trim())));
     cycle.tolerance =
         Tolerance::new(number(speed)?, number(time)?).map_err(|e| bad(e.to_string()))?;
     Ok(())
@@ -49,7 +46,9 @@ mod tests {
         assert_eq!(c.tolerance, Tolerance::EPA);
         assert!(apply_tolerance(&mut c, Some("3.6, 0.5")).is_ok());
         assert!((c.tolerance.speed_mps - 1.0).abs() < 1e-15 && c.tolerance.time_s == 0.5);
-        for bad in ["3", "a,1", "1,b", "-1,1", "1,-1", "nan,1", "1,inf", "1e9,1"] {
+        for bad in [
+            "3", "a,1", "1,b", "-1,1", "1,-1", "nan,1", "1,inf", "1e9,1", "1e-400,1", "2,1e-999",
+        ] {
             let e = apply_tolerance(&mut c, Some(bad))
                 .err()
                 .map(|f| f.message)

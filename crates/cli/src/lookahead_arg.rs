@@ -18,10 +18,14 @@ impl FromStr for LookaheadArg {
         if s.trim().eq_ignore_ascii_case("auto") {
             return Ok(LookaheadArg::Auto);
         }
-        s.trim()
-            .parse::<f64>()
+        crate::number_arg::parse_number(s)
             .map(LookaheadArg::Seconds)
-            .map_err(|_| format!("`{s}` is neither a number of seconds nor `auto`"))
+            .map_err(|e| {
+                format!(
+                    "{}: the look-ahead is a positive, finite number of seconds or `auto`",
+                    e.describe(s.trim())
+                )
+            })
     }
 }
 
@@ -71,6 +75,7 @@ mod tests {
         assert_eq!(" AUTO ".parse(), Ok(LookaheadArg::Auto));
         assert_eq!("-1".parse(), Ok(LookaheadArg::Seconds(-1.0)));
         assert!("fast".parse::<LookaheadArg>().is_err());
+        assert!("1e-400".parse::<LookaheadArg>().is_err());
         assert_eq!(LookaheadArg::Auto.to_string(), "auto");
     }
 }

@@ -354,12 +354,19 @@ pub fn resolve(
         return Ok((opts.clone(), None));
     }
     let choice = choose(cycle, opts.dt)?;
-    let resolved = crate::inverse::SimulationOptions {
+    Ok((with_choice(opts, &choice), Some(choice)))
+}
+
+/// `opts` with the look-ahead `choice` made (no longer `auto`).
+pub fn with_choice(
+    opts: &crate::inverse::SimulationOptions,
+    choice: &LookaheadChoice,
+) -> crate::inverse::SimulationOptions {
+    crate::inverse::SimulationOptions {
         lookahead: choice.lookahead_s,
         lookahead_auto: false,
         ..opts.clone()
-    };
-    Ok((resolved, Some(choice)))
+    }
 }
 
 #[cfg(test)]
