@@ -11,6 +11,7 @@ use super::driver::Drive;
 use super::options::{Bounds, ForwardOptions};
 use super::summary::{DriverSummary, IntegratorSummary};
 use crate::cycle::Cycle;
+use crate::cycle::Tolerance;
 use crate::modes::{ModalSpec, ModeTime};
 use crate::ode::OdeStats;
 use crate::operating_points::{OperatingPointTally, OperatingPoints};
@@ -161,7 +162,7 @@ pub(super) fn summarise(
     let tables = integral_tables(info, &accumulate, &tally.integrals, cycle.distance());
     let violations = tally.violations.finish();
     let trace_misses = tally.misses.finish();
-    let warnings = warnings(opts, &violations, &trace_misses);
+    let warnings = warnings(opts, &violations, (opts.trace_band(cycle), &trace_misses));
     let name = |m: usize| spec.modes[m].name.clone();
     let inputs = spec.input_ranges(&tally.ranges);
     let totals = Totals::of_modes(
@@ -222,8 +223,8 @@ pub(super) fn summarise(
                 .collect(),
         },
         trace_misses,
-        trace_miss_speed_tolerance: opts.trace_speed_tol,
-        trace_miss_time_tolerance_s: opts.trace_time_tol,
+        trace_miss_speed_tolerance: opts.trace_band(cycle).speed_mps,
+        trace_miss_time_tolerance_s: opts.trace_band(cycle).time_s,
         max_abs_tracking_error: tally.max_err,
         rms_tracking_error: (tally.sum_sq / samples as f64).sqrt(),
         engine_operating_points: tally.operating.map(|op| op.finish(info, opts.dt)),
@@ -242,7 +243,11 @@ pub(super) fn summarise(
 }
 
 /// The warnings of a forward run with modes: demands no mode absorbs, trace misses.
-fn warnings(opts: &ForwardOptions, violations: &[[f64; 2]], misses: &[[f64; 2]]) -> Vec<String> {
+fn warnings(
+    opts: &ForwardOptions,
+    violations: &[[f64; 2]],
+    (band, misses): (Tolerance, &[[f64; 2]]),
+) -> Vec<String> {
     let mut w = Vec::new();
     let total = |v: &[[f64; 2]]| fmt_sig(v.iter().map(|[a, b]| b - a).sum(), 4);
     if !violations.is_empty() {
@@ -257,16 +262,7 @@ fn warnings(opts: &ForwardOptions, violations: &[[f64; 2]], misses: &[[f64; 2]])
             total(violations)
         ));
     }
-    if !misses.is_empty() {
-        w.push(format!(
-            "the vehicle misses the cycle's trace (± {} around the cycle within ± {} s) in {} interval(s), {} s in \
-             total",
-            fmt_sig(opts.trace_speed_tol, 4),
-            fmt_sig(opts.trace_time_tol, 4),
-            misses.len(),
-            total(misses)
-        ));
-    }
+    w.extend(super::trace::miss_warning(band, misses));
     w
 }
 
