@@ -54,6 +54,7 @@ pub fn modal_options(opts: &SimulationOptions) -> ModalOptions {
         switching: opts.switching,
         transition_time: opts.transition_time,
         verify: opts.verify,
+        keep_series: opts.keep_series,
     }
 }
 

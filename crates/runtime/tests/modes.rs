@@ -22,6 +22,7 @@ fn run(l: &Loaded, cycle: &Cycle, dt: f64, switching: Switching, verify: bool) -
         switching,
         transition_time: None,
         verify,
+        keep_series: true,
     };
     simulate_modes(&spec(l, speed_schedule(l)), cycle, &opts).expect("the run succeeds")
 }
@@ -202,6 +203,7 @@ fn gain_switch_run(switching: Switching) -> (ModalResult, Cycle) {
         switching,
         transition_time: None,
         verify: true,
+        keep_series: true,
     };
     let res = simulate_modes(
         &spec(&l, GearSource::Table(vec![(0.0, 1), (T_S, 2)])),
@@ -315,6 +317,7 @@ fn five_speed_follows_the_regulation_gears_on_the_nedc() {
         switching: Switching::Reentry,
         transition_time: None,
         verify: false,
+        keep_series: true,
     };
     let res = simulate_modes(&spec(&l, GearSource::Table(table)), &cycle, &opts)
         .expect("the run succeeds");

@@ -49,6 +49,7 @@ fn options(dt: f64) -> ModalOptions {
         switching: Switching::Reentry,
         transition_time: None,
         verify: true,
+        keep_series: true,
     }
 }
 

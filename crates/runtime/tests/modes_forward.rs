@@ -16,6 +16,7 @@ fn inverse(l: &Loaded, cycle: &Cycle, dt: f64) -> ModalResult {
         switching: Switching::Reentry,
         transition_time: None,
         verify: false,
+        keep_series: true,
     };
     simulate_modes(&spec(l, speed_schedule(l)), cycle, &opts).expect("the inverse run succeeds")
 }

@@ -36,6 +36,7 @@ fn opts(dt: f64, verify: bool) -> ModalOptions {
         switching: Switching::Reentry,
         transition_time: None,
         verify,
+        keep_series: true,
     }
 }
 

@@ -150,6 +150,9 @@ pub struct ModalOptions {
     /// Transition time of the re-entry, s (default: the look-ahead).
     pub transition_time: Option<f64>,
     pub verify: bool,
+    /// Keep the time series (default true); `false` (a sweep) tallies the summary without building the
+    /// table of every column at every sample.
+    pub keep_series: bool,
 }
 
 impl Default for ModalOptions {
@@ -160,6 +163,7 @@ impl Default for ModalOptions {
             switching: Switching::Reentry,
             transition_time: None,
             verify: false,
+            keep_series: true,
         }
     }
 }

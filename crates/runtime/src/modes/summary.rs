@@ -140,9 +140,11 @@ fn input_values(ctx: &Ctx<'_, '_>, m: usize, u: f64, outs: &[f64], row: &mut Vec
 /// in its own mode), the time per mode, the bound violations, the reference's deviation and the engine's
 /// operating points.
 struct Tally {
-    /// Every input and the model's `[outputs]` at each sample.
+    /// Every input and the model's `[outputs]` at each sample (empty without `keep_series`), and each
+    /// input's range (NaN where a mode neither frees nor reports it is skipped).
     inputs: Rows,
     outputs: Rows,
+    ranges: Vec<[f64; 2]>,
     integrals: Vec<f64>,
     time: Vec<f64>,
     violations: Vec<[f64; 2]>,
@@ -162,9 +164,11 @@ fn walk(ctx: &Ctx<'_, '_>, cycle: &Cycle, opts: &ModalOptions, rec: &Record) -> 
     let ns = rec.t.len();
     let no = spec.n_outputs;
     let info0 = spec.modes[0].model.info();
+    let kept = if opts.keep_series { ns } else { 0 };
     let mut tally = Tally {
-        inputs: Rows::with_capacity(spec.inputs.len(), ns),
-        outputs: Rows::with_capacity(no, ns),
+        inputs: Rows::with_capacity(spec.inputs.len(), kept),
+        outputs: Rows::with_capacity(no, kept),
+        ranges: vec![[f64::INFINITY, f64::NEG_INFINITY]; spec.inputs.len()],
         integrals: vec![0.0; no],
         time: vec![0.0; spec.modes.len()],
         violations: Vec::new(),
@@ -205,8 +209,13 @@ fn walk(ctx: &Ctx<'_, '_>, cycle: &Cycle, opts: &ModalOptions, rec: &Record) -> 
             op.push(|i| outs[i]);
         }
         input_values(ctx, m, u, &outs, &mut row);
-        tally.inputs.push(&row);
-        tally.outputs.push(&outs[..no]);
+        for (r, &v) in tally.ranges.iter_mut().zip(&row) {
+            *r = [r[0].min(v), r[1].max(v)];
+        }
+        if opts.keep_series {
+            tally.inputs.push(&row);
+            tally.outputs.push(&outs[..no]);
+        }
         let rule = &ctx.rules.modes[m];
         outside = track_violation(rule, (rec.t[k], u), outside, &mut tally.violations);
         if k + 1 < ns {
@@ -304,7 +313,11 @@ pub(super) fn assemble(
     let ns = rec.t.len();
     let info0 = spec.modes[0].model.info();
     let mut tally = walk(ctx, cycle, opts, &rec);
-    let data = table(ctx, &rec, &tally);
+    let data = if opts.keep_series {
+        table(ctx, &rec, &tally)
+    } else {
+        Vec::new()
+    };
     let impulse_booked = book_impulses(&rec.impulses, &info0.outputs, &mut tally.integrals);
     let distance = cycle.distance();
     let (ints, per, integral_units) = totals(&info0.outputs, &tally.integrals, distance);
@@ -326,18 +339,7 @@ pub(super) fn assemble(
     let mut warnings = warnings_of(&tally.violations, &rec.impulses);
     let reference = tally.deviation.finish();
     warnings.extend(reference.tolerance_band.warning());
-    // Each input's range over the samples (NaN where a mode neither frees nor reports it is skipped).
-    let ranges: Vec<[f64; 2]> = (0..tally.inputs.width())
-        .map(|j| {
-            tally
-                .inputs
-                .column(j)
-                .fold([f64::INFINITY, f64::NEG_INFINITY], |[lo, hi], u| {
-                    [lo.min(u), hi.max(u)]
-                })
-        })
-        .collect();
-    let inputs = spec.input_ranges(&ranges);
+    let inputs = spec.input_ranges(&tally.ranges);
     let totals = Totals::of_modes(
         (ints, per, integral_units),
         info0.output_unit.clone(),
