@@ -8,20 +8,23 @@
 >>> run.summary["integrals"]["fuel"] > 0
 True
 >>> df = run.to_pandas()               # the CSV's columns; units in df.attrs["units"]
->>> sweep = model.sweep(params={"m": [1200.0, 1400.0]}, cycles=["nedc", "udds"])   # one row per variant x cycle
+>>> grid = model.sweep(grid={"m": [1200.0, 1400.0], "C_d": [0.3, 0.34]}, cycles=["nedc"])  # 4 variants, as --grid
+>>> table = model.sweep(table={"m": [1200.0, 1400.0], "C_d": [0.3, 0.34]}, cycles=["nedc"])  # 2, as --table
 
 Everything runs in Rust without the GIL: `derive` is the command line's `invsim derive --format json`,
-`simulate` its `invsim simulate` (summary = `--summary-json`, columns = `--out`), `sweep` a loop of such runs
-over variants in parallel. Errors are `InvsimError` (a `ValueError`) with `file`, `line` and `column`.
+`simulate` its `invsim simulate` (summary = `--summary-json`, columns = `--out`), `sweep` its `invsim sweep`
+(`grid=` every combination, `table=` one variant per row) with a row per variant x cycle in parallel. Errors
+are `InvsimError` (a `ValueError`) with `file`, `line` and `column`.
 """
 
 import functools
 import json
 import os
+import warnings
 
 from . import _invsim
 
-__all__ = ["Model", "Result", "InvsimError", "builtin_models", "builtin_cycles", "sweep_frame"]
+__all__ = ["Model", "Result", "InvsimError", "builtin_models", "builtin_cycles", "max_sweep_runs", "sweep_frame"]
 
 InvsimError = _invsim.InvsimError
 InvsimError.__module__ = "invsim"
@@ -34,6 +37,8 @@ InvsimError.column = None
 builtin_models = list(_invsim.builtin_models)
 #: Names of the built-in drive cycles (`invsim cycles`).
 builtin_cycles = list(_invsim.builtin_cycles)
+#: Most runs (variants x cycles) a sweep makes, as on the command line.
+max_sweep_runs = _invsim.max_sweep_runs
 
 
 def _lookahead(lookahead):
@@ -146,23 +151,131 @@ def _flatten(d, prefix=""):
     return out
 
 
-def _variants(params):
-    """Sweep variants from a DataFrame (pandas or polars) or a dict of equal-length arrays: (names, columns)."""
+def _column(name, values, how):
+    """One parameter's values as a contiguous, aligned float64 array (an array that arrives unaligned, a slice of
+    a buffer Dask or pickle deserialised in place, is copied: the extension reads it as a slice of f64); every
+    value finite, as the command line's --grid and --table take them."""
     import numpy as np
 
-    def column(v):
-        # Contiguous and aligned float64: an array that arrives unaligned (a slice of a buffer Dask or pickle
-        # deserialised in place) is copied, since the extension reads it as a slice of f64.
-        return np.require(np.atleast_1d(np.asarray(v, dtype=np.float64)), requirements=["C", "A"])
+    try:
+        a = np.asarray(values, dtype=np.float64)
+    except (TypeError, ValueError):
+        hint = ""
+        if isinstance(values, str):
+            hint = " (the command line's START:STOP:N is numpy.linspace(START, STOP, N))"
+        raise ValueError(
+            "sweep {} `{}`: the values must be numbers, not {!r}{}".format(how, name, values, hint)
+        ) from None
+    if a.ndim > 1:
+        raise ValueError("sweep {} `{}`: give a flat sequence of values, not a {}-d array".format(how, name, a.ndim))
+    a = np.require(np.atleast_1d(a), requirements=["C", "A"])
+    bad = np.flatnonzero(~np.isfinite(a))
+    if bad.size:
+        raise ValueError(
+            "sweep {} `{}`: value {} (index {}) is not a finite number".format(how, name, a[bad[0]], bad[0])
+        )
+    return a
 
-    if params is None:
-        return [], []
-    if hasattr(params, "to_dict") and hasattr(params, "columns"):
-        names = [str(c) for c in params.columns]
-        cols = [column(params[c]) for c in params.columns]
+
+def _named_columns(values, how):
+    """(names, raw columns) of a DataFrame (pandas or polars) or a dict of sequences; names must be strings and
+    appear once."""
+    if hasattr(values, "to_dict") and hasattr(values, "columns"):
+        names = list(values.columns)
+        raw = [values[c] for c in values.columns]
+    elif isinstance(values, dict):
+        names = list(values)
+        raw = list(values.values())
     else:
-        names = [str(k) for k in params]
-        cols = [column(v) for v in params.values()]
+        raise TypeError(
+            "sweep {}=: give a dict {{name: values}} or a DataFrame, not {}".format(how, type(values).__name__)
+        )
+    for n in names:
+        if not isinstance(n, str):
+            raise TypeError("sweep {}=: parameter names must be strings, not {!r}".format(how, n))
+    dup = next((n for i, n in enumerate(names) if n in names[:i]), None)
+    if dup is not None:
+        raise ValueError("sweep {}=: parameter `{}` is given twice".format(how, dup))
+    if not names:
+        raise ValueError("sweep {}=: no parameter given".format(how))
+    return names, raw
+
+
+def _grid(grid, n_cycles):
+    """The variants of `grid={name: values}`: every combination, the last name varying fastest, as the command
+    line's repeated --grid (NAME=START:STOP:N gives the values of np.linspace(START, STOP, N), bit for bit)."""
+    import numpy as np
+
+    names, raw = _named_columns(grid, "grid")
+    axes = [_column(n, v, "grid axis") for n, v in zip(names, raw)]
+    for n, a in zip(names, axes):
+        if a.size == 0:
+            raise ValueError("sweep grid axis `{}`: needs at least one value".format(n))
+    what = "1 grid axis" if len(axes) == 1 else "{} grid axes".format(len(axes))
+    _invsim.count_runs([a.size for a in axes], n_cycles, what)  # before the product is made
+    mesh = np.meshgrid(*axes, indexing="ij")
+    return names, [np.require(m.ravel(), requirements=["C", "A"]) for m in mesh]
+
+
+def _table(table, n_cycles, how="table"):
+    """The variants of `table=` (a DataFrame, or a dict of equal-length columns): one per row, in order, as the
+    command line's --table."""
+    names, raw = _named_columns(table, how)
+    cols = [_column(n, v, how + " column") for n, v in zip(names, raw)]
+    for n, c in zip(names, cols):
+        if c.size != cols[0].size:
+            raise ValueError(
+                "sweep {}=: column `{}` has {} value(s), `{}` has {}: every column needs one value per "
+                "variant".format(how, n, c.size, names[0], cols[0].size)
+            )
+    if cols[0].size == 0:
+        raise ValueError("sweep {}=: the table has no variants (no rows)".format(how))
+    _invsim.count_runs([cols[0].size], n_cycles, "a table of {} rows".format(cols[0].size))
+    return names, cols
+
+
+def _check_not_set(base, names, how):
+    """A parameter both overridden by `base` and swept is refused, as `--set` with `--grid`/`--table`: the
+    sweep's values would silently win over the `base` value."""
+    both = next((n for n, _ in base if n in names), None)
+    if both is not None:
+        raise ValueError(
+            "sweep: parameter `{}` is both set (base=) and swept ({}): give one of the two".format(both, how)
+        )
+
+
+def _design(grid, table, params, n_cycles, stacklevel):
+    """The sweep's variants as (names, columns) from exactly one of `grid=`, `table=` and the deprecated
+    `params=` (the alias of `table=`, refused where it would be read otherwise than a user may mean)."""
+    given = [n for n, v in (("grid", grid), ("table", table), ("params", params)) if v is not None]
+    if len(given) > 1:
+        raise ValueError(
+            "sweep: give one of grid= (every combination, as --grid) and table= (one variant per row, as "
+            "--table), not {}".format(" and ".join(g + "=" for g in given))
+        )
+    if not given:
+        raise ValueError(
+            "sweep needs grid={name: values, ...} (every combination, as --grid) or table= (a DataFrame or a "
+            "dict of equal-length columns: one variant per row, as --table)"
+        )
+    if grid is not None:
+        return _grid(grid, n_cycles)
+    if table is not None:
+        return _table(table, n_cycles)
+    names, cols = _table(params, n_cycles, "params")
+    if isinstance(params, dict) and len(names) > 1 and cols[0].size > 1:
+        n, k = cols[0].size, len(names)
+        raise ValueError(
+            "sweep(params=...) of {k} parameters with {n} values each is ambiguous: grid= runs every "
+            "combination ({p} variants, as the command line's --grid), table= pairs the values row by row "
+            "({n} variants, as --table); params= is deprecated".format(k=k, n=n, p=n**k)
+        )
+    warnings.warn(
+        "sweep(params=...) is deprecated: pass table= (one variant per row, what params= did) or grid= "
+        "(every combination)",
+        DeprecationWarning,
+        stacklevel=stacklevel + 1,
+    )
     return names, cols
 
 
@@ -320,22 +433,44 @@ class Model:
         threads=None,
         signals=None,
         initial=None,
+        *,
+        grid=None,
+        table=None,
     ):
-        """Every variant on every cycle, in parallel (rayon; `threads` = None: all cores). `params` is a
-        DataFrame (one row per variant, one column per parameter) or a dict of equal-length arrays; `base`
-        overrides parameters for all variants, `signals` and `initial` apply to every run (as in `simulate`). Returns a pandas DataFrame with one row per variant x cycle
-        (variant-major): `variant`, `cycle`, every model parameter, `error` (None, or why the run failed: a
-        failing variant never aborts the sweep) and the flattened summary (`integrals.fuel`, ...)."""
+        """Many variants of the model on every cycle, in parallel (rayon; `threads` = None: all cores), like
+        `invsim sweep`. The variants come from exactly one of:
+
+        - `grid={name: values, ...}`: every combination of the values (full factorial), the last name varying
+          fastest, as the command line's repeated `--grid` (its `NAME=START:STOP:N` are the values
+          `np.linspace(START, STOP, N)`, bit for bit): `grid={"m": [1100, 1300], "C_d": [0.28, 0.32, 0.36]}`
+          is 6 variants;
+        - `table=`: a DataFrame (pandas or polars) or a dict of equal-length columns, one variant per row in
+          the given order, as `--table PARAMS.csv`: `table={"m": [1100, 1300], "C_d": [0.28, 0.32]}` is 2.
+
+        `params=` is the deprecated name of `table=` (a DeprecationWarning); a dict of several parameters with
+        several values each is refused there, since it reads as a grid too. Giving none or two of them is a
+        ValueError, as are non-finite values, an empty axis or table, and more than `max_sweep_runs`
+        (10**6) runs (variants x cycles), as on the command line. `base` overrides parameters of every
+        variant (`--set`; a parameter both in `base` and swept is refused), `signals` and `initial` apply to
+        every run (as in `simulate`).
+
+        Returns a pandas DataFrame with one row per variant x cycle, in the command line's order (variant 0
+        on each cycle, then variant 1, ...): `variant`, `cycle`, every model parameter, `error` (None, or why
+        the run failed: a failing variant never aborts the sweep) and the flattened summary
+        (`integrals.fuel`, ...). A row's figures equal those of the single run of its variant bit for bit."""
         if isinstance(cycles, str):
             cycles = [cycles]
         cycles = [str(c) for c in cycles]
-        names, cols = _variants(params)
-        # No parameter varies: one variant, the model's defaults (with `base`).
+        if not cycles:
+            raise ValueError("sweep needs a cycle: cycles=[...] is empty")
+        names, cols = _design(grid, table, params, len(cycles), stacklevel=2)
+        base = _params_list(base)
+        _check_not_set(base, names, "grid=" if grid is not None else "table=")
         param_names, rows = self._m.sweep(
             names,
             cols,
             cycles,
-            _params_list(base),
+            base,
             float(dt),
             _lookahead(lookahead),
             bool(verify),

@@ -255,6 +255,9 @@ impl Model {
     ) -> PyResult<(Vec<String>, Vec<SweepRow>)> {
         let values = variant_columns(&names, &values)?;
         let variants = Variants { names, values };
+        // The command line's limit of runs (the Python wrapper checks a grid before expanding it).
+        let what = format!("a table of {} rows", variants.len());
+        count_runs(vec![variants.len()], cycles.len(), &what)?;
         let opts = RunOptions {
             dt,
             lookahead,
@@ -320,6 +323,15 @@ fn check_variants(model: &Loaded, v: &Variants) -> Result<(), Failure> {
     Ok(())
 }
 
+/// The number of runs of a sweep whose variants are the product of `sizes` (one per grid axis, or a table's
+/// row count) on `cycles` cycles, or an `InvsimError` when it exceeds the command line's limit
+/// ([`invsim_runtime::sweep::MAX_RUNS`]), with its message (`what`: "2 grid axes", "a table of 20 rows").
+#[pyfunction]
+fn count_runs(sizes: Vec<usize>, cycles: usize, what: &str) -> PyResult<usize> {
+    invsim_runtime::sweep::count_runs(&sizes, cycles, what)
+        .map_err(|e| InvsimError::new_err(format!("sweep: {e}")))
+}
+
 /// The extension module.
 #[pymodule]
 fn _invsim(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -327,6 +339,8 @@ fn _invsim(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<RunSummary>()?;
     m.add("InvsimError", m.py().get_type::<InvsimError>())?;
     m.add("builtin_models", invsim_models::names())?;
+    m.add_function(wrap_pyfunction!(count_runs, m)?)?;
+    m.add("max_sweep_runs", invsim_runtime::sweep::MAX_RUNS)?;
     // The command line's defaults of `invsim forward` (Model.forward's None).
     let defaults = pyo3::types::PyDict::new(m.py());
     use invsim_runtime::forward as f;

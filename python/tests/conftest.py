@@ -5,6 +5,7 @@ The command line is `$INVSIM_BIN` if set, else the repository's `target/release/
 build that `cargo test --workspace` has already made.
 """
 
+import csv
 import json
 import math
 import os
@@ -70,6 +71,42 @@ def assert_close(a, b, rel=1e-12, path="$"):
         assert math.isclose(a, b, rel_tol=rel, abs_tol=1e-300), "{}: {} != {}".format(path, a, b)
     else:
         assert a == b, "{}: {!r} != {!r}".format(path, a, b)
+
+
+def cli_sweep(tmp_path, *args):
+    """`invsim sweep ARGS --out FILE.csv`: the header and the rows (text fields)."""
+    out = tmp_path / "sweep.csv"
+    run_cli("sweep", *args, "--out", out)
+    with open(out, newline="") as f:
+        rows = list(csv.reader(f))
+    return rows[0], rows[1:]
+
+
+def assert_rows_equal_cli(df, header, rows, swept):
+    """The Python sweep's rows are the command line's: same count and order (variant, cycle), the swept values
+    and every figure of the CSV equal bit for bit (the CSV writes floats in shortest round-trip form)."""
+    assert len(df) == len(rows)
+    integrals = header[header.index("distance_m") + 1 : header.index("input_min")]
+    assert integrals  # fuel, fuel_volume and their per-100-km figures
+    for (_, row), fields in zip(df.iterrows(), rows):
+        cli = dict(zip(header, fields))
+        assert row["variant"] == int(cli["variant"]) and row["cycle"] == cli["cycle"]
+        for name in swept:
+            assert row[name] == float(cli[name]), name
+        assert cli["status"] == "ok" and row["error"] is None
+        assert row["samples"] == int(cli["samples"])
+        assert row["distance_m"] == float(cli["distance_m"])
+        for name in integrals:
+            if name.endswith("_per_100km"):
+                key = "integrals_per_100km." + name[: -len("_per_100km")]
+            else:
+                key = "integrals." + name
+            assert row[key] == float(cli[name]), name
+        assert row["input_min"] == float(cli["input_min"]) and row["input_max"] == float(cli["input_max"])
+        violations = json.loads(row["input_bound_violations"])
+        assert len(violations) == int(cli["violations"])
+        assert sum(b - a for a, b in violations) + 0.0 == float(cli["violation_s"])
+
 
 
 @pytest.fixture(scope="session")

@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 
 import invsim
-from conftest import REPO, SI_ENGINE, assert_close, cli_json, run_cli
+from conftest import REPO, SI_ENGINE, assert_close, assert_rows_equal_cli, cli_json, cli_sweep, run_cli
 from invsim import _flatten
 
 FIVE_SPEED = REPO / "models" / "si_engine_5speed.toml"
@@ -84,7 +84,7 @@ def test_forward_options_are_checked():
 def test_sweep_rows_equal_single_runs_and_cli(modal, tmp_path):
     path, m = modal
     masses = [1300.0, 1700.0]
-    df = m.sweep(params={"m": masses}, cycles=["ece", "hwfet"], dt=0.5, threads=2)
+    df = m.sweep(grid={"m": masses}, cycles=["ece", "hwfet"], dt=0.5, threads=2)
     assert len(df) == 4 and df["error"].isna().all()
     for _, row in df.iterrows():
         mass = masses[row["variant"]]
@@ -99,9 +99,25 @@ def test_sweep_rows_equal_single_runs_and_cli(modal, tmp_path):
     assert_close({k: df.iloc[3][k] for k in flat}, flat)
 
 
+def test_grid_equals_cli_grid_with_modes(tmp_path):
+    # The 5-speed car over a 2 x 2 grid: the command line's rows, order and figures, with the modes' too.
+    args = ["--cycles", "ece,udds", "--dt", "0.5", "--grid", "m=1200:1600:2", "--grid", "C_d=0.3:0.34:2"]
+    header, rows = cli_sweep(tmp_path, FIVE_SPEED, *args)
+    grid = {"m": np.linspace(1200, 1600, 2), "C_d": np.linspace(0.3, 0.34, 2)}
+    df = invsim.Model(FIVE_SPEED).sweep(grid=grid, cycles=["ece", "udds"], dt=0.5)
+    assert len(df) == 8 and list(df["C_d"][::2]) == [0.3, 0.34, 0.3, 0.34]
+    assert_rows_equal_cli(df, header, rows, ["m", "C_d"])
+    for (_, row), fields in zip(df.iterrows(), rows):
+        cli = dict(zip(header, fields))
+        assert row["modes.switches"] == int(cli["switches"]) > 0
+        assert row["modes.max_transition_deviation"] == float(cli["max_transition_deviation"])
+        for mode in json.loads(row["modes.per_mode"]):
+            assert mode["time_s"] == float(cli["time_{}_s".format(mode["name"])]), mode["name"]
+
+
 def test_sweep_refuses_a_gearbox_parameter():
     m = invsim.Model(FIVE_SPEED)
-    df = m.sweep(params={"i_g": [3.0, 3.5]}, cycles=["ece"])
+    df = m.sweep(grid={"i_g": [3.0, 3.5]}, cycles=["ece"])
     assert df["error"].str.contains(r"\[gearbox\]").all()
 
 

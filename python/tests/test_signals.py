@@ -46,7 +46,7 @@ def test_signal_samples_equal_a_signal_file(tmp_path):
 
 def test_sweep_takes_signals_for_every_variant():
     model = invsim.Model(GRADE)
-    df = model.sweep(params={"m": [1200.0, 1400.0]}, cycles=["ece"], dt=0.5, signals={"grade": 0.02})
+    df = model.sweep(grid={"m": [1200.0, 1400.0]}, cycles=["ece"], dt=0.5, signals={"grade": 0.02})
     for i, m in enumerate([1200.0, 1400.0]):
         one = model.simulate(cycle="ece", dt=0.5, params={"m": m}, signals={"grade": 0.02}).summary
         assert df["integrals.fuel"][i] == one["integrals"]["fuel"]
