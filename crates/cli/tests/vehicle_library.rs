@@ -1,6 +1,6 @@
-//! The vehicle library's FASTSim imports against hand values: the 2026 Pacifica's fuel power at a standstill
-//! is its idle floor (its engine efficiency table is 0 at zero load, so fuel over efficiency is 0/0 there with a
-//! finite limit below the floor), and the 2020 Bolt's battery efficiency is the bilinear value of its table at
+//! The vehicle library's FASTSim imports against hand values: the 2026 Pacifica's stop-start and fuel cut-off
+//! (the idle fuel they save; its engine efficiency table is 0 at zero load, so fuel over efficiency is 0/0
+//! there with a finite limit below the idle floor), and the 2020 Bolt's battery efficiency is the bilinear value of its table at
 //! the C-rate of the auxiliary load and the temperature signal `T_res` (22 °C by default, or `--signal`).
 
 use crate::common::{invsim, json_file, stderr, tmp};
@@ -32,18 +32,56 @@ fn run(model: &str, cycle: &str, tag: &str, extra: &[&str]) -> serde_json::Value
 }
 
 #[test]
-fn the_pacifica_burns_its_idle_floor_at_a_standstill() {
-    // P_fc = P_aux/eta_alt = 700 W, load 700/211088 = 0.00332 on the table's first segment (0, 0)–(0.005,
-    // 0.09338201): P_fc/e = 211088 · 0.005/0.09338201 = 11 302 W, below the floor P_idle = 13 000 W.
-    let cycle = standstill("pacifica_stand.csv", 100);
-    let s = run(
-        "models/vehicles/chrysler_pacifica_2026.toml",
-        &cycle,
-        "pacifica_stand",
-        &[],
+fn the_pacifica_stops_its_engine_at_a_standstill_and_cuts_its_fuel_when_decelerating() {
+    // At a standstill the engine would burn its idle floor: P_fc = P_aux/eta_alt = 700 W, load
+    // 700/211088 = 0.00332 on the table's first segment (0, 0)–(0.005, 0.09338201), P_fc/e = 211088 ·
+    // 0.005/0.09338201 = 11 302 W, below P_idle = 13 000 W. Stop-start saves all of it: 13 kW · 100 s.
+    let stand = standstill("pacifica_stand.csv", 100);
+    let model = "models/vehicles/chrysler_pacifica_2026.toml";
+    let fuel = |cycle: &str, tag: &str, extra: &[&str]| {
+        let mut args = vec!["--lookahead", "0.5"];
+        args.extend_from_slice(extra);
+        run(model, cycle, tag, &args)["integrals"]["fuel_energy"]
+            .as_f64()
+            .unwrap()
+    };
+    assert_eq!(fuel(&stand, "pac_stand", &[]), 0.0);
+    let running = fuel(&stand, "pac_stand_on", &["--set", "v_stop=-1"]);
+    assert!(
+        (running - 13_000.0 * 100.0).abs() < 1e-9 * running,
+        "{running}"
     );
-    let fuel = s["integrals"]["fuel_energy"].as_f64().unwrap();
-    assert!((fuel - 13_000.0 * 100.0).abs() < 1e-9 * fuel, "{fuel}");
+    // 20 m/s for 30 s, braking at 1 m/s² to a stop at 50 s, standing to 60 s. The fuel is cut while the car
+    // decelerates at 0.3 m/s² or more above 10 m/s without traction: from the ramp's start to v = 10 m/s at
+    // 40 s, 10 s in which the engine would otherwise burn its idle floor (its load is the auxiliary one).
+    // The smoothed corner (a = 0.5 s) moves both ends by less than 0.3 s.
+    let path = tmp("pacifica_brake.csv");
+    let rows: String = (0..=60)
+        .map(|t| {
+            let v = if t <= 30 {
+                20.0
+            } else {
+                (50.0 - t as f64).max(0.0)
+            };
+            format!("{t},{v}\n")
+        })
+        .collect();
+    std::fs::write(&path, format!("time_s,speed_mps\n{rows}")).unwrap();
+    let brake = path.display().to_string();
+    let cut = fuel(&brake, "pac_brake", &[]);
+    let no_cut = fuel(&brake, "pac_brake_nocut", &["--set", "v_dfco=1e9"]);
+    let saved = no_cut - cut;
+    assert!(
+        (saved - 13_000.0 * 10.0).abs() < 13_000.0 * 0.3,
+        "saved {saved} J"
+    );
+    // And the stop at 50–60 s: stop-start saves the idle floor there, 13 kW for about 10 s.
+    let no_stop = fuel(&brake, "pac_brake_nostop", &["--set", "v_stop=-1"]);
+    let saved = no_stop - cut;
+    assert!(
+        (saved - 13_000.0 * 10.0).abs() < 13_000.0 * 0.3,
+        "saved {saved} J"
+    );
 }
 
 /// Linear interpolation between (x0, y0) and (x1, y1) at x.

@@ -58,11 +58,17 @@ pub fn emit(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<
     } else {
         eff.clone()
     };
+    let controls = crate::controls::emit(doc, model, BASE, warnings)?;
+    let doc_fuel = if controls.is_empty() {
+        "fuel power, at least the idle fuel power"
+    } else {
+        "fuel power, at least the idle fuel power while the engine runs and is fuelled (stop-start, fuel cut-off)"
+    };
     model.def(
         "P_fuel",
-        &format!("max(P_fc/{divisor}, P_idle)"),
+        &format!("{controls}max(P_fc/{divisor}, P_idle)"),
         "W",
-        "fuel power, at least the idle fuel power",
+        doc_fuel,
     );
     if e_f.is_some() {
         model.output("fuel", "P_fuel/e_f", "kg/s", "fuel mass flow", true);
@@ -94,20 +100,8 @@ pub fn emit(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<
     Ok(())
 }
 
-/// Stop-start, fuel cut-off and the engine's thermal model: FASTSim's `pt_cntrl`, `dfco_cntrl` and `fc.thrml`;
-/// only the warm engine that always runs and no cut-off are reproduced, anything else is named in a warning.
+/// The engine's thermal model (FASTSim `fc.thrml`): not reproduced, named in a warning.
 fn conv_controls(doc: &Doc, warnings: &mut Vec<String>) {
-    let cntrl = format!("{BASE}.pt_cntrl");
-    if let Some(v) = doc.get(&cntrl) {
-        if v.as_str() != Some("Normal") {
-            warnings.push(format!("`{cntrl}` is not `Normal`: stop-start is not modelled (the engine runs all the time)"));
-        }
-    }
-    let dfco = format!("{BASE}.dfco_cntrl.dfco_enabled");
-    if doc.get(&dfco).and_then(serde_yaml::Value::as_bool) == Some(true) {
-        warnings.push(format!("`{dfco}` is true: deceleration fuel cut-off is not modelled (fuel is burnt at the idle floor while braking)"));
-    }
-    doc.mark(&format!("{BASE}.dfco_cntrl"));
     let thrml = format!("{BASE}.fc.thrml");
     match doc.get(&thrml) {
         Some(v) if v.as_str() == Some("None") => doc.mark(&thrml),

@@ -9,6 +9,7 @@
 mod battery;
 mod bev;
 mod chassis;
+mod controls;
 mod conv;
 mod curve;
 mod depth;

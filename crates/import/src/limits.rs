@@ -21,6 +21,8 @@ pub struct Range {
 const POSITIVE: Range = range(0.0, false, f64::INFINITY, false);
 /// [0, ∞): loads drawn but never supplied (auxiliary load, idle fuel power), inertias, the drag coefficient.
 const NON_NEGATIVE: Range = range(0.0, true, f64::INFINITY, false);
+/// [−20, 0] m/s²: a deceleration threshold (an acceleration at or below zero; beyond 2 g no car brakes).
+const DECELERATION: Range = range(-20.0, true, 0.0, true);
 /// (0, 1]: an efficiency, output over input power: above 1 creates energy, 0 divides by zero.
 const EFFICIENCY: Range = range(0.0, false, 1.0, true);
 /// [0, 1]: a fraction (a load as a fraction of peak power; a rolling-resistance coefficient, force over
@@ -100,6 +102,21 @@ pub const FIELDS: &[(&str, Range, &str)] = &[
         "pt_type.Conv.fc.pwr_idle_fuel_watts",
         NON_NEGATIVE,
         "the idle fuel power",
+    ),
+    (
+        "pt_type.Conv.pt_cntrl.StartStop.stopped_speed_threshold_meters_per_second",
+        NON_NEGATIVE,
+        "the speed below which stop-start counts the car as stopped",
+    ),
+    (
+        "pt_type.Conv.dfco_cntrl.minimum_dfco_speed_meters_per_second",
+        NON_NEGATIVE,
+        "the lowest speed of the fuel cut-off",
+    ),
+    (
+        "pt_type.Conv.dfco_cntrl.minimum_dfco_deceleration_meters_per_second_squared",
+        DECELERATION,
+        "the fuel cut-off's acceleration threshold (a deceleration)",
     ),
     (
         "pt_type.Conv.fs.specific_energy_joules_per_kilogram",

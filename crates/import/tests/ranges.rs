@@ -65,6 +65,19 @@ fn concrete(yaml: &Value, pattern: &str) -> Vec<String> {
     }
 }
 
+/// Whether the importer reads the field `pattern` of `yaml`: the battery's initial temperature only for its
+/// efficiency table (the Bolt's), the fuel cut-off's thresholds only when it is enabled.
+fn read_in(yaml: &Value, pattern: &str) -> bool {
+    let has = |p: &str| invsim_import::yaml_lookup(yaml, p);
+    if pattern.ends_with("temperature_kelvin") {
+        return has("pt_type.BEV.res.eff_interp.CRateTemperature").is_some();
+    }
+    if pattern.starts_with("pt_type.Conv.dfco_cntrl.") {
+        return has("pt_type.Conv.dfco_cntrl.dfco_enabled").and_then(Value::as_bool) == Some(true);
+    }
+    true
+}
+
 /// The number written at 1-based `line`, `column` of `text`.
 fn number_at(text: &str, line: usize, column: usize) -> f64 {
     let l = text.lines().nth(line - 1).unwrap();
@@ -84,11 +97,8 @@ fn every_field_outside_its_range_is_refused_with_its_position() {
     for path in vehicle_files() {
         let file = path.file_name().unwrap().to_str().unwrap();
         let original = parse_yaml(&std::fs::read_to_string(&path).unwrap()).unwrap();
-        // The battery's initial temperature is read only for its efficiency table (the Bolt's).
-        let table = "pt_type.BEV.res.eff_interp.CRateTemperature";
-        let has_table = invsim_import::yaml_lookup(&original, table).is_some();
         for (pattern, range, _) in FIELD_RANGES {
-            if pattern.ends_with("temperature_kelvin") && !has_table {
+            if !read_in(&original, pattern) {
                 continue;
             }
             for path in concrete(&original, pattern) {
