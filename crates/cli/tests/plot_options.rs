@@ -86,6 +86,11 @@ fn size_and_dpi_set_the_image_size() {
         &["--size", "8x10in", "--dpi", "150"],
     );
     assert_eq!(png_size(&png), (1200, 1500), "8 × 10 in at 150 dpi");
+    // The file says its resolution (pHYs right after the header: pixels per metre, unit 1).
+    assert_eq!(&png[37..41], b"pHYs");
+    let per_metre = u32::from_be_bytes([png[41], png[42], png[43], png[44]]);
+    assert_eq!(per_metre, (150.0f64 / 0.0254).round() as u32);
+    assert_eq!(png[49], 1);
     let png = plot(
         "simulate",
         "models/si_engine.toml",

@@ -1,9 +1,10 @@
 //! Plots of a run for a report, as Figs. 5 and 7 of Fröberg & Nielsen (2004): panels stacked over time, by
-//! default the raw cycle with the smoothed reference y_d, the input with its bounds and the running integral
-//! of every accumulated output (the fuel used so far); `--plot-vars` chooses any of the reference, the input,
-//! the states, the `[outputs]` and `cum:NAME`. Every axis label carries the model file's unit.
+//! default the raw cycle with the smoothed reference y_d, the input with its bounds, one running integral
+//! (the fuel used so far) and the engine's operating points; `--plot-vars` chooses any of the reference, the
+//! input, the states, the `[outputs]`, `cum:NAME` and `engine`. Every axis label carries the model file's
+//! unit.
 //!
-//! The figure is 1000 px wide, text at 14–20 px in the embedded DejaVu Sans; SVG or PNG by the file's
+//! The figure is 1000 px wide by default, text at 14–20 px in the embedded DejaVu Sans; SVG or PNG by the file's
 //! extension, the PNG rasterised from the same SVG in pure Rust (resvg), so no system font is needed.
 //!
 //! A figure's size and resolution (`--size`, `--dpi`: [`Layout`]) and its time window (`--window`:
@@ -12,11 +13,12 @@
 //! engine's operating points coloured by the fuel flow (`engine_map`).
 //!
 //! Modules, in the one direction their imports go: `axis` (ranges, nice ticks), `font` (the embedded font:
-//! text widths, PNG), `error` (why a plot fails), `svg` (text and stroke elements), `scatter` (the operating-point panel), `figure` (the
-//! SVG layout), `layout` (size and resolution), `window` (the time window), `panels` (what each
-//! `--plot-vars` name draws), `engine_map` (the engine's operating points), `reference` (the reference
-//! panels' axis and raw cycle), `exogenous` (the panel of a `[signals]` signal, raw and smoothed), `modal`
-//! (the figures of runs with operating modes, with the step panel of the mode sequence), this file.
+//! text widths, PNG), `error` (why a plot fails), `svg` (text sizes and elements), `scatter` (the
+//! operating-point panel), `layout` (size and resolution), `png_dpi` (the resolution in the PNG file),
+//! `figure` (the SVG layout), `window` (the time window), `panels` (what each `--plot-vars` name draws),
+//! `engine_map` (the engine's operating points), `reference` (the reference panels' axis and raw cycle),
+//! `exogenous` (the panel of a `[signals]` signal, raw and smoothed), `modal` (the figures of runs with
+//! operating modes, with the step panel of the mode sequence), this file.
 
 mod axis;
 mod engine_map;
@@ -27,6 +29,7 @@ mod font;
 mod layout;
 mod modal;
 mod panels;
+mod png_dpi;
 mod reference;
 mod scatter;
 mod svg;
@@ -336,7 +339,7 @@ impl Figure {
         let svg = self.to_svg_with(layout)?;
         match format {
             PlotFormat::Svg => Ok(svg.into_bytes()),
-            PlotFormat::Png => font::svg_to_png(&svg),
+            PlotFormat::Png => font::svg_to_png(&svg).map(|png| png_dpi::with_dpi(png, layout.dpi)),
         }
     }
 

@@ -12,7 +12,7 @@ use invsim_runtime::forward::forward_modes;
 use invsim_runtime::modes::{simulate_modes, ModalOptions};
 use invsim_runtime::plot::{
     self, default_vars, forward_figure, modal_default_vars, modal_forward_figure,
-    modal_simulation_figure, modal_valid_vars, simulation_figure, text_width, valid_vars,
+    modal_simulation_figure, modal_valid_vars, simulation_figure, text_width, valid_vars, Layout,
     PlotError, PlotFormat, WIDTH,
 };
 use invsim_runtime::{forward, simulate, Cycle, ForwardOptions, SimulationOptions};
@@ -463,4 +463,65 @@ fn a_model_with_modes_but_no_gearbox_plots_the_mode_index() {
     check_svg(&svg, &vars, "si_engine_5speed without a gearbox");
     assert!(panel_labels(&svg).contains(&("mode".to_string(), "mode [index]".to_string())));
     assert!(svg.contains("mode in force: 0 drive, 1 coast, 2 overrun, 3 idle"));
+}
+
+/// `--size`, `--dpi` and `--window` rendered: the PNG has the size × dpi / 96 pixels, and the input's blue
+/// line lies inside the plot area from its left edge to its right one (the window's ends).
+#[test]
+fn a_sized_windowed_png_draws_its_window_across_the_plot_area() {
+    let path = models()
+        .into_iter()
+        .find(|p| p.ends_with("si_engine.toml"))
+        .unwrap();
+    let model = load(&path);
+    let cycle = Cycle::builtin("nedc").unwrap();
+    let res = simulate(&model, &cycle, &sim_opts()).unwrap();
+    let fig = simulation_figure(&res, &cycle, model.info(), &["input".to_string()])
+        .unwrap()
+        .windowed((200.0, 400.0))
+        .unwrap();
+    let layout = Layout::new(Some((800.0, 400.0)), Some(192.0)).unwrap();
+    let img = Pixmap::decode_png(&fig.render_with(PlotFormat::Png, &layout).unwrap()).unwrap();
+    assert_eq!((img.width(), img.height()), (1600, 800));
+    let svg = fig.to_svg_with(&layout).unwrap();
+    let doc = roxmltree::Document::parse(&svg).unwrap();
+    let frame = doc
+        .descendants()
+        .find(|n| n.attribute("class") == Some("frame"))
+        .unwrap();
+    let s = layout.scale();
+    let (x0, y0) = (attr(frame, "x") * s, attr(frame, "y") * s);
+    let (x1, y1) = (
+        x0 + attr(frame, "width") * s,
+        y0 + attr(frame, "height") * s,
+    );
+    let blue: Vec<(f64, f64)> = (0..img.height())
+        .flat_map(|y| (0..img.width()).map(move |x| (x, y)))
+        .filter(|&(x, y)| {
+            let p = img.pixel(x, y).unwrap();
+            p.red() < 40 && p.green().abs_diff(0x72) < 30 && p.blue().abs_diff(0xB2) < 30
+        })
+        .map(|(x, y)| (f64::from(x), f64::from(y)))
+        .filter(|&(_, y)| y > y0 && y < y1)
+        .collect();
+    assert!(
+        blue.len() > 500,
+        "{} blue pixels in the plot area",
+        blue.len()
+    );
+    let (lo, hi) = blue
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(l, h), p| (l.min(p.0), h.max(p.0)));
+    assert!(
+        lo >= x0 - 1.0 && hi <= x1 + 1.0,
+        "{lo} … {hi} inside {x0} … {x1}"
+    );
+    assert!(
+        lo <= x0 + 6.0 && hi >= x1 - 6.0,
+        "the line spans the window: {lo} … {hi}"
+    );
+    assert!(
+        fig.windowed((100.0, 500.0)).is_err(),
+        "outside the window drawn"
+    );
 }
