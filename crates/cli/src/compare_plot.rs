@@ -8,14 +8,13 @@
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
-use invsim_runtime::numfmt::num;
 use invsim_runtime::plot::{thin, Figure, Panel, Series, PALETTE};
 
 use crate::compare_table::label;
 use crate::error::Failure;
 use crate::plotting::FigureArgs;
 use crate::run_series::{self, RunSeries};
-use crate::run_summary::RunSummary;
+use crate::run_summary::{four_digits, RunSummary};
 
 // No doc comment: clap would make it the command's about.
 #[derive(clap::Args, Debug)]
@@ -315,7 +314,7 @@ fn headline(runs: &[RunSummary]) -> Option<String> {
                 _ if a != 0.0 => format!(" ({:+.2} %)", 100.0 * (v - a) / a.abs()),
                 _ => String::new(),
             };
-            Some(format!("{} {} {unit}{diff}", label(k), num(v)))
+            Some(format!("{} {} {unit}{diff}", label(k), four_digits(v)))
         })
         .collect();
     Some(format!("{f}: {}", items.join(", ")))

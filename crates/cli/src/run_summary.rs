@@ -203,7 +203,7 @@ pub fn headline(json: &Map<String, Value>) -> Option<String> {
         .iter()
         .filter_map(|(k, v)| {
             let u = unit(k);
-            let text = format!("{} {u}{per} {k}", num(v.as_f64()?));
+            let text = format!("{} {u}{per} {k}", four_digits(v.as_f64()?));
             Some((u != "l", text.replace("  ", " ")))
         })
         .collect();
@@ -228,6 +228,23 @@ pub fn headline(json: &Map<String, Value>) -> Option<String> {
         num((km * 1000.0).round() / 1000.0),
         num(s)
     ))
+}
+
+/// `v` with four significant digits, as the text summary prints its results (trailing zeros dropped; an
+/// exponent for very large or small magnitudes).
+pub fn four_digits(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return num(v);
+    }
+    let mag = v.abs().log10().floor() as i32;
+    if !(-4..6).contains(&mag) {
+        return format!("{v:.3e}");
+    }
+    let s = format!("{v:.*}", (3 - mag).max(0) as usize);
+    match s.contains('.') {
+        true => s.trim_end_matches('0').trim_end_matches('.').to_string(),
+        false => s,
+    }
 }
 
 fn push(out: &mut Vec<Figure>, name: String, unit: Option<String>, n: &serde_json::Number) {
@@ -305,6 +322,9 @@ mod tests {
             headline(&s.json).unwrap(),
             "result: 6.846 l/100 km fuel_volume, 5.1 kg/100 km fuel over 11.013 km in 1180 s"
         );
+        assert_eq!(four_digits(8.35993), "8.36");
+        assert_eq!(four_digits(0.00465408), "0.004654");
+        assert_eq!(four_digits(12345.6), "12346");
     }
 
     #[test]

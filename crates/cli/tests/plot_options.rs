@@ -308,14 +308,15 @@ fn one_fuel_panel_raw_and_smoothed_apart_and_the_headline_on_the_figure() {
         "{smooth}"
     );
     assert!(attr(&smooth, "stroke-width") > attr(&raw, "stroke-width"));
-    // The headline: the run's l/100 km as the summary gives it.
+    // The headline: the run's l/100 km as the summary gives it, to four significant digits.
     let l = json_file(&json)["integrals_per_100km"]["fuel_volume"]
         .as_f64()
         .unwrap();
-    let shown = format!(
-        "result: {} l/100 km fuel_volume",
-        invsim_runtime::numfmt::num(l)
+    assert!(
+        (6.0..10.0).contains(&l) && (l * 1e3).round() % 10.0 != 0.0,
+        "{l}"
     );
+    let shown = format!("result: {l:.3} l/100 km fuel_volume");
     assert!(
         svg.contains("class=\"headline\"") && svg.contains(&shown),
         "{shown}"
