@@ -55,8 +55,9 @@ pub fn write(args: &ComparePlotArgs, runs: &[RunSummary]) -> Result<(), Failure>
         )));
     }
     invsim_runtime::plot::PlotFormat::from_path(path).map_err(crate::plotting::user)?;
-    args.figure.check(None)?;
     let vars = resolve(runs, &args.plot_vars)?;
+    let names: Vec<String> = vars.iter().map(|_| "panel".to_string()).collect();
+    args.figure.check(&names, None)?;
     let files: Vec<PathBuf> = runs
         .iter()
         .enumerate()

@@ -76,9 +76,20 @@ impl FigureArgs {
             .map_err(user)
     }
 
-    /// Check the options; `span`: the run's time span where known before it (the cycle's).
-    pub fn check(&self, span: Option<(f64, f64)>) -> Result<(), Failure> {
-        self.layout()?;
+    /// Check the options for a figure of the panels `names`; `span`: the run's time span where known before
+    /// it (the cycle's).
+    pub fn check(&self, names: &[String], span: Option<(f64, f64)>) -> Result<(), Failure> {
+        let layout = self.layout()?;
+        if let Some(height) = layout.height {
+            let needed = plot::min_height(names);
+            if height < needed {
+                return Err(user(PlotError::TooLow {
+                    height,
+                    needed,
+                    panels: names.len(),
+                }));
+            }
+        }
         if let (Some(w), Some(span)) = (self.window()?, span) {
             plot::check_window(w, span).map_err(user)?;
         }
@@ -124,7 +135,10 @@ pub fn check(args: &PlotArgs, info: &ModelInfo, span: Option<(f64, f64)>) -> Res
     if let Some(path) = &args.plot {
         PlotFormat::from_path(path).map_err(user)?;
         plot::check_vars(info, &args.plot_vars).map_err(user)?;
-        args.figure.check(span)?;
+        args.figure.check(
+            &names_or(&args.plot_vars, || plot::default_vars(info)),
+            span,
+        )?;
     }
     Ok(())
 }
@@ -138,9 +152,24 @@ pub fn check_modal(
     if let Some(path) = &args.plot {
         PlotFormat::from_path(path).map_err(user)?;
         plot::check_modal_vars(spec, &args.plot_vars).map_err(user)?;
-        args.figure.check(span)?;
+        let names = names_or(&args.plot_vars, || plot::modal_default_vars(spec));
+        args.figure.check(&names, span)?;
     }
     Ok(())
+}
+
+/// The `--plot-vars` names, or the model's default panels.
+fn names_or(vars: &[String], default: impl FnOnce() -> Vec<String>) -> Vec<String> {
+    let given: Vec<String> = vars
+        .iter()
+        .filter(|v| !v.trim().is_empty())
+        .cloned()
+        .collect();
+    if given.is_empty() {
+        default()
+    } else {
+        given
+    }
 }
 
 /// Write `figure` (built only when `--plot` was given) with the run's `headline` to the `--plot` file,

@@ -48,7 +48,8 @@ use reference::{raw_points, reference_axis, time_range};
 
 pub use error::PlotError;
 pub use figure::{
-    Figure, Panel, Series, LABEL_SIZE, LEGEND_SIZE, PANEL_TITLE_SIZE, TICK_SIZE, TITLE_SIZE, WIDTH,
+    min_height, Figure, Panel, Series, LABEL_SIZE, LEGEND_SIZE, PANEL_TITLE_SIZE, TICK_SIZE,
+    TITLE_SIZE, WIDTH,
 };
 pub use font::{text_width, FONT_FAMILY};
 pub use layout::{

@@ -33,6 +33,23 @@ const PANEL_GAP: f64 = 16.0;
 const X_LABEL_ROW: f64 = 30.0;
 const SWATCH: f64 = 26.0;
 
+/// The lowest figure that draws `names` (`--plot-vars`; `engine` is the operating-point panel) with a
+/// headline, one legend row per panel and 40 pixels of plot each: a `--size` below it is refused before the
+/// run (a figure whose legends need more rows is refused when it is drawn).
+pub fn min_height(names: &[String]) -> f64 {
+    let scatter = names.iter().any(|n| n.trim() == "engine");
+    let panels = names.iter().filter(|n| n.trim() != "engine").count() as f64;
+    let per_panel = HEADER_ROW + LEGEND_ROW + 6.0 + TICK_ROW + PANEL_GAP + MIN_PLOT_HEIGHT;
+    let mut h = MARGIN + TITLE_ROW + HEADLINE_ROW + panels * per_panel + MARGIN;
+    if panels > 0.0 {
+        h += X_LABEL_ROW - PANEL_GAP;
+    }
+    if scatter {
+        h += scatter::FIXED + scatter::RATIO * MIN_PLOT_HEIGHT;
+    }
+    h.ceil()
+}
+
 /// One curve: its legend label, colour, line width, dash and points (x, y) in axis units.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Series {

@@ -282,20 +282,21 @@ fn build(
     let info = info0(spec);
     let t = cols.get("t");
     let mut k = 0;
+    // The engine's operating points are no time panel (`modal_engine`).
     vars.iter()
-        .filter(|v| **v != ModalVar::Engine)
-        .map(|var| match *var {
-            ModalVar::Engine | ModalVar::Reference => reference(),
-            ModalVar::Exogenous(i) => exogenous(i),
-            ModalVar::Input(i) => modal_input_panel(spec, i, cols, how),
-            ModalVar::Sequence => sequence_panel(spec, t, cols),
+        .filter_map(|var| match *var {
+            ModalVar::Engine => None,
+            ModalVar::Reference => Some(reference()),
+            ModalVar::Exogenous(i) => Some(exogenous(i)),
+            ModalVar::Input(i) => Some(modal_input_panel(spec, i, cols, how)),
+            ModalVar::Sequence => Some(sequence_panel(spec, t, cols)),
             ModalVar::Signal(signal) => {
                 let name = match signal {
                     Signal::State(i) => &info.states[i],
                     Signal::Output(i) | Signal::Cumulative(i) => &info.outputs[i].name,
                 };
                 k += 1;
-                signal_panel(info, signal, t, cols.get(name), k - 1)
+                Some(signal_panel(info, signal, t, cols.get(name), k - 1))
             }
         })
         .collect()
