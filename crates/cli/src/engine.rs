@@ -129,10 +129,13 @@ pub fn prepare_run(
         req.set,
     )?;
     match &model {
-        Loaded::Single(m) => crate::plotting::check(req.plot, m.as_model().info())?,
+        Loaded::Single(m) => {
+            crate::plotting::check(req.plot, m.as_model().info(), crate::plotting::span(&cycle))?
+        }
         Loaded::Modal(m) => crate::plotting::check_modal(
             req.plot,
             &m.plant.spec(invsim_runtime::modes::GearSource::Fixed),
+            crate::plotting::span(&cycle),
         )?,
     }
     crate::map_args::apply(&req.data.map, |name, data| model.set_map(name, data))?;
@@ -158,7 +161,20 @@ pub fn write_run(
 ) -> Result<(), Failure> {
     outputs.write("--out", |f| result.write_csv(f))?;
     outputs.write("--summary-json", |f| result.write_summary_json(f))?;
-    crate::plotting::write(plot, &mut outputs, |vars| plant.figure(result, cycle, vars))?;
+    let headline = || {
+        let mut json = Vec::new();
+        result.write_summary_json(&mut json).ok()?;
+        match serde_json::from_slice(&json).ok()? {
+            serde_json::Value::Object(m) => crate::run_summary::headline(&m),
+            _ => None,
+        }
+    };
+    crate::plotting::write(
+        plot,
+        &mut outputs,
+        |vars| plant.figure(result, cycle, vars),
+        headline,
+    )?;
     outputs.commit()?;
     crate::files::print_stdout(&result.summary_text())
 }

@@ -1,6 +1,6 @@
 //! The `invsim` command line: `derive` prints a model's inversion, `simulate` runs it along a drive cycle,
 //! `sweep` runs many parameter variants of it, `forward` runs the original model along the cycle with a PI
-//! driver, `cycles` lists the built-in drive cycles, `import` turns
+//! driver, `compare` sets runs' summaries side by side, `cycles` lists the built-in drive cycles, `import` turns
 //! a FASTSim vehicle file into a model file, `completions` prints a shell completion script.
 //!
 //! Exit status (contract §3): 0 on success, 2 on a user error (bad model or cycle file, bad option, a model
@@ -10,6 +10,9 @@
 //! `process.rs` says why and what it does instead): there glibc hands the arguments to std before `main`.
 #![cfg_attr(all(target_os = "linux", target_env = "gnu", not(test)), no_main)]
 
+mod compare_cmd;
+mod compare_plot;
+mod compare_table;
 mod completions;
 mod cycle_spec;
 mod cycles_cmd;
@@ -33,6 +36,8 @@ mod plotting;
 mod process;
 mod progress;
 mod provenance;
+mod run_series;
+mod run_summary;
 mod signal_args;
 mod simulate;
 mod sweep_cmd;
@@ -69,6 +74,9 @@ enum Command {
     Sweep(sweep_cmd::SweepArgs),
     /// Run the forward simulation of a model along a drive cycle, closed by a PI driver on the raw cycle.
     Forward(forward::ForwardArgs),
+    /// Compare runs: the figures of two or more summary JSON files side by side with their differences to
+    /// the first; `--plot` overlays their CSV series.
+    Compare(compare_cmd::CompareArgs),
     /// List the built-in drive cycles with their duration, distance and top speed.
     Cycles(cycles_cmd::CyclesArgs),
     /// Import another tool's vehicle file as a model file (`invsim import fastsim VEHICLE.yaml`).
@@ -105,6 +113,7 @@ fn run() -> u8 {
         Command::Simulate(args) => simulate::run(&args),
         Command::Sweep(args) => sweep_cmd::run(&args),
         Command::Forward(args) => forward::run(&args),
+        Command::Compare(args) => compare_cmd::run(&args),
         Command::Cycles(args) => cycles_cmd::run(&args),
         Command::Import(format) => import_cmd::run(&format),
         Command::Completions(args) => completions::run(&args, Cli::command()),

@@ -1,4 +1,5 @@
 //! The integration tests of this crate in one test binary (one link instead of one per file):
+//! - `compare`: `invsim compare`: runs' figures side by side with their differences, refusals, `--plot` overlays.
 //! - `cli`: The `invsim` command line as a user meets it: exit codes, the contract's JSON and CSV layouts, and
 //! - `conveniences`: The first-hour conveniences of the `invsim` command: `invsim cycles` (text and JSON), shell completions,
 //! - `derive_bad_model`: `invsim derive` on a model that cannot be loaded or inverted exits with status 2 and prints
@@ -12,6 +13,8 @@
 //!   `simulate` and `forward`, by default and by name.
 //! - `outputs`: Output files of `simulate` and `forward` on success: written in place, through links into the linked file,
 //! - `plot`: `--plot` and `--plot-vars` of `simulate` and `forward`: SVG and PNG by the extension, the chosen panels,
+//! - `plot_options`: `--size`, `--dpi`, `--window` and what every figure shows: scales from the data, one
+//!   cumulative-fuel panel, raw and smoothed apart, the headline result, the engine's operating points.
 //! - `schema`: Every shipped model's `simulate` and `forward` summaries and `sweep` rows validate against
 //!   `docs/summary.schema.json`, checked by a small validator of the part of JSON Schema the schema uses.
 //! - `stable`: `invsim` with unstable zero dynamics: the classification in `derive`, stable (non-causal) inversion selected
@@ -27,6 +30,7 @@
 
 mod cli;
 mod common;
+mod compare;
 mod conveniences;
 mod derive_bad_model;
 mod forward;
@@ -38,6 +42,7 @@ mod modes_plot_signals;
 mod modes_sweep;
 mod outputs;
 mod plot;
+mod plot_options;
 mod schema;
 mod stable;
 mod start_up;

@@ -167,7 +167,14 @@ fn simulate_and_forward_plot_the_inputs_and_the_gear() {
         ]);
         assert!(o.status.success(), "{command}: {}", stderr(&o));
         let text = std::fs::read_to_string(&svg).expect("SVG");
-        for var in ["reference", "m_at", "F_b", "gear", "cum:fuel"] {
+        for var in [
+            "reference",
+            "m_at",
+            "F_b",
+            "gear",
+            "cum:fuel_volume",
+            "engine",
+        ] {
             assert!(
                 text.contains(&format!("data-var=\"{var}\"")),
                 "{command}: panel {var}"

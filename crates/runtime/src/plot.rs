@@ -1,68 +1,68 @@
 //! Plots of a run for a report, as Figs. 5 and 7 of Fröberg & Nielsen (2004): panels stacked over time, by
-//! default the raw cycle with the smoothed reference y_d, the input with its bounds and the running integral
-//! of every accumulated output (the fuel used so far); `--plot-vars` chooses any of the reference, the input,
-//! the states, the `[outputs]` and `cum:NAME`. Every axis label carries the model file's unit.
+//! default the raw cycle with the smoothed reference y_d, the input with its bounds, one running integral
+//! (the fuel used so far) and the engine's operating points; `--plot-vars` chooses any of the reference, the
+//! input, the states, the `[outputs]`, `cum:NAME` and `engine`. Every axis label carries the model file's
+//! unit.
 //!
-//! The figure is 1000 px wide, text at 14–20 px in the embedded DejaVu Sans; SVG or PNG by the file's
+//! The figure is 1000 px wide by default, text at 14–20 px in the embedded DejaVu Sans; SVG or PNG by the file's
 //! extension, the PNG rasterised from the same SVG in pure Rust (resvg), so no system font is needed.
 //!
+//! A figure's size and resolution (`--size`, `--dpi`: [`Layout`]) and its time window (`--window`:
+//! [`Figure::windowed`]) are chosen when it is rendered; each panel's scale comes from its curves inside the
+//! window, an input's bounds are guides drawn where they fall inside it. Models with an `[engine]` get the
+//! engine's operating points coloured by the fuel flow (`engine_map`).
+//!
 //! Modules, in the one direction their imports go: `axis` (ranges, nice ticks), `font` (the embedded font:
-//! text widths, PNG), `figure` (the SVG layout), `panels` (what each `--plot-vars` name draws), `reference`
-//! (the reference panels' axis and raw cycle), `exogenous` (the panel of a `[signals]` signal, raw and
-//! smoothed), `modal` (the figures of runs with operating modes, with the step panel of the mode sequence),
-//! this file.
+//! text widths, PNG), `error` (why a plot fails), `svg` (text sizes and elements), `scatter` (the
+//! operating-point panel), `layout` (size and resolution), `png_dpi` (the resolution in the PNG file),
+//! `figure` (the SVG layout), `window` (the time window), `panels` (what each `--plot-vars` name draws),
+//! `engine_map` (the engine's operating points), `reference` (the reference panels' axis and raw cycle),
+//! `exogenous` (the panel of a `[signals]` signal, raw and smoothed), `modal` (the figures of runs with
+//! operating modes, with the step panel of the mode sequence), this file.
 
 mod axis;
+mod engine_map;
+mod error;
 mod exogenous;
 mod figure;
 mod font;
+mod layout;
 mod modal;
 mod panels;
+mod png_dpi;
 mod reference;
+mod scatter;
+mod svg;
+mod window;
 
 use std::path::Path;
 
 use invsim_model_api::{ModelInfo, ReferenceMap};
-use thiserror::Error;
 
 use crate::cycle::Cycle;
 use crate::forward::ForwardResult;
 use crate::inverse::SimulationResult;
 use exogenous::signal_raw_and_smoothed;
-use panels::{input_panel, resolve, series, signal_panel, Var, CYCLE, REFERENCE};
+use panels::{input_panel, raw_series, resolve, signal_panel, smoothed_series, Var};
 use reference::{raw_points, reference_axis, time_range};
 
+pub use error::PlotError;
 pub use figure::{
-    Figure, Panel, Series, LABEL_SIZE, LEGEND_SIZE, PANEL_TITLE_SIZE, TICK_SIZE, TITLE_SIZE, WIDTH,
+    min_height, Figure, Panel, Series, LABEL_SIZE, LEGEND_SIZE, PANEL_TITLE_SIZE, TICK_SIZE,
+    TITLE_SIZE, WIDTH,
 };
 pub use font::{text_width, FONT_FAMILY};
+pub use layout::{
+    parse_size, Layout, DEFAULT_DPI, MAX_DPI, MAX_HEIGHT, MAX_PIXELS, MAX_WIDTH, MIN_DPI,
+};
 pub use modal::{
     check_modal_vars, modal_default_vars, modal_forward_figure, modal_simulation_figure,
     modal_valid_vars,
 };
 pub use panels::{default_vars, valid_vars, MAX_BUCKETS};
-
-/// Why a plot could not be drawn or written.
-#[derive(Debug, Error)]
-pub enum PlotError {
-    #[error("nothing to plot: the result has no samples")]
-    Empty,
-    #[error("cannot plot to {path}: the file name must end in .svg or .png")]
-    Format { path: String },
-    #[error("--plot-vars: unknown panel `{name}`; this model's panels are: {valid}")]
-    UnknownVar { name: String, valid: String },
-    #[error("--plot-vars: no panel given; this model's panels are: {valid}")]
-    NoVars { valid: String },
-    #[error(
-        "--plot-vars: {given} panels, more than the {max} a plot draws (each panel is 200 pixels high); plot \
-         fewer variables, or several plots"
-    )]
-    TooManyPanels { given: usize, max: usize },
-    #[error("cannot render the plot as PNG: {0}")]
-    Render(String),
-    #[error("cannot write the plot {path}: {message}")]
-    Write { path: String, message: String },
-}
+pub use panels::{thin, PALETTE};
+pub use scatter::{Scatter, ScatterPoint};
+pub use window::{check_window, parse_window};
 
 /// The file format of a plot, chosen by the file's extension.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -169,9 +169,11 @@ pub fn simulation_figure(
             "{} on {}: inverse simulation, look-ahead a = {} s",
             s.run.model, s.run.cycle, s.lookahead_s
         ),
+        headline: None,
         x_label: "t [s]".to_string(),
         x_range,
         panels,
+        scatter: engine_panel(info, &vars, columns),
     })
 }
 
@@ -205,9 +207,11 @@ pub fn forward_figure(
             "{} on {}: forward simulation with the PI driver",
             s.run.model, s.run.cycle
         ),
+        headline: None,
         x_label: "t [s]".to_string(),
         x_range,
         panels,
+        scatter: engine_panel(info, &vars, columns),
     })
 }
 
@@ -228,7 +232,15 @@ impl<'a> Columns<'a> {
     }
 }
 
-/// The panels of `vars` from the run's `columns`.
+/// The engine's operating points when `vars` name them.
+fn engine_panel(info: &ModelInfo, vars: &[(String, Var)], columns: Columns<'_>) -> Option<Scatter> {
+    if !vars.iter().any(|(_, v)| *v == Var::Engine) {
+        return None;
+    }
+    engine_map::engine_scatter(info, &info.outputs, |n| columns.get(n))
+}
+
+/// The panels of `vars` from the run's `columns` (the engine's operating points are no time panel).
 fn build_panels(
     info: &ModelInfo,
     vars: &[(String, Var)],
@@ -242,6 +254,7 @@ fn build_panels(
     let mut panels = Vec::with_capacity(vars.len());
     for (_, var) in vars {
         let panel = match *var {
+            Var::Engine => continue,
             Var::Reference => reference(),
             Var::Exogenous(i) => exogenous(i),
             Var::Input => input_panel(info, t, column(&info.input), input_title),
@@ -287,15 +300,10 @@ fn simulation_reference(
         y_label,
         y_zero,
         series: vec![
-            Series {
-                label: raw_label,
-                color: CYCLE,
-                width: 1.5,
-                dashed: false,
-                points: raw,
-            },
-            series("y_d (smoothed)".to_string(), REFERENCE, 2.0, r.time(), &yd),
+            raw_series(raw_label, raw),
+            smoothed_series("y_d (smoothed)".to_string(), r.time(), &yd),
         ],
+        guides: Vec::new(),
     }
 }
 
@@ -311,31 +319,28 @@ fn forward_reference(r: &ForwardResult, info: &ModelInfo, reference: ReferenceMa
         y_label,
         y_zero,
         series: vec![
-            series(
+            raw_series(
                 "cycle y_c (raw)".to_string(),
-                CYCLE,
-                1.5,
-                t,
-                &scaled(r.cycle_speed()),
+                panels::thin(t, &scaled(r.cycle_speed())),
             ),
-            series(
-                format!("achieved {}", info.output),
-                REFERENCE,
-                1.5,
-                t,
-                &scaled(achieved),
-            ),
+            smoothed_series(format!("achieved {}", info.output), t, &scaled(achieved)),
         ],
+        guides: Vec::new(),
     }
 }
 
 impl Figure {
     /// The figure in `format`: SVG text, or PNG bytes rasterised from it.
     pub fn render(&self, format: PlotFormat) -> Result<Vec<u8>, PlotError> {
-        let svg = self.to_svg();
+        self.render_with(format, &Layout::default())
+    }
+
+    /// The figure in `format` laid out and rasterised as `layout` asks (`--size`, `--dpi`).
+    pub fn render_with(&self, format: PlotFormat, layout: &Layout) -> Result<Vec<u8>, PlotError> {
+        let svg = self.to_svg_with(layout)?;
         match format {
             PlotFormat::Svg => Ok(svg.into_bytes()),
-            PlotFormat::Png => font::svg_to_png(&svg).map_err(PlotError::Render),
+            PlotFormat::Png => font::svg_to_png(&svg).map(|png| png_dpi::with_dpi(png, layout.dpi)),
         }
     }
 

@@ -12,7 +12,7 @@ use invsim_runtime::forward::forward_modes;
 use invsim_runtime::modes::{simulate_modes, ModalOptions};
 use invsim_runtime::plot::{
     self, default_vars, forward_figure, modal_default_vars, modal_forward_figure,
-    modal_simulation_figure, modal_valid_vars, simulation_figure, text_width, valid_vars,
+    modal_simulation_figure, modal_valid_vars, simulation_figure, text_width, valid_vars, Layout,
     PlotError, PlotFormat, WIDTH,
 };
 use invsim_runtime::{forward, simulate, Cycle, ForwardOptions, SimulationOptions};
@@ -101,7 +101,17 @@ pub(crate) fn check_svg(svg: &str, vars: &[String], what: &str) {
         .iter()
         .map(|p| p.attribute("data-var").unwrap())
         .collect();
-    assert_eq!(shown, vars, "{what}: one panel per variable, in order");
+    // The engine's operating points are a panel of their own axes under the time panels.
+    let over_time: Vec<&String> = vars.iter().filter(|v| *v != "engine").collect();
+    assert_eq!(shown, over_time, "{what}: one panel per variable, in order");
+    let scatter = doc.descendants().any(|n| {
+        n.attribute("class") == Some("scatter") && n.attribute("data-var") == Some("engine")
+    });
+    assert_eq!(
+        scatter,
+        vars.iter().any(|v| v == "engine"),
+        "{what}: operating points"
+    );
     for p in &panels {
         let var = p.attribute("data-var").unwrap();
         let y_label = p
@@ -139,10 +149,16 @@ pub(crate) fn check_svg(svg: &str, vars: &[String], what: &str) {
             colours.len(),
             "{what}: distinct colours in {var}"
         );
-        assert!(
-            colours.iter().all(|c| curves.contains(c)),
-            "{what}: every entry drawn in {var}"
-        );
+        // Every entry is drawn but a guide outside the scale (an input's bound the input does not reach).
+        let drawn_or_off_scale = entries.iter().all(|e| {
+            let colour = e.first_element_child().and_then(|l| l.attribute("stroke"));
+            let off = e
+                .last_element_child()
+                .and_then(|t| t.text())
+                .is_some_and(|t| t.ends_with("(off scale)"));
+            off || colour.is_some_and(|c| curves.contains(&c))
+        });
+        assert!(drawn_or_off_scale, "{what}: every entry drawn in {var}");
         if var == "reference" {
             assert_eq!(entries.len(), 2, "{what}: cycle and reference/achieved");
         }
@@ -273,8 +289,13 @@ fn every_shipped_model_with_modes_plots_its_inputs_and_its_gear() {
         let expected: Vec<&str> = ["reference"]
             .into_iter()
             .chain(signals.iter().copied())
-            .chain(["m_at", "F_b", "gear", "cum:fuel"])
+            .chain(["m_at", "F_b", "gear", "cum:fuel_volume"])
             .collect();
+        assert_eq!(
+            names.len(),
+            expected.len(),
+            "{what}: one cumulative-fuel panel, in litres"
+        );
         assert_eq!(
             &names[..expected.len()],
             expected,
@@ -442,4 +463,65 @@ fn a_model_with_modes_but_no_gearbox_plots_the_mode_index() {
     check_svg(&svg, &vars, "si_engine_5speed without a gearbox");
     assert!(panel_labels(&svg).contains(&("mode".to_string(), "mode [index]".to_string())));
     assert!(svg.contains("mode in force: 0 drive, 1 coast, 2 overrun, 3 idle"));
+}
+
+/// `--size`, `--dpi` and `--window` rendered: the PNG has the size × dpi / 96 pixels, and the input's blue
+/// line lies inside the plot area from its left edge to its right one (the window's ends).
+#[test]
+fn a_sized_windowed_png_draws_its_window_across_the_plot_area() {
+    let path = models()
+        .into_iter()
+        .find(|p| p.ends_with("si_engine.toml"))
+        .unwrap();
+    let model = load(&path);
+    let cycle = Cycle::builtin("nedc").unwrap();
+    let res = simulate(&model, &cycle, &sim_opts()).unwrap();
+    let fig = simulation_figure(&res, &cycle, model.info(), &["input".to_string()])
+        .unwrap()
+        .windowed((200.0, 400.0))
+        .unwrap();
+    let layout = Layout::new(Some((800.0, 400.0)), Some(192.0)).unwrap();
+    let img = Pixmap::decode_png(&fig.render_with(PlotFormat::Png, &layout).unwrap()).unwrap();
+    assert_eq!((img.width(), img.height()), (1600, 800));
+    let svg = fig.to_svg_with(&layout).unwrap();
+    let doc = roxmltree::Document::parse(&svg).unwrap();
+    let frame = doc
+        .descendants()
+        .find(|n| n.attribute("class") == Some("frame"))
+        .unwrap();
+    let s = layout.scale();
+    let (x0, y0) = (attr(frame, "x") * s, attr(frame, "y") * s);
+    let (x1, y1) = (
+        x0 + attr(frame, "width") * s,
+        y0 + attr(frame, "height") * s,
+    );
+    let blue: Vec<(f64, f64)> = (0..img.height())
+        .flat_map(|y| (0..img.width()).map(move |x| (x, y)))
+        .filter(|&(x, y)| {
+            let p = img.pixel(x, y).unwrap();
+            p.red() < 40 && p.green().abs_diff(0x72) < 30 && p.blue().abs_diff(0xB2) < 30
+        })
+        .map(|(x, y)| (f64::from(x), f64::from(y)))
+        .filter(|&(_, y)| y > y0 && y < y1)
+        .collect();
+    assert!(
+        blue.len() > 500,
+        "{} blue pixels in the plot area",
+        blue.len()
+    );
+    let (lo, hi) = blue
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(l, h), p| (l.min(p.0), h.max(p.0)));
+    assert!(
+        lo >= x0 - 1.0 && hi <= x1 + 1.0,
+        "{lo} … {hi} inside {x0} … {x1}"
+    );
+    assert!(
+        lo <= x0 + 6.0 && hi >= x1 - 6.0,
+        "the line spans the window: {lo} … {hi}"
+    );
+    assert!(
+        fig.windowed((100.0, 500.0)).is_err(),
+        "outside the window drawn"
+    );
 }

@@ -776,8 +776,8 @@ fn plot_svg_writes_both_panels() {
         assert!(svg.contains(label), "label `{label}` in the SVG");
     }
     assert!(
-        svg.matches("<polyline").count() >= 5,
-        "cycle, y_d, input, two bounds"
+        svg.matches("<polyline").count() >= 4,
+        "cycle, y_d, input, the lower bound (the upper one, 0.08 kg/s, is off the input's scale)"
     );
     assert!(
         svg.len() > 20_000 && svg.len() < 2_000_000,

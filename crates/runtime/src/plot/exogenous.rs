@@ -6,7 +6,7 @@
 use invsim_model_api::ModelInfo;
 
 use super::figure::Panel;
-use super::panels::{self, with_unit, CYCLE, REFERENCE};
+use super::panels::{self, with_unit};
 use crate::signals::ResolvedSignal;
 
 /// The panel of exogenous signal `i`: its raw samples (linear between them, held outside their span) and,
@@ -43,19 +43,14 @@ pub(super) fn signal_raw_and_smoothed(
         );
         points.push((t1, at(t1)));
         let (ts, vs): (Vec<f64>, Vec<f64>) = points.into_iter().unzip();
-        series.push(panels::series(
+        series.push(panels::raw_series(
             format!("{} (raw, {})", s.name, raw.source),
-            CYCLE,
-            1.5,
-            &ts,
-            &vs,
+            panels::thin(&ts, &vs),
         ));
     }
     if !smoothed.is_empty() {
-        series.push(panels::series(
+        series.push(panels::smoothed_series(
             format!("{} (smoothed)", s.name),
-            REFERENCE,
-            2.0,
             t,
             smoothed,
         ));
@@ -78,5 +73,6 @@ pub(super) fn signal_raw_and_smoothed(
         y_label: with_unit(&s.name, s.unit.as_deref()),
         y_zero: false,
         series,
+        guides: Vec::new(),
     }
 }

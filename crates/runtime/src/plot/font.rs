@@ -5,6 +5,12 @@ use std::sync::{Arc, OnceLock};
 
 use resvg::{tiny_skia, usvg};
 
+use super::error::PlotError;
+
+/// Most pixels of a rendered figure (4 bytes each in memory): 1000 × 32 768, 128 MiB, above the 64 panels
+/// a plot draws at most at the default size.
+pub const MAX_PIXELS: f64 = 1000.0 * 32_768.0;
+
 /// The family name the SVG asks for first (the embedded font's own name).
 pub const FONT_FAMILY: &str = "DejaVu Sans";
 
@@ -35,13 +41,9 @@ pub(crate) const ASCENT: f64 = 0.76;
 /// Descent below the baseline, as a fraction of the font size.
 pub(crate) const DESCENT: f64 = 0.24;
 
-/// Most pixels of a PNG plot (4 bytes each in memory): 1000 pixels wide × 32 768 high, 128 MiB, above the
-/// 64 panels a plot draws at most.
-const MAX_PNG_PIXELS: u64 = 1000 * 32_768;
-
-/// Rasterise `svg` (at its own size, one pixel per SVG unit) to PNG bytes with the embedded font; an image
-/// above [`MAX_PNG_PIXELS`] is refused before its pixels are allocated.
-pub(crate) fn svg_to_png(svg: &str) -> Result<Vec<u8>, String> {
+/// Rasterise `svg` (at the size it declares, scaling its view box to it) to PNG bytes with the embedded
+/// font; an image above [`MAX_PIXELS`] is refused before its pixels are allocated.
+pub(crate) fn svg_to_png(svg: &str) -> Result<Vec<u8>, PlotError> {
     let mut db = usvg::fontdb::Database::new();
     db.load_font_data(dejavu::sans::regular().to_vec());
     db.set_sans_serif_family(FONT_FAMILY);
@@ -50,18 +52,20 @@ pub(crate) fn svg_to_png(svg: &str) -> Result<Vec<u8>, String> {
         fontdb: Arc::new(db),
         ..usvg::Options::default()
     };
-    let tree = usvg::Tree::from_str(svg, &opts).map_err(|e| e.to_string())?;
+    let render = |e: String| PlotError::Render(e);
+    let tree = usvg::Tree::from_str(svg, &opts).map_err(|e| render(e.to_string()))?;
     let size = tree.size().to_int_size();
-    if u64::from(size.width()) * u64::from(size.height()) > MAX_PNG_PIXELS {
-        return Err(format!(
-            "a {}×{} image exceeds the limit of {MAX_PNG_PIXELS} pixels",
-            size.width(),
-            size.height()
-        ));
+    let (w, h) = (f64::from(size.width()), f64::from(size.height()));
+    if w * h > MAX_PIXELS {
+        return Err(PlotError::TooManyPixels {
+            width: w,
+            height: h,
+            max: MAX_PIXELS,
+        });
     }
     let mut pixmap = tiny_skia::Pixmap::new(size.width(), size.height())
-        .ok_or_else(|| format!("cannot allocate a {}×{} image", size.width(), size.height()))?;
+        .ok_or_else(|| render(format!("cannot allocate a {w}×{h} image")))?;
     pixmap.fill(tiny_skia::Color::WHITE);
     resvg::render(&tree, tiny_skia::Transform::default(), &mut pixmap.as_mut());
-    pixmap.encode_png().map_err(|e| e.to_string())
+    pixmap.encode_png().map_err(|e| render(e.to_string()))
 }

@@ -9,12 +9,17 @@
 
 use invsim_model_api::ModelInfo;
 
+use super::engine_map::engine_scatter;
+use super::error::PlotError;
 use super::exogenous::signal_raw_and_smoothed;
 use super::figure::{Figure, Panel, Series, PANEL_TITLE_SIZE};
 use super::font::text_width;
-use super::panels::{self, input_panel, series, signal_panel, Signal, CYCLE, LOWER, REFERENCE};
+use super::panels::{
+    self, fuel_output, input_panel, raw_series, signal_panel, smoothed_series, Signal, LOWER,
+};
 use super::reference::{raw_points, reference_axis, time_range};
-use super::{Columns, PlotError};
+use super::scatter::Scatter;
+use super::Columns;
 use crate::cycle::Cycle;
 use crate::forward::ModalForwardResult;
 use crate::modes::{ModalResult, ModalSpec};
@@ -28,6 +33,8 @@ enum ModalVar {
     Signal(Signal),
     /// Exogenous signal i of the model's `[signals]`.
     Exogenous(usize),
+    /// The engine's operating points (models with an `[engine]`).
+    Engine,
 }
 
 /// The name of the sequence panel: `gear` where some mode has a gear, else `mode`.
@@ -59,11 +66,15 @@ pub fn modal_valid_vars(spec: &ModalSpec<'_>) -> Vec<String> {
             .filter(|o| o.accumulate)
             .map(|o| format!("cum:{}", o.name)),
     );
+    if info.engine.is_some() {
+        v.push("engine".to_string());
+    }
     v
 }
 
 /// The panels drawn without `--plot-vars`: the reference, each exogenous signal, every input, the mode
-/// sequence, the running integral of every accumulated output.
+/// sequence, one running integral (the fuel used so far, as single-mode figures) and the engine's operating
+/// points for a model with an `[engine]`.
 pub fn modal_default_vars(spec: &ModalSpec<'_>) -> Vec<String> {
     let info = info0(spec);
     let outputs = &info.outputs[..spec.n_outputs];
@@ -71,12 +82,10 @@ pub fn modal_default_vars(spec: &ModalSpec<'_>) -> Vec<String> {
     v.extend(info.signals.iter().map(|s| s.name.clone()));
     v.extend(spec.inputs.iter().map(|i| i.name.clone()));
     v.push(sequence_name(spec).to_string());
-    v.extend(
-        outputs
-            .iter()
-            .filter(|o| o.accumulate)
-            .map(|o| format!("cum:{}", o.name)),
-    );
+    v.extend(fuel_output(outputs).map(|i| format!("cum:{}", outputs[i].name)));
+    if info.engine.is_some() {
+        v.push("engine".to_string());
+    }
     v
 }
 
@@ -88,6 +97,9 @@ fn resolve(spec: &ModalSpec<'_>, name: &str) -> Option<ModalVar> {
     }
     if name == sequence_name(spec) {
         return Some(ModalVar::Sequence);
+    }
+    if name == "engine" && info.engine.is_some() {
+        return Some(ModalVar::Engine);
     }
     if let Some(i) = spec.inputs.iter().position(|i| i.name == name) {
         return Some(ModalVar::Input(i));
@@ -157,15 +169,10 @@ pub fn modal_simulation_figure(
             y_label,
             y_zero,
             series: vec![
-                Series {
-                    label: "cycle (raw)".to_string(),
-                    color: CYCLE,
-                    width: 1.5,
-                    dashed: false,
-                    points: raw,
-                },
-                series("y_d (smoothed)".to_string(), REFERENCE, 2.0, t, &yd),
+                raw_series("cycle (raw)".to_string(), raw),
+                smoothed_series("y_d (smoothed)".to_string(), t, &yd),
             ],
+            guides: Vec::new(),
         }
     };
     // The raw signal and the smoothed one the modes took (the series' column of the signal).
@@ -179,8 +186,10 @@ pub fn modal_simulation_figure(
             "{} on {}: inverse simulation with modes, look-ahead a = {} s",
             s.run.model, s.run.cycle, s.lookahead_s
         ),
+        headline: None,
         x_label: "t [s]".to_string(),
         x_range,
+        scatter: modal_engine(spec, &vars, &cols),
         panels: build(
             spec,
             &vars,
@@ -216,21 +225,17 @@ pub fn modal_forward_figure(
             y_label,
             y_zero,
             series: vec![
-                series(
+                raw_series(
                     "cycle y_c (raw)".into(),
-                    CYCLE,
-                    1.5,
-                    t,
-                    &scaled(cols.get("yc")),
+                    panels::thin(t, &scaled(cols.get("yc"))),
                 ),
-                series(
+                smoothed_series(
                     format!("achieved {}", info.output),
-                    REFERENCE,
-                    1.5,
                     t,
                     &scaled(cols.get(&info.output)),
                 ),
             ],
+            guides: Vec::new(),
         }
     };
     // The forward run integrates with the raw signals: their panels show the raw curve alone.
@@ -243,8 +248,10 @@ pub fn modal_forward_figure(
             "{} on {}: forward simulation with modes and the PI driver",
             s.run.model, s.run.cycle
         ),
+        headline: None,
         x_label: "t [s]".to_string(),
         x_range,
+        scatter: modal_engine(spec, &vars, &cols),
         panels: build(
             spec,
             &vars,
@@ -253,6 +260,15 @@ pub fn modal_forward_figure(
             "applied by the driver",
         ),
     })
+}
+
+/// The engine's operating points when `vars` name them.
+fn modal_engine(spec: &ModalSpec<'_>, vars: &[ModalVar], cols: &Columns<'_>) -> Option<Scatter> {
+    if !vars.contains(&ModalVar::Engine) {
+        return None;
+    }
+    let info = info0(spec);
+    engine_scatter(info, &info.outputs[..spec.n_outputs], |n| cols.get(n))
 }
 
 /// The panels of `vars` (`exogenous(i)`: the panel of signal i); `how` ends each input panel's title.
@@ -266,19 +282,21 @@ fn build(
     let info = info0(spec);
     let t = cols.get("t");
     let mut k = 0;
+    // The engine's operating points are no time panel (`modal_engine`).
     vars.iter()
-        .map(|var| match *var {
-            ModalVar::Reference => reference(),
-            ModalVar::Exogenous(i) => exogenous(i),
-            ModalVar::Input(i) => modal_input_panel(spec, i, cols, how),
-            ModalVar::Sequence => sequence_panel(spec, t, cols),
+        .filter_map(|var| match *var {
+            ModalVar::Engine => None,
+            ModalVar::Reference => Some(reference()),
+            ModalVar::Exogenous(i) => Some(exogenous(i)),
+            ModalVar::Input(i) => Some(modal_input_panel(spec, i, cols, how)),
+            ModalVar::Sequence => Some(sequence_panel(spec, t, cols)),
             ModalVar::Signal(signal) => {
                 let name = match signal {
                     Signal::State(i) => &info.states[i],
                     Signal::Output(i) | Signal::Cumulative(i) => &info.outputs[i].name,
                 };
                 k += 1;
-                signal_panel(info, signal, t, cols.get(name), k - 1)
+                Some(signal_panel(info, signal, t, cols.get(name), k - 1))
             }
         })
         .collect()
@@ -356,6 +374,7 @@ fn sequence_panel(spec: &ModalSpec<'_>, t: &[f64], cols: &Columns<'_>) -> Panel 
             dashed: false,
             points: steps(t, v),
         }],
+        guides: Vec::new(),
     }
 }
 

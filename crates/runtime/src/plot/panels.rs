@@ -4,7 +4,7 @@
 //! Long runs are thinned for drawing: each of at most [`MAX_BUCKETS`] time buckets keeps its smallest and
 //! largest value, so peaks (e.g. of the input at gear-change corners) survive.
 
-use invsim_model_api::ModelInfo;
+use invsim_model_api::{ModelInfo, OutputInfo};
 
 use super::figure::{Panel, Series};
 use crate::report::integral_unit;
@@ -19,7 +19,10 @@ pub(crate) const REFERENCE: &str = "#D55E00";
 pub(crate) const INPUT: &str = "#0072B2";
 pub(crate) const LOWER: &str = "#009E73";
 pub(crate) const UPPER: &str = "#CC79A7";
-const PALETTE: [&str; 5] = ["#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00"];
+/// The colours of curves that need one each (a figure's signals, the runs of a comparison).
+pub const PALETTE: [&str; 6] = [
+    "#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9",
+];
 
 /// What a panel shows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -29,6 +32,8 @@ pub(crate) enum Var {
     Signal(Signal),
     /// Exogenous signal i of the model's `[signals]`: its raw and its smoothed curve.
     Exogenous(usize),
+    /// The engine's operating points (models with an `[engine]`).
+    Engine,
 }
 
 /// A panel of one column of the series (or its running integral).
@@ -41,7 +46,7 @@ pub(crate) enum Signal {
 
 /// Every name `--plot-vars` accepts for `info`'s model, in the order of the model file: `reference`,
 /// `input` (the input's own name is accepted too), the states, the `[outputs]`, `cum:NAME` for each
-/// accumulated output.
+/// accumulated output, `engine` for a model with an `[engine]`.
 pub fn valid_vars(info: &ModelInfo) -> Vec<String> {
     let mut v = vec!["reference".to_string(), "input".to_string()];
     v.extend(info.signals.iter().map(|s| s.name.clone()));
@@ -53,22 +58,34 @@ pub fn valid_vars(info: &ModelInfo) -> Vec<String> {
             .filter(|o| o.accumulate)
             .map(|o| format!("cum:{}", o.name)),
     );
+    if info.engine.is_some() {
+        v.push("engine".to_string());
+    }
     v
 }
 
-/// The panels drawn without `--plot-vars`: the reference, each exogenous signal (raw and smoothed), the input
-/// and the running integral of every accumulated output (the fuel used so far).
+/// The panels drawn without `--plot-vars`: the reference, each exogenous signal (raw and smoothed), the input,
+/// one running integral (the fuel used so far: [`fuel_output`], in litres where the model has a fuel volume)
+/// and the engine's operating points for a model with an `[engine]`.
 pub fn default_vars(info: &ModelInfo) -> Vec<String> {
     let mut v = vec!["reference".to_string()];
     v.extend(info.signals.iter().map(|s| s.name.clone()));
     v.push("input".to_string());
-    v.extend(
-        info.outputs
-            .iter()
-            .filter(|o| o.accumulate)
-            .map(|o| format!("cum:{}", o.name)),
-    );
+    v.extend(fuel_output(&info.outputs).map(|i| format!("cum:{}", info.outputs[i].name)));
+    if info.engine.is_some() {
+        v.push("engine".to_string());
+    }
     v
+}
+
+/// The accumulated output the default figure integrates and the operating points are coloured by: the first
+/// one in litres per second (the fuel volume: its per-100-km figure is l/100 km), else the first one.
+pub(crate) fn fuel_output(outputs: &[OutputInfo]) -> Option<usize> {
+    let acc = || outputs.iter().enumerate().filter(|(_, o)| o.accumulate);
+    acc()
+        .find(|(_, o)| o.unit.as_deref().map(str::trim) == Some("l/s"))
+        .or_else(|| acc().next())
+        .map(|(i, _)| i)
 }
 
 /// The panel `name` stands for, if any.
@@ -79,6 +96,9 @@ pub(crate) fn resolve(info: &ModelInfo, name: &str) -> Option<Var> {
     }
     if name == "input" || name == info.input {
         return Some(Var::Input);
+    }
+    if name == "engine" && info.engine.is_some() {
+        return Some(Var::Engine);
     }
     if let Some(i) = info.signals.iter().position(|s| s.name == name) {
         return Some(Var::Exogenous(i));
@@ -129,10 +149,32 @@ pub(crate) fn series(
     }
 }
 
-/// The panel of the input `u` over `t`, with the model's bounds as dashed lines in their own colours.
+/// The smoothed curve of a raw one (y_d, a signal as the inverse used it, the output a forward run achieved):
+/// dashed and wider, so that it stays distinct where it lies on the raw curve.
+pub(crate) fn smoothed_series(label: String, t: &[f64], v: &[f64]) -> Series {
+    Series {
+        dashed: true,
+        ..series(label, REFERENCE, 2.5, t, v)
+    }
+}
+
+/// The raw curve under a smoothed one: thin and solid.
+pub(crate) fn raw_series(label: String, points: Vec<(f64, f64)>) -> Series {
+    Series {
+        label,
+        color: CYCLE,
+        width: 1.2,
+        dashed: false,
+        points,
+    }
+}
+
+/// The panel of the input `u` over `t`, scaled to `u`, with the model's bounds as dashed guides in their own
+/// colours (drawn where they fall inside the scale).
 pub(crate) fn input_panel(info: &ModelInfo, t: &[f64], u: &[f64], title: &str) -> Panel {
     let unit = info.input_unit.as_deref();
-    let mut s = vec![series(with_unit(&info.input, unit), INPUT, 1.5, t, u)];
+    let s = vec![series(with_unit(&info.input, unit), INPUT, 1.5, t, u)];
+    let mut guides = Vec::new();
     let (t0, t1) = (
         t.first().copied().unwrap_or(0.0),
         t.last().copied().unwrap_or(1.0),
@@ -142,7 +184,7 @@ pub(crate) fn input_panel(info: &ModelInfo, t: &[f64], u: &[f64], title: &str) -
         (info.input_max, "upper bound", UPPER),
     ] {
         if let Some(b) = bound {
-            s.push(Series {
+            guides.push(Series {
                 label: format!("{name} {b}{}", unit_suffix(unit)),
                 color,
                 width: 2.0,
@@ -157,6 +199,7 @@ pub(crate) fn input_panel(info: &ModelInfo, t: &[f64], u: &[f64], title: &str) -
         y_label: with_unit(&info.input, unit),
         y_zero: false,
         series: s,
+        guides,
     }
 }
 
@@ -198,6 +241,7 @@ pub(crate) fn signal_panel(info: &ModelInfo, var: Signal, t: &[f64], v: &[f64], 
         y_label: label.clone(),
         y_zero: matches!(var, Signal::Cumulative(_)),
         series: vec![series(label, PALETTE[k % PALETTE.len()], 1.5, t, &values)],
+        guides: Vec::new(),
     }
 }
 
@@ -215,7 +259,7 @@ pub(crate) fn cumulative(t: &[f64], v: &[f64]) -> Vec<f64> {
 }
 
 /// Points (t_k, v_k), thinned to the min and max of each of at most [`MAX_BUCKETS`] buckets, in time order.
-pub(crate) fn thin(t: &[f64], v: &[f64]) -> Vec<(f64, f64)> {
+pub fn thin(t: &[f64], v: &[f64]) -> Vec<(f64, f64)> {
     let n = t.len().min(v.len());
     if n <= 2 * MAX_BUCKETS {
         return t.iter().zip(v).map(|(&a, &b)| (a, b)).collect();
@@ -267,5 +311,26 @@ mod tests {
     fn cumulative_is_the_trapezoidal_integral() {
         let c = cumulative(&[0.0, 1.0, 3.0], &[1.0, 3.0, 3.0]);
         assert_eq!(c, vec![0.0, 2.0, 8.0]);
+    }
+
+    fn out(name: &str, unit: &str, accumulate: bool) -> OutputInfo {
+        OutputInfo {
+            name: name.into(),
+            unit: Some(unit.into()),
+            accumulate,
+            per_distance: accumulate,
+        }
+    }
+
+    #[test]
+    fn the_fuel_output_is_the_volume_where_there_is_one() {
+        let o = [
+            out("n_e", "rpm", false),
+            out("fuel", "kg/s", true),
+            out("fuel_volume", "l/s", true),
+        ];
+        assert_eq!(fuel_output(&o), Some(2));
+        assert_eq!(fuel_output(&o[..2]), Some(1));
+        assert_eq!(fuel_output(&o[..1]), None);
     }
 }
