@@ -186,3 +186,33 @@ fn a_model_without_a_headline_has_none() {
     assert!(text.starts_with("model: driveline"), "{text}");
     assert!(s.get("headline").is_none());
 }
+
+/// The BEV's sweep rows carry its headline's columns, `kwh_per_100km` and `mpgge`, and no fuel's.
+#[test]
+fn a_bev_sweep_has_the_electric_headline_columns() {
+    let out = tmp("headline_bev_sweep.csv");
+    let o = invsim(&[
+        "sweep",
+        "models/bev.toml",
+        "--cycle",
+        "ece",
+        "--grid",
+        "m=1400:1800:2",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (header, rows) = read_csv(&out);
+    let at = |name: &str| header.iter().position(|h| h == name);
+    assert!(at("l_per_100km").is_none(), "{header:?}");
+    let (k, g) = (at("kwh_per_100km").unwrap(), at("mpgge").unwrap());
+    let per = at("energy_per_100km").unwrap();
+    for row in &rows {
+        assert_eq!(num(&row[k]), num(&row[per]));
+        close(num(&row[g]), 3370.5 / (1.609_344 * num(&row[k])), 1e-12);
+    }
+    assert!(
+        num(&rows[1][k]) > num(&rows[0][k]),
+        "a heavier car draws more"
+    );
+}

@@ -174,6 +174,32 @@ fn electric_figures(kwh: f64, distance_m: f64) -> ElectricFigures {
     }
 }
 
+/// The sweep's columns of a fuel headline and of an electric one (the [`Headline::sweep_values`]).
+const FUEL_COLUMNS: [&str; 4] = ["l_per_100km", "mpg_us", "mpg_uk", "co2_g_per_km"];
+const ELECTRIC_COLUMNS: [&str; 2] = ["kwh_per_100km", "mpgge"];
+
+/// The sweep's headline columns of `info`'s model: [`FUEL_COLUMNS`] or [`ELECTRIC_COLUMNS`], none without a
+/// `[headline]`.
+pub fn sweep_columns(info: &ModelInfo) -> Vec<String> {
+    let names: &[&str] = match info.headline.as_ref().map(|h| &h.carrier) {
+        Some(Carrier::Fuel(_)) => &FUEL_COLUMNS,
+        Some(Carrier::Electricity { .. }) => &ELECTRIC_COLUMNS,
+        None => &[],
+    };
+    names.iter().map(|n| n.to_string()).collect()
+}
+
+impl Headline {
+    /// The figures under [`sweep_columns`], NaN where the summary has null.
+    pub fn sweep_values(&self) -> Vec<f64> {
+        let figures = match &self.figures {
+            HeadlineFigures::Fuel(f) => vec![f.l_per_100km, f.mpg_us, f.mpg_uk, f.co2_g_per_km],
+            HeadlineFigures::Electricity(e) => vec![e.kwh_per_100km, e.mpgge],
+        };
+        figures.into_iter().map(|v| v.unwrap_or(f64::NAN)).collect()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
