@@ -214,22 +214,33 @@ impl Reader<'_> {
             }
             Some((RawDensity::Value(v), _)) => Density::Value(*v),
             Some((RawDensity::Parameter(p), at)) => {
-                Density::Parameter(parameters.iter().position(|q| &q.name == p).ok_or_else(
-                    || {
-                        schema(
-                            *at,
-                            format!(
-                                "[headline]'s `density` = \"{}\" is not a parameter of the model; give a \
-                                 number in kg/m^3 or a parameter's name",
-                                p.escape_debug()
-                            ),
-                        )
-                    },
-                )?)
+                let i = parameters.iter().position(|q| &q.name == p).ok_or_else(|| {
+                    schema(
+                        *at,
+                        format!(
+                            "[headline]'s `density` = \"{}\" is not a parameter of the model; give a number \
+                             in kg/m^3 or a parameter's name",
+                            p.escape_debug()
+                        ),
+                    )
+                })?;
+                if parameters[i].value <= 0.0 {
+                    return Err(schema(
+                        *at,
+                        format!(
+                            "[headline]'s `density` is the parameter `{p}`, whose value {} is not positive \
+                             (kg/m^3)",
+                            parameters[i].value
+                        ),
+                    ));
+                }
+                Density::Parameter(i)
             }
-            None => Density::Value(known.map(|k| k.density).ok_or_else(|| {
-                schema(*at, unknown_fuel(name, "density = 790.0 (kg/m^3)"))
-            })?),
+            None => Density::Value(
+                known
+                    .map(|k| k.density)
+                    .ok_or_else(|| schema(*at, unknown_fuel(name, "density = 790.0 (kg/m^3)")))?,
+            ),
         };
         let carbon_fraction = match raw.carbon_fraction {
             Some((c, at)) if !(c > 0.0 && c <= 1.0) => {
