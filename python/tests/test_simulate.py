@@ -148,3 +148,14 @@ def test_auto_lookahead_follows_a_changed_cycle_file(si_engine, tmp_path):
         assert r.summary["integrals"]["fuel"] == cli["integrals"]["fuel"]
         chosen.append(r.summary["lookahead_s"])
     assert chosen == [2.5, 0.1, 2.5]
+
+
+def test_summary_leads_with_the_headline(si_engine):
+    """The run's summary carries the CLI's `headline` block: l/100 km, mpg (US, UK) and CO2 g/km."""
+    s = si_engine.simulate(cycle="ece", dt=0.1).summary
+    assert list(s)[0] == "headline"
+    h = s["headline"]
+    assert (h["output"], h["kind"], h["fuel"]) == ("fuel_volume", "fuel", "petrol")
+    assert h["l_per_100km"] == s["integrals_per_100km"]["fuel_volume"]
+    # 100 km = 62.137 mi; l/100 km litres = l/100 km / 3.785411784 US gallons.
+    assert h["mpg_us"] == pytest.approx(100 * 3.785411784 / (1.609344 * h["l_per_100km"]), rel=1e-12)

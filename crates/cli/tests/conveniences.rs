@@ -135,6 +135,8 @@ fn the_summary_says_what_the_model_is() {
     assert!(o.status.success(), "{}", stderr(&o));
     let text = stdout(&o);
     let mut lines = text.lines();
+    // The model's answer first (its [headline]), then what the model is.
+    assert!(lines.next().is_some_and(|l| l.starts_with("headline: ")));
     assert_eq!(lines.next(), Some("model: si_engine"));
     assert_eq!(
         lines.next(),

@@ -4,6 +4,8 @@
 //! - `conveniences`: The first-hour conveniences of the `invsim` command: `invsim cycles` (text and JSON), shell completions,
 //! - `derive_bad_model`: `invsim derive` on a model that cannot be loaded or inverted exits with status 2 and prints
 //! - `forward`: `invsim forward` and `invsim simulate --verify` as a user meets them: exit codes, the CSV and JSON layouts,
+//! - `headline`: The summary leads with the model's headline in the units people report (l/100 km, mpg, CO2
+//!   g/km; kWh/100 km, mpgge); the Fusions say which fuel figure is the model's answer.
 //! - `hostile`: Hostile-input suite: every case in `tests/hostile/*.json` runs the built `invsim` binary on hostile model
 //! - `map_option`: `--map NAME=FILE.csv` for ordinary models and models with modes; unknown names and wrong arity exit 2.
 //! - `modes`: `invsim derive` and `invsim simulate` on a model with operating modes (si_engine_5speed).
@@ -34,6 +36,7 @@ mod compare;
 mod conveniences;
 mod derive_bad_model;
 mod forward;
+mod headline;
 mod hostile;
 mod map_option;
 mod modes;

@@ -79,6 +79,14 @@ fn check_against_simulate(engine: &str, threads: &str) {
         for key in ["input_min", "input_max", "distance_m"] {
             assert_eq!(num(&row[col[key]]), s[key].as_f64().unwrap(), "{key}");
         }
+        // The headline's columns are the summary's `headline` figures.
+        for key in ["l_per_100km", "mpg_us", "mpg_uk", "co2_g_per_km"] {
+            assert_eq!(
+                num(&row[col[key]]),
+                s["headline"][key].as_f64().unwrap(),
+                "{key}"
+            );
+        }
         let violations = s["input_bound_violations"].as_array().unwrap();
         assert_eq!(num(&row[col["violations"]]) as usize, violations.len());
     }

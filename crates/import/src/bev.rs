@@ -66,7 +66,8 @@ pub fn emit(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<
         "W",
         "battery chemical power; its integral is FASTSim's `res.energy_out_chemical_joules`",
     );
-    model.output("battery_energy", "P_chem/3.6e6", "kWh/s", "battery chemical energy drawn (net of regeneration) in kWh: its integral is delta SOC x capacity", true);
+    model.output("battery_energy", "P_chem/3.6e6", "kWh/s", "battery chemical energy drawn (net of regeneration) in kWh: its integral is delta SOC x capacity; the model's answer (the [headline], in kWh/100 km and mpgge)", true);
+    model.headline("battery_energy", None);
     model.output(
         "battery_power",
         "P_chem",

@@ -43,7 +43,7 @@ pub fn emit(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<
     match e_f {
         Some(e_f) => model.field("e_f", e_f, "J/kg", "fuel specific energy (lower heating value)", &e_f_path)?,
         None => warnings.push(format!(
-            "`{e_f_path}` is not set: the fuel is reported as energy (fuel_energy, J) only, not as mass"
+            "`{e_f_path}` is not set: the fuel is reported as energy (fuel_energy, J) only, not as mass, and the model has no [headline]"
         )),
     }
     let curve = table(doc, &p("fc.eff_interp_from_pwr_out"))?;
@@ -71,7 +71,9 @@ pub fn emit(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<
         doc_fuel,
     );
     if e_f.is_some() {
-        model.output("fuel", "P_fuel/e_f", "kg/s", "fuel mass flow", true);
+        // FASTSim's conventional vehicles burn gasoline (its mpg counts 33.7 kWh of fuel energy per gallon).
+        model.output("fuel", "P_fuel/e_f", "kg/s", "fuel mass flow: the model's answer (the [headline], in l/100 km, mpg and CO2 g/km as petrol)", true);
+        model.headline("fuel", Some("petrol"));
     }
     model.output(
         "fuel_energy",

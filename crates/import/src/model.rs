@@ -58,6 +58,8 @@ pub struct Model {
     pub outputs: Vec<Item>,
     pub maps: Vec<LinearMap>,
     pub signals: Vec<Signal>,
+    /// The `[headline]` table's keys as TOML lines (`output = "fuel"`), empty for none.
+    pub headline: Vec<String>,
 }
 
 impl Model {
@@ -108,6 +110,13 @@ impl Model {
             .push(item(name, expr, unit, doc, Some(accumulate)));
     }
 
+    /// The model's answer: the accumulated output `output`, of the fuel `fuel` (`None` for electric energy).
+    pub fn headline(&mut self, output: &str, fuel: Option<&str>) {
+        self.headline = vec![format!("output = {}", quote(output))];
+        self.headline
+            .extend(fuel.map(|f| format!("fuel = {}", quote(f))));
+    }
+
     /// The TOML text of the model.
     pub fn render(&self) -> String {
         let mut s = String::new();
@@ -149,6 +158,13 @@ impl Model {
         s.push_str("\n[outputs]\n");
         for o in &self.outputs {
             s.push_str(&render_item(o));
+        }
+        if !self.headline.is_empty() {
+            s.push_str("\n[headline]                       # the model's answer, which the summary leads with\n");
+            for line in &self.headline {
+                s.push_str(line);
+                s.push('\n');
+            }
         }
         s
     }

@@ -63,6 +63,7 @@ pub fn model_info(d: &Derivation) -> ModelInfo {
             speed: e.speed,
             torque: e.torque,
         }),
+        headline: m.headline.clone(),
         state_initial: m.states.iter().map(|s| s.initial).collect(),
         eta_states: d.eta_states.clone(),
         signals: m

@@ -851,3 +851,67 @@ fn shipped_models_mark_per_distance_outputs_and_si_engine_its_engine() {
     let diesel = Model::from_path(&models.join("diesel_gasflow.toml")).expect("diesel loads");
     assert!(diesel.outputs.iter().all(|o| !o.per_distance));
 }
+
+/// `[headline]`: the output's unit says what it measures (litres, kg, kWh, with the factor from its integral's
+/// unit); petrol and diesel have default properties, another fuel gives its own, `density` may name a
+/// parameter; the shipped models mark theirs.
+#[test]
+fn headline_reads_the_carrier_from_the_unit_and_the_fuel_from_its_name() {
+    use invsim_model_api::{Carrier, Density, FuelFlow};
+    let with = |unit: &str, headline: &str| {
+        load_ok(&format!(
+            "{PER_DISTANCE_BASE}[parameters]\nrho = 790.0\n[outputs]\n\
+             q = {{ expr = \"u\", unit = \"{unit}\", accumulate = true }}\n[headline]\noutput = \"q\"\n{headline}"
+        ))
+        .headline
+        .expect("a headline")
+    };
+    let h = with("g/s", "fuel = \"diesel\"\n");
+    let Carrier::Fuel(f) = &h.carrier else {
+        panic!("a fuel: {h:?}")
+    };
+    assert_eq!(h.output, 0);
+    assert_eq!(f.flow, FuelFlow::Kilograms(1e-3));
+    assert_eq!(
+        (f.density, f.carbon_fraction),
+        (Density::Value(835.0), 0.866)
+    );
+    let h = with(
+        "ml/s",
+        "fuel = \"E85\"\ndensity = \"rho\"\ncarbon_fraction = 0.57\n",
+    );
+    let Carrier::Fuel(f) = &h.carrier else {
+        panic!("a fuel: {h:?}")
+    };
+    assert_eq!(f.name, "E85");
+    assert_eq!(f.flow, FuelFlow::Litres(1e-3));
+    assert_eq!(
+        (f.density, f.carbon_fraction),
+        (Density::Parameter(0), 0.57)
+    );
+    assert_eq!(
+        with("W", "").carrier,
+        Carrier::Electricity {
+            kwh_per_unit: 1.0 / 3.6e6
+        }
+    );
+    assert_eq!(
+        with("kWh/s", "").carrier,
+        Carrier::Electricity { kwh_per_unit: 1.0 }
+    );
+
+    let models = manifest_dir().join("../../models");
+    for (file, output) in [
+        ("si_engine.toml", "fuel_volume"),
+        ("ford_fusion_2012_dynamic.toml", "fuel_volume"),
+        ("bev.toml", "energy"),
+        ("vehicles/ford_fusion_2012.toml", "fuel"),
+        ("vehicles/nissan_leaf_2016.toml", "battery_energy"),
+    ] {
+        let m = Model::from_path(&models.join(file)).expect("a shipped model loads");
+        let h = m.headline.expect("a shipped model marks its headline");
+        assert_eq!(m.outputs[h.output].name, output, "{file}");
+    }
+    let diesel = Model::from_path(&models.join("diesel_gasflow.toml")).expect("diesel loads");
+    assert!(diesel.headline.is_none(), "it tracks a boost pressure");
+}

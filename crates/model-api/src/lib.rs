@@ -12,12 +12,17 @@
 
 use thiserror::Error;
 
+pub mod headline;
 pub mod math;
 pub mod zero_dynamics;
 
 /// Smooth lookup maps (contract §6), evaluated by generated code and the interpreter alike; the one kernel
 /// implementation lives in `invsim-kernel`.
 pub use invsim_kernel::map;
+
+pub use headline::{
+    known_fuel, Carrier, Density, FuelFlow, FuelInfo, HeadlineInfo, KnownFuel, KNOWN_FUELS,
+};
 
 /// Static description of a model: names, sizes, bounds, units. Order of every list is the model file's order.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -53,6 +58,8 @@ pub struct ModelInfo {
     pub parameters: Vec<String>,
     /// The engine whose operating points the summary tabulates (the model file's `[engine]`), if any.
     pub engine: Option<EngineInfo>,
+    /// The figure the summary leads with (the model file's `[headline]`), if any.
+    pub headline: Option<HeadlineInfo>,
     /// Exogenous signals (the model file's `[signals]`), in file order.
     pub signals: Vec<SignalInfo>,
     /// Each state's `initial` value from the model file (`None` where it gives none), in state order.

@@ -16,6 +16,7 @@ pub mod elevation;
 mod error;
 pub mod forward;
 pub mod grid;
+pub mod headline;
 pub mod initial;
 pub mod inverse;
 pub mod kernel;
@@ -39,6 +40,7 @@ pub mod stable;
 pub mod sweep;
 pub mod textfmt;
 pub mod tolerance_band;
+pub mod units;
 
 /// The inverse simulation under its former module name.
 pub use inverse as simulate;
@@ -49,6 +51,7 @@ pub use forward::{
     forward, Bounds, ForwardError, ForwardOptions, ForwardOptionsBuilder, ForwardResult,
     ForwardSummary, Method,
 };
+pub use headline::Headline;
 pub use inverse::{
     simulate, SimulateError, SimulationOptions, SimulationOptionsBuilder, SimulationResult, Summary,
 };

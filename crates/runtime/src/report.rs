@@ -180,11 +180,12 @@ impl Totals {
         }
     }
 
-    /// Summary text: the integrals, the input's range and its bound violations.
-    pub(crate) fn write_text(&self, s: &mut String) {
+    /// Summary text: the integrals (the `headline` output's marked as the model's answer), the input's range
+    /// and its bound violations.
+    pub(crate) fn write_text(&self, s: &mut String, headline: Option<&str>) {
         write_integrals(
             s,
-            &self.integrals,
+            (&self.integrals, headline),
             &self.integral_units,
             &self.integrals_per_100km,
         );
@@ -373,10 +374,11 @@ pub(crate) fn integral_tables(
     t
 }
 
-/// Summary text: one line per accumulated output, `fuel: 0.5617 kg (integral), 6.846 l/100 km`.
+/// Summary text: one line per accumulated output, `fuel: 0.5617 kg (integral), 6.846 l/100 km`; the line of
+/// the `headline` output ends with `(the model's answer: the headline)`.
 pub(crate) fn write_integrals(
     s: &mut String,
-    integrals: &BTreeMap<String, f64>,
+    (integrals, headline): (&BTreeMap<String, f64>, Option<&str>),
     units: &BTreeMap<String, String>,
     per_100km: &BTreeMap<String, f64>,
 ) {
@@ -392,6 +394,9 @@ pub(crate) fn write_integrals(
                 Some(u) => write!(s, ", {} {u}/100 km", fmt_sig(*p, 4)),
                 None => write!(s, ", {} per 100 km", fmt_sig(*p, 4)),
             };
+        }
+        if headline == Some(name.as_str()) {
+            s.push_str(" (the model's answer: the headline)");
         }
         s.push('\n');
     }

@@ -504,6 +504,7 @@ fn model_info(g: &Gen<'_>) -> TokenStream {
         }
         None => quote!(None),
     };
+    let headline = headline_info(m.headline.as_ref());
     let signals = signals_info(m);
     let state_initial: Vec<TokenStream> = m.states.iter().map(|s| opt_f64(s.initial)).collect();
     let eta_states: Vec<proc_macro2::Literal> =
@@ -531,6 +532,7 @@ fn model_info(g: &Gen<'_>) -> TokenStream {
                 outputs: #outputs_vec,
                 parameters: PARAMETERS.iter().map(|s| s.to_string()).collect(),
                 engine: #engine,
+                headline: #headline,
                 signals: #signals,
                 state_initial: Vec::from([#(#state_initial),*]),
                 eta_states: Vec::from([#(#eta_states),*]),
@@ -538,6 +540,47 @@ fn model_info(g: &Gen<'_>) -> TokenStream {
         }
 
     }
+}
+
+/// `ModelInfo::headline`: the model file's `[headline]`, `None` without one.
+fn headline_info(h: Option<&invsim_model_api::HeadlineInfo>) -> TokenStream {
+    use invsim_model_api::{Carrier, Density, FuelFlow};
+    let Some(h) = h else {
+        return quote!(None);
+    };
+    let api = quote!(invsim_model_api);
+    let float = |x: f64| emit::float_tokens(x, false);
+    let carrier = match &h.carrier {
+        Carrier::Electricity { kwh_per_unit } => {
+            let k = float(*kwh_per_unit);
+            quote!(#api::Carrier::Electricity { kwh_per_unit: #k })
+        }
+        Carrier::Fuel(f) => {
+            let flow = match f.flow {
+                FuelFlow::Litres(x) => {
+                    let x = float(x);
+                    quote!(#api::FuelFlow::Litres(#x))
+                }
+                FuelFlow::Kilograms(x) => {
+                    let x = float(x);
+                    quote!(#api::FuelFlow::Kilograms(#x))
+                }
+            };
+            let density = match f.density {
+                Density::Value(x) => {
+                    let x = float(x);
+                    quote!(#api::Density::Value(#x))
+                }
+                Density::Parameter(i) => quote!(#api::Density::Parameter(#i)),
+            };
+            let (name, carbon) = (&f.name, float(f.carbon_fraction));
+            quote!(#api::Carrier::Fuel(#api::FuelInfo {
+                name: #name.to_string(), flow: #flow, density: #density, carbon_fraction: #carbon
+            }))
+        }
+    };
+    let output = h.output;
+    quote!(Some(#api::HeadlineInfo { output: #output, carrier: #carrier }))
 }
 
 /// `ModelInfo::signals`: `Vec::new()` for a model without signals.

@@ -30,7 +30,8 @@
 //! outputs that are not a vehicle speed; the scale may not be 0). An `[outputs]` entry takes
 //! `per_distance = true|false` (its integral is reported per 100 km; default: accumulated outputs of a model
 //! with the identity reference map, i.e. one that tracks the cycle's speed), and an optional `[engine]` table
-//! names the two outputs that are the engine's speed and torque (`engine.rs`).
+//! names the two outputs that are the engine's speed and torque (`engine.rs`), and an optional `[headline]`
+//! table the accumulated output that is the model's answer (`headline.rs`).
 //!
 //! Where each step lives (one file per concept):
 //!
@@ -43,6 +44,7 @@
 //! | `names.rs` | identifiers, reserved names, collisions, "did you mean" |
 //! | `signals.rs` | the optional `[signals]` table and the reserved names `S_dk` of their derivatives |
 //! | `engine.rs` | the optional `[engine]` table: which outputs are the engine's speed and torque |
+//! | `headline.rs` | the optional `[headline]` table: the output that is the model's answer, fuel or electricity |
 //! | `map_csv.rs` | a map's grid and values from a CSV file |
 //! | `maps.rs` | `[maps.NAME]` tables: grid, values, smoothing, extrapolation (contract §6) |
 //! | `raw.rs` | the file as read, checked for structure (check 2) |
@@ -58,7 +60,7 @@
 //! | `modes.rs` | `[inputs]` and `[modes]`: one single-input tree per mode, built by the ordinary reader |
 //!
 //! Imports go one way — each file imports only files listed before it: error, validated, spanned, tree,
-//! names, values, signals, engine, map_csv, maps, raw, expressions, definitions, smooth, undefined, split,
+//! names, values, signals, engine, headline, map_csv, maps, raw, expressions, definitions, smooth, undefined, split,
 //! reader.
 
 mod coupling;
@@ -68,6 +70,7 @@ mod error;
 mod expressions;
 pub(crate) mod finite;
 mod gearbox;
+mod headline;
 mod map_csv;
 mod maps;
 mod modal;

@@ -4,6 +4,7 @@
 
 use super::engine::RawEngine;
 use super::error::{ModelError, ModelErrorKind};
+use super::headline::RawHeadline;
 use super::maps::RawMap;
 use super::names::{is_identifier, Declaration, NameRef};
 use super::signals::RawSignal;
@@ -98,6 +99,7 @@ pub(super) struct RawModel {
     pub(super) output: RawOutput,
     pub(super) outputs: Vec<RawExtra>,
     pub(super) engine: Option<RawEngine>,
+    pub(super) headline: Option<RawHeadline>,
     /// `[maps]` (contract §6), in file order.
     pub(super) maps: Vec<RawMap>,
     /// `[signals]`, in file order.
@@ -155,13 +157,14 @@ struct Sections {
     output: Option<RawOutput>,
     outputs: Vec<RawExtra>,
     engine: Option<RawEngine>,
+    headline: Option<RawHeadline>,
     maps: Vec<RawMap>,
     signals: Vec<RawSignal>,
 }
 
 const TOP_KEYS_SHOWN: &str =
     "name, description, [parameters], [definitions], [states], [input], [output], [outputs], [engine], \
-     [signals], [maps]";
+     [headline], [signals], [maps]";
 
 impl Reader<'_> {
     /// The top-level keys and sections; the required ones present.
@@ -205,6 +208,7 @@ impl Reader<'_> {
                 "output" => raw.output = Some(self.output(v)?),
                 "outputs" => raw.outputs = self.extra_outputs(self.table(v, "[outputs]")?)?,
                 "engine" => raw.engine = Some(self.engine(v)?),
+                "headline" => raw.headline = Some(self.headline(v)?),
                 "maps" => raw.maps = self.maps(v)?,
                 "signals" => raw.signals = self.signals(self.table(v, "[signals]")?)?,
                 other => {
@@ -250,6 +254,7 @@ impl Reader<'_> {
             output,
             outputs: raw.outputs,
             engine: raw.engine,
+            headline: raw.headline,
             maps: raw.maps,
             signals: raw.signals,
         })

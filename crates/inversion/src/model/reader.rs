@@ -185,6 +185,7 @@ impl Reader<'_> {
             output,
             outputs,
             engine,
+            headline,
             maps,
             signals,
         } = raw;
@@ -233,6 +234,9 @@ impl Reader<'_> {
         let output = self.split_output(output, &input.name, &mut m, &items)?;
         self.check_finite(&m.pool, &m.nominal, (&states, &output), &items)?;
         let outputs = extra_outputs(outputs, tracks_speed, &mut m);
+        let headline = headline
+            .map(|h| self.resolve_headline(h, &outputs, &m.parameters))
+            .transpose()?;
         let maps = maps
             .into_iter()
             .map(|r| {
@@ -287,6 +291,7 @@ impl Reader<'_> {
             output,
             outputs,
             engine,
+            headline,
             maps,
             signals,
         })

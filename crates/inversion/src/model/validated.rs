@@ -31,6 +31,8 @@ pub struct Model {
     pub outputs: Vec<ExtraOutput>,
     /// `[engine]`: which extra outputs are the engine's speed and torque.
     pub engine: Option<Engine>,
+    /// `[headline]`: the accumulated output the summary leads with, and what it measures.
+    pub headline: Option<invsim_model_api::HeadlineInfo>,
     /// `[maps]` (contract §6), in file order; each is declared in [`Model::pool`] under its name.
     pub maps: Vec<MapInfo>,
     /// The exogenous signals of `[signals]`, in file order.

@@ -60,6 +60,7 @@ use invsim_model_api::{InverseModel, ModelInfo};
 use crate::cycle::Cycle;
 use crate::error::RunError;
 use crate::grid::Grid;
+use crate::headline::Headline;
 use crate::ode::{Dopri5, OdeStats, Rosenbrock23};
 use crate::report::{columns_with_units, fmt_sig, CycleInfo, Totals};
 use budget::Budget;
@@ -465,6 +466,7 @@ fn summarise<M: InverseModel + ?Sized>(
         &trace_misses,
     );
     ForwardSummary {
+        headline: Headline::of(info, lp.model.params(), &totals.integrals, distance),
         run: CycleInfo::new(info, cycle, cycle.duration()),
         distance_driven_m: tally.distance_driven,
         relative_degree: info.relative_degree,

@@ -12,6 +12,7 @@ use super::options::{Bounds, ForwardOptions};
 use super::summary::{DriverSummary, IntegratorSummary};
 use crate::cycle::Cycle;
 use crate::cycle::Tolerance;
+use crate::headline::Headline;
 use crate::modes::{ModalSpec, ModeTime};
 use crate::ode::OdeStats;
 use crate::operating_points::{OperatingPointTally, OperatingPoints};
@@ -40,6 +41,10 @@ pub struct ModeSwitch {
 /// block (`docs/summary.schema.json`).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ModalForwardSummary {
+    /// The model's answer in the units people report (models with a `[headline]`; first in the JSON and the
+    /// text).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub headline: Option<Headline>,
     #[serde(flatten)]
     pub run: CycleInfo,
     /// ∫ y dt over the run (the distance the vehicle drove, when y is its speed).
@@ -172,6 +177,12 @@ pub(super) fn summarise(
         violations,
     );
     ModalForwardSummary {
+        headline: Headline::of(
+            info,
+            spec.modes[0].model.params(),
+            &totals.integrals,
+            cycle.distance(),
+        ),
         run: CycleInfo::new(info, cycle, cycle.duration()),
         distance_driven_m: tally.distance_driven,
         relative_degree: spec
@@ -270,6 +281,9 @@ impl ModalForwardSummary {
     /// Human-readable summary (what `invsim forward` prints for a model with modes).
     pub fn to_text(&self) -> String {
         let mut s = String::new();
+        if let Some(h) = &self.headline {
+            h.write_text(&mut s);
+        }
         self.run.write_model(&mut s);
         let _ = writeln!(s, "engine: {} (modes)", self.engine);
         crate::signals::write_signal_uses(&mut s, &self.signals);
@@ -312,7 +326,10 @@ impl ModalForwardSummary {
         let t = &self.totals;
         write_integrals(
             &mut s,
-            &t.integrals,
+            (
+                &t.integrals,
+                self.headline.as_ref().map(|h| h.output.as_str()),
+            ),
             &t.integral_units,
             &t.integrals_per_100km,
         );

@@ -5,6 +5,7 @@ use std::fmt::Write as _;
 use serde::Serialize;
 
 use super::options::{Bounds, Method};
+use crate::headline::Headline;
 use crate::ode::OdeStats;
 use crate::operating_points::OperatingPoints;
 use crate::provenance::Provenance;
@@ -37,6 +38,10 @@ pub struct IntegratorSummary {
 /// [`crate::Summary`] mean the same.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ForwardSummary {
+    /// The model's answer in the units people report (models with a `[headline]`; first in the JSON and the
+    /// text).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub headline: Option<Headline>,
     /// Model, cycle, duration and the raw cycle's distance (the per-100-km figures use it, as the inverse
     /// simulation does); flattened.
     #[serde(flatten)]
@@ -82,6 +87,9 @@ impl ForwardSummary {
     /// Human-readable summary, one line per field (what `invsim forward` prints).
     pub fn to_text(&self) -> String {
         let mut s = String::new();
+        if let Some(h) = &self.headline {
+            h.write_text(&mut s);
+        }
         self.run.write_model(&mut s);
         let _ = writeln!(s, "engine: {}", self.engine);
         let _ = writeln!(s, "cycle: {}", self.run.cycle);
@@ -119,7 +127,8 @@ impl ForwardSummary {
             g.stats.evaluations
         );
         s.push('\n');
-        self.totals.write_text(&mut s);
+        self.totals
+            .write_text(&mut s, self.headline.as_ref().map(|h| h.output.as_str()));
         if let Some(op) = &self.engine_operating_points {
             op.write_text(&mut s);
         }

@@ -13,6 +13,7 @@ use super::verify::verify_forward;
 use crate::cycle::Cycle;
 use crate::error::RunError;
 use crate::grid::{check_samples, Grid, MAX_DERIVATIVES};
+use crate::headline::Headline;
 use crate::operating_points::OperatingPointTally;
 use crate::progress::Progress;
 use crate::reference_deviation::DeviationTally;
@@ -785,6 +786,7 @@ fn summarise<M: InverseModel + ?Sized>(
         opts.dt,
     );
     Ok(Summary {
+        headline: Headline::of(info, model.params(), &totals.integrals, distance),
         run: CycleInfo::new(info, cycle, run.duration),
         relative_degree: info.relative_degree,
         engine: opts.engine.clone(),

@@ -4,6 +4,7 @@ use std::fmt::Write as _;
 
 use serde::Serialize;
 
+use crate::headline::Headline;
 use crate::operating_points::OperatingPoints;
 use crate::provenance::Provenance;
 use crate::reference_deviation::ReferenceDeviation;
@@ -13,6 +14,10 @@ use crate::stable::ZeroDynamicsClass;
 /// What `invsim simulate` prints and writes with `--summary-json`.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Summary {
+    /// The model's answer in the units people report (models with a `[headline]`; first in the JSON and the
+    /// text).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub headline: Option<Headline>,
     /// Model, cycle, duration and distance (flattened: the keys `model`, `cycle`, `duration_s`, `distance_m`).
     #[serde(flatten)]
     pub run: CycleInfo,
@@ -107,6 +112,9 @@ impl Summary {
     /// Human-readable summary, one line per field (what `invsim simulate` prints).
     pub fn to_text(&self) -> String {
         let mut s = String::new();
+        if let Some(h) = &self.headline {
+            h.write_text(&mut s);
+        }
         self.run.write_model(&mut s);
         let _ = writeln!(s, "engine: {}", self.engine);
         let _ = writeln!(s, "cycle: {}", self.run.cycle);
@@ -123,7 +131,8 @@ impl Summary {
         let output_unit = self.totals.output_unit.as_deref();
         self.reference
             .write_text(&mut s, output_unit, self.run.distance_m);
-        self.totals.write_text(&mut s);
+        self.totals
+            .write_text(&mut s, self.headline.as_ref().map(|h| h.output.as_str()));
         if let Some(op) = &self.engine_operating_points {
             op.write_text(&mut s);
         }

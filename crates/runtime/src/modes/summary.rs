@@ -12,6 +12,7 @@ use super::rules::ModeRule;
 use super::verify::Tracking;
 use super::{ModalOptions, ModalResult};
 use crate::cycle::Cycle;
+use crate::headline::Headline;
 use crate::operating_points::{OperatingPointTally, OperatingPoints};
 use crate::provenance::Provenance;
 use crate::reference_deviation::{DeviationTally, ReferenceDeviation};
@@ -26,6 +27,10 @@ use crate::report::{
 /// modes' figures in the `modes` block (`docs/summary.schema.json`).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ModalSummary {
+    /// The model's answer in the units people report (models with a `[headline]`; first in the JSON and the
+    /// text).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub headline: Option<Headline>,
     /// Model, cycle, duration and distance (flattened: `model`, `description`, `cycle`, `duration_s`,
     /// `distance_m`).
     #[serde(flatten)]
@@ -346,7 +351,14 @@ pub(super) fn assemble(
         &inputs[spec.traction_input()],
         tally.violations,
     );
+    let headline = Headline::of(
+        info0,
+        spec.modes[0].model.params(),
+        &totals.integrals,
+        distance,
+    );
     let summary = ModalSummary {
+        headline,
         run: CycleInfo::new(info0, cycle, cycle.duration()),
         relative_degree: ctx.r_max,
         engine: "interpreted".into(),
@@ -488,6 +500,9 @@ impl ModalSummary {
     /// The printed summary.
     pub fn to_text(&self) -> String {
         let mut s = String::new();
+        if let Some(h) = &self.headline {
+            h.write_text(&mut s);
+        }
         let _ = writeln!(s, "model: {} (modes)", self.run.model);
         if !self.run.description.trim().is_empty() {
             let _ = writeln!(s, "description: {}", first_sentence(&self.run.description));
@@ -523,7 +538,11 @@ impl ModalSummary {
                 })
                 .unwrap_or_default();
             let u = unit.map(|u| format!(" {u}")).unwrap_or_default();
-            let _ = writeln!(s, "integral {k}: {}{u}{per}", fixed(*v, 6));
+            let answer = match &self.headline {
+                Some(h) if &h.output == k => "  (the model's answer: the headline)",
+                _ => "",
+            };
+            let _ = writeln!(s, "integral {k}: {}{u}{per}{answer}", fixed(*v, 6));
         }
         for i in &self.inputs {
             write_input_range(

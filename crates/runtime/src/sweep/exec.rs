@@ -109,6 +109,7 @@ pub(super) fn run(sweep: &Sweep, progress: &(dyn Fn(usize) + Sync)) -> SweepResu
         engine: sweep.opts.engine.clone(),
         parameters: sweep.names.clone(),
         integrals: sweep.integrals.clone(),
+        headline: sweep.headline.clone(),
         verify: sweep.opts.verify,
         modes: sweep.modes.clone(),
         rows,

@@ -366,6 +366,7 @@ impl SweepBuilder {
         Ok(Sweep {
             model: model.name().to_string(),
             integrals: model.integrals(),
+            headline: crate::headline::sweep_columns(model.info()),
             modes: model.mode_names(),
             factory: self.factory,
             cycles,

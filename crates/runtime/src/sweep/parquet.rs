@@ -328,6 +328,11 @@ fn columns(result: &SweepResult) -> Vec<Column> {
             ok(r).map(|f| f.integrals_per_100km[j])
         }));
     }
+    for (j, n) in result.headline.iter().enumerate() {
+        cols.push(dbl(n.clone(), true, &|r| {
+            ok(r).map(|f| f.headline.get(j).copied().unwrap_or(f64::NAN))
+        }));
+    }
     cols.push(dbl("input_min".into(), true, &|r| {
         ok(r).map(|f| f.input_min)
     }));

@@ -27,6 +27,8 @@ pub struct Sweep {
     pub(super) model: String,
     /// The accumulated outputs, sorted.
     pub(super) integrals: Vec<String>,
+    /// The headline's columns (none without a `[headline]`).
+    pub(super) headline: Vec<String>,
     /// The modes' names (empty for a model without modes).
     pub(super) modes: Vec<String>,
     /// Each cycle with what its runs share and their options (the look-ahead chosen for the cycle when the

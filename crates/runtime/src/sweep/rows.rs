@@ -2,6 +2,7 @@
 
 use std::io::Write;
 
+use crate::headline::Headline;
 use crate::inverse::Summary;
 use crate::modes::ModalSummary;
 use crate::report::Totals;
@@ -17,6 +18,8 @@ pub struct Figures {
     pub integrals: Vec<f64>,
     /// The integrals per 100 km (NaN when the cycle covers no distance).
     pub integrals_per_100km: Vec<f64>,
+    /// The headline's figures under [`SweepResult::headline`] (NaN where the summary has null).
+    pub headline: Vec<f64>,
     /// The input's range over the run.
     pub input_min: f64,
     pub input_max: f64,
@@ -46,7 +49,10 @@ impl Figures {
     pub fn from_summary(summary: &Summary, integrals: &[String]) -> Figures {
         let tracking = (summary.max_abs_tracking_error, summary.rms_tracking_error);
         let run = (summary.samples, summary.run.distance_m);
-        Figures::of(run, &summary.totals, tracking, integrals)
+        Figures {
+            headline: headline_values(summary.headline.as_ref()),
+            ..Figures::of(run, &summary.totals, tracking, integrals)
+        }
     }
 
     /// The figures of a run with modes, integrals in the order of `integrals`: its input block is the traction
@@ -61,6 +67,7 @@ impl Figures {
                 switches: m.switches,
                 max_transition_deviation: m.max_transition_deviation,
             }),
+            headline: headline_values(summary.headline.as_ref()),
             ..Figures::of(run, &summary.totals, tracking, integrals)
         }
     }
@@ -82,6 +89,7 @@ impl Figures {
             distance_m,
             integrals: pick(&totals.integrals),
             integrals_per_100km: pick(&totals.integrals_per_100km),
+            headline: Vec::new(),
             input_min: totals.input_min,
             input_max: totals.input_max,
             violations: violations.len(),
@@ -119,6 +127,9 @@ pub struct SweepResult {
     pub parameters: Vec<String>,
     /// Names of the accumulated outputs (sorted, as in the summary's `integrals`).
     pub integrals: Vec<String>,
+    /// The headline's columns (`l_per_100km`, `mpg_us`, `mpg_uk`, `co2_g_per_km` for a fuel,
+    /// `kwh_per_100km`, `mpgge` for electric energy; none for a model without `[headline]`).
+    pub headline: Vec<String>,
     /// Whether the rows have tracking errors.
     pub verify: bool,
     /// The modes' names of a model with modes (then every row has their times), else empty.
@@ -133,8 +144,9 @@ impl SweepResult {
         self.rows.iter().filter(|r| r.outcome.is_err()).count()
     }
 
-    /// The CSV header: `variant`, `cycle`, `lookahead_s`, the parameters, `status`, `error`, `samples`, `distance_m`, the
-    /// integrals, `NAME_per_100km` for each, `input_min`, `input_max`, `violations`, `violation_s`, and with
+    /// The CSV header: `variant`, `cycle`, `lookahead_s`, the parameters, `status`, `error`, `samples`,
+    /// `distance_m`, the integrals, `NAME_per_100km` for each, the headline's columns, `input_min`, `input_max`,
+    /// `violations`, `violation_s`, and with
     /// `verify` `max_abs_tracking_error`, `rms_tracking_error`, and for a model with modes `switches`,
     /// `max_transition_deviation` and `time_MODE_s` for each mode.
     pub fn header(&self) -> Vec<String> {
@@ -145,6 +157,7 @@ impl SweepResult {
         h.extend(["status", "error", "samples", "distance_m"].map(String::from));
         h.extend(self.integrals.iter().cloned());
         h.extend(self.integrals.iter().map(|n| format!("{n}_per_100km")));
+        h.extend(self.headline.iter().cloned());
         h.extend(["input_min", "input_max", "violations", "violation_s"].map(String::from));
         if self.verify {
             h.extend(["max_abs_tracking_error", "rms_tracking_error"].map(String::from));
@@ -172,8 +185,12 @@ impl SweepResult {
         } else {
             2 + self.modes.len()
         };
-        let n_figures =
-            2 + 2 * self.integrals.len() + 4 + if self.verify { 2 } else { 0 } + n_modal;
+        let n_figures = 2
+            + 2 * self.integrals.len()
+            + self.headline.len()
+            + 4
+            + if self.verify { 2 } else { 0 }
+            + n_modal;
         match &row.outcome {
             Err(e) => {
                 r.extend(["error".to_string(), e.clone()]);
@@ -184,6 +201,10 @@ impl SweepResult {
                 r.push(float(f.distance_m));
                 r.extend(f.integrals.iter().map(|&v| float(v)));
                 r.extend(f.integrals_per_100km.iter().map(|&v| float(v)));
+                r.extend(
+                    (0..self.headline.len())
+                        .map(|j| float(f.headline.get(j).copied().unwrap_or(f64::NAN))),
+                );
                 r.extend([f.input_min, f.input_max].map(float));
                 r.extend([f.violations.to_string(), float(f.violation_s)]);
                 if self.verify {
@@ -210,6 +231,11 @@ impl SweepResult {
         out.flush()?;
         Ok(())
     }
+}
+
+/// A run's headline figures (none without a headline).
+fn headline_values(headline: Option<&Headline>) -> Vec<f64> {
+    headline.map(Headline::sweep_values).unwrap_or_default()
 }
 
 /// The total length of `intervals`, s (+0 when there are none: an empty float sum is −0).
