@@ -243,14 +243,14 @@ pub(super) fn summarise(
 
 /// The warnings of a forward run with modes: demands no mode absorbs, trace misses.
 fn warnings(opts: &ForwardOptions, violations: &[[f64; 2]], misses: &[[f64; 2]]) -> Vec<String> {
-    let mut w = Vec::new();
+    let mut warnings = Vec::new();
     let total = |v: &[[f64; 2]]| fmt_sig(v.iter().map(|[a, b]| b - a).sum(), 4);
     if !violations.is_empty() {
         let what = match opts.bounds {
             Bounds::Enforce => "clipped",
             Bounds::Ignore => "applied as demanded, not clipped",
         };
-        w.push(format!(
+        warnings.push(format!(
             "the driver's demand leaves the bounds of the mode's free input, and no mode absorbs it, in {} \
              interval(s), {} s in total; {what}",
             violations.len(),
@@ -258,7 +258,7 @@ fn warnings(opts: &ForwardOptions, violations: &[[f64; 2]], misses: &[[f64; 2]])
         ));
     }
     if !misses.is_empty() {
-        w.push(format!(
+        warnings.push(format!(
             "the vehicle misses the cycle's trace (± {} around the cycle within ± {} s) in {} interval(s), {} s in \
              total",
             fmt_sig(opts.trace_speed_tol, 4),
@@ -267,7 +267,7 @@ fn warnings(opts: &ForwardOptions, violations: &[[f64; 2]], misses: &[[f64; 2]])
             total(misses)
         ));
     }
-    w
+    warnings
 }
 
 impl ModalForwardSummary {
