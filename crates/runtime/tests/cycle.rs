@@ -893,16 +893,11 @@ fn plausible_cycles_raise_no_warning() {
 #[test]
 fn kmh_in_an_mps_column_warns() {
     let udds = Cycle::builtin("udds").unwrap();
-    let top = udds.time[udds
-        .speed
-        .iter()
-        .enumerate()
-        .max_by(|a, b| a.1.total_cmp(b.1))
-        .unwrap()
-        .0];
+    // The first sample at the top speed, on the line after the header.
+    let top = udds.max_speed();
+    let line = 2 + udds.speed.iter().position(|&v| v == top).unwrap();
     let w = warnings_of(&written(&udds, "time_s,speed_mps", 1.0, 3.6));
     assert_eq!(w.len(), 1, "{w:?}");
-    let line = 2 + udds.time.iter().position(|&t| t == top).unwrap();
     assert_eq!(
         w[0],
         format!(

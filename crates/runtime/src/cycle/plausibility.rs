@@ -147,7 +147,12 @@ pub(super) fn check(src: &Source<'_>, time: &[f64], speed: &[f64]) -> Vec<Implau
 }
 
 fn top_speed(src: &Source<'_>, speed: &[f64]) -> Option<Implausible> {
-    let (i, &top) = speed.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1))?;
+    // `max_by` keeps the last of equal maxima: over the reversed samples, the first at the top speed.
+    let (i, &top) = speed
+        .iter()
+        .enumerate()
+        .rev()
+        .max_by(|a, b| a.1.total_cmp(b.1))?;
     (top > MAX_PLAUSIBLE_SPEED_MPS).then(|| Implausible::TopSpeed {
         file: src.file.to_string(),
         line: src.lines.get(i).copied().unwrap_or(0),
