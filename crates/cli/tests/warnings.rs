@@ -99,8 +99,12 @@ fn strict_makes_a_run_warning_an_error() {
     ]);
     assert!(plain.status.success());
     let text = String::from_utf8_lossy(&plain.stdout).into_owned();
+    // The farthest sample beyond the bounds is the CSV's smallest m_at, −0.01208 kg/s at t = 1151 s.
     assert!(
-        text.contains("warning: input m_at leaves its bounds [0, 0.08]"),
+        text.contains(
+            "warning: input m_at leaves its bounds [0, 0.08] in 18 interval(s), 121 s in total (reached -0.01208 \
+             … 0.04712; the farthest beyond them at t = 1151 s); not clipped"
+        ),
         "{text}"
     );
     for args in [
@@ -203,4 +207,64 @@ fn did_you_mean_only_for_close_names() {
             None => assert!(!e.contains("did you mean"), "{e}"),
         }
     }
+}
+
+/// The forward run's warnings give the count, the total and the longest interval: si_engine on the NEDC with
+/// enforced bounds cannot brake, so the last deceleration (1139.3 s to the end) is the longest.
+#[test]
+fn forward_warnings_name_the_longest_interval() {
+    let o = invsim(&[
+        "forward",
+        "models/si_engine.toml",
+        "--cycle",
+        "nedc",
+        "--bounds",
+        "enforce",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(
+        text.contains(
+            "warning: the driver's demand for m_at leaves its bounds in 47 interval(s), 369.6 s in total, the \
+             longest from t = 1139.3 s to 1180 s; clipped"
+        ),
+        "{text}"
+    );
+    assert!(
+        text.contains(
+            "warning: the vehicle misses the cycle's trace (± 0.8941 around the cycle within ± 1 s) in 13 \
+             interval(s), 165.9 s in total, the longest from t = 1146.5 s to 1180 s"
+        ),
+        "{text}"
+    );
+}
+
+/// A model with modes driven forward through a launch it cannot make (0 to 35 m/s in 10 s): the warning names the
+/// farthest demand's input, value, mode and time.
+#[test]
+fn the_modal_forward_warning_names_input_mode_and_time() {
+    let cycle = tmp("hard_launch.csv");
+    std::fs::write(
+        &cycle,
+        "time_s,speed_mps\n0,0\n5,0\n15,35\n40,35\n60,0\n70,0\n",
+    )
+    .unwrap();
+    let o = invsim(&[
+        "forward",
+        "models/si_engine_5speed.toml",
+        "--cycle",
+        cycle.to_str().unwrap(),
+        "--bounds",
+        "enforce",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(
+        text.contains(
+            "warning: the driver's demand leaves the bounds of the mode's free input, and no mode absorbs it, in \
+             1 interval(s), 9.4 s in total, the longest from t = 9.7 s to 19.1 s; clipped; the farthest at t = \
+             14.9 s: `m_at` = 0.3007 kg/s demanded in mode `drive_5` (bound 0.08)"
+        ),
+        "{text}"
+    );
 }

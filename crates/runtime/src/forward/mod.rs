@@ -61,7 +61,7 @@ use crate::cycle::Cycle;
 use crate::error::RunError;
 use crate::grid::Grid;
 use crate::ode::{Dopri5, OdeStats, Rosenbrock23};
-use crate::report::{columns_with_units, fmt_sig, CycleInfo, Totals};
+use crate::report::{columns_with_units, describe_intervals, fmt_sig, CycleInfo, Totals};
 use budget::Budget;
 use driver::{binomial, Loop, RawCycle};
 use integrator::Integrator;
@@ -418,28 +418,23 @@ fn forward_warnings(
         ));
     }
     if !violations.is_empty() {
-        let total: f64 = violations.iter().map(|[a, b]| b - a).sum();
         let what = if enforce {
             "clipped"
         } else {
             "applied as demanded, not clipped"
         };
         warnings.push(format!(
-            "the driver's demand for {} leaves its bounds in {} interval(s), {} s in total; {what}",
+            "the driver's demand for {} leaves its bounds in {}; {what}",
             info.input,
-            violations.len(),
-            fmt_sig(total, 4)
+            describe_intervals(violations)
         ));
     }
     if !trace_misses.is_empty() {
-        let total: f64 = trace_misses.iter().map(|[a, b]| b - a).sum();
         warnings.push(format!(
-            "the vehicle misses the cycle's trace (± {} around the cycle within ± {} s) in {} interval(s), {} s in \
-             total",
+            "the vehicle misses the cycle's trace (± {} around the cycle within ± {} s) in {}",
             fmt_sig(opts.trace_speed_tol, 4),
             fmt_sig(opts.trace_time_tol, 4),
-            trace_misses.len(),
-            fmt_sig(total, 4)
+            describe_intervals(trace_misses)
         ));
     }
     warnings.extend(crate::signals::grade_warning(info, cycle));
