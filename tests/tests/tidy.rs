@@ -267,16 +267,12 @@ const WARNINGS: &[(&str, &str)] = &[
         "the driver's demand for",
     ),
     (
-        "crates/runtime/src/forward/mod.rs",
+        "crates/runtime/src/forward/trace.rs",
         "the vehicle misses the cycle's trace",
     ),
     (
         "crates/runtime/src/forward/modal_summary.rs",
         "the driver's demand leaves the bounds of the mode's free input",
-    ),
-    (
-        "crates/runtime/src/forward/modal_summary.rs",
-        "the vehicle misses the cycle's trace",
     ),
     (
         "crates/inversion/src/derive/coordinates.rs",
@@ -312,6 +308,14 @@ const WARNINGS: &[(&str, &str)] = &[
     (
         "crates/import/src/conv.rs",
         "deceleration fuel cut-off is not modelled",
+    ),
+    (
+        "crates/import/src/conv.rs",
+        "is a thermal model: it is not reproduced",
+    ),
+    (
+        "crates/import/src/battery.rs",
+        "the battery efficiency is read at the temperature signal `T_res`",
     ),
 ];
 

@@ -42,6 +42,10 @@ pub struct ForwardArgs {
     /// Largest cycle file read, in bytes (default 64 MiB).
     #[arg(long, value_name = "BYTES", default_value_t = invsim_runtime::cycle::MAX_CYCLE_BYTES)]
     pub(crate) max_cycle_bytes: u64,
+    /// The cycle's speed-tolerance band for the trace misses, SPEED_KMH,TIME_S (default: its regulation's, EPA
+    /// ±2 mph, ±1 s for UDDS, HWFET and cycle files, UNECE ±2 km/h, ±1 s for the NEDC and the WLTC).
+    #[arg(long, value_name = "SPEED_KMH,TIME_S")]
+    pub(crate) tolerance: Option<String>,
     /// Output step in seconds.
     #[arg(long, default_value_t = forward::DEFAULT_DT, allow_negative_numbers = true)]
     pub(crate) dt: f64,
@@ -126,7 +130,7 @@ pub(crate) fn options(
 
 /// `invsim forward` of any model.
 pub fn run(args: &ForwardArgs, warnings: crate::error::Warnings) -> Result<(), Failure> {
-    let (outputs, cycle, model, data) = prepare_run(&RunRequest {
+    let (outputs, mut cycle, model, data) = prepare_run(&RunRequest {
         model: &args.model,
         engine: args.engine,
         cycle: &args.cycle,
@@ -138,6 +142,7 @@ pub fn run(args: &ForwardArgs, warnings: crate::error::Warnings) -> Result<(), F
         data: &args.data,
         warnings,
     })?;
+    crate::cycle_spec::apply_tolerance(&mut cycle, args.tolerance.as_deref())?;
     let stopped = |e: &dyn std::fmt::Display| {
         Failure::user(format!(
             "forward simulation of `{}` on `{}` stopped: {e}",

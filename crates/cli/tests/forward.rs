@@ -190,3 +190,63 @@ fn simulate_verify_meets_the_tolerances() {
         }
     }
 }
+
+#[test]
+fn forward_trace_misses_use_the_cycles_own_band() {
+    // The ECE's regulation band is UNECE's ±2 km/h, ±1 s; `--tolerance 10,2` widens it to ±10 km/h, ±2 s, which
+    // leaves fewer (here: shorter) misses; a cycle file keeps the EPA's ±2 mph.
+    let run = |extra: &[&str], tag: &str| {
+        let mut args = vec![
+            "forward",
+            "models/si_engine.toml",
+            "--cycle",
+            "ece",
+            "--bounds",
+            "enforce",
+        ];
+        args.extend_from_slice(extra);
+        summary(&args, tag)
+    };
+    let missed = |s: &serde_json::Value| -> f64 {
+        let misses = s["trace_misses"].as_array().unwrap();
+        misses
+            .iter()
+            .map(|m| m[1].as_f64().unwrap() - m[0].as_f64().unwrap())
+            .sum()
+    };
+    let unece = run(&[], "band_unece.json");
+    assert!((unece["trace_miss_speed_tolerance"].as_f64().unwrap() - 2.0 / 3.6).abs() < 1e-15);
+    assert_eq!(unece["trace_miss_time_tolerance_s"], 1.0);
+    let wide = run(&["--tolerance", "10,2"], "band_wide.json");
+    assert!((wide["trace_miss_speed_tolerance"].as_f64().unwrap() - 10.0 / 3.6).abs() < 1e-15);
+    assert_eq!(wide["trace_miss_time_tolerance_s"], 2.0);
+    assert!(
+        missed(&wide) < missed(&unece),
+        "{} vs {}",
+        missed(&wide),
+        missed(&unece)
+    );
+    let warning = |s: &serde_json::Value| {
+        s["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter_map(|w| w.as_str())
+            .find(|w| w.contains("misses the cycle's trace"))
+            .map(String::from)
+    };
+    let w = warning(&unece).expect("a trace-miss warning");
+    assert!(
+        w.contains("± 0.5556 m/s around the cycle within ± 1 s, UNECE band"),
+        "{w}"
+    );
+    let bad = invsim(&[
+        "forward",
+        "models/si_engine.toml",
+        "--cycle",
+        "ece",
+        "--tolerance",
+        "2",
+    ]);
+    assert_eq!(bad.status.code(), Some(2));
+}

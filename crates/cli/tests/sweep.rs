@@ -203,7 +203,7 @@ fn a_table_runs_one_variant_per_row() {
         .lines()
         .nth(2)
         .unwrap()
-        .starts_with("1,ece,1500.0,0.35,ok,"));
+        .starts_with("1,ece,5.0,1500.0,0.35,ok,"));
 }
 
 /// `--threads` far beyond the runs starts one thread per run at most (not ten thousand), says so, and gives
@@ -235,4 +235,46 @@ fn threads_are_capped_by_the_runs() {
     let one = run("1");
     assert!(!stderr(&one).contains("worker thread"), "{}", stderr(&one));
     assert_eq!(many.stdout, one.stdout);
+}
+
+#[test]
+fn rows_carry_the_lookahead_each_cycle_ran_with() {
+    // `--lookahead auto` chooses per cycle (1 s on UDDS, 1.5 s on the NEDC at dt 0.1, docs/lookahead.md);
+    // a given look-ahead is every row's.
+    let rows = |lookahead: &str| {
+        let o = invsim(&[
+            "sweep",
+            "models/si_engine.toml",
+            "--cycles",
+            "udds,nedc",
+            "--grid",
+            "m=1200:1300:2",
+            "--lookahead",
+            lookahead,
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let text = String::from_utf8_lossy(&o.stdout).into_owned();
+        let header: Vec<String> = text
+            .lines()
+            .next()
+            .unwrap()
+            .split(',')
+            .map(String::from)
+            .collect();
+        assert_eq!(header[..3], ["variant", "cycle", "lookahead_s"]);
+        text.lines()
+            .skip(1)
+            .map(|l| {
+                let f: Vec<&str> = l.split(',').collect();
+                (f[1].to_string(), f[2].parse::<f64>().unwrap())
+            })
+            .collect::<Vec<_>>()
+    };
+    let auto = rows("auto");
+    assert_eq!(auto.len(), 4);
+    for (cycle, a) in &auto {
+        let expected = if cycle == "udds" { 1.0 } else { 1.5 };
+        assert_eq!(*a, expected, "{cycle}");
+    }
+    assert!(rows("2.5").iter().all(|(_, a)| *a == 2.5));
 }

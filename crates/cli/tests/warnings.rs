@@ -232,8 +232,8 @@ fn forward_warnings_name_the_longest_interval() {
     );
     assert!(
         text.contains(
-            "warning: the vehicle misses the cycle's trace (± 0.8941 around the cycle within ± 1 s) in 13 \
-             interval(s), 165.9 s in total, the longest from t = 1146.5 s to 1180 s"
+            "warning: the vehicle misses the cycle's trace (± 0.5556 m/s around the cycle within ± 1 s, UNECE \
+             band) in 14 interval(s), 187.1 s in total, the longest from t = 1145.8 s to 1180 s"
         ),
         "{text}"
     );

@@ -1,5 +1,5 @@
 //! A battery-electric vehicle (`pt_type: BEV`): transmission, electric machine with its efficiency table
-//! (regeneration at the table's zero-load efficiency), battery with a constant round-trip efficiency.
+//! (regeneration at the table's zero-load efficiency), battery with its efficiency each way (`battery.rs`).
 
 use crate::curve::{scalar, table};
 use crate::efficiency;
@@ -25,14 +25,7 @@ pub fn emit(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<
         "electric machine peak power (drive and regeneration)",
         &p("em.pwr_out_max_watts"),
     )?;
-    let (eta_res, eta_res_path) = scalar(doc, &p("res.eff_interp"))?;
-    model.field(
-        "eta_res",
-        eta_res,
-        "-",
-        "battery efficiency, each way (discharge P_el/eta, charge P_el*eta)",
-        &eta_res_path,
-    )?;
+    let battery = crate::battery::efficiency(doc, model, &p("res.eff_interp"), warnings)?;
     model.field(
         "P_res_max",
         doc.num(&p("res.pwr_out_max_watts"))?,
@@ -64,6 +57,9 @@ pub fn emit(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<
     )?;
     let zero_load = efficiency::at_zero_load("em", &curve);
     model.def("P_el", &format!("max(P_em, 0)/{eff} + min(P_em, 0)*{zero_load} + P_aux"), "W", "battery terminal power: machine input (regeneration at the zero-load efficiency) plus the auxiliary load");
+    if battery == crate::battery::Efficiency::Table {
+        crate::battery::define_from_table(model);
+    }
     model.def(
         "P_chem",
         "max(P_el, 0)/eta_res + max(min(P_el, 0), -P_res_max)*eta_res",

@@ -49,9 +49,18 @@ pub fn emit(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<
     let curve = table(doc, &p("fc.eff_interp_from_pwr_out"))?;
     model.def("P_fc", "max(P_w, 0)/eta_t + P_aux/eta_alt", "W", "engine output power: traction through the transmission plus the auxiliary load through the alternator");
     let eff = efficiency::emit(model, "fc", &curve, "P_fc/P_fc_max", "engine efficiency")?;
+    // A table with e(0) = 0 (a brake efficiency vanishes at zero load): P_fc/e is 0/0 there, with the limit
+    // P_fc,max · x_1/e_1 of the first, linear segment, which max(e, 1e-12) keeps for every load above
+    // 1e-12 · x_1/e_1; at zero load the quotient is 0 and the idle floor applies, as in FASTSim, whose
+    // max(NaN, P_idle) is P_idle.
+    let divisor = if crate::curve::zero_at_zero_load(&curve) {
+        format!("max({eff}, 1e-12)")
+    } else {
+        eff.clone()
+    };
     model.def(
         "P_fuel",
-        &format!("max(P_fc/{eff}, P_idle)"),
+        &format!("max(P_fc/{divisor}, P_idle)"),
         "W",
         "fuel power, at least the idle fuel power",
     );
@@ -85,8 +94,8 @@ pub fn emit(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<
     Ok(())
 }
 
-/// Stop-start and fuel cut-off: FASTSim's `pt_cntrl` and `dfco_cntrl`; only the plain engine that always runs
-/// and no cut-off are reproduced, anything else is named in a warning.
+/// Stop-start, fuel cut-off and the engine's thermal model: FASTSim's `pt_cntrl`, `dfco_cntrl` and `fc.thrml`;
+/// only the warm engine that always runs and no cut-off are reproduced, anything else is named in a warning.
 fn conv_controls(doc: &Doc, warnings: &mut Vec<String>) {
     let cntrl = format!("{BASE}.pt_cntrl");
     if let Some(v) = doc.get(&cntrl) {
@@ -99,11 +108,16 @@ fn conv_controls(doc: &Doc, warnings: &mut Vec<String>) {
         warnings.push(format!("`{dfco}` is true: deceleration fuel cut-off is not modelled (fuel is burnt at the idle floor while braking)"));
     }
     doc.mark(&format!("{BASE}.dfco_cntrl"));
-    if doc
-        .get(&format!("{BASE}.fc.thrml"))
-        .and_then(serde_yaml::Value::as_str)
-        == Some("None")
-    {
-        doc.mark(&format!("{BASE}.fc.thrml"));
+    let thrml = format!("{BASE}.fc.thrml");
+    match doc.get(&thrml) {
+        Some(v) if v.as_str() == Some("None") => doc.mark(&thrml),
+        Some(v) if v.is_mapping() => {
+            warnings.push(format!(
+                "`{thrml}` is a thermal model: it is not reproduced (the engine is warm from the start, \
+                 so a cold start's extra fuel is not counted)"
+            ));
+            doc.mark(&thrml);
+        }
+        _ => {}
     }
 }

@@ -120,8 +120,8 @@ fn numbers(v: &Value, path: &str) -> Result<Vec<f64>, ImportError> {
 }
 
 /// At least two grid points and one value each, every point and value finite and in its range (`limits.rs`:
-/// load fractions in [0, 1], efficiencies in (0, 1]), the grid strictly increasing; an error names the first
-/// offending point or value.
+/// load fractions in [0, 1], efficiencies in (0, 1], an engine's also 0 at zero load of a linear table), the
+/// grid strictly increasing; an error names the first offending point or value.
 fn check_table(c: &Curve) -> Result<(), ImportError> {
     let (x, y) = (&c.x, &c.y);
     if x.len() < 2 || x.len() != y.len() {
@@ -162,8 +162,25 @@ fn check_table(c: &Curve) -> Result<(), ImportError> {
             ));
         }
         crate::limits::check(&path, yk)?;
+        if yk == 0.0 && !(k == 0 && x[0] == 0.0 && c.strategy == Strategy::Linear) {
+            return Err(ImportError::field(
+                &path,
+                format!(
+                    "an efficiency of 0 at load {} divides the power by zero: only a linear table's \
+                     value at zero load may be 0 (its quotient P/e(P) then has a finite limit there)",
+                    x[k]
+                ),
+            ));
+        }
     }
     Ok(())
+}
+
+/// True when the table's efficiency at zero load is 0 (a linear table starting at (0, 0), which
+/// [`check_table`] allows): power over efficiency is then 0/0 at zero load, with the finite limit
+/// P_max · x_1/e_1 from the first segment.
+pub fn zero_at_zero_load(c: &Curve) -> bool {
+    c.y[0] == 0.0
 }
 
 /// `Linear` or `{Step: Lower}`; anything else is refused.

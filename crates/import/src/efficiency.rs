@@ -63,8 +63,9 @@ fn emit_map(model: &mut Model, prefix: &str, curve: &Curve, load: &str, what: &s
     let name = format!("{prefix}_map");
     model.maps.push(LinearMap {
         name: name.clone(),
-        arg: "load".to_string(),
+        args: vec!["load".to_string()],
         x: curve.x.clone(),
+        y: Vec::new(),
         values: curve.y.clone(),
         unit: "-".to_string(),
         doc: format!(

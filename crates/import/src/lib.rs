@@ -6,6 +6,7 @@
 //! its physical range (`limits.rs`); the file is read through a byte cap (`read.rs`) and its nesting depth is
 //! capped before it is parsed (`depth.rs`).
 
+mod battery;
 mod bev;
 mod chassis;
 mod conv;

@@ -26,6 +26,13 @@ const EFFICIENCY: Range = range(0.0, false, 1.0, true);
 /// [0, 1]: a fraction (a load as a fraction of peak power; a rolling-resistance coefficient, force over
 /// weight).
 const FRACTION: Range = range(0.0, true, 1.0, true);
+/// [−100, 100]: a C-rate, battery power over the power that empties the capacity in an hour (beyond ±100 C no
+/// traction battery is tested).
+const C_RATE: Range = range(-100.0, true, 100.0, true);
+/// [−60, 120] °C: a battery cell temperature in its tables (beyond it, cells are destroyed).
+const CELL_TEMPERATURE: Range = range(-60.0, true, 120.0, true);
+/// The same range in kelvin.
+const CELL_KELVIN: Range = range(213.15, true, 393.15, true);
 /// A count: a whole number ≥ 1.
 const COUNT: Range = Range {
     integer: true,
@@ -106,13 +113,33 @@ pub const FIELDS: &[(&str, Range, &str)] = &[
     ),
     (
         "pt_type.Conv.fc.eff_interp_from_pwr_out.data.values[]",
-        EFFICIENCY,
-        "an engine efficiency",
+        FRACTION,
+        "an engine efficiency (0 only at zero load)",
     ),
     (
         "pt_type.BEV.transmission.eff_interp",
         EFFICIENCY,
         "the transmission efficiency",
+    ),
+    (
+        "pt_type.BEV.res.eff_interp.CRateTemperature.data.grid[0][]",
+        C_RATE,
+        "a C-rate grid point of the battery efficiency table (discharge positive, charge negative)",
+    ),
+    (
+        "pt_type.BEV.res.eff_interp.CRateTemperature.data.grid[1][]",
+        CELL_TEMPERATURE,
+        "a temperature grid point of the battery efficiency table, in °C",
+    ),
+    (
+        "pt_type.BEV.res.eff_interp.CRateTemperature.data.values[][]",
+        EFFICIENCY,
+        "a battery efficiency",
+    ),
+    (
+        "pt_type.BEV.res.thrml.RESLumpedThermal.state.temperature_kelvin",
+        CELL_KELVIN,
+        "the battery's initial temperature, in K",
     ),
     (
         "pt_type.BEV.em.pwr_out_max_watts",
@@ -146,20 +173,30 @@ pub const FIELDS: &[(&str, Range, &str)] = &[
     ),
 ];
 
-/// The table's key of a field path: a trailing `.Constant` dropped, the last index written `[]`.
+/// The table's key of a field path: a trailing `.Constant` dropped, every index written `[]` except a grid's
+/// axis (`grid[1][4]` → `grid[1][]`, `values[3][2]` → `values[][]`).
 fn key(path: &str) -> String {
     let path = path.strip_suffix(".Constant").unwrap_or(path);
-    match path.rfind('[') {
-        Some(open)
-            if path.ends_with(']')
-                && path[open + 1..path.len() - 1]
-                    .bytes()
-                    .all(|b| b.is_ascii_digit()) =>
-        {
-            format!("{}[]", &path[..open])
+    let mut out = String::with_capacity(path.len());
+    let mut rest = path;
+    while let Some(open) = rest.find('[') {
+        let (head, tail) = rest.split_at(open);
+        out.push_str(head);
+        let close = tail.find(']').map_or(tail.len(), |c| c + 1);
+        let index = &tail[..close];
+        let numeric = index.len() > 2
+            && index[1..index.len() - 1]
+                .bytes()
+                .all(|b| b.is_ascii_digit());
+        if numeric && !out.ends_with("grid") {
+            out.push_str("[]");
+        } else {
+            out.push_str(index);
         }
-        _ => path.to_string(),
+        rest = &tail[close..];
     }
+    out.push_str(rest);
+    out
 }
 
 /// `Ok` when the finite `value` of the field at `path` lies in the field's range; otherwise an error naming
@@ -231,6 +268,14 @@ mod tests {
         assert_eq!(
             key("pt_type.Conv.fc.eff_interp_from_pwr_out.data.grid[0][11]"),
             "pt_type.Conv.fc.eff_interp_from_pwr_out.data.grid[0][]"
+        );
+        assert_eq!(
+            key("pt_type.BEV.res.eff_interp.CRateTemperature.data.values[3][2]"),
+            "pt_type.BEV.res.eff_interp.CRateTemperature.data.values[][]"
+        );
+        assert_eq!(
+            key("pt_type.BEV.res.eff_interp.CRateTemperature.data.grid[1][4]"),
+            "pt_type.BEV.res.eff_interp.CRateTemperature.data.grid[1][]"
         );
         assert!(check("pt_type.Conv.transmission.eff_interp", 1.0).is_ok());
         let e = check("pt_type.Conv.transmission.eff_interp", 5.0).unwrap_err();

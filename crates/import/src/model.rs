@@ -22,13 +22,27 @@ pub struct Item {
     pub accumulate: Option<bool>,
 }
 
-/// A 1-D map with plain linear interpolation (contract §6, `interp = "linear"`): exact, for `[outputs]` only.
+/// A 1-D or 2-D map with plain (bi)linear interpolation held at the edge values outside its grid (contract §6,
+/// `interp = "linear"`, `extrapolate = "clamp"`): exact, for `[outputs]` only.
 #[derive(Debug, Clone)]
 pub struct LinearMap {
     pub name: String,
-    pub arg: String,
+    /// The arguments' names (one or two), for the docs.
+    pub args: Vec<String>,
     pub x: Vec<f64>,
+    /// The second argument's grid (empty for a 1-D map).
+    pub y: Vec<f64>,
+    /// 1-D: one value per x; 2-D: `len(x)` rows of `len(y)` values, row by row.
     pub values: Vec<f64>,
+    pub unit: String,
+    pub doc: String,
+}
+
+/// A signal of the generated model besides the road grade: its default and what it is.
+#[derive(Debug, Clone)]
+pub struct Signal {
+    pub name: String,
+    pub default: f64,
     pub unit: String,
     pub doc: String,
 }
@@ -43,6 +57,7 @@ pub struct Model {
     pub defs: Vec<Item>,
     pub outputs: Vec<Item>,
     pub maps: Vec<LinearMap>,
+    pub signals: Vec<Signal>,
 }
 
 impl Model {
@@ -114,6 +129,15 @@ impl Model {
             ));
         }
         s.push_str(SIGNALS);
+        for g in &self.signals {
+            s.push_str(&format!(
+                "{} = {{ default = {}, unit = {}, doc = {} }}\n",
+                g.name,
+                number(g.default),
+                quote(&g.unit),
+                quote(&g.doc)
+            ));
+        }
         for m in &self.maps {
             s.push_str(&render_map(m));
         }
@@ -168,12 +192,29 @@ fn item(name: &str, expr: &str, unit: &str, doc: &str, accumulate: Option<bool>)
 /// `[maps.NAME]` with its grid and values, linear between the points and held at the end values outside.
 fn render_map(m: &LinearMap) -> String {
     let list = |v: &[f64]| v.iter().map(|x| number(*x)).collect::<Vec<_>>().join(", ");
+    let args = m
+        .args
+        .iter()
+        .map(|a| quote(a))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let (y, values) = if m.y.is_empty() {
+        (String::new(), format!("[{}]", list(&m.values)))
+    } else {
+        let rows: Vec<String> = m
+            .values
+            .chunks(m.y.len())
+            .map(|row| format!("[{}]", list(row)))
+            .collect();
+        (
+            format!("y = [{}]\n", list(&m.y)),
+            format!("[{}]", rows.join(", ")),
+        )
+    };
     format!(
-        "\n[maps.{}]\nargs = [{}]\nx = [{}]\nvalues = [{}]\ninterp = \"linear\"\nextrapolate = \"clamp\"\nunit = {}\ndoc = {}\n",
+        "\n[maps.{}]\nargs = [{args}]\nx = [{}]\n{y}values = {values}\ninterp = \"linear\"\nextrapolate = \"clamp\"\nunit = {}\ndoc = {}\n",
         m.name,
-        quote(&m.arg),
         list(&m.x),
-        list(&m.values),
         quote(&m.unit),
         quote(&m.doc)
     )

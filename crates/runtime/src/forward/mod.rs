@@ -61,7 +61,7 @@ use crate::cycle::Cycle;
 use crate::error::RunError;
 use crate::grid::Grid;
 use crate::ode::{Dopri5, OdeStats, Rosenbrock23};
-use crate::report::{columns_with_units, describe_intervals, fmt_sig, CycleInfo, Totals};
+use crate::report::{columns_with_units, describe_intervals, CycleInfo, Totals};
 use budget::Budget;
 use driver::{binomial, Loop, RawCycle};
 use integrator::Integrator;
@@ -75,7 +75,7 @@ pub use modal_summary::{ForwardModes, InputRange, ModalForwardSummary, ModeSwitc
 pub use options::{
     default_step_budget, Bounds, ForwardOptions, ForwardOptionsBuilder, Method, DEFAULT_ATOL,
     DEFAULT_DT, DEFAULT_RTOL, DRIVER_KI, DRIVER_KP, MIN_STEP_BUDGET, MPH, RESPONSE_OMEGA,
-    STEPS_PER_CYCLE_SECOND, TRACE_MISS_SPEED_TOL, TRACE_MISS_TIME_TOL,
+    STEPS_PER_CYCLE_SECOND,
 };
 pub use summary::{DriverSummary, ForwardSummary, IntegratorSummary};
 
@@ -429,14 +429,7 @@ fn forward_warnings(
             describe_intervals(violations)
         ));
     }
-    if !trace_misses.is_empty() {
-        warnings.push(format!(
-            "the vehicle misses the cycle's trace (± {} around the cycle within ± {} s) in {}",
-            fmt_sig(opts.trace_speed_tol, 4),
-            fmt_sig(opts.trace_time_tol, 4),
-            describe_intervals(trace_misses)
-        ));
-    }
+    warnings.extend(trace::miss_warning(opts.trace_band(cycle), trace_misses));
     warnings.extend(crate::signals::grade_warning(info, cycle));
     warnings
 }
@@ -492,8 +485,8 @@ fn summarise<M: InverseModel + ?Sized>(
         },
         totals,
         trace_misses,
-        trace_miss_speed_tolerance: opts.trace_speed_tol,
-        trace_miss_time_tolerance_s: opts.trace_time_tol,
+        trace_miss_speed_tolerance: opts.trace_band(cycle).speed_mps,
+        trace_miss_time_tolerance_s: opts.trace_band(cycle).time_s,
         max_abs_tracking_error: tally.max_err,
         rms_tracking_error: (tally.sum_sq / samples as f64).sqrt(),
         engine_operating_points: tally.operating.map(|op| op.finish(info, opts.dt)),

@@ -137,7 +137,7 @@ impl<'a> ModalRecorder<'a> {
             outs: vec![0.0; info.outputs.len()],
             inputs: Vec::with_capacity(spec.inputs.len()),
             row: Vec::new(),
-            band: TraceBand::new(cycle, opts.trace_time_tol, opts.trace_speed_tol),
+            band: TraceBand::new(cycle, opts.trace_band(cycle)),
             bounds,
             tally: Tally::new(spec, OperatingPointTally::new(info, stored)),
             last: None,

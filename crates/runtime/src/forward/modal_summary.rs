@@ -11,6 +11,7 @@ use super::driver::Drive;
 use super::options::{Bounds, ForwardOptions};
 use super::summary::{DriverSummary, IntegratorSummary};
 use crate::cycle::Cycle;
+use crate::cycle::Tolerance;
 use crate::modes::{ModalSpec, ModeTime};
 use crate::ode::OdeStats;
 use crate::operating_points::{OperatingPointTally, OperatingPoints};
@@ -175,7 +176,11 @@ pub(super) fn summarise(
     let tables = integral_tables(info, &accumulate, &tally.integrals, cycle.distance());
     let violations = tally.violations.finish();
     let trace_misses = tally.misses.finish();
-    let warnings = warnings((spec, opts), (&violations, tally.farthest), &trace_misses);
+    let warnings = warnings(
+        (spec, opts),
+        (&violations, tally.farthest),
+        (opts.trace_band(cycle), &trace_misses),
+    );
     let name = |m: usize| spec.modes[m].name.clone();
     let inputs = spec.input_ranges(&tally.ranges);
     let totals = Totals::of_modes(
@@ -236,8 +241,8 @@ pub(super) fn summarise(
                 .collect(),
         },
         trace_misses,
-        trace_miss_speed_tolerance: opts.trace_speed_tol,
-        trace_miss_time_tolerance_s: opts.trace_time_tol,
+        trace_miss_speed_tolerance: opts.trace_band(cycle).speed_mps,
+        trace_miss_time_tolerance_s: opts.trace_band(cycle).time_s,
         max_abs_tracking_error: tally.max_err,
         rms_tracking_error: (tally.sum_sq / samples as f64).sqrt(),
         engine_operating_points: tally.operating.map(|op| op.finish(info, opts.dt)),
@@ -260,7 +265,7 @@ pub(super) fn summarise(
 fn warnings(
     (spec, opts): (&ModalSpec<'_>, &ForwardOptions),
     (violations, farthest): (&[[f64; 2]], Option<Demand>),
-    misses: &[[f64; 2]],
+    (band, misses): (Tolerance, &[[f64; 2]]),
 ) -> Vec<String> {
     let mut warnings = Vec::new();
     if let Some((t, m, demand, bound)) = farthest.filter(|_| !violations.is_empty()) {
@@ -285,14 +290,7 @@ fn warnings(
             fmt_sig(bound, 4)
         ));
     }
-    if !misses.is_empty() {
-        warnings.push(format!(
-            "the vehicle misses the cycle's trace (± {} around the cycle within ± {} s) in {}",
-            fmt_sig(opts.trace_speed_tol, 4),
-            fmt_sig(opts.trace_time_tol, 4),
-            describe_intervals(misses)
-        ));
-    }
+    warnings.extend(super::trace::miss_warning(band, misses));
     warnings
 }
 

@@ -8,10 +8,6 @@ use crate::grid::check_dt;
 
 /// One mile per hour in m/s.
 pub const MPH: f64 = 0.447_04;
-/// Default trace-miss speed tolerance: 2 mph (40 CFR 86.115-78), in the output's unit (m/s).
-pub const TRACE_MISS_SPEED_TOL: f64 = 2.0 * MPH;
-/// Default trace-miss time tolerance: 1 s (40 CFR 86.115-78).
-pub const TRACE_MISS_TIME_TOL: f64 = 1.0;
 /// Default proportional gain of the driver: 2 (m/s²)/(m/s), i.e. the request per unit of speed error.
 pub const DRIVER_KP: f64 = 2.0;
 /// Default integral gain of the driver: 1 (m/s²)/m. With K_p = 2 the speed loop s² + K_p s + K_i has a
@@ -108,9 +104,10 @@ pub struct ForwardOptions {
     /// Initial state x(t_0); `None`: ψ⁻¹ of the raw cycle's start, (y_c, y_c', 0, …), with η at the
     /// equilibrium of the zero dynamics there.
     pub x0: Option<Vec<f64>>,
-    /// Trace-miss band: ± this much around the cycle's extremes within ± `trace_time_tol` (defaults 2 mph, 1 s).
-    pub trace_speed_tol: f64,
-    pub trace_time_tol: f64,
+    /// Trace-miss band: ± Δv around the cycle's extremes within ± Δt; `None` (default): the cycle's own band
+    /// ([`Cycle::tolerance`](crate::cycle::Cycle): EPA ±2 mph, ±1 s for UDDS, HWFET and cycle files, UNECE
+    /// ±2 km/h, ±1 s for NEDC and WLTC, or what `--tolerance` set), as for the inverse's reference.
+    pub trace_tolerance: Option<crate::cycle::Tolerance>,
     /// Keep the time series (default true); `false` computes every sample for the summary only.
     pub keep_series: bool,
     /// Step budget: the run stops with [`ForwardError::StepBudget`] after this many integrator steps (accepted
@@ -143,8 +140,7 @@ impl Default for ForwardOptions {
             rtol: DEFAULT_RTOL,
             atol: DEFAULT_ATOL,
             x0: None,
-            trace_speed_tol: TRACE_MISS_SPEED_TOL,
-            trace_time_tol: TRACE_MISS_TIME_TOL,
+            trace_tolerance: None,
             keep_series: true,
             max_steps: None,
             time_limit_s: None,
@@ -195,14 +191,21 @@ impl ForwardOptions {
                 });
             }
         }
-        let (speed_tol, time_tol) = (self.trace_speed_tol, self.trace_time_tol);
-        if !(speed_tol.is_finite() && speed_tol >= 0.0 && time_tol.is_finite() && time_tol >= 0.0) {
-            return Err(ForwardError::InvalidTraceTolerance {
-                speed: speed_tol,
-                time: time_tol,
-            });
+        if let Some(t) = self.trace_tolerance {
+            let ok = |v: f64| v.is_finite() && v >= 0.0;
+            if !(ok(t.speed_mps) && ok(t.time_s)) {
+                return Err(ForwardError::InvalidTraceTolerance {
+                    speed: t.speed_mps,
+                    time: t.time_s,
+                });
+            }
         }
         Ok(())
+    }
+
+    /// The trace-miss band of a run on `cycle`: the option's, else the cycle's own.
+    pub fn trace_band(&self, cycle: &crate::cycle::Cycle) -> crate::cycle::Tolerance {
+        self.trace_tolerance.unwrap_or(cycle.tolerance)
     }
 }
 
@@ -226,7 +229,7 @@ macro_rules! setters {
 
 setters! {
     dt: f64, kp: f64, ki: f64, response: f64, feedforward: bool, bounds: Bounds, method: Method, rtol: f64,
-    atol: f64, x0: Option<Vec<f64>>, trace_speed_tol: f64, trace_time_tol: f64, keep_series: bool,
+    atol: f64, x0: Option<Vec<f64>>, trace_tolerance: Option<crate::cycle::Tolerance>, keep_series: bool,
     max_steps: Option<usize>, time_limit_s: Option<f64>,
     progress: crate::progress::Progress,
 }

@@ -128,7 +128,7 @@ impl<'a> Recorder<'a> {
                 layout.output_column,
             ),
             outs: vec![0.0; no],
-            band: TraceBand::new(cycle, opts.trace_time_tol, opts.trace_speed_tol),
+            band: TraceBand::new(cycle, opts.trace_band(cycle)),
             bounds: (lo - u_tol, hi + u_tol),
             tally: ForwardTally {
                 integrals: vec![0.0; accumulate.len()],

@@ -70,6 +70,7 @@ fn run_one(sweep: &Sweep, worker: &mut Worker, job: usize) -> SweepRow {
     SweepRow {
         variant,
         cycle: cycle.name.clone(),
+        lookahead_s: opts.lookahead,
         params: params.clone(),
         outcome,
     }

@@ -306,6 +306,7 @@ fn columns(result: &SweepResult) -> Vec<Column> {
     let mut cols = vec![
         int("variant", false, &|r| Some(r.variant as i64)),
         text("cycle", false, &|r| Some(r.cycle.clone())),
+        dbl("lookahead_s".into(), false, &|r| Some(r.lookahead_s)),
     ];
     for (j, p) in result.parameters.iter().enumerate() {
         cols.push(dbl(p.clone(), false, &|r| r.params.get(j).copied()));

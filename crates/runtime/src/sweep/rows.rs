@@ -100,6 +100,8 @@ pub struct SweepRow {
     pub variant: usize,
     /// The cycle's name.
     pub cycle: String,
+    /// The look-ahead of the run, s (`--lookahead auto`: the one chosen for the cycle).
+    pub lookahead_s: f64,
     /// The swept parameters' values, in the order of [`SweepResult::parameters`].
     pub params: Vec<f64>,
     /// The figures, or why the run failed (the error's message).
@@ -131,12 +133,14 @@ impl SweepResult {
         self.rows.iter().filter(|r| r.outcome.is_err()).count()
     }
 
-    /// The CSV header: `variant`, `cycle`, the parameters, `status`, `error`, `samples`, `distance_m`, the
+    /// The CSV header: `variant`, `cycle`, `lookahead_s`, the parameters, `status`, `error`, `samples`, `distance_m`, the
     /// integrals, `NAME_per_100km` for each, `input_min`, `input_max`, `violations`, `violation_s`, and with
     /// `verify` `max_abs_tracking_error`, `rms_tracking_error`, and for a model with modes `switches`,
     /// `max_transition_deviation` and `time_MODE_s` for each mode.
     pub fn header(&self) -> Vec<String> {
-        let mut h = vec!["variant".to_string(), "cycle".to_string()];
+        let mut h = ["variant", "cycle", "lookahead_s"]
+            .map(String::from)
+            .to_vec();
         h.extend(self.parameters.iter().cloned());
         h.extend(["status", "error", "samples", "distance_m"].map(String::from));
         h.extend(self.integrals.iter().cloned());
@@ -157,7 +161,11 @@ impl SweepResult {
     /// `1000`, whole counts as integers), empty fields where a failed run has no figure.
     pub fn record(&self, row: &SweepRow) -> Vec<String> {
         let float = crate::output::float_text;
-        let mut r = vec![row.variant.to_string(), row.cycle.clone()];
+        let mut r = vec![
+            row.variant.to_string(),
+            row.cycle.clone(),
+            float(row.lookahead_s),
+        ];
         r.extend(row.params.iter().map(|&v| float(v)));
         let n_modal = if self.modes.is_empty() {
             0
