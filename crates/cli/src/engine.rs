@@ -80,11 +80,9 @@ pub fn load_cycle(
 
 /// The cycle (read through the size cap) with its plausibility warnings and the model of a run, with the
 /// `--set` overrides applied.
-fn load_run(
-    req: &RunRequest<'_>,
-    sets: &[String],
-) -> Result<((Cycle, Vec<String>), Loaded), Failure> {
-    let sets: Vec<(String, f64)> = sets
+fn load_run(req: &RunRequest<'_>) -> Result<((Cycle, Vec<String>), Loaded), Failure> {
+    let sets: Vec<(String, f64)> = req
+        .set
         .iter()
         .map(|s| parse_set(s))
         .collect::<Result<_, _>>()?;
@@ -138,7 +136,7 @@ pub fn prepare_run(
             ("--plot", req.plot.plot.as_deref()),
         ],
     )?;
-    let ((cycle, cycle_warnings), mut model) = load_run(req, req.set)?;
+    let ((cycle, cycle_warnings), mut model) = load_run(req)?;
     match &model {
         Loaded::Single(m) => crate::plotting::check(req.plot, m.as_model().info())?,
         Loaded::Modal(m) => crate::plotting::check_modal(
