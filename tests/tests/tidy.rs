@@ -6,6 +6,7 @@
 //! The allow-lists below are the only exceptions. An entry that no longer excuses anything fails the test too
 //! (remove it): the lists only shrink.
 
+use invsim_tests::tidy::warnings::warning_sites;
 use invsim_tests::tidy::{
     apply_allow_list, import_circles, line_contains, long_functions, missing_module_docs,
     same_subject, unwraps, workspace_sources, Allow, SourceFile, Violation, MAX_FUNCTION_LINES,
@@ -191,4 +192,186 @@ fn an_allow_list_excuses_only_what_it_names_and_reports_stale_entries() {
     assert_eq!(stale, [&allow[1]]);
     let (left, _) = apply_allow_list(long_functions(&files, 10), &allow[1..], same_subject);
     assert_eq!(left.len(), 1);
+}
+
+// --- every warning explained in the guide's glossary -----------------------------------------------------------
+
+/// Every warning invsim can print: the file that makes it and the text that identifies it (a piece of its
+/// format string), which the guide's glossary quotes. A warning site ([`warning_sites`]) not listed here, or an
+/// entry whose file has fewer sites, fails the test: add the warning here and to `docs/guide.md` (section
+/// "Warnings").
+const WARNINGS: &[(&str, &str)] = &[
+    (
+        "crates/runtime/src/cycle/plausibility.rs",
+        "is beyond any drive cycle",
+    ),
+    (
+        "crates/runtime/src/cycle/plausibility.rs",
+        "beyond what a car's tyres allow",
+    ),
+    (
+        "crates/runtime/src/cycle/plausibility.rs",
+        "the column probably holds milliseconds",
+    ),
+    ("crates/runtime/src/inverse/run.rs", "s in total (reached"),
+    (
+        "crates/runtime/src/inverse/run.rs",
+        "the cycle covers no distance",
+    ),
+    (
+        "crates/runtime/src/inverse/run.rs",
+        "the internal states' initial values are ignored: stable inversion keeps its boundary",
+    ),
+    (
+        "crates/runtime/src/inverse/run.rs",
+        "the frozen linearisation ∂q/∂η has eigenvalues",
+    ),
+    (
+        "crates/runtime/src/inverse/run.rs",
+        "stable inversion: the estimated error",
+    ),
+    (
+        "crates/runtime/src/inverse/checks.rs",
+        "the smoothed reference y_d covers",
+    ),
+    (
+        "crates/runtime/src/inverse/verify.rs",
+        "verification: the open-loop replay strays from y_d",
+    ),
+    (
+        "crates/runtime/src/tolerance_band.rs",
+        "the smoothed reference leaves the cycle's tolerance band",
+    ),
+    (
+        "crates/runtime/src/signals.rs",
+        "the cycle's road grade is ignored",
+    ),
+    (
+        "crates/runtime/src/initial.rs",
+        "ignored: the inversion fixes it",
+    ),
+    (
+        "crates/runtime/src/modes/summary.rs",
+        "where a mode's free input leaves its bounds and no mode absorbs it",
+    ),
+    (
+        "crates/runtime/src/modes/summary.rs",
+        "that no impulse of the free input realises",
+    ),
+    (
+        "crates/runtime/src/forward/mod.rs",
+        "declares no input bounds: there is nothing to enforce",
+    ),
+    (
+        "crates/runtime/src/forward/mod.rs",
+        "the driver's demand for",
+    ),
+    (
+        "crates/runtime/src/forward/trace.rs",
+        "the vehicle misses the cycle's trace",
+    ),
+    (
+        "crates/runtime/src/forward/modal_summary.rs",
+        "the driver's demand leaves the bounds of the mode's free input",
+    ),
+    (
+        "crates/inversion/src/derive/coordinates.rs",
+        "has L_g η ≠ 0",
+    ),
+    (
+        "crates/inversion/src/derive/relative_degree.rs",
+        "was taken as identically zero by numeric probing",
+    ),
+    (
+        "crates/inversion/src/derive/non_affine.rs",
+        "was taken as identically zero by numeric probing",
+    ),
+    (
+        "crates/inversion/src/derive/psi_inv.rs",
+        "has no closed form in (ξ, η)",
+    ),
+    ("crates/inversion/src/derive/mod.rs", "β vanishes: "),
+    (
+        "crates/inversion/src/derive/mod.rs",
+        "(Newton's method for the input fails there)",
+    ),
+    (
+        "crates/import/src/fastsim.rs",
+        "fields not modelled (ignored)",
+    ),
+    ("crates/import/src/bev.rs", "does not start at zero load"),
+    (
+        "crates/import/src/conv.rs",
+        "is not set: the fuel is reported as energy",
+    ),
+    (
+        "crates/import/src/controls.rs",
+        "the engine stops as soon as the car stands",
+    ),
+    (
+        "crates/import/src/conv.rs",
+        "is a thermal model: it is not reproduced",
+    ),
+    (
+        "crates/import/src/battery.rs",
+        "the battery efficiency is read at the temperature signal `T_res`",
+    ),
+];
+
+/// The guide's section "Warnings": from its heading to the next heading of level 2 or 3 (or the end).
+fn warnings_glossary() -> String {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/guide.md");
+    let guide =
+        std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let start = guide
+        .find("\n### Warnings\n")
+        .unwrap_or_else(|| panic!("docs/guide.md has no section `### Warnings`"));
+    let rest = &guide[start + 1..];
+    let end = rest[4..]
+        .find("\n## ")
+        .into_iter()
+        .chain(rest[4..].find("\n### "))
+        .min()
+        .map_or(rest.len(), |e| e + 4);
+    rest[..end].to_string()
+}
+
+#[test]
+fn every_warning_is_explained_in_the_guide() {
+    let files = sources();
+    let glossary = warnings_glossary();
+    let mut problems = Vec::new();
+    for (path, text) in WARNINGS {
+        let source = files.iter().find(|f| f.path == *path);
+        if !source.is_some_and(|f| f.text.contains(text)) {
+            problems.push(format!(
+                "{path}: no warning text {text:?} (fix: update WARNINGS)"
+            ));
+        }
+        if !glossary.contains(text) {
+            problems.push(format!(
+                "docs/guide.md, section Warnings: {text:?} (from {path}) is not explained (fix: add it)"
+            ));
+        }
+    }
+    let mut sites: std::collections::BTreeMap<&str, Vec<usize>> = Default::default();
+    let found = warning_sites(&files);
+    for s in &found {
+        let path = WARNINGS
+            .iter()
+            .find(|(p, _)| *p == s.path)
+            .map_or(s.path.as_str(), |(p, _)| p);
+        sites.entry(path).or_default().push(s.line);
+    }
+    for (path, lines) in &sites {
+        let listed = WARNINGS.iter().filter(|(p, _)| p == path).count();
+        if lines.len() != listed {
+            problems.push(format!(
+                "{path}: {} warning site(s) (lines {lines:?}) but {listed} listed in WARNINGS (fix: list each \
+                 warning and explain it in docs/guide.md)",
+                lines.len()
+            ));
+        }
+    }
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
 }

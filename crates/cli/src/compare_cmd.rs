@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use crate::compare_table::{self, label};
 use crate::cycles_cmd::ListFormat;
-use crate::error::{warn, Failure};
+use crate::error::{Failure, Warnings};
 use crate::run_summary::RunSummary;
 
 /// Most runs compared at once (labelled A … Z).
@@ -26,7 +26,7 @@ pub struct CompareArgs {
     pub plot: crate::compare_plot::ComparePlotArgs,
 }
 
-pub fn run(args: &CompareArgs) -> Result<(), Failure> {
+pub fn run(args: &CompareArgs, warnings: Warnings) -> Result<(), Failure> {
     if args.runs.len() > MAX_RUNS {
         return Err(Failure::user(format!(
             "compare: {} runs given, more than the {MAX_RUNS} compared at once",
@@ -38,7 +38,7 @@ pub fn run(args: &CompareArgs) -> Result<(), Failure> {
         .iter()
         .map(|p| RunSummary::read(p))
         .collect::<Result<_, _>>()?;
-    warn_on_other_cycles(&runs);
+    warnings.emit(&other_cycles(&runs))?;
     crate::compare_plot::write(&args.plot, &runs)?;
     let figures: Vec<_> = runs.iter().map(RunSummary::figures).collect();
     let rows = compare_table::rows(&figures);
@@ -54,8 +54,8 @@ pub fn run(args: &CompareArgs) -> Result<(), Failure> {
     crate::files::print_stdout(&text)
 }
 
-/// Warn when the runs did not all drive the first run's cycle: their totals then differ by the cycle too.
-fn warn_on_other_cycles(runs: &[RunSummary]) {
+/// The warning when the runs did not all drive the first run's cycle: their totals then differ by the cycle too.
+fn other_cycles(runs: &[RunSummary]) -> Vec<String> {
     let first = runs[0].text("cycle");
     let others: Vec<String> = runs
         .iter()
@@ -63,11 +63,12 @@ fn warn_on_other_cycles(runs: &[RunSummary]) {
         .filter(|(_, r)| r.text("cycle") != first)
         .map(|(k, r)| format!("{} drove `{}`", label(k), r.text("cycle")))
         .collect();
-    if !others.is_empty() {
-        warn(&format!(
-            "the runs drove different cycles (A drove `{first}`, {}): their totals differ by the cycle too; \
-             compare the per-100-km figures",
-            others.join(", ")
-        ));
+    if others.is_empty() {
+        return Vec::new();
     }
+    vec![format!(
+        "the runs drove different cycles (A drove `{first}`, {}): their totals differ by the cycle too; \
+         compare the per-100-km figures",
+        others.join(", ")
+    )]
 }

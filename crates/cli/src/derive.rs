@@ -5,18 +5,19 @@ use std::path::Path;
 
 use invsim_inversion::{ModalModel, ModelFile};
 
-use crate::error::Failure;
+use crate::error::{Failure, Warnings};
 use crate::files::print_stdout;
 
 pub use crate::derive_format::Format;
 
-pub fn run(path: &Path, format: Format) -> Result<(), Failure> {
+pub fn run(path: &Path, format: Format, warnings: Warnings) -> Result<(), Failure> {
     if let Some(m) = read_modal(path)? {
-        return derive_modal(m, format);
+        return derive_modal(m, format, warnings);
     }
     let d = invsim_inversion::derive_file(path).map_err(|e| Failure::user(e.to_string()))?;
     d.check_printable()
         .map_err(|e| Failure::user(e.to_string()))?;
+    warnings.check(&d.warnings)?;
     let text = match format {
         Format::Text => d.to_text(),
         Format::Json => {
@@ -40,9 +41,24 @@ fn read_modal(path: &Path) -> Result<Option<ModalModel>, Failure> {
 }
 
 /// `invsim derive` of a model with modes.
-fn derive_modal(mut m: ModalModel, format: crate::derive_format::Format) -> Result<(), Failure> {
+fn derive_modal(
+    mut m: ModalModel,
+    format: crate::derive_format::Format,
+    warnings: Warnings,
+) -> Result<(), Failure> {
     let ds = invsim_loader::derive_modes(std::mem::take(&mut m.modes))
         .map_err(|e| Failure::user(e.to_string()))?;
+    let each: Vec<String> = ds
+        .iter()
+        .flat_map(|mode| {
+            let name = &mode.header.name;
+            mode.d
+                .warnings
+                .iter()
+                .map(move |w| format!("mode `{name}`: {w}"))
+        })
+        .collect();
+    warnings.check(&each)?;
     let text = match format {
         crate::derive_format::Format::Json => {
             let v = invsim_loader::modal_derive_json(&m, &ds);

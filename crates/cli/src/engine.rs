@@ -8,7 +8,7 @@ use clap::ValueEnum;
 use invsim_loader::Loaded;
 use invsim_runtime::Cycle;
 
-use crate::error::Failure;
+use crate::error::{Failure, Warnings};
 
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]
@@ -64,20 +64,30 @@ pub fn set_failure(e: invsim_loader::LoadError) -> Failure {
     Failure::user(format!("--set {e}"))
 }
 
-/// The cycle (read through the size cap) and the model of a run, with the `--set` overrides applied.
-fn load_run(
-    model: &Path,
-    engine: EngineChoice,
-    (cycle, max_cycle_bytes): (&str, u64),
-    sets: &[String],
-) -> Result<(Cycle, Loaded), Failure> {
-    let sets: Vec<(String, f64)> = sets
+/// The cycle `spec` (read through the size cap) and its plausibility warnings, printed on stderr before the
+/// run (a run the wrong units make fail still shows them), or with `--strict` the failure.
+pub fn load_cycle(
+    spec: &str,
+    max_cycle_bytes: u64,
+    warnings: Warnings,
+) -> Result<(Cycle, Vec<String>), Failure> {
+    let (cycle, found) =
+        Cycle::load_checked(spec, max_cycle_bytes).map_err(|e| Failure::user(e.to_string()))?;
+    let found: Vec<String> = found.iter().map(ToString::to_string).collect();
+    warnings.emit(&found)?;
+    Ok((cycle, found))
+}
+
+/// The cycle (read through the size cap) with its plausibility warnings and the model of a run, with the
+/// `--set` overrides applied.
+fn load_run(req: &RunRequest<'_>) -> Result<((Cycle, Vec<String>), Loaded), Failure> {
+    let sets: Vec<(String, f64)> = req
+        .set
         .iter()
         .map(|s| parse_set(s))
         .collect::<Result<_, _>>()?;
-    let cycle =
-        Cycle::load_with_limit(cycle, max_cycle_bytes).map_err(|e| Failure::user(e.to_string()))?;
-    let mut model = load(model, engine)?;
+    let cycle = load_cycle(req.cycle, req.max_cycle_bytes, req.warnings)?;
+    let mut model = load(req.model, req.engine)?;
     for (name, value) in &sets {
         model.set_param(name, *value).map_err(set_failure)?;
     }
@@ -96,12 +106,16 @@ pub struct RunRequest<'a> {
     pub summary_json: Option<&'a Path>,
     pub plot: &'a crate::plotting::PlotArgs,
     pub data: &'a crate::data_args::DataArgs,
+    /// `--strict` or not.
+    pub warnings: Warnings,
 }
 
 /// The parsed `--signal` and `--initial` values of a run, for its options.
 pub struct RunData {
     pub signals: Vec<invsim_runtime::SignalInput>,
     pub initial: Vec<(String, f64)>,
+    /// The cycle file's plausibility warnings (printed already; the summary records them too).
+    pub cycle_warnings: Vec<String>,
 }
 
 /// The common start of `simulate` and `forward`: the outputs checked against every input file
@@ -122,12 +136,7 @@ pub fn prepare_run(
             ("--plot", req.plot.plot.as_deref()),
         ],
     )?;
-    let (cycle, mut model) = load_run(
-        req.model,
-        req.engine,
-        (req.cycle, req.max_cycle_bytes),
-        req.set,
-    )?;
+    let ((cycle, cycle_warnings), mut model) = load_run(req)?;
     match &model {
         Loaded::Single(m) => {
             crate::plotting::check(req.plot, m.as_model().info(), crate::plotting::span(&cycle))?
@@ -142,6 +151,7 @@ pub fn prepare_run(
     let data = RunData {
         signals: crate::signal_args::parse_signals(&req.data.signal)?,
         initial: crate::initial_args::parse_initial(&req.data.initial)?,
+        cycle_warnings,
     };
     Ok((outputs, cycle, model, data))
 }
@@ -152,13 +162,15 @@ pub fn cycle_file(spec: &str) -> Option<&Path> {
 }
 
 /// The end of `simulate` and `forward`: the finished run of `plant` on `cycle` written to `--out`,
-/// `--summary-json` and `--plot` (through `outputs`), and its summary printed.
+/// `--summary-json` and `--plot` (through `outputs`), and its summary printed; with `--strict` a run with
+/// warnings fails instead, writing nothing.
 pub fn write_run(
-    plot: &crate::plotting::PlotArgs,
+    (plot, warnings): (&crate::plotting::PlotArgs, Warnings),
     mut outputs: crate::outputs::Outputs,
     (plant, cycle): (&invsim_runtime::Plant, &Cycle),
     result: &invsim_runtime::RunResult,
 ) -> Result<(), Failure> {
+    warnings.check(result.warnings())?;
     outputs.write("--out", |f| result.write_csv(f))?;
     outputs.write("--summary-json", |f| result.write_summary_json(f))?;
     let headline = || {

@@ -49,6 +49,41 @@ pub fn warn(text: &str) {
     stderr_line(&format!("invsim: warning: {}", escaped(text.to_string())));
 }
 
+/// What to do with warnings: print them (`invsim: warning: …`), or with `--strict` (a global option) fail with
+/// them, exit 2, before any output is written.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Warnings {
+    pub strict: bool,
+}
+
+impl Warnings {
+    /// Warnings no output carries (a cycle file's, an import's): printed on stderr, or with `--strict` the
+    /// failure.
+    pub fn emit(self, warnings: &[String]) -> Result<(), Failure> {
+        self.check(warnings)?;
+        for w in warnings {
+            warn(w);
+        }
+        Ok(())
+    }
+
+    /// Warnings the output carries (a summary's, a derivation's): with `--strict` the failure, else nothing.
+    pub fn check(self, warnings: &[String]) -> Result<(), Failure> {
+        match warnings {
+            [] => Ok(()),
+            _ if !self.strict => Ok(()),
+            [one] => Err(Failure::user(format!(
+                "{one} (a warning, an error with --strict)"
+            ))),
+            many => Err(Failure::user(format!(
+                "{} warnings, errors with --strict: {}",
+                many.len(),
+                many.join("; ")
+            ))),
+        }
+    }
+}
+
 /// `message` with its control characters escaped ([`invsim_runtime::textfmt::escape_controls`]).
 fn escaped(message: String) -> String {
     match invsim_runtime::textfmt::escape_controls(&message, false) {

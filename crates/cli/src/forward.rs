@@ -129,7 +129,7 @@ pub(crate) fn options(
 }
 
 /// `invsim forward` of any model.
-pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
+pub fn run(args: &ForwardArgs, warnings: crate::error::Warnings) -> Result<(), Failure> {
     let (outputs, mut cycle, model, data) = prepare_run(&RunRequest {
         model: &args.model,
         engine: args.engine,
@@ -140,6 +140,7 @@ pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
         summary_json: args.summary_json.as_deref(),
         plot: &args.plot,
         data: &args.data,
+        warnings,
     })?;
     crate::cycle_spec::apply_tolerance(&mut cycle, args.tolerance.as_deref())?;
     let stopped = |e: &dyn std::fmt::Display| {
@@ -170,5 +171,6 @@ pub fn run(args: &ForwardArgs) -> Result<(), Failure> {
         sets: &args.set,
         options: provenance::options_of(args),
     })?);
-    crate::engine::write_run(&args.plot, outputs, (&plant, &cycle), &result)
+    result.warnings_mut().splice(0..0, data.cycle_warnings);
+    crate::engine::write_run((&args.plot, warnings), outputs, (&plant, &cycle), &result)
 }

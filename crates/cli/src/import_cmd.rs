@@ -19,7 +19,7 @@ pub enum ImportFormat {
     },
 }
 
-pub fn run(format: &ImportFormat) -> Result<(), Failure> {
+pub fn run(format: &ImportFormat, warnings: crate::error::Warnings) -> Result<(), Failure> {
     let ImportFormat::Fastsim { vehicle, out } = format;
     // `--out` checked before anything is read: not the vehicle file (whatever the spelling), written through
     // a temporary file renamed into place (`crate::outputs`).
@@ -35,9 +35,12 @@ pub fn run(format: &ImportFormat) -> Result<(), Failure> {
         .map_or(shown.clone(), |n| n.to_string_lossy().into_owned());
     let imported = invsim_import::import_fastsim(&text, &source)
         .map_err(|e| Failure::user(e.message_for(&shown)))?;
-    for w in &imported.warnings {
-        crate::error::warn(&format!("{shown}: {w}"));
-    }
+    let shown_warnings: Vec<String> = imported
+        .warnings
+        .iter()
+        .map(|w| format!("{shown}: {w}"))
+        .collect();
+    warnings.emit(&shown_warnings)?;
     match out {
         Some(_) => {
             use std::io::Write;

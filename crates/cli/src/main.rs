@@ -52,6 +52,10 @@ use clap::{CommandFactory, Parser, Subcommand};
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Make every warning an error (exit 2, no output written): a cycle file's plausibility warnings, a run's
+    /// and a derivation's warnings, an import's.
+    #[arg(long, global = true)]
+    strict: bool,
 }
 
 /// Each command's arguments are built only when it is the one run (`defer`): building them all for every
@@ -108,14 +112,15 @@ fn main() -> std::process::ExitCode {
 #[cfg_attr(all(target_os = "linux", target_env = "gnu", test), allow(dead_code))] // the unit tests' harness has a main of its own
 fn run() -> u8 {
     let cli = Cli::parse();
+    let warnings = error::Warnings { strict: cli.strict };
     let result = match cli.command {
-        Command::Derive { model, format } => derive::run(&model, format),
-        Command::Simulate(args) => simulate::run(&args),
-        Command::Sweep(args) => sweep_cmd::run(&args),
-        Command::Forward(args) => forward::run(&args),
-        Command::Compare(args) => compare_cmd::run(&args),
+        Command::Derive { model, format } => derive::run(&model, format, warnings),
+        Command::Simulate(args) => simulate::run(&args, warnings),
+        Command::Sweep(args) => sweep_cmd::run(&args, warnings),
+        Command::Forward(args) => forward::run(&args, warnings),
+        Command::Compare(args) => compare_cmd::run(&args, warnings),
         Command::Cycles(args) => cycles_cmd::run(&args),
-        Command::Import(format) => import_cmd::run(&format),
+        Command::Import(format) => import_cmd::run(&format, warnings),
         Command::Completions(args) => completions::run(&args, Cli::command()),
     };
     match result {

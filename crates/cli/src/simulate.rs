@@ -80,7 +80,7 @@ pub enum SwitchingArg {
     QuasiStatic,
 }
 
-pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
+pub fn run(args: &SimulateArgs, warnings: crate::error::Warnings) -> Result<(), Failure> {
     let (outputs, mut cycle, model, data) = prepare_run(&RunRequest {
         model: &args.model,
         engine: args.engine,
@@ -91,6 +91,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
         summary_json: args.summary_json.as_deref(),
         plot: &args.plot,
         data: &args.data,
+        warnings,
     })?;
     crate::cycle_spec::apply_tolerance(&mut cycle, args.tolerance.as_deref())?;
     let stopped = |e: &dyn std::fmt::Display| {
@@ -139,5 +140,6 @@ pub fn run(args: &SimulateArgs) -> Result<(), Failure> {
         sets: &args.set,
         options: provenance::options_of(args),
     })?);
-    crate::engine::write_run(&args.plot, outputs, (&plant, &cycle), &result)
+    result.warnings_mut().splice(0..0, data.cycle_warnings);
+    crate::engine::write_run((&args.plot, warnings), outputs, (&plant, &cycle), &result)
 }

@@ -10,7 +10,7 @@ use invsim_loader::{Loaded, SingleModel};
 use invsim_runtime::{inverse, Cycle, Plant, SimulationOptions, Sweep, SweepBuilder, SweepResult};
 
 use crate::engine::{load, parse_set, set_failure, EngineChoice};
-use crate::error::Failure;
+use crate::error::{Failure, Warnings};
 use crate::number_arg::parse_number;
 use crate::outputs::Outputs;
 
@@ -236,7 +236,7 @@ fn builder(model: Loaded, sets: Vec<(String, f64)>) -> Result<SweepBuilder, Fail
 }
 
 /// The cycles of `--cycle` and `--cycles`, in that order, each with its name or path as given.
-fn cycles(args: &SweepArgs) -> Result<Vec<(Cycle, &str)>, Failure> {
+fn cycles(args: &SweepArgs, warnings: Warnings) -> Result<Vec<(Cycle, &str)>, Failure> {
     let names: Vec<&String> = args.cycle.iter().chain(&args.cycles).collect();
     if names.is_empty() {
         return Err(Failure::user(
@@ -246,7 +246,8 @@ fn cycles(args: &SweepArgs) -> Result<Vec<(Cycle, &str)>, Failure> {
     names
         .iter()
         .map(|c| {
-            let cycle = Cycle::load(c.trim()).map_err(|e| Failure::user(e.to_string()))?;
+            let max = invsim_runtime::cycle::MAX_CYCLE_BYTES;
+            let (cycle, _) = crate::engine::load_cycle(c.trim(), max, warnings)?;
             Ok((cycle, c.as_str()))
         })
         .collect()
@@ -313,7 +314,9 @@ fn is_parquet(path: &Path) -> bool {
         .is_some_and(|e| e.eq_ignore_ascii_case("parquet"))
 }
 
-pub fn run(args: &SweepArgs) -> Result<(), Failure> {
+/// `invsim sweep`; with `--strict` a cycle file's plausibility warning is an error (the runs' own warnings are
+/// not part of a sweep's rows).
+pub fn run(args: &SweepArgs, warnings: Warnings) -> Result<(), Failure> {
     let sets: Vec<(String, f64)> = args
         .set
         .iter()
@@ -350,7 +353,7 @@ pub fn run(args: &SweepArgs) -> Result<(), Failure> {
     let swept: Vec<String> = grid.iter().map(|g| g.0.clone()).collect();
     check_not_set(&sets, &swept, "--grid")?;
     let outputs = plan_outputs(args)?;
-    let cycles = cycles(args)?;
+    let cycles = cycles(args, warnings)?;
     let model = load(&args.model, args.engine)?;
     let failed = |e: String| Failure::user(format!("sweep of `{}`: {e}", args.model.display()));
     let opts = args

@@ -27,6 +27,8 @@
 //! - `sweep`: `invsim sweep`: its rows equal `invsim simulate --set …` of the same variants bit for bit (compiled and
 //! - `vehicle_library`: the library's FASTSim imports against hand values: the Pacifica's idle floor at a standstill,
 //!   the Bolt's battery table at the C-rate and temperature.
+//! - `warnings`: Warnings as a user meets them: a cycle file's plausibility warnings (km/h in an m/s column, a time column in
+//!   milliseconds), `--strict` turning any warning into exit 2, messages that name the input, the mode and the time.
 //! - `written_numbers`: every float of a run's CSV written as a float (`0.0`, not `0`), control characters of a
 //!   model's description escaped in the text summary.
 
@@ -52,4 +54,5 @@ mod start_up;
 mod summary;
 mod sweep;
 mod vehicle_library;
+mod warnings;
 mod written_numbers;

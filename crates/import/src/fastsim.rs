@@ -85,7 +85,9 @@ fn powertrain(doc: &Doc) -> Result<Powertrain, ImportError> {
         "HEV" | "PHEV" => Err(ImportError::Powertrain {
             kind: kind.to_string(),
             reason: "hybrid vehicles are not imported (their energy management is a controller invsim does \
-                     not reproduce); conventional (Conv) and battery-electric (BEV) vehicles are"
+                     not reproduce); only conventional (Conv) and battery-electric (BEV) vehicles are. For a \
+                     hybrid, write its model by hand with one mode per operating state (`[modes]`, see \
+                     docs/modes.md)"
                 .to_string(),
         }),
         other => Err(ImportError::Powertrain {

@@ -22,6 +22,20 @@ fn hybrid_and_unknown_types_are_refused_by_name() {
     }
 }
 
+/// The hybrid refusal is a finished sentence: what is imported, and what to do for a hybrid.
+#[test]
+fn hybrid_refusal_says_what_to_do() {
+    let text = "name: x\npt_type:\n  HEV:\n    res: {}\nchassis: {}\n";
+    let e = import_fastsim(text, "x.yaml").unwrap_err().to_string();
+    assert_eq!(
+        e,
+        "powertrain type `HEV` is not supported: hybrid vehicles are not imported (their energy management \
+         is a controller invsim does not reproduce); only conventional (Conv) and battery-electric (BEV) \
+         vehicles are. For a hybrid, write its model by hand with one mode per operating state (`[modes]`, \
+         see docs/modes.md)"
+    );
+}
+
 #[test]
 fn malformed_yaml_gives_line_and_column() {
     let text = "name: x\npt_type:\n  Conv: [1, 2\nchassis: {}\n";

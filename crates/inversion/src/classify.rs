@@ -34,6 +34,47 @@ pub struct Classification {
 }
 
 impl Derivation {
+    /// Why no equilibrium was found at y0, and what to do. An internal state that no equation of the zero
+    /// dynamics depends on (a charge state, a fuel mass, a distance: dη/dt = q(ξ, y^(r)) without η) is an
+    /// integrator: it has an equilibrium only where q = 0 and its eigenvalue is 0 at any point, so no
+    /// `nominal` decides its class; the run integrates it forward from its start value, which is stable.
+    fn no_equilibrium_note(&self, y0: f64) -> String {
+        let pool = &self.model.pool;
+        let numeric = self
+            .psi_inv
+            .iter()
+            .any(|p| matches!(p, crate::Solution::Numeric));
+        let integrators: Vec<String> = (0..self.eta.len())
+            .filter(|&j| {
+                !self
+                    .zero_dynamics
+                    .iter()
+                    .any(|&q| pool.depends_on(q, self.eta[j]))
+            })
+            .map(|j| {
+                let state = &self.model.states[self.eta_states[j]].name;
+                format!("{} = {state}", pool.symbol_name(self.eta[j]))
+            })
+            .collect();
+        if numeric || integrators.is_empty() {
+            return format!(
+                "no equilibrium of the zero dynamics found at y = {y0} (Newton's method from several starting \
+                 points); set the output's `nominal` value in the model file"
+            );
+        }
+        let (verb, what) = match integrators.len() {
+            1 => ("appears", "an integrator"),
+            _ => ("appear", "integrators"),
+        };
+        format!(
+            "{} {verb} in no equation of the zero dynamics: {what} (like a charge state or a fuel mass), \
+             with no equilibrium at y = {y0} and a zero eigenvalue everywhere, so no `nominal` decides the \
+             class; `simulate` integrates it forward (neutrally stable: an error in it stays as it is) from \
+             its start value: give `initial = …` on the state or `--initial NAME=VALUE`, not `nominal`",
+            integrators.join(", ")
+        )
+    }
+
     /// Classify the zero dynamics at the nominal point (see the module documentation).
     pub fn classify(&self) -> Classification {
         let y0 = self.model.output.nominal_value();
@@ -62,10 +103,7 @@ impl Derivation {
         xi[0] = y0;
         let w = invsim_model_api::InverseModel::info(&model).nominal_w();
         let Ok(eta) = equilibrium(&model, &xi, &w, 0.0, None, &default_starts(y0)) else {
-            return unknown(format!(
-                "no equilibrium of the zero dynamics found at y = {y0} (Newton's method from several starting \
-                 points); set the output's `nominal` value in the model file"
-            ));
+            return unknown(self.no_equilibrium_note(y0));
         };
         let lin = Linearization::at(&model, &xi, &w, &eta, 0.0);
         let class = lin.class();

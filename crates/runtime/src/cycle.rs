@@ -7,6 +7,7 @@
 
 mod builtin;
 mod columns;
+mod plausibility;
 mod printable;
 mod tolerance;
 
@@ -15,6 +16,9 @@ use builtin::{BUILTINS, BUILTIN_NAMES};
 pub(crate) use columns::field_column;
 use columns::ExtraColumns;
 pub use columns::{BadCell, CycleColumn};
+pub use plausibility::{
+    Implausible, MAX_PLAUSIBLE_ACCEL_MPS2, MAX_PLAUSIBLE_SPEED_MPS, MS_MEDIAN_STEP,
+};
 use printable::printable;
 pub use tolerance::{Tolerance, ToleranceError, MAX_TOLERANCE_KMH, MAX_TOLERANCE_S};
 
@@ -241,6 +245,15 @@ impl SpeedUnit {
             SpeedUnit::MilesPerHour => v * 0.44704,
         }
     }
+
+    /// The unit's symbol in messages.
+    fn symbol(self) -> &'static str {
+        match self {
+            SpeedUnit::MetresPerSecond => "m/s",
+            SpeedUnit::KilometresPerHour => "km/h",
+            SpeedUnit::MilesPerHour => "mph",
+        }
+    }
 }
 
 /// Recognised time column names (matched after trimming, ignoring ASCII case).
@@ -393,6 +406,15 @@ impl Cycle {
 
     /// [`Cycle::from_csv_path`] reading at most `max_bytes` (a larger file is [`CycleError::TooLarge`]).
     pub fn from_csv_path_with_limit(path: &Path, max_bytes: u64) -> Result<Cycle, CycleError> {
+        Cycle::from_csv_path_checked(path, max_bytes).map(|(cycle, _)| cycle)
+    }
+
+    /// [`Cycle::from_csv_path_with_limit`] with the file's plausibility warnings ([`Implausible`]: a top
+    /// speed, accelerations or time steps that do not fit the declared units).
+    pub fn from_csv_path_checked(
+        path: &Path,
+        max_bytes: u64,
+    ) -> Result<(Cycle, Vec<Implausible>), CycleError> {
         let file = path.display().to_string();
         let io = |source| CycleError::Io {
             file: file.clone(),
@@ -432,6 +454,14 @@ impl Cycle {
     /// signals and checked only when a signal reads them; blank lines skipped. Every data row must have as
     /// many fields as the header.
     pub fn from_csv_str(name: &str, text: &str) -> Result<Cycle, CycleError> {
+        Cycle::from_csv_str_checked(name, text).map(|(cycle, _)| cycle)
+    }
+
+    /// [`Cycle::from_csv_str`] with the text's plausibility warnings ([`Implausible`]).
+    pub fn from_csv_str_checked(
+        name: &str,
+        text: &str,
+    ) -> Result<(Cycle, Vec<Implausible>), CycleError> {
         parse_csv(name.to_string(), name, text)
     }
 
@@ -443,9 +473,18 @@ impl Cycle {
 
     /// [`Cycle::load`] reading a cycle file of at most `max_bytes`.
     pub fn load_with_limit(spec: &str, max_bytes: u64) -> Result<Cycle, CycleError> {
+        Cycle::load_checked(spec, max_bytes).map(|(cycle, _)| cycle)
+    }
+
+    /// [`Cycle::load_with_limit`] with a cycle file's plausibility warnings ([`Implausible`]; a built-in
+    /// cycle has none).
+    pub fn load_checked(
+        spec: &str,
+        max_bytes: u64,
+    ) -> Result<(Cycle, Vec<Implausible>), CycleError> {
         match Cycle::builtin(spec) {
-            Some(cycle) => Ok(cycle),
-            None => Cycle::from_csv_path_with_limit(Path::new(spec), max_bytes),
+            Some(cycle) => Ok((cycle, Vec::new())),
+            None => Cycle::from_csv_path_checked(Path::new(spec), max_bytes),
         }
     }
 
@@ -844,6 +883,8 @@ struct Samples {
     speed: Vec<f64>,
     grade: Option<Vec<f64>>,
     extra: ExtraColumns,
+    /// The 1-based line of each sample (for the plausibility warnings).
+    lines: Vec<u64>,
 }
 
 impl Samples {
@@ -895,6 +936,7 @@ impl Samples {
         }
         self.time.push(t);
         self.speed.push(cols.unit.to_mps(v));
+        self.lines.push(at.line);
         if let (Some(grades), Some(g)) = (self.grade.as_mut(), g) {
             grades.push(g);
         }
@@ -902,7 +944,11 @@ impl Samples {
     }
 }
 
-fn parse_csv(name: String, file: &str, text: &str) -> Result<Cycle, CycleError> {
+fn parse_csv(
+    name: String,
+    file: &str,
+    text: &str,
+) -> Result<(Cycle, Vec<Implausible>), CycleError> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut reader = csv::ReaderBuilder::new()
         .has_headers(false)
@@ -932,6 +978,7 @@ fn parse_csv(name: String, file: &str, text: &str) -> Result<Cycle, CycleError> 
         speed: Vec::new(),
         grade: cols.grade.as_ref().map(|_| Vec::new()),
         extra: ExtraColumns::new(&names, cols.extra.iter().copied()),
+        lines: Vec::new(),
     };
     let (mut row, mut last_line) = (0usize, 0u64);
     for record in records {
@@ -967,12 +1014,24 @@ fn parse_csv(name: String, file: &str, text: &str) -> Result<Cycle, CycleError> 
             last,
         });
     }
-    Ok(Cycle {
+    let warnings = plausibility::check(
+        &plausibility::Source {
+            file,
+            time_column: &printable(&cols.time.name),
+            speed_column: &printable(&cols.speed.name),
+            unit: cols.unit.symbol(),
+            lines: &samples.lines,
+        },
+        &samples.time,
+        &samples.speed,
+    );
+    let cycle = Cycle {
         name,
         time: samples.time,
         speed: samples.speed,
         grade: samples.grade,
         columns: samples.extra.finish(),
         tolerance: Tolerance::EPA,
-    })
+    };
+    Ok((cycle, warnings))
 }

@@ -241,6 +241,27 @@ impl Totals {
     }
 }
 
+/// The count, total time and longest of time intervals `[start, end]` for a warning: "N interval(s), T s in
+/// total, the longest from t = A s to B s" (empty for none).
+pub(crate) fn describe_intervals(intervals: &[[f64; 2]]) -> String {
+    let Some([a, b]) =
+        intervals
+            .iter()
+            .copied()
+            .reduce(|x, y| if y[1] - y[0] > x[1] - x[0] { y } else { x })
+    else {
+        return String::new();
+    };
+    let total: f64 = intervals.iter().map(|[a, b]| b - a).sum();
+    format!(
+        "{} interval(s), {} s in total, the longest from t = {} s to {} s",
+        intervals.len(),
+        fmt_sig(total, 4),
+        fmt_sig(a, 6),
+        fmt_sig(b, 6)
+    )
+}
+
 /// `v` with `digits` significant digits, in positional notation for moderate magnitudes.
 pub(crate) fn fmt_sig(v: f64, digits: usize) -> String {
     if !v.is_finite() {
@@ -450,6 +471,16 @@ pub(crate) fn write_intervals(s: &mut String, label: &str, intervals: &[[f64; 2]
 
 #[cfg(test)]
 mod tests {
+    /// Count, total and the longest interval (the first of equally long ones).
+    #[test]
+    fn intervals_described() {
+        assert_eq!(super::describe_intervals(&[]), "");
+        assert_eq!(
+            super::describe_intervals(&[[1.0, 2.0], [10.0, 12.5], [20.0, 22.5]]),
+            "3 interval(s), 6 s in total, the longest from t = 10 s to 12.5 s"
+        );
+    }
+
     use super::*;
 
     /// Whole numbers print as the formatted float does after its zeros are trimmed.

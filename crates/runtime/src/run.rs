@@ -203,6 +203,26 @@ impl RunResult {
         }
     }
 
+    /// The summary's warnings.
+    pub fn warnings(&self) -> &[String] {
+        match self {
+            RunResult::Single(r) => &r.summary.warnings,
+            RunResult::Modal(r, _) => &r.summary.warnings,
+            RunResult::Forward(r) => &r.summary.warnings,
+            RunResult::ModalForward(r, _) => &r.summary.warnings,
+        }
+    }
+
+    /// The summary's warnings, to add to (a cycle file's plausibility warnings).
+    pub fn warnings_mut(&mut self) -> &mut Vec<String> {
+        match self {
+            RunResult::Single(r) => &mut r.summary.warnings,
+            RunResult::Modal(r, _) => &mut r.summary.warnings,
+            RunResult::Forward(r) => &mut r.summary.warnings,
+            RunResult::ModalForward(r, _) => &mut r.summary.warnings,
+        }
+    }
+
     /// The summary as text (what `invsim simulate` prints).
     /// User strings in it (the model's name and description, the cycle's and the files' names, warnings) have
     /// their control characters escaped ([`crate::textfmt::escape_controls`]): the text goes to a terminal.

@@ -847,3 +847,118 @@ fn builtins_equal_the_shared_fastsim_files_sample_by_sample() {
         assert!(shared.grade.as_ref().unwrap().iter().all(|&g| g == 0.0));
     }
 }
+
+// ---------------------------------------------------------------------------------------------------------
+// Plausibility warnings (a column whose values do not fit its declared unit)
+
+/// `cycle` as CSV text under `header` (time, speed), its times multiplied by `time_factor` and its speeds (m/s)
+/// by `speed_factor`.
+fn written(cycle: &Cycle, header: &str, time_factor: f64, speed_factor: f64) -> String {
+    let mut s = format!("{header}\n");
+    for (t, v) in cycle.time.iter().zip(&cycle.speed) {
+        s.push_str(&format!("{},{}\n", t * time_factor, v * speed_factor));
+    }
+    s
+}
+
+fn warnings_of(text: &str) -> Vec<String> {
+    let (_, warnings) = Cycle::from_csv_str_checked("c.csv", text).expect("a valid cycle");
+    warnings.iter().map(ToString::to_string).collect()
+}
+
+/// Every built-in cycle written in m/s, km/h and mph, and the shared FASTSim cycles, raise no warning.
+#[test]
+fn plausible_cycles_raise_no_warning() {
+    for name in Cycle::builtin_names() {
+        let c = Cycle::builtin(name).unwrap();
+        for (header, factor) in [
+            ("time_s,speed_mps", 1.0),
+            ("t,speed_kmh", 3.6),
+            ("cycSecs,speed_mph", 1.0 / 0.44704),
+        ] {
+            let w = warnings_of(&written(&c, header, 1.0, factor));
+            assert!(w.is_empty(), "{name} as {header}: {w:?}");
+        }
+    }
+    if let Some(dir) = shared_cycles() {
+        for file in ["udds.csv", "hwfet.csv", "wltc_3b.csv"] {
+            let (_, w) = Cycle::load_checked(dir.join(file).to_str().unwrap(), 1 << 26).unwrap();
+            assert!(w.is_empty(), "{file}: {w:?}");
+        }
+    }
+}
+
+/// UDDS written in km/h under `speed_mps`: its top speed 91.2 km/h read as 91.2 m/s (on the line of its
+/// top speed) names the column, the likely units and the fix.
+#[test]
+fn kmh_in_an_mps_column_warns() {
+    let udds = Cycle::builtin("udds").unwrap();
+    // The first sample at the top speed, on the line after the header.
+    let top = udds.max_speed();
+    let line = 2 + udds.speed.iter().position(|&v| v == top).unwrap();
+    let w = warnings_of(&written(&udds, "time_s,speed_mps", 1.0, 3.6));
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert_eq!(
+        w[0],
+        format!(
+            "c.csv: line {line}, column `speed_mps`: top speed 91.2 m/s (328.5 km/h) is beyond any drive \
+             cycle (invsim's plausibility limit is 70 m/s = 252 km/h); as km/h it would be 25.3 m/s and as mph \
+             40.8 m/s: the column probably holds km/h (or mph); name it `speed_kmh` (or `speed_mph`), or \
+             convert its values to m/s"
+        )
+    );
+    // The same in mph under `speed_kmh` is not detectable (a slow cycle), and is not reported.
+    assert!(warnings_of(&written(&udds, "time_s,speed_kmh", 1.0, 1.0)).is_empty());
+}
+
+/// NEDC (waypoints, a median step of 8 s) with its time column in milliseconds: the median step and span,
+/// and the fix.
+#[test]
+fn milliseconds_in_a_seconds_column_warn() {
+    let nedc = Cycle::builtin("nedc").unwrap();
+    let w = warnings_of(&written(&nedc, "time_s,speed_mps", 1000.0, 1.0));
+    assert_eq!(
+        w,
+        vec![
+            "c.csv: column `time_s`: the median time step is 8000 and the times span 1.18e6 (13.7 days if \
+             seconds); the column probably holds milliseconds: divide its times by 1000 (invsim reads time \
+             columns in seconds)"
+                .to_string()
+        ]
+    );
+    // The 1 Hz UDDS in ms: steps of 1000 over 15.8 days.
+    let udds = Cycle::builtin("udds").unwrap();
+    let w = warnings_of(&written(&udds, "t,speed_kmh", 1000.0, 3.6));
+    assert_eq!(w.len(), 1);
+    assert!(
+        w[0].contains("median time step is 1000 and the times span 1.369e6 (15.8 days"),
+        "{w:?}"
+    );
+}
+
+/// A launch at 15 m/s² over three seconds, from line 3 at t = 1 s, exceeds what tyres allow; a single
+/// sample's jump does not.
+#[test]
+fn accelerations_beyond_a_car_warn() {
+    let w = warnings_of("time_s,speed_mps\n0,0\n1,0\n2,15\n3,30\n4,45\n5,45\n6,45\n");
+    assert_eq!(
+        w,
+        vec![
+            "c.csv: line 3, column `speed_mps`: the speed changes by 15 m/s² over 3 intervals from t = 1 s (1 \
+             such stretch(es) in the file), beyond what a car's tyres allow (invsim's plausibility limit is 10 \
+             m/s², about 1 g); as km/h the speeds would change 3.6 times slower: check whether the column holds \
+             km/h (name it `speed_kmh`) and whether the time column is in seconds"
+                .to_string()
+        ]
+    );
+    assert!(warnings_of("time_s,speed_mps\n0,0\n1,0\n2,15\n3,15\n4,15\n").is_empty());
+    // Braking at 40 m/s² in km/h (11 m/s²) has no likely other unit.
+    let w = warnings_of("time_s,speed_kmh\n0,100\n1,60\n2,20\n3,0\n");
+    assert_eq!(w.len(), 1);
+    assert!(
+        w[0].contains("changes by -11.11 m/s² over 2 intervals from t = 0 s"),
+        "{w:?}"
+    );
+    assert!(w[0]
+        .ends_with("check the speed column's unit (km/h) and that the time column is in seconds"));
+}

@@ -6,6 +6,7 @@
 pub mod imports;
 pub mod items;
 pub mod lex;
+pub mod warnings;
 
 use std::fmt;
 use std::path::Path;

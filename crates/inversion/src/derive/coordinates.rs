@@ -147,10 +147,13 @@ pub(super) fn choose_coordinates(
     eta_states.sort_unstable();
     for (j, &c) in eta_states.iter().enumerate() {
         if !g_zero[c] {
+            let state = &model.states[c].name;
             warnings.push(format!(
-                "internal coordinate {} = {} has L_g η ≠ 0: the zero dynamics depend on the input",
+                "internal coordinate {} = {state} has L_g η ≠ 0: the input acts on `{state}` directly and \
+                 no state free of it could be chosen, so the zero dynamics dη/dt = L_f η + L_g η · u depend \
+                 on the input, through u = (y^(r) − α)/β on the reference's r-th derivative; expected for a \
+                 state the input drives (a charge state, a pressure), and the run handles it",
                 pool.symbol_name(eta[j]),
-                model.states[c].name
             ));
         }
     }

@@ -307,16 +307,17 @@ fn input_output_form(
 
 /// The warnings for where β vanishes (non-affine models: ∂y^(r)/∂u).
 fn singular_warnings(singular: &[String], affine: bool, input: &str) -> Vec<String> {
-    singular
-        .iter()
-        .map(|s| {
-            if affine {
-                format!("β vanishes: {s}")
-            } else {
-                format!("∂y^(r)/∂{input} vanishes: {s} (Newton's method for the input fails there)")
-            }
-        })
-        .collect()
+    let mut warnings = Vec::new();
+    for s in singular {
+        if affine {
+            warnings.push(format!("β vanishes: {s}"));
+        } else {
+            warnings.push(format!(
+                "∂y^(r)/∂{input} vanishes: {s} (Newton's method for the input fails there)"
+            ));
+        }
+    }
+    warnings
 }
 
 impl Derivation {

@@ -42,20 +42,41 @@ pub(super) fn reserved_reason(name: &str) -> Option<String> {
     None
 }
 
-/// Levenshtein distance (for "did you mean" hints on short names).
+/// Optimal-string-alignment distance (Damerau–Levenshtein without repeated edits of one substring): the
+/// fewest insertions, deletions, substitutions and swaps of two neighbouring characters that turn `a` into
+/// `b` (Wagner & Fischer 1974 with Damerau's 1964 transposition), for "did you mean" hints.
 fn edit_distance(a: &str, b: &str) -> usize {
     let a: Vec<char> = a.chars().collect();
     let b: Vec<char> = b.chars().collect();
-    let mut prev: Vec<usize> = (0..=b.len()).collect();
-    for (i, ca) in a.iter().enumerate() {
-        let mut cur = vec![i + 1; b.len() + 1];
-        for (j, cb) in b.iter().enumerate() {
-            let sub = prev[j] + usize::from(ca != cb);
-            cur[j + 1] = sub.min(prev[j + 1] + 1).min(cur[j] + 1);
-        }
-        prev = cur;
+    // d[i][j]: distance between a[..i] and b[..j]; two rows back are kept for the swap.
+    let mut d = vec![vec![0usize; b.len() + 1]; a.len() + 1];
+    for (i, row) in d.iter_mut().enumerate() {
+        row[0] = i;
     }
-    prev[b.len()]
+    for (j, cell) in d[0].iter_mut().enumerate() {
+        *cell = j;
+    }
+    for i in 1..=a.len() {
+        for j in 1..=b.len() {
+            let sub = d[i - 1][j - 1] + usize::from(a[i - 1] != b[j - 1]);
+            let mut best = sub.min(d[i - 1][j] + 1).min(d[i][j - 1] + 1);
+            if i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1] {
+                best = best.min(d[i - 2][j - 2] + 1);
+            }
+            d[i][j] = best;
+        }
+    }
+    d[a.len()][b.len()]
+}
+
+/// Whether `declared` is close enough to `unknown` to be suggested for it: the same name in another case,
+/// or at most one edit ([`edit_distance`], case ignored) per four characters of the longer name. A short
+/// name's letters carry its meaning (`Q_b` and `I_b` are a charge and a current, `C_d` and `C_r` two
+/// coefficients), so names of three characters or fewer are suggested only for a case difference; names
+/// of 4–7 characters for one edit, 8–11 for two.
+fn close_enough(unknown: &str, declared: &str) -> bool {
+    let longer = unknown.chars().count().max(declared.chars().count());
+    edit_distance(&unknown.to_lowercase(), &declared.to_lowercase()) * 4 <= longer
 }
 
 /// What a declared name is.
@@ -83,15 +104,14 @@ impl NameRef {
     }
 }
 
-/// A declared name close to an unknown one, if exactly one is closest.
+/// A declared name close to an unknown one ([`close_enough`]), if exactly one is closest.
 pub(super) fn suggestion<'n>(
     unknown: &str,
     names: impl Iterator<Item = &'n str>,
 ) -> Option<&'n str> {
-    let limit = if unknown.chars().count() <= 3 { 1 } else { 2 };
     let mut best: Vec<(usize, &str)> = names
+        .filter(|n| close_enough(unknown, n))
         .map(|n| (edit_distance(unknown, n), n))
-        .filter(|&(d, _)| d <= limit)
         .collect();
     best.sort();
     match best.as_slice() {
@@ -226,9 +246,35 @@ mod tests {
 
     #[test]
     fn suggestions() {
-        let names = ["c1", "x1", "u"];
-        assert_eq!(suggestion("c9", names.iter().copied()), Some("c1"));
-        assert_eq!(suggestion("zz", names.iter().copied()), None);
+        let names = [
+            "c1", "x1", "u", "I_b", "C_d", "m_veh", "eta_gear", "T_regen",
+        ];
+        let suggest = |n| suggestion(n, names.iter().copied());
+        // Short names: another letter is another quantity, not a typo.
+        assert_eq!(suggest("Q_b"), None);
+        assert_eq!(suggest("C_r"), None);
+        assert_eq!(suggest("c9"), None);
+        assert_eq!(suggest("zz"), None);
+        // A case difference is always a typo.
+        assert_eq!(suggest("i_b"), Some("I_b"));
+        assert_eq!(suggest("U"), Some("u"));
+        // One edit in 4–7 characters, two in 8 or more; a swap of neighbours is one edit.
+        assert_eq!(suggest("m_vej"), Some("m_veh"));
+        assert_eq!(suggest("m_ehv"), None);
+        assert_eq!(suggest("T_rgeen"), Some("T_regen"));
+        assert_eq!(suggest("eta_ger"), Some("eta_gear"));
+        assert_eq!(suggest("eta_gr"), Some("eta_gear"));
+        assert_eq!(suggest("eta_g"), None);
+        // Two names equally close: no suggestion.
         assert_eq!(suggestion("mass", ["mas", "masss"].into_iter()), None);
+    }
+
+    #[test]
+    fn edit_distances() {
+        assert_eq!(edit_distance("", "abc"), 3);
+        assert_eq!(edit_distance("kitten", "sitting"), 3);
+        assert_eq!(edit_distance("ab", "ba"), 1);
+        assert_eq!(edit_distance("Q_b", "I_b"), 1);
+        assert_eq!(edit_distance("ca", "abc"), 3);
     }
 }

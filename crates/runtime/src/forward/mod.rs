@@ -62,7 +62,7 @@ use crate::error::RunError;
 use crate::grid::Grid;
 use crate::headline::Headline;
 use crate::ode::{Dopri5, OdeStats, Rosenbrock23};
-use crate::report::{columns_with_units, fmt_sig, CycleInfo, Totals};
+use crate::report::{columns_with_units, describe_intervals, CycleInfo, Totals};
 use budget::Budget;
 use driver::{binomial, Loop, RawCycle};
 use integrator::Integrator;
@@ -419,17 +419,15 @@ fn forward_warnings(
         ));
     }
     if !violations.is_empty() {
-        let total: f64 = violations.iter().map(|[a, b]| b - a).sum();
         let what = if enforce {
             "clipped"
         } else {
             "applied as demanded, not clipped"
         };
         warnings.push(format!(
-            "the driver's demand for {} leaves its bounds in {} interval(s), {} s in total; {what}",
+            "the driver's demand for {} leaves its bounds in {}; {what}",
             info.input,
-            violations.len(),
-            fmt_sig(total, 4)
+            describe_intervals(violations)
         ));
     }
     warnings.extend(trace::miss_warning(opts.trace_band(cycle), trace_misses));

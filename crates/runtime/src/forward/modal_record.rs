@@ -193,8 +193,7 @@ impl<'a> ModalRecorder<'a> {
         self.last = Some((t, m));
         let (lo, hi) = self.bounds[m];
         let tail = &z[info.n_states() + 1..];
-        self.tally
-            .count(t, tail, d, &inputs, d.demand < lo || d.demand > hi);
+        self.tally.count(t, tail, d, &inputs, (m, lo, hi));
         let (band_lo, band_hi) = self.band.at(t);
         self.tally.misses.push(t, d.y < band_lo || d.y > band_hi);
         if let Some(op) = &mut self.tally.operating {

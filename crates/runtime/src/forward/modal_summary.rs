@@ -18,8 +18,8 @@ use crate::ode::OdeStats;
 use crate::operating_points::{OperatingPointTally, OperatingPoints};
 use crate::provenance::Provenance;
 use crate::report::{
-    fmt_sig, integral_tables, unit_suffix, write_input_range, write_integrals, write_intervals,
-    Column, CycleInfo, Intervals, Totals,
+    describe_intervals, fmt_sig, integral_tables, unit_suffix, write_input_range, write_integrals,
+    write_intervals, Column, CycleInfo, Intervals, Totals,
 };
 
 /// One switch of the forward run: its time and the modes left and entered (indices into the spec's modes).
@@ -100,6 +100,7 @@ pub(super) struct Tally {
     /// Each input's [min, max] applied.
     ranges: Vec<[f64; 2]>,
     violations: Intervals,
+    farthest: Option<Demand>,
     pub(super) misses: Intervals,
     max_err: f64,
     sum_sq: f64,
@@ -108,6 +109,9 @@ pub(super) struct Tally {
     pub(super) time: Vec<f64>,
     samples: usize,
 }
+
+/// The demand farthest beyond its mode's bounds: time, mode, demand, bound crossed.
+type Demand = (f64, usize, f64, f64);
 
 impl Tally {
     pub(super) fn new(spec: &ModalSpec<'_>, operating: Option<OperatingPointTally>) -> Tally {
@@ -118,6 +122,7 @@ impl Tally {
             distance_driven: 0.0,
             ranges: vec![[f64::INFINITY, f64::NEG_INFINITY]; spec.inputs.len()],
             violations: Intervals::default(),
+            farthest: None,
             misses: Intervals::default(),
             max_err: 0.0,
             sum_sq: 0.0,
@@ -128,15 +133,24 @@ impl Tally {
     }
 
     /// The sample at t: `quadrature` is z's tail (the integrals, then ∫ y dt), `inputs` every input applied,
-    /// `outside` whether the demand leaves the mode's bounds.
+    /// `(m, lo, hi)` the mode and the bounds of its free input, which the demand may leave.
     pub(super) fn count(
         &mut self,
         t: f64,
         quadrature: &[f64],
         d: Drive,
         inputs: &[f64],
-        outside: bool,
+        (m, lo, hi): (usize, f64, f64),
     ) {
+        let outside = d.demand < lo || d.demand > hi;
+        let bound = if d.demand < lo { lo } else { hi };
+        let farther = match self.farthest {
+            Some((_, _, u, b)) => (d.demand - bound).abs() > (u - b).abs(),
+            None => true,
+        };
+        if outside && farther {
+            self.farthest = Some((t, m, d.demand, bound));
+        }
         let m = self.integrals.len();
         self.integrals.copy_from_slice(&quadrature[..m]);
         self.distance_driven = quadrature[m];
@@ -167,7 +181,11 @@ pub(super) fn summarise(
     let tables = integral_tables(info, &accumulate, &tally.integrals, cycle.distance());
     let violations = tally.violations.finish();
     let trace_misses = tally.misses.finish();
-    let warnings = warnings(opts, &violations, (opts.trace_band(cycle), &trace_misses));
+    let warnings = warnings(
+        (spec, opts),
+        (&violations, tally.farthest),
+        (opts.trace_band(cycle), &trace_misses),
+    );
     let name = |m: usize| spec.modes[m].name.clone();
     let inputs = spec.input_ranges(&tally.ranges);
     let totals = Totals::of_modes(
@@ -253,28 +271,38 @@ pub(super) fn summarise(
     }
 }
 
-/// The warnings of a forward run with modes: demands no mode absorbs, trace misses.
+/// The warnings of a forward run with modes: demands no mode absorbs (naming the farthest one's input, value,
+/// mode and time), trace misses.
 fn warnings(
-    opts: &ForwardOptions,
-    violations: &[[f64; 2]],
+    (spec, opts): (&ModalSpec<'_>, &ForwardOptions),
+    (violations, farthest): (&[[f64; 2]], Option<Demand>),
     (band, misses): (Tolerance, &[[f64; 2]]),
 ) -> Vec<String> {
-    let mut w = Vec::new();
-    let total = |v: &[[f64; 2]]| fmt_sig(v.iter().map(|[a, b]| b - a).sum(), 4);
-    if !violations.is_empty() {
+    let mut warnings = Vec::new();
+    if let Some((t, m, demand, bound)) = farthest.filter(|_| !violations.is_empty()) {
         let what = match opts.bounds {
             Bounds::Enforce => "clipped",
             Bounds::Ignore => "applied as demanded, not clipped",
         };
-        w.push(format!(
-            "the driver's demand leaves the bounds of the mode's free input, and no mode absorbs it, in {} \
-             interval(s), {} s in total; {what}",
-            violations.len(),
-            total(violations)
+        let mode = &spec.modes[m];
+        let input = &spec.inputs[mode.free_input];
+        let unit = input
+            .unit
+            .as_deref()
+            .map_or(String::new(), |u| format!(" {u}"));
+        warnings.push(format!(
+            "the driver's demand leaves the bounds of the mode's free input, and no mode absorbs it, in {}; \
+             {what}; the farthest at t = {} s: `{}` = {}{unit} demanded in mode `{}` (bound {})",
+            describe_intervals(violations),
+            fmt_sig(t, 6),
+            input.name,
+            fmt_sig(demand, 4),
+            mode.name,
+            fmt_sig(bound, 4)
         ));
     }
-    w.extend(super::trace::miss_warning(band, misses));
-    w
+    warnings.extend(super::trace::miss_warning(band, misses));
+    warnings
 }
 
 impl ModalForwardSummary {

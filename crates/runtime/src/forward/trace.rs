@@ -36,14 +36,11 @@ pub(super) fn miss_warning(band: Tolerance, misses: &[[f64; 2]]) -> Option<Strin
     if misses.is_empty() {
         return None;
     }
-    let total: f64 = misses.iter().map(|[a, b]| b - a).sum();
     Some(format!(
-        "the vehicle misses the cycle's trace (± {} m/s around the cycle within ± {} s, {} band) in {} \
-         interval(s), {} s in total",
+        "the vehicle misses the cycle's trace (± {} m/s around the cycle within ± {} s, {} band) in {}",
         fmt_sig(band.speed_mps, 4),
         fmt_sig(band.time_s, 4),
         band.source,
-        misses.len(),
-        fmt_sig(total, 4)
+        crate::report::describe_intervals(misses)
     ))
 }

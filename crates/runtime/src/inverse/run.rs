@@ -122,6 +122,8 @@ struct Tally<'c> {
     violations: Intervals,
     /// Whether the last sample pushed to `violations` was outside the bounds (an interval is open).
     outside: bool,
+    /// The time of the reported sample farthest beyond the bounds, and how far beyond.
+    farthest: Option<(f64, f64)>,
     before_start: Vec<[f64; 2]>,
     window: (usize, usize),
     k0: usize,
@@ -153,6 +155,7 @@ impl<'c> Tally<'c> {
             range: [f64::INFINITY, f64::NEG_INFINITY],
             violations: Intervals::default(),
             outside: false,
+            farthest: None,
             before_start: Vec::with_capacity(grid.k0),
             window,
             k0: grid.k0,
@@ -230,6 +233,14 @@ impl<'c> Tally<'c> {
             if outside || self.outside {
                 self.violations.push(t, outside);
                 self.outside = outside;
+            }
+            let beyond = (below - v).max(v - above);
+            let farther = match self.farthest {
+                Some((_, b)) => beyond > b,
+                None => true,
+            };
+            if outside && farther {
+                self.farthest = Some((t, beyond));
             }
         }
     }
@@ -652,8 +663,13 @@ struct Finished<'s> {
     distance_warning: Option<String>,
 }
 
-/// The warnings about the cycle and the input bounds.
-fn run_warnings(info: &ModelInfo, cycle: &Cycle, distance: f64, totals: &Totals) -> Vec<String> {
+/// The warnings about the cycle and the input bounds (`farthest`: the time of the sample farthest beyond them).
+fn run_warnings(
+    info: &ModelInfo,
+    cycle: &Cycle,
+    (distance, farthest): (f64, Option<f64>),
+    totals: &Totals,
+) -> Vec<String> {
     let mut warnings = Vec::new();
     let has_distance = distance > 0.0 && distance.is_finite();
     let per_distance = info.outputs.iter().any(|o| o.accumulate && o.per_distance);
@@ -671,8 +687,12 @@ fn run_warnings(info: &ModelInfo, cycle: &Cycle, distance: f64, totals: &Totals)
             info.input_min.map_or("-inf".to_string(), |b| fmt_sig(b, 6)),
             info.input_max.map_or("inf".to_string(), |b| fmt_sig(b, 6))
         );
+        let at = farthest.map_or(String::new(), |t| {
+            format!("; the farthest beyond them at t = {} s", fmt_sig(t, 6))
+        });
         warnings.push(format!(
-            "input {} leaves its bounds {bounds} in {} interval(s), {} s in total (reached {} … {}); not clipped",
+            "input {} leaves its bounds {bounds} in {} interval(s), {} s in total (reached {} … {}{at}); not \
+             clipped",
             info.input,
             violations.len(),
             fmt_sig(total, 4),
@@ -750,7 +770,8 @@ fn summarise<M: InverseModel + ?Sized>(
         tally.range,
         tally.violations.finish(),
     );
-    let mut warnings = run_warnings(info, cycle, distance, &totals);
+    let farthest = tally.farthest.map(|(t, _)| t);
+    let mut warnings = run_warnings(info, cycle, (distance, farthest), &totals);
     warnings.extend(run.distance_warning.clone());
     warnings.extend(run.start_warnings.iter().cloned());
     let (max_abs_tracking_error, rms_tracking_error) = if opts.verify {

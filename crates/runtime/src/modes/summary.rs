@@ -153,8 +153,23 @@ struct Tally {
     integrals: Vec<f64>,
     time: Vec<f64>,
     violations: Vec<[f64; 2]>,
+    /// The sample whose free input lies farthest beyond its bounds.
+    farthest: Option<Excursion>,
     deviation: DeviationTally,
     operating: Option<OperatingPointTally>,
+}
+
+/// A sample whose free input lies beyond its bounds: where, in which mode, the value and the bound it
+/// crosses, the smoothed cycle's speed there (for the warning).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Excursion {
+    t: f64,
+    mode: usize,
+    u: f64,
+    bound: f64,
+    /// The mode's bounds of its free input.
+    bounds: (Option<f64>, Option<f64>),
+    speed: f64,
 }
 
 /// Whether two slices hold the same numbers bit for bit (so that a function of them gives the same value).
@@ -177,6 +192,7 @@ fn walk(ctx: &Ctx<'_, '_>, cycle: &Cycle, opts: &ModalOptions, rec: &Record) -> 
         integrals: vec![0.0; no],
         time: vec![0.0; spec.modes.len()],
         violations: Vec::new(),
+        farthest: None,
         deviation: DeviationTally::new(
             invsim_model_api::ReferenceMap::IDENTITY,
             opts.dt,
@@ -223,6 +239,17 @@ fn walk(ctx: &Ctx<'_, '_>, cycle: &Cycle, opts: &ModalOptions, rec: &Record) -> 
         }
         let rule = &ctx.rules.modes[m];
         outside = track_violation(rule, (rec.t[k], u), outside, &mut tally.violations);
+        if outside {
+            let here = Excursion {
+                t: rec.t[k],
+                mode: m,
+                u,
+                bound: crossed_bound(rule, u),
+                bounds: (rule.input_min, rule.input_max),
+                speed: rec.speed[k],
+            };
+            tally.farthest = Some(farther(tally.farthest, here));
+        }
         if k + 1 < ns {
             end.clear();
             end.resize(n_out, 0.0);
@@ -341,7 +368,7 @@ pub(super) fn assemble(
         .iter()
         .map(|t| t.max_deviation)
         .fold(0.0, f64::max);
-    let mut warnings = warnings_of(&tally.violations, &rec.impulses);
+    let mut warnings = warnings_of(spec, (&tally.violations, tally.farthest), &rec.impulses);
     let reference = tally.deviation.finish();
     warnings.extend(reference.tolerance_band.warning());
     let inputs = spec.input_ranges(&tally.ranges);
@@ -433,6 +460,23 @@ fn track_violation(
     out
 }
 
+/// The bound of `rule` that `u` lies beyond (the lower one below it, else the upper one).
+fn crossed_bound(rule: &ModeRule, u: f64) -> f64 {
+    match (rule.input_min, rule.input_max) {
+        (Some(lo), _) if u < lo => lo,
+        (_, Some(hi)) => hi,
+        (lo, None) => lo.unwrap_or(u),
+    }
+}
+
+/// Of the excursion so far and `here`, the one farther beyond its bound.
+fn farther(so_far: Option<Excursion>, here: Excursion) -> Excursion {
+    match so_far {
+        Some(e) if (e.u - e.bound).abs() >= (here.u - here.bound).abs() => e,
+        _ => here,
+    }
+}
+
 /// Add each quasi-static impulse's booking to the accumulated outputs' integrals; returns the bookings per
 /// output name.
 fn book_impulses(
@@ -452,13 +496,34 @@ fn book_impulses(
     booked
 }
 
-/// The run's warnings: input-bound intervals no mode absorbs, and jumps no impulse realises.
-fn warnings_of(violations: &[[f64; 2]], impulses: &[Impulse]) -> Vec<String> {
+/// The run's warnings: input-bound intervals no mode absorbs (naming the farthest excursion's input, mode,
+/// time, value and speed), and jumps no impulse realises.
+fn warnings_of(
+    spec: &super::ModalSpec<'_>,
+    (violations, farthest): (&[[f64; 2]], Option<Excursion>),
+    impulses: &[Impulse],
+) -> Vec<String> {
     let mut warnings = Vec::new();
-    if !violations.is_empty() {
+    if let Some(e) = farthest.filter(|_| !violations.is_empty()) {
+        let mode = &spec.modes[e.mode];
+        let input = &spec.inputs[mode.free_input];
+        let unit = input
+            .unit
+            .as_deref()
+            .map_or(String::new(), |u| format!(" {u}"));
+        let bound = |b: Option<f64>, none: &str| b.map_or(none.to_string(), |b| fmt_sig(b, 6));
         warnings.push(format!(
-            "{} interval(s) where a mode's free input leaves its bounds and no mode absorbs it",
-            violations.len()
+            "{} interval(s), {} s in total, where a mode's free input leaves its bounds and no mode absorbs it; \
+             the farthest at t = {} s: `{}` = {}{unit} in mode `{}` (bounds [{}, {}]), at a speed of {} m/s",
+            violations.len(),
+            fmt_sig(violations.iter().map(|[a, b]| b - a).sum(), 4),
+            fmt_sig(e.t, 6),
+            input.name,
+            fmt_sig(e.u, 4),
+            mode.name,
+            bound(e.bounds.0, "-inf"),
+            bound(e.bounds.1, "inf"),
+            fmt_sig(e.speed, 3),
         ));
     }
     let unrealisable = impulses.iter().map(|i| i.unrealisable).fold(0.0, f64::max);
