@@ -82,12 +82,16 @@ def cli_sweep(tmp_path, *args):
     return rows[0], rows[1:]
 
 
+# The command line's columns of a model's `[headline]` (the summary's `headline` block).
+HEADLINE_COLUMNS = {"l_per_100km", "mpg_us", "mpg_uk", "co2_g_per_km", "kwh_per_100km", "mpgge"}
+
+
 def assert_rows_equal_cli(df, header, rows, swept):
     """The Python sweep's rows are the command line's: same count and order (variant, cycle), the swept values
     and every figure of the CSV equal bit for bit (the CSV writes floats in shortest round-trip form)."""
     assert len(df) == len(rows)
     integrals = header[header.index("distance_m") + 1 : header.index("input_min")]
-    assert integrals  # fuel, fuel_volume and their per-100-km figures
+    assert integrals  # fuel, fuel_volume, their per-100-km figures and the headline's
     for (_, row), fields in zip(df.iterrows(), rows):
         cli = dict(zip(header, fields))
         assert row["variant"] == int(cli["variant"]) and row["cycle"] == cli["cycle"]
@@ -96,8 +100,11 @@ def assert_rows_equal_cli(df, header, rows, swept):
         assert cli["status"] == "ok" and row["error"] is None
         assert row["samples"] == int(cli["samples"])
         assert row["distance_m"] == float(cli["distance_m"])
+        assert row["lookahead_s"] == float(cli["lookahead_s"])
         for name in integrals:
-            if name.endswith("_per_100km"):
+            if name in HEADLINE_COLUMNS:
+                key = "headline." + name
+            elif name.endswith("_per_100km"):
                 key = "integrals_per_100km." + name[: -len("_per_100km")]
             else:
                 key = "integrals." + name
