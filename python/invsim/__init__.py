@@ -41,6 +41,13 @@ builtin_cycles = list(_invsim.builtin_cycles)
 max_sweep_runs = _invsim.max_sweep_runs
 
 
+def _warn_about_cycle(cycle, stacklevel=3):
+    """The cycle file's plausibility warnings (a speed column whose values fit another unit, a time column in
+    ms, accelerations beyond a car's), as `warnings.warn` before the run, as the command line prints them."""
+    for w in _invsim.cycle_warnings(str(cycle)):
+        warnings.warn(w, UserWarning, stacklevel=stacklevel)
+
+
 def _lookahead(lookahead):
     """`lookahead` for the engine: seconds, or None for "auto" (the longest look-ahead whose reference stays
     inside the cycle's tolerance band with its cycle energy within 1 % of the trace's, as `--lookahead auto`)."""
@@ -362,6 +369,7 @@ class Model:
         `verify` replays the input through the original model. `keep_series=False` computes every sample but
         keeps only the summary. Models with modes: `switching` is "reentry" or "quasi-static" and
         `transition_time` the re-entry's transition time in s (`--switching`, `--transition-time`)."""
+        _warn_about_cycle(cycle)
         summary, columns, arrays, units = self._m.simulate(
             str(cycle),
             float(dt),
@@ -403,6 +411,7 @@ class Model:
         tolerances and step budget (None: the command line's defaults); `params`, `signals`, `initial` as in
         `simulate`. The summary is `invsim forward --summary-json`'s, the columns its `--out`."""
         d = _invsim.forward_defaults
+        _warn_about_cycle(cycle)
         summary, columns, arrays, units = self._m.forward(
             str(cycle),
             float(dt),
@@ -464,6 +473,8 @@ class Model:
         if not cycles:
             raise ValueError("sweep needs a cycle: cycles=[...] is empty")
         names, cols = _design(grid, table, params, len(cycles), stacklevel=2)
+        for cycle in cycles:
+            _warn_about_cycle(cycle)
         base = _params_list(base)
         _check_not_set(base, names, "grid=" if grid is not None else "table=")
         param_names, rows = self._m.sweep(

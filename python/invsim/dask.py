@@ -54,7 +54,10 @@ def sweep(model, params=None, cycles=("nedc",), npartitions=None, client=None, *
         npartitions = 2 * len(client.scheduler_info()["workers"]) if client is not None else 4
     chunks = [([c[a:b] for c in cols], a) for a, b in _slices(n, npartitions)]
     if client is not None:
-        shared = client.scatter(model, broadcast=True)
+        # hash=False: a key of its own for every sweep. With the default (a key from the model's contents), a
+        # second sweep of the same model reuses the first one's key, and when the first sweep's future is
+        # released the scheduler forgets the data the second one's tasks need ("lost dependencies").
+        shared = client.scatter(model, broadcast=True, hash=False)
         futures = [client.submit(_part, shared, names, c, a, cycles, kwargs, pure=False) for c, a in chunks]
         parts = client.gather(futures)
     else:

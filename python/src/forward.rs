@@ -7,7 +7,7 @@ use invsim_runtime::{RunFailure, RunResult};
 
 use crate::engine::Loaded;
 use crate::error::Failure;
-use crate::run::{cycle_file, load_cycle, signal_input, Output, PySignal, RunSummary};
+use crate::run::{cycle_file, load_cycle_checked, signal_input, Output, PySignal, RunSummary};
 
 /// The options of a forward run (the keyword arguments of `Model.forward`; `None`: the command line's
 /// default).
@@ -89,7 +89,7 @@ pub fn forward_one(
     params: &[(String, f64)],
     req: &ForwardRequest,
 ) -> Result<Output, Failure> {
-    let cycle = load_cycle(cycle_spec)?;
+    let (cycle, cycle_warnings) = load_cycle_checked(cycle_spec)?;
     let stopped = |e: String| {
         Failure::msg(format!(
             "forward simulation of `{model_path}` on `{}` stopped: {e}",
@@ -99,10 +99,11 @@ pub fn forward_one(
     let opts = req.options(model.engine_name(), &stopped)?;
     let plant = model.plant(params)?;
     let file = cycle_file(cycle_spec);
-    let result = plant.forward(&cycle, file, &opts).map_err(|e| match e {
+    let mut result = plant.forward(&cycle, file, &opts).map_err(|e| match e {
         RunFailure::Gears(e) => Failure::in_file(format!("{model_path}: {e}"), model_path),
         e => stopped(e.to_string()),
     })?;
+    result.warnings_mut().splice(0..0, cycle_warnings);
     let units = result
         .columns()
         .iter()

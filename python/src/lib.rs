@@ -332,6 +332,16 @@ fn count_runs(sizes: Vec<usize>, cycles: usize, what: &str) -> PyResult<usize> {
         .map_err(|e| InvsimError::new_err(format!("sweep: {e}")))
 }
 
+/// The plausibility warnings of the cycle `spec` (none for a built-in cycle): a speed column whose values fit
+/// another unit, a time column in ms, accelerations beyond a car's; the command line prints them before a run.
+#[pyfunction]
+fn cycle_warnings(py: Python<'_>, spec: &str) -> PyResult<Vec<String>> {
+    to_py(
+        py,
+        run::load_cycle_checked(spec).map(|(_, warnings)| warnings),
+    )
+}
+
 /// The extension module.
 #[pymodule]
 fn _invsim(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -340,6 +350,7 @@ fn _invsim(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("InvsimError", m.py().get_type::<InvsimError>())?;
     m.add("builtin_models", invsim_models::names())?;
     m.add_function(wrap_pyfunction!(count_runs, m)?)?;
+    m.add_function(wrap_pyfunction!(cycle_warnings, m)?)?;
     m.add("max_sweep_runs", invsim_runtime::sweep::MAX_RUNS)?;
     // The command line's defaults of `invsim forward` (Model.forward's None).
     let defaults = pyo3::types::PyDict::new(m.py());

@@ -175,13 +175,21 @@ pub fn cycle_file(spec: &str) -> Option<&std::path::Path> {
 
 /// A built-in cycle by name or a cycle file by path; a file's errors name the file.
 pub fn load_cycle(spec: &str) -> Result<Cycle, Failure> {
-    Cycle::load(spec).map_err(|e| {
-        if Cycle::builtin(spec).is_some() {
-            Failure::msg(e.to_string())
-        } else {
-            Failure::in_file(e.to_string(), spec)
-        }
-    })
+    load_cycle_checked(spec).map(|(cycle, _)| cycle)
+}
+
+/// [`load_cycle`] with the file's plausibility warnings (a speed column in the wrong unit, a time column in
+/// ms: `invsim_runtime::cycle::Implausible`), as the command line reads it.
+pub fn load_cycle_checked(spec: &str) -> Result<(Cycle, Vec<String>), Failure> {
+    let (cycle, found) = Cycle::load_checked(spec, invsim_runtime::cycle::MAX_CYCLE_BYTES)
+        .map_err(|e| {
+            if Cycle::builtin(spec).is_some() {
+                Failure::msg(e.to_string())
+            } else {
+                Failure::in_file(e.to_string(), spec)
+            }
+        })?;
+    Ok((cycle, found.iter().map(ToString::to_string).collect()))
 }
 
 /// Run the model instance `m` on `cycle`: the message of a stopped run is the command line's.
@@ -273,7 +281,7 @@ pub fn simulate_any(
     params: &[(String, f64)],
     opts: &RunOptions,
 ) -> Result<Output, Failure> {
-    let cycle = load_cycle(cycle_spec)?;
+    let (cycle, cycle_warnings) = load_cycle_checked(cycle_spec)?;
     let sim_opts = opts.build(model.engine_name(), model_path, &cycle.name)?;
     let (sim_opts, choice) =
         resolve_remembered(&sim_opts, &cycle).map_err(|e| stopped(model_path, &cycle.name, e))?;
@@ -288,6 +296,7 @@ pub fn simulate_any(
     if let Some(choice) = choice {
         result.set_lookahead_choice(choice);
     }
+    result.warnings_mut().splice(0..0, cycle_warnings);
     Ok(match result {
         RunResult::Single(r) => (
             RunSummary::Inverse(r.summary),

@@ -159,3 +159,29 @@ def test_summary_leads_with_the_headline(si_engine):
     assert h["l_per_100km"] == s["integrals_per_100km"]["fuel_volume"]
     # 100 km = 62.137 mi; l/100 km litres = l/100 km / 3.785411784 US gallons.
     assert h["mpg_us"] == pytest.approx(100 * 3.785411784 / (1.609344 * h["l_per_100km"]), rel=1e-12)
+
+
+def test_a_cycle_in_the_wrong_unit_warns_before_the_run(tmp_path):
+    # km/h values (up to 80) in a `speed_mps` column: a top speed no drive cycle reaches in m/s. The warning
+    # comes before the run, as on the command line, and is the summary's first warning.
+    import math
+
+    import invsim
+
+    path = tmp_path / "kmh_in_mps.csv"
+    rows = "".join(f"{t},{abs(80 * math.sin(math.pi * t / 100)):.3f}\n" for t in range(101))
+    path.write_text("time_s,speed_mps\n" + rows)
+    model = invsim.Model(str(SI_ENGINE.parent / "bev.toml"))
+    with pytest.warns(UserWarning, match="probably holds km/h"):
+        run = model.simulate(cycle=str(path), dt=0.1)
+    assert "probably holds km/h" in run.summary["warnings"][0]
+    # The forward run dies at 80 m/s (its driver cannot follow): the warning came before it, which says why.
+    with pytest.warns(UserWarning, match="probably holds km/h"):
+        with pytest.raises(invsim.InvsimError, match="forward integration failed"):
+            model.forward(cycle=str(path), dt=0.1)
+    # A built-in cycle has none.
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        model.simulate(cycle="nedc", dt=1.0)
