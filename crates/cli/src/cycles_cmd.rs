@@ -1,6 +1,8 @@
 //! `invsim cycles`: the built-in drive cycles with their duration, distance and top speed, as a text table or
-//! JSON. Distance is the exact integral of the piecewise-linear speed trace (trapezoidal rule), as the
-//! summaries of `simulate` and `forward` compute it.
+//! JSON, or one built-in's samples as a cycle CSV (`--export NAME`: `time_s,speed_mps`, the numbers in
+//! Rust's shortest round-trip form, so the file reads back to the same cycle). Distance is the exact integral
+//! of the piecewise-linear speed trace (trapezoidal rule), as the summaries of `simulate` and `forward`
+//! compute it.
 
 use crate::error::Failure;
 use crate::files::print_stdout;
@@ -19,6 +21,9 @@ pub struct CyclesArgs {
     /// Output format.
     #[arg(long, value_enum, default_value_t = ListFormat::Text)]
     format: ListFormat,
+    /// Write the built-in cycle NAME's samples as a cycle CSV (`time_s,speed_mps`) on stdout instead of the list.
+    #[arg(long, value_name = "NAME")]
+    export: Option<String>,
 }
 
 /// One built-in cycle's figures.
@@ -90,8 +95,27 @@ fn json(rows: &[Row]) -> Result<String, Failure> {
     Ok(s)
 }
 
-/// Print the list of built-in cycles.
+/// The built-in cycle `name` as a cycle CSV.
+fn export(name: &str) -> Result<String, Failure> {
+    let c = Cycle::builtin(name).ok_or_else(|| {
+        Failure::user(format!(
+            "--export `{name}`: not a built-in cycle; expected one of {}",
+            Cycle::builtin_names().join(", ")
+        ))
+    })?;
+    let mut s = String::from("time_s,speed_mps\n");
+    for (t, v) in c.time.iter().zip(&c.speed) {
+        let float = invsim_runtime::output::float_text;
+        let _ = writeln!(s, "{},{}", float(*t), float(*v));
+    }
+    Ok(s)
+}
+
+/// Print the list of built-in cycles, or one cycle's samples.
 pub fn run(args: &CyclesArgs) -> Result<(), Failure> {
+    if let Some(name) = &args.export {
+        return print_stdout(&export(name)?);
+    }
     let rows = rows()?;
     let out = match args.format {
         ListFormat::Text => text(&rows),

@@ -27,6 +27,7 @@ fn cycles_lists_every_builtin_with_duration_distance_and_top_speed() {
         ("eudc", ["400 s", "6.955 km", "120.0 km/h"]),
         ("udds", ["1369 s", "11.990 km", "91.2 km/h"]),
         ("hwfet", ["765 s", "16.507 km", "96.4 km/h"]),
+        ("us06", ["600 s", "12.888 km", "129.2 km/h"]),
         ("wltc3b", ["1800 s", "23.266 km", "131.3 km/h"]),
         ("wltc3b-low", ["589 s", "3.095 km", "56.5 km/h"]),
         ("wltc3b-medium", ["433 s", "4.756 km", "76.6 km/h"]),
@@ -41,7 +42,7 @@ fn cycles_lists_every_builtin_with_duration_distance_and_top_speed() {
             assert!(line.contains(f), "{name}: {line:?} lacks {f:?}");
         }
     }
-    assert_eq!(text.lines().count(), 11);
+    assert_eq!(text.lines().count(), 12);
 }
 
 #[test]
@@ -50,7 +51,7 @@ fn cycles_json_has_the_figures_in_si_units() {
     assert!(o.status.success(), "{}", stderr(&o));
     let list: Value = serde_json::from_slice(&o.stdout).unwrap();
     let list = list.as_array().unwrap();
-    assert_eq!(list.len(), 10);
+    assert_eq!(list.len(), 11);
     let udds = list.iter().find(|c| c["name"] == "udds").unwrap();
     assert_eq!(udds["duration_s"], 1369.0);
     assert!((udds["distance_m"].as_f64().unwrap() - 11_990.0).abs() < 5.0);
@@ -152,5 +153,40 @@ fn an_unknown_cycle_lists_the_builtins() {
     let o = invsim(&["simulate", "models/si_engine.toml", "--cycle", "wltc"]);
     assert_eq!(o.status.code(), Some(2));
     let err = stderr(&o);
-    assert!(err.contains("udds, hwfet, wltc3b"), "{err}");
+    assert!(err.contains("udds, hwfet, us06, wltc3b"), "{err}");
+}
+
+#[test]
+fn a_built_in_cycle_exports_as_a_cycle_file_that_reads_back_the_same() {
+    // `cycles --export us06` writes the table's samples; simulating the file gives the built-in's figures bit
+    // for bit (the numbers are written in shortest round-trip form).
+    let o = invsim(&["cycles", "--export", "us06"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert_eq!(text.lines().next(), Some("time_s,speed_mps"));
+    assert_eq!(text.lines().count(), 602);
+    let path = tmp("us06_export.csv");
+    std::fs::write(&path, &text).unwrap();
+    let figures = |cycle: &str, tag: &str| {
+        let json = tmp(tag);
+        let j = json.to_str().unwrap();
+        let o = invsim(&[
+            "simulate",
+            "models/si_engine.toml",
+            "--cycle",
+            cycle,
+            "--summary-json",
+            j,
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let s: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+        (s["distance_m"].clone(), s["integrals"].clone())
+    };
+    assert_eq!(
+        figures("us06", "us06_builtin.json"),
+        figures(path.to_str().unwrap(), "us06_file.json")
+    );
+    let bad = invsim(&["cycles", "--export", "us07"]);
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(stderr(&bad).contains("not a built-in cycle; expected one of nedc"));
 }

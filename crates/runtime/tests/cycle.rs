@@ -101,6 +101,7 @@ fn builtin_names_are_case_insensitive() {
             "eudc",
             "udds",
             "hwfet",
+            "us06",
             "wltc3b",
             "wltc3b-low",
             "wltc3b-medium",
@@ -762,9 +763,14 @@ fn builtin_regulation_cycles_match_their_published_figures() {
 
 #[test]
 fn us_cycles_match_their_published_figures_in_miles() {
-    // 40 CFR 86 App. I (a) and 40 CFR 600 App. I tabulate mph; EPA states 7.45 mi / 56.7 mph (UDDS) and
-    // 10.26 mi / 59.9 mph (HWFET). Tolerance: half a unit of the last digit stated.
-    for (name, miles, top_mph) in [("udds", 7.45, 56.7), ("hwfet", 10.26, 59.9)] {
+    // 40 CFR 86 App. I (a) and (g) and 40 CFR 600 App. I tabulate mph; EPA states 7.45 mi / 56.7 mph (UDDS),
+    // 10.26 mi / 59.9 mph (HWFET) and 8.01 mi / 80.3 mph (US06). Tolerance: half a unit of the last digit
+    // stated.
+    for (name, miles, top_mph) in [
+        ("udds", 7.45, 56.7),
+        ("hwfet", 10.26, 59.9),
+        ("us06", 8.01, 80.3),
+    ] {
         let c = Cycle::builtin(name).unwrap();
         let mi = c.distance() / MILE;
         assert!(
@@ -821,7 +827,10 @@ fn builtin_list_names_every_builtin_once_with_a_description() {
         assert_eq!(Cycle::load(b.name).unwrap(), c);
     }
     let err = Cycle::load("no-such-cycle.csv").unwrap_err().to_string();
-    assert!(err.contains("udds, hwfet, wltc3b, wltc3b-low"), "{err}");
+    assert!(
+        err.contains("udds, hwfet, us06, wltc3b, wltc3b-low"),
+        "{err}"
+    );
 }
 
 /// The built-ins equal FASTSim's copies of the same tables sample by sample. FASTSim stores the US cycles in m/s

@@ -1,9 +1,10 @@
 //! The list of built-in drive cycles with their descriptions, and the second-by-second regulation tables
-//! (UDDS, HWFET, WLTC class 3b and its phases) turned into time and speed in SI units. The tables themselves
-//! are in the files `builtin/udds.rs`, `builtin/hwfet.rs` and `builtin/wltc3b.rs`.
+//! (UDDS, HWFET, US06, WLTC class 3b and its phases) turned into time and speed in SI units. The tables
+//! themselves are in the files `builtin/udds.rs`, `builtin/hwfet.rs`, `builtin/us06.rs` and `builtin/wltc3b.rs`.
 
 mod hwfet;
 mod udds;
+mod us06;
 mod wltc3b;
 
 pub(super) const BUILTIN_NAMES: &[&str] = &[
@@ -12,6 +13,7 @@ pub(super) const BUILTIN_NAMES: &[&str] = &[
     "eudc",
     "udds",
     "hwfet",
+    "us06",
     "wltc3b",
     "wltc3b-low",
     "wltc3b-medium",
@@ -47,6 +49,10 @@ pub(super) const BUILTINS: &[BuiltinCycle] = &[
     BuiltinCycle {
         name: "hwfet",
         description: "EPA Highway Fuel Economy Test (40 CFR 600 App. I)",
+    },
+    BuiltinCycle {
+        name: "us06",
+        description: "EPA US06 Supplemental FTP, aggressive driving (40 CFR 86 App. I)",
     },
     BuiltinCycle {
         name: "wltc3b",
@@ -96,13 +102,14 @@ fn from_1hz(table: &[u16], mps_per_unit: f64, first: usize, last: usize) -> (Vec
     (time, speed)
 }
 
-/// Times (s) and speeds (m/s) of the second-by-second built-in `name` (lower case): UDDS and HWFET (tables in
+/// Times (s) and speeds (m/s) of the second-by-second built-in `name` (lower case): UDDS, HWFET and US06 (tables in
 /// 0.1 mph), WLTC class 3b and its phases (tables in 0.1 km/h; the tables hold tenths, hence the factor 0.1).
 pub(super) fn tabulated(name: &str) -> Option<(Vec<f64>, Vec<f64>)> {
     let whole = |table: &[u16], unit: f64| Some(from_1hz(table, 0.1 * unit, 0, table.len() - 1));
     match name {
         "udds" => whole(&udds::MPH_X10, MPS_PER_MPH),
         "hwfet" => whole(&hwfet::MPH_X10, MPS_PER_MPH),
+        "us06" => whole(&us06::MPH_X10, MPS_PER_MPH),
         "wltc3b" => whole(&wltc3b::KMH_X10, MPS_PER_KMH),
         _ => WLTC3B_PHASES
             .iter()
