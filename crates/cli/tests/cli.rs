@@ -279,3 +279,36 @@ fn verify_warns_when_an_unstable_model_makes_the_open_loop_replay_stray() {
     ]);
     assert!(!String::from_utf8_lossy(&o.stdout).contains("strays"));
 }
+
+#[test]
+fn a_model_read_from_a_pipe_is_read_once() {
+    // `invsim simulate <(cat m.toml)`: the file is a pipe, readable once. A model that is not a built-in's
+    // bytes (here si_engine with another name) used to be read a second time for its derivation and found
+    // empty ("missing [states] section").
+    use std::io::Write;
+    let text = std::fs::read_to_string(root().join("models/si_engine.toml"))
+        .unwrap()
+        .replacen("name = \"si_engine\"", "name = \"si_engine_piped\"", 1);
+    assert!(text.contains("si_engine_piped"));
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_invsim"))
+        .args(["simulate", "/dev/stdin", "--cycle", "ece", "--dt", "1"])
+        .current_dir(root())
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("run invsim");
+    child
+        .stdin
+        .take()
+        .unwrap()
+        .write_all(text.as_bytes())
+        .unwrap();
+    let o = child.wait_with_output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        out.contains("model: si_engine_piped") && out.contains("engine: interpreted"),
+        "{out}"
+    );
+}

@@ -91,25 +91,14 @@ impl Loaded {
     }
 }
 
-/// Bytes of a model file read to compare it with the built-in models; a larger file is none of them (the
-/// reader's own limits then apply).
-const MAX_COMPARED_BYTES: u64 = 1 << 20;
-
 /// Load the model file at `path` with the engine `choice` asks for. A file whose bytes are a built-in model's
 /// runs its compiled code (with `auto` or `compiled`) without being derived: it is byte for byte the file the
 /// code was generated from, so its derivation succeeds and the compiled model carries everything the run
-/// needs. Any other file is read and derived first, so a bad file gives the same error whichever engine was
-/// asked for.
+/// needs. Any other file is derived first, so a bad file gives the same error whichever engine was asked
+/// for. The file is read once, through the reader's cap, so a pipe (`<(cat m.toml)`) serves both.
 pub fn load(path: &Path, choice: EngineChoice) -> Result<Loaded, LoadError> {
-    if choice != EngineChoice::Interpreted {
-        if let Some(bytes) = read_bounded(path) {
-            if let Some(m) = compiled(path, &bytes)? {
-                return Ok(m);
-            }
-        }
-    }
-    let file = ModelFile::from_path(path)?;
-    from_file(file, path, choice)
+    let bytes = invsim_inversion::read_model_file(path)?;
+    load_source(path, &bytes, choice)
 }
 
 /// [`load`] of a model file given as its bytes (`path` names it in messages).
@@ -137,21 +126,4 @@ fn from_file(file: ModelFile, path: &Path, choice: EngineChoice) -> Result<Loade
         ModelFile::Single(model) => single::from_model(*model, path, choice).map(Loaded::Single),
         ModelFile::Modal(m) => modal::from_model(*m, choice).map(|m| Loaded::Modal(Box::new(m))),
     }
-}
-
-/// The file's bytes, read through the cap into a buffer sized by the file's length where it has one (one
-/// `read` for a model file instead of a dozen doubling ones); `None` if it cannot be read or is too long.
-fn read_bounded(path: &Path) -> Option<Vec<u8>> {
-    use std::io::Read;
-    let file = std::fs::File::open(path).ok()?;
-    let hint = file
-        .metadata()
-        .map_or(0, |m| m.len())
-        .min(MAX_COMPARED_BYTES);
-    // One byte more than the length, so that the read that finds the end needs no growth.
-    let mut bytes = Vec::with_capacity(hint as usize + 1);
-    file.take(MAX_COMPARED_BYTES + 1)
-        .read_to_end(&mut bytes)
-        .ok()?;
-    (bytes.len() as u64 <= MAX_COMPARED_BYTES).then_some(bytes)
 }

@@ -96,7 +96,7 @@ pub use modal::{
     Gearbox, ModalFacts, ModalInput, ModalModel, Mode, ModeHeader, ModeRole, ModelFile, Schedule,
     SequenceOptions,
 };
-pub use reader::MAX_MODEL_FILE_BYTES;
+pub use reader::{read_capped as read_model_file, MAX_MODEL_FILE_BYTES};
 pub use signals::{derivative_name, MAX_SIGNAL_DERIVATIVE};
 pub use validated::{
     Definition, Engine, ExtraOutput, Input, MapInfo, Model, Output, Parameter, Signal, State,

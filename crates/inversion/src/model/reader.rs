@@ -22,7 +22,7 @@ use std::path::Path;
 pub const MAX_MODEL_FILE_BYTES: u64 = 1 << 20;
 
 /// The bytes of `path`, at most [`MAX_MODEL_FILE_BYTES`].
-fn read_capped(path: &Path) -> Result<Vec<u8>, ModelError> {
+pub fn read_capped(path: &Path) -> Result<Vec<u8>, ModelError> {
     let err = |message: String| ModelError {
         file: path.to_path_buf(),
         line: None,
@@ -32,7 +32,13 @@ fn read_capped(path: &Path) -> Result<Vec<u8>, ModelError> {
     };
     let file =
         std::fs::File::open(path).map_err(|e| err(format!("cannot read the model file: {e}")))?;
-    let mut bytes = Vec::new();
+    // A buffer sized by the file's length where it has one (one `read` instead of a dozen doubling ones), one
+    // byte more so that the read that finds the end needs no growth; a pipe has none and grows.
+    let hint = file
+        .metadata()
+        .map_or(0, |m| m.len())
+        .min(MAX_MODEL_FILE_BYTES);
+    let mut bytes = Vec::with_capacity(hint as usize + 1);
     file.take(MAX_MODEL_FILE_BYTES + 1)
         .read_to_end(&mut bytes)
         .map_err(|e| err(format!("cannot read the model file: {e}")))?;
