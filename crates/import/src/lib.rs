@@ -20,6 +20,7 @@ mod limits;
 mod locate;
 mod model;
 mod read;
+mod thermal;
 mod unsupported;
 mod yaml;
 
