@@ -40,12 +40,13 @@ VEHICLES = [
 ]
 # --all adds these (FASTSim's other conventional and battery-electric vehicles whose physics the importer
 # reproduces, the Pacifica with its stop-start and fuel cut-off and its fuel as energy: its file gives no
-# specific energy; its `_thrml` variant's cold engine is not reproduced and is only imported and run).
+# specific energy, and its `_thrml` variant with the engine's thermal model, from a cold start at 22 °C).
 MORE_VEHICLES = [
     ("2022 Tesla Model 3 RWD thrml.yaml", "battery_energy", "kWh"),
     ("2022_Renault_Zoe_ZE50_R135.yaml", "battery_energy", "kWh"),
     ("2020 Chevrolet Bolt EV thrml.yaml", "battery_energy", "kWh"),
     ("2026_Chrysler_Pacifica_Select.yaml", "fuel_energy", "MJ"),
+    ("2026_Chrysler_Pacifica_Select_thrml.yaml", "fuel_energy", "MJ"),
 ]
 CYCLES = [("udds", "UDDS", 0.02), ("hwfet", "HWFET", 0.02), ("wltc_3b", "WLTC 3b", 0.03)]
 # US06 from invsim's built-in table (`invsim cycles --export us06`; FASTSim 3 ships no US06), 5 %.
@@ -188,7 +189,7 @@ def main():
     ap.add_argument("--cycles", default=os.path.join(os.path.dirname(ROOT), "shared", "cycles"))
     ap.add_argument("--lookahead", default="auto", help="seconds, or auto (the look-ahead chosen per cycle)")
     ap.add_argument("--dt", type=float, default=0.1)
-    ap.add_argument("--all", action="store_true", help="also the Tesla Model 3, the Renault Zoe, the Chevrolet Bolt and the Chrysler Pacifica")
+    ap.add_argument("--all", action="store_true", help="also the Tesla Model 3, the Renault Zoe, the Chevrolet Bolt and the Chrysler Pacifica (with and without its thermal model)")
     args = ap.parse_args()
     if not os.path.exists(args.invsim):
         print(f"crosscheck: no invsim binary at {args.invsim} (cargo build --release -p invsim)", file=sys.stderr)

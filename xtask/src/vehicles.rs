@@ -9,13 +9,17 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 /// The library: (FASTSim resource name, file stem in `models/vehicles/`).
-pub const VEHICLES: [(&str, &str); 4] = [
+pub const VEHICLES: [(&str, &str); 5] = [
     ("2012_Ford_Fusion.yaml", "ford_fusion_2012"),
     ("2016 Nissan Leaf 30 kWh thrml.yaml", "nissan_leaf_2016"),
     ("2020 Chevrolet Bolt EV thrml.yaml", "chevrolet_bolt_2020"),
     (
         "2026_Chrysler_Pacifica_Select.yaml",
         "chrysler_pacifica_2026",
+    ),
+    (
+        "2026_Chrysler_Pacifica_Select_thrml.yaml",
+        "chrysler_pacifica_2026_thrml",
     ),
 ];
 

@@ -3,7 +3,7 @@
 //! there with a finite limit below the idle floor), and the 2020 Bolt's battery efficiency is the bilinear value of its table at
 //! the C-rate of the auxiliary load and the temperature signal `T_res` (22 °C by default, or `--signal`).
 
-use crate::common::{invsim, json_file, stderr, tmp};
+use crate::common::{invsim, json_file, num, read_csv, stderr, tmp};
 
 /// A cycle standing still for `seconds`.
 fn standstill(name: &str, seconds: usize) -> String {
@@ -125,4 +125,49 @@ fn the_bolt_reads_its_battery_table_at_the_c_rate_and_temperature() {
             "{tag}: {power} vs {hand}"
         );
     }
+}
+
+#[test]
+fn the_thermal_pacifica_warms_up_as_its_linear_model_says() {
+    // Standing from a cold start (T_fc = 295.15 K, T_amb = 22 °C), the engine runs while colder than
+    // T_fc_on = 333.15 K (stop-start may not stop it) at a constant load: its auxiliary 700 W. With the idle
+    // floor raised to P_idle = 30 kW the fuel power is 30 kW whatever the cold efficiency, so the heat into
+    // the engine is constant, Q = f_comb (P_idle − 700 W) = 0.5 · 29 300 = 14 650 W (below the flame's
+    // conduction G (T_ad − T) ≈ 27.7 kW), and with the thermostat closed the heat to the ambient is
+    // h A (T − T_amb), h = h_fc_stop (set to 300 W/(m² K) so that the loss shows), A = π 0.7²/4. The linear
+    // model C dT/dt = Q − h A (T − T_amb) gives T(t) = T_amb + Q/(hA) + (T0 − T_amb − Q/(hA)) e^{−hA t/C}, and
+    // the warm-up time to T1: t1 = C/(hA) ln((Q/(hA) − (T0 − T_amb))/(Q/(hA) − (T1 − T_amb))).
+    let stand = standstill("pacifica_thrml_stand.csv", 400);
+    let model = "models/vehicles/chrysler_pacifica_2026_thrml.toml";
+    let csv = tmp("pacifica_thrml_stand_out.csv");
+    let csv_arg = csv.display().to_string();
+    let set = [
+        "--set",
+        "P_idle=30000",
+        "--set",
+        "h_fc_stop=300",
+        "--dt",
+        "0.1",
+        "--out",
+        &csv_arg,
+    ];
+    run(model, &stand, "pac_thrml_stand", &set);
+    let (header, rows) = read_csv(&csv);
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let (t, temp) = (col("t"), col("T_fc"));
+    let (c, h, l) = (106_945.694_570_460_9, 300.0, 0.7);
+    let ha = h * std::f64::consts::PI * l * l / 4.0;
+    let q = 0.5 * (30_000.0 - 700.0);
+    let (t0, t_amb, t1) = (295.15, 295.15, 328.15);
+    let closed = c / ha * ((q / ha - (t0 - t_amb)) / (q / ha - (t1 - t_amb))).ln();
+    // The run's first sample at or above T1, interpolated back to the crossing.
+    let k = rows.iter().position(|r| num(&r[temp]) >= t1).unwrap();
+    let (a, b) = (&rows[k - 1], &rows[k]);
+    let crossing = lerp((num(&a[temp]), num(&a[t])), (num(&b[temp]), num(&b[t])), t1);
+    // 33 K: 279.0 s by the closed form; the heat alone (no loss) would take C (T1 − T0)/Q = 240.9 s.
+    assert!((closed - 279.0).abs() < 0.1, "{closed}");
+    assert!(
+        (crossing - closed).abs() < 0.002 * closed,
+        "run {crossing} s, closed form {closed} s"
+    );
 }

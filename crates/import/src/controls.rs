@@ -18,22 +18,41 @@ use crate::error::ImportError;
 use crate::model::Model;
 use crate::yaml::Doc;
 
-/// Emit the parameters and definitions of the controls the file enables; returns the factor (with its
-/// trailing `*`) that multiplies the fuel power, empty when none is enabled.
+/// The controls' factors of the fuel power.
+pub struct Factors {
+    /// The exact factors (with their trailing `*`) that multiply the fuel power, empty when none is enabled.
+    pub exact: String,
+    /// The smooth stop-start factor for the thermal state's rhs (`1` without stop-start).
+    pub run_s: String,
+    /// The smooth fuel cut-off factor for the thermal state's rhs (`1` without fuel cut-off).
+    pub fuel_s: String,
+}
+
+/// Emit the parameters and definitions of the controls the file enables. With the thermal model
+/// (`thermal`), stop-start keeps the engine running while it is colder than `temp_fc_forced_on`.
 pub fn emit(
     doc: &Doc,
     model: &mut Model,
     base: &str,
+    thermal: bool,
     warnings: &mut Vec<String>,
-) -> Result<String, ImportError> {
+) -> Result<Factors, ImportError> {
     let mut factors = Vec::new();
-    if let Some(f) = stop_start(doc, model, base, warnings)? {
+    let mut run_s = "1".to_string();
+    let mut fuel_s = "1".to_string();
+    if let Some(f) = stop_start(doc, model, base, thermal, warnings)? {
         factors.push(f);
+        run_s = "c_run_s".to_string();
     }
-    if let Some(f) = fuel_cut_off(doc, model, base)? {
+    if let Some(f) = fuel_cut_off(doc, model, base, thermal)? {
         factors.push(f);
+        fuel_s = "c_fuel_s".to_string();
     }
-    Ok(factors.iter().map(|f| format!("{f}*")).collect())
+    Ok(Factors {
+        exact: factors.iter().map(|f| format!("{f}*")).collect(),
+        run_s,
+        fuel_s,
+    })
 }
 
 /// `pt_cntrl`: `Normal` (the engine always runs) or `StartStop`; anything else is refused.
@@ -41,6 +60,7 @@ fn stop_start(
     doc: &Doc,
     model: &mut Model,
     base: &str,
+    thermal: bool,
     warnings: &mut Vec<String>,
 ) -> Result<Option<String>, ImportError> {
     let path = format!("{base}.pt_cntrl");
@@ -65,19 +85,54 @@ fn stop_start(
         "stop-start: the engine is off while the car is slower than this",
         &threshold,
     )?;
-    model.def(
-        "c_run",
-        "max(sign(v - v_stop), 0)",
-        "-",
-        "stop-start: 1 while the engine runs, 0 while the car stands (engine off, no fuel)",
-    );
     let delay = doc.opt_num(&format!(
         "{ss}.time_delay_after_stop_until_fc_can_turn_off_seconds"
     ))?;
     let on = doc.opt_num(&format!("{ss}.fc_min_time_on_seconds"))?;
+    let forced_on = format!("{ss}.temp_fc_forced_on_kelvin");
+    let allowed_off = format!("{ss}.temp_fc_allowed_off_kelvin");
+    if thermal && doc.opt_num(&forced_on)?.is_some_and(|x| !x.is_nan()) {
+        // FASTSim 3.1 (observed): the engine stays on while T_fc < temp_fc_forced_on; its
+        // temp_fc_allowed_off has no effect on a conventional vehicle's stop-start.
+        model.field(
+            "T_fc_on",
+            doc.num(&forced_on)?,
+            "K",
+            "stop-start: the engine runs, even standing, while its temperature is below this",
+            &forced_on,
+        )?;
+        doc.mark(&allowed_off);
+        model.def(
+            "c_run",
+            "1 - (1 - max(sign(v - v_stop), 0))*max(sign(T_fc - T_fc_on), 0)",
+            "-",
+            "stop-start: 0 while the car stands and the engine is warm (engine off, no fuel), else 1",
+        );
+        model.def(
+            "c_run_s",
+            "1 - (1 - 0.5*(1 + tanh((v - v_stop)/0.01)))*0.5*(1 + tanh((T_fc - T_fc_on)/0.1))",
+            "-",
+            "stop-start factor, smooth (for the thermal state)",
+        );
+    } else {
+        model.def(
+            "c_run",
+            "max(sign(v - v_stop), 0)",
+            "-",
+            "stop-start: 1 while the engine runs, 0 while the car stands (engine off, no fuel)",
+        );
+        if thermal {
+            model.def(
+                "c_run_s",
+                "0.5*(1 + tanh((v - v_stop)/0.01))",
+                "-",
+                "stop-start factor, smooth (for the thermal state)",
+            );
+        }
+    }
     warnings.push(format!(
         "`{ss}`: the engine stops as soon as the car stands; its delay after a stop ({} s) and minimum time \
-         on ({} s) are not reproduced, nor the thermal model's temperature conditions",
+         on ({} s) are not reproduced",
         delay.map_or("-".to_string(), crate::model::number),
         on.map_or("-".to_string(), crate::model::number),
     ));
@@ -86,7 +141,12 @@ fn stop_start(
 }
 
 /// `dfco_cntrl`: with `dfco_enabled`, the fuel cut-off's speed and deceleration thresholds.
-fn fuel_cut_off(doc: &Doc, model: &mut Model, base: &str) -> Result<Option<String>, ImportError> {
+fn fuel_cut_off(
+    doc: &Doc,
+    model: &mut Model,
+    base: &str,
+    thermal: bool,
+) -> Result<Option<String>, ImportError> {
     let path = format!("{base}.dfco_cntrl");
     let enabled = doc
         .get(&format!("{path}.dfco_enabled"))
@@ -117,6 +177,15 @@ fn fuel_cut_off(doc: &Doc, model: &mut Model, base: &str) -> Result<Option<Strin
         "1 - max(sign(v - v_dfco), 0)*max(sign(a_dfco - (F_t - F_res)/m_eff), 0)*(1 - max(sign(P_w), 0))",
         "-",
         "fuel cut-off: 0 while the car decelerates at a_dfco or harder above v_dfco without traction, else 1",
+    );
+    if !thermal {
+        return Ok(Some("c_fuel".to_string()));
+    }
+    model.def(
+        "c_fuel_s",
+        "1 - 0.5*(1 + tanh((v - v_dfco)/0.02))*0.5*(1 + tanh((a_dfco - a_lag)/0.01))*(1 - 0.5*(1 + tanh((F_res + m_eff*a_lag)*v/10)))",
+        "-",
+        "fuel cut-off factor, smooth, at the lagged acceleration (for the thermal state)",
     );
     Ok(Some("c_fuel".to_string()))
 }

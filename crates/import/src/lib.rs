@@ -1,5 +1,6 @@
 //! Importers of other tools' vehicle files into invsim model files. FASTSim 3 (NREL, Apache-2.0): a
-//! conventional or battery-electric vehicle file becomes a model with one state (the vehicle speed), the
+//! conventional or battery-electric vehicle file becomes a model with the vehicle speed as state (and, with
+//! FASTSim's engine thermal model, the engine temperature as an internal state: `thermal.rs`), the
 //! tractive force at the wheels as input (negative = braking) and FASTSim's energy flows in `[outputs]`, every
 //! parameter carrying its unit and a doc naming the FASTSim field it came from. Hybrids and unknown powertrain
 //! types are refused; fields the model does not use are listed as warnings. Every field read is checked against
@@ -20,6 +21,7 @@ mod limits;
 mod locate;
 mod model;
 mod read;
+mod thermal;
 mod unsupported;
 mod yaml;
 

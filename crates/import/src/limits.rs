@@ -35,6 +35,13 @@ const C_RATE: Range = range(-100.0, true, 100.0, true);
 const CELL_TEMPERATURE: Range = range(-60.0, true, 120.0, true);
 /// The same range in kelvin.
 const CELL_KELVIN: Range = range(213.15, true, 393.15, true);
+/// [173.15, 473.15] K (−100 to 200 °C): an engine temperature, a thermostat's or a cold-efficiency
+/// threshold (beyond it no coolant or oil works).
+const ENGINE_KELVIN: Range = range(173.15, true, 473.15, true);
+/// (0, 100] K: a temperature interval of the thermal model (a thermostat's opening range, a lag).
+const KELVIN_INTERVAL: Range = range(0.0, false, 100.0, true);
+/// [0, 1000] K: the cold-efficiency model's offset, an absolute temperature below the engine's.
+const KELVIN_OFFSET: Range = range(0.0, true, 1000.0, true);
 /// A count: a whole number ≥ 1.
 const COUNT: Range = Range {
     integer: true,
@@ -117,6 +124,71 @@ pub const FIELDS: &[(&str, Range, &str)] = &[
         "pt_type.Conv.dfco_cntrl.minimum_dfco_deceleration_meters_per_second_squared",
         DECELERATION,
         "the fuel cut-off's acceleration threshold (a deceleration)",
+    ),
+    (
+        "pt_type.Conv.fc.thrml.FuelConverterThermal.heat_capacitance_joules_per_kelvin",
+        POSITIVE,
+        "the engine heat capacitance",
+    ),
+    (
+        "pt_type.Conv.fc.thrml.FuelConverterThermal.length_for_convection_meters",
+        POSITIVE,
+        "the engine length for convection",
+    ),
+    (
+        "pt_type.Conv.fc.thrml.FuelConverterThermal.htc_to_amb_stop_watts_per_square_meter_kelvin",
+        NON_NEGATIVE,
+        "the engine heat transfer coefficient to the ambient while standing",
+    ),
+    (
+        "pt_type.Conv.fc.thrml.FuelConverterThermal.conductance_from_comb_watts_per_kelvin",
+        NON_NEGATIVE,
+        "the conductance from the flame to the engine",
+    ),
+    (
+        "pt_type.Conv.fc.thrml.FuelConverterThermal.max_frac_from_comb",
+        FRACTION,
+        "the largest fraction of the losses heating the engine",
+    ),
+    (
+        "pt_type.Conv.fc.thrml.FuelConverterThermal.tstat_te_sto_kelvin",
+        ENGINE_KELVIN,
+        "the temperature at which the thermostat starts to open",
+    ),
+    (
+        "pt_type.Conv.fc.thrml.FuelConverterThermal.tstat_te_delta_kelvin",
+        KELVIN_INTERVAL,
+        "the thermostat's opening range",
+    ),
+    (
+        "pt_type.Conv.fc.thrml.FuelConverterThermal.radiator_effectiveness",
+        NON_NEGATIVE,
+        "the radiator effectiveness",
+    ),
+    (
+        "pt_type.Conv.fc.thrml.FuelConverterThermal.fc_eff_model.Exponential.offset",
+        KELVIN_OFFSET,
+        "the cold-efficiency offset temperature",
+    ),
+    (
+        "pt_type.Conv.fc.thrml.FuelConverterThermal.fc_eff_model.Exponential.lag",
+        KELVIN_INTERVAL,
+        "the cold-efficiency temperature scale",
+    ),
+    (
+        "pt_type.Conv.fc.thrml.FuelConverterThermal.fc_eff_model.Exponential.minimum",
+        EFFICIENCY,
+        "the cold-efficiency factor's lower bound",
+    ),
+    (
+        "pt_type.Conv.fc.thrml.FuelConverterThermal.state.temperature_kelvin",
+        ENGINE_KELVIN,
+        "the engine's initial temperature",
+    ),
+    (
+        "pt_type.Conv.pt_cntrl.StartStop.temp_fc_forced_on_kelvin",
+        ENGINE_KELVIN,
+        "the temperature below which stop-start keeps the engine running",
     ),
     (
         "pt_type.Conv.fs.specific_energy_joules_per_kilogram",

@@ -47,6 +47,16 @@ pub struct Signal {
     pub doc: String,
 }
 
+/// A state besides the speed: an internal state (zero dynamics) integrated from `initial`.
+#[derive(Debug, Clone)]
+pub struct State {
+    pub name: String,
+    pub rhs: String,
+    pub initial: f64,
+    pub unit: String,
+    pub doc: String,
+}
+
 /// A model under construction.
 #[derive(Debug, Default)]
 pub struct Model {
@@ -58,6 +68,11 @@ pub struct Model {
     pub outputs: Vec<Item>,
     pub maps: Vec<LinearMap>,
     pub signals: Vec<Signal>,
+    /// Maps with `interp = "smooth"` (the kernel-smoothed linear interpolant, contract §6), which may enter
+    /// a state's rhs.
+    pub smooth_maps: Vec<LinearMap>,
+    /// States besides the speed `v` (internal states: the output keeps relative degree 1).
+    pub states: Vec<State>,
     /// The `[headline]` table's keys as TOML lines (`output = "fuel"`), empty for none.
     pub headline: Vec<String>,
 }
@@ -148,13 +163,27 @@ impl Model {
             ));
         }
         for m in &self.maps {
-            s.push_str(&render_map(m));
+            s.push_str(&render_map(m, "linear"));
+        }
+        for m in &self.smooth_maps {
+            s.push_str(&render_map(m, "smooth"));
         }
         s.push_str("\n[definitions]\n");
         for d in &self.defs {
             s.push_str(&render_item(d));
         }
-        s.push_str(STATE_AND_INPUT);
+        s.push_str(STATE);
+        for x in &self.states {
+            s.push_str(&format!(
+                "{} = {{ rhs = {}, initial = {}, unit = {}, doc = {} }}\n",
+                x.name,
+                quote(&x.rhs),
+                number(x.initial),
+                quote(&x.unit),
+                quote(&x.doc)
+            ));
+        }
+        s.push_str(INPUT_AND_OUTPUT);
         s.push_str("\n[outputs]\n");
         for o in &self.outputs {
             s.push_str(&render_item(o));
@@ -179,10 +208,13 @@ grade = { default = 0.0, column = "grade", unit = "-", doc = "road grade, rise o
 
 /// Vehicle speed driven by the tractive force at the wheels (FASTSim's road-load equation, quasi-static in
 /// FASTSim; here the state of a relative-degree-one model).
-const STATE_AND_INPUT: &str = r#"
+const STATE: &str = r#"
 [states]
 v = { rhs = "(F_t - F_res)/m_eff", unit = "m/s", doc = "vehicle speed: m_eff dv/dt = F_t - F_res" }
+"#;
 
+/// The tractive force as input, the speed as output.
+const INPUT_AND_OUTPUT: &str = r#"
 [input]
 name = "F_t"
 unit = "N"
@@ -205,8 +237,9 @@ fn item(name: &str, expr: &str, unit: &str, doc: &str, accumulate: Option<bool>)
     }
 }
 
-/// `[maps.NAME]` with its grid and values, linear between the points and held at the end values outside.
-fn render_map(m: &LinearMap) -> String {
+/// `[maps.NAME]` with its grid and values, `interp` (`linear` between the points, or `smooth`: that
+/// interpolant smoothed by the kernel) and held at the end values outside.
+fn render_map(m: &LinearMap, interp: &str) -> String {
     let list = |v: &[f64]| v.iter().map(|x| number(*x)).collect::<Vec<_>>().join(", ");
     let args = m
         .args
@@ -228,7 +261,7 @@ fn render_map(m: &LinearMap) -> String {
         )
     };
     format!(
-        "\n[maps.{}]\nargs = [{args}]\nx = [{}]\n{y}values = {values}\ninterp = \"linear\"\nextrapolate = \"clamp\"\nunit = {}\ndoc = {}\n",
+        "\n[maps.{}]\nargs = [{args}]\nx = [{}]\n{y}values = {values}\ninterp = \"{interp}\"\nextrapolate = \"clamp\"\nunit = {}\ndoc = {}\n",
         m.name,
         list(&m.x),
         quote(&m.unit),
