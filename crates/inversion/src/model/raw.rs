@@ -5,6 +5,7 @@
 use super::engine::RawEngine;
 use super::error::{ModelError, ModelErrorKind};
 use super::headline::RawHeadline;
+use super::keys;
 use super::maps::RawMap;
 use super::names::{is_identifier, Declaration, NameRef};
 use super::signals::RawSignal;
@@ -274,7 +275,7 @@ impl Reader<'_> {
                     doc: None,
                 },
                 Kind::Table(t) => {
-                    self.known_keys(t, &["value", "unit", "doc"], &what)?;
+                    self.known_keys(t, keys::PARAMETER, &what)?;
                     let Some(value) = get(t, "value") else {
                         return Err(self.err(
                             tv_at(v).or(at),
@@ -312,7 +313,7 @@ impl Reader<'_> {
             let what = format!("definition `{}`", k.name.escape_debug());
             let (src, unit, doc) = match &v.kind {
                 Kind::Table(t) => {
-                    self.known_keys(t, &["expr", "unit", "doc"], &what)?;
+                    self.known_keys(t, keys::DEFINITION, &what)?;
                     let Some(e) = get(t, "expr") else {
                         return Err(self.err(
                             tv_at(v).or(key_at(k)),
@@ -354,7 +355,7 @@ impl Reader<'_> {
                     ),
                 ));
             };
-            self.known_keys(t, &["rhs", "f", "g", "unit", "doc", "initial"], &what)?;
+            self.known_keys(t, keys::STATE, &what)?;
             let at_table = tv_at(v).or(key_at(k));
             let equation = match (get_key(t, "rhs"), get_key(t, "f"), get_key(t, "g")) {
                 (Some((_, rhs)), None, None) => RawEquation::Rhs(self.expression(rhs, &format!("{what}'s rhs"))?),
@@ -407,7 +408,7 @@ impl Reader<'_> {
 
     fn input(&self, v: &Tv) -> Result<RawInput, ModelError> {
         let t = self.table(v, "[input]")?;
-        self.known_keys(t, &["name", "unit", "doc", "min", "max"], "[input]")?;
+        self.known_keys(t, keys::INPUT, "[input]")?;
         let Some(name_v) = get(t, "name") else {
             return Err(self.err(
                 tv_at(v),
@@ -451,19 +452,7 @@ impl Reader<'_> {
 
     fn output(&self, v: &Tv) -> Result<RawOutput, ModelError> {
         let t = self.table(v, "[output]")?;
-        self.known_keys(
-            t,
-            &[
-                "name",
-                "h",
-                "unit",
-                "doc",
-                "nominal",
-                "reference_offset",
-                "reference_scale",
-            ],
-            "[output]",
-        )?;
+        self.known_keys(t, keys::OUTPUT, "[output]")?;
         let Some(name_v) = get(t, "name") else {
             return Err(self.err(
                 tv_at(v),
@@ -532,11 +521,7 @@ impl Reader<'_> {
             }
             let (src, unit, doc, accumulate, per_distance) = match &v.kind {
                 Kind::Table(t) => {
-                    self.known_keys(
-                        t,
-                        &["expr", "unit", "doc", "accumulate", "per_distance"],
-                        &what,
-                    )?;
+                    self.known_keys(t, keys::EXTRA_OUTPUT, &what)?;
                     let Some(e) = get(t, "expr") else {
                         return Err(self.err(
                             tv_at(v).or(key_at(k)),
