@@ -10,7 +10,7 @@ use super::maps::RawMap;
 use super::names::{is_identifier, Declaration, NameRef};
 use super::signals::RawSignal;
 use super::spanned::{string_content, Reader, Src};
-use super::tree::{get, get_key, key_at, tv_at, Entries, Kind, Tv};
+use super::tree::{get, get_key, key_at, tv_at, Entries, Key, Kind, Tv};
 use std::collections::HashSet;
 
 /// A parameter as written: `name = 1.0` or `name = { value = …, unit = "…", doc = "…" }`.
@@ -173,9 +173,23 @@ impl Reader<'_> {
         let entries = self.table(root, "the model file")?;
         let mut raw = Sections::default();
         let mut seen: HashSet<&str> = HashSet::new();
+        let unknown = |k: &Key, other: &str| {
+            self.err(
+                key_at(k),
+                ModelErrorKind::Schema,
+                format!(
+                    "unknown top-level key `{}`; expected one of: {TOP_KEYS_SHOWN}",
+                    other.escape_debug()
+                ),
+            )
+        };
         for (k, v) in entries {
             seen.insert(k.name.as_str());
+            // The list of keys decides what is accepted (the reference documents that list); a key listed
+            // without an arm below is refused the same way, so the two cannot drift apart silently.
+            let listed = keys::TOP_SINGLE.contains(&k.name.as_str());
             match k.name.as_str() {
+                other if !listed => return Err(unknown(k, other)),
                 "name" => {
                     let name = self.string(v, "the model's `name`")?;
                     if name.trim().is_empty() {
@@ -212,16 +226,7 @@ impl Reader<'_> {
                 "headline" => raw.headline = Some(self.headline(v)?),
                 "maps" => raw.maps = self.maps(v)?,
                 "signals" => raw.signals = self.signals(self.table(v, "[signals]")?)?,
-                other => {
-                    return Err(self.err(
-                        key_at(k),
-                        ModelErrorKind::Schema,
-                        format!(
-                            "unknown top-level key `{}`; expected one of: {TOP_KEYS_SHOWN}",
-                            other.escape_debug()
-                        ),
-                    ))
-                }
+                other => return Err(unknown(k, other)),
             }
         }
         for (section, example) in [
