@@ -1,4 +1,4 @@
-//! Reading a model file with `[inputs]` and `[modes]` (README "Modes"): each mode becomes the TOML tree of an
+//! Reading a model file with `[inputs]` and `[modes]` (docs/reference.md §2.5): each mode becomes the TOML tree of an
 //! ordinary single-input model — its free input the `[input]`, every other input a definition holding the
 //! mode's value, the mode's parameter, definition and output overrides applied, a geared mode once per gear
 //! with the gear's parameters — which the ordinary reader then checks and builds. The tree keeps the file's
