@@ -11,6 +11,7 @@
 //! - `inverse_consistency`: The inverse simulation satisfies the original model: along NEDC, at every sample, the state and input that
 //! - `known_answers`: One harness, every engine, every known-answer model: each model of `tests/models/known/` (listed with its
 //! - `non_affine`: Models not affine in the input, solved by isolation and by Newton's method, against their original equations
+//! - `reference_complete`: `docs/reference.md` mentions every model-file key, command and option
 //! - `signals`: Exogenous signals against independent references: total derivatives against finite differences, the
 //!   smoothed signal against quadrature, si_engine_grade against its original equations, constant signal vs parameter, fuel vs grade
 //! - `workspace_hack`: Every smaller build resolves the third-party features of the whole workspace
@@ -27,6 +28,7 @@ mod golden;
 mod inverse_consistency;
 mod known_answers;
 mod non_affine;
+mod reference_complete;
 mod signals;
 mod tidy;
 mod workspace_hack;

@@ -1,4 +1,4 @@
-//! A model with operating modes (README "Modes") to one Rust file: one generated module per mode (each an
+//! A model with operating modes (docs/reference.md §2.5) to one Rust file: one generated module per mode (each an
 //! `InverseModel` exactly like a single-mode model's, see [`crate::model`]), nested in a module named after
 //! the model, with the table of its modes (`MODES`, in the order of the model file) and `models()`, which
 //! builds every mode's model at its default parameters in that order.

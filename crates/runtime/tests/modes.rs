@@ -1,4 +1,4 @@
-//! Runs with operating modes (`invsim_runtime::modes`, README "Modes"): si_engine_5speed on the NEDC and the
+//! Runs with operating modes (`invsim_runtime::modes`, docs/reference.md §2.5): si_engine_5speed on the NEDC and the
 //! UDDS (each mode's original equations at every sample, states continuous across every switch, the replay
 //! through the mode sequence, time per mode, no bound violation on the NEDC, the quasi-static impulses'
 //! booking), and a two-mode linear model whose gain switches at a known time against its exact solution, for

@@ -1,4 +1,4 @@
-//! States a mode couples to the others (`couple`, README "Modes"). A coupled copy of the gain-switch model,
+//! States a mode couples to the others (`couple`, docs/reference.md §2.5). A coupled copy of the gain-switch model,
 //! whose coupled state s = k x2 carries the gain, runs the same input as the gain switch itself (whose exact
 //! solution `modes.rs` checks), keeps s at its coupling at every sample and lists the reset at the switch,
 //! where s jumps by (2 − 1)·x2. si_engine_5speed_clutch (the engine speed a state of its own with the clutch

@@ -1,4 +1,4 @@
-//! States a mode couples to the others (README "Modes", `couple = { s = "c(x)" }`): a clutch closed ties the
+//! States a mode couples to the others (docs/reference.md §2.5, `couple = { s = "c(x)" }`): a clutch closed ties the
 //! engine speed to the gearbox input speed, w_e = i_g i_f v / r_w, while with the clutch open w_e is a state of
 //! its own, J_e dw_e/dt = T_e − T_load.
 //!

@@ -10,6 +10,7 @@
 //! The entries are evaluated like every other extra output, so they are also in the CSV.
 
 use super::error::{ModelError, ModelErrorKind};
+use super::keys;
 use super::spanned::Reader;
 use super::tree::{get, tv_at, Tv};
 use super::validated::Engine;
@@ -25,7 +26,7 @@ impl Reader<'_> {
     /// `[engine]`: `speed` and `torque`, both required strings.
     pub(super) fn engine(&self, v: &Tv) -> Result<RawEngine, ModelError> {
         let t = self.table(v, "[engine]")?;
-        self.known_keys(t, &["speed", "torque"], "[engine]")?;
+        self.known_keys(t, keys::ENGINE, "[engine]")?;
         let field = |key: &str| -> Result<(String, Option<usize>), ModelError> {
             let Some(value) = get(t, key) else {
                 return Err(self.err(

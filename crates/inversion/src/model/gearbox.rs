@@ -3,6 +3,7 @@
 //! the cycle file), each array element checked at its own line and column.
 
 use super::error::{ModelError, ModelErrorKind};
+use super::keys;
 use super::modal::{Gearbox, Schedule};
 use super::spanned::Reader;
 use super::tree::{get, key_at, tv_at, Entries, Kind, Tv};
@@ -72,18 +73,7 @@ impl Reader<'_> {
 
     pub(super) fn gearbox(&self, v: &Tv) -> Result<Gearbox, ModelError> {
         let t = self.table(v, "[gearbox]")?;
-        self.known_keys(
-            t,
-            &[
-                "parameters",
-                "schedule",
-                "upshift",
-                "downshift",
-                "column",
-                "doc",
-            ],
-            "[gearbox]",
-        )?;
+        self.known_keys(t, keys::GEARBOX, "[gearbox]")?;
         let Some(ps) = get(t, "parameters") else {
             return Err(self.err(
                 tv_at(v),

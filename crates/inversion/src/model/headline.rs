@@ -17,6 +17,7 @@
 use invsim_model_api::{known_fuel, Carrier, Density, FuelFlow, FuelInfo, HeadlineInfo};
 
 use super::error::{ModelError, ModelErrorKind};
+use super::keys;
 use super::spanned::Reader;
 use super::tree::{get, tv_at, Kind, Tv};
 use super::validated::{ExtraOutput, Parameter};
@@ -70,11 +71,7 @@ impl Reader<'_> {
     /// `[headline]`: `output` (required), `fuel`, `density`, `carbon_fraction`.
     pub(super) fn headline(&self, v: &Tv) -> Result<RawHeadline, ModelError> {
         let t = self.table(v, "[headline]")?;
-        self.known_keys(
-            t,
-            &["output", "fuel", "density", "carbon_fraction"],
-            "[headline]",
-        )?;
+        self.known_keys(t, keys::HEADLINE, "[headline]")?;
         let Some(output) = get(t, "output") else {
             return Err(self.err(
                 tv_at(v),

@@ -3,6 +3,7 @@
 //! is an error at the offending value (in the model file, or in the CSV file with its own line and column).
 
 use super::error::{ModelError, ModelErrorKind};
+use super::keys;
 use super::map_csv::{read_csv, Grid};
 use super::spanned::Reader;
 use super::tree::{get, get_key, key_at, tv_at, Entries, Key, Kind, Tv};
@@ -24,19 +25,6 @@ pub(super) struct RawMap {
     pub(super) file: Option<PathBuf>,
 }
 
-const MAP_KEYS: &[&str] = &[
-    "args",
-    "x",
-    "y",
-    "values",
-    "file",
-    "smooth",
-    "extrapolate",
-    "interp",
-    "unit",
-    "doc",
-];
-
 impl Reader<'_> {
     /// The `[maps]` section: one table per map.
     pub(super) fn maps(&self, v: &Tv) -> Result<Vec<RawMap>, ModelError> {
@@ -51,7 +39,7 @@ impl Reader<'_> {
     fn map(&self, k: &Key, v: &Tv) -> Result<RawMap, ModelError> {
         let what = format!("map `{}`", k.name.escape_debug());
         let t = self.table(v, &what)?;
-        self.known_keys(t, MAP_KEYS, &what)?;
+        self.known_keys(t, keys::MAP, &what)?;
         let at_table = tv_at(v).or(key_at(k));
         let settings = self.map_settings(t, &what)?;
         let args = match get(t, "args") {

@@ -37,6 +37,7 @@
 //!
 //! | file | concept |
 //! |---|---|
+//! | `keys.rs` | the keys of every table of the file, the lists the reader accepts |
 //! | `error.rs` | the typed [`ModelError`] and its [`ModelErrorKind`] |
 //! | `spanned.rs` | positions: byte offset → line and column, the reader that reports them |
 //! | `tree.rs` | the TOML tree with spans |
@@ -59,7 +60,7 @@
 //! | `gearbox.rs` | `[gearbox]`: gear parameters and the shift schedule |
 //! | `modes.rs` | `[inputs]` and `[modes]`: one single-input tree per mode, built by the ordinary reader |
 //!
-//! Imports go one way — each file imports only files listed before it: error, validated, spanned, tree,
+//! Imports go one way — each file imports only files listed before it: keys, error, validated, spanned, tree,
 //! names, values, signals, engine, headline, map_csv, maps, raw, expressions, definitions, smooth, undefined, split,
 //! reader.
 
@@ -71,6 +72,7 @@ mod expressions;
 pub(crate) mod finite;
 mod gearbox;
 mod headline;
+pub mod keys;
 mod map_csv;
 mod maps;
 mod modal;

@@ -1,4 +1,4 @@
-//! The types of a model with several inputs and operating modes (README "Modes"): the declared inputs, one
+//! The types of a model with several inputs and operating modes (docs/reference.md §2.5): the declared inputs, one
 //! ordinary single-input [`Model`] per mode (the mode's other inputs substituted by their values), the
 //! gearbox with its schedule and the options of the mode sequence.
 

@@ -1,10 +1,11 @@
-//! Reading a model file with `[inputs]` and `[modes]` (README "Modes"): each mode becomes the TOML tree of an
+//! Reading a model file with `[inputs]` and `[modes]` (docs/reference.md §2.5): each mode becomes the TOML tree of an
 //! ordinary single-input model — its free input the `[input]`, every other input a definition holding the
 //! mode's value, the mode's parameter, definition and output overrides applied, a geared mode once per gear
 //! with the gear's parameters — which the ordinary reader then checks and builds. The tree keeps the file's
 //! positions, so every error in a mode names the file, line and column where it is written.
 
 use super::error::{ModelError, ModelErrorKind};
+use super::keys;
 use super::modal::{
     ModalFacts, ModalInput, ModalModel, Mode, ModeHeader, ModeRole, ModelFile, SequenceOptions,
 };
@@ -13,7 +14,7 @@ use super::tree::{get, get_key, key_at, tv_at, Entries, Key, Kind, Tv};
 use std::collections::HashSet;
 
 /// Top-level keys that only a modal model has.
-const MODAL_KEYS: &[&str] = &["inputs", "modes", "gearbox", "sequence"];
+const MODAL_KEYS: &[&str] = keys::TOP_MODAL;
 
 /// A deep copy of a tree (the tree types are shared with the ordinary reader and are not `Clone`).
 pub(super) fn clone_tv(v: &Tv) -> Tv {
@@ -269,7 +270,7 @@ impl Reader<'_> {
         for (k, v) in entries {
             let what = format!("input `{}`", k.name.escape_debug());
             let t = self.table(v, &what)?;
-            self.known_keys(t, &["unit", "doc", "min", "max"], &what)?;
+            self.known_keys(t, keys::MODAL_INPUT, &what)?;
             let bound = |b: &str| {
                 get(t, b)
                     .map(|x| self.number(x, &format!("{what}'s `{b}`")))
@@ -319,18 +320,7 @@ impl Reader<'_> {
             ));
         }
         let t = self.table(v, &what)?;
-        let allowed = [
-            "free",
-            "inputs",
-            "role",
-            "geared",
-            "parameters",
-            "definitions",
-            "output",
-            "couple",
-            "doc",
-        ];
-        self.known_keys(t, &allowed, &what)?;
+        self.known_keys(t, keys::MODE, &what)?;
         let role = match get(t, "role") {
             None => ModeRole::Traction,
             Some(r) => match self.string(r, &format!("{what}'s `role`"))?.as_str() {
@@ -516,16 +506,7 @@ impl Reader<'_> {
 
     fn sequence_options(&self, v: &Tv) -> Result<SequenceOptions, ModelError> {
         let t = self.table(v, "[sequence]")?;
-        self.known_keys(
-            t,
-            &[
-                "standstill_below",
-                "standstill_above",
-                "brake_band",
-                "min_dwell",
-            ],
-            "[sequence]",
-        )?;
+        self.known_keys(t, keys::SEQUENCE, "[sequence]")?;
         let mut o = SequenceOptions::default();
         let num = |k: &str| {
             get(t, k)

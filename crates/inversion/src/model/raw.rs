@@ -5,11 +5,12 @@
 use super::engine::RawEngine;
 use super::error::{ModelError, ModelErrorKind};
 use super::headline::RawHeadline;
+use super::keys;
 use super::maps::RawMap;
 use super::names::{is_identifier, Declaration, NameRef};
 use super::signals::RawSignal;
 use super::spanned::{string_content, Reader, Src};
-use super::tree::{get, get_key, key_at, tv_at, Entries, Kind, Tv};
+use super::tree::{get, get_key, key_at, tv_at, Entries, Key, Kind, Tv};
 use std::collections::HashSet;
 
 /// A parameter as written: `name = 1.0` or `name = { value = …, unit = "…", doc = "…" }`.
@@ -172,9 +173,23 @@ impl Reader<'_> {
         let entries = self.table(root, "the model file")?;
         let mut raw = Sections::default();
         let mut seen: HashSet<&str> = HashSet::new();
+        let unknown = |k: &Key, other: &str| {
+            self.err(
+                key_at(k),
+                ModelErrorKind::Schema,
+                format!(
+                    "unknown top-level key `{}`; expected one of: {TOP_KEYS_SHOWN}",
+                    other.escape_debug()
+                ),
+            )
+        };
         for (k, v) in entries {
             seen.insert(k.name.as_str());
+            // The list of keys decides what is accepted (the reference documents that list); a key listed
+            // without an arm below is refused the same way, so the two cannot drift apart silently.
+            let listed = keys::TOP_SINGLE.contains(&k.name.as_str());
             match k.name.as_str() {
+                other if !listed => return Err(unknown(k, other)),
                 "name" => {
                     let name = self.string(v, "the model's `name`")?;
                     if name.trim().is_empty() {
@@ -211,16 +226,7 @@ impl Reader<'_> {
                 "headline" => raw.headline = Some(self.headline(v)?),
                 "maps" => raw.maps = self.maps(v)?,
                 "signals" => raw.signals = self.signals(self.table(v, "[signals]")?)?,
-                other => {
-                    return Err(self.err(
-                        key_at(k),
-                        ModelErrorKind::Schema,
-                        format!(
-                            "unknown top-level key `{}`; expected one of: {TOP_KEYS_SHOWN}",
-                            other.escape_debug()
-                        ),
-                    ))
-                }
+                other => return Err(unknown(k, other)),
             }
         }
         for (section, example) in [
@@ -274,7 +280,7 @@ impl Reader<'_> {
                     doc: None,
                 },
                 Kind::Table(t) => {
-                    self.known_keys(t, &["value", "unit", "doc"], &what)?;
+                    self.known_keys(t, keys::PARAMETER, &what)?;
                     let Some(value) = get(t, "value") else {
                         return Err(self.err(
                             tv_at(v).or(at),
@@ -312,7 +318,7 @@ impl Reader<'_> {
             let what = format!("definition `{}`", k.name.escape_debug());
             let (src, unit, doc) = match &v.kind {
                 Kind::Table(t) => {
-                    self.known_keys(t, &["expr", "unit", "doc"], &what)?;
+                    self.known_keys(t, keys::DEFINITION, &what)?;
                     let Some(e) = get(t, "expr") else {
                         return Err(self.err(
                             tv_at(v).or(key_at(k)),
@@ -354,7 +360,7 @@ impl Reader<'_> {
                     ),
                 ));
             };
-            self.known_keys(t, &["rhs", "f", "g", "unit", "doc", "initial"], &what)?;
+            self.known_keys(t, keys::STATE, &what)?;
             let at_table = tv_at(v).or(key_at(k));
             let equation = match (get_key(t, "rhs"), get_key(t, "f"), get_key(t, "g")) {
                 (Some((_, rhs)), None, None) => RawEquation::Rhs(self.expression(rhs, &format!("{what}'s rhs"))?),
@@ -407,7 +413,7 @@ impl Reader<'_> {
 
     fn input(&self, v: &Tv) -> Result<RawInput, ModelError> {
         let t = self.table(v, "[input]")?;
-        self.known_keys(t, &["name", "unit", "doc", "min", "max"], "[input]")?;
+        self.known_keys(t, keys::INPUT, "[input]")?;
         let Some(name_v) = get(t, "name") else {
             return Err(self.err(
                 tv_at(v),
@@ -451,19 +457,7 @@ impl Reader<'_> {
 
     fn output(&self, v: &Tv) -> Result<RawOutput, ModelError> {
         let t = self.table(v, "[output]")?;
-        self.known_keys(
-            t,
-            &[
-                "name",
-                "h",
-                "unit",
-                "doc",
-                "nominal",
-                "reference_offset",
-                "reference_scale",
-            ],
-            "[output]",
-        )?;
+        self.known_keys(t, keys::OUTPUT, "[output]")?;
         let Some(name_v) = get(t, "name") else {
             return Err(self.err(
                 tv_at(v),
@@ -532,11 +526,7 @@ impl Reader<'_> {
             }
             let (src, unit, doc, accumulate, per_distance) = match &v.kind {
                 Kind::Table(t) => {
-                    self.known_keys(
-                        t,
-                        &["expr", "unit", "doc", "accumulate", "per_distance"],
-                        &what,
-                    )?;
+                    self.known_keys(t, keys::EXTRA_OUTPUT, &what)?;
                     let Some(e) = get(t, "expr") else {
                         return Err(self.err(
                             tv_at(v).or(key_at(k)),

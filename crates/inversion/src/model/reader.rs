@@ -85,7 +85,7 @@ impl Model {
 }
 
 impl ModelFile {
-    /// Read a model file that may declare modes (README "Modes"); one without is read exactly as
+    /// Read a model file that may declare modes (docs/reference.md §2.5); one without is read exactly as
     /// [`Model::from_path`] reads it.
     pub fn from_path(path: &Path) -> Result<ModelFile, ModelError> {
         ModelFile::from_bytes(path, &read_capped(path)?)

@@ -11,6 +11,7 @@
 //! appear in derived expressions, never in a model file).
 
 use super::error::{ModelError, ModelErrorKind};
+use super::keys;
 use super::spanned::Reader;
 use super::tree::{get, key_at, tv_at, Entries, Kind};
 
@@ -66,7 +67,7 @@ impl Reader<'_> {
                     doc: None,
                 },
                 Kind::Table(t) => {
-                    self.known_keys(t, &["default", "column", "unit", "doc"], &what)?;
+                    self.known_keys(t, keys::SIGNAL, &what)?;
                     let column = self.optional_string(t, "column", &what)?;
                     if column.as_deref().is_some_and(|c| c.trim().is_empty()) {
                         return Err(self.err(

@@ -1,4 +1,4 @@
-//! Forward simulation of a model with operating modes (README "Modes"): the original equations of the mode
+//! Forward simulation of a model with operating modes (docs/reference.md §2.5): the original equations of the mode
 //! in force, closed by the same PI driver and engine management as the single-mode forward run, through a mode
 //! sequence decided by the same rules as the inverse run's (`crate::modes::sequence`).
 //!

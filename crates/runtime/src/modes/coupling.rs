@@ -1,4 +1,4 @@
-//! Entering a mode that couples states to the others (`couple`, README "Modes"; a clutch that closes ties
+//! Entering a mode that couples states to the others (`couple`, docs/reference.md §2.5; a clutch that closes ties
 //! the engine speed to the gearbox input speed): each coupled state s is set to its coupling c(x), read from
 //! the mode's output that holds it. In the mode s then follows ċ, so s = c(x) for as long as the mode lasts.
 //! Where s was already at c(x) (the clutch closing at equal speeds) nothing jumps; elsewhere the jump is the

@@ -1,4 +1,4 @@
-//! Inverse simulation of a model with operating modes (README "Modes"): one single-input
+//! Inverse simulation of a model with operating modes (docs/reference.md §2.5): one single-input
 //! [`InverseModel`] per mode, a mode sequence decided along the run — the gear from a schedule
 //! ([`gears`]), standstill from the smoothed reference, traction or braking from the solution itself — and
 //! switches that keep the physical state continuous.

@@ -1,4 +1,4 @@
-//! The figures of a run with operating modes (README "Modes"), inverse or forward: the reference, one panel
+//! The figures of a run with operating modes (docs/reference.md §2.5), inverse or forward: the reference, one panel
 //! per declared input (traction and brake, each with its bounds), under them a step panel of the mode
 //! sequence — the gear of the mode in force (0 for an ungeared mode such as idle), or the mode's index with
 //! the modes' names for a model without a gearbox — and the running integral of every accumulated output;
