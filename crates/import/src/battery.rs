@@ -95,8 +95,8 @@ fn read_table(doc: &Doc, table: &str) -> Result<Table, ImportError> {
                 "expected two lists: the C-rates and the temperatures",
             )
         })?;
-    let c_rates = axis(&grid[0], &format!("{grid_path}[0]"))?;
-    let temps = axis(&grid[1], &format!("{grid_path}[1]"))?;
+    let c_rates = crate::curve::grid(&grid[0], &format!("{grid_path}[0]"))?;
+    let temps = crate::curve::grid(&grid[1], &format!("{grid_path}[1]"))?;
     let values_path = format!("{table}.data.values");
     let rows = doc
         .get(&values_path)
@@ -150,29 +150,6 @@ struct Table {
     c_rates: Vec<f64>,
     temps: Vec<f64>,
     values: Vec<f64>,
-}
-
-/// A strictly increasing grid of at least two checked numbers.
-fn axis(v: &Value, path: &str) -> Result<Vec<f64>, ImportError> {
-    let seq = v
-        .as_sequence()
-        .filter(|s| s.len() >= 2)
-        .ok_or_else(|| ImportError::field(path, "expected a list of at least two numbers"))?;
-    let mut out: Vec<f64> = Vec::with_capacity(seq.len());
-    for (k, e) in seq.iter().enumerate() {
-        let p = format!("{path}[{k}]");
-        let x = number(e, &p)?;
-        if let Some(&prev) = out.last() {
-            if x <= prev {
-                return Err(ImportError::field(
-                    &p,
-                    format!("{x} follows {prev}: the grid must be strictly increasing"),
-                ));
-            }
-        }
-        out.push(x);
-    }
-    Ok(out)
 }
 
 /// A finite number in the field's range.

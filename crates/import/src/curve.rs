@@ -119,23 +119,25 @@ fn numbers(v: &Value, path: &str) -> Result<Vec<f64>, ImportError> {
         .collect()
 }
 
-/// At least two grid points and one value each, every point and value finite and in its range (`limits.rs`:
-/// load fractions in [0, 1], efficiencies in (0, 1], an engine's also 0 at zero load of a linear table), the
-/// grid strictly increasing; an error names the first offending point or value.
-fn check_table(c: &Curve) -> Result<(), ImportError> {
-    let (x, y) = (&c.x, &c.y);
-    if x.len() < 2 || x.len() != y.len() {
+/// A grid read from the list at `path`: at least two numbers, each finite and in its field's range
+/// (`limits.rs`), strictly increasing (a battery table's axes; a 1-D table's grid is checked by
+/// [`check_table`] the same way).
+pub fn grid(v: &Value, path: &str) -> Result<Vec<f64>, ImportError> {
+    let x = numbers(v, path)?;
+    if x.len() < 2 {
         return Err(ImportError::field(
-            &c.path,
-            format!(
-                "needs at least two grid points and one value each ({} and {})",
-                x.len(),
-                y.len()
-            ),
+            path,
+            "expected a list of at least two numbers",
         ));
     }
+    check_grid(&x, |k| format!("{path}[{k}]"))?;
+    Ok(x)
+}
+
+/// Every point of `x` finite and in its range, the points strictly increasing; `path_of(k)` names point k.
+fn check_grid(x: &[f64], path_of: impl Fn(usize) -> String) -> Result<(), ImportError> {
     for (k, &xk) in x.iter().enumerate() {
-        let path = c.x_path(k);
+        let path = path_of(k);
         if !xk.is_finite() {
             return Err(ImportError::field(
                 &path,
@@ -153,6 +155,25 @@ fn check_table(c: &Curve) -> Result<(), ImportError> {
             ));
         }
     }
+    Ok(())
+}
+
+/// At least two grid points and one value each, every point and value finite and in its range (`limits.rs`:
+/// load fractions in [0, 1], efficiencies in (0, 1], an engine's also 0 at zero load of a linear table), the
+/// grid strictly increasing; an error names the first offending point or value.
+fn check_table(c: &Curve) -> Result<(), ImportError> {
+    let (x, y) = (&c.x, &c.y);
+    if x.len() < 2 || x.len() != y.len() {
+        return Err(ImportError::field(
+            &c.path,
+            format!(
+                "needs at least two grid points and one value each ({} and {})",
+                x.len(),
+                y.len()
+            ),
+        ));
+    }
+    check_grid(x, |k| c.x_path(k))?;
     for (k, &yk) in y.iter().enumerate() {
         let path = c.y_path(k);
         if !yk.is_finite() {
