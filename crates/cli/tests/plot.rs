@@ -114,3 +114,61 @@ fn bad_plot_options_exit_2() {
     ]);
     assert_eq!(o.status.code(), Some(2), "--plot-vars needs --plot");
 }
+
+/// The `<g class="engine-map">` group of an SVG, if any.
+fn engine_map(svg: &str) -> Option<&str> {
+    let start = svg.find("<g class=\"engine-map\">")?;
+    let len = svg[start..].find("</g>")?;
+    Some(&svg[start..start + len])
+}
+
+#[test]
+fn the_operating_points_are_drawn_over_the_engine_map_by_either_engine() {
+    let mut maps = Vec::new();
+    for engine in ["compiled", "interpreted"] {
+        let svg = tmp(&format!("engine_map_{engine}.svg"));
+        let o = invsim(&[
+            "simulate",
+            "models/si_engine_maps.toml",
+            "--cycle",
+            "ece",
+            "--engine",
+            engine,
+            "--plot",
+            svg.to_str().unwrap(),
+            "--plot-vars",
+            "v,engine",
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let text = std::fs::read_to_string(&svg).unwrap();
+        assert!(text.contains("over the engine map bsfc(n_e*pi/30, T_e) (g/kWh)"));
+        assert!(
+            text.contains("≤ 250") && text.contains("≥ 450"),
+            "the file's map_range"
+        );
+        let cells = engine_map(&text)
+            .expect("the engine map's cells")
+            .to_string();
+        assert!(cells.matches("<rect").count() > 40, "{cells}");
+        maps.push(cells);
+    }
+    assert_eq!(
+        maps[0], maps[1],
+        "compiled and interpreted draw the same map"
+    );
+    // si_engine has operating points but no map.
+    let svg = tmp("engine_map_none.svg");
+    let o = invsim(&[
+        "simulate",
+        "models/si_engine.toml",
+        "--cycle",
+        "ece",
+        "--plot",
+        svg.to_str().unwrap(),
+        "--plot-vars",
+        "engine",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&svg).unwrap();
+    assert!(engine_map(&text).is_none() && text.contains("coloured by the fuel flow"));
+}

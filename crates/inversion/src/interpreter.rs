@@ -59,9 +59,10 @@ pub fn model_info(d: &Derivation) -> ModelInfo {
             })
             .collect(),
         parameters: m.parameters.iter().map(|p| p.name.clone()).collect(),
-        engine: m.engine.map(|e| EngineInfo {
+        engine: m.engine.as_ref().map(|e| EngineInfo {
             speed: e.speed,
             torque: e.torque,
+            map: e.map.clone(),
         }),
         headline: m.headline.clone(),
         state_initial: m.states.iter().map(|s| s.initial).collect(),
@@ -489,6 +490,9 @@ impl InverseModel for Interpreter {
         set_param_checked(&self.info, &mut self.params, name, value)?;
         self.special = self.generic.specialize(&self.params);
         Ok(())
+    }
+    fn maps(&self) -> &[invsim_model_api::map::Map] {
+        &self.maps
     }
     fn set_map(
         &mut self,

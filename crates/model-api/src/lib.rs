@@ -118,11 +118,23 @@ pub struct OutputInfo {
 }
 
 /// The model's engine: the two `[outputs]` entries that give its speed and torque (the model file's
-/// `[engine] speed = "…", torque = "…"`), by index into [`ModelInfo::outputs`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// `[engine] speed = "…", torque = "…"`), by index into [`ModelInfo::outputs`], and the engine map the
+/// operating points are drawn over, if the file gives one.
+#[derive(Debug, Clone, PartialEq)]
 pub struct EngineInfo {
     pub speed: usize,
     pub torque: usize,
+    pub map: Option<EngineMapInfo>,
+}
+
+/// The model file's `[engine] map`: an expression in the engine's speed and torque (the two outputs' names),
+/// the parameters and the maps, e.g. a BSFC map `bsfc(n_e*pi/30, T_e)` in g/kWh.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EngineMapInfo {
+    pub expr: String,
+    pub unit: Option<String>,
+    /// The colour scale's ends (`map_range`), if the file gives them.
+    pub range: Option<[f64; 2]>,
 }
 
 /// How the drive cycle defines the reference of the tracked output: y_d = `offset` + `scale` · (smoothed cycle),
@@ -228,6 +240,12 @@ pub trait InverseModel: Send + Sync {
         data: (&[f64], Option<&[f64]>, &[f64]),
     ) -> Result<(), ModelError> {
         set_map_checked(&mut [], &[], name, data)
+    }
+
+    /// The model's lookup maps (contract §6) in the model file's order, each named as there (models without
+    /// maps: none).
+    fn maps(&self) -> &[map::Map] {
+        &[]
     }
 
     /// The tracked output y = h(x).

@@ -47,7 +47,7 @@ pub(crate) struct OperatingPointTally {
 impl OperatingPointTally {
     /// A tally for `info`'s engine, `None` when the model declares none.
     pub(crate) fn new(info: &ModelInfo, samples: usize) -> Option<OperatingPointTally> {
-        info.engine.map(|engine| OperatingPointTally {
+        info.engine.clone().map(|engine| OperatingPointTally {
             engine,
             speeds: Vec::with_capacity(samples),
             torques: Vec::with_capacity(samples),
@@ -326,6 +326,7 @@ mod tests {
             engine: Some(EngineInfo {
                 speed: 0,
                 torque: 1,
+                map: None,
             }),
             ..ModelInfo::default()
         };

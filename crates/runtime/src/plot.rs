@@ -27,6 +27,7 @@ mod exogenous;
 mod figure;
 mod font;
 mod layout;
+mod map_layer;
 mod modal;
 mod panels;
 mod png_dpi;
@@ -55,6 +56,7 @@ pub use font::{text_width, FONT_FAMILY};
 pub use layout::{
     parse_size, Layout, DEFAULT_DPI, MAX_DPI, MAX_HEIGHT, MAX_PIXELS, MAX_WIDTH, MIN_DPI,
 };
+pub use map_layer::MapLayer;
 pub use modal::{
     check_modal_vars, modal_default_vars, modal_forward_figure, modal_simulation_figure,
     modal_valid_vars,

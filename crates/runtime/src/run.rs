@@ -121,8 +121,27 @@ impl Plant {
         }
     }
 
-    /// The figure of `result` (a run of this model on `cycle`) with the panels `vars` (empty: the default).
+    /// The figure of `result` (a run of this model on `cycle`) with the panels `vars` (empty: the default), the
+    /// engine's operating points over its map where the model file gives one (`[engine] map`).
     pub fn figure(
+        &self,
+        result: &RunResult,
+        cycle: &Cycle,
+        vars: &[String],
+    ) -> Result<Figure, PlotError> {
+        let mut figure = self.figure_of(result, cycle, vars)?;
+        let model = match self {
+            Plant::Single(m) => m.as_ref(),
+            Plant::Modal(p) => p.first(),
+        };
+        if let (Some(scatter), Some(layer)) = (&mut figure.scatter, plot::MapLayer::of(model)?) {
+            scatter.over_map(layer);
+        }
+        Ok(figure)
+    }
+
+    /// [`Plant::figure`] without the engine map.
+    fn figure_of(
         &self,
         result: &RunResult,
         cycle: &Cycle,

@@ -284,3 +284,61 @@ fn the_nedc_run_is_bit_for_bit_the_earlier_one() {
     assert_eq!(columns[0].len(), 11_801);
     assert_eq!(bits_checksum(&columns), 0x0d98_9a1c_33c4_ea6f);
 }
+
+/// The plot's engine map (`[engine] map = "bsfc(n_e*pi/30, T_e)"`) is the BSFC map itself at the operating
+/// point, evaluated through the map the model holds, with either engine; `--map` reaches it.
+#[test]
+fn the_engine_map_layer_is_the_bsfc_map_at_the_operating_point() {
+    use invsim_runtime::plot::MapLayer;
+    let interpreted: Box<dyn InverseModel> = Box::new(interpreted());
+    for m in [compiled("si_engine_maps"), interpreted] {
+        let layer = MapLayer::of(m.as_ref())
+            .expect("layer")
+            .expect("the model has an engine map");
+        assert_eq!(layer.label, "bsfc(n_e*pi/30, T_e) (g/kWh)");
+        assert_eq!(layer.range, Some([250.0, 450.0]));
+        let bsfc = m
+            .maps()
+            .iter()
+            .find(|k| k.name() == "bsfc")
+            .expect("bsfc map");
+        for (n, t) in [(1200.0, 40.0), (3000.0, 95.5), (5500.0, 170.0)] {
+            let mut want = [0.0];
+            bsfc.eval(&[n * std::f64::consts::PI / 30.0, t], [0, 0], &mut want);
+            let got = layer.eval(n, t);
+            assert!(
+                (got - want[0]).abs() <= 1e-12 * want[0].abs(),
+                "{n} rpm {t} N m: {got} vs {}",
+                want[0]
+            );
+            assert!(
+                want[0] > 200.0 && want[0] < 1000.0,
+                "a BSFC in g/kWh: {}",
+                want[0]
+            );
+        }
+    }
+    // A replaced map reaches the layer: doubled values, doubled map.
+    let mut m = compiled("si_engine_maps");
+    let before = MapLayer::of(m.as_ref())
+        .unwrap()
+        .unwrap()
+        .eval(3000.0, 95.5);
+    let bsfc = m
+        .maps()
+        .iter()
+        .find(|k| k.name() == "bsfc")
+        .unwrap()
+        .clone();
+    let doubled: Vec<f64> = bsfc.values().iter().map(|v| 2.0 * v).collect();
+    m.set_map("bsfc", (bsfc.x(), bsfc.y(), &doubled))
+        .expect("set_map");
+    let after = MapLayer::of(m.as_ref())
+        .unwrap()
+        .unwrap()
+        .eval(3000.0, 95.5);
+    assert!(
+        (after - 2.0 * before).abs() <= 1e-9 * before,
+        "{after} vs 2 × {before}"
+    );
+}

@@ -11,7 +11,7 @@ use proc_macro2::{Literal, TokenStream};
 use quote::{format_ident, quote};
 
 /// What a model with maps adds: items at module level, the `Precomputed` field, its initialiser from
-/// `default_maps()`, and the `set_map` method of the trait impl.
+/// `default_maps()`, and the `maps` and `set_map` methods of the trait impl.
 pub(super) struct MapTokens {
     pub(super) items: TokenStream,
     pub(super) field: TokenStream,
@@ -78,6 +78,9 @@ pub(super) fn map_tokens(g: &Gen<'_>) -> Option<MapTokens> {
         field: quote!(pub maps: Vec<Map>,),
         init: quote!(maps: default_maps(),),
         trait_method: quote! {
+            fn maps(&self) -> &[Map] {
+                &self.pre.maps
+            }
             fn set_map(
                 &mut self,
                 name: &str,

@@ -497,10 +497,21 @@ fn model_info(g: &Gen<'_>) -> TokenStream {
     let description = m.description.clone().unwrap_or_default();
     let state_units: Vec<TokenStream> = m.states.iter().map(|s| opt_string(&s.unit)).collect();
     let (input_unit, output_unit) = (opt_string(&m.input.unit), opt_string(&m.output.unit));
-    let engine = match m.engine {
+    let engine = match &m.engine {
         Some(e) => {
             let (speed, torque) = (e.speed, e.torque);
-            quote!(Some(invsim_model_api::EngineInfo { speed: #speed, torque: #torque }))
+            let map = match &e.map {
+                Some(map) => {
+                    let (expr, unit) = (&map.expr, opt_string(&map.unit));
+                    let range = match map.range {
+                        Some([lo, hi]) => quote!(Some([#lo, #hi])),
+                        None => quote!(None),
+                    };
+                    quote!(Some(invsim_model_api::EngineMapInfo { expr: #expr.to_string(), unit: #unit, range: #range }))
+                }
+                None => quote!(None),
+            };
+            quote!(Some(invsim_model_api::EngineInfo { speed: #speed, torque: #torque, map: #map }))
         }
         None => quote!(None),
     };

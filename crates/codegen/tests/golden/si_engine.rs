@@ -850,6 +850,7 @@ pub mod si_engine {
             engine: Some(invsim_model_api::EngineInfo {
                 speed: 2usize,
                 torque: 3usize,
+                map: None,
             }),
             headline: Some(invsim_model_api::HeadlineInfo {
                 output: 1usize,

@@ -5,21 +5,30 @@
 //! [engine]
 //! speed = "n_e"     # an [outputs] entry (its unit is the histogram's speed unit)
 //! torque = "T_e"    # an [outputs] entry
+//! map = "bsfc(n_e*pi/30, T_e)"   # optional: the map the plot draws the operating points over
+//! map_unit = "g/kWh"
+//! map_range = [250, 450]         # optional: the colour scale's ends (default: the 5th and 95th percentile)
 //! ```
 //!
-//! The entries are evaluated like every other extra output, so they are also in the CSV.
+//! The entries are evaluated like every other extra output, so they are also in the CSV. `map` is an
+//! expression in the speed and torque outputs' names, the parameters and the maps, nothing else: a function of
+//! the operating point alone, which the plot evaluates over the panel's area.
 
 use super::error::{ModelError, ModelErrorKind};
 use super::keys;
-use super::spanned::Reader;
+use super::spanned::{Reader, Src};
 use super::tree::{get, tv_at, Tv};
 use super::validated::Engine;
+use invsim_model_api::EngineMapInfo;
 
-/// `[engine]` as written: the names of the speed and torque outputs with their positions.
+/// `[engine]` as written: the names of the speed and torque outputs with their positions, and the map.
 #[derive(Debug)]
 pub(super) struct RawEngine {
     pub(super) speed: (String, Option<usize>),
     pub(super) torque: (String, Option<usize>),
+    pub(super) map: Option<Src>,
+    pub(super) map_unit: Option<String>,
+    pub(super) map_range: Option<[f64; 2]>,
 }
 
 impl Reader<'_> {
@@ -46,7 +55,25 @@ impl Reader<'_> {
         Ok(RawEngine {
             speed: field("speed")?,
             torque: field("torque")?,
+            map: get(t, "map")
+                .map(|m| self.expression(m, "[engine]'s `map`"))
+                .transpose()?,
+            map_unit: self.optional_string(t, "map_unit", "[engine]")?,
+            map_range: get(t, "map_range").map(|r| self.map_range(r)).transpose()?,
         })
+    }
+
+    /// `map_range = [lo, hi]`: two finite numbers, lo < hi.
+    fn map_range(&self, v: &Tv) -> Result<[f64; 2], ModelError> {
+        let what = "[engine]'s `map_range`";
+        match self.number_array(v, what)?.as_slice() {
+            [(lo, _), (hi, _)] if lo < hi => Ok([*lo, *hi]),
+            _ => Err(self.err(
+                tv_at(v),
+                ModelErrorKind::Schema,
+                format!("{what} must be two numbers [low, high] with low < high, e.g. [250, 450]"),
+            )),
+        }
     }
 
     /// The `[engine]` entries as indices into the extra outputs `names`.
@@ -76,6 +103,11 @@ impl Reader<'_> {
         Ok(Engine {
             speed: index(&raw.speed, "speed")?,
             torque: index(&raw.torque, "torque")?,
+            map: raw.map.as_ref().map(|src| EngineMapInfo {
+                expr: src.text.clone(),
+                unit: raw.map_unit.clone(),
+                range: raw.map_range,
+            }),
         })
     }
 }

@@ -1,6 +1,7 @@
 //! The model's expressions: each one parsed in file order (not empty, at most [`MAX_EXPRESSION_LEN`] bytes
 //! and [`MAX_EXPRESSION_NESTING`] levels deep, valid syntax, finite number literals, known names), with the
-//! role it plays in the model (a definition, a state's rhs, f or g, the output's h, an extra output).
+//! role it plays in the model (a definition, a state's rhs, f or g, the output's h, an extra output); and
+//! `[engine]`'s `map`, whose names are the engine's speed and torque outputs, the parameters and the maps.
 
 use super::error::{ModelError, ModelErrorKind};
 use super::names::{reserved_reason, suggestion, Names};
@@ -109,6 +110,36 @@ impl Reader<'_> {
             });
         }
         Ok(items)
+    }
+
+    /// `[engine]`'s `map` parses and uses only the speed and torque outputs' names, parameters, maps and `pi`.
+    pub(super) fn check_engine_map(&self, raw: &RawModel) -> Result<(), ModelError> {
+        let Some(engine) = &raw.engine else {
+            return Ok(());
+        };
+        let Some(src) = &engine.map else {
+            return Ok(());
+        };
+        let ast = self.parse_expression(src, "[engine]'s `map`", raw)?;
+        let allowed: Vec<&str> = [engine.speed.0.as_str(), engine.torque.0.as_str(), "pi"]
+            .into_iter()
+            .chain(raw.parameters.iter().map(|p| p.name.as_str()))
+            .collect();
+        for (name, span) in ast.identifiers() {
+            if allowed.contains(&name) {
+                continue;
+            }
+            let mut message = format!(
+                "unknown name `{name}` in [engine]'s `map`: it may use the engine's speed `{}` and torque \
+                 `{}`, the parameters and the maps, nothing else (the map is a function of the operating point)",
+                engine.speed.0, engine.torque.0
+            );
+            if let Some(close) = suggestion(name, allowed.iter().copied()) {
+                message.push_str(&format!("; did you mean `{close}`?"));
+            }
+            return Err(self.err(src.at(span.start), ModelErrorKind::UnknownName, message));
+        }
+        Ok(())
     }
 
     /// Parse one expression: not empty, not too large, valid syntax, finite number literals.

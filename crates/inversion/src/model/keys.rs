@@ -40,7 +40,7 @@ pub const OUTPUT: &[&str] = &[
 /// An `[outputs]` entry written as a table.
 pub const EXTRA_OUTPUT: &[&str] = &["expr", "unit", "doc", "accumulate", "per_distance"];
 /// `[engine]`.
-pub const ENGINE: &[&str] = &["speed", "torque"];
+pub const ENGINE: &[&str] = &["speed", "torque", "map", "map_unit", "map_range"];
 /// `[headline]`.
 pub const HEADLINE: &[&str] = &["output", "fuel", "density", "carbon_fraction"];
 /// A `[maps.NAME]` table.

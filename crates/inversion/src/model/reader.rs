@@ -177,6 +177,7 @@ impl Reader<'_> {
         self.check_derivative_names(&raw.maps, declared.chain(outputs_declared))?;
         self.check_columns(&names, raw.outputs.iter().map(|e| (e.name.as_str(), e.at)))?;
         let items = self.parse_all(&raw, &names)?;
+        self.check_engine_map(&raw)?;
         let uses = self.definition_graph(&raw, &names, &items)?;
         self.check_smooth(&raw, &names, &items, &uses)?;
         let described: Vec<String> = items.iter().map(|it| describe(&raw, it.role)).collect();

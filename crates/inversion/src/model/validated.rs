@@ -69,11 +69,14 @@ pub struct Signal {
     pub column: Option<String>,
 }
 
-/// The validated `[engine]`: indices of its speed and torque into [`Model::outputs`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// The validated `[engine]`: indices of its speed and torque into [`Model::outputs`], and its map.
+#[derive(Debug, Clone, PartialEq)]
 pub struct Engine {
     pub speed: usize,
     pub torque: usize,
+    /// `map` (an expression in the speed and torque outputs' names, the parameters and the maps, checked),
+    /// `map_unit` and `map_range`.
+    pub map: Option<invsim_model_api::EngineMapInfo>,
 }
 
 /// A named numeric parameter (kept symbolic in derivations; `value` is its default).

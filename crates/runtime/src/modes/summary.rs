@@ -199,8 +199,12 @@ fn walk(ctx: &Ctx<'_, '_>, cycle: &Cycle, opts: &ModalOptions, rec: &Record) -> 
             cycle.tolerance,
         ),
         // The engine's outputs are among those every mode shares (the first n_outputs).
-        operating: OperatingPointTally::new(info0, ns)
-            .filter(|_| info0.engine.is_some_and(|e| e.speed.max(e.torque) < no)),
+        operating: OperatingPointTally::new(info0, ns).filter(|_| {
+            info0
+                .engine
+                .as_ref()
+                .is_some_and(|e| e.speed.max(e.torque) < no)
+        }),
     };
     let mut outside = false;
     // Each mode's number of outputs and of signal values, and the accumulated outputs (asked once).

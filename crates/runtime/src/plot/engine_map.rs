@@ -16,7 +16,7 @@ pub(crate) fn engine_scatter<'a>(
     outputs: &[OutputInfo],
     column: impl Fn(&str) -> &'a [f64],
 ) -> Option<Scatter> {
-    let engine = info.engine?;
+    let engine = info.engine.as_ref()?;
     let (speed, torque) = (outputs.get(engine.speed)?, outputs.get(engine.torque)?);
     let fuel = fuel_output(outputs).map(|i| &outputs[i]);
     let (t, x, y) = (column("t"), column(&speed.name), column(&torque.name));
@@ -44,5 +44,6 @@ pub(crate) fn engine_scatter<'a>(
         y_label: with_unit(&torque.name, torque.unit.as_deref()),
         colour_label,
         points,
+        background: None,
     })
 }

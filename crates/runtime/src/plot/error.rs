@@ -39,6 +39,8 @@ pub enum PlotError {
     },
     #[error("--window `{given}`: {why}")]
     Window { given: String, why: String },
+    #[error("cannot draw the engine map ([engine] map): {0}")]
+    EngineMap(String),
     #[error("cannot render the plot as PNG: {0}")]
     Render(String),
     #[error("cannot write the plot {path}: {message}")]

@@ -1,13 +1,16 @@
 //! The figure's operating-point panel: points (x, y) of the run — an engine's speed and torque — each
 //! coloured by a third value (the fuel flow at that point, i.e. the model's fuel map where the run went) on a
 //! sequential scale (viridis: dark blue low, yellow high) with its colour bar; its own axes, under the time
-//! panels. Points closer than two pixels are drawn once.
+//! panels. Points closer than two pixels are drawn once. With an engine map (`[engine] map`) the map fills the
+//! plot area on that scale instead, between the file's `map_range` or else the map's 5th and 95th percentile
+//! there, and the points are drawn over it in black.
 
 use std::collections::HashSet;
 use std::fmt::Write as _;
 
 use super::axis::Axis;
 use super::font::{ASCENT, DESCENT};
+use super::map_layer::{MapLayer, CELLS};
 use super::svg::{esc, text, LABEL_SIZE, PANEL_TITLE_SIZE, TICK_SIZE};
 
 /// One sample: its time, its position and its colour value (if any).
@@ -30,9 +33,21 @@ pub struct Scatter {
     /// What the colours show (`None`: the points are drawn in one colour).
     pub colour_label: Option<String>,
     pub points: Vec<ScatterPoint>,
+    /// The engine map drawn under the points, if the model has one.
+    pub background: Option<MapLayer>,
 }
 
 impl Scatter {
+    /// Draw the points over `layer`: the colours show the map, the points are black.
+    pub fn over_map(&mut self, layer: MapLayer) {
+        self.title = match self.title.split_once(", coloured by") {
+            Some((head, _)) => format!("{head}, over the engine map {}", layer.label),
+            None => format!("{}, over the engine map {}", self.title, layer.label),
+        };
+        self.colour_label = Some(layer.label.clone());
+        self.background = Some(layer);
+    }
+
     /// Say in the title that the points are those of `window` only.
     pub(super) fn note_window(&mut self, (t0, t1): (f64, f64)) {
         self.title = format!("{} (t = {t0} … {t1} s)", self.title);
@@ -94,7 +109,15 @@ pub(super) fn write(
     );
     let x = Axis::padded(sc.points.iter().map(|p| p.x), false, 10);
     let y = Axis::padded(sc.points.iter().map(|p| p.y), true, 5);
-    let c_range = super::axis::finite_range(sc.points.iter().filter_map(|p| p.c));
+    let background = sc
+        .background
+        .as_ref()
+        .map(|layer| layer.sample((x.lo, x.hi), (y.lo, y.hi)));
+    let c_range = match (&background, sc.background.as_ref().and_then(|l| l.range)) {
+        (Some(_), Some([lo, hi])) => (lo, hi),
+        (Some(values), None) => percentile_range(values),
+        (None, _) => super::axis::finite_range(sc.points.iter().filter_map(|p| p.c)),
+    };
     write_colour_bar(s, sc, (left, top + 24.0), c_range);
     let (y0, y1) = (top + HEADER, top + HEADER + RATIO * plot_h);
     let px = |v: f64| left + x.frac(v) * (right - left);
@@ -106,12 +129,22 @@ pub(super) fn write(
         right - left,
         y1 - y0
     );
+    if let Some(values) = &background {
+        write_cells(s, values, c_range, (left, right), (y0, y1));
+    }
     let mut seen = HashSet::new();
     for p in &sc.points {
         let (cx, cy) = (px(p.x), py(p.y));
         let fresh =
             cx.is_finite() && cy.is_finite() && seen.insert(((cx / 2.0) as i64, (cy / 2.0) as i64));
         if !fresh {
+            continue;
+        }
+        if sc.background.is_some() {
+            let _ = writeln!(
+                s,
+                r#"<circle class="point" cx="{cx:.1}" cy="{cy:.1}" r="2" fill="black" stroke="white" stroke-width="0.6"/>"#
+            );
             continue;
         }
         let fill = match p.c {
@@ -191,14 +224,76 @@ fn write_axes(
     }
 }
 
-/// The colour bar: the scale's colours from its lowest to its highest value, labelled at both ends.
+/// Levels of the map's colour scale (neighbouring cells of one level are drawn as one rectangle).
+const LEVELS: f64 = 32.0;
+
+/// The 5th and 95th percentile of the finite `values` (both 0 without any).
+fn percentile_range(values: &[f64]) -> (f64, f64) {
+    let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
+    if v.is_empty() {
+        return (0.0, 0.0);
+    }
+    v.sort_by(f64::total_cmp);
+    let at = |q: f64| v[((v.len() - 1) as f64 * q).round() as usize];
+    (at(0.05), at(0.95))
+}
+
+/// The sampled map as cells on the colour scale, clamped to `range`, row by row from the bottom; a run of
+/// cells of one level in a row is one rectangle, non-finite cells are left blank.
+fn write_cells(
+    s: &mut String,
+    values: &[f64],
+    (lo, hi): (f64, f64),
+    (left, right): (f64, f64),
+    (y0, y1): (f64, f64),
+) {
+    let [nx, ny] = CELLS;
+    let (w, h) = ((right - left) / nx as f64, (y1 - y0) / ny as f64);
+    let level = |v: f64| {
+        let f = if hi > lo { (v - lo) / (hi - lo) } else { 0.5 };
+        v.is_finite()
+            .then(|| (f.clamp(0.0, 1.0) * (LEVELS - 1.0)).round())
+    };
+    s.push_str("<g class=\"engine-map\">\n");
+    for (j, row) in values.chunks(nx).enumerate().take(ny) {
+        let top = y1 - (j + 1) as f64 * h;
+        let mut i = 0;
+        while i < row.len() {
+            let l = level(row[i]);
+            let mut k = i + 1;
+            while k < row.len() && level(row[k]) == l {
+                k += 1;
+            }
+            if let Some(l) = l {
+                let _ = writeln!(
+                    s,
+                    r#"<rect x="{:.2}" y="{top:.2}" width="{:.2}" height="{:.2}" fill="{}"/>"#,
+                    left + i as f64 * w,
+                    (k - i) as f64 * w + 0.3,
+                    h + 0.3,
+                    colour(l / (LEVELS - 1.0))
+                );
+            }
+            i = k;
+        }
+    }
+    s.push_str("</g>\n");
+}
+
+/// The colour bar: the scale's colours from its lowest to its highest value, labelled at both ends (with an
+/// engine map, whose values beyond them are drawn in the end colours: "≤" and "≥").
 fn write_colour_bar(s: &mut String, sc: &Scatter, (x, y): (f64, f64), (lo, hi): (f64, f64)) {
     let Some(label) = &sc.colour_label else {
         return;
     };
     s.push_str("<g class=\"legend\">\n");
     let num = crate::numfmt::num;
-    let lo_text = format!("{label}: {}", num(lo));
+    let (below, above) = if sc.background.is_some() {
+        ("≤ ", "≥ ")
+    } else {
+        ("", "")
+    };
+    let lo_text = format!("{label}: {below}{}", num(lo));
     let bar_x = x + super::font::text_width(&lo_text, TICK_SIZE) + 8.0;
     text(
         s,
@@ -223,7 +318,7 @@ fn write_colour_bar(s: &mut String, sc: &Scatter, (x, y): (f64, f64), (lo, hi): 
         (bar_x + 208.0, y + 14.0),
         TICK_SIZE,
         "start",
-        &num(hi),
+        &format!("{above}{}", num(hi)),
     );
     s.push_str("</g>\n");
 }
