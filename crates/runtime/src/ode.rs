@@ -6,6 +6,8 @@
 //!   the code DOPRI5) and the code's stiffness test (§IV.2 of Hairer & Wanner, *Solving ODEs II*: the
 //!   estimate h·ρ ≈ h‖k7 − k6‖/‖y₁ − ŷ₆‖ of the step size times the dominant eigenvalue, compared with the
 //!   border 3.25 of the stability region);
+//! * [`Dop853`] (`ode/dop853.rs`): the explicit Prince–Dormand 8(5,3) pair of the code DOP853, without dense
+//!   output, for the zero dynamics of modes at tight tolerances (far fewer evaluations than [`Dopri5`] there);
 //! * [`Rosenbrock23`]: the linearly implicit, L-stable Rosenbrock (W-)method of order 2 with a 3rd-order error
 //!   estimate and a continuous extension, of Shampine & Reichelt (*The MATLAB ODE suite*, SIAM J. Sci.
 //!   Comput. 18, 1997, §3; MATLAB's `ode23s`), for stiff problems (Hairer & Wanner II, §IV.7).
@@ -16,6 +18,9 @@
 //! once, except the Rosenbrock method's LU factorisation (a stiff path).
 
 use nalgebra::{DMatrix, DVector};
+
+mod dop853;
+pub use dop853::Dop853;
 
 /// An integration failure: where, and why (a phrase).
 #[derive(Debug, Clone, PartialEq)]

@@ -26,6 +26,7 @@ pub(crate) mod sequence;
 mod signals;
 mod summary;
 mod verify;
+mod zd_ode;
 
 use invsim_model_api::InverseModel;
 use thiserror::Error;

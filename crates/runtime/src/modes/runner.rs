@@ -13,11 +13,12 @@ use super::rules::Rules;
 use super::sequence::{decide, Moment, Place, Rung, Switcher};
 use super::signals::resolve_modal;
 use super::verify::replay;
+use super::zd_ode::ZdOde;
 use super::{ModalError, ModalOptions, ModalResult, ModalSpec, Switching};
 use crate::cycle::Cycle;
 use crate::elevation::Along;
 use crate::grid::Grid;
-use crate::ode::{Dopri5, StepFailure};
+use crate::ode::StepFailure;
 use crate::signals::SignalInput;
 use crate::smoother::Smoother;
 
@@ -38,7 +39,9 @@ struct Inner {
 /// The integrator of the zero dynamics and the buffers of its right-hand side, built once per run (one
 /// integrator per mode with internal dynamics, at its first interval) and reused for every interval.
 pub(super) struct ZeroDynamics {
-    ode: Vec<Option<Dopri5>>,
+    ode: Vec<Option<ZdOde>>,
+    /// The run's output step (which integrator, `zd_ode.rs`).
+    dt: f64,
     y: Vec<f64>,
     w: Vec<f64>,
     /// The mode and end of the last interval integrated: an interval that continues it (same mode, starting
@@ -76,6 +79,7 @@ impl ZeroDynamics {
         };
         ZeroDynamics {
             ode: ctx.spec.modes.iter().map(|_| None).collect(),
+            dt: grid.dt,
             y: vec![0.0; ctx.r_max + 1],
             w: Vec::new(),
             last: None,
@@ -209,15 +213,14 @@ impl Ctx<'_, '_> {
         let n_w = model.info().n_w();
         let ZeroDynamics {
             ode,
+            dt,
             y,
             w,
             last,
             fine,
         } = zd;
         // No dense output: η is needed at the interval's end only.
-        let ode = ode[m].get_or_insert_with(|| {
-            Dopri5::new(eta.len(), 1e-10, 1e-12, t1 - t0).without_dense_output()
-        });
+        let ode = ode[m].get_or_insert_with(|| ZdOde::new(eta.len(), *dt, t1 - t0));
         let h0 = match *last {
             Some((lm, lt)) if lm == m && lt.to_bits() == t0.to_bits() => {
                 ode.step_size().min(t1 - t0)
@@ -226,8 +229,8 @@ impl Ctx<'_, '_> {
         };
         *last = Some((m, t1));
         ode.reset(h0);
-        // The reference and the signals depend on t alone: the two last stages of a Dormand–Prince step
-        // are both at t + h, so they are evaluated once for both (the same values), and the first stage at
+        // The reference and the signals depend on t alone: the two last stages of a step (DOPRI5's 6th and
+        // 7th, DOP853's 12th and 13th) are both at t + h, so they are evaluated once for both (the same values), and the first stage at
         // t0 is the sample's reference, mapped from `base0` as `reference_into` maps the smoother's values.
         y[..=r].copy_from_slice(&base0[..=r]);
         self.map_cycle(m, &mut y[..=r]);
