@@ -125,11 +125,12 @@ impl ModelFile {
         let Ok(text) = std::str::from_utf8(bytes) else {
             return Ok(None);
         };
-        let Some(facts) = compiled(&source_hash(text)) else {
+        let hash = source_hash(text);
+        let Some(facts) = compiled(&hash) else {
             return Ok(None);
         };
         let reader = Reader { file, text };
-        let (root, hash) = reader.parse_tree()?;
+        let root = reader.parse_toml()?;
         reader.read_headers(&root, hash, facts.as_ref())
     }
 
@@ -151,8 +152,12 @@ impl Reader<'_> {
 
     /// The file's TOML tree (with spans) and the SHA-256 of its text.
     pub(super) fn parse_tree(&self) -> Result<(Tv, String), ModelError> {
-        let source_hash = source_hash(self.text);
-        let root: Tv = toml::from_str(self.text).map_err(|e| {
+        Ok((self.parse_toml()?, source_hash(self.text)))
+    }
+
+    /// The file's TOML tree (with spans).
+    fn parse_toml(&self) -> Result<Tv, ModelError> {
+        toml::from_str(self.text).map_err(|e| {
             let message = e
                 .message()
                 .trim()
@@ -165,8 +170,7 @@ impl Reader<'_> {
                 ModelErrorKind::Toml,
                 format!("TOML syntax error: {message}"),
             )
-        })?;
-        Ok((root, source_hash))
+        })
     }
 
     /// The checks on meaning, in order: names, expressions, definitions, smoothness, the affine split.
