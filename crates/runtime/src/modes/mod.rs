@@ -13,6 +13,10 @@
 //!   of Δx that is not along g (no impulse of the input can make it) is reported.
 
 mod bases;
+mod ecms;
+mod equivalence;
+pub mod hybrid;
+mod minimise;
 pub mod blend;
 pub(crate) mod coupling;
 mod fine;
@@ -31,6 +35,7 @@ use invsim_model_api::InverseModel;
 use thiserror::Error;
 
 pub use gears::{GearBox, GearSource};
+pub use hybrid::{simulate_hybrid, EcmsOptions, HybridBlock, HybridConfig, DEFAULT_SOC_TOLERANCE};
 pub use plant::{GearSchedule, ModalPlant, ModalPlantBuilder, ModeMeta};
 pub use record::{CouplingReset, Impulse, ModeTime, Transition};
 pub use rows::Rows;

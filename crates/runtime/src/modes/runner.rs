@@ -413,7 +413,14 @@ pub fn simulate_modes_with_reference(
         r_max,
         n,
         transition,
+        decided: super::record::decided_slots(spec),
     };
+    if let Some(m) = ctx.decided.iter().position(|d| !d.is_empty()) {
+        return Err(ModalError::Setup(format!(
+            "mode `{}` leaves `{}` to a strategy (`decided`): run it with --strategy ecms",
+            spec.modes[m].name, spec.inputs[ctx.decided[m][0].0].name
+        )));
+    }
     let rec = run_sequence(&ctx, &grid, opts, zd)?;
     let verify = if opts.verify {
         Some(replay(&ctx, &rec)?)
