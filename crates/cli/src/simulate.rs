@@ -103,7 +103,8 @@ fn strategy(args: &SimulateArgs) -> Result<Option<invsim_runtime::modes::EcmsOpt
     let tol_given = args.soc_tolerance != invsim_runtime::modes::DEFAULT_SOC_TOLERANCE;
     match args.strategy {
         None if args.equivalence.is_some() || tol_given => Err(Failure::user(
-            "--equivalence and --soc-tolerance apply to --strategy ecms; give --strategy ecms".to_string(),
+            "--equivalence and --soc-tolerance apply to --strategy ecms; give --strategy ecms"
+                .to_string(),
         )),
         None => Ok(None),
         Some(StrategyArg::Ecms) => {
@@ -114,7 +115,9 @@ fn strategy(args: &SimulateArgs) -> Result<Option<invsim_runtime::modes::EcmsOpt
                 )));
             }
             if let Some(s) = args.equivalence.filter(|s| !s.is_finite()) {
-                return Err(Failure::user(format!("--equivalence must be finite, got {s}")));
+                return Err(Failure::user(format!(
+                    "--equivalence must be finite, got {s}"
+                )));
             }
             Ok(Some(invsim_runtime::modes::EcmsOptions {
                 equivalence: args.equivalence,

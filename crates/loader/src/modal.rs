@@ -125,7 +125,11 @@ pub fn modal_derive_json(m: &ModalModel, modes: &[DerivedMode]) -> serde_json::V
             });
             if !h.decided.is_empty() {
                 // The inputs a strategy decides: signals of the mode's derivation, in y^(r) only.
-                let decided: Vec<&str> = h.decided.iter().map(|i| m.inputs[*i].name.as_str()).collect();
+                let decided: Vec<&str> = h
+                    .decided
+                    .iter()
+                    .map(|i| m.inputs[*i].name.as_str())
+                    .collect();
                 o["decided_inputs"] = decided.into();
             }
             if !h.coupled.is_empty() {

@@ -51,7 +51,10 @@ impl Reader<'_> {
                     return Err(self.err(
                         at,
                         ModelErrorKind::UnknownName,
-                        format!("[hybrid] names `{}`, which is not an [outputs] entry", n.escape_debug()),
+                        format!(
+                            "[hybrid] names `{}`, which is not an [outputs] entry",
+                            n.escape_debug()
+                        ),
                     ));
                 }
             }

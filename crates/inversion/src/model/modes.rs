@@ -402,7 +402,9 @@ impl Reader<'_> {
             return Err(self.err(
                 tv_at(v),
                 ModelErrorKind::Schema,
-                format!("{what}'s `decided` must be an array of input names, e.g. decided = [\"T_m\"]"),
+                format!(
+                    "{what}'s `decided` must be an array of input names, e.g. decided = [\"T_m\"]"
+                ),
             ));
         };
         if items.is_empty() {

@@ -20,6 +20,26 @@ use super::record::{Ctx, Record, Solved, Transition};
 use super::rows::Rows;
 use super::{ModalError, Role};
 
+/// The end of an interval: the internal states, the state and free input, the fuel and battery powers.
+struct End {
+    eta: Vec<f64>,
+    x: Vec<f64>,
+    u: f64,
+    p_fuel: f64,
+    p_batt: f64,
+}
+
+/// The relaxed choice at sample k where ΔSOC(s) jumps at s (one sample's choice flips there, both
+/// choices equally cheap): the interval [t_k, t_k+1] is shared, θ with the run's own choice and 1 − θ with
+/// the choice at the `other` equivalence factor (the other side of the jump), every integral and the
+/// internal states taken in those shares. The relaxed control of the time-shared problem (a chattering
+/// engine on/off within the interval) is what makes the charge-sustaining optimum exist where ΔSOC jumps.
+pub(super) struct Share {
+    pub(super) k: usize,
+    pub(super) other: f64,
+    pub(super) theta: f64,
+}
+
 /// The reference of every sample and interval midpoint, and each sample's candidate modes (independent of s:
 /// computed once for the search).
 pub(super) struct Samples {
@@ -91,7 +111,13 @@ impl Ecms<'_, '_, '_> {
     }
 
     /// The inverse of mode m at sample k from the state `x` (its η), decided value d, and the cost at s.
-    fn eval(&self, (m, k): (usize, usize), x: &[f64], d: f64, (s, start): (f64, f64)) -> Option<Eval> {
+    fn eval(
+        &self,
+        (m, k): (usize, usize),
+        x: &[f64],
+        d: f64,
+        (s, start): (f64, f64),
+    ) -> Option<Eval> {
         let model = self.ctx.spec.modes[m].model;
         let info = model.info();
         let r = info.relative_degree;
@@ -129,7 +155,11 @@ impl Ecms<'_, '_, '_> {
 
     /// The best candidate at sample k from state x (`on`: the engine ran in the previous interval).
     fn choose(&self, k: usize, x: &[f64], s: f64, on: bool) -> Result<Eval, ModalError> {
-        let start = if on { 0.0 } else { self.h.start_penalty / self.dt };
+        let start = if on {
+            0.0
+        } else {
+            self.h.start_penalty / self.dt
+        };
         let mut best: Option<Eval> = None;
         let mut nearest: Option<Eval> = None;
         let mut consider = |e: &Eval, best: &mut Option<Eval>| {
@@ -156,7 +186,11 @@ impl Ecms<'_, '_, '_> {
                     let mut local: Option<Eval> = None;
                     let mut f = |d: f64| match self.eval((m, k), x, d, (s, start)) {
                         Some(e) => {
-                            let c = if e.excess <= 1e-9 { e.cost } else { f64::INFINITY };
+                            let c = if e.excess <= 1e-9 {
+                                e.cost
+                            } else {
+                                f64::INFINITY
+                            };
                             consider(&e, &mut local);
                             c
                         }
@@ -209,6 +243,48 @@ impl Ecms<'_, '_, '_> {
 
     /// The run at equivalence factor s from the state x0 (its internal states at their start values).
     pub(super) fn run(&self, s: f64, x0: &[f64]) -> Result<Outcome, ModalError> {
+        self.run_shared(s, x0, None)
+    }
+
+    /// The end of interval k in the chosen candidate's mode with its decided value: η by the zero dynamics,
+    /// then the state and free input at t_k+1, and the fuel and battery powers there.
+    fn interval(&self, k: usize, e: &Eval) -> Result<End, ModalError> {
+        let model = self.ctx.spec.modes[e.m].model;
+        let info = model.info();
+        let mut eta: Vec<f64> = info.eta_states.iter().map(|&j| e.x[j]).collect();
+        self.advance((e.m, k), e.d, &mut eta);
+        self.end_at(k, e, eta)
+    }
+
+    /// The state, free input and powers at t_k+1 in e's mode and decided value, with internal states `eta`.
+    fn end_at(&self, k: usize, e: &Eval, eta: Vec<f64>) -> Result<End, ModalError> {
+        let model = self.ctx.spec.modes[e.m].model;
+        let info = model.info();
+        let r = info.relative_degree;
+        let y = self.reference(e.m, &self.samples.base[k + 1]);
+        let w = self.w(e.m, e.d);
+        let mut x = e.x.clone();
+        let u = model
+            .invert(&y[..r], &eta, &w, y[r], &mut x)
+            .map_err(|err| self.ctx.err(e.m, self.samples.t[k + 1], err.to_string()))?;
+        let mut outs = vec![0.0; info.outputs.len()];
+        model.outputs(&x, &w, u, &mut outs);
+        Ok(End {
+            eta,
+            x,
+            u,
+            p_fuel: outs[self.h.fuel],
+            p_batt: outs[self.h.battery],
+        })
+    }
+
+    /// [`Ecms::run`], where `share` asks for the relaxed choice at one sample (see [`Share`]).
+    pub(super) fn run_shared(
+        &self,
+        s: f64,
+        x0: &[f64],
+        share: Option<&Share>,
+    ) -> Result<Outcome, ModalError> {
         let ctx = self.ctx;
         let ns = self.samples.t.len();
         let n_yref = ctx.r_max + 1;
@@ -226,32 +302,43 @@ impl Ecms<'_, '_, '_> {
             engine_on: 0.0,
         };
         let mut cur = first;
+        let mut was_on = false;
         self.push(&mut rec, 0, &cur);
         for k in 0..ns - 1 {
             let m = cur.m;
-            let model = ctx.spec.modes[m].model;
-            let info = model.info();
-            let mut eta: Vec<f64> = info.eta_states.iter().map(|&j| cur.x[j]).collect();
-            self.advance((m, k), cur.d, &mut eta);
-            // The state at t_k+1 in the same mode with the same decided value (the interval's end).
-            let y = self.reference(m, &self.samples.base[k + 1]);
-            let r = info.relative_degree;
-            let w = self.w(m, cur.d);
-            let mut x_end = cur.x.clone();
-            let u_end = model
-                .invert(&y[..r], &eta, &w, y[r], &mut x_end)
-                .map_err(|e| ctx.err(m, self.samples.t[k + 1], e.to_string()))?;
-            let mut outs = vec![0.0; info.outputs.len()];
-            model.outputs(&x_end, &w, u_end, &mut outs);
             let h = self.samples.t[k + 1] - self.samples.t[k];
-            out.fuel += 0.5 * h * (cur.p_fuel + outs[self.h.fuel]);
-            out.battery += 0.5 * h * (cur.p_batt + outs[self.h.battery]);
-            if self.h.engine_on[m] {
-                out.engine_on += h;
+            let mut end = self.interval(k, &cur)?;
+            let mut on_share = if self.h.engine_on[m] { 1.0 } else { 0.0 };
+            let (mut pf0, mut pb0) = (cur.p_fuel, cur.p_batt);
+            if let Some(sh) = share.filter(|sh| sh.k == k) {
+                // The relaxed choice: θ of the interval with this run's candidate, 1 − θ with the other s's.
+                let alt = self.choose(k, &cur.x, sh.other, was_on)?;
+                let alt_end = self.interval(k, &alt)?;
+                let th = sh.theta;
+                let eta: Vec<f64> = end
+                    .eta
+                    .iter()
+                    .zip(&alt_end.eta)
+                    .map(|(a, b)| th * a + (1.0 - th) * b)
+                    .collect();
+                let (pf1, pb1) = (
+                    th * end.p_fuel + (1.0 - th) * alt_end.p_fuel,
+                    th * end.p_batt + (1.0 - th) * alt_end.p_batt,
+                );
+                end = self.end_at(k, &cur, eta)?;
+                (end.p_fuel, end.p_batt) = (pf1, pb1);
+                pf0 = th * pf0 + (1.0 - th) * alt.p_fuel;
+                pb0 = th * pb0 + (1.0 - th) * alt.p_batt;
+                let alt_on = if self.h.engine_on[alt.m] { 1.0 } else { 0.0 };
+                on_share = th * on_share + (1.0 - th) * alt_on;
             }
-            rec.u_end.push(u_end);
-            rec.x_end.push(&x_end);
-            let next = self.choose(k + 1, &x_end, s, self.h.engine_on[m])?;
+            out.fuel += 0.5 * h * (pf0 + end.p_fuel);
+            out.battery += 0.5 * h * (pb0 + end.p_batt);
+            out.engine_on += on_share * h;
+            rec.u_end.push(end.u);
+            rec.x_end.push(&end.x);
+            was_on = self.h.engine_on[m];
+            let next = self.choose(k + 1, &end.x, s, was_on)?;
             if next.m != m {
                 rec.transitions.push(Transition {
                     t: self.samples.t[k + 1],
@@ -259,7 +346,7 @@ impl Ecms<'_, '_, '_> {
                     to: ctx.spec.modes[next.m].name.clone(),
                     max_deviation: 0.0,
                 });
-                if self.h.engine_on[next.m] && !self.h.engine_on[m] {
+                if self.h.engine_on[next.m] && !was_on {
                     out.starts += 1;
                 }
             }
@@ -274,6 +361,29 @@ impl Ecms<'_, '_, '_> {
         out.soc.1 = cur.x[self.h.soc];
         out.rec = rec;
         Ok(out)
+    }
+
+    /// The first sample where two runs chose differently (mode, or decided value by more than 10⁻⁶ of its
+    /// range).
+    pub(super) fn first_difference(&self, a: &Record, b: &Record) -> Option<usize> {
+        (0..a.mode.len().min(b.mode.len())).find(|&k| {
+            let (ma, mb) = (a.mode[k], b.mode[k]);
+            if ma != mb {
+                return true;
+            }
+            match (
+                self.ctx.decided[ma].first(),
+                a.decided.get(k),
+                b.decided.get(k),
+            ) {
+                (Some(&(i, _)), Some(da), Some(db)) => {
+                    let input = &self.ctx.spec.inputs[i];
+                    let range = input.max.unwrap_or(1.0) - input.min.unwrap_or(0.0);
+                    da.iter().zip(db).any(|(x, y)| (x - y).abs() > 1e-6 * range)
+                }
+                _ => false,
+            }
+        })
     }
 
     /// Record the chosen candidate at sample k.

@@ -14,7 +14,7 @@
 //! at different s: fuel_corr = fuel − ΔSOC · (fuel₂ − fuel)/(ΔSOC₂ − ΔSOC), the second run the search's other
 //! bracket end (ΔSOC of the other sign), or, for a given s, a run at 1.05 s.
 
-use super::ecms::{Ecms, Outcome};
+use super::ecms::{Ecms, Outcome, Share};
 use super::ModalError;
 
 /// Most runs of the search.
@@ -77,8 +77,8 @@ pub(super) fn search(
         if !(s > lo.s && s < hi.s) {
             s = 0.5 * (lo.s + hi.s);
         }
-        if hi.s - lo.s <= 1e-12 * hi.s {
-            return Err(jump(&lo, &hi, tol));
+        if hi.s - lo.s <= 1e-9 * hi.s {
+            return relax(run, (lo, hi), (tol, x0), runs);
         }
         let o = run.run(s, x0)?;
         runs += 1;
@@ -122,6 +122,68 @@ fn unreachable(last: &Outcome, tol: f64) -> ModalError {
         last.delta_soc(),
         last.s
     ))
+}
+
+/// Where ΔSOC(s) jumps across the band at s (lo and hi within 10⁻⁹ s of each other): the relaxed choice at
+/// the first sample where the two runs differ ([`Share`]), its share θ ∈ [0, 1] found by regula falsi
+/// (Illinois) so that |ΔSOC| ≤ tol. Where later choices depend on that one (a start penalty: the engine's
+/// state carries over) ΔSOC(θ) may not reach the band either: then the jump is the error.
+fn relax(
+    run: &Ecms<'_, '_, '_>,
+    (lo, hi): (Outcome, Outcome),
+    (tol, x0): (f64, &[f64]),
+    mut runs: usize,
+) -> Result<(Outcome, usize, Option<Outcome>), ModalError> {
+    let Some(k) = run.first_difference(&lo.rec, &hi.rec) else {
+        return Err(jump(&lo, &hi, tol));
+    };
+    let at = |theta: f64| Share {
+        k,
+        other: lo.s,
+        theta,
+    };
+    let mut a = (0.0, run.run_shared(hi.s, x0, Some(&at(0.0)))?);
+    let mut b = (1.0, run.run_shared(hi.s, x0, Some(&at(1.0)))?);
+    runs += 2;
+    if a.1.delta_soc().abs() <= tol {
+        return Ok((a.1, runs, Some(hi)));
+    }
+    if b.1.delta_soc().abs() <= tol {
+        return Ok((b.1, runs, Some(lo)));
+    }
+    if (a.1.delta_soc() < 0.0) == (b.1.delta_soc() < 0.0) {
+        return Err(jump(&lo, &hi, tol));
+    }
+    let (mut scale_a, mut scale_b, mut last) = (1.0, 1.0, 0i8);
+    while runs < MAX_RUNS {
+        let (fa, fb) = (scale_a * a.1.delta_soc(), scale_b * b.1.delta_soc());
+        let mut th = b.0 - fb * (b.0 - a.0) / (fb - fa);
+        if !(th > a.0 && th < b.0) {
+            th = 0.5 * (a.0 + b.0);
+        }
+        let o = run.run_shared(hi.s, x0, Some(&at(th)))?;
+        runs += 1;
+        if o.delta_soc().abs() <= tol {
+            let other = if o.delta_soc() < 0.0 { hi } else { lo };
+            return Ok((o, runs, Some(other)));
+        }
+        if (o.delta_soc() < 0.0) == (a.1.delta_soc() < 0.0) {
+            a = (th, o);
+            scale_a = 1.0;
+            if last == -1 {
+                scale_b *= 0.5;
+            }
+            last = -1;
+        } else {
+            b = (th, o);
+            scale_b = 1.0;
+            if last == 1 {
+                scale_a *= 0.5;
+            }
+            last = 1;
+        }
+    }
+    Err(jump(&lo, &hi, tol))
 }
 
 /// ΔSOC jumps across the tolerance band between two equivalence factors that no longer differ.

@@ -148,13 +148,17 @@ fn resolve(spec: &ModalSpec<'_>, config: &HybridConfig) -> Result<Resolved, Moda
         info.outputs[..spec.n_outputs]
             .iter()
             .position(|o| o.name == name)
-            .ok_or_else(|| ModalError::Setup(format!("[hybrid] names `{name}`, which is not an output")))
+            .ok_or_else(|| {
+                ModalError::Setup(format!("[hybrid] names `{name}`, which is not an output"))
+            })
     };
     let soc = info
         .states
         .iter()
         .position(|s| *s == config.soc)
-        .ok_or_else(|| ModalError::Setup(format!("[hybrid] `soc`: `{}` is not a state", config.soc)))?;
+        .ok_or_else(|| {
+            ModalError::Setup(format!("[hybrid] `soc`: `{}` is not a state", config.soc))
+        })?;
     Ok(Resolved {
         fuel: output(&config.fuel_power)?,
         battery: output(&config.battery_power)?,
@@ -202,7 +206,10 @@ fn start_state(spec: &ModalSpec<'_>, initial: &[(String, f64)]) -> Result<Vec<f6
 }
 
 /// What a hybrid run cannot do (yet): exogenous signals, more than one decided input in a mode.
-fn check_supported(spec: &ModalSpec<'_>, decided: &[Vec<(usize, usize)>]) -> Result<(), ModalError> {
+fn check_supported(
+    spec: &ModalSpec<'_>,
+    decided: &[Vec<(usize, usize)>],
+) -> Result<(), ModalError> {
     for (m, d) in spec.modes.iter().zip(decided) {
         let signals = m.model.info().signals.len();
         if signals > d.len() {
@@ -238,7 +245,8 @@ pub fn simulate_hybrid(
 ) -> Result<ModalResult, ModalError> {
     let Some(config) = config else {
         return Err(ModalError::Setup(
-            "--strategy ecms needs the model's [hybrid] table (fuel_power, battery_power, soc)".into(),
+            "--strategy ecms needs the model's [hybrid] table (fuel_power, battery_power, soc)"
+                .into(),
         ));
     };
     if !(ecms.soc_tolerance > 0.0 && ecms.soc_tolerance.is_finite()) {
@@ -253,7 +261,9 @@ pub fn simulate_hybrid(
         ));
     }
     if let Some(s) = ecms.equivalence.filter(|s| !s.is_finite()) {
-        return Err(ModalError::Setup(format!("--equivalence must be finite, got {s}")));
+        return Err(ModalError::Setup(format!(
+            "--equivalence must be finite, got {s}"
+        )));
     }
     let decided = decided_slots(spec);
     check_supported(spec, &decided)?;
@@ -296,7 +306,12 @@ pub fn simulate_hybrid(
     let block = HybridBlock {
         strategy: "ecms".into(),
         equivalence_factor: best.s,
-        equivalence_source: if ecms.equivalence.is_some() { "given" } else { "searched" }.into(),
+        equivalence_source: if ecms.equivalence.is_some() {
+            "given"
+        } else {
+            "searched"
+        }
+        .into(),
         search_runs: runs,
         soc_tolerance: ecms.soc_tolerance,
         soc_start: best.soc.0,

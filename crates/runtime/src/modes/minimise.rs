@@ -32,8 +32,16 @@ pub(crate) fn minimise(
     }
     let (i, fx) = best?;
     // The bracket: the best point's neighbours (the best point itself at an end of the bounds).
-    let (a, fa) = if i > 0 { (at(i - 1), costs[i - 1]) } else { (at(i), fx) };
-    let (b, fb) = if i + 1 < n { (at(i + 1), costs[i + 1]) } else { (at(i), fx) };
+    let (a, fa) = if i > 0 {
+        (at(i - 1), costs[i - 1])
+    } else {
+        (at(i), fx)
+    };
+    let (b, fb) = if i + 1 < n {
+        (at(i + 1), costs[i + 1])
+    } else {
+        (at(i), fx)
+    };
     Some(refine(f, (a, fa), (at(i), fx), (b, fb), hi - lo))
 }
 

@@ -13,14 +13,14 @@
 //!   of Δx that is not along g (no impulse of the input can make it) is reported.
 
 mod bases;
-mod ecms;
-mod equivalence;
-pub mod hybrid;
-mod minimise;
 pub mod blend;
 pub(crate) mod coupling;
+mod ecms;
+mod equivalence;
 mod fine;
 pub mod gears;
+pub mod hybrid;
+mod minimise;
 pub mod plant;
 mod record;
 mod rows;

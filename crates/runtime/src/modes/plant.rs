@@ -226,7 +226,11 @@ impl ModalPlant {
         self.modes
             .iter()
             .filter_map(|(meta, m)| {
-                let s = m.info().signals.iter().find(|s| names.contains(&s.name.as_str()))?;
+                let s = m
+                    .info()
+                    .signals
+                    .iter()
+                    .find(|s| names.contains(&s.name.as_str()))?;
                 Some((meta.name.clone(), s.name.clone()))
             })
             .collect()

@@ -319,7 +319,11 @@ fn table(ctx: &Ctx<'_, '_>, rec: &Record, tally: &Tally) -> Vec<Vec<f64>> {
 /// [S, S_d1, …, S_dR] of every signal at each sample time (none without signals).
 fn signal_rows(ctx: &Ctx<'_, '_>, t: &[f64]) -> Rows {
     let info = ctx.spec.modes[0].model.info();
-    let real = info.signals.iter().filter(|s| !is_input(ctx.spec, &s.name)).count();
+    let real = info
+        .signals
+        .iter()
+        .filter(|s| !is_input(ctx.spec, &s.name))
+        .count();
     let n = real * (ctx.r_max + 1);
     let mut rows = Rows::with_capacity(n, if n == 0 { 0 } else { t.len() });
     if n > 0 {
