@@ -39,6 +39,7 @@ pub use hybrid::{simulate_hybrid, EcmsOptions, HybridBlock, HybridConfig, DEFAUL
 pub use plant::{GearSchedule, ModalPlant, ModalPlantBuilder, ModeMeta};
 pub use record::{CouplingReset, Impulse, ModeTime, Transition};
 pub use rows::Rows;
+pub(crate) use runner::refuse_decided;
 pub use runner::{
     simulate_modes, simulate_modes_with_reference, simulate_modes_with_signals,
     ZeroDynamicsReference,
