@@ -14,7 +14,6 @@
 //! ψ⁻¹ there (every mode shares the state, so a switch keeps it; a mode whose ξ differs starts from the
 //! reference at once, as `--switching quasi-static` does).
 
-use super::hybrid::Resolved;
 use super::minimise::minimise;
 use super::record::{Ctx, Record, Solved, Transition};
 use super::rows::Rows;
@@ -68,6 +67,16 @@ impl Outcome {
     pub(super) fn delta_soc(&self) -> f64 {
         self.soc.1 - self.soc.0
     }
+}
+
+/// `[hybrid]` resolved against the modes: output and state indices, the engine per mode.
+pub(super) struct Resolved {
+    pub(super) fuel: usize,
+    pub(super) battery: usize,
+    pub(super) soc: usize,
+    pub(super) engine_on: Vec<bool>,
+    pub(super) start_penalty: f64,
+    pub(super) grid: usize,
 }
 
 /// One evaluated candidate.
