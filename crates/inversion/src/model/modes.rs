@@ -73,6 +73,11 @@ fn identifiers(text: &str) -> Vec<&str> {
     out
 }
 
+/// An input a mode gives a value: (input index, its key, its value).
+type Fixed<'t> = (usize, &'t Key, &'t Tv);
+/// An input a mode leaves to a strategy: (input index, where it is written).
+type Decided = (usize, Option<usize>);
+
 /// A mode's table as read (its values still trees).
 pub(super) struct RawMode<'t> {
     pub(super) name: String,
@@ -493,7 +498,7 @@ impl Reader<'_> {
         t: &Entries,
         what: &str,
         inputs: &[ModalInput],
-        (fixed, decided): (&[(usize, &Key, &Tv)], &[(usize, Option<usize>)]),
+        (fixed, decided): (&[Fixed<'_>], &[Decided]),
     ) -> Result<usize, ModelError> {
         let free: Vec<usize> = (0..inputs.len())
             .filter(|i| !fixed.iter().any(|(j, _, _)| j == i))

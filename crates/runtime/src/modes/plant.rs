@@ -50,7 +50,7 @@ pub struct ModalPlant {
     sequence: SequenceParams,
     n_outputs: usize,
     /// `[hybrid]`: what an energy-management strategy weighs (none without the table).
-    hybrid: Option<super::HybridConfig>,
+    hybrid: Option<Box<super::HybridConfig>>,
 }
 
 /// Builds a [`ModalPlant`]; [`ModalPlantBuilder::build`] checks it once.
@@ -217,7 +217,7 @@ impl ModalPlant {
 
     /// The model's `[hybrid]` table, if it has one.
     pub fn hybrid(&self) -> Option<&super::HybridConfig> {
-        self.hybrid.as_ref()
+        self.hybrid.as_deref()
     }
 
     /// The modes that leave an input to a strategy (`decided`), with the first such input's name.
@@ -280,7 +280,7 @@ impl ModalPlantBuilder {
 
     /// The model's `[hybrid]` table.
     pub fn hybrid(mut self, config: super::HybridConfig) -> Self {
-        self.plant.hybrid = Some(config);
+        self.plant.hybrid = Some(Box::new(config));
         self
     }
 
