@@ -1,5 +1,5 @@
 //! `invsim simulate --strategy ecms` on hybrids: the closed-form optimum of
-//! `tests/models/known/hybrid_quadratic.toml` (quadratic fuel and battery powers, no bound active) at every
+//! `tests/models/hybrid/quadratic.toml` (quadratic fuel and battery powers, no bound active) at every
 //! sample and the closed-form charge-sustaining equivalence factor; `models/hev_p2.toml` on UDDS, HWFET and
 //! WLTC 3b charge-sustaining within the tolerance, with the vehicle's equation of every mode checked by hand at
 //! every sample; the J1711 correction on a line through two runs at a given s.
@@ -48,7 +48,7 @@ fn col(header: &[String], rows: &[Vec<String>], name: &str) -> Vec<f64> {
 /// run integrates the charge with — here from the CSV's samples, the trapezoidal mean plus its error bound.
 #[test]
 fn ecms_equals_the_closed_form_split_of_a_quadratic_hybrid() {
-    let model = "tests/models/known/hybrid_quadratic.toml";
+    let model = "tests/models/hybrid/quadratic.toml";
     let (m, c0, c2, a, b, c) = (1000.0, 150.0, 0.4, 3.0, 1.0e-3, 0.0);
     for engine in ["interpreted", "auto"] {
         let (v, header, rows) = run(
@@ -97,7 +97,7 @@ fn ecms_equals_the_closed_form_split_of_a_quadratic_hybrid() {
 /// points of a parabola.
 #[test]
 fn a_given_equivalence_factor_and_the_j1711_correction() {
-    let model = "tests/models/known/hybrid_quadratic.toml";
+    let model = "tests/models/hybrid/quadratic.toml";
     let (cs, _, _) = run(model, "hwfet", &[], "quad-cs");
     let s_cs = cs["hybrid"]["equivalence_factor"].as_f64().unwrap();
     let s = (s_cs + 0.1).to_string();
