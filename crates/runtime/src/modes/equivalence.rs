@@ -77,7 +77,7 @@ pub(super) fn search(
         if !(s > lo.s && s < hi.s) {
             s = 0.5 * (lo.s + hi.s);
         }
-        if hi.s - lo.s <= 1e-9 * hi.s {
+        if hi.s - lo.s <= 1e-7 * hi.s {
             return relax(run, (lo, hi), (tol, x0), runs);
         }
         let o = run.run(s, x0)?;
@@ -124,7 +124,7 @@ fn unreachable(last: &Outcome, tol: f64) -> ModalError {
     ))
 }
 
-/// Where ΔSOC(s) jumps across the band at s (lo and hi within 10⁻⁹ s of each other): the relaxed choice at
+/// Where ΔSOC(s) jumps across the band at s (lo and hi within 10⁻⁷ s of each other): the relaxed choice at
 /// the first sample where the two runs differ ([`Share`]), its share θ ∈ [0, 1] found by regula falsi
 /// (Illinois) so that |ΔSOC| ≤ tol. Where later choices depend on that one (a start penalty: the engine's
 /// state carries over) ΔSOC(θ) may not reach the band either: then the jump is the error.

@@ -3,7 +3,7 @@
 //! parabolic interpolation (Brent, *Algorithms for Minimization without Derivatives*, 1973, ch. 5: the vertex
 //! of the parabola through the three best points, a golden-section step where the vertex leaves the bracket
 //! or cannot be formed). A cost that is a parabola is minimised exactly by the first vertex; the search stops
-//! when a step moves less than 10⁻¹² of the bounds' range, or after [`MAX_REFINE`] steps. An infeasible point
+//! when a step moves less than 10⁻⁹ of the bounds' range, or after [`MAX_REFINE`] steps. An infeasible point
 //! (the free input beyond its bounds, no solution) costs +∞.
 
 /// Most refinement steps after the grid.
@@ -53,7 +53,7 @@ fn refine(
     (mut b, mut fb): (f64, f64),
     range: f64,
 ) -> (f64, f64) {
-    let tol = 1e-12 * range.max(f64::MIN_POSITIVE);
+    let tol = 1e-9 * range.max(f64::MIN_POSITIVE);
     for _ in 0..MAX_REFINE {
         if b - a <= 2.0 * tol {
             break;
