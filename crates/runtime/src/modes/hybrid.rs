@@ -216,7 +216,7 @@ pub fn simulate_hybrid(
     };
     let mut result = super::summary::assemble(&ctx, cycle, opts, best.rec, None);
     result.summary.modes.switching = "strategy".into();
-    result.summary.hybrid = Some(block);
+    result.summary.hybrid = Some(Box::new(block));
     Ok(result)
 }
 

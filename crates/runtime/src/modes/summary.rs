@@ -66,7 +66,7 @@ pub struct ModalSummary {
     pub engine_operating_points: Option<OperatingPoints>,
     /// The energy management's figures (runs with `--strategy`, docs/hybrids.md).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub hybrid: Option<super::HybridBlock>,
+    pub hybrid: Option<Box<super::HybridBlock>>,
     pub columns: Vec<Column>,
     /// Each signal, where it came from and that the run used it smoothed (models with signals).
     #[serde(skip_serializing_if = "Vec::is_empty")]
