@@ -54,7 +54,8 @@ impl Loaded {
                 return Err(Failure::msg("the model file changed kind"));
             };
             let modes = std::mem::take(&mut m.modes);
-            let ds = invsim_loader::derive_modes(modes).map_err(|e| failure(e, path))?;
+            let inputs: Vec<String> = m.inputs.iter().map(|i| i.name.clone()).collect();
+            let ds = invsim_loader::derive_modes(modes, &inputs).map_err(|e| failure(e, path))?;
             let v = invsim_loader::modal_derive_json(&m, &ds);
             serde_json::to_string(&v).map_err(|e| Failure::msg(e.to_string()))
         });

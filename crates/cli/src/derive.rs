@@ -46,7 +46,8 @@ fn derive_modal(
     format: crate::derive_format::Format,
     warnings: Warnings,
 ) -> Result<(), Failure> {
-    let ds = invsim_loader::derive_modes(std::mem::take(&mut m.modes))
+    let inputs: Vec<String> = m.inputs.iter().map(|i| i.name.clone()).collect();
+    let ds = invsim_loader::derive_modes(std::mem::take(&mut m.modes), &inputs)
         .map_err(|e| Failure::user(e.to_string()))?;
     let each: Vec<String> = ds
         .iter()
@@ -77,6 +78,11 @@ fn derive_modal(
                     .chain(mode.coupled.iter().map(|(s, e)| {
                         invsim_inversion::render::coupling_text(&d.model.states[*s].name, e)
                     }))
+                    .chain(
+                        mode.decided
+                            .iter()
+                            .map(|i| format!("{} decided by the strategy", m.inputs[*i].name)),
+                    )
                     .collect();
                 s.push_str(&invsim_inversion::render::mode_heading(
                     &mode.name,

@@ -70,6 +70,24 @@ pub struct SimulateArgs {
     /// end) in the CSV, the plot and the summary's integrals.
     #[arg(long)]
     include_extension: bool,
+    /// Models with a [hybrid] table: the energy-management strategy that decides the mode and the decided
+    /// inputs at every sample (`ecms`: the equivalent consumption minimisation strategy).
+    #[arg(long, value_enum)]
+    strategy: Option<StrategyArg>,
+    /// With --strategy ecms: the equivalence factor s (W of fuel per W of battery power); default: searched
+    /// so that the run ends charge-sustaining within --soc-tolerance.
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
+    equivalence: Option<f64>,
+    /// With --strategy ecms: the charge-sustaining tolerance on |ΔSOC|, a fraction of the battery's capacity.
+    #[arg(long, value_name = "TOL", default_value_t = invsim_runtime::modes::DEFAULT_SOC_TOLERANCE)]
+    soc_tolerance: f64,
+}
+
+/// `--strategy`.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum StrategyArg {
+    Ecms,
 }
 
 /// `--switching`.
@@ -78,6 +96,35 @@ pub struct SimulateArgs {
 pub enum SwitchingArg {
     Reentry,
     QuasiStatic,
+}
+
+/// The strategy's options; `--equivalence` or a changed `--soc-tolerance` without `--strategy` are refused.
+fn strategy(args: &SimulateArgs) -> Result<Option<invsim_runtime::modes::EcmsOptions>, Failure> {
+    let tol_given = args.soc_tolerance != invsim_runtime::modes::DEFAULT_SOC_TOLERANCE;
+    match args.strategy {
+        None if args.equivalence.is_some() || tol_given => Err(Failure::user(
+            "--equivalence and --soc-tolerance apply to --strategy ecms; give --strategy ecms"
+                .to_string(),
+        )),
+        None => Ok(None),
+        Some(StrategyArg::Ecms) => {
+            if !(args.soc_tolerance > 0.0 && args.soc_tolerance.is_finite()) {
+                return Err(Failure::user(format!(
+                    "--soc-tolerance must be a positive number, got {}",
+                    args.soc_tolerance
+                )));
+            }
+            if let Some(s) = args.equivalence.filter(|s| !s.is_finite()) {
+                return Err(Failure::user(format!(
+                    "--equivalence must be finite, got {s}"
+                )));
+            }
+            Ok(Some(invsim_runtime::modes::EcmsOptions {
+                equivalence: args.equivalence,
+                soc_tolerance: args.soc_tolerance,
+            }))
+        }
+    }
 }
 
 pub fn run(args: &SimulateArgs, warnings: crate::error::Warnings) -> Result<(), Failure> {
@@ -124,6 +171,7 @@ pub fn run(args: &SimulateArgs, warnings: crate::error::Warnings) -> Result<(), 
         .map_err(|e| stopped(&e))?;
     opts.signals = data.signals;
     opts.initial = data.initial;
+    opts.strategy = strategy(args)?;
     let file = crate::engine::cycle_file(&args.cycle);
     let result = plant.simulate(&cycle, file, &opts);
     bar.finish();

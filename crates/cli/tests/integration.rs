@@ -7,6 +7,8 @@
 //! - `headline`: The summary leads with the model's headline in the units people report (l/100 km, mpg, CO2
 //!   g/km; kWh/100 km, mpgge); the Fusions say which fuel figure is the model's answer.
 //! - `hostile`: Hostile-input suite: every case in `tests/hostile/*.json` runs the built `invsim` binary on hostile model
+//! - `hybrid`: `simulate --strategy ecms`: the closed-form split of a quadratic hybrid, hev_p2 charge-sustaining
+//!   on UDDS, HWFET and WLTC 3b with every mode's equation checked by hand, the J1711 correction.
 //! - `map_option`: `--map NAME=FILE.csv` for ordinary models and models with modes; unknown names and wrong arity exit 2.
 //! - `modes`: `invsim derive` and `invsim simulate` on a model with operating modes (si_engine_5speed).
 //! - `modes_sweep`: `invsim sweep` of models with operating modes: rows equal `simulate` bit for bit, the modes'
@@ -40,6 +42,7 @@ mod derive_bad_model;
 mod forward;
 mod headline;
 mod hostile;
+mod hybrid;
 mod map_option;
 mod modes;
 mod modes_compiled;

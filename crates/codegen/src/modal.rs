@@ -28,23 +28,35 @@ pub struct DerivedMode {
     pub fixed: Vec<(usize, String)>,
     /// The states the mode couples (`couple`): (state index, coupling as written).
     pub coupled: Vec<(usize, String)>,
+    /// The inputs a strategy decides (`decided`), by input index.
+    pub decided: Vec<usize>,
     pub d: Derivation,
 }
 
 impl ModalDerivation {
     /// Derive every mode of `m`.
     pub fn new(m: ModalModel) -> Result<ModalDerivation, Error> {
+        let names: Vec<String> = m.inputs.iter().map(|i| i.name.clone()).collect();
         let modes = m
             .modes
             .into_iter()
             .map(|mode| {
                 let d = Derivation::new(mode.model).map_err(invsim_inversion::Error::from)?;
+                let decided: Vec<(String, Option<(usize, usize)>)> = mode
+                    .decided
+                    .iter()
+                    .zip(&mode.decided_at)
+                    .map(|(i, at)| (names[*i].clone(), *at))
+                    .collect();
+                invsim_inversion::check_decided(&mode.name, &decided, &d)
+                    .map_err(invsim_inversion::Error::from)?;
                 Ok(DerivedMode {
                     name: mode.name,
                     role: mode.role,
                     free: mode.free,
                     fixed: mode.fixed,
                     coupled: mode.coupled,
+                    decided: mode.decided,
                     d,
                 })
             })
@@ -70,6 +82,11 @@ impl ModalDerivation {
                 .chain(mode.coupled.iter().map(|(s, e)| {
                     invsim_inversion::render::coupling_text(&mode.d.model.states[*s].name, e)
                 }))
+                .chain(
+                    mode.decided
+                        .iter()
+                        .map(|i| format!("{} decided by the strategy", self.inputs[*i])),
+                )
                 .collect();
             s.push_str(&invsim_inversion::render::mode_heading(
                 &mode.name,

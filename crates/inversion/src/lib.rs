@@ -10,12 +10,14 @@
 //! ```
 
 pub mod classify;
+pub mod decided;
 pub mod derive;
 pub mod interpreter;
 pub mod model;
 pub mod render;
 
 pub use classify::{Classification, ZeroDynamicsClass};
+pub use decided::check_decided;
 pub use derive::{isolate, lie_derivative, Derivation, DeriveError, Solution};
 pub use interpreter::{model_info, InterpretError, Interpreter};
 pub use model::*;

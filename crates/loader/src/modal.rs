@@ -75,8 +75,10 @@ pub struct DerivedMode {
     pub d: Derivation,
 }
 
-/// The derivation of each of `modes`; an error names the mode.
-pub fn derive_modes(modes: Vec<Mode>) -> Result<Vec<DerivedMode>, LoadError> {
+/// The derivation of each of `modes` (`inputs`: the model's input names); an error names the mode. A decided
+/// input that enters D^k h below the relative degree is refused where it is written
+/// ([`invsim_inversion::check_decided`]).
+pub fn derive_modes(modes: Vec<Mode>, inputs: &[String]) -> Result<Vec<DerivedMode>, LoadError> {
     modes
         .into_iter()
         .map(|mode| {
@@ -85,8 +87,16 @@ pub fn derive_modes(modes: Vec<Mode>) -> Result<Vec<DerivedMode>, LoadError> {
                 mode: name.clone(),
                 source: Box::new(e),
             };
+            let decided: Vec<(String, Option<(usize, usize)>)> = mode
+                .decided
+                .iter()
+                .zip(&mode.decided_at)
+                .map(|(i, at)| (inputs[*i].clone(), *at))
+                .collect();
             let (header, model) = mode.into_parts();
             let d = Derivation::new(model).map_err(|e| at(e.into()))?;
+            invsim_inversion::check_decided(&name, &decided, &d)
+                .map_err(|e| LoadError::Model(Box::new(e.into())))?;
             d.check_printable()
                 .map_err(|e| LoadError::Setup(format!("mode `{name}`: {e}")))?;
             Ok(DerivedMode { header, d })
@@ -113,6 +123,15 @@ pub fn modal_derive_json(m: &ModalModel, modes: &[DerivedMode]) -> serde_json::V
                 "role": h.role.as_str(), "free_input": m.inputs[h.free].name,
                 "fixed_inputs": fixed, "derivation": d.to_json(),
             });
+            if !h.decided.is_empty() {
+                // The inputs a strategy decides: signals of the mode's derivation, in y^(r) only.
+                let decided: Vec<&str> = h
+                    .decided
+                    .iter()
+                    .map(|i| m.inputs[*i].name.as_str())
+                    .collect();
+                o["decided_inputs"] = decided.into();
+            }
             if !h.coupled.is_empty() {
                 // The states the mode couples (`couple`), with their couplings as written.
                 let couples: Map<String, Value> = h
@@ -181,7 +200,8 @@ pub(crate) fn from_model(
     }
     let mut headers = Vec::with_capacity(modes.len());
     let mut prototypes = Vec::with_capacity(modes.len());
-    for DerivedMode { header, d } in derive_modes(modes)? {
+    let names: Vec<String> = m.inputs.iter().map(|i| i.name.clone()).collect();
+    for DerivedMode { header, d } in derive_modes(modes, &names)? {
         prototypes.push(Interpreter::new(&d)?);
         headers.push(header);
     }
@@ -225,6 +245,16 @@ fn assemble(
         };
         let params = g.parameters.iter().map(|(p, _)| p.clone()).collect();
         b = b.gearbox(g.gears, schedule, params);
+    }
+    if let Some(h) = &m.hybrid {
+        b = b.hybrid(invsim_runtime::modes::HybridConfig {
+            fuel_power: h.fuel_power.clone(),
+            battery_power: h.battery_power.clone(),
+            soc: h.soc.clone(),
+            engine_on: h.engine_on.clone(),
+            start_penalty: h.start_penalty,
+            grid: h.grid,
+        });
     }
     for (h, model) in headers.into_iter().zip(models) {
         let meta = meta_of(m, h, model.as_ref());

@@ -82,6 +82,26 @@ impl Plant {
                 cycle,
                 opts,
             )?))),
+            Plant::Modal(p) if opts.strategy.is_some() => {
+                let gears = p.gear_source(cycle, file).map_err(RunFailure::Gears)?;
+                let spec = p.spec(gears.clone());
+                let ecms = opts.strategy.clone().unwrap_or_default();
+                if let Some(s) = opts.signals.first() {
+                    return Err(RunFailure::Modes(ModalError::Setup(format!(
+                        "--signal {}: a strategy's run takes no signals yet",
+                        s.name
+                    ))));
+                }
+                let mut r = crate::modes::simulate_hybrid(
+                    &spec,
+                    p.hybrid(),
+                    cycle,
+                    &modal_options(opts),
+                    (&ecms, &opts.initial),
+                )?;
+                r.summary.engine = opts.engine.clone();
+                Ok(RunResult::Modal(Box::new(r), gears))
+            }
             Plant::Modal(p) => {
                 if let Some((name, _)) = opts.initial.first() {
                     return Err(RunFailure::Modes(ModalError::Setup(format!(

@@ -18,7 +18,7 @@ pub const TOP_SINGLE: &[&str] = &[
     "maps",
 ];
 /// Top-level sections that only a model with modes has (it then has `[inputs]` instead of `[input]`).
-pub const TOP_MODAL: &[&str] = &["inputs", "modes", "gearbox", "sequence"];
+pub const TOP_MODAL: &[&str] = &["inputs", "modes", "gearbox", "sequence", "hybrid"];
 /// A `[parameters]` entry written as a table.
 pub const PARAMETER: &[&str] = &["value", "unit", "doc"];
 /// A `[definitions]` entry written as a table.
@@ -70,6 +70,7 @@ pub const MODE: &[&str] = &[
     "definitions",
     "output",
     "couple",
+    "decided",
     "doc",
 ];
 /// `[gearbox]`.
@@ -87,6 +88,16 @@ pub const SEQUENCE: &[&str] = &[
     "standstill_above",
     "brake_band",
     "min_dwell",
+];
+
+/// `[hybrid]`: what an energy-management strategy (`--strategy ecms`) weighs.
+pub const HYBRID: &[&str] = &[
+    "fuel_power",
+    "battery_power",
+    "soc",
+    "engine_on",
+    "start_penalty",
+    "grid",
 ];
 
 /// Every table of the model file with its keys: (the table as the reference writes it, its keys).
@@ -107,4 +118,5 @@ pub const TABLES: &[(&str, &[&str])] = &[
     ("[modes.NAME]", MODE),
     ("[gearbox]", GEARBOX),
     ("[sequence]", SEQUENCE),
+    ("[hybrid]", HYBRID),
 ];

@@ -59,6 +59,7 @@
 //! | `modal.rs` | the types of a model with several inputs and modes ([`ModalModel`]) |
 //! | `gearbox.rs` | `[gearbox]`: gear parameters and the shift schedule |
 //! | `modes.rs` | `[inputs]` and `[modes]`: one single-input tree per mode, built by the ordinary reader |
+//! | `hybrid.rs` | `[hybrid]`: what an energy-management strategy weighs (fuel and battery power, the charge) |
 //!
 //! Imports go one way — each file imports only files listed before it: keys, error, validated, spanned, tree,
 //! names, values, signals, engine, headline, map_csv, maps, raw, expressions, definitions, smooth, undefined, split,
@@ -72,6 +73,7 @@ mod expressions;
 pub(crate) mod finite;
 mod gearbox;
 mod headline;
+mod hybrid;
 pub mod keys;
 mod map_csv;
 mod maps;
@@ -93,10 +95,11 @@ pub use coupling::coupling_name;
 pub use error::{ModelError, ModelErrorKind};
 pub use expressions::{MAX_EXPRESSION_LEN, MAX_EXPRESSION_NESTING};
 pub use gearbox::MAX_GEARS;
+pub use hybrid::MAX_HYBRID_GRID;
 pub use map_csv::{read_map_file, MapData};
 pub use modal::{
-    Gearbox, ModalFacts, ModalInput, ModalModel, Mode, ModeHeader, ModeRole, ModelFile, Schedule,
-    SequenceOptions,
+    Gearbox, HybridSpec, ModalFacts, ModalInput, ModalModel, Mode, ModeHeader, ModeRole, ModelFile,
+    Schedule, SequenceOptions,
 };
 pub use reader::{read_capped as read_model_file, MAX_MODEL_FILE_BYTES};
 pub use signals::{derivative_name, MAX_SIGNAL_DERIVATIVE};

@@ -63,6 +63,9 @@ pub struct ModeHeader {
     pub fixed: Vec<(usize, String)>,
     /// The states the mode couples to the others (`couple`), by state index, with the coupling as written.
     pub coupled: Vec<(usize, String)>,
+    /// The inputs a strategy decides in this mode (`decided`), by input index: each is a signal of the
+    /// mode's model whose value the strategy supplies per sample.
+    pub decided: Vec<usize>,
 }
 
 impl Mode {
@@ -76,6 +79,8 @@ impl Mode {
             free: h.free,
             fixed: h.fixed,
             coupled: h.coupled,
+            decided_at: vec![None; h.decided.len()],
+            decided: h.decided,
             model,
         }
     }
@@ -95,6 +100,7 @@ impl Mode {
             free: self.free,
             fixed: self.fixed,
             coupled: self.coupled,
+            decided: self.decided,
         };
         (header, self.model)
     }
@@ -148,6 +154,10 @@ pub struct Mode {
     /// The mode's model: its `[input]` the free input, the other inputs definitions, and each other input
     /// also an extra output of its name (appended after the file's `[outputs]`).
     pub model: Model,
+    /// The inputs a strategy decides in this mode, by input index (see [`ModeHeader::decided`]).
+    pub decided: Vec<usize>,
+    /// Where each of [`Mode::decided`] is written: 1-based line and column.
+    pub decided_at: Vec<Option<(usize, usize)>>,
 }
 
 /// How the gear is chosen along the run.
@@ -207,6 +217,26 @@ pub struct ModalModel {
     pub modes: Vec<Mode>,
     pub gearbox: Option<Gearbox>,
     pub sequence: SequenceOptions,
+    /// `[hybrid]`: what an energy-management strategy weighs (none without the table).
+    pub hybrid: Option<HybridSpec>,
+}
+
+/// The `[hybrid]` table (docs/hybrids.md): the outputs an energy-management strategy weighs, the charge
+/// state it keeps, the modes in which the engine runs and the search's settings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HybridSpec {
+    /// The `[outputs]` entry that is the fuel's chemical power, W.
+    pub fuel_power: String,
+    /// The `[outputs]` entry that is the battery's chemical power, W (positive when discharging).
+    pub battery_power: String,
+    /// The state that is the battery's charge, a fraction of its capacity.
+    pub soc: String,
+    /// The modes (`[modes.NAME]` names) in which the engine runs.
+    pub engine_on: Vec<String>,
+    /// Energy charged for each engine start, J.
+    pub start_penalty: f64,
+    /// Points of the grid over each decided input's bounds before the refinement.
+    pub grid: usize,
 }
 
 impl ModalModel {

@@ -73,6 +73,11 @@ fn identifiers(text: &str) -> Vec<&str> {
     out
 }
 
+/// An input a mode gives a value: (input index, its key, its value).
+type Fixed<'t> = (usize, &'t Key, &'t Tv);
+/// An input a mode leaves to a strategy: (input index, where it is written).
+type Decided = (usize, Option<usize>);
+
 /// A mode's table as read (its values still trees).
 pub(super) struct RawMode<'t> {
     pub(super) name: String,
@@ -87,6 +92,8 @@ pub(super) struct RawMode<'t> {
     pub(super) output: Option<&'t Entries>,
     /// `couple = { s = "c(x)" }`: the states the mode ties to the others, with their couplings.
     pub(super) couple: Vec<(&'t Key, &'t Tv)>,
+    /// `decided = ["T_m"]`: the inputs a strategy decides, by input index, with where each is written.
+    pub(super) decided: Vec<(usize, Option<usize>)>,
 }
 
 impl Reader<'_> {
@@ -206,7 +213,13 @@ impl Reader<'_> {
                 self.apply_couplings(&mut model, raw)?;
                 let header = header_of(raw, name, gear, &|s| state_index(&model.states, s));
                 if all {
-                    modes.push(Mode::new(header, model));
+                    let mut mode = Mode::new(header, model);
+                    mode.decided_at = raw
+                        .decided
+                        .iter()
+                        .map(|(_, at)| at.map(|o| super::spanned::line_col(self.text, o)))
+                        .collect();
+                    modes.push(mode);
                 } else {
                     headers.push(header);
                     first = Some(model);
@@ -237,6 +250,9 @@ impl Reader<'_> {
         if let Some(g) = &gearbox {
             self.check_gear_parameters(g, &parameters)?;
         }
+        let hybrid = get_key(entries, "hybrid")
+            .map(|(k, v)| self.hybrid(k, v, &raws, built))
+            .transpose()?;
         let model = ModalModel {
             name,
             description,
@@ -246,6 +262,7 @@ impl Reader<'_> {
             gearbox,
             sequence,
             modes,
+            hybrid,
         };
         Ok((model, headers))
     }
@@ -344,7 +361,8 @@ impl Reader<'_> {
             .transpose()?
             .unwrap_or(true);
         let fixed = self.mode_fixed(t, &what, inputs)?;
-        let free = self.mode_free(k, t, &what, inputs, &fixed)?;
+        let decided = self.mode_decided(t, &what, inputs, &fixed)?;
+        let free = self.mode_free(k, t, &what, inputs, (&fixed, &decided))?;
         let sub = |name: &str| -> Result<Option<&'t Entries>, ModelError> {
             get(t, name)
                 .map(|x| self.table(x, &format!("{what}'s `{name}`")))
@@ -369,7 +387,79 @@ impl Reader<'_> {
                 }
                 None => Vec::new(),
             },
+            decided,
         })
+    }
+
+    /// A mode's `decided = ["NAME", …]`: inputs of the model, neither given a value nor named twice, each
+    /// with both bounds (the strategy searches between them).
+    fn mode_decided(
+        &self,
+        t: &Entries,
+        what: &str,
+        inputs: &[ModalInput],
+        fixed: &[(usize, &Key, &Tv)],
+    ) -> Result<Vec<(usize, Option<usize>)>, ModelError> {
+        let Some(v) = get(t, "decided") else {
+            return Ok(Vec::new());
+        };
+        let Kind::Array(items) = &v.kind else {
+            return Err(self.err(
+                tv_at(v),
+                ModelErrorKind::Schema,
+                format!(
+                    "{what}'s `decided` must be an array of input names, e.g. decided = [\"T_m\"]"
+                ),
+            ));
+        };
+        if items.is_empty() {
+            return Err(self.err(
+                tv_at(v),
+                ModelErrorKind::Schema,
+                format!("{what}'s `decided` names no input; leave the key out, or name the inputs a strategy decides"),
+            ));
+        }
+        let mut out: Vec<(usize, Option<usize>)> = Vec::new();
+        for item in items {
+            let name = self.string(item, &format!("{what}'s `decided` entry"))?;
+            let at = tv_at(item);
+            let Some(i) = inputs.iter().position(|x| x.name == name) else {
+                let known: Vec<&str> = inputs.iter().map(|x| x.name.as_str()).collect();
+                return Err(self.err(
+                    at,
+                    ModelErrorKind::UnknownName,
+                    format!(
+                        "{what} decides `{}`, which is not an input; the inputs are: {}",
+                        name.escape_debug(),
+                        known.join(", ")
+                    ),
+                ));
+            };
+            if fixed.iter().any(|(j, _, _)| *j == i) || out.iter().any(|(j, _)| *j == i) {
+                return Err(self.err(
+                    at,
+                    ModelErrorKind::Schema,
+                    format!(
+                        "{what} decides `{}` and also gives it a value or names it twice",
+                        name.escape_debug()
+                    ),
+                ));
+            }
+            if inputs[i].min.is_none() || inputs[i].max.is_none() {
+                return Err(self.err(
+                    at,
+                    ModelErrorKind::Schema,
+                    format!(
+                        "{what} decides `{}`, which has no bounds: a decided input needs `min` and `max` in \
+                         [inputs.{}] (the strategy searches between them)",
+                        name.escape_debug(),
+                        name.escape_debug()
+                    ),
+                ));
+            }
+            out.push((i, at));
+        }
+        Ok(out)
     }
 
     fn mode_fixed<'t>(
@@ -408,10 +498,11 @@ impl Reader<'_> {
         t: &Entries,
         what: &str,
         inputs: &[ModalInput],
-        fixed: &[(usize, &Key, &Tv)],
+        (fixed, decided): (&[Fixed<'_>], &[Decided]),
     ) -> Result<usize, ModelError> {
         let free: Vec<usize> = (0..inputs.len())
             .filter(|i| !fixed.iter().any(|(j, _, _)| j == i))
+            .filter(|i| !decided.iter().any(|(j, _)| j == i))
             .collect();
         let at = get(t, "inputs").and_then(tv_at).or(key_at(k));
         let declared = get(t, "free")
@@ -444,7 +535,7 @@ impl Reader<'_> {
             [] => Err(self.err(
                 at,
                 ModelErrorKind::Schema,
-                format!("{what} has no free input: it gives every input a value; leave exactly one to the inversion"),
+                format!("{what} has no free input: it gives every input a value or decides it; leave exactly one to the inversion"),
             )),
             many => {
                 let names: Vec<&str> = many.iter().map(|&i| inputs[i].name.as_str()).collect();
@@ -596,6 +687,9 @@ impl Reader<'_> {
         for (k, v) in &raw.couple {
             self.insert_coupling(&mut top, &raw.name, k, v)?;
         }
+        for (i, _) in &raw.decided {
+            insert_decided_input(&mut top, &inputs[*i]);
+        }
         Ok(Tv {
             span: None,
             kind: Kind::Table(top),
@@ -746,6 +840,7 @@ fn header_of(
         free: raw.free,
         fixed,
         coupled,
+        decided: raw.decided.iter().map(|(i, _)| *i).collect(),
     }
 }
 
@@ -853,6 +948,38 @@ fn insert_fixed_input(top: &mut [(Key, Tv)], name: &str, k: &Key, v: &Tv) {
             kind: Kind::Str(name.to_string()),
         };
         outs.push((key(name, None), expr));
+    }
+}
+
+/// A decided input as a signal of the mode's model (its value the strategy's, per sample; the derivation
+/// treats it like any exogenous signal), appended after the file's `[signals]` (the run reports its value
+/// in the input's column).
+fn insert_decided_input(top: &mut Vec<(Key, Tv)>, input: &ModalInput) {
+    let s = |x: &str| Tv {
+        span: None,
+        kind: Kind::Str(x.to_string()),
+    };
+    if !top.iter().any(|(k, _)| k.name == "signals") {
+        top.push((
+            key("signals", None),
+            Tv {
+                span: None,
+                kind: Kind::Table(Vec::new()),
+            },
+        ));
+    }
+    let mut entry = vec![(key("doc", None), s("decided by the strategy"))];
+    if let Some(u) = &input.unit {
+        entry.push((key("unit", None), s(u)));
+    }
+    if let Some(sigs) = section_mut(top, "signals") {
+        sigs.push((
+            key(&input.name, None),
+            Tv {
+                span: None,
+                kind: Kind::Table(entry),
+            },
+        ));
     }
 }
 

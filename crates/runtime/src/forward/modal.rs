@@ -159,6 +159,9 @@ fn check_spec(spec: &ModalSpec<'_>) -> Result<(), ForwardError> {
     let Some(first) = spec.modes.first() else {
         return fail("the model has no mode");
     };
+    if let Err(e) = crate::modes::refuse_decided(spec) {
+        return fail(&e.to_string());
+    }
     let info = first.model.info();
     let names = |i: &invsim_model_api::ModelInfo| -> Vec<String> {
         i.signals.iter().map(|s| s.name.clone()).collect()

@@ -79,6 +79,9 @@ pub struct SimulationOptions {
     /// `--lookahead auto`: the run chooses the look-ahead for its cycle and dt ([`crate::lookahead::choose`])
     /// and `lookahead` is not used (default `false`).
     pub lookahead_auto: bool,
+    /// Models with modes and a `[hybrid]` table: the energy-management strategy (`--strategy ecms`;
+    /// docs/hybrids.md); `None`: the mode sequence of docs/reference.md §2.5.
+    pub strategy: Option<crate::modes::EcmsOptions>,
 }
 
 impl Default for SimulationOptions {
@@ -103,6 +106,7 @@ impl Default for SimulationOptions {
             switching: Switching::Reentry,
             transition_time: None,
             lookahead_auto: false,
+            strategy: None,
         }
     }
 }

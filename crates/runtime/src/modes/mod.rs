@@ -15,8 +15,13 @@
 mod bases;
 pub mod blend;
 pub(crate) mod coupling;
+mod ecms;
+mod equivalence;
 mod fine;
 pub mod gears;
+pub mod hybrid;
+mod hybrid_block;
+mod minimise;
 pub mod plant;
 mod record;
 mod rows;
@@ -24,6 +29,7 @@ pub(crate) mod rules;
 mod runner;
 pub(crate) mod sequence;
 mod signals;
+mod strategy;
 mod summary;
 mod verify;
 mod zd_ode;
@@ -32,13 +38,17 @@ use invsim_model_api::InverseModel;
 use thiserror::Error;
 
 pub use gears::{GearBox, GearSource};
+pub use hybrid::simulate_hybrid;
+pub use hybrid_block::HybridBlock;
 pub use plant::{GearSchedule, ModalPlant, ModalPlantBuilder, ModeMeta};
 pub use record::{CouplingReset, Impulse, ModeTime, Transition};
 pub use rows::Rows;
+pub(crate) use runner::refuse_decided;
 pub use runner::{
     simulate_modes, simulate_modes_with_reference, simulate_modes_with_signals,
     ZeroDynamicsReference,
 };
+pub use strategy::{EcmsOptions, HybridConfig, DEFAULT_SOC_TOLERANCE};
 pub use summary::{ModalSummary, ModesBlock};
 
 /// What a mode is for (see `invsim_inversion::ModeRole`).

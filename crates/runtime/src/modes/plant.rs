@@ -49,6 +49,8 @@ pub struct ModalPlant {
     gear_parameters: Vec<String>,
     sequence: SequenceParams,
     n_outputs: usize,
+    /// `[hybrid]`: what an energy-management strategy weighs (none without the table).
+    hybrid: Option<Box<super::HybridConfig>>,
 }
 
 /// Builds a [`ModalPlant`]; [`ModalPlantBuilder::build`] checks it once.
@@ -73,6 +75,7 @@ impl ModalPlant {
                 gear_parameters: Vec::new(),
                 sequence,
                 n_outputs: 0,
+                hybrid: None,
             },
         }
     }
@@ -208,7 +211,29 @@ impl ModalPlant {
             gear_parameters: self.gear_parameters.clone(),
             sequence: self.sequence.clone(),
             n_outputs: self.n_outputs,
+            hybrid: self.hybrid.clone(),
         })
+    }
+
+    /// The model's `[hybrid]` table, if it has one.
+    pub fn hybrid(&self) -> Option<&super::HybridConfig> {
+        self.hybrid.as_deref()
+    }
+
+    /// The modes that leave an input to a strategy (`decided`), with the first such input's name.
+    pub fn decided_inputs(&self) -> Vec<(String, String)> {
+        let names: Vec<&str> = self.inputs.iter().map(|i| i.name.as_str()).collect();
+        self.modes
+            .iter()
+            .filter_map(|(meta, m)| {
+                let s = m
+                    .info()
+                    .signals
+                    .iter()
+                    .find(|s| names.contains(&s.name.as_str()))?;
+                Some((meta.name.clone(), s.name.clone()))
+            })
+            .collect()
     }
 
     /// The runtime's view of the plant with the gear schedule resolved to `gear_source`.
@@ -253,6 +278,12 @@ impl ModalPlantBuilder {
         self
     }
 
+    /// The model's `[hybrid]` table.
+    pub fn hybrid(mut self, config: super::HybridConfig) -> Self {
+        self.plant.hybrid = Some(Box::new(config));
+        self
+    }
+
     /// Add a mode (in the model file's order).
     pub fn mode(mut self, meta: ModeMeta, model: Box<dyn InverseModel>) -> Self {
         self.plant.modes.push((meta, model));
@@ -267,8 +298,8 @@ impl ModalPlantBuilder {
         let Some((meta0, first)) = p.modes.first() else {
             return Err(ModalError::Setup(format!("`{}` has no mode", p.name)));
         };
-        let n_fixed = p.inputs.len().saturating_sub(1);
-        let n_extra = n_fixed + meta0.coupled.len();
+        // The fixed inputs' outputs and the couplings' (a decided input has none: its value is the run's).
+        let n_extra = meta0.fixed_outputs.len() + meta0.coupled.len();
         let total = first.info().outputs.len();
         p.n_outputs = total.checked_sub(n_extra).ok_or_else(|| {
             ModalError::Setup(format!(

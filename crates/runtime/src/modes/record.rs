@@ -61,6 +61,28 @@ pub(super) struct Ctx<'a, 'm> {
     pub(super) r_max: usize,
     pub(super) n: usize,
     pub(super) transition: f64,
+    /// Per mode, the decided inputs (`decided`) as (input index, slot in the mode's signal values `w`).
+    pub(super) decided: Vec<Vec<(usize, usize)>>,
+}
+
+/// Per mode of `spec`, its decided inputs: the signals of its model named like an input, as (input index,
+/// slot of the value in `w`, [S, S_d1, …, S_dr] per signal).
+pub(super) fn decided_slots(spec: &ModalSpec<'_>) -> Vec<Vec<(usize, usize)>> {
+    spec.modes
+        .iter()
+        .map(|m| {
+            let info = m.model.info();
+            let per = info.relative_degree + 1;
+            info.signals
+                .iter()
+                .enumerate()
+                .filter_map(|(j, s)| {
+                    let i = spec.inputs.iter().position(|x| x.name == s.name)?;
+                    Some((i, j * per))
+                })
+                .collect()
+        })
+        .collect()
 }
 
 /// One solved sample of a mode.
@@ -89,6 +111,9 @@ pub(super) struct Record {
     pub(super) transitions: Vec<Transition>,
     pub(super) impulses: Vec<Impulse>,
     pub(super) resets: Vec<CouplingReset>,
+    /// The decided inputs' values at each sample (held over its interval), in the mode's order of
+    /// [`Ctx::decided`]; empty for a run without a strategy.
+    pub(super) decided: Vec<Vec<f64>>,
 }
 
 impl Record {
@@ -117,6 +142,7 @@ impl Record {
             transitions: Vec::new(),
             impulses: Vec::new(),
             resets: Vec::new(),
+            decided: Vec::new(),
         }
     }
 

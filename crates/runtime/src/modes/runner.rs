@@ -385,6 +385,7 @@ pub fn simulate_modes_with_reference(
     if spec.modes.is_empty() {
         return Err(ModalError::Setup("the model has no mode".into()));
     }
+    refuse_decided(spec)?;
     let grid = Grid::new(cycle.time[0], cycle.duration(), opts.dt)?;
     crate::inverse::checks::check_lookahead(opts.lookahead, cycle.duration(), opts.dt)
         .map_err(|e| ModalError::Setup(e.to_string()))?;
@@ -416,6 +417,7 @@ pub fn simulate_modes_with_reference(
         r_max,
         n,
         transition,
+        decided: super::record::decided_slots(spec),
     };
     let rec = run_sequence(&ctx, &grid, opts, zd)?;
     let verify = if opts.verify {
@@ -427,6 +429,19 @@ pub fn simulate_modes_with_reference(
     result.summary.signals = crate::signals::signal_uses(&resolved, "smoothed");
     result.signals = resolved;
     Ok(result)
+}
+
+/// A mode that leaves an input to a strategy (`decided`) runs only with one (`--strategy ecms`).
+pub(crate) fn refuse_decided(spec: &ModalSpec<'_>) -> Result<(), ModalError> {
+    let decided = super::record::decided_slots(spec);
+    if let Some(m) = decided.iter().position(|d| !d.is_empty()) {
+        return Err(ModalError::Setup(format!(
+            "mode `{}` leaves `{}` to a strategy (`decided`): run it with --strategy ecms (`simulate`; \
+             `forward` and `sweep` take no strategy yet)",
+            spec.modes[m].name, spec.inputs[decided[m][0].0].name
+        )));
+    }
+    Ok(())
 }
 
 fn run_sequence(

@@ -40,11 +40,10 @@ pub(super) fn resolve_modal(
 impl Ctx<'_, '_> {
     /// The smoothed signals and their derivatives at t in mode `m`'s layout (empty without signals).
     pub(super) fn w(&self, m: usize, t: f64) -> Vec<f64> {
-        if self.smoother.signals().is_empty() {
-            return Vec::new();
-        }
         let mut w = vec![0.0; self.spec.modes[m].model.info().n_w()];
-        self.smoother.eval_signals(t, &mut w);
+        if !self.smoother.signals().is_empty() {
+            self.smoother.eval_signals(t, &mut w);
+        }
         w
     }
 

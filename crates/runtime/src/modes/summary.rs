@@ -64,6 +64,9 @@ pub struct ModalSummary {
     /// The time-weighted engine speed × torque histogram (models with an `[engine]`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub engine_operating_points: Option<OperatingPoints>,
+    /// The energy management's figures (runs with `--strategy`, docs/hybrids.md).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hybrid: Option<Box<super::HybridBlock>>,
     pub columns: Vec<Column>,
     /// Each signal, where it came from and that the run used it smoothed (models with signals).
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -106,7 +109,7 @@ fn columns(ctx: &Ctx<'_, '_>) -> Vec<(String, Option<String>)> {
         ("gear".into(), None),
     ];
     c.extend((0..=ctx.r_max).map(|k| (format!("yd_{k}"), None)));
-    for sig in &info.signals {
+    for sig in info.signals.iter().filter(|s| !is_input(spec, &s.name)) {
         c.push((sig.name.clone(), sig.unit.clone()));
         c.extend((1..=ctx.r_max).map(|k| (format!("{}_d{k}", sig.name), None)));
     }
@@ -123,6 +126,11 @@ fn columns(ctx: &Ctx<'_, '_>) -> Vec<(String, Option<String>)> {
             .map(|o| (o.name.clone(), o.unit.clone())),
     );
     c
+}
+
+/// Is `name` one of the model's inputs (a decided input, which a mode carries as a signal)?
+fn is_input(spec: &super::ModalSpec<'_>, name: &str) -> bool {
+    spec.inputs.iter().any(|i| i.name == name)
 }
 
 /// The value of every input at a sample of mode m, into `row`.
@@ -226,6 +234,7 @@ fn walk(ctx: &Ctx<'_, '_>, cycle: &Cycle, opts: &ModalOptions, rec: &Record) -> 
             outs.clear();
             outs.resize(n_out, 0.0);
             ctx.w_into(m, rec.t[k], n_w, &mut w);
+            set_decided(ctx, rec, (m, k), &mut w);
             model.outputs(x, &w, u, &mut outs);
         }
         ready = false;
@@ -234,6 +243,11 @@ fn walk(ctx: &Ctx<'_, '_>, cycle: &Cycle, opts: &ModalOptions, rec: &Record) -> 
             op.push(|i| outs[i]);
         }
         input_values(ctx, m, u, &outs, &mut row);
+        if let Some(values) = rec.decided.get(k) {
+            for (&(i, _), &v) in ctx.decided[m].iter().zip(values) {
+                row[i] = v;
+            }
+        }
         for (r, &v) in tally.ranges.iter_mut().zip(&row) {
             *r = [r[0].min(v), r[1].max(v)];
         }
@@ -258,6 +272,7 @@ fn walk(ctx: &Ctx<'_, '_>, cycle: &Cycle, opts: &ModalOptions, rec: &Record) -> 
             end.clear();
             end.resize(n_out, 0.0);
             ctx.w_into(m, rec.t[k + 1], n_w, &mut w);
+            set_decided(ctx, rec, (m, k), &mut w);
             model.outputs(&rec.x_end[k], &w, rec.u_end[k], &mut end);
             let dt = rec.t[k + 1] - rec.t[k];
             for &i in &accumulated {
@@ -273,6 +288,15 @@ fn walk(ctx: &Ctx<'_, '_>, cycle: &Cycle, opts: &ModalOptions, rec: &Record) -> 
         }
     }
     tally
+}
+
+/// The decided inputs' values of sample k (held over its interval) into their slots of `w` (mode m).
+fn set_decided(ctx: &Ctx<'_, '_>, rec: &Record, (m, k): (usize, usize), w: &mut [f64]) {
+    if let Some(values) = rec.decided.get(k) {
+        for (&(_, slot), &v) in ctx.decided[m].iter().zip(values) {
+            w[slot] = v;
+        }
+    }
 }
 
 /// The table's columns (see [`columns`]): t, mode, gear, y_d^(0 … R), the smoothed signals with their
@@ -298,7 +322,13 @@ fn table(ctx: &Ctx<'_, '_>, rec: &Record, tally: &Tally) -> Vec<Vec<f64>> {
 
 /// [S, S_d1, …, S_dR] of every signal at each sample time (none without signals).
 fn signal_rows(ctx: &Ctx<'_, '_>, t: &[f64]) -> Rows {
-    let n = ctx.spec.modes[0].model.info().signals.len() * (ctx.r_max + 1);
+    let info = ctx.spec.modes[0].model.info();
+    let real = info
+        .signals
+        .iter()
+        .filter(|s| !is_input(ctx.spec, &s.name))
+        .count();
+    let n = real * (ctx.r_max + 1);
     let mut rows = Rows::with_capacity(n, if n == 0 { 0 } else { t.len() });
     if n > 0 {
         let mut w = vec![0.0; n];
@@ -414,6 +444,7 @@ pub(super) fn assemble(
             coupling_resets: rec.resets,
         },
         engine_operating_points: tally.operating.map(|op| op.finish(info0, opts.dt)),
+        hybrid: None,
         columns: cols
             .iter()
             .map(|(n, u)| Column {
@@ -622,6 +653,9 @@ impl ModalSummary {
             );
         }
         let yu = unit_suffix(t.output_unit.as_deref());
+        if let Some(h) = &self.hybrid {
+            h.write_text(&mut s);
+        }
         let m = &self.modes;
         let _ = writeln!(s, "time per mode:");
         for mode in m.per_mode.iter().filter(|m| m.time_s > 0.0) {

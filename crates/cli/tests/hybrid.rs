@@ -1,0 +1,235 @@
+//! `invsim simulate --strategy ecms` on hybrids: the closed-form optimum of
+//! `tests/models/hybrid/quadratic.toml` (quadratic fuel and battery powers, no bound active) at every
+//! sample and the closed-form charge-sustaining equivalence factor; `models/hev_p2.toml` on UDDS, HWFET and
+//! WLTC 3b charge-sustaining within the tolerance, with the vehicle's equation of every mode checked by hand at
+//! every sample; the J1711 correction on a line through two runs at a given s.
+
+use crate::common::{invsim, json_file, num, read_csv, stderr, tmp};
+
+/// Runs `simulate` with `args`, returning the summary JSON and the CSV (header, rows).
+fn run(
+    model: &str,
+    cycle: &str,
+    extra: &[&str],
+    tag: &str,
+) -> (serde_json::Value, Vec<String>, Vec<Vec<String>>) {
+    let (csv, json) = (tmp(&format!("{tag}.csv")), tmp(&format!("{tag}.json")));
+    let mut args = vec![
+        "simulate",
+        model,
+        "--cycle",
+        cycle,
+        "--dt",
+        "1",
+        "--strategy",
+        "ecms",
+        "--out",
+        csv.to_str().unwrap(),
+        "--summary-json",
+        json.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    let o = invsim(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (header, rows) = read_csv(&csv);
+    (json_file(&json), header, rows)
+}
+
+fn col(header: &[String], rows: &[Vec<String>], name: &str) -> Vec<f64> {
+    let j = header
+        .iter()
+        .position(|h| h == name)
+        .unwrap_or_else(|| panic!("column {name}"));
+    rows.iter().map(|r| num(&r[j])).collect()
+}
+
+/// The quadratic hybrid: F_m* = (a − s + 2 b F_req)/(2 (b + s c)) with F_req = m y_d' + c0 + c2 y_d² at every
+/// sample, and (c = 0) s* = a + 2 b mean(F_req), the mean by Simpson's rule on the samples and midpoints the
+/// run integrates the charge with — here from the CSV's samples, the trapezoidal mean plus its error bound.
+#[test]
+fn ecms_equals_the_closed_form_split_of_a_quadratic_hybrid() {
+    let model = "tests/models/hybrid/quadratic.toml";
+    let (m, c0, c2, a, b, c) = (1000.0, 150.0, 0.4, 3.0, 1.0e-3, 0.0);
+    for engine in ["interpreted", "auto"] {
+        let (v, header, rows) = run(
+            model,
+            "udds",
+            &["--engine", engine],
+            &format!("quad-{engine}"),
+        );
+        let h = &v["hybrid"];
+        let s = h["equivalence_factor"].as_f64().unwrap();
+        let (y0, y1) = (col(&header, &rows, "yd_0"), col(&header, &rows, "yd_1"));
+        let f_m = col(&header, &rows, "F_m");
+        let f_e = col(&header, &rows, "F_e");
+        let mut f_req = Vec::new();
+        for k in 0..rows.len() {
+            let req = m * y1[k] + c0 + c2 * y0[k] * y0[k];
+            let exact = (a - s + 2.0 * b * req) / (2.0 * (b + s * c));
+            // Within 1e-9 of the forces in play (|F_e| + |F_m|).
+            assert!(
+                (f_m[k] - exact).abs() <= 1e-9 * (1.0 + f_e[k].abs() + exact.abs()),
+                "{engine} t = {k}: F_m {} vs closed form {exact}",
+                f_m[k]
+            );
+            assert!((f_e[k] + f_m[k] - req).abs() <= 1e-9 * (1.0 + req.abs()));
+            f_req.push(req);
+        }
+        // s* = a + 2 b mean(F_req): the trapezoidal mean of the samples is within 1e-4 of the run's
+        // (Simpson) mean for this smooth reference, so s within 2 b · 1e-4 · max|F_req|.
+        let n = f_req.len() - 1;
+        let mean = (0.5 * (f_req[0] + f_req[n]) + f_req[1..n].iter().sum::<f64>()) / n as f64;
+        let s_star = a + 2.0 * b * mean;
+        assert!((s - s_star).abs() < 1e-3, "{engine}: s {s} vs {s_star}");
+        assert_eq!(h["equivalence_source"], "searched");
+        assert!(h["delta_soc"].as_f64().unwrap().abs() <= 1e-4);
+        // With c = 0 ΔSOC is linear in s: the secant lands on the root, to rounding.
+        assert!(
+            h["delta_soc"].as_f64().unwrap().abs() < 1e-12,
+            "{}",
+            h["delta_soc"]
+        );
+    }
+}
+
+/// With s given, the split is the closed form at that s, and the J1711 correction (a line through the run and
+/// one at 1.05 s) differs from the charge-sustaining run's fuel by the closed-form gap of a line through two
+/// points of a parabola.
+#[test]
+fn a_given_equivalence_factor_and_the_j1711_correction() {
+    let model = "tests/models/hybrid/quadratic.toml";
+    let (cs, _, _) = run(model, "hwfet", &[], "quad-cs");
+    let s_cs = cs["hybrid"]["equivalence_factor"].as_f64().unwrap();
+    let s = (s_cs + 0.1).to_string();
+    let (v, header, rows) = run(model, "hwfet", &["--equivalence", &s], "quad-given");
+    let h = &v["hybrid"];
+    let s: f64 = s.parse().unwrap();
+    assert_eq!(h["equivalence_source"], "given");
+    assert_eq!(h["equivalence_factor"].as_f64().unwrap(), s);
+    let f_m = col(&header, &rows, "F_m");
+    let (y0, y1) = (col(&header, &rows, "yd_0"), col(&header, &rows, "yd_1"));
+    for k in 0..rows.len() {
+        let req = 1000.0 * y1[k] + 150.0 + 0.4 * y0[k] * y0[k];
+        let exact = (3.0 - s + 2.0e-3 * req) / 2.0e-3;
+        let scale = 1.0 + (req - exact).abs() + exact.abs();
+        assert!(
+            (f_m[k] - exact).abs() <= 1e-9 * scale,
+            "t = {k}: {} vs {exact}",
+            f_m[k]
+        );
+    }
+    assert!(
+        h["delta_soc"].as_f64().unwrap() > 1e-3,
+        "s above s* charges"
+    );
+    assert!(!h["charge_sustaining"].as_bool().unwrap());
+    // Here F_e = (s − a)/(2b) is constant, fuel = T (a F_e + b F_e²) and ΔSOC = (T/E)(F_e − mean F_req): fuel
+    // is a parabola in ΔSOC, and the line through the runs at s and 1.05 s, read at ΔSOC = 0, lies below it
+    // by b T (F₁ − F*)(F₂ − F*), F* the charge-sustaining engine force.
+    let (a, b) = (3.0, 1.0e-3);
+    let t = v["duration_s"].as_f64().unwrap();
+    let (f1, f2, fs) = (
+        (s - a) / (2.0 * b),
+        (1.05 * s - a) / (2.0 * b),
+        (s_cs - a) / (2.0 * b),
+    );
+    let corrected = h["fuel_energy_corrected_j"].as_f64().unwrap();
+    let sustained = cs["hybrid"]["fuel_energy_j"].as_f64().unwrap();
+    let gap = b * t * (f1 - fs) * (f2 - fs);
+    assert!(
+        (sustained - corrected - gap).abs() <= 1e-6 * sustained,
+        "{corrected} + {gap} vs {sustained}"
+    );
+    // The SOC trace is a column; its ends are the block's.
+    let soc = col(&header, &rows, "soc");
+    assert_eq!(soc[0], h["soc_start"].as_f64().unwrap());
+    assert_eq!(*soc.last().unwrap(), h["soc_end"].as_f64().unwrap());
+}
+
+/// hev_p2 over UDDS, HWFET and WLTC 3b: every run charge-sustaining within its tolerance; at every sample the
+/// chosen mode's vehicle equation (F_w − F_b − F_res)/m_eff = y_d' holds, written out here by hand with the
+/// model's parameters, and every input within its bounds.
+#[test]
+fn hev_p2_is_charge_sustaining_and_every_mode_solves_its_equation() {
+    let (m, cd, af, cr, rho, g0, v_eps) = (1500.0, 0.29, 2.2, 0.009, 1.2, 9.81, 0.1);
+    let (r_w, j_w, i_f, eta_t, j_e, j_m) = (0.31, 2.4, 3.7, 0.95, 0.15, 0.03);
+    let gears = [3.64, 2.09, 1.38, 0.98, 0.76, 0.62];
+    for cycle in ["udds", "hwfet", "wltc3b"] {
+        let (v, header, rows) = run("models/hev_p2.toml", cycle, &[], &format!("hev-{cycle}"));
+        let h = &v["hybrid"];
+        let tol = h["soc_tolerance"].as_f64().unwrap();
+        assert_eq!(tol, 1e-4);
+        assert!(
+            h["delta_soc"].as_f64().unwrap().abs() <= tol,
+            "{cycle}: {}",
+            h["delta_soc"]
+        );
+        assert!(h["charge_sustaining"].as_bool().unwrap());
+        assert!(h["engine_starts"].as_u64().unwrap() > 0);
+        let names: Vec<String> = v["modes"]["per_mode"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|m| m["name"].as_str().unwrap().to_string())
+            .collect();
+        let (mode, gear) = (col(&header, &rows, "mode"), col(&header, &rows, "gear"));
+        let (y0, y1) = (col(&header, &rows, "yd_0"), col(&header, &rows, "yd_1"));
+        let (t_e, t_m, f_b) = (
+            col(&header, &rows, "T_e"),
+            col(&header, &rows, "T_m"),
+            col(&header, &rows, "F_b"),
+        );
+        let speed = col(&header, &rows, "v");
+        for k in 0..rows.len() {
+            let name = &names[mode[k] as usize];
+            let on = if name.starts_with("hybrid") { 1.0 } else { 0.0 };
+            let ig: f64 = if gear[k] >= 1.0 {
+                gears[gear[k] as usize - 1]
+            } else {
+                3.64
+            };
+            assert_eq!(
+                speed[k], y0[k],
+                "{cycle} {name}: the state is the reference"
+            );
+            let (f_w, m_eff) = if name == "stop" {
+                // Standstill: every torque 0, the brake holds.
+                assert_eq!((t_e[k], t_m[k]), (0.0, 0.0));
+                (
+                    0.0,
+                    m + (j_w + eta_t * (ig * i_f).powi(2) * j_m) / (r_w * r_w),
+                )
+            } else {
+                let f_w = eta_t * ig * i_f * (on * t_e[k] + t_m[k]) / r_w;
+                (
+                    f_w,
+                    m + (j_w + eta_t * (ig * i_f).powi(2) * (j_m + on * j_e)) / (r_w * r_w),
+                )
+            };
+            let v_k = y0[k];
+            let f_res = 0.5 * rho * cd * af * v_k * v_k + m * g0 * cr * (v_k / v_eps).tanh();
+            let accel = (f_w - f_b[k] - f_res) / m_eff;
+            assert!(
+                (accel - y1[k]).abs() <= 1e-9 * (1.0 + y1[k].abs()),
+                "{cycle} t = {k} mode {name}: {accel} vs {}",
+                y1[k]
+            );
+            // Within the bounds up to the run's tolerance, 1e-9 of each input's range.
+            assert!(
+                (-1.7e-7..=170.0 + 1.7e-7).contains(&t_e[k]),
+                "{cycle} T_e {}",
+                t_e[k]
+            );
+            assert!(
+                (-200.0 - 4e-7..=200.0 + 4e-7).contains(&t_m[k]),
+                "{cycle} T_m {}",
+                t_m[k]
+            );
+            assert!(f_b[k] >= -1.5e-5, "{cycle} F_b {}", f_b[k]);
+        }
+        assert!(
+            v["input_bound_violations"].as_array().unwrap().is_empty(),
+            "{cycle}"
+        );
+    }
+}

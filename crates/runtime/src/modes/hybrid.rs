@@ -1,0 +1,252 @@
+//! Energy management of a hybrid (docs/hybrids.md): a model with modes whose `[hybrid]` table names the fuel
+//! and battery chemical powers and the charge state, run with a strategy that decides, at every sample, the
+//! mode (engine on or off, braking) and the inputs its modes leave to it (`decided`). The one strategy so far
+//! is ECMS ([`super::ecms`]) with its equivalence factor s given or found by [`super::equivalence`] so that the
+//! run ends charge-sustaining. The run's record is summarised like any run with modes, plus the `hybrid`
+//! block: fuel, fuel corrected to ΔSOC = 0 (SAE J1711), ΔSOC, engine starts, time with the engine on, s.
+
+use super::ecms::{candidates, Ecms, Resolved, Samples};
+use super::equivalence::{correction, fixed, search};
+use super::gears::GearBox;
+use super::hybrid_block::HybridBlock;
+use super::record::{decided_slots, Ctx};
+use super::rows::Rows;
+use super::rules::Rules;
+use super::strategy::{EcmsOptions, HybridConfig};
+use super::{ModalError, ModalOptions, ModalResult, ModalSpec};
+use crate::cycle::Cycle;
+use crate::grid::Grid;
+use crate::smoother::Smoother;
+
+/// `config` against the modes of `spec`.
+fn resolve(spec: &ModalSpec<'_>, config: &HybridConfig) -> Result<Resolved, ModalError> {
+    let info = spec.modes[0].model.info();
+    let output = |name: &str| {
+        info.outputs[..spec.n_outputs]
+            .iter()
+            .position(|o| o.name == name)
+            .ok_or_else(|| {
+                ModalError::Setup(format!("[hybrid] names `{name}`, which is not an output"))
+            })
+    };
+    let soc = info
+        .states
+        .iter()
+        .position(|s| *s == config.soc)
+        .ok_or_else(|| {
+            ModalError::Setup(format!("[hybrid] `soc`: `{}` is not a state", config.soc))
+        })?;
+    Ok(Resolved {
+        fuel: output(&config.fuel_power)?,
+        battery: output(&config.battery_power)?,
+        soc,
+        engine_on: spec
+            .modes
+            .iter()
+            .map(|m| config.engine_on.contains(&m.family))
+            .collect(),
+        start_penalty: config.start_penalty,
+        grid: config.grid,
+    })
+}
+
+/// The run's start state: every internal state at its start value (`initial` in the model file, overridden by
+/// `initial`, `--initial NAME=VALUE`), the others NaN until the first inverse sets them.
+fn start_state(spec: &ModalSpec<'_>, initial: &[(String, f64)]) -> Result<Vec<f64>, ModalError> {
+    let info = spec.modes[0].model.info();
+    let mut x: Vec<f64> = info
+        .state_initial
+        .iter()
+        .map(|v| v.unwrap_or(f64::NAN))
+        .collect();
+    for (name, v) in initial {
+        let i = info.states.iter().position(|s| s == name).ok_or_else(|| {
+            ModalError::Setup(format!(
+                "--initial {name}: not a state (the states are: {})",
+                info.states.join(", ")
+            ))
+        })?;
+        x[i] = *v;
+    }
+    for m in &spec.modes {
+        for &j in &m.model.info().eta_states {
+            if !x[j].is_finite() {
+                return Err(ModalError::Setup(format!(
+                    "state `{}` is internal in mode `{}` and needs a start value for the strategy: \
+                     `initial = …` in the model file or --initial {}=VALUE",
+                    info.states[j], m.name, info.states[j]
+                )));
+            }
+        }
+    }
+    Ok(x)
+}
+
+/// What a hybrid run cannot do (yet): exogenous signals, more than one decided input in a mode.
+fn check_supported(
+    spec: &ModalSpec<'_>,
+    decided: &[Vec<(usize, usize)>],
+) -> Result<(), ModalError> {
+    for (m, d) in spec.modes.iter().zip(decided) {
+        let signals = m.model.info().signals.len();
+        if signals > d.len() {
+            return Err(ModalError::Setup(format!(
+                "--strategy: mode `{}` has exogenous [signals]; a strategy's run takes none yet",
+                m.name
+            )));
+        }
+        if d.len() > 1 {
+            return Err(ModalError::Setup(format!(
+                "--strategy ecms: mode `{}` decides {} inputs; ECMS searches one decided input per mode",
+                m.name,
+                d.len()
+            )));
+        }
+    }
+    if decided.iter().all(Vec::is_empty) {
+        return Err(ModalError::Setup(
+            "--strategy ecms: no mode decides an input (`decided = [\"…\"]` in a [modes.NAME] table)".into(),
+        ));
+    }
+    Ok(())
+}
+
+/// Simulate a hybrid with modes inversely along `cycle` under ECMS (`initial`: start values of internal
+/// states by name).
+pub fn simulate_hybrid(
+    spec: &ModalSpec<'_>,
+    config: Option<&HybridConfig>,
+    cycle: &Cycle,
+    opts: &ModalOptions,
+    (ecms, initial): (&EcmsOptions, &[(String, f64)]),
+) -> Result<ModalResult, ModalError> {
+    let Some(config) = config else {
+        return Err(ModalError::Setup(
+            "--strategy ecms needs the model's [hybrid] table (fuel_power, battery_power, soc)"
+                .into(),
+        ));
+    };
+    if !(ecms.soc_tolerance > 0.0 && ecms.soc_tolerance.is_finite()) {
+        return Err(ModalError::Setup(format!(
+            "--soc-tolerance must be positive, got {}",
+            ecms.soc_tolerance
+        )));
+    }
+    if opts.verify {
+        return Err(ModalError::Setup(
+            "--verify replays the mode sequence's run; a strategy's run is not replayed yet".into(),
+        ));
+    }
+    if let Some(s) = ecms.equivalence.filter(|s| !s.is_finite()) {
+        return Err(ModalError::Setup(format!(
+            "--equivalence must be finite, got {s}"
+        )));
+    }
+    let decided = decided_slots(spec);
+    check_supported(spec, &decided)?;
+    let h = resolve(spec, config)?;
+    let grid = Grid::new(cycle.time[0], cycle.duration(), opts.dt)?;
+    crate::inverse::checks::check_lookahead(opts.lookahead, cycle.duration(), opts.dt)
+        .map_err(|e| ModalError::Setup(e.to_string()))?;
+    let smoother =
+        Smoother::new(cycle, opts.lookahead).map_err(|e| ModalError::Setup(e.to_string()))?;
+    let r_max = spec
+        .modes
+        .iter()
+        .map(|m| m.model.info().relative_degree)
+        .max()
+        .unwrap_or(0);
+    let ctx = Ctx {
+        spec,
+        rules: Rules::new(spec),
+        smoother,
+        r_max,
+        n: spec.modes[0].model.info().n_states(),
+        transition: opts.lookahead,
+        decided,
+    };
+    let x0 = start_state(spec, initial)?;
+    crate::grid::check_record(grid.samples(), 2 * ctx.n + r_max + 8, opts.dt)?;
+    let samples = samples(&ctx, &grid);
+    let run = Ecms {
+        ctx: &ctx,
+        h: &h,
+        samples: &samples,
+        dt: opts.dt,
+    };
+    let (best, runs, other) = match ecms.equivalence {
+        Some(s) => fixed(&run, s, &x0)?,
+        None => search(&run, ecms.soc_tolerance, &x0)?,
+    };
+    let (corrected, slope) = correction(&best, &other);
+    let dsoc = best.delta_soc();
+    let block = HybridBlock {
+        strategy: "ecms".into(),
+        equivalence_factor: best.s,
+        equivalence_source: if ecms.equivalence.is_some() {
+            "given"
+        } else {
+            "searched"
+        }
+        .into(),
+        search_runs: runs,
+        soc_tolerance: ecms.soc_tolerance,
+        soc_start: best.soc.0,
+        soc_end: best.soc.1,
+        delta_soc: dsoc,
+        charge_sustaining: dsoc.abs() <= ecms.soc_tolerance,
+        fuel_energy_j: best.fuel,
+        fuel_energy_corrected_j: corrected,
+        correction_slope_j: slope,
+        battery_energy_j: best.battery,
+        engine_starts: best.starts,
+        engine_on_s: best.engine_on,
+        start_penalty_j: h.start_penalty,
+        grid: h.grid,
+        decided_inputs: {
+            let mut names: Vec<String> = ctx
+                .decided
+                .iter()
+                .flatten()
+                .map(|(i, _)| spec.inputs[*i].name.clone())
+                .collect();
+            names.dedup();
+            names
+        },
+    };
+    let mut result = super::summary::assemble(&ctx, cycle, opts, best.rec, None);
+    result.summary.modes.switching = "strategy".into();
+    result.summary.hybrid = Some(Box::new(block));
+    Ok(result)
+}
+
+/// The reference at every sample and interval midpoint, and each sample's candidate modes.
+fn samples(ctx: &Ctx<'_, '_>, grid: &Grid) -> Samples {
+    let spec = ctx.spec;
+    let ns = grid.samples();
+    let orders = ctx.r_max + 1;
+    let mut base = Rows::with_capacity(orders, ns);
+    let mut mid = Rows::with_capacity(orders, ns);
+    let mut y = vec![0.0; orders];
+    let mut gearbox = GearBox::new(spec.gear_source.clone(), spec.gears);
+    let mut t = Vec::with_capacity(ns);
+    let mut cands = Vec::with_capacity(ns);
+    for k in 0..ns {
+        let tk = grid.time(k);
+        ctx.smoother.eval(tk, &mut y);
+        base.push(&y);
+        let gear = gearbox.gear(tk, y[0]);
+        cands.push(candidates(ctx, gear, y[0]));
+        t.push(tk);
+        if k + 1 < ns {
+            ctx.smoother.eval(0.5 * (tk + grid.time(k + 1)), &mut y);
+            mid.push(&y);
+        }
+    }
+    Samples {
+        t,
+        base,
+        mid,
+        candidates: cands,
+    }
+}

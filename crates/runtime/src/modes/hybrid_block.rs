@@ -1,0 +1,82 @@
+//! The `hybrid` block of a strategy's summary (docs/hybrids.md): the equivalence factor and how it was found,
+//! the charge, the fuel and its J1711 correction, the engine's starts; with its lines of the printed summary.
+
+use serde::Serialize;
+
+/// The `hybrid` block of the summary.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct HybridBlock {
+    /// `ecms`.
+    pub strategy: String,
+    /// The equivalence factor s of the run (W of fuel per W of battery power).
+    pub equivalence_factor: f64,
+    /// `given` (`--equivalence`) or `searched`.
+    pub equivalence_source: String,
+    /// Runs the search took (1 when s was given; the J1711 correction's extra run not counted).
+    pub search_runs: usize,
+    pub soc_tolerance: f64,
+    pub soc_start: f64,
+    pub soc_end: f64,
+    pub delta_soc: f64,
+    pub charge_sustaining: bool,
+    /// ∫ P_fuel dt, J.
+    pub fuel_energy_j: f64,
+    /// The fuel energy at ΔSOC = 0 by SAE J1711's linear correction (the line through this run and a second
+    /// one at another s); `null` where the two runs end at the same ΔSOC.
+    pub fuel_energy_corrected_j: Option<f64>,
+    /// d(fuel energy)/d(ΔSOC) of the correction, J.
+    pub correction_slope_j: Option<f64>,
+    /// ∫ P_batt dt, J (positive: drawn from the battery).
+    pub battery_energy_j: f64,
+    pub engine_starts: usize,
+    pub engine_on_s: f64,
+    /// J per start.
+    pub start_penalty_j: f64,
+    /// Grid points over each decided input's bounds before the refinement.
+    pub grid: usize,
+    /// The decided inputs.
+    pub decided_inputs: Vec<String>,
+}
+
+impl HybridBlock {
+    /// The block's lines of the printed summary.
+    pub fn write_text(&self, s: &mut String) {
+        use std::fmt::Write as _;
+        let corrected = match self.fuel_energy_corrected_j {
+            Some(c) => format!("{:.6e} J", c),
+            None => "none (both runs ended at the same ΔSOC)".into(),
+        };
+        let _ = writeln!(
+            s,
+            "strategy: {}  equivalence factor s = {:.9} ({}, {} run{})",
+            self.strategy,
+            self.equivalence_factor,
+            self.equivalence_source,
+            self.search_runs,
+            if self.search_runs == 1 { "" } else { "s" }
+        );
+        let _ = writeln!(
+            s,
+            "SOC: {:.6} → {:.6}  ΔSOC = {:+.3e} (tolerance {:.1e}: {})",
+            self.soc_start,
+            self.soc_end,
+            self.delta_soc,
+            self.soc_tolerance,
+            if self.charge_sustaining {
+                "charge-sustaining"
+            } else {
+                "not charge-sustaining"
+            }
+        );
+        let _ = writeln!(
+            s,
+            "fuel energy: {:.6e} J  corrected to ΔSOC = 0 (SAE J1711): {corrected}  battery energy: {:.6e} J",
+            self.fuel_energy_j, self.battery_energy_j
+        );
+        let _ = writeln!(
+            s,
+            "engine starts: {}  engine on: {:.1} s",
+            self.engine_starts, self.engine_on_s
+        );
+    }
+}
