@@ -70,6 +70,10 @@ pub struct SimulateArgs {
     /// end) in the CSV, the plot and the summary's integrals.
     #[arg(long)]
     include_extension: bool,
+    /// Differentiate the summary's figures (every integral, its per-100-km figure, the headline's figures)
+    /// exactly with respect to parameters: NAME,NAME,… or `all`; the summary gains a `gradient` block.
+    #[arg(long, value_name = "NAME,…|all", value_delimiter = ',')]
+    gradient: Option<Vec<String>>,
 }
 
 /// `--switching`.
@@ -103,6 +107,7 @@ pub fn run(args: &SimulateArgs, warnings: crate::error::Warnings) -> Result<(), 
     };
     let engine = model.engine_name();
     let plant = model.into_plant();
+    check_gradient(args.gradient.as_deref(), &plant)?;
     let (progress, bar) = crate::progress::start("simulate");
     let mut opts = args
         .lookahead
@@ -120,6 +125,7 @@ pub fn run(args: &SimulateArgs, warnings: crate::error::Warnings) -> Result<(), 
             SwitchingArg::QuasiStatic => Switching::QuasiStatic,
         })
         .transition_time(args.transition_time)
+        .gradient(args.gradient.clone())
         .build()
         .map_err(|e| stopped(&e))?;
     opts.signals = data.signals;
@@ -129,6 +135,9 @@ pub fn run(args: &SimulateArgs, warnings: crate::error::Warnings) -> Result<(), 
     bar.finish();
     let mut result = result.map_err(|e| match e {
         RunFailure::Gears(e) => Failure::user(format!("{}: {e}", args.model.display())),
+        RunFailure::Inverse(invsim_runtime::SimulateError::Gradient(e)) => {
+            Failure::user(format!("--gradient: {e}"))
+        }
         e => stopped(&e),
     })?;
     result.set_provenance(provenance::record(provenance::RunRecord {
@@ -142,4 +151,22 @@ pub fn run(args: &SimulateArgs, warnings: crate::error::Warnings) -> Result<(), 
     })?);
     result.warnings_mut().splice(0..0, data.cycle_warnings);
     crate::engine::write_run((&args.plot, warnings), outputs, (&plant, &cycle), &result)
+}
+
+/// `--gradient` before the run: a model with modes is refused, and every name must be a parameter.
+fn check_gradient(
+    names: Option<&[String]>,
+    plant: &invsim_runtime::plant::Plant,
+) -> Result<(), Failure> {
+    let Some(names) = names else {
+        return Ok(());
+    };
+    if matches!(plant, invsim_runtime::plant::Plant::Modal(_)) {
+        return Err(Failure::user(
+            "--gradient: models with modes are not differentiated yet (only models without [modes])",
+        ));
+    }
+    invsim_runtime::gradient::resolve(plant.info(), names)
+        .map(|_| ())
+        .map_err(|e| Failure::user(format!("--gradient: {e}")))
 }

@@ -79,6 +79,9 @@ pub struct SimulationOptions {
     /// `--lookahead auto`: the run chooses the look-ahead for its cycle and dt ([`crate::lookahead::choose`])
     /// and `lookahead` is not used (default `false`).
     pub lookahead_auto: bool,
+    /// Differentiate the summary's figures with respect to these parameters (`["all"]`: every one) and report
+    /// the derivatives in the summary's `gradient` ([`crate::gradient`]; default `None`: no gradient).
+    pub gradient: Option<Vec<String>>,
 }
 
 impl Default for SimulationOptions {
@@ -103,6 +106,7 @@ impl Default for SimulationOptions {
             switching: Switching::Reentry,
             transition_time: None,
             lookahead_auto: false,
+            gradient: None,
         }
     }
 }
@@ -206,6 +210,12 @@ impl SimulationOptionsBuilder {
     /// The initial internal state η(t_0) (selects causal integration).
     pub fn eta0(mut self, eta0: Option<Vec<f64>>) -> Self {
         self.0.eta0 = eta0;
+        self
+    }
+
+    /// The parameters to differentiate the summary's figures by (`["all"]`: every one).
+    pub fn gradient(mut self, names: Option<Vec<String>>) -> Self {
+        self.0.gradient = names;
         self
     }
 

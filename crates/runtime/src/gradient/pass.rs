@@ -1,0 +1,230 @@
+//! The sensitivity pass of a causal (or r = n) run: the run's grid sample by sample, η integrated with its
+//! sensitivities S = ∂η/∂p by the run's own integrator, and the derivatives of the accumulated outputs'
+//! integrals by the run's own quadrature.
+//!
+//! Sensitivity equations of the zero dynamics η̇ = q(ξ(t), η, y_d^(r)(t); p) (Hairer, Nørsett & Wanner,
+//! *Solving Ordinary Differential Equations I*, §I.14):
+//!
+//! ```text
+//! dS/dt = ∂q/∂η · S + ∂q/∂p,   S(t_0) = 0 for a given η(t_0), −(∂q/∂η)⁻¹ ∂q/∂p at an equilibrium start
+//! ```
+//!
+//! integrated alongside η by the same adaptive Dormand–Prince 5(4) method with only η in the error norm, so
+//! that the steps, and η itself, are the run's (the sensitivities of an explicit Runge–Kutta method's steps
+//! are the method applied to the sensitivity equations: the derivative of the discrete η the run used, for its
+//! step sizes). The integrals ∫ o dt ≈ Σ_k dt·(o_k + o_{k+1})/2 are differentiated term by term:
+//! ∂/∂p Σ = Σ_k dt·(do_k/dp + do_{k+1}/dp)/2, with do/dp = ∂o/∂x·dx/dp + ∂o/∂u·du/dp + ∂o/∂p
+//! ([`super::point`]).
+
+use invsim_model_api::zero_dynamics::{default_starts, equilibrium};
+use invsim_model_api::InverseModel;
+use nalgebra::DMatrix;
+
+use super::point::Point;
+use crate::error::RunError;
+use crate::grid::{Grid, MAX_DERIVATIVES};
+use crate::inverse::{SimulateError, SimulationOptions};
+use crate::ode::Dopri5;
+use crate::smoother::Smoother;
+
+/// What the pass runs along: the smoother, the grid and the reference's columns y_d … y_d^(r) and w on it.
+pub(crate) struct Along<'a> {
+    pub smoother: &'a Smoother,
+    pub grid: &'a Grid,
+    pub yd: &'a [Vec<f64>],
+    pub w: &'a [Vec<f64>],
+}
+
+/// The model, the parameters (indices into [`invsim_model_api::ModelInfo::parameters`]) and the accumulated
+/// outputs (indices into its `outputs`) differentiated.
+pub(crate) struct Wanted<'a, M: ?Sized> {
+    pub model: &'a M,
+    pub params: &'a [usize],
+    pub accumulate: &'a [usize],
+}
+
+/// ∂(∫ o_a dt)/∂p_c for every accumulated output a and wanted parameter c (`[a][c]`), over the whole grid
+/// (a causal run reports every sample). `eta0`: the run's given η(t_0) (`None`: the equilibrium start).
+pub(crate) fn integral_gradients<M: InverseModel + ?Sized>(
+    wanted: &Wanted<'_, M>,
+    along: &Along<'_>,
+    eta0: Option<Vec<f64>>,
+    opts: &SimulationOptions,
+) -> Result<Vec<Vec<f64>>, SimulateError> {
+    let model = wanted.model;
+    let info = model.info();
+    let (n, r, ne, np) = (
+        info.n_states(),
+        info.relative_degree,
+        info.n_eta,
+        wanted.params.len(),
+    );
+    let grid = along.grid;
+    let mut y = if ne > 0 {
+        start(wanted, along, eta0)?
+    } else {
+        Vec::new()
+    };
+    let mut integrator = Dopri5::new(y.len(), opts.rtol, opts.atol, opts.dt);
+    let na = wanted.accumulate.len();
+    let (mut acc, mut prev) = (vec![vec![0.0; np]; na], vec![vec![0.0; np]; na]);
+    let h = 0.5 * grid.dt;
+    let (mut x, mut u_prev) = (vec![0.0; n], f64::NAN);
+    let mut stage = Stage::new(n, info.n_w());
+    let mut buf = Vec::new();
+    let mut yd = [0.0_f64; MAX_DERIVATIVES];
+    let mut w = vec![0.0; info.n_w()];
+    for k in 0..grid.samples() {
+        let t = grid.time(k);
+        if k > 0 && ne > 0 {
+            stage.x.copy_from_slice(&x);
+            let mut q = |s: f64, yv: &[f64], dy: &mut [f64]| {
+                stage.rhs(wanted, along.smoother, (s, yv, u_prev), dy)
+            };
+            integrator.advance(grid.time(k - 1), t, &mut y, &mut q)?;
+        }
+        for (v, c) in yd[..=r].iter_mut().zip(along.yd) {
+            *v = c[k];
+        }
+        for (v, c) in w.iter_mut().zip(along.w) {
+            *v = c[k];
+        }
+        let eta = &y[..ne];
+        let u = model
+            .invert_from(&yd[..r], eta, &w, yd[r], &mut x, u_prev)
+            .map_err(|source| RunError::Model { t, source })?;
+        u_prev = u;
+        let point = Point::new(model, (&x, &w, u), &info.eta_states, buf)
+            .map_err(|source| RunError::Model { t, source })?;
+        for (c, &p) in wanted.params.iter().enumerate() {
+            let dir = point.direction(&y[ne + c * ne..ne + (c + 1) * ne], Some(p));
+            for (a, &o) in wanted.accumulate.iter().enumerate() {
+                let v = point.row_change(point.layout().output(o), &dir, Some(p));
+                if k > 0 {
+                    acc[a][c] += h * (prev[a][c] + v);
+                }
+                prev[a][c] = v;
+            }
+        }
+        buf = point.into_buffer();
+    }
+    Ok(acc)
+}
+
+/// η(t_0) and S(t_0), laid out as the integrated vector [η, S_1, …, S_P] (S_c = ∂η/∂p_c): the given η with
+/// S = 0, or the run's equilibrium q(ξ(t_0), η, y_d^(r)(t_0)) = 0 (the same Newton from the same starts) with
+/// S = −(∂q/∂η)⁻¹ ∂q/∂p there (implicit function theorem).
+fn start<M: InverseModel + ?Sized>(
+    wanted: &Wanted<'_, M>,
+    along: &Along<'_>,
+    eta0: Option<Vec<f64>>,
+) -> Result<Vec<f64>, SimulateError> {
+    let model = wanted.model;
+    let info = model.info();
+    let (r, ne, np) = (info.relative_degree, info.n_eta, wanted.params.len());
+    let t0 = along.grid.t0;
+    let mut yd = [0.0_f64; MAX_DERIVATIVES];
+    along.smoother.eval(t0, &mut yd[..=r]);
+    let mut w = vec![0.0; info.n_w()];
+    along.smoother.eval_signals(t0, &mut w);
+    let (xi, yr) = (&yd[..r], yd[r]);
+    let mut y = vec![0.0; ne * (1 + np)];
+    let Some(eta) = (match eta0 {
+        Some(e) => {
+            y[..ne].copy_from_slice(&e);
+            None
+        }
+        None => Some(
+            equilibrium(model, xi, &w, yr, None, &default_starts(xi[0])).map_err(|f| {
+                SimulateError::ZeroDynamicsEquilibrium {
+                    t: t0,
+                    reason: f.to_string(),
+                }
+            })?,
+        ),
+    }) else {
+        return Ok(y);
+    };
+    y[..ne].copy_from_slice(&eta);
+    let mut x = vec![0.0; info.n_states()];
+    let model_err = |source| SimulateError::from(RunError::Model { t: t0, source });
+    let u = model
+        .invert_from(xi, &eta, &w, yr, &mut x, f64::NAN)
+        .map_err(model_err)?;
+    let point = Point::new(model, (&x, &w, u), &info.eta_states, Vec::new()).map_err(model_err)?;
+    let l = *point.layout();
+    let q_eta = DMatrix::from_fn(ne, ne, |i, j| {
+        let mut e = vec![0.0; ne];
+        e[j] = 1.0;
+        point.row_change(l.eta(i), &point.direction(&e, None), None)
+    });
+    let zero = vec![0.0; ne];
+    let q_p = DMatrix::from_fn(ne, np, |i, c| {
+        let p = wanted.params[c];
+        point.row_change(l.eta(i), &point.direction(&zero, Some(p)), Some(p))
+    });
+    let s = q_eta
+        .lu()
+        .solve(&(-q_p))
+        .unwrap_or_else(|| DMatrix::from_element(ne, np, f64::NAN));
+    for c in 0..np {
+        for j in 0..ne {
+            y[ne + c * ne + j] = s[(j, c)];
+        }
+    }
+    Ok(y)
+}
+
+/// The buffers of one stage evaluation of the sensitivity equations.
+struct Stage {
+    /// The guess for a numerically solved ψ⁻¹: the last grid sample's state.
+    x: Vec<f64>,
+    w: Vec<f64>,
+    buf: Vec<f64>,
+}
+
+impl Stage {
+    fn new(n: usize, nw: usize) -> Stage {
+        Stage {
+            x: vec![0.0; n],
+            w: vec![0.0; nw],
+            buf: Vec::new(),
+        }
+    }
+
+    /// [η̇, Ṡ_1, …, Ṡ_P] at time s: η̇ exactly as the run evaluates it (`zero_dynamics_from` with the last
+    /// sample's input as Newton's start), Ṡ_c = dq/dp_c along S_c (the chain rule of [`super::point`]).
+    fn rhs<M: InverseModel + ?Sized>(
+        &mut self,
+        wanted: &Wanted<'_, M>,
+        smoother: &Smoother,
+        (s, y, u_prev): (f64, &[f64], f64),
+        dy: &mut [f64],
+    ) -> Result<(), SimulateError> {
+        let model = wanted.model;
+        let info = model.info();
+        let (r, ne) = (info.relative_degree, info.n_eta);
+        let mut yd = [0.0_f64; MAX_DERIVATIVES];
+        smoother.eval(s, &mut yd[..=r]);
+        smoother.eval_signals(s, &mut self.w);
+        let (xi, yr, eta) = (&yd[..r], yd[r], &y[..ne]);
+        model.zero_dynamics_from(xi, eta, &self.w, yr, u_prev, &mut dy[..ne]);
+        let model_err = |source| SimulateError::from(RunError::Model { t: s, source });
+        let u = model
+            .invert_from(xi, eta, &self.w, yr, &mut self.x, u_prev)
+            .map_err(model_err)?;
+        let buf = std::mem::take(&mut self.buf);
+        let point =
+            Point::new(model, (&self.x, &self.w, u), &info.eta_states, buf).map_err(model_err)?;
+        let l = *point.layout();
+        for (c, &p) in wanted.params.iter().enumerate() {
+            let range = ne + c * ne..ne + (c + 1) * ne;
+            let dir = point.direction(&y[range.clone()], Some(p));
+            for (j, d) in dy[range].iter_mut().enumerate() {
+                *d = point.row_change(l.eta(j), &dir, Some(p));
+            }
+        }
+        self.buf = point.into_buffer();
+        Ok(())
+    }
+}
