@@ -9,10 +9,13 @@
 //! dS/dt = ∂q/∂η · S + ∂q/∂p,   S(t_0) = 0 for a given η(t_0), −(∂q/∂η)⁻¹ ∂q/∂p at an equilibrium start
 //! ```
 //!
-//! integrated alongside η by the same adaptive Dormand–Prince 5(4) method with only η in the error norm, so
-//! that the steps, and η itself, are the run's (the sensitivities of an explicit Runge–Kutta method's steps
-//! are the method applied to the sensitivity equations: the derivative of the discrete η the run used, for its
-//! step sizes). The integrals ∫ o dt ≈ Σ_k dt·(o_k + o_{k+1})/2 are differentiated term by term:
+//! integrated alongside η by the run's adaptive Dormand–Prince 5(4) method with its tolerances, from the same
+//! start between the same grid samples, with S in the error norm too. (With η alone in the norm the steps
+//! would be the run's and S the exact derivative of the discrete η for those frozen steps; but on stiff zero
+//! dynamics — driveline's shaft — the controller holds the steps at the explicit method's stability limit,
+//! which keeps η bounded only through step rejections, and the frozen-step derivative grows without bound.
+//! So η here equals the run's within the integrator's tolerance, not bit for bit, and S is the derivative of
+//! the exact η within the same tolerance.) The integrals ∫ o dt ≈ Σ_k dt·(o_k + o_{k+1})/2 are differentiated term by term:
 //! ∂/∂p Σ = Σ_k dt·(do_k/dp + do_{k+1}/dp)/2, with do/dp = ∂o/∂x·dx/dp + ∂o/∂u·du/dp + ∂o/∂p
 //! ([`super::point`]).
 
