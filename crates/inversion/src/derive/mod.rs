@@ -418,7 +418,13 @@ impl Derivation {
         warnings.extend(singular_warnings(&singular, affine, &model.input.name));
         let domain = domain_conditions(pool, domain, &params);
 
-        let mut d = Derivation {
+        let sensitivity = sensitivity::sensitivity(
+            &mut model,
+            &psi[..r],
+            (alpha_x, beta_x, yr_affine),
+            &eta_states,
+        );
+        Ok(Derivation {
             model,
             relative_degree: r,
             lie,
@@ -447,10 +453,8 @@ impl Derivation {
             singular,
             domain,
             warnings,
-            sensitivity: Vec::new(),
-        };
-        d.sensitivity = sensitivity::sensitivity(&mut d);
-        Ok(d)
+            sensitivity,
+        })
     }
 
     pub fn pool(&self) -> &Pool {

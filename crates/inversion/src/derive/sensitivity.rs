@@ -7,30 +7,32 @@
 //! and Newton's input alike. Every parameter is a symbol of the expressions (definitions are substituted
 //! when the model is read); a map's grid values are data, not parameters, and have no column.
 
-use super::Derivation;
+use crate::model::Model;
 use invsim_expr::{Id, Symbol};
 
-/// The expressions, row-major: rows ψ_1 … ψ_r, φ, F_η1 … F_η(n−r), o_1 … o_m; columns x_1 … x_n, u,
-/// p_1 … p_P.
-pub(super) fn sensitivity(d: &mut Derivation) -> Vec<Id> {
-    let m = &d.model;
-    let u = m.input.symbol;
-    let mut columns: Vec<Symbol> = m.state_symbols();
+/// The expressions, row-major: rows ψ_1 … ψ_r (`psi_xi`), φ, F_η1 … F_η(n−r), o_1 … o_m; columns x_1 … x_n,
+/// u, p_1 … p_P. φ = α_x + β_x·u where y^(r) is affine in u (`yr_affine`), else α_x (= φ(x, w, u)).
+pub(super) fn sensitivity(
+    model: &mut Model,
+    psi_xi: &[Id],
+    (alpha_x, beta_x, yr_affine): (Id, Id, bool),
+    eta_states: &[usize],
+) -> Vec<Id> {
+    let u = model.input.symbol;
+    let mut columns: Vec<Symbol> = model.state_symbols();
     columns.push(u);
-    columns.extend(m.parameters.iter().map(|p| p.symbol));
-    let mut rows: Vec<Id> = d.psi[..d.relative_degree].to_vec();
-    rows.push(if d.yr_affine {
-        let bu = {
-            let uv = d.model.pool.var(u);
-            d.model.pool.mul2(d.beta_x, uv)
-        };
-        d.model.pool.add2(d.alpha_x, bu)
+    columns.extend(model.parameters.iter().map(|p| p.symbol));
+    let mut rows: Vec<Id> = psi_xi.to_vec();
+    rows.push(if yr_affine {
+        let uv = model.pool.var(u);
+        let bu = model.pool.mul2(beta_x, uv);
+        model.pool.add2(alpha_x, bu)
     } else {
-        d.alpha_x
+        alpha_x
     });
-    rows.extend(d.eta_states.iter().map(|&s| d.model.states[s].rhs));
-    rows.extend(d.model.outputs.iter().map(|o| o.expr));
-    let pool = &mut d.model.pool;
+    rows.extend(eta_states.iter().map(|&s| model.states[s].rhs));
+    rows.extend(model.outputs.iter().map(|o| o.expr));
+    let pool = &mut model.pool;
     let mut out = Vec::with_capacity(rows.len() * columns.len());
     for &row in &rows {
         for &c in &columns {

@@ -9,6 +9,7 @@
 //! quadrature and formulas ([`figures`]). Only runs of models without modes whose internal dynamics are
 //! integrated causally (or absent) are differentiated; [`GradientError`] says why another is not.
 
+pub mod error;
 mod figures;
 mod pass;
 mod point;
@@ -17,27 +18,13 @@ use std::fmt::Write as _;
 
 use invsim_model_api::{InverseModel, ModelInfo};
 use serde::Serialize;
-use thiserror::Error;
 
+pub use error::GradientError;
 pub use figures::Figures;
 pub(crate) use figures::{figures, Integrals};
 pub(crate) use pass::{integral_gradients, Along, Wanted};
 
 use crate::report::fmt_sig;
-
-/// Why a run's gradient cannot be computed.
-#[derive(Debug, Clone, PartialEq, Error)]
-pub enum GradientError {
-    #[error(
-        "the zero dynamics are inverted non-causally (stable inversion with pre- and post-actuation): \
-         runs on that path are not differentiated yet (only causal runs and runs with r = n are)"
-    )]
-    NonCausal,
-    #[error("unknown parameter `{name}` (the model declares: {known})")]
-    UnknownParameter { name: String, known: String },
-    #[error("parameter `{name}` is named twice")]
-    Duplicate { name: String },
-}
 
 /// The parameters to differentiate by: `all` of them, or those named (in the model's order, each once).
 pub fn resolve(info: &ModelInfo, names: &[String]) -> Result<Vec<usize>, GradientError> {

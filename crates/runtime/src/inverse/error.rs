@@ -106,7 +106,7 @@ pub enum SimulateError {
     Stable(#[from] StableError),
     /// The parameter gradient asked for cannot be computed.
     #[error("parameter gradients: {0}")]
-    Gradient(#[from] crate::gradient::GradientError),
+    Gradient(#[from] crate::gradient::error::GradientError),
 }
 
 impl From<crate::ode::StepFailure> for SimulateError {
