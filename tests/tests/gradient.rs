@@ -302,14 +302,16 @@ fn linear_fuel_gradient_is_the_closed_form() {
 fn non_causal_runs_and_unknown_parameters_are_refused() {
     let cycle = Cycle::builtin("nedc").expect("built in");
     let m = compiled("diesel_gasflow");
-    let e = simulate(m.as_ref(), &cycle, &opts(true))
-        .err()
-        .expect("refused");
+    let Err(e) = simulate(m.as_ref(), &cycle, &opts(true)) else {
+        panic!("diesel_gasflow's gradient is refused");
+    };
     assert!(e.to_string().contains("non-causally"), "{e}");
     let m = compiled("si_engine");
     let mut o = opts(false);
     o.gradient = Some(vec!["m".to_string(), "no_such".to_string()]);
-    let e = simulate(m.as_ref(), &cycle, &o).err().expect("refused");
+    let Err(e) = simulate(m.as_ref(), &cycle, &o) else {
+        panic!("an unknown parameter is refused");
+    };
     assert!(e.to_string().contains("unknown parameter `no_such`"), "{e}");
 }
 
