@@ -15,9 +15,10 @@
 //! dynamics — driveline's shaft — the controller holds the steps at the explicit method's stability limit,
 //! which keeps η bounded only through step rejections, and the frozen-step derivative grows without bound.
 //! So η here equals the run's within the integrator's tolerance, not bit for bit, and S is the derivative of
-//! the exact η within the same tolerance.) The integrals ∫ o dt ≈ Σ_k dt·(o_k + o_{k+1})/2 are differentiated term by term:
-//! ∂/∂p Σ = Σ_k dt·(do_k/dp + do_{k+1}/dp)/2, with do/dp = ∂o/∂x·dx/dp + ∂o/∂u·du/dp + ∂o/∂p
-//! ([`super::point`]).
+//! the exact η within the same tolerance.) The integrals ∫ o dt ≈ Σ_k dt·(o_k + o_{k+1})/2 are differentiated
+//! term by term: ∂/∂p Σ = Σ_k dt·(do_k/dp + do_{k+1}/dp)/2, with do/dp = ∂o/∂x·dx/dp + ∂o/∂u·du/dp + ∂o/∂p
+//! ([`super::point`]). The reference is evaluated block by block on the grid, as the run evaluates it, so that
+//! the pass stores no column of the whole run.
 
 use invsim_model_api::zero_dynamics::{default_starts, equilibrium};
 use invsim_model_api::InverseModel;
@@ -30,12 +31,14 @@ use crate::inverse::{SimulateError, SimulationOptions};
 use crate::ode::Dopri5;
 use crate::smoother::Smoother;
 
-/// What the pass runs along: the smoother, the grid and the reference's columns y_d … y_d^(r) and w on it.
+/// Samples per block of the reference's columns (the run's block size: the same numbers, bounded memory).
+const BLOCK: usize = 4096;
+
+/// What the pass runs along: the smoother and the grid (y_d … y_d^(r) and w evaluated on it block by block,
+/// as the run evaluates them).
 pub(crate) struct Along<'a> {
     pub smoother: &'a Smoother,
     pub grid: &'a Grid,
-    pub yd: &'a [Vec<f64>],
-    pub w: &'a [Vec<f64>],
 }
 
 /// The model, the parameters (indices into [`invsim_model_api::ModelInfo::parameters`]) and the accumulated
@@ -54,64 +57,130 @@ pub(crate) fn integral_gradients<M: InverseModel + ?Sized>(
     eta0: Option<Vec<f64>>,
     opts: &SimulationOptions,
 ) -> Result<Vec<Vec<f64>>, SimulateError> {
-    let model = wanted.model;
-    let info = model.info();
-    let (n, r, ne, np) = (
-        info.n_states(),
-        info.relative_degree,
-        info.n_eta,
-        wanted.params.len(),
-    );
+    let info = wanted.model.info();
+    let (r, nw) = (info.relative_degree, info.n_w());
     let grid = along.grid;
-    let mut y = if ne > 0 {
+    let samples = grid.samples();
+    let y = if info.n_eta > 0 {
         start(wanted, along, eta0)?
     } else {
         Vec::new()
     };
-    let mut integrator = Dopri5::new(y.len(), opts.rtol, opts.atol, opts.dt);
-    let na = wanted.accumulate.len();
-    let (mut acc, mut prev) = (vec![vec![0.0; np]; na], vec![vec![0.0; np]; na]);
-    let h = 0.5 * grid.dt;
-    let (mut x, mut u_prev) = (vec![0.0; n], f64::NAN);
-    let mut stage = Stage::new(n, info.n_w());
-    let mut buf = Vec::new();
-    let mut yd = [0.0_f64; MAX_DERIVATIVES];
-    let mut w = vec![0.0; info.n_w()];
-    for k in 0..grid.samples() {
+    let mut sweep = Sweep::new(wanted, y, opts);
+    let width = BLOCK.min(samples);
+    let mut time = vec![0.0; width];
+    let (mut yd, mut w) = (vec![vec![0.0; width]; r + 1], vec![vec![0.0; width]; nw]);
+    let mut k0 = 0;
+    while k0 < samples {
+        let len = (k0 + BLOCK).min(samples) - k0;
+        for (i, t) in time[..len].iter_mut().enumerate() {
+            *t = grid.time(k0 + i);
+        }
+        let mut cols: Vec<&mut [f64]> = yd.iter_mut().map(|c| &mut c[..len]).collect();
+        along
+            .smoother
+            .eval_grid(&time[..len], Some(grid.dt), &mut cols);
+        let mut cols: Vec<&mut [f64]> = w.iter_mut().map(|c| &mut c[..len]).collect();
+        along
+            .smoother
+            .eval_signals_grid(&time[..len], Some(grid.dt), &mut cols);
+        for i in 0..len {
+            sweep.sample(wanted, along, (k0 + i, &yd, &w, i))?;
+        }
+        k0 += len;
+    }
+    Ok(sweep.acc)
+}
+
+/// The pass's state from sample to sample: [η, S_1, …, S_P] and their integrator, the last sample's state and
+/// input (the guesses the run uses), the integrals' derivatives and the last sample's output derivatives.
+struct Sweep {
+    y: Vec<f64>,
+    integrator: Dopri5,
+    x: Vec<f64>,
+    u_prev: f64,
+    stage: Stage,
+    buf: Vec<f64>,
+    acc: Vec<Vec<f64>>,
+    prev: Vec<Vec<f64>>,
+}
+
+impl Sweep {
+    fn new<M: InverseModel + ?Sized>(
+        wanted: &Wanted<'_, M>,
+        y: Vec<f64>,
+        opts: &SimulationOptions,
+    ) -> Sweep {
+        let info = wanted.model.info();
+        let (na, np) = (wanted.accumulate.len(), wanted.params.len());
+        Sweep {
+            integrator: Dopri5::new(y.len(), opts.rtol, opts.atol, opts.dt),
+            y,
+            x: vec![0.0; info.n_states()],
+            u_prev: f64::NAN,
+            stage: Stage::new(info.n_states(), info.n_w()),
+            buf: Vec::new(),
+            acc: vec![vec![0.0; np]; na],
+            prev: vec![vec![0.0; np]; na],
+        }
+    }
+
+    /// Grid sample k (column index i of the block's `yd` and `w`): η and S integrated from sample k − 1, the
+    /// inverse, the outputs' derivatives, and the trapezoidal rule's term dt·(do_(k−1) + do_k)/2.
+    fn sample<M: InverseModel + ?Sized>(
+        &mut self,
+        wanted: &Wanted<'_, M>,
+        along: &Along<'_>,
+        (k, yd, w, i): (usize, &[Vec<f64>], &[Vec<f64>], usize),
+    ) -> Result<(), SimulateError> {
+        let model = wanted.model;
+        let info = model.info();
+        let (r, ne) = (info.relative_degree, info.n_eta);
+        let grid = along.grid;
         let t = grid.time(k);
         if k > 0 && ne > 0 {
-            stage.x.copy_from_slice(&x);
+            self.stage.x.copy_from_slice(&self.x);
+            let (stage, u_prev) = (&mut self.stage, self.u_prev);
             let mut q = |s: f64, yv: &[f64], dy: &mut [f64]| {
                 stage.rhs(wanted, along.smoother, (s, yv, u_prev), dy)
             };
-            integrator.advance(grid.time(k - 1), t, &mut y, &mut q)?;
+            self.integrator
+                .advance(grid.time(k - 1), t, &mut self.y, &mut q)?;
         }
-        for (v, c) in yd[..=r].iter_mut().zip(along.yd) {
-            *v = c[k];
+        let mut ydk = [0.0_f64; MAX_DERIVATIVES];
+        for (v, c) in ydk[..=r].iter_mut().zip(yd) {
+            *v = c[i];
         }
-        for (v, c) in w.iter_mut().zip(along.w) {
-            *v = c[k];
-        }
-        let eta = &y[..ne];
+        let wk: Vec<f64> = w.iter().map(|c| c[i]).collect();
+        let model_err = |source| SimulateError::from(RunError::Model { t, source });
         let u = model
-            .invert_from(&yd[..r], eta, &w, yd[r], &mut x, u_prev)
-            .map_err(|source| RunError::Model { t, source })?;
-        u_prev = u;
-        let point = Point::new(model, (&x, &w, u), &info.eta_states, buf)
-            .map_err(|source| RunError::Model { t, source })?;
+            .invert_from(
+                &ydk[..r],
+                &self.y[..ne],
+                &wk,
+                ydk[r],
+                &mut self.x,
+                self.u_prev,
+            )
+            .map_err(model_err)?;
+        self.u_prev = u;
+        let buf = std::mem::take(&mut self.buf);
+        let point =
+            Point::new(model, (&self.x, &wk, u), &info.eta_states, buf).map_err(model_err)?;
+        let h = 0.5 * grid.dt;
         for (c, &p) in wanted.params.iter().enumerate() {
-            let dir = point.direction(&y[ne + c * ne..ne + (c + 1) * ne], Some(p));
+            let dir = point.direction(&self.y[ne + c * ne..ne + (c + 1) * ne], Some(p));
             for (a, &o) in wanted.accumulate.iter().enumerate() {
                 let v = point.row_change(point.layout().output(o), &dir, Some(p));
                 if k > 0 {
-                    acc[a][c] += h * (prev[a][c] + v);
+                    self.acc[a][c] += h * (self.prev[a][c] + v);
                 }
-                prev[a][c] = v;
+                self.prev[a][c] = v;
             }
         }
-        buf = point.into_buffer();
+        self.buf = point.into_buffer();
+        Ok(())
     }
-    Ok(acc)
 }
 
 /// η(t_0) and S(t_0), laid out as the integrated vector [η, S_1, …, S_P] (S_c = ∂η/∂p_c): the given η with

@@ -668,7 +668,7 @@ pub(super) fn run<M: InverseModel + ?Sized>(
 }
 
 /// The gradient of the finished causal run (`tally`: its integrals) with respect to the parameters `params`,
-/// along the reference's columns on the run's grid ([`crate::gradient`]).
+/// along the reference on the run's grid ([`crate::gradient`]).
 fn run_gradient<M: InverseModel + ?Sized>(
     model: &M,
     (smoother, grid): (&Smoother, &Grid),
@@ -676,15 +676,7 @@ fn run_gradient<M: InverseModel + ?Sized>(
     (tally, distance_m, eta0): (&Tally<'_>, f64, Option<Vec<f64>>),
     opts: &SimulationOptions,
 ) -> Result<crate::gradient::Gradient, SimulateError> {
-    let info = model.info();
-    let yd = reference_columns(smoother, grid, info.relative_degree);
-    let w = signal_columns(smoother, grid, info.n_w());
-    let along = crate::gradient::Along {
-        smoother,
-        grid,
-        yd: &yd,
-        w: &w,
-    };
+    let along = crate::gradient::Along { smoother, grid };
     let figures = crate::gradient::RunFigures {
         accumulate: &tally.accumulate,
         integrals: &tally.integrals,
