@@ -133,3 +133,107 @@ fn electric(kwh: f64, dkwh: f64, distance_m: f64) -> Vec<(&'static str, f64)> {
     }
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::headline::{Headline, HeadlineFigures};
+    use invsim_model_api::{FuelInfo, HeadlineInfo, OutputInfo};
+
+    /// A model with one accumulated output `q` (per distance), the headline `carrier`, and the parameters
+    /// `k` (which scales the integral in the tests) and `rho_f` (the fuel's density where it is a parameter).
+    fn model(carrier: Carrier) -> ModelInfo {
+        ModelInfo {
+            outputs: vec![OutputInfo {
+                name: "q".into(),
+                unit: None,
+                accumulate: true,
+                per_distance: true,
+            }],
+            parameters: vec!["k".into(), "rho_f".into()],
+            headline: Some(HeadlineInfo { output: 0, carrier }),
+            ..ModelInfo::default()
+        }
+    }
+
+    /// The headline's figures by their gradient names.
+    fn named(h: &Headline) -> BTreeMap<String, f64> {
+        let v: Vec<(&str, Option<f64>)> = match &h.figures {
+            HeadlineFigures::Fuel(f) => vec![
+                ("litres", Some(f.litres)),
+                ("kg", Some(f.kg)),
+                ("co2_kg", Some(f.co2_kg)),
+                ("l_per_100km", f.l_per_100km),
+                ("mpg_us", f.mpg_us),
+                ("mpg_uk", f.mpg_uk),
+                ("co2_g_per_km", f.co2_g_per_km),
+            ],
+            HeadlineFigures::Electricity(e) => vec![
+                ("kwh", Some(e.kwh)),
+                ("kwh_per_100km", e.kwh_per_100km),
+                ("wh_per_km", e.wh_per_km),
+                ("wh_per_mi", e.wh_per_mi),
+                ("mpgge", e.mpgge),
+            ],
+        };
+        v.into_iter()
+            .filter_map(|(n, x)| x.map(|x| (format!("headline.{n}"), x)))
+            .collect()
+    }
+
+    /// With the integral I = k·I₀ (so dI/dk = I₀) and the density ρ = rho_f, every headline figure's derivative
+    /// in k and in rho_f equals the central difference of `Headline::of` (the summary's own formulas) within
+    /// 1e-7 relative (the figures are at most reciprocal in I and ρ: the step 1e-4 relative leaves a truncation
+    /// error ~1e-8).
+    #[test]
+    fn headline_derivatives_are_those_of_the_summary_s_formulas() {
+        let fuel = |flow| {
+            Carrier::Fuel(FuelInfo {
+                name: "petrol".into(),
+                flow,
+                density: Density::Parameter(1),
+                carbon_fraction: 0.866,
+            })
+        };
+        let carriers = [
+            fuel(FuelFlow::Litres(1.0)),
+            fuel(FuelFlow::Kilograms(1.0)),
+            Carrier::Electricity { kwh_per_unit: 2.0 },
+        ];
+        let (i0, distance) = (0.6, 11_013.0);
+        for carrier in carriers {
+            let info = model(carrier);
+            let at = |k: f64, rho: f64| {
+                let integrals = BTreeMap::from([("q".to_string(), k * i0)]);
+                named(&Headline::of(&info, &[k, rho], &integrals, distance).expect("a headline"))
+            };
+            let (k, rho) = (1.0, 745.0);
+            let integrals = Integrals {
+                accumulate: &[0],
+                values: &[k * i0],
+                derivatives: &[vec![i0, 0.0]],
+            };
+            let g = figures(&info, (&[0, 1], &[k, rho]), &integrals, distance);
+            for (c, name, h) in [(0, "k", 1e-4 * k), (1, "rho_f", 1e-4 * rho)] {
+                let (plus, minus) = if c == 0 {
+                    (at(k + h, rho), at(k - h, rho))
+                } else {
+                    (at(k, rho + h), at(k, rho - h))
+                };
+                for (figure, p) in &plus {
+                    let fd = (p - minus[figure]) / (2.0 * h);
+                    let exact = g[figure][name];
+                    let tol = 1e-7 * fd.abs().max(1e-9 * plus[figure].abs());
+                    assert!(
+                        (exact - fd).abs() <= tol,
+                        "d{figure}/d{name}: {exact:e} vs {fd:e}"
+                    );
+                }
+                assert_eq!(
+                    g.keys().filter(|f| f.starts_with("headline.")).count(),
+                    plus.len()
+                );
+            }
+        }
+    }
+}
