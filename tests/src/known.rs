@@ -75,6 +75,14 @@ pub const CASES: &[Case] = &[
         solution: first_order,
     },
     Case {
+        file: "linear_fuel.toml",
+        name: "linear_fuel",
+        inversion: "none",
+        tol_inverse: 1e-12,
+        tol_replay: 1e-9,
+        solution: linear_fuel,
+    },
+    Case {
         file: "chain3.toml",
         name: "chain3",
         inversion: "none",
@@ -112,6 +120,15 @@ pub const CASES: &[Case] = &[
 
 /// x' = −a x + b u, y = x: x = y_d, u = (y_d' + a y_d)/b.
 fn first_order<'a>(p: &Params, yd: Yd<'a>, _span: (f64, f64)) -> Solution<'a> {
+    let (a, b) = (p.get("a"), p.get("b"));
+    Box::new(move |t| Exact {
+        states: vec![yd(0, t)],
+        input: (yd(1, t) + a * yd(0, t)) / b,
+    })
+}
+
+/// v' = −a v + b u, y = v (fuel = c u + d): v = y_d, u = (y_d' + a y_d)/b.
+fn linear_fuel<'a>(p: &Params, yd: Yd<'a>, _span: (f64, f64)) -> Solution<'a> {
     let (a, b) = (p.get("a"), p.get("b"));
     Box::new(move |t| Exact {
         states: vec![yd(0, t)],

@@ -1,10 +1,11 @@
 //! Generated code, compiled, agrees with the interpreter tape: every `InverseModel` method of every loadable
 //! model (`models/` via `invsim-models`, `../shared/models` and `tests/models` via this crate's build script)
 //! at 1 000 random points, within 1e-12 relative — the per-point methods, and the batch methods
-//! (`invert_batch`, `outputs_batch`) on the same points as columns, whole and in a block of odd length.
+//! (`invert_batch`, `outputs_batch`) on the same points as columns, whole and in a block of odd length; the
+//! sensitivities' partial derivatives as terms of each row's differential (`sensitivity_disagreements`).
 
 use invsim_inversion::Interpreter;
-use invsim_model_api::{InverseModel, ModelError};
+use invsim_model_api::{InverseModel, ModelError, SensitivityLayout};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use std::collections::BTreeMap;
@@ -12,6 +13,10 @@ use std::path::{Path, PathBuf};
 
 const POINTS: usize = 1000;
 const REL: f64 = 1e-12;
+/// The sensitivities' bound relative to their rows' scale (`sensitivity_disagreements`): a derivative that is
+/// exactly 0 is a sum of terms that cancel, each engine leaving a few ulps of them (1.1e-12 of the row's value
+/// in the Fusion's idle mode), and the row's value can be smaller than those terms.
+const SENS_REL: f64 = 4e-12;
 
 /// Sampling box of one model: ranges for the states, the input, ξ, η and y^(r).
 struct Box_ {
@@ -234,6 +239,70 @@ fn batch(
     (inverse.map_err(|(k, _)| k), out)
 }
 
+/// The magnitude of each column of the sensitivities' layout: the sampling box's largest |x_j| and |u|, each
+/// parameter's |value| (1 where 0).
+fn variable_scales(b: &Box_, params: &[f64]) -> Vec<f64> {
+    let big = |(lo, hi): (f64, f64)| f64::max(lo.abs(), hi.abs()).max(f64::MIN_POSITIVE);
+    let mut s: Vec<f64> = b.x.iter().map(|&r| big(r)).collect();
+    s.push(big(b.u));
+    s.extend(params.iter().map(|p| if *p == 0.0 { 1.0 } else { p.abs() }));
+    s
+}
+
+/// The value of each row's function of the sensitivities' layout at (x, u): ψ_1 … ψ_r, y^(r) (the box's
+/// largest |y^(r)|: φ is not a method of its own), the internal states' right-hand sides, the outputs.
+fn row_values(m: &dyn InverseModel, (x, u): (&[f64], f64), yr: (f64, f64)) -> Vec<f64> {
+    let info = m.info();
+    let w = info.nominal_w();
+    let (mut xi, mut eta) = (vec![0.0; info.relative_degree], vec![0.0; info.n_eta]);
+    m.psi(x, &w, &mut xi, &mut eta);
+    let mut dx = vec![0.0; info.n_states()];
+    m.rhs(x, &w, u, &mut dx);
+    let mut out = vec![0.0; info.outputs.len()];
+    m.outputs(x, &w, u, &mut out);
+    let mut v = xi;
+    v.push(yr.0.abs().max(yr.1.abs()));
+    v.extend(info.eta_states.iter().map(|&s| dx[s]));
+    v.extend(out);
+    v.iter().map(|f| f.abs()).collect()
+}
+
+/// The sensitivities' entries (interpreter `a`, compiled `g`) that disagree. An entry ∂f/∂z is compared as the
+/// term ∂f/∂z·|z| of the row's differential df = Σ ∂f/∂z dz (z at its scale), against the row's largest such
+/// term T and the row's value |f|: |Δ|·|z| ≤ 4e-12·max(|∂f/∂z|·|z|, T, |f|) ([`SENS_REL`]). A partial derivative is a sum of
+/// products whose terms cancel (the product rule), so each engine's rounding is of order ε·T or ε·|f|, not
+/// ε·|∂f/∂z| (a derivative that is exactly 0 comes out 1e-24 in one engine and 0 in the other); both NaN
+/// agree.
+fn sensitivity_disagreements(
+    l: &SensitivityLayout,
+    (scales, values): (&[f64], &[f64]),
+    (a, g): (&[f64], &[f64]),
+) -> Vec<String> {
+    let mut bad = Vec::new();
+    for row in 0..l.rows() {
+        let term = |v: &[f64], c: usize| v[l.at(row, c)].abs() * scales[c];
+        let t = (0..l.width())
+            .map(|c| term(a, c))
+            .filter(|v| v.is_finite())
+            .fold(values[row], f64::max);
+        for c in 0..l.width() {
+            let (x, y) = (a[l.at(row, c)], g[l.at(row, c)]);
+            if (x.is_nan() && y.is_nan()) || x == y {
+                continue;
+            }
+            let diff = (x - y).abs() * scales[c];
+            if diff.is_nan() || diff > SENS_REL * term(a, c).max(term(g, c)).max(t) {
+                bad.push(format!(
+                    "row {row} column {c}: interpreter {x:e}, compiled {y:e} (row scale {t:e}, column \
+                     scale {:e})",
+                    scales[c]
+                ));
+            }
+        }
+    }
+    bad
+}
+
 fn compare(name: &str, file: &Path, compiled: &mut dyn InverseModel) -> Stats {
     let d = invsim_inversion::derive_file(file).unwrap_or_else(|e| panic!("{name}: {e}"));
     compare_derived(name, &d, compiled)
@@ -303,6 +372,20 @@ fn compare_derived(
                 out
             });
             c.add(&format!("{tag}outputs"), &a, &g);
+            let (a, g) = both(&|m| {
+                let mut s = vec![0.0; SensitivityLayout::of(m.info()).len()];
+                m.sensitivity(&x, &m.info().nominal_w(), u, &mut s)
+                    .expect("both engines provide sensitivities");
+                s
+            });
+            let scales = variable_scales(&b, interp.params());
+            let layout = SensitivityLayout::of(&info);
+            let values = row_values(interp, (&x, u), b.yr);
+            let bad = sensitivity_disagreements(&layout, (&scales, &values), (&a, &g));
+            c.mismatched_errors.extend(
+                bad.into_iter()
+                    .map(|e| format!("{tag}sensitivity at point {k}: {e}")),
+            );
             let (a, g) = both(&|m| {
                 vec![
                     m.alpha(&xi, &eta, &m.info().nominal_w()),

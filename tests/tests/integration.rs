@@ -7,6 +7,8 @@
 //! - `elevation`: Road grade from elevation over distance: a constant slope, a sinusoidal profile along the
 //!   smoothed reference's distance, fuel with the profile against the equivalent grade signal
 //! - `fusion_dynamic`: `models/ford_fusion_2012_dynamic.toml` on NEDC and UDDS: the inverse satisfies the original equations, the replay tracks, the imported parameters are kept
+//! - `gradient`: Exact parameter gradients against central finite differences on NEDC and UDDS, compiled against
+//!   interpreted, a linear model's closed form, and the runs not differentiated refused
 //! - `golden`: The generated source for `models/si_engine.toml` equals the reviewed copy in
 //! - `inverse_consistency`: The inverse simulation satisfies the original model: along NEDC, at every sample, the state and input that
 //! - `known_answers`: One harness, every engine, every known-answer model: each model of `tests/models/known/` (listed with its
@@ -25,6 +27,7 @@ mod docs_fresh;
 mod elevation;
 mod fusion_dynamic;
 mod golden;
+mod gradient;
 mod inverse_consistency;
 mod known_answers;
 mod non_affine;

@@ -81,6 +81,10 @@ pub struct SimulateArgs {
     /// With --strategy ecms: the charge-sustaining tolerance on |ΔSOC|, a fraction of the battery's capacity.
     #[arg(long, value_name = "TOL", default_value_t = invsim_runtime::modes::DEFAULT_SOC_TOLERANCE)]
     soc_tolerance: f64,
+    /// Differentiate the summary's figures (every integral, its per-100-km figure, the headline's figures)
+    /// exactly with respect to parameters: NAME,NAME,… or `all`; the summary gains a `gradient` block.
+    #[arg(long, value_name = "NAME,…|all", value_delimiter = ',')]
+    gradient: Option<Vec<String>>,
 }
 
 /// `--strategy`.
@@ -150,6 +154,7 @@ pub fn run(args: &SimulateArgs, warnings: crate::error::Warnings) -> Result<(), 
     };
     let engine = model.engine_name();
     let plant = model.into_plant();
+    check_gradient(args.gradient.as_deref(), &plant)?;
     let (progress, bar) = crate::progress::start("simulate");
     let mut opts = args
         .lookahead
@@ -167,6 +172,7 @@ pub fn run(args: &SimulateArgs, warnings: crate::error::Warnings) -> Result<(), 
             SwitchingArg::QuasiStatic => Switching::QuasiStatic,
         })
         .transition_time(args.transition_time)
+        .gradient(args.gradient.clone())
         .build()
         .map_err(|e| stopped(&e))?;
     opts.signals = data.signals;
@@ -177,6 +183,9 @@ pub fn run(args: &SimulateArgs, warnings: crate::error::Warnings) -> Result<(), 
     bar.finish();
     let mut result = result.map_err(|e| match e {
         RunFailure::Gears(e) => Failure::user(format!("{}: {e}", args.model.display())),
+        RunFailure::Inverse(invsim_runtime::SimulateError::Gradient(e)) => {
+            Failure::user(format!("--gradient: {e}"))
+        }
         e => stopped(&e),
     })?;
     result.set_provenance(provenance::record(provenance::RunRecord {
@@ -190,4 +199,22 @@ pub fn run(args: &SimulateArgs, warnings: crate::error::Warnings) -> Result<(), 
     })?);
     result.warnings_mut().splice(0..0, data.cycle_warnings);
     crate::engine::write_run((&args.plot, warnings), outputs, (&plant, &cycle), &result)
+}
+
+/// `--gradient` before the run: a model with modes is refused, and every name must be a parameter.
+fn check_gradient(
+    names: Option<&[String]>,
+    plant: &invsim_runtime::plant::Plant,
+) -> Result<(), Failure> {
+    let Some(names) = names else {
+        return Ok(());
+    };
+    if matches!(plant, invsim_runtime::plant::Plant::Modal(_)) {
+        return Err(Failure::user(
+            "--gradient: models with modes are not differentiated yet (only models without [modes])",
+        ));
+    }
+    invsim_runtime::gradient::resolve(plant.info(), names)
+        .map(|_| ())
+        .map_err(|e| Failure::user(format!("--gradient: {e}")))
 }

@@ -4,6 +4,8 @@
 //! - `conveniences`: The first-hour conveniences of the `invsim` command: `invsim cycles` (text and JSON), shell completions,
 //! - `derive_bad_model`: `invsim derive` on a model that cannot be loaded or inverted exits with status 2 and prints
 //! - `forward`: `invsim forward` and `invsim simulate --verify` as a user meets them: exit codes, the CSV and JSON layouts,
+//! - `gradient`: `invsim simulate --gradient`: the summary's block and table, fuel against central differences,
+//!   compiled against interpreted, the runs not differentiated refused with exit 2.
 //! - `headline`: The summary leads with the model's headline in the units people report (l/100 km, mpg, CO2
 //!   g/km; kWh/100 km, mpgge); the Fusions say which fuel figure is the model's answer.
 //! - `hostile`: Hostile-input suite: every case in `tests/hostile/*.json` runs the built `invsim` binary on hostile model
@@ -40,6 +42,7 @@ mod compare;
 mod conveniences;
 mod derive_bad_model;
 mod forward;
+mod gradient;
 mod headline;
 mod hostile;
 mod hybrid;

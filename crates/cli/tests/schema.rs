@@ -302,12 +302,25 @@ fn summary_errors(
 }
 
 /// The optional blocks follow the schema too: tracking errors (`--verify`), the quasi-static switching's
-/// impulses, coupling resets, a stable inversion's numbers, `forward` with the bounds enforced.
+/// impulses, coupling resets, a stable inversion's numbers, `forward` with the bounds enforced, the
+/// parameter gradients (`--gradient`) of a fuel headline (r = n) and an electric one (causal).
 #[test]
 fn summaries_with_their_optional_blocks_follow_the_schema() {
     let schema = schema();
     let mut failures = Vec::new();
-    let runs: [(&str, &str, &[&str], &[&str]); 6] = [
+    let runs: [(&str, &str, &[&str], &[&str]); 8] = [
+        (
+            "simulate",
+            "models/si_engine.toml",
+            &["--gradient", "all"],
+            &["gradient"],
+        ),
+        (
+            "simulate",
+            "models/bev.toml",
+            &["--gradient", "m,C_d"],
+            &["gradient"],
+        ),
         (
             "simulate",
             "models/si_engine.toml",

@@ -100,6 +100,9 @@ struct Tapes {
     rhs: Tape,
     /// (x, w, u) → the `[outputs]`.
     outputs: Tape,
+    /// (x, w, u) → the sensitivities' partial derivatives (`Derivation::sensitivity`), built from the
+    /// unspecialised expressions and specialised like every other tape.
+    sensitivity: Tape,
     /// Non-affine models: (ξ, η, w, u) → (φ, ∂φ/∂u), y^(r) = φ, where ψ⁻¹ is closed-form, else
     /// (x, w, u) → (φ, ∂φ/∂u) in the states; empty for affine ones.
     phi: Tape,
@@ -118,6 +121,7 @@ impl Tapes {
             &mut self.zero,
             &mut self.rhs,
             &mut self.outputs,
+            &mut self.sensitivity,
             &mut self.phi,
             &mut self.solution,
         ] {
@@ -134,6 +138,7 @@ impl Tapes {
             zero: self.zero.specialize(p),
             rhs: self.rhs.specialize(p),
             outputs: self.outputs.specialize(p),
+            sensitivity: self.sensitivity.specialize(p),
             phi: self.phi.specialize(p),
             solution: self.solution.specialize(p),
         }
@@ -283,6 +288,7 @@ impl Interpreter {
         let rhs = compile(d, "f + g u", &rhs, &x_u_p)?;
         let outs: Vec<Id> = m.outputs.iter().map(|o| o.expr).collect();
         let outputs = compile(d, "outputs", &outs, &x_u_p)?;
+        let sensitivity = compile(d, "the sensitivities", &d.sensitivity, &x_u_p)?;
         let (phi, solution) = non_affine_tapes(d, &params)?;
         let generic = Tapes {
             phi,
@@ -294,6 +300,7 @@ impl Interpreter {
             zero,
             rhs,
             outputs,
+            sensitivity,
         };
         let values: Vec<f64> = m.parameters.iter().map(|p| p.value).collect();
         let special = generic.specialize(&values);
@@ -582,6 +589,10 @@ impl InverseModel for Interpreter {
     }
     fn outputs(&self, x: &[f64], w: &[f64], u: f64, out: &mut [f64]) {
         self.special.outputs.eval_parts(&[x, w, &[u]], out);
+    }
+    fn sensitivity(&self, x: &[f64], w: &[f64], u: f64, out: &mut [f64]) -> Result<(), ModelError> {
+        self.special.sensitivity.eval_parts(&[x, w, &[u]], out);
+        Ok(())
     }
     fn reference(&self) -> ReferenceMap {
         self.reference

@@ -14,11 +14,14 @@ use thiserror::Error;
 
 pub mod headline;
 pub mod math;
+pub mod sensitivity;
 pub mod zero_dynamics;
 
 /// Smooth lookup maps (contract §6), evaluated by generated code and the interpreter alike; the one kernel
 /// implementation lives in `invsim-kernel`.
 pub use invsim_kernel::map;
+
+pub use sensitivity::SensitivityLayout;
 
 pub use headline::{
     known_fuel, Carrier, Density, FuelFlow, FuelInfo, HeadlineInfo, KnownFuel, KNOWN_FUELS,
@@ -187,6 +190,8 @@ pub enum ModelError {
     UnknownMap { name: String, known: String },
     #[error("cannot replace map `{name}`: {reason}")]
     BadMap { name: String, reason: String },
+    #[error("this engine of model `{model}` provides no parameter sensitivities")]
+    NoSensitivities { model: String },
 }
 
 /// Replace the data of the map `name` among `maps` (named in the same order by `names`), keeping its
@@ -264,6 +269,17 @@ pub trait InverseModel: Send + Sync {
     fn rhs(&self, x: &[f64], w: &[f64], u: f64, dx: &mut [f64]);
     /// The extra outputs of `[outputs]` at (x, u), written into `out`.
     fn outputs(&self, x: &[f64], w: &[f64], u: f64, out: &mut [f64]);
+
+    /// The partial derivatives of ψ's ξ rows, of y^(r) = φ, of the internal states' right-hand sides and of
+    /// the `[outputs]` with respect to the states, the input and every parameter at (x, w, u), written into
+    /// `out` as [`SensitivityLayout::of`] this model's info lays them out (see [`sensitivity`] for how the
+    /// runtime combines them). Engines without them return [`ModelError::NoSensitivities`].
+    fn sensitivity(&self, x: &[f64], w: &[f64], u: f64, out: &mut [f64]) -> Result<(), ModelError> {
+        let _ = (x, w, u, out);
+        Err(ModelError::NoSensitivities {
+            model: self.info().name.clone(),
+        })
+    }
 
     /// How a drive cycle defines this output's reference (default: y_d is the smoothed cycle itself).
     fn reference(&self) -> ReferenceMap {

@@ -15,6 +15,7 @@ pub mod cycle;
 pub mod elevation;
 mod error;
 pub mod forward;
+pub mod gradient;
 pub mod grid;
 pub mod headline;
 pub mod initial;

@@ -32,6 +32,7 @@ pub(super) enum FnKind {
     InputSolutionX,
     Rhs,
     Outputs,
+    Sensitivity,
 }
 
 impl FnKind {
@@ -56,6 +57,7 @@ impl FnKind {
             FnKind::InputSolutionX => "input_solution_x",
             FnKind::Rhs => "rhs",
             FnKind::Outputs => "outputs",
+            FnKind::Sensitivity => "sensitivity",
         }
     }
 
@@ -82,6 +84,9 @@ impl FnKind {
             }
             FnKind::Rhs => "dx/dt = f(x) + g(x)·u",
             FnKind::Outputs => "The extra outputs",
+            FnKind::Sensitivity => {
+                "The partial derivatives the parameter sensitivities are built from"
+            }
         }
     }
 

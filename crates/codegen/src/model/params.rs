@@ -14,6 +14,7 @@ pub(super) fn constants(g: &Gen<'_>, source_name: &str, batch: bool) -> TokenStr
     let lit = proc_macro2::Literal::usize_unsuffixed;
     let (n_lit, r_lit, ne_lit) = (lit(d.n()), lit(d.relative_degree), lit(d.eta.len()));
     let (np_lit, no_lit) = (lit(m.parameters.len()), lit(m.outputs.len()));
+    let ns_lit = lit(d.sensitivity.len());
     let name = &m.name;
     let hash = &m.source_hash;
     let description_lit = m.description.clone().unwrap_or_default();
@@ -66,6 +67,8 @@ pub(super) fn constants(g: &Gen<'_>, source_name: &str, batch: bool) -> TokenStr
         pub const N_PARAMS: usize = #np_lit;
         /// Number of extra outputs.
         pub const N_OUTPUTS: usize = #no_lit;
+        /// Number of partial derivatives `sensitivity` returns: (R + 1 + N_ETA + N_OUTPUTS)·(N + 1 + N_PARAMS).
+        pub const N_SENS: usize = #ns_lit;
         /// State names, in the model file's order.
         pub const STATES: [&str; N] = [#(#state_names),*];
         /// The input's name.

@@ -100,6 +100,10 @@ pub(super) fn model(g: &Gen<'_>, invert_batch: bool, set_map: Option<&TokenStrea
                 dx.copy_from_slice(&self.pre.rhs(arr(x) #wa, u));
             }
             #outputs_impl
+            fn sensitivity(&self, x: &[f64], #wn: &[f64], u: f64, out: &mut [f64]) -> Result<(), ModelError> {
+                out.copy_from_slice(&self.pre.sensitivity(arr(x) #wa, u));
+                Ok(())
+            }
             fn reference(&self) -> ReferenceMap {
                 REFERENCE
             }

@@ -34,6 +34,8 @@ pub mod si_engine {
     pub const N_PARAMS: usize = 28;
     /// Number of extra outputs.
     pub const N_OUTPUTS: usize = 4;
+    /// Number of partial derivatives `sensitivity` returns: (R + 1 + N_ETA + N_OUTPUTS)·(N + 1 + N_PARAMS).
+    pub const N_SENS: usize = 217;
     /// State names, in the model file's order.
     pub const STATES: [&str; N] = ["v", "p_i"];
     /// The input's name.
@@ -380,6 +382,332 @@ pub mod si_engine {
         k23: f64,
         /// `-500*V_d/(pi*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
         k24: f64,
+        /// `500*V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k25: f64,
+        /// `S_eps^0.8`
+        k26: f64,
+        /// `-580 + 9*S_eps^1.8`
+        k27: f64,
+        /// `1/(2*(m + J_e*eta_trm*i_t^2/r_w^2)^2)`
+        k28: f64,
+        /// `c_r*g_0/(m + J_e*eta_trm*i_t^2/r_w^2)`
+        k29: f64,
+        /// `-A_f*rho_a/(2*(m + J_e*eta_trm*i_t^2/r_w^2))`
+        k30: f64,
+        /// `-C_d*rho_a/(2*(m + J_e*eta_trm*i_t^2/r_w^2))`
+        k31: f64,
+        /// `g_0*m/(m + J_e*eta_trm*i_t^2/r_w^2)`
+        k32: f64,
+        /// `-A_f*C_d/(2*(m + J_e*eta_trm*i_t^2/r_w^2))`
+        k33: f64,
+        /// `c_r*m/(m + J_e*eta_trm*i_t^2/r_w^2)`
+        k34: f64,
+        /// `1296*sqrt(0.075)*Pi_bl*S^2*V_d*eta_trm*i_t^3*xi_aux/(pi^3*sqrt(B)*r_w^4*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k35: f64,
+        /// `V_d*eta_trm*i_t/(pi*r_w^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k36: f64,
+        /// `500/(m + J_e*eta_trm*i_t^2/r_w^2)`
+        k37: f64,
+        /// `J_e*eta_trm*i_t^2/(r_w^3*(m + J_e*eta_trm*i_t^2/r_w^2)^2)`
+        k38: f64,
+        /// `1296*sqrt(0.075)*Pi_bl*S^2*V_d*eta_trm*i_t^2*xi_aux/(pi^3*sqrt(B)*r_w^3*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k39: f64,
+        /// `V_d*eta_trm/(pi*r_w*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k40: f64,
+        /// `J_e*eta_trm*i_t/(r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)^2)`
+        k41: f64,
+        /// `500*V_d*i_t/(pi*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k42: f64,
+        /// `J_e*i_t^2/(2*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)^2)`
+        k43: f64,
+        /// `eta_trm*i_t^2/(2*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)^2)`
+        k44: f64,
+        /// `-500*eta_trm*i_t/(pi*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k45: f64,
+        /// `80*sqrt(0.075)*Pi_bl*V_d*eta_trm*i_t*xi_aux/(pi*B^1.5*r_w*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k46: f64,
+        /// `43*sqrt(0.075)*V_d*eta_trm*i_t*xi_aux/(pi*B^1.5*r_w*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))^2)`
+        k47: f64,
+        /// `-250/(m + J_e*eta_trm*i_t^2/r_w^2)`
+        k48: f64,
+        /// `-648000*sqrt(0.075)*Pi_bl*S*V_d*eta_trm*i_t^3*xi_aux/(pi^3*sqrt(B)*r_w^3*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k49: f64,
+        /// `80*sqrt(0.075)*Pi_bl*V_d*eta_trm*i_t/(pi*sqrt(B)*r_w*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k50: f64,
+        /// `43*sqrt(0.075)*V_d*eta_trm*i_t/(pi*sqrt(B)*r_w*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))^2)`
+        k51: f64,
+        /// `40000*sqrt(0.075)*V_d*eta_trm*i_t*xi_aux/(pi*sqrt(B)*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k52: f64,
+        /// `-500*Q_hv*V_d*eta_trm*i_t/(pi*AFs*R_a*T_i*lambda*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k53: f64,
+        /// `-500*V_d*eta_th*eta_trm*i_t/(pi*AFs*R_a*T_i*lambda*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k54: f64,
+        /// `500*Q_hv*V_d*eta_th*eta_trm*i_t/(pi*AFs*R_a*T_i*lambda^2*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k55: f64,
+        /// `500*Q_hv*V_d*eta_th*eta_trm*i_t/(pi*AFs^2*R_a*T_i*lambda*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k56: f64,
+        /// `500*Q_hv*V_d*eta_th*eta_trm*i_t/(pi*AFs*R_a^2*T_i*lambda*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k57: f64,
+        /// `500*Q_hv*V_d*eta_th*eta_trm*i_t/(pi*AFs*R_a*T_i^2*lambda*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k58: f64,
+        /// `-500*V_d*eta_trm*i_t/(pi*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k59: f64,
+        /// `500*Q_hv*V_d*eta_th*eta_trm*i_t/(pi*AFs*R_a*T_i*lambda*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k60: f64,
+        /// `-500*Q_hv*V_d*eta_th*eta_trm*i_t/(pi*AFs*R_a*T_i*lambda*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k61: f64,
+        /// `c_r*g_0*m/(v_eps^2*(m + J_e*eta_trm*i_t^2/r_w^2))`
+        k62: f64,
+        /// `648000*sqrt(0.075)*Pi_bl*V_d*eta_trm*i_t*xi_aux/(pi*sqrt(B)*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k63: f64,
+        /// `125*V_d^2*eta_trm*i_t^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi^2*V_i*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k64: f64,
+        /// `1/(m + J_e*eta_trm*i_t^2/r_w^2)^2`
+        k65: f64,
+        /// `129600*sqrt(0.075)*Pi_bl*S^4*V_d*eta_trm*i_t^5*xi_aux/(pi^5*sqrt(B)*r_w^5*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k66: f64,
+        /// `2*c_r*g_0*m/v_eps^2`
+        k67: f64,
+        /// `125*V_d^2*eta_trm*i_t^2*s_i*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi^2*V_i*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k68: f64,
+        /// `500*V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k69: f64,
+        /// `500*R_a*T_i*V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi*V_i*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k70: f64,
+        /// `125*V_d^2*eta_trm*i_t^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi^2*V_i*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k71: f64,
+        /// `1/(m + J_e*eta_trm*i_t^2/r_w^2)^3`
+        k72: f64,
+        /// `c_r*g_0/(2*v_eps*(m + J_e*eta_trm*i_t^2/r_w^2)^2)`
+        k73: f64,
+        /// `c_r*g_0/(m + J_e*eta_trm*i_t^2/r_w^2)^2`
+        k74: f64,
+        /// `A_f*rho_a/(2*(m + J_e*eta_trm*i_t^2/r_w^2)^2)`
+        k75: f64,
+        /// `C_d*rho_a/(2*(m + J_e*eta_trm*i_t^2/r_w^2)^2)`
+        k76: f64,
+        /// `g_0*m/(2*v_eps*(m + J_e*eta_trm*i_t^2/r_w^2)^2)`
+        k77: f64,
+        /// `g_0*m/(m + J_e*eta_trm*i_t^2/r_w^2)^2`
+        k78: f64,
+        /// `A_f*C_d/(2*(m + J_e*eta_trm*i_t^2/r_w^2)^2)`
+        k79: f64,
+        /// `c_r*m/(2*v_eps*(m + J_e*eta_trm*i_t^2/r_w^2)^2)`
+        k80: f64,
+        /// `c_r*m/(m + J_e*eta_trm*i_t^2/r_w^2)^2`
+        k81: f64,
+        /// `1000*J_e*R_a*T_i*V_d*eta_trm^2*i_t^3*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi*V_i*r_w^4*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k82: f64,
+        /// `500*R_a*T_i*V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi*V_i*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k83: f64,
+        /// `250*J_e*V_d^2*eta_trm^2*i_t^4*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi^2*V_i*r_w^5*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k84: f64,
+        /// `250*V_d^2*eta_trm*i_t^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi^2*V_i*r_w^3*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k85: f64,
+        /// `500/(m + J_e*eta_trm*i_t^2/r_w^2)^2`
+        k86: f64,
+        /// `sqrt(0.075)*Pi_bl*S^4*V_d*eta_trm*i_t^5*xi_aux/(pi^5*sqrt(B)*r_w^6*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k87: f64,
+        /// `15*sqrt(0.075)*Pi_bl*S^2*V_d*eta_trm*i_t^3*xi_aux/(pi^3*sqrt(B)*r_w^4*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k88: f64,
+        /// `64800/(m + J_e*eta_trm*i_t^2/r_w^2)^2`
+        k89: f64,
+        /// `2*J_e*eta_trm*i_t^2/(r_w^3*(m + J_e*eta_trm*i_t^2/r_w^2)^3)`
+        k90: f64,
+        /// `1000*J_e*R_a*T_i*V_d*eta_trm^2*i_t^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi*V_i*r_w^3*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k91: f64,
+        /// `500*R_a*T_i*V_d*eta_trm*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi*V_i*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k92: f64,
+        /// `250*J_e*V_d^2*eta_trm^2*i_t^3*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi^2*V_i*r_w^4*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k93: f64,
+        /// `250*V_d^2*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi^2*V_i*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k94: f64,
+        /// `sqrt(0.075)*Pi_bl*S^4*V_d*eta_trm*i_t^4*xi_aux/(pi^5*sqrt(B)*r_w^5*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k95: f64,
+        /// `15*sqrt(0.075)*Pi_bl*S^2*V_d*eta_trm*i_t^2*xi_aux/(pi^3*sqrt(B)*r_w^3*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k96: f64,
+        /// `2*J_e*eta_trm*i_t/(r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)^3)`
+        k97: f64,
+        /// `500*J_e*R_a*T_i*V_d*eta_trm*i_t^3*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi*V_i*r_w^3*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k98: f64,
+        /// `500*R_a*T_i*V_d*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi*V_i*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k99: f64,
+        /// `125*J_e*V_d^2*eta_trm*i_t^4*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi^2*V_i*r_w^4*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k100: f64,
+        /// `125*V_d^2*i_t^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi^2*V_i*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k101: f64,
+        /// `500*V_d*i_t/(pi*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k102: f64,
+        /// `324000*sqrt(0.075)*Pi_bl*S^2*V_d*i_t^3*xi_aux/(pi^3*sqrt(B)*r_w^3*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k103: f64,
+        /// `J_e*i_t^2/(r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)^3)`
+        k104: f64,
+        /// `500*R_a*T_i*V_d*eta_trm^2*i_t^3*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi*V_i*r_w^3*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k105: f64,
+        /// `125*V_d^2*eta_trm^2*i_t^4*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi^2*V_i*r_w^4*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k106: f64,
+        /// `eta_trm*i_t^2/(r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)^3)`
+        k107: f64,
+        /// `500*R_a*T_i*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi*V_i*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k108: f64,
+        /// `250*V_d*eta_trm*i_t^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi^2*V_i*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k109: f64,
+        /// `500*eta_trm*i_t/(pi*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k110: f64,
+        /// `324000*sqrt(0.075)*Pi_bl*S^2*eta_trm*i_t^3*xi_aux/(pi^3*sqrt(B)*r_w^3*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k111: f64,
+        /// `10750*sqrt(0.075)*R_a*T_i*V_d*eta_trm*i_t*xi_aux*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi*B^1.5*V_i*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))^2)`
+        k112: f64,
+        /// `(2687.5 + 2687.5*Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))*sqrt(0.075)*V_d^2*eta_trm*i_t^2*xi_aux/(pi^2*B^1.5*V_i*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))^2)`
+        k113: f64,
+        /// `250/(m + J_e*eta_trm*i_t^2/r_w^2)^2`
+        k114: f64,
+        /// `129*Pi_bl*S^2*V_d*eta_trm*i_t^3*xi_aux^2/(pi^3*B^2*r_w^3*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))^2)`
+        k115: f64,
+        /// `40*sqrt(0.075)*Pi_bl*S^2*V_d*eta_trm*i_t^3*xi_aux/(pi^3*B^1.5*r_w^3*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k116: f64,
+        /// `4050/(m + J_e*eta_trm*i_t^2/r_w^2)^2`
+        k117: f64,
+        /// `648000*sqrt(0.075)*Pi_bl*S*V_d*eta_trm*i_t^3*xi_aux/(pi^3*sqrt(B)*r_w^3*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k118: f64,
+        /// `sqrt(0.075)*Pi_bl*S^3*V_d*eta_trm*i_t^5*xi_aux/(pi^5*sqrt(B)*r_w^5*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k119: f64,
+        /// `10*sqrt(0.075)*Pi_bl*S*V_d*eta_trm*i_t^3*xi_aux/(pi^3*sqrt(B)*r_w^3*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k120: f64,
+        /// `21500*sqrt(0.075)*R_a*T_i*V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi*sqrt(B)*V_i*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))^2)`
+        k121: f64,
+        /// `5375*sqrt(0.075)*V_d^2*eta_trm*i_t^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi^2*sqrt(B)*V_i*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))^2)`
+        k122: f64,
+        /// `129*Pi_bl*S^2*V_d*eta_trm*i_t^3*xi_aux/(pi^3*B*r_w^3*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))^2)`
+        k123: f64,
+        /// `40*sqrt(0.075)*Pi_bl*S^2*V_d*eta_trm*i_t^3/(pi^3*sqrt(B)*r_w^3*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k124: f64,
+        /// `8100/(m + J_e*eta_trm*i_t^2/r_w^2)^2`
+        k125: f64,
+        /// `40000*sqrt(0.075)*V_d*eta_trm*i_t*xi_aux/(pi*sqrt(B)*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k126: f64,
+        /// `324000*sqrt(0.075)*S^2*V_d*eta_trm*i_t^3*xi_aux/(pi^3*sqrt(B)*r_w^3*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k127: f64,
+        /// `500*Q_hv*V_d*eta_trm*i_t*s_i/(pi*AFs*V_i*lambda*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k128: f64,
+        /// `125*Q_hv*V_d^2*eta_trm*i_t^2*s_i/(pi^2*AFs*R_a*T_i*V_i*lambda*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k129: f64,
+        /// `500*Q_hv*V_d*eta_trm*i_t/(pi*AFs*R_a*T_i*lambda*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k130: f64,
+        /// `500*V_d*eta_th*eta_trm*i_t*s_i/(pi*AFs*V_i*lambda*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k131: f64,
+        /// `125*V_d^2*eta_th*eta_trm*i_t^2*s_i/(pi^2*AFs*R_a*T_i*V_i*lambda*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k132: f64,
+        /// `500*V_d*eta_th*eta_trm*i_t/(pi*AFs*R_a*T_i*lambda*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k133: f64,
+        /// `500*Q_hv*V_d*eta_th*eta_trm*i_t*s_i/(pi*AFs*V_i*lambda^2*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k134: f64,
+        /// `125*Q_hv*V_d^2*eta_th*eta_trm*i_t^2*s_i/(pi^2*AFs*R_a*T_i*V_i*lambda^2*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k135: f64,
+        /// `500*Q_hv*V_d*eta_th*eta_trm*i_t/(pi*AFs*R_a*T_i*lambda^2*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k136: f64,
+        /// `500*Q_hv*V_d*eta_th*eta_trm*i_t*s_i/(pi*AFs^2*V_i*lambda*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k137: f64,
+        /// `125*Q_hv*V_d^2*eta_th*eta_trm*i_t^2*s_i/(pi^2*AFs^2*R_a*T_i*V_i*lambda*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k138: f64,
+        /// `500*Q_hv*V_d*eta_th*eta_trm*i_t/(pi*AFs^2*R_a*T_i*lambda*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k139: f64,
+        /// `500*Q_hv*V_d*eta_th*eta_trm*i_t*s_i/(pi*AFs*R_a*V_i*lambda*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k140: f64,
+        /// `500*T_i*V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi*V_i*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k141: f64,
+        /// `125*Q_hv*V_d^2*eta_th*eta_trm*i_t^2*s_i/(pi^2*AFs*R_a^2*T_i*V_i*lambda*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k142: f64,
+        /// `500*Q_hv*V_d*eta_th*eta_trm*i_t/(pi*AFs*R_a^2*T_i*lambda*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k143: f64,
+        /// `500*Q_hv*V_d*eta_th*eta_trm*i_t*s_i/(pi*AFs*T_i*V_i*lambda*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k144: f64,
+        /// `500*R_a*V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi*V_i*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k145: f64,
+        /// `125*Q_hv*V_d^2*eta_th*eta_trm*i_t^2*s_i/(pi^2*AFs*R_a*T_i^2*V_i*lambda*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k146: f64,
+        /// `500*Q_hv*V_d*eta_th*eta_trm*i_t/(pi*AFs*R_a*T_i^2*lambda*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k147: f64,
+        /// `500*R_a*T_i*V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi*V_i^2*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k148: f64,
+        /// `125*V_d^2*eta_trm*i_t^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi^2*V_i^2*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k149: f64,
+        /// `500*V_d*eta_trm*i_t/(pi*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k150: f64,
+        /// `500*Q_hv*V_d*eta_th*eta_trm*i_t/(pi*AFs*V_i*lambda*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k151: f64,
+        /// `125*Q_hv*V_d^2*eta_th*eta_trm*i_t^2/(pi^2*AFs*R_a*T_i*V_i*lambda*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k152: f64,
+        /// `500*Q_hv*V_d*eta_th*eta_trm*i_t/(pi*AFs*R_a*T_i*lambda*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k153: f64,
+        /// `c_r*g_0*m/v_eps^2`
+        k154: f64,
+        /// `2*c_r*g_0*m/v_eps^3`
+        k155: f64,
+        /// `c_r*g_0*m/(v_eps^2*(m + J_e*eta_trm*i_t^2/r_w^2)^2)`
+        k156: f64,
+        /// `648000*sqrt(0.075)*Pi_bl*V_d*eta_trm*i_t*xi_aux/(pi*sqrt(B)*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k157: f64,
+        /// `64800*sqrt(0.075)*Pi_bl*S^2*S_eps*V_d*eta_trm*i_t^3*xi_aux/(pi^3*sqrt(B)*r_w^3*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k158: f64,
+        /// `1/(2*AFs*lambda)`
+        k159: f64,
+        /// `1/(AFs*lambda^2)`
+        k160: f64,
+        /// `1/(AFs^2*lambda)`
+        k161: f64,
+        /// `500/(AFs*lambda*rho_f)`
+        k162: f64,
+        /// `-1000/(AFs*lambda^2*rho_f)`
+        k163: f64,
+        /// `-1000/(AFs^2*lambda*rho_f)`
+        k164: f64,
+        /// `-1000/(AFs*lambda*rho_f^2)`
+        k165: f64,
+        /// `-30*i_t/(pi*r_w^2)`
+        k166: f64,
+        /// `30/(pi*r_w)`
+        k167: f64,
+        /// `-648000*sqrt(0.075)*Pi_bl*S^2*V_d*i_t^2*xi_aux/(pi^3*sqrt(B)*r_w^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k168: f64,
+        /// `500*V_d*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k169: f64,
+        /// `648000*sqrt(0.075)*Pi_bl*S^2*V_d*i_t^2*xi_aux/(pi^3*sqrt(B)*r_w^3*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k170: f64,
+        /// `-648000*sqrt(0.075)*Pi_bl*S^2*V_d*i_t*xi_aux/(pi^3*sqrt(B)*r_w^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k171: f64,
+        /// `-500/(pi*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k172: f64,
+        /// `20000*sqrt(0.075)*Pi_bl*V_d*xi_aux/(pi*B^1.5*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k173: f64,
+        /// `10750*sqrt(0.075)*V_d*xi_aux/(pi*B^1.5*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))^2)`
+        k174: f64,
+        /// `-648000*sqrt(0.075)*Pi_bl*S*V_d*i_t^2*xi_aux/(pi^3*sqrt(B)*r_w^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k175: f64,
+        /// `40000*sqrt(0.075)*Pi_bl*V_d/(pi*sqrt(B)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k176: f64,
+        /// `21500*sqrt(0.075)*V_d/(pi*sqrt(B)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))^2)`
+        k177: f64,
+        /// `40000*sqrt(0.075)*V_d*xi_aux/(pi*sqrt(B)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k178: f64,
+        /// `-500*Q_hv*V_d/(pi*AFs*R_a*T_i*lambda*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k179: f64,
+        /// `-500*V_d*eta_th/(pi*AFs*R_a*T_i*lambda*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k180: f64,
+        /// `500*Q_hv*V_d*eta_th/(pi*AFs*R_a*T_i*lambda^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k181: f64,
+        /// `500*Q_hv*V_d*eta_th/(pi*AFs^2*R_a*T_i*lambda*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k182: f64,
+        /// `500*Q_hv*V_d*eta_th/(pi*AFs*R_a^2*T_i*lambda*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k183: f64,
+        /// `500*Q_hv*V_d*eta_th/(pi*AFs*R_a*T_i^2*lambda*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k184: f64,
+        /// `500*Q_hv*V_d*eta_th/(pi*AFs*R_a*T_i*lambda*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k185: f64,
+        /// `-500*Q_hv*V_d*eta_th/(pi*AFs*R_a*T_i*lambda*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k186: f64,
+        /// `648000*sqrt(0.075)*Pi_bl*V_d*xi_aux/(pi*sqrt(B)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k187: f64,
     }
     impl Precomputed {
         /// Compute the parameter-only subexpressions for `p`.
@@ -387,47 +715,356 @@ pub mod si_engine {
         pub fn new(p: &Params) -> Precomputed {
             let t0 = p.i_t * p.i_t;
             let t1 = p.r_w * p.r_w;
-            let t2 = p.m + p.J_e * p.eta_trm * t0 / t1;
+            let t2 = p.J_e * p.eta_trm;
+            let t3 = t2 * t0;
+            let t4 = p.m + t3 / t1;
             let k0 = p.A_f * p.C_d * p.rho_a;
-            let t3 = 0.075_f64.sqrt();
-            let t4 = p.B.sqrt();
-            let t5 = 2000.0 + 43.0 * t3 * p.xi_aux / t4;
-            let t6 = p.Q_hv * p.eta_th;
-            let t7 = p.AFs * p.R_a * p.T_i * p.lambda;
-            let k1 = t6 / t7;
+            let t5 = 0.075_f64.sqrt();
+            let t6 = p.B.sqrt();
+            let t7 = 43.0 * t5;
+            let t8 = 2000.0 + t7 * p.xi_aux / t6;
+            let t9 = p.Q_hv * p.eta_th;
+            let t10 = p.AFs * p.R_a * p.T_i * p.lambda;
+            let k1 = t9 / t10;
             let k2 = p.S_eps * p.S_eps;
-            let t8 = PI * PI;
-            let t9 = p.S * p.S;
-            let k3 = t9 * t0 / (t8 * t1);
+            let t11 = PI * PI;
+            let t12 = p.S * p.S;
+            let k3 = t12 * t0 / (t11 * t1);
             let k4 = 9.0 * p.S_eps.powf(1.8) - 580.0;
-            let k5 = 80.0 * t3 * p.Pi_bl * p.xi_aux / t4;
-            let t10 = PI * p.r_w;
-            let k6 = 1000.0 * p.V_d * p.eta_trm * p.i_t / (t10 * t5);
+            let t13 = 80.0 * t5 * p.Pi_bl;
+            let k5 = t13 * p.xi_aux / t6;
+            let t14 = PI * p.r_w;
+            let t15 = t14 * t8;
+            let k6 = 1000.0 * p.V_d * p.eta_trm * p.i_t / t15;
             let k7 = 1.0 / p.v_eps;
             let k8 = 2.0 * p.c_r * p.g_0 * p.m;
-            let k9 = -0.5 / t2;
-            let t11 = 1.0 + t6 * p.s_i / t7;
-            let k10 = p.p_e + t6 * p.y_i / t7;
-            let k11 = 1.0 / t2;
-            let k12 = 0.001 * PI * p.r_w * t2 * t5 / (p.V_d * p.eta_trm * p.i_t * t11);
-            let k13 = 125.0 * (p.V_d * p.V_d) * p.eta_trm * t0 * p.y_i * t11
-                / (t8 * p.V_i * t1 * t2 * t5);
-            let t12 = PI * p.V_i * p.r_w;
-            let k14 = 0.125 * p.V_d * p.i_t * p.s_i / t12;
-            let k15 = 648000.0 * t3 * p.Pi_bl * t9 * p.V_d * p.eta_trm
-                * (p.i_t * p.i_t * p.i_t) * p.xi_aux
-                / (PI * PI * PI * t4 * (p.r_w * p.r_w * p.r_w) * t5);
-            let k16 = p.c_r * p.g_0 * p.m / p.v_eps;
-            let k17 = 500.0 * p.R_a * p.T_i * p.V_d * p.eta_trm * p.i_t * t11
-                / (t12 * t2 * t5);
+            let k9 = -0.5 / t4;
+            let t16 = 1.0 + t9 * p.s_i / t10;
+            let k10 = p.p_e + t9 * p.y_i / t10;
+            let k11 = 1.0 / t4;
+            let t17 = p.V_d * p.eta_trm;
+            let t18 = t17 * p.i_t;
+            let k12 = 0.001 * PI * p.r_w * t4 * t8 / (t18 * t16);
+            let t19 = p.V_d * p.V_d;
+            let t20 = 125.0 * t19;
+            let t21 = t20 * p.eta_trm * t0;
+            let t22 = t11 * p.V_i;
+            let t23 = t22 * t1;
+            let t24 = t23 * t4 * t8;
+            let k13 = t21 * p.y_i * t16 / t24;
+            let t25 = PI * p.V_i;
+            let t26 = t25 * p.r_w;
+            let k14 = 0.125 * p.V_d * p.i_t * p.s_i / t26;
+            let t27 = PI * PI * PI;
+            let t28 = p.i_t * p.i_t * p.i_t;
+            let t29 = p.r_w * p.r_w * p.r_w;
+            let t30 = 648000.0 * t5 * p.Pi_bl;
+            let t31 = t30 * t12 * p.V_d;
+            let t32 = t27 * t6;
+            let t33 = t32 * t29;
+            let t34 = t33 * t8;
+            let k15 = t31 * p.eta_trm * t28 * p.xi_aux / t34;
+            let t35 = p.c_r * p.g_0;
+            let t36 = t35 * p.m;
+            let k16 = t36 / p.v_eps;
+            let t37 = 500.0 * p.R_a;
+            let t38 = t37 * p.T_i;
+            let t39 = t38 * p.V_d;
+            let t40 = t39 * p.eta_trm;
+            let t41 = t40 * p.i_t * t16;
+            let t42 = t26 * t4 * t8;
+            let k17 = t41 / t42;
             let k18 = 1.0 / k17;
             let k19 = p.R_a * p.T_i / p.V_i;
-            let k20 = 0.25 * p.V_d * p.i_t / t12;
-            let t13 = p.AFs * p.lambda;
-            let k21 = 1.0 / t13;
-            let k22 = 1000.0 / (t13 * p.rho_f);
-            let k23 = 30.0 * p.i_t / t10;
-            let k24 = -500.0 * p.V_d / (PI * t5);
+            let k20 = 0.25 * p.V_d * p.i_t / t26;
+            let t43 = p.AFs * p.lambda;
+            let k21 = 1.0 / t43;
+            let t44 = t43 * p.rho_f;
+            let k22 = 1000.0 / t44;
+            let k23 = 30.0 * p.i_t / t14;
+            let t45 = -500.0 * p.V_d;
+            let t46 = PI * t8;
+            let k24 = t45 / t46;
+            let t47 = 500.0 * p.V_d;
+            let t48 = t47 * p.eta_trm * p.i_t;
+            let t49 = t48 * t16;
+            let t50 = t14 * t4 * t8;
+            let k25 = t49 / t50;
+            let t51 = t4 * t4;
+            let k26 = p.S_eps.powf(0.8);
+            let k27 = 9.0 * (k26 * p.S_eps) - 580.0;
+            let k28 = 0.5 / t51;
+            let k29 = t35 / t4;
+            let t52 = -0.5 * p.A_f;
+            let k30 = t52 * p.rho_a / t4;
+            let k31 = -0.5 * p.C_d * p.rho_a / t4;
+            let t53 = p.g_0 * p.m;
+            let k32 = t53 / t4;
+            let k33 = t52 * p.C_d / t4;
+            let t54 = p.c_r * p.m;
+            let k34 = t54 / t4;
+            let t55 = p.r_w.powi(4);
+            let t56 = 1296.0 * t5 * p.Pi_bl * t12 * p.V_d * p.eta_trm;
+            let t57 = t32 * t55 * t8;
+            let k35 = t56 * t28 * p.xi_aux / t57;
+            let t58 = PI * t1;
+            let k36 = t18 / (t58 * t8);
+            let k37 = 500.0 / t4;
+            let k38 = t3 / (t29 * t51);
+            let k39 = t56 * t0 * p.xi_aux / t34;
+            let k40 = t17 / t15;
+            let t59 = t1 * t51;
+            let k41 = t2 * p.i_t / t59;
+            let t60 = t47 * p.i_t;
+            let k42 = t60 / t50;
+            let k43 = 0.5 * p.J_e * t0 / t59;
+            let k44 = 0.5 * p.eta_trm * t0 / t59;
+            let k45 = -500.0 * p.eta_trm * p.i_t / t50;
+            let t61 = t6 * p.B;
+            let t62 = t13 * p.V_d * p.eta_trm * p.i_t;
+            let t63 = PI * t61;
+            let t64 = t63 * p.r_w;
+            let k46 = t62 * p.xi_aux / (t64 * t8);
+            let t65 = t8 * t8;
+            let t66 = t7 * p.V_d * p.eta_trm * p.i_t;
+            let k47 = t66 * p.xi_aux / (t64 * t65);
+            let k48 = -250.0 / t4;
+            let t67 = -648000.0 * t5 * p.Pi_bl;
+            let t68 = t67 * p.S * p.V_d;
+            let k49 = t68 * p.eta_trm * t28 * p.xi_aux / (t33 * t4 * t8);
+            let t69 = PI * t6;
+            let t70 = t69 * p.r_w;
+            let k50 = t62 / (t70 * t8);
+            let k51 = t66 / (t70 * t65);
+            let t71 = 40000.0 * t5;
+            let t72 = t71 * p.V_d;
+            let t73 = t72 * p.eta_trm * p.i_t * p.xi_aux;
+            let t74 = t70 * t4 * t8;
+            let k52 = t73 / t74;
+            let t75 = -500.0 * p.Q_hv * p.V_d;
+            let t76 = PI * p.AFs;
+            let t77 = t76 * p.R_a;
+            let t78 = t77 * p.T_i;
+            let t79 = t78 * p.lambda;
+            let t80 = t79 * p.r_w;
+            let t81 = t80 * t4 * t8;
+            let k53 = t75 * p.eta_trm * p.i_t / t81;
+            let t82 = t45 * p.eta_th;
+            let k54 = t82 * p.eta_trm * p.i_t / t81;
+            let t83 = p.lambda * p.lambda;
+            let t84 = 500.0 * p.Q_hv * p.V_d;
+            let t85 = t84 * p.eta_th;
+            let t86 = t85 * p.eta_trm * p.i_t;
+            let t87 = t78 * t83;
+            let t88 = t87 * p.r_w;
+            let k55 = t86 / (t88 * t4 * t8);
+            let t89 = p.AFs * p.AFs;
+            let t90 = PI * t89;
+            let t91 = t90 * p.R_a * p.T_i * p.lambda;
+            let t92 = t91 * p.r_w;
+            let k56 = t86 / (t92 * t4 * t8);
+            let t93 = p.R_a * p.R_a;
+            let t94 = t76 * t93 * p.T_i * p.lambda;
+            let t95 = t94 * p.r_w;
+            let k57 = t86 / (t95 * t4 * t8);
+            let t96 = p.T_i * p.T_i;
+            let t97 = t77 * t96 * p.lambda;
+            let t98 = t97 * p.r_w;
+            let k58 = t86 / (t98 * t4 * t8);
+            let k59 = t45 * p.eta_trm * p.i_t / t50;
+            let k60 = t86 / t81;
+            let t99 = t75 * p.eta_th;
+            let k61 = t99 * p.eta_trm * p.i_t / t81;
+            let t100 = p.v_eps * p.v_eps;
+            let k62 = t36 / (t100 * t4);
+            let t101 = t30 * p.V_d;
+            let t102 = t101 * p.eta_trm * p.i_t * p.xi_aux;
+            let k63 = t102 / t74;
+            let t103 = t21 * t16;
+            let k64 = t103 / t24;
+            let k65 = 1.0 / t51;
+            let t104 = p.S.powi(4);
+            let t105 = p.i_t.powi(5);
+            let t106 = p.r_w.powi(5);
+            let t107 = PI.powi(5) * t6;
+            let t108 = t107 * t106 * t8;
+            let k66 = 129600.0 * t5 * p.Pi_bl * t104 * p.V_d * p.eta_trm * t105
+                * p.xi_aux / t108;
+            let k67 = k8 / t100;
+            let k68 = t21 * p.s_i * t16 / t24;
+            let t109 = t14 * t51 * t8;
+            let k69 = t49 / t109;
+            let k70 = t41 / (t26 * t51 * t8);
+            let k71 = t103 / (t23 * t51 * t8);
+            let t110 = t4 * t4 * t4;
+            let k72 = 1.0 / t110;
+            let t111 = 0.5 * p.c_r;
+            let t112 = p.v_eps * t51;
+            let k73 = t111 * p.g_0 / t112;
+            let k74 = t35 / t51;
+            let t113 = 0.5 * p.A_f;
+            let k75 = t113 * p.rho_a / t51;
+            let k76 = 0.5 * p.C_d * p.rho_a / t51;
+            let k77 = 0.5 * p.g_0 * p.m / t112;
+            let k78 = t53 / t51;
+            let k79 = t113 * p.C_d / t51;
+            let k80 = t111 * p.m / t112;
+            let k81 = t54 / t51;
+            let t114 = p.eta_trm * p.eta_trm;
+            let t115 = 1000.0 * p.J_e * p.R_a * p.T_i * p.V_d * t114;
+            let k82 = t115 * t28 * t16 / (t25 * t55 * t51 * t8);
+            let k83 = t41 / (t25 * t1 * t4 * t8);
+            let t116 = p.i_t.powi(4);
+            let t117 = 250.0 * p.J_e * t19 * t114;
+            let k84 = t117 * t116 * t16 / (t22 * t106 * t51 * t8);
+            let t118 = 250.0 * t19 * p.eta_trm;
+            let k85 = t118 * t0 * t16 / (t22 * t29 * t4 * t8);
+            let k86 = 500.0 / t51;
+            let t119 = t5 * p.Pi_bl;
+            let t120 = t119 * t104 * p.V_d * p.eta_trm;
+            let k87 = t120 * t105 * p.xi_aux / (t107 * p.r_w.powi(6) * t8);
+            let t121 = 15.0 * t5 * p.Pi_bl * t12 * p.V_d * p.eta_trm;
+            let k88 = t121 * t28 * p.xi_aux / t57;
+            let k89 = 64800.0 / t51;
+            let t122 = 2.0 * p.J_e * p.eta_trm;
+            let k90 = t122 * t0 / (t29 * t110);
+            let t123 = t25 * t29 * t51 * t8;
+            let k91 = t115 * t0 * t16 / t123;
+            let k92 = t40 * t16 / t42;
+            let t124 = t22 * t55 * t51 * t8;
+            let k93 = t117 * t28 * t16 / t124;
+            let k94 = t118 * p.i_t * t16 / t24;
+            let k95 = t120 * t116 * p.xi_aux / t108;
+            let k96 = t121 * t0 * p.xi_aux / t34;
+            let t125 = t1 * t110;
+            let k97 = t122 * p.i_t / t125;
+            let k98 = 500.0 * p.J_e * p.R_a * p.T_i * p.V_d * p.eta_trm * t28 * t16
+                / t123;
+            let k99 = t39 * p.i_t * t16 / t42;
+            let k100 = 125.0 * p.J_e * t19 * p.eta_trm * t116 * t16 / t124;
+            let k101 = t20 * t0 * t16 / t24;
+            let k102 = t60 / t109;
+            let t126 = 324000.0 * t5;
+            let t127 = t126 * p.Pi_bl * t12;
+            let t128 = t33 * t51 * t8;
+            let k103 = t127 * p.V_d * t28 * p.xi_aux / t128;
+            let k104 = p.J_e * t0 / t125;
+            let k105 = t39 * t114 * t28 * t16 / t123;
+            let k106 = t20 * t114 * t116 * t16 / t124;
+            let k107 = p.eta_trm * t0 / t125;
+            let k108 = t38 * p.eta_trm * p.i_t * t16 / t42;
+            let k109 = 250.0 * p.V_d * p.eta_trm * t0 * t16 / t24;
+            let k110 = 500.0 * p.eta_trm * p.i_t / t109;
+            let k111 = t127 * p.eta_trm * t28 * p.xi_aux / t128;
+            let t129 = 10750.0 * t5;
+            let k112 = t129 * p.R_a * p.T_i * p.V_d * p.eta_trm * p.i_t * p.xi_aux * t16
+                / (t63 * p.V_i * p.r_w * t4 * t65);
+            let k113 = 2687.5 * t5 * t19 * p.eta_trm * t0 * p.xi_aux * t16
+                / (t11 * t61 * p.V_i * t1 * t4 * t65);
+            let k114 = 250.0 / t51;
+            let t130 = 129.0 * p.Pi_bl * t12 * p.V_d * p.eta_trm * t28;
+            let k115 = t130 * (p.xi_aux * p.xi_aux) / (t27 * (p.B * p.B) * t29 * t65);
+            let t131 = 40.0 * t5 * p.Pi_bl * t12 * p.V_d * p.eta_trm * t28;
+            let k116 = t131 * p.xi_aux / (t27 * t61 * t29 * t8);
+            let k117 = 4050.0 / t51;
+            let k118 = t30 * p.S * p.V_d * p.eta_trm * t28 * p.xi_aux / t128;
+            let k119 = t119 * (p.S * p.S * p.S) * p.V_d * p.eta_trm * t105 * p.xi_aux
+                / t108;
+            let k120 = 10.0 * t5 * p.Pi_bl * p.S * p.V_d * p.eta_trm * t28 * p.xi_aux
+                / t34;
+            let t132 = 21500.0 * t5;
+            let k121 = t132 * p.R_a * p.T_i * p.V_d * p.eta_trm * p.i_t * t16
+                / (t69 * p.V_i * p.r_w * t4 * t65);
+            let k122 = 5375.0 * t5 * t19 * p.eta_trm * t0 * t16
+                / (t11 * t6 * p.V_i * t1 * t4 * t65);
+            let k123 = t130 * p.xi_aux / (t27 * p.B * t29 * t65);
+            let k124 = t131 / t34;
+            let k125 = 8100.0 / t51;
+            let t133 = t70 * t51 * t8;
+            let k126 = t73 / t133;
+            let k127 = t126 * t12 * p.V_d * p.eta_trm * t28 * p.xi_aux / t128;
+            let t134 = t84 * p.eta_trm * p.i_t;
+            let t135 = t76 * p.V_i;
+            let t136 = t135 * p.lambda * p.r_w * t4 * t8;
+            let k128 = t134 * p.s_i / t136;
+            let t137 = 125.0 * p.Q_hv * t19;
+            let t138 = t11 * p.AFs;
+            let t139 = t138 * p.R_a;
+            let t140 = t139 * p.T_i * p.V_i;
+            let t141 = t140 * p.lambda * t1 * t4 * t8;
+            let k129 = t137 * p.eta_trm * t0 * p.s_i / t141;
+            let t142 = t80 * t51 * t8;
+            let k130 = t134 / t142;
+            let t143 = t47 * p.eta_th * p.eta_trm * p.i_t;
+            let k131 = t143 * p.s_i / t136;
+            let k132 = t20 * p.eta_th * p.eta_trm * t0 * p.s_i / t141;
+            let k133 = t143 / t142;
+            let t144 = t86 * p.s_i;
+            let k134 = t144 / (t135 * t83 * p.r_w * t4 * t8);
+            let t145 = t137 * p.eta_th * p.eta_trm * t0;
+            let t146 = t145 * p.s_i;
+            let k135 = t146 / (t140 * t83 * t1 * t4 * t8);
+            let k136 = t86 / (t88 * t51 * t8);
+            let k137 = t144 / (t90 * p.V_i * p.lambda * p.r_w * t4 * t8);
+            let k138 = t146
+                / (t11 * t89 * p.R_a * p.T_i * p.V_i * p.lambda * t1 * t4 * t8);
+            let k139 = t86 / (t92 * t51 * t8);
+            let k140 = t144 / (t77 * p.V_i * p.lambda * p.r_w * t4 * t8);
+            let k141 = 500.0 * p.T_i * p.V_d * p.eta_trm * p.i_t * t16 / t42;
+            let k142 = t146 / (t138 * t93 * p.T_i * p.V_i * p.lambda * t1 * t4 * t8);
+            let k143 = t86 / (t95 * t51 * t8);
+            let k144 = t144 / (t76 * p.T_i * p.V_i * p.lambda * p.r_w * t4 * t8);
+            let k145 = t37 * p.V_d * p.eta_trm * p.i_t * t16 / t42;
+            let k146 = t146 / (t139 * t96 * p.V_i * p.lambda * t1 * t4 * t8);
+            let k147 = t86 / (t98 * t51 * t8);
+            let t147 = p.V_i * p.V_i;
+            let k148 = t41 / (PI * t147 * p.r_w * t4 * t8);
+            let k149 = t103 / (t11 * t147 * t1 * t4 * t8);
+            let k150 = t48 / t109;
+            let k151 = t86 / t136;
+            let k152 = t145 / t141;
+            let k153 = t86 / t142;
+            let k154 = t36 / t100;
+            let k155 = k8 / (p.v_eps * p.v_eps * p.v_eps);
+            let k156 = t36 / (t100 * t51);
+            let k157 = t102 / t133;
+            let k158 = 64800.0 * t5 * p.Pi_bl * t12 * p.S_eps * p.V_d * p.eta_trm * t28
+                * p.xi_aux / t128;
+            let k159 = 0.5 / t43;
+            let t148 = p.AFs * t83;
+            let k160 = 1.0 / t148;
+            let t149 = t89 * p.lambda;
+            let k161 = 1.0 / t149;
+            let k162 = 500.0 / t44;
+            let k163 = -1000.0 / (t148 * p.rho_f);
+            let k164 = -1000.0 / (t149 * p.rho_f);
+            let k165 = -1000.0 / (t43 * (p.rho_f * p.rho_f));
+            let k166 = -30.0 * p.i_t / t58;
+            let k167 = 30.0 / t14;
+            let t150 = t67 * t12 * p.V_d;
+            let t151 = t32 * t1 * t8;
+            let k168 = t150 * t0 * p.xi_aux / t151;
+            let k169 = t47 * t16 / t46;
+            let k170 = t31 * t0 * p.xi_aux / t34;
+            let k171 = t150 * p.i_t * p.xi_aux / t151;
+            let k172 = -500.0 / t46;
+            let k173 = 20000.0 * t5 * p.Pi_bl * p.V_d * p.xi_aux / (t63 * t8);
+            let k174 = t129 * p.V_d * p.xi_aux / (t63 * t65);
+            let k175 = t68 * t0 * p.xi_aux / t151;
+            let t152 = t69 * t8;
+            let k176 = t71 * p.Pi_bl * p.V_d / t152;
+            let k177 = t132 * p.V_d / (t69 * t65);
+            let k178 = t72 * p.xi_aux / t152;
+            let t153 = t79 * t8;
+            let k179 = t75 / t153;
+            let k180 = t82 / t153;
+            let k181 = t85 / (t87 * t8);
+            let k182 = t85 / (t91 * t8);
+            let k183 = t85 / (t94 * t8);
+            let k184 = t85 / (t97 * t8);
+            let k185 = t85 / t153;
+            let k186 = t99 / t153;
+            let k187 = t101 * p.xi_aux / t152;
             Precomputed {
                 params: *p,
                 k0,
@@ -455,6 +1092,169 @@ pub mod si_engine {
                 k22,
                 k23,
                 k24,
+                k25,
+                k26,
+                k27,
+                k28,
+                k29,
+                k30,
+                k31,
+                k32,
+                k33,
+                k34,
+                k35,
+                k36,
+                k37,
+                k38,
+                k39,
+                k40,
+                k41,
+                k42,
+                k43,
+                k44,
+                k45,
+                k46,
+                k47,
+                k48,
+                k49,
+                k50,
+                k51,
+                k52,
+                k53,
+                k54,
+                k55,
+                k56,
+                k57,
+                k58,
+                k59,
+                k60,
+                k61,
+                k62,
+                k63,
+                k64,
+                k65,
+                k66,
+                k67,
+                k68,
+                k69,
+                k70,
+                k71,
+                k72,
+                k73,
+                k74,
+                k75,
+                k76,
+                k77,
+                k78,
+                k79,
+                k80,
+                k81,
+                k82,
+                k83,
+                k84,
+                k85,
+                k86,
+                k87,
+                k88,
+                k89,
+                k90,
+                k91,
+                k92,
+                k93,
+                k94,
+                k95,
+                k96,
+                k97,
+                k98,
+                k99,
+                k100,
+                k101,
+                k102,
+                k103,
+                k104,
+                k105,
+                k106,
+                k107,
+                k108,
+                k109,
+                k110,
+                k111,
+                k112,
+                k113,
+                k114,
+                k115,
+                k116,
+                k117,
+                k118,
+                k119,
+                k120,
+                k121,
+                k122,
+                k123,
+                k124,
+                k125,
+                k126,
+                k127,
+                k128,
+                k129,
+                k130,
+                k131,
+                k132,
+                k133,
+                k134,
+                k135,
+                k136,
+                k137,
+                k138,
+                k139,
+                k140,
+                k141,
+                k142,
+                k143,
+                k144,
+                k145,
+                k146,
+                k147,
+                k148,
+                k149,
+                k150,
+                k151,
+                k152,
+                k153,
+                k154,
+                k155,
+                k156,
+                k157,
+                k158,
+                k159,
+                k160,
+                k161,
+                k162,
+                k163,
+                k164,
+                k165,
+                k166,
+                k167,
+                k168,
+                k169,
+                k170,
+                k171,
+                k172,
+                k173,
+                k174,
+                k175,
+                k176,
+                k177,
+                k178,
+                k179,
+                k180,
+                k181,
+                k182,
+                k183,
+                k184,
+                k185,
+                k186,
+                k187,
             }
         }
         /// The parameters.
@@ -660,6 +1460,270 @@ pub mod si_engine {
                             * (self.k4 - 9.0 * (self.k2 + self.k3 * (v * v)).powf(0.9))),
             ]
         }
+        /// The partial derivatives of ψ_1 … ψ_r, y^(r) = φ(x, u), the internal states' right-hand sides and the extra outputs with respect to x_1 … x_n, u and every parameter, row-major (the layout of `invsim_model_api::SensitivityLayout`): the runtime's parameter sensitivities combine them by the implicit function theorem.
+        pub fn sensitivity(&self, x: &[f64; N], m_at: f64) -> [f64; N_SENS] {
+            let p = &self.params;
+            let [v, p_i] = *x;
+            let t0 = v * v;
+            let t1 = self.k2 + self.k3 * t0;
+            let t2 = t1.powf(0.1);
+            let t3 = (self.k7 * v).tanh();
+            let t4 = t3 * t3 - 1.0;
+            let t5 = self.k0 * v + self.k15 * v / t2 - self.k16 * t4;
+            let t6 = p.y_i - p.s_i * p_i;
+            let t7 = self.k27 - 9.0 * t2.powi(9);
+            let t8 = p.p_e - p_i + self.k1 * t6 - self.k5 * t7;
+            let t9 = self.k0 * t0 + self.k6 * t8 + self.k8 * t3;
+            let t10 = self.k28 * t9;
+            let t11 = self.k35 * t0 / t2 + self.k36 * t8;
+            let t12 = self.k39 * t0 / t2 + self.k40 * t8;
+            let t13 = self.k46 * t7 + self.k47 * t8;
+            let t14 = self.k50 * t7 + self.k51 * t8;
+            let t15 = self.k26 - p.S_eps / t2;
+            let t16 = t2 * t1;
+            let t17 = v * v * v;
+            let t18 = 1.0 + sign(m_at);
+            let t19 = m_at.max(0.0);
+            [
+                1.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                -(self.k11 * t5),
+                self.k25,
+                0.0,
+                t10 - self.k29 * t3,
+                self.k30 * t0,
+                self.k31 * t0,
+                -(self.k32 * t3),
+                self.k33 * t0,
+                -(self.k34 * t3),
+                self.k37 * t11 - self.k38 * t9,
+                self.k41 * t9 - self.k37 * t12,
+                self.k43 * t9 - self.k42 * t8,
+                self.k44 * t9,
+                self.k45 * t8,
+                self.k48 * t13,
+                self.k49 * t0 / t2,
+                self.k37 * t14,
+                self.k52 * t7,
+                self.k53 * t6,
+                self.k54 * t6,
+                self.k55 * t6,
+                self.k56 * t6,
+                self.k57 * t6,
+                self.k58 * t6,
+                0.0,
+                self.k59,
+                self.k60 * p_i,
+                self.k61,
+                0.0,
+                -(self.k62 * v * t4),
+                self.k63 * t15,
+                self.k64 * t6 + self.k65 * (t5 * t5)
+                    + t10
+                        * (self.k0 - self.k66 * t0 / t16 + self.k15 / t2
+                            + self.k67 * t4 * t3),
+                -(self.k68 * v + self.k69 * t5),
+                self.k17,
+                self.k74 * t5 * t3 - self.k70 * m_at - self.k71 * v * t6
+                    - self.k72 * t5 * t9 - self.k73 * t9 * t4,
+                self.k75 * t0 * t5 + self.k75 * v * t9,
+                self.k76 * t0 * t5 + self.k76 * v * t9,
+                self.k78 * t5 * t3 - self.k77 * t9 * t4,
+                self.k79 * t0 * t5 + self.k79 * v * t9,
+                self.k81 * t5 * t3 - self.k80 * t9 * t4,
+                self.k82 * m_at - self.k83 * m_at + self.k84 * v * t6 - self.k85 * v * t6
+                    - self.k86 * t11 * t5
+                    + self.k89 * (self.k87 * t17 / t16 - self.k88 * v / t2) * t9
+                    + self.k90 * t5 * t9,
+                self.k92 * m_at - self.k91 * m_at - self.k93 * v * t6 + self.k94 * v * t6
+                    + self.k86 * t12 * t5
+                    - self.k89 * (self.k95 * t17 / t16 - self.k96 * v / t2) * t9
+                    - self.k97 * t5 * t9,
+                self.k99 * m_at - self.k98 * m_at - self.k100 * v * t6
+                    + self.k101 * v * t6 + self.k102 * t8 * t5 + self.k103 * v * t9 / t2
+                    - self.k104 * t5 * t9,
+                -(self.k105 * m_at + self.k106 * v * t6 + self.k107 * t5 * t9),
+                self.k108 * m_at + self.k109 * v * t6 + self.k110 * t8 * t5
+                    + self.k111 * v * t9 / t2,
+                self.k112 * m_at + self.k113 * v * t6 + self.k114 * t13 * t5
+                    + self.k117 * (self.k115 * v / t2 - self.k116 * v / t2) * t9,
+                self.k118 * t0 * t5 / t2
+                    - self.k89 * (self.k119 * t17 / t16 - self.k120 * v / t2) * t9,
+                -(self.k121 * m_at + self.k122 * v * t6 + self.k86 * t14 * t5
+                    + self.k125 * (self.k123 * v / t2 - self.k124 * v / t2) * t9),
+                self.k127 * v * t9 / t2 - self.k126 * t7 * t5,
+                self.k128 * m_at + self.k129 * v * t6 + self.k130 * t6 * t5,
+                self.k131 * m_at + self.k132 * v * t6 + self.k133 * t6 * t5,
+                -(self.k134 * m_at + self.k135 * v * t6 + self.k136 * t6 * t5),
+                -(self.k137 * m_at + self.k138 * v * t6 + self.k139 * t6 * t5),
+                self.k141 * m_at - self.k140 * m_at - self.k142 * v * t6
+                    - self.k143 * t6 * t5,
+                self.k145 * m_at - self.k144 * m_at - self.k146 * v * t6
+                    - self.k147 * t6 * t5,
+                -(self.k148 * m_at + self.k149 * v * t6),
+                self.k150 * t5,
+                self.k151 * m_at - self.k64 * p_i * v + self.k152 * v * t6
+                    - self.k153 * p_i * t5,
+                self.k64 * v + self.k153 * t5,
+                0.0,
+                t10 * (self.k154 * t4 - self.k155 * v * t4 * t3)
+                    + self.k156 * v * t5 * t4,
+                -(self.k157 * t15 * t5 + self.k158 * v * t9 / t16),
+                0.0,
+                0.0,
+                self.k159 * t18,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                -(self.k160 * t19),
+                -(self.k161 * t19),
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                self.k162 * t18,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                self.k163 * t19,
+                self.k164 * t19,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                self.k165 * t19,
+                0.0,
+                0.0,
+                self.k23,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                self.k166 * v,
+                self.k167 * v,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                self.k168 * v / t2,
+                self.k169,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                self.k170 * t0 / t2,
+                self.k171 * t0 / t2,
+                0.0,
+                0.0,
+                self.k172 * t8,
+                -(self.k173 * t7 + self.k174 * t8),
+                self.k175 * t0 / t2,
+                self.k176 * t7 + self.k177 * t8,
+                self.k178 * t7,
+                self.k179 * t6,
+                self.k180 * t6,
+                self.k181 * t6,
+                self.k182 * t6,
+                self.k183 * t6,
+                self.k184 * t6,
+                0.0,
+                self.k24,
+                self.k185 * p_i,
+                self.k186,
+                0.0,
+                0.0,
+                self.k187 * t15,
+            ]
+        }
         /// [`Precomputed::invert`] at many points, stored column-wise: ξ_i at point k is `xi[i][k]`, η_j is `eta[j][k]`, y^(r) is `yr[k]`; x_s is written to `x[s][k]` and u to `u[k]`.
         ///
         /// Block by block ([`BLOCK`] points): the fractional powers of a block at once, by [`pow_pos_slice`] (within 1 ulp of `powf`), everything else point by point in loops that vectorise.
@@ -802,6 +1866,11 @@ pub mod si_engine {
     #[inline]
     pub fn outputs(p: &Params, x: &[f64; N], m_at: f64) -> [f64; N_OUTPUTS] {
         Precomputed::new(p).outputs(x, m_at)
+    }
+    /// The partial derivatives the parameter sensitivities are built from at the parameters `p`; the equation and the code are in [`Precomputed::sensitivity`].
+    #[inline]
+    pub fn sensitivity(p: &Params, x: &[f64; N], m_at: f64) -> [f64; N_SENS] {
+        Precomputed::new(p).sensitivity(x, m_at)
     }
     /// The model's static description (names, sizes, bounds), as the interpreter reports it.
     pub fn model_info() -> ModelInfo {
@@ -963,6 +2032,16 @@ pub mod si_engine {
         ) {
             self.pre.outputs_batch(cols(x), u, cols_mut(out));
         }
+        fn sensitivity(
+            &self,
+            x: &[f64],
+            _w: &[f64],
+            u: f64,
+            out: &mut [f64],
+        ) -> Result<(), ModelError> {
+            out.copy_from_slice(&self.pre.sensitivity(arr(x), u));
+            Ok(())
+        }
         fn reference(&self) -> ReferenceMap {
             REFERENCE
         }
@@ -997,6 +2076,18 @@ pub mod si_engine {
     /// the caller, as the trait documents).
     fn arr<const K: usize>(s: &[f64]) -> &[f64; K] {
         s.try_into().expect("slice length matches the model's dimensions")
+    }
+    /// sign(x) of the model language: −1, 0 or 1 (NaN for NaN). Unlike `f64::signum`, 0 at ±0.
+    fn sign(x: f64) -> f64 {
+        if x > 0.0 {
+            1.0
+        } else if x < 0.0 {
+            -1.0
+        } else if x == 0.0 {
+            0.0
+        } else {
+            f64::NAN
+        }
     }
     /// The fixed-size array of columns behind a slice of columns (a wrong count is a bug in the
     /// caller, as the trait documents).

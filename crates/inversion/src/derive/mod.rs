@@ -28,6 +28,7 @@ mod normal_form;
 mod psi_inv;
 mod rank;
 mod relative_degree;
+mod sensitivity;
 mod total_derivative;
 
 pub use lie::lie_derivative;
@@ -160,6 +161,9 @@ pub struct Derivation {
     /// Conditions under which the closed-form ψ⁻¹ is valid (divisors nonzero, roots real, branches).
     pub domain: Vec<String>,
     pub warnings: Vec<String>,
+    /// ∂/∂(x, u, p) of ψ_1 … ψ_r, y^(r), the internal states' right-hand sides and the outputs, row-major in
+    /// the layout of `invsim_model_api::SensitivityLayout` (`sensitivity.rs`).
+    pub sensitivity: Vec<Id>,
 }
 
 /// `Err(NotFinite)` naming the first constant subexpression of f, g (the rhs of a non-affine state) or h that
@@ -414,6 +418,12 @@ impl Derivation {
         warnings.extend(singular_warnings(&singular, affine, &model.input.name));
         let domain = domain_conditions(pool, domain, &params);
 
+        let sensitivity = sensitivity::sensitivity(
+            &mut model,
+            &psi[..r],
+            (alpha_x, beta_x, yr_affine),
+            &eta_states,
+        );
         Ok(Derivation {
             model,
             relative_degree: r,
@@ -443,6 +453,7 @@ impl Derivation {
             singular,
             domain,
             warnings,
+            sensitivity,
         })
     }
 

@@ -104,6 +104,9 @@ pub enum SimulateError {
     /// The stable inversion failed.
     #[error(transparent)]
     Stable(#[from] StableError),
+    /// The parameter gradient asked for cannot be computed.
+    #[error("parameter gradients: {0}")]
+    Gradient(#[from] crate::gradient::error::GradientError),
 }
 
 impl From<crate::ode::StepFailure> for SimulateError {

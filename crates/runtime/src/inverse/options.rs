@@ -82,6 +82,9 @@ pub struct SimulationOptions {
     /// Models with modes and a `[hybrid]` table: the energy-management strategy (`--strategy ecms`;
     /// docs/hybrids.md); `None`: the mode sequence of docs/reference.md §2.5.
     pub strategy: Option<crate::modes::EcmsOptions>,
+    /// Differentiate the summary's figures with respect to these parameters (`["all"]`: every one) and report
+    /// the derivatives in the summary's `gradient` ([`crate::gradient`]; default `None`: no gradient).
+    pub gradient: Option<Vec<String>>,
 }
 
 impl Default for SimulationOptions {
@@ -107,6 +110,7 @@ impl Default for SimulationOptions {
             transition_time: None,
             lookahead_auto: false,
             strategy: None,
+            gradient: None,
         }
     }
 }
@@ -210,6 +214,12 @@ impl SimulationOptionsBuilder {
     /// The initial internal state η(t_0) (selects causal integration).
     pub fn eta0(mut self, eta0: Option<Vec<f64>>) -> Self {
         self.0.eta0 = eta0;
+        self
+    }
+
+    /// The parameters to differentiate the summary's figures by (`["all"]`: every one).
+    pub fn gradient(mut self, names: Option<Vec<String>>) -> Self {
+        self.0.gradient = names;
         self
     }
 

@@ -548,6 +548,10 @@ pub(super) fn run<M: InverseModel + ?Sized>(
     checks::check_lookahead(opts.lookahead, duration, opts.dt)?;
     let steps = grid.n;
     let eta0 = check_eta0(info, opts)?;
+    let gradient_params = match &opts.gradient {
+        Some(names) => Some(crate::gradient::resolve(info, names).map_err(SimulateError::from)?),
+        None => None,
+    };
     // Start values of the internal states (`initial =`, `--initial`), used by a causal run.
     let initial = crate::initial::initial_eta(info, &opts.initial).map_err(RunError::from)?;
     let names: Vec<String> = info.signals.iter().map(|s| s.name.clone()).collect();
@@ -589,6 +593,9 @@ pub(super) fn run<M: InverseModel + ?Sized>(
         (t0, grid.time(grid.n), opts.dt),
         &stable_opts,
     )?;
+    if gradient_params.is_some() && zd.stable.is_some() {
+        return Err(crate::gradient::GradientError::NonCausal.into());
+    }
     let mut start_warnings = initial.warnings;
     let eta0 = match (eta0, initial.eta) {
         (Some(e), _) => Some(e),
@@ -619,10 +626,21 @@ pub(super) fn run<M: InverseModel + ?Sized>(
     let stored = if keep { grid.samples() } else { 0 };
     crate::grid::check_record(stored, columns.len(), opts.dt)?;
     let mut data = allocate(spare, columns.len(), stored, &grid);
+    let gradient_eta0 = eta0.clone();
     let mut inverter = Inverter::new(model, smoother, grid, &zd, eta0, opts)?;
     let mut tally = Tally::new(model, (cycle, steps), &grid, window, opts.progress.clone());
     let yd = (smoother, shared.and_then(|s| s.columns_for(&grid)));
     run_blocks(model, yd, &grid, &mut inverter, &mut tally, &mut data, keep)?;
+    let gradient = match &gradient_params {
+        Some(params) => Some(run_gradient(
+            model,
+            (smoother, &grid),
+            params,
+            (&tally, cycle.distance(), gradient_eta0),
+            opts,
+        )?),
+        None => None,
+    };
 
     let run = Finished {
         smoother,
@@ -635,6 +653,7 @@ pub(super) fn run<M: InverseModel + ?Sized>(
         distance_warning,
     };
     let mut summary = summarise(model, cycle, opts, &zd, &run, tally, &mut data)?;
+    summary.gradient = gradient;
     summary.columns = columns_with_units(info, &columns);
     summary.signals = crate::signals::signal_uses(&resolved, "smoothed");
     Ok(SimulationResult {
@@ -646,6 +665,25 @@ pub(super) fn run<M: InverseModel + ?Sized>(
         reference: smoother.reference(),
         signals: resolved,
     })
+}
+
+/// The gradient of the finished causal run (`tally`: its integrals) with respect to the parameters `params`,
+/// along the reference on the run's grid ([`crate::gradient`]).
+fn run_gradient<M: InverseModel + ?Sized>(
+    model: &M,
+    (smoother, grid): (&Smoother, &Grid),
+    params: &[usize],
+    (tally, distance_m, eta0): (&Tally<'_>, f64, Option<Vec<f64>>),
+    opts: &SimulationOptions,
+) -> Result<crate::gradient::Gradient, SimulateError> {
+    let along = crate::gradient::Along { smoother, grid };
+    let figures = crate::gradient::RunFigures {
+        accumulate: &tally.accumulate,
+        integrals: &tally.integrals,
+        distance_m,
+        eta0,
+    };
+    crate::gradient::of_run(model, params, &along, figures, opts)
 }
 
 /// What the summary needs of the finished run.
@@ -827,6 +865,7 @@ fn summarise<M: InverseModel + ?Sized>(
         input_before_start,
         stable_inversion,
         engine_operating_points: tally.operating.map(|op| op.finish(info, opts.dt)),
+        gradient: None,
         columns: Vec::new(),
         signals: Vec::new(),
         provenance: None,

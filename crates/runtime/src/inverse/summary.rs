@@ -62,6 +62,10 @@ pub struct Summary {
     /// The time-weighted engine speed × torque histogram (models with an `[engine]`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub engine_operating_points: Option<OperatingPoints>,
+    /// d figure/d parameter of the integrals, their per-100-km figures and the headline's figures
+    /// (`--gradient`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gradient: Option<crate::gradient::Gradient>,
     /// The CSV's columns with their units, in order.
     pub columns: Vec<Column>,
     /// Each signal, where it came from and whether the run used it smoothed or raw (models with signals).
@@ -133,6 +137,9 @@ impl Summary {
             .write_text(&mut s, output_unit, self.run.distance_m);
         self.totals
             .write_text(&mut s, self.headline.as_ref().map(|h| h.output.as_str()));
+        if let Some(g) = &self.gradient {
+            g.write_text(&mut s);
+        }
         if let Some(op) = &self.engine_operating_points {
             op.write_text(&mut s);
         }

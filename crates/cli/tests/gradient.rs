@@ -1,0 +1,146 @@
+//! `invsim simulate --gradient` as a user meets it: the summary's `gradient` block and text table, the
+//! derivative of fuel in mass against central differences of two `--set` runs, the compiled engine against the
+//! interpreter, and the runs not differentiated yet refused with exit 2 and the reason.
+
+use crate::common;
+use common::*;
+
+use serde_json::Value;
+
+fn summary(model: &str, tag: &str, extra: &[&str]) -> (Value, String) {
+    let json = tmp(&format!("gradient-{tag}.json"));
+    let mut args = vec![
+        "simulate",
+        model,
+        "--cycle",
+        "ece",
+        "--summary-json",
+        json.to_str().expect("utf-8"),
+    ];
+    args.extend_from_slice(extra);
+    let o = invsim(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    (
+        json_file(&json),
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+    )
+}
+
+/// The block has a row per figure (integrals, per 100 km, headline) with the parameters asked for; the text has
+/// the table; d fuel/dm is the central difference of two runs at m ± 1e-3 kg (relative step 7.7e-7: the
+/// fuel is a sum of ~10³ rounded terms, noise ~1e-13/7.7e-7 relative, far below the 1e-5 asked).
+#[test]
+fn the_gradient_block_the_table_and_fuel_against_central_differences() {
+    let (s, text) = summary("models/si_engine.toml", "base", &["--gradient", "m,C_d"]);
+    let g = &s["gradient"];
+    for f in [
+        "fuel",
+        "fuel_per_100km",
+        "fuel_volume",
+        "headline.l_per_100km",
+        "headline.mpg_us",
+    ] {
+        let row = g[f].as_object().unwrap_or_else(|| panic!("row {f}: {g}"));
+        assert_eq!(row.keys().collect::<Vec<_>>(), ["C_d", "m"], "{f}");
+    }
+    assert!(
+        text.contains("gradient (d figure / d parameter):"),
+        "{text}"
+    );
+    assert!(
+        text.lines().any(|l| l.trim_start().starts_with("m ")),
+        "{text}"
+    );
+    let fuel = |m: f64| -> f64 {
+        let (s, _) = summary(
+            "models/si_engine.toml",
+            &format!("m{m}"),
+            &["--set", &format!("m={m}")],
+        );
+        s["integrals"]["fuel"].as_f64().expect("fuel")
+    };
+    let h = 1e-3;
+    let fd = (fuel(1300.0 + h) - fuel(1300.0 - h)) / (2.0 * h);
+    let exact = g["fuel"]["m"].as_f64().expect("a number");
+    assert!(
+        (exact - fd).abs() <= 1e-5 * fd.abs(),
+        "d fuel/dm = {exact}, central differences {fd}"
+    );
+}
+
+/// The figure the gradient block calls `f`, from the summary `s`.
+fn figure(s: &Value, f: &str) -> f64 {
+    let v = match (f.strip_prefix("headline."), f.strip_suffix("_per_100km")) {
+        (Some(field), _) => &s["headline"][field],
+        (None, Some(name)) if s["integrals_per_100km"].get(name).is_some() => {
+            &s["integrals_per_100km"][name]
+        }
+        _ => &s["integrals"][f],
+    };
+    v.as_f64().unwrap_or_else(|| panic!("figure {f}"))
+}
+
+/// `--engine interpreted` gives the compiled engine's gradient within 1e-12 (si_engine: r = n), compared as
+/// p·d figure/dp, the figure's change for a relative change of p, against the figure (a derivative that is 0
+/// exactly, d CO2/d rho_f of a volume flow, is rounding in both).
+#[test]
+fn compiled_and_interpreted_agree() {
+    let params = [
+        ("m", 1300.0),
+        ("C_d", 0.32),
+        ("V_d", 2.0e-3),
+        ("rho_f", 745.0),
+    ];
+    let names = params.map(|(n, _)| n).join(",");
+    let (c, _) = summary(
+        "models/si_engine.toml",
+        "c",
+        &["--gradient", &names, "--engine", "compiled"],
+    );
+    let (i, _) = summary(
+        "models/si_engine.toml",
+        "i",
+        &["--gradient", &names, "--engine", "interpreted"],
+    );
+    let (gc, gi) = (c["gradient"].as_object().expect("block"), &i["gradient"]);
+    for (f, row) in gc {
+        let scale = figure(&c, f).abs();
+        for (p, value) in params {
+            let (a, b) = (
+                row[p].as_f64().expect("number"),
+                gi[f][p].as_f64().expect("number"),
+            );
+            let tol = 1e-12 * (a.abs() * value).max(scale);
+            assert!((a - b).abs() * value <= tol, "d{f}/d{p}: {a} vs {b}");
+        }
+    }
+}
+
+/// Refusals, exit 2, each naming why: a model with modes, a non-causal (stable) inversion, an unknown and a
+/// repeated parameter.
+#[test]
+fn runs_not_differentiated_are_refused_with_the_reason() {
+    let cases = [
+        (
+            "models/si_engine_5speed.toml",
+            "m",
+            "models with modes are not differentiated yet",
+        ),
+        ("models/diesel_gasflow.toml", "all", "non-causally"),
+        (
+            "models/si_engine.toml",
+            "m,no_such",
+            "unknown parameter `no_such`",
+        ),
+        ("models/si_engine.toml", "m,m", "`m` is named twice"),
+    ];
+    for (model, names, why) in cases {
+        let o = invsim(&["simulate", model, "--cycle", "ece", "--gradient", names]);
+        assert_eq!(o.status.code(), Some(2), "{model} {names}: {}", stderr(&o));
+        let e = stderr(&o);
+        assert!(
+            e.contains("--gradient: ") && e.contains(why),
+            "{model} {names}: {e}"
+        );
+    }
+}

@@ -1,0 +1,134 @@
+//! Exact parameter gradients of a run's summary figures (`invsim simulate --gradient`): the derivative of
+//! each number the summary prints — every accumulated output's integral, its per-100-km figure and the
+//! headline's figures — with respect to the model's parameters.
+//!
+//! For r = n the input and the states are closed-form (or implicitly defined) functions of the smoothed cycle
+//! and the parameters, so their derivatives follow from the model's symbolic partial derivatives by the chain
+//! rule at every sample ([`point`]); for r < n the internal states' sensitivities ∂η/∂p are integrated
+//! alongside η by the run's integrator ([`pass`]); the figures are differentiated through the run's own
+//! quadrature and formulas ([`figures`]). Only runs of models without modes whose internal dynamics are
+//! integrated causally (or absent) are differentiated; [`GradientError`] says why another is not.
+
+pub mod error;
+mod figures;
+mod pass;
+mod point;
+
+use std::fmt::Write as _;
+
+use invsim_model_api::{InverseModel, ModelInfo};
+use serde::Serialize;
+
+pub use error::GradientError;
+pub use figures::Figures;
+pub(crate) use figures::{figures, Integrals};
+pub(crate) use pass::{integral_gradients, Along, Wanted};
+
+use crate::report::fmt_sig;
+
+/// The parameters to differentiate by: `all` of them, or those named (in the model's order, each once).
+pub fn resolve(info: &ModelInfo, names: &[String]) -> Result<Vec<usize>, GradientError> {
+    if names.len() == 1 && names[0] == "all" && !info.parameters.iter().any(|p| p == "all") {
+        return Ok((0..info.parameters.len()).collect());
+    }
+    let mut out: Vec<usize> = Vec::with_capacity(names.len());
+    for name in names {
+        let Some(i) = info.parameters.iter().position(|p| p == name) else {
+            return Err(GradientError::UnknownParameter {
+                name: name.clone(),
+                known: info.parameters.join(", "),
+            });
+        };
+        if out.contains(&i) {
+            return Err(GradientError::Duplicate { name: name.clone() });
+        }
+        out.push(i);
+    }
+    out.sort_unstable();
+    Ok(out)
+}
+
+/// The summary's `gradient` block: d figure/d parameter, `{"FIGURE": {"PARAM": value}}`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(transparent)]
+pub struct Gradient {
+    pub figures: Figures,
+}
+
+impl Gradient {
+    /// Summary text: one row per parameter, one column per figure.
+    pub fn write_text(&self, s: &mut String) {
+        let Some(first) = self.figures.values().next() else {
+            return;
+        };
+        let params: Vec<&String> = first.keys().collect();
+        let names: Vec<&String> = self.figures.keys().collect();
+        let cell = |f: &String, p: &String| {
+            self.figures[f]
+                .get(p)
+                .map_or("-".to_string(), |v| fmt_sig(*v, 4))
+        };
+        let pw = params.iter().map(|p| p.len()).max().unwrap_or(0).max(9);
+        let widths: Vec<usize> = names
+            .iter()
+            .map(|f| {
+                params
+                    .iter()
+                    .map(|p| cell(f, p).len())
+                    .max()
+                    .unwrap_or(0)
+                    .max(f.len())
+            })
+            .collect();
+        let _ = writeln!(s, "gradient (d figure / d parameter):");
+        let _ = write!(s, "  {:pw$}", "parameter");
+        for (f, w) in names.iter().zip(&widths) {
+            let _ = write!(s, "  {f:>w$}");
+        }
+        s.push('\n');
+        for p in &params {
+            let _ = write!(s, "  {p:pw$}");
+            for (f, w) in names.iter().zip(&widths) {
+                let _ = write!(s, "  {:>w$}", cell(f, p));
+            }
+            s.push('\n');
+        }
+    }
+}
+
+/// Everything the gradient of a finished run needs besides the model and the reference.
+pub(crate) struct RunFigures<'a> {
+    pub accumulate: &'a [usize],
+    pub integrals: &'a [f64],
+    pub distance_m: f64,
+    pub eta0: Option<Vec<f64>>,
+}
+
+/// The gradient of a finished causal (or r = n) run with respect to the parameters `params`.
+pub(crate) fn of_run<M: InverseModel + ?Sized>(
+    model: &M,
+    params: &[usize],
+    along: &Along<'_>,
+    run: RunFigures<'_>,
+    opts: &crate::inverse::SimulationOptions,
+) -> Result<Gradient, crate::inverse::SimulateError> {
+    let wanted = Wanted {
+        model,
+        params,
+        accumulate: run.accumulate,
+    };
+    let derivatives = integral_gradients(&wanted, along, run.eta0, opts)?;
+    let integrals = Integrals {
+        accumulate: run.accumulate,
+        values: run.integrals,
+        derivatives: &derivatives,
+    };
+    Ok(Gradient {
+        figures: figures(
+            model.info(),
+            (params, model.params()),
+            &integrals,
+            run.distance_m,
+        ),
+    })
+}

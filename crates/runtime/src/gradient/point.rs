@@ -1,0 +1,108 @@
+//! The chain rule at one point of a run: how x = ψ⁻¹(ξ, η) and the input u move when η or a parameter moves,
+//! and so how the internal states' right-hand sides and the outputs move (implicit function theorem).
+//!
+//! With ξ, y^(r) and the signals w fixed by the reference, x solves ψ(x; p) = (ξ, η) and u solves
+//! φ(x, u; p) = y^(r) (φ = α_x + β_x·u where y^(r) is affine in u). Differentiating both:
+//!
+//! ```text
+//! (∂ψ/∂x) dx = (0, dη) − (∂ψ/∂p) dp          (the η rows of ψ are states, η_j = x_{s_j}: parameter-free)
+//! du = −(∂φ/∂x · dx + ∂φ/∂p · dp) / (∂φ/∂u)
+//! d row = ∂row/∂x · dx + ∂row/∂u · du + ∂row/∂p · dp   (row: an internal state's rhs, or an output)
+//! ```
+//!
+//! (Isidori, *Nonlinear Control Systems*, 3rd ed., §4.1 for ψ; the implicit function theorem e.g. Rudin,
+//! *Principles of Mathematical Analysis*, Thm. 9.28.)
+
+use invsim_model_api::{InverseModel, ModelError, SensitivityLayout};
+use nalgebra::{DMatrix, DVector, LU};
+
+/// The partial derivatives at one point (x, w, u) and the LU factors of ∂ψ/∂x.
+pub(crate) struct Point {
+    layout: SensitivityLayout,
+    sens: Vec<f64>,
+    lu: LU<f64, nalgebra::Dyn, nalgebra::Dyn>,
+}
+
+/// A direction of change at a point: dx and du.
+pub(crate) struct Direction {
+    pub dx: Vec<f64>,
+    pub du: f64,
+}
+
+impl Point {
+    /// The model's partial derivatives at (x, w, u); `eta_states` are the states chosen as η.
+    pub(crate) fn new<M: InverseModel + ?Sized>(
+        model: &M,
+        (x, w, u): (&[f64], &[f64], f64),
+        eta_states: &[usize],
+        sens: Vec<f64>,
+    ) -> Result<Point, ModelError> {
+        let layout = SensitivityLayout::of(model.info());
+        let mut sens = sens;
+        sens.resize(layout.len(), 0.0);
+        model.sensitivity(x, w, u, &mut sens)?;
+        let (n, r) = (layout.n, layout.r);
+        let jac = DMatrix::from_fn(n, n, |i, j| {
+            if i < r {
+                sens[layout.at(layout.psi(i), layout.x(j))]
+            } else if eta_states[i - r] == j {
+                1.0
+            } else {
+                0.0
+            }
+        });
+        Ok(Point {
+            layout,
+            sens,
+            lu: jac.lu(),
+        })
+    }
+
+    /// The buffer of the partial derivatives, to reuse for the next point.
+    pub(crate) fn into_buffer(self) -> Vec<f64> {
+        self.sens
+    }
+
+    fn d(&self, row: usize, column: usize) -> f64 {
+        self.sens[self.layout.at(row, column)]
+    }
+
+    /// dx and du for a change dη of the internal coordinates and (`param`) a unit change of parameter k.
+    /// NaN where ∂ψ/∂x is singular.
+    pub(crate) fn direction(&self, deta: &[f64], param: Option<usize>) -> Direction {
+        let l = &self.layout;
+        let (n, r) = (l.n, l.r);
+        let b = DVector::from_fn(n, |i, _| {
+            if i < r {
+                param.map_or(0.0, |k| -self.d(l.psi(i), l.param(k)))
+            } else {
+                deta[i - r]
+            }
+        });
+        let dx: Vec<f64> = match self.lu.solve(&b) {
+            Some(v) => v.iter().copied().collect(),
+            None => vec![f64::NAN; n],
+        };
+        let phi = l.phi();
+        let mut num = param.map_or(0.0, |k| self.d(phi, l.param(k)));
+        for (j, v) in dx.iter().enumerate() {
+            num += self.d(phi, l.x(j)) * v;
+        }
+        let du = -num / self.d(phi, l.u());
+        Direction { dx, du }
+    }
+
+    /// The change of `row` along `dir` (with the unit change of parameter `param`, if any).
+    pub(crate) fn row_change(&self, row: usize, dir: &Direction, param: Option<usize>) -> f64 {
+        let l = &self.layout;
+        let mut v = param.map_or(0.0, |k| self.d(row, l.param(k))) + self.d(row, l.u()) * dir.du;
+        for (j, dx) in dir.dx.iter().enumerate() {
+            v += self.d(row, l.x(j)) * dx;
+        }
+        v
+    }
+
+    pub(crate) fn layout(&self) -> &SensitivityLayout {
+        &self.layout
+    }
+}
