@@ -84,6 +84,15 @@ def _signals_list(signals):
     return out
 
 
+def _gradient_list(gradient):
+    """`gradient=` as the extension takes it: None, or the names (`"all"`: every parameter)."""
+    if gradient is None:
+        return None
+    if isinstance(gradient, str):
+        return [n.strip() for n in gradient.split(",")]
+    return [str(n) for n in gradient]
+
+
 def _initial_list(initial):
     """`initial={state: value}` (the command line's `--initial NAME=VALUE`)."""
     return [(str(k), float(v)) for k, v in (initial or {}).items()]
@@ -110,6 +119,18 @@ class Result:
         state = dict(self.__dict__, summary=self.summary)
         del state["_summary"]
         return state
+
+    @property
+    def gradient(self):
+        """The exact derivatives of the summary's figures (a run with `gradient=`): a pandas DataFrame, one row
+        per parameter, one column per figure (d figure / d parameter, as the summary's `gradient` block
+        `{figure: {parameter: value}}`); None for a run without `gradient=`."""
+        block = self.summary.get("gradient")
+        if block is None:
+            return None
+        import pandas as pd
+
+        return pd.DataFrame(block)
 
     def __len__(self):
         return self.summary["samples"] if not self.arrays else len(self.arrays["t"])
@@ -362,13 +383,16 @@ class Model:
         initial=None,
         switching="reentry",
         transition_time=None,
+        gradient=None,
     ):
         """Inverse simulation on `cycle` (a built-in name or a cycle CSV path), like `invsim simulate`:
         `params` overrides parameters (`--set`), `signals` gives the model's `[signals]` (`--signal`: a number,
         a signal file's path, or (times, values)), `initial` start values of internal states (`--initial`),
         `verify` replays the input through the original model. `keep_series=False` computes every sample but
         keeps only the summary. Models with modes: `switching` is "reentry" or "quasi-static" and
-        `transition_time` the re-entry's transition time in s (`--switching`, `--transition-time`)."""
+        `transition_time` the re-entry's transition time in s (`--switching`, `--transition-time`).
+        `gradient` ("all", a parameter's name or a list of names; `--gradient`) differentiates the summary's
+        figures exactly with respect to those parameters: `Result.gradient`."""
         _warn_about_cycle(cycle)
         summary, columns, arrays, units = self._m.simulate(
             str(cycle),
@@ -383,6 +407,7 @@ class Model:
             _initial_list(initial),
             str(switching),
             None if transition_time is None else float(transition_time),
+            _gradient_list(gradient),
         )
         return Result(summary, columns, arrays, dict(units) if units else self._units)
 

@@ -159,7 +159,7 @@ impl Model {
     }
 
     /// One inverse simulation: (summary, column names, columns as float64 arrays, units).
-    #[pyo3(signature = (cycle, dt, lookahead, params, verify, causal, include_extension, keep_series, signals, initial, switching, transition_time))]
+    #[pyo3(signature = (cycle, dt, lookahead, params, verify, causal, include_extension, keep_series, signals, initial, switching, transition_time, gradient))]
     #[allow(clippy::too_many_arguments)]
     fn simulate<'py>(
         &self,
@@ -176,6 +176,7 @@ impl Model {
         initial: Vec<(String, f64)>,
         switching: String,
         transition_time: Option<f64>,
+        gradient: Option<Vec<String>>,
     ) -> PyResult<RunOutput<'py>> {
         let opts = RunOptions {
             dt,
@@ -188,6 +189,7 @@ impl Model {
             initial,
             switching,
             transition_time,
+            gradient,
         };
         let out =
             py.allow_threads(|| simulate_any(&self.loaded, &self.path, &cycle, &params, &opts));
@@ -269,6 +271,7 @@ impl Model {
             initial,
             switching: "reentry".to_string(),
             transition_time: None,
+            gradient: None,
         };
         let rows = py.allow_threads(|| {
             let loaded_cycles = cycles

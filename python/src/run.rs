@@ -65,6 +65,8 @@ pub struct RunOptions {
     /// Models with modes: `"reentry"` or `"quasi-static"`, and the re-entry's transition time.
     pub switching: String,
     pub transition_time: Option<f64>,
+    /// `--gradient`: the parameters to differentiate the summary's figures by (`["all"]`: every one).
+    pub gradient: Option<Vec<String>>,
 }
 
 impl RunOptions {
@@ -89,6 +91,7 @@ impl RunOptions {
             .keep_series(self.keep_series)
             .switching(self.switching()?)
             .transition_time(self.transition_time)
+            .gradient(self.gradient.clone())
             .build()
             .map_err(|e| stopped(model_path, cycle, e))
             .and_then(|mut o| {
