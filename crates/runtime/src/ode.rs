@@ -60,6 +60,34 @@ fn h_min(t: f64) -> f64 {
     16.0 * f64::EPSILON * t.abs().max(1.0)
 }
 
+/// Accepted steps one output interval may take.
+const MAX_STEPS: usize = 1_000_000;
+
+/// Accepted steps `step(t) → t_new` from `t0` until `t1`: `None` when t1 is reached, else the time where
+/// [`MAX_STEPS`] ran out.
+fn steps_until<E>(
+    t0: f64,
+    t1: f64,
+    mut step: impl FnMut(f64) -> Result<f64, E>,
+) -> Result<Option<f64>, E> {
+    let mut t = t0;
+    for _ in 0..MAX_STEPS {
+        if t >= t1 {
+            return Ok(None);
+        }
+        t = step(t)?;
+    }
+    Ok((t < t1).then_some(t))
+}
+
+/// The failure of an interval that needed more than [`MAX_STEPS`] steps.
+fn too_many_steps(t: f64) -> StepFailure {
+    StepFailure {
+        t,
+        reason: format!("more than {MAX_STEPS} steps in one output interval"),
+    }
+}
+
 fn too_small<E: From<StepFailure>>(t: f64) -> E {
     E::from(StepFailure {
         t,
@@ -215,23 +243,12 @@ impl Dopri5 {
         F: FnMut(f64, &[f64], &mut [f64]) -> Result<(), E>,
         E: From<StepFailure>,
     {
-        const MAX_STEPS: usize = 1_000_000;
-        let mut t = t0;
-        for _ in 0..MAX_STEPS {
-            if t >= t1 {
-                return Ok(());
-            }
-            t = self.step_to(t, t1, y, f)?;
-        }
-        if t >= t1 {
+        let Some(t) = steps_until(t0, t1, |t| self.step_to(t, t1, y, f))? else {
             return Ok(());
-        }
+        };
         self.t_fail = t;
         self.y_fail.copy_from_slice(y);
-        Err(E::from(StepFailure {
-            t,
-            reason: format!("more than {MAX_STEPS} steps in one output interval"),
-        }))
+        Err(E::from(too_many_steps(t)))
     }
 
     /// One accepted step from (t, y) towards `t_end` (> t), retrying with smaller steps after rejections; y is

@@ -19,7 +19,7 @@
 // The coefficients are written with the 30 digits they are published with; f64 rounds them.
 #![allow(clippy::excessive_precision)]
 
-use super::{h_min, too_small, OdeStats, StepFailure};
+use super::{h_min, steps_until, too_many_steps, too_small, OdeStats, StepFailure};
 
 /// Stages per step.
 const S: usize = 12;
@@ -182,21 +182,10 @@ impl Dop853 {
         F: FnMut(f64, &[f64], &mut [f64]) -> Result<(), E>,
         E: From<StepFailure>,
     {
-        const MAX_STEPS: usize = 1_000_000;
-        let mut t = t0;
-        for _ in 0..MAX_STEPS {
-            if t >= t1 {
-                return Ok(());
-            }
-            t = self.step_to(t, t1, y, f)?;
+        match steps_until(t0, t1, |t| self.step_to(t, t1, y, f))? {
+            None => Ok(()),
+            Some(t) => Err(E::from(too_many_steps(t))),
         }
-        if t >= t1 {
-            return Ok(());
-        }
-        Err(E::from(StepFailure {
-            t,
-            reason: format!("more than {MAX_STEPS} steps in one output interval"),
-        }))
     }
 
     /// One accepted step from (t, y) towards `t_end` (> t), retrying with smaller steps after rejections; y is
