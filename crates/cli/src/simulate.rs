@@ -154,7 +154,11 @@ pub fn run(args: &SimulateArgs, warnings: crate::error::Warnings) -> Result<(), 
     };
     let engine = model.engine_name();
     let plant = model.into_plant();
-    check_gradient(args.gradient.as_deref(), &plant)?;
+    check_gradient(
+        args.gradient.as_deref(),
+        matches!(plant, invsim_runtime::plant::Plant::Modal(_)),
+        plant.info(),
+    )?;
     let (progress, bar) = crate::progress::start("simulate");
     let mut opts = args
         .lookahead
@@ -201,20 +205,22 @@ pub fn run(args: &SimulateArgs, warnings: crate::error::Warnings) -> Result<(), 
     crate::engine::write_run((&args.plot, warnings), outputs, (&plant, &cycle), &result)
 }
 
-/// `--gradient` before the run: a model with modes is refused, and every name must be a parameter.
-fn check_gradient(
+/// `--gradient` before the run (`simulate` and `sweep`): a model with modes (`modal`) is refused, and every name
+/// must be one of `info`'s parameters.
+pub(crate) fn check_gradient(
     names: Option<&[String]>,
-    plant: &invsim_runtime::plant::Plant,
+    modal: bool,
+    info: &invsim_model_api::ModelInfo,
 ) -> Result<(), Failure> {
     let Some(names) = names else {
         return Ok(());
     };
-    if matches!(plant, invsim_runtime::plant::Plant::Modal(_)) {
+    if modal {
         return Err(Failure::user(
             "--gradient: models with modes are not differentiated yet (only models without [modes])",
         ));
     }
-    invsim_runtime::gradient::resolve(plant.info(), names)
+    invsim_runtime::gradient::resolve(info, names)
         .map(|_| ())
         .map_err(|e| Failure::user(format!("--gradient: {e}")))
 }

@@ -46,6 +46,10 @@ pub struct SweepArgs {
     /// Replay every variant's input through the original model and report its tracking error.
     #[arg(long)]
     verify: bool,
+    /// Differentiate every variant's figures exactly with respect to parameters (NAME,NAME,… or `all`; models
+    /// without modes): a column `d(FIGURE)/d(PARAMETER)` for each.
+    #[arg(long, value_name = "NAME,…|all", value_delimiter = ',')]
+    gradient: Option<Vec<String>>,
     /// Kernel half-width a in seconds: the driver's look-ahead; `auto` chooses it per cycle (as `simulate`).
     #[arg(long, value_name = "A|auto", allow_negative_numbers = true,
           default_value_t = crate::lookahead_arg::LookaheadArg::DEFAULT)]
@@ -355,12 +359,18 @@ pub fn run(args: &SweepArgs, warnings: Warnings) -> Result<(), Failure> {
     let outputs = plan_outputs(args)?;
     let cycles = cycles(args, warnings)?;
     let model = load(&args.model, args.engine)?;
+    crate::simulate::check_gradient(
+        args.gradient.as_deref(),
+        matches!(model, Loaded::Modal(_)),
+        model.info(),
+    )?;
     let failed = |e: String| Failure::user(format!("sweep of `{}`: {e}", args.model.display()));
     let opts = args
         .lookahead
         .apply(SimulationOptions::builder())
         .dt(args.dt)
         .engine(model.engine_name())
+        .gradient(args.gradient.clone())
         .build()
         .map_err(|e| failed(e.to_string()))?;
     let mut b = builder(model, sets)?;

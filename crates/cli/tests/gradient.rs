@@ -144,3 +144,75 @@ fn runs_not_differentiated_are_refused_with_the_reason() {
         );
     }
 }
+
+/// `invsim sweep --gradient`: a column `d(FIGURE)/d(PARAMETER)` per figure and parameter, each row's equal to
+/// `simulate --gradient` of that variant (the same run), in the CSV and the Parquet file alike; a model with
+/// modes is refused before any run.
+#[test]
+fn sweep_columns_are_each_variants_gradient() {
+    let csv = tmp("gradient-sweep.csv");
+    let o = invsim(&[
+        "sweep",
+        "models/si_engine.toml",
+        "--cycle",
+        "ece",
+        "--grid",
+        "m=1200:1400:3",
+        "--gradient",
+        "m,C_d",
+        "--out",
+        csv.to_str().expect("utf-8"),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (header, rows) = read_csv(&csv);
+    let col = |name: &str| {
+        header
+            .iter()
+            .position(|h| h == name)
+            .unwrap_or_else(|| panic!("column {name} in {header:?}"))
+    };
+    assert_eq!(rows.len(), 3);
+    for (row, m) in rows.iter().zip(["1200", "1300", "1400"]) {
+        let (s, _) = summary(
+            "models/si_engine.toml",
+            &format!("sweep-{m}"),
+            &["--set", &format!("m={m}"), "--gradient", "m,C_d"],
+        );
+        for f in ["fuel", "fuel_per_100km", "headline.l_per_100km"] {
+            for p in ["m", "C_d"] {
+                let want = s["gradient"][f][p].as_f64().expect("a number");
+                let got = num(&row[col(&format!("d({f})/d({p})"))]);
+                assert_eq!(got, want, "m = {m}: d({f})/d({p})");
+            }
+        }
+    }
+    let parquet = tmp("gradient-sweep.parquet");
+    let o = invsim(&[
+        "sweep",
+        "models/si_engine.toml",
+        "--cycle",
+        "ece",
+        "--grid",
+        "m=1200:1400:3",
+        "--gradient",
+        "m",
+        "--out",
+        parquet.to_str().expect("utf-8"),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let bytes = std::fs::read(&parquet).expect("parquet written");
+    let needle = b"d(fuel)/d(m)";
+    assert!(bytes.windows(needle.len()).any(|w| w == needle));
+    let o = invsim(&[
+        "sweep",
+        "models/si_engine_5speed.toml",
+        "--cycle",
+        "ece",
+        "--grid",
+        "m=1200:1400:3",
+        "--gradient",
+        "m",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("models with modes are not differentiated yet"));
+}

@@ -112,6 +112,7 @@ pub(super) fn run(sweep: &Sweep, progress: &(dyn Fn(usize) + Sync)) -> SweepResu
         headline: sweep.headline.clone(),
         verify: sweep.opts.verify,
         modes: sweep.modes.clone(),
+        gradient: super::rows::gradient_columns(&rows),
         rows,
     }
 }

@@ -365,6 +365,11 @@ fn columns(result: &SweepResult) -> Vec<Column> {
             }));
         }
     }
+    for c in &result.gradient {
+        cols.push(dbl(format!("d({})/d({})", c.0, c.1), true, &|r| {
+            ok(r).map(|f| super::rows::derivative(&f, c))
+        }));
+    }
     cols
 }
 

@@ -31,6 +31,8 @@ pub struct Figures {
     pub rms_tracking_error: Option<f64>,
     /// A model with modes: the time in each mode, the switches and the largest transition deviation.
     pub modes: Option<ModeFigures>,
+    /// With `--gradient`: d figure/d parameter, by figure, then parameter (the summary's `gradient` block).
+    pub gradient: Option<crate::gradient::Figures>,
 }
 
 /// The figures of a run with modes beside those of every run.
@@ -51,6 +53,7 @@ impl Figures {
         let run = (summary.samples, summary.run.distance_m);
         Figures {
             headline: headline_values(summary.headline.as_ref()),
+            gradient: summary.gradient.as_ref().map(|g| g.figures.clone()),
             ..Figures::of(run, &summary.totals, tracking, integrals)
         }
     }
@@ -97,6 +100,7 @@ impl Figures {
             max_abs_tracking_error,
             rms_tracking_error,
             modes: None,
+            gradient: None,
         }
     }
 }
@@ -134,8 +138,31 @@ pub struct SweepResult {
     pub verify: bool,
     /// The modes' names of a model with modes (then every row has their times), else empty.
     pub modes: Vec<String>,
+    /// With `--gradient`: the (figure, parameter) of each derivative column `d(FIGURE)/d(PARAMETER)`, in the
+    /// order of the first successful row's `gradient` (every row's has the same entries), else empty.
+    pub gradient: Vec<(String, String)>,
     /// Variant 0 on each cycle, then variant 1 on each cycle, ….
     pub rows: Vec<SweepRow>,
+}
+
+/// The derivative columns of `rows`: every (figure, parameter) of the first successful row's gradient.
+pub(super) fn gradient_columns(rows: &[SweepRow]) -> Vec<(String, String)> {
+    let first = rows
+        .iter()
+        .find_map(|r| r.outcome.as_ref().ok().and_then(|f| f.gradient.as_ref()));
+    first.map_or_else(Vec::new, |g| {
+        g.iter()
+            .flat_map(|(f, row)| row.keys().map(move |p| (f.clone(), p.clone())))
+            .collect()
+    })
+}
+
+/// A row's derivative `d(figure)/d(parameter)` (NaN where it has none).
+pub(super) fn derivative(f: &Figures, (figure, parameter): &(String, String)) -> f64 {
+    f.gradient
+        .as_ref()
+        .and_then(|g| g.get(figure)?.get(parameter).copied())
+        .unwrap_or(f64::NAN)
 }
 
 impl SweepResult {
@@ -147,8 +174,9 @@ impl SweepResult {
     /// The CSV header: `variant`, `cycle`, `lookahead_s`, the parameters, `status`, `error`, `samples`,
     /// `distance_m`, the integrals, `NAME_per_100km` for each, the headline's columns, `input_min`, `input_max`,
     /// `violations`, `violation_s`, and with
-    /// `verify` `max_abs_tracking_error`, `rms_tracking_error`, and for a model with modes `switches`,
-    /// `max_transition_deviation` and `time_MODE_s` for each mode.
+    /// `verify` `max_abs_tracking_error`, `rms_tracking_error`, for a model with modes `switches`,
+    /// `max_transition_deviation` and `time_MODE_s` for each mode, and with `--gradient`
+    /// `d(FIGURE)/d(PARAMETER)` for each figure and parameter.
     pub fn header(&self) -> Vec<String> {
         let mut h = ["variant", "cycle", "lookahead_s"]
             .map(String::from)
@@ -166,6 +194,7 @@ impl SweepResult {
             h.extend(["switches", "max_transition_deviation"].map(String::from));
             h.extend(self.modes.iter().map(|m| format!("time_{m}_s")));
         }
+        h.extend(self.gradient.iter().map(|(f, p)| format!("d({f})/d({p})")));
         h
     }
 
@@ -190,7 +219,8 @@ impl SweepResult {
             + self.headline.len()
             + 4
             + if self.verify { 2 } else { 0 }
-            + n_modal;
+            + n_modal
+            + self.gradient.len();
         match &row.outcome {
             Err(e) => {
                 r.extend(["error".to_string(), e.clone()]);
@@ -216,6 +246,7 @@ impl SweepResult {
                     r.push(float(m.max_transition_deviation));
                     r.extend(m.time_s.iter().map(|&v| float(v)));
                 }
+                r.extend(self.gradient.iter().map(|c| float(derivative(f, c))));
             }
         }
         r
