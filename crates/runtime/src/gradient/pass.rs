@@ -168,8 +168,9 @@ impl Sweep {
         let point =
             Point::new(model, (&self.x, &wk, u), &info.eta_states, buf).map_err(model_err)?;
         let h = 0.5 * grid.dt;
+        let mut dir = point.direction(&self.y[ne..ne + ne], None);
         for (c, &p) in wanted.params.iter().enumerate() {
-            let dir = point.direction(&self.y[ne + c * ne..ne + (c + 1) * ne], Some(p));
+            point.direction_into(&self.y[ne + c * ne..ne + (c + 1) * ne], Some(p), &mut dir);
             for (a, &o) in wanted.accumulate.iter().enumerate() {
                 let v = point.row_change(point.layout().output(o), &dir, Some(p));
                 if k > 0 {
@@ -289,9 +290,10 @@ impl Stage {
         let point =
             Point::new(model, (&self.x, &self.w, u), &info.eta_states, buf).map_err(model_err)?;
         let l = *point.layout();
+        let mut dir = point.direction(&y[..ne], None);
         for (c, &p) in wanted.params.iter().enumerate() {
             let range = ne + c * ne..ne + (c + 1) * ne;
-            let dir = point.direction(&y[range.clone()], Some(p));
+            point.direction_into(&y[range.clone()], Some(p), &mut dir);
             for (j, d) in dy[range].iter_mut().enumerate() {
                 *d = point.row_change(l.eta(j), &dir, Some(p));
             }

@@ -13,14 +13,20 @@
 //! (Isidori, *Nonlinear Control Systems*, 3rd ed., §4.1 for ψ; the implicit function theorem e.g. Rudin,
 //! *Principles of Mathematical Analysis*, Thm. 9.28.)
 
-use invsim_model_api::{InverseModel, ModelError, SensitivityLayout};
-use nalgebra::{DMatrix, DVector, LU};
+use std::cell::RefCell;
 
-/// The partial derivatives at one point (x, w, u) and the LU factors of ∂ψ/∂x.
+use invsim_model_api::{InverseModel, ModelError, SensitivityLayout};
+use nalgebra::DMatrix;
+
+/// The partial derivatives at one point (x, w, u) and the inverse of ∂ψ/∂x (n is small: every direction is
+/// then a product with it, without a factorisation or an allocation per direction).
 pub(crate) struct Point {
     layout: SensitivityLayout,
     sens: Vec<f64>,
-    lu: LU<f64, nalgebra::Dyn, nalgebra::Dyn>,
+    /// (∂ψ/∂x)⁻¹, row-major; NaN where ∂ψ/∂x is singular.
+    inverse: Vec<f64>,
+    /// The right-hand side of a direction, reused.
+    b: RefCell<Vec<f64>>,
 }
 
 /// A direction of change at a point: dx and du.
@@ -51,10 +57,15 @@ impl Point {
                 0.0
             }
         });
+        let inverse = match jac.try_inverse() {
+            Some(m) => (0..n * n).map(|k| m[(k / n, k % n)]).collect(),
+            None => vec![f64::NAN; n * n],
+        };
         Ok(Point {
             layout,
             sens,
-            lu: jac.lu(),
+            inverse,
+            b: RefCell::new(vec![0.0; n]),
         })
     }
 
@@ -70,26 +81,35 @@ impl Point {
     /// dx and du for a change dη of the internal coordinates and (`param`) a unit change of parameter k.
     /// NaN where ∂ψ/∂x is singular.
     pub(crate) fn direction(&self, deta: &[f64], param: Option<usize>) -> Direction {
+        let mut dir = Direction {
+            dx: vec![0.0; self.layout.n],
+            du: 0.0,
+        };
+        self.direction_into(deta, param, &mut dir);
+        dir
+    }
+
+    /// [`Point::direction`] into `dir` (its `dx` of length n), without allocating.
+    pub(crate) fn direction_into(&self, deta: &[f64], param: Option<usize>, dir: &mut Direction) {
         let l = &self.layout;
         let (n, r) = (l.n, l.r);
-        let b = DVector::from_fn(n, |i, _| {
-            if i < r {
+        let mut b = self.b.borrow_mut();
+        for (i, bi) in b.iter_mut().enumerate() {
+            *bi = if i < r {
                 param.map_or(0.0, |k| -self.d(l.psi(i), l.param(k)))
             } else {
                 deta[i - r]
-            }
-        });
-        let dx: Vec<f64> = match self.lu.solve(&b) {
-            Some(v) => v.iter().copied().collect(),
-            None => vec![f64::NAN; n],
-        };
+            };
+        }
+        for (dx, row) in dir.dx.iter_mut().zip(self.inverse.chunks_exact(n)) {
+            *dx = row.iter().zip(b.iter()).map(|(a, v)| a * v).sum();
+        }
         let phi = l.phi();
         let mut num = param.map_or(0.0, |k| self.d(phi, l.param(k)));
-        for (j, v) in dx.iter().enumerate() {
+        for (j, v) in dir.dx.iter().enumerate() {
             num += self.d(phi, l.x(j)) * v;
         }
-        let du = -num / self.d(phi, l.u());
-        Direction { dx, du }
+        dir.du = -num / self.d(phi, l.u());
     }
 
     /// The change of `row` along `dir` (with the unit change of parameter `param`, if any).
