@@ -109,8 +109,9 @@ fn dp_converges_to_the_closed_form_optimum_of_a_quadratic_hybrid() {
 /// and its fuel no more than ECMS's at the searched s. DP's fuel is the fuel of a feasible policy, integrated
 /// exactly as ECMS's is, so no grid error can bring it below the optimum; the grid error goes the other way,
 /// and it is smaller than ECMS's own discretisation error: ECMS weighs the powers at t_k and holds its choice
-/// over [t_k, t_k+1], which at Δt = 1 s costs it 9.6 % on UDDS against DP's weighing of the whole interval
-/// (4.3 % at Δt = 0.5 s: the gap is O(Δt)). The test bounds the gap by 12 %.
+/// over [t_k, t_k+1], which on UDDS costs it 5.3 % at Δt = 1 s against DP's weighing of the whole interval
+/// (2.3 % at Δt = 0.5 s, 0.6 % at 0.2 s, DP's fuel within 0.3 % across the three: the gap is ECMS's, O(Δt)).
+/// The test bounds the gap by 8 %.
 #[test]
 fn dp_on_hev_p2_udds_is_charge_sustaining_and_no_worse_than_ecms() {
     let model = "models/hev_p2.toml";
@@ -126,7 +127,7 @@ fn dp_on_hev_p2_udds_is_charge_sustaining_and_no_worse_than_ecms() {
     let (f_dp, f_ecms) = (fuel(&dp), fuel(&ecms));
     assert!((corrected - f_dp).abs() <= 1e-6 * f_dp);
     assert!(f_dp <= f_ecms, "DP {f_dp} J above ECMS {f_ecms} J");
-    assert!(f_ecms <= 1.12 * f_dp, "ECMS {f_ecms} J vs DP {f_dp} J");
+    assert!(f_ecms <= 1.08 * f_dp, "ECMS {f_ecms} J vs DP {f_dp} J");
     let (t_e, t_m, f_b) = (
         col(&header, &rows, "T_e"),
         col(&header, &rows, "T_m"),

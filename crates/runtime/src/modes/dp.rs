@@ -124,7 +124,7 @@ pub(super) fn dynamic_programming(
     let soc0 = x0[soc_idx];
     let lo = (soc0 - opts.soc_window).max(0.0);
     let hi = (soc0 + opts.soc_window).min(1.0);
-    if !(hi > lo) {
+    if hi <= lo || hi.is_nan() || lo.is_nan() {
         return Err(ModalError::Setup(format!(
             "--soc-window {}: the window around SOC(0) = {soc0} within [0, 1] is empty",
             opts.soc_window

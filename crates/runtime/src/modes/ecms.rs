@@ -93,6 +93,9 @@ pub(super) struct Eval {
     pub(super) p_batt: f64,
 }
 
+/// A strategy's choice at sample k from state x (`on`: the engine ran in the previous interval).
+pub(super) type Pick<'p> = dyn FnMut(usize, &[f64], bool) -> Result<Eval, ModalError> + 'p;
+
 /// The run's fixed parts.
 pub(super) struct Ecms<'c, 'a, 'm> {
     pub(super) ctx: &'c Ctx<'a, 'm>,
@@ -309,7 +312,7 @@ impl Ecms<'_, '_, '_> {
         s: f64,
         x0: &[f64],
         share: Option<&Share>,
-        pick: &mut dyn FnMut(usize, &[f64], bool) -> Result<Eval, ModalError>,
+        pick: &mut Pick<'_>,
     ) -> Result<Outcome, ModalError> {
         let ctx = self.ctx;
         let ns = self.samples.t.len();
