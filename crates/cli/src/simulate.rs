@@ -93,6 +93,18 @@ pub struct SimulateArgs {
     #[arg(long, value_name = "W", allow_negative_numbers = true,
           default_value_t = invsim_runtime::modes::DEFAULT_SOC_WINDOW)]
     soc_window: f64,
+    /// With --strategy rule-based: electric drive up to this battery power, W.
+    #[arg(long, value_name = "W", allow_negative_numbers = true,
+          default_value_t = invsim_runtime::modes::DEFAULT_RB_ENGINE_POWER)]
+    rb_engine_power: f64,
+    /// With --strategy rule-based: the engine runs whenever the charge is below SOC(0) minus this.
+    #[arg(long, value_name = "DSOC", allow_negative_numbers = true,
+          default_value_t = invsim_runtime::modes::DEFAULT_RB_SOC_LOW)]
+    rb_soc_low: f64,
+    /// With --strategy rule-based: the battery power the running engine charges with below SOC(0), W.
+    #[arg(long, value_name = "W", allow_negative_numbers = true,
+          default_value_t = invsim_runtime::modes::DEFAULT_RB_CHARGE_POWER)]
+    rb_charge_power: f64,
 }
 
 /// `--strategy`.
@@ -101,6 +113,7 @@ pub struct SimulateArgs {
 pub enum StrategyArg {
     Ecms,
     Dp,
+    RuleBased,
 }
 
 /// `--switching`.
@@ -125,6 +138,27 @@ fn strategy(args: &SimulateArgs) -> Result<Option<StrategyOptions>, Failure> {
                 .to_string(),
         ));
     }
+    let rb_given = args.rb_engine_power != m::DEFAULT_RB_ENGINE_POWER
+        || args.rb_soc_low != m::DEFAULT_RB_SOC_LOW
+        || args.rb_charge_power != m::DEFAULT_RB_CHARGE_POWER;
+    if rb_given && args.strategy != Some(StrategyArg::RuleBased) {
+        return Err(Failure::user(
+            "--rb-engine-power, --rb-soc-low and --rb-charge-power apply to --strategy rule-based; give \
+             --strategy rule-based"
+                .to_string(),
+        ));
+    }
+    if args.equivalence.is_some()
+        && matches!(
+            args.strategy,
+            Some(StrategyArg::Dp | StrategyArg::RuleBased)
+        )
+    {
+        return Err(Failure::user(
+            "--equivalence applies to --strategy ecms; DP and the rules have no equivalence factor"
+                .to_string(),
+        ));
+    }
     let method =
         match args.strategy {
             None if args.equivalence.is_some() || tol_given => return Err(Failure::user(
@@ -133,15 +167,8 @@ fn strategy(args: &SimulateArgs) -> Result<Option<StrategyOptions>, Failure> {
             )),
             None => return Ok(None),
             Some(StrategyArg::Ecms) => m::Method::Ecms,
-            Some(StrategyArg::Dp) => {
-                if args.equivalence.is_some() {
-                    return Err(Failure::user(
-                        "--equivalence applies to --strategy ecms; DP has no equivalence factor"
-                            .to_string(),
-                    ));
-                }
-                dp_options(args)?
-            }
+            Some(StrategyArg::Dp) => dp_options(args)?,
+            Some(StrategyArg::RuleBased) => rule_options(args)?,
         };
     if !(args.soc_tolerance > 0.0 && args.soc_tolerance.is_finite()) {
         return Err(Failure::user(format!(
@@ -159,6 +186,28 @@ fn strategy(args: &SimulateArgs) -> Result<Option<StrategyOptions>, Failure> {
         equivalence: args.equivalence,
         soc_tolerance: args.soc_tolerance,
     }))
+}
+
+/// `--rb-engine-power`, `--rb-soc-low`, `--rb-charge-power`, checked.
+fn rule_options(args: &SimulateArgs) -> Result<invsim_runtime::modes::Method, Failure> {
+    for (name, v) in [
+        ("--rb-engine-power", args.rb_engine_power),
+        ("--rb-soc-low", args.rb_soc_low),
+        ("--rb-charge-power", args.rb_charge_power),
+    ] {
+        if !(v >= 0.0 && v.is_finite()) {
+            return Err(Failure::user(format!(
+                "{name} must be a number ≥ 0, got {v}"
+            )));
+        }
+    }
+    Ok(invsim_runtime::modes::Method::RuleBased(
+        invsim_runtime::modes::RuleOptions {
+            engine_power: args.rb_engine_power,
+            soc_low: args.rb_soc_low,
+            charge_power: args.rb_charge_power,
+        },
+    ))
 }
 
 /// `--soc-grid`, `--split-grid`, `--soc-window`, checked.

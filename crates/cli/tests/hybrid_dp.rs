@@ -2,6 +2,7 @@
 //! closed-form optimum of the discrete-time charge-sustaining problem as the SOC and split grids are refined;
 //! on `models/hev_p2.toml` over UDDS the run is charge-sustaining, every input within its bounds, and the fuel
 //! no more than ECMS's; grids of fewer than 2 points and an unreachable final charge exit 2 naming the option.
+//! `--strategy rule-based` on hev_p2 over UDDS: J1711-corrected, and no better than DP.
 
 use crate::common::{invsim, json_file, num, read_csv, stderr, tmp};
 
@@ -195,4 +196,33 @@ fn dp_refuses_small_grids_and_an_unreachable_final_charge() {
         e.contains("--strategy dp") && e.contains("unreachable"),
         "{e}"
     );
+}
+
+/// `--strategy rule-based` on hev_p2 over UDDS at its default thresholds: the J1711 line through the run and a
+/// second run at 1.5 times the charge power gives a corrected fuel (the runs end at different ΔSOC), the run
+/// ends within 0.02 of its start charge (the SOC threshold's margin and one interval's charge), and the
+/// corrected fuel is at least DP's, the charge-sustaining optimum, by more than DP's grid error.
+#[test]
+fn rule_based_on_hev_p2_udds_is_corrected_and_no_better_than_dp() {
+    let model = "models/hev_p2.toml";
+    let (rb, header, rows) = run(model, &["--strategy", "rule-based"], "rb-hev-udds");
+    let (dp, _, _) = run(model, &["--strategy", "dp"], "rb-hev-udds-dp");
+    let h = &rb["hybrid"];
+    assert_eq!(h["strategy"], "rule-based");
+    assert!(h["equivalence_factor"].is_null());
+    let corrected = h["fuel_energy_corrected_j"].as_f64().unwrap();
+    assert!(h["correction_slope_j"].as_f64().unwrap() > 0.0);
+    assert!(
+        h["delta_soc"].as_f64().unwrap().abs() <= 0.02,
+        "{}",
+        h["delta_soc"]
+    );
+    assert!(
+        corrected >= fuel(&dp),
+        "rule-based {corrected} J vs DP {} J",
+        fuel(&dp)
+    );
+    let t_e = col(&header, &rows, "T_e");
+    assert!(t_e.iter().all(|t| (-1.7e-7..=170.0 + 1.7e-7).contains(t)));
+    assert!(rb["input_bound_violations"].as_array().unwrap().is_empty());
 }

@@ -1,9 +1,10 @@
 //! Energy management of a hybrid (docs/hybrids.md): a model with modes whose `[hybrid]` table names the fuel
 //! and battery chemical powers and the charge state, run with a strategy that decides, at every sample, the
-//! mode (engine on or off, braking) and the inputs its modes leave to it (`decided`). The one strategy so far
-//! is ECMS ([`super::ecms`]) with its equivalence factor s given or found by [`super::equivalence`] so that the
-//! run ends charge-sustaining. The run's record is summarised like any run with modes, plus the `hybrid`
-//! block: fuel, fuel corrected to ΔSOC = 0 (SAE J1711), ΔSOC, engine starts, time with the engine on, s.
+//! mode (engine on or off, braking) and the inputs its modes leave to it (`decided`): ECMS ([`super::ecms`])
+//! with its equivalence factor s given or found by [`super::equivalence`] so that the run ends
+//! charge-sustaining, dynamic programming ([`super::dp`]) or rules ([`super::rule_based`]). The run's record
+//! is summarised like any run with modes, plus the `hybrid` block: fuel, fuel corrected to ΔSOC = 0 (SAE
+//! J1711), ΔSOC, engine starts, time with the engine on, s.
 
 use super::dp::dynamic_programming;
 use super::ecms::{candidates, Ecms, Outcome, Resolved, Samples};
@@ -12,6 +13,7 @@ use super::gears::GearBox;
 use super::hybrid_block::{DpBlock, HybridBlock};
 use super::record::{decided_slots, Ctx};
 use super::rows::Rows;
+use super::rule_based::rule_based;
 use super::rules::Rules;
 use super::strategy::{HybridConfig, Method, StrategyOptions};
 use super::{ModalError, ModalOptions, ModalResult, ModalSpec};
@@ -193,6 +195,15 @@ pub fn simulate_hybrid(
                 terminal_penalty: r.mu,
             });
             (r.outcome, block)
+        }
+        Method::RuleBased(rb) => {
+            let (first, second) = rule_based(&run, rb, &x0)?;
+            let (corrected, slope) = correction(&first, &Some(second));
+            let mut block = block_of(&run, &first, ecms.soc_tolerance);
+            block.strategy = "rule-based".into();
+            block.fuel_energy_corrected_j = corrected;
+            block.correction_slope_j = slope;
+            (first, block)
         }
     };
     let mut result = super::summary::assemble(&ctx, cycle, opts, best.rec, None);

@@ -6,7 +6,7 @@ use serde::Serialize;
 /// The `hybrid` block of the summary.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct HybridBlock {
-    /// `ecms` or `dp`.
+    /// `ecms`, `dp` or `rule-based`.
     pub strategy: String,
     /// The equivalence factor s of the run (W of fuel per W of battery power); `null` for DP, which has none.
     pub equivalence_factor: Option<f64>,

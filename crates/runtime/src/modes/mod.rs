@@ -26,6 +26,7 @@ mod minimise;
 pub mod plant;
 mod record;
 mod rows;
+mod rule_based;
 pub(crate) mod rules;
 mod runner;
 pub(crate) mod sequence;
@@ -50,7 +51,8 @@ pub use runner::{
     ZeroDynamicsReference,
 };
 pub use strategy::{
-    DpOptions, HybridConfig, Method, StrategyOptions, DEFAULT_SOC_GRID, DEFAULT_SOC_TOLERANCE,
+    DpOptions, HybridConfig, Method, RuleOptions, StrategyOptions, DEFAULT_RB_CHARGE_POWER,
+    DEFAULT_RB_ENGINE_POWER, DEFAULT_RB_SOC_LOW, DEFAULT_SOC_GRID, DEFAULT_SOC_TOLERANCE,
     DEFAULT_SOC_WINDOW, DEFAULT_SPLIT_GRID,
 };
 pub use summary::{ModalSummary, ModesBlock};

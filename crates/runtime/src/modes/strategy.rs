@@ -23,6 +23,36 @@ pub enum Method {
     Ecms,
     /// Deterministic dynamic programming over a SOC grid (docs/hybrids.md, Dynamic programming).
     Dp(DpOptions),
+    /// Rules after FASTSim's RESGreedy (docs/hybrids.md, Rule-based).
+    RuleBased(RuleOptions),
+}
+
+/// The options of `--strategy rule-based`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RuleOptions {
+    /// Electric drive up to this battery power, W (`--rb-engine-power`).
+    pub engine_power: f64,
+    /// The engine runs below SOC(0) − this (`--rb-soc-low`).
+    pub soc_low: f64,
+    /// Battery power the engine charges with below SOC(0), W (`--rb-charge-power`).
+    pub charge_power: f64,
+}
+
+/// Default `--rb-engine-power`: 15 kW.
+pub const DEFAULT_RB_ENGINE_POWER: f64 = 15e3;
+/// Default `--rb-soc-low`: 0.02.
+pub const DEFAULT_RB_SOC_LOW: f64 = 0.02;
+/// Default `--rb-charge-power`: 5 kW.
+pub const DEFAULT_RB_CHARGE_POWER: f64 = 5e3;
+
+impl Default for RuleOptions {
+    fn default() -> Self {
+        RuleOptions {
+            engine_power: DEFAULT_RB_ENGINE_POWER,
+            soc_low: DEFAULT_RB_SOC_LOW,
+            charge_power: DEFAULT_RB_CHARGE_POWER,
+        }
+    }
 }
 
 /// The options of `--strategy dp`.
