@@ -11,6 +11,8 @@
 //! - `hostile`: Hostile-input suite: every case in `tests/hostile/*.json` runs the built `invsim` binary on hostile model
 //! - `hybrid`: `simulate --strategy ecms`: the closed-form split of a quadratic hybrid, hev_p2 charge-sustaining
 //!   on UDDS, HWFET and WLTC 3b with every mode's equation checked by hand, the J1711 correction.
+//! - `hybrid_dp`: `simulate --strategy dp`: convergence to the closed-form discrete optimum of a quadratic
+//!   hybrid as the grids are refined, hev_p2 on UDDS charge-sustaining and no worse than ECMS, refusals.
 //! - `map_option`: `--map NAME=FILE.csv` for ordinary models and models with modes; unknown names and wrong arity exit 2.
 //! - `modes`: `invsim derive` and `invsim simulate` on a model with operating modes (si_engine_5speed).
 //! - `modes_sweep`: `invsim sweep` of models with operating modes: rows equal `simulate` bit for bit, the modes'
@@ -46,6 +48,7 @@ mod gradient;
 mod headline;
 mod hostile;
 mod hybrid;
+mod hybrid_dp;
 mod map_option;
 mod modes;
 mod modes_compiled;

@@ -81,7 +81,7 @@ pub struct SimulationOptions {
     pub lookahead_auto: bool,
     /// Models with modes and a `[hybrid]` table: the energy-management strategy (`--strategy ecms`;
     /// docs/hybrids.md); `None`: the mode sequence of docs/reference.md §2.5.
-    pub strategy: Option<crate::modes::EcmsOptions>,
+    pub strategy: Option<crate::modes::StrategyOptions>,
     /// Differentiate the summary's figures with respect to these parameters (`["all"]`: every one) and report
     /// the derivatives in the summary's `gradient` ([`crate::gradient`]; default `None`: no gradient).
     pub gradient: Option<Vec<String>>,

@@ -20,12 +20,12 @@ use super::rows::Rows;
 use super::{ModalError, Role};
 
 /// The end of an interval: the internal states, the state and free input, the fuel and battery powers.
-struct End {
-    eta: Vec<f64>,
-    x: Vec<f64>,
-    u: f64,
-    p_fuel: f64,
-    p_batt: f64,
+pub(super) struct End {
+    pub(super) eta: Vec<f64>,
+    pub(super) x: Vec<f64>,
+    pub(super) u: f64,
+    pub(super) p_fuel: f64,
+    pub(super) p_batt: f64,
 }
 
 /// The relaxed choice at sample k where ΔSOC(s) jumps at s (one sample's choice flips there, both
@@ -81,17 +81,20 @@ pub(super) struct Resolved {
 
 /// One evaluated candidate.
 #[derive(Clone)]
-struct Eval {
-    cost: f64,
+pub(super) struct Eval {
+    pub(super) cost: f64,
     /// How far the free input lies beyond its bounds, as a fraction of its range (0 within).
-    excess: f64,
-    m: usize,
-    d: f64,
-    u: f64,
-    x: Vec<f64>,
-    p_fuel: f64,
-    p_batt: f64,
+    pub(super) excess: f64,
+    pub(super) m: usize,
+    pub(super) d: f64,
+    pub(super) u: f64,
+    pub(super) x: Vec<f64>,
+    pub(super) p_fuel: f64,
+    pub(super) p_batt: f64,
 }
+
+/// A strategy's choice at sample k from state x (`on`: the engine ran in the previous interval).
+pub(super) type Pick<'p> = dyn FnMut(usize, &[f64], bool) -> Result<Eval, ModalError> + 'p;
 
 /// The run's fixed parts.
 pub(super) struct Ecms<'c, 'a, 'm> {
@@ -120,7 +123,7 @@ impl Ecms<'_, '_, '_> {
     }
 
     /// The inverse of mode m at sample k from the state `x` (its η), decided value d, and the cost at s.
-    fn eval(
+    pub(super) fn eval(
         &self,
         (m, k): (usize, usize),
         x: &[f64],
@@ -141,14 +144,7 @@ impl Ecms<'_, '_, '_> {
         let mut outs = vec![0.0; info.outputs.len()];
         model.outputs(&xs, &w, u, &mut outs);
         let (p_fuel, p_batt) = (outs[self.h.fuel], outs[self.h.battery]);
-        let input = &self.ctx.spec.inputs[self.ctx.spec.modes[m].free_input];
-        let range = match (input.min, input.max) {
-            (Some(a), Some(b)) if b > a => b - a,
-            _ => 1.0,
-        };
-        let below = input.min.map_or(0.0, |a| a - u);
-        let above = input.max.map_or(0.0, |b| u - b);
-        let excess = below.max(above).max(0.0) / range;
+        let excess = self.excess(m, u);
         let on = self.h.engine_on[m];
         Some(Eval {
             cost: p_fuel + s * p_batt + if on { start } else { 0.0 },
@@ -160,6 +156,18 @@ impl Ecms<'_, '_, '_> {
             p_fuel,
             p_batt,
         })
+    }
+
+    /// How far mode m's free input u lies beyond its bounds, as a fraction of its range (0 within).
+    pub(super) fn excess(&self, m: usize, u: f64) -> f64 {
+        let input = &self.ctx.spec.inputs[self.ctx.spec.modes[m].free_input];
+        let range = match (input.min, input.max) {
+            (Some(a), Some(b)) if b > a => b - a,
+            _ => 1.0,
+        };
+        let below = input.min.map_or(0.0, |a| a - u);
+        let above = input.max.map_or(0.0, |b| u - b);
+        below.max(above).max(0.0) / range
     }
 
     /// The best candidate at sample k from state x (`on`: the engine ran in the previous interval).
@@ -257,7 +265,7 @@ impl Ecms<'_, '_, '_> {
 
     /// The end of interval k in the chosen candidate's mode with its decided value: η by the zero dynamics,
     /// then the state and free input at t_k+1, and the fuel and battery powers there.
-    fn interval(&self, k: usize, e: &Eval) -> Result<End, ModalError> {
+    pub(super) fn interval(&self, k: usize, e: &Eval) -> Result<End, ModalError> {
         let model = self.ctx.spec.modes[e.m].model;
         let info = model.info();
         let mut eta: Vec<f64> = info.eta_states.iter().map(|&j| e.x[j]).collect();
@@ -294,10 +302,22 @@ impl Ecms<'_, '_, '_> {
         x0: &[f64],
         share: Option<&Share>,
     ) -> Result<Outcome, ModalError> {
+        self.run_policy(s, x0, share, &mut |k, x, on| self.choose(k, x, s, on))
+    }
+
+    /// The run whose candidate at sample k from state x (`on`: the engine ran in the previous interval) is
+    /// `pick`'s; `s` is recorded in the outcome (NaN for a strategy without one).
+    pub(super) fn run_policy(
+        &self,
+        s: f64,
+        x0: &[f64],
+        share: Option<&Share>,
+        pick: &mut Pick<'_>,
+    ) -> Result<Outcome, ModalError> {
         let ctx = self.ctx;
         let ns = self.samples.t.len();
         let n_yref = ctx.r_max + 1;
-        let first = self.choose(0, x0, s, false)?;
+        let first = pick(0, x0, false)?;
         let base0 = &self.samples.base[0];
         let mut rec = Record::new((self.samples.t[0], base0[0]), first.m, ns, (ctx.n, n_yref));
         let soc0 = first.x[self.h.soc];
@@ -347,7 +367,7 @@ impl Ecms<'_, '_, '_> {
             rec.u_end.push(end.u);
             rec.x_end.push(&end.x);
             was_on = self.h.engine_on[m];
-            let next = self.choose(k + 1, &end.x, s, was_on)?;
+            let next = pick(k + 1, &end.x, was_on)?;
             if next.m != m {
                 rec.transitions.push(Transition {
                     t: self.samples.t[k + 1],

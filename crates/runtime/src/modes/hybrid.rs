@@ -1,18 +1,21 @@
 //! Energy management of a hybrid (docs/hybrids.md): a model with modes whose `[hybrid]` table names the fuel
 //! and battery chemical powers and the charge state, run with a strategy that decides, at every sample, the
-//! mode (engine on or off, braking) and the inputs its modes leave to it (`decided`). The one strategy so far
-//! is ECMS ([`super::ecms`]) with its equivalence factor s given or found by [`super::equivalence`] so that the
-//! run ends charge-sustaining. The run's record is summarised like any run with modes, plus the `hybrid`
-//! block: fuel, fuel corrected to ΔSOC = 0 (SAE J1711), ΔSOC, engine starts, time with the engine on, s.
+//! mode (engine on or off, braking) and the inputs its modes leave to it (`decided`): ECMS ([`super::ecms`])
+//! with its equivalence factor s given or found by [`super::equivalence`] so that the run ends
+//! charge-sustaining, dynamic programming ([`super::dp`]) or rules ([`super::rule_based`]). The run's record
+//! is summarised like any run with modes, plus the `hybrid` block: fuel, fuel corrected to ΔSOC = 0 (SAE
+//! J1711), ΔSOC, engine starts, time with the engine on, s.
 
-use super::ecms::{candidates, Ecms, Resolved, Samples};
+use super::dp::dynamic_programming;
+use super::ecms::{candidates, Ecms, Outcome, Resolved, Samples};
 use super::equivalence::{correction, fixed, search};
 use super::gears::GearBox;
-use super::hybrid_block::HybridBlock;
+use super::hybrid_block::{DpBlock, HybridBlock};
 use super::record::{decided_slots, Ctx};
 use super::rows::Rows;
+use super::rule_based::rule_based;
 use super::rules::Rules;
-use super::strategy::{EcmsOptions, HybridConfig};
+use super::strategy::{HybridConfig, Method, StrategyOptions};
 use super::{ModalError, ModalOptions, ModalResult, ModalSpec};
 use crate::cycle::Cycle;
 use crate::grid::Grid;
@@ -111,14 +114,14 @@ fn check_supported(
     Ok(())
 }
 
-/// Simulate a hybrid with modes inversely along `cycle` under ECMS (`initial`: start values of internal
-/// states by name).
+/// Simulate a hybrid with modes inversely along `cycle` under ECMS or DP (`initial`: start values of
+/// internal states by name).
 pub fn simulate_hybrid(
     spec: &ModalSpec<'_>,
     config: Option<&HybridConfig>,
     cycle: &Cycle,
     opts: &ModalOptions,
-    (ecms, initial): (&EcmsOptions, &[(String, f64)]),
+    (ecms, initial): (&StrategyOptions, &[(String, f64)]),
 ) -> Result<ModalResult, ModalError> {
     let Some(config) = config else {
         return Err(ModalError::Setup(
@@ -174,30 +177,85 @@ pub fn simulate_hybrid(
         samples: &samples,
         dt: opts.dt,
     };
+    let (best, block) = match &ecms.method {
+        Method::Ecms => ecms_run(&run, ecms, &x0)?,
+        Method::Dp(dp) => {
+            let r = dynamic_programming(&run, dp, &x0, ecms.soc_tolerance)?;
+            let dsoc = r.outcome.delta_soc();
+            let mut block = block_of(&run, &r.outcome, ecms.soc_tolerance);
+            block.strategy = "dp".into();
+            block.equivalence_source = "none".into();
+            block.fuel_energy_corrected_j = Some(r.outcome.fuel - dsoc * r.slope);
+            block.correction_slope_j = Some(r.slope);
+            block.grid = dp.split_grid;
+            block.dp = Some(DpBlock {
+                soc_grid: dp.soc_grid,
+                split_grid: dp.split_grid,
+                soc_window: r.window,
+                terminal_penalty: r.mu,
+            });
+            (r.outcome, block)
+        }
+        Method::RuleBased(rb) => {
+            let (first, second) = rule_based(&run, rb, &x0)?;
+            let (corrected, slope) = correction(&first, &Some(second));
+            let mut block = block_of(&run, &first, ecms.soc_tolerance);
+            block.strategy = "rule-based".into();
+            block.fuel_energy_corrected_j = corrected;
+            block.correction_slope_j = slope;
+            (first, block)
+        }
+    };
+    let mut result = super::summary::assemble(&ctx, cycle, opts, best.rec, None);
+    result.summary.modes.switching = "strategy".into();
+    result.summary.hybrid = Some(Box::new(block));
+    Ok(result)
+}
+
+/// The ECMS run: s given or searched, the J1711 correction through the second run.
+fn ecms_run(
+    run: &Ecms<'_, '_, '_>,
+    ecms: &StrategyOptions,
+    x0: &[f64],
+) -> Result<(Outcome, HybridBlock), ModalError> {
     let (best, runs, other) = match ecms.equivalence {
-        Some(s) => fixed(&run, s, &x0)?,
-        None => search(&run, ecms.soc_tolerance, &x0)?,
+        Some(s) => fixed(run, s, x0)?,
+        None => search(run, ecms.soc_tolerance, x0)?,
     };
     let (corrected, slope) = correction(&best, &other);
+    let mut block = block_of(run, &best, ecms.soc_tolerance);
+    block.equivalence_factor = Some(best.s);
+    block.equivalence_source = if ecms.equivalence.is_some() {
+        "given"
+    } else {
+        "searched"
+    }
+    .into();
+    block.search_runs = runs;
+    block.fuel_energy_corrected_j = corrected;
+    block.correction_slope_j = slope;
+    Ok((best, block))
+}
+
+/// The `hybrid` block of a run (ECMS's fields, the equivalence factor left out).
+fn block_of(run: &Ecms<'_, '_, '_>, best: &Outcome, tol: f64) -> HybridBlock {
+    let (ctx, h) = (run.ctx, run.h);
+    let spec = ctx.spec;
     let dsoc = best.delta_soc();
-    let block = HybridBlock {
+    HybridBlock {
         strategy: "ecms".into(),
-        equivalence_factor: best.s,
-        equivalence_source: if ecms.equivalence.is_some() {
-            "given"
-        } else {
-            "searched"
-        }
-        .into(),
-        search_runs: runs,
-        soc_tolerance: ecms.soc_tolerance,
+        equivalence_factor: None,
+        equivalence_source: "none".into(),
+        search_runs: 1,
+        dp: None,
+        soc_tolerance: tol,
         soc_start: best.soc.0,
         soc_end: best.soc.1,
         delta_soc: dsoc,
-        charge_sustaining: dsoc.abs() <= ecms.soc_tolerance,
+        charge_sustaining: dsoc.abs() <= tol,
         fuel_energy_j: best.fuel,
-        fuel_energy_corrected_j: corrected,
-        correction_slope_j: slope,
+        fuel_energy_corrected_j: None,
+        correction_slope_j: None,
         battery_energy_j: best.battery,
         engine_starts: best.starts,
         engine_on_s: best.engine_on,
@@ -213,11 +271,7 @@ pub fn simulate_hybrid(
             names.dedup();
             names
         },
-    };
-    let mut result = super::summary::assemble(&ctx, cycle, opts, best.rec, None);
-    result.summary.modes.switching = "strategy".into();
-    result.summary.hybrid = Some(Box::new(block));
-    Ok(result)
+    }
 }
 
 /// The reference at every sample and interval midpoint, and each sample's candidate modes.

@@ -6,14 +6,17 @@ use serde::Serialize;
 /// The `hybrid` block of the summary.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct HybridBlock {
-    /// `ecms`.
+    /// `ecms`, `dp` or `rule-based`.
     pub strategy: String,
-    /// The equivalence factor s of the run (W of fuel per W of battery power).
-    pub equivalence_factor: f64,
-    /// `given` (`--equivalence`) or `searched`.
+    /// The equivalence factor s of the run (W of fuel per W of battery power); `null` for DP, which has none.
+    pub equivalence_factor: Option<f64>,
+    /// `given` (`--equivalence`), `searched`, or `none` (DP).
     pub equivalence_source: String,
-    /// Runs the search took (1 when s was given; the J1711 correction's extra run not counted).
+    /// Runs the search took (1 when s was given or for DP; the J1711 correction's extra run not counted).
     pub search_runs: usize,
+    /// DP only: the SOC grid's points, the decided input's grid, the SOC window [lo, hi].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub dp: Option<DpBlock>,
     pub soc_tolerance: f64,
     pub soc_start: f64,
     pub soc_end: f64,
@@ -38,6 +41,16 @@ pub struct HybridBlock {
     pub decided_inputs: Vec<String>,
 }
 
+/// The grids of a DP run.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DpBlock {
+    pub soc_grid: usize,
+    pub split_grid: usize,
+    pub soc_window: [f64; 2],
+    /// The terminal penalty's slope μ, J per unit of SOC off the target.
+    pub terminal_penalty: f64,
+}
+
 impl HybridBlock {
     /// The block's lines of the printed summary.
     pub fn write_text(&self, s: &mut String) {
@@ -46,15 +59,26 @@ impl HybridBlock {
             Some(c) => format!("{:.6e} J", c),
             None => "none (both runs ended at the same ΔSOC)".into(),
         };
-        let _ = writeln!(
-            s,
-            "strategy: {}  equivalence factor s = {:.9} ({}, {} run{})",
-            self.strategy,
-            self.equivalence_factor,
-            self.equivalence_source,
-            self.search_runs,
-            if self.search_runs == 1 { "" } else { "s" }
-        );
+        match (&self.dp, self.equivalence_factor) {
+            (Some(dp), _) => {
+                let _ = writeln!(
+                    s,
+                    "strategy: {}  SOC grid {} points over [{:.4}, {:.4}], decided input's grid {} values",
+                    self.strategy, dp.soc_grid, dp.soc_window[0], dp.soc_window[1], dp.split_grid
+                );
+            }
+            (None, eq) => {
+                let _ = writeln!(
+                    s,
+                    "strategy: {}  equivalence factor s = {:.9} ({}, {} run{})",
+                    self.strategy,
+                    eq.unwrap_or(f64::NAN),
+                    self.equivalence_source,
+                    self.search_runs,
+                    if self.search_runs == 1 { "" } else { "s" }
+                );
+            }
+        }
         let _ = writeln!(
             s,
             "SOC: {:.6} → {:.6}  ΔSOC = {:+.3e} (tolerance {:.1e}: {})",

@@ -15,6 +15,7 @@
 mod bases;
 pub mod blend;
 pub(crate) mod coupling;
+mod dp;
 mod ecms;
 mod equivalence;
 mod fine;
@@ -25,6 +26,7 @@ mod minimise;
 pub mod plant;
 mod record;
 mod rows;
+mod rule_based;
 pub(crate) mod rules;
 mod runner;
 pub(crate) mod sequence;
@@ -39,7 +41,7 @@ use thiserror::Error;
 
 pub use gears::{GearBox, GearSource};
 pub use hybrid::simulate_hybrid;
-pub use hybrid_block::HybridBlock;
+pub use hybrid_block::{DpBlock, HybridBlock};
 pub use plant::{GearSchedule, ModalPlant, ModalPlantBuilder, ModeMeta};
 pub use record::{CouplingReset, Impulse, ModeTime, Transition};
 pub use rows::Rows;
@@ -48,7 +50,11 @@ pub use runner::{
     simulate_modes, simulate_modes_with_reference, simulate_modes_with_signals,
     ZeroDynamicsReference,
 };
-pub use strategy::{EcmsOptions, HybridConfig, DEFAULT_SOC_TOLERANCE};
+pub use strategy::{
+    DpOptions, HybridConfig, Method, RuleOptions, StrategyOptions, DEFAULT_RB_CHARGE_POWER,
+    DEFAULT_RB_ENGINE_POWER, DEFAULT_RB_SOC_LOW, DEFAULT_SOC_GRID, DEFAULT_SOC_TOLERANCE,
+    DEFAULT_SOC_WINDOW, DEFAULT_SPLIT_GRID,
+};
 pub use summary::{ModalSummary, ModesBlock};
 
 /// What a mode is for (see `invsim_inversion::ModeRole`).

@@ -1,0 +1,143 @@
+//! A rule-based energy management (docs/hybrids.md, "Rule-based"), after FASTSim's greedy RESGreedy
+//! control of the hybrid (Brooker et al., "FASTSim: A Model to Estimate Vehicle Efficiency, Cost and
+//! Performance", SAE 2015-01-0973): no optimisation, a fixed priority per sample.
+//!
+//! 1. At standstill (below `standstill_below`) the standstill mode, where it holds the car within its bounds.
+//! 2. Where the brake mode is feasible without recuperation (the wheels need braking), the brake mode with its
+//!    decided input at the value of least battery power (the most recuperation its bounds allow).
+//! 3. Electric drive where its battery power P_batt ≤ P_on (`--rb-engine-power`) and the charge is at least
+//!    SOC(0) − ΔSOC_low (`--rb-soc-low`).
+//! 4. Otherwise the engine: the mode with the engine on, its decided input at the value whose battery power is
+//!    nearest −P_chg (`--rb-charge-power`) below SOC(0) and nearest 0 at or above it (the engine drives alone,
+//!    the motor covering only its own losses and the auxiliaries' load).
+//!
+//! Where the chosen mode is infeasible the next rule's mode is taken, and where none is, the candidate nearest
+//! its bounds (as in ECMS). The run is not charge-sustaining by construction: its fuel is corrected to
+//! ΔSOC = 0 by SAE J1711's line through a second run whose target (SOC(0) in rules 3 and 4) is
+//! [`SHIFT`] higher, so that it ends about that much higher.
+
+use super::ecms::{Ecms, Eval, Outcome};
+use super::minimise::minimise;
+use super::strategy::RuleOptions;
+use super::{ModalError, Role};
+
+/// The target's shift in the J1711 correction's second run.
+const SHIFT: f64 = 0.02;
+
+/// The rule-based run at the options and the second run of the J1711 correction (target + [`SHIFT`]).
+pub(super) fn rule_based(
+    run: &Ecms<'_, '_, '_>,
+    opts: &RuleOptions,
+    x0: &[f64],
+) -> Result<(Outcome, Outcome), ModalError> {
+    check(opts)?;
+    let soc0 = x0[run.h.soc];
+    let first = run.run_policy(f64::NAN, x0, None, &mut |k, x, _| {
+        choose(run, opts, (k, x), soc0)
+    })?;
+    let second = run.run_policy(f64::NAN, x0, None, &mut |k, x, _| {
+        choose(run, opts, (k, x), soc0 + SHIFT)
+    })?;
+    Ok((first, second))
+}
+
+/// The thresholds: finite, the powers and the SOC margin not negative.
+fn check(opts: &RuleOptions) -> Result<(), ModalError> {
+    for (name, v) in [
+        ("--rb-engine-power", opts.engine_power),
+        ("--rb-soc-low", opts.soc_low),
+        ("--rb-charge-power", opts.charge_power),
+    ] {
+        if !(v >= 0.0 && v.is_finite()) {
+            return Err(ModalError::Setup(format!(
+                "{name} must be a number ≥ 0, got {v}"
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// The first candidate of sample k for which `pred` holds.
+fn find(run: &Ecms<'_, '_, '_>, k: usize, pred: &dyn Fn(usize) -> bool) -> Option<usize> {
+    run.samples.candidates[k].iter().copied().find(|&m| pred(m))
+}
+
+/// Mode m at sample k with its decided input at the value of least `cost(P_batt)` (free input within its
+/// bounds), or `None` where no value is feasible.
+fn at_battery_power(
+    run: &Ecms<'_, '_, '_>,
+    (m, k, x): (usize, usize, &[f64]),
+    cost: &dyn Fn(f64) -> f64,
+) -> Option<Eval> {
+    let Some(&(i, _)) = run.ctx.decided[m].first() else {
+        return run.eval((m, k), x, 0.0, (0.0, 0.0));
+    };
+    let input = &run.ctx.spec.inputs[i];
+    let bounds = (input.min.unwrap_or(0.0), input.max.unwrap_or(0.0));
+    let mut f = |d: f64| match run.eval((m, k), x, d, (0.0, 0.0)) {
+        Some(e) if e.excess <= 1e-9 => cost(e.p_batt),
+        _ => f64::INFINITY,
+    };
+    let (d, _) = minimise(&mut f, bounds, run.h.grid.max(3))?;
+    run.eval((m, k), x, d, (0.0, 0.0))
+}
+
+/// The rules' choice at sample k from state x, charging towards `target_soc`.
+fn choose(
+    run: &Ecms<'_, '_, '_>,
+    opts: &RuleOptions,
+    (k, x): (usize, &[f64]),
+    target_soc: f64,
+) -> Result<Eval, ModalError> {
+    let spec = run.ctx.spec;
+    let role = |m: usize| spec.modes[m].role;
+    let feasible = |e: Option<Eval>| e.filter(|e| e.excess <= 1e-9);
+    let soc = x[run.h.soc];
+    if let Some(m) = find(run, k, &|m| role(m) == Role::Standstill) {
+        if let Some(e) = feasible(run.eval((m, k), x, 0.0, (0.0, 0.0))) {
+            return Ok(e);
+        }
+    }
+    if let Some(m) = find(run, k, &|m| role(m) == Role::Brake) {
+        if feasible(run.eval((m, k), x, 0.0, (0.0, 0.0))).is_some() {
+            if let Some(e) = feasible(at_battery_power(run, (m, k, x), &|p| p)) {
+                return Ok(e);
+            }
+        }
+    }
+    let electric = find(run, k, &|m| {
+        role(m) == Role::Traction && !run.h.engine_on[m] && run.ctx.decided[m].is_empty()
+    })
+    .and_then(|m| feasible(run.eval((m, k), x, 0.0, (0.0, 0.0))));
+    if let Some(e) = electric.as_ref() {
+        if e.p_batt <= opts.engine_power && soc >= target_soc - opts.soc_low {
+            return Ok(e.clone());
+        }
+    }
+    let target = if soc < target_soc {
+        -opts.charge_power
+    } else {
+        0.0
+    };
+    let engine = find(run, k, &|m| role(m) == Role::Traction && run.h.engine_on[m])
+        .and_then(|m| feasible(at_battery_power(run, (m, k, x), &|p| (p - target).powi(2))));
+    if let Some(e) = engine.or(electric) {
+        return Ok(e);
+    }
+    nearest(run, (k, x))
+}
+
+/// Where no rule's mode is feasible: the candidate nearest its bounds (decided inputs at 0).
+fn nearest(run: &Ecms<'_, '_, '_>, (k, x): (usize, &[f64])) -> Result<Eval, ModalError> {
+    run.samples.candidates[k]
+        .iter()
+        .filter_map(|&m| run.eval((m, k), x, 0.0, (0.0, 0.0)))
+        .min_by(|a, b| a.excess.total_cmp(&b.excess))
+        .ok_or_else(|| {
+            run.ctx.err(
+                run.samples.candidates[k].first().copied().unwrap_or(0),
+                run.samples.t[k],
+                "no candidate mode has an inverse here".into(),
+            )
+        })
+}
