@@ -247,14 +247,7 @@ fn assemble(
         b = b.gearbox(g.gears, schedule, params);
     }
     if let Some(h) = &m.hybrid {
-        b = b.hybrid(invsim_runtime::modes::HybridConfig {
-            fuel_power: h.fuel_power.clone(),
-            battery_power: h.battery_power.clone(),
-            soc: h.soc.clone(),
-            engine_on: h.engine_on.clone(),
-            start_penalty: h.start_penalty,
-            grid: h.grid,
-        });
+        b = b.hybrid(h.clone());
     }
     for (h, model) in headers.into_iter().zip(models) {
         let meta = meta_of(m, h, model.as_ref());

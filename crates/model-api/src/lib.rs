@@ -13,6 +13,7 @@
 use thiserror::Error;
 
 pub mod headline;
+pub mod hybrid;
 pub mod math;
 pub mod sensitivity;
 pub mod zero_dynamics;
@@ -21,6 +22,7 @@ pub mod zero_dynamics;
 /// implementation lives in `invsim-kernel`.
 pub use invsim_kernel::map;
 
+pub use hybrid::HybridSpec;
 pub use sensitivity::SensitivityLayout;
 
 pub use headline::{

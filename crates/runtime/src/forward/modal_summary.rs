@@ -203,12 +203,7 @@ pub(super) fn summarise(
         ),
         run: CycleInfo::new(info, cycle, cycle.duration()),
         distance_driven_m: tally.distance_driven,
-        relative_degree: spec
-            .modes
-            .iter()
-            .map(|m| m.model.info().relative_degree)
-            .max()
-            .unwrap_or(0),
+        relative_degree: spec.r_max(),
         engine: opts.engine.clone(),
         samples,
         dt_s: opts.dt,

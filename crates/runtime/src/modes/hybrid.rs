@@ -15,14 +15,15 @@ use super::record::{decided_slots, Ctx};
 use super::rows::Rows;
 use super::rule_based::rule_based;
 use super::rules::Rules;
-use super::strategy::{HybridConfig, Method, StrategyOptions};
+use super::strategy::{Method, StrategyOptions};
 use super::{ModalError, ModalOptions, ModalResult, ModalSpec};
 use crate::cycle::Cycle;
 use crate::grid::Grid;
 use crate::smoother::Smoother;
+use invsim_model_api::HybridSpec;
 
 /// `config` against the modes of `spec`.
-fn resolve(spec: &ModalSpec<'_>, config: &HybridConfig) -> Result<Resolved, ModalError> {
+fn resolve(spec: &ModalSpec<'_>, config: &HybridSpec) -> Result<Resolved, ModalError> {
     let info = spec.modes[0].model.info();
     let output = |name: &str| {
         info.outputs[..spec.n_outputs]
@@ -89,6 +90,7 @@ fn start_state(spec: &ModalSpec<'_>, initial: &[(String, f64)]) -> Result<Vec<f6
 fn check_supported(
     spec: &ModalSpec<'_>,
     decided: &[Vec<(usize, usize)>],
+    flag: &str,
 ) -> Result<(), ModalError> {
     for (m, d) in spec.modes.iter().zip(decided) {
         let signals = m.model.info().signals.len();
@@ -100,16 +102,16 @@ fn check_supported(
         }
         if d.len() > 1 {
             return Err(ModalError::Setup(format!(
-                "--strategy ecms: mode `{}` decides {} inputs; ECMS searches one decided input per mode",
+                "{flag}: mode `{}` decides {} inputs; a strategy decides one input per mode",
                 m.name,
                 d.len()
             )));
         }
     }
     if decided.iter().all(Vec::is_empty) {
-        return Err(ModalError::Setup(
-            "--strategy ecms: no mode decides an input (`decided = [\"…\"]` in a [modes.NAME] table)".into(),
-        ));
+        return Err(ModalError::Setup(format!(
+            "{flag}: no mode decides an input (`decided = [\"…\"]` in a [modes.NAME] table)"
+        )));
     }
     Ok(())
 }
@@ -118,16 +120,16 @@ fn check_supported(
 /// internal states by name).
 pub fn simulate_hybrid(
     spec: &ModalSpec<'_>,
-    config: Option<&HybridConfig>,
+    config: Option<&HybridSpec>,
     cycle: &Cycle,
     opts: &ModalOptions,
     (ecms, initial): (&StrategyOptions, &[(String, f64)]),
 ) -> Result<ModalResult, ModalError> {
     let Some(config) = config else {
-        return Err(ModalError::Setup(
-            "--strategy ecms needs the model's [hybrid] table (fuel_power, battery_power, soc)"
-                .into(),
-        ));
+        return Err(ModalError::Setup(format!(
+            "{} needs the model's [hybrid] table (fuel_power, battery_power, soc)",
+            ecms.method.flag()
+        )));
     };
     if !(ecms.soc_tolerance > 0.0 && ecms.soc_tolerance.is_finite()) {
         return Err(ModalError::Setup(format!(
@@ -146,19 +148,14 @@ pub fn simulate_hybrid(
         )));
     }
     let decided = decided_slots(spec);
-    check_supported(spec, &decided)?;
+    check_supported(spec, &decided, ecms.method.flag())?;
     let h = resolve(spec, config)?;
     let grid = Grid::new(cycle.time[0], cycle.duration(), opts.dt)?;
     crate::inverse::checks::check_lookahead(opts.lookahead, cycle.duration(), opts.dt)
         .map_err(|e| ModalError::Setup(e.to_string()))?;
     let smoother =
         Smoother::new(cycle, opts.lookahead).map_err(|e| ModalError::Setup(e.to_string()))?;
-    let r_max = spec
-        .modes
-        .iter()
-        .map(|m| m.model.info().relative_degree)
-        .max()
-        .unwrap_or(0);
+    let r_max = spec.r_max();
     let ctx = Ctx {
         spec,
         rules: Rules::new(spec),

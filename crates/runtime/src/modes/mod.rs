@@ -51,7 +51,7 @@ pub use runner::{
     ZeroDynamicsReference,
 };
 pub use strategy::{
-    DpOptions, HybridConfig, Method, RuleOptions, StrategyOptions, DEFAULT_RB_CHARGE_POWER,
+    DpOptions, Method, RuleOptions, StrategyOptions, DEFAULT_RB_CHARGE_POWER,
     DEFAULT_RB_ENGINE_POWER, DEFAULT_RB_SOC_LOW, DEFAULT_SOC_GRID, DEFAULT_SOC_TOLERANCE,
     DEFAULT_SOC_WINDOW, DEFAULT_SPLIT_GRID,
 };
@@ -116,6 +116,15 @@ pub struct ModalSpec<'m> {
 }
 
 impl ModalSpec<'_> {
+    /// The highest relative degree of its modes (0 without modes).
+    pub fn r_max(&self) -> usize {
+        self.modes
+            .iter()
+            .map(|m| m.model.info().relative_degree)
+            .max()
+            .unwrap_or(0)
+    }
+
     /// The traction input: the free input of the first traction mode (the throttle or fuel flow; the first
     /// input for a model without a traction mode). The summaries report it as the run's `input`.
     pub fn traction_input(&self) -> usize {

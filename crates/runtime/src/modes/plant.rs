@@ -50,7 +50,7 @@ pub struct ModalPlant {
     sequence: SequenceParams,
     n_outputs: usize,
     /// `[hybrid]`: what an energy-management strategy weighs (none without the table).
-    hybrid: Option<Box<super::HybridConfig>>,
+    hybrid: Option<Box<invsim_model_api::HybridSpec>>,
 }
 
 /// Builds a [`ModalPlant`]; [`ModalPlantBuilder::build`] checks it once.
@@ -216,7 +216,7 @@ impl ModalPlant {
     }
 
     /// The model's `[hybrid]` table, if it has one.
-    pub fn hybrid(&self) -> Option<&super::HybridConfig> {
+    pub fn hybrid(&self) -> Option<&invsim_model_api::HybridSpec> {
         self.hybrid.as_deref()
     }
 
@@ -279,7 +279,7 @@ impl ModalPlantBuilder {
     }
 
     /// The model's `[hybrid]` table.
-    pub fn hybrid(mut self, config: super::HybridConfig) -> Self {
+    pub fn hybrid(mut self, config: invsim_model_api::HybridSpec) -> Self {
         self.plant.hybrid = Some(Box::new(config));
         self
     }

@@ -397,12 +397,7 @@ pub fn simulate_modes_with_reference(
     let smoother = Smoother::new(cycle, opts.lookahead)
         .map_err(|e| ModalError::Setup(e.to_string()))?
         .with_signals(crate::signals::smoothers(&resolved, opts.lookahead));
-    let r_max = spec
-        .modes
-        .iter()
-        .map(|m| m.model.info().relative_degree)
-        .max()
-        .unwrap_or(0);
+    let r_max = spec.r_max();
     let n = spec.modes[0].model.info().n_states();
     let transition = opts.transition_time.unwrap_or(opts.lookahead);
     if !(transition > 0.0 && transition.is_finite()) {

@@ -1,20 +1,7 @@
-//! The types of an energy-management strategy's run (docs/hybrids.md): the model file's `[hybrid]` table as
-//! the plant keeps it, and the options of `--strategy ecms` and `--strategy dp`. Plain data, imported by the run's options, the
+//! The types of an energy-management strategy's run (docs/hybrids.md): the options of `--strategy ecms`,
+//! `--strategy dp` and `--strategy rule-based` (the model file's `[hybrid]` table is
+//! [`invsim_model_api::HybridSpec`]). Plain data, imported by the run's options, the
 //! plant and the hybrid run alike.
-
-/// The model file's `[hybrid]` table, by name (see `invsim_inversion::HybridSpec`).
-#[derive(Debug, Clone, PartialEq)]
-pub struct HybridConfig {
-    pub fuel_power: String,
-    pub battery_power: String,
-    pub soc: String,
-    /// Mode families in which the engine runs.
-    pub engine_on: Vec<String>,
-    /// J per engine start.
-    pub start_penalty: f64,
-    /// Grid points over a decided input's bounds.
-    pub grid: usize,
-}
 
 /// Which strategy decides (`--strategy`).
 #[derive(Debug, Clone, PartialEq)]
@@ -25,6 +12,18 @@ pub enum Method {
     Dp(DpOptions),
     /// Rules after FASTSim's RESGreedy (docs/hybrids.md, Rule-based).
     RuleBased(RuleOptions),
+}
+
+impl Method {
+    /// The command-line option that chose it (`--strategy ecms`, `--strategy dp`, `--strategy rule-based`),
+    /// for messages.
+    pub fn flag(&self) -> &'static str {
+        match self {
+            Method::Ecms => "--strategy ecms",
+            Method::Dp(_) => "--strategy dp",
+            Method::RuleBased(_) => "--strategy rule-based",
+        }
+    }
 }
 
 /// The options of `--strategy rule-based`.
