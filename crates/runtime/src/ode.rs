@@ -88,6 +88,44 @@ fn too_many_steps(t: f64) -> StepFailure {
     }
 }
 
+/// The step-size controller of an explicit pair (Hairer I, §II.4): after an accepted step
+/// h_new = h·min(grow, max(shrink, 0.9·err^(−exponent))) (no growth right after a rejection), after a rejected one
+/// h·min(0.9, max(reject_shrink, 0.9·err^(−exponent))), and h/10 where the error is not finite.
+#[derive(Debug, Clone, Copy)]
+struct Controller {
+    exponent: f64,
+    shrink: f64,
+    grow: f64,
+    reject_shrink: f64,
+}
+
+impl Controller {
+    /// The step to try after a step of `h` with error `err` that was accepted (err ≤ 1) or not.
+    fn next(&self, err: f64, h: f64, rejected_last: bool) -> f64 {
+        let factor = if err <= 1.0 {
+            let grow = if rejected_last { 1.0 } else { self.grow };
+            if err == 0.0 {
+                grow
+            } else {
+                (0.9 * err.powf(-self.exponent)).clamp(self.shrink, grow)
+            }
+        } else if err.is_finite() {
+            (0.9 * err.powf(-self.exponent)).clamp(self.reject_shrink, 0.9)
+        } else {
+            0.1
+        };
+        h * factor
+    }
+}
+
+/// The step to take from t towards `t_end` with the proposed step `h`: exactly the rest where h reaches
+/// `t_end` or leaves a sliver of it (then `true`).
+fn clip(h: f64, t: f64, t_end: f64) -> (f64, bool) {
+    let remaining = t_end - t;
+    let clipped = h >= remaining * (1.0 - 1e-12) || h * 1.01 >= remaining;
+    (if clipped { remaining } else { h }, clipped)
+}
+
 fn too_small<E: From<StepFailure>>(t: f64) -> E {
     E::from(StepFailure {
         t,
@@ -167,6 +205,15 @@ const D4: f64 = -10690763975.0 / 1880347072.0;
 const D5: f64 = 701980252875.0 / 199316789632.0;
 const D6: f64 = -1453857185.0 / 822651844.0;
 const D7: f64 = 69997945.0 / 29380423.0;
+
+/// DOPRI5's controller: exponent 1/5 (its error estimate is of order 4), growth at most 5, shrinking at most to
+/// 0.2 after an accepted step and 0.1 after a rejected one (the code's bounds).
+const DOPRI5_CONTROL: Controller = Controller {
+    exponent: 0.2,
+    shrink: 0.2,
+    grow: 5.0,
+    reject_shrink: 0.1,
+};
 
 /// Border of the stability region of DOPRI5 on the negative real axis, about 3.3 (Hairer II, §IV.2).
 pub const DOPRI5_STIFF_BORDER: f64 = 3.25;
@@ -266,41 +313,24 @@ impl Dopri5 {
         }
         let mut rejected_last = false;
         loop {
-            let remaining = t_end - t;
             if self.h < h_min(t) || !self.h.is_finite() {
                 self.t_fail = t;
                 self.y_fail.copy_from_slice(y);
                 return Err(too_small(t));
             }
             // Land exactly on t_end (and avoid a sliver of a last step).
-            let clipped = self.h >= remaining * (1.0 - 1e-12) || self.h * 1.01 >= remaining;
-            let h = if clipped { remaining } else { self.h };
+            let (h, clipped) = clip(self.h, t, t_end);
             let err = self.step(t, h, y, f)?;
+            let next = DOPRI5_CONTROL.next(err, h, rejected_last);
             if err <= 1.0 {
                 let t_new = if clipped { t_end } else { t + h };
                 self.accept(t, h, y);
-                let grow = if rejected_last { 1.0 } else { 5.0 };
-                let factor = if err == 0.0 {
-                    grow
-                } else {
-                    (0.9 * err.powf(-0.2)).clamp(0.2, grow)
-                };
-                let proposed = h * factor;
                 // A step shortened to land on t_end says little about the step size the solution allows.
-                self.h = if clipped {
-                    proposed.max(self.h)
-                } else {
-                    proposed
-                };
+                self.h = if clipped { next.max(self.h) } else { next };
                 return Ok(t_new);
             }
             self.stats.rejected += 1;
-            let factor = if err.is_finite() {
-                (0.9 * err.powf(-0.2)).clamp(0.1, 0.9)
-            } else {
-                0.1
-            };
-            self.h = h * factor;
+            self.h = next;
             rejected_last = true;
         }
     }

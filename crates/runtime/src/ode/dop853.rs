@@ -19,7 +19,9 @@
 // The coefficients are written with the 30 digits they are published with; f64 rounds them.
 #![allow(clippy::excessive_precision)]
 
-use super::{h_min, steps_until, too_many_steps, too_small, OdeStats, StepFailure};
+use super::{
+    clip, h_min, steps_until, too_many_steps, too_small, Controller, OdeStats, StepFailure,
+};
 
 /// Stages per step.
 const S: usize = 12;
@@ -137,6 +139,14 @@ const E3: [f64; S] = {
     e
 };
 
+/// DOP853's controller: exponent 1/8, growth at most 6, shrinking at most to 1/3 (the code's bounds).
+const CONTROL: Controller = Controller {
+    exponent: 0.125,
+    shrink: 1.0 / 3.0,
+    grow: 6.0,
+    reject_shrink: 1.0 / 3.0,
+};
+
 /// The DOP853 integrator: its tolerances, step size, FSAL stage and buffers (allocated once).
 #[derive(Debug, Clone)]
 pub struct Dop853 {
@@ -202,39 +212,23 @@ impl Dop853 {
         }
         let mut rejected_last = false;
         loop {
-            let remaining = t_end - t;
             if self.h < h_min(t) || !self.h.is_finite() {
                 return Err(too_small(t));
             }
-            let clipped = self.h >= remaining * (1.0 - 1e-12) || self.h * 1.01 >= remaining;
-            let h = if clipped { remaining } else { self.h };
+            let (h, clipped) = clip(self.h, t, t_end);
             let err = self.step(t, h, y, f)?;
+            let next = CONTROL.next(err, h, rejected_last);
             if err <= 1.0 {
                 self.stats.accepted += 1;
                 let t_new = if clipped { t_end } else { t + h };
                 y.copy_from_slice(&self.y_new);
                 self.k.swap(0, S);
-                let grow = if rejected_last { 1.0 } else { 6.0 };
-                let factor = if err == 0.0 {
-                    grow
-                } else {
-                    (0.9 * err.powf(-0.125)).clamp(1.0 / 3.0, grow)
-                };
                 // A step shortened to land on t_end says little about the step size the solution allows.
-                self.h = if clipped {
-                    (h * factor).max(self.h)
-                } else {
-                    h * factor
-                };
+                self.h = if clipped { next.max(self.h) } else { next };
                 return Ok(t_new);
             }
             self.stats.rejected += 1;
-            let factor = if err.is_finite() {
-                (0.9 * err.powf(-0.125)).clamp(1.0 / 3.0, 0.9)
-            } else {
-                0.1
-            };
-            self.h = h * factor;
+            self.h = next;
             rejected_last = true;
         }
     }
