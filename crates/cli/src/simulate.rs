@@ -266,11 +266,11 @@ pub fn run(args: &SimulateArgs, warnings: crate::error::Warnings) -> Result<(), 
     };
     let engine = model.engine_name();
     let plant = model.into_plant();
-    check_gradient(
-        args.gradient.as_deref(),
-        matches!(plant, invsim_runtime::plant::Plant::Modal(_)),
-        plant.info(),
-    )?;
+    let gearbox = match &plant {
+        invsim_runtime::plant::Plant::Modal(p) => Some(p.gear_parameters()),
+        _ => None,
+    };
+    check_gradient(args.gradient.as_deref(), gearbox, plant.info())?;
     let (progress, bar) = crate::progress::start("simulate");
     let mut opts = args
         .lookahead
@@ -317,22 +317,19 @@ pub fn run(args: &SimulateArgs, warnings: crate::error::Warnings) -> Result<(), 
     crate::engine::write_run((&args.plot, warnings), outputs, (&plant, &cycle), &result)
 }
 
-/// `--gradient` before the run (`simulate` and `sweep`): a model with modes (`modal`) is refused, and every name
-/// must be one of `info`'s parameters.
+/// `--gradient` before the run (`simulate` and `sweep`): every name must be one of `info`'s parameters or, for
+/// a model with modes (`gearbox`: its per-gear parameters), a gearbox parameter's per-gear name (`i_g[3]`).
 pub(crate) fn check_gradient(
     names: Option<&[String]>,
-    modal: bool,
+    gearbox: Option<invsim_runtime::gradient::GearParameters<'_>>,
     info: &invsim_model_api::ModelInfo,
 ) -> Result<(), Failure> {
     let Some(names) = names else {
         return Ok(());
     };
-    if modal {
-        return Err(Failure::user(
-            "--gradient: models with modes are not differentiated yet (only models without [modes])",
-        ));
-    }
-    invsim_runtime::gradient::resolve(info, names)
-        .map(|_| ())
-        .map_err(|e| Failure::user(format!("--gradient: {e}")))
+    let checked = match gearbox {
+        Some(g) => invsim_runtime::gradient::resolve_modal(&info.parameters, g, names).map(|_| ()),
+        None => invsim_runtime::gradient::resolve(info, names).map(|_| ()),
+    };
+    checked.map_err(|e| Failure::user(format!("--gradient: {e}")))
 }

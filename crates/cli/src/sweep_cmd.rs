@@ -359,11 +359,11 @@ pub fn run(args: &SweepArgs, warnings: Warnings) -> Result<(), Failure> {
     let outputs = plan_outputs(args)?;
     let cycles = cycles(args, warnings)?;
     let model = load(&args.model, args.engine)?;
-    crate::simulate::check_gradient(
-        args.gradient.as_deref(),
-        matches!(model, Loaded::Modal(_)),
-        model.info(),
-    )?;
+    let gearbox = match &model {
+        Loaded::Modal(m) => Some(m.plant.gear_parameters()),
+        _ => None,
+    };
+    crate::simulate::check_gradient(args.gradient.as_deref(), gearbox, model.info())?;
     let failed = |e: String| Failure::user(format!("sweep of `{}`: {e}", args.model.display()));
     let opts = args
         .lookahead

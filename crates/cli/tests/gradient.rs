@@ -116,15 +116,25 @@ fn compiled_and_interpreted_agree() {
     }
 }
 
-/// Refusals, exit 2, each naming why: a model with modes, a non-causal (stable) inversion, an unknown and a
-/// repeated parameter.
+/// Refusals, exit 2, each naming why: a non-causal (stable) inversion, an unknown and a repeated parameter, a
+/// gearbox parameter named whole or with a gear the gearbox lacks, a model with modes switched quasi-statically.
 #[test]
 fn runs_not_differentiated_are_refused_with_the_reason() {
     let cases = [
         (
             "models/si_engine_5speed.toml",
-            "m",
-            "models with modes are not differentiated yet",
+            "i_g",
+            "set per gear by the model's [gearbox]: differentiate by each gear's value, i_g[1] … i_g[5]",
+        ),
+        (
+            "models/si_engine_5speed.toml",
+            "m,i_g[6]",
+            "`i_g[6]`: the gearbox has gears 1 … 5",
+        ),
+        (
+            "models/si_engine_5speed.toml",
+            "m --switching quasi-static",
+            "runs with quasi-static switching are not differentiated yet",
         ),
         ("models/diesel_gasflow.toml", "all", "non-causally"),
         (
@@ -135,7 +145,9 @@ fn runs_not_differentiated_are_refused_with_the_reason() {
         ("models/si_engine.toml", "m,m", "`m` is named twice"),
     ];
     for (model, names, why) in cases {
-        let o = invsim(&["simulate", model, "--cycle", "ece", "--gradient", names]);
+        let mut args = vec!["simulate", model, "--cycle", "ece", "--gradient"];
+        args.extend(names.split(' '));
+        let o = invsim(&args);
         assert_eq!(o.status.code(), Some(2), "{model} {names}: {}", stderr(&o));
         let e = stderr(&o);
         assert!(
@@ -146,8 +158,8 @@ fn runs_not_differentiated_are_refused_with_the_reason() {
 }
 
 /// `invsim sweep --gradient`: a column `d(FIGURE)/d(PARAMETER)` per figure and parameter, each row's equal to
-/// `simulate --gradient` of that variant (the same run), in the CSV and the Parquet file alike; a model with
-/// modes is refused before any run.
+/// `simulate --gradient` of that variant (the same run), in the CSV and the Parquet file alike, for a model
+/// with modes too (a gear's ratio among the parameters).
 #[test]
 fn sweep_columns_are_each_variants_gradient() {
     let csv = tmp("gradient-sweep.csv");
@@ -203,16 +215,37 @@ fn sweep_columns_are_each_variants_gradient() {
     let bytes = std::fs::read(&parquet).expect("parquet written");
     let needle = b"d(fuel)/d(m)";
     assert!(bytes.windows(needle.len()).any(|w| w == needle));
+    let modal = tmp("gradient-sweep-modes.csv");
     let o = invsim(&[
         "sweep",
         "models/si_engine_5speed.toml",
         "--cycle",
         "ece",
         "--grid",
-        "m=1200:1400:3",
+        "m=1200:1400:2",
         "--gradient",
-        "m",
+        "m,i_g[2]",
+        "--out",
+        modal.to_str().expect("utf-8"),
     ]);
-    assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("models with modes are not differentiated yet"));
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (header, rows) = read_csv(&modal);
+    let col = |name: &str| {
+        header
+            .iter()
+            .position(|h| h == name)
+            .unwrap_or_else(|| panic!("column {name} in {header:?}"))
+    };
+    for (row, m) in rows.iter().zip(["1200", "1400"]) {
+        let (s, _) = summary(
+            "models/si_engine_5speed.toml",
+            &format!("sweep-modes-{m}"),
+            &["--set", &format!("m={m}"), "--gradient", "m,i_g[2]"],
+        );
+        for p in ["m", "i_g[2]"] {
+            let want = s["gradient"]["fuel"][p].as_f64().expect("a number");
+            let got = num(&row[col(&format!("d(fuel)/d({p})"))]);
+            assert_eq!(got, want, "m = {m}: d(fuel)/d({p})");
+        }
+    }
 }

@@ -6,6 +6,8 @@
 //! - `forward`: `invsim forward` and `invsim simulate --verify` as a user meets them: exit codes, the CSV and JSON layouts,
 //! - `gradient`: `invsim simulate --gradient`: the summary's block and table, fuel against central differences,
 //!   compiled against interpreted, the runs not differentiated refused with exit 2.
+//! - `gradient_modes`: gradients of runs with modes against central differences of every parameter (each
+//!   gear's ratio on its own) of si_engine_5speed and the 6-speed Fusion on NEDC and UDDS, compiled against interpreted.
 //! - `headline`: The summary leads with the model's headline in the units people report (l/100 km, mpg, CO2
 //!   g/km; kWh/100 km, mpgge); the Fusions say which fuel figure is the model's answer.
 //! - `hostile`: Hostile-input suite: every case in `tests/hostile/*.json` runs the built `invsim` binary on hostile model
@@ -45,6 +47,7 @@ mod conveniences;
 mod derive_bad_model;
 mod forward;
 mod gradient;
+mod gradient_modes;
 mod headline;
 mod hostile;
 mod hybrid;

@@ -290,5 +290,6 @@ fn meta_of(m: &ModalModel, h: ModeHeader, model: &dyn InverseModel) -> ModeMeta 
         free_input: h.free,
         fixed_outputs,
         coupled,
+        own_parameters: h.parameters,
     }
 }

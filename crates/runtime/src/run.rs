@@ -14,7 +14,7 @@ use crate::forward::ModalForwardResult;
 use crate::forward::{forward, forward_modes, ForwardError, ForwardOptions, ForwardResult};
 use crate::inverse::{simulate, SimulateError, SimulationOptions, SimulationResult};
 use crate::modes::{
-    simulate_modes_with_signals, GearSource, ModalError, ModalOptions, ModalResult,
+    GearSource, ModalError, ModalOptions, ModalResult, Switching, ZeroDynamicsReference,
 };
 use crate::plant::Plant;
 use crate::plot::{self, Figure, PlotError};
@@ -82,6 +82,9 @@ impl Plant {
                 cycle,
                 opts,
             )?))),
+            Plant::Modal(_) if opts.strategy.is_some() && opts.gradient.is_some() => Err(
+                gradient_refused("runs with an energy-management strategy (--strategy)"),
+            ),
             Plant::Modal(p) if opts.strategy.is_some() => {
                 let gears = p.gear_source(cycle, file).map_err(RunFailure::Gears)?;
                 let spec = p.spec(gears.clone());
@@ -109,10 +112,20 @@ impl Plant {
                          first sample; start values of internal states apply to models without modes"
                     ))));
                 }
+                let wrt = opts
+                    .gradient
+                    .as_deref()
+                    .map(|names| modal_gradient_params(p, opts, names))
+                    .transpose()?;
                 let gears = p.gear_source(cycle, file).map_err(RunFailure::Gears)?;
                 let spec = p.spec(gears.clone());
-                let mut r =
-                    simulate_modes_with_signals(&spec, cycle, &modal_options(opts), &opts.signals)?;
+                let mut r = crate::modes::simulate_modes_differentiated(
+                    &spec,
+                    cycle,
+                    &modal_options(opts),
+                    &opts.signals,
+                    (ZeroDynamicsReference::default(), wrt.as_ref()),
+                )?;
                 r.summary.engine = opts.engine.clone();
                 Ok(RunResult::Modal(Box::new(r), gears))
             }
@@ -289,4 +302,33 @@ impl RunResult {
     pub fn write_csv<W: Write>(&self, w: W) -> io::Result<()> {
         crate::output::write_table_csv(self.columns(), self.data(), w)
     }
+}
+
+/// A run's gradient that is not computed yet, as the error `simulate --gradient` reports.
+fn gradient_refused(what: &'static str) -> RunFailure {
+    RunFailure::Inverse(SimulateError::Gradient(
+        crate::gradient::GradientError::ModalUnsupported { what },
+    ))
+}
+
+/// The derivatives `names` asks for of a run of the model with modes `p` (`crate::gradient::modal`), or why
+/// the run is not differentiated: quasi-static switching, modes that couple states.
+pub(crate) fn modal_gradient_params(
+    p: &crate::modes::ModalPlant,
+    opts: &SimulationOptions,
+    names: &[String],
+) -> Result<crate::gradient::ModalWrt, RunFailure> {
+    if opts.switching == Switching::QuasiStatic {
+        return Err(gradient_refused("runs with quasi-static switching"));
+    }
+    if p.metas().any(|m| !m.coupled.is_empty()) {
+        return Err(gradient_refused(
+            "models whose modes couple states (`couple`)",
+        ));
+    }
+    let parameters = p.parameters();
+    let params = crate::gradient::resolve_modal(&parameters, p.gear_parameters(), names)
+        .map_err(|e| RunFailure::Inverse(SimulateError::Gradient(e)))?;
+    let modes = p.metas().map(|m| (m.gear, &m.own_parameters[..]));
+    Ok(crate::gradient::ModalWrt::new(params, &parameters, modes))
 }

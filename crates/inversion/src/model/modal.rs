@@ -66,6 +66,9 @@ pub struct ModeHeader {
     /// The inputs a strategy decides in this mode (`decided`), by input index: each is a signal of the
     /// mode's model whose value the strategy supplies per sample.
     pub decided: Vec<usize>,
+    /// The parameters the mode sets itself (`parameters = { c_fuel = 0.0 }`), by name: the mode does not take
+    /// the file's value of these.
+    pub parameters: Vec<String>,
 }
 
 impl Mode {
@@ -81,6 +84,7 @@ impl Mode {
             coupled: h.coupled,
             decided_at: vec![None; h.decided.len()],
             decided: h.decided,
+            parameters: h.parameters,
             model,
         }
     }
@@ -101,6 +105,7 @@ impl Mode {
             fixed: self.fixed,
             coupled: self.coupled,
             decided: self.decided,
+            parameters: self.parameters,
         };
         (header, self.model)
     }
@@ -158,6 +163,8 @@ pub struct Mode {
     pub decided: Vec<usize>,
     /// Where each of [`Mode::decided`] is written: 1-based line and column.
     pub decided_at: Vec<Option<(usize, usize)>>,
+    /// The parameters the mode sets itself (see [`ModeHeader::parameters`]).
+    pub parameters: Vec<String>,
 }
 
 /// How the gear is chosen along the run.

@@ -841,6 +841,10 @@ fn header_of(
         fixed,
         coupled,
         decided: raw.decided.iter().map(|(i, _)| *i).collect(),
+        parameters: raw
+            .parameters
+            .map(|ps| ps.iter().map(|(k, _)| k.name.clone()).collect())
+            .unwrap_or_default(),
     }
 }
 

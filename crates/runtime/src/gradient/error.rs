@@ -14,4 +14,13 @@ pub enum GradientError {
     UnknownParameter { name: String, known: String },
     #[error("parameter `{name}` is named twice")]
     Duplicate { name: String },
+    #[error(
+        "`{name}` is set per gear by the model's [gearbox]: differentiate by each gear's value, \
+         {name}[1] … {name}[{gears}]"
+    )]
+    PerGear { name: String, gears: usize },
+    #[error("`{name}`: the gearbox has gears 1 … {gears}")]
+    NoSuchGear { name: String, gears: usize },
+    #[error("{what} are not differentiated yet (runs with re-entry switching of models without couplings, strategies or decided inputs are)")]
+    ModalUnsupported { what: &'static str },
 }

@@ -22,14 +22,35 @@ pub(crate) struct Integrals<'a> {
     pub derivatives: &'a [Vec<f64>],
 }
 
-/// The figures' derivatives with respect to the parameters `params` (indices into the model's parameters) at
-/// their values `values`, for a cycle of `distance_m` metres.
+/// What the derivatives are taken with respect to: each one's name in the gradient block and the model
+/// parameter it moves (an index into the model's parameters: a gearbox's `i_g[3]` moves `i_g` in third gear),
+/// and every parameter's value (the fuel's density, where it is one).
+pub(crate) struct Wrt<'a> {
+    pub names: &'a [String],
+    pub params: &'a [usize],
+    pub values: &'a [f64],
+}
+
+impl<'a> Wrt<'a> {
+    /// The model's own parameters `params`, by their names.
+    pub(crate) fn plain(params: &'a [usize], values: &'a [f64]) -> Wrt<'a> {
+        Wrt {
+            names: &[],
+            params,
+            values,
+        }
+    }
+}
+
+/// The figures' derivatives with respect to `wrt` for a cycle of `distance_m` metres.
 pub(crate) fn figures(
     info: &ModelInfo,
-    (params, values): (&[usize], &[f64]),
+    wrt: &Wrt<'_>,
     integrals: &Integrals<'_>,
     distance_m: f64,
 ) -> Figures {
+    let (params, values) = (wrt.params, wrt.values);
+    let by_param = |info: &ModelInfo, params: &[usize], d: &[f64]| named(info, wrt, params, d);
     let mut out = Figures::new();
     let has_distance = distance_m > 0.0 && distance_m.is_finite();
     for (a, &o) in integrals.accumulate.iter().enumerate() {
@@ -72,11 +93,20 @@ pub(crate) fn figures(
     out
 }
 
-fn by_param(info: &ModelInfo, params: &[usize], d: &[f64]) -> BTreeMap<String, f64> {
+/// The derivatives `d` by name: `wrt`'s names where it has them, else the parameters' own.
+fn named(info: &ModelInfo, wrt: &Wrt<'_>, params: &[usize], d: &[f64]) -> BTreeMap<String, f64> {
     params
         .iter()
         .zip(d)
-        .map(|(&p, &v)| (info.parameters[p].clone(), v))
+        .enumerate()
+        .map(|(c, (&p, &v))| {
+            let name = wrt
+                .names
+                .get(c)
+                .cloned()
+                .unwrap_or_else(|| info.parameters[p].clone());
+            (name, v)
+        })
         .collect()
 }
 
@@ -213,7 +243,9 @@ mod tests {
                 values: &[k * i0],
                 derivatives: &[vec![i0, 0.0]],
             };
-            let g = figures(&info, (&[0, 1], &[k, rho]), &integrals, distance);
+            let values = [k, rho];
+            let wrt = Wrt::plain(&[0, 1], &values);
+            let g = figures(&info, &wrt, &integrals, distance);
             for (c, name, h) in [(0, "k", 1e-4 * k), (1, "rho_f", 1e-4 * rho)] {
                 let (plus, minus) = if c == 0 {
                     (at(k + h, rho), at(k - h, rho))

@@ -11,6 +11,7 @@
 
 pub mod error;
 mod figures;
+pub mod modal;
 mod pass;
 mod point;
 
@@ -21,8 +22,10 @@ use serde::Serialize;
 
 pub use error::GradientError;
 pub use figures::Figures;
-pub(crate) use figures::{figures, Integrals};
+pub(crate) use figures::{figures, Integrals, Wrt};
+pub use modal::{resolve_modal, GearParameters, ModalParam, ModalWrt};
 pub(crate) use pass::{integral_gradients, Along, Wanted};
+pub(crate) use point::{Direction, Point};
 
 use crate::report::fmt_sig;
 
@@ -126,7 +129,7 @@ pub(crate) fn of_run<M: InverseModel + ?Sized>(
     Ok(Gradient {
         figures: figures(
             model.info(),
-            (params, model.params()),
+            &Wrt::plain(params, model.params()),
             &integrals,
             run.distance_m,
         ),

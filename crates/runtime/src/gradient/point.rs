@@ -91,12 +91,27 @@ impl Point {
 
     /// [`Point::direction`] into `dir` (its `dx` of length n), without allocating.
     pub(crate) fn direction_into(&self, deta: &[f64], param: Option<usize>, dir: &mut Direction) {
+        self.moved_into(&[], 0.0, deta, param, dir);
+    }
+
+    /// dx and du where the reference moves too: dξ (`dxi`, the first r of ξ; missing entries 0) and dy^(r)
+    /// (`dyr`), as a re-entry's transition moves it with the state it started from (`crate::modes`):
+    /// (∂ψ/∂x) dx = (dξ − ∂ψ_ξ/∂p dp, dη), du = (dy^(r) − ∂φ/∂x · dx − ∂φ/∂p dp)/(∂φ/∂u).
+    pub(crate) fn moved_into(
+        &self,
+        dxi: &[f64],
+        dyr: f64,
+        deta: &[f64],
+        param: Option<usize>,
+        dir: &mut Direction,
+    ) {
         let l = &self.layout;
         let (n, r) = (l.n, l.r);
         let mut b = self.b.borrow_mut();
         for (i, bi) in b.iter_mut().enumerate() {
             *bi = if i < r {
-                param.map_or(0.0, |k| -self.d(l.psi(i), l.param(k)))
+                dxi.get(i).copied().unwrap_or(0.0)
+                    - param.map_or(0.0, |k| self.d(l.psi(i), l.param(k)))
             } else {
                 deta[i - r]
             };
@@ -105,7 +120,7 @@ impl Point {
             *dx = row.iter().zip(b.iter()).map(|(a, v)| a * v).sum();
         }
         let phi = l.phi();
-        let mut num = param.map_or(0.0, |k| self.d(phi, l.param(k)));
+        let mut num = param.map_or(0.0, |k| self.d(phi, l.param(k))) - dyr;
         for (j, v) in dir.dx.iter().enumerate() {
             num += self.d(phi, l.x(j)) * v;
         }

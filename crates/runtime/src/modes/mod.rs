@@ -20,6 +20,8 @@ mod ecms;
 mod equivalence;
 mod fine;
 pub mod gears;
+mod gradient;
+mod gradient_zd;
 pub mod hybrid;
 mod hybrid_block;
 mod minimise;
@@ -47,8 +49,8 @@ pub use record::{CouplingReset, Impulse, ModeTime, Transition};
 pub use rows::Rows;
 pub(crate) use runner::refuse_decided;
 pub use runner::{
-    simulate_modes, simulate_modes_with_reference, simulate_modes_with_signals,
-    ZeroDynamicsReference,
+    simulate_modes, simulate_modes_differentiated, simulate_modes_with_reference,
+    simulate_modes_with_signals, ZeroDynamicsReference,
 };
 pub use strategy::{
     DpOptions, Method, RuleOptions, StrategyOptions, DEFAULT_RB_CHARGE_POWER,

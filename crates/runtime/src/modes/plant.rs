@@ -36,6 +36,8 @@ pub struct ModeMeta {
     pub free_input: usize,
     pub fixed_outputs: Vec<(usize, usize)>,
     pub coupled: Vec<(usize, usize)>,
+    /// The parameters the mode sets itself (`parameters = { … }` in its table), by name.
+    pub own_parameters: Vec<String>,
 }
 
 /// A model with modes with its modes' models (see the module docs); built by [`ModalPlant::builder`].
@@ -114,6 +116,61 @@ impl ModalPlant {
     /// Is `name` a parameter the gearbox sets per gear?
     pub fn is_gear_parameter(&self, name: &str) -> bool {
         self.gear_parameters.iter().any(|p| p == name)
+    }
+
+    /// The parameters the gearbox sets per gear, and its number of gears.
+    pub fn gear_parameters(&self) -> crate::gradient::GearParameters<'_> {
+        crate::gradient::GearParameters {
+            names: &self.gear_parameters,
+            gears: self.gears,
+        }
+    }
+
+    /// Set a parameter the gearbox sets per gear in the modes of `gear` (1 … gears) only.
+    pub fn set_gear_param(
+        &mut self,
+        name: &str,
+        gear: usize,
+        value: f64,
+    ) -> Result<(), ModalError> {
+        if !self.is_gear_parameter(name) || !(1..=self.gears).contains(&gear) {
+            return Err(ModalError::Setup(format!(
+                "`{name}` in gear {gear}: not a parameter the [gearbox] sets in one of its {} gears",
+                self.gears
+            )));
+        }
+        for (_, m) in self
+            .modes
+            .iter_mut()
+            .filter(|(meta, _)| meta.gear == Some(gear))
+        {
+            m.set_param(name, value)
+                .map_err(|e| ModalError::Setup(e.to_string()))?;
+        }
+        Ok(())
+    }
+
+    /// Set the parameter of derivative c of `wrt` to `value` in every mode that takes it (`wrt.columns`): the
+    /// change whose effect that derivative is (finite differences of a gradient).
+    pub fn set_as_moved(
+        &mut self,
+        wrt: &crate::gradient::ModalWrt,
+        c: usize,
+        value: f64,
+    ) -> Result<(), ModalError> {
+        let name = self.parameters()[wrt.params[c].param].clone();
+        for ((_, m), columns) in self.modes.iter_mut().zip(&wrt.columns) {
+            if columns[c].is_some() {
+                m.set_param(&name, value)
+                    .map_err(|e| ModalError::Setup(e.to_string()))?;
+            }
+        }
+        Ok(())
+    }
+
+    /// The modes' metadata, in order.
+    pub fn metas(&self) -> impl Iterator<Item = &ModeMeta> {
+        self.modes.iter().map(|(meta, _)| meta)
     }
 
     /// Set a parameter in every mode; a parameter the gearbox sets per gear is refused.

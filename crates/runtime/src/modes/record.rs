@@ -51,6 +51,18 @@ pub struct CouplingReset {
     pub jump: f64,
 }
 
+/// A committed entry into a mode, as the gradient pass (`gradient.rs`) replays it: the sample it happened
+/// at, the modes, the re-entry's blend and the number of deviations it started from (r of the new mode, or
+/// r + 1 where the input continued through the switch; 0 for a quasi-static jump).
+#[derive(Debug, Clone)]
+pub(super) struct EntryLog {
+    pub(super) sample: usize,
+    pub(super) from: usize,
+    pub(super) to: usize,
+    pub(super) blend: Option<super::blend::Blend>,
+    pub(super) deviations: usize,
+}
+
 /// The run's fixed context.
 pub(super) struct Ctx<'a, 'm> {
     pub(super) spec: &'a ModalSpec<'m>,
@@ -111,6 +123,8 @@ pub(super) struct Record {
     pub(super) transitions: Vec<Transition>,
     pub(super) impulses: Vec<Impulse>,
     pub(super) resets: Vec<CouplingReset>,
+    /// Every committed entry, in order.
+    pub(super) entries: Vec<EntryLog>,
     /// The decided inputs' values at each sample (held over its interval), in the mode's order of
     /// [`Ctx::decided`]; empty for a run without a strategy.
     pub(super) decided: Vec<Vec<f64>>,
@@ -142,6 +156,7 @@ impl Record {
             transitions: Vec::new(),
             impulses: Vec::new(),
             resets: Vec::new(),
+            entries: Vec::new(),
             decided: Vec::new(),
         }
     }

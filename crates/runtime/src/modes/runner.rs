@@ -8,7 +8,7 @@ use super::bases::Bases;
 use super::blend::Blend;
 use super::fine::FineReference;
 use super::gears::GearBox;
-use super::record::{CouplingReset, Ctx, Impulse, Record, Solved, Transition};
+use super::record::{CouplingReset, Ctx, EntryLog, Impulse, Record, Solved, Transition};
 use super::rules::Rules;
 use super::sequence::{decide, Moment, Place, Rung, Switcher};
 use super::signals::resolve_modal;
@@ -101,12 +101,12 @@ pub enum ZeroDynamicsReference {
 }
 
 impl Ctx<'_, '_> {
-    fn model(&self, m: usize) -> &dyn InverseModel {
+    pub(super) fn model(&self, m: usize) -> &dyn InverseModel {
         self.spec.modes[m].model
     }
 
     /// y^(0 … r_max) of mode `m`'s reference at t into `y`: its map of the smoothed cycle, plus the blend.
-    fn reference_into(&self, m: usize, t: f64, blend: Option<&Blend>, y: &mut [f64]) {
+    pub(super) fn reference_into(&self, m: usize, t: f64, blend: Option<&Blend>, y: &mut [f64]) {
         self.smoother.eval(t, y);
         self.map_cycle(m, y);
         if let Some(b) = blend {
@@ -382,6 +382,18 @@ pub fn simulate_modes_with_reference(
     signals: &[SignalInput],
     zd: ZeroDynamicsReference,
 ) -> Result<ModalResult, ModalError> {
+    simulate_modes_differentiated(spec, cycle, opts, signals, (zd, None))
+}
+
+/// [`simulate_modes_with_reference`] and, with `wrt`, the summary's `gradient` with respect to those
+/// parameters (`gradient.rs`; re-entry switching, modes without couplings).
+pub fn simulate_modes_differentiated(
+    spec: &ModalSpec<'_>,
+    cycle: &Cycle,
+    opts: &ModalOptions,
+    signals: &[SignalInput],
+    (zd, wrt): (ZeroDynamicsReference, Option<&crate::gradient::ModalWrt>),
+) -> Result<ModalResult, ModalError> {
     if spec.modes.is_empty() {
         return Err(ModalError::Setup("the model has no mode".into()));
     }
@@ -420,7 +432,13 @@ pub fn simulate_modes_with_reference(
     } else {
         None
     };
+    let derivatives = wrt
+        .map(|wrt| super::gradient::of_run(&ctx, &grid, &rec, wrt))
+        .transpose()?;
     let mut result = super::summary::assemble(&ctx, cycle, opts, rec, verify);
+    if let Some((wrt, d)) = wrt.zip(derivatives) {
+        result.summary.gradient = Some(super::gradient::figures_of(spec, wrt, &result.summary, d));
+    }
     result.summary.signals = crate::signals::signal_uses(&resolved, "smoothed");
     result.signals = resolved;
     Ok(result)
@@ -622,6 +640,8 @@ struct Entry {
     impulse: Option<(Impulse, Vec<f64>)>,
     /// The states set to their couplings on entering (`couple`).
     resets: Vec<CouplingReset>,
+    /// The number of the re-entry's initial deviations (0 for a quasi-static jump).
+    deviations: usize,
 }
 
 /// Enter mode `target` at t from the continuous state `prev.x` (not yet committed).
@@ -675,6 +695,7 @@ fn entry(
             let solved = ctx.solve(target, (t, base), &eta, blend.as_ref(), x0)?;
             let max_deviation = e.first().map_or(0.0, |d| d.abs());
             Ok(Entry {
+                deviations: e.len(),
                 eta,
                 blend,
                 solved,
@@ -697,6 +718,7 @@ fn entry(
                 transition,
                 impulse,
                 resets,
+                deviations: 0,
             })
         }
     }
@@ -736,6 +758,13 @@ struct Switch {
 
 /// Make an entry the inverse's state (the sequence's place is the caller's).
 fn commit(ctx: &Ctx<'_, '_>, seq: &mut Inner, rec: &mut Record, e: Entry) -> Solved {
+    rec.entries.push(EntryLog {
+        sample: rec.t.len() - 1,
+        from: e.transition.from,
+        to: e.transition.to,
+        blend: e.blend.clone(),
+        deviations: e.deviations,
+    });
     seq.eta = e.eta;
     seq.blend = e.blend;
     let Switch {

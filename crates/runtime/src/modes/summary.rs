@@ -67,6 +67,9 @@ pub struct ModalSummary {
     /// The energy management's figures (runs with `--strategy`, docs/hybrids.md).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub hybrid: Option<Box<super::HybridBlock>>,
+    /// d figure/d parameter (`--gradient`, `modes/gradient.rs`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gradient: Option<crate::gradient::Gradient>,
     pub columns: Vec<Column>,
     /// Each signal, where it came from and that the run used it smoothed (models with signals).
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -445,6 +448,7 @@ pub(super) fn assemble(
         },
         engine_operating_points: tally.operating.map(|op| op.finish(info0, opts.dt)),
         hybrid: None,
+        gradient: None,
         columns: cols
             .iter()
             .map(|(n, u)| Column {
@@ -643,6 +647,9 @@ impl ModalSummary {
                 _ => "",
             };
             let _ = writeln!(s, "integral {k}: {}{u}{per}{answer}", fixed(*v, 6));
+        }
+        if let Some(g) = &self.gradient {
+            g.write_text(&mut s);
         }
         for i in &self.inputs {
             write_input_range(

@@ -8,7 +8,7 @@ use super::plan::{Shared, Sweep};
 use super::rows::{Figures, SweepResult, SweepRow};
 use crate::cycle::Cycle;
 use crate::inverse::{simulate_shared, SimulationOptions};
-use crate::modes::simulate_modes_with_signals;
+use crate::modes::{simulate_modes_differentiated, ZeroDynamicsReference};
 use crate::plant::Plant;
 use crate::run::modal_options;
 
@@ -43,7 +43,14 @@ fn run_variant(
         (Plant::Modal(p), Shared::Gears(gears)) => {
             let spec = p.spec(gears.clone());
             let modal = modal_options(opts);
-            let result = simulate_modes_with_signals(&spec, cycle, &modal, &opts.signals)
+            let wrt = opts
+                .gradient
+                .as_deref()
+                .map(|names| crate::run::modal_gradient_params(p, opts, names))
+                .transpose()
+                .map_err(|e| e.to_string())?;
+            let how = (ZeroDynamicsReference::default(), wrt.as_ref());
+            let result = simulate_modes_differentiated(&spec, cycle, &modal, &opts.signals, how)
                 .map_err(|e| e.to_string())?;
             Ok(Figures::from_modal(&result.summary, &sweep.integrals))
         }

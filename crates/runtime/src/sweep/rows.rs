@@ -71,6 +71,7 @@ impl Figures {
                 max_transition_deviation: m.max_transition_deviation,
             }),
             headline: headline_values(summary.headline.as_ref()),
+            gradient: summary.gradient.as_ref().map(|g| g.figures.clone()),
             ..Figures::of(run, &summary.totals, tracking, integrals)
         }
     }

@@ -1,0 +1,360 @@
+//! Exact parameter gradients of a run with modes (`simulate --gradient` of a model with `[modes]`): the
+//! recorded run replayed interval by interval, each in the mode it ran in, with the sensitivities carried
+//! across the switches.
+//!
+//! The mode and gear sequence is held fixed: the gear and standstill follow the smoothed cycle (no parameter
+//! moves them), and where the sequence decides from the solution (traction ↔ brake by the sign of the force
+//! needed) both sides give the same integrand at the switch, so the figures are continuous there and
+//! differentiable wherever no decision sits exactly on its threshold (almost everywhere in p).
+//!
+//! In an interval of mode m the state and input are x = ψ_m⁻¹(ξ_ref, η; p), u = (y_ref^(r) − α)/β, with
+//! ξ_ref = y_c + e(t) the smoothed cycle plus the re-entry's transition e (`blend.rs`). The chain rule at each
+//! point is [`crate::gradient::Point`]'s (implicit function theorem), with two sources of change besides p:
+//! * η: S = ∂η/∂p obeys dS/dt = ∂q/∂η S + ∂q/∂ξ dξ_ref + ∂q/∂y^(r) dy_ref^(r) + ∂q/∂p along the mode's zero
+//!   dynamics ([`super::gradient_zd`]; Hairer, Nørsett & Wanner, *Solving ODEs I*, §I.14), from the
+//!   equilibrium's S = −(∂q/∂η)⁻¹ ∂q/∂p at the start (implicit function theorem);
+//! * the transition: e(τ) = (1 − S(τ/T)) Σ_j e_j τ^j/j! is linear in its initial deviations e_j =
+//!   ψ_(m,j+1)(x(t_s)) − y_c^(j)(t_s) (and e_r = y_prev^(r) − y_c^(r) where the input continues), so its
+//!   derivative is the transition of de_j = ∂ψ_(m,j+1)/∂x dx(t_s) + ∂ψ_(m,j+1)/∂p (and dy_prev^(r)).
+//!
+//! The state is shared by the modes and continuous at a switch, so dx(t_s) is the old mode's at the end of
+//! its interval and the new mode's η sensitivities are its components: dη = dx_(eta_states). The integrals
+//! are differentiated through the run's trapezoids, each interval's two ends in its own mode, exactly as
+//! `summary.rs` sums them.
+
+use invsim_model_api::InverseModel;
+
+use super::blend::Blend;
+use super::gradient_zd::ZdSensitivity;
+use super::record::{Ctx, EntryLog, Record};
+use super::{ModalError, ModalSpec, ModalSummary};
+use crate::gradient::{figures, Direction, Gradient, Integrals, ModalWrt, Point, Wrt};
+use crate::grid::Grid;
+
+/// ∂(∫ o_a dt)/∂p_c for the model's accumulated outputs a, in their order (`[a][c]`).
+pub(super) fn of_run(
+    ctx: &Ctx<'_, '_>,
+    grid: &Grid,
+    rec: &Record,
+    wrt: &ModalWrt,
+) -> Result<Vec<Vec<f64>>, ModalError> {
+    let info = ctx.spec.modes[0].model.info();
+    let accumulated: Vec<usize> = (0..ctx.spec.n_outputs)
+        .filter(|&o| info.outputs[o].accumulate)
+        .collect();
+    integral_gradients(ctx, grid, rec, wrt, &accumulated)
+}
+
+/// The summary's `gradient` block from the integrals' derivatives `d` ([`of_run`]) and the figures of
+/// `summary` (the integrals' values, the distance).
+pub(super) fn figures_of(
+    spec: &ModalSpec<'_>,
+    wrt: &ModalWrt,
+    summary: &ModalSummary,
+    d: Vec<Vec<f64>>,
+) -> Gradient {
+    let info = spec.modes[0].model.info();
+    let accumulate: Vec<usize> = (0..spec.n_outputs)
+        .filter(|&o| info.outputs[o].accumulate)
+        .collect();
+    let values: Vec<f64> = accumulate
+        .iter()
+        .map(|&o| {
+            let name = &info.outputs[o].name;
+            summary
+                .totals
+                .integrals
+                .get(name)
+                .copied()
+                .unwrap_or(f64::NAN)
+        })
+        .collect();
+    let names: Vec<String> = wrt.params.iter().map(|p| p.name.clone()).collect();
+    let params: Vec<usize> = wrt.params.iter().map(|p| p.param).collect();
+    let integrals = Integrals {
+        accumulate: &accumulate,
+        values: &values,
+        derivatives: &d,
+    };
+    let by = Wrt {
+        names: &names,
+        params: &params,
+        values: spec.modes[0].model.params(),
+    };
+    Gradient {
+        figures: figures(info, &by, &integrals, summary.run.distance_m),
+    }
+}
+
+/// ∂(∫ o_a dt)/∂p_c for every accumulated output a of the model (`[a][c]`, a in the order of `accumulated`)
+/// and every derivative c of `wrt`, over the recorded run `rec` on `grid`.
+fn integral_gradients(
+    ctx: &Ctx<'_, '_>,
+    grid: &Grid,
+    rec: &Record,
+    wrt: &ModalWrt,
+    accumulated: &[usize],
+) -> Result<Vec<Vec<f64>>, ModalError> {
+    let mut pass = Pass::start(ctx, rec, wrt, accumulated)?;
+    let mut entries = rec.entries.iter().peekable();
+    let ns = rec.t.len();
+    for k in 0..ns.saturating_sub(1) {
+        while let Some(e) = entries.next_if(|e| e.sample == k) {
+            pass.enter(e, rec.t[k])?;
+        }
+        pass.interval(rec, k, grid.dt)?;
+    }
+    Ok(pass.acc)
+}
+
+/// The pass's state between samples: the mode in force with its transition (the run's and its derivative
+/// per parameter), η's sensitivities, the continuous state's last derivative and the integrals' derivatives.
+struct Pass<'p, 'a, 'm> {
+    ctx: &'p Ctx<'a, 'm>,
+    wrt: &'p ModalWrt,
+    accumulated: &'p [usize],
+    mode: usize,
+    blend: Option<Blend>,
+    /// de(t) of the transition, per derivative c (none before the first switch).
+    dblend: Vec<Option<Blend>>,
+    /// ∂η/∂p_c of the mode in force, per c.
+    deta: Vec<Vec<f64>>,
+    /// dx/dp_c of the continuous state at the last point, per c.
+    dx: Vec<Vec<f64>>,
+    zd: ZdSensitivity,
+    acc: Vec<Vec<f64>>,
+    /// The state and input at the last point (where a switch leaves from).
+    x: Vec<f64>,
+    u: f64,
+    /// The output derivatives at the end of the last interval, where the next one starts from the same
+    /// point in the same mode (the run's next sample bit for bit, no switch between).
+    carried: Option<Vec<Vec<f64>>>,
+}
+
+impl<'p, 'a, 'm> Pass<'p, 'a, 'm> {
+    /// The start: the first mode (the one the run started in, before any switch at t0) at its
+    /// zero dynamics' equilibrium, S = −(∂q/∂η)⁻¹ ∂q/∂p.
+    fn start(
+        ctx: &'p Ctx<'a, 'm>,
+        rec: &Record,
+        wrt: &'p ModalWrt,
+        accumulated: &'p [usize],
+    ) -> Result<Self, ModalError> {
+        let mode = rec
+            .entries
+            .first()
+            .filter(|e| e.sample == 0)
+            .map_or(rec.mode[0], |e| e.from);
+        let t0 = rec.t[0];
+        let x = rec.states[0].to_vec();
+        let model = ctx.model(mode);
+        let info = model.info();
+        let w = ctx.w(mode, t0);
+        let mut y = vec![0.0; ctx.r_max + 1];
+        ctx.reference_into(mode, t0, None, &mut y);
+        let r = info.relative_degree;
+        let eta: Vec<f64> = info.eta_states.iter().map(|&s| x[s]).collect();
+        let mut xs = x.clone();
+        let u = model
+            .invert(&y[..r], &eta, &w, y[r], &mut xs)
+            .map_err(|e| ctx.err(mode, t0, e.to_string()))?;
+        let point = point_at(ctx, mode, (t0, &xs, &w, u))?;
+        let deta = equilibrium_sensitivity(&point, &wrt.columns[mode]);
+        let np = wrt.params.len();
+        let mut pass = Pass {
+            ctx,
+            wrt,
+            accumulated,
+            mode,
+            blend: None,
+            dblend: vec![None; np],
+            deta,
+            dx: vec![vec![0.0; ctx.n]; np],
+            zd: ZdSensitivity::new(ctx.spec.modes.len()),
+            acc: vec![vec![0.0; np]; accumulated.len()],
+            x: xs,
+            u,
+            carried: None,
+        };
+        let mut dir = Direction {
+            dx: vec![0.0; ctx.n],
+            du: 0.0,
+        };
+        for c in 0..np {
+            pass.direction(&point, t0, c, &mut dir);
+            pass.dx[c].copy_from_slice(&dir.dx);
+        }
+        Ok(pass)
+    }
+
+    /// The column of derivative c in mode m.
+    fn column(&self, m: usize, c: usize) -> Option<usize> {
+        self.wrt.columns[m][c]
+    }
+
+    /// dx, du of derivative c at `point` (of the mode in force) at time t: η's sensitivity, the transition's
+    /// de(t) and the parameter.
+    fn direction(&self, point: &Point, t: f64, c: usize, dir: &mut Direction) {
+        let r = point.layout().r;
+        let de = moved_reference(self.dblend[c].as_ref(), t, r + 1);
+        point.moved_into(
+            &de[..r],
+            de[r],
+            &self.deta[c],
+            self.column(self.mode, c),
+            dir,
+        );
+    }
+
+    /// A committed entry at time t: the new mode's transition of de (from dx of the state it starts from)
+    /// and its η's sensitivities (dx's components).
+    fn enter(&mut self, e: &EntryLog, t: f64) -> Result<(), ModalError> {
+        let ctx = self.ctx;
+        let to = e.to;
+        let model = ctx.model(to);
+        let info = model.info();
+        let r = info.relative_degree;
+        let w = ctx.w(to, t);
+        let point = point_at(ctx, to, (t, &self.x, &w, self.u))?;
+        let l = *point.layout();
+        let np = self.wrt.params.len();
+        let mut dblend = Vec::with_capacity(np);
+        for c in 0..np {
+            let before = moved_reference(self.dblend[c].as_ref(), t, r + 1);
+            let dir = Direction {
+                dx: self.dx[c].clone(),
+                du: 0.0,
+            };
+            let col = self.column(to, c);
+            let mut de: Vec<f64> = (0..r)
+                .map(|j| point.row_change(l.psi(j), &dir, col))
+                .collect();
+            if e.deviations > r {
+                de.push(before[r]);
+            }
+            dblend.push(Some(Blend::new(t, ctx.transition, &de)));
+            self.deta[c] = info.eta_states.iter().map(|&s| self.dx[c][s]).collect();
+        }
+        self.dblend = dblend;
+        self.blend = e.blend.clone();
+        self.mode = to;
+        self.carried = None;
+        Ok(())
+    }
+
+    /// Interval k: the derivatives of the outputs at its ends (in its mode), η's sensitivities integrated
+    /// across it, the trapezoid's term dt·(do_start + do_end)/2.
+    fn interval(&mut self, rec: &Record, k: usize, dt: f64) -> Result<(), ModalError> {
+        let ctx = self.ctx;
+        let m = self.mode;
+        let (ta, tb) = (rec.t[k], rec.t[k + 1]);
+        let start = match self.carried.take() {
+            Some(d) => d,
+            None => self.outputs_at(ta, (&rec.states[k], rec.free[k]), false)?,
+        };
+        let model = ctx.model(m);
+        if model.info().n_eta > 0 {
+            let cols = &self.wrt.columns[m];
+            let guess = (&rec.states[k], rec.free[k]);
+            self.zd.advance(
+                ctx,
+                (m, self.blend.as_ref(), &self.dblend, cols),
+                (ta, tb),
+                guess,
+                &mut self.deta,
+            )?;
+        }
+        let end = self.outputs_at(tb, (&rec.x_end[k], rec.u_end[k]), true)?;
+        for (a, (s, e)) in self.acc.iter_mut().zip(start.iter().zip(&end)) {
+            for (v, (vs, ve)) in a.iter_mut().zip(s.iter().zip(e)) {
+                *v += 0.5 * dt * (vs + ve);
+            }
+        }
+        self.x = rec.x_end[k].to_vec();
+        self.u = rec.u_end[k];
+        let same = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(p, q)| p.to_bits() == q.to_bits());
+        let continues = rec.mode.get(k + 1) == Some(&m)
+            && rec.u_end[k].to_bits() == rec.free[k + 1].to_bits()
+            && same(&rec.x_end[k], &rec.states[k + 1]);
+        self.carried = continues.then_some(end);
+        Ok(())
+    }
+
+    /// d o_a/d p_c of the accumulated outputs at (x, u) at time t in the mode in force (`[a][c]`); `keep`:
+    /// remember dx as the continuous state's (the end of an interval, where a switch may leave from).
+    fn outputs_at(
+        &mut self,
+        t: f64,
+        (x, u): (&[f64], f64),
+        keep: bool,
+    ) -> Result<Vec<Vec<f64>>, ModalError> {
+        let m = self.mode;
+        let w = self.ctx.w(m, t);
+        let point = point_at(self.ctx, m, (t, x, &w, u))?;
+        let l = *point.layout();
+        let np = self.wrt.params.len();
+        let mut out = vec![vec![0.0; np]; self.accumulated.len()];
+        let mut dir = Direction {
+            dx: vec![0.0; self.ctx.n],
+            du: 0.0,
+        };
+        for c in 0..np {
+            self.direction(&point, t, c, &mut dir);
+            let col = self.column(m, c);
+            for (row, &o) in out.iter_mut().zip(self.accumulated) {
+                row[c] = point.row_change(l.output(o), &dir, col);
+            }
+            if keep {
+                self.dx[c].copy_from_slice(&dir.dx);
+            }
+        }
+        Ok(out)
+    }
+}
+
+/// The model's partial derivatives of mode m at (x, w, u) at time t.
+pub(super) fn point_at(
+    ctx: &Ctx<'_, '_>,
+    m: usize,
+    (t, x, w, u): (f64, &[f64], &[f64], f64),
+) -> Result<Point, ModalError> {
+    let model: &dyn InverseModel = ctx.model(m);
+    Point::new(model, (x, w, u), &model.info().eta_states, Vec::new())
+        .map_err(|e| ctx.err(m, t, e.to_string()))
+}
+
+/// The transition's derivative de^(0 … orders−1)(t) (zeros without one or outside it).
+pub(super) fn moved_reference(dblend: Option<&Blend>, t: f64, orders: usize) -> Vec<f64> {
+    let mut de = vec![0.0; orders];
+    if let Some(b) = dblend {
+        b.add(t, &mut de);
+    }
+    de
+}
+
+/// S = −(∂q/∂η)⁻¹ ∂q/∂p_c at an equilibrium of the zero dynamics (`point`), per derivative c with its
+/// column `columns[c]` in the mode (implicit function theorem; empty for a mode without internal dynamics).
+fn equilibrium_sensitivity(point: &Point, columns: &[Option<usize>]) -> Vec<Vec<f64>> {
+    let l = *point.layout();
+    let ne = l.n_eta;
+    if ne == 0 {
+        return vec![Vec::new(); columns.len()];
+    }
+    let q_eta = nalgebra::DMatrix::from_fn(ne, ne, |i, j| {
+        let mut e = vec![0.0; ne];
+        e[j] = 1.0;
+        point.row_change(l.eta(i), &point.direction(&e, None), None)
+    });
+    let zero = vec![0.0; ne];
+    let lu = q_eta.lu();
+    columns
+        .iter()
+        .map(|&col| {
+            let q_p = nalgebra::DVector::from_fn(ne, |i, _| {
+                -point.row_change(l.eta(i), &point.direction(&zero, col), col)
+            });
+            lu.solve(&q_p)
+                .map_or_else(|| vec![f64::NAN; ne], |s| s.iter().copied().collect())
+        })
+        .collect()
+}
