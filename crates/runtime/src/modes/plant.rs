@@ -173,11 +173,17 @@ impl ModalPlant {
         self.modes.iter().map(|(meta, _)| meta)
     }
 
-    /// Set a parameter in every mode; a parameter the gearbox sets per gear is refused.
+    /// Set a parameter in every mode, or a gearbox parameter in one gear's modes by its per-gear name
+    /// `NAME[g]` (`i_g[3]`, as `--gradient` names it); a gearbox parameter named whole is refused.
     pub fn set_param(&mut self, name: &str, value: f64) -> Result<(), ModalError> {
+        if let Some((base, gear)) = per_gear(name).filter(|(b, _)| self.is_gear_parameter(b)) {
+            return self.set_gear_param(base, gear, value);
+        }
         if self.is_gear_parameter(name) {
             return Err(ModalError::Setup(format!(
-                "`{name}` is set per gear by the model's [gearbox]; change its values there"
+                "`{name}` is set per gear by the model's [gearbox]; change its values there or set one \
+                 gear's, {name}[1] … {name}[{}]",
+                self.gears
             )));
         }
         for (_, m) in &mut self.modes {
@@ -319,6 +325,13 @@ impl ModalPlant {
             n_outputs: self.n_outputs,
         }
     }
+}
+
+/// `NAME[g]` as (NAME, g).
+fn per_gear(name: &str) -> Option<(&str, usize)> {
+    let (base, rest) = name.split_once('[')?;
+    let gear = rest.strip_suffix(']')?.parse().ok()?;
+    Some((base, gear))
 }
 
 impl ModalPlantBuilder {
