@@ -22,9 +22,8 @@
 //! are differentiated through the run's trapezoids, each interval's two ends in its own mode, exactly as
 //! `summary.rs` sums them.
 
-use invsim_model_api::InverseModel;
-
 use super::blend::Blend;
+use super::gradient_point::{moved_reference, point_at};
 use super::gradient_zd::ZdSensitivity;
 use super::record::{Ctx, EntryLog, Record};
 use super::{ModalError, ModalSpec, ModalSummary};
@@ -310,26 +309,6 @@ impl<'p, 'a, 'm> Pass<'p, 'a, 'm> {
         }
         Ok(out)
     }
-}
-
-/// The model's partial derivatives of mode m at (x, w, u) at time t.
-pub(super) fn point_at(
-    ctx: &Ctx<'_, '_>,
-    m: usize,
-    (t, x, w, u): (f64, &[f64], &[f64], f64),
-) -> Result<Point, ModalError> {
-    let model: &dyn InverseModel = ctx.model(m);
-    Point::new(model, (x, w, u), &model.info().eta_states, Vec::new())
-        .map_err(|e| ctx.err(m, t, e.to_string()))
-}
-
-/// The transition's derivative de^(0 … orders−1)(t) (zeros without one or outside it).
-pub(super) fn moved_reference(dblend: Option<&Blend>, t: f64, orders: usize) -> Vec<f64> {
-    let mut de = vec![0.0; orders];
-    if let Some(b) = dblend {
-        b.add(t, &mut de);
-    }
-    de
 }
 
 /// S = −(∂q/∂η)⁻¹ ∂q/∂p_c at an equilibrium of the zero dynamics (`point`), per derivative c with its

@@ -14,7 +14,7 @@
 //! the exact η to the same tolerance; each interval starts again from the run's η.
 
 use super::blend::Blend;
-use super::gradient::{moved_reference, point_at};
+use super::gradient_point::{moved_reference, point_at};
 use super::record::Ctx;
 use super::ModalError;
 use crate::gradient::Direction;

@@ -21,6 +21,7 @@ mod equivalence;
 mod fine;
 pub mod gears;
 mod gradient;
+mod gradient_point;
 mod gradient_zd;
 pub mod hybrid;
 mod hybrid_block;
