@@ -14,18 +14,34 @@ use crate::gradient::Point;
 pub(super) fn point_at(
     ctx: &Ctx<'_, '_>,
     m: usize,
+    at: (f64, &[f64], &[f64], f64),
+) -> Result<Point, ModalError> {
+    point_into(ctx, m, at, Vec::new())
+}
+
+/// [`point_at`] into the buffer `buf` of an earlier point ([`Point::into_buffer`]).
+pub(super) fn point_into(
+    ctx: &Ctx<'_, '_>,
+    m: usize,
     (t, x, w, u): (f64, &[f64], &[f64], f64),
+    buf: Vec<f64>,
 ) -> Result<Point, ModalError> {
     let model: &dyn InverseModel = ctx.model(m);
-    Point::new(model, (x, w, u), &model.info().eta_states, Vec::new())
+    Point::new(model, (x, w, u), &model.info().eta_states, buf)
         .map_err(|e| ctx.err(m, t, e.to_string()))
 }
 
 /// The transition's derivative de^(0 … orders−1)(t) (zeros without one or outside it).
 pub(super) fn moved_reference(dblend: Option<&Blend>, t: f64, orders: usize) -> Vec<f64> {
     let mut de = vec![0.0; orders];
-    if let Some(b) = dblend {
-        b.add(t, &mut de);
-    }
+    moved_reference_into(dblend, t, &mut de);
     de
+}
+
+/// [`moved_reference`] into `de` (its length the orders).
+pub(super) fn moved_reference_into(dblend: Option<&Blend>, t: f64, de: &mut [f64]) {
+    de.fill(0.0);
+    if let Some(b) = dblend {
+        b.add(t, de);
+    }
 }

@@ -14,7 +14,7 @@
 //! the exact η to the same tolerance; each interval starts again from the run's η.
 
 use super::blend::Blend;
-use super::gradient_point::{moved_reference, point_at};
+use super::gradient_point::{moved_reference_into, point_into};
 use super::record::Ctx;
 use super::ModalError;
 use crate::gradient::Direction;
@@ -80,6 +80,7 @@ impl ZdSensitivity {
             dx: vec![0.0; ctx.n],
             du: 0.0,
         };
+        let (mut buf, mut de) = (Vec::new(), vec![0.0; r + 1]);
         let fail = |t: f64, reason: String| StepFailure { t, reason };
         let mut f = |s: f64, v: &[f64], dv: &mut [f64]| -> Result<(), StepFailure> {
             ctx.reference_into(m, s, blend, &mut yr[..=r]);
@@ -90,16 +91,18 @@ impl ZdSensitivity {
             let u = model
                 .invert_from(xi, eta, &w, yr[r], &mut x, u0)
                 .map_err(|e| fail(s, e.to_string()))?;
-            let point = point_at(ctx, m, (s, &x, &w, u)).map_err(|e| fail(s, e.to_string()))?;
+            let point = point_into(ctx, m, (s, &x, &w, u), std::mem::take(&mut buf))
+                .map_err(|e| fail(s, e.to_string()))?;
             let l = *point.layout();
             for c in 0..np {
-                let de = moved_reference(dblend[c].as_ref(), s, r + 1);
+                moved_reference_into(dblend[c].as_ref(), s, &mut de);
                 let range = ne * (1 + c)..ne * (2 + c);
                 point.moved_into(&de[..r], de[r], &v[range.clone()], cols[c], &mut dir);
                 for (j, d) in dv[range].iter_mut().enumerate() {
                     *d = point.row_change(l.eta(j), &dir, cols[c]);
                 }
             }
+            buf = point.into_buffer();
             Ok(())
         };
         ode.advance(ta, tb, &mut y, &mut f).map_err(|e| {
