@@ -13,6 +13,8 @@
 //!   on UDDS, HWFET and WLTC 3b with every mode's equation checked by hand, the J1711 correction.
 //! - `hybrid_dp`: `simulate --strategy dp`: convergence to the closed-form discrete optimum of a quadratic
 //!   hybrid as the grids are refined, hev_p2 on UDDS charge-sustaining and no worse than ECMS, refusals.
+//! - `hybrid_mvem`: the P2 hybrid with a mean-value engine: the decided throttle enters only the manifold's
+//!   zero dynamics, ECMS never runs the engine, DP refuses the manifold state.
 //! - `hybrid_series`: the series hybrid under ECMS, DP and rules on UDDS, HWFET and WLTC 3b: ordered,
 //!   charge-sustaining, plausible fuel, the genset on its best-efficiency line.
 //! - `map_option`: `--map NAME=FILE.csv` for ordinary models and models with modes; unknown names and wrong arity exit 2.
@@ -51,6 +53,7 @@ mod headline;
 mod hostile;
 mod hybrid;
 mod hybrid_dp;
+mod hybrid_mvem;
 mod hybrid_series;
 mod map_option;
 mod modes;
