@@ -45,7 +45,7 @@ pub use hybrid_block::{DpBlock, HybridBlock};
 pub use plant::{GearSchedule, ModalPlant, ModalPlantBuilder, ModeMeta};
 pub use record::{CouplingReset, Impulse, ModeTime, Transition};
 pub use rows::Rows;
-pub(crate) use runner::refuse_decided;
+pub(crate) use runner::{decided_inputs_of, refuse_decided};
 pub use runner::{
     simulate_modes, simulate_modes_with_reference, simulate_modes_with_signals,
     ZeroDynamicsReference,
