@@ -1,9 +1,9 @@
 //! The options of an energy-management strategy, shared by `simulate` and `sweep` (docs/hybrids.md):
 //! `--strategy`, `--equivalence`, `--soc-tolerance`, DP's `--soc-grid`, `--split-grid`, `--soc-window` and the
 //! rules' `--rb-*` (flattened into each command's arguments, so they keep their names in the provenance
-//! record), checked once into the runtime's [`StrategyOptions`].
+//! record), checked by the runtime's [`StrategyRequest`] as Python's are.
 
-use invsim_runtime::modes::StrategyOptions;
+use invsim_runtime::modes::{StrategyOptions, StrategyRequest};
 
 use crate::error::Failure;
 
@@ -58,123 +58,27 @@ pub enum StrategyArg {
 }
 
 impl StrategyArgs {
-    /// The strategy's options, checked (`None` without `--strategy`).
+    /// The strategy's options, checked by the runtime's [`StrategyRequest`] (`None` without `--strategy`):
+    /// `--equivalence` or a changed `--soc-tolerance` without `--strategy`, and one strategy's options with
+    /// another, are refused.
     pub fn options(&self) -> Result<Option<StrategyOptions>, Failure> {
-        strategy(self)
-    }
-}
-
-/// The strategy's options; `--equivalence` or a changed `--soc-tolerance` without `--strategy`, and DP's
-/// options without `--strategy dp`, are refused.
-fn strategy(args: &StrategyArgs) -> Result<Option<StrategyOptions>, Failure> {
-    use invsim_runtime::modes as m;
-    let tol_given = args.soc_tolerance != m::DEFAULT_SOC_TOLERANCE;
-    let dp_given = args.soc_grid != m::DEFAULT_SOC_GRID
-        || args.split_grid != m::DEFAULT_SPLIT_GRID
-        || args.soc_window != m::DEFAULT_SOC_WINDOW;
-    if dp_given && args.strategy != Some(StrategyArg::Dp) {
-        return Err(Failure::user(
-            "--soc-grid, --split-grid and --soc-window apply to --strategy dp; give --strategy dp"
-                .to_string(),
-        ));
-    }
-    let rb_given = args.rb_engine_power != m::DEFAULT_RB_ENGINE_POWER
-        || args.rb_soc_low != m::DEFAULT_RB_SOC_LOW
-        || args.rb_charge_power != m::DEFAULT_RB_CHARGE_POWER;
-    if rb_given && args.strategy != Some(StrategyArg::RuleBased) {
-        return Err(Failure::user(
-            "--rb-engine-power, --rb-soc-low and --rb-charge-power apply to --strategy rule-based; give \
-             --strategy rule-based"
-                .to_string(),
-        ));
-    }
-    if args.equivalence.is_some()
-        && matches!(
-            args.strategy,
-            Some(StrategyArg::Dp | StrategyArg::RuleBased)
-        )
-    {
-        return Err(Failure::user(
-            "--equivalence applies to --strategy ecms; DP and the rules have no equivalence factor"
-                .to_string(),
-        ));
-    }
-    let method =
-        match args.strategy {
-            None if args.equivalence.is_some() || tol_given => return Err(Failure::user(
-                "--equivalence and --soc-tolerance apply to --strategy ecms; give --strategy ecms"
-                    .to_string(),
-            )),
-            None => return Ok(None),
-            Some(StrategyArg::Ecms) => m::Method::Ecms,
-            Some(StrategyArg::Dp) => dp_options(args)?,
-            Some(StrategyArg::RuleBased) => rule_options(args)?,
-        };
-    if !(args.soc_tolerance > 0.0 && args.soc_tolerance.is_finite()) {
-        return Err(Failure::user(format!(
-            "--soc-tolerance must be a positive number, got {}",
-            args.soc_tolerance
-        )));
-    }
-    if let Some(s) = args.equivalence.filter(|s| !s.is_finite()) {
-        return Err(Failure::user(format!(
-            "--equivalence must be finite, got {s}"
-        )));
-    }
-    Ok(Some(StrategyOptions {
-        method,
-        equivalence: args.equivalence,
-        soc_tolerance: args.soc_tolerance,
-    }))
-}
-
-/// `--rb-engine-power`, `--rb-soc-low`, `--rb-charge-power`, checked.
-fn rule_options(args: &StrategyArgs) -> Result<invsim_runtime::modes::Method, Failure> {
-    for (name, v) in [
-        ("--rb-engine-power", args.rb_engine_power),
-        ("--rb-soc-low", args.rb_soc_low),
-        ("--rb-charge-power", args.rb_charge_power),
-    ] {
-        if !(v >= 0.0 && v.is_finite()) {
-            return Err(Failure::user(format!(
-                "{name} must be a number ≥ 0, got {v}"
-            )));
+        let strategy = self.strategy.map(|s| match s {
+            StrategyArg::Ecms => "ecms",
+            StrategyArg::Dp => "dp",
+            StrategyArg::RuleBased => "rule-based",
+        });
+        StrategyRequest {
+            strategy: strategy.map(String::from),
+            equivalence: self.equivalence,
+            soc_tolerance: Some(self.soc_tolerance),
+            soc_grid: Some(self.soc_grid),
+            split_grid: Some(self.split_grid),
+            soc_window: Some(self.soc_window),
+            rb_engine_power: Some(self.rb_engine_power),
+            rb_soc_low: Some(self.rb_soc_low),
+            rb_charge_power: Some(self.rb_charge_power),
         }
+        .resolve()
+        .map_err(Failure::user)
     }
-    Ok(invsim_runtime::modes::Method::RuleBased(
-        invsim_runtime::modes::RuleOptions {
-            engine_power: args.rb_engine_power,
-            soc_low: args.rb_soc_low,
-            charge_power: args.rb_charge_power,
-        },
-    ))
-}
-
-/// `--soc-grid`, `--split-grid`, `--soc-window`, checked.
-fn dp_options(args: &StrategyArgs) -> Result<invsim_runtime::modes::Method, Failure> {
-    if args.soc_grid < 2 {
-        return Err(Failure::user(format!(
-            "--soc-grid must be at least 2, got {}",
-            args.soc_grid
-        )));
-    }
-    if args.split_grid < 2 {
-        return Err(Failure::user(format!(
-            "--split-grid must be at least 2, got {}",
-            args.split_grid
-        )));
-    }
-    if !(args.soc_window > 0.0 && args.soc_window.is_finite()) {
-        return Err(Failure::user(format!(
-            "--soc-window must be a positive number, got {}",
-            args.soc_window
-        )));
-    }
-    Ok(invsim_runtime::modes::Method::Dp(
-        invsim_runtime::modes::DpOptions {
-            soc_grid: args.soc_grid,
-            split_grid: args.split_grid,
-            soc_window: args.soc_window,
-        },
-    ))
 }

@@ -32,6 +32,7 @@ mod runner;
 pub(crate) mod sequence;
 mod signals;
 mod strategy;
+mod strategy_request;
 mod summary;
 mod verify;
 mod zd_ode;
@@ -55,6 +56,7 @@ pub use strategy::{
     DEFAULT_RB_ENGINE_POWER, DEFAULT_RB_SOC_LOW, DEFAULT_SOC_GRID, DEFAULT_SOC_TOLERANCE,
     DEFAULT_SOC_WINDOW, DEFAULT_SPLIT_GRID,
 };
+pub use strategy_request::StrategyRequest;
 pub use summary::{ModalSummary, ModesBlock};
 
 /// What a mode is for (see `invsim_inversion::ModeRole`).

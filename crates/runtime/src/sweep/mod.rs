@@ -504,7 +504,7 @@ fn shared(
 
 /// A strategy's sweep needs a hybrid (a model with modes and a `[hybrid]` table) and no replay (`verify`: a
 /// strategy's run is not replayed yet), refused here once rather than in every row.
-fn check_strategy(model: &Plant, opts: &SimulationOptions) -> Result<(), SweepError> {
+pub fn check_strategy(model: &Plant, opts: &SimulationOptions) -> Result<(), SweepError> {
     let Some(strategy) = &opts.strategy else {
         return Ok(());
     };
