@@ -13,6 +13,8 @@
 //!   on UDDS, HWFET and WLTC 3b with every mode's equation checked by hand, the J1711 correction.
 //! - `hybrid_dp`: `simulate --strategy dp`: convergence to the closed-form discrete optimum of a quadratic
 //!   hybrid as the grids are refined, hev_p2 on UDDS charge-sustaining and no worse than ECMS, refusals.
+//! - `hybrid_plot`: `simulate --strategy --plot` of hev_p2: the SOC panel and the engine on/off band against
+//!   the CSV, `--plot-vars` naming them; the CSV's `engine_on` against the modes and `engine_on_s`.
 //! - `hybrid_sweep`: `sweep --strategy`: hev_p2's rows equal `simulate --strategy` bit for bit (ECMS, DP, the
 //!   rules; 1 and 2 threads), a capacity sweep against the charge's 1/Q scaling, refusals.
 //! - `map_option`: `--map NAME=FILE.csv` for ordinary models and models with modes; unknown names and wrong arity exit 2.
@@ -51,6 +53,7 @@ mod headline;
 mod hostile;
 mod hybrid;
 mod hybrid_dp;
+mod hybrid_plot;
 mod hybrid_sweep;
 mod map_option;
 mod modes;

@@ -115,6 +115,9 @@ pub struct ModalSpec<'m> {
     /// Number of the model's own `[outputs]` (the first ones of every mode's outputs; the rest hold fixed
     /// inputs).
     pub n_outputs: usize,
+    /// The `[hybrid]` table of a model whose modes a strategy decides (its figures show the charge and the
+    /// engine's on/off band), else `None`.
+    pub hybrid: Option<&'m invsim_model_api::HybridSpec>,
 }
 
 impl ModalSpec<'_> {
