@@ -1,7 +1,7 @@
 """Hybrids from Python (models/hev_p2.toml, docs/hybrids.md): `Model.simulate(strategy=...)` equals
 `invsim simulate --strategy ...` (summary, `Result.hybrid`, every column), `Model.sweep(strategy=...)` equals
 `invsim sweep --strategy ...` row for row (the hybrid columns bit for bit, CSV and Parquet), and the strategy's
-options are refused as on the command line."""
+options are refused as on the command line, and so is `Model.forward` of a hybrid."""
 
 import json
 import math
@@ -135,3 +135,11 @@ def test_a_strategy_on_a_model_without_hybrid_is_refused(si_engine):
         si_engine.simulate(cycle="ece", strategy="ecms")
     with pytest.raises(TypeError, match="unexpected keyword argument 'equivalance'"):
         si_engine.simulate(cycle="ece", strategy="ecms", equivalance=3.0)
+
+
+def test_forward_of_a_hybrid_is_refused_as_on_the_command_line(hev):
+    cli = run_cli("forward", HEV, "--cycle", "ece", "--dt", "1", check=False)
+    assert cli.returncode == 2
+    with pytest.raises(invsim.InvsimError, match="leaves `T_m` to an energy-management strategy") as e:
+        hev.forward(cycle="ece", dt=1.0)
+    assert str(e.value) in cli.stderr
