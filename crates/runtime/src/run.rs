@@ -14,7 +14,7 @@ use crate::forward::ModalForwardResult;
 use crate::forward::{forward, forward_modes, ForwardError, ForwardOptions, ForwardResult};
 use crate::inverse::{simulate, SimulateError, SimulationOptions, SimulationResult};
 use crate::modes::{
-    simulate_modes_with_signals, GearSource, ModalError, ModalOptions, ModalResult,
+    simulate_modes_with_signals, GearSource, ModalError, ModalOptions, ModalPlant, ModalResult,
 };
 use crate::plant::Plant;
 use crate::plot::{self, Figure, PlotError};
@@ -58,6 +58,47 @@ pub fn modal_options(opts: &SimulationOptions) -> ModalOptions {
     }
 }
 
+/// One inverse run of the model with modes `p` on the gear schedule `gears` (resolved for `cycle`): the
+/// strategy's run ([`crate::modes::simulate_hybrid`]) where the options name one, else the mode sequence.
+/// `invsim simulate` and every row of a sweep run through here, so their figures are the same bits.
+pub(crate) fn simulate_modal(
+    p: &ModalPlant,
+    gears: GearSource,
+    cycle: &Cycle,
+    opts: &SimulationOptions,
+) -> Result<ModalResult, ModalError> {
+    let spec = p.spec(gears);
+    let mut r = match &opts.strategy {
+        Some(strategy) => {
+            if let Some(s) = opts.signals.first() {
+                return Err(ModalError::Setup(format!(
+                    "--signal {}: a strategy's run takes no signals yet",
+                    s.name
+                )));
+            }
+            let modal = modal_options(opts);
+            crate::modes::simulate_hybrid(
+                &spec,
+                p.hybrid(),
+                cycle,
+                &modal,
+                (strategy, &opts.initial),
+            )?
+        }
+        None => {
+            if let Some((name, _)) = opts.initial.first() {
+                return Err(ModalError::Setup(format!(
+                    "initial value of `{name}`: a model with modes starts every mode from the cycle's \
+                     first sample; start values of internal states apply to models without modes"
+                )));
+            }
+            simulate_modes_with_signals(&spec, cycle, &modal_options(opts), &opts.signals)?
+        }
+    };
+    r.summary.engine = opts.engine.clone();
+    Ok(r)
+}
+
 impl Plant {
     /// Run the model inversely along `cycle` (read from `file`, `None` for a built-in cycle). A model with
     /// modes refuses start values of internal states (`initial`): its modes start from the cycle's standstill.
@@ -77,43 +118,20 @@ impl Plant {
             return Ok(result);
         }
         match self {
+            Plant::Single(_) if opts.strategy.is_some() => {
+                Err(RunFailure::Modes(ModalError::Setup(format!(
+                    "{}: the model has no modes and no [hybrid] table; a strategy decides the modes of a hybrid",
+                    opts.strategy.as_ref().map_or("--strategy", |s| s.method.flag())
+                ))))
+            }
             Plant::Single(m) => Ok(RunResult::Single(Box::new(simulate(
                 m.as_ref(),
                 cycle,
                 opts,
             )?))),
-            Plant::Modal(p) if opts.strategy.is_some() => {
-                let gears = p.gear_source(cycle, file).map_err(RunFailure::Gears)?;
-                let spec = p.spec(gears.clone());
-                let ecms = opts.strategy.clone().unwrap_or_default();
-                if let Some(s) = opts.signals.first() {
-                    return Err(RunFailure::Modes(ModalError::Setup(format!(
-                        "--signal {}: a strategy's run takes no signals yet",
-                        s.name
-                    ))));
-                }
-                let mut r = crate::modes::simulate_hybrid(
-                    &spec,
-                    p.hybrid(),
-                    cycle,
-                    &modal_options(opts),
-                    (&ecms, &opts.initial),
-                )?;
-                r.summary.engine = opts.engine.clone();
-                Ok(RunResult::Modal(Box::new(r), gears))
-            }
             Plant::Modal(p) => {
-                if let Some((name, _)) = opts.initial.first() {
-                    return Err(RunFailure::Modes(ModalError::Setup(format!(
-                        "initial value of `{name}`: a model with modes starts every mode from the cycle's \
-                         first sample; start values of internal states apply to models without modes"
-                    ))));
-                }
                 let gears = p.gear_source(cycle, file).map_err(RunFailure::Gears)?;
-                let spec = p.spec(gears.clone());
-                let mut r =
-                    simulate_modes_with_signals(&spec, cycle, &modal_options(opts), &opts.signals)?;
-                r.summary.engine = opts.engine.clone();
+                let r = simulate_modal(p, gears.clone(), cycle, opts)?;
                 Ok(RunResult::Modal(Box::new(r), gears))
             }
         }

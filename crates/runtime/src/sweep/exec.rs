@@ -8,9 +8,8 @@ use super::plan::{Shared, Sweep};
 use super::rows::{Figures, SweepResult, SweepRow};
 use crate::cycle::Cycle;
 use crate::inverse::{simulate_shared, SimulationOptions};
-use crate::modes::simulate_modes_with_signals;
 use crate::plant::Plant;
-use crate::run::modal_options;
+use crate::run::simulate_modal;
 
 /// A worker's model and the column buffers its runs reuse.
 struct Worker {
@@ -41,10 +40,8 @@ fn run_variant(
             Ok(Figures::from_summary(&result.summary, &sweep.integrals))
         }
         (Plant::Modal(p), Shared::Gears(gears)) => {
-            let spec = p.spec(gears.clone());
-            let modal = modal_options(opts);
-            let result = simulate_modes_with_signals(&spec, cycle, &modal, &opts.signals)
-                .map_err(|e| e.to_string())?;
+            let result =
+                simulate_modal(p, gears.clone(), cycle, opts).map_err(|e| e.to_string())?;
             Ok(Figures::from_modal(&result.summary, &sweep.integrals))
         }
         _ => Err("the worker's model is not of the kind the sweep was built for".to_string()),
@@ -112,6 +109,7 @@ pub(super) fn run(sweep: &Sweep, progress: &(dyn Fn(usize) + Sync)) -> SweepResu
         headline: sweep.headline.clone(),
         verify: sweep.opts.verify,
         modes: sweep.modes.clone(),
+        hybrid: sweep.opts.strategy.is_some(),
         gradient: super::rows::gradient_columns(&rows),
         rows,
     }
