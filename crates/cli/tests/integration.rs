@@ -49,6 +49,7 @@ mod headline;
 mod hostile;
 mod hybrid;
 mod hybrid_dp;
+mod hybrid_fastsim;
 mod map_option;
 mod modes;
 mod modes_compiled;

@@ -260,6 +260,96 @@ pub const FIELDS: &[(&str, Range, &str)] = &[
         EFFICIENCY,
         "an electric machine efficiency",
     ),
+    (
+        "pt_type.HEV.fc.pwr_out_max_watts",
+        POSITIVE,
+        "the engine's peak power",
+    ),
+    (
+        "pt_type.HEV.fc.pwr_idle_fuel_watts",
+        NON_NEGATIVE,
+        "the engine's idle fuel power",
+    ),
+    (
+        "pt_type.HEV.fc.eff_interp_from_pwr_out.data.grid[0][]",
+        FRACTION,
+        "a load grid point of the engine efficiency table (a fraction of peak power)",
+    ),
+    (
+        "pt_type.HEV.fc.eff_interp_from_pwr_out.data.values[]",
+        FRACTION,
+        "an engine efficiency (0 only at zero load)",
+    ),
+    (
+        "pt_type.HEV.transmission.eff_interp",
+        EFFICIENCY,
+        "the transmission efficiency",
+    ),
+    (
+        "pt_type.HEV.em.pwr_out_max_watts",
+        POSITIVE,
+        "the electric machine's peak power",
+    ),
+    (
+        "pt_type.HEV.em.eff_interp_achieved.data.grid[0][]",
+        FRACTION,
+        "a load grid point of the machine efficiency table (a fraction of peak power)",
+    ),
+    (
+        "pt_type.HEV.em.eff_interp_achieved.data.values[]",
+        EFFICIENCY,
+        "an electric machine efficiency",
+    ),
+    (
+        "pt_type.HEV.res.eff_interp",
+        EFFICIENCY,
+        "the battery efficiency",
+    ),
+    (
+        "pt_type.HEV.res.eff_interp.CRateTemperature.data.grid[0][]",
+        C_RATE,
+        "a C-rate grid point of the battery efficiency table (discharge positive, charge negative)",
+    ),
+    (
+        "pt_type.HEV.res.eff_interp.CRateTemperature.data.grid[1][]",
+        CELL_TEMPERATURE,
+        "a temperature grid point of the battery efficiency table, in °C",
+    ),
+    (
+        "pt_type.HEV.res.eff_interp.CRateTemperature.data.values[][]",
+        EFFICIENCY,
+        "a battery efficiency",
+    ),
+    (
+        "pt_type.HEV.res.thrml.RESLumpedThermal.state.temperature_kelvin",
+        CELL_KELVIN,
+        "the battery's initial temperature, in K",
+    ),
+    (
+        "pt_type.HEV.res.pwr_out_max_watts",
+        POSITIVE,
+        "the battery's peak power",
+    ),
+    (
+        "pt_type.HEV.res.energy_capacity_joules",
+        POSITIVE,
+        "the battery capacity",
+    ),
+    (
+        "pt_type.HEV.res.min_soc",
+        FRACTION,
+        "the battery's lowest state of charge",
+    ),
+    (
+        "pt_type.HEV.res.max_soc",
+        FRACTION,
+        "the battery's highest state of charge",
+    ),
+    (
+        "pt_type.HEV.res.state.soc",
+        FRACTION,
+        "the battery's initial state of charge",
+    ),
 ];
 
 /// The table's key of a field path: a trailing `.Constant` dropped, every index written `[]` except a grid's
