@@ -19,6 +19,7 @@ mod efficiency;
 mod error;
 mod fastsim;
 mod hev;
+mod hev_rules;
 mod limits;
 mod locate;
 mod model;

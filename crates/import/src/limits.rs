@@ -42,6 +42,13 @@ const ENGINE_KELVIN: Range = range(173.15, true, 473.15, true);
 const KELVIN_INTERVAL: Range = range(0.0, false, 100.0, true);
 /// [0, 1000] K: the cold-efficiency model's offset, an absolute temperature below the engine's.
 const KELVIN_OFFSET: Range = range(0.0, true, 1000.0, true);
+/// [0, 100] m/s: a speed threshold of the hybrid's controller (360 km/h).
+const SPEED: Range = range(0.0, true, 100.0, true);
+/// [0, 3600] s: a time of the hybrid's controller (the engine's least running time).
+const SECONDS: Range = range(0.0, true, 3600.0, true);
+/// [0, 100]: a factor of the hybrid's controller (a buffer's coefficient; a fraction of a power, which may
+/// exceed 1).
+const FACTOR: Range = range(0.0, true, 100.0, true);
 /// A count: a whole number ≥ 1.
 const COUNT: Range = Range {
     integer: true,
@@ -349,6 +356,46 @@ pub const FIELDS: &[(&str, Range, &str)] = &[
         "pt_type.HEV.res.state.soc",
         FRACTION,
         "the battery's initial state of charge",
+    ),
+    (
+        "pt_type.HEV.pt_cntrl.RGWDB.speed_fc_forced_on_meters_per_second",
+        SPEED,
+        "the speed above which the hybrid's engine runs",
+    ),
+    (
+        "pt_type.HEV.pt_cntrl.RGWDB.frac_pwr_demand_fc_forced_on",
+        FACTOR,
+        "the power demand (a fraction of the peaks) above which the hybrid's engine runs",
+    ),
+    (
+        "pt_type.HEV.pt_cntrl.RGWDB.speed_soc_fc_on_buffer_meters_per_second",
+        SPEED,
+        "the speed of the hybrid's SOC reserve",
+    ),
+    (
+        "pt_type.HEV.pt_cntrl.RGWDB.speed_soc_fc_on_buffer_coeff",
+        FACTOR,
+        "the factor of the hybrid's SOC reserve",
+    ),
+    (
+        "pt_type.HEV.pt_cntrl.RGWDB.frac_of_most_eff_pwr_to_run_fc",
+        FACTOR,
+        "the hybrid engine's least power, a fraction of its peak-efficiency power",
+    ),
+    (
+        "pt_type.HEV.pt_cntrl.RGWDB.fc_min_time_on_seconds",
+        SECONDS,
+        "the hybrid engine's least running time",
+    ),
+    (
+        "pt_type.HEV.pt_cntrl.RGWDB.speed_soc_disch_buffer_meters_per_second",
+        SPEED,
+        "the speed of the hybrid battery's discharge derating band",
+    ),
+    (
+        "pt_type.HEV.pt_cntrl.RGWDB.speed_soc_disch_buffer_coeff",
+        FACTOR,
+        "the factor of the hybrid battery's discharge derating band",
     ),
 ];
 
