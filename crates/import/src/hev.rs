@@ -369,7 +369,7 @@ fn not_reproduced(doc: &Doc, warnings: &mut Vec<String>) {
     for (f, what) in [
         ("res.min_soc", "the SOC limits are parameters (soc_min, soc_max) but not enforced: a charge-sustaining run stays near its start"),
         ("fc.pwr_out_max_init_watts", "the engine's power ramp (pwr_out_max_init_watts, pwr_ramp_lag_seconds) is not reproduced"),
-        ("fc.thrml", "the engine's thermal model is not reproduced: the engine is warm from the start (no cold-start fuel, no engine on for warm-up)"),
+        ("fc.thrml", "the engine's thermal model is not reproduced: the engine is warm from the start (no cold-start fuel, no engine on for warm-up) and without FASTSim's efficiency factor c(T), which stays below 1 even warm (about 0.8 for the Sonata at its thermostat's temperature)"),
         ("aux_cntrl", "the auxiliaries are always on the battery (AuxOnResPriority; the battery's power limit is not enforced)"),
         ("sim_params", "FASTSim's SOC-balancing iterations are replaced by the strategies' charge-sustaining runs and the J1711 correction"),
     ] {
