@@ -13,6 +13,8 @@
 //!   on UDDS, HWFET and WLTC 3b with every mode's equation checked by hand, the J1711 correction.
 //! - `hybrid_dp`: `simulate --strategy dp`: convergence to the closed-form discrete optimum of a quadratic
 //!   hybrid as the grids are refined, hev_p2 on UDDS charge-sustaining and no worse than ECMS, refusals.
+//! - `hybrid_fastsim`: FASTSim's 2016 Prius and 2021 Sonata Hybrid imported and run on UDDS with ECMS, DP and
+//!   their own rules: charge-sustaining, fuel against FASTSim's engine table, the engine at FASTSim's power.
 //! - `hybrid_mvem`: the P2 hybrid with a mean-value engine: the decided throttle enters only the manifold's
 //!   zero dynamics, ECMS never runs the engine, DP refuses the manifold state.
 //! - `hybrid_plot`: `simulate --strategy --plot` of hev_p2: the SOC panel and the engine on/off band against
@@ -57,6 +59,7 @@ mod headline;
 mod hostile;
 mod hybrid;
 mod hybrid_dp;
+mod hybrid_fastsim;
 mod hybrid_mvem;
 mod hybrid_plot;
 mod hybrid_series;

@@ -51,6 +51,10 @@ fn resolve(spec: &ModalSpec<'_>, config: &HybridSpec) -> Result<Resolved, ModalE
             .collect(),
         start_penalty: config.start_penalty,
         grid: config.grid,
+        rules: match &config.rules {
+            Some(r) => Some((output(&r.request)?, output(&r.target)?, r.min_on)),
+            None => None,
+        },
     })
 }
 
