@@ -93,6 +93,42 @@ def _gradient_list(gradient):
     return [str(n) for n in gradient]
 
 
+#: The energy-management keyword arguments of `simulate` and `sweep` (hybrids; the command line's `--strategy`,
+#: `--equivalence`, `--soc-tolerance`, `--soc-grid`, `--split-grid`, `--soc-window`, `--rb-*`) and their types.
+_STRATEGY_KEYS = {
+    "strategy": str,
+    "equivalence": float,
+    "soc_tolerance": float,
+    "soc_grid": int,
+    "split_grid": int,
+    "soc_window": float,
+    "rb_engine_power": float,
+    "rb_soc_low": float,
+    "rb_charge_power": float,
+}
+
+
+def _strategy_dict(strategy=None, **options):
+    """The strategy's keyword arguments as the extension takes them: every key, None where not given (the
+    command line's default), checked there as the command line checks its options."""
+    unknown = sorted(set(options) - set(_STRATEGY_KEYS))
+    if unknown:
+        raise TypeError("unexpected keyword argument {!r}".format(unknown[0]))
+    given = dict(options, strategy=strategy)
+    out = {}
+    for key, kind in _STRATEGY_KEYS.items():
+        value = given.get(key)
+        if value is None:
+            out[key] = None
+        elif kind is int:
+            if isinstance(value, bool) or not float(value).is_integer() or float(value) < 0:
+                raise InvsimError("{}={!r}: expected a whole number".format(key, value))
+            out[key] = int(float(value))
+        else:
+            out[key] = kind(value)
+    return out
+
+
 def _initial_list(initial):
     """`initial={state: value}` (the command line's `--initial NAME=VALUE`)."""
     return [(str(k), float(v)) for k, v in (initial or {}).items()]
@@ -119,6 +155,15 @@ class Result:
         state = dict(self.__dict__, summary=self.summary)
         del state["_summary"]
         return state
+
+    @property
+    def hybrid(self):
+        """The energy management's figures of a run with `strategy=` (the summary's `hybrid` block: `strategy`,
+        `equivalence_factor`, `fuel_energy_j`, `fuel_energy_corrected_j` (SAE J1711), `delta_soc`,
+        `engine_starts`, `engine_on_s`, ...; docs/hybrids.md) as a dict; None for a run without a strategy.
+        The time per mode is in `summary["modes"]["per_mode"]`, the SOC, the decided input and the mode per
+        sample in the columns."""
+        return self.summary.get("hybrid")
 
     @property
     def gradient(self):
@@ -384,6 +429,8 @@ class Model:
         switching="reentry",
         transition_time=None,
         gradient=None,
+        strategy=None,
+        **strategy_options,
     ):
         """Inverse simulation on `cycle` (a built-in name or a cycle CSV path), like `invsim simulate`:
         `params` overrides parameters (`--set`), `signals` gives the model's `[signals]` (`--signal`: a number,
@@ -392,7 +439,12 @@ class Model:
         keeps only the summary. Models with modes: `switching` is "reentry" or "quasi-static" and
         `transition_time` the re-entry's transition time in s (`--switching`, `--transition-time`).
         `gradient` ("all", a parameter's name or a list of names; `--gradient`) differentiates the summary's
-        figures exactly with respect to those parameters: `Result.gradient`."""
+        figures exactly with respect to those parameters: `Result.gradient`. Hybrids (a `[hybrid]` table):
+        `strategy` is "ecms", "dp" or "rule-based" (`--strategy`) with its options as keywords of the command
+        line's names — `equivalence`, `soc_tolerance` (ECMS), `soc_grid`, `split_grid`, `soc_window` (DP),
+        `rb_engine_power`, `rb_soc_low`, `rb_charge_power` (the rules) — checked as there; the figures are
+        in `Result.hybrid`."""
+        strategy = _strategy_dict(strategy, **strategy_options)
         _warn_about_cycle(cycle)
         summary, columns, arrays, units = self._m.simulate(
             str(cycle),
@@ -408,6 +460,7 @@ class Model:
             str(switching),
             None if transition_time is None else float(transition_time),
             _gradient_list(gradient),
+            strategy,
         )
         return Result(summary, columns, arrays, dict(units) if units else self._units)
 
@@ -470,6 +523,8 @@ class Model:
         *,
         grid=None,
         table=None,
+        strategy=None,
+        **strategy_options,
     ):
         """Many variants of the model on every cycle, in parallel (rayon; `threads` = None: all cores), like
         `invsim sweep`. The variants come from exactly one of:
@@ -486,7 +541,8 @@ class Model:
         ValueError, as are non-finite values, an empty axis or table, and more than `max_sweep_runs`
         (10**6) runs (variants x cycles), as on the command line. `base` overrides parameters of every
         variant (`--set`; a parameter both in `base` and swept is refused), `signals` and `initial` apply to
-        every run (as in `simulate`).
+        every run (as in `simulate`), and so do `strategy` and its options (hybrids, as `--strategy` of the
+        command line's sweep: the rows gain the summary's `hybrid.*` keys).
 
         Returns a pandas DataFrame with one row per variant x cycle, in the command line's order (variant 0
         on each cycle, then variant 1, ...): `variant`, `cycle`, every model parameter, `error` (None, or why
@@ -497,6 +553,7 @@ class Model:
         cycles = [str(c) for c in cycles]
         if not cycles:
             raise ValueError("sweep needs a cycle: cycles=[...] is empty")
+        strategy = _strategy_dict(strategy, **strategy_options)
         names, cols = _design(grid, table, params, len(cycles), stacklevel=2)
         for cycle in cycles:
             _warn_about_cycle(cycle)
@@ -513,5 +570,6 @@ class Model:
             threads,
             _signals_list(signals),
             _initial_list(initial),
+            strategy,
         )
         return sweep_frame(param_names, rows, cycles, names, cols)

@@ -8,6 +8,7 @@ mod engine;
 mod error;
 mod forward;
 mod run;
+mod strategy;
 mod sweep;
 
 use std::path::PathBuf;
@@ -20,6 +21,7 @@ use engine::{EngineChoice, Loaded};
 use error::{to_py, Failure, InvsimError};
 use forward::{forward_one, ForwardRequest};
 use run::{load_cycle, simulate_any, Output, PySignal, RunOptions};
+use strategy::PyStrategy;
 use sweep::{run_sweep, Variants};
 
 /// What `Model.simulate` and `Model.forward` return: the summary, the column names, the columns and their
@@ -159,7 +161,7 @@ impl Model {
     }
 
     /// One inverse simulation: (summary, column names, columns as float64 arrays, units).
-    #[pyo3(signature = (cycle, dt, lookahead, params, verify, causal, include_extension, keep_series, signals, initial, switching, transition_time, gradient))]
+    #[pyo3(signature = (cycle, dt, lookahead, params, verify, causal, include_extension, keep_series, signals, initial, switching, transition_time, gradient, strategy = None))]
     #[allow(clippy::too_many_arguments)]
     fn simulate<'py>(
         &self,
@@ -177,6 +179,7 @@ impl Model {
         switching: String,
         transition_time: Option<f64>,
         gradient: Option<Vec<String>>,
+        strategy: Option<PyStrategy>,
     ) -> PyResult<RunOutput<'py>> {
         let opts = RunOptions {
             dt,
@@ -190,6 +193,7 @@ impl Model {
             switching,
             transition_time,
             gradient,
+            strategy: strategy.unwrap_or_default().into(),
         };
         let out =
             py.allow_threads(|| simulate_any(&self.loaded, &self.path, &cycle, &params, &opts));
@@ -239,7 +243,7 @@ impl Model {
 
     /// A sweep: every variant (`names[j]` = `values[j][i]`) on every cycle, after the `base` settings.
     /// Returns the model's parameter names and one row per variant × cycle (variant-major).
-    #[pyo3(signature = (names, values, cycles, base, dt, lookahead, verify, threads, signals, initial))]
+    #[pyo3(signature = (names, values, cycles, base, dt, lookahead, verify, threads, signals, initial, strategy = None))]
     #[allow(clippy::too_many_arguments)]
     fn sweep(
         &self,
@@ -254,6 +258,7 @@ impl Model {
         threads: Option<usize>,
         signals: Vec<PySignal>,
         initial: Vec<(String, f64)>,
+        strategy: Option<PyStrategy>,
     ) -> PyResult<(Vec<String>, Vec<SweepRow>)> {
         let values = variant_columns(&names, &values)?;
         let variants = Variants { names, values };
@@ -272,6 +277,7 @@ impl Model {
             switching: "reentry".to_string(),
             transition_time: None,
             gradient: None,
+            strategy: strategy.unwrap_or_default().into(),
         };
         let rows = py.allow_threads(|| {
             let loaded_cycles = cycles
@@ -281,6 +287,12 @@ impl Model {
             let first = loaded_cycles.first().map_or("", |c| c.name.as_str());
             let opts = opts.build(self.loaded.engine_name(), &self.path, first)?;
             check_variants(&self.loaded, &variants)?;
+            // A strategy the model cannot run is refused before any row, as on the command line.
+            if opts.strategy.is_some() {
+                let plant = self.loaded.plant(&[])?;
+                invsim_runtime::sweep::check_strategy(&plant, &opts)
+                    .map_err(|e| Failure::msg(format!("sweep of `{}`: {e}", self.path)))?;
+            }
             run_sweep(
                 &self.loaded,
                 &self.path,

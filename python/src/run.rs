@@ -7,7 +7,7 @@ use std::sync::Mutex;
 
 use invsim_runtime::inverse::{simulate_shared, Reference, SimulateError};
 use invsim_runtime::lookahead::LookaheadChoice;
-use invsim_runtime::modes::{ModalSummary, Switching};
+use invsim_runtime::modes::{ModalSummary, StrategyRequest, Switching};
 use invsim_runtime::signal_file::read_signal_file;
 use invsim_runtime::{
     Cycle, RunFailure, RunResult, SignalInput, SignalValue, SimulationOptions, SimulationResult,
@@ -67,6 +67,8 @@ pub struct RunOptions {
     pub transition_time: Option<f64>,
     /// `--gradient`: the parameters to differentiate the summary's figures by (`["all"]`: every one).
     pub gradient: Option<Vec<String>>,
+    /// `--strategy` and its options (hybrids).
+    pub strategy: StrategyRequest,
 }
 
 impl RunOptions {
@@ -101,6 +103,7 @@ impl RunOptions {
                     .map(signal_input)
                     .collect::<Result<_, _>>()?;
                 o.initial = self.initial.clone();
+                o.strategy = self.strategy.resolve().map_err(Failure::msg)?;
                 Ok(o)
             })
     }

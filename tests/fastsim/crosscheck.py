@@ -8,7 +8,20 @@ trace, and UDDS once more on a road with a varying grade. The table compares the
 energy (kWh, `res.energy_out_chemical_joules`, = delta SOC x capacity). Exit status 1 when a difference is
 outside the tolerance (2 % on UDDS and HWFET, 3 % on WLTC 3b, 5 % on US06), 2 on a usage error. First, every vehicle file the
 installed package lists (`fastsim.Vehicle.list_resources()`) is imported: conventional and battery-electric ones
-must import and run UDDS, hybrids must be refused (exit 2) naming their powertrain.
+must import and run UDDS, hybrids too (with `--strategy rule-based`); any other type must be refused (exit 2)
+naming its powertrain.
+
+Hybrids (the 2016 Prius, the 2021 Sonata Hybrid) on UDDS and HWFET: FASTSim's fuel energy corrected to zero
+battery energy change, fuel + E_chem / (eta_fc * eta_res) (E_chem its `res.energy_out_chemical_joules`,
+eta_fc its engine's mean efficiency over the run, `fc.energy_prop_joules / fc.energy_fuel_joules`, eta_res
+the mean of its battery efficiency history: the fuel the engine would burn to put the charge back, or save
+by the charge gained; FASTSim's own SOC balancing leaves |E_chem| below 0.1 MJ), against invsim's J1711
+corrected fuel (`hybrid.fuel_energy_corrected_j`, `--dt 1`) with each strategy: ECMS and DP must not be above
+FASTSim (asserted); the rules (the imported model's own, FASTSim's controller) run from the charge where the
+previous run ended until |delta SOC| < 1e-3 (at most 5 runs), as FASTSim balances its own runs: within 5 %
+for the Prius (asserted), reported for the Sonata (its engine's efficiency in FASTSim carries the thermal
+model's factor, about 0.8 even warm, which the import does not reproduce; docs/vehicles.md §6). The Sonata
+runs in FASTSim with its engine warm (90 °C at the start).
 
 Usage: python tests/fastsim/crosscheck.py [--invsim PATH] [--cycles DIR] [--lookahead A|auto] [--dt DT] [--all]
   --invsim   the invsim binary (default: target/release/invsim of this repository)
@@ -157,8 +170,8 @@ def powertrain(resource):
 
 
 def check_imports(invsim, tmp):
-    """Every vehicle file the installed FASTSim ships: a conventional or battery-electric one imports and runs
-    UDDS; a hybrid is refused with exit 2 naming its powertrain. Returns the number of failures."""
+    """Every vehicle file the installed FASTSim ships: a conventional, battery-electric or hybrid one imports and
+    runs UDDS; any other is refused with exit 2 naming its powertrain. Returns the number of failures."""
     failed = 0
     resources = sorted(str(r) for r in fastsim.Vehicle.list_resources())
     print(f"FASTSim resource vehicles: {len(resources)}")
@@ -170,16 +183,111 @@ def check_imports(invsim, tmp):
         model = yaml_path[:-5] + ".toml"
         imp = subprocess.run([invsim, "import", "fastsim", yaml_path, "--out", model], capture_output=True,
                              text=True)
-        if kind in ("Conv", "BEV"):
-            run = subprocess.run([invsim, "simulate", model, "--cycle", "udds"], capture_output=True, text=True) \
-                if imp.returncode == 0 else imp
+        if kind in ("Conv", "BEV", "HEV"):
+            strategy = ["--strategy", "rule-based"] if kind == "HEV" else []
+            run = subprocess.run([invsim, "simulate", model, "--cycle", "udds"] + strategy, capture_output=True,
+                                 text=True) if imp.returncode == 0 else imp
             ok = imp.returncode == 0 and run.returncode == 0
             what = "imports and runs UDDS" if ok else "FAILS: " + (run.stderr.strip().splitlines() or ["?"])[-1]
         else:
             ok = imp.returncode == 2 and f"`{kind}` is not supported" in imp.stderr
-            what = "refused (hybrid: not imported yet)" if ok else f"FAILS: exit {imp.returncode}"
+            what = "refused" if ok else f"FAILS: exit {imp.returncode}"
         failed += not ok
         print(f"  {resource[:-5]:<44} {kind:<5} {what}")
+    return failed
+
+
+HYBRIDS = ["2016_TOYOTA_Prius_Two.yaml", "2021_Hyundai_Sonata_Hybrid_Blue_thrml.yaml"]
+HYBRID_CYCLES = ["udds", "hwfet"]
+# The rules (the imported model's FASTSim controller) within this of FASTSim's corrected fuel: asserted for the
+# Prius; reported for the Sonata, whose engine efficiency in FASTSim carries its thermal model's factor (about
+# 0.8 even warm), which the import does not reproduce (docs/vehicles.md §6).
+RULES_TOL = 0.05
+RULES_ASSERTED = ["2016_TOYOTA_Prius_Two.yaml"]
+
+
+def fastsim_hybrid(resource, trace):
+    """FASTSim's fuel energy (MJ), corrected to zero battery energy change (see the module's doc), with the
+    raw fuel and the chemical energy drawn (MJ)."""
+    t, v, g = trace
+    d = fastsim.Vehicle.from_resource(resource).to_dict()
+    thrml = d["pt_type"]["HEV"]["fc"].get("thrml")
+    if isinstance(thrml, dict) and "FuelConverterThermal" in thrml:
+        thrml["FuelConverterThermal"]["state"]["temperature_kelvin"] = 363.15
+    veh = fastsim.Vehicle.from_dict(d)
+    cyc = fastsim.Cycle.from_dict({"time_seconds": t, "speed_meters_per_second": v, "grade": g})
+    params = fastsim.SimParams.default().to_dict()
+    params["trace_miss_opts"] = "Allow"
+    sd = fastsim.SimDrive(veh, cyc, fastsim.SimParams.from_dict(params))
+    sd.walk()
+    r = sd.to_dict(flatten=True)
+    h = "veh.pt_type.HEV."
+    fuel = r[h + "fc.history.energy_fuel_joules"][-1]
+    eta_fc = r[h + "fc.history.energy_prop_joules"][-1] / fuel
+    effs = [e for e in r[h + "res.history.eff"] if e > 0]
+    eta_res = sum(effs) / len(effs)
+    chem = r[h + "res.history.energy_out_chemical_joules"][-1]
+    return (fuel + chem / (eta_fc * eta_res)) / 1e6, fuel / 1e6, chem / 1e6
+
+
+def invsim_hybrid(invsim, model, cycle_csv, strategy, soc0=None):
+    """invsim's J1711-corrected fuel energy (MJ) with `strategy` (from the charge `soc0`, default the model's),
+    the run's delta SOC and its final charge."""
+    with tempfile.TemporaryDirectory() as tmp:
+        summary = os.path.join(tmp, "s.json")
+        cmd = [invsim, "simulate", model, "--cycle", cycle_csv, "--dt", "1", "--strategy", strategy,
+               "--summary-json", summary]
+        if soc0 is not None:
+            cmd += ["--initial", f"soc={soc0!r}"]
+        subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        with open(summary) as f:
+            h = json.load(f)["hybrid"]
+        return h["fuel_energy_corrected_j"] / 1e6, h["delta_soc"], h["soc_end"]
+
+
+def invsim_rules_balanced(invsim, model, cycle_csv):
+    """The rules run as FASTSim runs its controller (`sim_params.balance_soc`): from the charge where the
+    previous run ended, until |delta SOC| < 1e-3 or 5 runs; the last run's J1711-corrected fuel, delta SOC
+    and the runs taken."""
+    soc0 = None
+    for runs in range(1, 6):
+        fuel, dsoc, end = invsim_hybrid(invsim, model, cycle_csv, "rule-based", soc0)
+        if abs(dsoc) < 1e-3:
+            break
+        soc0 = end
+    return fuel, dsoc, runs
+
+
+def check_hybrids(invsim, cycles, tmp):
+    """The hybrids against FASTSim (see the module's doc). Returns the number of failures."""
+    failed = 0
+    print(f"{'hybrid':<30} {'cycle':<8} {'FASTSim':>8} {'raw':>7} {'E_chem':>7} {'strategy':<10} {'invsim':>8} "
+          f"{'dSOC':>8} {'diff':>7} result")
+    for resource in HYBRIDS:
+        model = import_vehicle(invsim, resource, tmp)
+        for name in HYBRID_CYCLES:
+            label, _, trace = cycles[name]
+            cycle_csv = os.path.join(tmp, name + ".csv")
+            write_csv(cycle_csv, trace)
+            ref, raw, chem = fastsim_hybrid(resource, trace)
+            for strategy in ["rule-based", "ecms", "dp"]:
+                if strategy == "rule-based":
+                    ours, dsoc, _ = invsim_rules_balanced(invsim, model, cycle_csv)
+                else:
+                    ours, dsoc, _ = invsim_hybrid(invsim, model, cycle_csv, strategy)
+                diff = ours / ref - 1.0
+                if strategy == "rule-based" and resource in RULES_ASSERTED:
+                    ok = abs(diff) <= RULES_TOL
+                    failed += not ok
+                    result = "ok (within 5 %)" if ok else "OUTSIDE 5 %"
+                elif strategy == "rule-based":
+                    result = "within 5 %" if abs(diff) <= RULES_TOL else "outside 5 % (reported)"
+                else:
+                    ok = diff <= 0.0
+                    failed += not ok
+                    result = "ok (not above)" if ok else "ABOVE FASTSim"
+                print(f"{resource[:-5]:<30} {label:<8} {ref:>8.3f} {raw:>7.3f} {chem:>+7.3f} {strategy:<10} "
+                      f"{ours:>8.3f} {dsoc:>+8.4f} {100 * diff:>+6.2f}% {result}")
     return failed
 
 
@@ -202,6 +310,7 @@ def main():
     failed = 0
     with tempfile.TemporaryDirectory() as tmp:
         failed += check_imports(args.invsim, tmp)
+        failed += check_hybrids(args.invsim, cycles, tmp)
         for resource, quantity, unit in VEHICLES + (MORE_VEHICLES if args.all else []):
             model = import_vehicle(args.invsim, resource, tmp)
             for name, (label, tol, trace) in cycles.items():

@@ -316,6 +316,22 @@ const WARNINGS: &[(&str, &str)] = &[
         "crates/import/src/battery.rs",
         "the battery efficiency is read at the temperature signal `T_res`",
     ),
+    (
+        "crates/import/src/hev.rs",
+        "is not set: the fuel is reported as energy",
+    ),
+    (
+        "crates/import/src/hev.rs",
+        "held constant as parameters (a strategy's run takes no [signals] yet)",
+    ),
+    (
+        "crates/import/src/hev_rules.rs",
+        "the engine kept on while cold is not reproduced",
+    ),
+    (
+        "crates/import/src/hev_rules.rs",
+        "FASTSim's controller is the model's rules for `--strategy rule-based`",
+    ),
 ];
 
 /// The guide's section "Warnings": from its heading to the next heading of level 2 or 3 (or the end).

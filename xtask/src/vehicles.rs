@@ -9,8 +9,13 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 /// The library: (FASTSim resource name, file stem in `models/vehicles/`).
-pub const VEHICLES: [(&str, &str); 5] = [
+pub const VEHICLES: [(&str, &str); 7] = [
     ("2012_Ford_Fusion.yaml", "ford_fusion_2012"),
+    ("2016_TOYOTA_Prius_Two.yaml", "toyota_prius_2016"),
+    (
+        "2021_Hyundai_Sonata_Hybrid_Blue_thrml.yaml",
+        "hyundai_sonata_hybrid_2021",
+    ),
     ("2016 Nissan Leaf 30 kWh thrml.yaml", "nissan_leaf_2016"),
     ("2020 Chevrolet Bolt EV thrml.yaml", "chevrolet_bolt_2020"),
     (

@@ -40,6 +40,7 @@ mod run_series;
 mod run_summary;
 mod signal_args;
 mod simulate;
+mod strategy_args;
 mod sweep_cmd;
 mod version;
 

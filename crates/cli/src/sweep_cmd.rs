@@ -63,6 +63,9 @@ pub struct SweepArgs {
     /// Which implementation of the model to run.
     #[arg(long, value_enum, default_value_t = EngineChoice::Auto)]
     engine: EngineChoice,
+    /// Hybrids: the strategy of every run and its options, as `simulate`'s; the rows gain the hybrid columns.
+    #[command(flatten)]
+    strategy: crate::strategy_args::StrategyArgs,
 }
 
 /// Parse `NAME=START:STOP:N`.
@@ -365,7 +368,7 @@ pub fn run(args: &SweepArgs, warnings: Warnings) -> Result<(), Failure> {
     };
     crate::simulate::check_gradient(args.gradient.as_deref(), gearbox, model.info())?;
     let failed = |e: String| Failure::user(format!("sweep of `{}`: {e}", args.model.display()));
-    let opts = args
+    let mut opts = args
         .lookahead
         .apply(SimulationOptions::builder())
         .dt(args.dt)
@@ -373,6 +376,7 @@ pub fn run(args: &SweepArgs, warnings: Warnings) -> Result<(), Failure> {
         .gradient(args.gradient.clone())
         .build()
         .map_err(|e| failed(e.to_string()))?;
+    opts.strategy = args.strategy.options()?;
     let mut b = builder(model, sets)?;
     for (c, spec) in &cycles {
         b = match crate::cycle_spec::is_builtin(spec) {

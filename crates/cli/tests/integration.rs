@@ -15,6 +15,16 @@
 //!   on UDDS, HWFET and WLTC 3b with every mode's equation checked by hand, the J1711 correction.
 //! - `hybrid_dp`: `simulate --strategy dp`: convergence to the closed-form discrete optimum of a quadratic
 //!   hybrid as the grids are refined, hev_p2 on UDDS charge-sustaining and no worse than ECMS, refusals.
+//! - `hybrid_fastsim`: FASTSim's 2016 Prius and 2021 Sonata Hybrid imported and run on UDDS with ECMS, DP and
+//!   their own rules: charge-sustaining, fuel against FASTSim's engine table, the engine at FASTSim's power.
+//! - `hybrid_mvem`: the P2 hybrid with a mean-value engine: the decided throttle enters only the manifold's
+//!   zero dynamics, ECMS never runs the engine, DP refuses the manifold state.
+//! - `hybrid_plot`: `simulate --strategy --plot` of hev_p2: the SOC panel and the engine on/off band against
+//!   the CSV, `--plot-vars` naming them; the CSV's `engine_on` against the modes and `engine_on_s`.
+//! - `hybrid_series`: the series hybrid under ECMS, DP and rules on UDDS, HWFET and WLTC 3b: ordered,
+//!   charge-sustaining, plausible fuel, the genset on its best-efficiency line.
+//! - `hybrid_sweep`: `sweep --strategy`: hev_p2's rows equal `simulate --strategy` bit for bit (ECMS, DP, the
+//!   rules; 1 and 2 threads), a capacity sweep against the charge's 1/Q scaling, refusals.
 //! - `map_option`: `--map NAME=FILE.csv` for ordinary models and models with modes; unknown names and wrong arity exit 2.
 //! - `modes`: `invsim derive` and `invsim simulate` on a model with operating modes (si_engine_5speed).
 //! - `modes_sweep`: `invsim sweep` of models with operating modes: rows equal `simulate` bit for bit, the modes'
@@ -52,6 +62,11 @@ mod headline;
 mod hostile;
 mod hybrid;
 mod hybrid_dp;
+mod hybrid_fastsim;
+mod hybrid_mvem;
+mod hybrid_plot;
+mod hybrid_series;
+mod hybrid_sweep;
 mod map_option;
 mod modes;
 mod modes_compiled;

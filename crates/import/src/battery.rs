@@ -64,7 +64,8 @@ pub fn efficiency(
              `data.values`)"
         ),
     });
-    let initial = initial_temperature(doc)?;
+    let res = path.strip_suffix(".eff_interp").unwrap_or(path);
+    let initial = initial_temperature(doc, res)?;
     model.signals.push(Signal {
         name: "T_res".to_string(),
         default: initial,
@@ -161,12 +162,13 @@ fn number(v: &Value, path: &str) -> Result<f64, ImportError> {
     Ok(x)
 }
 
-/// The battery's initial temperature in °C from its lumped thermal model's state, else 22 °C.
-fn initial_temperature(doc: &Doc) -> Result<f64, ImportError> {
-    let path = "pt_type.BEV.res.thrml.RESLumpedThermal.state.temperature_kelvin";
-    match doc.opt_num(path)? {
+/// The battery's initial temperature in °C from its lumped thermal model's state (under the battery `res`),
+/// else 22 °C.
+fn initial_temperature(doc: &Doc, res: &str) -> Result<f64, ImportError> {
+    let path = format!("{res}.thrml.RESLumpedThermal.state.temperature_kelvin");
+    match doc.opt_num(&path)? {
         Some(k) => {
-            crate::limits::check(path, k)?;
+            crate::limits::check(&path, k)?;
             Ok(k - 273.15)
         }
         None => Ok(DEFAULT_TEMPERATURE_C),

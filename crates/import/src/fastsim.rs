@@ -4,7 +4,7 @@
 use crate::error::ImportError;
 use crate::model::Model;
 use crate::yaml::{parse, Doc};
-use crate::{bev, chassis, conv, unsupported};
+use crate::{bev, chassis, conv, hev, unsupported};
 use serde_yaml::Value;
 
 /// The powertrain types imported.
@@ -12,6 +12,8 @@ use serde_yaml::Value;
 pub enum Powertrain {
     Conventional,
     BatteryElectric,
+    /// FASTSim's parallel hybrid (`HEV`): a model with modes and a `[hybrid]` table.
+    Hybrid,
 }
 
 /// A generated model file and the warnings of the import.
@@ -46,6 +48,7 @@ fn import(text: &str, source: &str) -> Result<Imported, ImportError> {
     match powertrain {
         Powertrain::Conventional => conv::emit(&doc, &mut model, &mut warnings)?,
         Powertrain::BatteryElectric => bev::emit(&doc, &mut model, &mut warnings)?,
+        Powertrain::Hybrid => hev::emit(&doc, &mut model, &mut warnings)?,
     }
     let unused = unsupported::unused(&doc);
     if !unused.is_empty() {
@@ -64,7 +67,8 @@ fn import(text: &str, source: &str) -> Result<Imported, ImportError> {
     })
 }
 
-/// `pt_type` is a mapping with one key, the variant: `Conv`, `BEV` (imported), `HEV` and others (refused).
+/// `pt_type` is a mapping with one key, the variant: `Conv`, `BEV`, `HEV` (imported), `PHEV` and others
+/// (refused).
 fn powertrain(doc: &Doc) -> Result<Powertrain, ImportError> {
     let pt = doc
         .get("pt_type")
@@ -82,18 +86,19 @@ fn powertrain(doc: &Doc) -> Result<Powertrain, ImportError> {
     match kind {
         "Conv" => Ok(Powertrain::Conventional),
         "BEV" => Ok(Powertrain::BatteryElectric),
-        "HEV" | "PHEV" => Err(ImportError::Powertrain {
+        "HEV" => Ok(Powertrain::Hybrid),
+        "PHEV" => Err(ImportError::Powertrain {
             kind: kind.to_string(),
-            reason: "hybrid vehicles are not imported (their energy management is a controller invsim does \
-                     not reproduce); only conventional (Conv) and battery-electric (BEV) vehicles are. For a \
+            reason: "plug-in hybrids are not imported (their charge-depleting operation is not modelled); \
+                     conventional (Conv), battery-electric (BEV) and hybrid (HEV) vehicles are. For a plug-in \
                      hybrid, write its model by hand with one mode per operating state (`[modes]`, see \
                      docs/modes.md)"
                 .to_string(),
         }),
         other => Err(ImportError::Powertrain {
             kind: other.to_string(),
-            reason: "unknown FASTSim powertrain type; conventional (Conv) and battery-electric (BEV) \
-                     vehicles are imported"
+            reason: "unknown FASTSim powertrain type; conventional (Conv), battery-electric (BEV) and \
+                     hybrid (HEV) vehicles are imported"
                 .to_string(),
         }),
     }
@@ -121,6 +126,14 @@ fn description(vehicle: &str, pt: Powertrain) -> String {
     let kind = match pt {
         Powertrain::Conventional => "conventional",
         Powertrain::BatteryElectric => "battery-electric",
+        Powertrain::Hybrid => {
+            return format!(
+                "{vehicle} (hybrid), imported from FASTSim: FASTSim's quasi-static road load and energy flows of a \
+                 parallel hybrid with the vehicle speed and the battery's charge as states, the engine's and the \
+                 machine's shaft power and the friction brakes as inputs, the split decided by the strategy \
+                 (modes hybrid, electric, brake, stop)"
+            )
+        }
     };
     format!(
         "{vehicle} ({kind}), imported from FASTSim: FASTSim's quasi-static road load and energy flows with the \

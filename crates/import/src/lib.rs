@@ -2,8 +2,9 @@
 //! conventional or battery-electric vehicle file becomes a model with the vehicle speed as state (and, with
 //! FASTSim's engine thermal model, the engine temperature as an internal state: `thermal.rs`), the
 //! tractive force at the wheels as input (negative = braking) and FASTSim's energy flows in `[outputs]`, every
-//! parameter carrying its unit and a doc naming the FASTSim field it came from. Hybrids and unknown powertrain
-//! types are refused; fields the model does not use are listed as warnings. Every field read is checked against
+//! parameter carrying its unit and a doc naming the FASTSim field it came from. A hybrid (HEV) becomes a model
+//! with modes, the battery's charge as a second state and a `[hybrid]` table (`hev.rs`); plug-in hybrids and
+//! unknown powertrain types are refused; fields the model does not use are listed as warnings. Every field read is checked against
 //! its physical range (`limits.rs`); the file is read through a byte cap (`read.rs`) and its nesting depth is
 //! capped before it is parsed (`depth.rs`).
 
@@ -17,6 +18,8 @@ mod depth;
 mod efficiency;
 mod error;
 mod fastsim;
+mod hev;
+mod hev_rules;
 mod limits;
 mod locate;
 mod model;

@@ -42,6 +42,13 @@ const ENGINE_KELVIN: Range = range(173.15, true, 473.15, true);
 const KELVIN_INTERVAL: Range = range(0.0, false, 100.0, true);
 /// [0, 1000] K: the cold-efficiency model's offset, an absolute temperature below the engine's.
 const KELVIN_OFFSET: Range = range(0.0, true, 1000.0, true);
+/// [0, 100] m/s: a speed threshold of the hybrid's controller (360 km/h).
+const SPEED: Range = range(0.0, true, 100.0, true);
+/// [0, 3600] s: a time of the hybrid's controller (the engine's least running time).
+const SECONDS: Range = range(0.0, true, 3600.0, true);
+/// [0, 100]: a factor of the hybrid's controller (a buffer's coefficient; a fraction of a power, which may
+/// exceed 1).
+const FACTOR: Range = range(0.0, true, 100.0, true);
 /// A count: a whole number ≥ 1.
 const COUNT: Range = Range {
     integer: true,
@@ -259,6 +266,136 @@ pub const FIELDS: &[(&str, Range, &str)] = &[
         "pt_type.BEV.em.eff_interp_achieved.data.values[]",
         EFFICIENCY,
         "an electric machine efficiency",
+    ),
+    (
+        "pt_type.HEV.fc.pwr_out_max_watts",
+        POSITIVE,
+        "the engine's peak power",
+    ),
+    (
+        "pt_type.HEV.fc.pwr_idle_fuel_watts",
+        NON_NEGATIVE,
+        "the engine's idle fuel power",
+    ),
+    (
+        "pt_type.HEV.fc.eff_interp_from_pwr_out.data.grid[0][]",
+        FRACTION,
+        "a load grid point of the engine efficiency table (a fraction of peak power)",
+    ),
+    (
+        "pt_type.HEV.fc.eff_interp_from_pwr_out.data.values[]",
+        FRACTION,
+        "an engine efficiency (0 only at zero load)",
+    ),
+    (
+        "pt_type.HEV.transmission.eff_interp",
+        EFFICIENCY,
+        "the transmission efficiency",
+    ),
+    (
+        "pt_type.HEV.em.pwr_out_max_watts",
+        POSITIVE,
+        "the electric machine's peak power",
+    ),
+    (
+        "pt_type.HEV.em.eff_interp_achieved.data.grid[0][]",
+        FRACTION,
+        "a load grid point of the machine efficiency table (a fraction of peak power)",
+    ),
+    (
+        "pt_type.HEV.em.eff_interp_achieved.data.values[]",
+        EFFICIENCY,
+        "an electric machine efficiency",
+    ),
+    (
+        "pt_type.HEV.res.eff_interp",
+        EFFICIENCY,
+        "the battery efficiency",
+    ),
+    (
+        "pt_type.HEV.res.eff_interp.CRateTemperature.data.grid[0][]",
+        C_RATE,
+        "a C-rate grid point of the battery efficiency table (discharge positive, charge negative)",
+    ),
+    (
+        "pt_type.HEV.res.eff_interp.CRateTemperature.data.grid[1][]",
+        CELL_TEMPERATURE,
+        "a temperature grid point of the battery efficiency table, in °C",
+    ),
+    (
+        "pt_type.HEV.res.eff_interp.CRateTemperature.data.values[][]",
+        EFFICIENCY,
+        "a battery efficiency",
+    ),
+    (
+        "pt_type.HEV.res.thrml.RESLumpedThermal.state.temperature_kelvin",
+        CELL_KELVIN,
+        "the battery's initial temperature, in K",
+    ),
+    (
+        "pt_type.HEV.res.pwr_out_max_watts",
+        POSITIVE,
+        "the battery's peak power",
+    ),
+    (
+        "pt_type.HEV.res.energy_capacity_joules",
+        POSITIVE,
+        "the battery capacity",
+    ),
+    (
+        "pt_type.HEV.res.min_soc",
+        FRACTION,
+        "the battery's lowest state of charge",
+    ),
+    (
+        "pt_type.HEV.res.max_soc",
+        FRACTION,
+        "the battery's highest state of charge",
+    ),
+    (
+        "pt_type.HEV.res.state.soc",
+        FRACTION,
+        "the battery's initial state of charge",
+    ),
+    (
+        "pt_type.HEV.pt_cntrl.RGWDB.speed_fc_forced_on_meters_per_second",
+        SPEED,
+        "the speed above which the hybrid's engine runs",
+    ),
+    (
+        "pt_type.HEV.pt_cntrl.RGWDB.frac_pwr_demand_fc_forced_on",
+        FACTOR,
+        "the power demand (a fraction of the peaks) above which the hybrid's engine runs",
+    ),
+    (
+        "pt_type.HEV.pt_cntrl.RGWDB.speed_soc_fc_on_buffer_meters_per_second",
+        SPEED,
+        "the speed of the hybrid's SOC reserve",
+    ),
+    (
+        "pt_type.HEV.pt_cntrl.RGWDB.speed_soc_fc_on_buffer_coeff",
+        FACTOR,
+        "the factor of the hybrid's SOC reserve",
+    ),
+    (
+        "pt_type.HEV.pt_cntrl.RGWDB.frac_of_most_eff_pwr_to_run_fc",
+        FACTOR,
+        "the hybrid engine's least power, a fraction of its peak-efficiency power",
+    ),
+    (
+        "pt_type.HEV.pt_cntrl.RGWDB.fc_min_time_on_seconds",
+        SECONDS,
+        "the hybrid engine's least running time",
+    ),
+    (
+        "pt_type.HEV.pt_cntrl.RGWDB.speed_soc_disch_buffer_meters_per_second",
+        SPEED,
+        "the speed of the hybrid battery's discharge derating band",
+    ),
+    (
+        "pt_type.HEV.pt_cntrl.RGWDB.speed_soc_disch_buffer_coeff",
+        FACTOR,
+        "the factor of the hybrid battery's discharge derating band",
     ),
 ];
 

@@ -57,6 +57,16 @@ pub struct State {
     pub doc: String,
 }
 
+/// One input of a model with several (a hybrid's `[inputs.NAME]`): its bounds, unit and doc.
+#[derive(Debug, Clone)]
+pub struct Input {
+    pub name: String,
+    pub min: f64,
+    pub max: f64,
+    pub unit: String,
+    pub doc: String,
+}
+
 /// A model under construction.
 #[derive(Debug, Default)]
 pub struct Model {
@@ -75,6 +85,13 @@ pub struct Model {
     pub states: Vec<State>,
     /// The `[headline]` table's keys as TOML lines (`output = "fuel"`), empty for none.
     pub headline: Vec<String>,
+    /// The inputs of a model with several (`[inputs.NAME]`); empty for the one input `F_t` (`[input]`).
+    pub inputs: Vec<Input>,
+    /// The road grade as the parameter `grade` instead of the signal (a hybrid: a strategy's run takes no
+    /// `[signals]` yet).
+    pub grade_parameter: bool,
+    /// Tables after all others (a hybrid's `[sequence]`, `[modes.*]` and `[hybrid]`), as TOML text.
+    pub tail: String,
 }
 
 impl Model {
@@ -152,7 +169,11 @@ impl Model {
                 quote(&p.doc)
             ));
         }
-        s.push_str(SIGNALS);
+        if !self.grade_parameter {
+            s.push_str(SIGNALS);
+        } else if !self.signals.is_empty() {
+            s.push_str("\n[signals]\n");
+        }
         for g in &self.signals {
             s.push_str(&format!(
                 "{} = {{ default = {}, unit = {}, doc = {} }}\n",
@@ -183,7 +204,20 @@ impl Model {
                 quote(&x.doc)
             ));
         }
-        s.push_str(INPUT_AND_OUTPUT);
+        if self.inputs.is_empty() {
+            s.push_str(INPUT);
+        }
+        for i in &self.inputs {
+            s.push_str(&format!(
+                "\n[inputs.{}]\nunit = {}\ndoc = {}\nmin = {}\nmax = {}\n",
+                i.name,
+                quote(&i.unit),
+                quote(&i.doc),
+                number(i.min),
+                number(i.max)
+            ));
+        }
+        s.push_str(OUTPUT);
         s.push_str("\n[outputs]\n");
         for o in &self.outputs {
             s.push_str(&render_item(o));
@@ -195,6 +229,7 @@ impl Model {
                 s.push('\n');
             }
         }
+        s.push_str(&self.tail);
         s
     }
 }
@@ -213,13 +248,16 @@ const STATE: &str = r#"
 v = { rhs = "(F_t - F_res)/m_eff", unit = "m/s", doc = "vehicle speed: m_eff dv/dt = F_t - F_res" }
 "#;
 
-/// The tractive force as input, the speed as output.
-const INPUT_AND_OUTPUT: &str = r#"
+/// The tractive force as the one input.
+const INPUT: &str = r#"
 [input]
 name = "F_t"
 unit = "N"
 doc = "tractive force at the wheels; negative = braking"
+"#;
 
+/// The speed as output.
+const OUTPUT: &str = r#"
 [output]
 name = "v"
 h = "v"

@@ -3,7 +3,7 @@
 //! - `parameters`: every parameter of the imported Fusion and Leaf equals the vehicle file's field its doc names;
 //! - `ranges`: a field outside its physical range is refused naming it, and a hostile vehicle name stays one
 //!   TOML string;
-//! - `refused`: hybrids, unknown powertrain types and malformed YAML are refused with a clear message.
+//! - `refused`: plug-in hybrids, unknown powertrain types and malformed YAML are refused with a clear message.
 
 mod common;
 mod library;

@@ -1,4 +1,4 @@
-//! Vehicle files the importer refuses: hybrids and unknown powertrain types (with the type named), malformed
+//! Vehicle files the importer refuses: plug-in hybrids and unknown powertrain types (with the type named), malformed
 //! YAML (with line and column), YAML nested deeper than the cap (at once, with line and column), a file
 //! without a total mass.
 
@@ -6,14 +6,14 @@ use crate::common::vehicles_dir;
 use invsim_import::{import_fastsim, ImportError};
 
 #[test]
-fn hybrid_and_unknown_types_are_refused_by_name() {
-    for kind in ["HEV", "PHEV", "FuelCell"] {
+fn plug_in_hybrid_and_unknown_types_are_refused_by_name() {
+    for kind in ["PHEV", "FuelCell"] {
         let text = format!("name: x\npt_type:\n  {kind}:\n    res: {{}}\nchassis: {{}}\n");
         match import_fastsim(&text, "x.yaml") {
             Err(ImportError::Powertrain { kind: k, reason }) => {
                 assert_eq!(k, kind);
                 assert!(
-                    reason.contains("Conv") && reason.contains("BEV"),
+                    reason.contains("Conv") && reason.contains("BEV") && reason.contains("HEV"),
                     "{reason}"
                 );
             }
@@ -22,17 +22,17 @@ fn hybrid_and_unknown_types_are_refused_by_name() {
     }
 }
 
-/// The hybrid refusal is a finished sentence: what is imported, and what to do for a hybrid.
+/// The plug-in hybrid refusal is a finished sentence: what is imported, and what to do for a plug-in hybrid.
 #[test]
-fn hybrid_refusal_says_what_to_do() {
-    let text = "name: x\npt_type:\n  HEV:\n    res: {}\nchassis: {}\n";
+fn plug_in_hybrid_refusal_says_what_to_do() {
+    let text = "name: x\npt_type:\n  PHEV:\n    res: {}\nchassis: {}\n";
     let e = import_fastsim(text, "x.yaml").unwrap_err().to_string();
     assert_eq!(
         e,
-        "powertrain type `HEV` is not supported: hybrid vehicles are not imported (their energy management \
-         is a controller invsim does not reproduce); only conventional (Conv) and battery-electric (BEV) \
-         vehicles are. For a hybrid, write its model by hand with one mode per operating state (`[modes]`, \
-         see docs/modes.md)"
+        "powertrain type `PHEV` is not supported: plug-in hybrids are not imported (their charge-depleting \
+         operation is not modelled); conventional (Conv), battery-electric (BEV) and hybrid (HEV) vehicles \
+         are. For a plug-in hybrid, write its model by hand with one mode per operating state (`[modes]`, see \
+         docs/modes.md)"
     );
 }
 

@@ -22,7 +22,7 @@ pub mod zero_dynamics;
 /// implementation lives in `invsim-kernel`.
 pub use invsim_kernel::map;
 
-pub use hybrid::HybridSpec;
+pub use hybrid::{HybridSpec, RuleSpec};
 pub use sensitivity::SensitivityLayout;
 
 pub use headline::{

@@ -26,6 +26,7 @@ mod error;
 mod exogenous;
 mod figure;
 mod font;
+mod hybrid;
 mod layout;
 mod map_layer;
 mod modal;
@@ -33,6 +34,7 @@ mod panels;
 mod png_dpi;
 mod reference;
 mod scatter;
+mod steps;
 mod svg;
 mod window;
 

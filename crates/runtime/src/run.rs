@@ -14,7 +14,7 @@ use crate::forward::ModalForwardResult;
 use crate::forward::{forward, forward_modes, ForwardError, ForwardOptions, ForwardResult};
 use crate::inverse::{simulate, SimulateError, SimulationOptions, SimulationResult};
 use crate::modes::{
-    GearSource, ModalError, ModalOptions, ModalResult, Switching, ZeroDynamicsReference,
+    GearSource, ModalError, ModalOptions, ModalPlant, ModalResult, Switching, ZeroDynamicsReference,
 };
 use crate::plant::Plant;
 use crate::plot::{self, Figure, PlotError};
@@ -58,6 +58,56 @@ pub fn modal_options(opts: &SimulationOptions) -> ModalOptions {
     }
 }
 
+/// One inverse run of the model with modes `p` on the gear schedule `gears` (resolved for `cycle`): the
+/// strategy's run ([`crate::modes::simulate_hybrid`]) where the options name one, else the mode sequence,
+/// with the gradient with respect to `wrt` ([`modal_gradient_params`]: none with a strategy).
+/// `invsim simulate` and every row of a sweep run through here, so their figures are the same bits.
+pub(crate) fn simulate_modal(
+    p: &ModalPlant,
+    gears: GearSource,
+    cycle: &Cycle,
+    opts: &SimulationOptions,
+    wrt: Option<&crate::gradient::ModalWrt>,
+) -> Result<ModalResult, ModalError> {
+    let spec = p.spec(gears);
+    let mut r = match &opts.strategy {
+        Some(strategy) => {
+            if let Some(s) = opts.signals.first() {
+                return Err(ModalError::Setup(format!(
+                    "--signal {}: a strategy's run takes no signals yet",
+                    s.name
+                )));
+            }
+            let modal = modal_options(opts);
+            crate::modes::simulate_hybrid(
+                &spec,
+                p.hybrid(),
+                cycle,
+                &modal,
+                (strategy, &opts.initial),
+            )?
+        }
+        None => {
+            if let Some((name, _)) = opts.initial.first() {
+                return Err(ModalError::Setup(format!(
+                    "initial value of `{name}`: a model with modes starts every mode from the cycle's \
+                     first sample; start values of internal states apply to models without modes"
+                )));
+            }
+            let how = (ZeroDynamicsReference::default(), wrt);
+            crate::modes::simulate_modes_differentiated(
+                &spec,
+                cycle,
+                &modal_options(opts),
+                &opts.signals,
+                how,
+            )?
+        }
+    };
+    r.summary.engine = opts.engine.clone();
+    Ok(r)
+}
+
 impl Plant {
     /// Run the model inversely along `cycle` (read from `file`, `None` for a built-in cycle). A model with
     /// modes refuses start values of internal states (`initial`): its modes start from the cycle's standstill.
@@ -77,56 +127,25 @@ impl Plant {
             return Ok(result);
         }
         match self {
+            Plant::Single(_) if opts.strategy.is_some() => {
+                Err(RunFailure::Modes(ModalError::Setup(format!(
+                    "{}: the model has no modes and no [hybrid] table; a strategy decides the modes of a hybrid",
+                    opts.strategy.as_ref().map_or("--strategy", |s| s.method.flag())
+                ))))
+            }
             Plant::Single(m) => Ok(RunResult::Single(Box::new(simulate(
                 m.as_ref(),
                 cycle,
                 opts,
             )?))),
-            Plant::Modal(_) if opts.strategy.is_some() && opts.gradient.is_some() => Err(
-                gradient_refused("runs with an energy-management strategy (--strategy)"),
-            ),
-            Plant::Modal(p) if opts.strategy.is_some() => {
-                let gears = p.gear_source(cycle, file).map_err(RunFailure::Gears)?;
-                let spec = p.spec(gears.clone());
-                let ecms = opts.strategy.clone().unwrap_or_default();
-                if let Some(s) = opts.signals.first() {
-                    return Err(RunFailure::Modes(ModalError::Setup(format!(
-                        "--signal {}: a strategy's run takes no signals yet",
-                        s.name
-                    ))));
-                }
-                let mut r = crate::modes::simulate_hybrid(
-                    &spec,
-                    p.hybrid(),
-                    cycle,
-                    &modal_options(opts),
-                    (&ecms, &opts.initial),
-                )?;
-                r.summary.engine = opts.engine.clone();
-                Ok(RunResult::Modal(Box::new(r), gears))
-            }
             Plant::Modal(p) => {
-                if let Some((name, _)) = opts.initial.first() {
-                    return Err(RunFailure::Modes(ModalError::Setup(format!(
-                        "initial value of `{name}`: a model with modes starts every mode from the cycle's \
-                         first sample; start values of internal states apply to models without modes"
-                    ))));
-                }
                 let wrt = opts
                     .gradient
                     .as_deref()
                     .map(|names| modal_gradient_params(p, opts, names))
                     .transpose()?;
                 let gears = p.gear_source(cycle, file).map_err(RunFailure::Gears)?;
-                let spec = p.spec(gears.clone());
-                let mut r = crate::modes::simulate_modes_differentiated(
-                    &spec,
-                    cycle,
-                    &modal_options(opts),
-                    &opts.signals,
-                    (ZeroDynamicsReference::default(), wrt.as_ref()),
-                )?;
-                r.summary.engine = opts.engine.clone();
+                let r = simulate_modal(p, gears.clone(), cycle, opts, wrt.as_ref())?;
                 Ok(RunResult::Modal(Box::new(r), gears))
             }
         }
@@ -318,6 +337,11 @@ pub(crate) fn modal_gradient_params(
     opts: &SimulationOptions,
     names: &[String],
 ) -> Result<crate::gradient::ModalWrt, RunFailure> {
+    if opts.strategy.is_some() {
+        return Err(gradient_refused(
+            "runs with an energy-management strategy (--strategy)",
+        ));
+    }
     if opts.switching == Switching::QuasiStatic {
         return Err(gradient_refused("runs with quasi-static switching"));
     }

@@ -124,6 +124,7 @@ pub fn spec<'a>(l: &'a Loaded, gear_source: GearSource) -> ModalSpec<'a> {
             min_dwell: s.min_dwell,
         },
         n_outputs,
+        hybrid: None,
     }
 }
 

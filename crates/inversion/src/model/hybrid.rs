@@ -10,6 +10,7 @@ use super::modes::RawMode;
 use super::spanned::Reader;
 use super::tree::{get, key_at, tv_at, Key, Kind, Tv};
 use super::validated::Model;
+use invsim_model_api::RuleSpec;
 
 /// Largest grid over a decided input (the strategy evaluates every point at every sample).
 pub const MAX_HYBRID_GRID: usize = 1001;
@@ -95,6 +96,7 @@ impl Reader<'_> {
             }
             None => 11,
         };
+        let rules = self.rules(k, t, model)?;
         Ok(HybridSpec {
             fuel_power,
             battery_power,
@@ -102,7 +104,78 @@ impl Reader<'_> {
             engine_on,
             start_penalty,
             grid,
+            rules,
         })
+    }
+
+    /// `rule_request` and `rule_target` (both or neither: `[outputs]` names) and `rule_min_on` (s, ≥ 0,
+    /// default 0): the model's own rules for `--strategy rule-based`.
+    fn rules(
+        &self,
+        k: &Key,
+        t: &[(Key, Tv)],
+        model: Option<&Model>,
+    ) -> Result<Option<RuleSpec>, ModelError> {
+        let (request, target) = match (get(t, "rule_request"), get(t, "rule_target")) {
+            (None, None) => {
+                if get(t, "rule_min_on").is_some() {
+                    return Err(self.err(
+                        key_at(k),
+                        ModelErrorKind::Schema,
+                        "[hybrid] `rule_min_on` needs `rule_request` and `rule_target`",
+                    ));
+                }
+                return Ok(None);
+            }
+            (Some(r), Some(g)) => (r, g),
+            _ => {
+                return Err(self.err(
+                    key_at(k),
+                    ModelErrorKind::Schema,
+                    "[hybrid] needs both `rule_request` and `rule_target`, or neither",
+                ));
+            }
+        };
+        let mut names = Vec::new();
+        for (v, key) in [(request, "rule_request"), (target, "rule_target")] {
+            let n = self.string(v, &format!("[hybrid] `{key}`"))?;
+            if let Some(m) = model {
+                if !m.outputs.iter().any(|o| o.name == n) {
+                    return Err(self.err(
+                        tv_at(v),
+                        ModelErrorKind::UnknownName,
+                        format!(
+                            "[hybrid] `{key}` names `{}`, which is not an [outputs] entry",
+                            n.escape_debug()
+                        ),
+                    ));
+                }
+            }
+            names.push(n);
+        }
+        let min_on = match get(t, "rule_min_on") {
+            Some(x) => {
+                let s = self.number(x, "[hybrid] `rule_min_on`")?;
+                if !(s >= 0.0 && s.is_finite()) {
+                    return Err(self.err(
+                        tv_at(x),
+                        ModelErrorKind::Schema,
+                        format!(
+                            "[hybrid] `rule_min_on` must be a number of seconds ≥ 0, found {s}"
+                        ),
+                    ));
+                }
+                s
+            }
+            None => 0.0,
+        };
+        let target = names.pop().unwrap_or_default();
+        let request = names.pop().unwrap_or_default();
+        Ok(Some(RuleSpec {
+            request,
+            target,
+            min_on,
+        }))
     }
 
     /// `engine_on = ["hybrid", …]`: names of `[modes]` tables.

@@ -98,6 +98,9 @@ pub const HYBRID: &[&str] = &[
     "engine_on",
     "start_penalty",
     "grid",
+    "rule_request",
+    "rule_target",
+    "rule_min_on",
 ];
 
 /// Every table of the model file with its keys: (the table as the reference writes it, its keys).

@@ -149,6 +149,20 @@ pub fn forward_modes(
     Ok(result)
 }
 
+/// Why a forward run of a hybrid cannot start: a mode leaves an input to a strategy (`decided`), and the
+/// driver closes the loop on one input per mode; which mode and how the decided input is split is the
+/// strategy's, which `forward` does not run.
+fn hybrid_refusal(spec: &ModalSpec<'_>) -> String {
+    let decided = crate::modes::decided_inputs_of(spec);
+    let (mode, input) = decided.first().cloned().unwrap_or_default();
+    format!(
+        "mode `{mode}` leaves `{input}` to an energy-management strategy (`decided`), and `forward` runs no \
+         strategy: its driver sets one input per mode, not the mode and the split between engine and motor. \
+         Run the hybrid inversely with `invsim simulate --strategy ecms|dp|rule-based` (its CSV has the \
+         decided input and the mode at every sample)"
+    )
+}
+
 /// What a forward run with modes needs of the spec: modes, one state vector, the same accumulated outputs.
 fn check_spec(spec: &ModalSpec<'_>) -> Result<(), ForwardError> {
     let fail = |reason: &str| {
@@ -159,8 +173,8 @@ fn check_spec(spec: &ModalSpec<'_>) -> Result<(), ForwardError> {
     let Some(first) = spec.modes.first() else {
         return fail("the model has no mode");
     };
-    if let Err(e) = crate::modes::refuse_decided(spec) {
-        return fail(&e.to_string());
+    if crate::modes::refuse_decided(spec).is_err() {
+        return fail(&hybrid_refusal(spec));
     }
     let info = first.model.info();
     let names = |i: &invsim_model_api::ModelInfo| -> Vec<String> {

@@ -77,6 +77,8 @@ pub(super) struct Resolved {
     pub(super) engine_on: Vec<bool>,
     pub(super) start_penalty: f64,
     pub(super) grid: usize,
+    /// The model's own rules (`rule_request`, `rule_target` as output indices, `rule_min_on` in s).
+    pub(super) rules: Option<(usize, usize, f64)>,
 }
 
 /// One evaluated candidate.
@@ -91,6 +93,8 @@ pub(super) struct Eval {
     pub(super) x: Vec<f64>,
     pub(super) p_fuel: f64,
     pub(super) p_batt: f64,
+    /// The model's rule outputs (`rule_request`, `rule_target`) here; NaN without them.
+    pub(super) rule: (f64, f64),
 }
 
 /// A strategy's choice at sample k from state x (`on`: the engine ran in the previous interval).
@@ -144,6 +148,10 @@ impl Ecms<'_, '_, '_> {
         let mut outs = vec![0.0; info.outputs.len()];
         model.outputs(&xs, &w, u, &mut outs);
         let (p_fuel, p_batt) = (outs[self.h.fuel], outs[self.h.battery]);
+        let rule = self
+            .h
+            .rules
+            .map_or((f64::NAN, f64::NAN), |(r, g, _)| (outs[r], outs[g]));
         let excess = self.excess(m, u);
         let on = self.h.engine_on[m];
         Some(Eval {
@@ -155,6 +163,7 @@ impl Ecms<'_, '_, '_> {
             x: xs,
             p_fuel,
             p_batt,
+            rule,
         })
     }
 

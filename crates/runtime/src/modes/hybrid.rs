@@ -51,6 +51,10 @@ fn resolve(spec: &ModalSpec<'_>, config: &HybridSpec) -> Result<Resolved, ModalE
             .collect(),
         start_penalty: config.start_penalty,
         grid: config.grid,
+        rules: match &config.rules {
+            Some(r) => Some((output(&r.request)?, output(&r.target)?, r.min_on)),
+            None => None,
+        },
     })
 }
 
@@ -206,8 +210,32 @@ pub fn simulate_hybrid(
     let mut result = super::summary::assemble(&ctx, cycle, opts, best.rec, None);
     result.summary.modes.switching = "strategy".into();
     result.summary.hybrid = Some(Box::new(block));
+    add_engine_on(&mut result, &h.engine_on);
     Ok(result)
 }
+
+/// The last column, `engine_on`: 1 at a sample whose chosen mode runs the engine (its family is in
+/// `[hybrid] engine_on`), else 0 — the engine's on/off band beside the `mode` index. Its values where the
+/// run kept its series (the other columns' length), none otherwise.
+fn add_engine_on(result: &mut ModalResult, engine_on: &[bool]) {
+    let kept = result.data.first().map_or(0, Vec::len);
+    let band: Vec<f64> = if kept == result.mode.len() {
+        let on = |m: &usize| if engine_on[*m] { 1.0 } else { 0.0 };
+        result.mode.iter().map(on).collect()
+    } else {
+        Vec::new()
+    };
+    result.columns.push(ENGINE_ON.into());
+    result.units.push(None);
+    result.data.push(band);
+    result.summary.columns.push(crate::report::Column {
+        name: ENGINE_ON.into(),
+        unit: None,
+    });
+}
+
+/// The name of the engine's on/off column of a strategy's run.
+pub const ENGINE_ON: &str = "engine_on";
 
 /// The ECMS run: s given or searched, the J1711 correction through the second run.
 fn ecms_run(

@@ -35,6 +35,7 @@ mod runner;
 pub(crate) mod sequence;
 mod signals;
 mod strategy;
+mod strategy_request;
 mod summary;
 mod verify;
 mod zd_ode;
@@ -48,7 +49,7 @@ pub use hybrid_block::{DpBlock, HybridBlock};
 pub use plant::{GearSchedule, ModalPlant, ModalPlantBuilder, ModeMeta};
 pub use record::{CouplingReset, Impulse, ModeTime, Transition};
 pub use rows::Rows;
-pub(crate) use runner::refuse_decided;
+pub(crate) use runner::{decided_inputs_of, refuse_decided};
 pub use runner::{
     simulate_modes, simulate_modes_differentiated, simulate_modes_with_reference,
     simulate_modes_with_signals, ZeroDynamicsReference,
@@ -58,6 +59,7 @@ pub use strategy::{
     DEFAULT_RB_ENGINE_POWER, DEFAULT_RB_SOC_LOW, DEFAULT_SOC_GRID, DEFAULT_SOC_TOLERANCE,
     DEFAULT_SOC_WINDOW, DEFAULT_SPLIT_GRID,
 };
+pub use strategy_request::StrategyRequest;
 pub use summary::{ModalSummary, ModesBlock};
 
 /// What a mode is for (see `invsim_inversion::ModeRole`).
@@ -116,6 +118,9 @@ pub struct ModalSpec<'m> {
     /// Number of the model's own `[outputs]` (the first ones of every mode's outputs; the rest hold fixed
     /// inputs).
     pub n_outputs: usize,
+    /// The `[hybrid]` table of a model whose modes a strategy decides (its figures show the charge and the
+    /// engine's on/off band), else `None`.
+    pub hybrid: Option<&'m invsim_model_api::HybridSpec>,
 }
 
 impl ModalSpec<'_> {

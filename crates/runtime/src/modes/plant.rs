@@ -323,6 +323,7 @@ impl ModalPlant {
             gear_source,
             sequence: self.sequence.clone(),
             n_outputs: self.n_outputs,
+            hybrid: self.hybrid(),
         }
     }
 }

@@ -31,6 +31,11 @@ pub(super) fn rule_based(
     x0: &[f64],
 ) -> Result<(Outcome, Outcome), ModalError> {
     check(opts)?;
+    if let Some(rules) = run.h.rules {
+        let first = model_rules(run, rules, x0, 0.0)?;
+        let second = model_rules(run, rules, x0, SHIFT)?;
+        return Ok((first, second));
+    }
     let soc0 = x0[run.h.soc];
     let first = run.run_policy(f64::NAN, x0, None, &mut |k, x, _| {
         choose(run, opts, (k, x), soc0)
@@ -62,12 +67,12 @@ fn find(run: &Ecms<'_, '_, '_>, k: usize, pred: &dyn Fn(usize) -> bool) -> Optio
     run.samples.candidates[k].iter().copied().find(|&m| pred(m))
 }
 
-/// Mode m at sample k with its decided input at the value of least `cost(P_batt)` (free input within its
-/// bounds), or `None` where no value is feasible.
-fn at_battery_power(
+/// Mode m at sample k with its decided input at the value of least `cost` (free input within its bounds), or
+/// `None` where no value is feasible.
+fn at_least(
     run: &Ecms<'_, '_, '_>,
     (m, k, x): (usize, usize, &[f64]),
-    cost: &dyn Fn(f64) -> f64,
+    cost: &dyn Fn(&Eval) -> f64,
 ) -> Option<Eval> {
     let Some(&(i, _)) = run.ctx.decided[m].first() else {
         return run.eval((m, k), x, 0.0, (0.0, 0.0));
@@ -75,7 +80,7 @@ fn at_battery_power(
     let input = &run.ctx.spec.inputs[i];
     let bounds = (input.min.unwrap_or(0.0), input.max.unwrap_or(0.0));
     let mut f = |d: f64| match run.eval((m, k), x, d, (0.0, 0.0)) {
-        Some(e) if e.excess <= 1e-9 => cost(e.p_batt),
+        Some(e) if e.excess <= 1e-9 => cost(&e),
         _ => f64::INFINITY,
     };
     let (d, _) = minimise(&mut f, bounds, run.h.grid.max(3))?;
@@ -100,7 +105,7 @@ fn choose(
     }
     if let Some(m) = find(run, k, &|m| role(m) == Role::Brake) {
         if feasible(run.eval((m, k), x, 0.0, (0.0, 0.0))).is_some() {
-            if let Some(e) = feasible(at_battery_power(run, (m, k, x), &|p| p)) {
+            if let Some(e) = feasible(at_least(run, (m, k, x), &|e| e.p_batt)) {
                 return Ok(e);
             }
         }
@@ -120,7 +125,7 @@ fn choose(
         0.0
     };
     let engine = find(run, k, &|m| role(m) == Role::Traction && run.h.engine_on[m])
-        .and_then(|m| feasible(at_battery_power(run, (m, k, x), &|p| (p - target).powi(2))));
+        .and_then(|m| feasible(at_least(run, (m, k, x), &|e| (e.p_batt - target).powi(2))));
     if let Some(e) = engine.or(electric) {
         return Ok(e);
     }
@@ -140,4 +145,87 @@ fn nearest(run: &Ecms<'_, '_, '_>, (k, x): (usize, &[f64])) -> Result<Eval, Moda
                 "no candidate mode has an inverse here".into(),
             )
         })
+}
+
+/// The model's own rules (`[hybrid]` `rule_request`, `rule_target`, `rule_min_on`; FASTSim's hybrid
+/// controller as its import writes them): the engine runs where the output `rule_request` is positive, read
+/// with the charge `shift` lower (the J1711 correction's second run: it ends about that much higher), and for
+/// `rule_min_on` seconds after each start.
+fn model_rules(
+    run: &Ecms<'_, '_, '_>,
+    (_, _, min_on): (usize, usize, f64),
+    x0: &[f64],
+    shift: f64,
+) -> Result<Outcome, ModalError> {
+    let mut started = f64::NEG_INFINITY;
+    run.run_policy(f64::NAN, x0, None, &mut |k, x, on| {
+        let t = run.samples.t[k];
+        let hold = on && t - started < min_on;
+        let e = choose_by_model(run, (k, x), shift, hold)?;
+        if run.h.engine_on[e.m] && !on {
+            started = t;
+        }
+        Ok(e)
+    })
+}
+
+/// The model's rules at sample k: at a standstill the standstill mode with the engine as requested; braking
+/// the brake mode with the most recuperation (the engine off); driving, with the engine requested (or
+/// `hold`), the engine's mode with its decided input bringing `rule_target` nearest zero, else electric
+/// drive; where a rule's mode is infeasible the next one.
+fn choose_by_model(
+    run: &Ecms<'_, '_, '_>,
+    (k, x): (usize, &[f64]),
+    shift: f64,
+    hold: bool,
+) -> Result<Eval, ModalError> {
+    let spec = run.ctx.spec;
+    let role = |m: usize| spec.modes[m].role;
+    let on = |m: usize| run.h.engine_on[m];
+    let feasible = |e: Option<Eval>| e.filter(|e| e.excess <= 1e-9);
+    let wants = hold || requested(run, (k, x), shift);
+    let standstill = |engine: bool| {
+        find(run, k, &|m| role(m) == Role::Standstill && on(m) == engine)
+            .and_then(|m| feasible(run.eval((m, k), x, 0.0, (0.0, 0.0))))
+    };
+    if let Some(e) = standstill(wants).or_else(|| standstill(!wants)) {
+        return Ok(e);
+    }
+    if let Some(m) = find(run, k, &|m| role(m) == Role::Brake) {
+        if feasible(run.eval((m, k), x, 0.0, (0.0, 0.0))).is_some() {
+            if let Some(e) = feasible(at_least(run, (m, k, x), &|e| e.p_batt)) {
+                return Ok(e);
+            }
+        }
+    }
+    let engine = || {
+        find(run, k, &|m| role(m) == Role::Traction && on(m))
+            .and_then(|m| feasible(at_least(run, (m, k, x), &|e| e.rule.1.powi(2))))
+    };
+    let electric = || {
+        find(run, k, &|m| {
+            role(m) == Role::Traction && !on(m) && run.ctx.decided[m].is_empty()
+        })
+        .and_then(|m| feasible(run.eval((m, k), x, 0.0, (0.0, 0.0))))
+    };
+    let pick = if wants {
+        engine().or_else(electric)
+    } else {
+        electric().or_else(engine)
+    };
+    match pick {
+        Some(e) => Ok(e),
+        None => nearest(run, (k, x)),
+    }
+}
+
+/// Whether the output `rule_request` is positive at sample k (in the first candidate with an inverse), the
+/// charge read `shift` lower.
+fn requested(run: &Ecms<'_, '_, '_>, (k, x): (usize, &[f64]), shift: f64) -> bool {
+    let mut xs = x.to_vec();
+    xs[run.h.soc] -= shift;
+    run.samples.candidates[k]
+        .iter()
+        .find_map(|&m| run.eval((m, k), &xs, 0.0, (0.0, 0.0)))
+        .is_some_and(|e| e.rule.0 > 0.0)
 }

@@ -252,6 +252,7 @@ mod tests {
                 min_dwell: 0.0,
             },
             n_outputs: 0,
+            hybrid: None,
         };
         let rules = Rules::new(&spec);
         assert_eq!((rules.rungs, rules.has_standstill), (3, true));

@@ -444,13 +444,25 @@ pub fn simulate_modes_differentiated(
     Ok(result)
 }
 
+/// The (mode, input) of every mode that leaves an input to a strategy, in the modes' order.
+pub(crate) fn decided_inputs_of(spec: &ModalSpec<'_>) -> Vec<(String, String)> {
+    let decided = super::record::decided_slots(spec);
+    let pairs = spec.modes.iter().zip(&decided);
+    pairs
+        .filter_map(|(m, d)| {
+            d.first()
+                .map(|&(i, _)| (m.name.clone(), spec.inputs[i].name.clone()))
+        })
+        .collect()
+}
+
 /// A mode that leaves an input to a strategy (`decided`) runs only with one (`--strategy ecms`).
 pub(crate) fn refuse_decided(spec: &ModalSpec<'_>) -> Result<(), ModalError> {
     let decided = super::record::decided_slots(spec);
     if let Some(m) = decided.iter().position(|d| !d.is_empty()) {
         return Err(ModalError::Setup(format!(
-            "mode `{}` leaves `{}` to a strategy (`decided`): run it with --strategy ecms (`simulate`; \
-             `forward` and `sweep` take no strategy yet)",
+            "mode `{}` leaves `{}` to a strategy (`decided`): run it with --strategy ecms, dp or \
+             rule-based (`simulate`, `sweep`)",
             spec.modes[m].name, spec.inputs[decided[m][0].0].name
         )));
     }

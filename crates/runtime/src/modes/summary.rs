@@ -188,8 +188,19 @@ fn same_bits(a: &[f64], b: &[f64]) -> bool {
     a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
 }
 
+/// Whether samples k and k + 1 hold the same decided values bit for bit (a run without a strategy has none).
+fn same_decided(rec: &Record, k: usize) -> bool {
+    match (rec.decided.get(k), rec.decided.get(k + 1)) {
+        (Some(a), Some(b)) => same_bits(a, b),
+        (a, b) => a.is_none() && b.is_none(),
+    }
+}
+
 /// The pass over the samples. The outputs at the end of an interval are those of the next sample where
-/// the run stayed in its mode (the same state, input and time): evaluated once for both.
+/// the run stayed in its mode (the same state, input, decided inputs and time): evaluated once for both. The
+/// decided inputs matter where the free input does not depend on them (a series hybrid's generator power,
+/// which enters only the battery's and the fuel's equations): the end of an interval holds the interval's
+/// value, the next sample its own.
 fn walk(ctx: &Ctx<'_, '_>, cycle: &Cycle, opts: &ModalOptions, rec: &Record) -> Tally {
     let spec = ctx.spec;
     let ns = rec.t.len();
@@ -284,7 +295,8 @@ fn walk(ctx: &Ctx<'_, '_>, cycle: &Cycle, opts: &ModalOptions, rec: &Record) -> 
             tally.time[m] += dt;
             ready = rec.mode[k + 1] == m
                 && rec.u_end[k].to_bits() == rec.free[k + 1].to_bits()
-                && same_bits(&rec.x_end[k], &rec.states[k + 1]);
+                && same_bits(&rec.x_end[k], &rec.states[k + 1])
+                && same_decided(rec, k);
             if ready {
                 std::mem::swap(&mut outs, &mut end);
             }

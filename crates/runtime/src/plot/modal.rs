@@ -4,8 +4,9 @@
 //! the modes' names for a model without a gearbox — and the running integral of every accumulated output;
 //! a model with `[signals]` adds one panel per signal after the reference, as single-mode figures do (raw
 //! and smoothed for the inverse run, raw for the forward run, which integrates with the raw signal).
-//! `--plot-vars` names: `reference`, each input, each signal, `gear` (or `mode`), the states, the
-//! `[outputs]`, `cum:NAME`.
+//! A hybrid's run with a strategy adds its state of charge and the engine's on/off band under the sequence
+//! ([`super::hybrid`]). `--plot-vars` names: `reference`, each input, each signal, `gear` (or `mode`), the
+//! states, the `[outputs]`, `cum:NAME`, a hybrid's `engine_on`.
 
 use invsim_model_api::ModelInfo;
 
@@ -14,11 +15,13 @@ use super::error::PlotError;
 use super::exogenous::signal_raw_and_smoothed;
 use super::figure::{Figure, Panel, Series, PANEL_TITLE_SIZE};
 use super::font::text_width;
+use super::hybrid::{engine_on_panel, soc_panel, ENGINE_ON};
 use super::panels::{
     self, fuel_output, input_panel, raw_series, signal_panel, smoothed_series, Signal, LOWER,
 };
 use super::reference::{raw_points, reference_axis, time_range};
 use super::scatter::Scatter;
+use super::steps::steps;
 use super::Columns;
 use crate::cycle::Cycle;
 use crate::forward::ModalForwardResult;
@@ -35,6 +38,26 @@ enum ModalVar {
     Exogenous(usize),
     /// The engine's operating points (models with an `[engine]`).
     Engine,
+    /// A hybrid's state of charge (state i, the `[hybrid]` table's `soc`), with SOC(0) as a guide.
+    Soc(usize),
+    /// A hybrid's engine on/off band (the strategy's run's `engine_on` column).
+    EngineOn,
+}
+
+/// The names of the model's exogenous signals: its `[signals]` less the decided inputs a mode carries as
+/// signals (their panel is the input's).
+fn exogenous_names(spec: &ModalSpec<'_>) -> Vec<String> {
+    let signals = info0(spec).signals.iter().map(|s| &s.name);
+    signals
+        .filter(|n| !spec.inputs.iter().any(|i| &i.name == *n))
+        .cloned()
+        .collect()
+}
+
+/// The state of charge of a hybrid (`[hybrid] soc`): its index among the states.
+fn soc_state(spec: &ModalSpec<'_>) -> Option<usize> {
+    let soc = &spec.hybrid?.soc;
+    info0(spec).states.iter().position(|s| s == soc)
 }
 
 /// The name of the sequence panel: `gear` where some mode has a gear, else `mode`.
@@ -56,7 +79,7 @@ pub fn modal_valid_vars(spec: &ModalSpec<'_>) -> Vec<String> {
     let outputs = &info.outputs[..spec.n_outputs];
     let mut v = vec!["reference".to_string()];
     v.extend(spec.inputs.iter().map(|i| i.name.clone()));
-    v.extend(info.signals.iter().map(|s| s.name.clone()));
+    v.extend(exogenous_names(spec));
     v.push(sequence_name(spec).to_string());
     v.extend(info.states.iter().cloned());
     v.extend(outputs.iter().map(|o| o.name.clone()));
@@ -69,19 +92,26 @@ pub fn modal_valid_vars(spec: &ModalSpec<'_>) -> Vec<String> {
     if info.engine.is_some() {
         v.push("engine".to_string());
     }
+    if spec.hybrid.is_some() {
+        v.push(ENGINE_ON.to_string());
+    }
     v
 }
 
 /// The panels drawn without `--plot-vars`: the reference, each exogenous signal, every input, the mode
-/// sequence, one running integral (the fuel used so far, as single-mode figures) and the engine's operating
-/// points for a model with an `[engine]`.
+/// sequence, a hybrid's state of charge and engine on/off band, one running integral (the fuel used so far,
+/// as single-mode figures) and the engine's operating points for a model with an `[engine]`.
 pub fn modal_default_vars(spec: &ModalSpec<'_>) -> Vec<String> {
     let info = info0(spec);
     let outputs = &info.outputs[..spec.n_outputs];
     let mut v = vec!["reference".to_string()];
-    v.extend(info.signals.iter().map(|s| s.name.clone()));
+    v.extend(exogenous_names(spec));
     v.extend(spec.inputs.iter().map(|i| i.name.clone()));
     v.push(sequence_name(spec).to_string());
+    if let Some(i) = soc_state(spec) {
+        v.push(info.states[i].clone());
+        v.push(ENGINE_ON.to_string());
+    }
     v.extend(fuel_output(outputs).map(|i| format!("cum:{}", outputs[i].name)));
     if info.engine.is_some() {
         v.push("engine".to_string());
@@ -100,6 +130,12 @@ fn resolve(spec: &ModalSpec<'_>, name: &str) -> Option<ModalVar> {
     }
     if name == "engine" && info.engine.is_some() {
         return Some(ModalVar::Engine);
+    }
+    if spec.hybrid.is_some() && name == ENGINE_ON {
+        return Some(ModalVar::EngineOn);
+    }
+    if let Some(i) = soc_state(spec).filter(|&i| info.states[i] == name) {
+        return Some(ModalVar::Soc(i));
     }
     if let Some(i) = spec.inputs.iter().position(|i| i.name == name) {
         return Some(ModalVar::Input(i));
@@ -290,6 +326,14 @@ fn build(
             ModalVar::Exogenous(i) => Some(exogenous(i)),
             ModalVar::Input(i) => Some(modal_input_panel(spec, i, cols, how)),
             ModalVar::Sequence => Some(sequence_panel(spec, t, cols)),
+            ModalVar::EngineOn => {
+                let families = spec.hybrid.map_or(&[][..], |h| &h.engine_on[..]);
+                Some(engine_on_panel(families, t, cols.get(ENGINE_ON)))
+            }
+            ModalVar::Soc(i) => {
+                k += 1;
+                Some(soc_panel(info, i, t, cols.get(&info.states[i]), k - 1))
+            }
             ModalVar::Signal(signal) => {
                 let name = match signal {
                     Signal::State(i) => &info.states[i],
@@ -378,24 +422,6 @@ fn sequence_panel(spec: &ModalSpec<'_>, t: &[f64], cols: &Columns<'_>) -> Panel 
     }
 }
 
-/// The points of a step curve of v over t: each value held until the next change.
-fn steps(t: &[f64], v: &[f64]) -> Vec<(f64, f64)> {
-    let n = t.len().min(v.len());
-    let mut pts = Vec::new();
-    for k in 0..n {
-        if k == 0 {
-            pts.push((t[0], v[0]));
-        } else if v[k] != v[k - 1] {
-            pts.push((t[k], v[k - 1]));
-            pts.push((t[k], v[k]));
-        }
-    }
-    if n > 1 {
-        pts.push((t[n - 1], v[n - 1]));
-    }
-    pts
-}
-
 /// `text` cut to `width` px at the panel title's size (with an ellipsis).
 fn fit(text: &str, width: f64) -> String {
     let size = PANEL_TITLE_SIZE;
@@ -407,15 +433,4 @@ fn fit(text: &str, width: f64) -> String {
         s.pop();
     }
     format!("{} …", s.trim_end_matches([',', ' ']))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn steps_hold_each_value_until_it_changes() {
-        let p = steps(&[0.0, 1.0, 2.0, 3.0], &[1.0, 1.0, 2.0, 2.0]);
-        assert_eq!(p, vec![(0.0, 1.0), (2.0, 1.0), (2.0, 2.0), (3.0, 2.0)]);
-    }
 }

@@ -8,9 +8,8 @@ use super::plan::{Shared, Sweep};
 use super::rows::{Figures, SweepResult, SweepRow};
 use crate::cycle::Cycle;
 use crate::inverse::{simulate_shared, SimulationOptions};
-use crate::modes::{simulate_modes_differentiated, ZeroDynamicsReference};
 use crate::plant::Plant;
-use crate::run::modal_options;
+use crate::run::simulate_modal;
 
 /// A worker's model and the column buffers its runs reuse.
 struct Worker {
@@ -41,16 +40,13 @@ fn run_variant(
             Ok(Figures::from_summary(&result.summary, &sweep.integrals))
         }
         (Plant::Modal(p), Shared::Gears(gears)) => {
-            let spec = p.spec(gears.clone());
-            let modal = modal_options(opts);
             let wrt = opts
                 .gradient
                 .as_deref()
                 .map(|names| crate::run::modal_gradient_params(p, opts, names))
                 .transpose()
                 .map_err(|e| e.to_string())?;
-            let how = (ZeroDynamicsReference::default(), wrt.as_ref());
-            let result = simulate_modes_differentiated(&spec, cycle, &modal, &opts.signals, how)
+            let result = simulate_modal(p, gears.clone(), cycle, opts, wrt.as_ref())
                 .map_err(|e| e.to_string())?;
             Ok(Figures::from_modal(&result.summary, &sweep.integrals))
         }
@@ -119,6 +115,7 @@ pub(super) fn run(sweep: &Sweep, progress: &(dyn Fn(usize) + Sync)) -> SweepResu
         headline: sweep.headline.clone(),
         verify: sweep.opts.verify,
         modes: sweep.modes.clone(),
+        hybrid: sweep.opts.strategy.is_some(),
         gradient: super::rows::gradient_columns(&rows),
         rows,
     }

@@ -25,6 +25,7 @@
 //! series is stored unless `verify` needs one. A variant that fails is a row with its error.
 
 mod exec;
+mod hybrid_columns;
 mod parquet;
 mod plan;
 mod rows;
@@ -40,6 +41,7 @@ use crate::inverse::{SimulateError, SimulationOptions};
 use crate::plant::Plant;
 use plan::Shared;
 
+pub use hybrid_columns::{Cell, HybridColumn, HYBRID_COLUMNS};
 pub use plan::{ModelFactory, Sweep};
 pub use rows::{Figures, ModeFigures, SweepResult, SweepRow};
 
@@ -74,6 +76,9 @@ pub enum SweepError {
     },
     #[error(transparent)]
     Options(Box<SimulateError>),
+    /// A strategy the model or the other options cannot run (`--strategy` on a model without `[hybrid]`).
+    #[error("{0}")]
+    Strategy(String),
     #[error("cannot start {threads} worker threads: {reason}")]
     Threads { threads: usize, reason: String },
     #[error(
@@ -328,6 +333,7 @@ impl SweepBuilder {
             &describe(&self.design),
         )?;
         let model = (self.factory)().map_err(SweepError::Model)?;
+        check_strategy(&model, &opts)?;
         let (names, variants) = expand(&self.design)?;
         check_names(&model.parameters(), &names)?;
         if let Some((name, reason)) = names
@@ -494,6 +500,29 @@ fn shared(
                 reason,
             }),
     }
+}
+
+/// A strategy's sweep needs a hybrid (a model with modes and a `[hybrid]` table) and no replay (`verify`: a
+/// strategy's run is not replayed yet), refused here once rather than in every row.
+pub fn check_strategy(model: &Plant, opts: &SimulationOptions) -> Result<(), SweepError> {
+    let Some(strategy) = &opts.strategy else {
+        return Ok(());
+    };
+    let flag = strategy.method.flag();
+    let hybrid = matches!(model, Plant::Modal(p) if p.hybrid().is_some());
+    if !hybrid {
+        return Err(SweepError::Strategy(format!(
+            "{flag} needs a model with modes and a [hybrid] table (fuel_power, battery_power, soc); \
+             `{}` has none",
+            model.name()
+        )));
+    }
+    if opts.verify {
+        return Err(SweepError::Strategy(format!(
+            "--verify replays the mode sequence's run; a strategy's run ({flag}) is not replayed yet"
+        )));
+    }
+    Ok(())
 }
 
 /// Every swept name is a parameter of the model, and none twice.

@@ -10,6 +10,7 @@
 
 use std::io::Write;
 
+use super::hybrid_columns::{Cell, HybridColumn, HYBRID_COLUMNS};
 use super::rows::{SweepResult, SweepRow};
 
 /// Parquet physical types (`Type` in parquet.thrift).
@@ -365,12 +366,48 @@ fn columns(result: &SweepResult) -> Vec<Column> {
             }));
         }
     }
+    if result.hybrid {
+        cols.extend(HYBRID_COLUMNS.iter().map(|c| hybrid_column(rows, c)));
+    }
     for c in &result.gradient {
         cols.push(dbl(format!("d({})/d({})", c.0, c.1), true, &|r| {
             ok(r).map(|f| super::rows::derivative(&f, c))
         }));
     }
     cols
+}
+
+/// The hybrid column `c` of `rows`: counts as INT64, figures as DOUBLE, null where a run failed or its block
+/// has null.
+fn hybrid_column(rows: &[SweepRow], c: &HybridColumn) -> Column {
+    let cells = rows.iter().map(|r| {
+        let block = r.outcome.as_ref().ok().and_then(|f| f.hybrid.as_deref());
+        block.map(|b| (c.cell)(b))
+    });
+    let values = if c.is_count() {
+        Values::Int(
+            cells
+                .map(|v| match v {
+                    Some(Cell::Count(n)) => Some(n as i64),
+                    _ => None,
+                })
+                .collect(),
+        )
+    } else {
+        Values::Double(
+            cells
+                .map(|v| match v {
+                    Some(Cell::Float(x)) => x,
+                    _ => None,
+                })
+                .collect(),
+        )
+    };
+    Column {
+        name: c.name.to_string(),
+        optional: true,
+        values,
+    }
 }
 
 impl SweepResult {

@@ -2,9 +2,10 @@
 
 use std::io::Write;
 
+use super::hybrid_columns::{Cell, HYBRID_COLUMNS};
 use crate::headline::Headline;
 use crate::inverse::Summary;
-use crate::modes::ModalSummary;
+use crate::modes::{HybridBlock, ModalSummary};
 use crate::report::Totals;
 
 /// The summary figures of one run (see [`crate::Summary`], whose numbers they are).
@@ -33,6 +34,8 @@ pub struct Figures {
     pub modes: Option<ModeFigures>,
     /// With `--gradient`: d figure/d parameter, by figure, then parameter (the summary's `gradient` block).
     pub gradient: Option<crate::gradient::Figures>,
+    /// With a strategy: the summary's `hybrid` block (its columns: [`HYBRID_COLUMNS`]).
+    pub hybrid: Option<Box<HybridBlock>>,
 }
 
 /// The figures of a run with modes beside those of every run.
@@ -72,6 +75,7 @@ impl Figures {
             }),
             headline: headline_values(summary.headline.as_ref()),
             gradient: summary.gradient.as_ref().map(|g| g.figures.clone()),
+            hybrid: summary.hybrid.clone(),
             ..Figures::of(run, &summary.totals, tracking, integrals)
         }
     }
@@ -102,6 +106,7 @@ impl Figures {
             rms_tracking_error,
             modes: None,
             gradient: None,
+            hybrid: None,
         }
     }
 }
@@ -139,6 +144,8 @@ pub struct SweepResult {
     pub verify: bool,
     /// The modes' names of a model with modes (then every row has their times), else empty.
     pub modes: Vec<String>,
+    /// Whether the runs had a strategy (then every row has the [`HYBRID_COLUMNS`]).
+    pub hybrid: bool,
     /// With `--gradient`: the (figure, parameter) of each derivative column `d(FIGURE)/d(PARAMETER)`, in the
     /// order of the first successful row's `gradient` (every row's has the same entries), else empty.
     pub gradient: Vec<(String, String)>,
@@ -176,7 +183,8 @@ impl SweepResult {
     /// `distance_m`, the integrals, `NAME_per_100km` for each, the headline's columns, `input_min`, `input_max`,
     /// `violations`, `violation_s`, and with
     /// `verify` `max_abs_tracking_error`, `rms_tracking_error`, for a model with modes `switches`,
-    /// `max_transition_deviation` and `time_MODE_s` for each mode, and with `--gradient`
+    /// `max_transition_deviation` and `time_MODE_s` for each mode, with a strategy the [`HYBRID_COLUMNS`], and
+    /// with `--gradient`
     /// `d(FIGURE)/d(PARAMETER)` for each figure and parameter.
     pub fn header(&self) -> Vec<String> {
         let mut h = ["variant", "cycle", "lookahead_s"]
@@ -194,6 +202,9 @@ impl SweepResult {
         if !self.modes.is_empty() {
             h.extend(["switches", "max_transition_deviation"].map(String::from));
             h.extend(self.modes.iter().map(|m| format!("time_{m}_s")));
+        }
+        if self.hybrid {
+            h.extend(HYBRID_COLUMNS.iter().map(|c| c.name.to_string()));
         }
         h.extend(self.gradient.iter().map(|(f, p)| format!("d({f})/d({p})")));
         h
@@ -221,6 +232,7 @@ impl SweepResult {
             + 4
             + if self.verify { 2 } else { 0 }
             + n_modal
+            + if self.hybrid { HYBRID_COLUMNS.len() } else { 0 }
             + self.gradient.len();
         match &row.outcome {
             Err(e) => {
@@ -247,6 +259,9 @@ impl SweepResult {
                     r.push(float(m.max_transition_deviation));
                     r.extend(m.time_s.iter().map(|&v| float(v)));
                 }
+                if self.hybrid {
+                    r.extend(hybrid_fields(f.hybrid.as_deref()));
+                }
                 r.extend(self.gradient.iter().map(|c| float(derivative(f, c))));
             }
         }
@@ -263,6 +278,17 @@ impl SweepResult {
         out.flush()?;
         Ok(())
     }
+}
+
+/// The [`HYBRID_COLUMNS`]' fields of a run's `hybrid` block (empty where a field is null or the run has no
+/// block).
+fn hybrid_fields(block: Option<&HybridBlock>) -> Vec<String> {
+    let field = |c: &super::hybrid_columns::HybridColumn| match block.map(|b| (c.cell)(b)) {
+        Some(Cell::Float(Some(v))) => crate::output::float_text(v),
+        Some(Cell::Count(n)) => n.to_string(),
+        Some(Cell::Float(None)) | None => String::new(),
+    };
+    HYBRID_COLUMNS.iter().map(field).collect()
 }
 
 /// A run's headline figures (none without a headline).

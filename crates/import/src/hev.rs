@@ -1,0 +1,390 @@
+//! A hybrid (`pt_type: HEV`): FASTSim's parallel hybrid as an invsim model with modes (docs/hybrids.md) —
+//! the engine (fuel converter) and the electric machine both drive the transmission's input shaft, the
+//! battery (res) feeds the machine and the auxiliary load; the energy-management strategy decides the split.
+//!
+//! FASTSim (hev.rs, fuel_converter.rs, electric_machine.rs, reversible_energy_storage.rs, transmission.rs) is
+//! power-based: P_tx = P_w/η_t when driving, P_w η_t when braking, shared as P_tx = P_e + P_m (engine and
+//! machine shaft powers); engine efficiency e_fc(P_e/P_e,max), fuel power P_e/e_fc while the engine runs;
+//! machine P_el,m = P_m/e_em(P_m/P_m,max) driving and P_m e_em(0) regenerating; battery terminal power
+//! P_el = P_el,m + P_aux (the auxiliaries on the battery, FASTSim's `AuxOnResPriority`), chemical power
+//! P_el/η_res discharging and P_el η_res charging, SOC' = −P_chem/E_res.
+
+use crate::curve::{scalar, table, Curve, Strategy};
+use crate::error::ImportError;
+use crate::model::{Input, LinearMap, Model, State};
+use crate::yaml::Doc;
+
+const BASE: &str = "pt_type.HEV";
+
+/// The speed below which the powers' conversion to a force is regularised, m/s: F = P/sqrt(v² + v_ε²).
+const V_EPS: f64 = 0.1;
+/// The power scale of the smooth positive part (P + sqrt(P² + p_ε²))/2, W: within p_ε/2 of max(P, 0).
+const P_EPS: f64 = 1.0;
+/// The hybrid mode's share rho of the engine's power taken by the machine: at most 0.99 (the transmission's
+/// input (1 − rho) P_e stays positive: the mode drives the wheels), at least −1 (the machine adds as much as
+/// the engine).
+const RHO_MAX: f64 = 0.99;
+const RHO_MIN: f64 = -1.0;
+
+/// Emit the powertrain, its four modes and the `[hybrid]` table.
+pub fn emit(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<(), ImportError> {
+    parameters(doc, model)?;
+    let fc = engine(doc, model, warnings)?;
+    let em = machine(doc, model)?;
+    battery(doc, model, warnings)?;
+    signals_as_parameters(model, warnings);
+    forces(model);
+    rolling_at_standstill(model);
+    inputs(doc, model, fc, em)?;
+    outputs(model);
+    let rules = crate::hev_rules::emit(doc, model, warnings)?;
+    model.tail = tail(&rules);
+    not_reproduced(doc, warnings);
+    Ok(())
+}
+
+fn p(f: &str) -> String {
+    format!("{BASE}.{f}")
+}
+
+/// The transmission, the regularisations and the modes' switches.
+fn parameters(doc: &Doc, model: &mut Model) -> Result<(), ImportError> {
+    let (eta_t, eta_t_path) = scalar(doc, &p("transmission.eff_interp"))?;
+    model.field("eta_t", eta_t, "-", "transmission efficiency", &eta_t_path)?;
+    model.constant("v_eps", V_EPS, "m/s", "speed scale of the power-to-force conversion F = P/sqrt(v^2 + v_eps^2) (exact within 0.5 % above 1 m/s; at a standstill the standstill mode holds the car)");
+    model.constant(
+        "p_eps",
+        P_EPS,
+        "W",
+        "power scale of the smooth positive part pos(P) = (P + sqrt(P^2 + p_eps^2))/2 (within p_eps/2 of max(P, 0)): the battery's equations enter the charge's rate, which must be smooth",
+    );
+    model.constant(
+        "c_on",
+        1.0,
+        "-",
+        "1 with the engine running, 0 with it off (the modes set it)",
+    );
+    Ok(())
+}
+
+/// The engine: peak power, idle fuel, efficiency over the load fraction (linear, in the outputs only).
+fn engine(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<f64, ImportError> {
+    let max = doc.num(&p("fc.pwr_out_max_watts"))?;
+    model.field(
+        "P_fc_max",
+        max,
+        "W",
+        "engine peak power",
+        &p("fc.pwr_out_max_watts"),
+    )?;
+    model.field(
+        "P_idle",
+        doc.num(&p("fc.pwr_idle_fuel_watts"))?,
+        "W",
+        "idle fuel power: the floor of the fuel power while the engine runs",
+        &p("fc.pwr_idle_fuel_watts"),
+    )?;
+    let e_f_path = p("fs.specific_energy_joules_per_kilogram");
+    match doc.opt_num(&e_f_path)?.filter(|x| !x.is_nan()) {
+        Some(e_f) => {
+            model.field("e_f", e_f, "J/kg", "fuel specific energy (lower heating value)", &e_f_path)?;
+            model.output("fuel", "P_fuel/e_f", "kg/s", "fuel mass flow: the model's answer (the [headline], in l/100 km, mpg and CO2 g/km as petrol)", true);
+            model.headline("fuel", Some("petrol"));
+        }
+        None => warnings.push(format!(
+            "`{e_f_path}` is not set: the fuel is reported as energy (fuel_energy, J) only, not as mass, and the model has no [headline]"
+        )),
+    }
+    let curve = table(doc, &p("fc.eff_interp_from_pwr_out"))?;
+    let eff = crate::efficiency::emit(model, "fc", &curve, "P_e/P_fc_max", "engine efficiency")?;
+    let divisor = if crate::curve::zero_at_zero_load(&curve) {
+        format!("max({eff}, 1e-12)")
+    } else {
+        eff
+    };
+    model.def(
+        "P_fuel",
+        &format!("c_on*max(P_e/{divisor}, P_idle)"),
+        "W",
+        "fuel power while the engine runs, at least the idle fuel power; 0 with the engine off",
+    );
+    Ok(max)
+}
+
+/// The machine: peak power and its efficiency table as a smooth map (it enters the charge's rate).
+fn machine(doc: &Doc, model: &mut Model) -> Result<f64, ImportError> {
+    let max = doc.num(&p("em.pwr_out_max_watts"))?;
+    model.field(
+        "P_em_max",
+        max,
+        "W",
+        "electric machine peak power (drive and regeneration)",
+        &p("em.pwr_out_max_watts"),
+    )?;
+    let curve = table(doc, &p("em.eff_interp_achieved"))?;
+    smooth_map(model, "em", &curve, "electric machine efficiency")?;
+    doc.mark(&p("em.eff_interp_at_max_input"));
+    Ok(max)
+}
+
+/// A linear FASTSim table as a map with `interp = "smooth"` (the kernel-smoothed interpolant, contract §6).
+fn smooth_map(
+    model: &mut Model,
+    prefix: &str,
+    curve: &Curve,
+    what: &str,
+) -> Result<(), ImportError> {
+    if curve.strategy != Strategy::Linear {
+        return Err(ImportError::field(
+            &format!("{}.strategy", curve.path),
+            "a hybrid's machine efficiency must be interpolated linearly (`Linear`): it enters the battery's charge rate, which must be smooth",
+        ));
+    }
+    model.smooth_maps.push(LinearMap {
+        name: format!("{prefix}_map"),
+        args: vec!["load".to_string()],
+        x: curve.x.clone(),
+        y: Vec::new(),
+        values: curve.y.clone(),
+        unit: "-".to_string(),
+        doc: format!(
+            "{what} over the load fraction: FASTSim's linear interpolation smoothed by the kernel over half the \
+             smallest grid spacing (it enters the charge's rate); FASTSim `{}` (x: `data.grid[0]`, values: `data.values`)",
+            curve.path
+        ),
+    });
+    Ok(())
+}
+
+/// The battery: capacity, peak power, efficiency (constant or the C-rate × temperature table), initial SOC.
+fn battery(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<(), ImportError> {
+    model.field(
+        "P_res_max",
+        doc.num(&p("res.pwr_out_max_watts"))?,
+        "W",
+        "battery peak power (not enforced: see the warnings)",
+        &p("res.pwr_out_max_watts"),
+    )?;
+    model.field(
+        "E_res",
+        doc.num(&p("res.energy_capacity_joules"))?,
+        "J",
+        "battery capacity",
+        &p("res.energy_capacity_joules"),
+    )?;
+    for (name, f, what) in [
+        (
+            "soc_min",
+            "res.min_soc",
+            "lowest state of charge FASTSim allows",
+        ),
+        (
+            "soc_max",
+            "res.max_soc",
+            "highest state of charge FASTSim allows",
+        ),
+    ] {
+        model.field(name, doc.num(&p(f))?, "-", what, &p(f))?;
+    }
+    let table = crate::battery::efficiency(doc, model, &p("res.eff_interp"), warnings)?;
+    model.def("P_mach", "P_m - P_r - rho*P_e", "W", "machine shaft power: driving alone (P_m), regenerating (P_r), or the share -rho of the engine's power in the hybrid mode (charging for rho > 0, assisting for rho < 0)");
+    model.def(
+        "P_m_pos",
+        "(P_mach + sqrt(P_mach^2 + p_eps^2))/2",
+        "W",
+        "machine shaft power while driving: the smooth positive part of P_mach",
+    );
+    model.def("P_el_m", "P_m_pos/em_map(P_m_pos/P_em_max) + (P_mach - P_m_pos)*em_map(0)", "W", "machine electrical power: driving P/e_em(P/P_em_max), regenerating at the table's zero-load efficiency (FASTSim's electric_machine.rs)");
+    model.def(
+        "P_el",
+        "P_el_m + P_aux",
+        "W",
+        "battery terminal power: the machine and the auxiliary load (FASTSim's AuxOnResPriority)",
+    );
+    model.def(
+        "P_el_pos",
+        "(P_el + sqrt(P_el^2 + p_eps^2))/2",
+        "W",
+        "battery terminal power while discharging: the smooth positive part of P_el",
+    );
+    if table == crate::battery::Efficiency::Table {
+        // The table enters the charge's rate: smooth (FASTSim interpolates it bilinearly).
+        if let Some(mut m) = model.maps.pop() {
+            m.doc = format!("{}; smoothed by the kernel over half the smallest grid spacing per axis (it enters the charge's rate)", m.doc);
+            model.smooth_maps.push(m);
+        }
+        model.def("eta_res", "res_map(P_el/(E_res/3600), T_res)", "-", "battery efficiency, each way, at the C-rate of the terminal power and the cell temperature");
+    }
+    model.def("P_chem", "P_el_pos/eta_res + (P_el - P_el_pos)*eta_res", "W", "battery chemical power: P_el/eta_res discharging, P_el*eta_res charging (FASTSim's reversible_energy_storage.rs)");
+    let soc0 = doc.num(&p("res.state.soc"))?;
+    crate::limits::check(&p("res.state.soc"), soc0)?;
+    model.states.push(State {
+        name: "soc".to_string(),
+        rhs: "-P_chem/E_res".to_string(),
+        initial: soc0,
+        unit: "-".to_string(),
+        doc: format!("battery state of charge, a fraction of the capacity: d(SOC)/dt = -P_chem/E_res; initially FASTSim `{}`", p("res.state.soc")),
+    });
+    Ok(())
+}
+
+/// The road grade and the battery's temperature (Sonata) as parameters: a strategy's run takes no
+/// `[signals]` yet (docs/hybrids.md).
+fn signals_as_parameters(model: &mut Model, warnings: &mut Vec<String>) {
+    model.grade_parameter = true;
+    model.constant("grade", 0.0, "-", "road grade, rise over run: a parameter (a flat road unless --set grade=... sets another), not the cycle's grade column, for a strategy's run takes no [signals] yet");
+    let mut names = vec!["grade".to_string()];
+    for s in std::mem::take(&mut model.signals) {
+        names.push(s.name.clone());
+        model.constant(
+            &s.name,
+            s.default,
+            &s.unit,
+            &format!(
+                "{}; a parameter, not a signal: a strategy's run takes no [signals] yet",
+                s.doc
+            ),
+        );
+    }
+    warnings.push(format!(
+        "{} held constant as parameters (a strategy's run takes no [signals] yet): the cycle's grade column is not read",
+        names.join(" and ")
+    ));
+}
+
+/// The tractive force from the shaft powers (before the chassis's P_w = F_t v, which uses it).
+fn forces(model: &mut Model) {
+    let f_t = crate::model::Item {
+        name: "F_t".to_string(),
+        expr: "(eta_t*((1 - rho)*P_e + P_m) - P_r/eta_t)/sqrt(v^2 + v_eps^2) - F_b".to_string(),
+        unit: "N".to_string(),
+        doc: "tractive force at the wheels: the transmission input power while driving (the engine's less the share rho the machine takes, and the machine's alone) times eta_t, less the regenerated power over eta_t and the friction brakes (FASTSim: P_w = eta_t P_tx driving, P_tx/eta_t braking); each input has one sign, so each mode's power flows one way".to_string(),
+        accumulate: None,
+    };
+    model.defs.insert(0, f_t);
+}
+
+/// The rolling resistance faded out below v_eps, m g c_r cos(atan(grade)) tanh(v/v_eps) (within 0.5 % above
+/// 0.3 m/s; FASTSim books it with the step's mean speed, so at a standstill it costs nothing): otherwise the
+/// standstill mode, whose brakes can only hold, would have to push the car against it.
+fn rolling_at_standstill(model: &mut Model) {
+    if let Some(d) = model.defs.iter_mut().find(|d| d.name == "F_res") {
+        d.expr = "0.5*rho_a*C_d*A_f*v^2 + m*g_0*(c_r*cos(atan(grade))*tanh(v/v_eps) + grade)"
+            .to_string();
+        d.doc = format!("{}; the rolling resistance faded out below v_eps by tanh(v/v_eps), so that a standing car needs no force", d.doc);
+    }
+}
+
+/// The inputs, each of one sign: the engine's power, the hybrid mode's share rho, the machine driving alone or
+/// regenerating, the friction brakes up to 1 g (a mode whose power could flow either way through the
+/// transmission with one efficiency would gain 1/eta_t^2 of the braking power).
+fn inputs(doc: &Doc, model: &mut Model, fc: f64, em: f64) -> Result<(), ImportError> {
+    let mass = doc.num("mass_kilograms")?;
+    let input = |name: &str, min: f64, max: f64, unit: &str, doc: &str| Input {
+        name: name.to_string(),
+        min,
+        max,
+        unit: unit.to_string(),
+        doc: doc.to_string(),
+    };
+    model.inputs = vec![
+        input("P_e", 0.0, fc, "W", "engine shaft power, up to its peak (FASTSim `fc.pwr_out_max_watts`)"),
+        input("rho", RHO_MIN, RHO_MAX, "-", "the share of the engine's power the machine takes in the hybrid mode: charging for rho > 0, assisting (adding -rho of the engine's power) for rho < 0; below 1, so that power flows to the wheels"),
+        input("P_m", 0.0, em, "W", "electric machine shaft power driving alone, up to its peak (FASTSim `em.pwr_out_max_watts`)"),
+        input("P_r", 0.0, em, "W", "electric machine shaft power regenerating (braking), up to its peak (FASTSim `em.pwr_out_max_watts`)"),
+        input("F_b", 0.0, mass * crate::chassis::GRAVITY, "N", "friction brake force, up to the vehicle's weight (1 g)"),
+    ];
+    Ok(())
+}
+
+fn outputs(model: &mut Model) {
+    model.output(
+        "fuel_energy",
+        "P_fuel",
+        "W",
+        "fuel power; its integral is FASTSim's `fc.energy_fuel_joules`",
+        true,
+    );
+    model.output("battery_power", "P_chem", "W", "battery chemical power, positive discharging; its integral is FASTSim's `res.energy_out_chemical_joules`", true);
+    model.output("P_wheel", "P_w", "W", "tractive power at the wheels", false);
+    model.output("P_engine", "P_e", "W", "engine shaft power", false);
+    model.output(
+        "P_motor",
+        "P_mach",
+        "W",
+        "electric machine shaft power, negative regenerating or charging",
+        false,
+    );
+    model.output(
+        "fc_load",
+        "P_e/P_fc_max",
+        "-",
+        "engine load fraction",
+        false,
+    );
+    model.output("eff_engine", "eff_fc", "-", "engine efficiency", false);
+}
+
+/// The modes, the standstill thresholds and the `[hybrid]` table.
+fn tail(rules: &crate::hev_rules::Rules) -> String {
+    let head = r#"
+[sequence]
+standstill_below = 0.05
+standstill_above = 1.0
+
+[modes.hybrid]               # engine on: the machine's share rho decided by the strategy, the engine's power free
+free = "P_e"
+decided = ["rho"]
+inputs = { P_m = 0.0, P_r = 0.0, F_b = 0.0 }
+[modes.electric]             # engine off: the machine alone
+free = "P_m"
+inputs = { P_e = 0.0, rho = 0.0, P_r = 0.0, F_b = 0.0 }
+parameters = { c_on = 0.0 }
+[modes.brake]                # engine off: the machine regenerates as decided, the friction brakes take the rest
+free = "F_b"
+role = "brake"
+decided = ["P_r"]
+inputs = { P_e = 0.0, rho = 0.0, P_m = 0.0 }
+parameters = { c_on = 0.0 }
+[modes.stop]                 # standstill, engine off: the auxiliaries on the battery
+free = "F_b"
+role = "standstill"
+inputs = { P_e = 0.0, rho = 0.0, P_m = 0.0, P_r = 0.0 }
+parameters = { c_on = 0.0 }
+
+[hybrid]
+fuel_power = "fuel_energy"
+battery_power = "battery_power"
+soc = "soc"
+engine_on = ["hybrid"]
+start_penalty = 0.0
+grid = 11
+{keys}"#;
+    head.replace("{keys}", &rules.hybrid_keys)
+}
+
+/// What FASTSim's hybrid does that the model does not: each field read only to name it here.
+fn not_reproduced(doc: &Doc, warnings: &mut Vec<String>) {
+    let mut said = Vec::new();
+    for (f, what) in [
+        ("res.min_soc", "the SOC limits are parameters (soc_min, soc_max) but not enforced: a charge-sustaining run stays near its start"),
+        ("fc.pwr_out_max_init_watts", "the engine's power ramp (pwr_out_max_init_watts, pwr_ramp_lag_seconds) is not reproduced"),
+        ("fc.thrml", "the engine's thermal model is not reproduced: the engine is warm from the start (no cold-start fuel, no engine on for warm-up) and without FASTSim's efficiency factor c(T), which stays below 1 even warm (about 0.8 for the Sonata at its thermostat's temperature)"),
+        ("aux_cntrl", "the auxiliaries are always on the battery (AuxOnResPriority; the battery's power limit is not enforced)"),
+        ("sim_params", "FASTSim's SOC-balancing iterations are replaced by the strategies' charge-sustaining runs and the J1711 correction"),
+    ] {
+        let path = p(f);
+        if doc.get(&path).is_some_and(|v| v.as_str() != Some("None")) {
+            said.push(format!("`{path}`: {what}"));
+        }
+        doc.mark(&path);
+    }
+    for f in [
+        "fc.pwr_ramp_lag_seconds",
+        "soc_bal_iter_history",
+        "soc_bal_iters",
+    ] {
+        doc.mark(&p(f));
+    }
+    warnings.extend(said);
+}
