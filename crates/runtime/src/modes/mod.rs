@@ -22,6 +22,7 @@ mod fine;
 pub mod gears;
 pub mod hybrid;
 mod hybrid_block;
+mod interval_cost;
 mod minimise;
 pub mod plant;
 mod record;

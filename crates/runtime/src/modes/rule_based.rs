@@ -70,16 +70,16 @@ fn at_battery_power(
     cost: &dyn Fn(f64) -> f64,
 ) -> Option<Eval> {
     let Some(&(i, _)) = run.ctx.decided[m].first() else {
-        return run.eval((m, k), x, 0.0, (0.0, 0.0));
+        return run.eval((m, k), x, 0.0);
     };
     let input = &run.ctx.spec.inputs[i];
     let bounds = (input.min.unwrap_or(0.0), input.max.unwrap_or(0.0));
-    let mut f = |d: f64| match run.eval((m, k), x, d, (0.0, 0.0)) {
+    let mut f = |d: f64| match run.eval((m, k), x, d) {
         Some(e) if e.excess <= 1e-9 => cost(e.p_batt),
         _ => f64::INFINITY,
     };
     let (d, _) = minimise(&mut f, bounds, run.h.grid.max(3))?;
-    run.eval((m, k), x, d, (0.0, 0.0))
+    run.eval((m, k), x, d)
 }
 
 /// The rules' choice at sample k from state x, charging towards `target_soc`.
@@ -94,12 +94,12 @@ fn choose(
     let feasible = |e: Option<Eval>| e.filter(|e| e.excess <= 1e-9);
     let soc = x[run.h.soc];
     if let Some(m) = find(run, k, &|m| role(m) == Role::Standstill) {
-        if let Some(e) = feasible(run.eval((m, k), x, 0.0, (0.0, 0.0))) {
+        if let Some(e) = feasible(run.eval((m, k), x, 0.0)) {
             return Ok(e);
         }
     }
     if let Some(m) = find(run, k, &|m| role(m) == Role::Brake) {
-        if feasible(run.eval((m, k), x, 0.0, (0.0, 0.0))).is_some() {
+        if feasible(run.eval((m, k), x, 0.0)).is_some() {
             if let Some(e) = feasible(at_battery_power(run, (m, k, x), &|p| p)) {
                 return Ok(e);
             }
@@ -108,7 +108,7 @@ fn choose(
     let electric = find(run, k, &|m| {
         role(m) == Role::Traction && !run.h.engine_on[m] && run.ctx.decided[m].is_empty()
     })
-    .and_then(|m| feasible(run.eval((m, k), x, 0.0, (0.0, 0.0))));
+    .and_then(|m| feasible(run.eval((m, k), x, 0.0)));
     if let Some(e) = electric.as_ref() {
         if e.p_batt <= opts.engine_power && soc >= target_soc - opts.soc_low {
             return Ok(e.clone());
@@ -131,7 +131,7 @@ fn choose(
 fn nearest(run: &Ecms<'_, '_, '_>, (k, x): (usize, &[f64])) -> Result<Eval, ModalError> {
     run.samples.candidates[k]
         .iter()
-        .filter_map(|&m| run.eval((m, k), x, 0.0, (0.0, 0.0)))
+        .filter_map(|&m| run.eval((m, k), x, 0.0))
         .min_by(|a, b| a.excess.total_cmp(&b.excess))
         .ok_or_else(|| {
             run.ctx.err(
