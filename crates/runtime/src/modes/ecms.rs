@@ -368,7 +368,19 @@ impl Ecms<'_, '_, '_> {
     /// The first sample where two runs chose differently (mode, or decided value by more than 10⁻⁶ of its
     /// range).
     pub(super) fn first_difference(&self, a: &Record, b: &Record) -> Option<usize> {
-        (0..a.mode.len().min(b.mode.len())).find(|&k| {
+        (0..a.mode.len().min(b.mode.len())).find(|&k| self.differ(a, b, k))
+    }
+
+    /// The one sample where two runs chose differently, if they differ at exactly one.
+    pub(super) fn only_difference(&self, a: &Record, b: &Record) -> Option<usize> {
+        let k = self.first_difference(a, b)?;
+        let n = a.mode.len().min(b.mode.len());
+        (k + 1..n).all(|j| !self.differ(a, b, j)).then_some(k)
+    }
+
+    /// Whether two runs chose differently at sample k.
+    fn differ(&self, a: &Record, b: &Record, k: usize) -> bool {
+        {
             let (ma, mb) = (a.mode[k], b.mode[k]);
             if ma != mb {
                 return true;
@@ -385,7 +397,7 @@ impl Ecms<'_, '_, '_> {
                 }
                 _ => false,
             }
-        })
+        }
     }
 
     /// Record the chosen candidate at sample k.
