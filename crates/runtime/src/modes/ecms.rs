@@ -18,10 +18,10 @@
 //! ψ⁻¹ there (every mode shares the state, so a switch keeps it; a mode whose ξ differs starts from the
 //! reference at once, as `--switching quasi-static` does).
 
-use super::interval_cost::{signals_into, Point, Scratch};
 use super::minimise::minimise;
 use super::record::{Ctx, Record, Solved, Transition};
 use super::rows::Rows;
+use super::scratch::{Point, Scratch};
 use super::{ModalError, Role};
 
 /// The end of an interval: the internal states, the state and free input, the fuel and battery powers.
@@ -258,7 +258,7 @@ impl Ecms<'_, '_, '_> {
         let mut sc = Scratch::default();
         sc.x.extend_from_slice(&e.x);
         sc.eta = eta;
-        signals_into(self, e.m, e.d, &mut sc.w);
+        self.signals_into(e.m, e.d, &mut sc.w);
         let p = self
             .finish_in((e.m, k), &mut sc)
             .map_err(|err| self.ctx.err(e.m, self.samples.t[k + 1], err))?;

@@ -5,30 +5,7 @@
 //! and the rules reach it through [`Ecms::eval`] and [`Ecms::interval`].
 
 use super::ecms::Ecms;
-
-/// Buffers of one evaluation: the reference, the signals, the internal states, the states at t_k and t_k+1,
-/// the outputs and the Runge–Kutta stages.
-#[derive(Default)]
-pub(super) struct Scratch {
-    y: Vec<f64>,
-    pub(super) w: Vec<f64>,
-    pub(super) eta: Vec<f64>,
-    pub(super) x: Vec<f64>,
-    pub(super) x1: Vec<f64>,
-    outs: Vec<f64>,
-    stages: [Vec<f64>; 4],
-    tmp: Vec<f64>,
-}
-
-/// A candidate's values at one instant: the free input, how far it lies beyond its bounds (a fraction of its
-/// range), the fuel and battery powers.
-#[derive(Clone, Copy)]
-pub(super) struct Point {
-    pub(super) u: f64,
-    pub(super) excess: f64,
-    pub(super) p_fuel: f64,
-    pub(super) p_batt: f64,
-}
+use super::scratch::{Point, Scratch};
 
 /// Mode m's row of the reference: y^(0 … r_max) = offset + scale · y_c (the offset on y only).
 fn reference_into(run: &Ecms<'_, '_, '_>, m: usize, base: &[f64], y: &mut Vec<f64>) {
@@ -38,16 +15,16 @@ fn reference_into(run: &Ecms<'_, '_, '_>, m: usize, base: &[f64], y: &mut Vec<f6
     y[0] += map.offset;
 }
 
-/// Mode m's signal values with its decided input at d.
-pub(super) fn signals_into(run: &Ecms<'_, '_, '_>, m: usize, d: f64, w: &mut Vec<f64>) {
-    w.clear();
-    w.resize(run.ctx.spec.modes[m].model.info().n_w(), 0.0);
-    if let Some(&(_, slot)) = run.ctx.decided[m].first() {
-        w[slot] = d;
-    }
-}
-
 impl Ecms<'_, '_, '_> {
+    /// Mode m's signal values with its decided input at d.
+    pub(super) fn signals_into(&self, m: usize, d: f64, w: &mut Vec<f64>) {
+        w.clear();
+        w.resize(self.ctx.spec.modes[m].model.info().n_w(), 0.0);
+        if let Some(&(_, slot)) = self.ctx.decided[m].first() {
+            w[slot] = d;
+        }
+    }
+
     /// The inverse of mode m at sample k from the state `x` (its η) with decided value d: x = ψ⁻¹(ξ, η) into
     /// `sc.x`, η into `sc.eta`, u = (y^(r) − α)/β and the powers; `None` where the inverse fails or is not
     /// finite.
@@ -64,7 +41,7 @@ impl Ecms<'_, '_, '_> {
         reference_into(self, m, &self.samples.base[k], &mut sc.y);
         sc.eta.clear();
         sc.eta.extend(info.eta_states.iter().map(|&j| x[j]));
-        signals_into(self, m, d, &mut sc.w);
+        self.signals_into(m, d, &mut sc.w);
         sc.x.clear();
         sc.x.extend_from_slice(x);
         let u = model
@@ -86,7 +63,7 @@ impl Ecms<'_, '_, '_> {
         sc: &mut Scratch,
     ) -> Result<Point, String> {
         let info = self.ctx.spec.modes[m].model.info();
-        signals_into(self, m, d, &mut sc.w);
+        self.signals_into(m, d, &mut sc.w);
         sc.eta.clear();
         sc.eta.extend(info.eta_states.iter().map(|&j| sc.x[j]));
         self.advance_in((m, k), sc);

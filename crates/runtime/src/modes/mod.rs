@@ -30,6 +30,7 @@ mod rows;
 mod rule_based;
 pub(crate) mod rules;
 mod runner;
+mod scratch;
 pub(crate) mod sequence;
 mod signals;
 mod strategy;
