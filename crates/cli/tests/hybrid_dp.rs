@@ -1,7 +1,7 @@
 //! `invsim simulate --strategy dp`: on `tests/models/hybrid/quadratic_dp.toml` the fuel converges to the
-//! closed-form optimum of the discrete-time charge-sustaining problem as the SOC and split grids are refined;
-//! on `models/hev_p2.toml` over UDDS the run is charge-sustaining, every input within its bounds, and the fuel
-//! no more than ECMS's; grids of fewer than 2 points and an unreachable final charge exit 2 naming the option.
+//! closed-form optimum of the discrete-time charge-sustaining problem as the SOC and split grids are refined,
+//! and ECMS reaches it; on `models/hev_p2.toml` over UDDS the run is charge-sustaining, every input within its
+//! bounds, and the fuel within its grid error of ECMS's; grids of fewer than 2 points and an unreachable final charge exit 2 naming the option.
 //! `--strategy rule-based` on hev_p2 over UDDS: J1711-corrected, and no better than DP.
 
 use crate::common::{invsim, json_file, num, read_csv, stderr, tmp};
@@ -45,7 +45,8 @@ fn fuel(v: &serde_json::Value) -> f64 {
 /// trapezoid ½ (f(R_k − d_k) + f(R_k+1 − d_k)), f(F) = a F + b F², R = m y_d' + c0 + c2 y_d², and the charge
 /// (c = 0) changes by −d_k Δt / E, so charge-sustaining is Σ d_k = 0. The Lagrange condition
 /// a + 2 b (R̄_k − d_k) = λ with R̄_k = (R_k + R_k+1)/2 gives d_k = R̄_k − mean(R̄): the discrete optimum in
-/// closed form (ECMS, which weighs the powers at t_k alone, is 0.5 % above it). DP's fuel is a feasible
+/// closed form, which ECMS, pricing each interval as the run books it, reaches to rounding (its F_m
+/// (a − s + 2 b R̄_k)/(2 b) is d_k at the searched s = a + 2 b mean(R̄)). DP's fuel is a feasible
 /// policy's, so never below; its excess falls as the grids are refined, 51 × 21 → 101 × 41 → 201 × 81
 /// (SOC points × split values over ±4 kN, SOC window ±0.05 around the start 0.5; the run's charge stays
 /// within [0.46, 0.51]), the finest within 10⁻⁴ of the optimum.
@@ -54,6 +55,7 @@ fn dp_converges_to_the_closed_form_optimum_of_a_quadratic_hybrid() {
     let model = "tests/models/hybrid/quadratic_dp.toml";
     let (m, c0, c2, a, b) = (1000.0, 150.0, 0.4, 3.0, 1.0e-3);
     let mut errors = Vec::new();
+    let mut best = 0.0;
     for (soc, split) in [("51", "21"), ("101", "41"), ("201", "81")] {
         let (v, header, rows) = run(
             model,
@@ -84,12 +86,12 @@ fn dp_converges_to_the_closed_form_optimum_of_a_quadratic_hybrid() {
         let rbar: Vec<f64> = r.windows(2).map(|w| 0.5 * (w[0] + w[1])).collect();
         let mean = rbar.iter().sum::<f64>() / rbar.len() as f64;
         let f = |x: f64| a * x + b * x * x;
-        let best: f64 = (0..rbar.len())
+        best = (0..rbar.len())
             .map(|k| {
                 let d = rbar[k] - mean;
                 0.5 * (f(r[k] - d) + f(r[k + 1] - d))
             })
-            .sum();
+            .sum::<f64>();
         let corrected = h["fuel_energy_corrected_j"].as_f64().unwrap();
         let err = (corrected - best) / best;
         assert!(
@@ -98,6 +100,13 @@ fn dp_converges_to_the_closed_form_optimum_of_a_quadratic_hybrid() {
         );
         errors.push(err);
     }
+    let (ecms, _, _) = run(model, &["--strategy", "ecms"], "dp-quad-ecms");
+    let f_ecms = fuel(&ecms);
+    assert!(ecms["hybrid"]["delta_soc"].as_f64().unwrap().abs() < 1e-12);
+    assert!(
+        (f_ecms - best).abs() <= 1e-9 * best,
+        "ECMS {f_ecms} vs the optimum {best}"
+    );
     assert!(
         errors[0] > errors[1] && errors[1] > errors[2],
         "errors {errors:?} do not fall with the grids"
@@ -107,12 +116,12 @@ fn dp_converges_to_the_closed_form_optimum_of_a_quadratic_hybrid() {
 
 /// hev_p2 on UDDS at the default grids (101 SOC points over SOC(0) ± 0.2, 41 motor torques): the run ends
 /// charge-sustaining within 10⁻⁴, every sample's inputs within their bounds (the run's 10⁻⁹ of each range),
-/// and its fuel no more than ECMS's at the searched s. DP's fuel is the fuel of a feasible policy, integrated
-/// exactly as ECMS's is, so no grid error can bring it below the optimum; the grid error goes the other way,
-/// and it is smaller than ECMS's own discretisation error: ECMS weighs the powers at t_k and holds its choice
-/// over [t_k, t_k+1], which on UDDS costs it 5.3 % at Δt = 1 s against DP's weighing of the whole interval
-/// (2.3 % at Δt = 0.5 s, 0.6 % at 0.2 s, DP's fuel within 0.3 % across the three: the gap is ECMS's, O(Δt)).
-/// The test bounds the gap by 8 %.
+/// and its fuel within its grid error of ECMS's at the searched s. DP's fuel is the fuel of a feasible policy,
+/// integrated exactly as ECMS's is, so no grid error can bring it below the optimum; the grid error goes the
+/// other way,
+/// and ECMS, pricing each interval as DP does (the trapezoids of the fuel and battery powers with its choice
+/// held), comes within the 3 % of it (docs/hybrids.md gives the figures; before, weighing the powers
+/// at t_k alone, it was 5.3 % above at Δt = 1 s).
 #[test]
 fn dp_on_hev_p2_udds_is_charge_sustaining_and_no_worse_than_ecms() {
     let model = "models/hev_p2.toml";
@@ -127,8 +136,9 @@ fn dp_on_hev_p2_udds_is_charge_sustaining_and_no_worse_than_ecms() {
     let corrected = h["fuel_energy_corrected_j"].as_f64().unwrap();
     let (f_dp, f_ecms) = (fuel(&dp), fuel(&ecms));
     assert!((corrected - f_dp).abs() <= 1e-6 * f_dp);
-    assert!(f_dp <= f_ecms, "DP {f_dp} J above ECMS {f_ecms} J");
-    assert!(f_ecms <= 1.08 * f_dp, "ECMS {f_ecms} J vs DP {f_dp} J");
+    // DP up to its grid error (0.4 % above ECMS here, `hybrid.rs`).
+    assert!(f_dp <= 1.005 * f_ecms, "DP {f_dp} J above ECMS {f_ecms} J");
+    assert!(f_ecms <= 1.03 * f_dp, "ECMS {f_ecms} J vs DP {f_dp} J");
     let (t_e, t_m, f_b) = (
         col(&header, &rows, "T_e"),
         col(&header, &rows, "T_m"),

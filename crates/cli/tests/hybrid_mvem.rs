@@ -1,9 +1,10 @@
 //! The P2 hybrid with a mean-value engine (manifold filling) under the strategies, and why it does not run
 //! charge-sustaining (docs/hybrids.md, "Mean-value P2"): with the motor's torque free and the throttle's air
 //! flow decided (`tests/models/hybrid/p2_mvem_throttle_decided.toml`) the decided input enters only the
-//! manifold's zero dynamics, so the free input and every power at t_k are independent of it — ECMS's cost at
-//! t_k is flat in it: the engine-on mode costs the fuel of the manifold's present state whatever the throttle,
-//! no choice makes it pay, and ECMS never runs the engine; DP refuses the manifold pressure as a second
+//! manifold's zero dynamics, so the free input and every power at t_k are independent of it: a cost at t_k
+//! alone would be flat in it and never run the engine. ECMS prices the interval, the powers at t_k+1 after the
+//! manifold has filled under the throttle held, so the throttle's effect is priced and ECMS opens it; DP
+//! refuses the manifold pressure as a second
 //! internal state. The other formulation (the throttle
 //! free, the motor decided) is refused by the reader: `hostile/hybrid_mvem_motor_decided.json`.
 
@@ -32,10 +33,11 @@ fn the_decided_throttle_enters_only_the_manifold_s_zero_dynamics() {
 }
 
 /// ECMS at s = 3.4 on UDDS at Δt = 0.05 s (one Runge–Kutta step per interval is stable for the manifold's
-/// time constant there, not at 1 s): the engine never on (the throttle closed throughout), the battery
-/// drained far beyond any charge-sustaining run; DP refuses the model, naming the second internal state.
+/// time constant there, not at 1 s): the throttle opens and the engine runs, priced through the manifold's
+/// pressure at t_k+1 (a cost at t_k alone kept the throttle closed and the engine off throughout); DP refuses
+/// the model, naming the second internal state.
 #[test]
-fn ecms_never_opens_a_decided_throttle_and_dp_refuses_the_manifold_state() {
+fn ecms_opens_a_decided_throttle_and_dp_refuses_the_manifold_state() {
     let (csv, json) = (tmp("mvem-ecms.csv"), tmp("mvem-ecms.json"));
     let o = invsim(&[
         "simulate",
@@ -56,16 +58,15 @@ fn ecms_never_opens_a_decided_throttle_and_dp_refuses_the_manifold_state() {
     assert!(o.status.success(), "{}", stderr(&o));
     let v = json_file(&json);
     let h = &v["hybrid"];
-    assert_eq!(h["engine_on_s"].as_f64().unwrap(), 0.0);
-    assert_eq!(h["fuel_energy_j"].as_f64().unwrap(), 0.0);
     assert!(
-        h["delta_soc"].as_f64().unwrap() < -0.5,
+        h["engine_on_s"].as_f64().unwrap() > 100.0,
         "{}",
-        h["delta_soc"]
+        h["engine_on_s"]
     );
+    assert!(h["fuel_energy_j"].as_f64().unwrap() > 0.0);
     let (header, rows) = read_csv(&csv);
     let j = header.iter().position(|c| c == "m_at").unwrap();
-    assert!(rows.iter().all(|r| num(&r[j]) == 0.0));
+    assert!(rows.iter().any(|r| num(&r[j]) > 0.0));
     let o = invsim(&[
         "simulate",
         MODEL,

@@ -117,9 +117,9 @@ fn best_speed_closed_form(p: f64) -> f64 {
 }
 
 /// On UDDS, HWFET and WLTC 3b: ECMS (searched s) and DP (default grids) end within 10⁻⁴ of the start charge;
-/// DP's fuel is at most ECMS's up to DP's grid error and ECMS's at most 8 % above DP's (the P2 tests' dt-1
-/// bound for ECMS's O(Δt) handicap; here 4.0 % on UDDS, and on the slowly varying HWFET ECMS is within DP's
-/// grid error of DP — docs/hybrids.md gives the figures); the rule-based run, J1711-corrected, at least ECMS's
+/// DP's fuel is at most ECMS's up to DP's grid error and ECMS's at most 3 % above DP's (the bound;
+/// ECMS, pricing each interval as DP does, lies 0.10 to 0.14 % below DP's default grids — docs/hybrids.md
+/// gives the figures); the rule-based run, J1711-corrected, at least ECMS's
 /// fuel; every figure between 2.5 and 5 l/100 km.
 #[test]
 fn series_hybrid_strategies_are_ordered_and_charge_sustaining() {
@@ -151,7 +151,7 @@ fn series_hybrid_strategies_are_ordered_and_charge_sustaining() {
             "{cycle}: DP {f_dp} J above ECMS {f_ecms} J"
         );
         assert!(
-            f_ecms <= 1.08 * f_dp,
+            f_ecms <= 1.03 * f_dp,
             "{cycle}: ECMS {f_ecms} J vs DP {f_dp} J"
         );
         assert!(

@@ -274,7 +274,7 @@ fn evaluate(
     (k, x): (usize, &[f64]),
     (m, d): (usize, f64),
 ) -> Option<(Control, f64)> {
-    let e = run.eval((m, k), x, d, (0.0, 0.0))?;
+    let e = run.eval((m, k), x, d)?;
     let end = run.interval(k, &e).ok()?;
     let h = run.samples.t[k + 1] - run.samples.t[k];
     let soc = run.h.soc;
@@ -457,7 +457,7 @@ fn choose(
         let d = match bounds(run, m) {
             None => 0.0,
             Some(b) => {
-                let mut f = |d: f64| match run.eval((m, k), x, d, (0.0, 0.0)) {
+                let mut f = |d: f64| match run.eval((m, k), x, d) {
                     Some(e) if e.excess <= 1e-9 => total(&e),
                     Some(e) => {
                         consider(e, f64::INFINITY);
@@ -471,7 +471,7 @@ fn choose(
                 }
             }
         };
-        if let Some(e) = run.eval((m, k), x, d, (0.0, 0.0)) {
+        if let Some(e) = run.eval((m, k), x, d) {
             let c = total(&e);
             consider(e, c);
         }
@@ -492,7 +492,7 @@ fn replay_at(
     x: &[f64],
     (m, d): (usize, f64),
 ) -> Result<Eval, ModalError> {
-    run.eval((m, k), x, d, (0.0, 0.0)).ok_or_else(|| {
+    run.eval((m, k), x, d).ok_or_else(|| {
         run.ctx.err(
             m,
             run.samples.t[k],
@@ -512,7 +512,7 @@ fn final_soc(
     let mut x = x0.to_vec();
     x[run.h.soc] = soc;
     for (j, &(m, d)) in policy.iter().enumerate().take(policy.len() - 1).skip(k) {
-        let e = run.eval((m, j), &x, d, (0.0, 0.0))?;
+        let e = run.eval((m, j), &x, d)?;
         if j == k && e.excess > 1e-9 {
             return None;
         }

@@ -4,7 +4,9 @@
 //! charged more). From s₀ = 2.5 (in round figures 1/(η_engine · η_electric), a petrol engine at 35 % and an
 //! electric path at 85 % giving 3.4, a better engine less) the bracket is widened by factors of 2 until ΔSOC changes sign
 //! (at most [`MAX_WIDEN`] steps each way, s in [2.5/2¹², 2.5·2¹²]); then regula falsi with the Illinois
-//! modification (Dowell & Jarratt, BIT 1971) until |ΔSOC| ≤ the tolerance, within [`MAX_RUNS`] runs in all. A
+//! modification (Dowell & Jarratt, BIT 1971) until |ΔSOC| ≤ the tolerance, within [`MAX_RUNS`] runs in all;
+//! where the bracket's runs differ at one sample alone (ΔSOC jumps there), that sample is shared at once
+//! ([`Share`]) rather than the bracket narrowed onto the jump. A
 //! target no s in the bracket reaches (ΔSOC of one sign throughout, or a jump of ΔSOC across the tolerance
 //! band where one sample's mode choice flips) is an error that names `--strategy ecms`, `--equivalence` and
 //! `--soc-tolerance`.
@@ -71,6 +73,7 @@ pub(super) fn search(
     let (mut lo, mut hi) = if up { (near, far) } else { (far, near) };
     // Illinois: the value of an end kept while the other is replaced twice in a row is halved.
     let (mut scale_lo, mut scale_hi, mut last) = (1.0, 1.0, 0i8);
+    let mut tried: Option<usize> = None;
     while runs < MAX_RUNS {
         let (wl, wh) = (scale_lo * lo.delta_soc(), scale_hi * hi.delta_soc());
         let mut s = hi.s - wh * (hi.s - lo.s) / (wh - wl);
@@ -79,6 +82,21 @@ pub(super) fn search(
         }
         if hi.s - lo.s <= 1e-7 * hi.s {
             return relax(run, (lo, hi), (tol, x0), runs);
+        }
+        // The bracketing runs differ at one sample alone: share it now rather than narrow s onto the jump.
+        // (Once per sample: where it cannot bridge the jump, narrowing goes on.)
+        if let Some(k) = run
+            .only_difference(&lo.rec, &hi.rec)
+            .filter(|&k| tried != Some(k))
+        {
+            tried = Some(k);
+            match relax_at(run, k, (lo, hi), (tol, x0), runs)? {
+                Ok(found) => return Ok(found),
+                Err((l, h, used)) => (lo, hi, runs) = (l, h, used),
+            }
+            if runs >= MAX_RUNS {
+                break;
+            }
         }
         let o = run.run(s, x0)?;
         runs += 1;
@@ -124,19 +142,38 @@ fn unreachable(last: &Outcome, tol: f64) -> ModalError {
     ))
 }
 
+/// The search's result: (run, runs taken, the other run of the J1711 correction).
+type Found = (Outcome, usize, Option<Outcome>);
+
 /// Where ΔSOC(s) jumps across the band at s (lo and hi within 10⁻⁷ s of each other): the relaxed choice at
-/// the first sample where the two runs differ ([`Share`]), its share θ ∈ [0, 1] found by regula falsi
-/// (Illinois) so that |ΔSOC| ≤ tol. Where later choices depend on that one (a start penalty: the engine's
-/// state carries over) ΔSOC(θ) may not reach the band either: then the jump is the error.
+/// the first sample where the two runs differ ([`relax_at`]); a jump it cannot bridge is the error.
 fn relax(
     run: &Ecms<'_, '_, '_>,
     (lo, hi): (Outcome, Outcome),
     (tol, x0): (f64, &[f64]),
-    mut runs: usize,
-) -> Result<(Outcome, usize, Option<Outcome>), ModalError> {
+    runs: usize,
+) -> Result<Found, ModalError> {
     let Some(k) = run.first_difference(&lo.rec, &hi.rec) else {
         return Err(jump(&lo, &hi, tol));
     };
+    match relax_at(run, k, (lo, hi), (tol, x0), runs)? {
+        Ok(found) => Ok(found),
+        Err((lo, hi, _)) => Err(jump(&lo, &hi, tol)),
+    }
+}
+
+/// The relaxed choice at sample k ([`Share`]) between the runs at lo and hi, its share θ ∈ [0, 1] found by
+/// regula falsi (Illinois) so that |ΔSOC| ≤ tol. Where ΔSOC(θ) does not change sign over [0, 1] (later
+/// choices depend on that one, as with a start penalty, or the runs differ elsewhere by more than the
+/// sample can make up) the bracket is handed back with the runs used.
+#[allow(clippy::type_complexity)]
+fn relax_at(
+    run: &Ecms<'_, '_, '_>,
+    k: usize,
+    (lo, hi): (Outcome, Outcome),
+    (tol, x0): (f64, &[f64]),
+    mut runs: usize,
+) -> Result<Result<Found, (Outcome, Outcome, usize)>, ModalError> {
     let at = |theta: f64| Share {
         k,
         other: lo.s,
@@ -146,13 +183,13 @@ fn relax(
     let mut b = (1.0, run.run_shared(hi.s, x0, Some(&at(1.0)))?);
     runs += 2;
     if a.1.delta_soc().abs() <= tol {
-        return Ok((a.1, runs, Some(hi)));
+        return Ok(Ok((a.1, runs, Some(hi))));
     }
     if b.1.delta_soc().abs() <= tol {
-        return Ok((b.1, runs, Some(lo)));
+        return Ok(Ok((b.1, runs, Some(lo))));
     }
     if (a.1.delta_soc() < 0.0) == (b.1.delta_soc() < 0.0) {
-        return Err(jump(&lo, &hi, tol));
+        return Ok(Err((lo, hi, runs)));
     }
     let (mut scale_a, mut scale_b, mut last) = (1.0, 1.0, 0i8);
     while runs < MAX_RUNS {
@@ -165,7 +202,7 @@ fn relax(
         runs += 1;
         if o.delta_soc().abs() <= tol {
             let other = if o.delta_soc() < 0.0 { hi } else { lo };
-            return Ok((o, runs, Some(other)));
+            return Ok(Ok((o, runs, Some(other))));
         }
         if (o.delta_soc() < 0.0) == (a.1.delta_soc() < 0.0) {
             a = (th, o);

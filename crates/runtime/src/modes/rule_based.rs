@@ -75,16 +75,16 @@ fn at_least(
     cost: &dyn Fn(&Eval) -> f64,
 ) -> Option<Eval> {
     let Some(&(i, _)) = run.ctx.decided[m].first() else {
-        return run.eval((m, k), x, 0.0, (0.0, 0.0));
+        return run.eval((m, k), x, 0.0);
     };
     let input = &run.ctx.spec.inputs[i];
     let bounds = (input.min.unwrap_or(0.0), input.max.unwrap_or(0.0));
-    let mut f = |d: f64| match run.eval((m, k), x, d, (0.0, 0.0)) {
+    let mut f = |d: f64| match run.eval((m, k), x, d) {
         Some(e) if e.excess <= 1e-9 => cost(&e),
         _ => f64::INFINITY,
     };
     let (d, _) = minimise(&mut f, bounds, run.h.grid.max(3))?;
-    run.eval((m, k), x, d, (0.0, 0.0))
+    run.eval((m, k), x, d)
 }
 
 /// The rules' choice at sample k from state x, charging towards `target_soc`.
@@ -99,12 +99,12 @@ fn choose(
     let feasible = |e: Option<Eval>| e.filter(|e| e.excess <= 1e-9);
     let soc = x[run.h.soc];
     if let Some(m) = find(run, k, &|m| role(m) == Role::Standstill) {
-        if let Some(e) = feasible(run.eval((m, k), x, 0.0, (0.0, 0.0))) {
+        if let Some(e) = feasible(run.eval((m, k), x, 0.0)) {
             return Ok(e);
         }
     }
     if let Some(m) = find(run, k, &|m| role(m) == Role::Brake) {
-        if feasible(run.eval((m, k), x, 0.0, (0.0, 0.0))).is_some() {
+        if feasible(run.eval((m, k), x, 0.0)).is_some() {
             if let Some(e) = feasible(at_least(run, (m, k, x), &|e| e.p_batt)) {
                 return Ok(e);
             }
@@ -113,7 +113,7 @@ fn choose(
     let electric = find(run, k, &|m| {
         role(m) == Role::Traction && !run.h.engine_on[m] && run.ctx.decided[m].is_empty()
     })
-    .and_then(|m| feasible(run.eval((m, k), x, 0.0, (0.0, 0.0))));
+    .and_then(|m| feasible(run.eval((m, k), x, 0.0)));
     if let Some(e) = electric.as_ref() {
         if e.p_batt <= opts.engine_power && soc >= target_soc - opts.soc_low {
             return Ok(e.clone());
@@ -136,7 +136,7 @@ fn choose(
 fn nearest(run: &Ecms<'_, '_, '_>, (k, x): (usize, &[f64])) -> Result<Eval, ModalError> {
     run.samples.candidates[k]
         .iter()
-        .filter_map(|&m| run.eval((m, k), x, 0.0, (0.0, 0.0)))
+        .filter_map(|&m| run.eval((m, k), x, 0.0))
         .min_by(|a, b| a.excess.total_cmp(&b.excess))
         .ok_or_else(|| {
             run.ctx.err(
@@ -186,13 +186,13 @@ fn choose_by_model(
     let wants = hold || requested(run, (k, x), shift);
     let standstill = |engine: bool| {
         find(run, k, &|m| role(m) == Role::Standstill && on(m) == engine)
-            .and_then(|m| feasible(run.eval((m, k), x, 0.0, (0.0, 0.0))))
+            .and_then(|m| feasible(run.eval((m, k), x, 0.0)))
     };
     if let Some(e) = standstill(wants).or_else(|| standstill(!wants)) {
         return Ok(e);
     }
     if let Some(m) = find(run, k, &|m| role(m) == Role::Brake) {
-        if feasible(run.eval((m, k), x, 0.0, (0.0, 0.0))).is_some() {
+        if feasible(run.eval((m, k), x, 0.0)).is_some() {
             if let Some(e) = feasible(at_least(run, (m, k, x), &|e| e.p_batt)) {
                 return Ok(e);
             }
@@ -206,7 +206,7 @@ fn choose_by_model(
         find(run, k, &|m| {
             role(m) == Role::Traction && !on(m) && run.ctx.decided[m].is_empty()
         })
-        .and_then(|m| feasible(run.eval((m, k), x, 0.0, (0.0, 0.0))))
+        .and_then(|m| feasible(run.eval((m, k), x, 0.0)))
     };
     let pick = if wants {
         engine().or_else(electric)
@@ -226,6 +226,6 @@ fn requested(run: &Ecms<'_, '_, '_>, (k, x): (usize, &[f64]), shift: f64) -> boo
     xs[run.h.soc] -= shift;
     run.samples.candidates[k]
         .iter()
-        .find_map(|&m| run.eval((m, k), &xs, 0.0, (0.0, 0.0)))
+        .find_map(|&m| run.eval((m, k), &xs, 0.0))
         .is_some_and(|e| e.rule.0 > 0.0)
 }

@@ -1,0 +1,179 @@
+//! The inverse of a strategy's candidate (mode m, decided value d) at a sample and over its interval
+//! [t_k, t_k+1], evaluated in reusable buffers ([`Scratch`]) so that ECMS's minimiser, which evaluates every
+//! candidate many times per sample, allocates nothing (docs/hybrids.md, ECMS). The arithmetic is the one
+//! place where a candidate's inverse, its interval's Runge–Kutta step and its end are computed: the run, DP
+//! and the rules reach it through [`Ecms::eval`] and [`Ecms::interval`].
+
+use super::ecms::Ecms;
+use super::scratch::{Point, Scratch};
+
+/// Mode m's row of the reference: y^(0 … r_max) = offset + scale · y_c (the offset on y only).
+fn reference_into(run: &Ecms<'_, '_, '_>, m: usize, base: &[f64], y: &mut Vec<f64>) {
+    let map = run.ctx.spec.modes[m].model.reference();
+    y.clear();
+    y.extend(base.iter().map(|v| v * map.scale));
+    y[0] += map.offset;
+}
+
+impl Ecms<'_, '_, '_> {
+    /// Mode m's signal values with its decided input at d.
+    pub(super) fn signals_into(&self, m: usize, d: f64, w: &mut Vec<f64>) {
+        w.clear();
+        w.resize(self.ctx.spec.modes[m].model.info().n_w(), 0.0);
+        if let Some(&(_, slot)) = self.ctx.decided[m].first() {
+            w[slot] = d;
+        }
+    }
+
+    /// The inverse of mode m at sample k from the state `x` (its η) with decided value d: x = ψ⁻¹(ξ, η) into
+    /// `sc.x`, η into `sc.eta`, u = (y^(r) − α)/β and the powers; `None` where the inverse fails or is not
+    /// finite.
+    pub(super) fn point_in(
+        &self,
+        (m, k): (usize, usize),
+        x: &[f64],
+        d: f64,
+        sc: &mut Scratch,
+    ) -> Option<Point> {
+        let model = self.ctx.spec.modes[m].model;
+        let info = model.info();
+        let r = info.relative_degree;
+        reference_into(self, m, &self.samples.base[k], &mut sc.y);
+        sc.eta.clear();
+        sc.eta.extend(info.eta_states.iter().map(|&j| x[j]));
+        self.signals_into(m, d, &mut sc.w);
+        sc.x.clear();
+        sc.x.extend_from_slice(x);
+        let u = model
+            .invert(&sc.y[..r], &sc.eta, &sc.w, sc.y[r], &mut sc.x)
+            .ok()?;
+        if !(u.is_finite() && sc.x.iter().all(|v| v.is_finite())) {
+            return None;
+        }
+        Some(self.powers(m, u, false, sc))
+    }
+
+    /// The interval [t_k, t_k+1] after [`Ecms::point_in`] (`sc` holding its state): η by one classical
+    /// Runge–Kutta step of mode m's zero dynamics with d held (the reference at t_k, the midpoint and t_k+1),
+    /// then x = ψ⁻¹ at t_k+1 into `sc.x1` and the powers there; the inverse's error as text.
+    pub(super) fn end_in(
+        &self,
+        (m, k): (usize, usize),
+        d: f64,
+        sc: &mut Scratch,
+    ) -> Result<Point, String> {
+        let info = self.ctx.spec.modes[m].model.info();
+        self.signals_into(m, d, &mut sc.w);
+        sc.eta.clear();
+        sc.eta.extend(info.eta_states.iter().map(|&j| sc.x[j]));
+        self.advance_in((m, k), sc);
+        self.finish_in((m, k), sc)
+    }
+
+    /// The state and free input at t_k+1 from the internal states `sc.eta` (the other states from `sc.x`,
+    /// signals `sc.w`): x = ψ⁻¹ into `sc.x1`, and the powers there.
+    pub(super) fn finish_in(
+        &self,
+        (m, k): (usize, usize),
+        sc: &mut Scratch,
+    ) -> Result<Point, String> {
+        let model = self.ctx.spec.modes[m].model;
+        let r = model.info().relative_degree;
+        reference_into(self, m, &self.samples.base[k + 1], &mut sc.y);
+        sc.x1.clear();
+        sc.x1.extend_from_slice(&sc.x);
+        let u = model
+            .invert(&sc.y[..r], &sc.eta, &sc.w, sc.y[r], &mut sc.x1)
+            .map_err(|e| e.to_string())?;
+        Ok(self.powers(m, u, true, sc))
+    }
+
+    /// η (in `sc.eta`) over [t_k, t_k+1], signals `sc.w`: k₁ = q(y(t_k), η), k₂ = q(y(t_m), η + h/2 k₁),
+    /// k₃ = q(y(t_m), η + h/2 k₂), k₄ = q(y(t_k+1), η + h k₃), η += h/6 (k₁ + 2 k₂ + 2 k₃ + k₄).
+    fn advance_in(&self, (m, k): (usize, usize), sc: &mut Scratch) {
+        let model = self.ctx.spec.modes[m].model;
+        let r = model.info().relative_degree;
+        let h = self.samples.t[k + 1] - self.samples.t[k];
+        let n = sc.eta.len();
+        let rows = [
+            &self.samples.base[k],
+            &self.samples.mid[k],
+            &self.samples.mid[k],
+            &self.samples.base[k + 1],
+        ];
+        let steps = [0.0, h / 2.0, h / 2.0, h];
+        for i in 0..4 {
+            reference_into(self, m, rows[i], &mut sc.y);
+            sc.tmp.clear();
+            if i == 0 {
+                sc.tmp.extend_from_slice(&sc.eta);
+            } else {
+                let prev = &sc.stages[i - 1];
+                sc.tmp
+                    .extend(sc.eta.iter().zip(prev).map(|(x, v)| x + steps[i] * v));
+            }
+            let stage = &mut sc.stages[i];
+            stage.clear();
+            stage.resize(n, 0.0);
+            model.zero_dynamics(&sc.y[..r], &sc.tmp, &sc.w, sc.y[r], stage);
+        }
+        let [k1, k2, k3, k4] = &sc.stages;
+        for j in 0..n {
+            sc.eta[j] += h / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j]);
+        }
+    }
+
+    /// The outputs of mode m at the state `sc.x` (`sc.x1` at the interval's end) with free input u.
+    fn powers(&self, m: usize, u: f64, end: bool, sc: &mut Scratch) -> Point {
+        let model = self.ctx.spec.modes[m].model;
+        sc.outs.clear();
+        sc.outs.resize(model.info().outputs.len(), 0.0);
+        let x = if end { &sc.x1 } else { &sc.x };
+        model.outputs(x, &sc.w, u, &mut sc.outs);
+        Point {
+            u,
+            excess: self.excess(m, u),
+            p_fuel: sc.outs[self.h.fuel],
+            p_batt: sc.outs[self.h.battery],
+            rule: self
+                .h
+                .rules
+                .map_or((f64::NAN, f64::NAN), |(r, g, _)| (sc.outs[r], sc.outs[g])),
+        }
+    }
+
+    /// Candidate (m, d) at sample k from state x priced over its interval, as the run books it:
+    ///
+    ///   J = Δt/2 (P_fuel(t_k) + P_fuel(t_k+1)) + s · Δt/2 (P_batt(t_k) + P_batt(t_k+1)) (+ E_start),
+    ///
+    /// the trapezoids of the run's fuel and battery energies, the powers at t_k+1 those of the interval's end
+    /// with d held ([`Ecms::end_in`]) — DP's stage cost with s pricing the battery's energy. The excess is the
+    /// larger of the two ends' (feasible within 10⁻⁹ of the range at both, as DP's controls). At the last
+    /// sample (no interval) Δt (P_fuel + s P_batt) (+ E_start). `start` is E_start where the engine would
+    /// start. (cost, excess, the points at t_k and t_k+1); `None` where an inverse fails or a cost is not
+    /// finite.
+    pub(super) fn price(
+        &self,
+        (m, k): (usize, usize),
+        x: &[f64],
+        d: f64,
+        (s, start): (f64, f64),
+        sc: &mut Scratch,
+    ) -> Option<(f64, f64, Point, Option<Point>)> {
+        let at = self.point_in((m, k), x, d, sc)?;
+        let penalty = if self.h.engine_on[m] { start } else { 0.0 };
+        if k + 1 == self.samples.t.len() {
+            let cost = self.dt * (at.p_fuel + s * at.p_batt) + penalty;
+            return Some((cost, at.excess, at, None));
+        }
+        let end = self.end_in((m, k), d, sc).ok()?;
+        let h = self.samples.t[k + 1] - self.samples.t[k];
+        let fuel = 0.5 * h * (at.p_fuel + end.p_fuel);
+        let battery = 0.5 * h * (at.p_batt + end.p_batt);
+        if !(fuel.is_finite() && battery.is_finite()) {
+            return None;
+        }
+        let cost = fuel + s * battery + penalty;
+        Some((cost, at.excess.max(end.excess), at, Some(end)))
+    }
+}

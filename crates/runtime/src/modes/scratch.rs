@@ -1,0 +1,29 @@
+//! The buffers of one evaluation of a strategy's candidate and the values it gives at one instant
+//! (docs/hybrids.md, ECMS): plain data, filled by the evaluation in `interval_cost.rs` and read by the
+//! strategies, so that the minimiser's many evaluations per sample allocate nothing.
+
+/// Buffers of one evaluation: the reference, the signals, the internal states, the states at t_k and t_k+1,
+/// the outputs and the Runge–Kutta stages.
+#[derive(Default)]
+pub(super) struct Scratch {
+    pub(super) y: Vec<f64>,
+    pub(super) w: Vec<f64>,
+    pub(super) eta: Vec<f64>,
+    pub(super) x: Vec<f64>,
+    pub(super) x1: Vec<f64>,
+    pub(super) outs: Vec<f64>,
+    pub(super) stages: [Vec<f64>; 4],
+    pub(super) tmp: Vec<f64>,
+}
+
+/// A candidate's values at one instant: the free input, how far it lies beyond its bounds (a fraction of its
+/// range), the fuel and battery powers, the model's rule outputs (`rule_request`, `rule_target`; NaN without
+/// them).
+#[derive(Clone, Copy)]
+pub(super) struct Point {
+    pub(super) u: f64,
+    pub(super) excess: f64,
+    pub(super) p_fuel: f64,
+    pub(super) p_batt: f64,
+    pub(super) rule: (f64, f64),
+}
