@@ -169,102 +169,108 @@ fn check_model(name: &str, skip: &[&str]) {
 /// [`check_model`] with the differences on UDDS for the parameters `udds_only` alone (every parameter on NEDC).
 fn check_model_on(name: &str, skip: &[&str], udds_only: Option<&[&str]>) {
     let path = format!("models/{name}.toml");
-    for cycle in ["nedc", "udds"] {
-        let cycle = Cycle::builtin(cycle).expect("built in");
-        let comp = compiled(name);
-        // With a UDDS subset (a model whose runs with every sensitivity take seconds) the UDDS run asks for the
-        // subset's gradient alone and the engines are compared on NEDC only.
-        let subset = udds_only.filter(|_| cycle.name == "udds");
-        let names = subset.map_or(vec!["all".to_string()], |s| {
-            s.iter().map(|p| p.to_string()).collect()
-        });
-        // Both engines' runs side by side (a causal run with its sensitivities takes seconds).
-        let (si, sc) = std::thread::scope(|scope| {
-            let i = scope.spawn(|| {
-                subset
-                    .is_none()
-                    .then(|| run(interpreted(&path).as_ref(), &cycle, true))
-            });
-            let c = run_for(comp.as_ref(), &cycle, Some(names.clone()));
-            (i.join().expect("the interpreted run"), c)
-        });
-        let gc = block(&sc);
-        let info = comp.info().clone();
-        check_rows(
-            &sc,
-            &gc,
-            subset.map_or(info.parameters.len(), <[&str]>::len),
-        );
-        // r = n: within 1e-12 of the figure; causal: the figures themselves differ between the engines at the
-        // adaptive integrator's tolerance (driveline's E_e by 3e-10 relative) and so do the integrated
-        // sensitivities (p·dE_e/dc_s, 2e-7 of E_e, by 1e-8 of E_e): held to 1e-7 of the figure.
-        let equal = if sc.inversion == "causal" {
-            1e-7
-        } else {
-            1e-12
-        };
-        let values = comp.params().to_vec();
-        let gi = si.as_ref().map(block);
-        for (f, row) in gc
-            .iter()
-            .filter(|(f, _)| gi.is_some() && !skip.contains(&f.as_str()))
-        {
-            let gi = gi.as_ref().expect("compared");
-            let scale = figure(&sc, f).abs();
-            for (p, &v) in row {
-                let k = info
-                    .parameters
-                    .iter()
-                    .position(|q| q == p)
-                    .expect("a parameter");
-                let diff = (v - gi[f][p]).abs() * values[k].abs().max(f64::MIN_POSITIVE);
-                let size = (v.abs() * values[k].abs()).max(scale);
-                assert!(
-                    diff <= equal * size,
-                    "{name} {}: d{f}/d{p} compiled {v:e} interpreted {:e}",
-                    cycle.name,
-                    gi[f][p]
+    // The two cycles side by side: a cycle's single-threaded phases (its gradient run) leave a core to the other.
+    std::thread::scope(|scope| {
+        for cycle in ["nedc", "udds"] {
+            let path = &path;
+            scope.spawn(move || {
+                let cycle = Cycle::builtin(cycle).expect("built in");
+                let comp = compiled(name);
+                // With a UDDS subset (a model whose runs with every sensitivity take seconds) the UDDS
+                // run asks for the subset's gradient alone and the engines are compared on NEDC only.
+                let subset = udds_only.filter(|_| cycle.name == "udds");
+                let names = subset.map_or(vec!["all".to_string()], |s| {
+                    s.iter().map(|p| p.to_string()).collect()
+                });
+                // Both engines' runs side by side (a causal run with its sensitivities takes seconds).
+                let (si, sc) = std::thread::scope(|scope| {
+                    let i = scope.spawn(|| {
+                        subset
+                            .is_none()
+                            .then(|| run(interpreted(path).as_ref(), &cycle, true))
+                    });
+                    let c = run_for(comp.as_ref(), &cycle, Some(names.clone()));
+                    (i.join().expect("the interpreted run"), c)
+                });
+                let gc = block(&sc);
+                let info = comp.info().clone();
+                check_rows(
+                    &sc,
+                    &gc,
+                    subset.map_or(info.parameters.len(), <[&str]>::len),
                 );
-            }
-        }
-        let (rel, noise) = fd_plan(&sc);
-        let names: Vec<&String> = gc.keys().filter(|f| !skip.contains(&f.as_str())).collect();
-        // The parameters' differences on every core (each thread with its own model): driveline's stiff zero
-        // dynamics make each of its runs about a second.
-        let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-        let indices: Vec<usize> = (0..info.parameters.len())
-            .filter(|&k| match udds_only {
-                Some(some) if cycle.name == "udds" => some.contains(&info.parameters[k].as_str()),
-                _ => true,
-            })
-            .collect();
-        std::thread::scope(|scope| {
-            for chunk in indices.chunks(indices.len().div_ceil(threads).max(1)) {
-                let (names, values, info, gc, cycle) = (&names, &values, &info, &gc, &cycle);
-                scope.spawn(move || {
-                    let mut model = compiled(name);
-                    for &k in chunk {
-                        let p = &info.parameters[k];
-                        let fd = central(
-                            model.as_mut(),
-                            cycle,
-                            (k, step(values[k], rel), noise),
-                            names,
+                // r = n: within 1e-12 of the figure; causal: the figures themselves differ between the engines at the
+                // adaptive integrator's tolerance (driveline's E_e by 3e-10 relative) and so do the integrated
+                // sensitivities (p·dE_e/dc_s, 2e-7 of E_e, by 1e-8 of E_e): held to 1e-7 of the figure.
+                let equal = if sc.inversion == "causal" {
+                    1e-7
+                } else {
+                    1e-12
+                };
+                let values = comp.params().to_vec();
+                let gi = si.as_ref().map(block);
+                for (f, row) in gc
+                    .iter()
+                    .filter(|(f, _)| gi.is_some() && !skip.contains(&f.as_str()))
+                {
+                    let gi = gi.as_ref().expect("compared");
+                    let scale = figure(&sc, f).abs();
+                    for (p, &v) in row {
+                        let k = info
+                            .parameters
+                            .iter()
+                            .position(|q| q == p)
+                            .expect("a parameter");
+                        let diff = (v - gi[f][p]).abs() * values[k].abs().max(f64::MIN_POSITIVE);
+                        let size = (v.abs() * values[k].abs()).max(scale);
+                        assert!(
+                            diff <= equal * size,
+                            "{name} {}: d{f}/d{p} compiled {v:e} interpreted {:e}",
+                            cycle.name,
+                            gi[f][p]
                         );
-                        for (f, (d, err)) in names.iter().zip(fd) {
-                            let g = gc[*f][p];
-                            let ok = (g - d).abs() <= (1e-6 * g.abs().max(d.abs())).max(2.0 * err);
-                            assert!(
-                                ok,
-                                "{name} {}: d{f}/d{p} = {g:e}, central differences {d:e} ± {err:e}",
-                                cycle.name
-                            );
-                        }
+                    }
+                }
+                let (rel, noise) = fd_plan(&sc);
+                let names: Vec<&String> = gc.keys().filter(|f| !skip.contains(&f.as_str())).collect();
+                // The parameters' differences on every core (each thread with its own model): driveline's stiff zero
+                // dynamics make each of its runs about a second.
+                let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+                let indices: Vec<usize> = (0..info.parameters.len())
+                    .filter(|&k| match udds_only {
+                        Some(some) if cycle.name == "udds" => some.contains(&info.parameters[k].as_str()),
+                        _ => true,
+                    })
+                    .collect();
+                std::thread::scope(|scope| {
+                    for chunk in indices.chunks(indices.len().div_ceil(threads).max(1)) {
+                        let (names, values, info, gc, cycle) = (&names, &values, &info, &gc, &cycle);
+                        scope.spawn(move || {
+                            let mut model = compiled(name);
+                            for &k in chunk {
+                                let p = &info.parameters[k];
+                                let fd = central(
+                                    model.as_mut(),
+                                    cycle,
+                                    (k, step(values[k], rel), noise),
+                                    names,
+                                );
+                                for (f, (d, err)) in names.iter().zip(fd) {
+                                    let g = gc[*f][p];
+                                    let ok = (g - d).abs() <= (1e-6 * g.abs().max(d.abs())).max(2.0 * err);
+                                    assert!(
+                                        ok,
+                                        "{name} {}: d{f}/d{p} = {g:e}, central differences {d:e} ± {err:e}",
+                                        cycle.name
+                                    );
+                                }
+                            }
+                        });
                     }
                 });
-            }
-        });
-    }
+            });
+        }
+    });
 }
 
 #[test]
