@@ -65,47 +65,56 @@ fn interp((x, y): &(Vec<f64>, Vec<f64>), a: f64) -> f64 {
 
 #[test]
 fn fastsim_hybrids_run_udds_with_every_strategy() {
-    for stem in VEHICLES {
-        let table = fc_table(stem);
-        let mut corrected = Vec::new();
-        for strategy in ["ecms", "dp", "rule-based"] {
-            let (v, header, rows) = run(stem, strategy);
-            let h = &v["hybrid"];
-            let dsoc = h["delta_soc"].as_f64().unwrap();
-            if strategy == "rule-based" {
-                // Not charge-sustaining by construction: within 0.05 of the start, and corrected.
-                assert!(dsoc.abs() < 0.05, "{stem} {strategy}: ΔSOC {dsoc}");
-            } else {
-                assert!(dsoc.abs() <= 1e-4, "{stem} {strategy}: ΔSOC {dsoc}");
-                assert_eq!(h["charge_sustaining"].as_bool(), Some(true), "{stem}");
-            }
-            corrected.push(h["fuel_energy_corrected_j"].as_f64().unwrap());
-            // The fuel power is P_e/e(P_e/P_fc_max) with FASTSim's table, at every sample the engine runs.
-            let (p_e, fuel) = (
-                col(&header, &rows, "P_engine"),
-                col(&header, &rows, "fuel_energy"),
-            );
-            let p_max = v["inputs"][0]["upper_bound"].as_f64().unwrap();
-            assert_eq!(v["inputs"][0]["name"], "P_e");
-            for (p, f) in p_e.iter().zip(&fuel) {
-                if *p > 0.0 {
-                    let expected = p / interp(&table, p / p_max);
-                    assert!(
-                        (f - expected).abs() <= 1e-9 * expected,
-                        "{stem} {strategy}: {f} vs {expected}"
-                    );
-                }
-            }
+    // The two vehicles side by side (six runs of a few seconds each).
+    std::thread::scope(|scope| {
+        for stem in VEHICLES {
+            scope.spawn(move || check_vehicle(stem));
         }
-        // A few MJ of fuel over UDDS (FASTSim's own figures: Prius 14.3 MJ, Sonata warm 12 to 14 MJ).
-        for c in &corrected {
-            assert!((8e6..2e7).contains(c), "{stem}: {corrected:?}");
+    });
+}
+
+/// One vehicle's three runs: charge sustaining, the fuel power against FASTSim's table, ECMS no worse than the
+/// rules.
+fn check_vehicle(stem: &str) {
+    let table = fc_table(stem);
+    let mut corrected = Vec::new();
+    for strategy in ["ecms", "dp", "rule-based"] {
+        let (v, header, rows) = run(stem, strategy);
+        let h = &v["hybrid"];
+        let dsoc = h["delta_soc"].as_f64().unwrap();
+        if strategy == "rule-based" {
+            // Not charge-sustaining by construction: within 0.05 of the start, and corrected.
+            assert!(dsoc.abs() < 0.05, "{stem} {strategy}: ΔSOC {dsoc}");
+        } else {
+            assert!(dsoc.abs() <= 1e-4, "{stem} {strategy}: ΔSOC {dsoc}");
+            assert_eq!(h["charge_sustaining"].as_bool(), Some(true), "{stem}");
         }
-        assert!(
-            corrected[0] <= corrected[2],
-            "{stem}: ECMS above the rules: {corrected:?}"
+        corrected.push(h["fuel_energy_corrected_j"].as_f64().unwrap());
+        // The fuel power is P_e/e(P_e/P_fc_max) with FASTSim's table, at every sample the engine runs.
+        let (p_e, fuel) = (
+            col(&header, &rows, "P_engine"),
+            col(&header, &rows, "fuel_energy"),
         );
+        let p_max = v["inputs"][0]["upper_bound"].as_f64().unwrap();
+        assert_eq!(v["inputs"][0]["name"], "P_e");
+        for (p, f) in p_e.iter().zip(&fuel) {
+            if *p > 0.0 {
+                let expected = p / interp(&table, p / p_max);
+                assert!(
+                    (f - expected).abs() <= 1e-9 * expected,
+                    "{stem} {strategy}: {f} vs {expected}"
+                );
+            }
+        }
     }
+    // A few MJ of fuel over UDDS (FASTSim's own figures: Prius 14.3 MJ, Sonata warm 12 to 14 MJ).
+    for c in &corrected {
+        assert!((8e6..2e7).contains(c), "{stem}: {corrected:?}");
+    }
+    assert!(
+        corrected[0] <= corrected[2],
+        "{stem}: ECMS above the rules: {corrected:?}"
+    );
 }
 
 /// `--strategy rule-based` follows the imported model's own rules (FASTSim's controller, `[hybrid]`
