@@ -301,7 +301,7 @@ const WARNINGS: &[(&str, &str)] = &[
     ),
     ("crates/import/src/bev.rs", "does not start at zero load"),
     (
-        "crates/import/src/conv.rs",
+        "crates/import/src/fuel.rs",
         "is not set: the fuel is reported as energy",
     ),
     (
@@ -315,10 +315,6 @@ const WARNINGS: &[(&str, &str)] = &[
     (
         "crates/import/src/battery.rs",
         "the battery efficiency is read at the temperature signal `T_res`",
-    ),
-    (
-        "crates/import/src/hev.rs",
-        "is not set: the fuel is reported as energy",
     ),
     (
         "crates/import/src/hev.rs",

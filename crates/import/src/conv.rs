@@ -30,34 +30,11 @@ pub fn emit(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<
         "alternator efficiency (the auxiliary load drawn from the engine)",
         &p("alt_eff"),
     )?;
-    model.field(
-        "P_idle",
-        doc.num(&p("fc.pwr_idle_fuel_watts"))?,
-        "W",
-        "idle fuel power: the floor of the fuel power while the engine runs",
-        &p("fc.pwr_idle_fuel_watts"),
-    )?;
-    let e_f_path = p("fs.specific_energy_joules_per_kilogram");
-    // Unset (null or FASTSim's `.nan`): fuel as energy only; set: checked against its range like every field.
-    let e_f = doc.opt_num(&e_f_path)?.filter(|x| !x.is_nan());
-    match e_f {
-        Some(e_f) => model.field("e_f", e_f, "J/kg", "fuel specific energy (lower heating value)", &e_f_path)?,
-        None => warnings.push(format!(
-            "`{e_f_path}` is not set: the fuel is reported as energy (fuel_energy, J) only, not as mass, and the model has no [headline]"
-        )),
-    }
+    let e_f = crate::fuel::idle_and_energy(doc, model, BASE, warnings)?;
     let curve = table(doc, &p("fc.eff_interp_from_pwr_out"))?;
     model.def("P_fc", "max(P_w, 0)/eta_t + P_aux/eta_alt", "W", "engine output power: traction through the transmission plus the auxiliary load through the alternator");
     let eff = efficiency::emit(model, "fc", &curve, "P_fc/P_fc_max", "engine efficiency")?;
-    // A table with e(0) = 0 (a brake efficiency vanishes at zero load): P_fc/e is 0/0 there, with the limit
-    // P_fc,max · x_1/e_1 of the first, linear segment, which max(e, 1e-12) keeps for every load above
-    // 1e-12 · x_1/e_1; at zero load the quotient is 0 and the idle floor applies, as in FASTSim, whose
-    // max(NaN, P_idle) is P_idle.
-    let divisor = if crate::curve::zero_at_zero_load(&curve) {
-        format!("max({eff}, 1e-12)")
-    } else {
-        eff.clone()
-    };
+    let divisor = crate::fuel::divisor(&curve, &eff);
     let thermal = doc.get(&p("fc.thrml.FuelConverterThermal")).is_some();
     let controls = crate::controls::emit(doc, model, BASE, thermal, warnings)?;
     let thermal =
@@ -79,7 +56,7 @@ pub fn emit(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<
         "W",
         doc_fuel,
     );
-    if e_f.is_some() {
+    if e_f {
         // FASTSim's conventional vehicles burn gasoline (its mpg counts 33.7 kWh of fuel energy per gallon).
         model.output("fuel", "P_fuel/e_f", "kg/s", "fuel mass flow: the model's answer (the [headline], in l/100 km, mpg and CO2 g/km as petrol)", true);
         model.headline("fuel", Some("petrol"));

@@ -77,31 +77,13 @@ fn engine(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<f6
         "engine peak power",
         &p("fc.pwr_out_max_watts"),
     )?;
-    model.field(
-        "P_idle",
-        doc.num(&p("fc.pwr_idle_fuel_watts"))?,
-        "W",
-        "idle fuel power: the floor of the fuel power while the engine runs",
-        &p("fc.pwr_idle_fuel_watts"),
-    )?;
-    let e_f_path = p("fs.specific_energy_joules_per_kilogram");
-    match doc.opt_num(&e_f_path)?.filter(|x| !x.is_nan()) {
-        Some(e_f) => {
-            model.field("e_f", e_f, "J/kg", "fuel specific energy (lower heating value)", &e_f_path)?;
-            model.output("fuel", "P_fuel/e_f", "kg/s", "fuel mass flow: the model's answer (the [headline], in l/100 km, mpg and CO2 g/km as petrol)", true);
-            model.headline("fuel", Some("petrol"));
-        }
-        None => warnings.push(format!(
-            "`{e_f_path}` is not set: the fuel is reported as energy (fuel_energy, J) only, not as mass, and the model has no [headline]"
-        )),
+    if crate::fuel::idle_and_energy(doc, model, BASE, warnings)? {
+        model.output("fuel", "P_fuel/e_f", "kg/s", "fuel mass flow: the model's answer (the [headline], in l/100 km, mpg and CO2 g/km as petrol)", true);
+        model.headline("fuel", Some("petrol"));
     }
     let curve = table(doc, &p("fc.eff_interp_from_pwr_out"))?;
     let eff = crate::efficiency::emit(model, "fc", &curve, "P_e/P_fc_max", "engine efficiency")?;
-    let divisor = if crate::curve::zero_at_zero_load(&curve) {
-        format!("max({eff}, 1e-12)")
-    } else {
-        eff
-    };
+    let divisor = crate::fuel::divisor(&curve, &eff);
     model.def(
         "P_fuel",
         &format!("c_on*max(P_e/{divisor}, P_idle)"),

@@ -18,6 +18,7 @@ mod depth;
 mod efficiency;
 mod error;
 mod fastsim;
+mod fuel;
 mod hev;
 mod hev_rules;
 mod limits;
