@@ -116,12 +116,13 @@ pub(super) struct Ecms<'c, 'a, 'm> {
 }
 
 impl Ecms<'_, '_, '_> {
-    /// y^(0 … r_max) of mode m's reference from the smoothed cycle `base` (its map: offset + scale · y_c).
-    fn reference(&self, m: usize, base: &[f64]) -> Vec<f64> {
+    /// y^(0 … r_max) of mode m's reference from the smoothed cycle `base` into `y` (its map: offset + scale · y_c,
+    /// the offset on y only).
+    pub(super) fn reference_into(&self, m: usize, base: &[f64], y: &mut Vec<f64>) {
         let map = self.ctx.spec.modes[m].model.reference();
-        let mut y: Vec<f64> = base.iter().map(|v| v * map.scale).collect();
+        y.clear();
+        y.extend(base.iter().map(|v| v * map.scale));
         y[0] += map.offset;
-        y
     }
 
     /// The inverse of mode m at sample k from the state `x` (its η) with decided value d.
@@ -408,7 +409,8 @@ impl Ecms<'_, '_, '_> {
 
     /// Record the chosen candidate at sample k.
     fn push(&self, rec: &mut Record, k: usize, e: &Eval) {
-        let yref = self.reference(e.m, &self.samples.base[k]);
+        let mut yref = Vec::new();
+        self.reference_into(e.m, &self.samples.base[k], &mut yref);
         rec.push_solved(&Solved {
             x: e.x.clone(),
             u: e.u,

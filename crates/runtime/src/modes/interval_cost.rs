@@ -7,14 +7,6 @@
 use super::ecms::Ecms;
 use super::scratch::{Point, Scratch};
 
-/// Mode m's row of the reference: y^(0 … r_max) = offset + scale · y_c (the offset on y only).
-fn reference_into(run: &Ecms<'_, '_, '_>, m: usize, base: &[f64], y: &mut Vec<f64>) {
-    let map = run.ctx.spec.modes[m].model.reference();
-    y.clear();
-    y.extend(base.iter().map(|v| v * map.scale));
-    y[0] += map.offset;
-}
-
 impl Ecms<'_, '_, '_> {
     /// Mode m's signal values with its decided input at d.
     pub(super) fn signals_into(&self, m: usize, d: f64, w: &mut Vec<f64>) {
@@ -38,7 +30,7 @@ impl Ecms<'_, '_, '_> {
         let model = self.ctx.spec.modes[m].model;
         let info = model.info();
         let r = info.relative_degree;
-        reference_into(self, m, &self.samples.base[k], &mut sc.y);
+        self.reference_into(m, &self.samples.base[k], &mut sc.y);
         sc.eta.clear();
         sc.eta.extend(info.eta_states.iter().map(|&j| x[j]));
         self.signals_into(m, d, &mut sc.w);
@@ -79,7 +71,7 @@ impl Ecms<'_, '_, '_> {
     ) -> Result<Point, String> {
         let model = self.ctx.spec.modes[m].model;
         let r = model.info().relative_degree;
-        reference_into(self, m, &self.samples.base[k + 1], &mut sc.y);
+        self.reference_into(m, &self.samples.base[k + 1], &mut sc.y);
         sc.x1.clear();
         sc.x1.extend_from_slice(&sc.x);
         let u = model
@@ -103,7 +95,7 @@ impl Ecms<'_, '_, '_> {
         ];
         let steps = [0.0, h / 2.0, h / 2.0, h];
         for i in 0..4 {
-            reference_into(self, m, rows[i], &mut sc.y);
+            self.reference_into(m, rows[i], &mut sc.y);
             sc.tmp.clear();
             if i == 0 {
                 sc.tmp.extend_from_slice(&sc.eta);
