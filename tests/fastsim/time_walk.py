@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Time FASTSim 3's `SimDrive(veh, cyc).walk()` of the 2012 Ford Fusion on UDDS (its own 1 s grid), to set
-beside the criterion bench `cargo bench -p invsim-import --bench fusion_udds` (the imported Fusion on the same
+beside the criterion bench `cargo bench -p invsim-bench --bench fusion_udds` (the imported Fusion on the same
 cycle, in-process). The median over REPEATS runs after one warm-up run; the SimDrive is built inside the
 timed call, as each FASTSim run needs a fresh one.
 

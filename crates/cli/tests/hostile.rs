@@ -28,7 +28,7 @@
 //! happens; they are only checked for being well-formed. Move one up a directory once its defect is fixed
 //! (the suite then runs it).
 
-use regex::Regex;
+use regex_lite::Regex;
 use serde_json::Value;
 use std::collections::BTreeMap;
 use std::os::unix::process::ExitStatusExt;

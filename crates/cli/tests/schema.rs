@@ -138,9 +138,9 @@ fn check(root: &Value, schema: &Value, value: &Value, path: &str, errors: &mut V
 }
 
 /// Does `key` match the JSON Schema `pattern` (an ECMA-262 regular expression; the ones the schema uses are
-/// also Rust `regex` syntax)?
+/// also the syntax of Rust's `regex-lite`)?
 fn matches_pattern(pattern: &str, key: &str) -> bool {
-    regex::Regex::new(pattern)
+    regex_lite::Regex::new(pattern)
         .unwrap_or_else(|e| panic!("pattern `{pattern}`: {e}"))
         .is_match(key)
 }

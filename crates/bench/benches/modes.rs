@@ -12,7 +12,7 @@ use invsim_runtime::modes::{
 };
 use invsim_runtime::{simulate, Cycle, SimulationOptions};
 
-#[path = "../tests/modes_support.rs"]
+#[path = "../../runtime/tests/modes_support.rs"]
 mod support;
 
 fn nedc_modes(c: &mut Criterion) {

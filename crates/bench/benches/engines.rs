@@ -10,7 +10,7 @@ use std::hint::black_box;
 use std::path::PathBuf;
 
 fn engines(c: &mut Criterion) {
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../models/si_engine.toml");
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../models/si_engine.toml");
     let d = derive_file(&path).expect("models/si_engine.toml derives");
     let interp = Interpreter::new(&d).expect("interpreter");
     let compiled = invsim_models::by_hash(&d.model.source_hash).expect("si_engine is built in");

@@ -11,7 +11,7 @@ use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use invsim_runtime::simulate::simulate_reusing;
 use invsim_runtime::{simulate, Cycle, SimulationOptions, Smoother};
 
-#[path = "../tests/common/mod.rs"]
+#[path = "../../runtime/tests/common/mod.rs"]
 mod common;
 
 fn nedc_si_engine(c: &mut Criterion) {
