@@ -5,7 +5,8 @@
 //! * `docs [--check]` — the derived-equation documents `docs/models/<name>.md` and `docs/README.md` ([`docs`]);
 //! * `golden [--bless]` — the golden copy of the generated si_engine source ([`golden`]);
 //! * `figures [--check]` — the SVG figures under `docs/figures/` ([`figures`]);
-//! * `vehicles [--check]` — the FASTSim vehicle library `models/vehicles/` ([`vehicles`]).
+//! * `vehicles [--check]` — the FASTSim vehicle library `models/vehicles/` ([`vehicles`]);
+//! * `test [--no-python]` — every test, the Rust ones beside the Python package's ([`test`]).
 //!
 //! The tasks are a library so that the workspace's tests check exactly what the tasks write. Every file a task
 //! generates goes through [`ensure_file_contents`], which writes it only if it changed or, in check mode, fails
@@ -15,6 +16,7 @@ pub mod docs;
 pub mod figures;
 pub mod gen;
 pub mod golden;
+pub mod test;
 pub mod vehicles;
 
 use std::path::{Path, PathBuf};
