@@ -361,14 +361,15 @@ def sweep_frame(param_names, rows, cycles, names, cols, variant_offset=0):
         rec = {"variant": variant + variant_offset, "cycle": cycles[cycle]}
         if values:
             rec.update(zip(param_names, values))
-        else:  # the parameters could not be set: the variant's own values
-            rec.update({n: float(c[variant]) for n, c in zip(names, cols)})
+        # The variant's own values: all of them where the parameters could not be set, else those that are no
+        # declared parameter (one gear's value of a gearbox parameter, `i_g[3]`).
+        rec.update({n: float(c[variant]) for n, c in zip(names, cols) if not values or n not in param_names})
         rec["error"] = error
         if summary is not None:
             rec.update(_flatten(json.loads(summary)))
         records.append(rec)
     df = pd.DataFrame.from_records(records)
-    front = ["variant", "cycle"] + list(param_names) + ["error"]
+    front = ["variant", "cycle"] + list(param_names) + [n for n in names if n not in param_names] + ["error"]
     rest = [c for c in df.columns if c not in front]
     return df.reindex(columns=[c for c in front if c in df.columns] + rest)
 

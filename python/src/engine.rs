@@ -72,6 +72,16 @@ impl Loaded {
         self.kind.info().parameters.clone()
     }
 
+    /// The names a sweep sets: the declared parameters and, for a model with a gearbox, the per-gear names
+    /// of the parameters it sets per gear (`i_g[3]`).
+    pub fn settable(&self) -> Vec<String> {
+        let mut names = self.parameters();
+        if let Kind::Modal(m) = &self.kind {
+            names.extend(m.plant.gear_parameters().per_gear_names());
+        }
+        names
+    }
+
     /// A fresh copy of the model with `params` set, as the runtime runs it.
     pub fn plant(&self, params: &[(String, f64)]) -> Result<Plant, Failure> {
         match &self.kind {

@@ -328,7 +328,7 @@ fn check_variants(model: &Loaded, v: &Variants) -> Result<(), Failure> {
             c.len()
         )));
     }
-    let known = model.parameters();
+    let known = model.settable();
     if let Some(name) = v.names.iter().find(|n| !known.contains(n)) {
         return Err(Failure::msg(format!(
             "sweep parameter `{name}`: the model has no such parameter (its parameters: {})",

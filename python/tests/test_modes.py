@@ -121,6 +121,15 @@ def test_sweep_refuses_a_gearbox_parameter():
     assert df["error"].str.contains(r"\[gearbox\]").all()
 
 
+def test_one_gear_s_ratio_sweeps_by_its_per_gear_name(tmp_path):
+    # `i_g[3]`, the third gear's ratio, as the command line's `--grid 'i_g[3]=…'` sweeps it: the same rows.
+    header, rows = cli_sweep(tmp_path, FIVE_SPEED, "--cycle", "ece", "--dt", "0.5", "--grid", "i_g[3]=1.2:1.5:2")
+    df = invsim.Model(FIVE_SPEED).sweep(grid={"i_g[3]": np.linspace(1.2, 1.5, 2)}, cycles=["ece"], dt=0.5)
+    assert df["error"].isna().all(), df["error"].tolist()
+    assert_rows_equal_cli(df, header, rows, ["i_g[3]"])
+    assert df["integrals.fuel"].iloc[1] > df["integrals.fuel"].iloc[0]
+
+
 def test_derive_equals_cli(modal):
     path, m = modal
     assert m.derive() == cli_json("derive", path, "--format", "json")

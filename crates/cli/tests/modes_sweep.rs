@@ -148,9 +148,10 @@ fn six_speed_fusion_rows_equal_simulate() {
     }
 }
 
-/// A gear ratio is set per gear by the gearbox: sweeping it is refused, naming the parameter.
+/// A gear ratio is set per gear by the gearbox: sweeping it whole is refused, naming the parameter and its
+/// per-gear names.
 #[test]
-fn a_gearbox_parameter_is_not_swept() {
+fn a_gearbox_parameter_is_not_swept_whole() {
     let o = invsim(&[
         "sweep",
         "models/si_engine_5speed.toml",
@@ -160,5 +161,71 @@ fn a_gearbox_parameter_is_not_swept() {
         "i_g=3:4:2",
     ]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(stderr(&o).contains("i_g"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("i_g[1] … i_g[5]"), "{}", stderr(&o));
+}
+
+/// One gear's ratio swept by its per-gear name (`--grid 'i_g[3]=…'`): every row's fuel equals `simulate` of
+/// a copy of the model file whose [gearbox] lists that ratio for third gear (no `--set`: the file itself);
+/// a gear the gearbox does not have is an unknown name listing the per-gear ones.
+#[test]
+fn one_gear_s_ratio_is_swept_by_its_per_gear_name() {
+    let model = "models/si_engine_5speed.toml";
+    let out = tmp("modal-sweep-i_g3.csv");
+    let o = invsim(&[
+        "sweep",
+        model,
+        "--cycle",
+        "ece",
+        "--dt",
+        "0.5",
+        "--grid",
+        "i_g[3]=1.2:1.5:2",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (header, rows) = read_csv(&out);
+    let col = |name: &str| header.iter().position(|h| h == name).expect(name);
+    let text = std::fs::read_to_string(common::root().join(model)).unwrap();
+    let ratios = "i_g = [3.58, 2.02, 1.35, 1.03, 0.81]";
+    assert!(text.contains(ratios), "the model's [gearbox] ratios");
+    let mut fuels = Vec::new();
+    for row in &rows {
+        let third = &row[col("i_g[3]")];
+        let copy = tmp(&format!("si_engine_5speed_i_g3_{third}.toml"));
+        let edited = text.replace(ratios, &format!("i_g = [3.58, 2.02, {third}, 1.03, 0.81]"));
+        std::fs::write(&copy, edited).unwrap();
+        let summary = tmp(&format!("si_engine_5speed_i_g3_{third}.json"));
+        let s = invsim(&[
+            "simulate",
+            copy.to_str().unwrap(),
+            "--cycle",
+            "ece",
+            "--dt",
+            "0.5",
+            "--summary-json",
+            summary.to_str().unwrap(),
+        ]);
+        assert!(s.status.success(), "{}", stderr(&s));
+        let expected = json_file(&summary)["integrals"]["fuel"].as_f64().unwrap();
+        let swept = num(&row[col("fuel")]);
+        assert!(
+            (swept - expected).abs() <= 1e-9 * expected,
+            "i_g[3] = {third}: sweep {swept}, simulate {expected}"
+        );
+        fuels.push(swept);
+    }
+    assert_eq!(rows.len(), 2);
+    assert!(
+        fuels[1] > fuels[0],
+        "a shorter third gear burns more: {fuels:?}"
+    );
+    let o = invsim(&["sweep", model, "--cycle", "ece", "--grid", "i_g[6]=1:2:2"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("unknown parameter `i_g[6]`"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(stderr(&o).contains("i_g[5]"), "{}", stderr(&o));
 }

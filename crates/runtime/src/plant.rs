@@ -41,10 +41,23 @@ impl Plant {
     /// Why parameter `name` cannot be set on its own (one the gearbox sets per gear), if it cannot.
     pub fn not_settable(&self, name: &str) -> Option<String> {
         match self {
-            Plant::Modal(p) if p.is_gear_parameter(name) => Some(format!(
-                "`{name}` is set per gear by the model's [gearbox]; change its values there"
-            )),
+            Plant::Modal(p) if p.is_gear_parameter(name) => {
+                let gears = p.gear_parameters().gears;
+                Some(format!(
+                    "`{name}` is set per gear by the model's [gearbox]; change its values there or set \
+                     one gear's, {name}[1] … {name}[{gears}]"
+                ))
+            }
             _ => None,
+        }
+    }
+
+    /// The per-gear names of the parameters the gearbox sets per gear (`i_g[1]` … `i_g[5]`), which a sweep
+    /// and `--set` take beside the parameters; none for a model without a gearbox.
+    pub fn per_gear_names(&self) -> Vec<String> {
+        match self {
+            Plant::Single(_) => Vec::new(),
+            Plant::Modal(p) => p.gear_parameters().per_gear_names(),
         }
     }
 

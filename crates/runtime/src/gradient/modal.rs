@@ -62,6 +62,17 @@ pub struct GearParameters<'a> {
     pub gears: usize,
 }
 
+impl GearParameters<'_> {
+    /// Every gear's name of every parameter the gearbox sets per gear, `NAME[g]` (`i_g[1]` … `i_g[5]`): the
+    /// names `--set`, a sweep and `--gradient` take for them.
+    pub fn per_gear_names(&self) -> Vec<String> {
+        self.names
+            .iter()
+            .flat_map(|n| (1..=self.gears).map(move |g| format!("{n}[{g}]")))
+            .collect()
+    }
+}
+
 /// The derivatives asked for by `names` (`all`: every parameter that is not the gearbox's and every gear's
 /// value of each that is), in the parameters' order with a gearbox parameter's gears in order.
 pub fn resolve_modal(

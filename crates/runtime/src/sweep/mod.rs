@@ -335,13 +335,15 @@ impl SweepBuilder {
         let model = (self.factory)().map_err(SweepError::Model)?;
         check_strategy(&model, &opts)?;
         let (names, variants) = expand(&self.design)?;
-        check_names(&model.parameters(), &names)?;
         if let Some((name, reason)) = names
             .iter()
             .find_map(|n| model.not_settable(n).map(|r| (n.clone(), r)))
         {
             return Err(SweepError::NotSettable { name, reason });
         }
+        let mut settable = model.parameters();
+        settable.extend(model.per_gear_names());
+        check_names(&settable, &names)?;
         let cycles = self
             .cycles
             .into_iter()
@@ -525,7 +527,8 @@ pub fn check_strategy(model: &Plant, opts: &SimulationOptions) -> Result<(), Swe
     Ok(())
 }
 
-/// Every swept name is a parameter of the model, and none twice.
+/// Every swept name is one the model takes (a parameter, or a gearbox parameter's per-gear name), and none
+/// twice.
 fn check_names(declared: &[String], names: &[String]) -> Result<(), SweepError> {
     for (i, name) in names.iter().enumerate() {
         if names[..i].contains(name) {
