@@ -2,7 +2,7 @@
 //! Ṡ = A(t) S + B(t), S of ne rows and P columns: the sensitivity equations of the zero dynamics
 //! ([`super::pass`]).
 //!
-//! The collocation method of Hairer & Wanner, *Solving Ordinary Differential Equations II*, §IV.5, Table 5.1
+//! The collocation method of Hairer & Wanner, *Solving Ordinary Differential Equations II*, §IV.5
 //! (s = 2): nodes c = 1/2 ∓ √3/6, a = [[1/4, 1/4 − √3/6], [1/4 + √3/6, 1/4]], weights b = [1/2, 1/2]. For a
 //! linear right-hand side the stages K_i = A_i (S + h Σ_j a_ij K_j) + B_i (A_i = A(t + c_i h), likewise B_i)
 //! are the linear system
@@ -12,9 +12,11 @@
 //! [   −h a21 A2    I − h a22 A2 ] [K2] = [A2 S + B2],        S(t + h) = S + h (b1 K1 + b2 K2)
 //! ```
 //!
-//! solved for all P columns with one LU factorisation. Its stability function is the (2, 2) Padé
-//! approximation of e^z, |R(z)| < 1 on the whole open left half-plane (Hairer & Wanner II, §IV.3, Thm. 3.6
-//! and §IV.4), so no step size is too large for a stable A.
+//! factorised once per step for all P columns ([`Gauss`]). Its stability function is the (2, 2) Padé
+//! approximation of e^z, R(z) = (1 + z/2 + z²/12)/(1 − z/2 + z²/12), |R(z)| < 1 on the whole open left
+//! half-plane (A-stable; Hairer & Wanner II, §IV.3–IV.4), so no step size is too large for a stable A; it is
+//! not L-stable (|R(z)| → 1 as z → −∞): beyond hλ ≈ −3.5, where |R| is smallest (0.07), a stiff component is
+//! damped less and less.
 
 const SQRT3_6: f64 = 0.288_675_134_594_812_9; // √3/6
 
@@ -25,20 +27,27 @@ pub(crate) const NODES: [f64; 2] = [0.5 - SQRT3_6, 0.5 + SQRT3_6];
 const A: [[f64; 2]; 2] = [[0.25, 0.25 - SQRT3_6], [0.25 + SQRT3_6, 0.25]];
 
 /// The stage system is singular or not finite: h·A has an eigenvalue at a pole of the stability function
-/// (only possible for an A with eigenvalues in the right half-plane), or A or B is not finite.
+/// (only possible for an A with eigenvalues in the right half-plane), or A is not finite.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) struct Singular;
 
-/// The stage system's matrix, its LU factors and the right-hand sides, reused from step to step. Every matrix
-/// is column-major: entry (i, j) of a matrix of m rows at j·m + i. (Plain loops rather than nalgebra's generic
-/// LU: the system is small and solved for many columns at every step, where the generic code's overhead
-/// dominated in unoptimised builds.)
+/// The stage system's matrix and the step's transition matrices, reused from step to step. Every matrix is
+/// column-major: entry (i, j) of a matrix of m rows at j·m + i.
+///
+/// With W = (h/2) [I I] M⁻¹ = [W1 W2] (M the stage matrix of the module doc) the step is
+/// S(t + h) = S + W [A1 S + B1; A2 S + B2] = Φ S + W1 B1 + W2 B2 with Φ = I + W1 A1 + W2 A2: M is inverted once
+/// (2ne solves) and each of the P columns then costs three ne × ne products. (Plain loops rather than
+/// nalgebra's generic LU and products: the matrices are small and the generic code's overhead dominated in
+/// unoptimised builds.)
 pub(crate) struct Gauss {
     ne: usize,
     np: usize,
     m: Vec<f64>,
     piv: Vec<usize>,
-    k: Vec<f64>,
+    /// W (ne × 2ne), Φ (ne × ne) and a column of length 2ne.
+    w: Vec<f64>,
+    phi: Vec<f64>,
+    x: Vec<f64>,
 }
 
 impl Gauss {
@@ -50,7 +59,9 @@ impl Gauss {
             np,
             m: vec![0.0; n2 * n2],
             piv: vec![0; n2],
-            k: vec![0.0; n2],
+            w: vec![0.0; ne * n2],
+            phi: vec![0.0; ne * ne],
+            x: vec![0.0; n2],
         }
     }
 
@@ -63,6 +74,28 @@ impl Gauss {
         b: [&[f64]; 2],
         s: &mut [f64],
     ) -> Result<(), Singular> {
+        self.transition(h, a)?;
+        let ne = self.ne;
+        let (w, phi, x) = (&self.w, &self.phi, &mut self.x[..ne]);
+        for c in 0..self.np {
+            let sc = &mut s[c * ne..(c + 1) * ne];
+            for (row, v) in x.iter_mut().enumerate() {
+                let mut sum = 0.0;
+                for j in 0..ne {
+                    sum += phi[j * ne + row] * sc[j]
+                        + w[j * ne + row] * b[0][c * ne + j]
+                        + w[(ne + j) * ne + row] * b[1][c * ne + j];
+                }
+                *v = sum;
+            }
+            sc.copy_from_slice(x);
+        }
+        Ok(())
+    }
+
+    /// W = (h/2) [I I] M⁻¹ column by column (M⁻¹ e_k by the LU factors; b1 = b2 = 1/2) and
+    /// Φ = I + W1 A1 + W2 A2.
+    fn transition(&mut self, h: f64, a: [&[f64]; 2]) -> Result<(), Singular> {
         let (ne, n2) = (self.ne, 2 * self.ne);
         for (idx, v) in self.m.iter_mut().enumerate() {
             let (row, col) = (idx % n2, idx / n2);
@@ -71,18 +104,23 @@ impl Gauss {
             *v = unit - h * A[i][j] * a[i][(col % ne) * ne + row % ne];
         }
         factor(&mut self.m, n2, &mut self.piv)?;
-        for c in 0..self.np {
-            let sc = &mut s[c * ne..(c + 1) * ne];
-            for (idx, k) in self.k.iter_mut().enumerate() {
-                let (i, row) = (idx / ne, idx % ne);
-                let ax: f64 = (0..ne).map(|j| a[i][j * ne + row] * sc[j]).sum();
-                *k = ax + b[i][c * ne + row];
+        for k in 0..n2 {
+            self.x.fill(0.0);
+            self.x[k] = 1.0;
+            solve(&self.m, n2, &self.piv, &mut self.x);
+            for row in 0..ne {
+                self.w[k * ne + row] = 0.5 * h * (self.x[row] + self.x[ne + row]);
             }
-            solve(&self.m, n2, &self.piv, &mut self.k);
-            // b1 = b2 = 1/2.
-            for (row, v) in sc.iter_mut().enumerate() {
-                *v += 0.5 * h * (self.k[row] + self.k[ne + row]);
+        }
+        for (idx, v) in self.phi.iter_mut().enumerate() {
+            let (row, col) = (idx % ne, idx / ne);
+            let mut sum = if row == col { 1.0 } else { 0.0 };
+            for (i, ai) in a.iter().enumerate() {
+                for l in 0..ne {
+                    sum += self.w[(i * ne + l) * ne + row] * ai[col * ne + l];
+                }
             }
+            *v = sum;
         }
         Ok(())
     }
