@@ -219,7 +219,7 @@ fn check_model_on(name: &str, skip: &[&str], udds_only: Option<&[&str]>) {
                 );
                 // r = n: within 1e-12 of the figure; causal: the figures themselves differ between the engines at the
                 // adaptive integrator's tolerance (driveline's E_e by 3e-10 relative) and so do the integrated
-                // sensitivities (p·dE_e/dc_s, 2e-7 of E_e, by 1e-8 of E_e): held to 1e-7 of the figure.
+                // sensitivities (p·dE_e/di_t by 6e-10 of E_e on NEDC): held to 1e-7 of the figure.
                 let equal = if sc.inversion == "causal" {
                     1e-7
                 } else {
@@ -297,7 +297,7 @@ fn si_engine_against_finite_differences() {
 }
 
 /// driveline's zero dynamics are stiff (an eigenvalue near −300/s that the explicit integrator follows at
-/// rtol 1e-10): a UDDS run takes about a second (ten with every sensitivity), so the second cycle is UDDS's
+/// rtol 1e-10): a UDDS run takes about a second (six with every sensitivity), so the second cycle is UDDS's
 /// first 505 s (FTP-75's cold-start phase) and there the differences are taken for the parameters of each
 /// subsystem (engine, shafts, wheels, tyres, body and resistance; 7 of 15, four runs each); on NEDC for every
 /// one. The exact gradient itself is checked against the interpreter for every parameter on NEDC; the UDDS run

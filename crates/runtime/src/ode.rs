@@ -290,7 +290,30 @@ impl Dopri5 {
         F: FnMut(f64, &[f64], &mut [f64]) -> Result<(), E>,
         E: From<StepFailure>,
     {
-        let Some(t) = steps_until(t0, t1, |t| self.step_to(t, t1, y, f))? else {
+        self.advance_each(t0, t1, y, f, &mut |_, _, _| Ok(()))
+    }
+
+    /// [`Dopri5::advance`] (the same steps, bit for bit), calling `each(self, t, t_new)` after every accepted
+    /// step [t, t_new], while [`Dopri5::dense`] interpolates in it.
+    pub fn advance_each<F, G, E>(
+        &mut self,
+        t0: f64,
+        t1: f64,
+        y: &mut [f64],
+        f: &mut F,
+        each: &mut G,
+    ) -> Result<(), E>
+    where
+        F: FnMut(f64, &[f64], &mut [f64]) -> Result<(), E>,
+        G: FnMut(&Dopri5, f64, f64) -> Result<(), E>,
+        E: From<StepFailure>,
+    {
+        let Some(t) = steps_until(t0, t1, |t| -> Result<f64, E> {
+            let t_new = self.step_to(t, t1, y, f)?;
+            each(self, t, t_new)?;
+            Ok(t_new)
+        })?
+        else {
             return Ok(());
         };
         self.t_fail = t;

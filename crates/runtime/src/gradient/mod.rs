@@ -4,13 +4,14 @@
 //!
 //! For r = n the input and the states are closed-form (or implicitly defined) functions of the smoothed cycle
 //! and the parameters, so their derivatives follow from the model's symbolic partial derivatives by the chain
-//! rule at every sample ([`point`]); for r < n the internal states' sensitivities ∂η/∂p are integrated
-//! alongside η by the run's integrator ([`pass`]); the figures are differentiated through the run's own
+//! rule at every sample ([`point`]); for r < n the internal states' sensitivities ∂η/∂p are advanced over
+//! each of the run's integrator steps of η by the Gauss–Legendre method ([`pass`], [`gauss`]); the figures are differentiated through the run's own
 //! quadrature and formulas ([`figures`]). Only runs of models without modes whose internal dynamics are
 //! integrated causally (or absent) are differentiated; [`GradientError`] says why another is not.
 
 pub mod error;
 mod figures;
+mod gauss;
 pub mod modal;
 mod pass;
 mod point;

@@ -1,22 +1,34 @@
-//! The sensitivity pass of a causal (or r = n) run: the run's grid sample by sample, η integrated with its
-//! sensitivities S = ∂η/∂p by the run's own integrator, and the derivatives of the accumulated outputs'
-//! integrals by the run's own quadrature.
+//! The sensitivity pass of a causal (or r = n) run: the run's grid sample by sample, η integrated exactly as
+//! the run integrates it, its sensitivities S = ∂η/∂p alongside by an A-stable method, and the derivatives of
+//! the accumulated outputs' integrals by the run's own quadrature.
 //!
 //! Sensitivity equations of the zero dynamics η̇ = q(ξ(t), η, y_d^(r)(t); p) (Hairer, Nørsett & Wanner,
 //! *Solving Ordinary Differential Equations I*, §I.14):
 //!
 //! ```text
-//! dS/dt = ∂q/∂η · S + ∂q/∂p,   S(t_0) = 0 for a given η(t_0), −(∂q/∂η)⁻¹ ∂q/∂p at an equilibrium start
+//! dS/dt = A(t) S + B(t),   A = ∂q/∂η (ne × ne),   B = ∂q/∂p (ne × P),   both along η(t)
+//! S(t_0) = 0 for a given η(t_0), −(∂q/∂η)⁻¹ ∂q/∂p at an equilibrium start (implicit function theorem)
 //! ```
 //!
-//! integrated alongside η by the run's adaptive Dormand–Prince 5(4) method with its tolerances, from the same
-//! start between the same grid samples, with S in the error norm too. (With η alone in the norm the steps
-//! would be the run's and S the exact derivative of the discrete η for those frozen steps; but on stiff zero
-//! dynamics — driveline's shaft — the controller holds the steps at the explicit method's stability limit,
-//! which keeps η bounded only through step rejections, and the frozen-step derivative grows without bound.
-//! So η here equals the run's within the integrator's tolerance, not bit for bit, and S is the derivative of
-//! the exact η within the same tolerance.) The integrals ∫ o dt ≈ Σ_k dt·(o_k + o_{k+1})/2 are differentiated
-//! term by term: ∂/∂p Σ = Σ_k dt·(do_k/dp + do_{k+1}/dp)/2, with do/dp = ∂o/∂x·dx/dp + ∂o/∂u·du/dp + ∂o/∂p
+//! They are solved by the staggered direct method (Caracotsios & Stewart, *Sensitivity analysis of initial
+//! value problems with mixed ODEs and algebraic equations*, Comput. Chem. Eng. 9, 1985): η alone is
+//! integrated by the run's adaptive Dormand–Prince 5(4) method with its tolerances and its right-hand side,
+//! from the same start between the same grid samples, so η is the run's bit for bit; after each accepted
+//! step [t, t + h] S is advanced over the same step by the 2-stage Gauss–Legendre method ([`super::gauss`],
+//! order 4, A-stable; Hairer & Wanner, *Solving ODEs II*, §IV.5), with A and B at its two nodes t + c_i h
+//! from η's continuous extension there ([`Point::eta_jacobians`]). S's equations are linear with η's own
+//! linearisation A, so the steps that control η's error resolve S's time scales too and S needs no error
+//! control of its own; on the stiff modes, where the steps are held at DOPRI5's stability border
+//! hλ ≈ −3.3, the method damps by |R(hλ)| ≈ 0.07 per step (R the (2, 2) Padé approximation of e^z).
+//!
+//! Why not the run's explicit method for S too: on stiff zero dynamics (driveline's shaft, λ ≈ −300/s) the
+//! controller holds DOPRI5's steps at its stability limit, where η stays bounded only through step
+//! rejections; the derivative of that frozen-step map grows without bound, so S had to enter the error norm,
+//! which made the sensitivities' steps differ from the run's and cost ≥ 6 evaluations of A and B per step.
+//! Gauss–Legendre is stable for any step of a stable A and costs two evaluations per step.
+//!
+//! The integrals ∫ o dt ≈ Σ_k dt·(o_k + o_{k+1})/2 are differentiated term by term:
+//! ∂/∂p Σ = Σ_k dt·(do_k/dp + do_{k+1}/dp)/2, with do/dp = ∂o/∂x·dx/dp + ∂o/∂u·du/dp + ∂o/∂p
 //! ([`super::point`]). The reference is evaluated block by block on the grid, as the run evaluates it, so that
 //! the pass stores no column of the whole run.
 
@@ -24,11 +36,12 @@ use invsim_model_api::zero_dynamics::{default_starts, equilibrium};
 use invsim_model_api::InverseModel;
 use nalgebra::DMatrix;
 
+use super::gauss::{Gauss, Singular, NODES};
 use super::point::Point;
 use crate::error::RunError;
 use crate::grid::{Grid, MAX_DERIVATIVES};
 use crate::inverse::{SimulateError, SimulationOptions};
-use crate::ode::Dopri5;
+use crate::ode::{Dopri5, StepFailure};
 use crate::smoother::Smoother;
 
 /// Samples per block of the reference's columns (the run's block size: the same numbers, bounded memory).
@@ -57,16 +70,27 @@ pub(crate) fn integral_gradients<M: InverseModel + ?Sized>(
     eta0: Option<Vec<f64>>,
     opts: &SimulationOptions,
 ) -> Result<Vec<Vec<f64>>, SimulateError> {
+    Ok(sweep(wanted, along, eta0, opts, &mut |_, _| ())?.acc)
+}
+
+/// The pass over the whole grid; `seen(k, η)` after each sample k.
+fn sweep<M: InverseModel + ?Sized>(
+    wanted: &Wanted<'_, M>,
+    along: &Along<'_>,
+    eta0: Option<Vec<f64>>,
+    opts: &SimulationOptions,
+    seen: &mut dyn FnMut(usize, &[f64]),
+) -> Result<Sweep, SimulateError> {
     let info = wanted.model.info();
     let (r, nw) = (info.relative_degree, info.n_w());
     let grid = along.grid;
     let samples = grid.samples();
-    let y = if info.n_eta > 0 {
+    let (eta, s) = if info.n_eta > 0 {
         start(wanted, along, eta0)?
     } else {
-        Vec::new()
+        (Vec::new(), Vec::new())
     };
-    let mut sweep = Sweep::new(wanted, y, opts);
+    let mut sweep = Sweep::new(wanted, (eta, s), opts);
     let width = BLOCK.min(samples);
     let mut time = vec![0.0; width];
     let (mut yd, mut w) = (vec![vec![0.0; width]; r + 1], vec![vec![0.0; width]; nw]);
@@ -86,20 +110,23 @@ pub(crate) fn integral_gradients<M: InverseModel + ?Sized>(
             .eval_signals_grid(&time[..len], Some(grid.dt), &mut cols);
         for i in 0..len {
             sweep.sample(wanted, along, (k0 + i, &yd, &w, i))?;
+            seen(k0 + i, &sweep.eta);
         }
         k0 += len;
     }
-    Ok(sweep.acc)
+    Ok(sweep)
 }
 
-/// The pass's state from sample to sample: [η, S_1, …, S_P] and their integrator, the last sample's state and
-/// input (the guesses the run uses), the integrals' derivatives and the last sample's output derivatives.
+/// The pass's state from sample to sample: η and its integrator, S (ne × P column-major, column c = ∂η/∂p_c), the last
+/// sample's state and input (the guesses the run uses), the integrals' derivatives and the last sample's
+/// output derivatives.
 struct Sweep {
-    y: Vec<f64>,
+    eta: Vec<f64>,
+    s: Vec<f64>,
     integrator: Dopri5,
     x: Vec<f64>,
     u_prev: f64,
-    stage: Stage,
+    nodes: Nodes,
     buf: Vec<f64>,
     acc: Vec<Vec<f64>>,
     prev: Vec<Vec<f64>>,
@@ -108,24 +135,26 @@ struct Sweep {
 impl Sweep {
     fn new<M: InverseModel + ?Sized>(
         wanted: &Wanted<'_, M>,
-        y: Vec<f64>,
+        (eta, s): (Vec<f64>, Vec<f64>),
         opts: &SimulationOptions,
     ) -> Sweep {
         let info = wanted.model.info();
         let (na, np) = (wanted.accumulate.len(), wanted.params.len());
         Sweep {
-            integrator: Dopri5::new(y.len(), opts.rtol, opts.atol, opts.dt),
-            y,
+            // The run's integrator (inverse/causal.rs): the same size, tolerances and first step.
+            integrator: Dopri5::new(eta.len(), opts.rtol, opts.atol, opts.dt),
+            eta,
+            s,
             x: vec![0.0; info.n_states()],
             u_prev: f64::NAN,
-            stage: Stage::new(info.n_states(), info.n_w()),
+            nodes: Nodes::new(info, np),
             buf: Vec::new(),
             acc: vec![vec![0.0; np]; na],
             prev: vec![vec![0.0; np]; na],
         }
     }
 
-    /// Grid sample k (column index i of the block's `yd` and `w`): η and S integrated from sample k − 1, the
+    /// Grid sample k (column index i of the block's `yd` and `w`): η and S advanced from sample k − 1, the
     /// inverse, the outputs' derivatives, and the trapezoidal rule's term dt·(do_(k−1) + do_k)/2.
     fn sample<M: InverseModel + ?Sized>(
         &mut self,
@@ -139,13 +168,7 @@ impl Sweep {
         let grid = along.grid;
         let t = grid.time(k);
         if k > 0 && ne > 0 {
-            self.stage.x.copy_from_slice(&self.x);
-            let (stage, u_prev) = (&mut self.stage, self.u_prev);
-            let mut q = |s: f64, yv: &[f64], dy: &mut [f64]| {
-                stage.rhs(wanted, along.smoother, (s, yv, u_prev), dy)
-            };
-            self.integrator
-                .advance(grid.time(k - 1), t, &mut self.y, &mut q)?;
+            self.advance(wanted, along.smoother, (grid.time(k - 1), t))?;
         }
         let mut ydk = [0.0_f64; MAX_DERIVATIVES];
         for (v, c) in ydk[..=r].iter_mut().zip(yd) {
@@ -154,23 +177,17 @@ impl Sweep {
         let wk: Vec<f64> = w.iter().map(|c| c[i]).collect();
         let model_err = |source| SimulateError::from(RunError::Model { t, source });
         let u = model
-            .invert_from(
-                &ydk[..r],
-                &self.y[..ne],
-                &wk,
-                ydk[r],
-                &mut self.x,
-                self.u_prev,
-            )
+            .invert_from(&ydk[..r], &self.eta, &wk, ydk[r], &mut self.x, self.u_prev)
             .map_err(model_err)?;
         self.u_prev = u;
         let buf = std::mem::take(&mut self.buf);
         let point =
             Point::new(model, (&self.x, &wk, u), &info.eta_states, buf).map_err(model_err)?;
         let h = 0.5 * grid.dt;
-        let mut dir = point.direction(&self.y[ne..ne + ne], None);
+        let columns = &self.s;
+        let mut dir = point.direction(&columns[..ne], None);
         for (c, &p) in wanted.params.iter().enumerate() {
-            point.direction_into(&self.y[ne + c * ne..ne + (c + 1) * ne], Some(p), &mut dir);
+            point.direction_into(&columns[c * ne..(c + 1) * ne], Some(p), &mut dir);
             for (a, &o) in wanted.accumulate.iter().enumerate() {
                 let v = point.row_change(point.layout().output(o), &dir, Some(p));
                 if k > 0 {
@@ -182,16 +199,43 @@ impl Sweep {
         self.buf = point.into_buffer();
         Ok(())
     }
+
+    /// η from `t0` to `t1` exactly as the run integrates it (inverse/causal.rs `integrate`: the same
+    /// right-hand side, the last sample's input as Newton's start), and S over each of its accepted steps.
+    fn advance<M: InverseModel + ?Sized>(
+        &mut self,
+        wanted: &Wanted<'_, M>,
+        smoother: &Smoother,
+        (t0, t1): (f64, f64),
+    ) -> Result<(), SimulateError> {
+        let model = wanted.model;
+        let r = model.info().relative_degree;
+        let mut w_s = vec![0.0; model.info().n_w()];
+        let u_prev = self.u_prev;
+        let mut q = |s: f64, e: &[f64], de: &mut [f64]| {
+            let mut yd_s = [0.0_f64; MAX_DERIVATIVES];
+            smoother.eval(s, &mut yd_s[..=r]);
+            smoother.eval_signals(s, &mut w_s);
+            model.zero_dynamics_from(&yd_s[..r], e, &w_s, yd_s[r], u_prev, de);
+            Ok(())
+        };
+        self.nodes.x.copy_from_slice(&self.x);
+        let (nodes, s) = (&mut self.nodes, &mut self.s);
+        let mut each = |ode: &Dopri5, ta: f64, tb: f64| {
+            nodes.step(wanted, smoother, (ode, ta, tb - ta, u_prev), s)
+        };
+        self.integrator
+            .advance_each(t0, t1, &mut self.eta, &mut q, &mut each)
+    }
 }
 
-/// η(t_0) and S(t_0), laid out as the integrated vector [η, S_1, …, S_P] (S_c = ∂η/∂p_c): the given η with
-/// S = 0, or the run's equilibrium q(ξ(t_0), η, y_d^(r)(t_0)) = 0 (the same Newton from the same starts) with
-/// S = −(∂q/∂η)⁻¹ ∂q/∂p there (implicit function theorem).
+/// η(t_0) and S(t_0) (ne × P, column-major): the given η with S = 0, or the run's equilibrium q(ξ(t_0), η, y_d^(r)(t_0)) = 0
+/// (the same Newton from the same starts) with S = −(∂q/∂η)⁻¹ ∂q/∂p there (implicit function theorem).
 fn start<M: InverseModel + ?Sized>(
     wanted: &Wanted<'_, M>,
     along: &Along<'_>,
     eta0: Option<Vec<f64>>,
-) -> Result<Vec<f64>, SimulateError> {
+) -> Result<(Vec<f64>, Vec<f64>), SimulateError> {
     let model = wanted.model;
     let info = model.info();
     let (r, ne, np) = (info.relative_degree, info.n_eta, wanted.params.len());
@@ -201,104 +245,166 @@ fn start<M: InverseModel + ?Sized>(
     let mut w = vec![0.0; info.n_w()];
     along.smoother.eval_signals(t0, &mut w);
     let (xi, yr) = (&yd[..r], yd[r]);
-    let mut y = vec![0.0; ne * (1 + np)];
-    let Some(eta) = (match eta0 {
-        Some(e) => {
-            y[..ne].copy_from_slice(&e);
-            None
+    if let Some(e) = eta0 {
+        return Ok((e, vec![0.0; ne * np]));
+    }
+    let eta = equilibrium(model, xi, &w, yr, None, &default_starts(xi[0])).map_err(|f| {
+        SimulateError::ZeroDynamicsEquilibrium {
+            t: t0,
+            reason: f.to_string(),
         }
-        None => Some(
-            equilibrium(model, xi, &w, yr, None, &default_starts(xi[0])).map_err(|f| {
-                SimulateError::ZeroDynamicsEquilibrium {
-                    t: t0,
-                    reason: f.to_string(),
-                }
-            })?,
-        ),
-    }) else {
-        return Ok(y);
-    };
-    y[..ne].copy_from_slice(&eta);
+    })?;
     let mut x = vec![0.0; info.n_states()];
     let model_err = |source| SimulateError::from(RunError::Model { t: t0, source });
     let u = model
         .invert_from(xi, &eta, &w, yr, &mut x, f64::NAN)
         .map_err(model_err)?;
     let point = Point::new(model, (&x, &w, u), &info.eta_states, Vec::new()).map_err(model_err)?;
-    let l = *point.layout();
-    let q_eta = DMatrix::from_fn(ne, ne, |i, j| {
-        let mut e = vec![0.0; ne];
-        e[j] = 1.0;
-        point.row_change(l.eta(i), &point.direction(&e, None), None)
-    });
-    let zero = vec![0.0; ne];
-    let q_p = DMatrix::from_fn(ne, np, |i, c| {
-        let p = wanted.params[c];
-        point.row_change(l.eta(i), &point.direction(&zero, Some(p)), Some(p))
-    });
-    let s = q_eta
+    let (mut q_eta, mut q_p) = (vec![0.0; ne * ne], vec![0.0; ne * np]);
+    point.eta_jacobians(wanted.params, &mut q_eta, &mut q_p);
+    let s = DMatrix::from_vec(ne, ne, q_eta)
         .lu()
-        .solve(&(-q_p))
+        .solve(&(-DMatrix::from_vec(ne, np, q_p)))
         .unwrap_or_else(|| DMatrix::from_element(ne, np, f64::NAN));
-    for c in 0..np {
-        for j in 0..ne {
-            y[ne + c * ne + j] = s[(j, c)];
-        }
-    }
-    Ok(y)
+    Ok((eta, s.as_slice().to_vec()))
 }
 
-/// The buffers of one stage evaluation of the sensitivity equations.
-struct Stage {
+/// A and B (column-major) at the Gauss nodes of one step, the buffers of their evaluation and the method's.
+struct Nodes {
     /// The guess for a numerically solved ψ⁻¹: the last grid sample's state.
     x: Vec<f64>,
     w: Vec<f64>,
+    eta: Vec<f64>,
     buf: Vec<f64>,
+    a: [Vec<f64>; 2],
+    b: [Vec<f64>; 2],
+    gauss: Gauss,
 }
 
-impl Stage {
-    fn new(n: usize, nw: usize) -> Stage {
-        Stage {
-            x: vec![0.0; n],
-            w: vec![0.0; nw],
+impl Nodes {
+    fn new(info: &invsim_model_api::ModelInfo, np: usize) -> Nodes {
+        let ne = info.n_eta;
+        Nodes {
+            x: vec![0.0; info.n_states()],
+            w: vec![0.0; info.n_w()],
+            eta: vec![0.0; ne],
             buf: Vec::new(),
+            a: std::array::from_fn(|_| vec![0.0; ne * ne]),
+            b: std::array::from_fn(|_| vec![0.0; ne * np]),
+            gauss: Gauss::new(ne, np),
         }
     }
 
-    /// [η̇, Ṡ_1, …, Ṡ_P] at time s: η̇ exactly as the run evaluates it (`zero_dynamics_from` with the last
-    /// sample's input as Newton's start), Ṡ_c = dq/dp_c along S_c (the chain rule of [`super::point`]).
-    fn rhs<M: InverseModel + ?Sized>(
+    /// S over η's accepted step [t, t + h] (`ode` interpolating in it): A and B at t + c_i h, one Gauss step.
+    fn step<M: InverseModel + ?Sized>(
         &mut self,
         wanted: &Wanted<'_, M>,
         smoother: &Smoother,
-        (s, y, u_prev): (f64, &[f64], f64),
-        dy: &mut [f64],
+        (ode, t, h, u_prev): (&Dopri5, f64, f64, f64),
+        s: &mut [f64],
+    ) -> Result<(), SimulateError> {
+        for (i, c) in NODES.iter().enumerate() {
+            ode.dense(t + c * h, &mut self.eta);
+            self.jacobians_at(wanted, smoother, (t + c * h, u_prev), i)?;
+        }
+        let (a, b) = (&self.a, &self.b);
+        let stages = self.gauss.step(h, [&a[0], &a[1]], [&b[0], &b[1]], s);
+        stages.map_err(|Singular| {
+            SimulateError::from(StepFailure {
+                t,
+                reason: "the sensitivities' Gauss–Legendre stage system is singular or not finite"
+                    .to_string(),
+            })
+        })
+    }
+
+    /// A = ∂q/∂η and B = ∂q/∂p into node i's matrices at time s and the interpolated η, x = ψ⁻¹(ξ, η) and u
+    /// solved as the run solves them.
+    fn jacobians_at<M: InverseModel + ?Sized>(
+        &mut self,
+        wanted: &Wanted<'_, M>,
+        smoother: &Smoother,
+        (s, u_prev): (f64, f64),
+        i: usize,
     ) -> Result<(), SimulateError> {
         let model = wanted.model;
         let info = model.info();
-        let (r, ne) = (info.relative_degree, info.n_eta);
+        let r = info.relative_degree;
         let mut yd = [0.0_f64; MAX_DERIVATIVES];
         smoother.eval(s, &mut yd[..=r]);
         smoother.eval_signals(s, &mut self.w);
-        let (xi, yr, eta) = (&yd[..r], yd[r], &y[..ne]);
-        model.zero_dynamics_from(xi, eta, &self.w, yr, u_prev, &mut dy[..ne]);
         let model_err = |source| SimulateError::from(RunError::Model { t: s, source });
         let u = model
-            .invert_from(xi, eta, &self.w, yr, &mut self.x, u_prev)
+            .invert_from(&yd[..r], &self.eta, &self.w, yd[r], &mut self.x, u_prev)
             .map_err(model_err)?;
         let buf = std::mem::take(&mut self.buf);
         let point =
             Point::new(model, (&self.x, &self.w, u), &info.eta_states, buf).map_err(model_err)?;
-        let l = *point.layout();
-        let mut dir = point.direction(&y[..ne], None);
-        for (c, &p) in wanted.params.iter().enumerate() {
-            let range = ne + c * ne..ne + (c + 1) * ne;
-            point.direction_into(&y[range.clone()], Some(p), &mut dir);
-            for (j, d) in dy[range].iter_mut().enumerate() {
-                *d = point.row_change(l.eta(j), &dir, Some(p));
-            }
-        }
+        point.eta_jacobians(wanted.params, &mut self.a[i], &mut self.b[i]);
         self.buf = point.into_buffer();
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cycle::Cycle;
+
+    /// The pass integrates η exactly as the run does (the same integrator, right-hand side and steps): on
+    /// driveline's NEDC run (stiff zero dynamics, η at DOPRI5's stability limit) its η equals the run's
+    /// `eta` columns bit for bit at every sample.
+    #[test]
+    fn eta_is_the_runs_bit_for_bit() {
+        let model = invsim_models::builtin("driveline").expect("built in");
+        let info = model.info();
+        assert!(info.signals.is_empty() && info.n_eta == 3);
+        let cycle = Cycle::builtin("nedc").expect("built in");
+        let opts = SimulationOptions::builder()
+            .keep_series(true)
+            .build()
+            .expect("valid");
+        let run = crate::simulate(model.as_ref(), &cycle, &opts).expect("runs");
+        let columns: Vec<&[f64]> = (1..=info.n_eta)
+            .map(|j| {
+                let name = format!("eta{j}");
+                let c = run.columns.iter().position(|c| *c == name).expect("eta");
+                run.data[c].as_slice()
+            })
+            .collect();
+        let smoother = Smoother::new(&cycle, opts.lookahead)
+            .expect("smooths")
+            .with_reference(model.reference());
+        let grid = Grid::new(cycle.time[0], cycle.duration(), opts.dt).expect("a grid");
+        let params: Vec<usize> = ["k_s", "c_s"]
+            .iter()
+            .map(|p| info.parameters.iter().position(|q| q == p).expect(p))
+            .collect();
+        let wanted = Wanted {
+            model: model.as_ref(),
+            params: &params,
+            accumulate: &[0],
+        };
+        let along = Along {
+            smoother: &smoother,
+            grid: &grid,
+        };
+        let mut samples = 0;
+        sweep(&wanted, &along, None, &opts, &mut |k, eta| {
+            for (j, c) in columns.iter().enumerate() {
+                assert_eq!(
+                    eta[j].to_bits(),
+                    c[k].to_bits(),
+                    "eta{} at sample {k}",
+                    j + 1
+                );
+            }
+            samples += 1;
+        })
+        .expect("the pass runs");
+        assert_eq!(
+            (samples, columns[0].len()),
+            (grid.samples(), grid.samples())
+        );
     }
 }

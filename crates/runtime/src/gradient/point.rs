@@ -137,6 +137,40 @@ impl Point {
         v
     }
 
+    /// A = ∂q/∂η (ne × ne) and B = ∂q/∂p (ne × P, the parameters `params`) of the internal states' right-hand
+    /// sides q_i = F_(η_i)(x, w, u; p), through x and u (the directions of the module doc, all at once): with
+    /// g_i = ∂q_i/∂x − (∂q_i/∂u / ∂φ/∂u) ∂φ/∂x and m_i = (∂ψ/∂x)⁻ᵀ g_i,
+    ///
+    /// ```text
+    /// A_ij = m_i[r + j],   B_ic = ∂q_i/∂p_c − (∂q_i/∂u / ∂φ/∂u) ∂φ/∂p_c − Σ_(l<r) m_i[l] ∂ψ_l/∂p_c
+    /// ```
+    ///
+    /// into `a` and `b`, column-major (entry (i, j) at j·ne + i).
+    pub(crate) fn eta_jacobians(&self, params: &[usize], a: &mut [f64], b: &mut [f64]) {
+        let l = &self.layout;
+        let (n, r, ne, phi) = (l.n, l.r, l.n_eta, l.phi());
+        let mut m = vec![0.0; n];
+        for i in 0..ne {
+            let row = l.eta(i);
+            let ratio = self.d(row, l.u()) / self.d(phi, l.u());
+            m.fill(0.0);
+            for (j, inverse_row) in self.inverse.chunks_exact(n).enumerate() {
+                let g = self.d(row, l.x(j)) - ratio * self.d(phi, l.x(j));
+                for (mk, v) in m.iter_mut().zip(inverse_row) {
+                    *mk += g * v;
+                }
+            }
+            for j in 0..ne {
+                a[j * ne + i] = m[r + j];
+            }
+            for (c, &k) in params.iter().enumerate() {
+                let through_psi: f64 = (0..r).map(|q| m[q] * self.d(l.psi(q), l.param(k))).sum();
+                b[c * ne + i] =
+                    self.d(row, l.param(k)) - ratio * self.d(phi, l.param(k)) - through_psi;
+            }
+        }
+    }
+
     pub(crate) fn layout(&self) -> &SensitivityLayout {
         &self.layout
     }
