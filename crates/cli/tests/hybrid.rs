@@ -4,44 +4,22 @@
 //! WLTC 3b charge-sustaining within the tolerance, with the vehicle's equation of every mode checked by hand at
 //! every sample; the J1711 correction on a line through two runs at a given s.
 
-use crate::common::{invsim, json_file, num, read_csv, stderr, tmp};
+use crate::common::{column as col, simulate_with};
 
-/// Runs `simulate` with `args` (`--strategy ecms` unless they give a strategy), returning the summary JSON and the CSV (header, rows).
+/// Runs `simulate --dt 1` with `args` (`--strategy ecms` unless they give a strategy): the summary JSON and
+/// the CSV (header, rows).
 fn run(
     model: &str,
     cycle: &str,
     extra: &[&str],
     tag: &str,
 ) -> (serde_json::Value, Vec<String>, Vec<Vec<String>>) {
-    let (csv, json) = (tmp(&format!("{tag}.csv")), tmp(&format!("{tag}.json")));
-    let mut args = vec![
-        "simulate",
-        model,
-        "--cycle",
-        cycle,
-        "--dt",
-        "1",
-        "--out",
-        csv.to_str().unwrap(),
-        "--summary-json",
-        json.to_str().unwrap(),
-    ];
+    let mut args = vec![model, "--cycle", cycle, "--dt", "1"];
     if !extra.contains(&"--strategy") {
         args.extend(["--strategy", "ecms"]);
     }
     args.extend_from_slice(extra);
-    let o = invsim(&args);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let (header, rows) = read_csv(&csv);
-    (json_file(&json), header, rows)
-}
-
-fn col(header: &[String], rows: &[Vec<String>], name: &str) -> Vec<f64> {
-    let j = header
-        .iter()
-        .position(|h| h == name)
-        .unwrap_or_else(|| panic!("column {name}"));
-    rows.iter().map(|r| num(&r[j])).collect()
+    simulate_with(&args, tag)
 }
 
 /// The quadratic hybrid (c = 0): ECMS prices the interval [t_k, t_k+1] with F_m = d held, its cost

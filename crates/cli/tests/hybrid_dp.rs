@@ -4,37 +4,17 @@
 //! bounds, and the fuel within its grid error of ECMS's; grids of fewer than 2 points and an unreachable final charge exit 2 naming the option.
 //! `--strategy rule-based` on hev_p2 over UDDS: J1711-corrected, and no better than DP.
 
-use crate::common::{invsim, json_file, num, read_csv, stderr, tmp};
+use crate::common::{column as col, invsim, simulate_with, stderr};
 
-/// Runs `simulate --dt 1` with `args` (the strategy among them): the summary JSON and the CSV.
+/// Runs `simulate --cycle udds --dt 1` with `args` (the strategy among them): the summary JSON and the CSV.
 fn run(
     model: &str,
     args: &[&str],
     tag: &str,
 ) -> (serde_json::Value, Vec<String>, Vec<Vec<String>>) {
-    let (csv, json) = (tmp(&format!("{tag}.csv")), tmp(&format!("{tag}.json")));
-    let mut all = vec![
-        "simulate",
-        model,
-        "--cycle",
-        "udds",
-        "--dt",
-        "1",
-        "--out",
-        csv.to_str().unwrap(),
-        "--summary-json",
-        json.to_str().unwrap(),
-    ];
+    let mut all = vec![model, "--cycle", "udds", "--dt", "1"];
     all.extend_from_slice(args);
-    let o = invsim(&all);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let (header, rows) = read_csv(&csv);
-    (json_file(&json), header, rows)
-}
-
-fn col(header: &[String], rows: &[Vec<String>], name: &str) -> Vec<f64> {
-    let j = header.iter().position(|h| h == name).unwrap();
-    rows.iter().map(|r| num(&r[j])).collect()
+    simulate_with(&all, tag)
 }
 
 fn fuel(v: &serde_json::Value) -> f64 {

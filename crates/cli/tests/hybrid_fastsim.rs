@@ -3,17 +3,14 @@
 //! charge-sustaining, the rules J1711-corrected and no better than ECMS; at every sample the fuel power is the
 //! engine's power over FASTSim's efficiency table, read from the YAML and interpolated here.
 
-use crate::common::{invsim, json_file, num, read_csv, root, stderr, tmp};
+use crate::common::{column as col, root, simulate_with};
 
 const VEHICLES: [&str; 2] = ["toyota_prius_2016", "hyundai_sonata_hybrid_2021"];
 
 /// Runs `simulate --cycle udds --dt 1 --strategy STRATEGY`: the summary JSON and the CSV.
 fn run(stem: &str, strategy: &str) -> (serde_json::Value, Vec<String>, Vec<Vec<String>>) {
-    let tag = format!("fastsim_hev_{stem}_{strategy}");
-    let (csv, json) = (tmp(&format!("{tag}.csv")), tmp(&format!("{tag}.json")));
     let model = format!("models/vehicles/{stem}.toml");
-    let o = invsim(&[
-        "simulate",
+    let args = [
         &model,
         "--cycle",
         "udds",
@@ -21,19 +18,8 @@ fn run(stem: &str, strategy: &str) -> (serde_json::Value, Vec<String>, Vec<Vec<S
         "1",
         "--strategy",
         strategy,
-        "--out",
-        csv.to_str().unwrap(),
-        "--summary-json",
-        json.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{stem} {strategy}: {}", stderr(&o));
-    let (header, rows) = read_csv(&csv);
-    (json_file(&json), header, rows)
-}
-
-fn col(header: &[String], rows: &[Vec<String>], name: &str) -> Vec<f64> {
-    let j = header.iter().position(|h| h == name).unwrap();
-    rows.iter().map(|r| num(&r[j])).collect()
+    ];
+    simulate_with(&args, &format!("fastsim_hev_{stem}_{strategy}"))
 }
 
 /// FASTSim's engine efficiency table (grid, values) from the vendored YAML.

@@ -3,7 +3,7 @@
 //! corner pair at every change of the CSV's `engine_on`), chosen by default and by `--plot-vars`; the CSV's
 //! `engine_on` is 1 exactly in the `[hybrid] engine_on` modes and adds up to the summary's `engine_on_s`.
 
-use crate::common::{invsim, json_file, num, read_csv, stderr, tmp};
+use crate::common::{column, invsim, json_file, num, read_csv, stderr, tmp};
 
 const MODEL: &str = "models/hev_p2.toml";
 
@@ -81,11 +81,6 @@ fn run(extra: &[&str], tag: &str) -> (String, Table, serde_json::Value) {
     assert!(o.status.success(), "{}", stderr(&o));
     let text = std::fs::read_to_string(&svg).unwrap();
     (text, read_csv(&csv), json_file(&json))
-}
-
-fn column(header: &[String], rows: &[Vec<String>], name: &str) -> Vec<f64> {
-    let j = header.iter().position(|h| h == name).expect(name);
-    rows.iter().map(|r| num(&r[j])).collect()
 }
 
 #[test]

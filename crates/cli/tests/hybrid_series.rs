@@ -6,7 +6,7 @@
 //! vehicle's and the battery's equations written out by hand: the decided generator power enters the battery's
 //! alone.
 
-use crate::common::{invsim, json_file, num, read_csv, stderr, tmp};
+use crate::common::{column as col, simulate_with};
 use serde_json::Value;
 
 const MODEL: &str = "models/series_hybrid.toml";
@@ -40,32 +40,9 @@ const P_AUX: f64 = 300.0;
 
 /// A run of `simulate --dt 1` with `args` (the strategy among them): the summary JSON and the CSV.
 fn run(cycle: &str, args: &[&str], tag: &str) -> (Value, Vec<String>, Vec<Vec<String>>) {
-    let (csv, json) = (tmp(&format!("{tag}.csv")), tmp(&format!("{tag}.json")));
-    let mut all = vec![
-        "simulate",
-        MODEL,
-        "--cycle",
-        cycle,
-        "--dt",
-        "1",
-        "--out",
-        csv.to_str().unwrap(),
-        "--summary-json",
-        json.to_str().unwrap(),
-    ];
+    let mut all = vec![MODEL, "--cycle", cycle, "--dt", "1"];
     all.extend_from_slice(args);
-    let o = invsim(&all);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let (header, rows) = read_csv(&csv);
-    (json_file(&json), header, rows)
-}
-
-fn col(header: &[String], rows: &[Vec<String>], name: &str) -> Vec<f64> {
-    let j = header
-        .iter()
-        .position(|h| h == name)
-        .unwrap_or_else(|| panic!("column {name}"));
-    rows.iter().map(|r| num(&r[j])).collect()
+    simulate_with(&all, tag)
 }
 
 fn hybrid_f64(v: &Value, key: &str) -> f64 {

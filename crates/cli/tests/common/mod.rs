@@ -66,3 +66,25 @@ pub fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
 pub fn num(s: &str) -> f64 {
     s.parse().unwrap_or_else(|_| panic!("`{s}` is a number"))
 }
+
+/// A CSV column by name as numbers.
+pub fn column(header: &[String], rows: &[Vec<String>], name: &str) -> Vec<f64> {
+    let j = header
+        .iter()
+        .position(|h| h == name)
+        .unwrap_or_else(|| panic!("column {name}"));
+    rows.iter().map(|r| num(&r[j])).collect()
+}
+
+/// `invsim simulate ARGS --out TAG.csv --summary-json TAG.json`, which must succeed: the summary and the CSV.
+pub fn simulate_with(args: &[&str], tag: &str) -> (Value, Vec<String>, Vec<Vec<String>>) {
+    let (csv, json) = (tmp(&format!("{tag}.csv")), tmp(&format!("{tag}.json")));
+    let mut all = vec!["simulate"];
+    all.extend_from_slice(args);
+    all.extend(["--out", csv.to_str().unwrap()]);
+    all.extend(["--summary-json", json.to_str().unwrap()]);
+    let o = invsim(&all);
+    assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+    let (header, rows) = read_csv(&csv);
+    (json_file(&json), header, rows)
+}
