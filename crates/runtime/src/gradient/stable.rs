@@ -7,8 +7,10 @@
 //!
 //! ```text
 //! R_j = η_{j+1} − η_j − h/6 (q_j + 4 q_{j+½} + q_{j+1}),   η_{j+½} = (η_j + η_{j+1})/2 + h/8 (q_j − q_{j+1}),
-//! W_a (η_0 − η_a(p)) = 0,   W_b (η_K − η_b(p)) = 0.
+//! W_a (η_0 − η_a(p)) = 0,   W_b (η_K − η_b(p)) = 0,
 //! ```
+//!
+//! η_a, η_b the equilibria q(η; p) = 0 for the constant reference before and after the smoother's support.
 //!
 //! By the implicit function theorem (Rudin, *Principles of Mathematical Analysis*, Thm. 9.28) the nodes'
 //! sensitivities S = dη/dp solve (∂F/∂η) S = −∂F/∂p: the Newton matrix of the collocation equations (a
@@ -134,8 +136,9 @@ fn partials<M: InverseModel + ?Sized>(
     }
     let np = wanted.params.len();
     let mut b = vec![0.0; m * np];
+    let zero = vec![0.0; m];
     for (c, &p) in wanted.params.iter().enumerate() {
-        let dir = at.direction(&e, Some(p));
+        let dir = at.direction(&zero, Some(p));
         for i in 0..m {
             b[i * np + c] = at.row_change(l.eta(i), &dir, Some(p));
         }
@@ -229,17 +232,9 @@ fn assemble<M: InverseModel + ?Sized>(
     let n = (k + 1) * m;
     let mut band = Band::new(n, ms + m - 1, 2 * m - 1 - ms);
     let mut rhs = vec![vec![0.0; n]; np];
-    let ends = [
-        (&plan.w_a, &plan.eta_a, 0, 0),
-        (&plan.w_b, &plan.eta_b, k, ms + k * m),
-    ];
-    for (rows, eta_eq, j, row0) in ends {
-        let node = colloc.node(j);
-        let at_eq = CollocationPoint {
-            eta: eta_eq,
-            ..node
-        };
-        let deq = equilibrium_sensitivity(wanted, &at_eq)?;
+    let ends = [(&plan.w_a, 0, 0), (&plan.w_b, k, ms + k * m)];
+    for (end, (rows, j, row0)) in ends.into_iter().enumerate() {
+        let deq = equilibrium_sensitivity(wanted, &colloc.equilibrium(end))?;
         for a in 0..rows.nrows() {
             for i in 0..m {
                 band.set(row0 + a, j * m + i, rows[(a, i)]);
@@ -258,7 +253,7 @@ fn assemble<M: InverseModel + ?Sized>(
             &mut band,
             &mut rhs,
             (&nodes[j], &mid, &nodes[j + 1]),
-            (j, ms, h),
+            (j, m, ms, h),
         );
     }
     band.factor().map_err(|col| {
@@ -277,9 +272,8 @@ fn interval(
     band: &mut Band,
     rhs: &mut [Vec<f64>],
     (pa, pm, pb): (&Partials, &Partials, &Partials),
-    (j, ms, h): (usize, usize, f64),
+    (j, m, ms, h): (usize, usize, usize, f64),
 ) {
-    let m = (pa.a.len() as f64).sqrt().round() as usize;
     let np = rhs.len();
     let row0 = ms + j * m;
     for c in 0..m {
@@ -321,6 +315,7 @@ struct Accumulator<'s> {
     u_prev: f64,
     eta: Vec<f64>,
     s: Vec<f64>,
+    buf: Vec<f64>,
     acc: Vec<Vec<f64>>,
     prev: Vec<Vec<f64>>,
 }
@@ -340,6 +335,7 @@ impl<'s> Accumulator<'s> {
             u_prev: f64::NAN,
             eta: vec![0.0; info.n_eta],
             s: vec![0.0; info.n_eta],
+            buf: Vec::new(),
             acc: vec![vec![0.0; np]; na],
             prev: vec![vec![0.0; np]; na],
         }
@@ -369,8 +365,9 @@ impl<'s> Accumulator<'s> {
             .invert_from(&ydk[..r], &self.eta, &wk, ydk[r], &mut self.x, self.u_prev)
             .map_err(model_err)?;
         self.u_prev = u;
-        let point = Point::new(model, (&self.x, &wk, u), &info.eta_states, Vec::new())
-            .map_err(model_err)?;
+        let buf = std::mem::take(&mut self.buf);
+        let point =
+            Point::new(model, (&self.x, &wk, u), &info.eta_states, buf).map_err(model_err)?;
         let (j, weights) = self.stable.solution.hermite(t);
         for (c, &p) in wanted.params.iter().enumerate() {
             self.interpolate(j, c, weights);
@@ -383,6 +380,7 @@ impl<'s> Accumulator<'s> {
                 self.prev[a][c] = v;
             }
         }
+        self.buf = point.into_buffer();
         Ok(())
     }
 

@@ -16,6 +16,8 @@ use crate::smoother::Smoother;
 pub(crate) struct Collocation<'a, M: ?Sized> {
     bvp: Bvp<'a, M>,
     run: &'a StableRun,
+    /// y_d … y_d^(r) and the signal values at the times of the boundary equilibria, `Plan::t_eq`.
+    ends: [(Vec<f64>, Vec<f64>); 2],
 }
 
 /// One collocation point: its time, y_d … y_d^(r) and signal values there, and η.
@@ -29,10 +31,31 @@ pub(crate) struct CollocationPoint<'c> {
 impl<'a, M: InverseModel + ?Sized> Collocation<'a, M> {
     /// The points of `run`'s solution, the reference evaluated along `smoother`.
     pub(crate) fn of(model: &'a M, smoother: &Smoother, run: &'a StableRun) -> Collocation<'a, M> {
+        let info = model.info();
+        let end = |t: f64| {
+            let mut yd = vec![0.0; info.relative_degree + 1];
+            let mut w = vec![0.0; info.n_w()];
+            smoother.eval(t, &mut yd);
+            smoother.eval_signals(t, &mut w);
+            (yd, w)
+        };
         Collocation {
             bvp: Bvp::new(model, smoother, &run.plan, run.solution.k),
             run,
+            ends: [end(run.plan.t_eq.0), end(run.plan.t_eq.1)],
         }
+    }
+
+    /// The equilibrium η_a (`end` 0) or η_b (`end` 1) with the constant reference it is solved for, as the
+    /// plan evaluates it.
+    pub(crate) fn equilibrium(&self, end: usize) -> CollocationPoint<'_> {
+        let plan = &self.run.plan;
+        let (t, eta) = match end {
+            0 => (plan.t_eq.0, &plan.eta_a),
+            _ => (plan.t_eq.1, &plan.eta_b),
+        };
+        let (yd, w) = &self.ends[end.min(1)];
+        CollocationPoint { t, yd, w, eta }
     }
 
     /// Where the boundary conditions sit and how η is split there.
