@@ -48,8 +48,9 @@ fn sampling_box(m: &dyn InverseModel) -> Box_ {
             b.yr = (-2.0, 2.0);
         }
         // Pressures in Pa above ambient (the turbine and compressor laws need p > p_amb), turbocharger speed in
-        // rad/s, VGT position in [0.2, 1]; ξ2 = dp_im/dt in Pa/s, y^(r) in Pa/s².
-        "diesel_gasflow" => {
+        // rad/s, VGT position in [0.2, 1]; ξ2 = dp_im/dt in Pa/s, y^(r) in Pa/s² (and the test model with its
+        // flows accumulated).
+        "diesel_gasflow" | "diesel_gasflow_flows" => {
             b.x = vec![(1.1e5, 3.0e5), (1.2e5, 4.0e5), (3.0e3, 1.5e4)];
             b.u = (0.2, 1.0);
             b.xi = vec![(1.1e5, 3.0e5), (-2.0e5, 2.0e5)];

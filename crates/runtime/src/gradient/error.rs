@@ -5,11 +5,6 @@ use thiserror::Error;
 /// Why a run's gradient cannot be computed.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum GradientError {
-    #[error(
-        "the zero dynamics are inverted non-causally (stable inversion with pre- and post-actuation): \
-         runs on that path are not differentiated yet (only causal runs and runs with r = n are)"
-    )]
-    NonCausal,
     #[error("unknown parameter `{name}` (the model declares: {known})")]
     UnknownParameter { name: String, known: String },
     #[error("parameter `{name}` is named twice")]

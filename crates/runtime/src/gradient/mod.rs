@@ -5,9 +5,11 @@
 //! For r = n the input and the states are closed-form (or implicitly defined) functions of the smoothed cycle
 //! and the parameters, so their derivatives follow from the model's symbolic partial derivatives by the chain
 //! rule at every sample ([`point`]); for r < n the internal states' sensitivities ∂η/∂p are advanced over
-//! each of the run's integrator steps of η by the Gauss–Legendre method ([`pass`], [`gauss`]); the figures are differentiated through the run's own
-//! quadrature and formulas ([`figures`]). Only runs of models without modes whose internal dynamics are
-//! integrated causally (or absent) are differentiated; [`GradientError`] says why another is not.
+//! each of the run's integrator steps of η by the Gauss–Legendre method ([`pass`], [`gauss`]), or, where
+//! unstable zero dynamics are inverted stably (non-causally), the bounded solution of the collocation
+//! equations is differentiated by the implicit function theorem ([`stable`]); the figures are differentiated
+//! through the run's own quadrature and formulas ([`figures`]). [`GradientError`] says why a run is not
+//! differentiated.
 
 pub mod error;
 mod figures;
@@ -15,6 +17,7 @@ mod gauss;
 pub mod modal;
 mod pass;
 mod point;
+mod stable;
 
 use std::fmt::Write as _;
 
@@ -27,6 +30,7 @@ pub(crate) use figures::{figures, Integrals, Wrt};
 pub use modal::{resolve_modal, GearParameters, ModalParam, ModalWrt};
 pub(crate) use pass::{integral_gradients, Along, Wanted};
 pub(crate) use point::{Direction, Point};
+pub(crate) use stable::StableFigures;
 
 use crate::report::fmt_sig;
 
@@ -106,9 +110,11 @@ pub(crate) struct RunFigures<'a> {
     pub integrals: &'a [f64],
     pub distance_m: f64,
     pub eta0: Option<Vec<f64>>,
+    /// The stable inversion of a non-causal run and its reported samples.
+    pub stable: Option<StableFigures<'a>>,
 }
 
-/// The gradient of a finished causal (or r = n) run with respect to the parameters `params`.
+/// The gradient of a finished run (causal, r = n or stable) with respect to the parameters `params`.
 pub(crate) fn of_run<M: InverseModel + ?Sized>(
     model: &M,
     params: &[usize],
@@ -121,7 +127,10 @@ pub(crate) fn of_run<M: InverseModel + ?Sized>(
         params,
         accumulate: run.accumulate,
     };
-    let derivatives = integral_gradients(&wanted, along, run.eta0, opts)?;
+    let derivatives = match run.stable {
+        Some(st) => stable::integral_gradients(&wanted, along, st)?,
+        None => integral_gradients(&wanted, along, run.eta0, opts)?,
+    };
     let integrals = Integrals {
         accumulate: run.accumulate,
         values: run.integrals,

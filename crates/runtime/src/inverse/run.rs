@@ -593,9 +593,6 @@ pub(super) fn run<M: InverseModel + ?Sized>(
         (t0, grid.time(grid.n), opts.dt),
         &stable_opts,
     )?;
-    if gradient_params.is_some() && zd.stable.is_some() {
-        return Err(crate::gradient::GradientError::NonCausal.into());
-    }
     let mut start_warnings = initial.warnings;
     let eta0 = match (eta0, initial.eta) {
         (Some(e), _) => Some(e),
@@ -637,7 +634,12 @@ pub(super) fn run<M: InverseModel + ?Sized>(
             (smoother, &grid),
             params,
             (&tally, cycle.distance(), gradient_eta0),
-            opts,
+            (
+                zd.stable
+                    .as_ref()
+                    .map(|run| crate::gradient::StableFigures { run, window }),
+                opts,
+            ),
         )?),
         None => None,
     };
@@ -667,14 +669,18 @@ pub(super) fn run<M: InverseModel + ?Sized>(
     })
 }
 
-/// The gradient of the finished causal run (`tally`: its integrals) with respect to the parameters `params`,
-/// along the reference on the run's grid ([`crate::gradient`]).
+/// The gradient of the finished run (`tally`: its integrals; `stable`: its stable inversion and reported
+/// samples, if non-causal) with respect to the parameters `params`, along the reference on the run's grid
+/// ([`crate::gradient`]).
 fn run_gradient<M: InverseModel + ?Sized>(
     model: &M,
     (smoother, grid): (&Smoother, &Grid),
     params: &[usize],
     (tally, distance_m, eta0): (&Tally<'_>, f64, Option<Vec<f64>>),
-    opts: &SimulationOptions,
+    (stable, opts): (
+        Option<crate::gradient::StableFigures<'_>>,
+        &SimulationOptions,
+    ),
 ) -> Result<crate::gradient::Gradient, SimulateError> {
     let along = crate::gradient::Along { smoother, grid };
     let figures = crate::gradient::RunFigures {
@@ -682,6 +688,7 @@ fn run_gradient<M: InverseModel + ?Sized>(
         integrals: &tally.integrals,
         distance_m,
         eta0,
+        stable,
     };
     crate::gradient::of_run(model, params, &along, figures, opts)
 }

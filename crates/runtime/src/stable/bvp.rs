@@ -64,6 +64,19 @@ impl Solution {
     /// η(t) into `out`: the cubic Hermite interpolant of (η_j, η̇_j) (the collocation polynomial).
     pub fn eval(&self, t: f64, out: &mut [f64]) {
         let m = self.m;
+        let (j, [h00, h10, h01, h11]) = self.hermite(t);
+        let (a, b) = (j * m, (j + 1) * m);
+        for (i, o) in out.iter_mut().enumerate().take(m) {
+            *o = h00 * self.eta[a + i]
+                + h10 * self.q[a + i]
+                + h01 * self.eta[b + i]
+                + h11 * self.q[b + i];
+        }
+    }
+
+    /// The interval j of time t and the weights of η_j, η̇_j, η_{j+1}, η̇_{j+1} in the interpolant at t (the
+    /// cubic Hermite basis, the derivative weights times h); outside [t_a, t_b] the end value is held.
+    pub(crate) fn hermite(&self, t: f64) -> (usize, [f64; 4]) {
         let s = (t - self.t_a) / self.h;
         let j = if s.is_nan() {
             0
@@ -76,18 +89,18 @@ impl Solution {
         let h10 = (t3 - 2.0 * t2 + th) * self.h;
         let h01 = -2.0 * t3 + 3.0 * t2;
         let h11 = (t3 - t2) * self.h;
-        let (a, b) = (j * m, (j + 1) * m);
-        for (i, o) in out.iter_mut().enumerate().take(m) {
-            *o = h00 * self.eta[a + i]
-                + h10 * self.q[a + i]
-                + h01 * self.eta[b + i]
-                + h11 * self.q[b + i];
-        }
+        (j, [h00, h10, h01, h11])
     }
 
     /// Number of nodes.
     pub fn nodes(&self) -> usize {
         self.k + 1
+    }
+
+    /// η and q = η̇ at node j (the values the interpolant [`Solution::eval`] joins).
+    pub(crate) fn node(&self, j: usize) -> (&[f64], &[f64]) {
+        let range = j * self.m..(j + 1) * self.m;
+        (&self.eta[range.clone()], &self.q[range])
     }
 }
 
@@ -117,7 +130,7 @@ impl AssemblyWork {
 }
 
 /// One discretisation of the boundary-value problem: K intervals of length h from t_a.
-struct Bvp<'a, M: ?Sized> {
+pub(super) struct Bvp<'a, M: ?Sized> {
     model: &'a M,
     plan: &'a Plan,
     r: usize,
@@ -134,7 +147,7 @@ struct Bvp<'a, M: ?Sized> {
 }
 
 impl<'a, M: InverseModel + ?Sized> Bvp<'a, M> {
-    fn new(model: &'a M, smoother: &Smoother, plan: &'a Plan, k: usize) -> Bvp<'a, M> {
+    pub(super) fn new(model: &'a M, smoother: &Smoother, plan: &'a Plan, k: usize) -> Bvp<'a, M> {
         let info = model.info();
         let (r, m) = (info.relative_degree, info.n_eta);
         let h = (plan.t_b - plan.t_a) / k as f64;
@@ -191,6 +204,15 @@ impl<'a, M: InverseModel + ?Sized> Bvp<'a, M> {
     #[inline]
     fn w_at(&self, i: usize) -> &[f64] {
         &self.w[i * self.nw..(i + 1) * self.nw]
+    }
+
+    /// y_d … y_d^(r) and the signal values at half-node i (even: node i/2, odd: a midpoint), as the
+    /// collocation equations evaluate them.
+    pub(super) fn reference_at(&self, i: usize) -> (&[f64], &[f64]) {
+        (
+            &self.yd[i * (self.r + 1)..(i + 1) * (self.r + 1)],
+            self.w_at(i),
+        )
     }
 
     /// ∂q/∂η at half-node i by forward differences from the value `q0` there, into `jac` (row-major m × m).

@@ -52,6 +52,7 @@
 mod band;
 mod bvp;
 mod classify;
+mod collocation;
 mod error;
 mod plan;
 
@@ -63,6 +64,8 @@ use bvp::{solve, Settings, Solution};
 use classify::{classify_reference, Level};
 use plan::{decay_horizons, plan, Plan};
 
+pub(crate) use band::Band;
+pub(crate) use collocation::{Collocation, CollocationPoint};
 pub use error::StableError;
 pub use invsim_model_api::zero_dynamics::ZeroDynamicsClass;
 

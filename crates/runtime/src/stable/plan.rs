@@ -19,6 +19,9 @@ pub(crate) struct Plan {
     /// Equilibria of the zero dynamics for the constant reference at t_a and t_b.
     pub eta_a: Vec<f64>,
     pub eta_b: Vec<f64>,
+    /// The times whose reference the equilibria are solved for (where it is constant: before the smoother's
+    /// support and after it; t_a and t_b themselves may move further out for the pre- and post-actuation).
+    pub t_eq: (f64, f64),
     /// W_a (m_s × m): W_a (η(t_a) − η_a) = 0 (no component in the stable subspace at the start).
     pub(crate) w_a: DMatrix<f64>,
     /// W_b (m_u × m): W_b (η(t_b) − η_b) = 0 (no component in the unstable subspace at the end).
@@ -88,6 +91,7 @@ pub(crate) fn plan<M: InverseModel + ?Sized>(
         t_b,
         eta_a,
         eta_b,
+        t_eq: (t_a, t_b),
         w_a,
         w_b,
         unstable,
