@@ -254,16 +254,25 @@ fn a_read_only_output_is_refused_before_the_run() {
 }
 
 /// Start `invsim` with `args` in `d`, wait (at most 60 s) until its temporary output file exists, send it
-/// `sig`; how it ended.
+/// `sig`; how it ended. The child starts with `sig`'s default action: a test run started in the background
+/// (`cmd &`, `nohup`) passes SIGINT or SIGHUP on ignored, and invsim rightly keeps a signal it was started
+/// ignoring ignored (crates/cli/src/interrupt.rs).
 fn interrupt(d: &Path, args: &[&str], sig: i32) -> std::process::ExitStatus {
+    use std::os::unix::process::CommandExt;
     use std::time::{Duration, Instant};
-    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_invsim"))
-        .args(args)
+    let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_invsim"));
+    cmd.args(args)
         .current_dir(d)
         .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::null())
-        .spawn()
-        .unwrap();
+        .stderr(std::process::Stdio::null());
+    // SAFETY: between fork and exec only signal(2), which is async-signal-safe (POSIX.1-2017, XSH 2.4.3).
+    unsafe {
+        cmd.pre_exec(move || {
+            libc::signal(sig, libc::SIG_DFL);
+            Ok(())
+        });
+    }
+    let mut child = cmd.spawn().unwrap();
     let deadline = Instant::now() + Duration::from_secs(60);
     let has_tmp = || names(d).iter().any(|n| n.ends_with(".tmp"));
     while !has_tmp() {
