@@ -7,9 +7,12 @@
 //!    the background, its output in `DIR/prepare.log`;
 //! 2. one `cargo build` compiles every library (the Python extension's too), binary and test target, so that
 //!    the pyo3 crates compile beside the rest instead of after the tests;
-//! 3. `cargo test` runs the Rust tests (nothing left to compile) while, once the venv is ready,
-//!    `.ci/python run DIR` packs the already built extension and runs pytest, its output in `DIR/run.log`,
-//!    printed when the Rust tests are done.
+//! 3. the Rust tests run in two lanes side by side (nothing left to compile): the command line's tests
+//!    (`cargo test -p invsim`, the longest test binary, its output in `target/xtask-test-cli.log`) and the
+//!    rest (`cargo test --workspace --exclude invsim`, in the foreground); one test binary alone leaves a core
+//!    idle whenever its last long test runs alone. Beside them, once the venv is ready, `.ci/python run DIR`
+//!    packs the already built extension and runs pytest, its output in `DIR/run.log`. The logs print after
+//!    the foreground lane, the command line's first.
 //!
 //! crates/bench holds only benchmarks and is left out: its dev-dependencies (criterion) would otherwise take
 //! part in the feature resolution and switch on zerocopy's derive macro (criterion → ciborium → half) for
@@ -22,6 +25,9 @@ use crate::Failure;
 
 /// The packages `cargo xtask test` leaves out, as `cargo` arguments.
 const EXCLUDED: [&str; 2] = ["--exclude", "invsim-bench"];
+
+/// The command line's package, whose tests run in a lane of their own.
+const CLI: &str = "invsim";
 
 /// Runs the tests as the module documentation says; `no_python`: the Rust tests alone. The first failure is
 /// the error (the Python tests still finish and print their log when the Rust tests fail).
@@ -44,11 +50,7 @@ pub fn run(root: &Path, no_python: bool) -> Result<(), Failure> {
         let (root, dir) = (root.to_path_buf(), dir.clone());
         std::thread::spawn(move || python(&root, &dir, child))
     });
-    let rust = run_step(
-        root,
-        cargo(&["test", "--workspace"]),
-        "cargo test --workspace --exclude invsim-bench",
-    );
+    let rust = rust_tests(root);
     let python = match python.map(std::thread::JoinHandle::join) {
         None => Ok(()),
         Some(Ok((log, outcome))) => {
@@ -61,6 +63,25 @@ pub fn run(root: &Path, no_python: bool) -> Result<(), Failure> {
         }),
     };
     rust.and(python)
+}
+
+/// The Rust tests in two lanes: the command line's (`cargo test -p invsim`, into `target/xtask-test-cli.log`,
+/// printed afterwards) beside the rest (`cargo test --workspace --exclude invsim`, in the foreground).
+fn rust_tests(root: &Path) -> Result<(), Failure> {
+    let log = root.join("target").join("xtask-test-cli.log");
+    let cli = spawn_logged(root, &log, cargo(&["test", "-p", CLI]));
+    let rest = run_step(
+        root,
+        cargo(&["test", "--workspace", "--exclude", CLI]),
+        "cargo test --workspace --exclude invsim-bench --exclude invsim",
+    );
+    let cli = match cli.and_then(|mut child| child.wait()) {
+        Ok(status) if status.success() => Ok(()),
+        Ok(status) => Err(step_failed("cargo test -p invsim", status)),
+        Err(e) => Err(cannot("run `cargo test -p invsim`", &e)),
+    };
+    println!("{}", std::fs::read_to_string(&log).unwrap_or_default());
+    rest.and(cli)
 }
 
 /// `cargo build` of every library, binary and test target (less `invsim-python` with `no_python`).
@@ -76,12 +97,23 @@ fn build(root: &Path, no_python: bool) -> Result<(), Failure> {
     )
 }
 
-/// `cargo ARGS --exclude invsim-bench`, with the cargo that runs xtask.
+/// `cargo ARGS` (and `--exclude invsim-bench` unless ARGS pick one package with `-p`), with the cargo that
+/// runs xtask.
 fn cargo(args: &[&str]) -> Command {
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
     let mut cmd = Command::new(cargo);
-    cmd.args(args).args(EXCLUDED);
+    cmd.args(args);
+    if !args.contains(&"-p") {
+        cmd.args(EXCLUDED);
+    }
     cmd
+}
+
+/// Starts `cmd` in `root`, its output (both streams) into `log`.
+fn spawn_logged(root: &Path, log: &Path, mut cmd: Command) -> std::io::Result<Child> {
+    let out = std::fs::File::create(log)?;
+    let err = out.try_clone()?;
+    cmd.current_dir(root).stdout(out).stderr(err).spawn()
 }
 
 /// The Python step: wait for the venv, then `.ci/python run DIR` into `DIR/run.log`. Returns the log to print
@@ -132,11 +164,9 @@ fn spawn_prepare(root: &Path, dir: &Path) -> Result<Child, Failure> {
 
 /// Starts `bash` with the arguments `args` adds, in `root`, its output (both streams) into `log`.
 fn logged(root: &Path, log: &Path, args: impl FnOnce(&mut Command)) -> std::io::Result<Child> {
-    let out = std::fs::File::create(log)?;
-    let err = out.try_clone()?;
     let mut cmd = Command::new("bash");
     args(&mut cmd);
-    cmd.current_dir(root).stdout(out).stderr(err).spawn()
+    spawn_logged(root, log, cmd)
 }
 
 /// Runs one step in `root` in the foreground; an error unless it succeeds.
