@@ -17,6 +17,7 @@ mod gauss;
 pub mod modal;
 mod pass;
 mod point;
+mod sample;
 mod stable;
 
 use std::fmt::Write as _;

@@ -38,6 +38,7 @@ use nalgebra::DMatrix;
 
 use super::gauss::{Gauss, Singular, NODES};
 use super::point::Point;
+use super::sample::Samples;
 use crate::error::RunError;
 use crate::grid::{Grid, MAX_DERIVATIVES};
 use crate::inverse::{SimulateError, SimulationOptions};
@@ -70,7 +71,9 @@ pub(crate) fn integral_gradients<M: InverseModel + ?Sized>(
     eta0: Option<Vec<f64>>,
     opts: &SimulationOptions,
 ) -> Result<Vec<Vec<f64>>, SimulateError> {
-    Ok(sweep(wanted, along, eta0, opts, &mut |_, _| ())?.acc)
+    Ok(sweep(wanted, along, eta0, opts, &mut |_, _| ())?
+        .samples
+        .acc)
 }
 
 /// The pass over the whole grid; `seen(k, η)` after each sample k.
@@ -117,19 +120,14 @@ fn sweep<M: InverseModel + ?Sized>(
     Ok(sweep)
 }
 
-/// The pass's state from sample to sample: η and its integrator, S (ne × P column-major, column c = ∂η/∂p_c), the last
-/// sample's state and input (the guesses the run uses), the integrals' derivatives and the last sample's
-/// output derivatives.
+/// The pass's state from sample to sample: η and its integrator, S (ne × P column-major, column c = ∂η/∂p_c),
+/// and what every pass carries ([`Samples`]: the last sample's state and input, the integrals' derivatives).
 struct Sweep {
     eta: Vec<f64>,
     s: Vec<f64>,
     integrator: Dopri5,
-    x: Vec<f64>,
-    u_prev: f64,
     nodes: Nodes,
-    buf: Vec<f64>,
-    acc: Vec<Vec<f64>>,
-    prev: Vec<Vec<f64>>,
+    samples: Samples,
 }
 
 impl Sweep {
@@ -145,12 +143,8 @@ impl Sweep {
             integrator: Dopri5::new(eta.len(), opts.rtol, opts.atol, opts.dt),
             eta,
             s,
-            x: vec![0.0; info.n_states()],
-            u_prev: f64::NAN,
             nodes: Nodes::new(info, np),
-            buf: Vec::new(),
-            acc: vec![vec![0.0; np]; na],
-            prev: vec![vec![0.0; np]; na],
+            samples: Samples::new(info.n_states(), na, np),
         }
     }
 
@@ -164,39 +158,24 @@ impl Sweep {
     ) -> Result<(), SimulateError> {
         let model = wanted.model;
         let info = model.info();
-        let (r, ne) = (info.relative_degree, info.n_eta);
+        let ne = info.n_eta;
         let grid = along.grid;
         let t = grid.time(k);
         if k > 0 && ne > 0 {
             self.advance(wanted, along.smoother, (grid.time(k - 1), t))?;
         }
-        let mut ydk = [0.0_f64; MAX_DERIVATIVES];
-        for (v, c) in ydk[..=r].iter_mut().zip(yd) {
-            *v = c[i];
-        }
-        let wk: Vec<f64> = w.iter().map(|c| c[i]).collect();
-        let model_err = |source| SimulateError::from(RunError::Model { t, source });
-        let u = model
-            .invert_from(&ydk[..r], &self.eta, &wk, ydk[r], &mut self.x, self.u_prev)
-            .map_err(model_err)?;
-        self.u_prev = u;
-        let buf = std::mem::take(&mut self.buf);
-        let point =
-            Point::new(model, (&self.x, &wk, u), &info.eta_states, buf).map_err(model_err)?;
-        let h = 0.5 * grid.dt;
+        let point = self.samples.point(model, (t, yd, w, i), &self.eta)?;
+        let half = (k > 0).then_some(0.5 * grid.dt);
         let columns = &self.s;
         let mut dir = point.direction(&columns[..ne], None);
         for (c, &p) in wanted.params.iter().enumerate() {
             point.direction_into(&columns[c * ne..(c + 1) * ne], Some(p), &mut dir);
             for (a, &o) in wanted.accumulate.iter().enumerate() {
                 let v = point.row_change(point.layout().output(o), &dir, Some(p));
-                if k > 0 {
-                    self.acc[a][c] += h * (self.prev[a][c] + v);
-                }
-                self.prev[a][c] = v;
+                self.samples.add((a, c), v, half);
             }
         }
-        self.buf = point.into_buffer();
+        self.samples.recycle(point);
         Ok(())
     }
 
@@ -211,7 +190,7 @@ impl Sweep {
         let model = wanted.model;
         let r = model.info().relative_degree;
         let mut w_s = vec![0.0; model.info().n_w()];
-        let u_prev = self.u_prev;
+        let u_prev = self.samples.u_prev;
         let mut q = |s: f64, e: &[f64], de: &mut [f64]| {
             let mut yd_s = [0.0_f64; MAX_DERIVATIVES];
             smoother.eval(s, &mut yd_s[..=r]);
@@ -219,7 +198,7 @@ impl Sweep {
             model.zero_dynamics_from(&yd_s[..r], e, &w_s, yd_s[r], u_prev, de);
             Ok(())
         };
-        self.nodes.x.copy_from_slice(&self.x);
+        self.nodes.x.copy_from_slice(&self.samples.x);
         let (nodes, s) = (&mut self.nodes, &mut self.s);
         let mut each = |ode: &Dopri5, ta: f64, tb: f64| {
             nodes.step(wanted, smoother, (ode, ta, tb - ta, u_prev), s)

@@ -36,8 +36,8 @@ use nalgebra::DMatrix;
 
 use super::pass::{Along, Wanted};
 use super::point::Point;
+use super::sample::Samples;
 use crate::error::RunError;
-use crate::grid::MAX_DERIVATIVES;
 use crate::inverse::SimulateError;
 use crate::stable::{Band, Collocation, CollocationPoint, StableError, StableRun};
 
@@ -96,7 +96,7 @@ pub(crate) fn integral_gradients<M: InverseModel + ?Sized>(
         }
         k0 += len;
     }
-    Ok(acc.acc)
+    Ok(acc.samples.acc)
 }
 
 /// ∂q/∂η (`a`, m × m row-major) and ∂q/∂p (`b`, m × P row-major) at one point, total through x = ψ⁻¹(ξ, η)
@@ -306,18 +306,14 @@ fn interval(
     }
 }
 
-/// The grid pass's state: the last sample's state and input (the guesses), the integrals' derivatives and the
-/// last sample's output derivatives.
+/// The grid pass's state: η and S_c at the sample, and what every pass carries ([`Samples`]: the last sample's
+/// state and input, the integrals' derivatives).
 struct Accumulator<'s> {
     stable: &'s StableRun,
     nodes: &'s NodeSensitivities,
-    x: Vec<f64>,
-    u_prev: f64,
     eta: Vec<f64>,
     s: Vec<f64>,
-    buf: Vec<f64>,
-    acc: Vec<Vec<f64>>,
-    prev: Vec<Vec<f64>>,
+    samples: Samples,
 }
 
 impl<'s> Accumulator<'s> {
@@ -331,13 +327,9 @@ impl<'s> Accumulator<'s> {
         Accumulator {
             stable,
             nodes,
-            x: vec![0.0; info.n_states()],
-            u_prev: f64::NAN,
             eta: vec![0.0; info.n_eta],
             s: vec![0.0; info.n_eta],
-            buf: Vec::new(),
-            acc: vec![vec![0.0; np]; na],
-            prev: vec![vec![0.0; np]; na],
+            samples: Samples::new(info.n_states(), na, np),
         }
     }
 
@@ -351,36 +343,19 @@ impl<'s> Accumulator<'s> {
         first: bool,
         half: f64,
     ) -> Result<(), SimulateError> {
-        let model = wanted.model;
-        let info = model.info();
-        let r = info.relative_degree;
-        let mut ydk = [0.0_f64; MAX_DERIVATIVES];
-        for (v, c) in ydk[..=r].iter_mut().zip(yd) {
-            *v = c[i];
-        }
-        let wk: Vec<f64> = w.iter().map(|c| c[i]).collect();
         self.stable.solution.eval(t, &mut self.eta);
-        let model_err = |source| SimulateError::from(RunError::Model { t, source });
-        let u = model
-            .invert_from(&ydk[..r], &self.eta, &wk, ydk[r], &mut self.x, self.u_prev)
-            .map_err(model_err)?;
-        self.u_prev = u;
-        let buf = std::mem::take(&mut self.buf);
-        let point =
-            Point::new(model, (&self.x, &wk, u), &info.eta_states, buf).map_err(model_err)?;
+        let point = self.samples.point(wanted.model, (t, yd, w, i), &self.eta)?;
+        let half = (!first).then_some(half);
         let (j, weights) = self.stable.solution.hermite(t);
         for (c, &p) in wanted.params.iter().enumerate() {
             self.interpolate(j, c, weights);
             let dir = point.direction(&self.s, Some(p));
             for (a, &o) in wanted.accumulate.iter().enumerate() {
                 let v = point.row_change(point.layout().output(o), &dir, Some(p));
-                if !first {
-                    self.acc[a][c] += half * (self.prev[a][c] + v);
-                }
-                self.prev[a][c] = v;
+                self.samples.add((a, c), v, half);
             }
         }
-        self.buf = point.into_buffer();
+        self.samples.recycle(point);
         Ok(())
     }
 

@@ -1,0 +1,76 @@
+//! What both sensitivity passes ([`super::pass`], causal; [`super::stable`], non-causal) do at a grid sample:
+//! the reference read from the block's columns, the inverse solved from η with the last sample's state and
+//! input as Newton's guesses (as the run solves it), the chain rule's [`Point`] there, and the trapezoidal
+//! sums ∫ do_a/dp_c dt ≈ Σ_k dt·(do_k + do_(k+1))/2 of the accumulated outputs' derivatives.
+
+use invsim_model_api::InverseModel;
+
+use super::point::Point;
+use crate::error::RunError;
+use crate::grid::MAX_DERIVATIVES;
+use crate::inverse::SimulateError;
+
+/// A block's columns at one sample: time t, column index i of y_d … y_d^(r) (`yd`) and of the signals (`w`).
+pub(super) type At<'a> = (f64, &'a [Vec<f64>], &'a [Vec<f64>], usize);
+
+/// The state a pass carries from sample to sample.
+pub(super) struct Samples {
+    /// The last sample's state and input (the guesses of a numerically solved ψ⁻¹ and input).
+    pub(super) x: Vec<f64>,
+    pub(super) u_prev: f64,
+    buf: Vec<f64>,
+    /// ∫ do_a/dp_c dt so far, `[a][c]`.
+    pub(super) acc: Vec<Vec<f64>>,
+    /// do_a/dp_c at the last sample.
+    prev: Vec<Vec<f64>>,
+}
+
+impl Samples {
+    /// For a model of `n_states` states, `accumulated` outputs and `params` parameters.
+    pub(super) fn new(n_states: usize, accumulated: usize, params: usize) -> Samples {
+        Samples {
+            x: vec![0.0; n_states],
+            u_prev: f64::NAN,
+            buf: Vec::new(),
+            acc: vec![vec![0.0; params]; accumulated],
+            prev: vec![vec![0.0; params]; accumulated],
+        }
+    }
+
+    /// The inverse at the sample `at` with internal state `eta`, and the partials there.
+    pub(super) fn point<M: InverseModel + ?Sized>(
+        &mut self,
+        model: &M,
+        (t, yd, w, i): At<'_>,
+        eta: &[f64],
+    ) -> Result<Point, SimulateError> {
+        let info = model.info();
+        let r = info.relative_degree;
+        let mut ydk = [0.0_f64; MAX_DERIVATIVES];
+        for (v, c) in ydk[..=r].iter_mut().zip(yd) {
+            *v = c[i];
+        }
+        let wk: Vec<f64> = w.iter().map(|c| c[i]).collect();
+        let model_err = |source| SimulateError::from(RunError::Model { t, source });
+        let u = model
+            .invert_from(&ydk[..r], eta, &wk, ydk[r], &mut self.x, self.u_prev)
+            .map_err(model_err)?;
+        self.u_prev = u;
+        let buf = std::mem::take(&mut self.buf);
+        Point::new(model, (&self.x, &wk, u), &info.eta_states, buf).map_err(model_err)
+    }
+
+    /// The point's buffer back, for the next sample's.
+    pub(super) fn recycle(&mut self, point: Point) {
+        self.buf = point.into_buffer();
+    }
+
+    /// do_a/dp_c = `v` at this sample: the trapezoid's term `half`·(do at the last sample + v) added
+    /// (`half` = dt/2; `None` at the first sample, which has no interval before it).
+    pub(super) fn add(&mut self, (a, c): (usize, usize), v: f64, half: Option<f64>) {
+        if let Some(h) = half {
+            self.acc[a][c] += h * (self.prev[a][c] + v);
+        }
+        self.prev[a][c] = v;
+    }
+}
