@@ -38,7 +38,7 @@ use nalgebra::DMatrix;
 
 use super::gauss::{Gauss, Singular, NODES};
 use super::point::Point;
-use super::sample::Samples;
+use super::sample::{Block, Samples};
 use crate::error::RunError;
 use crate::grid::{Grid, MAX_DERIVATIVES};
 use crate::inverse::{SimulateError, SimulationOptions};
@@ -94,25 +94,13 @@ fn sweep<M: InverseModel + ?Sized>(
         (Vec::new(), Vec::new())
     };
     let mut sweep = Sweep::new(wanted, (eta, s), opts);
-    let width = BLOCK.min(samples);
-    let mut time = vec![0.0; width];
-    let (mut yd, mut w) = (vec![vec![0.0; width]; r + 1], vec![vec![0.0; width]; nw]);
+    let mut block = Block::new(BLOCK.min(samples), r, nw);
     let mut k0 = 0;
     while k0 < samples {
         let len = (k0 + BLOCK).min(samples) - k0;
-        for (i, t) in time[..len].iter_mut().enumerate() {
-            *t = grid.time(k0 + i);
-        }
-        let mut cols: Vec<&mut [f64]> = yd.iter_mut().map(|c| &mut c[..len]).collect();
-        along
-            .smoother
-            .eval_grid(&time[..len], Some(grid.dt), &mut cols);
-        let mut cols: Vec<&mut [f64]> = w.iter_mut().map(|c| &mut c[..len]).collect();
-        along
-            .smoother
-            .eval_signals_grid(&time[..len], Some(grid.dt), &mut cols);
+        block.fill(along.smoother, grid, (k0, len));
         for i in 0..len {
-            sweep.sample(wanted, along, (k0 + i, &yd, &w, i))?;
+            sweep.sample(wanted, along, (k0 + i, &block.yd, &block.w, i))?;
             seen(k0 + i, &sweep.eta);
         }
         k0 += len;

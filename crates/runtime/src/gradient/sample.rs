@@ -7,8 +7,9 @@ use invsim_model_api::InverseModel;
 
 use super::point::Point;
 use crate::error::RunError;
-use crate::grid::MAX_DERIVATIVES;
+use crate::grid::{Grid, MAX_DERIVATIVES};
 use crate::inverse::SimulateError;
+use crate::smoother::Smoother;
 
 /// A block's columns at one sample: time t, column index i of y_d … y_d^(r) (`yd`) and of the signals (`w`).
 pub(super) type At<'a> = (f64, &'a [Vec<f64>], &'a [Vec<f64>], usize);
@@ -72,5 +73,41 @@ impl Samples {
             self.acc[a][c] += h * (self.prev[a][c] + v);
         }
         self.prev[a][c] = v;
+    }
+}
+
+/// The reference's columns over one block of grid samples (y_d … y_d^(r) and the signals), evaluated as the
+/// run evaluates them, so that a pass stores no column of the whole run.
+pub(super) struct Block {
+    pub(super) time: Vec<f64>,
+    pub(super) yd: Vec<Vec<f64>>,
+    pub(super) w: Vec<Vec<f64>>,
+}
+
+impl Block {
+    /// Room for `width` samples of r + 1 derivatives and `nw` signal columns.
+    pub(super) fn new(width: usize, r: usize, nw: usize) -> Block {
+        Block {
+            time: vec![0.0; width],
+            yd: vec![vec![0.0; width]; r + 1],
+            w: vec![vec![0.0; width]; nw],
+        }
+    }
+
+    /// Samples k0 … k0 + len − 1 of `grid`, into columns 0 … len − 1.
+    pub(super) fn fill(&mut self, smoother: &Smoother, grid: &Grid, (k0, len): (usize, usize)) {
+        for (i, t) in self.time[..len].iter_mut().enumerate() {
+            *t = grid.time(k0 + i);
+        }
+        let time = &self.time[..len];
+        let mut cols: Vec<&mut [f64]> = self.yd.iter_mut().map(|c| &mut c[..len]).collect();
+        smoother.eval_grid(time, Some(grid.dt), &mut cols);
+        let mut cols: Vec<&mut [f64]> = self.w.iter_mut().map(|c| &mut c[..len]).collect();
+        smoother.eval_signals_grid(time, Some(grid.dt), &mut cols);
+    }
+
+    /// Column i as a sample's reference.
+    pub(super) fn at(&self, i: usize) -> At<'_> {
+        (self.time[i], &self.yd, &self.w, i)
     }
 }

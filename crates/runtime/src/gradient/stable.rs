@@ -36,7 +36,7 @@ use nalgebra::DMatrix;
 
 use super::pass::{Along, Wanted};
 use super::point::Point;
-use super::sample::Samples;
+use super::sample::{At, Block, Samples};
 use crate::error::RunError;
 use crate::inverse::SimulateError;
 use crate::stable::{Band, Collocation, CollocationPoint, StableError, StableRun};
@@ -71,27 +71,15 @@ pub(crate) fn integral_gradients<M: InverseModel + ?Sized>(
     let grid = along.grid;
     let samples = grid.samples();
     let mut acc = Accumulator::new(wanted, stable, &nodes);
-    let width = BLOCK.min(samples);
-    let mut time = vec![0.0; width];
-    let (mut yd, mut w) = (vec![vec![0.0; width]; r + 1], vec![vec![0.0; width]; nw]);
+    let mut block = Block::new(BLOCK.min(samples), r, nw);
     let mut k0 = 0;
     while k0 < samples {
         let len = (k0 + BLOCK).min(samples) - k0;
         if k0 <= window.1 && k0 + len > window.0 {
-            for (i, t) in time[..len].iter_mut().enumerate() {
-                *t = grid.time(k0 + i);
-            }
-            let mut cols: Vec<&mut [f64]> = yd.iter_mut().map(|c| &mut c[..len]).collect();
-            along
-                .smoother
-                .eval_grid(&time[..len], Some(grid.dt), &mut cols);
-            let mut cols: Vec<&mut [f64]> = w.iter_mut().map(|c| &mut c[..len]).collect();
-            along
-                .smoother
-                .eval_signals_grid(&time[..len], Some(grid.dt), &mut cols);
+            block.fill(along.smoother, grid, (k0, len));
             for i in (0..len).filter(|i| (window.0..=window.1).contains(&(k0 + i))) {
                 let first = k0 + i == window.0;
-                acc.sample(wanted, (time[i], &yd, &w, i), first, 0.5 * grid.dt)?;
+                acc.sample(wanted, block.at(i), first, 0.5 * grid.dt)?;
             }
         }
         k0 += len;
@@ -339,12 +327,13 @@ impl<'s> Accumulator<'s> {
     fn sample<M: InverseModel + ?Sized>(
         &mut self,
         wanted: &Wanted<'_, M>,
-        (t, yd, w, i): (f64, &[Vec<f64>], &[Vec<f64>], usize),
+        at: At<'_>,
         first: bool,
         half: f64,
     ) -> Result<(), SimulateError> {
+        let t = at.0;
         self.stable.solution.eval(t, &mut self.eta);
-        let point = self.samples.point(wanted.model, (t, yd, w, i), &self.eta)?;
+        let point = self.samples.point(wanted.model, at, &self.eta)?;
         let half = (!first).then_some(half);
         let (j, weights) = self.stable.solution.hermite(t);
         for (c, &p) in wanted.params.iter().enumerate() {
