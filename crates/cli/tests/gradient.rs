@@ -9,22 +9,9 @@ use common::*;
 use serde_json::Value;
 
 fn summary(model: &str, tag: &str, extra: &[&str]) -> (Value, String) {
-    let json = tmp(&format!("gradient-{tag}.json"));
-    let mut args = vec![
-        "simulate",
-        model,
-        "--cycle",
-        "ece",
-        "--summary-json",
-        json.to_str().expect("utf-8"),
-    ];
+    let mut args = vec![model, "--cycle", "ece"];
     args.extend_from_slice(extra);
-    let o = invsim(&args);
-    assert!(o.status.success(), "{}", stderr(&o));
-    (
-        json_file(&json),
-        String::from_utf8_lossy(&o.stdout).into_owned(),
-    )
+    simulate_summary(&args, &format!("gradient-{tag}"))
 }
 
 /// The block has a row per figure (integrals, per 100 km, headline) with the parameters asked for; the text has

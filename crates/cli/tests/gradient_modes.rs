@@ -237,19 +237,9 @@ fn simulate_of_a_model_with_modes_as_a_user_meets_it() {
 fn set_names_one_gear_s_ratio_as_the_gradient_does() {
     let model = "models/si_engine_5speed.toml";
     let fuel_at = |tag: &str, extra: &[&str]| {
-        let json = tmp(&format!("gradient-modes-set-{tag}.json"));
-        let mut args = vec![
-            "simulate",
-            model,
-            "--cycle",
-            "ece",
-            "--summary-json",
-            json.to_str().expect("utf-8"),
-        ];
+        let mut args = vec![model, "--cycle", "ece"];
         args.extend_from_slice(extra);
-        let o = invsim(&args);
-        assert!(o.status.success(), "{}", stderr(&o));
-        json_file(&json)
+        simulate_summary(&args, &format!("gradient-modes-set-{tag}")).0
     };
     let base = fuel_at("base", &["--gradient", "i_g[3]"]);
     let g = base["gradient"]["fuel"]["i_g[3]"]

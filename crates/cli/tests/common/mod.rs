@@ -76,15 +76,26 @@ pub fn column(header: &[String], rows: &[Vec<String>], name: &str) -> Vec<f64> {
     rows.iter().map(|r| num(&r[j])).collect()
 }
 
-/// `invsim simulate ARGS --out TAG.csv --summary-json TAG.json`, which must succeed: the summary and the CSV.
-pub fn simulate_with(args: &[&str], tag: &str) -> (Value, Vec<String>, Vec<Vec<String>>) {
-    let (csv, json) = (tmp(&format!("{tag}.csv")), tmp(&format!("{tag}.json")));
+/// `invsim simulate ARGS --summary-json TAG.json`, which must succeed: the summary and the standard output.
+pub fn simulate_summary(args: &[&str], tag: &str) -> (Value, String) {
+    let json = tmp(&format!("{tag}.json"));
     let mut all = vec!["simulate"];
     all.extend_from_slice(args);
-    all.extend(["--out", csv.to_str().unwrap()]);
     all.extend(["--summary-json", json.to_str().unwrap()]);
     let o = invsim(&all);
     assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+    (
+        json_file(&json),
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+    )
+}
+
+/// `invsim simulate ARGS --out TAG.csv --summary-json TAG.json`, which must succeed: the summary and the CSV.
+pub fn simulate_with(args: &[&str], tag: &str) -> (Value, Vec<String>, Vec<Vec<String>>) {
+    let csv = tmp(&format!("{tag}.csv"));
+    let mut all = args.to_vec();
+    all.extend(["--out", csv.to_str().unwrap()]);
+    let (summary, _) = simulate_summary(&all, tag);
     let (header, rows) = read_csv(&csv);
-    (json_file(&json), header, rows)
+    (summary, header, rows)
 }
