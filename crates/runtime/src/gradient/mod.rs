@@ -30,7 +30,7 @@ pub use figures::Figures;
 pub(crate) use figures::{figures, Integrals, Wrt};
 pub use modal::{resolve_modal, GearParameters, ModalParam, ModalWrt};
 pub(crate) use pass::{integral_gradients, Along, Wanted};
-pub(crate) use point::{Direction, Point};
+pub(crate) use point::{Buffers, Direction, Point};
 pub(crate) use stable::StableFigures;
 
 use crate::report::fmt_sig;

@@ -37,7 +37,7 @@ use invsim_model_api::InverseModel;
 use nalgebra::DMatrix;
 
 use super::gauss::{Gauss, Singular, NODES};
-use super::point::Point;
+use super::point::{Buffers, Point};
 use super::sample::{Block, Samples};
 use crate::error::RunError;
 use crate::grid::{Grid, MAX_DERIVATIVES};
@@ -154,15 +154,8 @@ impl Sweep {
         }
         let point = self.samples.point(model, (t, yd, w, i), &self.eta)?;
         let half = (k > 0).then_some(0.5 * grid.dt);
-        let columns = &self.s;
-        let mut dir = point.direction(&columns[..ne], None);
-        for (c, &p) in wanted.params.iter().enumerate() {
-            point.direction_into(&columns[c * ne..(c + 1) * ne], Some(p), &mut dir);
-            for (a, &o) in wanted.accumulate.iter().enumerate() {
-                let v = point.row_change(point.layout().output(o), &dir, Some(p));
-                self.samples.add((a, c), v, half);
-            }
-        }
+        self.samples
+            .add_outputs(&point, wanted, &self.s[..ne * wanted.params.len()], half);
         self.samples.recycle(point);
         Ok(())
     }
@@ -226,7 +219,8 @@ fn start<M: InverseModel + ?Sized>(
     let u = model
         .invert_from(xi, &eta, &w, yr, &mut x, f64::NAN)
         .map_err(model_err)?;
-    let point = Point::new(model, (&x, &w, u), &info.eta_states, Vec::new()).map_err(model_err)?;
+    let point =
+        Point::new(model, (&x, &w, u), &info.eta_states, Default::default()).map_err(model_err)?;
     let (mut q_eta, mut q_p) = (vec![0.0; ne * ne], vec![0.0; ne * np]);
     point.eta_jacobians(wanted.params, &mut q_eta, &mut q_p);
     let s = DMatrix::from_vec(ne, ne, q_eta)
@@ -242,7 +236,7 @@ struct Nodes {
     x: Vec<f64>,
     w: Vec<f64>,
     eta: Vec<f64>,
-    buf: Vec<f64>,
+    buf: Buffers,
     a: [Vec<f64>; 2],
     b: [Vec<f64>; 2],
     gauss: Gauss,
@@ -255,7 +249,7 @@ impl Nodes {
             x: vec![0.0; info.n_states()],
             w: vec![0.0; info.n_w()],
             eta: vec![0.0; ne],
-            buf: Vec::new(),
+            buf: Buffers::default(),
             a: std::array::from_fn(|_| vec![0.0; ne * ne]),
             b: std::array::from_fn(|_| vec![0.0; ne * np]),
             gauss: Gauss::new(ne, np),

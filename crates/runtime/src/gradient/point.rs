@@ -16,7 +16,6 @@
 use std::cell::RefCell;
 
 use invsim_model_api::{InverseModel, ModelError, SensitivityLayout};
-use nalgebra::DMatrix;
 
 /// The partial derivatives at one point (x, w, u) and the inverse of ∂ψ/∂x (n is small: every direction is
 /// then a product with it, without a factorisation or an allocation per direction).
@@ -27,6 +26,18 @@ pub(crate) struct Point {
     inverse: Vec<f64>,
     /// The right-hand side of a direction, reused.
     b: RefCell<Vec<f64>>,
+    /// ∂ψ/∂x's buffer, kept for the next point.
+    jac: Vec<f64>,
+}
+
+/// The buffers of a point, reused from point to point ([`Point::into_buffer`]): nothing is allocated per point
+/// once they have their sizes.
+#[derive(Default)]
+pub(crate) struct Buffers {
+    sens: Vec<f64>,
+    jac: Vec<f64>,
+    inverse: Vec<f64>,
+    work: Vec<f64>,
 }
 
 /// A direction of change at a point: dx and du.
@@ -36,42 +47,58 @@ pub(crate) struct Direction {
 }
 
 impl Point {
-    /// The model's partial derivatives at (x, w, u); `eta_states` are the states chosen as η.
+    /// The model's partial derivatives at (x, w, u); `eta_states` are the states chosen as η. `buffers`: those of
+    /// an earlier point ([`Point::into_buffer`]) or new ones.
     pub(crate) fn new<M: InverseModel + ?Sized>(
         model: &M,
         (x, w, u): (&[f64], &[f64], f64),
         eta_states: &[usize],
-        sens: Vec<f64>,
+        buffers: Buffers,
     ) -> Result<Point, ModelError> {
         let layout = SensitivityLayout::of(model.info());
-        let mut sens = sens;
+        let Buffers {
+            mut sens,
+            mut jac,
+            mut inverse,
+            mut work,
+        } = buffers;
         sens.resize(layout.len(), 0.0);
         model.sensitivity(x, w, u, &mut sens)?;
         let (n, r) = (layout.n, layout.r);
-        let jac = DMatrix::from_fn(n, n, |i, j| {
+        // ∂ψ/∂x: the ξ rows' partials, then the unit rows η_j = x_(s_j).
+        jac.clear();
+        jac.resize(n * n, 0.0);
+        for (i, row) in jac.chunks_exact_mut(n).enumerate() {
             if i < r {
-                sens[layout.at(layout.psi(i), layout.x(j))]
-            } else if eta_states[i - r] == j {
-                1.0
+                for (j, v) in row.iter_mut().enumerate() {
+                    *v = sens[layout.at(layout.psi(i), layout.x(j))];
+                }
             } else {
-                0.0
+                row[eta_states[i - r]] = 1.0;
             }
-        });
-        let inverse = match jac.try_inverse() {
-            Some(m) => (0..n * n).map(|k| m[(k / n, k % n)]).collect(),
-            None => vec![f64::NAN; n * n],
-        };
+        }
+        inverse.resize(n * n, 0.0);
+        if !invert(n, &mut jac, &mut inverse) {
+            inverse.fill(f64::NAN);
+        }
+        work.resize(n, 0.0);
         Ok(Point {
             layout,
             sens,
             inverse,
-            b: RefCell::new(vec![0.0; n]),
+            b: RefCell::new(work),
+            jac,
         })
     }
 
-    /// The buffer of the partial derivatives, to reuse for the next point.
-    pub(crate) fn into_buffer(self) -> Vec<f64> {
-        self.sens
+    /// The buffers, to reuse for the next point.
+    pub(crate) fn into_buffer(self) -> Buffers {
+        Buffers {
+            sens: self.sens,
+            jac: self.jac,
+            inverse: self.inverse,
+            work: self.b.into_inner(),
+        }
     }
 
     fn d(&self, row: usize, column: usize) -> f64 {
@@ -138,40 +165,123 @@ impl Point {
     }
 
     /// A = ∂q/∂η (ne × ne) and B = ∂q/∂p (ne × P, the parameters `params`) of the internal states' right-hand
-    /// sides q_i = F_(η_i)(x, w, u; p), through x and u (the directions of the module doc, all at once): with
+    /// sides q_i = F_(η_i)(x, w, u; p), through x and u, into `a` and `b` ([`Point::row_jacobians`] of the η
+    /// rows).
+    pub(crate) fn eta_jacobians(&self, params: &[usize], a: &mut [f64], b: &mut [f64]) {
+        let l = &self.layout;
+        let rows: Vec<usize> = (0..l.n_eta).map(|i| l.eta(i)).collect();
+        self.row_jacobians(&rows, params, a, b);
+    }
+
+    /// ∂q/∂η (m × ne) and ∂q/∂p (m × P, the parameters `params`) of the rows q_i (`rows`: η right-hand sides or
+    /// outputs, m of them) through x and u (the directions of the module doc, all at once, the adjoint way: one
+    /// product with (∂ψ/∂x)⁻ᵀ per row, then r + 2 terms per parameter): with
     /// g_i = ∂q_i/∂x − (∂q_i/∂u / ∂φ/∂u) ∂φ/∂x and m_i = (∂ψ/∂x)⁻ᵀ g_i,
     ///
     /// ```text
     /// A_ij = m_i[r + j],   B_ic = ∂q_i/∂p_c − (∂q_i/∂u / ∂φ/∂u) ∂φ/∂p_c − Σ_(l<r) m_i[l] ∂ψ_l/∂p_c
     /// ```
     ///
-    /// into `a` and `b`, column-major (entry (i, j) at j·ne + i).
-    pub(crate) fn eta_jacobians(&self, params: &[usize], a: &mut [f64], b: &mut [f64]) {
+    /// into `a` and `b`, column-major (entry (i, j) at j·m + i).
+    pub(crate) fn row_jacobians(
+        &self,
+        rows: &[usize],
+        params: &[usize],
+        a: &mut [f64],
+        b: &mut [f64],
+    ) {
         let l = &self.layout;
-        let (n, r, ne, phi) = (l.n, l.r, l.n_eta, l.phi());
-        let mut m = vec![0.0; n];
-        for i in 0..ne {
-            let row = l.eta(i);
-            let ratio = self.d(row, l.u()) / self.d(phi, l.u());
+        let (n, r, ne, w) = (l.n, l.r, l.n_eta, l.width());
+        let nr = rows.len();
+        let slice = |row: usize| &self.sens[row * w..(row + 1) * w];
+        let phi = slice(l.phi());
+        let mut m = self.b.borrow_mut();
+        for (i, &row) in rows.iter().enumerate() {
+            let q = slice(row);
+            let ratio = q[l.u()] / phi[l.u()];
             m.fill(0.0);
             for (j, inverse_row) in self.inverse.chunks_exact(n).enumerate() {
-                let g = self.d(row, l.x(j)) - ratio * self.d(phi, l.x(j));
+                let g = q[l.x(j)] - ratio * phi[l.x(j)];
                 for (mk, v) in m.iter_mut().zip(inverse_row) {
                     *mk += g * v;
                 }
             }
             for j in 0..ne {
-                a[j * ne + i] = m[r + j];
+                a[j * nr + i] = m[r + j];
             }
             for (c, &k) in params.iter().enumerate() {
-                let through_psi: f64 = (0..r).map(|q| m[q] * self.d(l.psi(q), l.param(k))).sum();
-                b[c * ne + i] =
-                    self.d(row, l.param(k)) - ratio * self.d(phi, l.param(k)) - through_psi;
+                let col = l.param(k);
+                let mut v = q[col] - ratio * phi[col];
+                for (ml, psi) in m[..r].iter().zip(0..r) {
+                    v -= ml * slice(l.psi(psi))[col];
+                }
+                b[c * nr + i] = v;
             }
         }
     }
 
     pub(crate) fn layout(&self) -> &SensitivityLayout {
         &self.layout
+    }
+}
+
+/// The inverse of the n × n matrix `a` (row-major, overwritten) into `inv` by Gauss–Jordan elimination with
+/// partial pivoting; false where a pivot is zero or not finite (n is the number of states: small, and no
+/// allocation per point).
+fn invert(n: usize, a: &mut [f64], inv: &mut [f64]) -> bool {
+    inv.fill(0.0);
+    for i in 0..n {
+        inv[i * n + i] = 1.0;
+    }
+    for col in 0..n {
+        let pivot = (col..n)
+            .max_by(|&p, &q| a[p * n + col].abs().total_cmp(&a[q * n + col].abs()))
+            .unwrap_or(col);
+        let d = a[pivot * n + col];
+        if !(d.is_finite() && d != 0.0) {
+            return false;
+        }
+        for j in 0..n {
+            a.swap(col * n + j, pivot * n + j);
+            inv.swap(col * n + j, pivot * n + j);
+        }
+        let d = 1.0 / d;
+        for j in 0..n {
+            a[col * n + j] *= d;
+            inv[col * n + j] *= d;
+        }
+        for i in (0..n).filter(|&i| i != col) {
+            let f = a[i * n + col];
+            if f != 0.0 {
+                for j in 0..n {
+                    a[i * n + j] -= f * a[col * n + j];
+                    inv[i * n + j] -= f * inv[col * n + j];
+                }
+            }
+        }
+    }
+    inv.iter().all(|v| v.is_finite())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::invert;
+
+    /// The inverse times the matrix is the identity (a pivot swap needed: a zero leading entry), and a
+    /// singular matrix is refused.
+    #[test]
+    fn gauss_jordan_inverts_and_refuses_a_singular_matrix() {
+        let a0 = [0.0, 2.0, 1.0, 1.0, 1.0, 0.0, 3.0, 0.0, 4.0];
+        let (mut a, mut inv) = (a0, [0.0; 9]);
+        assert!(invert(3, &mut a, &mut inv));
+        for i in 0..3 {
+            for j in 0..3 {
+                let p: f64 = (0..3).map(|k| a0[i * 3 + k] * inv[k * 3 + j]).sum();
+                let want = if i == j { 1.0 } else { 0.0 };
+                assert!((p - want).abs() < 1e-15, "({i}, {j}): {p}");
+            }
+        }
+        let mut singular = [1.0, 2.0, 2.0, 4.0];
+        assert!(!invert(2, &mut singular, &mut [0.0; 4]));
     }
 }

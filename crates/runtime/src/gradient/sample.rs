@@ -5,7 +5,7 @@
 
 use invsim_model_api::InverseModel;
 
-use super::point::Point;
+use super::point::{Buffers, Point};
 use crate::error::RunError;
 use crate::grid::{Grid, MAX_DERIVATIVES};
 use crate::inverse::SimulateError;
@@ -19,11 +19,17 @@ pub(super) struct Samples {
     /// The last sample's state and input (the guesses of a numerically solved ψ⁻¹ and input).
     pub(super) x: Vec<f64>,
     pub(super) u_prev: f64,
-    buf: Vec<f64>,
+    buf: Buffers,
     /// ∫ do_a/dp_c dt so far, `[a][c]`.
     pub(super) acc: Vec<Vec<f64>>,
     /// do_a/dp_c at the last sample.
     prev: Vec<Vec<f64>>,
+    /// The accumulated outputs' ∂o/∂η (na × ne) and ∂o/∂p (na × P) at the sample, column-major.
+    o_eta: Vec<f64>,
+    o_p: Vec<f64>,
+    /// The accumulated outputs' rows of the partials, and the sample's signal values.
+    rows: Vec<usize>,
+    w: Vec<f64>,
 }
 
 impl Samples {
@@ -32,9 +38,13 @@ impl Samples {
         Samples {
             x: vec![0.0; n_states],
             u_prev: f64::NAN,
-            buf: Vec::new(),
+            buf: Buffers::default(),
             acc: vec![vec![0.0; params]; accumulated],
             prev: vec![vec![0.0; params]; accumulated],
+            o_eta: Vec::new(),
+            o_p: vec![0.0; accumulated * params],
+            rows: Vec::new(),
+            w: Vec::new(),
         }
     }
 
@@ -51,14 +61,50 @@ impl Samples {
         for (v, c) in ydk[..=r].iter_mut().zip(yd) {
             *v = c[i];
         }
-        let wk: Vec<f64> = w.iter().map(|c| c[i]).collect();
+        self.w.clear();
+        self.w.extend(w.iter().map(|c| c[i]));
         let model_err = |source| SimulateError::from(RunError::Model { t, source });
         let u = model
-            .invert_from(&ydk[..r], eta, &wk, ydk[r], &mut self.x, self.u_prev)
+            .invert_from(&ydk[..r], eta, &self.w, ydk[r], &mut self.x, self.u_prev)
             .map_err(model_err)?;
         self.u_prev = u;
         let buf = std::mem::take(&mut self.buf);
-        Point::new(model, (&self.x, &wk, u), &info.eta_states, buf).map_err(model_err)
+        Point::new(model, (&self.x, &self.w, u), &info.eta_states, buf).map_err(model_err)
+    }
+
+    /// The trapezoids' terms of every accumulated output and wanted parameter at `point`, whose internal
+    /// states move with the parameters as `s` says (ne × P, column-major, column c = ∂η/∂p_c):
+    /// do_a/dp_c = ∂o_a/∂p_c + Σ_j ∂o_a/∂η_j S_jc ([`Point::row_jacobians`]), then [`Samples::add`].
+    pub(super) fn add_outputs<M: InverseModel + ?Sized>(
+        &mut self,
+        point: &Point,
+        wanted: &super::pass::Wanted<'_, M>,
+        s: &[f64],
+        half: Option<f64>,
+    ) {
+        let l = point.layout();
+        let (na, ne) = (wanted.accumulate.len(), l.n_eta);
+        self.rows.clear();
+        self.rows
+            .extend(wanted.accumulate.iter().map(|&o| l.output(o)));
+        self.o_eta.resize(na * ne, 0.0);
+        point.row_jacobians(&self.rows, wanted.params, &mut self.o_eta, &mut self.o_p);
+        let (o_eta, o_p) = (
+            std::mem::take(&mut self.o_eta),
+            std::mem::take(&mut self.o_p),
+        );
+        for c in 0..wanted.params.len() {
+            let column = &s[c * ne..(c + 1) * ne];
+            for a in 0..na {
+                let through_eta: f64 = column
+                    .iter()
+                    .enumerate()
+                    .map(|(j, v)| o_eta[j * na + a] * v)
+                    .sum();
+                self.add((a, c), o_p[c * na + a] + through_eta, half);
+            }
+        }
+        (self.o_eta, self.o_p) = (o_eta, o_p);
     }
 
     /// The point's buffer back, for the next sample's.

@@ -110,7 +110,8 @@ fn partials<M: InverseModel + ?Sized>(
         .invert_from(xi, point.eta, point.w, yr, x, *u_prev)
         .map_err(model_err)?;
     *u_prev = u;
-    let at = Point::new(model, (x, point.w, u), &info.eta_states, Vec::new()).map_err(model_err)?;
+    let at = Point::new(model, (x, point.w, u), &info.eta_states, Default::default())
+        .map_err(model_err)?;
     let l = *at.layout();
     let mut e = vec![0.0; m];
     let mut a = vec![0.0; m * m];
@@ -294,7 +295,7 @@ fn interval(
     }
 }
 
-/// The grid pass's state: η and S_c at the sample, and what every pass carries ([`Samples`]: the last sample's
+/// The grid pass's state: η and S (ne × P, column-major) at the sample, and what every pass carries ([`Samples`]: the last sample's
 /// state and input, the integrals' derivatives).
 struct Accumulator<'s> {
     stable: &'s StableRun,
@@ -316,7 +317,7 @@ impl<'s> Accumulator<'s> {
             stable,
             nodes,
             eta: vec![0.0; info.n_eta],
-            s: vec![0.0; info.n_eta],
+            s: vec![0.0; info.n_eta * np],
             samples: Samples::new(info.n_states(), na, np),
         }
     }
@@ -336,22 +337,20 @@ impl<'s> Accumulator<'s> {
         let point = self.samples.point(wanted.model, at, &self.eta)?;
         let half = (!first).then_some(half);
         let (j, weights) = self.stable.solution.hermite(t);
-        for (c, &p) in wanted.params.iter().enumerate() {
+        for c in 0..wanted.params.len() {
             self.interpolate(j, c, weights);
-            let dir = point.direction(&self.s, Some(p));
-            for (a, &o) in wanted.accumulate.iter().enumerate() {
-                let v = point.row_change(point.layout().output(o), &dir, Some(p));
-                self.samples.add((a, c), v, half);
-            }
         }
+        self.samples.add_outputs(&point, wanted, &self.s, half);
         self.samples.recycle(point);
         Ok(())
     }
 
-    /// S_c(t) into `self.s`: the Hermite interpolant of (S_j, Ṡ_j), (S_{j+1}, Ṡ_{j+1}) with `weights`.
+    /// S_c(t) into column c of `self.s` (ne × P, column-major): the Hermite interpolant of (S_j, Ṡ_j),
+    /// (S_{j+1}, Ṡ_{j+1}) with `weights`.
     fn interpolate(&mut self, j: usize, c: usize, [h00, h10, h01, h11]: [f64; 4]) {
         let ((sa, da), (sb, db)) = (self.nodes.at(j, c), self.nodes.at(j + 1, c));
-        for (i, v) in self.s.iter_mut().enumerate() {
+        let ne = sa.len();
+        for (i, v) in self.s[c * ne..(c + 1) * ne].iter_mut().enumerate() {
             *v = h00 * sa[i] + h10 * da[i] + h01 * sb[i] + h11 * db[i];
         }
     }

@@ -8,7 +8,7 @@ use invsim_model_api::InverseModel;
 use super::blend::Blend;
 use super::record::Ctx;
 use super::ModalError;
-use crate::gradient::Point;
+use crate::gradient::{Buffers, Point};
 
 /// The model's partial derivatives of mode m at (x, w, u) at time t.
 pub(super) fn point_at(
@@ -16,7 +16,7 @@ pub(super) fn point_at(
     m: usize,
     at: (f64, &[f64], &[f64], f64),
 ) -> Result<Point, ModalError> {
-    point_into(ctx, m, at, Vec::new())
+    point_into(ctx, m, at, Default::default())
 }
 
 /// [`point_at`] into the buffer `buf` of an earlier point ([`Point::into_buffer`]).
@@ -24,7 +24,7 @@ pub(super) fn point_into(
     ctx: &Ctx<'_, '_>,
     m: usize,
     (t, x, w, u): (f64, &[f64], &[f64], f64),
-    buf: Vec<f64>,
+    buf: Buffers,
 ) -> Result<Point, ModalError> {
     let model: &dyn InverseModel = ctx.model(m);
     Point::new(model, (x, w, u), &model.info().eta_states, buf)

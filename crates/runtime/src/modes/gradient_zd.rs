@@ -17,7 +17,7 @@ use super::blend::Blend;
 use super::gradient_point::{moved_reference_into, point_into};
 use super::record::Ctx;
 use super::ModalError;
-use crate::gradient::Direction;
+use crate::gradient::{Buffers, Direction};
 use crate::ode::{Dopri5, StepFailure};
 
 const RTOL: f64 = 1e-10;
@@ -80,7 +80,7 @@ impl ZdSensitivity {
             dx: vec![0.0; ctx.n],
             du: 0.0,
         };
-        let (mut buf, mut de) = (Vec::new(), vec![0.0; r + 1]);
+        let (mut buf, mut de) = (Buffers::default(), vec![0.0; r + 1]);
         let fail = |t: f64, reason: String| StepFailure { t, reason };
         let mut f = |s: f64, v: &[f64], dv: &mut [f64]| -> Result<(), StepFailure> {
             ctx.reference_into(m, s, blend, &mut yr[..=r]);
