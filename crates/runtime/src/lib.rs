@@ -65,6 +65,6 @@ pub use reference_deviation::ReferenceDeviation;
 pub use report::{columns_with_units, Column, CycleInfo, Totals};
 pub use run::{RunFailure, RunResult};
 pub use signals::{ResolvedSignal, SignalError, SignalInput, SignalValue};
-pub use smoother::Smoother;
+pub use smoother::{Smoother, ZeroDynamicsReference};
 pub use stable::{StableError, ZeroDynamicsClass};
 pub use sweep::{Figures, Sweep, SweepBuilder, SweepError, SweepResult, SweepRow};

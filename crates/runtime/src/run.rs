@@ -13,9 +13,7 @@ use crate::cycle::Cycle;
 use crate::forward::ModalForwardResult;
 use crate::forward::{forward, forward_modes, ForwardError, ForwardOptions, ForwardResult};
 use crate::inverse::{simulate, SimulateError, SimulationOptions, SimulationResult};
-use crate::modes::{
-    GearSource, ModalError, ModalOptions, ModalPlant, ModalResult, Switching, ZeroDynamicsReference,
-};
+use crate::modes::{GearSource, ModalError, ModalOptions, ModalPlant, ModalResult, Switching};
 use crate::plant::Plant;
 use crate::plot::{self, Figure, PlotError};
 use crate::provenance::Provenance;
@@ -94,7 +92,7 @@ pub(crate) fn simulate_modal(
                      first sample; start values of internal states apply to models without modes"
                 )));
             }
-            let how = (ZeroDynamicsReference::default(), wrt);
+            let how = (opts.zero_dynamics_reference, wrt);
             crate::modes::simulate_modes_differentiated(
                 &spec,
                 cycle,

@@ -37,8 +37,12 @@
 //! absolute), `R` likewise (about 10⁻¹⁶·a), the derivatives from the kernel's closed form.
 
 mod convolve;
+mod fine;
 mod grid;
 mod signals;
+
+pub(crate) use fine::FineReference;
+pub use fine::ZeroDynamicsReference;
 
 use crate::cycle::{Cycle, CycleError};
 use crate::kernel::Kernel;

@@ -1,4 +1,6 @@
 //! The integration tests of this crate in one test binary (one link instead of one per file):
+//! - `causal_zero_dynamics`: A causal run's zero dynamics with the sub-grid reference against the smoother pointwise:
+//!   driveline and bev on the NEDC, UDDS (and WLTC): states and integrals within 1e-9.
 //! - `cycle`: Tests for drive cycles: the built-in NEDC / ECE-15 / EUDC checksums, the regulation tables (UDDS, HWFET,
 //! - `cycle_limits`: The cycle reader's limits (issue 15, defects 8, 10, 11): files read through a size cap, finite but absurd
 //! - `forward`: Tests of the forward simulation (issue #6): the integrators' order of convergence on test problems that carry
@@ -25,6 +27,7 @@
 //! - `stable`: Stable (non-causal) inversion of unstable zero dynamics (`invsim_runtime::stable`): linear non-minimum-phase
 //! - `sweep`: Parameter sweeps: every row equals the single run of its variant (bit for bit), for the compiled and the
 
+mod causal_zero_dynamics;
 mod common;
 mod cycle;
 mod cycle_limits;

@@ -41,6 +41,7 @@ use super::point::{Buffers, Point};
 use super::sample::{Block, Samples};
 use crate::error::RunError;
 use crate::grid::{Grid, MAX_DERIVATIVES};
+use crate::inverse::stage_reference::StageReference;
 use crate::inverse::{SimulateError, SimulationOptions};
 use crate::ode::{Dopri5, StepFailure};
 use crate::smoother::Smoother;
@@ -93,7 +94,7 @@ fn sweep<M: InverseModel + ?Sized>(
     } else {
         (Vec::new(), Vec::new())
     };
-    let mut sweep = Sweep::new(wanted, (eta, s), opts);
+    let mut sweep = Sweep::new(wanted, along, (eta, s), opts);
     let mut block = Block::new(BLOCK.min(samples), r, nw);
     let mut k0 = 0;
     while k0 < samples {
@@ -114,6 +115,8 @@ struct Sweep {
     eta: Vec<f64>,
     s: Vec<f64>,
     integrator: Dopri5,
+    /// The reference at η's stage times, read as the run reads it (`inverse/stage_reference.rs`).
+    stages: StageReference,
     nodes: Nodes,
     samples: Samples,
 }
@@ -121,17 +124,20 @@ struct Sweep {
 impl Sweep {
     fn new<M: InverseModel + ?Sized>(
         wanted: &Wanted<'_, M>,
+        along: &Along<'_>,
         (eta, s): (Vec<f64>, Vec<f64>),
         opts: &SimulationOptions,
     ) -> Sweep {
         let info = wanted.model.info();
         let (na, np) = (wanted.accumulate.len(), wanted.params.len());
+        let stages = || StageReference::new(along.smoother, along.grid, opts, info);
         Sweep {
             // The run's integrator (inverse/causal.rs): the same size, tolerances and first step.
             integrator: Dopri5::new(eta.len(), opts.rtol, opts.atol, opts.dt),
+            stages: stages(),
             eta,
             s,
-            nodes: Nodes::new(info, np),
+            nodes: Nodes::new(info, np, stages()),
             samples: Samples::new(info.n_states(), na, np),
         }
     }
@@ -154,8 +160,12 @@ impl Sweep {
         }
         let point = self.samples.point(model, (t, yd, w, i), &self.eta)?;
         let half = (k > 0).then_some(0.5 * grid.dt);
-        self.samples
-            .add_outputs(&point, wanted, &self.s[..ne * wanted.params.len()], half);
+        self.samples.add_outputs(
+            &point,
+            (wanted.params, wanted.accumulate),
+            &self.s[..ne * wanted.params.len()],
+            half,
+        );
         self.samples.recycle(point);
         Ok(())
     }
@@ -170,13 +180,10 @@ impl Sweep {
     ) -> Result<(), SimulateError> {
         let model = wanted.model;
         let r = model.info().relative_degree;
-        let mut w_s = vec![0.0; model.info().n_w()];
         let u_prev = self.samples.u_prev;
+        let stages = &mut self.stages;
         let mut q = |s: f64, e: &[f64], de: &mut [f64]| {
-            let mut yd_s = [0.0_f64; MAX_DERIVATIVES];
-            smoother.eval(s, &mut yd_s[..=r]);
-            smoother.eval_signals(s, &mut w_s);
-            model.zero_dynamics_from(&yd_s[..r], e, &w_s, yd_s[r], u_prev, de);
+            stages.zero_dynamics(model, smoother, (s, r), (e, u_prev), de);
             Ok(())
         };
         self.nodes.x.copy_from_slice(&self.samples.x);
@@ -234,7 +241,8 @@ fn start<M: InverseModel + ?Sized>(
 struct Nodes {
     /// The guess for a numerically solved ψ⁻¹: the last grid sample's state.
     x: Vec<f64>,
-    w: Vec<f64>,
+    /// The reference at the nodes (a sub-grid of its own: the run's is read in the run's order).
+    stages: StageReference,
     eta: Vec<f64>,
     buf: Buffers,
     a: [Vec<f64>; 2],
@@ -243,11 +251,11 @@ struct Nodes {
 }
 
 impl Nodes {
-    fn new(info: &invsim_model_api::ModelInfo, np: usize) -> Nodes {
+    fn new(info: &invsim_model_api::ModelInfo, np: usize, stages: StageReference) -> Nodes {
         let ne = info.n_eta;
         Nodes {
             x: vec![0.0; info.n_states()],
-            w: vec![0.0; info.n_w()],
+            stages,
             eta: vec![0.0; ne],
             buf: Buffers::default(),
             a: std::array::from_fn(|_| vec![0.0; ne * ne]),
@@ -291,16 +299,13 @@ impl Nodes {
         let model = wanted.model;
         let info = model.info();
         let r = info.relative_degree;
-        let mut yd = [0.0_f64; MAX_DERIVATIVES];
-        smoother.eval(s, &mut yd[..=r]);
-        smoother.eval_signals(s, &mut self.w);
+        let (yd, w) = self.stages.at(smoother, (s, r));
         let model_err = |source| SimulateError::from(RunError::Model { t: s, source });
         let u = model
-            .invert_from(&yd[..r], &self.eta, &self.w, yd[r], &mut self.x, u_prev)
+            .invert_from(&yd[..r], &self.eta, w, yd[r], &mut self.x, u_prev)
             .map_err(model_err)?;
         let buf = std::mem::take(&mut self.buf);
-        let point =
-            Point::new(model, (&self.x, &self.w, u), &info.eta_states, buf).map_err(model_err)?;
+        let point = Point::new(model, (&self.x, w, u), &info.eta_states, buf).map_err(model_err)?;
         point.eta_jacobians(wanted.params, &mut self.a[i], &mut self.b[i]);
         self.buf = point.into_buffer();
         Ok(())

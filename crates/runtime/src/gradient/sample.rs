@@ -73,27 +73,26 @@ impl Samples {
     }
 
     /// The trapezoids' terms of every accumulated output and wanted parameter at `point`, whose internal
-    /// states move with the parameters as `s` says (ne × P, column-major, column c = ∂η/∂p_c):
+    /// states move with the parameters `params` (indices of the model's) as `s` says (ne × P, column-major, column c = ∂η/∂p_c):
     /// do_a/dp_c = ∂o_a/∂p_c + Σ_j ∂o_a/∂η_j S_jc ([`Point::row_jacobians`]), then [`Samples::add`].
-    pub(super) fn add_outputs<M: InverseModel + ?Sized>(
+    pub(super) fn add_outputs(
         &mut self,
         point: &Point,
-        wanted: &super::pass::Wanted<'_, M>,
+        (params, accumulate): (&[usize], &[usize]),
         s: &[f64],
         half: Option<f64>,
     ) {
         let l = point.layout();
-        let (na, ne) = (wanted.accumulate.len(), l.n_eta);
+        let (na, ne) = (accumulate.len(), l.n_eta);
         self.rows.clear();
-        self.rows
-            .extend(wanted.accumulate.iter().map(|&o| l.output(o)));
+        self.rows.extend(accumulate.iter().map(|&o| l.output(o)));
         self.o_eta.resize(na * ne, 0.0);
-        point.row_jacobians(&self.rows, wanted.params, &mut self.o_eta, &mut self.o_p);
+        point.row_jacobians(&self.rows, params, &mut self.o_eta, &mut self.o_p);
         let (o_eta, o_p) = (
             std::mem::take(&mut self.o_eta),
             std::mem::take(&mut self.o_p),
         );
-        for c in 0..wanted.params.len() {
+        for c in 0..params.len() {
             let column = &s[c * ne..(c + 1) * ne];
             for a in 0..na {
                 let through_eta: f64 = column

@@ -340,7 +340,8 @@ impl<'s> Accumulator<'s> {
         for c in 0..wanted.params.len() {
             self.interpolate(j, c, weights);
         }
-        self.samples.add_outputs(&point, wanted, &self.s, half);
+        self.samples
+            .add_outputs(&point, (wanted.params, wanted.accumulate), &self.s, half);
         self.samples.recycle(point);
         Ok(())
     }

@@ -1,6 +1,7 @@
 //! Causal inversion: the zero dynamics η̇ = q(ξ(t), η, y_d^(r)(t)) integrated forward from their equilibrium at
-//! t_0 (adaptive Dormand–Prince 5(4)), with the eigenvalues of ∂q/∂η checked along the run (Isidori §4.3: only
-//! minimum-phase zero dynamics can be inverted causally).
+//! t_0 (adaptive Dormand–Prince 5(4), the reference at its stage times from the sub-grid interpolant of
+//! `smoother/fine.rs` unless the options ask for the smoother pointwise), with the eigenvalues of ∂q/∂η
+//! checked along the run (Isidori §4.3: only minimum-phase zero dynamics can be inverted causally).
 
 use invsim_model_api::zero_dynamics::{
     critical_tol, default_starts, eigenvalues, equilibrium, JacobianWork,
@@ -10,6 +11,7 @@ use nalgebra::DMatrix;
 
 use super::error::SimulateError;
 use super::options::SimulationOptions;
+use super::stage_reference::StageReference;
 use crate::error::RunError;
 use crate::grid::{Grid, MAX_DERIVATIVES};
 use crate::ode::Dopri5;
@@ -31,6 +33,8 @@ pub(super) struct Causal {
     w: Vec<f64>,
     /// The last sample's input: Newton's start for a non-affine y^(r) (NaN before the first sample).
     u: f64,
+    /// The reference at the integrator's stage times.
+    stages: StageReference,
 }
 
 impl Causal {
@@ -39,10 +43,11 @@ impl Causal {
     pub(super) fn start<M: InverseModel + ?Sized>(
         model: &M,
         smoother: &Smoother,
-        t0: f64,
+        grid: &Grid,
         eta0: Option<Vec<f64>>,
         opts: &SimulationOptions,
     ) -> Result<Causal, SimulateError> {
+        let t0 = grid.t0;
         let info = model.info();
         let (r, ne) = (info.relative_degree, info.n_eta);
         let mut yd = [0.0_f64; MAX_DERIVATIVES];
@@ -69,6 +74,7 @@ impl Causal {
             check_every: ((opts.stability_check_interval / opts.dt).round() as usize).max(1),
             yd,
             u: f64::NAN,
+            stages: StageReference::new(smoother, grid, opts, info),
         })
     }
 
@@ -121,14 +127,11 @@ impl Causal {
         t: f64,
         r: usize,
     ) -> Result<(), SimulateError> {
-        let mut w_s = vec![0.0; self.w.len()];
         // An input solved by Newton's method starts from the last sample's (the root the inverse follows).
         let u_prev = self.u;
+        let stages = &mut self.stages;
         let mut q = |s: f64, e: &[f64], de: &mut [f64]| {
-            let mut yd_s = [0.0_f64; MAX_DERIVATIVES];
-            smoother.eval(s, &mut yd_s[..=r]);
-            smoother.eval_signals(s, &mut w_s);
-            model.zero_dynamics_from(&yd_s[..r], e, &w_s, yd_s[r], u_prev, de);
+            stages.zero_dynamics(model, smoother, (s, r), (e, u_prev), de);
             Ok(())
         };
         let Err(err) = self.integrator.advance(t_prev, t, &mut self.eta, &mut q) else {

@@ -64,9 +64,7 @@ impl<'a, M: InverseModel + ?Sized> Inverter<'a, M> {
         let strategy = match &zd.stable {
             Some(st) => Strategy::Stable(st),
             None if info.n_eta == 0 => Strategy::Direct,
-            None => Strategy::Causal(Box::new(Causal::start(
-                model, smoother, grid.t0, eta0, opts,
-            )?)),
+            None => Strategy::Causal(Box::new(Causal::start(model, smoother, &grid, eta0, opts)?)),
         };
         Ok(Inverter {
             model,

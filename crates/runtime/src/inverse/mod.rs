@@ -26,6 +26,7 @@ mod options;
 mod reference;
 mod result;
 mod run;
+pub(crate) mod stage_reference;
 mod summary;
 mod verify;
 

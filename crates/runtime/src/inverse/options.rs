@@ -4,6 +4,7 @@ use super::error::SimulateError;
 use crate::grid::check_dt;
 use crate::modes::Switching;
 use crate::progress::Progress;
+use crate::smoother::ZeroDynamicsReference;
 
 /// Default kernel half-width a, s (`--lookahead`).
 pub const DEFAULT_LOOKAHEAD: f64 = 5.0;
@@ -36,6 +37,9 @@ pub struct SimulationOptions {
     pub rtol: f64,
     /// Absolute tolerance of the zero-dynamics integrator (default 1e-12).
     pub atol: f64,
+    /// Where the zero-dynamics integrator takes the reference at its stage times: the sub-grid interpolant
+    /// (default) or the smoother evaluated pointwise ([`ZeroDynamicsReference`]).
+    pub zero_dynamics_reference: ZeroDynamicsReference,
     /// Seconds between two checks of the eigenvalues of ∂q/∂η along the run (default 1 s; the check is also
     /// made at t_0).
     pub stability_check_interval: f64,
@@ -96,6 +100,7 @@ impl Default for SimulationOptions {
             eta0: None,
             rtol: DEFAULT_RTOL,
             atol: DEFAULT_ATOL,
+            zero_dynamics_reference: ZeroDynamicsReference::SubGrid,
             stability_check_interval: DEFAULT_STABILITY_CHECK_INTERVAL,
             verify: false,
             keep_series: true,
@@ -182,6 +187,8 @@ setters! {
     rtol: f64,
     /// Absolute tolerance of the zero-dynamics integrator.
     atol: f64,
+    /// Where the zero dynamics take the reference at stage times.
+    zero_dynamics_reference: ZeroDynamicsReference,
     /// Seconds between two stability checks of a causal run.
     stability_check_interval: f64,
     /// Replay the input through the original model.

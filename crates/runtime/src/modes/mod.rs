@@ -18,7 +18,6 @@ pub(crate) mod coupling;
 mod dp;
 mod ecms;
 mod equivalence;
-mod fine;
 pub mod gears;
 mod gradient;
 mod gradient_point;
@@ -45,6 +44,7 @@ mod zd_ode;
 use invsim_model_api::InverseModel;
 use thiserror::Error;
 
+pub use crate::smoother::ZeroDynamicsReference;
 pub use gears::{GearBox, GearSource};
 pub use hybrid::simulate_hybrid;
 pub use hybrid_block::{DpBlock, HybridBlock};
@@ -54,7 +54,7 @@ pub use rows::Rows;
 pub(crate) use runner::{decided_inputs_of, refuse_decided};
 pub use runner::{
     simulate_modes, simulate_modes_differentiated, simulate_modes_with_reference,
-    simulate_modes_with_signals, ZeroDynamicsReference,
+    simulate_modes_with_signals,
 };
 pub use strategy::{
     DpOptions, Method, RuleOptions, StrategyOptions, DEFAULT_RB_CHARGE_POWER,

@@ -6,7 +6,6 @@ use invsim_model_api::InverseModel;
 
 use super::bases::Bases;
 use super::blend::Blend;
-use super::fine::FineReference;
 use super::gears::GearBox;
 use super::record::{CouplingReset, Ctx, EntryLog, Impulse, Record, Solved, Transition};
 use super::rules::Rules;
@@ -21,6 +20,7 @@ use crate::grid::Grid;
 use crate::ode::StepFailure;
 use crate::signals::SignalInput;
 use crate::smoother::Smoother;
+use crate::smoother::{FineReference, ZeroDynamicsReference};
 
 /// The sequence's state between samples.
 struct Seq {
@@ -86,18 +86,6 @@ impl ZeroDynamics {
             fine,
         }
     }
-}
-
-/// Where the zero dynamics of a mode with internal dynamics (r < n) take the reference y^(0 … r) and the
-/// signals at the integrator's stage times.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum ZeroDynamicsReference {
-    /// The quintic Hermite interpolant of the smoothed cycle on a sub-grid of step ≤ a/250 (0.02 s at the
-    /// look-ahead a = 5 s) evaluated block by block (`modes/fine.rs`; within 10⁻¹¹ of the pointwise values).
-    #[default]
-    SubGrid,
-    /// The smoother evaluated at every stage time (the reference the sub-grid is tested against).
-    Pointwise,
 }
 
 impl Ctx<'_, '_> {

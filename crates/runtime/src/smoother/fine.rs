@@ -1,4 +1,5 @@
-//! The reference and the signals of the zero dynamics at any time of an interval, from a fine sub-grid: the
+//! The reference and the signals of the zero dynamics (a causal run's, a mode's) at any time of an interval,
+//! from a fine sub-grid: the
 //! smoothed cycle (and each smoothed signal) is evaluated with [`Smoother::eval_grid`] on the grid
 //! t_i = t_0 + i·h, h = dt/⌈dt/h_max⌉ with h_max = a/250 (a the look-ahead), block by block, orders 0 … q + 2 (q the highest relative degree of a
 //! mode with internal dynamics), and the order k ≤ q between t_i and t_{i+1} is the quintic Hermite
@@ -20,13 +21,25 @@
 
 use crate::smoother::Smoother;
 
+/// Where the zero dynamics (a causal run's, a mode's with r < n) take the reference y^(0 … r) and the signals
+/// at the integrator's stage times ([`SimulationOptions`](crate::SimulationOptions)`::zero_dynamics_reference`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ZeroDynamicsReference {
+    /// The quintic Hermite interpolant of the smoothed cycle on a sub-grid of step ≤ a/250 (0.02 s at the
+    /// look-ahead a = 5 s) evaluated block by block (this file; within 10⁻¹¹ of the pointwise values).
+    #[default]
+    SubGrid,
+    /// The smoother evaluated at every stage time (the reference the sub-grid is tested against).
+    Pointwise,
+}
+
 /// The largest sub-grid step per second of look-ahead (0.02 s at a = 5 s).
 const H_MAX_PER_LOOKAHEAD: f64 = 0.004;
 /// Sub-grid intervals per block.
 const BLOCK: usize = 128;
 
 /// The smoothed cycle and signals on the block of the sub-grid in hand.
-pub(super) struct FineReference {
+pub(crate) struct FineReference {
     t0: f64,
     h: f64,
     inv_h: f64,
@@ -49,7 +62,7 @@ pub(super) struct FineReference {
 impl FineReference {
     /// The sub-grid of a run on t_0 + k·dt, k = 0 … n, with look-ahead `lookahead`, for relative degrees up
     /// to `q`.
-    pub(super) fn new(
+    pub(crate) fn new(
         smoother: &Smoother,
         (t0, dt, n): (f64, f64, usize),
         lookahead: f64,
@@ -76,7 +89,7 @@ impl FineReference {
 
     /// y_c^(0 … r) at t into `y` (r = y.len() − 1 ≤ q) and the signals in a mode's layout
     /// [S, S', …, S^(r)] per signal into `w` (empty without signals).
-    pub(super) fn eval(&mut self, smoother: &Smoother, t: f64, y: &mut [f64], w: &mut [f64]) {
+    pub(crate) fn eval(&mut self, smoother: &Smoother, t: f64, y: &mut [f64], w: &mut [f64]) {
         // i = ⌊(t − t_0)/h⌋ within 0 … last − 1 (the cast truncates, which is the floor of a positive number).
         let pos = (t - self.t0) * self.inv_h;
         let i = if pos > 0.0 {
