@@ -44,6 +44,8 @@ pub(crate) struct Gauss {
     np: usize,
     m: Vec<f64>,
     piv: Vec<usize>,
+    /// 1/U_jj (a product where the backward substitution would divide).
+    dinv: Vec<f64>,
     /// W (ne × 2ne), Φ (ne × ne) and a column of length 2ne.
     w: Vec<f64>,
     phi: Vec<f64>,
@@ -59,6 +61,7 @@ impl Gauss {
             np,
             m: vec![0.0; n2 * n2],
             piv: vec![0; n2],
+            dinv: vec![0.0; n2],
             w: vec![0.0; ne * n2],
             phi: vec![0.0; ne * ne],
             x: vec![0.0; n2],
@@ -104,10 +107,13 @@ impl Gauss {
             *v = unit - h * A[i][j] * a[i][(col % ne) * ne + row % ne];
         }
         factor(&mut self.m, n2, &mut self.piv)?;
+        for (j, d) in self.dinv.iter_mut().enumerate() {
+            *d = 1.0 / self.m[j * n2 + j];
+        }
         for k in 0..n2 {
             self.x.fill(0.0);
             self.x[k] = 1.0;
-            solve(&self.m, n2, &self.piv, &mut self.x);
+            solve(&self.m, n2, (&self.piv, &self.dinv), &mut self.x);
             for row in 0..ne {
                 self.w[k * ne + row] = 0.5 * h * (self.x[row] + self.x[ne + row]);
             }
@@ -131,44 +137,60 @@ impl Gauss {
 /// `piv[j]` the row swapped with row j at step j.
 fn factor(m: &mut [f64], n: usize, piv: &mut [usize]) -> Result<(), Singular> {
     for j in 0..n {
-        let p = (j..n)
-            .max_by(|&x, &y| m[j * n + x].abs().total_cmp(&m[j * n + y].abs()))
-            .unwrap_or(j);
-        let pivot = m[j * n + p];
+        let column = &m[j * n..(j + 1) * n];
+        let mut p = j;
+        for i in j + 1..n {
+            if column[i].abs() > column[p].abs() {
+                p = i;
+            }
+        }
+        let pivot = column[p];
         if pivot == 0.0 || !pivot.is_finite() {
             return Err(Singular);
         }
         piv[j] = p;
-        for c in 0..n {
-            m.swap(c * n + j, c * n + p);
+        if p != j {
+            for c in 0..n {
+                m.swap(c * n + j, c * n + p);
+            }
         }
-        for i in j + 1..n {
-            m[j * n + i] /= pivot;
+        let inverse = 1.0 / pivot;
+        for v in &mut m[j * n + j + 1..(j + 1) * n] {
+            *v *= inverse;
         }
-        for c in j + 1..n {
-            let u = m[c * n + j];
-            for i in j + 1..n {
-                m[c * n + i] -= m[j * n + i] * u;
+        let (left, right) = m.split_at_mut((j + 1) * n);
+        let l = &left[j * n + j + 1..(j + 1) * n];
+        for c in right.chunks_exact_mut(n) {
+            let u = c[j];
+            if u != 0.0 {
+                for (v, li) in c[j + 1..].iter_mut().zip(l) {
+                    *v -= li * u;
+                }
             }
         }
     }
     Ok(())
 }
 
-/// x ← M⁻¹ x from [`factor`]'s LU of M: the row swaps, L y = Px forward, U x = y backward.
-fn solve(m: &[f64], n: usize, piv: &[usize], x: &mut [f64]) {
+/// x ← M⁻¹ x from [`factor`]'s LU of M and the reciprocals `dinv` of U's diagonal: the row swaps, L y = Px
+/// forward, U x = y backward.
+fn solve(m: &[f64], n: usize, (piv, dinv): (&[usize], &[f64]), x: &mut [f64]) {
     for (j, &p) in piv.iter().enumerate() {
         x.swap(j, p);
     }
     for j in 0..n {
-        for i in j + 1..n {
-            x[i] -= m[j * n + i] * x[j];
+        let xj = x[j];
+        if xj != 0.0 {
+            for (v, l) in x[j + 1..].iter_mut().zip(&m[j * n + j + 1..(j + 1) * n]) {
+                *v -= l * xj;
+            }
         }
     }
     for j in (0..n).rev() {
-        x[j] /= m[j * n + j];
-        for i in 0..j {
-            x[i] -= m[j * n + i] * x[j];
+        x[j] *= dinv[j];
+        let xj = x[j];
+        for (v, u) in x[..j].iter_mut().zip(&m[j * n..j * n + j]) {
+            *v -= u * xj;
         }
     }
 }

@@ -234,16 +234,21 @@ fn invert(n: usize, a: &mut [f64], inv: &mut [f64]) -> bool {
         inv[i * n + i] = 1.0;
     }
     for col in 0..n {
-        let pivot = (col..n)
-            .max_by(|&p, &q| a[p * n + col].abs().total_cmp(&a[q * n + col].abs()))
-            .unwrap_or(col);
+        let mut pivot = col;
+        for i in col + 1..n {
+            if a[i * n + col].abs() > a[pivot * n + col].abs() {
+                pivot = i;
+            }
+        }
         let d = a[pivot * n + col];
         if !(d.is_finite() && d != 0.0) {
             return false;
         }
-        for j in 0..n {
-            a.swap(col * n + j, pivot * n + j);
-            inv.swap(col * n + j, pivot * n + j);
+        if pivot != col {
+            for j in 0..n {
+                a.swap(col * n + j, pivot * n + j);
+                inv.swap(col * n + j, pivot * n + j);
+            }
         }
         let d = 1.0 / d;
         for j in 0..n {
