@@ -13,9 +13,17 @@ impl Ecms<'_, '_, '_> {
     /// mode's layout ([`super::record::Ctx::w_from_row`]), and its decided input at d (its derivatives 0:
     /// held over the interval).
     pub(super) fn signals_into(&self, m: usize, row: &[f64], d: f64, w: &mut Vec<f64>) {
-        w.clear();
-        w.resize(self.ctx.spec.modes[m].model.info().n_w(), 0.0);
-        self.ctx.w_from_row(m, row, w);
+        let n_w = self.ctx.spec.modes[m].model.info().n_w();
+        // Zeroed in place where it has the length already (every evaluation after a mode's first).
+        if w.len() == n_w {
+            w.fill(0.0);
+        } else {
+            w.clear();
+            w.resize(n_w, 0.0);
+        }
+        if !row.is_empty() {
+            self.ctx.w_from_row(m, row, w);
+        }
         if let Some(&(_, slot)) = self.ctx.decided[m].first() {
             w[slot] = d;
         }
@@ -98,9 +106,9 @@ impl Ecms<'_, '_, '_> {
     }
 
     /// η (in `sc.eta`) over [t_k, t_k+1] with d held, the signals w(t) at the stage times (`sc.w` holding
-    /// them at t_k): k₁ = q(y(t_k), η, w(t_k)), k₂ = q(y(t_m), η + h/2 k₁, w(t_m)),
-    /// k₃ = q(y(t_m), η + h/2 k₂, w(t_m)), k₄ = q(y(t_k+1), η + h k₃, w(t_k+1)),
-    /// η += h/6 (k₁ + 2 k₂ + 2 k₃ + k₄).
+    /// them at t_k, set to the midpoint's before k₂ and to t_k+1's before k₄): k₁ = q(y(t_k), η, w(t_k)),
+    /// k₂ = q(y(t_m), η + h/2 k₁, w(t_m)), k₃ = q(y(t_m), η + h/2 k₂, w(t_m)),
+    /// k₄ = q(y(t_k+1), η + h k₃, w(t_k+1)), η += h/6 (k₁ + 2 k₂ + 2 k₃ + k₄).
     fn advance_in(&self, (m, k): (usize, usize), d: f64, sc: &mut Scratch) {
         let model = self.ctx.spec.modes[m].model;
         let r = model.info().relative_degree;
@@ -112,16 +120,14 @@ impl Ecms<'_, '_, '_> {
             &self.samples.mid[k],
             &self.samples.base[k + 1],
         ];
-        let signals = [
-            self.samples.signals_at(k),
-            self.samples.signals_mid_at(k),
-            self.samples.signals_mid_at(k),
-            self.samples.signals_at(k + 1),
-        ];
         let steps = [0.0, h / 2.0, h / 2.0, h];
         for i in 0..4 {
             self.reference_into(m, rows[i], &mut sc.y);
-            self.signals_again(m, signals[i], d, &mut sc.w);
+            match i {
+                1 => self.signals_again(m, self.samples.signals_mid_at(k), d, &mut sc.w),
+                3 => self.signals_again(m, self.samples.signals_at(k + 1), d, &mut sc.w),
+                _ => {}
+            }
             sc.tmp.clear();
             if i == 0 {
                 sc.tmp.extend_from_slice(&sc.eta);
