@@ -3,7 +3,8 @@
 //! file with both as parameters. Constant signals give the twin's run with those parameters (ECMS, DP, the
 //! rules); time-varying ones give runs whose every sample, interval end and charge step solve the model's
 //! equations written out here by hand, the signals at the time evaluated (t_k, the Runge–Kutta midpoint,
-//! t_k+1); uphill costs more fuel than flat; an unknown `--signal` exits 2 naming it.
+//! t_k+1); uphill costs more fuel than flat; an unknown `--signal` exits 2 naming it; an imported FASTSim
+//! hybrid reads the grade from the cycle's column.
 
 use crate::common::{column as col, invsim, simulate_summary, simulate_with, stderr, tmp};
 use invsim_runtime::signals::{smoothers, ResolvedSignal};
@@ -380,4 +381,45 @@ fn an_unknown_signal_in_a_strategy_run_exits_2_naming_it() {
             assert!(!e.contains("panicked"), "{e}");
         }
     }
+}
+
+/// An imported FASTSim hybrid (`models/vehicles/toyota_prius_2016.toml`) has the road grade as the signal
+/// `grade`, as the conventional and electric imports do: under its own rules a cycle file's grade column of
+/// 2 % gives the run of `--signal grade=0.02` on the same trace (the same figures), and more fuel than the
+/// flat road.
+#[test]
+fn an_imported_hybrid_reads_the_cycle_s_grade_column() {
+    let model = "models/vehicles/toyota_prius_2016.toml";
+    let ece = Cycle::builtin("ece").unwrap();
+    let path = tmp("ece-graded.csv");
+    let mut text = String::from("time_s,speed_mps,grade\n");
+    for (t, v) in ece.time.iter().zip(&ece.speed) {
+        text.push_str(&format!("{t:?},{v:?},0.02\n"));
+    }
+    std::fs::write(&path, text).unwrap();
+    let fuel = |cycle: &str, extra: &[&str], tag: &str| {
+        let mut args = vec![
+            model,
+            "--cycle",
+            cycle,
+            "--dt",
+            "1",
+            "--strategy",
+            "rule-based",
+        ];
+        args.extend_from_slice(extra);
+        let (v, _) = simulate_summary(&args, tag);
+        let source = v["signals"][0]["source"].as_str().unwrap().to_string();
+        (v["hybrid"]["fuel_energy_j"].as_f64().unwrap(), source)
+    };
+    let (column, from_column) = fuel(path.to_str().unwrap(), &[], "prius-column");
+    let (given, from_line) = fuel("ece", &["--signal", "grade=0.02"], "prius-given");
+    let (flat, _) = fuel("ece", &[], "prius-flat");
+    assert_eq!(from_column, "cycle column grade");
+    assert_eq!(from_line, "command line (constant)");
+    assert!(
+        (column - given).abs() <= 1e-12 * given,
+        "{column} vs {given}"
+    );
+    assert!(column > 1.1 * flat, "uphill {column} J, flat {flat} J");
 }

@@ -27,7 +27,8 @@
 //!   charge-sustaining, plausible fuel, the genset on its best-efficiency line.
 //! - `hybrid_signals`: a strategy's run with `[signals]` (grade, auxiliary load): constant signals equal the
 //!   twin model's parameters (ECMS, DP, rules), time-varying ones solve the equations at t_k, the midpoint and
-//!   t_k+1 by hand, uphill costs more fuel than flat, an unknown `--signal` exits 2.
+//!   t_k+1 by hand, uphill costs more fuel than flat, an unknown `--signal` exits 2, an imported hybrid's
+//!   grade from the cycle's column.
 //! - `hybrid_sweep`: `sweep --strategy`: hev_p2's rows equal `simulate --strategy` bit for bit (ECMS, DP, the
 //!   rules; 1 and 2 threads), a capacity sweep against the charge's 1/Q scaling, refusals.
 //! - `map_option`: `--map NAME=FILE.csv` for ordinary models and models with modes; unknown names and wrong arity exit 2.
