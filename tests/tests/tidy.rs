@@ -317,10 +317,6 @@ const WARNINGS: &[(&str, &str)] = &[
         "the battery efficiency is read at the temperature signal `T_res`",
     ),
     (
-        "crates/import/src/hev.rs",
-        "held constant as parameters (a strategy's run takes no [signals] yet)",
-    ),
-    (
         "crates/import/src/hev_rules.rs",
         "the engine kept on while cold is not reproduced",
     ),

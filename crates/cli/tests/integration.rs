@@ -25,6 +25,10 @@
 //!   the CSV, `--plot-vars` naming them; the CSV's `engine_on` against the modes and `engine_on_s`.
 //! - `hybrid_series`: the series hybrid under ECMS, DP and rules on UDDS, HWFET and WLTC 3b: ordered,
 //!   charge-sustaining, plausible fuel, the genset on its best-efficiency line.
+//! - `hybrid_signals`: a strategy's run with `[signals]` (grade, auxiliary load): constant signals equal the
+//!   twin model's parameters (ECMS, DP, rules), time-varying ones solve the equations at t_k, the midpoint and
+//!   t_k+1 by hand, uphill costs more fuel than flat, an unknown `--signal` exits 2, an imported hybrid's
+//!   grade from the cycle's column.
 //! - `hybrid_sweep`: `sweep --strategy`: hev_p2's rows equal `simulate --strategy` bit for bit (ECMS, DP, the
 //!   rules; 1 and 2 threads), a capacity sweep against the charge's 1/Q scaling, refusals.
 //! - `map_option`: `--map NAME=FILE.csv` for ordinary models and models with modes; unknown names and wrong arity exit 2.
@@ -68,6 +72,7 @@ mod hybrid_fastsim;
 mod hybrid_mvem;
 mod hybrid_plot;
 mod hybrid_series;
+mod hybrid_signals;
 mod hybrid_sweep;
 mod map_option;
 mod modes;

@@ -32,7 +32,6 @@ pub fn emit(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<
     let fc = engine(doc, model, warnings)?;
     let em = machine(doc, model)?;
     battery(doc, model, warnings)?;
-    signals_as_parameters(model, warnings);
     forces(model);
     rolling_at_standstill(model);
     inputs(doc, model, fc, em)?;
@@ -208,30 +207,6 @@ fn battery(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<(
         doc: format!("battery state of charge, a fraction of the capacity: d(SOC)/dt = -P_chem/E_res; initially FASTSim `{}`", p("res.state.soc")),
     });
     Ok(())
-}
-
-/// The road grade and the battery's temperature (Sonata) as parameters: a strategy's run takes no
-/// `[signals]` yet (docs/hybrids.md).
-fn signals_as_parameters(model: &mut Model, warnings: &mut Vec<String>) {
-    model.grade_parameter = true;
-    model.constant("grade", 0.0, "-", "road grade, rise over run: a parameter (a flat road unless --set grade=... sets another), not the cycle's grade column, for a strategy's run takes no [signals] yet");
-    let mut names = vec!["grade".to_string()];
-    for s in std::mem::take(&mut model.signals) {
-        names.push(s.name.clone());
-        model.constant(
-            &s.name,
-            s.default,
-            &s.unit,
-            &format!(
-                "{}; a parameter, not a signal: a strategy's run takes no [signals] yet",
-                s.doc
-            ),
-        );
-    }
-    warnings.push(format!(
-        "{} held constant as parameters (a strategy's run takes no [signals] yet): the cycle's grade column is not read",
-        names.join(" and ")
-    ));
 }
 
 /// The tractive force from the shaft powers (before the chassis's P_w = F_t v, which uses it).

@@ -87,9 +87,6 @@ pub struct Model {
     pub headline: Vec<String>,
     /// The inputs of a model with several (`[inputs.NAME]`); empty for the one input `F_t` (`[input]`).
     pub inputs: Vec<Input>,
-    /// The road grade as the parameter `grade` instead of the signal (a hybrid: a strategy's run takes no
-    /// `[signals]` yet).
-    pub grade_parameter: bool,
     /// Tables after all others (a hybrid's `[sequence]`, `[modes.*]` and `[hybrid]`), as TOML text.
     pub tail: String,
 }
@@ -169,11 +166,7 @@ impl Model {
                 quote(&p.doc)
             ));
         }
-        if !self.grade_parameter {
-            s.push_str(SIGNALS);
-        } else if !self.signals.is_empty() {
-            s.push_str("\n[signals]\n");
-        }
+        s.push_str(SIGNALS);
         for g in &self.signals {
             s.push_str(&format!(
                 "{} = {{ default = {}, unit = {}, doc = {} }}\n",

@@ -70,12 +70,6 @@ pub(crate) fn simulate_modal(
     let spec = p.spec(gears);
     let mut r = match &opts.strategy {
         Some(strategy) => {
-            if let Some(s) = opts.signals.first() {
-                return Err(ModalError::Setup(format!(
-                    "--signal {}: a strategy's run takes no signals yet",
-                    s.name
-                )));
-            }
             let modal = modal_options(opts);
             crate::modes::simulate_hybrid(
                 &spec,
@@ -83,6 +77,7 @@ pub(crate) fn simulate_modal(
                 cycle,
                 &modal,
                 (strategy, &opts.initial),
+                &opts.signals,
             )?
         }
         None => {

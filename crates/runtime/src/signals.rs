@@ -127,9 +127,20 @@ pub fn resolve_along(
     given: &[SignalInput],
     along: Along,
 ) -> Result<Vec<ResolvedSignal>, SignalError> {
+    resolve_declared(&info.signals, cycle, given, along)
+}
+
+/// [`resolve_along`] for the signals `declared` (a mode's exogenous signals, without the inputs a strategy
+/// decides, which its model carries as signals).
+pub(crate) fn resolve_declared(
+    declared: &[SignalInfo],
+    cycle: &Cycle,
+    given: &[SignalInput],
+    along: Along,
+) -> Result<Vec<ResolvedSignal>, SignalError> {
     for (i, g) in given.iter().enumerate() {
-        if !info.signals.iter().any(|s| s.name == g.name) {
-            let known: Vec<&str> = info.signals.iter().map(|s| s.name.as_str()).collect();
+        if !declared.iter().any(|s| s.name == g.name) {
+            let known: Vec<&str> = declared.iter().map(|s| s.name.as_str()).collect();
             return Err(SignalError::Unknown {
                 name: g.name.clone(),
                 known: known.join(", "),
@@ -141,7 +152,7 @@ pub fn resolve_along(
             });
         }
     }
-    info.signals
+    declared
         .iter()
         .map(|s| {
             let value = given.iter().find(|g| g.name == s.name).map(|g| &g.value);

@@ -53,7 +53,32 @@ pub(super) struct Samples {
     pub(super) base: Rows,
     /// y_c^(0 … r_max) at (t_k + t_k+1)/2.
     pub(super) mid: Rows,
+    /// The exogenous signals [S, S_d1, …, S_dR] per signal (R = r_max) at t_k and at (t_k + t_k+1)/2 (no
+    /// rows without signals; [`super::record::Ctx::signal_rows`]).
+    pub(super) signals: Rows,
+    pub(super) signals_mid: Rows,
     pub(super) candidates: Vec<Vec<usize>>,
+}
+
+impl Samples {
+    /// The exogenous signals at t_k (empty without signals).
+    pub(super) fn signals_at(&self, k: usize) -> &[f64] {
+        row_or_empty(&self.signals, k)
+    }
+
+    /// The exogenous signals at (t_k + t_k+1)/2 (empty without signals).
+    pub(super) fn signals_mid_at(&self, k: usize) -> &[f64] {
+        row_or_empty(&self.signals_mid, k)
+    }
+}
+
+/// Row k of `rows`, or none where there are no rows (a run without signals).
+fn row_or_empty(rows: &Rows, k: usize) -> &[f64] {
+    if rows.is_empty() {
+        &[]
+    } else {
+        &rows[k]
+    }
 }
 
 /// What one run at a fixed s gives.
@@ -265,9 +290,9 @@ impl Ecms<'_, '_, '_> {
         let mut sc = Scratch::default();
         sc.x.extend_from_slice(&e.x);
         sc.eta = eta;
-        self.signals_into(e.m, e.d, &mut sc.w);
+        self.signals_into(e.m, self.samples.signals_at(k + 1), e.d, &mut sc.w);
         let p = self
-            .finish_in((e.m, k), &mut sc)
+            .finish_in((e.m, k), e.d, &mut sc)
             .map_err(|err| self.ctx.err(e.m, self.samples.t[k + 1], err))?;
         Ok(end_of(p, sc))
     }

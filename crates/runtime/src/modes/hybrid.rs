@@ -15,11 +15,12 @@ use super::record::{decided_slots, Ctx};
 use super::rows::Rows;
 use super::rule_based::rule_based;
 use super::rules::Rules;
+use super::signals::{record_signals, smoother_with_signals};
 use super::strategy::{Method, StrategyOptions};
 use super::{ModalError, ModalOptions, ModalResult, ModalSpec};
 use crate::cycle::Cycle;
 use crate::grid::Grid;
-use crate::smoother::Smoother;
+use crate::signals::SignalInput;
 use invsim_model_api::HybridSpec;
 
 /// `config` against the modes of `spec`.
@@ -90,20 +91,13 @@ fn start_state(spec: &ModalSpec<'_>, initial: &[(String, f64)]) -> Result<Vec<f6
     Ok(x)
 }
 
-/// What a hybrid run cannot do (yet): exogenous signals, more than one decided input in a mode.
+/// What a hybrid run cannot do (yet): more than one decided input in a mode.
 fn check_supported(
     spec: &ModalSpec<'_>,
     decided: &[Vec<(usize, usize)>],
     flag: &str,
 ) -> Result<(), ModalError> {
     for (m, d) in spec.modes.iter().zip(decided) {
-        let signals = m.model.info().signals.len();
-        if signals > d.len() {
-            return Err(ModalError::Setup(format!(
-                "--strategy: mode `{}` has exogenous [signals]; a strategy's run takes none yet",
-                m.name
-            )));
-        }
         if d.len() > 1 {
             return Err(ModalError::Setup(format!(
                 "{flag}: mode `{}` decides {} inputs; a strategy decides one input per mode",
@@ -120,14 +114,17 @@ fn check_supported(
     Ok(())
 }
 
-/// Simulate a hybrid with modes inversely along `cycle` under ECMS or DP (`initial`: start values of
-/// internal states by name).
+/// Simulate a hybrid with modes inversely along `cycle` under ECMS, DP or rules (`initial`: start values of
+/// internal states by name), its exogenous signals from `signals` first (`--signal`), then the cycle's
+/// column, the cycle's elevation or the default, smoothed as in a run without a strategy
+/// ([`super::simulate_modes_with_signals`]).
 pub fn simulate_hybrid(
     spec: &ModalSpec<'_>,
     config: Option<&HybridSpec>,
     cycle: &Cycle,
     opts: &ModalOptions,
     (ecms, initial): (&StrategyOptions, &[(String, f64)]),
+    signals: &[SignalInput],
 ) -> Result<ModalResult, ModalError> {
     let Some(config) = config else {
         return Err(ModalError::Setup(format!(
@@ -157,8 +154,7 @@ pub fn simulate_hybrid(
     let grid = Grid::new(cycle.time[0], cycle.duration(), opts.dt)?;
     crate::inverse::checks::check_lookahead(opts.lookahead, cycle.duration(), opts.dt)
         .map_err(|e| ModalError::Setup(e.to_string()))?;
-    let smoother =
-        Smoother::new(cycle, opts.lookahead).map_err(|e| ModalError::Setup(e.to_string()))?;
+    let (smoother, resolved) = smoother_with_signals(spec, cycle, opts, signals)?;
     let r_max = spec.r_max();
     let ctx = Ctx {
         spec,
@@ -211,6 +207,7 @@ pub fn simulate_hybrid(
     result.summary.modes.switching = "strategy".into();
     result.summary.hybrid = Some(Box::new(block));
     add_engine_on(&mut result, &h.engine_on);
+    record_signals(&mut result, resolved);
     Ok(result)
 }
 
@@ -299,7 +296,8 @@ fn block_of(run: &Ecms<'_, '_, '_>, best: &Outcome, tol: f64) -> HybridBlock {
     }
 }
 
-/// The reference at every sample and interval midpoint, and each sample's candidate modes.
+/// The reference and the exogenous signals at every sample and interval midpoint, and each sample's
+/// candidate modes.
 fn samples(ctx: &Ctx<'_, '_>, grid: &Grid) -> Samples {
     let spec = ctx.spec;
     let ns = grid.samples();
@@ -309,6 +307,7 @@ fn samples(ctx: &Ctx<'_, '_>, grid: &Grid) -> Samples {
     let mut y = vec![0.0; orders];
     let mut gearbox = GearBox::new(spec.gear_source.clone(), spec.gears);
     let mut t = Vec::with_capacity(ns);
+    let mut midpoints = Vec::with_capacity(ns);
     let mut cands = Vec::with_capacity(ns);
     for k in 0..ns {
         let tk = grid.time(k);
@@ -318,11 +317,14 @@ fn samples(ctx: &Ctx<'_, '_>, grid: &Grid) -> Samples {
         cands.push(candidates(ctx, gear, y[0]));
         t.push(tk);
         if k + 1 < ns {
-            ctx.smoother.eval(0.5 * (tk + grid.time(k + 1)), &mut y);
+            midpoints.push(0.5 * (tk + grid.time(k + 1)));
+            ctx.smoother.eval(midpoints[k], &mut y);
             mid.push(&y);
         }
     }
     Samples {
+        signals: ctx.signal_rows(&t),
+        signals_mid: ctx.signal_rows(&midpoints),
         t,
         base,
         mid,

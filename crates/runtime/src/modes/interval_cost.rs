@@ -8,12 +8,33 @@ use super::ecms::Ecms;
 use super::scratch::{Point, Scratch};
 
 impl Ecms<'_, '_, '_> {
-    /// Mode m's signal values with its decided input at d.
-    pub(super) fn signals_into(&self, m: usize, d: f64, w: &mut Vec<f64>) {
-        w.clear();
-        w.resize(self.ctx.spec.modes[m].model.info().n_w(), 0.0);
+    /// Mode m's signal values at one time into `w`: the exogenous signals from `row`, the run's
+    /// [S, S_d1, …, S_dR] per signal at that time (`Samples::signals_at`, empty without signals), in the
+    /// mode's layout ([`super::record::Ctx::w_from_row`]), and its decided input at d (its derivatives 0:
+    /// held over the interval).
+    pub(super) fn signals_into(&self, m: usize, row: &[f64], d: f64, w: &mut Vec<f64>) {
+        let n_w = self.ctx.spec.modes[m].model.info().n_w();
+        // Zeroed in place where it has the length already (every evaluation after a mode's first).
+        if w.len() == n_w {
+            w.fill(0.0);
+        } else {
+            w.clear();
+            w.resize(n_w, 0.0);
+        }
+        if !row.is_empty() {
+            self.ctx.w_from_row(m, row, w);
+        }
         if let Some(&(_, slot)) = self.ctx.decided[m].first() {
             w[slot] = d;
+        }
+    }
+
+    /// [`Ecms::signals_into`] at another time of the same candidate (m, d), `w` holding its values at an
+    /// earlier one: without exogenous signals (`row` empty) w holds d alone, the same at every time, and is
+    /// left as it is.
+    fn signals_again(&self, m: usize, row: &[f64], d: f64, w: &mut Vec<f64>) {
+        if !row.is_empty() {
+            self.signals_into(m, row, d, w);
         }
     }
 
@@ -33,7 +54,7 @@ impl Ecms<'_, '_, '_> {
         self.reference_into(m, &self.samples.base[k], &mut sc.y);
         sc.eta.clear();
         sc.eta.extend(info.eta_states.iter().map(|&j| x[j]));
-        self.signals_into(m, d, &mut sc.w);
+        self.signals_into(m, self.samples.signals_at(k), d, &mut sc.w);
         sc.x.clear();
         sc.x.extend_from_slice(x);
         let u = model
@@ -46,8 +67,9 @@ impl Ecms<'_, '_, '_> {
     }
 
     /// The interval [t_k, t_k+1] after [`Ecms::point_in`] (`sc` holding its state): η by one classical
-    /// Runge–Kutta step of mode m's zero dynamics with d held (the reference at t_k, the midpoint and t_k+1),
-    /// then x = ψ⁻¹ at t_k+1 into `sc.x1` and the powers there; the inverse's error as text.
+    /// Runge–Kutta step of mode m's zero dynamics with d held (the reference and the signals at t_k, the
+    /// midpoint and t_k+1), then x = ψ⁻¹ at t_k+1 into `sc.x1` and the powers there; the inverse's error as
+    /// text.
     pub(super) fn end_in(
         &self,
         (m, k): (usize, usize),
@@ -55,22 +77,25 @@ impl Ecms<'_, '_, '_> {
         sc: &mut Scratch,
     ) -> Result<Point, String> {
         let info = self.ctx.spec.modes[m].model.info();
-        self.signals_into(m, d, &mut sc.w);
+        self.signals_into(m, self.samples.signals_at(k), d, &mut sc.w);
         sc.eta.clear();
         sc.eta.extend(info.eta_states.iter().map(|&j| sc.x[j]));
-        self.advance_in((m, k), sc);
-        self.finish_in((m, k), sc)
+        self.advance_in((m, k), d, sc);
+        self.finish_in((m, k), d, sc)
     }
 
-    /// The state and free input at t_k+1 from the internal states `sc.eta` (the other states from `sc.x`,
-    /// signals `sc.w`): x = ψ⁻¹ into `sc.x1`, and the powers there.
+    /// The state and free input at t_k+1 from the internal states `sc.eta` (the other states from `sc.x`;
+    /// `sc.w` holding mode m's signals with decided value d at some time of the interval, set to t_k+1's):
+    /// x = ψ⁻¹ into `sc.x1`, and the powers there.
     pub(super) fn finish_in(
         &self,
         (m, k): (usize, usize),
+        d: f64,
         sc: &mut Scratch,
     ) -> Result<Point, String> {
         let model = self.ctx.spec.modes[m].model;
         let r = model.info().relative_degree;
+        self.signals_again(m, self.samples.signals_at(k + 1), d, &mut sc.w);
         self.reference_into(m, &self.samples.base[k + 1], &mut sc.y);
         sc.x1.clear();
         sc.x1.extend_from_slice(&sc.x);
@@ -80,9 +105,11 @@ impl Ecms<'_, '_, '_> {
         Ok(self.powers(m, u, true, sc))
     }
 
-    /// η (in `sc.eta`) over [t_k, t_k+1], signals `sc.w`: k₁ = q(y(t_k), η), k₂ = q(y(t_m), η + h/2 k₁),
-    /// k₃ = q(y(t_m), η + h/2 k₂), k₄ = q(y(t_k+1), η + h k₃), η += h/6 (k₁ + 2 k₂ + 2 k₃ + k₄).
-    fn advance_in(&self, (m, k): (usize, usize), sc: &mut Scratch) {
+    /// η (in `sc.eta`) over [t_k, t_k+1] with d held, the signals w(t) at the stage times (`sc.w` holding
+    /// them at t_k, set to the midpoint's before k₂ and to t_k+1's before k₄): k₁ = q(y(t_k), η, w(t_k)),
+    /// k₂ = q(y(t_m), η + h/2 k₁, w(t_m)), k₃ = q(y(t_m), η + h/2 k₂, w(t_m)),
+    /// k₄ = q(y(t_k+1), η + h k₃, w(t_k+1)), η += h/6 (k₁ + 2 k₂ + 2 k₃ + k₄).
+    fn advance_in(&self, (m, k): (usize, usize), d: f64, sc: &mut Scratch) {
         let model = self.ctx.spec.modes[m].model;
         let r = model.info().relative_degree;
         let h = self.samples.t[k + 1] - self.samples.t[k];
@@ -96,6 +123,11 @@ impl Ecms<'_, '_, '_> {
         let steps = [0.0, h / 2.0, h / 2.0, h];
         for i in 0..4 {
             self.reference_into(m, rows[i], &mut sc.y);
+            match i {
+                1 => self.signals_again(m, self.samples.signals_mid_at(k), d, &mut sc.w),
+                3 => self.signals_again(m, self.samples.signals_at(k + 1), d, &mut sc.w),
+                _ => {}
+            }
             sc.tmp.clear();
             if i == 0 {
                 sc.tmp.extend_from_slice(&sc.eta);

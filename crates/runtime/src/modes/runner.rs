@@ -10,16 +10,14 @@ use super::gears::GearBox;
 use super::record::{CouplingReset, Ctx, EntryLog, Impulse, Record, Solved, Transition};
 use super::rules::Rules;
 use super::sequence::{decide, Moment, Place, Rung, Switcher};
-use super::signals::resolve_modal;
+use super::signals::{record_signals, smoother_with_signals};
 use super::verify::replay;
 use super::zd_ode::ZdOde;
 use super::{ModalError, ModalOptions, ModalResult, ModalSpec, Switching};
 use crate::cycle::Cycle;
-use crate::elevation::Along;
 use crate::grid::Grid;
 use crate::ode::StepFailure;
 use crate::signals::SignalInput;
-use crate::smoother::Smoother;
 use crate::smoother::{FineReference, ZeroDynamicsReference};
 
 /// The sequence's state between samples.
@@ -389,14 +387,7 @@ pub fn simulate_modes_differentiated(
     let grid = Grid::new(cycle.time[0], cycle.duration(), opts.dt)?;
     crate::inverse::checks::check_lookahead(opts.lookahead, cycle.duration(), opts.dt)
         .map_err(|e| ModalError::Setup(e.to_string()))?;
-    // A route profile is read along the smoothed reference's distance, as in a single-mode inverse run.
-    let along = Along::Smoothed {
-        lookahead: opts.lookahead,
-    };
-    let resolved = resolve_modal(spec, cycle, signals, along)?;
-    let smoother = Smoother::new(cycle, opts.lookahead)
-        .map_err(|e| ModalError::Setup(e.to_string()))?
-        .with_signals(crate::signals::smoothers(&resolved, opts.lookahead));
+    let (smoother, resolved) = smoother_with_signals(spec, cycle, opts, signals)?;
     let r_max = spec.r_max();
     let n = spec.modes[0].model.info().n_states();
     let transition = opts.transition_time.unwrap_or(opts.lookahead);
@@ -427,8 +418,7 @@ pub fn simulate_modes_differentiated(
     if let Some((wrt, d)) = wrt.zip(derivatives) {
         result.summary.gradient = Some(super::gradient::figures_of(spec, wrt, &result.summary, d));
     }
-    result.summary.signals = crate::signals::signal_uses(&resolved, "smoothed");
-    result.signals = resolved;
+    record_signals(&mut result, resolved);
     Ok(result)
 }
 

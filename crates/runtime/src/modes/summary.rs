@@ -112,7 +112,7 @@ fn columns(ctx: &Ctx<'_, '_>) -> Vec<(String, Option<String>)> {
         ("gear".into(), None),
     ];
     c.extend((0..=ctx.r_max).map(|k| (format!("yd_{k}"), None)));
-    for sig in info.signals.iter().filter(|s| !is_input(spec, &s.name)) {
+    for sig in super::signals::exogenous(spec, info) {
         c.push((sig.name.clone(), sig.unit.clone()));
         c.extend((1..=ctx.r_max).map(|k| (format!("{}_d{k}", sig.name), None)));
     }
@@ -129,11 +129,6 @@ fn columns(ctx: &Ctx<'_, '_>) -> Vec<(String, Option<String>)> {
             .map(|o| (o.name.clone(), o.unit.clone())),
     );
     c
-}
-
-/// Is `name` one of the model's inputs (a decided input, which a mode carries as a signal)?
-fn is_input(spec: &super::ModalSpec<'_>, name: &str) -> bool {
-    spec.inputs.iter().any(|i| i.name == name)
 }
 
 /// The value of every input at a sample of mode m, into `row`.
@@ -328,31 +323,11 @@ fn table(ctx: &Ctx<'_, '_>, rec: &Record, tally: &Tally) -> Vec<Vec<f64>> {
             .collect(),
     ];
     data.extend(rec.yref.columns());
-    data.extend(signal_rows(ctx, &rec.t).columns());
+    data.extend(ctx.signal_rows(&rec.t).columns());
     for rows in [&tally.inputs, &rec.states, &tally.outputs] {
         data.extend(rows.columns());
     }
     data
-}
-
-/// [S, S_d1, …, S_dR] of every signal at each sample time (none without signals).
-fn signal_rows(ctx: &Ctx<'_, '_>, t: &[f64]) -> Rows {
-    let info = ctx.spec.modes[0].model.info();
-    let real = info
-        .signals
-        .iter()
-        .filter(|s| !is_input(ctx.spec, &s.name))
-        .count();
-    let n = real * (ctx.r_max + 1);
-    let mut rows = Rows::with_capacity(n, if n == 0 { 0 } else { t.len() });
-    if n > 0 {
-        let mut w = vec![0.0; n];
-        for &tk in t {
-            ctx.smoother.eval_signals(tk, &mut w);
-            rows.push(&w);
-        }
-    }
-    rows
 }
 
 /// The accumulated outputs' integrals, per 100 km (those per distance) and units, by name.
