@@ -197,7 +197,7 @@ fn a_capacity_sweep_at_a_given_equivalence_factor_scales_the_charge_by_one_over_
 
 #[test]
 fn strategies_a_sweep_cannot_run_are_exit_2_naming_the_option() {
-    let cases: [(&[&str], &str); 4] = [
+    let cases: [(&[&str], &str); 3] = [
         (
             &[
                 "sweep",
@@ -210,20 +210,6 @@ fn strategies_a_sweep_cannot_run_are_exit_2_naming_the_option() {
                 "ecms",
             ],
             "--strategy ecms needs a model with modes and a [hybrid] table",
-        ),
-        (
-            &[
-                "sweep",
-                MODEL,
-                "--cycle",
-                "ece",
-                "--grid",
-                "Q=12000:13000:2",
-                "--strategy",
-                "dp",
-                "--verify",
-            ],
-            "--verify",
         ),
         (
             &[

@@ -31,6 +31,8 @@
 //!   grade from the cycle's column.
 //! - `hybrid_sweep`: `sweep --strategy`: hev_p2's rows equal `simulate --strategy` bit for bit (ECMS, DP, the
 //!   rules; 1 and 2 threads), a capacity sweep against the charge's 1/Q scaling, refusals.
+//! - `hybrid_verify`: `simulate --strategy … --verify`: the replay through the original equations converges to
+//!   the run at second order in dt (hev_p2 and the series hybrid under DP on the ECE).
 //! - `map_option`: `--map NAME=FILE.csv` for ordinary models and models with modes; unknown names and wrong arity exit 2.
 //! - `modes`: `invsim derive` and `invsim simulate` on a model with operating modes (si_engine_5speed).
 //! - `modes_sweep`: `invsim sweep` of models with operating modes: rows equal `simulate` bit for bit, the modes'
@@ -74,6 +76,7 @@ mod hybrid_plot;
 mod hybrid_series;
 mod hybrid_signals;
 mod hybrid_sweep;
+mod hybrid_verify;
 mod map_option;
 mod modes;
 mod modes_compiled;

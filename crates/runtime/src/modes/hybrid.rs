@@ -17,6 +17,7 @@ use super::rule_based::rule_based;
 use super::rules::Rules;
 use super::signals::{record_signals, smoother_with_signals};
 use super::strategy::{Method, StrategyOptions};
+use super::verify::replay;
 use super::{ModalError, ModalOptions, ModalResult, ModalSpec};
 use crate::cycle::Cycle;
 use crate::grid::Grid;
@@ -138,11 +139,6 @@ pub fn simulate_hybrid(
             ecms.soc_tolerance
         )));
     }
-    if opts.verify {
-        return Err(ModalError::Setup(
-            "--verify replays the mode sequence's run; a strategy's run is not replayed yet".into(),
-        ));
-    }
     if let Some(s) = ecms.equivalence.filter(|s| !s.is_finite()) {
         return Err(ModalError::Setup(format!(
             "--equivalence must be finite, got {s}"
@@ -174,7 +170,7 @@ pub fn simulate_hybrid(
         samples: &samples,
         dt: opts.dt,
     };
-    let (best, block) = match &ecms.method {
+    let (best, mut block) = match &ecms.method {
         Method::Ecms => ecms_run(&run, ecms, &x0)?,
         Method::Dp(dp) => {
             let r = dynamic_programming(&run, dp, &x0, ecms.soc_tolerance)?;
@@ -203,7 +199,10 @@ pub fn simulate_hybrid(
             (first, block)
         }
     };
-    let mut result = super::summary::assemble(&ctx, cycle, opts, best.rec, None);
+    // --verify: the chosen modes, free input and decided inputs replayed through the original equations.
+    let verify = opts.verify.then(|| replay(&ctx, &best.rec)).transpose()?;
+    block.soc_end_replayed = verify.as_ref().map(|v| v.x_end[h.soc]);
+    let mut result = super::summary::assemble(&ctx, cycle, opts, best.rec, verify);
     result.summary.modes.switching = "strategy".into();
     result.summary.hybrid = Some(Box::new(block));
     add_engine_on(&mut result, &h.engine_on);
@@ -273,6 +272,7 @@ fn block_of(run: &Ecms<'_, '_, '_>, best: &Outcome, tol: f64) -> HybridBlock {
         soc_tolerance: tol,
         soc_start: best.soc.0,
         soc_end: best.soc.1,
+        soc_end_replayed: None,
         delta_soc: dsoc,
         charge_sustaining: dsoc.abs() <= tol,
         fuel_energy_j: best.fuel,

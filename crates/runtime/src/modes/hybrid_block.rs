@@ -20,6 +20,11 @@ pub struct HybridBlock {
     pub soc_tolerance: f64,
     pub soc_start: f64,
     pub soc_end: f64,
+    /// `--verify`: the charge at the end of the replay of the run's modes, free input and decided inputs
+    /// through the original equations (within the replay's tolerance and the strategy's O(dt⁴) step of the
+    /// charge of `soc_end`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub soc_end_replayed: Option<f64>,
     pub delta_soc: f64,
     pub charge_sustaining: bool,
     /// ∫ P_fuel dt, J.
@@ -92,6 +97,13 @@ impl HybridBlock {
                 "not charge-sustaining"
             }
         );
+        if let Some(replayed) = self.soc_end_replayed {
+            let _ = writeln!(
+                s,
+                "SOC at the end of the replay (--verify): {replayed:.6} ({:+.3e} from the run's)",
+                replayed - self.soc_end
+            );
+        }
         let _ = writeln!(
             s,
             "fuel energy: {:.6e} J  corrected to ΔSOC = 0 (SAE J1711): {corrected}  battery energy: {:.6e} J",

@@ -168,3 +168,12 @@ impl Record {
         self.yref.push(&s.yref);
     }
 }
+
+/// The decided inputs' values of sample k (held over its interval) into their slots of `w` (mode m).
+pub(super) fn set_decided(ctx: &Ctx<'_, '_>, rec: &Record, (m, k): (usize, usize), w: &mut [f64]) {
+    if let Some(values) = rec.decided.get(k) {
+        for (&(_, slot), &v) in ctx.decided[m].iter().zip(values) {
+            w[slot] = v;
+        }
+    }
+}

@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 
 use serde::Serialize;
 
-use super::record::{Ctx, Impulse, ModeTime, Record, Transition};
+use super::record::{set_decided, Ctx, Impulse, ModeTime, Record, Transition};
 use super::rows::Rows;
 use super::rules::ModeRule;
 use super::verify::Tracking;
@@ -298,15 +298,6 @@ fn walk(ctx: &Ctx<'_, '_>, cycle: &Cycle, opts: &ModalOptions, rec: &Record) -> 
         }
     }
     tally
-}
-
-/// The decided inputs' values of sample k (held over its interval) into their slots of `w` (mode m).
-fn set_decided(ctx: &Ctx<'_, '_>, rec: &Record, (m, k): (usize, usize), w: &mut [f64]) {
-    if let Some(values) = rec.decided.get(k) {
-        for (&(_, slot), &v) in ctx.decided[m].iter().zip(values) {
-            w[slot] = v;
-        }
-    }
 }
 
 /// The table's columns (see [`columns`]): t, mode, gear, y_d^(0 … R), the smoothed signals with their

@@ -38,6 +38,7 @@ const EMPTY: HybridBlock = HybridBlock {
     soc_tolerance: 0.0,
     soc_start: 0.0,
     soc_end: 0.0,
+    soc_end_replayed: None,
     delta_soc: 0.0,
     charge_sustaining: false,
     fuel_energy_j: 0.0,

@@ -504,8 +504,8 @@ fn shared(
     }
 }
 
-/// A strategy's sweep needs a hybrid (a model with modes and a `[hybrid]` table) and no replay (`verify`: a
-/// strategy's run is not replayed yet), refused here once rather than in every row.
+/// A strategy's sweep needs a hybrid (a model with modes and a `[hybrid]` table), refused here once rather
+/// than in every row.
 pub fn check_strategy(model: &Plant, opts: &SimulationOptions) -> Result<(), SweepError> {
     let Some(strategy) = &opts.strategy else {
         return Ok(());
@@ -517,11 +517,6 @@ pub fn check_strategy(model: &Plant, opts: &SimulationOptions) -> Result<(), Swe
             "{flag} needs a model with modes and a [hybrid] table (fuel_power, battery_power, soc); \
              `{}` has none",
             model.name()
-        )));
-    }
-    if opts.verify {
-        return Err(SweepError::Strategy(format!(
-            "--verify replays the mode sequence's run; a strategy's run ({flag}) is not replayed yet"
         )));
     }
     Ok(())
