@@ -4,6 +4,7 @@
 //! dt = 0.1 and 0.01 s: every state within 1e-9 of its largest magnitude and every integral within 1e-9
 //! relative.
 
+use crate::common::integrals_deviation;
 use invsim_runtime::{simulate, Cycle, SimulationOptions, SimulationResult, ZeroDynamicsReference};
 
 /// The largest deviation of `a` from `b`: each state's and η's column norm-wise, max_k |a_k − b_k| / max_k |b_k|
@@ -23,11 +24,7 @@ fn deviation(a: &SimulationResult, b: &SimulationResult, columns: &[String]) -> 
             states = states.max(worst / top);
         }
     }
-    let mut integrals = 0.0f64;
-    for (name, x) in &a.summary.totals.integrals {
-        let y = b.summary.totals.integrals[name];
-        integrals = integrals.max((x - y).abs() / x.abs().max(y.abs()).max(f64::MIN_POSITIVE));
-    }
+    let integrals = integrals_deviation(&a.summary.totals.integrals, &b.summary.totals.integrals);
     (states, integrals)
 }
 

@@ -3,6 +3,7 @@
 //! NEDC, UDDS and WLTC class 3b at dt = 0.1 and 0.01 s, the same modes at every sample, every state within
 //! 1e-9 relative and every integral (fuel) within 1e-9 relative.
 
+use crate::common::integrals_deviation;
 use invsim_runtime::modes::{
     simulate_modes_with_reference, ModalOptions, ModalResult, Switching, ZeroDynamicsReference,
 };
@@ -33,11 +34,7 @@ fn deviation(a: &ModalResult, b: &ModalResult) -> (f64, f64) {
             }
         }
     }
-    let mut integrals = 0.0f64;
-    for (name, x) in &a.summary.totals.integrals {
-        let y = b.summary.totals.integrals[name];
-        integrals = integrals.max((x - y).abs() / x.abs().max(y.abs()).max(f64::MIN_POSITIVE));
-    }
+    let integrals = integrals_deviation(&a.summary.totals.integrals, &b.summary.totals.integrals);
     (states, integrals)
 }
 

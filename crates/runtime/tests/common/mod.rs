@@ -5,6 +5,7 @@
 //!   physical parameters of `shared/reference/si_engine.md`.
 //! - [`LinearR2`]: a linear system with r = 2, n = 3 and one internal coordinate, minimum phase or not.
 //! - [`NanOutput`]: the SI engine with an extra output that becomes NaN above a speed.
+//! - [`integrals_deviation`]: how far two runs' integrals are apart.
 #![allow(dead_code)]
 
 use std::f64::consts::PI;
@@ -411,4 +412,15 @@ impl InverseModel for NanOutput {
         self.inner.outputs(x, w, u, &mut out[..2]);
         out[2] = (self.v_max - x[0]).sqrt();
     }
+}
+
+/// The largest relative difference between two runs' integrals of the same names.
+pub fn integrals_deviation(
+    a: &std::collections::BTreeMap<String, f64>,
+    b: &std::collections::BTreeMap<String, f64>,
+) -> f64 {
+    a.iter().fold(0.0f64, |worst, (name, x)| {
+        let y = b[name];
+        worst.max((x - y).abs() / x.abs().max(y.abs()).max(f64::MIN_POSITIVE))
+    })
 }
