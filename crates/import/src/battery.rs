@@ -6,6 +6,7 @@
 //! empties the capacity in one hour, C = P_el / (E_res / 3600 s), positive when discharging. The temperature is the signal `T_res` (°C): FASTSim's
 //! lumped battery thermal model is not reproduced, so its default is the file's initial battery temperature
 //! (22 °C without one) and `--signal T_res=…` (a constant or a time series) sets another.
+//! Also the battery's peak power and capacity, which every electrified powertrain reads alike.
 
 use crate::curve::scalar;
 use crate::error::ImportError;
@@ -173,6 +174,24 @@ fn initial_temperature(doc: &Doc, res: &str) -> Result<f64, ImportError> {
         }
         None => Ok(DEFAULT_TEMPERATURE_C),
     }
+}
+
+/// The battery's peak power `P_res_max` (documented as `peak_doc`) and capacity `E_res`, from FASTSim's
+/// `{res}.pwr_out_max_watts` and `{res}.energy_capacity_joules` (`res`: the battery's path).
+pub fn peak_power_and_capacity(
+    doc: &Doc,
+    model: &mut Model,
+    res: &str,
+    peak_doc: &str,
+) -> Result<(), ImportError> {
+    for (name, field, unit, what) in [
+        ("P_res_max", "pwr_out_max_watts", "W", peak_doc),
+        ("E_res", "energy_capacity_joules", "J", "battery capacity"),
+    ] {
+        let path = format!("{res}.{field}");
+        model.field(name, doc.num(&path)?, unit, what, &path)?;
+    }
+    Ok(())
 }
 
 /// The definition `eta_res` from the table (after `P_el`, which it uses).

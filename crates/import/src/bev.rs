@@ -26,20 +26,8 @@ pub fn emit(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<
         &p("em.pwr_out_max_watts"),
     )?;
     let battery = crate::battery::efficiency(doc, model, &p("res.eff_interp"), warnings)?;
-    model.field(
-        "P_res_max",
-        doc.num(&p("res.pwr_out_max_watts"))?,
-        "W",
-        "battery peak power (discharge and charge)",
-        &p("res.pwr_out_max_watts"),
-    )?;
-    model.field(
-        "E_res",
-        doc.num(&p("res.energy_capacity_joules"))?,
-        "J",
-        "battery capacity",
-        &p("res.energy_capacity_joules"),
-    )?;
+    let peak = "battery peak power (discharge and charge)";
+    crate::battery::peak_power_and_capacity(doc, model, &p("res"), peak)?;
     let curve = table(doc, &p("em.eff_interp_achieved"))?;
     if curve.x[0] != 0.0 {
         warnings.push(format!(

@@ -139,20 +139,8 @@ fn smooth_map(
 
 /// The battery: capacity, peak power, efficiency (constant or the C-rate × temperature table), initial SOC.
 fn battery(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<(), ImportError> {
-    model.field(
-        "P_res_max",
-        doc.num(&p("res.pwr_out_max_watts"))?,
-        "W",
-        "battery peak power (not enforced: see the warnings)",
-        &p("res.pwr_out_max_watts"),
-    )?;
-    model.field(
-        "E_res",
-        doc.num(&p("res.energy_capacity_joules"))?,
-        "J",
-        "battery capacity",
-        &p("res.energy_capacity_joules"),
-    )?;
+    let peak = "battery peak power (not enforced: see the warnings)";
+    crate::battery::peak_power_and_capacity(doc, model, &p("res"), peak)?;
     for (name, f, what) in [
         (
             "soc_min",
