@@ -1,7 +1,8 @@
 """Hybrids from Python (models/hev_p2.toml, docs/hybrids.md): `Model.simulate(strategy=...)` equals
 `invsim simulate --strategy ...` (summary, `Result.hybrid`, every column), `Model.sweep(strategy=...)` equals
-`invsim sweep --strategy ...` row for row (the hybrid columns bit for bit, CSV and Parquet), and the strategy's
-options are refused as on the command line, and so is `Model.forward` of a hybrid."""
+`invsim sweep --strategy ...` row for row (the hybrid columns bit for bit, CSV and Parquet), a verified run
+(`verify=True`) equals `--verify`, and the strategy's options are refused as on the command line, and so is
+`Model.forward` of a hybrid."""
 
 import json
 import math
@@ -43,6 +44,18 @@ STRATEGIES = [
 @pytest.fixture(scope="module")
 def hev():
     return invsim.Model(HEV)
+
+
+def test_a_verified_strategy_run_equals_the_command_line(hev, tmp_path):
+    """`verify=True` replays a strategy's run as `--verify` does: the tracking error and the replayed charge."""
+    summary = tmp_path / "s.json"
+    run_cli("simulate", HEV, "--cycle", "ece", "--dt", "1", "--strategy", "dp", "--verify", "--summary-json", summary)
+    cli = json.loads(summary.read_text())
+    run = hev.simulate(cycle="ece", dt=1.0, strategy="dp", verify=True)
+    assert run.hybrid == cli["hybrid"]
+    assert run.summary["max_abs_tracking_error"] == cli["max_abs_tracking_error"]
+    assert 0.0 < run.summary["max_abs_tracking_error"] < 0.03
+    assert abs(run.hybrid["soc_end_replayed"] - run.hybrid["soc_end"]) < 1e-5
 
 
 @pytest.mark.parametrize("kwargs,flags", STRATEGIES, ids=["ecms", "ecms-given", "dp", "rules"])
