@@ -9,7 +9,7 @@ use std::path::PathBuf;
 /// deferred with `import`'s arguments, so that clap's `help import fastsim` and the completions have them).
 #[derive(Subcommand, Debug)]
 pub enum ImportFormat {
-    /// A FASTSim 3 vehicle file (YAML; conventional or battery-electric).
+    /// A FASTSim 3 vehicle file (YAML; conventional, battery-electric or hybrid-electric).
     Fastsim {
         /// The vehicle file, e.g. from `fastsim.Vehicle.from_resource(name).to_yaml()`.
         vehicle: PathBuf,
