@@ -96,7 +96,7 @@ impl Gauss {
         Ok(())
     }
 
-    /// W = (h/2) [I I] M⁻¹ column by column (M⁻¹ e_k by the LU factors; b1 = b2 = 1/2) and
+    /// W = (h/2) [I I] M⁻¹ row by row (Mᵀ solves by the LU factors; b1 = b2 = 1/2) and
     /// Φ = I + W1 A1 + W2 A2.
     fn transition(&mut self, h: f64, a: [&[f64]; 2]) -> Result<(), Singular> {
         let (ne, n2) = (self.ne, 2 * self.ne);
@@ -110,12 +110,14 @@ impl Gauss {
         for (j, d) in self.dinv.iter_mut().enumerate() {
             *d = 1.0 / self.m[j * n2 + j];
         }
-        for k in 0..n2 {
+        // Row r of W is (h/2)(e_r + e_(ne+r))ᵀ M⁻¹: Mᵀ y = (h/2)(e_r + e_(ne+r)), ne solves with Mᵀ.
+        for row in 0..ne {
             self.x.fill(0.0);
-            self.x[k] = 1.0;
-            solve(&self.m, n2, (&self.piv, &self.dinv), &mut self.x);
-            for row in 0..ne {
-                self.w[k * ne + row] = 0.5 * h * (self.x[row] + self.x[ne + row]);
+            self.x[row] = 0.5 * h;
+            self.x[ne + row] = 0.5 * h;
+            solve_transposed(&self.m, n2, (&self.piv, &self.dinv), &mut self.x);
+            for (k, &y) in self.x.iter().enumerate() {
+                self.w[k * ne + row] = y;
             }
         }
         for (idx, v) in self.phi.iter_mut().enumerate() {
@@ -172,26 +174,22 @@ fn factor(m: &mut [f64], n: usize, piv: &mut [usize]) -> Result<(), Singular> {
     Ok(())
 }
 
-/// x ← M⁻¹ x from [`factor`]'s LU of M and the reciprocals `dinv` of U's diagonal: the row swaps, L y = Px
-/// forward, U x = y backward.
-fn solve(m: &[f64], n: usize, (piv, dinv): (&[usize], &[f64]), x: &mut [f64]) {
-    for (j, &p) in piv.iter().enumerate() {
+/// x ← M⁻ᵀ x from [`factor`]'s LU of M (PM = LU, so Mᵀ = Uᵀ Lᵀ P) and the reciprocals `dinv` of U's diagonal:
+/// Uᵀ w = x forward, Lᵀ v = w backward, x = Pᵀ v (the row swaps undone in reverse order). Each step is a dot
+/// product of a column of the factors, contiguous in the column-major `m`.
+fn solve_transposed(m: &[f64], n: usize, (piv, dinv): (&[usize], &[f64]), x: &mut [f64]) {
+    for i in 0..n {
+        let column = &m[i * n..i * n + i];
+        let dot: f64 = column.iter().zip(&x[..i]).map(|(u, w)| u * w).sum();
+        x[i] = (x[i] - dot) * dinv[i];
+    }
+    for i in (0..n).rev() {
+        let column = &m[i * n + i + 1..(i + 1) * n];
+        let dot: f64 = column.iter().zip(&x[i + 1..]).map(|(l, v)| l * v).sum();
+        x[i] -= dot;
+    }
+    for (j, &p) in piv.iter().enumerate().rev() {
         x.swap(j, p);
-    }
-    for j in 0..n {
-        let xj = x[j];
-        if xj != 0.0 {
-            for (v, l) in x[j + 1..].iter_mut().zip(&m[j * n + j + 1..(j + 1) * n]) {
-                *v -= l * xj;
-            }
-        }
-    }
-    for j in (0..n).rev() {
-        x[j] *= dinv[j];
-        let xj = x[j];
-        for (v, u) in x[..j].iter_mut().zip(&m[j * n..j * n + j]) {
-            *v -= u * xj;
-        }
     }
 }
 
@@ -199,6 +197,29 @@ fn solve(m: &[f64], n: usize, (piv, dinv): (&[usize], &[f64]), x: &mut [f64]) {
 mod tests {
     use super::*;
     use nalgebra::DMatrix;
+
+    /// Mᵀ y = x by the LU factors of M, for a matrix whose factorisation swaps rows (a zero leading entry).
+    #[test]
+    fn the_transposed_solve_inverts_m_transposed() {
+        let m0 = DMatrix::from_row_slice(
+            4,
+            4,
+            &[
+                0.0, 2.0, 1.0, -1.0, 3.0, 1.0, 0.5, 2.0, -1.0, 4.0, 2.0, 0.0, 2.0, -3.0, 1.0, 5.0,
+            ],
+        );
+        let (mut m, mut piv) = (m0.as_slice().to_vec(), vec![0; 4]);
+        factor(&mut m, 4, &mut piv).expect("regular");
+        assert_ne!(piv[0], 0, "a row swap at the first step");
+        let dinv: Vec<f64> = (0..4).map(|j| 1.0 / m[j * 4 + j]).collect();
+        let x = [1.0, -2.0, 0.5, 3.0];
+        let mut y = x.to_vec();
+        solve_transposed(&m, 4, (&piv, &dinv), &mut y);
+        let back = m0.transpose() * DMatrix::from_column_slice(4, 1, &y);
+        for (b, v) in back.iter().zip(x) {
+            assert!((b - v).abs() < 1e-13, "{back} against {x:?}");
+        }
+    }
 
     /// n steps of h from S(0) = s0 for Ṡ = A(t) S + B(t).
     fn integrate(
