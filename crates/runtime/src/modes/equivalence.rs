@@ -157,13 +157,14 @@ fn narrow(
                 }
             }
         }
-        // The first step aims at ΔSOC = 0 (where ΔSOC is linear in s, the secant lands on it); later ones at
-        // the near half of the band, ΔSOC = ±tol/2 on b's side: any run in the band ends the search, and a
-        // step along the slope then stops short of a flip just beyond the band rather than across it.
+        // The first step aims at ΔSOC = 0 (where ΔSOC is linear in s, the secant lands on it); later ones just
+        // inside the band's near edge, ΔSOC = ±0.9 tol on b's side: any run in the band ends the search, and
+        // the shortest step along the slope into it stops short of a flip just beyond (a run without a shared
+        // sample) rather than across.
         let target = if first {
             0.0
         } else {
-            (0.5 * tol).copysign(b.delta_soc())
+            (0.9 * tol).copysign(b.delta_soc())
         };
         first = false;
         let shifted = |(s, f): (f64, f64)| (s, f - target);
