@@ -129,6 +129,9 @@ pub(super) struct Eval {
     pub(super) end: Option<End>,
 }
 
+/// A candidate: its mode and decided value (m, d).
+type Choice = (usize, f64);
+
 /// A strategy's choice at sample k from state x (`on`: the engine ran in the previous interval).
 pub(super) type Pick<'p> = dyn FnMut(usize, &[f64], bool) -> Result<Eval, ModalError> + 'p;
 
@@ -177,7 +180,7 @@ impl Ecms<'_, '_, '_> {
         (s, start): (f64, f64),
         sc: &mut Scratch,
     ) -> Option<Eval> {
-        let (_, margin, at, end) = self.price((m, k), x, d, (s, start), sc)?;
+        let (_, margin, at, end) = self.price((m, k), x, d, (s, start), false, sc)?;
         Some(Eval {
             excess: margin.max(0.0),
             m,
@@ -224,7 +227,9 @@ impl Ecms<'_, '_, '_> {
     }
 
     /// The best candidate at sample k from state x (`on`: the engine ran in the previous interval): the least
-    /// cost over its interval ([`Ecms::priced`]).
+    /// cost over its interval ([`Ecms::priced`]). The minimiser's points beyond the bounds already at t_k are
+    /// left without their interval (they cost +∞ whatever it holds: [`Ecms::price`]); where no candidate is
+    /// feasible, the candidates are evaluated again in full for the one nearest its bounds.
     fn choose(
         &self,
         (k, x): (usize, &[f64]),
@@ -232,8 +237,36 @@ impl Ecms<'_, '_, '_> {
         sc: &mut Scratch,
     ) -> Result<Eval, ModalError> {
         let start = if on { 0.0 } else { self.h.start_penalty };
-        // (cost, m, d) of the best feasible candidate; (excess, cost, m, d) of the one nearest its bounds
-        // among every evaluation, taken where none is feasible.
+        let chosen = match self.candidates_at((k, x), (s, start), sc, true) {
+            (Some(best), _) => Some(best),
+            _ => {
+                let (best, nearest) = self.candidates_at((k, x), (s, start), sc, false);
+                best.or(nearest)
+            }
+        };
+        chosen
+            .and_then(|(m, d)| self.priced((m, k), x, d, (s, start), sc))
+            .ok_or_else(|| {
+                self.ctx.err(
+                    self.samples.candidates[k].first().copied().unwrap_or(0),
+                    self.samples.t[k],
+                    "no candidate mode has an inverse here".into(),
+                )
+            })
+    }
+
+    /// Every candidate of sample k from state x at s (`start`: E_start where the engine would start), a
+    /// decided input minimised over its bounds: (m, d) of the feasible one of least cost, and of the one
+    /// nearest its bounds among every evaluation (by its excess, then its cost; `lazy` leaves points beyond
+    /// the bounds at t_k unfinished, and this one unreliable).
+    fn candidates_at(
+        &self,
+        (k, x): (usize, &[f64]),
+        (s, start): (f64, f64),
+        sc: &mut Scratch,
+        lazy: bool,
+    ) -> (Option<Choice>, Option<Choice>) {
+        // (cost, m, d) of the best feasible candidate; (excess, cost, m, d) of the one nearest its bounds.
         let mut best: Option<(f64, usize, f64)> = None;
         let mut nearest: Option<(f64, f64, usize, f64)> = None;
         let mut consider = |(cost, margin): (f64, f64), (m, d): (usize, f64), final_: bool| {
@@ -245,44 +278,40 @@ impl Ecms<'_, '_, '_> {
                 best = Some((cost, m, d));
             }
         };
+        let price = |m: usize, d: f64, lazy: bool, sc: &mut Scratch| {
+            self.price((m, k), x, d, (s, start), lazy, sc)
+                .map(|(c, e, _, _)| (c, e))
+        };
         for &m in &self.samples.candidates[k] {
             match self.ctx.decided[m].first() {
                 None => {
-                    if let Some((c, e, _, _)) = self.price((m, k), x, 0.0, (s, start), sc) {
-                        consider((c, e), (m, 0.0), true);
+                    if let Some(p) = price(m, 0.0, false, sc) {
+                        consider(p, (m, 0.0), true);
                     }
                 }
                 Some(&(i, _)) => {
                     let input = &self.ctx.spec.inputs[i];
                     let bounds = (input.min.unwrap_or(0.0), input.max.unwrap_or(0.0));
                     // (J where feasible, else +∞; the margin less the feasibility's 10⁻⁹).
-                    let mut f = |d: f64| match self.price((m, k), x, d, (s, start), sc) {
-                        Some((c, e, _, _)) => {
+                    let mut f = |d: f64| match price(m, d, lazy, sc) {
+                        Some((c, e)) => {
                             consider((c, e), (m, d), false);
                             (if e <= 1e-9 { c } else { f64::INFINITY }, e - 1e-9)
                         }
                         None => (f64::INFINITY, f64::NAN),
                     };
                     if let Some((d, _)) = minimise_probed(&mut f, bounds, self.h.grid) {
-                        if let Some((c, e, _, _)) = self.price((m, k), x, d, (s, start), sc) {
-                            consider((c, e), (m, d), true);
+                        if let Some(p) = price(m, d, false, sc) {
+                            consider(p, (m, d), true);
                         }
                     }
                 }
             }
         }
-        let chosen = best
-            .map(|(_, m, d)| (m, d))
-            .or(nearest.map(|(_, _, m, d)| (m, d)));
-        chosen
-            .and_then(|(m, d)| self.priced((m, k), x, d, (s, start), sc))
-            .ok_or_else(|| {
-                self.ctx.err(
-                    self.samples.candidates[k].first().copied().unwrap_or(0),
-                    self.samples.t[k],
-                    "no candidate mode has an inverse here".into(),
-                )
-            })
+        (
+            best.map(|(_, m, d)| (m, d)),
+            nearest.map(|(_, _, m, d)| (m, d)),
+        )
     }
 
     /// The run at equivalence factor s from the state x0 (its internal states at their start values).

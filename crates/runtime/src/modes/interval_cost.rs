@@ -180,16 +180,21 @@ impl Ecms<'_, '_, '_> {
     /// larger of the two ends' (feasible within 10⁻⁹ of the range at both, as DP's controls). At the last
     /// sample (no interval) Δt (P_fuel + s P_batt) (+ E_start). `start` is E_start where the engine would
     /// start. (cost, the larger of the two ends' signed margins ([`Ecms::margin`]), the points at t_k and
-    /// t_k+1); `None` where an inverse fails or a cost is not finite.
+    /// t_k+1); `None` where an inverse fails or a cost is not finite. `lazy`: a candidate beyond its bounds
+    /// at t_k already (infeasible whatever its interval) is left there, its cost +∞ and its margin t_k's.
     pub(super) fn price(
         &self,
         (m, k): (usize, usize),
         x: &[f64],
         d: f64,
         (s, start): (f64, f64),
+        lazy: bool,
         sc: &mut Scratch,
     ) -> Option<(f64, f64, Point, Option<Point>)> {
         let at = self.point_in((m, k), x, d, sc)?;
+        if lazy && at.margin > 1e-9 {
+            return Some((f64::INFINITY, at.margin, at, None));
+        }
         let penalty = if self.h.engine_on[m] { start } else { 0.0 };
         if k + 1 == self.samples.t.len() {
             let cost = self.dt * (at.p_fuel + s * at.p_batt) + penalty;
