@@ -363,3 +363,30 @@ pub(super) fn correction(best: &Outcome, other: &Option<Outcome>) -> (Option<f64
     let slope = (o.fuel - best.fuel) / dd;
     (Some(best.fuel - best.delta_soc() * slope), Some(slope))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::zeroin_step;
+
+    #[test]
+    fn a_step_is_the_secant_within_the_bracket_else_bisection() {
+        // ΔSOC = 2 (s − 3.4) from the bracket (3.75, 3), b the end of the smaller |ΔSOC| (as `narrow` keeps
+        // it), a = c (the first step): the secant lands on the root.
+        let f = |s: f64| 2.0 * (s - 3.4);
+        let (b, c) = ((3.75, f(3.75)), (3.0, f(3.0)));
+        let (d, _) = zeroin_step((c, b, c), (b.0 - c.0, b.0 - c.0));
+        assert!((b.0 + d - 3.4).abs() < 1e-15, "{}", b.0 + d);
+        // The last two runs on a gentle stretch (a, b), the bracket's far end c across a jump: the secant
+        // along the stretch, not the chord to c.
+        let (a, b, c) = ((3.4014, -2.3e-4), (3.4015, -1.5e-4), (3.4020, 3.0e-3));
+        let (d, e) = zeroin_step((a, b, c), (1e-4, 4e-4));
+        assert!((b.0 + d - 3.401_687_5).abs() < 1e-12, "{}", b.0 + d);
+        assert_eq!(e, 1e-4);
+        // A secant beyond three quarters of the way to c, or not less than half the step before last:
+        // bisection.
+        let (a, b, c) = ((3.0, -1.0), (3.1, -0.999), (3.75, 1.0));
+        let (d, e) = zeroin_step((a, b, c), (0.1, 0.75));
+        let m = 0.5 * (c.0 - b.0);
+        assert_eq!((d, e), (m, m));
+    }
+}
