@@ -18,7 +18,7 @@
 //! ψ⁻¹ there (every mode shares the state, so a switch keeps it; a mode whose ξ differs starts from the
 //! reference at once, as `--switching quasi-static` does).
 
-use super::minimise::minimise;
+use super::minimise::minimise_probed;
 use super::record::{Ctx, Record, Solved, Transition};
 use super::rows::Rows;
 use super::scratch::{Point, Scratch};
@@ -129,6 +129,9 @@ pub(super) struct Eval {
     pub(super) end: Option<End>,
 }
 
+/// A candidate: its mode and decided value (m, d).
+type Choice = (usize, f64);
+
 /// A strategy's choice at sample k from state x (`on`: the engine ran in the previous interval).
 pub(super) type Pick<'p> = dyn FnMut(usize, &[f64], bool) -> Result<Eval, ModalError> + 'p;
 
@@ -155,7 +158,7 @@ impl Ecms<'_, '_, '_> {
         let mut sc = Scratch::default();
         let p = self.point_in((m, k), x, d, &mut sc)?;
         Some(Eval {
-            excess: p.excess,
+            excess: p.margin.max(0.0),
             m,
             d,
             u: p.u,
@@ -177,9 +180,9 @@ impl Ecms<'_, '_, '_> {
         (s, start): (f64, f64),
         sc: &mut Scratch,
     ) -> Option<Eval> {
-        let (_, excess, at, end) = self.price((m, k), x, d, (s, start), sc)?;
+        let (_, margin, at, end) = self.price((m, k), x, d, (s, start), false, sc)?;
         Some(Eval {
-            excess,
+            excess: margin.max(0.0),
             m,
             d,
             u: at.u,
@@ -199,67 +202,50 @@ impl Ecms<'_, '_, '_> {
 
     /// How far mode m's free input u lies beyond its bounds, as a fraction of its range (0 within).
     pub(super) fn excess(&self, m: usize, u: f64) -> f64 {
+        self.margin(m, u).max(0.0)
+    }
+
+    /// Mode m's free input u against its bounds [a, b], as a fraction of its range: max(a − u, u − b), how
+    /// far beyond them (> 0), or minus the distance to the nearer one within (≤ 0; an absent bound none, a
+    /// free input without bounds 0) — continuous in u, the margin whose zero is the feasible set's edge.
+    pub(super) fn margin(&self, m: usize, u: f64) -> f64 {
         let input = &self.ctx.spec.inputs[self.ctx.spec.modes[m].free_input];
         let range = match (input.min, input.max) {
             (Some(a), Some(b)) if b > a => b - a,
             _ => 1.0,
         };
-        let below = input.min.map_or(0.0, |a| a - u);
-        let above = input.max.map_or(0.0, |b| u - b);
-        below.max(above).max(0.0) / range
+        let below = input.min.map(|a| a - u);
+        let above = input.max.map(|b| u - b);
+        match (below, above) {
+            (None, None) => 0.0,
+            (l, r) => {
+                l.unwrap_or(f64::NEG_INFINITY)
+                    .max(r.unwrap_or(f64::NEG_INFINITY))
+                    / range
+            }
+        }
     }
 
     /// The best candidate at sample k from state x (`on`: the engine ran in the previous interval): the least
-    /// cost over its interval ([`Ecms::priced`]).
-    fn choose(&self, k: usize, x: &[f64], s: f64, on: bool) -> Result<Eval, ModalError> {
+    /// cost over its interval ([`Ecms::priced`]). The minimiser's points beyond the bounds already at t_k are
+    /// left without their interval (they cost +∞ whatever it holds: [`Ecms::price`]); where no candidate is
+    /// feasible, the candidates are evaluated again in full for the one nearest its bounds.
+    fn choose(
+        &self,
+        (k, x): (usize, &[f64]),
+        (s, on): (f64, bool),
+        sc: &mut Scratch,
+    ) -> Result<Eval, ModalError> {
         let start = if on { 0.0 } else { self.h.start_penalty };
-        let mut sc = Scratch::default();
-        // (cost, m, d) of the best feasible candidate; (excess, cost, m, d) of the one nearest its bounds
-        // among every evaluation, taken where none is feasible.
-        let mut best: Option<(f64, usize, f64)> = None;
-        let mut nearest: Option<(f64, f64, usize, f64)> = None;
-        let mut consider = |(cost, excess): (f64, f64), (m, d): (usize, f64), final_: bool| {
-            if nearest.is_none_or(|(e, c, _, _)| (excess, cost) < (e, c)) {
-                nearest = Some((excess, cost, m, d));
-            }
-            if final_ && excess <= 1e-9 && best.is_none_or(|(b, _, _)| cost < b) {
-                best = Some((cost, m, d));
+        let chosen = match self.candidates_at((k, x), (s, start), sc, true) {
+            (Some(best), _) => Some(best),
+            _ => {
+                let (best, nearest) = self.candidates_at((k, x), (s, start), sc, false);
+                best.or(nearest)
             }
         };
-        for &m in &self.samples.candidates[k] {
-            match self.ctx.decided[m].first() {
-                None => {
-                    if let Some((c, e, _, _)) = self.price((m, k), x, 0.0, (s, start), &mut sc) {
-                        consider((c, e), (m, 0.0), true);
-                    }
-                }
-                Some(&(i, _)) => {
-                    let input = &self.ctx.spec.inputs[i];
-                    let bounds = (input.min.unwrap_or(0.0), input.max.unwrap_or(0.0));
-                    let mut f = |d: f64| match self.price((m, k), x, d, (s, start), &mut sc) {
-                        Some((c, e, _, _)) => {
-                            consider((c, e), (m, d), false);
-                            if e <= 1e-9 {
-                                c
-                            } else {
-                                f64::INFINITY
-                            }
-                        }
-                        None => f64::INFINITY,
-                    };
-                    if let Some((d, _)) = minimise(&mut f, bounds, self.h.grid) {
-                        if let Some((c, e, _, _)) = self.price((m, k), x, d, (s, start), &mut sc) {
-                            consider((c, e), (m, d), true);
-                        }
-                    }
-                }
-            }
-        }
-        let chosen = best
-            .map(|(_, m, d)| (m, d))
-            .or(nearest.map(|(_, _, m, d)| (m, d)));
         chosen
-            .and_then(|(m, d)| self.priced((m, k), x, d, (s, start), &mut sc))
+            .and_then(|(m, d)| self.priced((m, k), x, d, (s, start), sc))
             .ok_or_else(|| {
                 self.ctx.err(
                     self.samples.candidates[k].first().copied().unwrap_or(0),
@@ -267,6 +253,65 @@ impl Ecms<'_, '_, '_> {
                     "no candidate mode has an inverse here".into(),
                 )
             })
+    }
+
+    /// Every candidate of sample k from state x at s (`start`: E_start where the engine would start), a
+    /// decided input minimised over its bounds: (m, d) of the feasible one of least cost, and of the one
+    /// nearest its bounds among every evaluation (by its excess, then its cost; `lazy` leaves points beyond
+    /// the bounds at t_k unfinished, and this one unreliable).
+    fn candidates_at(
+        &self,
+        (k, x): (usize, &[f64]),
+        (s, start): (f64, f64),
+        sc: &mut Scratch,
+        lazy: bool,
+    ) -> (Option<Choice>, Option<Choice>) {
+        // (cost, m, d) of the best feasible candidate; (excess, cost, m, d) of the one nearest its bounds.
+        let mut best: Option<(f64, usize, f64)> = None;
+        let mut nearest: Option<(f64, f64, usize, f64)> = None;
+        let mut consider = |(cost, margin): (f64, f64), (m, d): (usize, f64), final_: bool| {
+            let excess = margin.max(0.0);
+            if nearest.is_none_or(|(e, c, _, _)| (excess, cost) < (e, c)) {
+                nearest = Some((excess, cost, m, d));
+            }
+            if final_ && excess <= 1e-9 && best.is_none_or(|(b, _, _)| cost < b) {
+                best = Some((cost, m, d));
+            }
+        };
+        let price = |m: usize, d: f64, lazy: bool, sc: &mut Scratch| {
+            self.price((m, k), x, d, (s, start), lazy, sc)
+                .map(|(c, e, _, _)| (c, e))
+        };
+        for &m in &self.samples.candidates[k] {
+            match self.ctx.decided[m].first() {
+                None => {
+                    if let Some(p) = price(m, 0.0, false, sc) {
+                        consider(p, (m, 0.0), true);
+                    }
+                }
+                Some(&(i, _)) => {
+                    let input = &self.ctx.spec.inputs[i];
+                    let bounds = (input.min.unwrap_or(0.0), input.max.unwrap_or(0.0));
+                    // (J where feasible, else +∞; the margin less the feasibility's 10⁻⁹).
+                    let mut f = |d: f64| match price(m, d, lazy, sc) {
+                        Some((c, e)) => {
+                            consider((c, e), (m, d), false);
+                            (if e <= 1e-9 { c } else { f64::INFINITY }, e - 1e-9)
+                        }
+                        None => (f64::INFINITY, f64::NAN),
+                    };
+                    if let Some((d, _)) = minimise_probed(&mut f, bounds, self.h.grid) {
+                        if let Some(p) = price(m, d, false, sc) {
+                            consider(p, (m, d), true);
+                        }
+                    }
+                }
+            }
+        }
+        (
+            best.map(|(_, m, d)| (m, d)),
+            nearest.map(|(_, _, m, d)| (m, d)),
+        )
     }
 
     /// The run at equivalence factor s from the state x0 (its internal states at their start values).
@@ -304,7 +349,11 @@ impl Ecms<'_, '_, '_> {
         x0: &[f64],
         share: Option<&Share>,
     ) -> Result<Outcome, ModalError> {
-        self.run_policy(s, x0, share, &mut |k, x, on| self.choose(k, x, s, on))
+        // One set of buffers for every evaluation of the run.
+        let mut sc = Scratch::default();
+        self.run_policy(s, x0, share, &mut |k, x, on| {
+            self.choose((k, x), (s, on), &mut sc)
+        })
     }
 
     /// The run whose candidate at sample k from state x (`on`: the engine ran in the previous interval) is
@@ -346,7 +395,7 @@ impl Ecms<'_, '_, '_> {
             let (mut pf0, mut pb0) = (cur.p_fuel, cur.p_batt);
             if let Some(sh) = share.filter(|sh| sh.k == k) {
                 // The relaxed choice: θ of the interval with this run's candidate, 1 − θ with the other s's.
-                let alt = self.choose(k, &cur.x, sh.other, was_on)?;
+                let alt = self.choose((k, &cur.x), (sh.other, was_on), &mut Scratch::default())?;
                 let alt_end = self.interval(k, &alt)?;
                 let th = sh.theta;
                 let eta: Vec<f64> = end
@@ -408,6 +457,25 @@ impl Ecms<'_, '_, '_> {
         let k = self.first_difference(a, b)?;
         let n = a.mode.len().min(b.mode.len());
         (k + 1..n).all(|j| !self.differ(a, b, j)).then_some(k)
+    }
+
+    /// The sample k whose interval changes the charge difference of two runs the most,
+    /// |(soc_b − soc_a)(t_k+1) − (soc_b − soc_a)(t_k)| (none where it changes nowhere).
+    pub(super) fn widest_step(&self, a: &Record, b: &Record) -> Option<usize> {
+        let n = a.states.len().min(b.states.len());
+        let gap = |k: usize| b.states[k][self.h.soc] - a.states[k][self.h.soc];
+        let step = |k: usize| (gap(k + 1) - gap(k)).abs();
+        (0..n.saturating_sub(1))
+            .filter(|&k| step(k) > 0.0)
+            .max_by(|&i, &j| step(i).total_cmp(&step(j)))
+    }
+
+    /// The one sample where two runs chose another mode, if they do at exactly one (their decided values may
+    /// differ anywhere).
+    pub(super) fn only_mode_difference(&self, a: &Record, b: &Record) -> Option<usize> {
+        let n = a.mode.len().min(b.mode.len());
+        let k = (0..n).find(|&k| a.mode[k] != b.mode[k])?;
+        (k + 1..n).all(|j| a.mode[j] == b.mode[j]).then_some(k)
     }
 
     /// Whether two runs chose differently at sample k.

@@ -1,12 +1,14 @@
 //! The equivalence factor s of ECMS and the J1711 correction of the fuel to ΔSOC = 0.
 //!
 //! **The search.** ΔSOC(s), the run's change of charge, rises with s (a dearer battery is used less and
-//! charged more). From s₀ = 2.5 (in round figures 1/(η_engine · η_electric), a petrol engine at 35 % and an
-//! electric path at 85 % giving 3.4, a better engine less) the bracket is widened by factors of 2 until ΔSOC changes sign
-//! (at most [`MAX_WIDEN`] steps each way, s in [2.5/2¹², 2.5·2¹²]); then regula falsi with the Illinois
-//! modification (Dowell & Jarratt, BIT 1971) until |ΔSOC| ≤ the tolerance, within [`MAX_RUNS`] runs in all;
-//! where the bracket's runs differ at one sample alone (ΔSOC jumps there), that sample is shared at once
-//! ([`Share`]) rather than the bracket narrowed onto the jump. A
+//! charged more). From s₀ = 3 (in round figures 1/(η_engine · η_electric), a petrol engine near 35 % and an
+//! electric path near 95 %, a better engine less) the bracket is widened by a factor 1.25, then each time by
+//! the square of the factor before (1.25, 1.56, 2.44, 5.96, …), until ΔSOC changes sign (s within
+//! [3/2¹², 3·2¹²]): close to s₀ the bracket stays narrow, ΔSOC(s) being flat far from its root (the battery
+//! drained or filled whatever s) where interpolation would crawl. Then Brent's root finder ([`narrow`])
+//! until |ΔSOC| ≤ the tolerance, within [`MAX_RUNS`] runs in all; where the bracket's runs choose another mode
+//! at one sample alone (ΔSOC jumps there), that sample is shared at once ([`Share`]) rather than the bracket
+//! narrowed onto the jump. A
 //! target no s in the bracket reaches (ΔSOC of one sign throughout, or a jump of ΔSOC across the tolerance
 //! band where one sample's mode choice flips) is an error that names `--strategy ecms`, `--equivalence` and
 //! `--soc-tolerance`.
@@ -21,10 +23,14 @@ use super::ModalError;
 
 /// Most runs of the search.
 pub(crate) const MAX_RUNS: usize = 60;
-/// Most widenings of the bracket each way.
-pub(crate) const MAX_WIDEN: usize = 12;
-/// The search's start.
-const S0: f64 = 2.5;
+/// The bracket's reach each way from s₀: a factor 2^MAX_WIDEN.
+pub(crate) const MAX_WIDEN: u32 = 12;
+/// The search's start: about 1/(η_engine · η_electric), a petrol engine near 35 % and an electric path near
+/// 95 % (a better engine less); the charge-sustaining s of the shipped hybrids lies within 15 % of it
+/// (2.99 to 3.46 on UDDS, HWFET and WLTC 3b).
+const S0: f64 = 3.0;
+/// The bracket's first widening factor (each later one the square of the one before).
+const FIRST_WIDENING: f64 = 1.25;
 
 /// The run at the given s and the second run of the correction: (run, runs, other).
 pub(super) fn fixed(
@@ -49,12 +55,20 @@ pub(super) fn search(
         let other = run.run(1.05 * S0, x0)?;
         return Ok((first, runs, Some(other)));
     }
-    // Widen towards the sign change.
+    // Widen towards the sign change: by 1.25, then by the square of the last factor, to s₀ · 2^±12 at most.
     let up = first.delta_soc() < 0.0;
+    let reach = f64::from(1u32 << MAX_WIDEN);
+    let limit = if up { S0 * reach } else { S0 / reach };
     let mut near = first;
     let mut far = None;
-    for _ in 0..MAX_WIDEN {
-        let s = if up { near.s * 2.0 } else { near.s / 2.0 };
+    let mut factor = FIRST_WIDENING;
+    while near.s != limit {
+        let s = if up {
+            (near.s * factor).min(limit)
+        } else {
+            (near.s / factor).max(limit)
+        };
+        factor *= factor;
         let o = run.run(s, x0)?;
         runs += 1;
         if o.delta_soc().abs() <= tol {
@@ -69,57 +83,120 @@ pub(super) fn search(
     let Some(far) = far else {
         return Err(unreachable(&near, tol));
     };
-    // (lo, hi): ΔSOC(lo) < 0 < ΔSOC(hi).
-    let (mut lo, mut hi) = if up { (near, far) } else { (far, near) };
-    // Illinois: the value of an end kept while the other is replaced twice in a row is halved.
-    let (mut scale_lo, mut scale_hi, mut last) = (1.0, 1.0, 0i8);
-    let mut tried: Option<usize> = None;
+    narrow(run, (near, far), (tol, x0), runs)
+}
+
+/// Brent's root finder (*Algorithms for Minimization without Derivatives*, 1973, ch. 4, `zeroin`, with
+/// Dekker's secant through the last two runs for its interpolation: [`zeroin_step`]) on ΔSOC(s) in the
+/// bracket (b, c), ΔSOC of opposite signs there, bisection wherever the secant would not shrink the steps —
+/// until |ΔSOC| ≤ the tolerance. Unlike regula falsi on the bracket's ends it does not creep where ΔSOC(s) is
+/// a staircase of one sample's flips on a gentle slope: the secant follows the last runs on the slope, and
+/// bisection closes on a flip. Where the bracket's runs choose another mode at one sample alone, that sample
+/// is shared at once ([`relax_at`]; the decided values elsewhere, continuous in s, may differ); a bracket
+/// narrower than 10⁻⁷ s is shared at its first difference ([`relax`]).
+fn narrow(
+    run: &Ecms<'_, '_, '_>,
+    (b, c): (Outcome, Outcome),
+    (tol, x0): (f64, &[f64]),
+    mut runs: usize,
+) -> Result<Found, ModalError> {
+    let (mut b, mut c) = (b, c);
+    // a: the previous best run's (s, ΔSOC); d the last step and e the one before.
+    let mut a = (c.s, c.delta_soc());
+    let mut d = b.s - c.s;
+    let mut e = d;
+    // The samples last shared: at one difference, at one mode difference.
+    let mut tried: (Option<usize>, Option<usize>) = (None, None);
+    let mut first = true;
     while runs < MAX_RUNS {
-        let (wl, wh) = (scale_lo * lo.delta_soc(), scale_hi * hi.delta_soc());
-        let mut s = hi.s - wh * (hi.s - lo.s) / (wh - wl);
-        if !(s > lo.s && s < hi.s) {
-            s = 0.5 * (lo.s + hi.s);
+        if c.delta_soc().abs() < b.delta_soc().abs() {
+            std::mem::swap(&mut b, &mut c);
+            a = (c.s, c.delta_soc());
         }
-        if hi.s - lo.s <= 1e-7 * hi.s {
+        let (lo, hi) = if b.delta_soc() < 0.0 {
+            (&b, &c)
+        } else {
+            (&c, &b)
+        };
+        if (hi.s - lo.s).abs() <= 1e-7 * hi.s.abs().max(lo.s.abs()) {
+            let (lo, hi) = if b.delta_soc() < 0.0 { (b, c) } else { (c, b) };
             return relax(run, (lo, hi), (tol, x0), runs);
         }
-        // The bracketing runs differ at one sample alone: share it now rather than narrow s onto the jump.
-        // (Once per sample: where it cannot bridge the jump, narrowing goes on.)
-        if let Some(k) = run
+        // The bracketing runs differ at one sample alone (in the mode or the decided value), or choose another
+        // mode at one sample alone (the decided values elsewhere, continuous in s, differing a little): share
+        // it now rather than narrow s onto the flip. (Once per sample and kind: where it cannot bridge the
+        // jump, narrowing goes on.)
+        let exact = run
             .only_difference(&lo.rec, &hi.rec)
-            .filter(|&k| tried != Some(k))
-        {
-            tried = Some(k);
+            .filter(|&k| tried.0 != Some(k));
+        let mode = || {
+            run.only_mode_difference(&lo.rec, &hi.rec)
+                .filter(|&k| tried.1 != Some(k))
+        };
+        let share = match exact {
+            Some(k) => Some((k, true)),
+            None => mode().map(|k| (k, false)),
+        };
+        if let Some((k, is_exact)) = share {
+            if is_exact {
+                tried.0 = Some(k);
+            } else {
+                tried.1 = Some(k);
+            }
+            let (lo, hi) = if b.delta_soc() < 0.0 { (b, c) } else { (c, b) };
             match relax_at(run, k, (lo, hi), (tol, x0), runs)? {
                 Ok(found) => return Ok(found),
-                Err((l, h, used)) => (lo, hi, runs) = (l, h, used),
-            }
-            if runs >= MAX_RUNS {
-                break;
+                Err((l, h, used)) => {
+                    runs = used;
+                    (b, c) = (l, h);
+                    // Interpolation starts afresh from the bracket (the secant).
+                    a = (c.s, c.delta_soc());
+                    d = b.s - c.s;
+                    e = d;
+                    continue;
+                }
             }
         }
-        let o = run.run(s, x0)?;
+        // The first step aims at ΔSOC = 0 (where ΔSOC is linear in s, the secant lands on it); later ones just
+        // inside the band's near edge, ΔSOC = ±0.9 tol on b's side: any run in the band ends the search, and
+        // the shortest step along the slope into it stops short of a flip just beyond (a run without a shared
+        // sample) rather than across.
+        let target = if first {
+            0.0
+        } else {
+            (0.9 * tol).copysign(b.delta_soc())
+        };
+        first = false;
+        let shifted = |(s, f): (f64, f64)| (s, f - target);
+        (d, e) = zeroin_step(
+            (
+                shifted(a),
+                shifted((b.s, b.delta_soc())),
+                shifted((c.s, c.delta_soc())),
+            ),
+            (d, e),
+        );
+        a = (b.s, b.delta_soc());
+        let o = run.run(b.s + d, x0)?;
         runs += 1;
         if o.delta_soc().abs() <= tol {
-            let other = if o.delta_soc() < 0.0 { hi } else { lo };
+            let other = if (o.delta_soc() < 0.0) == (b.delta_soc() < 0.0) {
+                c
+            } else {
+                b
+            };
             return Ok((o, runs, Some(other)));
         }
-        if o.delta_soc() < 0.0 {
-            lo = o;
-            scale_lo = 1.0;
-            if last == -1 {
-                scale_hi *= 0.5;
-            }
-            last = -1;
+        if (o.delta_soc() < 0.0) == (c.delta_soc() < 0.0) {
+            // The new run and c on one side: b, the previous best, is the other end.
+            c = std::mem::replace(&mut b, o);
+            e = b.s - c.s;
+            d = e;
         } else {
-            hi = o;
-            scale_hi = 1.0;
-            if last == 1 {
-                scale_lo *= 0.5;
-            }
-            last = 1;
+            b = o;
         }
     }
+    let (lo, hi) = if b.delta_soc() < 0.0 { (b, c) } else { (c, b) };
     Err(ModalError::Setup(format!(
         "--strategy ecms: the search for the equivalence factor took {MAX_RUNS} runs without |ΔSOC| ≤ {tol:e} \
          (ΔSOC {:+.3e} at s = {}, {:+.3e} at s = {}); give --equivalence S or a wider --soc-tolerance",
@@ -128,6 +205,35 @@ pub(super) fn search(
         hi.delta_soc(),
         hi.s
     )))
+}
+
+/// One step from b (the best run) towards the root of ΔSOC(s) − target in the bracket (b, c), a the previous
+/// best run, each (s, ΔSOC − target), with the last two steps (d, e): the new (d, e), b + d the next s. The
+/// secant through a and b (Dekker's step: along the last two runs, which on a staircase of flips lie on one
+/// stretch of the slope, where the bracket's far end lies across a jump), taken where it heads for c, stays
+/// within three quarters of the way there and is less than half the step before last (Brent's safeguard:
+/// the steps at least halve every other run); else bisection, d = (c − b)/2. A step is at least 10⁻⁹ |b|.
+fn zeroin_step(
+    ((sa, fa), (sb, fb), (sc, _)): ((f64, f64), (f64, f64), (f64, f64)),
+    (d, e): (f64, f64),
+) -> (f64, f64) {
+    let tol1 = 1e-9 * sb.abs().max(1.0);
+    let m = 0.5 * (sc - sb);
+    let secant = -fb * (sb - sa) / (fb - fa);
+    let (mut d, e) = if e.abs() >= tol1
+        && secant.is_finite()
+        && secant * m > 0.0
+        && secant.abs() < 1.5 * m.abs() - 0.5 * tol1
+        && secant.abs() < 0.5 * e.abs()
+    {
+        (secant, d)
+    } else {
+        (m, m)
+    };
+    if d.abs() < tol1 {
+        d = tol1.copysign(m);
+    }
+    (d, e)
 }
 
 /// ΔSOC keeps its sign over the whole bracket.
@@ -145,21 +251,32 @@ fn unreachable(last: &Outcome, tol: f64) -> ModalError {
 /// The search's result: (run, runs taken, the other run of the J1711 correction).
 type Found = (Outcome, usize, Option<Outcome>);
 
-/// Where ΔSOC(s) jumps across the band at s (lo and hi within 10⁻⁷ s of each other): the relaxed choice at
-/// the first sample where the two runs differ ([`relax_at`]); a jump it cannot bridge is the error.
+/// Where ΔSOC(s) jumps across the band at s (lo and hi within 10⁻⁷ s of each other): the relaxed choice
+/// ([`relax_at`]) at the sample whose interval moves the two runs' charges apart the most, then at the first
+/// sample where they differ; a jump neither bridges is the error.
 fn relax(
     run: &Ecms<'_, '_, '_>,
     (lo, hi): (Outcome, Outcome),
     (tol, x0): (f64, &[f64]),
     runs: usize,
 ) -> Result<Found, ModalError> {
-    let Some(k) = run.first_difference(&lo.rec, &hi.rec) else {
+    let Some(first) = run.first_difference(&lo.rec, &hi.rec) else {
         return Err(jump(&lo, &hi, tol));
     };
-    match relax_at(run, k, (lo, hi), (tol, x0), runs)? {
-        Ok(found) => Ok(found),
-        Err((lo, hi, _)) => Err(jump(&lo, &hi, tol)),
+    // The sample whose interval moves the two runs' charges apart the most (the flip itself, where the
+    // first difference is a decided value a little apart), then the first difference.
+    let widest = run.widest_step(&lo.rec, &hi.rec).unwrap_or(first);
+    let (mut lo, mut hi, mut runs) = (lo, hi, runs);
+    for k in [widest, first] {
+        match relax_at(run, k, (lo, hi), (tol, x0), runs)? {
+            Ok(found) => return Ok(found),
+            Err((l, h, used)) => (lo, hi, runs) = (l, h, used),
+        }
+        if widest == first {
+            break;
+        }
     }
+    Err(jump(&lo, &hi, tol))
 }
 
 /// The relaxed choice at sample k ([`Share`]) between the runs at lo and hi, its share θ ∈ [0, 1] found by
@@ -245,4 +362,31 @@ pub(super) fn correction(best: &Outcome, other: &Option<Outcome>) -> (Option<f64
     }
     let slope = (o.fuel - best.fuel) / dd;
     (Some(best.fuel - best.delta_soc() * slope), Some(slope))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::zeroin_step;
+
+    #[test]
+    fn a_step_is_the_secant_within_the_bracket_else_bisection() {
+        // ΔSOC = 2 (s − 3.4) from the bracket (3.75, 3), b the end of the smaller |ΔSOC| (as `narrow` keeps
+        // it), a = c (the first step): the secant lands on the root.
+        let f = |s: f64| 2.0 * (s - 3.4);
+        let (b, c) = ((3.75, f(3.75)), (3.0, f(3.0)));
+        let (d, _) = zeroin_step((c, b, c), (b.0 - c.0, b.0 - c.0));
+        assert!((b.0 + d - 3.4).abs() < 1e-15, "{}", b.0 + d);
+        // The last two runs on a gentle stretch (a, b), the bracket's far end c across a jump: the secant
+        // along the stretch, not the chord to c.
+        let (a, b, c) = ((3.4014, -2.3e-4), (3.4015, -1.5e-4), (3.4020, 3.0e-3));
+        let (d, e) = zeroin_step((a, b, c), (1e-4, 4e-4));
+        assert!((b.0 + d - 3.401_687_5).abs() < 1e-12, "{}", b.0 + d);
+        assert_eq!(e, 1e-4);
+        // A secant beyond three quarters of the way to c, or not less than half the step before last:
+        // bisection.
+        let (a, b, c) = ((3.0, -1.0), (3.1, -0.999), (3.75, 1.0));
+        let (d, e) = zeroin_step((a, b, c), (0.1, 0.75));
+        let m = 0.5 * (c.0 - b.0);
+        assert_eq!((d, e), (m, m));
+    }
 }

@@ -52,13 +52,14 @@ impl Ecms<'_, '_, '_> {
         let info = model.info();
         let r = info.relative_degree;
         self.reference_into(m, &self.samples.base[k], &mut sc.y);
+        let y = &sc.y;
         sc.eta.clear();
         sc.eta.extend(info.eta_states.iter().map(|&j| x[j]));
         self.signals_into(m, self.samples.signals_at(k), d, &mut sc.w);
         sc.x.clear();
         sc.x.extend_from_slice(x);
         let u = model
-            .invert(&sc.y[..r], &sc.eta, &sc.w, sc.y[r], &mut sc.x)
+            .invert(&y[..r], &sc.eta, &sc.w, y[r], &mut sc.x)
             .ok()?;
         if !(u.is_finite() && sc.x.iter().all(|v| v.is_finite())) {
             return None;
@@ -97,10 +98,11 @@ impl Ecms<'_, '_, '_> {
         let r = model.info().relative_degree;
         self.signals_again(m, self.samples.signals_at(k + 1), d, &mut sc.w);
         self.reference_into(m, &self.samples.base[k + 1], &mut sc.y);
+        let y = &sc.y;
         sc.x1.clear();
         sc.x1.extend_from_slice(&sc.x);
         let u = model
-            .invert(&sc.y[..r], &sc.eta, &sc.w, sc.y[r], &mut sc.x1)
+            .invert(&y[..r], &sc.eta, &sc.w, y[r], &mut sc.x1)
             .map_err(|e| e.to_string())?;
         Ok(self.powers(m, u, true, sc))
     }
@@ -121,25 +123,28 @@ impl Ecms<'_, '_, '_> {
             &self.samples.base[k + 1],
         ];
         let steps = [0.0, h / 2.0, h / 2.0, h];
+        // The buffers keep their length from one evaluation to the next.
+        for v in sc.stages.iter_mut().chain([&mut sc.tmp]) {
+            v.resize(n, 0.0);
+        }
         for i in 0..4 {
             self.reference_into(m, rows[i], &mut sc.y);
+            let y = &sc.y;
             match i {
                 1 => self.signals_again(m, self.samples.signals_mid_at(k), d, &mut sc.w),
                 3 => self.signals_again(m, self.samples.signals_at(k + 1), d, &mut sc.w),
                 _ => {}
             }
-            sc.tmp.clear();
+            let (done, rest) = sc.stages.split_at_mut(i);
             if i == 0 {
-                sc.tmp.extend_from_slice(&sc.eta);
+                sc.tmp.copy_from_slice(&sc.eta);
             } else {
-                let prev = &sc.stages[i - 1];
-                sc.tmp
-                    .extend(sc.eta.iter().zip(prev).map(|(x, v)| x + steps[i] * v));
+                for ((t, x), v) in sc.tmp.iter_mut().zip(&sc.eta).zip(&done[i - 1]) {
+                    *t = x + steps[i] * v;
+                }
             }
-            let stage = &mut sc.stages[i];
-            stage.clear();
-            stage.resize(n, 0.0);
-            model.zero_dynamics(&sc.y[..r], &sc.tmp, &sc.w, sc.y[r], stage);
+            rest[0].fill(0.0);
+            model.zero_dynamics(&y[..r], &sc.tmp, &sc.w, y[r], &mut rest[0]);
         }
         let [k1, k2, k3, k4] = &sc.stages;
         for j in 0..n {
@@ -156,7 +161,7 @@ impl Ecms<'_, '_, '_> {
         model.outputs(x, &sc.w, u, &mut sc.outs);
         Point {
             u,
-            excess: self.excess(m, u),
+            margin: self.margin(m, u),
             p_fuel: sc.outs[self.h.fuel],
             p_batt: sc.outs[self.h.battery],
             rule: self
@@ -174,21 +179,26 @@ impl Ecms<'_, '_, '_> {
     /// with d held ([`Ecms::end_in`]) — DP's stage cost with s pricing the battery's energy. The excess is the
     /// larger of the two ends' (feasible within 10⁻⁹ of the range at both, as DP's controls). At the last
     /// sample (no interval) Δt (P_fuel + s P_batt) (+ E_start). `start` is E_start where the engine would
-    /// start. (cost, excess, the points at t_k and t_k+1); `None` where an inverse fails or a cost is not
-    /// finite.
+    /// start. (cost, the larger of the two ends' signed margins ([`Ecms::margin`]), the points at t_k and
+    /// t_k+1); `None` where an inverse fails or a cost is not finite. `lazy`: a candidate beyond its bounds
+    /// at t_k already (infeasible whatever its interval) is left there, its cost +∞ and its margin t_k's.
     pub(super) fn price(
         &self,
         (m, k): (usize, usize),
         x: &[f64],
         d: f64,
         (s, start): (f64, f64),
+        lazy: bool,
         sc: &mut Scratch,
     ) -> Option<(f64, f64, Point, Option<Point>)> {
         let at = self.point_in((m, k), x, d, sc)?;
+        if lazy && at.margin > 1e-9 {
+            return Some((f64::INFINITY, at.margin, at, None));
+        }
         let penalty = if self.h.engine_on[m] { start } else { 0.0 };
         if k + 1 == self.samples.t.len() {
             let cost = self.dt * (at.p_fuel + s * at.p_batt) + penalty;
-            return Some((cost, at.excess, at, None));
+            return Some((cost, at.margin, at, None));
         }
         let end = self.end_in((m, k), d, sc).ok()?;
         let h = self.samples.t[k + 1] - self.samples.t[k];
@@ -198,6 +208,6 @@ impl Ecms<'_, '_, '_> {
             return None;
         }
         let cost = fuel + s * battery + penalty;
-        Some((cost, at.excess.max(end.excess), at, Some(end)))
+        Some((cost, at.margin.max(end.margin), at, Some(end)))
     }
 }

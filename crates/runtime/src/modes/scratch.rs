@@ -16,13 +16,13 @@ pub(super) struct Scratch {
     pub(super) tmp: Vec<f64>,
 }
 
-/// A candidate's values at one instant: the free input, how far it lies beyond its bounds (a fraction of its
-/// range), the fuel and battery powers, the model's rule outputs (`rule_request`, `rule_target`; NaN without
+/// A candidate's values at one instant: the free input, its signed margin to its bounds (a fraction of its
+/// range: how far beyond them, or minus the distance to the nearer within; [`super::ecms::Ecms::margin`]), the fuel and battery powers, the model's rule outputs (`rule_request`, `rule_target`; NaN without
 /// them).
 #[derive(Clone, Copy)]
 pub(super) struct Point {
     pub(super) u: f64,
-    pub(super) excess: f64,
+    pub(super) margin: f64,
     pub(super) p_fuel: f64,
     pub(super) p_batt: f64,
     pub(super) rule: (f64, f64),
