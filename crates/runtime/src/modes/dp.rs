@@ -476,13 +476,9 @@ fn choose(
             consider(e, c);
         }
     }
-    best.map(|(_, e)| e).or(nearest).ok_or_else(|| {
-        run.ctx.err(
-            run.samples.candidates[k].first().copied().unwrap_or(0),
-            run.samples.t[k],
-            "no candidate mode has an inverse here".into(),
-        )
-    })
+    best.map(|(_, e)| e)
+        .or(nearest)
+        .ok_or_else(|| run.no_candidate(k))
 }
 
 /// The policy's control at sample k from state x.

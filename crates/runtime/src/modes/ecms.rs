@@ -246,13 +246,16 @@ impl Ecms<'_, '_, '_> {
         };
         chosen
             .and_then(|(m, d)| self.priced((m, k), x, d, (s, start), sc))
-            .ok_or_else(|| {
-                self.ctx.err(
-                    self.samples.candidates[k].first().copied().unwrap_or(0),
-                    self.samples.t[k],
-                    "no candidate mode has an inverse here".into(),
-                )
-            })
+            .ok_or_else(|| self.no_candidate(k))
+    }
+
+    /// The error where no candidate mode of sample k has an inverse (named by its first candidate).
+    pub(super) fn no_candidate(&self, k: usize) -> ModalError {
+        self.ctx.err(
+            self.samples.candidates[k].first().copied().unwrap_or(0),
+            self.samples.t[k],
+            "no candidate mode has an inverse here".into(),
+        )
     }
 
     /// Every candidate of sample k from state x at s (`start`: E_start where the engine would start), a

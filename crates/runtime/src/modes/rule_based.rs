@@ -138,13 +138,7 @@ fn nearest(run: &Ecms<'_, '_, '_>, (k, x): (usize, &[f64])) -> Result<Eval, Moda
         .iter()
         .filter_map(|&m| run.eval((m, k), x, 0.0))
         .min_by(|a, b| a.excess.total_cmp(&b.excess))
-        .ok_or_else(|| {
-            run.ctx.err(
-                run.samples.candidates[k].first().copied().unwrap_or(0),
-                run.samples.t[k],
-                "no candidate mode has an inverse here".into(),
-            )
-        })
+        .ok_or_else(|| run.no_candidate(k))
 }
 
 /// The model's own rules (`[hybrid]` `rule_request`, `rule_target`, `rule_min_on`; FASTSim's hybrid
