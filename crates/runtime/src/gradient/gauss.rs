@@ -35,8 +35,8 @@ pub(crate) struct Singular;
 /// column-major: entry (i, j) of a matrix of m rows at j·m + i.
 ///
 /// With W = (h/2) [I I] M⁻¹ = [W1 W2] (M the stage matrix of the module doc) the step is
-/// S(t + h) = S + W [A1 S + B1; A2 S + B2] = Φ S + W1 B1 + W2 B2 with Φ = I + W1 A1 + W2 A2: M is inverted once
-/// (2ne solves) and each of the P columns then costs three ne × ne products. (Plain loops rather than
+/// S(t + h) = S + W [A1 S + B1; A2 S + B2] = Φ S + W1 B1 + W2 B2 with Φ = I + W1 A1 + W2 A2: M is factorised once
+/// and W found by ne solves with Mᵀ (one per row), and each of the P columns then costs three ne × ne products. (Plain loops rather than
 /// nalgebra's generic LU and products: the matrices are small and the generic code's overhead dominated in
 /// unoptimised builds.)
 pub(crate) struct Gauss {

@@ -24,7 +24,7 @@ pub(crate) struct Point {
     sens: Vec<f64>,
     /// (∂ψ/∂x)⁻¹, row-major; NaN where ∂ψ/∂x is singular.
     inverse: Vec<f64>,
-    /// The right-hand side of a direction, reused.
+    /// A work vector of length n, reused: a direction's right-hand side, a row's (∂ψ/∂x)⁻ᵀ g.
     b: RefCell<Vec<f64>>,
     /// ∂ψ/∂x's buffer, kept for the next point.
     jac: Vec<f64>,
