@@ -3,6 +3,7 @@
 //! Each traversal memoises per node, so shared subterms are visited once and results stay shared.
 
 use crate::func::{Func, Func2};
+use crate::fxhash::FxHashMap;
 use crate::number::pow_f64;
 use crate::number::Number;
 use crate::pool::{Id, Node, Pool, Symbol};
@@ -41,14 +42,14 @@ impl Pool {
     /// * a map call (contract §6): ∂/∂x M_dIJ(a, b) = M_d(I+1)J(a, b) ∂a/∂x + M_dI(J+1)(a, b) ∂b/∂x
     ///   (1-D: d/dx M_dK(a) = M_d(K+1)(a) a'), the derivative maps.
     pub fn diff(&mut self, e: Id, x: Symbol) -> Id {
-        let mut memo = HashMap::new();
+        let mut memo = FxHashMap::default();
         for id in self.deep_order(e) {
             self.diff_memo(id, x, &mut memo);
         }
         self.diff_memo(e, x, &mut memo)
     }
 
-    fn diff_memo(&mut self, e: Id, x: Symbol, memo: &mut HashMap<Id, Id>) -> Id {
+    fn diff_memo(&mut self, e: Id, x: Symbol, memo: &mut FxHashMap<Id, Id>) -> Id {
         if !self.depends_on(e, x) {
             // d/dx of an undefined constant is undefined: 0·(1/0), never 0 (`crate::undefined`).
             let zero = self.zero();
@@ -180,7 +181,7 @@ impl Pool {
     /// Simultaneous substitution of symbols by expressions, rebuilt in canonical form.
     pub fn substitute(&mut self, e: Id, map: &HashMap<Symbol, Id>) -> Id {
         let keys: Vec<Symbol> = map.keys().copied().collect();
-        let mut memo = HashMap::new();
+        let mut memo = FxHashMap::default();
         for id in self.deep_order(e) {
             self.subs_memo(id, map, &keys, &mut memo);
         }
@@ -192,7 +193,7 @@ impl Pool {
         e: Id,
         map: &HashMap<Symbol, Id>,
         keys: &[Symbol],
-        memo: &mut HashMap<Id, Id>,
+        memo: &mut FxHashMap<Id, Id>,
     ) -> Id {
         if !self.depends_on_any(e, keys) {
             return e;
@@ -218,14 +219,14 @@ impl Pool {
 
     /// Replace every occurrence of the subexpression `from` by `to`, rebuilt in canonical form.
     pub fn replace(&mut self, e: Id, from: Id, to: Id) -> Id {
-        let mut memo = HashMap::new();
+        let mut memo = FxHashMap::default();
         for id in self.deep_order(e) {
             self.replace_memo(id, from, to, &mut memo);
         }
         self.replace_memo(e, from, to, &mut memo)
     }
 
-    fn replace_memo(&mut self, e: Id, from: Id, to: Id, memo: &mut HashMap<Id, Id>) -> Id {
+    fn replace_memo(&mut self, e: Id, from: Id, to: Id, memo: &mut FxHashMap<Id, Id>) -> Id {
         if e == from {
             return to;
         }
@@ -276,7 +277,7 @@ impl Pool {
         let Some(tf) = self.factor_powers(target) else {
             return self.replace(e, target, to);
         };
-        let mut memo = HashMap::new();
+        let mut memo = FxHashMap::default();
         for id in self.deep_order(e) {
             self.replace_product_memo(id, target, &tf, to, &mut memo);
         }
@@ -289,7 +290,7 @@ impl Pool {
         target: Id,
         tf: &[(Id, Number)],
         to: Id,
-        memo: &mut HashMap<Id, Id>,
+        memo: &mut FxHashMap<Id, Id>,
     ) -> Id {
         if e == target {
             return to;
@@ -372,14 +373,14 @@ impl Pool {
     /// A size-reducing tidy-up: bottom-up, a product with a sum factor is distributed over that sum when
     /// the printed result is shorter (`J*(xi3 - X/J)/K → J*xi3/K - X/K`). Never grows an expression.
     pub fn tidy(&mut self, e: Id) -> Id {
-        let mut memo = HashMap::new();
+        let mut memo = FxHashMap::default();
         for id in self.deep_order(e) {
             self.tidy_memo(id, &mut memo);
         }
         self.tidy_memo(e, &mut memo)
     }
 
-    fn tidy_memo(&mut self, e: Id, memo: &mut HashMap<Id, Id>) -> Id {
+    fn tidy_memo(&mut self, e: Id, memo: &mut FxHashMap<Id, Id>) -> Id {
         if let Some(&r) = memo.get(&e) {
             return r;
         }
@@ -432,7 +433,7 @@ impl Pool {
     /// Distribute products over sums and expand positive integer powers of sums (up to
     /// [`EXPAND_TERM_LIMIT`] terms). Function arguments are expanded too.
     pub fn expand(&mut self, e: Id) -> Result<Id, ExpansionTooLarge> {
-        let mut memo = HashMap::new();
+        let mut memo = FxHashMap::default();
         for id in self.deep_order(e) {
             self.expand_memo(id, &mut memo)?;
         }
@@ -460,7 +461,11 @@ impl Pool {
         Ok(self.add(&out))
     }
 
-    fn expand_memo(&mut self, e: Id, memo: &mut HashMap<Id, Id>) -> Result<Id, ExpansionTooLarge> {
+    fn expand_memo(
+        &mut self,
+        e: Id,
+        memo: &mut FxHashMap<Id, Id>,
+    ) -> Result<Id, ExpansionTooLarge> {
         if let Some(&r) = memo.get(&e) {
             return Ok(r);
         }
@@ -524,7 +529,7 @@ impl Pool {
         e: Id,
         value: &dyn Fn(Symbol) -> Option<f64>,
     ) -> Result<f64, UnboundSymbol> {
-        let mut memo: HashMap<Id, f64> = HashMap::new();
+        let mut memo: FxHashMap<Id, f64> = FxHashMap::default();
         for id in self.topological(&[e]) {
             let v = match self.node(id) {
                 Node::Num(n) => n.to_f64(),

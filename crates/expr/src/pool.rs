@@ -19,7 +19,7 @@
 //! Nothing here expands products of sums, so expressions never blow up; see [`Pool::expand`] for that.
 
 use crate::func::{Func, Func2};
-use crate::fxhash::FxHashSet;
+use crate::fxhash::{FxHashMap, FxHashSet};
 use crate::map::{MapDecl, MapId, MapOrders};
 use crate::number::{pow_f64, Number};
 use crate::rules::{FunctionRule, Rewrite, FUNCTION_RULES};
@@ -86,7 +86,7 @@ pub struct Pool {
     value: Vec<Option<f64>>,
     /// Is the node undefined: its value not finite, or a child undefined (see [`crate::undefined`])?
     undefined: Vec<bool>,
-    index: HashMap<Node, Id>,
+    index: FxHashMap<Node, Id>,
     symbols: Vec<String>,
     symbol_index: HashMap<String, Symbol>,
     /// Declared lookup maps, in declaration order.
@@ -496,7 +496,7 @@ impl Pool {
     fn add_canonical(&mut self, terms: &[Id]) -> Id {
         let mut constant = Number::ZERO;
         let mut order: Vec<Id> = Vec::new();
-        let mut coeff: HashMap<Id, Number> = HashMap::new();
+        let mut coeff: FxHashMap<Id, Number> = FxHashMap::default();
         let mut stack: Vec<Id> = terms.iter().rev().copied().collect();
         while let Some(t) = stack.pop() {
             match self.node(t) {
@@ -579,7 +579,7 @@ impl Pool {
     fn mul_canonical(&mut self, factors: &[Id]) -> Id {
         let mut coeff = Number::ONE;
         let mut order: Vec<Id> = Vec::new();
-        let mut exps: HashMap<Id, Vec<Id>> = HashMap::new();
+        let mut exps: FxHashMap<Id, Vec<Id>> = FxHashMap::default();
         let mut stack: Vec<Id> = factors.iter().rev().copied().collect();
         while let Some(f) = stack.pop() {
             match self.node(f) {

@@ -76,7 +76,7 @@ pub const PROBE_SAFETY: f64 = 16.0;
 /// relative to its result, and errors propagate through the first-order sensitivity of each operation
 /// (|∂f/∂a|·err(a)). `None` if a symbol has no value.
 pub fn eval_with_error(pool: &Pool, e: Id, values: &HashMap<Symbol, f64>) -> Option<(f64, f64)> {
-    let mut memo: HashMap<Id, (f64, f64)> = HashMap::new();
+    let mut memo: crate::fxhash::FxHashMap<Id, (f64, f64)> = Default::default();
     for id in pool.topological(&[e]) {
         let ve = match pool.node(id) {
             Node::Num(n) => {
