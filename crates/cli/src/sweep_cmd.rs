@@ -46,8 +46,8 @@ pub struct SweepArgs {
     /// Replay every variant's input through the original model and report its tracking error.
     #[arg(long)]
     verify: bool,
-    /// Differentiate every variant's figures exactly with respect to parameters (NAME,NAME,… or `all`; models
-    /// without modes): a column `d(FIGURE)/d(PARAMETER)` for each.
+    /// Differentiate every variant's figures exactly with respect to parameters (NAME,NAME,… or `all`; a gear's
+    /// ratio of a model with modes as `NAME[g]`): a column `d(FIGURE)/d(PARAMETER)` for each.
     #[arg(long, value_name = "NAME,…|all", value_delimiter = ',')]
     gradient: Option<Vec<String>>,
     /// Kernel half-width a in seconds: the driver's look-ahead; `auto` chooses it per cycle (as `simulate`).
