@@ -23,7 +23,7 @@ pub mod zero_dynamics;
 pub use invsim_kernel::map;
 
 pub use hybrid::{HybridSpec, RuleSpec};
-pub use sensitivity::SensitivityLayout;
+pub use sensitivity::{MapCall, SensitivityLayout};
 
 pub use headline::{
     known_fuel, Carrier, Density, FuelFlow, FuelInfo, HeadlineInfo, KnownFuel, KNOWN_FUELS,
@@ -71,6 +71,9 @@ pub struct ModelInfo {
     pub state_initial: Vec<Option<f64>>,
     /// Indices of the states chosen as the internal coordinates: η_j = x_{eta_states[j]}.
     pub eta_states: Vec<usize>,
+    /// The map calls of [`InverseModel::sensitivity`]'s rows, in the order of their columns (none for a model
+    /// without maps): what the derivatives with respect to a map's grid values are built from.
+    pub map_calls: Vec<MapCall>,
 }
 
 impl ModelInfo {
