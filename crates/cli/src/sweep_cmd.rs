@@ -46,8 +46,8 @@ pub struct SweepArgs {
     /// Replay every variant's input through the original model and report its tracking error.
     #[arg(long)]
     verify: bool,
-    /// Differentiate every variant's figures exactly with respect to parameters (NAME,NAME,… or `all`; models
-    /// without modes): a column `d(FIGURE)/d(PARAMETER)` for each.
+    /// Differentiate every variant's figures exactly with respect to parameters (NAME,NAME,… or `all`) and a
+    /// map's grid values (MAP[i], MAP[i,j], MAP): a column `d(FIGURE)/d(PARAMETER)` for each.
     #[arg(long, value_name = "NAME,…|all", value_delimiter = ',')]
     gradient: Option<Vec<String>>,
     /// Kernel half-width a in seconds: the driver's look-ahead; `auto` chooses it per cycle (as `simulate`).
@@ -366,7 +366,11 @@ pub fn run(args: &SweepArgs, warnings: Warnings) -> Result<(), Failure> {
         Loaded::Modal(m) => Some(m.plant.gear_parameters()),
         _ => None,
     };
-    crate::simulate::check_gradient(args.gradient.as_deref(), gearbox, model.info())?;
+    crate::simulate::check_gradient(
+        args.gradient.as_deref(),
+        gearbox,
+        (model.info(), &model.maps()),
+    )?;
     let failed = |e: String| Failure::user(format!("sweep of `{}`: {e}", args.model.display()));
     let mut opts = args
         .lookahead

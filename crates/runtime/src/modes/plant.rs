@@ -193,6 +193,22 @@ impl ModalPlant {
         Ok(())
     }
 
+    /// Every mode's maps, in the modes' order (a mode that never calls a map has none).
+    pub fn mode_maps(&self) -> impl Iterator<Item = &[invsim_model_api::map::Map]> {
+        self.modes.iter().map(|(_, m)| m.maps())
+    }
+
+    /// The maps of the modes, each once (the first mode's that has it: `set_map` replaces it in all).
+    pub fn maps(&self) -> Vec<&invsim_model_api::map::Map> {
+        let mut out: Vec<&invsim_model_api::map::Map> = Vec::new();
+        for m in self.mode_maps().flatten() {
+            if !out.iter().any(|o| o.name() == m.name()) {
+                out.push(m);
+            }
+        }
+        out
+    }
+
     /// Replace a lookup map in every mode whose equations use it (modes are derived apart, so a mode that
     /// never calls the map has none); a name no mode knows is refused with the first mode's list of maps.
     pub fn set_map(
