@@ -1,9 +1,9 @@
 //! Exact gradients with respect to a map's grid values (`--gradient bsfc[3,2]`) against independent
 //! references: central finite differences of the summary's figures in a grid value (the map's values
 //! replaced in process, as `--map` replaces them) for si_engine_maps (eta_vol: smooth, inside the dynamics, ψ⁻¹
-//! by Newton; bsfc: plain bilinear, in an output) and for map_heat (a map inside causal zero dynamics), the
-//! compiled engine against the interpreter, and a model whose fuel integral is linear in a 1-D map's values in
-//! closed form.
+//! by Newton; bsfc: plain bilinear, in an output), map_heat (a map inside causal zero dynamics) and map_nmp
+//! (inside unstable zero dynamics, inverted stably), the compiled engine against the interpreter, and a model
+//! whose fuel integral is linear in a 1-D map's values in closed form.
 
 use crate::gradient::{
     block, central_along, compiled, fd_plan, figure, interpreted, model_path, opts_for, Block,
@@ -155,6 +155,20 @@ fn a_map_in_causal_zero_dynamics_against_finite_differences() {
         ("heat[7]", "heat", (7, 1), true),
     ];
     check("map_heat", &cycle, &grid, 1e-7);
+}
+
+/// map_nmp (tests/models) on NEDC: the map drives the unstable internal state of a stable (non-causal)
+/// inversion, differentiated through its collocation equations: values at outputs the run drives (5, 20) and
+/// one it never reaches (50), the engines within 1e-12 of the figure (a stable run is a sum of rounded terms).
+#[test]
+fn a_map_in_unstable_zero_dynamics_against_finite_differences() {
+    let cycle = Cycle::builtin("nedc").expect("built in");
+    let grid = [
+        ("couple[2]", "couple", (2, 1), false),
+        ("couple[4]", "couple", (4, 1), false),
+        ("couple[7]", "couple", (7, 1), true),
+    ];
+    check("map_nmp", &cycle, &grid, 1e-12);
 }
 
 /// map_fuel (tests/models): fuel = M(v) with v = y_d, so dF/dv_i = T(Φ_i(y_d)), the run's trapezoidal rule of

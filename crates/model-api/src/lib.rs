@@ -276,7 +276,8 @@ pub trait InverseModel: Send + Sync {
     fn outputs(&self, x: &[f64], w: &[f64], u: f64, out: &mut [f64]);
 
     /// The partial derivatives of ψ's ξ rows, of y^(r) = φ, of the internal states' right-hand sides and of
-    /// the `[outputs]` with respect to the states, the input and every parameter at (x, w, u), written into
+    /// the `[outputs]` with respect to the states, the input, every parameter and every map call of
+    /// [`ModelInfo::map_calls`], and the calls' arguments, at (x, w, u), written into
     /// `out` as [`SensitivityLayout::of`] this model's info lays them out (see [`sensitivity`] for how the
     /// runtime combines them). Engines without them return [`ModelError::NoSensitivities`].
     fn sensitivity(&self, x: &[f64], w: &[f64], u: f64, out: &mut [f64]) -> Result<(), ModelError> {

@@ -158,7 +158,12 @@ impl ModalPlant {
         c: usize,
         value: f64,
     ) -> Result<(), ModalError> {
-        let name = self.parameters()[wrt.params[c].param].clone();
+        let Some(name) = self.parameters().get(wrt.params[c].param).cloned() else {
+            return Err(ModalError::Setup(format!(
+                "`{}` is a grid value of a map, not a parameter: replace the map (`set_map`) to move it",
+                wrt.params[c].name
+            )));
+        };
         for ((_, m), columns) in self.modes.iter_mut().zip(&wrt.columns) {
             if columns[c].is_some() {
                 m.set_param(&name, value)
