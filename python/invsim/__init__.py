@@ -85,7 +85,8 @@ def _signals_list(signals):
 
 
 def _gradient_list(gradient):
-    """`gradient=` as the extension takes it: None, or the names (`"all"`: every parameter)."""
+    """`gradient=` as the extension takes it: None, or the names (`"all"`: every parameter; a map's grid value
+    `"bsfc[3,2]"`, whose comma the runtime joins back)."""
     if gradient is None:
         return None
     if isinstance(gradient, str):

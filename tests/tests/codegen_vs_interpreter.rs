@@ -241,12 +241,19 @@ fn batch(
 }
 
 /// The magnitude of each column of the sensitivities' layout: the sampling box's largest |x_j| and |u|, each
-/// parameter's |value| (1 where 0).
-fn variable_scales(b: &Box_, params: &[f64]) -> Vec<f64> {
+/// parameter's |value| (1 where 0), each map call's |value| at the arguments the interpreter's sensitivities
+/// `sens` give (1 where 0).
+fn variable_scales(b: &Box_, m: &dyn InverseModel, sens: &[f64]) -> Vec<f64> {
     let big = |(lo, hi): (f64, f64)| f64::max(lo.abs(), hi.abs()).max(f64::MIN_POSITIVE);
+    let one_if_zero = |v: f64| if v == 0.0 { 1.0 } else { v.abs() };
     let mut s: Vec<f64> = b.x.iter().map(|&r| big(r)).collect();
     s.push(big(b.u));
-    s.extend(params.iter().map(|p| if *p == 0.0 { 1.0 } else { p.abs() }));
+    s.extend(m.params().iter().map(|&p| one_if_zero(p)));
+    let l = SensitivityLayout::of(m.info());
+    s.extend(m.info().map_calls.iter().enumerate().map(|(c, call)| {
+        let at = l.arguments(c);
+        one_if_zero(m.maps()[call.map].partial(&sens[at..at + 2], call.orders))
+    }));
     s
 }
 
@@ -379,8 +386,14 @@ fn compare_derived(
                     .expect("both engines provide sensitivities");
                 s
             });
-            let scales = variable_scales(&b, interp.params());
+            let scales = variable_scales(&b, interp, &a);
             let layout = SensitivityLayout::of(&info);
+            let rows_end = layout.rows() * layout.width();
+            c.add(
+                &format!("{tag}map_call_arguments"),
+                &a[rows_end..],
+                &g[rows_end..],
+            );
             let values = row_values(interp, (&x, u), b.yr);
             let bad = sensitivity_disagreements(&layout, (&scales, &values), (&a, &g));
             c.mismatched_errors.extend(

@@ -16,21 +16,21 @@ fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
 }
 
-fn interpreted(path: &str) -> Box<dyn InverseModel> {
+pub(crate) fn interpreted(path: &str) -> Box<dyn InverseModel> {
     let path = root().join(path);
     let d = derive_file(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     Box::new(Interpreter::new(&d).unwrap_or_else(|e| panic!("{}: {e}", path.display())))
 }
 
 /// The compiled model `name`: a built-in one, or one of this crate's test models (`tests/models`).
-fn compiled(name: &str) -> Box<dyn InverseModel> {
+pub(crate) fn compiled(name: &str) -> Box<dyn InverseModel> {
     invsim_models::builtin(name)
         .or_else(|| invsim_tests::extra::builtin(name))
         .unwrap_or_else(|| panic!("{name} is compiled"))
 }
 
 /// The model file of [`compiled`]'s `name`.
-fn model_path(name: &str) -> String {
+pub(crate) fn model_path(name: &str) -> String {
     let built_in = format!("models/{name}.toml");
     if root().join(&built_in).exists() {
         built_in
@@ -44,7 +44,7 @@ fn opts(gradient: bool) -> SimulationOptions {
 }
 
 /// Options of a run with the gradient with respect to `names` (none: no gradient).
-fn opts_for(names: Option<Vec<String>>) -> SimulationOptions {
+pub(crate) fn opts_for(names: Option<Vec<String>>) -> SimulationOptions {
     SimulationOptions::builder()
         .keep_series(false)
         .gradient(names)
@@ -64,7 +64,7 @@ fn run_for(model: &dyn InverseModel, cycle: &Cycle, names: Option<Vec<String>>) 
 }
 
 /// The figure the gradient block calls `name`, as the summary prints it.
-fn figure(s: &Summary, name: &str) -> f64 {
+pub(crate) fn figure(s: &Summary, name: &str) -> f64 {
     if let Some(field) = name.strip_prefix("headline.") {
         let h = s.headline.as_ref().expect("a headline");
         let v = match &h.figures {
@@ -97,9 +97,9 @@ fn figure(s: &Summary, name: &str) -> f64 {
     s.totals.integrals[name]
 }
 
-type Block = BTreeMap<String, BTreeMap<String, f64>>;
+pub(crate) type Block = BTreeMap<String, BTreeMap<String, f64>>;
 
-fn block(s: &Summary) -> Block {
+pub(crate) fn block(s: &Summary) -> Block {
     s.gradient
         .as_ref()
         .expect("a gradient block")
@@ -140,13 +140,28 @@ fn central_with(
 ) -> Vec<(f64, f64)> {
     let p0 = model.params()[k];
     let name = model.info().parameters[k].clone();
+    let mut set = |m: &mut dyn InverseModel, offset: f64| {
+        m.set_param(&name, p0 + offset).expect("settable");
+    };
+    central_along(model, (cycle, o), &mut set, (h, noise), names)
+}
+
+/// [`central`] along any change of the model: `set(model, offset)` moves the quantity differentiated by
+/// `offset` from its value (and back with 0).
+pub(crate) fn central_along(
+    model: &mut dyn InverseModel,
+    (cycle, o): (&Cycle, &SimulationOptions),
+    set: &mut dyn FnMut(&mut dyn InverseModel, f64),
+    (h, noise): (f64, f64),
+    names: &[&String],
+) -> Vec<(f64, f64)> {
     let mut at = |v: f64| {
-        model.set_param(&name, v).expect("settable");
-        let s = simulate(model, cycle, o).expect("runs").summary;
+        set(&mut *model, v);
+        let s = simulate(&*model, cycle, o).expect("runs").summary;
         names.iter().map(|n| figure(&s, n)).collect::<Vec<f64>>()
     };
-    let (p1, m1, p2, m2) = (at(p0 + h), at(p0 - h), at(p0 + 2.0 * h), at(p0 - 2.0 * h));
-    model.set_param(&name, p0).expect("settable");
+    let (p1, m1, p2, m2) = (at(h), at(-h), at(2.0 * h), at(-2.0 * h));
+    set(&mut *model, 0.0);
     (0..names.len())
         .map(|i| {
             let d1 = (p1[i] - m1[i]) / (2.0 * h);
@@ -174,7 +189,7 @@ fn step(p: f64, rel: f64) -> f64 {
 /// runs are sums of rounded terms too, with η from Newton's method converged far below its stopping test
 /// (diesel_gasflow_flows' figures repeat to ~1e-15 relative; noise taken as 1e-12) and without kinks, so the
 /// step 1e-4 keeps the noise/h term near 1e-8 and the truncation error (~h², estimated) as small.
-fn fd_plan(s: &Summary) -> (f64, f64) {
+pub(crate) fn fd_plan(s: &Summary) -> (f64, f64) {
     match s.inversion.as_str() {
         "causal" => (1e-3, 1e-9),
         "stable" => (1e-4, 1e-12),

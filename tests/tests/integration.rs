@@ -9,6 +9,9 @@
 //! - `fusion_dynamic`: `models/ford_fusion_2012_dynamic.toml` on NEDC and UDDS: the inverse satisfies the original equations, the replay tracks, the imported parameters are kept
 //! - `gradient`: Exact parameter gradients against central finite differences on NEDC and UDDS, compiled against
 //!   interpreted, a linear model's closed form, and the runs not differentiated refused
+//! - `gradient_maps`: Gradients with respect to a map's grid values against central differences of the map's
+//!   values (si_engine_maps on NEDC, a map in causal and in stably inverted zero dynamics), compiled against
+//!   interpreted, a fuel map's closed form
 //! - `golden`: The generated source for `models/si_engine.toml` equals the reviewed copy in
 //! - `inverse_consistency`: The inverse simulation satisfies the original model: along NEDC, at every sample, the state and input that
 //! - `known_answers`: One harness, every engine, every known-answer model: each model of `tests/models/known/` (listed with its
@@ -28,6 +31,7 @@ mod elevation;
 mod fusion_dynamic;
 mod golden;
 mod gradient;
+mod gradient_maps;
 mod inverse_consistency;
 mod known_answers;
 mod non_affine;

@@ -71,7 +71,8 @@ pub struct SimulateArgs {
     #[arg(long)]
     include_extension: bool,
     /// Differentiate the summary's figures (every integral, its per-100-km figure, the headline's figures)
-    /// exactly with respect to parameters: NAME,NAME,… or `all`; the summary gains a `gradient` block.
+    /// exactly with respect to parameters: NAME,NAME,… or `all`, and a map's grid values, MAP[i], MAP[i,j] or
+    /// MAP (every value; not in `all`); the summary gains a `gradient` block.
     #[arg(long, value_name = "NAME,…|all", value_delimiter = ',')]
     gradient: Option<Vec<String>>,
     #[command(flatten)]
@@ -114,7 +115,11 @@ pub fn run(args: &SimulateArgs, warnings: crate::error::Warnings) -> Result<(), 
         invsim_runtime::plant::Plant::Modal(p) => Some(p.gear_parameters()),
         _ => None,
     };
-    check_gradient(args.gradient.as_deref(), gearbox, plant.info())?;
+    check_gradient(
+        args.gradient.as_deref(),
+        gearbox,
+        (plant.info(), &plant.maps()),
+    )?;
     let (progress, bar) = crate::progress::start("simulate");
     let mut opts = args
         .lookahead
@@ -161,19 +166,23 @@ pub fn run(args: &SimulateArgs, warnings: crate::error::Warnings) -> Result<(), 
     crate::engine::write_run((&args.plot, warnings), outputs, (&plant, &cycle), &result)
 }
 
-/// `--gradient` before the run (`simulate` and `sweep`): every name must be one of `info`'s parameters or, for
-/// a model with modes (`gearbox`: its per-gear parameters), a gearbox parameter's per-gear name (`i_g[3]`).
+/// `--gradient` before the run (`simulate` and `sweep`): every name must be one of `info`'s parameters, a grid
+/// value of one of `maps` (`bsfc[3,4]`, `bsfc`) or, for a model with modes (`gearbox`: its per-gear
+/// parameters), a gearbox parameter's per-gear name (`i_g[3]`).
 pub(crate) fn check_gradient(
     names: Option<&[String]>,
     gearbox: Option<invsim_runtime::gradient::GearParameters<'_>>,
-    info: &invsim_model_api::ModelInfo,
+    (info, maps): (&invsim_model_api::ModelInfo, &[&invsim_model_api::map::Map]),
 ) -> Result<(), Failure> {
     let Some(names) = names else {
         return Ok(());
     };
     let checked = match gearbox {
-        Some(g) => invsim_runtime::gradient::resolve_modal(&info.parameters, g, names).map(|_| ()),
-        None => invsim_runtime::gradient::resolve(info, names).map(|_| ()),
+        Some(g) => {
+            invsim_runtime::gradient::resolve_modal_with_maps((&info.parameters, g), maps, names)
+                .map(|_| ())
+        }
+        None => invsim_runtime::gradient::resolve(info, maps, names).map(|_| ()),
     };
     checked.map_err(|e| Failure::user(format!("--gradient: {e}")))
 }

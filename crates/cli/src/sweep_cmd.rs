@@ -47,7 +47,8 @@ pub struct SweepArgs {
     #[arg(long)]
     verify: bool,
     /// Differentiate every variant's figures exactly with respect to parameters (NAME,NAME,… or `all`; a gear's
-    /// ratio of a model with modes as `NAME[g]`): a column `d(FIGURE)/d(PARAMETER)` for each.
+    /// ratio of a model with modes as `NAME[g]`) and a map's grid values (MAP[i], MAP[i,j], MAP): a column
+    /// `d(FIGURE)/d(PARAMETER)` for each.
     #[arg(long, value_name = "NAME,…|all", value_delimiter = ',')]
     gradient: Option<Vec<String>>,
     /// Kernel half-width a in seconds: the driver's look-ahead; `auto` chooses it per cycle (as `simulate`).
@@ -366,7 +367,11 @@ pub fn run(args: &SweepArgs, warnings: Warnings) -> Result<(), Failure> {
         Loaded::Modal(m) => Some(m.plant.gear_parameters()),
         _ => None,
     };
-    crate::simulate::check_gradient(args.gradient.as_deref(), gearbox, model.info())?;
+    crate::simulate::check_gradient(
+        args.gradient.as_deref(),
+        gearbox,
+        (model.info(), &model.maps()),
+    )?;
     let failed = |e: String| Failure::user(format!("sweep of `{}`: {e}", args.model.display()));
     let mut opts = args
         .lookahead

@@ -1,7 +1,7 @@
 //! `invsim simulate --gradient` as a user meets it: the summary's `gradient` block and text table, the
 //! derivative of fuel in mass against central differences of two `--set` runs, the compiled engine against the
-//! interpreter, a run inverted stably (non-causally), and the runs not differentiated yet refused with exit 2
-//! and the reason.
+//! interpreter, a run inverted stably (non-causally), the runs not differentiated yet refused with exit 2
+//! and the reason, and a map's grid values (a map replaced by `--map`, names refused, sweep columns).
 
 use crate::common;
 use common::*;
@@ -268,5 +268,141 @@ fn sweep_columns_are_each_variants_gradient() {
             let got = num(&row[col(&format!("d(fuel)/d({p})"))]);
             assert_eq!(got, want, "m = {m}: d(fuel)/d({p})");
         }
+    }
+}
+
+/// si_engine_maps' BSFC map as a `--map` CSV with a seventh speed row (700 rad/s), its value (2, 2) (200 rad/s,
+/// 30 N m) set to `v22`.
+fn bsfc_csv(tag: &str, v22: f64) -> String {
+    let path = tmp(&format!("gradient-bsfc-{tag}.csv"));
+    let text = format!(
+        "w_e \\ T_e,10,30,60,90,120,150,180\n\
+         100,980,520,345,300,285,280,290\n\
+         200,900,{v22},320,280,262,255,262\n\
+         300,880,455,310,272,255,248,255\n\
+         400,900,462,315,276,258,252,262\n\
+         500,950,485,328,287,268,262,275\n\
+         600,1020,515,345,300,280,275,292\n\
+         700,1100,550,365,315,295,290,310\n"
+    );
+    std::fs::write(&path, text).expect("written");
+    path.to_str().expect("utf-8").to_string()
+}
+
+/// `--map bsfc=FILE.csv` with a grid of seven speeds: the grid values are those of the map in use
+/// (`bsfc[7,7]` exists only in it), the table names them, and d fuel_bsfc/d bsfc[2,2] equals the central
+/// difference of two runs with that value moved by ±1 g/kWh (the figure is linear in the map's values: exact
+/// to rounding); without `--map` the seventh row is refused with the grid's extent.
+#[test]
+fn grid_values_of_a_replaced_map() {
+    let model = "models/si_engine_maps.toml";
+    let run = |tag: &str, v22: f64, extra: &[&str]| {
+        let csv = bsfc_csv(tag, v22);
+        let map = format!("bsfc={csv}");
+        let mut args = vec![model, "--cycle", "ece", "--dt", "0.1", "--map", &map];
+        args.extend_from_slice(extra);
+        simulate_summary(&args, &format!("gradient-map-{tag}"))
+    };
+    let (s, text) = run("base", 470.0, &["--gradient", "m,bsfc[2,2],bsfc[7,7]"]);
+    let g = &s["gradient"]["fuel_bsfc"];
+    assert!(text.contains("  bsfc[2,2] "), "{text}");
+    assert_eq!(
+        g["bsfc[7,7]"].as_f64(),
+        Some(0.0),
+        "700 rad/s is never reached"
+    );
+    let exact = g["bsfc[2,2]"].as_f64().expect("a number");
+    let f = |s: &Value| s["integrals"]["fuel_bsfc"].as_f64().expect("a number");
+    let d = (f(&run("plus", 471.0, &[]).0) - f(&run("minus", 469.0, &[]).0)) / 2.0;
+    assert!(
+        exact > 0.0 && (exact - d).abs() <= 1e-9 * d,
+        "{exact:e} vs {d:e}"
+    );
+    let o = invsim(&[
+        "simulate",
+        model,
+        "--cycle",
+        "ece",
+        "--gradient",
+        "bsfc[7,7]",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("i = 1 … 6 along its x grid"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+/// Grid values named wrong exit 2 with the name and what was expected: an index off the grid, a 1-D index of a
+/// 2-D map, a value named twice (the whole map and one of its values), a map the model lacks (the list of
+/// known names says the maps' grid values).
+#[test]
+fn grid_values_named_wrong_are_refused_with_what_is_expected() {
+    let cases = [
+        (
+            "bsfc[7,1]",
+            "`bsfc[7,1]` is not a grid value of its map: name one as bsfc[i,j] with i = 1 … 6 along its x \
+             grid and j = 1 … 7 along its y grid",
+        ),
+        ("eta_vol[3]", "`eta_vol[3]` is not a grid value of its map: name one as eta_vol[i,j] with i = 1 … 8"),
+        ("bsfc,bsfc[2,2]", "`bsfc[2,2]` is named twice"),
+        ("no_map[1]", "unknown parameter `no_map[1]`"),
+        ("no_map[1]", "the maps' grid values eta_vol[i,j] with i = 1 … 8"),
+    ];
+    for (names, why) in cases {
+        let o = invsim(&[
+            "simulate",
+            "models/si_engine_maps.toml",
+            "--cycle",
+            "ece",
+            "--gradient",
+            names,
+        ]);
+        assert_eq!(o.status.code(), Some(2), "{names}: {}", stderr(&o));
+        let e = stderr(&o);
+        assert!(
+            e.contains("--gradient: ") && e.contains(why),
+            "{names}: {e}"
+        );
+    }
+}
+
+/// `invsim sweep --gradient m,bsfc[2,2]`: the grid value's column `d(FIGURE)/d(bsfc[2,2])` (its comma kept
+/// inside the brackets) equals `simulate --gradient` of that variant.
+#[test]
+fn sweep_columns_of_a_grid_value() {
+    let csv = tmp("gradient-sweep-map.csv");
+    let model = "models/si_engine_maps.toml";
+    let o = invsim(&[
+        "sweep",
+        model,
+        "--cycle",
+        "ece",
+        "--grid",
+        "m=1200:1400:2",
+        "--gradient",
+        "m,bsfc[2,2]",
+        "--out",
+        csv.to_str().expect("utf-8"),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (header, rows) = read_csv(&csv);
+    let name = "d(fuel_bsfc)/d(bsfc[2,2])";
+    let col = header
+        .iter()
+        .position(|h| h == name)
+        .unwrap_or_else(|| panic!("{name} in {header:?}"));
+    for (row, m) in rows.iter().zip(["1200", "1400"]) {
+        let (s, _) = summary(
+            model,
+            &format!("sweep-map-{m}"),
+            &["--set", &format!("m={m}"), "--gradient", "bsfc[2,2]"],
+        );
+        let want = s["gradient"]["fuel_bsfc"]["bsfc[2,2]"]
+            .as_f64()
+            .expect("a number");
+        assert!(want > 0.0);
+        assert_eq!(num(&row[col]), want, "m = {m}");
     }
 }

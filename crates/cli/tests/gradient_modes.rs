@@ -1,13 +1,13 @@
 //! Exact gradients of runs with modes (`crates/runtime/src/modes/gradient.rs`) against central finite
 //! differences of the summary's fuel for every parameter of si_engine_5speed and the 6-speed Fusion on NEDC and
-//! UDDS (each gear's ratio on its own), the compiled engine against the interpreter, and `simulate
-//! --gradient` of a model with modes as a user meets it.
+//! UDDS (each gear's ratio on its own), a map's grid values of the 6-speed Fusion, the compiled engine against
+//! the interpreter, and `simulate --gradient` of a model with modes as a user meets it.
 
 use crate::common;
 use common::*;
 
 use invsim_loader::{load, EngineChoice, Loaded};
-use invsim_runtime::gradient::{resolve_modal, ModalWrt};
+use invsim_runtime::gradient::{resolve_modal, resolve_modal_with_maps, ModalWrt};
 use invsim_runtime::modes::{
     simulate_modes_differentiated, ModalOptions, ModalPlant, ModalSummary, ZeroDynamicsReference,
 };
@@ -178,6 +178,64 @@ fn si_engine_5speed_against_finite_differences() {
 #[test]
 fn fusion_6speed_against_finite_differences() {
     check("models/ford_fusion_2012_dynamic_6speed.toml");
+}
+
+/// A map's grid values in a run with modes: the 6-speed Fusion's fc_map (FASTSim's efficiency curve, plain
+/// linear, read by the drive modes' comparison output fuel_fastsim_map) on NEDC. d fuel_fastsim_map/d fc_map[4]
+/// (a load the run drives at) against the central difference of the map's value in every mode (the figure is
+/// linear in it: the difference is exact to rounding); fc_map[12] (full load, never reached) and the engine's
+/// own fuel (which does not read the map) have the derivative 0 exactly; the compiled modes equal the
+/// interpreted ones within 1e-7 of the figure.
+#[test]
+fn fusion_6speed_map_values_against_finite_differences() {
+    let model = "models/ford_fusion_2012_dynamic_6speed.toml";
+    let cycle = Cycle::builtin("nedc").expect("built in");
+    let names: Vec<String> = vec!["fc_map[4]".into(), "fc_map[12]".into()];
+    let wrt_of = |p: &ModalPlant| {
+        let parameters = p.parameters();
+        let (grid, params) =
+            resolve_modal_with_maps((&parameters, p.gear_parameters()), &p.maps(), &names)
+                .expect("grid values");
+        let modes = p.metas().map(|m| (m.gear, &m.own_parameters[..]));
+        ModalWrt::new(params, &parameters, modes).with_grid(parameters.len(), &grid, p.mode_maps())
+    };
+    let (mut comp, interp) = (
+        plant(model, EngineChoice::Compiled),
+        plant(model, EngineChoice::Interpreted),
+    );
+    let (gc, gi) = (
+        run(&comp, &cycle, Some(&wrt_of(&comp)))
+            .gradient
+            .expect("a gradient")
+            .figures,
+        run(&interp, &cycle, Some(&wrt_of(&interp)))
+            .gradient
+            .expect("a gradient")
+            .figures,
+    );
+    let f = "fuel_fastsim_map";
+    let map = comp.maps()[0].clone();
+    assert_eq!(map.name(), "fc_map");
+    let mut at = |v: f64| {
+        let mut values = map.values().to_vec();
+        values[3] = v;
+        comp.set_map("fc_map", (map.x(), None, &values))
+            .expect("the same grid");
+        run(&comp, &cycle, None).totals.integrals[f]
+    };
+    let (v, h) = (map.values()[3], 1e-4 * map.values()[3]);
+    let d = (at(v + h) - at(v - h)) / (2.0 * h);
+    let g = gc[f]["fc_map[4]"];
+    assert!(
+        g.abs() > 0.1 && (g - d).abs() <= 1e-6 * d.abs(),
+        "{g:e} vs {d:e}"
+    );
+    assert!(
+        (g - gi[f]["fc_map[4]"]).abs() * v <= 1e-7 * at(v),
+        "{g:e} vs {:e}",
+        gi[f]["fc_map[4]"]
+    );
+    assert_eq!((gc[f]["fc_map[12]"], gc["fuel"]["fc_map[4]"]), (0.0, 0.0));
 }
 
 /// `invsim simulate --gradient` of a model with modes: the summary's block with a row per figure and the

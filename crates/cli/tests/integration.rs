@@ -5,9 +5,11 @@
 //! - `derive_bad_model`: `invsim derive` on a model that cannot be loaded or inverted exits with status 2 and prints
 //! - `forward`: `invsim forward` and `invsim simulate --verify` as a user meets them: exit codes, the CSV and JSON layouts,
 //! - `gradient`: `invsim simulate --gradient`: the summary's block and table, fuel against central differences,
-//!   compiled against interpreted, a stable (non-causal) run's block, the runs not differentiated refused with exit 2.
+//!   compiled against interpreted, a stable (non-causal) run's block, the runs not differentiated refused with exit 2,
+//!   a map's grid values (`--map`, bad names, sweep columns).
 //! - `gradient_modes`: gradients of runs with modes against central differences of every parameter (each
-//!   gear's ratio on its own) of si_engine_5speed and the 6-speed Fusion on NEDC and UDDS, compiled against interpreted.
+//!   gear's ratio on its own) of si_engine_5speed and the 6-speed Fusion on NEDC and UDDS and of the Fusion's map
+//!   values, compiled against interpreted.
 //! - `headline`: The summary leads with the model's headline in the units people report (l/100 km, mpg, CO2
 //!   g/km; kWh/100 km, mpgge); the Fusions say which fuel figure is the model's answer.
 //! - `hostile`: Hostile-input suite: every case in `tests/hostile/*.json` runs the built `invsim` binary on hostile model

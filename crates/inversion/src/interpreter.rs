@@ -67,6 +67,7 @@ pub fn model_info(d: &Derivation) -> ModelInfo {
         headline: m.headline.clone(),
         state_initial: m.states.iter().map(|s| s.initial).collect(),
         eta_states: d.eta_states.clone(),
+        map_calls: d.map_calls.clone(),
         signals: m
             .signals
             .iter()

@@ -32,6 +32,7 @@ mod memo;
 mod one;
 mod small;
 mod violation;
+mod weights;
 
 use axis::{Axis, Basis};
 pub use extrapolate::Extrapolate;

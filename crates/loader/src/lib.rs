@@ -72,6 +72,14 @@ impl Loaded {
         }
     }
 
+    /// The model's lookup maps (of every mode, each once, for a model with modes).
+    pub fn maps(&self) -> Vec<&invsim_model_api::map::Map> {
+        match self {
+            Loaded::Single(m) => m.as_model().maps().iter().collect(),
+            Loaded::Modal(m) => m.plant.maps(),
+        }
+    }
+
     /// The model as the runtime runs it.
     pub fn into_plant(self) -> invsim_runtime::Plant {
         match self {

@@ -23,7 +23,7 @@ pub mod zero_dynamics;
 pub use invsim_kernel::map;
 
 pub use hybrid::{HybridSpec, RuleSpec};
-pub use sensitivity::SensitivityLayout;
+pub use sensitivity::{MapCall, SensitivityLayout};
 
 pub use headline::{
     known_fuel, Carrier, Density, FuelFlow, FuelInfo, HeadlineInfo, KnownFuel, KNOWN_FUELS,
@@ -71,6 +71,9 @@ pub struct ModelInfo {
     pub state_initial: Vec<Option<f64>>,
     /// Indices of the states chosen as the internal coordinates: η_j = x_{eta_states[j]}.
     pub eta_states: Vec<usize>,
+    /// The map calls of [`InverseModel::sensitivity`]'s rows, in the order of their columns (none for a model
+    /// without maps): what the derivatives with respect to a map's grid values are built from.
+    pub map_calls: Vec<MapCall>,
 }
 
 impl ModelInfo {
@@ -273,7 +276,8 @@ pub trait InverseModel: Send + Sync {
     fn outputs(&self, x: &[f64], w: &[f64], u: f64, out: &mut [f64]);
 
     /// The partial derivatives of ψ's ξ rows, of y^(r) = φ, of the internal states' right-hand sides and of
-    /// the `[outputs]` with respect to the states, the input and every parameter at (x, w, u), written into
+    /// the `[outputs]` with respect to the states, the input, every parameter and every map call of
+    /// [`ModelInfo::map_calls`], and the calls' arguments, at (x, w, u), written into
     /// `out` as [`SensitivityLayout::of`] this model's info lays them out (see [`sensitivity`] for how the
     /// runtime combines them). Engines without them return [`ModelError::NoSensitivities`].
     fn sensitivity(&self, x: &[f64], w: &[f64], u: f64, out: &mut [f64]) -> Result<(), ModelError> {

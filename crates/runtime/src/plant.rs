@@ -30,6 +30,14 @@ impl Plant {
         }
     }
 
+    /// The model's lookup maps (of every mode, each once, for a model with modes).
+    pub fn maps(&self) -> Vec<&invsim_model_api::map::Map> {
+        match self {
+            Plant::Single(m) => m.maps().iter().collect(),
+            Plant::Modal(p) => p.maps(),
+        }
+    }
+
     /// The declared parameters ([`Plant::not_settable`] says which cannot be set on their own).
     pub fn parameters(&self) -> Vec<String> {
         match self {

@@ -344,8 +344,14 @@ pub(crate) fn modal_gradient_params(
         ));
     }
     let parameters = p.parameters();
-    let params = crate::gradient::resolve_modal(&parameters, p.gear_parameters(), names)
-        .map_err(|e| RunFailure::Inverse(SimulateError::Gradient(e)))?;
+    let refused = |e| RunFailure::Inverse(SimulateError::Gradient(e));
+    let (grid, params) = crate::gradient::resolve_modal_with_maps(
+        (&parameters, p.gear_parameters()),
+        &p.maps(),
+        names,
+    )
+    .map_err(refused)?;
     let modes = p.metas().map(|m| (m.gear, &m.own_parameters[..]));
-    Ok(crate::gradient::ModalWrt::new(params, &parameters, modes))
+    let wrt = crate::gradient::ModalWrt::new(params, &parameters, modes);
+    Ok(wrt.with_grid(parameters.len(), &grid, p.mode_maps()))
 }

@@ -459,15 +459,16 @@ fn original(g: &Gen<'_>, lhs: &Lhs) -> Vec<Straight> {
     fs
 }
 
-/// ∂/∂(x, u, p) of ψ_1 … ψ_r, y^(r) = φ, the internal states' right-hand sides and the outputs (the
-/// derivation's `sensitivity`, laid out as `invsim_model_api::SensitivityLayout`); the equations are the
-/// derivatives of those the other functions document, so the doc does not repeat them.
+/// ∂/∂(x, u, p) of ψ_1 … ψ_r, y^(r) = φ, the internal states' right-hand sides and the outputs, and ∂/∂[c] by
+/// each map call c with the calls' arguments (the derivation's `sensitivity`, laid out as
+/// `invsim_model_api::SensitivityLayout`); the equations are the derivatives of those the other functions
+/// document, so the doc does not repeat them.
 fn sensitivity(g: &Gen<'_>, args: Vec<Arg>) -> Straight {
     let doc = vec![
         "The partial derivatives of ψ_1 … ψ_r, y^(r) = φ(x, u), the internal states' right-hand sides and the \
-         extra outputs with respect to x_1 … x_n, u and every parameter, row-major (the layout of \
-         `invsim_model_api::SensitivityLayout`): the runtime's parameter sensitivities combine them by the \
-         implicit function theorem."
+         extra outputs with respect to x_1 … x_n, u, every parameter and every map call, row-major, then the map \
+         calls' arguments (the layout of `invsim_model_api::SensitivityLayout`): the runtime's parameter \
+         sensitivities combine them by the implicit function theorem."
             .to_string(),
     ];
     Straight::new(

@@ -67,7 +67,8 @@ pub(super) fn constants(g: &Gen<'_>, source_name: &str, batch: bool) -> TokenStr
         pub const N_PARAMS: usize = #np_lit;
         /// Number of extra outputs.
         pub const N_OUTPUTS: usize = #no_lit;
-        /// Number of partial derivatives `sensitivity` returns: (R + 1 + N_ETA + N_OUTPUTS)·(N + 1 + N_PARAMS).
+        /// Number of partial derivatives `sensitivity` returns: (R + 1 + N_ETA + N_OUTPUTS)·(N + 1 + N_PARAMS + C)
+        /// + 2·C, with C the map calls of `model_info().map_calls` (their columns and arguments).
         pub const N_SENS: usize = #ns_lit;
         /// State names, in the model file's order.
         pub const STATES: [&str; N] = [#(#state_names),*];

@@ -527,6 +527,16 @@ fn model_info(g: &Gen<'_>) -> TokenStream {
             .iter()
             .map(|&j| proc_macro2::Literal::usize_unsuffixed(j))
             .collect();
+    let lit = proc_macro2::Literal::usize_unsuffixed;
+    let calls = g.d.map_calls.iter().map(|c| {
+        let (map, i, j) = (lit(c.map), lit(c.orders[0]), lit(c.orders[1]));
+        quote!(invsim_model_api::MapCall { map: #map, orders: [#i, #j] })
+    });
+    let map_calls = if g.d.map_calls.is_empty() {
+        quote!(Vec::new())
+    } else {
+        quote!(Vec::from([#(#calls),*]))
+    };
     quote! {
         /// The model's static description (names, sizes, bounds), as the interpreter reports it.
         pub fn model_info() -> ModelInfo {
@@ -551,6 +561,7 @@ fn model_info(g: &Gen<'_>) -> TokenStream {
                 signals: #signals,
                 state_initial: Vec::from([#(#state_initial),*]),
                 eta_states: Vec::from([#(#eta_states),*]),
+                map_calls: #map_calls,
             }
         }
 

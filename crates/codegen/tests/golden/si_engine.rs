@@ -34,7 +34,8 @@ pub mod si_engine {
     pub const N_PARAMS: usize = 28;
     /// Number of extra outputs.
     pub const N_OUTPUTS: usize = 4;
-    /// Number of partial derivatives `sensitivity` returns: (R + 1 + N_ETA + N_OUTPUTS)·(N + 1 + N_PARAMS).
+    /// Number of partial derivatives `sensitivity` returns: (R + 1 + N_ETA + N_OUTPUTS)·(N + 1 + N_PARAMS + C)
+    /// + 2·C, with C the map calls of `model_info().map_calls` (their columns and arguments).
     pub const N_SENS: usize = 217;
     /// State names, in the model file's order.
     pub const STATES: [&str; N] = ["v", "p_i"];
@@ -1460,7 +1461,7 @@ pub mod si_engine {
                             * (self.k4 - 9.0 * (self.k2 + self.k3 * (v * v)).powf(0.9))),
             ]
         }
-        /// The partial derivatives of ψ_1 … ψ_r, y^(r) = φ(x, u), the internal states' right-hand sides and the extra outputs with respect to x_1 … x_n, u and every parameter, row-major (the layout of `invsim_model_api::SensitivityLayout`): the runtime's parameter sensitivities combine them by the implicit function theorem.
+        /// The partial derivatives of ψ_1 … ψ_r, y^(r) = φ(x, u), the internal states' right-hand sides and the extra outputs with respect to x_1 … x_n, u, every parameter and every map call, row-major, then the map calls' arguments (the layout of `invsim_model_api::SensitivityLayout`): the runtime's parameter sensitivities combine them by the implicit function theorem.
         pub fn sensitivity(&self, x: &[f64; N], m_at: f64) -> [f64; N_SENS] {
             let p = &self.params;
             let [v, p_i] = *x;
@@ -1933,6 +1934,7 @@ pub mod si_engine {
             signals: Vec::new(),
             state_initial: Vec::from([None, None]),
             eta_states: Vec::from([]),
+            map_calls: Vec::new(),
         }
     }
     /// The compiled model behind the runtime's [`InverseModel`] trait.

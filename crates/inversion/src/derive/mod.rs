@@ -23,6 +23,7 @@
 mod coordinates;
 mod domain;
 mod lie;
+mod map_calls;
 mod non_affine;
 mod normal_form;
 mod psi_inv;
@@ -162,8 +163,11 @@ pub struct Derivation {
     pub domain: Vec<String>,
     pub warnings: Vec<String>,
     /// ∂/∂(x, u, p) of ψ_1 … ψ_r, y^(r), the internal states' right-hand sides and the outputs, row-major in
-    /// the layout of `invsim_model_api::SensitivityLayout` (`sensitivity.rs`).
+    /// the layout of `invsim_model_api::SensitivityLayout` (`sensitivity.rs`), with the columns of the map
+    /// calls and their arguments.
     pub sensitivity: Vec<Id>,
+    /// The map calls of the sensitivity rows, in the order of their columns (`map_calls.rs`).
+    pub map_calls: Vec<invsim_model_api::MapCall>,
 }
 
 /// `Err(NotFinite)` naming the first constant subexpression of f, g (the rhs of a non-affine state) or h that
@@ -418,7 +422,7 @@ impl Derivation {
         warnings.extend(singular_warnings(&singular, affine, &model.input.name));
         let domain = domain_conditions(pool, domain, &params);
 
-        let sensitivity = sensitivity::sensitivity(
+        let (sensitivity, map_calls) = sensitivity::sensitivity(
             &mut model,
             &psi[..r],
             (alpha_x, beta_x, yr_affine),
@@ -454,6 +458,7 @@ impl Derivation {
             domain,
             warnings,
             sensitivity,
+            map_calls,
         })
     }
 

@@ -1,23 +1,28 @@
 //! The parameter sensitivities' partial derivatives, in the original states (the layout of
 //! `invsim_model_api::SensitivityLayout`): ∂/∂(x, u, p) of ψ's ξ rows (L_f^(i−1) h), of y^(r) = φ(x, w, u)
-//! (α_x + β_x·u where y^(r) is affine in u), of the internal states' right-hand sides and of the `[outputs]`.
+//! (α_x + β_x·u where y^(r) is affine in u), of the internal states' right-hand sides and of the `[outputs]`,
+//! and ∂/∂[c] of each by each map call c of the rows, whose arguments close the list (`map_calls.rs`: the
+//! derivatives with respect to a map's grid values).
 //!
 //! The runtime combines them by the implicit function theorem (x solves ψ(x; p) = (ξ, η), u solves
 //! φ(x, u; p) = y^(r)), so one set of expressions serves a closed-form ψ⁻¹, Newton's ψ⁻¹, an isolated input
 //! and Newton's input alike. Every parameter is a symbol of the expressions (definitions are substituted
-//! when the model is read); a map's grid values are data, not parameters, and have no column.
+//! when the model is read); a map's grid values enter through the map calls' columns.
 
+use super::map_calls::{by_call, calls_in};
 use crate::model::Model;
 use invsim_expr::{Id, Symbol};
+use invsim_model_api::MapCall;
 
 /// The expressions, row-major: rows ψ_1 … ψ_r (`psi_xi`), φ, F_η1 … F_η(n−r), o_1 … o_m; columns x_1 … x_n,
-/// u, p_1 … p_P. φ = α_x + β_x·u where y^(r) is affine in u (`yr_affine`), else α_x (= φ(x, w, u)).
+/// u, p_1 … p_P, the map calls c_1 … c_C; then the calls' arguments (a_1, b_1, …, a_C, b_C). φ = α_x + β_x·u
+/// where y^(r) is affine in u (`yr_affine`), else α_x (= φ(x, w, u)). Returned with the calls' maps and orders.
 pub(super) fn sensitivity(
     model: &mut Model,
     psi_xi: &[Id],
     (alpha_x, beta_x, yr_affine): (Id, Id, bool),
     eta_states: &[usize],
-) -> Vec<Id> {
+) -> (Vec<Id>, Vec<MapCall>) {
     let u = model.input.symbol;
     let mut columns: Vec<Symbol> = model.state_symbols();
     columns.push(u);
@@ -33,11 +38,17 @@ pub(super) fn sensitivity(
     rows.extend(eta_states.iter().map(|&s| model.states[s].rhs));
     rows.extend(model.outputs.iter().map(|o| o.expr));
     let pool = &mut model.pool;
-    let mut out = Vec::with_capacity(rows.len() * columns.len());
+    let calls = calls_in(pool, &rows);
+    let width = columns.len() + calls.len();
+    let mut out = Vec::with_capacity(rows.len() * width + 2 * calls.len());
     for &row in &rows {
         for &c in &columns {
             out.push(pool.diff(row, c));
         }
+        for c in &calls {
+            out.push(by_call(pool, row, c.id));
+        }
     }
-    out
+    out.extend(calls.iter().flat_map(|c| c.args));
+    (out, calls.iter().map(|c| c.site).collect())
 }

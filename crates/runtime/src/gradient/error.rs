@@ -18,4 +18,10 @@ pub enum GradientError {
     NoSuchGear { name: String, gears: usize },
     #[error("{what} are not differentiated yet (runs with re-entry switching of models without couplings, strategies or decided inputs are)")]
     ModalUnsupported { what: &'static str },
+    #[error("`{name}` is not a grid value of its map: name one as {expected}")]
+    BadGridValue { name: String, expected: String },
+    #[error(
+        "more than {max} grid values asked for: name fewer (`MAP[i,j]`) than every value of the maps"
+    )]
+    TooManyGridValues { max: usize },
 }

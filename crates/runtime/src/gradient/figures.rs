@@ -22,24 +22,14 @@ pub(crate) struct Integrals<'a> {
     pub derivatives: &'a [Vec<f64>],
 }
 
-/// What the derivatives are taken with respect to: each one's name in the gradient block and the model
-/// parameter it moves (an index into the model's parameters: a gearbox's `i_g[3]` moves `i_g` in third gear),
-/// and every parameter's value (the fuel's density, where it is one).
+/// What the derivatives are taken with respect to: each one's name in the gradient block (none: the
+/// parameters' own) and the model parameter it moves (an index into the model's parameters: a gearbox's
+/// `i_g[3]` moves `i_g` in third gear; P + g for grid value g, which moves no parameter), and every
+/// parameter's value (the fuel's density, where it is one).
 pub(crate) struct Wrt<'a> {
     pub names: &'a [String],
     pub params: &'a [usize],
     pub values: &'a [f64],
-}
-
-impl<'a> Wrt<'a> {
-    /// The model's own parameters `params`, by their names.
-    pub(crate) fn plain(params: &'a [usize], values: &'a [f64]) -> Wrt<'a> {
-        Wrt {
-            names: &[],
-            params,
-            values,
-        }
-    }
 }
 
 /// The figures' derivatives with respect to `wrt` for a cycle of `distance_m` metres.
@@ -244,7 +234,11 @@ mod tests {
                 derivatives: &[vec![i0, 0.0]],
             };
             let values = [k, rho];
-            let wrt = Wrt::plain(&[0, 1], &values);
+            let wrt = Wrt {
+                names: &[],
+                params: &[0, 1],
+                values: &values,
+            };
             let g = figures(&info, &wrt, &integrals, distance);
             for (c, name, h) in [(0, "k", 1e-4 * k), (1, "rho_f", 1e-4 * rho)] {
                 let (plus, minus) = if c == 0 {

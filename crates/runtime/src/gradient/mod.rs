@@ -1,6 +1,9 @@
 //! Exact parameter gradients of a run's summary figures (`invsim simulate --gradient`): the derivative of
 //! each number the summary prints — every accumulated output's integral, its per-100-km figure and the
-//! headline's figures — with respect to the model's parameters.
+//! headline's figures — with respect to the model's parameters and to the grid values of its maps
+//! ([`grid_values`]: `bsfc[3,4]`; a map is linear in its values, so each one's column of the partial
+//! derivatives is built at every point from the map calls' columns, [`grid_columns`], and is then a
+//! parameter like the others).
 //!
 //! For r = n the input and the states are closed-form (or implicitly defined) functions of the smoothed cycle
 //! and the parameters, so their derivatives follow from the model's symbolic partial derivatives by the chain
@@ -14,6 +17,8 @@
 pub mod error;
 mod figures;
 mod gauss;
+pub mod grid_columns;
+pub mod grid_values;
 pub mod modal;
 mod pass;
 mod point;
@@ -22,21 +27,60 @@ mod stable;
 
 use std::fmt::Write as _;
 
+use invsim_model_api::map::Map;
 use invsim_model_api::{InverseModel, ModelInfo};
 use serde::Serialize;
 
 pub use error::GradientError;
 pub use figures::Figures;
 pub(crate) use figures::{figures, Integrals, Wrt};
-pub use modal::{resolve_modal, GearParameters, ModalParam, ModalWrt};
+pub use grid_columns::GridColumns;
+pub use grid_values::{GridValue, MAX_GRID_VALUES};
+pub use modal::{resolve_modal, resolve_modal_with_maps, GearParameters, ModalParam, ModalWrt};
 pub(crate) use pass::{integral_gradients, Along, Wanted};
 pub(crate) use point::{Buffers, Direction, Point};
 pub(crate) use stable::StableFigures;
 
 use crate::report::fmt_sig;
 
-/// The parameters to differentiate by: `all` of them, or those named (in the model's order, each once).
-pub fn resolve(info: &ModelInfo, names: &[String]) -> Result<Vec<usize>, GradientError> {
+/// What a run is differentiated by: model parameters (indices, in the model's order) and grid values.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Derivatives {
+    pub params: Vec<usize>,
+    pub grid: Vec<GridValue>,
+}
+
+impl Derivatives {
+    /// Every derivative's column in the chain rule ([`point`]): the parameters', then grid value g's at
+    /// P + g (P the model's number of parameters).
+    pub(crate) fn columns(&self, n_params: usize) -> Vec<usize> {
+        let grid = (0..self.grid.len()).map(|g| n_params + g);
+        self.params.iter().copied().chain(grid).collect()
+    }
+
+    /// Every derivative's name, in [`Derivatives::columns`]' order.
+    pub(crate) fn names(&self, info: &ModelInfo) -> Vec<String> {
+        let params = self.params.iter().map(|&k| info.parameters[k].clone());
+        params
+            .chain(self.grid.iter().map(|g| g.name.clone()))
+            .collect()
+    }
+}
+
+/// The derivatives `names` asks for: `all` parameters, or those named (in the model's order, each once), and
+/// the grid values of `maps` named ([`grid_values`]; `all` does not include them).
+pub fn resolve(
+    info: &ModelInfo,
+    maps: &[&Map],
+    names: &[String],
+) -> Result<Derivatives, GradientError> {
+    let (grid, names) = grid_values::split(maps, names)?;
+    let params = resolve_params(info, &names).map_err(|e| grid_values::with_maps(e, maps))?;
+    Ok(Derivatives { params, grid })
+}
+
+/// The parameters `names` asks for: `all` of them, or those named (in the model's order, each once).
+fn resolve_params(info: &ModelInfo, names: &[String]) -> Result<Vec<usize>, GradientError> {
     if names.len() == 1 && names[0] == "all" && !info.parameters.iter().any(|p| p == "all") {
         return Ok((0..info.parameters.len()).collect());
     }
@@ -115,17 +159,21 @@ pub(crate) struct RunFigures<'a> {
     pub stable: Option<StableFigures<'a>>,
 }
 
-/// The gradient of a finished run (causal, r = n or stable) with respect to the parameters `params`.
+/// The gradient of a finished run (causal, r = n or stable) with respect to `wrt`.
 pub(crate) fn of_run<M: InverseModel + ?Sized>(
     model: &M,
-    params: &[usize],
+    wrt: &Derivatives,
     along: &Along<'_>,
     run: RunFigures<'_>,
     opts: &crate::inverse::SimulationOptions,
 ) -> Result<Gradient, crate::inverse::SimulateError> {
+    let info = model.info();
+    let params = wrt.columns(info.parameters.len());
+    let grid = GridColumns::new(model.maps(), &wrt.grid);
     let wanted = Wanted {
         model,
-        params,
+        params: &params,
+        grid: &grid,
         accumulate: run.accumulate,
     };
     let derivatives = match run.stable {
@@ -137,12 +185,13 @@ pub(crate) fn of_run<M: InverseModel + ?Sized>(
         values: run.integrals,
         derivatives: &derivatives,
     };
+    let names = wrt.names(info);
+    let by = Wrt {
+        names: &names,
+        params: &params,
+        values: model.params(),
+    };
     Ok(Gradient {
-        figures: figures(
-            model.info(),
-            &Wrt::plain(params, model.params()),
-            &integrals,
-            run.distance_m,
-        ),
+        figures: figures(info, &by, &integrals, run.distance_m),
     })
 }

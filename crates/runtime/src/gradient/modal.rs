@@ -1,11 +1,17 @@
 //! What the derivatives of a run with modes are taken with respect to: a parameter in every mode, as
 //! `--set NAME=` moves it, or a parameter the `[gearbox]` sets per gear, in the modes of one gear, named
-//! `NAME[g]` (`i_g[3]`: the third gear's ratio; gears count from 1, as the gearbox's arrays are written).
+//! `NAME[g]` (`i_g[3]`: the third gear's ratio; gears count from 1, as the gearbox's arrays are written), or a
+//! map's grid value in every mode that calls the map (`--map` replaces a map in all of them).
 
+use invsim_model_api::map::Map;
+
+use super::grid_columns::GridColumns;
+use super::grid_values::GridValue;
 use super::GradientError;
 
 /// One derivative of a run with modes: its name, the parameter it moves (an index into the modes' shared
-/// parameters) and, for a gearbox's parameter, the gear whose modes it moves.
+/// parameters; P + g for grid value g, which moves none) and, for a gearbox's parameter, the gear whose modes
+/// it moves.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct ModalParam {
     pub name: String,
@@ -25,11 +31,13 @@ impl ModalParam {
 
 /// The derivatives of a run with modes and the column of each in each mode (`columns[mode][c]`, `None`:
 /// the mode does not take it, being of another gear or setting the parameter itself, as overrun's
-/// `parameters = { c_fuel = 0.0 }` does).
+/// `parameters = { c_fuel = 0.0 }` does, or not calling the map of a grid value), and each mode's columns of
+/// the grid values (`grids[mode]`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct ModalWrt {
     pub params: Vec<ModalParam>,
     pub columns: Vec<Vec<Option<usize>>>,
+    pub grids: Vec<GridColumns>,
 }
 
 impl ModalWrt {
@@ -46,12 +54,43 @@ impl ModalWrt {
                     .iter()
                     .map(|p| {
                         p.column_in(gear)
-                            .filter(|&k| !own.iter().any(|o| o == &parameters[k]))
+                            .filter(|&k| !own.iter().any(|o| Some(o) == parameters.get(k)))
                     })
                     .collect()
             })
-            .collect();
-        ModalWrt { params, columns }
+            .collect::<Vec<Vec<Option<usize>>>>();
+        let grids = vec![GridColumns::default(); columns.len()];
+        ModalWrt {
+            params,
+            columns,
+            grids,
+        }
+    }
+
+    /// The derivatives with the grid values `grid` after them, over modes with the maps `maps` (in the modes'
+    /// order) and `n_params` parameters: grid value g is column P + g of every mode that has its map.
+    pub fn with_grid<'a>(
+        mut self,
+        n_params: usize,
+        grid: &[GridValue],
+        maps: impl Iterator<Item = &'a [Map]>,
+    ) -> ModalWrt {
+        for (g, v) in grid.iter().enumerate() {
+            self.params.push(ModalParam {
+                name: v.name.clone(),
+                param: n_params + g,
+                gear: None,
+            });
+        }
+        for ((columns, grids), maps) in self.columns.iter_mut().zip(&mut self.grids).zip(maps) {
+            columns.extend(grid.iter().enumerate().map(|(g, v)| {
+                maps.iter()
+                    .any(|m| m.name() == v.map)
+                    .then_some(n_params + g)
+            }));
+            *grids = GridColumns::new(maps, grid);
+        }
+        self
     }
 }
 
@@ -103,6 +142,19 @@ pub fn resolve_modal(
         .zip(picked)
         .filter_map(|(m, p)| p.then_some(m))
         .collect())
+}
+
+/// [`resolve_modal`] of the names that are not grid values of `maps` (the maps of every mode, each once), and
+/// those grid values ([`super::grid_values::split`]).
+pub fn resolve_modal_with_maps(
+    (parameters, gearbox): (&[String], GearParameters<'_>),
+    maps: &[&Map],
+    names: &[String],
+) -> Result<(Vec<GridValue>, Vec<ModalParam>), GradientError> {
+    let (grid, names) = super::grid_values::split(maps, names)?;
+    let params = resolve_modal(parameters, gearbox, &names)
+        .map_err(|e| super::grid_values::with_maps(e, maps))?;
+    Ok((grid, params))
 }
 
 /// Parameter k as the derivatives name it: itself, or one per gear.

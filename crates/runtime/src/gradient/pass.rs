@@ -37,6 +37,7 @@ use invsim_model_api::InverseModel;
 use nalgebra::DMatrix;
 
 use super::gauss::{Gauss, Singular, NODES};
+use super::grid_columns::GridColumns;
 use super::point::{Buffers, Point};
 use super::sample::{Block, Samples};
 use crate::error::RunError;
@@ -56,11 +57,12 @@ pub(crate) struct Along<'a> {
     pub grid: &'a Grid,
 }
 
-/// The model, the parameters (indices into [`invsim_model_api::ModelInfo::parameters`]) and the accumulated
-/// outputs (indices into its `outputs`) differentiated.
+/// The model, the parameters (indices into [`invsim_model_api::ModelInfo::parameters`], and P + g for the
+/// grid value g of `grid`) and the accumulated outputs (indices into its `outputs`) differentiated.
 pub(crate) struct Wanted<'a, M: ?Sized> {
     pub model: &'a M,
     pub params: &'a [usize],
+    pub grid: &'a GridColumns,
     pub accumulate: &'a [usize],
 }
 
@@ -158,7 +160,9 @@ impl Sweep {
         if k > 0 && ne > 0 {
             self.advance(wanted, along.smoother, (grid.time(k - 1), t))?;
         }
-        let point = self.samples.point(model, (t, yd, w, i), &self.eta)?;
+        let point = self
+            .samples
+            .point((model, wanted.grid), (t, yd, w, i), &self.eta)?;
         let half = (k > 0).then_some(0.5 * grid.dt);
         self.samples.add_outputs(
             &point,
@@ -226,8 +230,8 @@ fn start<M: InverseModel + ?Sized>(
     let u = model
         .invert_from(xi, &eta, &w, yr, &mut x, f64::NAN)
         .map_err(model_err)?;
-    let point =
-        Point::new(model, (&x, &w, u), &info.eta_states, Default::default()).map_err(model_err)?;
+    let at = (&info.eta_states[..], wanted.grid);
+    let point = Point::new(model, (&x, &w, u), at, Default::default()).map_err(model_err)?;
     let (mut q_eta, mut q_p) = (vec![0.0; ne * ne], vec![0.0; ne * np]);
     point.eta_jacobians(wanted.params, &mut q_eta, &mut q_p);
     let s = DMatrix::from_vec(ne, ne, q_eta)
@@ -305,7 +309,8 @@ impl Nodes {
             .invert_from(&yd[..r], &self.eta, w, yd[r], &mut self.x, u_prev)
             .map_err(model_err)?;
         let buf = std::mem::take(&mut self.buf);
-        let point = Point::new(model, (&self.x, w, u), &info.eta_states, buf).map_err(model_err)?;
+        let at = (&info.eta_states[..], wanted.grid);
+        let point = Point::new(model, (&self.x, w, u), at, buf).map_err(model_err)?;
         point.eta_jacobians(wanted.params, &mut self.a[i], &mut self.b[i]);
         self.buf = point.into_buffer();
         Ok(())
@@ -349,6 +354,7 @@ mod tests {
         let wanted = Wanted {
             model: model.as_ref(),
             params: &params,
+            grid: &GridColumns::default(),
             accumulate: &[0],
         };
         let along = Along {

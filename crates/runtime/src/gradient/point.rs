@@ -12,22 +12,32 @@
 //!
 //! (Isidori, *Nonlinear Control Systems*, 3rd ed., §4.1 for ψ; the implicit function theorem e.g. Rudin,
 //! *Principles of Mathematical Analysis*, Thm. 9.28.)
+//!
+//! The "parameters" p_k are the model's P parameters (k < P) and the grid values asked for (k = P + g, the
+//! columns [`GridColumns`] builds at the point): every formula here takes the one as the other.
 
 use std::cell::RefCell;
 
 use invsim_model_api::{InverseModel, ModelError, SensitivityLayout};
+
+use super::grid_columns::GridColumns;
 
 /// The partial derivatives at one point (x, w, u) and the inverse of ∂ψ/∂x (n is small: every direction is
 /// then a product with it, without a factorisation or an allocation per direction).
 pub(crate) struct Point {
     layout: SensitivityLayout,
     sens: Vec<f64>,
+    /// The grid values' columns, `grid[row · n_grid + g]` = ∂row/∂v_g ([`GridColumns::fill`]).
+    grid: Vec<f64>,
+    n_grid: usize,
     /// (∂ψ/∂x)⁻¹, row-major; NaN where ∂ψ/∂x is singular.
     inverse: Vec<f64>,
     /// A work vector of length n, reused: a direction's right-hand side, a row's (∂ψ/∂x)⁻ᵀ g.
     b: RefCell<Vec<f64>>,
     /// ∂ψ/∂x's buffer, kept for the next point.
     jac: Vec<f64>,
+    /// The basis weights' buffer of [`GridColumns::fill`], kept for the next point.
+    weights: Vec<(usize, f64)>,
 }
 
 /// The buffers of a point, reused from point to point ([`Point::into_buffer`]): nothing is allocated per point
@@ -35,6 +45,8 @@ pub(crate) struct Point {
 #[derive(Default)]
 pub(crate) struct Buffers {
     sens: Vec<f64>,
+    grid: Vec<f64>,
+    weights: Vec<(usize, f64)>,
     jac: Vec<f64>,
     inverse: Vec<f64>,
     work: Vec<f64>,
@@ -47,23 +59,28 @@ pub(crate) struct Direction {
 }
 
 impl Point {
-    /// The model's partial derivatives at (x, w, u); `eta_states` are the states chosen as η. `buffers`: those of
-    /// an earlier point ([`Point::into_buffer`]) or new ones.
+    /// The model's partial derivatives at (x, w, u), with the columns of the grid values `grid`; `eta_states`
+    /// are the states chosen as η. `buffers`: those of an earlier point ([`Point::into_buffer`]) or new ones.
     pub(crate) fn new<M: InverseModel + ?Sized>(
         model: &M,
         (x, w, u): (&[f64], &[f64], f64),
-        eta_states: &[usize],
+        (eta_states, columns): (&[usize], &GridColumns),
         buffers: Buffers,
     ) -> Result<Point, ModelError> {
-        let layout = SensitivityLayout::of(model.info());
+        let info = model.info();
+        let layout = SensitivityLayout::of(info);
         let Buffers {
             mut sens,
+            mut grid,
+            mut weights,
             mut jac,
             mut inverse,
             mut work,
         } = buffers;
         sens.resize(layout.len(), 0.0);
         model.sensitivity(x, w, u, &mut sens)?;
+        let maps = (model.maps(), info.map_calls.as_slice());
+        columns.fill(maps, (&layout, &sens), &mut weights, &mut grid);
         let (n, r) = (layout.n, layout.r);
         // ∂ψ/∂x: the ξ rows' partials, then the unit rows η_j = x_(s_j).
         jac.clear();
@@ -85,9 +102,12 @@ impl Point {
         Ok(Point {
             layout,
             sens,
+            grid,
+            n_grid: columns.len(),
             inverse,
             b: RefCell::new(work),
             jac,
+            weights,
         })
     }
 
@@ -95,6 +115,8 @@ impl Point {
     pub(crate) fn into_buffer(self) -> Buffers {
         Buffers {
             sens: self.sens,
+            grid: self.grid,
+            weights: self.weights,
             jac: self.jac,
             inverse: self.inverse,
             work: self.b.into_inner(),
@@ -103,6 +125,16 @@ impl Point {
 
     fn d(&self, row: usize, column: usize) -> f64 {
         self.sens[self.layout.at(row, column)]
+    }
+
+    /// ∂row/∂p_k: a model parameter's column (k < P) or grid value k − P's.
+    fn dp(&self, row: usize, k: usize) -> f64 {
+        let np = self.layout.n_params;
+        if k < np {
+            self.d(row, self.layout.param(k))
+        } else {
+            self.grid[row * self.n_grid + k - np]
+        }
     }
 
     /// dx and du for a change dη of the internal coordinates and (`param`) a unit change of parameter k.
@@ -137,8 +169,7 @@ impl Point {
         let mut b = self.b.borrow_mut();
         for (i, bi) in b.iter_mut().enumerate() {
             *bi = if i < r {
-                dxi.get(i).copied().unwrap_or(0.0)
-                    - param.map_or(0.0, |k| self.d(l.psi(i), l.param(k)))
+                dxi.get(i).copied().unwrap_or(0.0) - param.map_or(0.0, |k| self.dp(l.psi(i), k))
             } else {
                 deta[i - r]
             };
@@ -147,7 +178,7 @@ impl Point {
             *dx = row.iter().zip(b.iter()).map(|(a, v)| a * v).sum();
         }
         let phi = l.phi();
-        let mut num = param.map_or(0.0, |k| self.d(phi, l.param(k))) - dyr;
+        let mut num = param.map_or(0.0, |k| self.dp(phi, k)) - dyr;
         for (j, v) in dir.dx.iter().enumerate() {
             num += self.d(phi, l.x(j)) * v;
         }
@@ -157,7 +188,7 @@ impl Point {
     /// The change of `row` along `dir` (with the unit change of parameter `param`, if any).
     pub(crate) fn row_change(&self, row: usize, dir: &Direction, param: Option<usize>) -> f64 {
         let l = &self.layout;
-        let mut v = param.map_or(0.0, |k| self.d(row, l.param(k))) + self.d(row, l.u()) * dir.du;
+        let mut v = param.map_or(0.0, |k| self.dp(row, k)) + self.d(row, l.u()) * dir.du;
         for (j, dx) in dir.dx.iter().enumerate() {
             v += self.d(row, l.x(j)) * dx;
         }
@@ -210,14 +241,30 @@ impl Point {
                 a[j * nr + i] = m[r + j];
             }
             for (c, &k) in params.iter().enumerate() {
-                let col = l.param(k);
-                let mut v = q[col] - ratio * phi[col];
-                for (ml, psi) in m[..r].iter().zip(0..r) {
-                    v -= ml * slice(l.psi(psi))[col];
-                }
+                let v = if k < l.n_params {
+                    let col = l.param(k);
+                    let mut v = q[col] - ratio * phi[col];
+                    for (ml, psi) in m[..r].iter().zip(0..r) {
+                        v -= ml * slice(l.psi(psi))[col];
+                    }
+                    v
+                } else {
+                    self.grid_b(row, k - l.n_params, (&m[..r], ratio))
+                };
                 b[c * nr + i] = v;
             }
         }
+    }
+
+    /// [`Point::row_jacobians`]' B entry of `row` for grid value g: ∂q/∂v_g − ratio·∂φ/∂v_g − Σ_l m_l ∂ψ_l/∂v_g.
+    fn grid_b(&self, row: usize, g: usize, (m, ratio): (&[f64], f64)) -> f64 {
+        let l = &self.layout;
+        let col = |row: usize| self.grid[row * self.n_grid + g];
+        let mut v = col(row) - ratio * col(l.phi());
+        for (psi, ml) in m.iter().enumerate() {
+            v -= ml * col(l.psi(psi));
+        }
+        v
     }
 
     pub(crate) fn layout(&self) -> &SensitivityLayout {

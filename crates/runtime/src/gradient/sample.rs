@@ -5,6 +5,7 @@
 
 use invsim_model_api::InverseModel;
 
+use super::grid_columns::GridColumns;
 use super::point::{Buffers, Point};
 use crate::error::RunError;
 use crate::grid::{Grid, MAX_DERIVATIVES};
@@ -48,10 +49,11 @@ impl Samples {
         }
     }
 
-    /// The inverse at the sample `at` with internal state `eta`, and the partials there.
+    /// The inverse at the sample `at` with internal state `eta`, and the partials there (with the columns of
+    /// the grid values `grid`).
     pub(super) fn point<M: InverseModel + ?Sized>(
         &mut self,
-        model: &M,
+        (model, grid): (&M, &GridColumns),
         (t, yd, w, i): At<'_>,
         eta: &[f64],
     ) -> Result<Point, SimulateError> {
@@ -69,7 +71,8 @@ impl Samples {
             .map_err(model_err)?;
         self.u_prev = u;
         let buf = std::mem::take(&mut self.buf);
-        Point::new(model, (&self.x, &self.w, u), &info.eta_states, buf).map_err(model_err)
+        let with = (&info.eta_states[..], grid);
+        Point::new(model, (&self.x, &self.w, u), with, buf).map_err(model_err)
     }
 
     /// The trapezoids' terms of every accumulated output and wanted parameter at `point`, whose internal

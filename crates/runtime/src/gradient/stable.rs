@@ -110,8 +110,8 @@ fn partials<M: InverseModel + ?Sized>(
         .invert_from(xi, point.eta, point.w, yr, x, *u_prev)
         .map_err(model_err)?;
     *u_prev = u;
-    let at = Point::new(model, (x, point.w, u), &info.eta_states, Default::default())
-        .map_err(model_err)?;
+    let with = (&info.eta_states[..], wanted.grid);
+    let at = Point::new(model, (x, point.w, u), with, Default::default()).map_err(model_err)?;
     let l = *at.layout();
     let mut e = vec![0.0; m];
     let mut a = vec![0.0; m * m];
@@ -334,7 +334,9 @@ impl<'s> Accumulator<'s> {
     ) -> Result<(), SimulateError> {
         let t = at.0;
         self.stable.solution.eval(t, &mut self.eta);
-        let point = self.samples.point(wanted.model, at, &self.eta)?;
+        let point = self
+            .samples
+            .point((wanted.model, wanted.grid), at, &self.eta)?;
         let half = (!first).then_some(half);
         let (j, weights) = self.stable.solution.hermite(t);
         for c in 0..wanted.params.len() {

@@ -549,7 +549,10 @@ pub(super) fn run<M: InverseModel + ?Sized>(
     let steps = grid.n;
     let eta0 = check_eta0(info, opts)?;
     let gradient_params = match &opts.gradient {
-        Some(names) => Some(crate::gradient::resolve(info, names).map_err(SimulateError::from)?),
+        Some(names) => {
+            let maps: Vec<&invsim_model_api::map::Map> = model.maps().iter().collect();
+            Some(crate::gradient::resolve(info, &maps, names).map_err(SimulateError::from)?)
+        }
         None => None,
     };
     // Start values of the internal states (`initial =`, `--initial`), used by a causal run.
@@ -670,12 +673,12 @@ pub(super) fn run<M: InverseModel + ?Sized>(
 }
 
 /// The gradient of the finished run (`tally`: its integrals; `stable`: its stable inversion and reported
-/// samples, if non-causal) with respect to the parameters `params`, along the reference on the run's grid
-/// ([`crate::gradient`]).
+/// samples, if non-causal) with respect to `params` (parameters and grid values), along the reference on the
+/// run's grid ([`crate::gradient`]).
 fn run_gradient<M: InverseModel + ?Sized>(
     model: &M,
     (smoother, grid): (&Smoother, &Grid),
-    params: &[usize],
+    params: &crate::gradient::Derivatives,
     (tally, distance_m, eta0): (&Tally<'_>, f64, Option<Vec<f64>>),
     (stable, opts): (
         Option<crate::gradient::StableFigures<'_>>,

@@ -157,7 +157,7 @@ impl<'p, 'a, 'm> Pass<'p, 'a, 'm> {
         let u = model
             .invert(&y[..r], &eta, &w, y[r], &mut xs)
             .map_err(|e| ctx.err(mode, t0, e.to_string()))?;
-        let point = point_at(ctx, mode, (t0, &xs, &w, u))?;
+        let point = point_at(ctx, (mode, &wrt.grids[mode]), (t0, &xs, &w, u))?;
         let deta = equilibrium_sensitivity(&point, &wrt.columns[mode]);
         let np = wrt.params.len();
         let mut pass = Pass {
@@ -214,7 +214,7 @@ impl<'p, 'a, 'm> Pass<'p, 'a, 'm> {
         let info = model.info();
         let r = info.relative_degree;
         let w = ctx.w(to, t);
-        let point = point_at(ctx, to, (t, &self.x, &w, self.u))?;
+        let point = point_at(ctx, (to, &self.wrt.grids[to]), (t, &self.x, &w, self.u))?;
         let l = *point.layout();
         let np = self.wrt.params.len();
         let mut dblend = Vec::with_capacity(np);
@@ -253,7 +253,7 @@ impl<'p, 'a, 'm> Pass<'p, 'a, 'm> {
         };
         let model = ctx.model(m);
         if model.info().n_eta > 0 {
-            let cols = &self.wrt.columns[m];
+            let cols = (&self.wrt.columns[m][..], &self.wrt.grids[m]);
             let guess = (&rec.states[k], rec.free[k]);
             self.zd.advance(
                 ctx,
@@ -289,7 +289,7 @@ impl<'p, 'a, 'm> Pass<'p, 'a, 'm> {
     ) -> Result<Vec<Vec<f64>>, ModalError> {
         let m = self.mode;
         let w = self.ctx.w(m, t);
-        let point = point_at(self.ctx, m, (t, x, &w, u))?;
+        let point = point_at(self.ctx, (m, &self.wrt.grids[m]), (t, x, &w, u))?;
         let l = *point.layout();
         let np = self.wrt.params.len();
         let mut out = vec![vec![0.0; np]; self.accumulated.len()];

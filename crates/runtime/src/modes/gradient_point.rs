@@ -8,26 +8,27 @@ use invsim_model_api::InverseModel;
 use super::blend::Blend;
 use super::record::Ctx;
 use super::ModalError;
-use crate::gradient::{Buffers, Point};
+use crate::gradient::{Buffers, GridColumns, Point};
 
-/// The model's partial derivatives of mode m at (x, w, u) at time t.
+/// The model's partial derivatives of mode m at (x, w, u) at time t, with the mode's columns of the grid values
+/// differentiated by (`grid`).
 pub(super) fn point_at(
     ctx: &Ctx<'_, '_>,
-    m: usize,
+    (m, grid): (usize, &GridColumns),
     at: (f64, &[f64], &[f64], f64),
 ) -> Result<Point, ModalError> {
-    point_into(ctx, m, at, Default::default())
+    point_into(ctx, (m, grid), at, Default::default())
 }
 
 /// [`point_at`] into the buffer `buf` of an earlier point ([`Point::into_buffer`]).
 pub(super) fn point_into(
     ctx: &Ctx<'_, '_>,
-    m: usize,
+    (m, grid): (usize, &GridColumns),
     (t, x, w, u): (f64, &[f64], &[f64], f64),
     buf: Buffers,
 ) -> Result<Point, ModalError> {
     let model: &dyn InverseModel = ctx.model(m);
-    Point::new(model, (x, w, u), &model.info().eta_states, buf)
+    Point::new(model, (x, w, u), (&model.info().eta_states, grid), buf)
         .map_err(|e| ctx.err(m, t, e.to_string()))
 }
 

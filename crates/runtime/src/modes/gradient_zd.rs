@@ -17,7 +17,7 @@ use super::blend::Blend;
 use super::gradient_point::{moved_reference_into, point_into};
 use super::record::Ctx;
 use super::ModalError;
-use crate::gradient::{Buffers, Direction};
+use crate::gradient::{Buffers, Direction, GridColumns};
 use crate::ode::{Dopri5, StepFailure};
 
 const RTOL: f64 = 1e-10;
@@ -29,12 +29,13 @@ pub(super) struct ZdSensitivity {
     last: Option<(usize, f64)>,
 }
 
-/// The mode, its transition and the transition's derivatives, and each derivative's column in the mode.
+/// The mode, its transition and the transition's derivatives, and each derivative's column in the mode with
+/// the mode's columns of the grid values.
 pub(super) type Along<'b> = (
     usize,
     Option<&'b Blend>,
     &'b [Option<Blend>],
-    &'b [Option<usize>],
+    (&'b [Option<usize>], &'b GridColumns),
 );
 
 impl ZdSensitivity {
@@ -50,7 +51,7 @@ impl ZdSensitivity {
     pub(super) fn advance(
         &mut self,
         ctx: &Ctx<'_, '_>,
-        (m, blend, dblend, cols): Along<'_>,
+        (m, blend, dblend, (cols, grid)): Along<'_>,
         (ta, tb): (f64, f64),
         (x0, u0): (&[f64], f64),
         deta: &mut [Vec<f64>],
@@ -91,7 +92,7 @@ impl ZdSensitivity {
             let u = model
                 .invert_from(xi, eta, &w, yr[r], &mut x, u0)
                 .map_err(|e| fail(s, e.to_string()))?;
-            let point = point_into(ctx, m, (s, &x, &w, u), std::mem::take(&mut buf))
+            let point = point_into(ctx, (m, grid), (s, &x, &w, u), std::mem::take(&mut buf))
                 .map_err(|e| fail(s, e.to_string()))?;
             let l = *point.layout();
             for c in 0..np {

@@ -158,7 +158,12 @@ impl ModalPlant {
         c: usize,
         value: f64,
     ) -> Result<(), ModalError> {
-        let name = self.parameters()[wrt.params[c].param].clone();
+        let Some(name) = self.parameters().get(wrt.params[c].param).cloned() else {
+            return Err(ModalError::Setup(format!(
+                "`{}` is a grid value of a map, not a parameter: replace the map (`set_map`) to move it",
+                wrt.params[c].name
+            )));
+        };
         for ((_, m), columns) in self.modes.iter_mut().zip(&wrt.columns) {
             if columns[c].is_some() {
                 m.set_param(&name, value)
@@ -191,6 +196,22 @@ impl ModalPlant {
                 .map_err(|e| ModalError::Setup(e.to_string()))?;
         }
         Ok(())
+    }
+
+    /// Every mode's maps, in the modes' order (a mode that never calls a map has none).
+    pub fn mode_maps(&self) -> impl Iterator<Item = &[invsim_model_api::map::Map]> {
+        self.modes.iter().map(|(_, m)| m.maps())
+    }
+
+    /// The maps of the modes, each once (the first mode's that has it: `set_map` replaces it in all).
+    pub fn maps(&self) -> Vec<&invsim_model_api::map::Map> {
+        let mut out: Vec<&invsim_model_api::map::Map> = Vec::new();
+        for m in self.mode_maps().flatten() {
+            if !out.iter().any(|o| o.name() == m.name()) {
+                out.push(m);
+            }
+        }
+        out
     }
 
     /// Replace a lookup map in every mode whose equations use it (modes are derived apart, so a mode that
