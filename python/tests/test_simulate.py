@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 import invsim
-from conftest import SHARED, SI_ENGINE, assert_close, run_cli, shared_model
+from conftest import REPO, SHARED, SI_ENGINE, assert_close, run_cli, shared_model
 
 
 def cli_run(tmp_path, model, *args):
@@ -185,6 +185,21 @@ def test_a_cycle_in_the_wrong_unit_warns_before_the_run(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         model.simulate(cycle="nedc", dt=1.0)
+
+
+def test_a_map_s_grid_values_are_gradient_names_as_on_the_command_line(tmp_path):
+    # `bsfc[3,2]` keeps its comma whether the names come as one string (split at every comma and joined back
+    # by the runtime) or as a list; the block equals the command line's bit for bit.
+    maps = REPO / "models" / "si_engine_maps.toml"
+    model = invsim.Model(maps)
+    names = "m,bsfc[3,2],eta_vol[4,2]"
+    by_string = model.simulate(cycle="ece", keep_series=False, gradient=names)
+    by_list = model.simulate(cycle="ece", keep_series=False, gradient=["m", "bsfc[3,2]", "eta_vol[4,2]"])
+    summary, _ = cli_run(tmp_path, maps, "--cycle", "ece", "--gradient", names)
+    assert by_string.summary["gradient"] == summary["gradient"] == by_list.summary["gradient"]
+    g = by_string.gradient
+    assert sorted(g.index) == ["bsfc[3,2]", "eta_vol[4,2]", "m"]
+    assert g.loc["eta_vol[4,2]", "fuel"] != 0.0 and g.loc["bsfc[3,2]", "fuel_bsfc"] != 0.0
 
 
 def test_gradient_is_the_cli_block_and_the_slope_of_the_fuel(si_engine, tmp_path):

@@ -16,6 +16,8 @@
 //! - `hybrid`: `simulate --strategy ecms`: the closed-form split of a quadratic hybrid, hev_p2 charge-sustaining
 //!   on UDDS, HWFET and WLTC 3b with every mode's equation checked by hand and its fuel within 3 % of DP's, the
 //!   J1711 correction.
+//! - `hybrid_charge`: the battery's charge within [0, 1]: a start outside and a run draining the battery below
+//!   empty exit 2 naming the state, the option and the time.
 //! - `hybrid_dp`: `simulate --strategy dp`: convergence to the closed-form discrete optimum of a quadratic
 //!   hybrid as the grids are refined (ECMS reaching it), hev_p2 on UDDS charge-sustaining and within its grid
 //!   error of ECMS, refusals.
@@ -71,6 +73,7 @@ mod gradient_modes;
 mod headline;
 mod hostile;
 mod hybrid;
+mod hybrid_charge;
 mod hybrid_dp;
 mod hybrid_fastsim;
 mod hybrid_mvem;

@@ -18,7 +18,7 @@ use super::rules::Rules;
 use super::signals::{record_signals, smoother_with_signals};
 use super::strategy::{Method, StrategyOptions};
 use super::verify::replay;
-use super::{ModalError, ModalOptions, ModalResult, ModalSpec};
+use super::{charge_window, ModalError, ModalOptions, ModalResult, ModalSpec};
 use crate::cycle::Cycle;
 use crate::grid::Grid;
 use crate::signals::SignalInput;
@@ -162,6 +162,8 @@ pub fn simulate_hybrid(
         decided,
     };
     let x0 = start_state(spec, initial)?;
+    let soc_name = &spec.modes[0].model.info().states[h.soc];
+    charge_window::check_start(x0[h.soc], soc_name)?;
     crate::grid::check_record(grid.samples(), 2 * ctx.n + r_max + 8, opts.dt)?;
     let samples = samples(&ctx, &grid);
     let run = Ecms {
@@ -199,6 +201,7 @@ pub fn simulate_hybrid(
             (first, block)
         }
     };
+    charge_window::check_trace(&best.rec, h.soc, soc_name)?;
     // --verify: the chosen modes, free input and decided inputs replayed through the original equations.
     let verify = opts.verify.then(|| replay(&ctx, &best.rec)).transpose()?;
     block.soc_end_replayed = verify.as_ref().map(|v| v.x_end[h.soc]);

@@ -14,6 +14,7 @@
 
 mod bases;
 pub mod blend;
+mod charge_window;
 pub(crate) mod coupling;
 mod dp;
 mod ecms;
