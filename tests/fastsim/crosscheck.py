@@ -22,7 +22,8 @@ previous run ended until |delta SOC| < 1e-3 (at most 5 runs), as FASTSim balance
 for the Prius on both cycles and the Sonata on HWFET (asserted), reported for the Sonata on UDDS (FASTSim runs
 its engine at a standstill and while braking, charging, which the model's standstill and brake modes do not;
 docs/vehicles.md §6). The Sonata runs with its engine warm (90 °C at the start) in both: FASTSim's initial
-temperature set, invsim's `--initial T_fc=363.15` (its model has FASTSim's engine thermal model).
+temperature set, invsim's `--initial T_fc=363.15` (its model has FASTSim's engine thermal model, and starts
+there by default too).
 
 Usage: python tests/fastsim/crosscheck.py [--invsim PATH] [--cycles DIR] [--lookahead A|auto] [--dt DT] [--all]
   --invsim   the invsim binary (default: target/release/invsim of this repository)

@@ -328,6 +328,7 @@ const WARNINGS: &[(&str, &str)] = &[
         "crates/import/src/hev_rules.rs",
         "the engine is forced on below T_fc_on at each sample",
     ),
+    ("crates/import/src/hev.rs", "the engine starts warm, its"),
 ];
 
 /// The guide's section "Warnings": from its heading to the next heading of level 2 or 3 (or the end).

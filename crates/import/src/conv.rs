@@ -41,6 +41,7 @@ pub fn emit(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<
         output_s: "P_w_pos_s/eta_t + P_aux/eta_alt",
         run_s: &controls.run_s,
         fuel_s: &controls.fuel_s,
+        warm: false,
     };
     let thermal = crate::thermal::emit(doc, model, (BASE, &curve), &coupling)?;
     let divisor = crate::thermal::cold_divisor(divisor, thermal);

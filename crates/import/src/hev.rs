@@ -93,12 +93,22 @@ fn engine(
     let divisor = crate::fuel::divisor(&curve, &eff);
     // The hybrid mode's engine power at its share rho is P_tx/(1 - rho), P_tx = P_w/eta_t while driving
     // (F_t above); the heat sees it from the lagged wheel power, free of the inputs as a state's rhs must be.
+    // The engine starts warm: ECMS, pricing each interval alone, cannot warm a cold one (docs/hybrids.md).
     let coupling = crate::thermal::Coupling {
         output_s: "c_on*P_w_pos_s/(eta_t*(1 - rho))",
         run_s: "c_on",
         fuel_s: "1",
+        warm: true,
     };
     let thermal = crate::thermal::emit(doc, model, (BASE, &curve), &coupling)?;
+    if thermal {
+        warnings.push(format!(
+            "`{BASE}.fc.thrml.FuelConverterThermal.state.temperature_kelvin`: the engine starts warm, its \
+             thermostat just fully open (T_fc = T_sto + dT_tstat), as the strategies are compared on a hot \
+             start; FASTSim's cold start from the file's temperature with --initial T_fc=... (ECMS cannot \
+             warm a cold engine: the rules or DP can)"
+        ));
+    }
     crate::thermal::others(doc, BASE, warnings);
     let divisor = crate::thermal::cold_divisor(divisor, thermal);
     model.def(

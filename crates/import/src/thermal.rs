@@ -56,6 +56,8 @@ pub struct Coupling<'a> {
     pub run_s: &'a str,
     /// The smooth fuel cut-off factor (`c_fuel_s`), or `1`.
     pub fuel_s: &'a str,
+    /// Start warm, the thermostat just fully open (T_sto + ΔT), instead of at the file's initial temperature.
+    pub warm: bool,
 }
 
 /// Emit the thermal model if the file has one at `{base}.fc.thrml`: parameters, the smooth heat balance, the
@@ -71,7 +73,20 @@ pub fn emit(
     if doc.get(&path).is_none() {
         return Ok(false);
     }
-    let t0 = parameters(doc, model, &path)?;
+    let file_t0 = parameters(doc, model, &path)?;
+    let initial = format!("{path}.state.temperature_kelvin");
+    let (t0, origin) = if coupling.warm {
+        let open = doc.num(&format!("{path}.tstat_te_sto_kelvin"))?
+            + doc.num(&format!("{path}.tstat_te_delta_kelvin"))?;
+        let origin = format!(
+            "initially warm, T_sto + dT_tstat (the thermostat just fully open), not the file's `{initial}` \
+             ({} K: --initial T_fc=... for it)",
+            crate::model::number(file_t0)
+        );
+        (open, origin)
+    } else {
+        (file_t0, format!("initial value `{initial}`"))
+    };
     model.constant("T_ad0", T_AD_0, "K", "adiabatic flame temperature T_ad = T_ad0 + T_ad1*T_fc: FASTSim's gasoline `te_adiabatic`, fitted over 295-380 K");
     model.constant(
         "T_ad1",
@@ -105,7 +120,7 @@ pub fn emit(
         unit: "K".to_string(),
         doc: format!(
             "engine temperature: C_fc dT_fc/dt = Q_fc - h_fc A (T_fc - T_amb), A = pi L_fc^2/4; FASTSim \
-             `fc.thrml`, initial value `{path}.state.temperature_kelvin`"
+             `fc.thrml`, {origin}"
         ),
     });
     model.output(
@@ -252,6 +267,7 @@ fn heat_balance(model: &mut Model, coupling: &Coupling<'_>) {
         output_s,
         run_s,
         fuel_s,
+        ..
     } = coupling;
     // Smooth, for the rhs of T_fc.
     let smax = |a: &str, b: &str, w: &str| {

@@ -45,8 +45,27 @@ pub(super) fn fixed(
     Ok((best, 1, Some(other)))
 }
 
-/// The charge-sustaining run: (run, runs taken, the bracket's other end).
+/// The charge-sustaining run: (run, runs taken, the bracket's other end). Where none is found in a model with
+/// internal states besides the charge, the error names them as a likely cause: ECMS, pricing the interval
+/// alone, keeps a cold engine (its efficiency factor c(T) low) off at every s that does not charge without
+/// end (docs/hybrids.md).
 pub(super) fn search(
+    run: &Ecms<'_, '_, '_>,
+    tol: f64,
+    x0: &[f64],
+) -> Result<(Outcome, usize, Option<Outcome>), ModalError> {
+    search_from_s0(run, tol, x0).map_err(|e| match e {
+        ModalError::Setup(msg) if run.other_internal_states() => ModalError::Setup(format!(
+            "{msg} (the model has internal states besides the charge, such as an engine's temperature: \
+             ECMS does not foresee their later costs, so from a cold engine no s may sustain the charge; \
+             start it warm with --initial NAME=VALUE, or use --strategy rule-based or dp)"
+        )),
+        other => other,
+    })
+}
+
+/// [`search`] itself.
+fn search_from_s0(
     run: &Ecms<'_, '_, '_>,
     tol: f64,
     x0: &[f64],
