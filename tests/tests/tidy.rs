@@ -309,7 +309,7 @@ const WARNINGS: &[(&str, &str)] = &[
         "the engine stops as soon as the car stands",
     ),
     (
-        "crates/import/src/conv.rs",
+        "crates/import/src/thermal.rs",
         "is a thermal model: it is not reproduced",
     ),
     (
@@ -324,6 +324,11 @@ const WARNINGS: &[(&str, &str)] = &[
         "crates/import/src/hev_rules.rs",
         "FASTSim's controller is the model's rules for `--strategy rule-based`",
     ),
+    (
+        "crates/import/src/hev_rules.rs",
+        "the engine is forced on below T_fc_on at each sample",
+    ),
+    ("crates/import/src/hev.rs", "the engine starts warm, its"),
 ];
 
 /// The guide's section "Warnings": from its heading to the next heading of level 2 or 3 (or the end).

@@ -37,13 +37,14 @@ pub fn emit(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<
     let divisor = crate::fuel::divisor(&curve, &eff);
     let thermal = doc.get(&p("fc.thrml.FuelConverterThermal")).is_some();
     let controls = crate::controls::emit(doc, model, BASE, thermal, warnings)?;
-    let thermal =
-        crate::thermal::emit(doc, model, BASE, &curve, &controls.run_s, &controls.fuel_s)?;
-    let divisor = if thermal {
-        format!("({divisor}*c_cold)")
-    } else {
-        divisor
+    let coupling = crate::thermal::Coupling {
+        output_s: "P_w_pos_s/eta_t + P_aux/eta_alt",
+        run_s: &controls.run_s,
+        fuel_s: &controls.fuel_s,
+        warm: false,
     };
+    let thermal = crate::thermal::emit(doc, model, (BASE, &curve), &coupling)?;
+    let divisor = crate::thermal::cold_divisor(divisor, thermal);
     let controls = controls.exact;
     let doc_fuel = if controls.is_empty() {
         "fuel power, at least the idle fuel power"
@@ -84,24 +85,6 @@ pub fn emit(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<
         false,
     );
     model.output("eff_engine", &eff, "-", "engine efficiency", false);
-    conv_controls(doc, warnings);
+    crate::thermal::others(doc, BASE, warnings);
     Ok(())
-}
-
-/// The engine's thermal model (FASTSim `fc.thrml`): `FuelConverterThermal` is reproduced (`thermal.rs`),
-/// any other is named in a warning.
-fn conv_controls(doc: &Doc, warnings: &mut Vec<String>) {
-    let thrml = format!("{BASE}.fc.thrml");
-    match doc.get(&thrml) {
-        Some(v) if v.as_str() == Some("None") => doc.mark(&thrml),
-        Some(_) if doc.get(&format!("{thrml}.FuelConverterThermal")).is_some() => {}
-        Some(v) if v.is_mapping() => {
-            warnings.push(format!(
-                "`{thrml}` is a thermal model: it is not reproduced (only `FuelConverterThermal` is; the \
-                 engine is warm from the start, so a cold start's extra fuel is not counted)"
-            ));
-            doc.mark(&thrml);
-        }
-        _ => {}
-    }
 }

@@ -8,6 +8,8 @@
 //! machine P_el,m = P_m/e_em(P_m/P_m,max) driving and P_m e_em(0) regenerating; battery terminal power
 //! P_el = P_el,m + P_aux (the auxiliaries on the battery, FASTSim's `AuxOnResPriority`), chemical power
 //! P_el/η_res discharging and P_el η_res charging, SOC' = −P_chem/E_res.
+//! An engine thermal model in the file (`fc.thrml: FuelConverterThermal`, the Sonata's) is imported as for a
+//! conventional vehicle (`thermal.rs`): the efficiency while cold e·c(T), the state `T_fc`.
 
 use crate::curve::{scalar, table, Curve, Strategy};
 use crate::error::ImportError;
@@ -29,14 +31,14 @@ const RHO_MIN: f64 = -1.0;
 /// Emit the powertrain, its four modes and the `[hybrid]` table.
 pub fn emit(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<(), ImportError> {
     parameters(doc, model)?;
-    let fc = engine(doc, model, warnings)?;
+    let (fc, thermal) = engine(doc, model, warnings)?;
     let em = machine(doc, model)?;
     battery(doc, model, warnings)?;
     forces(model);
     rolling_at_standstill(model);
     inputs(doc, model, fc, em)?;
     outputs(model);
-    let rules = crate::hev_rules::emit(doc, model, warnings)?;
+    let rules = crate::hev_rules::emit(doc, model, thermal, warnings)?;
     model.tail = tail(&rules);
     not_reproduced(doc, warnings);
     Ok(())
@@ -66,8 +68,14 @@ fn parameters(doc: &Doc, model: &mut Model) -> Result<(), ImportError> {
     Ok(())
 }
 
-/// The engine: peak power, idle fuel, efficiency over the load fraction (linear, in the outputs only).
-fn engine(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<f64, ImportError> {
+/// The engine: peak power, idle fuel, efficiency over the load fraction (linear, in the outputs only), and its
+/// thermal model where the file has one (`thermal.rs`, as for a conventional vehicle): the state `T_fc`, the
+/// efficiency while cold e·c(T). Whether the thermal model was emitted is in the second value.
+fn engine(
+    doc: &Doc,
+    model: &mut Model,
+    warnings: &mut Vec<String>,
+) -> Result<(f64, bool), ImportError> {
     let max = doc.num(&p("fc.pwr_out_max_watts"))?;
     model.field(
         "P_fc_max",
@@ -83,13 +91,33 @@ fn engine(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<f6
     let curve = table(doc, &p("fc.eff_interp_from_pwr_out"))?;
     let eff = crate::efficiency::emit(model, "fc", &curve, "P_e/P_fc_max", "engine efficiency")?;
     let divisor = crate::fuel::divisor(&curve, &eff);
+    // The hybrid mode's engine power at its share rho is P_tx/(1 - rho), P_tx = P_w/eta_t while driving
+    // (F_t above); the heat sees it from the lagged wheel power, free of the inputs as a state's rhs must be.
+    // The engine starts warm: ECMS, pricing each interval alone, cannot warm a cold one (docs/hybrids.md).
+    let coupling = crate::thermal::Coupling {
+        output_s: "c_on*P_w_pos_s/(eta_t*(1 - rho))",
+        run_s: "c_on",
+        fuel_s: "1",
+        warm: true,
+    };
+    let thermal = crate::thermal::emit(doc, model, (BASE, &curve), &coupling)?;
+    if thermal {
+        warnings.push(format!(
+            "`{BASE}.fc.thrml.FuelConverterThermal.state.temperature_kelvin`: the engine starts warm, its \
+             thermostat just fully open (T_fc = T_sto + dT_tstat), as the strategies are compared on a hot \
+             start; FASTSim's cold start from the file's temperature with --initial T_fc=... (ECMS cannot \
+             warm a cold engine: the rules or DP can)"
+        ));
+    }
+    crate::thermal::others(doc, BASE, warnings);
+    let divisor = crate::thermal::cold_divisor(divisor, thermal);
     model.def(
         "P_fuel",
         &format!("c_on*max(P_e/{divisor}, P_idle)"),
         "W",
         "fuel power while the engine runs, at least the idle fuel power; 0 with the engine off",
     );
-    Ok(max)
+    Ok((max, thermal))
 }
 
 /// The machine: peak power and its efficiency table as a smooth map (it enters the charge's rate).
@@ -314,7 +342,6 @@ fn not_reproduced(doc: &Doc, warnings: &mut Vec<String>) {
     for (f, what) in [
         ("res.min_soc", "the SOC limits are parameters (soc_min, soc_max) but not enforced: a charge-sustaining run stays near its start"),
         ("fc.pwr_out_max_init_watts", "the engine's power ramp (pwr_out_max_init_watts, pwr_ramp_lag_seconds) is not reproduced"),
-        ("fc.thrml", "the engine's thermal model is not reproduced: the engine is warm from the start (no cold-start fuel, no engine on for warm-up) and without FASTSim's efficiency factor c(T), which stays below 1 even warm (about 0.8 for the Sonata at its thermostat's temperature)"),
         ("aux_cntrl", "the auxiliaries are always on the battery (AuxOnResPriority; the battery's power limit is not enforced)"),
         ("sim_params", "FASTSim's SOC-balancing iterations are replaced by the strategies' charge-sustaining runs and the J1711 correction"),
     ] {

@@ -10,9 +10,11 @@
 //! linearly to 0 over the SOC band c_d · ½ m max(v_d² − v², 0) / (E (max_soc − min_soc)) above min_soc
 //! (`speed_soc_disch_buffer*`) —, or the engine started less than `fc_min_time_on` ago. Running, it delivers
 //! P_e* = min(max(P_tx − P_em,max, f · P_peak), P_tx + P_em,max, P_fc,max), P_peak the power of the table's
-//! (first) peak efficiency and f `frac_of_most_eff_pwr_to_run_fc`, the machine absorbing the surplus. FASTSim
-//! also runs the engine at a standstill and while braking when it is forced on (charging); the model's
-//! standstill and brake modes have the engine off.
+//! (first) peak efficiency and f `frac_of_most_eff_pwr_to_run_fc`, the machine absorbing the surplus. With the
+//! engine's thermal model (`thermal.rs`) the engine is also forced on while colder than `temp_fc_forced_on`
+//! (FASTSim lets it off again above `temp_fc_allowed_off`, a hysteresis the request at the sample does not
+//! hold). FASTSim also runs the engine at a standstill and while braking when it is forced on (charging); the
+//! model's standstill and brake modes have the engine off.
 
 use crate::curve::table;
 use crate::error::ImportError;
@@ -31,9 +33,11 @@ fn p(f: &str) -> String {
 }
 
 /// Emit the controller's parameters and the two rule outputs; the charge mode and the `[hybrid]` keys.
+/// `thermal`: the model has the engine's temperature `T_fc`.
 pub fn emit(
     doc: &Doc,
     model: &mut Model,
+    thermal: bool,
     warnings: &mut Vec<String>,
 ) -> Result<Rules, ImportError> {
     if doc.get(BASE).is_none() {
@@ -66,14 +70,17 @@ pub fn emit(
     );
     model.def("soc_disch_band", "k_disch*0.5*m*max(v_disch^2 - v^2, 0)/(E_res*(soc_max - soc_min))", "-", "SOC band above the lowest in which FASTSim derates the battery's discharge power linearly to 0 (reversible_energy_storage.rs set_pwr_disch_max)");
     model.def("P_em_avail", "min(P_em_max, P_res_max*min(max((soc - soc_min)/max(soc_disch_band, 1e-12), 0), 1) - P_aux)", "W", "the machine's driving power FASTSim allows: its peak, at most the derated discharge power less the auxiliaries");
-    model.output("fc_request", "max(max(sign(v - v_fc_on), sign(soc_fc_on - soc)), max(sign(P_w - f_dem*(P_em_max + P_fc_max)), sign(P_w - P_em_avail)))", "-", "positive where FASTSim's controller runs the engine (speed, low SOC, power demand, the machine's allowed power): the rules' `rule_request`", false);
-    model.output("fc_target_error", "P_e - min(min(max(P_tx - P_em_avail, f_run*P_fc_peak), P_tx + P_em_max), P_fc_max)", "W", "engine power less FASTSim's choice with the engine on (at least its peak-efficiency power, the machine absorbing the surplus): the rules' `rule_target`", false);
-    if doc.get(&p("temp_fc_forced_on_kelvin")).is_some() {
-        warnings.push(format!(
-            "`{}`: the engine kept on while cold is not reproduced (no engine thermal model)",
-            p("temp_fc_forced_on_kelvin")
-        ));
+    let mut request = "max(max(sign(v - v_fc_on), sign(soc_fc_on - soc)), max(sign(P_w - f_dem*(P_em_max + P_fc_max)), sign(P_w - P_em_avail)))".to_string();
+    let mut why = "speed, low SOC, power demand, the machine's allowed power";
+    if cold_request(doc, model, thermal, warnings)? {
+        request = format!("max({request}, sign(T_fc_on - T_fc))");
+        why = "speed, low SOC, power demand, the machine's allowed power, a cold engine";
     }
+    let doc_request = format!(
+        "positive where FASTSim's controller runs the engine ({why}): the rules' `rule_request`"
+    );
+    model.output("fc_request", &request, "-", &doc_request, false);
+    model.output("fc_target_error", "P_e - min(min(max(P_tx - P_em_avail, f_run*P_fc_peak), P_tx + P_em_max), P_fc_max)", "W", "engine power less FASTSim's choice with the engine on (at least its peak-efficiency power, the machine absorbing the surplus): the rules' `rule_target`", false);
     warnings.push(format!(
         "`{BASE}`: FASTSim's controller is the model's rules for `--strategy rule-based` ([hybrid] rule_request, rule_target, rule_min_on), evaluated at the sample rather than at the previous step; its regeneration buffer (speed_soc_regen_buffer*) is not reproduced, nor the engine charging at a standstill or while braking (a model has one standstill and one brake mode, both with the engine off)"
     ));
@@ -84,6 +91,44 @@ pub fn emit(
             number(min_on)
         ),
     })
+}
+
+/// Whether the request has a term for a cold engine, `max(…, sign(T_fc_on - T_fc))`: with the thermal model and FASTSim's
+/// `temp_fc_forced_on_kelvin` set, the engine runs while colder (its `temp_fc_allowed_off_kelvin`, the
+/// temperature above which it may stop again, is warned: the request at the sample has no memory); without
+/// the thermal model a set field is warned as not reproduced.
+fn cold_request(
+    doc: &Doc,
+    model: &mut Model,
+    thermal: bool,
+    warnings: &mut Vec<String>,
+) -> Result<bool, ImportError> {
+    let on = p("temp_fc_forced_on_kelvin");
+    if doc.opt_num(&on)?.is_none_or(f64::is_nan) {
+        return Ok(false);
+    }
+    if !thermal {
+        warnings.push(format!(
+            "`{on}`: the engine kept on while cold is not reproduced (no engine thermal model)"
+        ));
+        return Ok(false);
+    }
+    model.field(
+        "T_fc_on",
+        doc.num(&on)?,
+        "K",
+        "the engine runs while its temperature is below this",
+        &on,
+    )?;
+    let off = p("temp_fc_allowed_off_kelvin");
+    if let Some(t) = doc.opt_num(&off)?.filter(|t| !t.is_nan()) {
+        warnings.push(format!(
+            "`{off}`: the engine is forced on below T_fc_on at each sample; FASTSim's hysteresis (on until {} K) \
+             is not reproduced",
+            crate::model::number(t)
+        ));
+    }
+    Ok(true)
 }
 
 /// FASTSim's `pwr_for_peak_eff`: the peak power times the load of the efficiency table's first maximum.

@@ -397,6 +397,71 @@ pub const FIELDS: &[(&str, Range, &str)] = &[
         FACTOR,
         "the factor of the hybrid battery's discharge derating band",
     ),
+    (
+        "pt_type.HEV.fc.thrml.FuelConverterThermal.heat_capacitance_joules_per_kelvin",
+        POSITIVE,
+        "the engine heat capacitance",
+    ),
+    (
+        "pt_type.HEV.fc.thrml.FuelConverterThermal.length_for_convection_meters",
+        POSITIVE,
+        "the engine length for convection",
+    ),
+    (
+        "pt_type.HEV.fc.thrml.FuelConverterThermal.htc_to_amb_stop_watts_per_square_meter_kelvin",
+        NON_NEGATIVE,
+        "the engine heat transfer coefficient to the ambient while standing",
+    ),
+    (
+        "pt_type.HEV.fc.thrml.FuelConverterThermal.conductance_from_comb_watts_per_kelvin",
+        NON_NEGATIVE,
+        "the conductance from the flame to the engine",
+    ),
+    (
+        "pt_type.HEV.fc.thrml.FuelConverterThermal.max_frac_from_comb",
+        FRACTION,
+        "the largest fraction of the losses heating the engine",
+    ),
+    (
+        "pt_type.HEV.fc.thrml.FuelConverterThermal.tstat_te_sto_kelvin",
+        ENGINE_KELVIN,
+        "the temperature at which the thermostat starts to open",
+    ),
+    (
+        "pt_type.HEV.fc.thrml.FuelConverterThermal.tstat_te_delta_kelvin",
+        KELVIN_INTERVAL,
+        "the thermostat's opening range",
+    ),
+    (
+        "pt_type.HEV.fc.thrml.FuelConverterThermal.radiator_effectiveness",
+        NON_NEGATIVE,
+        "the radiator effectiveness",
+    ),
+    (
+        "pt_type.HEV.fc.thrml.FuelConverterThermal.fc_eff_model.Exponential.offset",
+        KELVIN_OFFSET,
+        "the cold-efficiency offset temperature",
+    ),
+    (
+        "pt_type.HEV.fc.thrml.FuelConverterThermal.fc_eff_model.Exponential.lag",
+        KELVIN_INTERVAL,
+        "the cold-efficiency temperature scale",
+    ),
+    (
+        "pt_type.HEV.fc.thrml.FuelConverterThermal.fc_eff_model.Exponential.minimum",
+        EFFICIENCY,
+        "the cold-efficiency factor's lower bound",
+    ),
+    (
+        "pt_type.HEV.fc.thrml.FuelConverterThermal.state.temperature_kelvin",
+        ENGINE_KELVIN,
+        "the engine's initial temperature",
+    ),
+    (
+        "pt_type.HEV.pt_cntrl.RGWDB.temp_fc_forced_on_kelvin",
+        ENGINE_KELVIN,
+        "the temperature below which the hybrid's controller runs the engine",
+    ),
 ];
 
 /// The table's key of a field path: a trailing `.Constant` dropped, every index written `[]` except a grid's

@@ -1,6 +1,7 @@
 //! FASTSim 3.1's engine thermal model (`fc.thrml: FuelConverterThermal`) as the internal state `T_fc`, the
 //! lumped engine temperature (K), with the ambient temperature as the signal `T_amb` (°C, default 22 °C,
-//! FASTSim's default cycle `temp_amb_air`).
+//! FASTSim's default cycle `temp_amb_air`): one model for the conventional and the hybrid import, which differ
+//! only in the engine's output power the heat balance sees ([`Coupling`]).
 //!
 //! FASTSim (fuel_converter.rs, `FuelConverterThermal::solve`; reproduced from its histories on UDDS to within
 //! 0.0005 K over the whole cycle), per step of length dt with the previous step's values:
@@ -45,22 +46,47 @@ const TAU_A: f64 = 0.5;
 /// Sample points per table segment of the smooth fuel map x/e(x).
 const SUBDIVISIONS: usize = 8;
 
-/// Emit the thermal model if the file has one: parameters, the smooth heat balance, the state `T_fc`, the
-/// signal `T_amb` and the definition `c_cold` (the cold efficiency factor); returns whether it did.
-/// `run_s` and `fuel_s` are the smooth stop-start and fuel cut-off factors (`1` when absent).
+/// How the heat balance sees the engine run, as smooth expressions free of the inputs (a state's rhs; the
+/// load from the lagged wheel power `P_w_pos_s`, the smooth positive part of (F_res + m_eff a_lag) v).
+pub struct Coupling<'a> {
+    /// The engine's output power: conventional, P_w_pos_s/η_t + P_aux/η_alt (traction and the alternator);
+    /// hybrid, c_on P_w_pos_s/(η_t (1 − ρ)) (the hybrid mode's engine power at its share ρ, 0 with it off).
+    pub output_s: &'a str,
+    /// The smooth running factor: stop-start's (`c_run_s`), the hybrid's modes (`c_on`), or `1`.
+    pub run_s: &'a str,
+    /// The smooth fuel cut-off factor (`c_fuel_s`), or `1`.
+    pub fuel_s: &'a str,
+    /// Start warm, the thermostat just fully open (T_sto + ΔT), instead of at the file's initial temperature.
+    pub warm: bool,
+}
+
+/// Emit the thermal model if the file has one at `{base}.fc.thrml`: parameters, the smooth heat balance, the
+/// state `T_fc`, the signal `T_amb` and the definition `c_cold` (the cold efficiency factor); returns whether it
+/// did. `curve` is the engine's efficiency table.
 pub fn emit(
     doc: &Doc,
     model: &mut Model,
-    base: &str,
-    curve: &Curve,
-    run_s: &str,
-    fuel_s: &str,
+    (base, curve): (&str, &Curve),
+    coupling: &Coupling<'_>,
 ) -> Result<bool, ImportError> {
     let path = format!("{base}.fc.thrml.FuelConverterThermal");
     if doc.get(&path).is_none() {
         return Ok(false);
     }
-    let t0 = parameters(doc, model, &path)?;
+    let file_t0 = parameters(doc, model, &path)?;
+    let initial = format!("{path}.state.temperature_kelvin");
+    let (t0, origin) = if coupling.warm {
+        let open = doc.num(&format!("{path}.tstat_te_sto_kelvin"))?
+            + doc.num(&format!("{path}.tstat_te_delta_kelvin"))?;
+        let origin = format!(
+            "initially warm, T_sto + dT_tstat (the thermostat just fully open), not the file's `{initial}` \
+             ({} K: --initial T_fc=... for it)",
+            crate::model::number(file_t0)
+        );
+        (open, origin)
+    } else {
+        (file_t0, format!("initial value `{initial}`"))
+    };
     model.constant("T_ad0", T_AD_0, "K", "adiabatic flame temperature T_ad = T_ad0 + T_ad1*T_fc: FASTSim's gasoline `te_adiabatic`, fitted over 295-380 K");
     model.constant(
         "T_ad1",
@@ -86,7 +112,7 @@ pub fn emit(
         "-",
         "cold efficiency factor of the engine: its efficiency is e*c_cold",
     );
-    heat_balance(model, run_s, fuel_s);
+    heat_balance(model, coupling);
     model.states.push(State {
         name: "T_fc".to_string(),
         rhs: "(Q_fc - h_fc*pi*L_fc^2/4*(T_fc - T_amb_K))/C_fc".to_string(),
@@ -94,7 +120,7 @@ pub fn emit(
         unit: "K".to_string(),
         doc: format!(
             "engine temperature: C_fc dT_fc/dt = Q_fc - h_fc A (T_fc - T_amb), A = pi L_fc^2/4; FASTSim \
-             `fc.thrml`, initial value `{path}.state.temperature_kelvin`"
+             `fc.thrml`, {origin}"
         ),
     });
     model.output(
@@ -112,6 +138,34 @@ pub fn emit(
         false,
     );
     Ok(true)
+}
+
+/// The efficiency divisor of the fuel power with the thermal model: e·c_cold (FASTSim's efficiency while
+/// cold, P_fuel = P/(e c(T))); without it `divisor` as it is.
+pub fn cold_divisor(divisor: String, thermal: bool) -> String {
+    if thermal {
+        format!("({divisor}*c_cold)")
+    } else {
+        divisor
+    }
+}
+
+/// A thermal model at `{base}.fc.thrml` other than `FuelConverterThermal` is named in a warning (the engine is
+/// then warm from the start); `None` is marked as read.
+pub fn others(doc: &Doc, base: &str, warnings: &mut Vec<String>) {
+    let thrml = format!("{base}.fc.thrml");
+    match doc.get(&thrml) {
+        Some(v) if v.as_str() == Some("None") => doc.mark(&thrml),
+        Some(_) if doc.get(&format!("{thrml}.FuelConverterThermal")).is_some() => {}
+        Some(v) if v.is_mapping() => {
+            warnings.push(format!(
+                "`{thrml}` is a thermal model: it is not reproduced (only `FuelConverterThermal` is; the \
+                 engine is warm from the start, so a cold start's extra fuel is not counted)"
+            ));
+            doc.mark(&thrml);
+        }
+        _ => {}
+    }
 }
 
 /// The thermal model's parameters read from `path` (`fc.thrml.FuelConverterThermal`), each checked against its
@@ -208,7 +262,13 @@ fn parameters(doc: &Doc, model: &mut Model, path: &str) -> Result<f64, ImportErr
 
 /// The smooth heat balance for the rhs of T_fc: the lagged acceleration `a_lag`, the engine's losses, the heat
 /// into the engine `Q_fc`, the thermostat and the heat transfer coefficient `h_fc`.
-fn heat_balance(model: &mut Model, run_s: &str, fuel_s: &str) {
+fn heat_balance(model: &mut Model, coupling: &Coupling<'_>) {
+    let Coupling {
+        output_s,
+        run_s,
+        fuel_s,
+        ..
+    } = coupling;
     // Smooth, for the rhs of T_fc.
     let smax = |a: &str, b: &str, w: &str| {
         format!("0.5*(({a}) + ({b}) + sqrt((({a}) - ({b}))^2 + {w}^2))")
@@ -254,8 +314,14 @@ fn heat_balance(model: &mut Model, run_s: &str, fuel_s: &str) {
         "tractive power at the wheels from the lagged acceleration (for the thermal state)",
     );
     model.def(
+        "P_w_pos_s",
+        &smax("P_w_s", "0", "10"),
+        "W",
+        "tractive power at the wheels while driving, smooth, from the lagged acceleration (for the thermal state)",
+    );
+    model.def(
         "P_fc_s",
-        &format!("{}/eta_t + P_aux/eta_alt", smax("P_w_s", "0", "10")),
+        output_s,
         "W",
         "engine output power, smooth (for the thermal state)",
     );

@@ -66,15 +66,18 @@ fn concrete(yaml: &Value, pattern: &str) -> Vec<String> {
 }
 
 /// Whether the importer reads the field `pattern` of `yaml`: the battery's initial temperature only for its
-/// efficiency table (the Bolt's), the fuel cut-off's thresholds only when it is enabled, stop-start's
-/// temperature threshold only with the engine's thermal model.
+/// efficiency table (the Bolt's), the fuel cut-off's thresholds only when it is enabled, stop-start's and the
+/// hybrid controller's temperature thresholds only with the engine's thermal model.
 fn read_in(yaml: &Value, pattern: &str) -> bool {
     let has = |p: &str| invsim_import::yaml_lookup(yaml, p);
-    let thermal = has("pt_type.Conv.fc.thrml.FuelConverterThermal").is_some();
-    if pattern.starts_with("pt_type.Conv.fc.thrml.")
-        || pattern == "pt_type.Conv.pt_cntrl.StartStop.temp_fc_forced_on_kelvin"
-    {
-        return thermal;
+    for pt in ["Conv", "HEV"] {
+        let thermal = has(&format!("pt_type.{pt}.fc.thrml.FuelConverterThermal")).is_some();
+        if pattern.starts_with(&format!("pt_type.{pt}.fc.thrml."))
+            || pattern == format!("pt_type.{pt}.pt_cntrl.StartStop.temp_fc_forced_on_kelvin")
+            || pattern == format!("pt_type.{pt}.pt_cntrl.RGWDB.temp_fc_forced_on_kelvin")
+        {
+            return thermal;
+        }
     }
     if pattern.ends_with("temperature_kelvin") {
         return has("pt_type.BEV.res.eff_interp.CRateTemperature").is_some();

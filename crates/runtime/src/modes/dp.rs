@@ -24,6 +24,13 @@
 //! Where the inverse and the zero dynamics do not depend on the charge (hev_p2: constant open-circuit voltage
 //! and resistance), every control's fuel and Δsoc are one evaluation per sample; a sample whose evaluations at
 //! the window's ends and centre differ is evaluated at every grid point.
+//!
+//! Internal states besides the charge (an engine's temperature) are not in the grid: they ride along, an
+//! approximation. The first pass evaluates the controls with them at their start values; a second pass
+//! evaluates them along the first forward run's states (each sample's, its charge the grid's). Every forward
+//! run integrates them exactly; only the cost-to-go holds them as a time-varying parameter. A mode whose
+//! decided input acts on the fuel and battery powers only through them (a decided throttle on a manifold's
+//! pressure) is refused: the grid would not see the decision.
 
 use rayon::prelude::*;
 
@@ -40,6 +47,9 @@ const MAX_CORRECTED: usize = 200;
 const MAX_BISECT: usize = 80;
 /// The terminal penalty μ over the battery's energy per unit of charge.
 const PENALTY_FACTOR: f64 = 10.0;
+/// The passes of a model with internal states besides the charge: the controls at their start values, then
+/// along the first pass's forward run.
+const PASSES: usize = 2;
 
 /// A control at a sample: the mode, the decided value, the fuel energy over the interval, the SOC change.
 #[derive(Clone, Copy, PartialEq)]
@@ -120,6 +130,7 @@ pub(super) fn dynamic_programming(
     tol: f64,
 ) -> Result<DpRun, ModalError> {
     check(run, opts)?;
+    check_riders(run, x0)?;
     let soc_idx = run.h.soc;
     let soc0 = x0[soc_idx];
     let lo = (soc0 - opts.soc_window).max(0.0);
@@ -137,32 +148,36 @@ pub(super) fn dynamic_programming(
         target: soc0,
         mu: 0.0,
     };
-    let tables = tables(run, opts, x0, &grid)?;
-    grid.mu = PENALTY_FACTOR * energy_per_charge(&tables);
-    let cost = backward(&grid, &tables);
-    let slope = slope_at_start(&grid, &cost[..grid.n]);
+    // The first pass holds the internal states other than the charge at their start values; with any, a
+    // second pass evaluates the controls along the first forward run's states.
     let ns = run.samples.t.len();
-    let mut policy: Vec<(usize, f64)> = Vec::with_capacity(ns);
-    let mut socs: Vec<f64> = Vec::with_capacity(ns);
-    let mut pick = |k: usize, x: &[f64], _on: bool| {
-        let row = (k + 1 < ns).then(|| &cost[(k + 1) * grid.n..(k + 2) * grid.n]);
-        let e = choose(run, (k, x), row, (&grid, opts.split_grid))?;
-        policy.push((e.m, e.d));
-        socs.push(x[soc_idx]);
-        Ok(e)
+    let mut along: Vec<Vec<f64>> = vec![x0.to_vec(); ns];
+    let passes = if run.other_internal_states() {
+        PASSES
+    } else {
+        1
     };
-    let first = run.run_policy(f64::NAN, x0, None, &mut pick)?;
+    let mut result = None;
+    for _ in 0..passes {
+        let pass = one_pass(run, opts, (x0, &along), &mut grid)?;
+        along.clone_from(&pass.states);
+        result = Some(pass);
+    }
+    let Some(Pass {
+        mut policy,
+        states,
+        first,
+        slope,
+    }) = result
+    else {
+        return Err(unreachable(f64::NAN, tol));
+    };
     let outcome = if first.delta_soc().abs() <= tol {
         first
     } else {
-        correct_final(
-            run,
-            (&mut policy, &socs),
-            (x0, soc0),
-            (tol, opts.split_grid),
-        )?;
+        correct_final(run, (&mut policy, &states), soc0, (tol, opts.split_grid))?;
         let mut replay = |k: usize, x: &[f64], _on: bool| replay_at(run, k, x, policy[k]);
-        run.run_policy(f64::NAN, x0, None, &mut replay)?
+        run.run_policy(f64::NAN, x0, &[], &mut replay)?
     };
     if outcome.delta_soc().abs() > tol {
         return Err(unreachable(outcome.delta_soc(), tol));
@@ -173,6 +188,86 @@ pub(super) fn dynamic_programming(
         window: [lo, hi],
         mu: grid.mu,
     })
+}
+
+/// One pass of DP: the controls' tables along `along` (every sample's state, its charge replaced by the
+/// grid's), the backward pass and the forward pass from x0.
+struct Pass {
+    policy: Vec<(usize, f64)>,
+    /// The forward run's state at every sample.
+    states: Vec<Vec<f64>>,
+    first: Outcome,
+    slope: f64,
+}
+
+fn one_pass(
+    run: &Ecms<'_, '_, '_>,
+    opts: &DpOptions,
+    (x0, along): (&[f64], &[Vec<f64>]),
+    grid: &mut SocGrid,
+) -> Result<Pass, ModalError> {
+    let tables = tables(run, opts, along, grid)?;
+    grid.mu = PENALTY_FACTOR * energy_per_charge(&tables);
+    let cost = backward(grid, &tables);
+    let slope = slope_at_start(grid, &cost[..grid.n]);
+    let ns = run.samples.t.len();
+    let mut policy: Vec<(usize, f64)> = Vec::with_capacity(ns);
+    let mut states: Vec<Vec<f64>> = Vec::with_capacity(ns);
+    let mut pick = |k: usize, x: &[f64], _on: bool| {
+        let row = (k + 1 < ns).then(|| &cost[(k + 1) * grid.n..(k + 2) * grid.n]);
+        let e = choose(run, (k, x), row, (grid, opts.split_grid))?;
+        policy.push((e.m, e.d));
+        states.push(x.to_vec());
+        Ok(e)
+    };
+    let first = run.run_policy(f64::NAN, x0, &[], &mut pick)?;
+    Ok(Pass {
+        policy,
+        states,
+        first,
+        slope,
+    })
+}
+
+/// Samples probed per mode by [`check_riders`].
+const PROBES: usize = 20;
+
+/// The internal states besides the charge ride along (docs/hybrids.md, DP): refused where a mode's decided
+/// input acts on the cost only through them — its fuel and battery powers at t_k the same at both ends of
+/// its bounds at each of the first [`PROBES`] samples the mode is a candidate at (from the start state),
+/// as a decided throttle acts only through the manifold's pressure: DP's grid, over the charge alone, would
+/// not see the decision.
+fn check_riders(run: &Ecms<'_, '_, '_>, x0: &[f64]) -> Result<(), ModalError> {
+    for (m, mode) in run.ctx.spec.modes.iter().enumerate() {
+        let riders = mode.model.info().eta_states.iter().any(|&j| j != run.h.soc);
+        if riders && blind(run, m, x0) {
+            return Err(ModalError::Setup(format!(
+                "--strategy dp: mode `{}` has internal states besides the charge, and its decided input acts on \
+                 the fuel and battery powers only through them; DP's state is the charge alone",
+                mode.name
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Whether mode m decides an input whose two bounds give the same fuel and battery powers at t_k (within
+/// 10⁻¹²) at every one of the first [`PROBES`] samples where the mode is a candidate and has an inverse
+/// from x0 (and at one such sample at least).
+fn blind(run: &Ecms<'_, '_, '_>, m: usize, x0: &[f64]) -> bool {
+    let Some((a, b)) = bounds(run, m) else {
+        return false;
+    };
+    let close = |x: f64, y: f64| (x - y).abs() <= 1e-12 * (1.0 + x.abs().max(y.abs()));
+    let pairs: Vec<(Eval, Eval)> = (0..run.samples.t.len())
+        .filter(|&k| run.samples.candidates[k].contains(&m))
+        .take(PROBES)
+        .filter_map(|k| Some((run.eval((m, k), x0, a)?, run.eval((m, k), x0, b)?)))
+        .collect();
+    !pairs.is_empty()
+        && pairs
+            .iter()
+            .all(|(p, q)| close(p.p_fuel, q.p_fuel) && close(p.p_batt, q.p_batt))
 }
 
 /// The grids' sizes: at least 2 points each, and within the budget of cells.
@@ -214,16 +309,6 @@ fn check(run: &Ecms<'_, '_, '_>, opts: &DpOptions) -> Result<(), ModalError> {
             "--split-grid {}: {controls} controls over the run exceed the budget of {MAX_CELLS}",
             opts.split_grid
         )));
-    }
-    for (m, mode) in run.ctx.spec.modes.iter().enumerate() {
-        let eta = &mode.model.info().eta_states;
-        if eta.iter().any(|&j| j != run.h.soc) {
-            return Err(ModalError::Setup(format!(
-                "--strategy dp: mode `{}` has internal states besides the charge; DP's state is the charge \
-                 alone",
-                run.ctx.spec.modes[m].name
-            )));
-        }
     }
     if run.h.start_penalty != 0.0 {
         return Err(ModalError::Setup(
@@ -327,7 +412,7 @@ fn same(a: &[Control], b: &[Control]) -> bool {
 fn tables(
     run: &Ecms<'_, '_, '_>,
     opts: &DpOptions,
-    x0: &[f64],
+    along: &[Vec<f64>],
     grid: &SocGrid,
 ) -> Result<Vec<Table>, ModalError> {
     let ns = run.samples.t.len();
@@ -335,6 +420,7 @@ fn tables(
     let out: Vec<Table> = (0..ns - 1)
         .into_par_iter()
         .map(|k| {
+            let x0 = &along[k];
             let first = controls(run, k, x0, probes[0], opts.split_grid);
             let uniform = probes[1..]
                 .iter()
@@ -497,16 +583,14 @@ fn replay_at(
     })
 }
 
-/// The final charge of the policy replayed from sample k with charge `soc` (the other states from x0), and
-/// whether every replayed control stayed feasible.
+/// The final charge of the policy replayed from sample k with the state `xk` (the forward run's there);
+/// `None` where a replayed control fails or the first one is infeasible.
 fn final_soc(
     run: &Ecms<'_, '_, '_>,
     policy: &[(usize, f64)],
-    (k, soc): (usize, f64),
-    x0: &[f64],
+    (k, xk): (usize, &[f64]),
 ) -> Option<f64> {
-    let mut x = x0.to_vec();
-    x[run.h.soc] = soc;
+    let mut x = xk.to_vec();
     for (j, &(m, d)) in policy.iter().enumerate().take(policy.len() - 1).skip(k) {
         let e = run.eval((m, j), &x, d)?;
         if j == k && e.excess > 1e-9 {
@@ -523,8 +607,8 @@ fn final_soc(
 /// search goes on at the previous one, at most [`MAX_CORRECTED`] samples.
 fn correct_final(
     run: &Ecms<'_, '_, '_>,
-    (policy, socs): (&mut [(usize, f64)], &[f64]),
-    (x0, target): (&[f64], f64),
+    (policy, states): (&mut [(usize, f64)], &[Vec<f64>]),
+    target: f64,
     (tol, split): (f64, usize),
 ) -> Result<(), ModalError> {
     let ns = policy.len();
@@ -540,7 +624,7 @@ fn correct_final(
         }
         let gap = |p: &mut [(usize, f64)], d: f64| {
             p[k].1 = d;
-            final_soc(run, p, (k, socs[k]), x0).map(|s| s - target)
+            final_soc(run, p, (k, &states[k])).map(|s| s - target)
         };
         let Some(g_now) = gap(policy, d_now) else {
             policy[k].1 = d_now;

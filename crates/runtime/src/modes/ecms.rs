@@ -36,13 +36,24 @@ pub(super) struct End {
 
 /// The relaxed choice at sample k where ΔSOC(s) jumps at s (one sample's choice flips there, both
 /// choices equally cheap): the interval [t_k, t_k+1] is shared, θ with the run's own choice and 1 − θ with
-/// the choice at the `other` equivalence factor (the other side of the jump), every integral and the
-/// internal states taken in those shares. The relaxed control of the time-shared problem (a chattering
-/// engine on/off within the interval) is what makes the charge-sustaining optimum exist where ΔSOC jumps.
+/// the `other` choice, every integral and the internal states taken in those shares. The relaxed control of
+/// the time-shared problem (a chattering engine on/off within the interval) is what makes the
+/// charge-sustaining optimum exist where ΔSOC jumps.
 pub(super) struct Share {
     pub(super) k: usize,
-    pub(super) other: f64,
+    /// The run's own choice in this mode alone (`None`: among every candidate).
+    pub(super) own: Option<usize>,
+    pub(super) other: Other,
     pub(super) theta: f64,
+}
+
+/// The other choice of a shared sample.
+#[derive(Clone, Copy)]
+pub(super) enum Other {
+    /// The choice at another equivalence factor (the other side of the jump in s).
+    Factor(f64),
+    /// The best candidate in this mode at the run's own s.
+    Mode(usize),
 }
 
 /// The reference of every sample and interval midpoint, and each sample's candidate modes (independent of s:
@@ -200,6 +211,16 @@ impl Ecms<'_, '_, '_> {
         })
     }
 
+    /// Whether any mode has internal states besides the charge (an engine's temperature): they ride along
+    /// the strategies' runs, and make later choices depend on earlier ones.
+    pub(super) fn other_internal_states(&self) -> bool {
+        self.ctx
+            .spec
+            .modes
+            .iter()
+            .any(|m| m.model.info().eta_states.iter().any(|&j| j != self.h.soc))
+    }
+
     /// How far mode m's free input u lies beyond its bounds, as a fraction of its range (0 within).
     pub(super) fn excess(&self, m: usize, u: f64) -> f64 {
         self.margin(m, u).max(0.0)
@@ -229,18 +250,20 @@ impl Ecms<'_, '_, '_> {
     /// The best candidate at sample k from state x (`on`: the engine ran in the previous interval): the least
     /// cost over its interval ([`Ecms::priced`]). The minimiser's points beyond the bounds already at t_k are
     /// left without their interval (they cost +∞ whatever it holds: [`Ecms::price`]); where no candidate is
-    /// feasible, the candidates are evaluated again in full for the one nearest its bounds.
+    /// feasible, the candidates are evaluated again in full for the one nearest its bounds. `only`: the
+    /// candidates of that mode alone.
     fn choose(
         &self,
         (k, x): (usize, &[f64]),
         (s, on): (f64, bool),
+        only: Option<usize>,
         sc: &mut Scratch,
     ) -> Result<Eval, ModalError> {
         let start = if on { 0.0 } else { self.h.start_penalty };
-        let chosen = match self.candidates_at((k, x), (s, start), sc, true) {
+        let chosen = match self.candidates_at((k, x), (s, start), (only, true), sc) {
             (Some(best), _) => Some(best),
             _ => {
-                let (best, nearest) = self.candidates_at((k, x), (s, start), sc, false);
+                let (best, nearest) = self.candidates_at((k, x), (s, start), (only, false), sc);
                 best.or(nearest)
             }
         };
@@ -261,13 +284,13 @@ impl Ecms<'_, '_, '_> {
     /// Every candidate of sample k from state x at s (`start`: E_start where the engine would start), a
     /// decided input minimised over its bounds: (m, d) of the feasible one of least cost, and of the one
     /// nearest its bounds among every evaluation (by its excess, then its cost; `lazy` leaves points beyond
-    /// the bounds at t_k unfinished, and this one unreliable).
+    /// the bounds at t_k unfinished, and this one unreliable). `only`: the candidates of that mode alone.
     fn candidates_at(
         &self,
         (k, x): (usize, &[f64]),
         (s, start): (f64, f64),
+        (only, lazy): (Option<usize>, bool),
         sc: &mut Scratch,
-        lazy: bool,
     ) -> (Option<Choice>, Option<Choice>) {
         // (cost, m, d) of the best feasible candidate; (excess, cost, m, d) of the one nearest its bounds.
         let mut best: Option<(f64, usize, f64)> = None;
@@ -285,7 +308,8 @@ impl Ecms<'_, '_, '_> {
             self.price((m, k), x, d, (s, start), lazy, sc)
                 .map(|(c, e, _, _)| (c, e))
         };
-        for &m in &self.samples.candidates[k] {
+        let modes = self.samples.candidates[k].iter().copied();
+        for m in modes.filter(|&m| only.is_none_or(|o| o == m)) {
             match self.ctx.decided[m].first() {
                 None => {
                     if let Some(p) = price(m, 0.0, false, sc) {
@@ -319,7 +343,7 @@ impl Ecms<'_, '_, '_> {
 
     /// The run at equivalence factor s from the state x0 (its internal states at their start values).
     pub(super) fn run(&self, s: f64, x0: &[f64]) -> Result<Outcome, ModalError> {
-        self.run_shared(s, x0, None)
+        self.run_shared(s, x0, &[])
     }
 
     /// The end of interval k in the chosen candidate's mode with its decided value: η by the zero dynamics,
@@ -345,17 +369,18 @@ impl Ecms<'_, '_, '_> {
         Ok(end_of(p, sc))
     }
 
-    /// [`Ecms::run`], where `share` asks for the relaxed choice at one sample (see [`Share`]).
+    /// [`Ecms::run`], where `shares` ask for the relaxed choice at their samples (see [`Share`]).
     pub(super) fn run_shared(
         &self,
         s: f64,
         x0: &[f64],
-        share: Option<&Share>,
+        shares: &[Share],
     ) -> Result<Outcome, ModalError> {
         // One set of buffers for every evaluation of the run.
         let mut sc = Scratch::default();
-        self.run_policy(s, x0, share, &mut |k, x, on| {
-            self.choose((k, x), (s, on), &mut sc)
+        self.run_policy(s, x0, shares, &mut |k, x, on| {
+            let own = shares.iter().find(|sh| sh.k == k).and_then(|sh| sh.own);
+            self.choose((k, x), (s, on), own, &mut sc)
         })
     }
 
@@ -365,7 +390,7 @@ impl Ecms<'_, '_, '_> {
         &self,
         s: f64,
         x0: &[f64],
-        share: Option<&Share>,
+        shares: &[Share],
         pick: &mut Pick<'_>,
     ) -> Result<Outcome, ModalError> {
         let ctx = self.ctx;
@@ -396,9 +421,14 @@ impl Ecms<'_, '_, '_> {
             };
             let mut on_share = if self.h.engine_on[m] { 1.0 } else { 0.0 };
             let (mut pf0, mut pb0) = (cur.p_fuel, cur.p_batt);
-            if let Some(sh) = share.filter(|sh| sh.k == k) {
-                // The relaxed choice: θ of the interval with this run's candidate, 1 − θ with the other s's.
-                let alt = self.choose((k, &cur.x), (sh.other, was_on), &mut Scratch::default())?;
+            if let Some(sh) = shares.iter().find(|sh| sh.k == k) {
+                // The relaxed choice: θ of the interval with this run's candidate, 1 − θ with the other.
+                let (other_s, only) = match sh.other {
+                    Other::Factor(o) => (o, None),
+                    Other::Mode(m) => (s, Some(m)),
+                };
+                let mut sc = Scratch::default();
+                let alt = self.choose((k, &cur.x), (other_s, was_on), only, &mut sc)?;
                 let alt_end = self.interval(k, &alt)?;
                 let th = sh.theta;
                 let eta: Vec<f64> = end

@@ -8,7 +8,9 @@
 //! drained or filled whatever s) where interpolation would crawl. Then Brent's root finder ([`narrow`])
 //! until |ΔSOC| ≤ the tolerance, within [`MAX_RUNS`] runs in all; where the bracket's runs choose another mode
 //! at one sample alone (ΔSOC jumps there), that sample is shared at once ([`Share`]) rather than the bracket
-//! narrowed onto the jump. A
+//! narrowed onto the jump. With internal states besides the charge (an engine's temperature) a flip moves
+//! later choices too: a bracket within 10⁻⁴ s, or narrowed to 10⁻⁷ s, is shared at every sample where its
+//! runs chose other modes at once, with one θ ([`relax_modes`]). A
 //! target no s in the bracket reaches (ΔSOC of one sign throughout, or a jump of ΔSOC across the tolerance
 //! band where one sample's mode choice flips) is an error that names `--strategy ecms`, `--equivalence` and
 //! `--soc-tolerance`.
@@ -18,7 +20,7 @@
 //! at different s: fuel_corr = fuel − ΔSOC · (fuel₂ − fuel)/(ΔSOC₂ − ΔSOC), the second run the search's other
 //! bracket end (ΔSOC of the other sign), or, for a given s, a run at 1.05 s.
 
-use super::ecms::{Ecms, Outcome, Share};
+use super::ecms::{Ecms, Other, Outcome, Share};
 use super::ModalError;
 
 /// Most runs of the search.
@@ -43,8 +45,27 @@ pub(super) fn fixed(
     Ok((best, 1, Some(other)))
 }
 
-/// The charge-sustaining run: (run, runs taken, the bracket's other end).
+/// The charge-sustaining run: (run, runs taken, the bracket's other end). Where none is found in a model with
+/// internal states besides the charge, the error names them as a likely cause: ECMS, pricing the interval
+/// alone, keeps a cold engine (its efficiency factor c(T) low) off at every s that does not charge without
+/// end (docs/hybrids.md).
 pub(super) fn search(
+    run: &Ecms<'_, '_, '_>,
+    tol: f64,
+    x0: &[f64],
+) -> Result<(Outcome, usize, Option<Outcome>), ModalError> {
+    search_from_s0(run, tol, x0).map_err(|e| match e {
+        ModalError::Setup(msg) if run.other_internal_states() => ModalError::Setup(format!(
+            "{msg} (the model has internal states besides the charge, such as an engine's temperature: \
+             ECMS does not foresee their later costs, so from a cold engine no s may sustain the charge; \
+             start it warm with --initial NAME=VALUE, or use --strategy rule-based or dp)"
+        )),
+        other => other,
+    })
+}
+
+/// [`search`] itself.
+fn search_from_s0(
     run: &Ecms<'_, '_, '_>,
     tol: f64,
     x0: &[f64],
@@ -107,6 +128,7 @@ fn narrow(
     let mut e = d;
     // The samples last shared: at one difference, at one mode difference.
     let mut tried: (Option<usize>, Option<usize>) = (None, None);
+    let mut tried_modes = false;
     let mut first = true;
     while runs < MAX_RUNS {
         if c.delta_soc().abs() < b.delta_soc().abs() {
@@ -150,6 +172,26 @@ fn narrow(
                     runs = used;
                     (b, c) = (l, h);
                     // Interpolation starts afresh from the bracket (the secant).
+                    a = (c.s, c.delta_soc());
+                    d = b.s - c.s;
+                    e = d;
+                    continue;
+                }
+            }
+        }
+        // With internal states besides the charge, a bracket within 10⁻⁴ s whose runs choose other modes at
+        // a few samples is shared at all of them at once (once): a flip there moves later choices too.
+        if !tried_modes
+            && run.other_internal_states()
+            && (hi.s - lo.s).abs() <= 1e-4 * hi.s.abs().max(lo.s.abs())
+        {
+            tried_modes = true;
+            let (lo, hi) = if b.delta_soc() < 0.0 { (b, c) } else { (c, b) };
+            match relax_modes(run, (lo, hi), (tol, x0), runs)? {
+                Ok(found) => return Ok(found),
+                Err((l, h, used)) => {
+                    runs = used;
+                    (b, c) = (l, h);
                     a = (c.s, c.delta_soc());
                     d = b.s - c.s;
                     e = d;
@@ -263,6 +305,15 @@ fn relax(
     let Some(first) = run.first_difference(&lo.rec, &hi.rec) else {
         return Err(jump(&lo, &hi, tol));
     };
+    // With internal states besides the charge a flip moves later choices too: every differing mode at once.
+    let (lo, hi, runs) = if run.other_internal_states() {
+        match relax_modes(run, (lo, hi), (tol, x0), runs)? {
+            Ok(found) => return Ok(found),
+            Err(back) => back,
+        }
+    } else {
+        (lo, hi, runs)
+    };
     // The sample whose interval moves the two runs' charges apart the most (the flip itself, where the
     // first difference is a decided value a little apart), then the first difference.
     let widest = run.widest_step(&lo.rec, &hi.rec).unwrap_or(first);
@@ -280,24 +331,76 @@ fn relax(
 }
 
 /// The relaxed choice at sample k ([`Share`]) between the runs at lo and hi, its share θ ∈ [0, 1] found by
-/// regula falsi (Illinois) so that |ΔSOC| ≤ tol. Where ΔSOC(θ) does not change sign over [0, 1] (later
-/// choices depend on that one, as with a start penalty, or the runs differ elsewhere by more than the
-/// sample can make up) the bracket is handed back with the runs used.
+/// regula falsi ([`falsi`]) so that |ΔSOC| ≤ tol. Where ΔSOC(θ) does not change sign over [0, 1] (later
+/// choices depend on that one, as with a start penalty, or the runs differ elsewhere by more than the sample
+/// can make up) the bracket is handed back with the runs used.
 #[allow(clippy::type_complexity)]
 fn relax_at(
     run: &Ecms<'_, '_, '_>,
     k: usize,
     (lo, hi): (Outcome, Outcome),
     (tol, x0): (f64, &[f64]),
+    runs: usize,
+) -> Result<Result<Found, (Outcome, Outcome, usize)>, ModalError> {
+    let shares = vec![Share {
+        k,
+        own: None,
+        other: Other::Factor(lo.s),
+        theta: 0.0,
+    }];
+    relax_with(run, shares, (lo, hi), (tol, x0), runs)
+}
+
+/// Most samples [`relax_modes`] shares.
+const MAX_SHARED: usize = 8;
+
+/// The relaxed choice at every sample where the runs at lo and hi chose other modes (at most
+/// [`MAX_SHARED`]), with one θ: each such interval θ in hi's mode and 1 − θ in lo's, the decided value of
+/// each the best at hi's s from the run's state. Where a choice that flips at one sample moves an internal
+/// state besides the charge (the engine's temperature), later choices near a tie flip with it, and sharing
+/// one sample leaves ΔSOC(θ) with jumps; with the modes of every differing sample held, ΔSOC(θ) moves
+/// continuously from about lo's to hi's.
+#[allow(clippy::type_complexity)]
+fn relax_modes(
+    run: &Ecms<'_, '_, '_>,
+    (lo, hi): (Outcome, Outcome),
+    (tol, x0): (f64, &[f64]),
+    runs: usize,
+) -> Result<Result<Found, (Outcome, Outcome, usize)>, ModalError> {
+    let n = lo.rec.mode.len().min(hi.rec.mode.len());
+    let shares: Vec<Share> = (0..n)
+        .filter(|&k| lo.rec.mode[k] != hi.rec.mode[k])
+        .map(|k| Share {
+            k,
+            own: Some(hi.rec.mode[k]),
+            other: Other::Mode(lo.rec.mode[k]),
+            theta: 0.0,
+        })
+        .collect();
+    if shares.is_empty() || shares.len() > MAX_SHARED {
+        return Ok(Err((lo, hi, runs)));
+    }
+    relax_with(run, shares, (lo, hi), (tol, x0), runs)
+}
+
+/// The runs at hi's s with `shares` at θ = 0 and 1, then [`falsi`] on θ where ΔSOC changes sign between
+/// them; the bracket handed back where it does not.
+#[allow(clippy::type_complexity)]
+fn relax_with(
+    run: &Ecms<'_, '_, '_>,
+    mut shares: Vec<Share>,
+    (lo, hi): (Outcome, Outcome),
+    (tol, x0): (f64, &[f64]),
     mut runs: usize,
 ) -> Result<Result<Found, (Outcome, Outcome, usize)>, ModalError> {
-    let at = |theta: f64| Share {
-        k,
-        other: lo.s,
-        theta,
+    let mut at = |theta: f64| -> Result<(f64, Outcome), ModalError> {
+        for sh in shares.iter_mut() {
+            sh.theta = theta;
+        }
+        Ok((theta, run.run_shared(hi.s, x0, &shares)?))
     };
-    let mut a = (0.0, run.run_shared(hi.s, x0, Some(&at(0.0)))?);
-    let mut b = (1.0, run.run_shared(hi.s, x0, Some(&at(1.0)))?);
+    let a = at(0.0)?;
+    let b = at(1.0)?;
     runs += 2;
     if a.1.delta_soc().abs() <= tol {
         return Ok(Ok((a.1, runs, Some(hi))));
@@ -308,28 +411,44 @@ fn relax_at(
     if (a.1.delta_soc() < 0.0) == (b.1.delta_soc() < 0.0) {
         return Ok(Err((lo, hi, runs)));
     }
+    match falsi(&mut at, (a, b), tol, &mut runs)? {
+        Some(o) => {
+            let other = if o.delta_soc() < 0.0 { hi } else { lo };
+            Ok(Ok((o, runs, Some(other))))
+        }
+        None => Err(jump(&lo, &hi, tol)),
+    }
+}
+
+/// Regula falsi (Illinois) on θ, `at(θ)` the relaxed run, from a and b (θ, run) with ΔSOC of opposite signs,
+/// until |ΔSOC| ≤ tol: the run found, or `None` after [`MAX_RUNS`] runs in all.
+fn falsi(
+    at: &mut dyn FnMut(f64) -> Result<(f64, Outcome), ModalError>,
+    (mut a, mut b): ((f64, Outcome), (f64, Outcome)),
+    tol: f64,
+    runs: &mut usize,
+) -> Result<Option<Outcome>, ModalError> {
     let (mut scale_a, mut scale_b, mut last) = (1.0, 1.0, 0i8);
-    while runs < MAX_RUNS {
+    while *runs < MAX_RUNS {
         let (fa, fb) = (scale_a * a.1.delta_soc(), scale_b * b.1.delta_soc());
         let mut th = b.0 - fb * (b.0 - a.0) / (fb - fa);
         if !(th > a.0 && th < b.0) {
             th = 0.5 * (a.0 + b.0);
         }
-        let o = run.run_shared(hi.s, x0, Some(&at(th)))?;
-        runs += 1;
-        if o.delta_soc().abs() <= tol {
-            let other = if o.delta_soc() < 0.0 { hi } else { lo };
-            return Ok(Ok((o, runs, Some(other))));
+        let o = at(th)?;
+        *runs += 1;
+        if o.1.delta_soc().abs() <= tol {
+            return Ok(Some(o.1));
         }
-        if (o.delta_soc() < 0.0) == (a.1.delta_soc() < 0.0) {
-            a = (th, o);
+        if (o.1.delta_soc() < 0.0) == (a.1.delta_soc() < 0.0) {
+            a = o;
             scale_a = 1.0;
             if last == -1 {
                 scale_b *= 0.5;
             }
             last = -1;
         } else {
-            b = (th, o);
+            b = o;
             scale_b = 1.0;
             if last == 1 {
                 scale_a *= 0.5;
@@ -337,7 +456,7 @@ fn relax_at(
             last = 1;
         }
     }
-    Err(jump(&lo, &hi, tol))
+    Ok(None)
 }
 
 /// ΔSOC jumps across the tolerance band between two equivalence factors that no longer differ.

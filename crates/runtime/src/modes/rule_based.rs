@@ -37,10 +37,10 @@ pub(super) fn rule_based(
         return Ok((first, second));
     }
     let soc0 = x0[run.h.soc];
-    let first = run.run_policy(f64::NAN, x0, None, &mut |k, x, _| {
+    let first = run.run_policy(f64::NAN, x0, &[], &mut |k, x, _| {
         choose(run, opts, (k, x), soc0)
     })?;
-    let second = run.run_policy(f64::NAN, x0, None, &mut |k, x, _| {
+    let second = run.run_policy(f64::NAN, x0, &[], &mut |k, x, _| {
         choose(run, opts, (k, x), soc0 + SHIFT)
     })?;
     Ok((first, second))
@@ -152,7 +152,7 @@ fn model_rules(
     shift: f64,
 ) -> Result<Outcome, ModalError> {
     let mut started = f64::NEG_INFINITY;
-    run.run_policy(f64::NAN, x0, None, &mut |k, x, on| {
+    run.run_policy(f64::NAN, x0, &[], &mut |k, x, on| {
         let t = run.samples.t[k];
         let hold = on && t - started < min_on;
         let e = choose_by_model(run, (k, x), shift, hold)?;
