@@ -47,9 +47,6 @@ const MAX_CORRECTED: usize = 200;
 const MAX_BISECT: usize = 80;
 /// The terminal penalty μ over the battery's energy per unit of charge.
 const PENALTY_FACTOR: f64 = 10.0;
-/// The passes of a model with internal states besides the charge: the controls at their start values, then
-/// along the first pass's forward run.
-const PASSES: usize = 2;
 
 /// A control at a sample: the mode, the decided value, the fuel energy over the interval, the SOC change.
 #[derive(Clone, Copy, PartialEq)]
@@ -151,27 +148,18 @@ pub(super) fn dynamic_programming(
     // The first pass holds the internal states other than the charge at their start values; with any, a
     // second pass evaluates the controls along the first forward run's states.
     let ns = run.samples.t.len();
-    let mut along: Vec<Vec<f64>> = vec![x0.to_vec(); ns];
-    let passes = if run.other_internal_states() {
-        PASSES
-    } else {
-        1
-    };
-    let mut result = None;
-    for _ in 0..passes {
-        let pass = one_pass(run, opts, (x0, &along), &mut grid)?;
-        along.clone_from(&pass.states);
-        result = Some(pass);
+    let start = vec![x0.to_vec(); ns];
+    let mut pass = one_pass(run, opts, (x0, &start), &mut grid)?;
+    if run.other_internal_states() {
+        let along = std::mem::take(&mut pass.states);
+        pass = one_pass(run, opts, (x0, &along), &mut grid)?;
     }
-    let Some(Pass {
+    let Pass {
         mut policy,
         states,
         first,
         slope,
-    }) = result
-    else {
-        return Err(unreachable(f64::NAN, tol));
-    };
+    } = pass;
     let outcome = if first.delta_soc().abs() <= tol {
         first
     } else {

@@ -107,6 +107,20 @@ fn search_from_s0(
     narrow(run, (near, far), (tol, x0), runs)
 }
 
+/// How the bracket's runs are reconciled instead of narrowing s: at one sample ([`relax_at`]) or at every
+/// sample whose mode differs ([`relax_modes`]).
+enum Reconcile {
+    At(usize),
+    Modes,
+}
+
+/// Brent's state started from the bracket (b, c): the previous best a = c and the last two steps b − c (the
+/// secant through the bracket).
+fn secant_start(b: &Outcome, c: &Outcome) -> ((f64, f64), f64, f64) {
+    let d = b.s - c.s;
+    ((c.s, c.delta_soc()), d, d)
+}
+
 /// Brent's root finder (*Algorithms for Minimization without Derivatives*, 1973, ch. 4, `zeroin`, with
 /// Dekker's secant through the last two runs for its interpolation: [`zeroin_step`]) on ΔSOC(s) in the
 /// bracket (b, c), ΔSOC of opposite signs there, bisection wherever the secant would not shrink the steps —
@@ -123,9 +137,7 @@ fn narrow(
 ) -> Result<Found, ModalError> {
     let (mut b, mut c) = (b, c);
     // a: the previous best run's (s, ΔSOC); d the last step and e the one before.
-    let mut a = (c.s, c.delta_soc());
-    let mut d = b.s - c.s;
-    let mut e = d;
+    let (mut a, mut d, mut e) = secant_start(&b, &c);
     // The samples last shared: at one difference, at one mode difference.
     let mut tried: (Option<usize>, Option<usize>) = (None, None);
     let mut tried_modes = false;
@@ -159,42 +171,39 @@ fn narrow(
             Some(k) => Some((k, true)),
             None => mode().map(|k| (k, false)),
         };
-        if let Some((k, is_exact)) = share {
-            if is_exact {
-                tried.0 = Some(k);
-            } else {
-                tried.1 = Some(k);
-            }
-            let (lo, hi) = if b.delta_soc() < 0.0 { (b, c) } else { (c, b) };
-            match relax_at(run, k, (lo, hi), (tol, x0), runs)? {
-                Ok(found) => return Ok(found),
-                Err((l, h, used)) => {
-                    runs = used;
-                    (b, c) = (l, h);
-                    // Interpolation starts afresh from the bracket (the secant).
-                    a = (c.s, c.delta_soc());
-                    d = b.s - c.s;
-                    e = d;
-                    continue;
-                }
-            }
-        }
         // With internal states besides the charge, a bracket within 10⁻⁴ s whose runs choose other modes at
         // a few samples is shared at all of them at once (once): a flip there moves later choices too.
-        if !tried_modes
+        let modes = !tried_modes
             && run.other_internal_states()
-            && (hi.s - lo.s).abs() <= 1e-4 * hi.s.abs().max(lo.s.abs())
-        {
-            tried_modes = true;
+            && (hi.s - lo.s).abs() <= 1e-4 * hi.s.abs().max(lo.s.abs());
+        let how = match share {
+            Some((k, is_exact)) => {
+                if is_exact {
+                    tried.0 = Some(k);
+                } else {
+                    tried.1 = Some(k);
+                }
+                Some(Reconcile::At(k))
+            }
+            None if modes => {
+                tried_modes = true;
+                Some(Reconcile::Modes)
+            }
+            None => None,
+        };
+        if let Some(how) = how {
             let (lo, hi) = if b.delta_soc() < 0.0 { (b, c) } else { (c, b) };
-            match relax_modes(run, (lo, hi), (tol, x0), runs)? {
+            let shared = match how {
+                Reconcile::At(k) => relax_at(run, k, (lo, hi), (tol, x0), runs)?,
+                Reconcile::Modes => relax_modes(run, (lo, hi), (tol, x0), runs)?,
+            };
+            match shared {
                 Ok(found) => return Ok(found),
                 Err((l, h, used)) => {
+                    // Interpolation starts afresh from the narrowed bracket (the secant).
                     runs = used;
                     (b, c) = (l, h);
-                    a = (c.s, c.delta_soc());
-                    d = b.s - c.s;
-                    e = d;
+                    (a, d, e) = secant_start(&b, &c);
                     continue;
                 }
             }
