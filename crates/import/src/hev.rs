@@ -28,7 +28,7 @@ const P_EPS: f64 = 1.0;
 const RHO_MAX: f64 = 0.99;
 const RHO_MIN: f64 = -1.0;
 
-/// Emit the powertrain, its four modes and the `[hybrid]` table.
+/// Emit the powertrain, its six modes and the `[hybrid]` table.
 pub fn emit(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<(), ImportError> {
     parameters(doc, model)?;
     let (fc, thermal) = engine(doc, model, warnings)?;
@@ -39,7 +39,7 @@ pub fn emit(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<
     inputs(doc, model, fc, em)?;
     outputs(model);
     let rules = crate::hev_rules::emit(doc, model, thermal, warnings)?;
-    model.tail = tail(&rules);
+    model.tail = tail(&rules, thermal);
     not_reproduced(doc, warnings);
     Ok(())
 }
@@ -213,16 +213,35 @@ fn battery(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<(
         model.def("eta_res", "res_map(P_el/(E_res/3600), T_res)", "-", "battery efficiency, each way, at the C-rate of the terminal power and the cell temperature");
     }
     model.def("P_chem", "P_el_pos/eta_res + (P_el - P_el_pos)*eta_res", "W", "battery chemical power: P_el/eta_res discharging, P_el*eta_res charging (FASTSim's reversible_energy_storage.rs)");
-    let soc0 = doc.num(&p("res.state.soc"))?;
-    crate::limits::check(&p("res.state.soc"), soc0)?;
+    let (soc0, from) = initial_soc(doc)?;
     model.states.push(State {
         name: "soc".to_string(),
         rhs: "-P_chem/E_res".to_string(),
         initial: soc0,
         unit: "-".to_string(),
-        doc: format!("battery state of charge, a fraction of the capacity: d(SOC)/dt = -P_chem/E_res; initially FASTSim `{}`", p("res.state.soc")),
+        doc: format!("battery state of charge, a fraction of the capacity: d(SOC)/dt = -P_chem/E_res; initially {from}"),
     });
     Ok(())
+}
+
+/// The charge a run starts with, and where it comes from: with `sim_params.balance_soc` FASTSim's walk starts
+/// its first run in the middle of [min_soc, max_soc] (and the next ones where the previous ended, until the
+/// battery's energy change is below `res_per_fuel_lim` of the fuel's), not at the file's `res.state.soc`.
+fn initial_soc(doc: &Doc) -> Result<(f64, String), ImportError> {
+    let balance = doc
+        .get(&p("sim_params.balance_soc"))
+        .and_then(serde_yaml::Value::as_bool);
+    let soc0 = doc.num(&p("res.state.soc"))?;
+    crate::limits::check(&p("res.state.soc"), soc0)?;
+    if balance != Some(true) {
+        return Ok((soc0, format!("FASTSim `{}`", p("res.state.soc"))));
+    }
+    let mid = 0.5 * (doc.num(&p("res.min_soc"))? + doc.num(&p("res.max_soc"))?);
+    let from = format!(
+        "the middle of [soc_min, soc_max], where FASTSim's walk starts with `{}` (not `res.state.soc`)",
+        p("sim_params.balance_soc")
+    );
+    Ok((mid, from))
 }
 
 /// The tractive force from the shaft powers (before the chassis's P_w = F_t v, which uses it).
@@ -298,8 +317,12 @@ fn outputs(model: &mut Model) {
     model.output("eff_engine", "eff_fc", "-", "engine efficiency", false);
 }
 
-/// The modes, the standstill thresholds and the `[hybrid]` table.
-fn tail(rules: &crate::hev_rules::Rules) -> String {
+/// The modes, the standstill thresholds and the `[hybrid]` table. FASTSim runs the engine also at a
+/// standstill and while braking where its controller keeps it on (the least running time, a low charge), the
+/// machine taking all its power to the battery (hev.rs: P_e* above P_tx, the machine absorbing the rest):
+/// `stop_charge` and `brake_charge` (rho = 1: the machine takes all the engine's power), whose decided P_e
+/// the rules set to the controller's choice as in the hybrid mode.
+fn tail(rules: &crate::hev_rules::Rules, thermal: bool) -> String {
     let head = r#"
 [sequence]
 standstill_below = 0.05
@@ -324,16 +347,32 @@ free = "F_b"
 role = "standstill"
 inputs = { P_e = 0.0, rho = 0.0, P_m = 0.0, P_r = 0.0 }
 parameters = { c_on = 0.0 }
+[modes.stop_charge]          # standstill, engine on: its power (decided) charges the battery through the machine
+free = "F_b"
+role = "standstill"
+decided = ["P_e"]
+inputs = { rho = 1.0, P_m = 0.0, P_r = 0.0 }{heat}
+[modes.brake_charge]         # braking, engine on: the machine takes the engine's power (decided) and brakes alone
+free = "P_r"
+role = "brake"
+decided = ["P_e"]
+inputs = { rho = 1.0, P_m = 0.0, F_b = 0.0 }{heat}
 
 [hybrid]
 fuel_power = "fuel_energy"
 battery_power = "battery_power"
 soc = "soc"
-engine_on = ["hybrid"]
+engine_on = ["hybrid", "stop_charge", "brake_charge"]
 start_penalty = 0.0
 grid = 11
 {keys}"#;
-    head.replace("{keys}", &rules.hybrid_keys)
+    // With the thermal model the engine's heat sees its power, decided in these modes (not the wheels').
+    let heat = match thermal {
+        true => "\ndefinitions = { P_fc_s = \"P_e\" }",
+        false => "",
+    };
+    head.replace("{heat}", heat)
+        .replace("{keys}", &rules.hybrid_keys)
 }
 
 /// What FASTSim's hybrid does that the model does not: each field read only to name it here.
@@ -343,7 +382,7 @@ fn not_reproduced(doc: &Doc, warnings: &mut Vec<String>) {
         ("res.min_soc", "the SOC limits are parameters (soc_min, soc_max) but not enforced: a charge-sustaining run stays near its start"),
         ("fc.pwr_out_max_init_watts", "the engine's power ramp (pwr_out_max_init_watts, pwr_ramp_lag_seconds) is not reproduced"),
         ("aux_cntrl", "the auxiliaries are always on the battery (AuxOnResPriority; the battery's power limit is not enforced)"),
-        ("sim_params", "FASTSim's SOC-balancing iterations are replaced by the strategies' charge-sustaining runs and the J1711 correction"),
+        ("sim_params", "FASTSim's SOC balancing is the run's start (the middle of the SOC window, as FASTSim's first iteration) and the strategies' charge-sustaining runs and J1711 correction; its further iterations from the previous run's end are `--initial soc=...`"),
     ] {
         let path = p(f);
         if doc.get(&path).is_some_and(|v| v.as_str() != Some("None")) {

@@ -13,8 +13,8 @@
 //! (first) peak efficiency and f `frac_of_most_eff_pwr_to_run_fc`, the machine absorbing the surplus. With the
 //! engine's thermal model (`thermal.rs`) the engine is also forced on while colder than `temp_fc_forced_on`
 //! (FASTSim lets it off again above `temp_fc_allowed_off`, a hysteresis the request at the sample does not
-//! hold). FASTSim also runs the engine at a standstill and while braking when it is forced on (charging); the
-//! model's standstill and brake modes have the engine off.
+//! hold). Where the engine is kept on at a standstill or while braking, FASTSim runs it at that choice too,
+//! the machine taking its power to the battery: the model's `stop_charge` and `brake_charge` modes (hev.rs).
 
 use crate::curve::table;
 use crate::error::ImportError;
@@ -82,7 +82,7 @@ pub fn emit(
     model.output("fc_request", &request, "-", &doc_request, false);
     model.output("fc_target_error", "P_e - min(min(max(P_tx - P_em_avail, f_run*P_fc_peak), P_tx + P_em_max), P_fc_max)", "W", "engine power less FASTSim's choice with the engine on (at least its peak-efficiency power, the machine absorbing the surplus): the rules' `rule_target`", false);
     warnings.push(format!(
-        "`{BASE}`: FASTSim's controller is the model's rules for `--strategy rule-based` ([hybrid] rule_request, rule_target, rule_min_on), evaluated at the sample rather than at the previous step; its regeneration buffer (speed_soc_regen_buffer*) is not reproduced, nor the engine charging at a standstill or while braking (a model has one standstill and one brake mode, both with the engine off)"
+        "`{BASE}`: FASTSim's controller is the model's rules for `--strategy rule-based` ([hybrid] rule_request, rule_target, rule_min_on), evaluated at the sample rather than at the previous step; its regeneration buffer (speed_soc_regen_buffer*) is not reproduced"
     ));
     doc.mark(BASE);
     Ok(Rules {

@@ -174,7 +174,7 @@ impl Reader<'_> {
         for (k, v) in modes_entries {
             raws.push(self.raw_mode(k, v, &inputs)?);
         }
-        self.check_roles(&raws, &inputs)?;
+        self.check_roles(&raws, get(entries, "hybrid").is_some())?;
         let base: Vec<(&Key, &Tv)> = entries
             .iter()
             .filter(|(k, _)| !MODAL_KEYS.contains(&k.name.as_str()))
@@ -552,17 +552,17 @@ impl Reader<'_> {
         }
     }
 
-    /// At most one standstill mode; a brake or standstill mode needs a traction mode to return to.
-    fn check_roles(&self, raws: &[RawMode<'_>], _inputs: &[ModalInput]) -> Result<(), ModelError> {
-        let mut seen: HashSet<&str> = HashSet::new();
-        for r in raws {
-            if r.role == ModeRole::Standstill && !seen.insert("standstill") {
-                return Err(self.err(
-                    r.at,
-                    ModelErrorKind::Schema,
-                    "a second mode with role = \"standstill\"",
-                ));
-            }
+    /// At most one standstill mode, unless a strategy chooses among them (a `[hybrid]` table: the engine
+    /// on or off at a standstill); a brake or standstill mode needs a traction mode to return to.
+    fn check_roles(&self, raws: &[RawMode<'_>], strategy: bool) -> Result<(), ModelError> {
+        let mut standstill = raws.iter().filter(|r| r.role == ModeRole::Standstill);
+        if let (false, Some(_), Some(second)) = (strategy, standstill.next(), standstill.next()) {
+            return Err(self.err(
+                second.at,
+                ModelErrorKind::Schema,
+                "a second mode with role = \"standstill\": only a model with a [hybrid] table (whose strategy \
+                 chooses among them) may have more than one",
+            ));
         }
         if !raws.iter().any(|r| r.role == ModeRole::Traction) {
             return Err(self.err(

@@ -164,9 +164,11 @@ fn model_rules(
 }
 
 /// The model's rules at sample k: at a standstill the standstill mode with the engine as requested; braking
-/// the brake mode with the most recuperation (the engine off); driving, with the engine requested (or
-/// `hold`), the engine's mode with its decided input bringing `rule_target` nearest zero, else electric
-/// drive; where a rule's mode is infeasible the next one.
+/// (where the engine-off brake mode is feasible without recuperation), with the engine requested the brake
+/// mode with the engine on where the model has one, else the engine-off brake mode with the most
+/// recuperation; driving, with the engine requested (or `hold`), the engine's mode, else electric drive.
+/// A mode with the engine on has its decided input at the value bringing `rule_target` nearest zero; where
+/// a rule's mode is infeasible the next one.
 fn choose_by_model(
     run: &Ecms<'_, '_, '_>,
     (k, x): (usize, &[f64]),
@@ -178,24 +180,29 @@ fn choose_by_model(
     let on = |m: usize| run.h.engine_on[m];
     let feasible = |e: Option<Eval>| e.filter(|e| e.excess <= 1e-9);
     let wants = hold || requested(run, (k, x), shift);
-    let standstill = |engine: bool| {
-        find(run, k, &|m| role(m) == Role::Standstill && on(m) == engine)
-            .and_then(|m| feasible(run.eval((m, k), x, 0.0)))
+    // The mode of a role with the engine on, its decided input bringing `rule_target` nearest zero.
+    let target = |r: Role| {
+        find(run, k, &|m| role(m) == r && on(m))
+            .and_then(|m| feasible(at_least(run, (m, k, x), &|e| e.rule.1.powi(2))))
+    };
+    let standstill = |engine: bool| match engine {
+        true => target(Role::Standstill),
+        false => find(run, k, &|m| role(m) == Role::Standstill && !on(m))
+            .and_then(|m| feasible(run.eval((m, k), x, 0.0))),
     };
     if let Some(e) = standstill(wants).or_else(|| standstill(!wants)) {
         return Ok(e);
     }
-    if let Some(m) = find(run, k, &|m| role(m) == Role::Brake) {
+    if let Some(m) = find(run, k, &|m| role(m) == Role::Brake && !on(m)) {
         if feasible(run.eval((m, k), x, 0.0)).is_some() {
-            if let Some(e) = feasible(at_least(run, (m, k, x), &|e| e.p_batt)) {
+            let charging = if wants { target(Role::Brake) } else { None };
+            if let Some(e) = charging.or_else(|| feasible(at_least(run, (m, k, x), &|e| e.p_batt)))
+            {
                 return Ok(e);
             }
         }
     }
-    let engine = || {
-        find(run, k, &|m| role(m) == Role::Traction && on(m))
-            .and_then(|m| feasible(at_least(run, (m, k, x), &|e| e.rule.1.powi(2))))
-    };
+    let engine = || target(Role::Traction);
     let electric = || {
         find(run, k, &|m| {
             role(m) == Role::Traction && !on(m) && run.ctx.decided[m].is_empty()
