@@ -8,7 +8,7 @@
 //! drained or filled whatever s) where interpolation would crawl. Then Brent's root finder ([`narrow`])
 //! until |ΔSOC| ≤ the tolerance, within [`MAX_RUNS`] runs in all; where the bracket's runs choose another mode
 //! at one sample alone (ΔSOC jumps there), that sample is shared at once ([`Share`]) rather than the bracket
-//! narrowed onto the jump. With internal states besides the charge (an engine's temperature) a flip moves
+//! narrowed onto the jump, and so is the flip where the band lies across a jump ([`across_jump`]). With internal states besides the charge (an engine's temperature) a flip moves
 //! later choices too: a bracket within 10⁻⁴ s, or narrowed to 10⁻⁷ s, is shared at every sample where its
 //! runs chose other modes at once, with one θ ([`relax_modes`]). A
 //! target no s in the bracket reaches (ΔSOC of one sign throughout, or a jump of ΔSOC across the tolerance
@@ -107,11 +107,12 @@ fn search_from_s0(
     narrow(run, (near, far), (tol, x0), runs)
 }
 
-/// How the bracket's runs are reconciled instead of narrowing s: at one sample ([`relax_at`]) or at every
-/// sample whose mode differs ([`relax_modes`]).
+/// How the bracket's runs are reconciled instead of narrowing s: at one sample ([`relax_at`]), at every
+/// sample whose mode differs ([`relax_modes`]), or across a jump ([`bridge`]).
 enum Reconcile {
     At(usize),
     Modes,
+    Jump,
 }
 
 /// Brent's state started from the bracket (b, c): the previous best a = c and the last two steps b − c (the
@@ -141,6 +142,7 @@ fn narrow(
     // The samples last shared: at one difference, at one mode difference.
     let mut tried: (Option<usize>, Option<usize>) = (None, None);
     let mut tried_modes = false;
+    let mut tried_jump = false;
     let mut first = true;
     while runs < MAX_RUNS {
         if c.delta_soc().abs() < b.delta_soc().abs() {
@@ -191,11 +193,20 @@ fn narrow(
             }
             None => None,
         };
+        // Across a jump (once): bridged at once by sharing its flip, rather than narrowed onto it first.
+        let how = match how {
+            None if !tried_jump && across_jump(a, (b.s, b.delta_soc()), c.s, tol) => {
+                tried_jump = true;
+                Some(Reconcile::Jump)
+            }
+            how => how,
+        };
         if let Some(how) = how {
             let (lo, hi) = if b.delta_soc() < 0.0 { (b, c) } else { (c, b) };
             let shared = match how {
                 Reconcile::At(k) => relax_at(run, k, (lo, hi), (tol, x0), runs)?,
                 Reconcile::Modes => relax_modes(run, (lo, hi), (tol, x0), runs)?,
+                Reconcile::Jump => bridge(run, (lo, hi), (tol, x0), runs)?,
             };
             match shared {
                 Ok(found) => return Ok(found),
@@ -302,22 +313,38 @@ fn unreachable(last: &Outcome, tol: f64) -> ModalError {
 /// The search's result: (run, runs taken, the other run of the J1711 correction).
 type Found = (Outcome, usize, Option<Outcome>);
 
-/// Where ΔSOC(s) jumps across the band at s (lo and hi within 10⁻⁷ s of each other): the relaxed choice
-/// ([`relax_at`]) at the sample whose interval moves the two runs' charges apart the most, then at the first
-/// sample where they differ; a jump neither bridges is the error.
+/// Where ΔSOC(s) jumps across the band at s (lo and hi within 10⁻⁷ s of each other): [`bridge`]; a jump it
+/// does not bridge is the error.
 fn relax(
     run: &Ecms<'_, '_, '_>,
     (lo, hi): (Outcome, Outcome),
     (tol, x0): (f64, &[f64]),
     runs: usize,
 ) -> Result<Found, ModalError> {
+    match bridge(run, (lo, hi), (tol, x0), runs)? {
+        Ok(found) => Ok(found),
+        Err((lo, hi, _)) => Err(jump(&lo, &hi, tol)),
+    }
+}
+
+/// The relaxed choice across a jump of ΔSOC(s) between lo and hi: with internal states besides the charge at
+/// every sample whose mode differs ([`relax_modes`]); else ([`relax_at`]) at the sample whose interval moves
+/// the two runs' charges apart the most, then at the first sample where they differ. Where none bridges it,
+/// the bracket is handed back with the runs used.
+#[allow(clippy::type_complexity)]
+fn bridge(
+    run: &Ecms<'_, '_, '_>,
+    (lo, hi): (Outcome, Outcome),
+    (tol, x0): (f64, &[f64]),
+    runs: usize,
+) -> Result<Result<Found, (Outcome, Outcome, usize)>, ModalError> {
     let Some(first) = run.first_difference(&lo.rec, &hi.rec) else {
-        return Err(jump(&lo, &hi, tol));
+        return Ok(Err((lo, hi, runs)));
     };
     // With internal states besides the charge a flip moves later choices too: every differing mode at once.
     let (lo, hi, runs) = if run.other_internal_states() {
         match relax_modes(run, (lo, hi), (tol, x0), runs)? {
-            Ok(found) => return Ok(found),
+            Ok(found) => return Ok(Ok(found)),
             Err(back) => back,
         }
     } else {
@@ -329,14 +356,28 @@ fn relax(
     let (mut lo, mut hi, mut runs) = (lo, hi, runs);
     for k in [widest, first] {
         match relax_at(run, k, (lo, hi), (tol, x0), runs)? {
-            Ok(found) => return Ok(found),
+            Ok(found) => return Ok(Ok(found)),
             Err((l, h, used)) => (lo, hi, runs) = (l, h, used),
         }
         if widest == first {
             break;
         }
     }
-    Err(jump(&lo, &hi, tol))
+    Ok(Err((lo, hi, runs)))
+}
+
+/// Whether the band lies across a jump of ΔSOC(s) rather than on its slope: in a bracket within 10⁻⁴ s (far
+/// from the root ΔSOC(s) bends, and a chord says nothing of a jump), a, the previous best run, on b's side of
+/// the band, and the slope through a and b, followed from b all the way to c, still short of it
+/// (|ΔSOC(b)| − |slope| |c − b| > tol) — a staircase whose step ends at b's side, which narrowing would only
+/// close onto (to 10⁻⁷ s) before [`relax`] shares the flip anyway.
+fn across_jump((sa, fa): (f64, f64), (sb, fb): (f64, f64), sc: f64, tol: f64) -> bool {
+    let narrow = (sc - sb).abs() <= 1e-4 * sb.abs().max(sc.abs());
+    if !narrow || (fa < 0.0) != (fb < 0.0) || sa == sb {
+        return false;
+    }
+    let slope = (fb - fa) / (sb - sa);
+    fb.abs() - slope.abs() * (sc - sb).abs() > tol
 }
 
 /// The relaxed choice at sample k ([`Share`]) between the runs at lo and hi, its share θ ∈ [0, 1] found by
@@ -494,7 +535,24 @@ pub(super) fn correction(best: &Outcome, other: &Option<Outcome>) -> (Option<f64
 
 #[cfg(test)]
 mod tests {
-    use super::zeroin_step;
+    use super::{across_jump, zeroin_step};
+
+    #[test]
+    fn a_jump_is_told_from_a_slope_in_a_narrow_bracket_only() {
+        // The Prius's UDDS: ΔSOC −3.23e-4 and −3.22e-4 at two s on one side, +1.96e-3 at c 10⁻⁴ away: the
+        // slope through them reaches 10⁻⁵ by c, the band (10⁻⁴) lies across the jump.
+        let (a, b, c) = (
+            (2.699_172_6, -3.232e-4),
+            (2.699_184_0, -3.222e-4),
+            2.699_284_0,
+        );
+        assert!(across_jump(a, b, c, 1e-4));
+        // A slope that reaches the band before c, a on the other side, or a wide bracket (the S-shaped far
+        // phase, hev_p2 on UDDS: s = 3.0 and 3.17 both near −0.7, c = 3.75): no.
+        assert!(!across_jump((2.699_174_0, -3.5e-4), b, c, 1e-4));
+        assert!(!across_jump((2.699_300_0, 2.0e-3), b, c, 1e-4));
+        assert!(!across_jump((3.0, -0.764), (3.1675, -0.701), 3.75, 1e-4));
+    }
 
     #[test]
     fn a_step_is_the_secant_within_the_bracket_else_bisection() {
