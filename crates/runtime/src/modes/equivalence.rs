@@ -313,6 +313,9 @@ fn unreachable(last: &Outcome, tol: f64) -> ModalError {
 /// The search's result: (run, runs taken, the other run of the J1711 correction).
 type Found = (Outcome, usize, Option<Outcome>);
 
+/// A relaxed choice's outcome: the run found, or the bracket (lo, hi) handed back with the runs used.
+type Attempt = Result<Found, (Outcome, Outcome, usize)>;
+
 /// Where ΔSOC(s) jumps across the band at s (lo and hi within 10⁻⁷ s of each other): [`bridge`]; a jump it
 /// does not bridge is the error.
 fn relax(
@@ -331,13 +334,12 @@ fn relax(
 /// every sample whose mode differs ([`relax_modes`]); else ([`relax_at`]) at the sample whose interval moves
 /// the two runs' charges apart the most, then at the first sample where they differ. Where none bridges it,
 /// the bracket is handed back with the runs used.
-#[allow(clippy::type_complexity)]
 fn bridge(
     run: &Ecms<'_, '_, '_>,
     (lo, hi): (Outcome, Outcome),
     (tol, x0): (f64, &[f64]),
     runs: usize,
-) -> Result<Result<Found, (Outcome, Outcome, usize)>, ModalError> {
+) -> Result<Attempt, ModalError> {
     let Some(first) = run.first_difference(&lo.rec, &hi.rec) else {
         return Ok(Err((lo, hi, runs)));
     };
@@ -384,14 +386,13 @@ fn across_jump((sa, fa): (f64, f64), (sb, fb): (f64, f64), sc: f64, tol: f64) ->
 /// regula falsi ([`falsi`]) so that |ΔSOC| ≤ tol. Where ΔSOC(θ) does not change sign over [0, 1] (later
 /// choices depend on that one, as with a start penalty, or the runs differ elsewhere by more than the sample
 /// can make up) the bracket is handed back with the runs used.
-#[allow(clippy::type_complexity)]
 fn relax_at(
     run: &Ecms<'_, '_, '_>,
     k: usize,
     (lo, hi): (Outcome, Outcome),
     (tol, x0): (f64, &[f64]),
     runs: usize,
-) -> Result<Result<Found, (Outcome, Outcome, usize)>, ModalError> {
+) -> Result<Attempt, ModalError> {
     let shares = vec![Share {
         k,
         own: None,
@@ -410,13 +411,12 @@ const MAX_SHARED: usize = 8;
 /// state besides the charge (the engine's temperature), later choices near a tie flip with it, and sharing
 /// one sample leaves ΔSOC(θ) with jumps; with the modes of every differing sample held, ΔSOC(θ) moves
 /// continuously from about lo's to hi's.
-#[allow(clippy::type_complexity)]
 fn relax_modes(
     run: &Ecms<'_, '_, '_>,
     (lo, hi): (Outcome, Outcome),
     (tol, x0): (f64, &[f64]),
     runs: usize,
-) -> Result<Result<Found, (Outcome, Outcome, usize)>, ModalError> {
+) -> Result<Attempt, ModalError> {
     let n = lo.rec.mode.len().min(hi.rec.mode.len());
     let shares: Vec<Share> = (0..n)
         .filter(|&k| lo.rec.mode[k] != hi.rec.mode[k])
@@ -435,14 +435,13 @@ fn relax_modes(
 
 /// The runs at hi's s with `shares` at θ = 0 and 1, then [`falsi`] on θ where ΔSOC changes sign between
 /// them; the bracket handed back where it does not.
-#[allow(clippy::type_complexity)]
 fn relax_with(
     run: &Ecms<'_, '_, '_>,
     mut shares: Vec<Share>,
     (lo, hi): (Outcome, Outcome),
     (tol, x0): (f64, &[f64]),
     mut runs: usize,
-) -> Result<Result<Found, (Outcome, Outcome, usize)>, ModalError> {
+) -> Result<Attempt, ModalError> {
     let mut at = |theta: f64| -> Result<(f64, Outcome), ModalError> {
         for sh in shares.iter_mut() {
             sh.theta = theta;
