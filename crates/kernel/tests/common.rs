@@ -1,5 +1,6 @@
 //! Independent references for the map tests: the (bi)linear interpolant with its continuation, evaluated
-//! piece by piece (not through the basis functions), and Gauss–Legendre quadrature of the convolution.
+//! piece by piece (not through the basis functions), and Gauss–Legendre quadrature of the convolution; and
+//! their deterministic random numbers.
 
 use invsim_kernel::map::Extrapolate;
 use invsim_kernel::Kernel;
@@ -129,4 +130,17 @@ pub fn convolve_2d(
         }
     }
     out
+}
+
+/// A deterministic generator of uniform numbers in [0, 1) (64-bit LCG, top 53 bits).
+pub struct Lcg(pub u64);
+
+impl Lcg {
+    pub fn next(&mut self) -> f64 {
+        self.0 = self
+            .0
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
 }

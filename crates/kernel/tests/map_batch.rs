@@ -4,7 +4,7 @@
 //! differences; NaN arguments and the `error` rule's report. And the interpreter's one-partial call of a 1-D
 //! map against `Map::eval`, bit for bit.
 
-use crate::common::{convolve_1d, convolve_2d};
+use crate::common::{convolve_1d, convolve_2d, Lcg};
 use invsim_kernel::map::{take_violation, Extrapolate, Interp, Map, MapSettings};
 
 const RULES: [Extrapolate; 3] = [Extrapolate::Linear, Extrapolate::Clamp, Extrapolate::Error];
@@ -14,19 +14,6 @@ fn settings(smooth: f64, extrapolate: Extrapolate, interp: Interp) -> MapSetting
         smooth,
         extrapolate,
         interp,
-    }
-}
-
-/// A deterministic generator of uniform numbers in [0, 1) (64-bit LCG, top 53 bits).
-struct Lcg(u64);
-
-impl Lcg {
-    fn next(&mut self) -> f64 {
-        self.0 = self
-            .0
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64
     }
 }
 

@@ -2,6 +2,7 @@
 //! order up to 2 per argument, at points inside, at and outside the grid, 1-D and 2-D, smooth and plain,
 //! under `linear` and `clamp` extrapolation; the weights are local (only grid values near the point).
 
+use crate::common::Lcg;
 use invsim_kernel::map::{Extrapolate, Interp, Map, MapSettings};
 
 /// Uneven grids (the smooth map's kernel window then spans different numbers of corners) and values without
@@ -25,15 +26,9 @@ fn maps(rule: Extrapolate, interp: Interp) -> [Map; 2] {
 
 /// Points drawn uniformly from a range 3 units wider than each grid on both sides.
 fn points(n: usize) -> Vec<[f64; 2]> {
-    let mut state = 7_u64;
-    let mut next = || {
-        state = state
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        (state >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut rng = Lcg(7);
     (0..n)
-        .map(|_| [-3.0 + 12.0 * next(), -5.0 + 12.0 * next()])
+        .map(|_| [-3.0 + 12.0 * rng.next(), -5.0 + 12.0 * rng.next()])
         .collect()
 }
 
