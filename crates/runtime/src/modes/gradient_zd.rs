@@ -1,7 +1,7 @@
 //! The sensitivities of a mode's zero dynamics over one output interval, for the gradient of a run with
-//! modes (`gradient.rs`): [η, S_1, …, S_P] integrated together by Dormand–Prince 5(4) at the zero dynamics'
-//! own tolerances (rtol 1e-10, atol 1e-12, `zd_ode.rs`), S in the error norm too, from the η the run recorded
-//! at the interval's start:
+//! modes (`gradient.rs`): [η, S_1, …, S_P] integrated together by Dormand–Prince 5(4) at rtol 1e-10, atol
+//! 1e-12 (a hundred times tighter than the run's `zd_ode.rs`: the derivatives are compared with central
+//! differences of the run), S in the error norm too, from the η the run recorded at the interval's start:
 //!
 //! ```text
 //! dη/dt  = q(ξ_ref(t), η, y_ref^(r)(t); p)

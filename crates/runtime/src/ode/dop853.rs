@@ -153,8 +153,11 @@ pub struct Dop853 {
     rtol: f64,
     atol: f64,
     h: f64,
-    /// k_1 … k_12, and k_13 = f(t + h, y₁) (the next k_1).
-    k: [Vec<f64>; S + 1],
+    /// k_1 … k_12, and k_13 = f(t + h, y₁) (the next k_1), stage after stage in one buffer: k_i's
+    /// component c at `(i − 1)·n + c` (a system of one or two internal states runs through short loops, so
+    /// one contiguous buffer instead of thirteen).
+    k: Vec<f64>,
+    n: usize,
     y_stage: Vec<f64>,
     y_new: Vec<f64>,
     fsal: bool,
@@ -167,7 +170,8 @@ impl Dop853 {
             rtol,
             atol,
             h: h0,
-            k: std::array::from_fn(|_| vec![0.0; n]),
+            k: vec![0.0; (S + 1) * n],
+            n,
             y_stage: vec![0.0; n],
             y_new: vec![0.0; n],
             fsal: false,
@@ -206,7 +210,7 @@ impl Dop853 {
         E: From<StepFailure>,
     {
         if !self.fsal {
-            f(t, y, &mut self.k[0])?;
+            f(t, y, &mut self.k[..self.n])?;
             self.stats.evaluations += 1;
             self.fsal = true;
         }
@@ -222,7 +226,7 @@ impl Dop853 {
                 self.stats.accepted += 1;
                 let t_new = if clipped { t_end } else { t + h };
                 y.copy_from_slice(&self.y_new);
-                self.k.swap(0, S);
+                self.k.copy_within(S * self.n.., 0);
                 // A step shortened to land on t_end says little about the step size the solution allows.
                 self.h = if clipped { next.max(self.h) } else { next };
                 return Ok(t_new);
@@ -239,32 +243,35 @@ impl Dop853 {
     where
         F: FnMut(f64, &[f64], &mut [f64]) -> Result<(), E>,
     {
-        let n = y.len();
+        let n = self.n;
         for i in 1..S {
-            let (done, rest) = self.k.split_at_mut(i);
+            let (done, rest) = self.k.split_at_mut(i * n);
             for (c, (ys, &y0)) in self.y_stage.iter_mut().zip(y).enumerate() {
-                let s: f64 = A[i][..i]
-                    .iter()
-                    .zip(done.iter())
-                    .map(|(a, k)| a * k[c])
-                    .sum();
+                let mut s = 0.0;
+                for (j, a) in A[i][..i].iter().enumerate() {
+                    s += a * done[j * n + c];
+                }
                 *ys = y0 + h * s;
             }
-            f(t + C[i] * h, &self.y_stage, &mut rest[0])?;
+            f(t + C[i] * h, &self.y_stage, &mut rest[..n])?;
         }
         for (c, (y1, &y0)) in self.y_new.iter_mut().zip(y).enumerate() {
-            let s: f64 = B.iter().zip(&self.k).map(|(b, k)| b * k[c]).sum();
+            let mut s = 0.0;
+            for (j, b) in B.iter().enumerate() {
+                s += b * self.k[j * n + c];
+            }
             *y1 = y0 + h * s;
         }
-        f(t + h, &self.y_new, &mut self.k[S])?;
+        f(t + h, &self.y_new, &mut self.k[S * n..])?;
         self.stats.evaluations += S;
         let (mut e5, mut e3) = (0.0, 0.0);
         for (c, (&y0, &y1)) in y.iter().zip(&self.y_new).enumerate() {
             let sc = self.atol + self.rtol * y0.abs().max(y1.abs());
             let (mut d5, mut d3) = (0.0, 0.0);
-            for ((k, e5j), e3j) in self.k[..S].iter().zip(E5).zip(E3) {
-                d5 += e5j * k[c];
-                d3 += e3j * k[c];
+            for (j, (e5j, e3j)) in E5.iter().zip(E3).enumerate() {
+                let k = self.k[j * n + c];
+                d5 += e5j * k;
+                d3 += e3j * k;
             }
             e5 += (h * d5 / sc).powi(2);
             e3 += (h * d3 / sc).powi(2);

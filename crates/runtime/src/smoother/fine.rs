@@ -35,8 +35,9 @@ pub enum ZeroDynamicsReference {
 
 /// The largest sub-grid step per second of look-ahead (0.02 s at a = 5 s).
 const H_MAX_PER_LOOKAHEAD: f64 = 0.004;
-/// Sub-grid intervals per block.
+/// Sub-grid intervals per block, and the intervals a block starts before the first one asked for.
 const BLOCK: usize = 128;
+const BACK: usize = 8;
 
 /// The smoothed cycle and signals on the block of the sub-grid in hand.
 pub(crate) struct FineReference {
@@ -98,31 +99,23 @@ impl FineReference {
             0
         };
         if !(i >= self.start && i + 1 < self.start + self.len) {
-            self.fill(smoother, i);
+            // A step's stage times are not in order (DOP853's c_7 = 0.25 follows c_6 = 1/3) and a rejected
+            // step is retried from its start: a block starting a few intervals before i keeps such steps
+            // from filling the block twice.
+            self.fill(smoother, i.saturating_sub(BACK));
         }
         let k = i - self.start;
         let b = hermite((t - self.times[k]) * self.inv_h, self.h);
-        let stride = self.quantities * self.orders;
+        let (orders, per) = (self.orders, y.len());
+        assert!(per + 2 <= orders && w.len() == (self.quantities - 1) * per);
+        let stride = self.quantities * orders;
         let (p0, p1) = self.pts[k * stride..(k + 2) * stride].split_at(stride);
-        let per = y.len();
-        // Order j of quantity c (at = c·orders + j) from orders j, j + 1, j + 2 at both ends; signal c's
-        // r + 1 values (r + 1 = y.len()) go to w[(c − 1)·(r + 1) …].
-        for c in 0..self.quantities {
-            let out = if c == 0 {
-                &mut y[..]
-            } else {
-                &mut w[(c - 1) * per..c * per]
-            };
-            let at = c * self.orders;
-            let (q0, q1) = (&p0[at..at + per + 2], &p1[at..at + per + 2]);
-            for ((v, f0), f1) in out.iter_mut().zip(q0.windows(3)).zip(q1.windows(3)) {
-                *v = b[0] * f0[0]
-                    + b[1] * f0[1]
-                    + b[2] * f0[2]
-                    + b[3] * f1[0]
-                    + b[4] * f1[1]
-                    + b[5] * f1[2];
-            }
+        // Order j of quantity c from orders j, j + 1, j + 2 at both ends (quantity c's orders start at
+        // c·orders); signal c's r + 1 values (r + 1 = y.len()) go to w[(c − 1)·(r + 1) …].
+        interpolate(&b, &p0[..orders], &p1[..orders], y);
+        for (c, out) in w.chunks_exact_mut(per).enumerate() {
+            let at = (c + 1) * orders;
+            interpolate(&b, &p0[at..at + orders], &p1[at..at + orders], out);
         }
     }
 
@@ -146,6 +139,37 @@ impl FineReference {
         }
         (self.start, self.len) = (i, end + 1 - i);
     }
+}
+
+/// out[j] = the quintic Hermite interpolant of order j from orders j, j + 1, j + 2 of one quantity at the
+/// interval's two ends (`p0`, `p1`), with the weights `b` of [`hermite`]. The usual lengths (relative degrees
+/// 0 … 3) get loops of a fixed length, which the compiler unrolls.
+#[inline(always)]
+fn interpolate(b: &[f64; 6], p0: &[f64], p1: &[f64], out: &mut [f64]) {
+    match out.len() {
+        1 => interpolate_n::<1>(b, p0, p1, out),
+        2 => interpolate_n::<2>(b, p0, p1, out),
+        3 => interpolate_n::<3>(b, p0, p1, out),
+        4 => interpolate_n::<4>(b, p0, p1, out),
+        n => {
+            for (j, v) in out.iter_mut().enumerate().take(n) {
+                *v = hermite_sum(b, &p0[j..j + 3], &p1[j..j + 3]);
+            }
+        }
+    }
+}
+
+#[inline(always)]
+fn interpolate_n<const N: usize>(b: &[f64; 6], p0: &[f64], p1: &[f64], out: &mut [f64]) {
+    let (p0, p1, out) = (&p0[..N + 2], &p1[..N + 2], &mut out[..N]);
+    for j in 0..N {
+        out[j] = hermite_sum(b, &p0[j..j + 3], &p1[j..j + 3]);
+    }
+}
+
+#[inline(always)]
+fn hermite_sum(b: &[f64; 6], f0: &[f64], f1: &[f64]) -> f64 {
+    b[0] * f0[0] + b[1] * f0[1] + b[2] * f0[2] + b[3] * f1[0] + b[4] * f1[1] + b[5] * f1[2]
 }
 
 /// H_0(s), h H_1(s), h² H_2(s), H_3(s), h H_4(s), h² H_5(s) (module docs).
