@@ -139,20 +139,24 @@ impl Record {
         samples: usize,
         (n, n_yref): (usize, usize),
     ) -> Record {
-        let mut speed = Vec::with_capacity(samples);
-        speed.push(speed0);
+        // Every per-sample column is allocated for the whole run at once.
+        fn first<T>(v: T, samples: usize) -> Vec<T> {
+            let mut c = Vec::with_capacity(samples.max(1));
+            c.push(v);
+            c
+        }
         let intervals = samples.saturating_sub(1);
         Record {
-            t: vec![t0],
-            speed,
-            mode: vec![mode],
+            t: first(t0, samples),
+            speed: first(speed0, samples),
+            mode: first(mode, samples),
             states: Rows::with_capacity(n, samples),
             free: Vec::with_capacity(samples),
             yref: Rows::with_capacity(n_yref, samples),
             u_end: Vec::with_capacity(intervals),
             x_end: Rows::with_capacity(n, intervals),
-            impulse: vec![0.0],
-            impulse_dir: vec![Vec::new()],
+            impulse: first(0.0, samples),
+            impulse_dir: first(Vec::new(), samples),
             transitions: Vec::new(),
             impulses: Vec::new(),
             resets: Vec::new(),
