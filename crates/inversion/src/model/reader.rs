@@ -129,9 +129,17 @@ impl ModelFile {
         let Some(facts) = compiled(&hash) else {
             return Ok(None);
         };
-        let reader = Reader { file, text };
-        let root = reader.parse_toml()?;
-        reader.read_headers(&root, hash, facts.as_ref())
+        // With the compiled code's facts (the file is its model's byte for byte: the hash matched) only the
+        // tables the headers come from are parsed; without, the first mode is built from the whole file.
+        let root = match facts {
+            Some(_) => Reader {
+                file,
+                text: &modal_tables_only(text),
+            }
+            .parse_toml()?,
+            None => Reader { file, text }.parse_toml()?,
+        };
+        Reader { file, text }.read_headers(&root, hash, facts.as_ref())
     }
 
     /// [`ModelFile::from_path`] on text; `file` is used in messages.
@@ -315,4 +323,95 @@ fn source_hash(text: &str) -> String {
         .iter()
         .map(|b| format!("{b:02x}"))
         .collect()
+}
+
+/// `text` with every top-level table other than the modal ones (`[inputs.*]`, `[modes.*]`, `[gearbox]`,
+/// `[sequence]`, `[hybrid]`) and the keys before the first table blanked: each of their bytes but the line
+/// ends replaced by a space, so that every offset (a span in a message) stays where it was. For a file that is
+/// a compiled model's byte for byte, whose headers are all a compiled run reads from the TOML
+/// ([`ModelFile::modal_headers_of`]): the rest (parameters, definitions, outputs, maps) is most of the file.
+/// A table starts at a line `[KEY]` or `[KEY.…]` at the line's start (a comment may follow); a row of a
+/// multi-line array is not one (it is not a key).
+fn modal_tables_only(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut keep = false;
+    for line in text.split_inclusive('\n') {
+        if let Some(key) = table_key(line) {
+            keep = super::keys::TOP_MODAL.contains(&key);
+        }
+        if keep {
+            out.push_str(line);
+        } else {
+            // One space per byte (a character of several bytes too): the offsets stay.
+            for c in line.chars() {
+                match c {
+                    '\n' | '\r' => out.push(c),
+                    _ => out.extend(std::iter::repeat_n(' ', c.len_utf8())),
+                }
+            }
+        }
+    }
+    out
+}
+
+/// The top-level key of a table header line (`[gearbox]`, `[modes.drive]  # …` → `gearbox`, `modes`).
+fn table_key(line: &str) -> Option<&str> {
+    let rest = line.strip_prefix('[')?;
+    let header = rest.split('#').next()?.trim_end();
+    let inner = header.strip_suffix(']')?;
+    let bare = |c: char| c.is_ascii_alphanumeric() || c == '_' || c == '-' || c == '.';
+    if inner.is_empty() || !inner.chars().all(bare) {
+        return None;
+    }
+    inner.split('.').next()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every shipped model file with modes: the blanked text has the same bytes' count, the same lines, the
+    /// modal tables parse to the same values as in the whole file, and nothing else is left.
+    #[test]
+    fn only_the_modal_tables_are_left_where_they_were() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models");
+        let mut checked = 0;
+        for entry in std::fs::read_dir(&dir).expect("models/") {
+            let path = entry.expect("entry").path();
+            if path.extension().is_none_or(|x| x != "toml") {
+                continue;
+            }
+            let text = std::fs::read_to_string(&path).expect("readable");
+            let full: toml::Table = toml::from_str(&text).expect("the whole file parses");
+            if !full
+                .keys()
+                .any(|k| super::super::keys::TOP_MODAL.contains(&k.as_str()))
+            {
+                continue;
+            }
+            let blanked = modal_tables_only(&text);
+            assert_eq!(blanked.len(), text.len(), "{}", path.display());
+            assert_eq!(blanked.lines().count(), text.lines().count());
+            let kept: toml::Table = toml::from_str(&blanked).expect("the modal tables parse");
+            let modal: Vec<&String> = full
+                .keys()
+                .filter(|k| super::super::keys::TOP_MODAL.contains(&k.as_str()))
+                .collect();
+            assert_eq!(kept.keys().collect::<Vec<_>>(), modal, "{}", path.display());
+            for k in modal {
+                assert_eq!(kept[k], full[k], "{} [{k}]", path.display());
+            }
+            checked += 1;
+        }
+        assert!(checked >= 4, "only {checked} model files with modes");
+    }
+
+    #[test]
+    fn a_row_of_an_array_is_no_table() {
+        assert_eq!(table_key("[modes.drive]   # engine on\n"), Some("modes"));
+        assert_eq!(table_key("[gearbox]\n"), Some("gearbox"));
+        assert_eq!(table_key("[1.0, 2.0],\n"), None);
+        assert_eq!(table_key("  [modes.x]\n"), None);
+        assert_eq!(table_key("[[points]]\n"), None);
+    }
 }
