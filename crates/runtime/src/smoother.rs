@@ -234,6 +234,17 @@ impl Smoother {
         (&self.corners, &self.jumps)
     }
 
+    /// Whether `y_d` and every smoothed signal are constant on [t0, t1]: no corner within the kernel's reach
+    /// (t0 − a, t1 + a) and a flat stretch there (`y_d = y_c` wherever the cycle is linear on [t − a, t + a];
+    /// see the module docs), so every derivative is exactly 0 there.
+    pub(crate) fn still_on(&self, t0: f64, t1: f64) -> bool {
+        let a = self.lookahead();
+        let i = self.corners.partition_point(|&c| c <= t0 - a);
+        let none_within = self.corners.get(i).is_none_or(|&c| c >= t1 + a);
+        let slope = if i == 0 { 0.0 } else { self.slope_after[i - 1] };
+        none_within && slope == 0.0 && self.signals.iter().all(|s| s.still_on(t0, t1))
+    }
+
     /// Time span outside which `y_d` is constant: from the first corner − `a` to the last corner + `a`
     /// (`None` for a constant cycle).
     pub fn support(&self) -> Option<(f64, f64)> {
@@ -462,6 +473,42 @@ fn first_not_before(times: &[f64], from: usize, c: f64) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// still_on: a stop, a ramp and a cruise with a = 5 s; where it says still, y_d and its derivatives are
+    /// the same at every time of the interval (derivatives exactly 0), and a signal with a corner in reach
+    /// makes the interval move.
+    #[test]
+    fn still_where_no_corner_is_in_reach_of_a_flat_stretch() {
+        let (time, speed) = (
+            [0.0, 20.0, 30.0, 60.0, 70.0, 100.0],
+            [0.0, 0.0, 10.0, 10.0, 0.0, 0.0],
+        );
+        let s = Smoother::from_samples(&time, &speed, 5.0);
+        for (t0, t1, still) in [
+            (5.0, 10.0, true),
+            (0.0, 15.0, true),
+            (14.0, 16.0, false),
+            (22.0, 23.0, false),
+            (35.0, 55.0, true),
+            (34.0, 36.0, false),
+            (80.0, 100.0, true),
+        ] {
+            assert_eq!(s.still_on(t0, t1), still, "[{t0}, {t1}]");
+            if still {
+                let (mut first, mut other) = ([0.0; 4], [0.0; 4]);
+                s.eval(t0, &mut first);
+                for k in 1..=10 {
+                    s.eval(t0 + (t1 - t0) * k as f64 / 10.0, &mut other);
+                    assert_eq!(first, other, "[{t0}, {t1}]");
+                }
+                assert_eq!(&first[1..], &[0.0; 3]);
+            }
+        }
+        let grade = Smoother::from_samples(&[0.0, 12.0, 100.0], &[0.0, 0.0, 0.05], 5.0);
+        let with = Smoother::from_samples(&time, &speed, 5.0).with_signals(vec![grade]);
+        assert!(!with.still_on(5.0, 10.0), "the signal's corner at 12 s is in reach");
+        assert!(with.still_on(0.0, 6.0));
+    }
 
     /// The bucket look-up agrees with a plain binary search everywhere, including at and next to every
     /// corner and every bucket boundary, where rounding of the bucket index matters.

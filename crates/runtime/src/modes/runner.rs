@@ -224,10 +224,13 @@ impl Ctx<'_, '_> {
             b.add(t0, &mut y[..=r]);
         }
         self.w_into(m, t0, n_w, w);
+        // Where the reference and the signals are constant on the interval (a standstill more than a
+        // look-ahead from any corner, no transition under way), the stage times take t0's values.
+        let still = blend.is_none_or(|b| b.done(t0)) && self.smoother.still_on(t0, t1);
         let mut at = t0;
         let map = model.reference();
         let mut f = |t: f64, e: &[f64], de: &mut [f64]| -> Result<(), StepFailure> {
-            if t.to_bits() != at.to_bits() {
+            if !still && t.to_bits() != at.to_bits() {
                 if let Some(fine) = fine.as_mut() {
                     // y_c^(0 … r) and the signals interpolated on the sub-grid, then the mode's map and the
                     // blend as `reference_into` applies them.
