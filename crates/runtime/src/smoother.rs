@@ -506,7 +506,10 @@ mod tests {
         }
         let grade = Smoother::from_samples(&[0.0, 12.0, 100.0], &[0.0, 0.0, 0.05], 5.0);
         let with = Smoother::from_samples(&time, &speed, 5.0).with_signals(vec![grade]);
-        assert!(!with.still_on(5.0, 10.0), "the signal's corner at 12 s is in reach");
+        assert!(
+            !with.still_on(5.0, 10.0),
+            "the signal's corner at 12 s is in reach"
+        );
         assert!(with.still_on(0.0, 6.0));
     }
 
