@@ -656,6 +656,15 @@ fn mode_headers_equal_the_full_read() {
             ),
             "{name}: the model from the compiled facts"
         );
+        // The compiled code finds the file by its bytes, with the file's SHA-256; one byte more is not it.
+        assert_eq!(
+            invsim_models::modal_hash_of_source(&bytes),
+            Some(hash),
+            "{name}"
+        );
+        let mut edited = bytes.clone();
+        edited.push(b'\n');
+        assert_eq!(invsim_models::modal_hash_of_source(&edited), None, "{name}");
         let refuse = |_: &str| false;
         let none = invsim_inversion::ModelFile::modal_headers(&path, &refuse)
             .unwrap_or_else(|e| panic!("{name}: {e}"));
@@ -669,6 +678,8 @@ fn mode_headers_equal_the_full_read() {
     let any = |_: &str| true;
     let got = invsim_inversion::ModelFile::modal_headers(&single, &any).expect("si_engine reads");
     assert!(got.is_none());
+    let bytes = std::fs::read(&single).expect("si_engine.toml");
+    assert_eq!(invsim_models::modal_hash_of_source(&bytes), None);
 }
 
 #[test]

@@ -187,6 +187,15 @@ fn modal_registry(all: &[&Generated]) -> TokenStream {
     } else {
         quote!(match sha256 { #(#arms)* _ => None, })
     };
+    let mut seen = std::collections::HashSet::new();
+    let by_source: Vec<TokenStream> = modal
+        .iter()
+        .filter(|g| seen.insert(g.source_hash.clone()))
+        .map(|g| {
+            let (p, h) = (g.source.display().to_string(), &g.source_hash);
+            quote!(if bytes == include_bytes!(#p).as_slice() { return Some(#h); })
+        })
+        .collect();
     quote! {
         /// (name, SHA-256 of the model file, model file name) of every compiled model with operating modes,
         /// sorted by name.
@@ -196,6 +205,14 @@ fn modal_registry(all: &[&Generated]) -> TokenStream {
         /// SHA-256 (lower-case hex): every mode's model at its default parameters, in the file's order.
         pub fn modal_by_hash(sha256: &str) -> Option<Vec<Box<dyn invsim_model_api::InverseModel>>> {
             #body
+        }
+
+        /// The SHA-256 of the model file with operating modes whose bytes are exactly these (a comparison of
+        /// lengths, then of bytes: what hashing them and [`modal_by_hash`] would find, without hashing).
+        pub fn modal_hash_of_source(bytes: &[u8]) -> Option<&'static str> {
+            let _ = bytes;
+            #(#by_source)*
+            None
         }
     }
 }

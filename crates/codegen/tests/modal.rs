@@ -73,6 +73,11 @@ fn one_module_per_mode_and_a_table_of_modes() {
         registry.contains("Some(si_engine_5speed::models())"),
         "{registry}"
     );
+    assert!(
+        registry.contains("pub fn modal_hash_of_source(bytes: &[u8]) -> Option<&'static str>")
+            && registry.contains(&format!("return Some(\"{}\");", g.source_hash)),
+        "{registry}"
+    );
     let _ = std::fs::remove_dir_all(&out);
 }
 

@@ -151,8 +151,15 @@ pub fn modal_derive_json(m: &ModalModel, modes: &[DerivedMode]) -> serde_json::V
 /// The model with its compiled modes, when the file's bytes are byte for byte a built-in model with modes
 /// (every mode was checked when that code was generated from these bytes): read without building any mode's
 /// equations, the model's name, description, parameters and states taken from the compiled code
-/// (`ModelFile::modal_headers_of`); `None` otherwise.
+/// (`ModelFile::modal_headers_hashed`; the file found by comparing its bytes, its SHA-256 the compiled
+/// code's); `None` otherwise.
 pub(crate) fn read_compiled(file: &Path, bytes: &[u8]) -> Result<Option<LoadedModal>, LoadError> {
+    let (Some(hash), Ok(text)) = (
+        invsim_models::modal_hash_of_source(bytes),
+        std::str::from_utf8(bytes),
+    ) else {
+        return Ok(None);
+    };
     let found: RefCell<Option<Vec<Box<dyn InverseModel>>>> = RefCell::new(None);
     let known = |hash: &str| {
         let models = invsim_models::modal_by_hash(hash)?;
@@ -160,7 +167,8 @@ pub(crate) fn read_compiled(file: &Path, bytes: &[u8]) -> Result<Option<LoadedMo
         *found.borrow_mut() = Some(models);
         Some(Some(facts))
     };
-    let Some((m, headers)) = ModelFile::modal_headers_of(file, bytes, &known)? else {
+    let Some((m, headers)) = ModelFile::modal_headers_hashed(file, text, hash.into(), &known)?
+    else {
         return Ok(None);
     };
     match found.take().filter(|c| c.len() == headers.len()) {

@@ -125,7 +125,17 @@ impl ModelFile {
         let Ok(text) = std::str::from_utf8(bytes) else {
             return Ok(None);
         };
-        let hash = source_hash(text);
+        ModelFile::modal_headers_hashed(file, text, source_hash(text), compiled)
+    }
+
+    /// [`ModelFile::modal_headers_of`] of a text whose SHA-256 is known already (the compiled code's, whose
+    /// file the text equals byte for byte): no hashing.
+    pub fn modal_headers_hashed(
+        file: &Path,
+        text: &str,
+        hash: String,
+        compiled: &dyn Fn(&str) -> Option<Option<ModalFacts>>,
+    ) -> Result<Option<(ModalModel, Vec<ModeHeader>)>, ModelError> {
         let Some(facts) = compiled(&hash) else {
             return Ok(None);
         };
