@@ -81,6 +81,17 @@ impl Ecms<'_, '_, '_> {
         self.signals_into(m, self.samples.signals_at(k), d, &mut sc.w);
         sc.eta.clear();
         sc.eta.extend(info.eta_states.iter().map(|&j| sc.x[j]));
+        self.end_after_point((m, k), d, sc)
+    }
+
+    /// [`Ecms::end_in`] right after [`Ecms::point_in`] of the same candidate, whose signals at t_k and η
+    /// (those of `sc.x`: ψ⁻¹ keeps the internal states it is given) `sc` holds already.
+    fn end_after_point(
+        &self,
+        (m, k): (usize, usize),
+        d: f64,
+        sc: &mut Scratch,
+    ) -> Result<Point, String> {
         self.advance_in((m, k), d, sc);
         self.finish_in((m, k), d, sc)
     }
@@ -128,7 +139,10 @@ impl Ecms<'_, '_, '_> {
             v.resize(n, 0.0);
         }
         for i in 0..4 {
-            self.reference_into(m, rows[i], &mut sc.y);
+            // k₃ takes the midpoint's reference as k₂ did: `sc.y` holds it.
+            if i != 2 {
+                self.reference_into(m, rows[i], &mut sc.y);
+            }
             let y = &sc.y;
             match i {
                 1 => self.signals_again(m, self.samples.signals_mid_at(k), d, &mut sc.w),
@@ -200,7 +214,7 @@ impl Ecms<'_, '_, '_> {
             let cost = self.dt * (at.p_fuel + s * at.p_batt) + penalty;
             return Some((cost, at.margin, at, None));
         }
-        let end = self.end_in((m, k), d, sc).ok()?;
+        let end = self.end_after_point((m, k), d, sc).ok()?;
         let h = self.samples.t[k + 1] - self.samples.t[k];
         let fuel = 0.5 * h * (at.p_fuel + end.p_fuel);
         let battery = 0.5 * h * (at.p_batt + end.p_batt);
