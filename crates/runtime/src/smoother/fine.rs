@@ -106,14 +106,14 @@ impl FineReference {
         }
         let k = i - self.start;
         let b = hermite((t - self.times[k]) * self.inv_h, self.h);
-        let (orders, per) = (self.orders, y.len());
-        assert!(per + 2 <= orders && w.len() == (self.quantities - 1) * per);
+        let (orders, per, signals) = (self.orders, y.len(), self.quantities - 1);
         let stride = self.quantities * orders;
         let (p0, p1) = self.pts[k * stride..(k + 2) * stride].split_at(stride);
         // Order j of quantity c from orders j, j + 1, j + 2 at both ends (quantity c's orders start at
-        // c·orders); signal c's r + 1 values (r + 1 = y.len()) go to w[(c − 1)·(r + 1) …].
+        // c·orders); signal c's r + 1 values (r + 1 = y.len()) go to w[(c − 1)·(r + 1) …] (what follows the
+        // signals in w, a mode's decided inputs, is left as it is).
         interpolate(&b, &p0[..orders], &p1[..orders], y);
-        for (c, out) in w.chunks_exact_mut(per).enumerate() {
+        for (c, out) in w[..signals * per].chunks_exact_mut(per).enumerate() {
             let at = (c + 1) * orders;
             interpolate(&b, &p0[at..at + orders], &p1[at..at + orders], out);
         }
