@@ -165,18 +165,36 @@ pub(crate) fn write_if_changed(path: &Path, text: &str) -> Result<bool, Error> {
     Ok(true)
 }
 
+/// The first of `models` for each model file's SHA-256 (two files with the same bytes are one arm of a match).
+fn one_per_file<'g>(models: &[&'g Generated]) -> Vec<&'g Generated> {
+    let mut seen = std::collections::HashSet::new();
+    models
+        .iter()
+        .copied()
+        .filter(|g| seen.insert(g.source_hash.clone()))
+        .collect()
+}
+
+/// `if bytes == <g's model file> { return <found>; }`: a `by_source` look-up's arm for g.
+fn source_arm(g: &Generated, found: TokenStream) -> TokenStream {
+    let p = g.source.display().to_string();
+    quote!(if bytes == include_bytes!(#p).as_slice() { return #found; })
+}
+
 /// The registry's part for models with modes: `MODAL_MODELS` (name, SHA-256, model file name) and
 /// `modal_by_hash(sha256)`, every mode's model at its default parameters in the file's order.
 fn modal_registry(all: &[&Generated]) -> TokenStream {
-    let modal: Vec<&&Generated> = all.iter().filter(|g| !g.modes.is_empty()).collect();
+    let modal: Vec<&Generated> = all
+        .iter()
+        .copied()
+        .filter(|g| !g.modes.is_empty())
+        .collect();
     let rows = modal.iter().map(|g| {
         let (n, h, f) = (&g.name, &g.source_hash, source_name(&g.source));
         quote!((#n, #h, #f))
     });
-    let mut seen = std::collections::HashSet::new();
-    let arms: Vec<TokenStream> = modal
-        .iter()
-        .filter(|g| seen.insert(g.source_hash.clone()))
+    let arms: Vec<TokenStream> = one_per_file(&modal)
+        .into_iter()
         .map(|g| {
             let (h, m) = (&g.source_hash, format_ident!("{}", g.module));
             quote!(#h => Some(#m::models()),)
@@ -187,13 +205,11 @@ fn modal_registry(all: &[&Generated]) -> TokenStream {
     } else {
         quote!(match sha256 { #(#arms)* _ => None, })
     };
-    let mut seen = std::collections::HashSet::new();
-    let by_source: Vec<TokenStream> = modal
-        .iter()
-        .filter(|g| seen.insert(g.source_hash.clone()))
+    let by_source: Vec<TokenStream> = one_per_file(&modal)
+        .into_iter()
         .map(|g| {
-            let (p, h) = (g.source.display().to_string(), &g.source_hash);
-            quote!(if bytes == include_bytes!(#p).as_slice() { return Some(#h); })
+            let h = &g.source_hash;
+            source_arm(g, quote!(Some(#h)))
         })
         .collect();
     quote! {
@@ -242,23 +258,16 @@ pub fn registry(models: &[Generated]) -> Result<String, CodegenError> {
         let (n, c) = (&g.name, ctor(g));
         quote!(#n => #c,)
     });
-    let mut seen = std::collections::HashSet::new();
-    let by_hash: Vec<TokenStream> = sorted
-        .iter()
-        .filter(|g| seen.insert(g.source_hash.clone()))
+    let by_hash: Vec<TokenStream> = one_per_file(&sorted)
+        .into_iter()
         .map(|g| {
             let (h, c) = (&g.source_hash, ctor(g));
             quote!(#h => #c,)
         })
         .collect();
-    let mut seen = std::collections::HashSet::new();
-    let by_source: Vec<TokenStream> = sorted
-        .iter()
-        .filter(|g| seen.insert(g.source_hash.clone()))
-        .map(|g| {
-            let (p, c) = (g.source.display().to_string(), ctor(g));
-            quote!(if bytes == include_bytes!(#p).as_slice() { return #c; })
-        })
+    let by_source: Vec<TokenStream> = one_per_file(&sorted)
+        .into_iter()
+        .map(|g| source_arm(g, ctor(g)))
         .collect();
     let (builtin, by_hash) = if sorted.is_empty() {
         (

@@ -151,8 +151,8 @@ fn interpolate(b: &[f64; 6], p0: &[f64], p1: &[f64], out: &mut [f64]) {
         2 => interpolate_n::<2>(b, p0, p1, out),
         3 => interpolate_n::<3>(b, p0, p1, out),
         4 => interpolate_n::<4>(b, p0, p1, out),
-        n => {
-            for (j, v) in out.iter_mut().enumerate().take(n) {
+        _ => {
+            for (j, v) in out.iter_mut().enumerate() {
                 *v = hermite_sum(b, &p0[j..j + 3], &p1[j..j + 3]);
             }
         }
