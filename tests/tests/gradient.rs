@@ -223,60 +223,23 @@ pub(crate) fn fd_plan(s: &Summary) -> (f64, f64) {
 /// `skip`: figures that are only piecewise smooth in every parameter and so have no finite-difference
 /// reference (a plain bilinear map's derivatives are piecewise constant, discontinuous on its grid lines).
 fn check_model(name: &str, skip: &[&str]) {
-    check_model_on(name, skip, None);
-}
-
-/// UDDS's first 505 s, which end at a standstill: FTP-75's cold-start phase ("bag 1", 40 CFR 86.137).
-fn udds_cold_start() -> Cycle {
-    let mut c = Cycle::builtin("udds").expect("built in");
-    let n = c
-        .time
-        .iter()
-        .position(|&t| t > 505.0)
-        .expect("UDDS is 1369 s");
-    assert_eq!(c.speed[n - 1], 0.0, "a standstill at 505 s");
-    c.time.truncate(n);
-    c.speed.truncate(n);
-    c.name = "udds-505s".to_string();
-    c
-}
-
-/// [`check_model`] with the differences on UDDS's cold-start phase for the parameters `udds_only` alone (every parameter on NEDC).
-fn check_model_on(name: &str, skip: &[&str], udds_only: Option<&[&str]>) {
     let path = model_path(name);
     // The two cycles side by side: a cycle's single-threaded phases (its gradient run) leave a core to the other.
     std::thread::scope(|scope| {
         for cycle in ["nedc", "udds"] {
             let path = &path;
             scope.spawn(move || {
-                let cycle = match cycle {
-                    "udds" if udds_only.is_some() => udds_cold_start(),
-                    _ => Cycle::builtin(cycle).expect("built in"),
-                };
+                let cycle = Cycle::builtin(cycle).expect("built in");
                 let comp = compiled(name);
-                // With a UDDS subset (a model whose runs with every sensitivity take seconds) the UDDS
-                // run asks for the subset's gradient alone and the engines are compared on NEDC only.
-                let subset = udds_only.filter(|_| cycle.name.starts_with("udds"));
-                let names = subset.map_or(vec!["all".to_string()], |s| {
-                    s.iter().map(|p| p.to_string()).collect()
-                });
                 // Both engines' runs side by side (a causal run with its sensitivities takes seconds).
                 let (si, sc) = std::thread::scope(|scope| {
-                    let i = scope.spawn(|| {
-                        subset
-                            .is_none()
-                            .then(|| run(interpreted(path).as_ref(), &cycle, true))
-                    });
-                    let c = run_for(comp.as_ref(), &cycle, Some(names.clone()));
+                    let i = scope.spawn(|| run(interpreted(path).as_ref(), &cycle, true));
+                    let c = run(comp.as_ref(), &cycle, true);
                     (i.join().expect("the interpreted run"), c)
                 });
                 let gc = block(&sc);
                 let info = comp.info().clone();
-                check_rows(
-                    &sc,
-                    &gc,
-                    subset.map_or(info.parameters.len(), <[&str]>::len),
-                );
+                check_rows(&sc, &gc, info.parameters.len());
                 // r = n and stable (diesel_gasflow_flows: 4e-15): within 1e-12 of the figure; causal: the figures
                 // themselves differ between the engines at the adaptive integrator's tolerance (driveline's E_e by
                 // 3e-10 relative) and so do the integrated sensitivities (p·dE_e/di_t by 6e-10 of E_e on NEDC):
@@ -287,12 +250,8 @@ fn check_model_on(name: &str, skip: &[&str], udds_only: Option<&[&str]>) {
                     1e-12
                 };
                 let values = comp.params().to_vec();
-                let gi = si.as_ref().map(block);
-                for (f, row) in gc
-                    .iter()
-                    .filter(|(f, _)| gi.is_some() && !skip.contains(&f.as_str()))
-                {
-                    let gi = gi.as_ref().expect("compared");
+                let gi = block(&si);
+                for (f, row) in gc.iter().filter(|(f, _)| !skip.contains(&f.as_str())) {
                     let scale = figure(&sc, f).abs();
                     for (p, &v) in row {
                         let k = info
@@ -315,12 +274,7 @@ fn check_model_on(name: &str, skip: &[&str], udds_only: Option<&[&str]>) {
                 // The parameters' differences on every core (each thread with its own model): driveline's stiff zero
                 // dynamics make each of its runs about a second.
                 let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-                let indices: Vec<usize> = (0..info.parameters.len())
-                    .filter(|&k| match udds_only {
-                        Some(some) if cycle.name.starts_with("udds") => some.contains(&info.parameters[k].as_str()),
-                        _ => true,
-                    })
-                    .collect();
+                let indices: Vec<usize> = (0..info.parameters.len()).collect();
                 std::thread::scope(|scope| {
                     for chunk in indices.chunks(indices.len().div_ceil(threads).max(1)) {
                         let (names, values, info, gc, cycle) = (&names, &values, &info, &gc, &cycle);
@@ -357,19 +311,12 @@ fn si_engine_against_finite_differences() {
     check_model("si_engine", &[]);
 }
 
-/// driveline's zero dynamics are stiff (an eigenvalue near −300/s that the explicit integrator follows at
-/// rtol 1e-10): a UDDS run takes about a second (six with every sensitivity), so the second cycle is UDDS's
-/// first 505 s (FTP-75's cold-start phase) and there the differences are taken for the parameters of each
-/// subsystem (engine, shafts, wheels, tyres, body and resistance; 7 of 15, four runs each); on NEDC for every
-/// one. The exact gradient itself is checked against the interpreter for every parameter on NEDC; the UDDS run
-/// asks for the subset's gradient alone.
+/// driveline's zero dynamics are stiff (an eigenvalue near −300/s, which the explicit integrator follows at
+/// rtol 1e-10 with steps of about 10 ms): every parameter on the whole of NEDC and UDDS all the same (its runs
+/// share the two cores).
 #[test]
 fn driveline_against_finite_differences() {
-    check_model_on(
-        "driveline",
-        &[],
-        Some(&["J_e", "i_t", "k_s", "c_s", "J_w", "k_t", "C_d"]),
-    );
+    check_model("driveline", &[]);
 }
 
 #[test]
