@@ -76,7 +76,7 @@ pub(crate) fn integral_gradients<M: InverseModel + ?Sized>(
 ) -> Result<Vec<Vec<f64>>, SimulateError> {
     Ok(sweep(wanted, along, eta0, opts, &mut |_, _| ())?
         .samples
-        .acc)
+        .integrals())
 }
 
 /// The pass over the whole grid; `seen(k, η)` after each sample k.

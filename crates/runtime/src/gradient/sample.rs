@@ -21,10 +21,13 @@ pub(super) struct Samples {
     pub(super) x: Vec<f64>,
     pub(super) u_prev: f64,
     buf: Buffers,
-    /// ∫ do_a/dp_c dt so far, `[a][c]`.
-    pub(super) acc: Vec<Vec<f64>>,
-    /// do_a/dp_c at the last sample.
-    prev: Vec<Vec<f64>>,
+    /// ∫ do_a/dp_c dt so far, at a·P + c ([`Samples::integrals`]).
+    acc: Vec<f64>,
+    /// do_a/dp_c at the last sample, at a·P + c.
+    prev: Vec<f64>,
+    /// P, the parameters' count, and the accumulated outputs'.
+    params: usize,
+    outputs: usize,
     /// The accumulated outputs' ∂o/∂η (na × ne) and ∂o/∂p (na × P) at the sample, column-major.
     o_eta: Vec<f64>,
     o_p: Vec<f64>,
@@ -40,8 +43,10 @@ impl Samples {
             x: vec![0.0; n_states],
             u_prev: f64::NAN,
             buf: Buffers::default(),
-            acc: vec![vec![0.0; params]; accumulated],
-            prev: vec![vec![0.0; params]; accumulated],
+            acc: vec![0.0; accumulated * params],
+            prev: vec![0.0; accumulated * params],
+            params,
+            outputs: accumulated,
             o_eta: Vec::new(),
             o_p: vec![0.0; accumulated * params],
             rows: Vec::new(),
@@ -95,15 +100,15 @@ impl Samples {
             std::mem::take(&mut self.o_eta),
             std::mem::take(&mut self.o_p),
         );
-        for c in 0..params.len() {
+        for (c, o_p) in o_p.chunks_exact(na).enumerate() {
             let column = &s[c * ne..(c + 1) * ne];
-            for a in 0..na {
+            for (a, o_p) in o_p.iter().enumerate() {
                 let through_eta: f64 = column
                     .iter()
                     .enumerate()
                     .map(|(j, v)| o_eta[j * na + a] * v)
                     .sum();
-                self.add((a, c), o_p[c * na + a] + through_eta, half);
+                self.add((a, c), o_p + through_eta, half);
             }
         }
         (self.o_eta, self.o_p) = (o_eta, o_p);
@@ -117,10 +122,18 @@ impl Samples {
     /// do_a/dp_c = `v` at this sample: the trapezoid's term `half`·(do at the last sample + v) added
     /// (`half` = dt/2; `None` at the first sample, which has no interval before it).
     pub(super) fn add(&mut self, (a, c): (usize, usize), v: f64, half: Option<f64>) {
+        let i = a * self.params + c;
         if let Some(h) = half {
-            self.acc[a][c] += h * (self.prev[a][c] + v);
+            self.acc[i] += h * (self.prev[i] + v);
         }
-        self.prev[a][c] = v;
+        self.prev[i] = v;
+    }
+
+    /// ∫ do_a/dp_c dt, `[a][c]`.
+    pub(super) fn integrals(&self) -> Vec<Vec<f64>> {
+        (0..self.outputs)
+            .map(|a| self.acc[a * self.params..(a + 1) * self.params].to_vec())
+            .collect()
     }
 }
 
