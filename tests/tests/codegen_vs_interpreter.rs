@@ -2,7 +2,8 @@
 //! model (`models/` via `invsim-models`, `../shared/models` and `tests/models` via this crate's build script)
 //! at 1 000 random points, within 1e-12 relative — the per-point methods, and the batch methods
 //! (`invert_batch`, `outputs_batch`) on the same points as columns, whole and in a block of odd length; the
-//! sensitivities' partial derivatives as terms of each row's differential (`sensitivity_disagreements`).
+//! sensitivities' partial derivatives as terms of each row's differential (`sensitivity_disagreements`), and
+//! `sensitivity_batch` against each engine's per-point `sensitivity` the same way.
 
 use invsim_inversion::Interpreter;
 use invsim_model_api::{InverseModel, ModelError, SensitivityLayout};
@@ -240,6 +241,19 @@ fn batch(
     (inverse.map_err(|(k, _)| k), out)
 }
 
+/// `sensitivity_batch` over the first `len` points of `c` (the signals at their nominal values), entry e of
+/// point k at `[e][k]`.
+fn sensitivity_batch(m: &dyn InverseModel, c: &Columns, len: usize) -> Vec<Vec<f64>> {
+    let x: Vec<&[f64]> = c.x.iter().map(|v| &v[..len]).collect();
+    let w_cols: Vec<Vec<f64>> = m.info().nominal_w().iter().map(|&v| vec![v; len]).collect();
+    let w: Vec<&[f64]> = w_cols.iter().map(|v| &v[..]).collect();
+    let mut out = vec![vec![f64::NAN; len]; SensitivityLayout::of(m.info()).len()];
+    let mut o: Vec<&mut [f64]> = out.iter_mut().map(|v| &mut v[..]).collect();
+    m.sensitivity_batch(&x, &w, &c.u[..len], (&mut o, true))
+        .expect("both engines provide sensitivities");
+    out
+}
+
 /// The magnitude of each column of the sensitivities' layout: the sampling box's largest |x_j| and |u|, each
 /// parameter's |value| (1 where 0), each map call's |value| at the arguments the interpreter's sensitivities
 /// `sens` give (1 where 0).
@@ -455,6 +469,33 @@ fn compare_derived(
                     &row(&oa, k),
                     &row(&og, k),
                 );
+            }
+            // `sensitivity_batch` against the same engine's per-point `sensitivity` (the generated kernel takes
+            // its fractional powers a block at once, within 1 ulp of `powf`): each point's row differentials
+            // within the sensitivities' bound, the map calls' arguments within 1e-12.
+            let layout = SensitivityLayout::of(&info);
+            let rows_end = layout.rows() * layout.width();
+            for m in [interp, compiled] {
+                let sb = sensitivity_batch(m, &columns, len);
+                for k in 0..len {
+                    let (x, u) = (row(&columns.x, k), columns.u[k]);
+                    let mut s = vec![0.0; layout.len()];
+                    m.sensitivity(&x, &m.info().nominal_w(), u, &mut s)
+                        .expect("both engines provide sensitivities");
+                    let g = row(&sb, k);
+                    let scales = variable_scales(&b, interp, &s);
+                    let values = row_values(interp, (&x, u), b.yr);
+                    let bad = sensitivity_disagreements(&layout, (&scales, &values), (&s, &g));
+                    c.mismatched_errors.extend(
+                        bad.into_iter()
+                            .map(|e| format!("{tag}sensitivity_batch/{len} at point {k}: {e}")),
+                    );
+                    c.add(
+                        &format!("{tag}sensitivity_batch_arguments/{len}"),
+                        &s[rows_end..],
+                        &g[rows_end..],
+                    );
+                }
             }
             match (ia, ig) {
                 (Ok(a), Ok(g)) => {

@@ -124,7 +124,8 @@ pub fn generate_modal(m: &ModalDerivation, source_name: &str) -> Result<String, 
             ctors.push(quote!(Box::new(#ident::model())));
             continue;
         }
-        let out = crate::model::module_named(&mode.d, source_name, &mode_module(&mode.name))?;
+        let out =
+            crate::model::module_named(&mode.d, source_name, (&mode_module(&mode.name), false))?;
         primaries.push((i, canonical(&mode.d, source_name)?));
         items.push(out.tokens);
         comments.extend(out.comments);
@@ -160,7 +161,7 @@ pub fn generate_modal(m: &ModalDerivation, source_name: &str) -> Result<String, 
 
 /// The module of mode `d` under a fixed name, as text: two modes with equal text have the same code.
 fn canonical(d: &Derivation, source_name: &str) -> Result<String, CodegenError> {
-    Ok(crate::model::module_named(d, source_name, "mode")?
+    Ok(crate::model::module_named(d, source_name, ("mode", false))?
         .tokens
         .to_string())
 }

@@ -42,20 +42,22 @@ pub(crate) struct ModuleOut {
 /// One model's module: constants, `Params`, `Precomputed` (the invariant values, the per-point methods,
 /// the batch methods), the free functions, `Model` with its trait impl, and the helpers they call.
 pub(crate) fn module(d: &Derivation, source_name: &str) -> Result<ModuleOut, CodegenError> {
-    module_named(d, source_name, &names::module_name(&d.model.name))
+    module_named(d, source_name, (&names::module_name(&d.model.name), true))
 }
 
-/// [`module`] under the module name `module` (a mode of a model with modes is named after its mode).
+/// [`module`] under the module name `module` (a mode of a model with modes is named after its mode), with
+/// `sensitivity_batch` where `sensitivity_batch` says so (the gradient's batch pass runs single-mode models:
+/// a mode would only carry its code).
 pub(crate) fn module_named(
     d: &Derivation,
     source_name: &str,
-    module: &str,
+    (module, sensitivity_batch): (&str, bool),
 ) -> Result<ModuleOut, CodegenError> {
     let g = Gen::new(d);
     let lowering = functions::lower_all(&g, catalog::functions(&g))?;
     let pre = functions::precomputed(&g, &lowering);
     let (mut methods, mut free_fns, sign) = functions::methods(&g, &lowering);
-    let batch = batch::methods(&g, &lowering.fns, &lowering.k_names);
+    let batch = batch::methods(&g, &lowering.fns, &lowering.k_names, sensitivity_batch);
     let mut helpers = Vec::new();
     if !g.closed {
         let newton = newton::newton(&g);
@@ -87,7 +89,7 @@ pub(crate) fn module_named(
     let map_tokens = maps::map_tokens(&g);
     let model = trait_impl::model(
         &g,
-        batch.invert || newton_batch,
+        (batch.invert || newton_batch, batch.sensitivity),
         map_tokens.as_ref().map(|m| &m.trait_method),
     );
     let (k_fields, pre_lets, k_idents) = (&pre.fields, &pre.lets, &pre.idents);

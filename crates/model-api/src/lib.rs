@@ -357,6 +357,39 @@ pub trait InverseModel: Send + Sync {
         invert_pointwise(self, xi, eta, w, yr, x, u)
     }
 
+    /// [`InverseModel::sensitivity`] at many points, column-wise: `x[s][k]`, `w[l][k]`, `u[k]` in, entry e of
+    /// point k (the layout of [`SensitivityLayout`]) to `out[e][k]`. Without `invariant`, the entries that
+    /// depend on none of x, w and u (most are 0) may be left as they are: the caller has them from an earlier
+    /// call with the same parameters and at least as many points. Returns the index of the first point that
+    /// fails, with its error. The default calls [`InverseModel::sensitivity`] point by point (and writes
+    /// every entry).
+    fn sensitivity_batch(
+        &self,
+        x: &[&[f64]],
+        w: &[&[f64]],
+        u: &[f64],
+        (out, invariant): (&mut [&mut [f64]], bool),
+    ) -> Result<(), (usize, ModelError)> {
+        let _ = invariant;
+        let mut x_k = vec![0.0; x.len()];
+        let mut w_k = vec![0.0; w.len()];
+        let mut s_k = vec![0.0; out.len()];
+        for k in 0..u.len() {
+            for (v, c) in x_k.iter_mut().zip(x) {
+                *v = c[k];
+            }
+            for (v, c) in w_k.iter_mut().zip(w) {
+                *v = c[k];
+            }
+            self.sensitivity(&x_k, &w_k, u[k], &mut s_k)
+                .map_err(|e| (k, e))?;
+            for (c, &v) in out.iter_mut().zip(&s_k) {
+                c[k] = v;
+            }
+        }
+        Ok(())
+    }
+
     /// The extra outputs at many points, column-wise: `x[s][k]`, `w[l][k]`, `u[k]` in, `out[o][k]` out. The
     /// default calls [`InverseModel::outputs`] point by point.
     fn outputs_batch(&self, x: &[&[f64]], w: &[&[f64]], u: &[f64], out: &mut [&mut [f64]]) {

@@ -1,5 +1,5 @@
-//! Batch kernels: `invert_batch` and `outputs_batch`, a model function evaluated over columns of points, block
-//! by block, with the fractional powers of a block taken at once by `invsim_model_api::math::pow_pos_slice`
+//! Batch kernels: `invert_batch`, `outputs_batch` and `sensitivity_batch`, a model function evaluated over
+//! columns of points, block by block, with the fractional powers of a block taken at once by `invsim_model_api::math::pow_pos_slice`
 //! and the lookup-map calls by `Map::partials2_batch` (`Map::values_batch` where only the value is read).
 //!
 //! The per-point function's lowered code is split at its fractional powers b^q (q a constant or a
@@ -257,25 +257,43 @@ fn add_call(
     }
 }
 
-/// The two batch methods.
+/// The three batch methods.
 #[derive(Clone, Copy, PartialEq, Eq)]
 pub(super) enum Kind {
     /// `invert_batch` from the fused inverse `invert`.
     Invert,
     /// `outputs_batch` from `outputs`.
     Outputs,
+    /// `sensitivity_batch` from `sensitivity` (the gradient's pass over the grid of a run without internal
+    /// states).
+    Sensitivity,
 }
 
 impl Kind {
-    /// The batch method made from function `f`, if any (`invert_batch` needs ψ⁻¹ in closed form).
-    fn of(f: FnKind, closed: bool) -> Option<Kind> {
+    /// The batch method made from function `f`, if any (`invert_batch` needs ψ⁻¹ in closed form;
+    /// `sensitivity_batch` is made where `sensitivity` asks for it).
+    fn of(f: FnKind, closed: bool, sensitivity: bool) -> Option<Kind> {
         match f {
             FnKind::Invert if closed => Some(Kind::Invert),
             FnKind::Outputs => Some(Kind::Outputs),
+            FnKind::Sensitivity if sensitivity => Some(Kind::Sensitivity),
             _ => None,
         }
     }
+
+    /// The points per block: [`BLOCK`], or for `sensitivity_batch`, whose results are many (every partial
+    /// derivative), as many as keep its block buffer of results within [`SENS_BUFFER`] bytes (a multiple of
+    /// 4, at least 4), so that the buffer stays on the stack.
+    fn block(self, results: usize) -> Option<usize> {
+        (self == Kind::Sensitivity).then(|| {
+            let points = SENS_BUFFER / (8 * results.max(1));
+            (points / 4 * 4).clamp(4, 256)
+        })
+    }
 }
+
+/// The bytes of `sensitivity_batch`'s block buffer of results, at most.
+const SENS_BUFFER: usize = 64 * 1024;
 
 /// The batch methods of a model.
 #[derive(Default)]
@@ -286,20 +304,28 @@ pub(super) struct Batch {
     pub(super) uses_pow_slice: bool,
     pub(super) invert: bool,
     pub(super) outputs: bool,
+    pub(super) sensitivity: bool,
 }
 
 impl Batch {
     /// Does the model have any batch method?
     pub(super) fn any(&self) -> bool {
-        self.invert || self.outputs
+        self.invert || self.outputs || self.sensitivity
     }
 }
 
-/// The batch methods over columns of points for the lowered functions `fns` that have one.
-pub(super) fn methods(g: &Gen<'_>, fns: &[Straight], k_names: &HashMap<usize, Ident>) -> Batch {
+/// The batch methods over columns of points for the lowered functions `fns` that have one (`sensitivity`:
+/// `sensitivity_batch` too).
+pub(super) fn methods(
+    g: &Gen<'_>,
+    fns: &[Straight],
+    k_names: &HashMap<usize, Ident>,
+    sensitivity: bool,
+) -> Batch {
     let mut out = Batch::default();
     for f in fns {
-        let (Some(l), Some(kind)) = (&f.lowered, Kind::of(f.kind, g.closed)) else {
+        let kind = Kind::of(f.kind, g.closed, sensitivity);
+        let (Some(l), Some(kind)) = (&f.lowered, kind) else {
             continue;
         };
         let atoms = Atoms::new(g, k_names);
@@ -312,6 +338,7 @@ pub(super) fn methods(g: &Gen<'_>, fns: &[Straight], k_names: &HashMap<usize, Id
         match kind {
             Kind::Invert => out.invert = true,
             Kind::Outputs => out.outputs = true,
+            Kind::Sensitivity => out.sensitivity = true,
         }
     }
     out
@@ -342,12 +369,26 @@ fn method(
     } else {
         quote!()
     };
-    let (name, length, outputs_params, copies) =
-        (parts.name, parts.length, parts.outputs_params, parts.copies);
+    let (name, length, outputs_params, copies, tail) = (
+        parts.name,
+        parts.length,
+        parts.outputs_params,
+        parts.copies,
+        parts.tail,
+    );
+    // A kernel with its own block size shadows the module's `BLOCK` in its body.
+    let block = match kind.block(k.varying.len()) {
+        Some(b) => {
+            let b = lit(b);
+            quote!(const BLOCK: usize = #b;)
+        }
+        None => quote!(),
+    };
     let tokens = quote! {
         #doc
         #allow_clamp
         pub fn #name(&self, #(#params,)* #outputs_params) {
+            #block
             #p_let
             #scratch
             for start in (0..#length).step_by(BLOCK) {
@@ -357,6 +398,7 @@ fn method(
                 #loops
                 #copies
             }
+            #tail
         }
     };
     (tokens, k.uses_sign.get())
@@ -385,6 +427,9 @@ struct Kernel<'a> {
     uses_p: Cell<bool>,
     uses_sign: Cell<bool>,
     clamp_like: Cell<bool>,
+    /// The results computed per point: every one, except for `sensitivity_batch`, whose invariant results
+    /// (parameter-only partial derivatives, most of them 0) are filled once per call.
+    varying: Vec<usize>,
 }
 
 /// What differs between `invert_batch` and `outputs_batch`.
@@ -395,6 +440,8 @@ struct Parts {
     copies: TokenStream,
     name: Ident,
     doc: Vec<String>,
+    /// After the blocks: `sensitivity_batch`'s invariant results.
+    tail: TokenStream,
 }
 
 impl<'a> Kernel<'a> {
@@ -431,6 +478,10 @@ impl<'a> Kernel<'a> {
         for (j, m) in plan.maps.iter().enumerate() {
             map_of.extend(m.calls.iter().map(|&(i, k)| (i, (j, k))));
         }
+        let atoms = Atoms::new(g, k_names);
+        let varying = (0..l.roots.len())
+            .filter(|&i| kind != Kind::Sensitivity || !atoms.is_param(l.roots[i]))
+            .collect();
         Kernel {
             g,
             f,
@@ -446,6 +497,7 @@ impl<'a> Kernel<'a> {
             uses_p: Cell::new(false),
             uses_sign: Cell::new(false),
             clamp_like: Cell::new(false),
+            varying,
         }
     }
 
@@ -550,7 +602,7 @@ impl<'a> Kernel<'a> {
         let given = |i: usize| self.given(i, lv);
         let last = lv + 1 == self.plan.loops;
         let roots: Vec<Val> = if last {
-            self.l.roots.clone()
+            self.varying.iter().map(|&i| self.l.roots[i]).collect()
         } else {
             self.plan.roots(lv, &[])
         };
@@ -604,7 +656,7 @@ impl<'a> Kernel<'a> {
                 let u = u.tokens(0);
                 quote!(#extra #(#xs)* input[k] = #u;)
             }
-            Kind::Outputs => {
+            Kind::Outputs | Kind::Sensitivity => {
                 let outs = items.iter().enumerate().map(|(o, e)| {
                     let (o, e) = (lit(o), e.tokens(0));
                     quote!(values[#o][k] = #e;)
@@ -725,7 +777,9 @@ impl<'a> Kernel<'a> {
     fn length_column(&self) -> String {
         match self.kind {
             Kind::Invert => "yr".to_string(),
-            Kind::Outputs => self.g.locals[&self.g.d.model.input.symbol].to_string(),
+            Kind::Outputs | Kind::Sensitivity => {
+                self.g.locals[&self.g.d.model.input.symbol].to_string()
+            }
         }
     }
 
@@ -741,6 +795,7 @@ impl<'a> Kernel<'a> {
                     }
                     u[start..end].copy_from_slice(&input[..len]);
                 },
+                tail: quote!(),
                 name: format_ident!("invert_batch"),
                 doc: vec![
                     "[`Precomputed::invert`] at many points, stored column-wise: ξ_i at point k is `xi[i][k]`, η_j \
@@ -759,10 +814,48 @@ impl<'a> Kernel<'a> {
                             column[start..end].copy_from_slice(&buffer[..len]);
                         }
                     },
+                    tail: quote!(),
                     name: format_ident!("outputs_batch"),
                     doc: vec![format!(
                         "[`Precomputed::outputs`] at many points, stored column-wise: x_s at point k is `x[s][k]`, \
                          the input `{u}[k]`; output o is written to `out[o][k]`."
+                    )],
+                }
+            }
+            Kind::Sensitivity => {
+                let u = &self.g.locals[&self.g.d.model.input.symbol];
+                let nv = lit(self.varying.len());
+                let entries = self.varying.iter().map(|&e| lit(e));
+                let atoms = Atoms::new(self.g, self.k_names);
+                let fills: Vec<TokenStream> = (0..self.l.roots.len())
+                    .filter(|e| self.varying.binary_search(e).is_err())
+                    .map(|e| {
+                        let value = atoms.tokens(self.l.roots[e]);
+                        let e = lit(e);
+                        quote!(out[#e][..points].fill(#value);)
+                    })
+                    .collect();
+                self.uses_p.set(self.uses_p.get() || atoms.uses_p());
+                Parts {
+                    length: quote!(#u.len()),
+                    outputs_params: quote!(out: [&mut [f64]; N_SENS], invariant: bool),
+                    buffers: quote!(let mut values = [[0.0; BLOCK]; #nv];),
+                    copies: quote! {
+                        for (e, buffer) in [#(#entries),*].into_iter().zip(&values) {
+                            out[e][start..end].copy_from_slice(&buffer[..len]);
+                        }
+                    },
+                    tail: quote! {
+                        if invariant {
+                            let points = #u.len();
+                            #(#fills)*
+                        }
+                    },
+                    name: format_ident!("sensitivity_batch"),
+                    doc: vec![format!(
+                        "[`Precomputed::sensitivity`] at many points, stored column-wise: x_s at point k is \
+                         `x[s][k]`, the input `{u}[k]`; entry e is written to `out[e][k]`, the entries that \
+                         depend on no point (parameter-only) only where `invariant` is true."
                     )],
                 }
             }
@@ -779,11 +872,15 @@ impl<'a> Kernel<'a> {
         if self.plan.has_maps() {
             at_once.push("the map calls of a block at once, by `Map::partials2_batch` or, where only the value is read, `Map::values_batch` (bit for bit `partials2`)");
         }
+        let block = match self.kind.block(self.varying.len()) {
+            Some(b) => format!("{b} points, the body's own `BLOCK`"),
+            None => "[`BLOCK`] points".to_string(),
+        };
         doc.push(if at_once.is_empty() {
-            "Block by block ([`BLOCK`] points), point by point in loops that vectorise.".to_string()
+            format!("Block by block ({block}), point by point in loops that vectorise.")
         } else {
             format!(
-                "Block by block ([`BLOCK`] points): {}, everything else point by point in loops that vectorise.",
+                "Block by block ({block}): {}, everything else point by point in loops that vectorise.",
                 at_once.join("; ")
             )
         });

@@ -8,13 +8,18 @@ use quote::quote;
 
 /// `model_info()`, `Model`, its `Default` and `InverseModel` impls and `arr`; `invert_batch`: the model has
 /// `Precomputed::invert_batch` (a block kernel in closed form, Newton's method from point to point otherwise).
-pub(super) fn model(g: &Gen<'_>, invert_batch: bool, set_map: Option<&TokenStream>) -> TokenStream {
+pub(super) fn model(
+    g: &Gen<'_>,
+    (invert_batch, sensitivity_batch): (bool, bool),
+    set_map: Option<&TokenStream>,
+) -> TokenStream {
     let m = &g.d.model;
     let ne = g.d.eta.len();
     let has_outputs = !m.outputs.is_empty();
     let w = WTokens::new(g.has_w());
     let outputs_impl = outputs_impl(has_outputs, &w);
     let invert_batch_impl = invert_batch_impl(invert_batch, !g.closed, &w);
+    let sensitivity_batch_impl = sensitivity_batch_impl(sensitivity_batch, &w);
     let (psi_inv_impl, alpha_impl, beta_impl, zero_impl, invert_impl) = if g.closed && !g.affine {
         non_affine(ne, g.d.input_solution.is_some(), &w)
     } else if g.closed {
@@ -104,6 +109,7 @@ pub(super) fn model(g: &Gen<'_>, invert_batch: bool, set_map: Option<&TokenStrea
                 out.copy_from_slice(&self.pre.sensitivity(arr(x) #wa, u));
                 Ok(())
             }
+            #sensitivity_batch_impl
             fn reference(&self) -> ReferenceMap {
                 REFERENCE
             }
@@ -438,6 +444,30 @@ fn outputs_impl(has_outputs: bool, w: &WTokens) -> TokenStream {
         quote! {
             fn outputs(&self, _x: &[f64], _w: &[f64], _u: f64, _out: &mut [f64]) {}
             fn outputs_batch(&self, _x: &[&[f64]], _w: &[&[f64]], _u: &[f64], _out: &mut [&mut [f64]]) {}
+        }
+    }
+}
+
+/// The trait's `sensitivity_batch`, when the model has `Precomputed::sensitivity_batch` (else the trait's
+/// default, point by point).
+fn sensitivity_batch_impl(has: bool, w: &WTokens) -> TokenStream {
+    if !has {
+        return quote!();
+    }
+    let WTokens {
+        name: wn, cols: wc, ..
+    } = w;
+    quote! {
+        /// The partial derivatives over columns, block by block ([`Precomputed::sensitivity_batch`]).
+        fn sensitivity_batch(
+            &self,
+            x: &[&[f64]],
+            #wn: &[&[f64]],
+            u: &[f64],
+            (out, invariant): (&mut [&mut [f64]], bool),
+        ) -> Result<(), (usize, ModelError)> {
+            self.pre.sensitivity_batch(cols(x) #wc, u, cols_mut(out), invariant);
+            Ok(())
         }
     }
 }

@@ -7,13 +7,15 @@
 //!
 //! For r = n the input and the states are closed-form (or implicitly defined) functions of the smoothed cycle
 //! and the parameters, so their derivatives follow from the model's symbolic partial derivatives by the chain
-//! rule at every sample ([`point`]); for r < n the internal states' sensitivities ∂η/∂p are advanced over
+//! rule at every sample ([`point`]; a block of samples at a time where there are no internal states,
+//! [`direct`]); for r < n the internal states' sensitivities ∂η/∂p are advanced over
 //! each of the run's integrator steps of η by the Gauss–Legendre method ([`pass`], [`gauss`]), or, where
 //! unstable zero dynamics are inverted stably (non-causally), the bounded solution of the collocation
 //! equations is differentiated by the implicit function theorem ([`stable`]); the figures are differentiated
 //! through the run's own quadrature and formulas ([`figures`]). [`GradientError`] says why a run is not
 //! differentiated.
 
+mod direct;
 pub mod error;
 mod figures;
 mod gauss;
@@ -178,6 +180,9 @@ pub(crate) fn of_run<M: InverseModel + ?Sized>(
     };
     let derivatives = match run.stable {
         Some(st) => stable::integral_gradients(&wanted, along, st)?,
+        // Without internal states every sample is independent: block by block (grid values, whose columns
+        // are built from the map calls at every point, go point by point).
+        None if info.n_eta == 0 && grid.is_empty() => direct::integral_gradients(&wanted, along)?,
         None => integral_gradients(&wanted, along, run.eta0, opts)?,
     };
     let integrals = Integrals {

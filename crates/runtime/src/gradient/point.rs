@@ -278,7 +278,7 @@ impl Point {
 /// partial pivoting; false where a pivot is zero or not finite (n is the number of states: small, and no
 /// allocation per point). The common sizes are compiled each with its n a constant (the loops unrolled: a
 /// 2 × 2 inverse in a tenth of the instructions).
-fn invert(n: usize, a: &mut [f64], inv: &mut [f64]) -> bool {
+pub(super) fn invert(n: usize, a: &mut [f64], inv: &mut [f64]) -> bool {
     match n {
         1 => invert_sized(1, a, inv),
         2 => invert_sized(2, a, inv),

@@ -1,0 +1,319 @@
+//! The sensitivity pass of a run without internal states (r = n), a block of samples at a time: every sample
+//! is independent, so the inverse comes from the block kernel the run uses (`invert_batch`), the model's
+//! partial derivatives from `sensitivity_batch`, and the chain rule of [`super::point`] is applied column by
+//! column (loops over the samples that vectorise) instead of point by point.
+//!
+//! With r = n, ψ(x; p) = ξ and φ(x, u; p) = y^(r) (φ affine in u or not). For an accumulated output's row
+//! q(x, u; p) at one sample (implicit function theorem, as in [`super::point`]):
+//!
+//! ```text
+//! ratio = (∂q/∂u)/(∂φ/∂u),   g_j = ∂q/∂x_j − ratio·∂φ/∂x_j,   m = (∂ψ/∂x)⁻ᵀ g
+//! dq/dp_c = ∂q/∂p_c − ratio·∂φ/∂p_c − Σ_(l<n) m_l ∂ψ_l/∂p_c
+//! ```
+//!
+//! each evaluated in the same order as [`super::point::Point::row_jacobians`] (so the numbers are those of
+//! the point-by-point pass from the same partial derivatives), then summed by the run's trapezoidal rule
+//! ∫ dq/dp dt ≈ Σ_k dt·(dq_k + dq_(k+1))/2.
+
+use invsim_model_api::{InverseModel, SensitivityLayout};
+
+use super::pass::{Along, Wanted};
+use super::point::invert;
+use super::sample::Block;
+use crate::error::RunError;
+use crate::inverse::SimulateError;
+
+/// Samples per block of the reference's columns (the run's block size, so the inverse's Newton guesses,
+/// where ψ⁻¹ is numeric, chain as the run's do).
+const BLOCK: usize = 4096;
+
+/// Samples per evaluation of the partial derivatives: their columns (every entry of the layout) are held
+/// for this many samples at a time.
+const SUB: usize = 256;
+
+/// ∂(∫ o_a dt)/∂p_c for every accumulated output a and wanted parameter c (`[a][c]`) over the whole grid of
+/// a run without internal states (`wanted.model`'s `n_eta` = 0, no grid values asked for).
+pub(crate) fn integral_gradients<M: InverseModel + ?Sized>(
+    wanted: &Wanted<'_, M>,
+    along: &Along<'_>,
+) -> Result<Vec<Vec<f64>>, SimulateError> {
+    let model = wanted.model;
+    let info = model.info();
+    let layout = SensitivityLayout::of(info);
+    let (r, nw) = (layout.r, info.n_w());
+    debug_assert!(layout.n_eta == 0 && layout.n == r && wanted.grid.is_empty());
+    let grid = along.grid;
+    let samples = grid.samples();
+    let mut block = Block::new(BLOCK.min(samples), r, nw);
+    let mut cols = Columns::new(layout, BLOCK.min(samples));
+    let mut sums = Trapezoids::new(wanted.accumulate.len(), wanted.params.len(), 0.5 * grid.dt);
+    let mut k0 = 0;
+    while k0 < samples {
+        let len = (k0 + BLOCK).min(samples) - k0;
+        block.fill(along.smoother, grid, (k0, len));
+        cols.invert(model, &block, len)?;
+        let mut s0 = 0;
+        while s0 < len {
+            let sl = SUB.min(len - s0);
+            cols.partials(model, &block, (s0, sl))?;
+            cols.chain_rule(wanted, sl, &mut sums);
+            s0 += sl;
+        }
+        k0 += len;
+    }
+    Ok(sums.integrals())
+}
+
+/// The block's columns: the inverse, the partial derivatives of a sub-block and the chain rule's work.
+struct Columns {
+    layout: SensitivityLayout,
+    x: Vec<Vec<f64>>,
+    u: Vec<f64>,
+    /// The last sample's state and input: the next block's guesses.
+    x_last: Vec<f64>,
+    u_last: f64,
+    /// Entry e of the layout at sample k of the sub-block: `sens[e][k]`.
+    sens: Vec<Vec<f64>>,
+    /// The parameter-only entries of `sens` are written (by the first sub-block's evaluation).
+    invariant_written: bool,
+    /// (∂ψ/∂x)⁻¹ entry (j, l) at sample k of the sub-block: `inverse[j·n + l][k]`.
+    inverse: Vec<Vec<f64>>,
+    /// A sample's ∂ψ/∂x and its inverse (row-major), for [`invert`].
+    jac: Vec<f64>,
+    inv: Vec<f64>,
+    /// One row's ratio, g_j, m_l and dq/dp_c over the sub-block.
+    work: Work,
+}
+
+/// The chain rule's columns for one row over a sub-block.
+struct Work {
+    ratio: Vec<f64>,
+    g: Vec<Vec<f64>>,
+    m: Vec<Vec<f64>>,
+    dq: Vec<f64>,
+}
+
+impl Columns {
+    /// For blocks of `width` samples.
+    fn new(layout: SensitivityLayout, width: usize) -> Columns {
+        let n = layout.n;
+        let sub = SUB.min(width);
+        Columns {
+            layout,
+            x: vec![vec![0.0; width]; n],
+            u: vec![0.0; width],
+            x_last: vec![0.0; n],
+            u_last: f64::NAN,
+            sens: vec![vec![0.0; sub]; layout.len()],
+            invariant_written: false,
+            inverse: vec![vec![0.0; sub]; n * n],
+            jac: vec![0.0; n * n],
+            inv: vec![0.0; n * n],
+            work: Work {
+                ratio: vec![0.0; sub],
+                g: vec![vec![0.0; sub]; n],
+                m: vec![vec![0.0; sub]; n],
+                dq: vec![0.0; sub],
+            },
+        }
+    }
+
+    /// x and u at the block's first `len` samples by the run's kernel, each block's first Newton guess the
+    /// last block's last sample (as the run's `Inverter` chains them).
+    fn invert<M: InverseModel + ?Sized>(
+        &mut self,
+        model: &M,
+        block: &Block,
+        len: usize,
+    ) -> Result<(), SimulateError> {
+        let r = block.yd.len() - 1;
+        let xi: Vec<&[f64]> = block.yd[..r].iter().map(|c| &c[..len]).collect();
+        let w: Vec<&[f64]> = block.w.iter().map(|c| &c[..len]).collect();
+        for (c, &v) in self.x.iter_mut().zip(&self.x_last) {
+            c[0] = v;
+        }
+        self.u[0] = self.u_last;
+        let mut x: Vec<&mut [f64]> = self.x.iter_mut().map(|c| &mut c[..len]).collect();
+        model
+            .invert_batch(
+                &xi,
+                &[],
+                &w,
+                &block.yd[r][..len],
+                &mut x,
+                &mut self.u[..len],
+            )
+            .map_err(|(i, source)| RunError::Model {
+                t: block.time[i],
+                source,
+            })?;
+        for (v, c) in self.x_last.iter_mut().zip(&self.x) {
+            *v = c[len - 1];
+        }
+        self.u_last = self.u[len - 1];
+        Ok(())
+    }
+
+    /// The partial derivatives at samples s0 … s0 + sl − 1 of the block into `sens[e][0 … sl − 1]`, and
+    /// (∂ψ/∂x)⁻¹ at each of them (NaN where it is singular, as [`super::point::Point`] has it).
+    fn partials<M: InverseModel + ?Sized>(
+        &mut self,
+        model: &M,
+        block: &Block,
+        (s0, sl): (usize, usize),
+    ) -> Result<(), SimulateError> {
+        let x: Vec<&[f64]> = self.x.iter().map(|c| &c[s0..s0 + sl]).collect();
+        let w: Vec<&[f64]> = block.w.iter().map(|c| &c[s0..s0 + sl]).collect();
+        let mut out: Vec<&mut [f64]> = self.sens.iter_mut().map(|c| &mut c[..sl]).collect();
+        // The parameter-only entries once: the first sub-block is the longest, and the parameters stay.
+        let invariant = !self.invariant_written;
+        self.invariant_written = true;
+        model
+            .sensitivity_batch(&x, &w, &self.u[s0..s0 + sl], (&mut out, invariant))
+            .map_err(|(i, source)| RunError::Model {
+                t: block.time[s0 + i],
+                source,
+            })?;
+        let l = &self.layout;
+        let n = l.n;
+        for k in 0..sl {
+            // ∂ψ/∂x: row i holds ψ_i's partials by x_j.
+            for (e, v) in self.jac.iter_mut().enumerate() {
+                *v = self.sens[l.at(l.psi(e / n), l.x(e % n))][k];
+            }
+            if !invert(n, &mut self.jac, &mut self.inv) {
+                self.inv.fill(f64::NAN);
+            }
+            for (c, &v) in self.inverse.iter_mut().zip(&self.inv) {
+                c[k] = v;
+            }
+        }
+        Ok(())
+    }
+
+    /// dq/dp_c of every accumulated output and wanted parameter at the sub-block's `sl` samples, each column
+    /// handed to the trapezoids (the module doc's formulas, in [`super::point::Point::row_jacobians`]'
+    /// order).
+    fn chain_rule<M: InverseModel + ?Sized>(
+        &mut self,
+        wanted: &Wanted<'_, M>,
+        sl: usize,
+        sums: &mut Trapezoids,
+    ) {
+        let Columns {
+            layout: l,
+            sens,
+            inverse,
+            work,
+            ..
+        } = self;
+        let n = l.n;
+        let col = |row: usize, column: usize| &sens[l.at(row, column)][..sl];
+        let phi = l.phi();
+        let Work { ratio, g, m, dq } = work;
+        let (ratio, dq) = (&mut ratio[..sl], &mut dq[..sl]);
+        for (a, &o) in wanted.accumulate.iter().enumerate() {
+            let q = l.output(o);
+            for ((v, qu), pu) in ratio.iter_mut().zip(col(q, l.u())).zip(col(phi, l.u())) {
+                *v = qu / pu;
+            }
+            for (j, g) in g.iter_mut().enumerate() {
+                let (qx, px) = (col(q, l.x(j)), col(phi, l.x(j)));
+                for (((v, qx), px), ratio) in g[..sl].iter_mut().zip(qx).zip(px).zip(&*ratio) {
+                    *v = qx - ratio * px;
+                }
+            }
+            for (li, m) in m.iter_mut().enumerate() {
+                let m = &mut m[..sl];
+                m.fill(0.0);
+                for (j, g) in g.iter().enumerate() {
+                    for ((v, g), inv) in m.iter_mut().zip(&g[..sl]).zip(&inverse[j * n + li][..sl])
+                    {
+                        *v += g * inv;
+                    }
+                }
+            }
+            for (c, &p) in wanted.params.iter().enumerate() {
+                let column = l.param(p);
+                let (qp, pp) = (col(q, column), col(phi, column));
+                for (((v, qp), pp), ratio) in dq.iter_mut().zip(qp).zip(pp).zip(&*ratio) {
+                    *v = qp - ratio * pp;
+                }
+                for (li, m) in m.iter().enumerate() {
+                    for ((v, m), psi) in dq.iter_mut().zip(&m[..sl]).zip(col(l.psi(li), column)) {
+                        *v -= m * psi;
+                    }
+                }
+                sums.add(a * wanted.params.len() + c, dq);
+            }
+        }
+        sums.next(sl);
+    }
+}
+
+/// The trapezoidal sums Σ_k (dt/2)·(d_(k−1) + d_k) of every (output, parameter) pair, fed a sub-block's
+/// column at a time (the first sample of the grid opens the sums without a term).
+struct Trapezoids {
+    acc: Vec<f64>,
+    prev: Vec<f64>,
+    outputs: usize,
+    params: usize,
+    half: f64,
+    /// Samples seen before the current sub-block.
+    seen: usize,
+}
+
+impl Trapezoids {
+    fn new(outputs: usize, params: usize, half: f64) -> Trapezoids {
+        Trapezoids {
+            acc: vec![0.0; outputs * params],
+            prev: vec![0.0; outputs * params],
+            outputs,
+            params,
+            half,
+            seen: 0,
+        }
+    }
+
+    /// Pair i's derivative at the current sub-block's samples: the sub-block's terms d_(k−1) + d_k summed in
+    /// four interleaved partial sums (independent additions that vectorise, not one chain), times dt/2.
+    fn add(&mut self, i: usize, d: &[f64]) {
+        let (Some(&first), Some(&last)) = (d.first(), d.last()) else {
+            return;
+        };
+        // The first term pairs the last sub-block's last sample with this one's first (none at the grid's
+        // first sample); the others pair neighbours within the sub-block.
+        let mut sum = if self.seen == 0 {
+            0.0
+        } else {
+            self.prev[i] + first
+        };
+        let mut parts = [0.0; 4];
+        let (a, b) = (&d[..d.len() - 1], &d[1..]);
+        let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
+        let (ra, rb) = (ca.remainder(), cb.remainder());
+        for (a, b) in ca.zip(cb) {
+            for q in 0..4 {
+                parts[q] += a[q] + b[q];
+            }
+        }
+        for (a, b) in ra.iter().zip(rb) {
+            sum += a + b;
+        }
+        sum += (parts[0] + parts[1]) + (parts[2] + parts[3]);
+        self.acc[i] += self.half * sum;
+        self.prev[i] = last;
+    }
+
+    /// The current sub-block's `sl` samples are summed.
+    fn next(&mut self, sl: usize) {
+        self.seen += sl;
+    }
+
+    /// ∫ do_a/dp_c dt, `[a][c]`.
+    fn integrals(&self) -> Vec<Vec<f64>> {
+        (0..self.outputs)
+            .map(|a| self.acc[a * self.params..(a + 1) * self.params].to_vec())
+            .collect()
+    }
+}
