@@ -235,7 +235,7 @@ pub(crate) fn looks_like_std_constant(text: &str) -> bool {
 }
 
 /// The method name of a one-argument function of the model language.
-fn method(f: Func) -> &'static str {
+pub(crate) fn method(f: Func) -> &'static str {
     match f {
         Func::Exp => "exp",
         Func::Log => "ln",

@@ -24,15 +24,24 @@ use quote::{format_ident, quote, ToTokens};
 use std::cell::{Cell, RefCell};
 use std::collections::{HashMap, HashSet};
 
-/// A fractional power taken a block at a time.
+/// A fractional power, or a call of a transcendental function, taken a block at a time.
 pub(super) struct SlicePow {
     /// Its arena index.
     op: usize,
     /// 1 + the highest level among the powers its base depends on.
     level: usize,
     base: Val,
-    /// A number or a parameter-only value.
-    exponent: Val,
+    what: Sliced,
+}
+
+/// What a [`SlicePow`] computes from its base.
+#[derive(Clone, Copy, Debug)]
+enum Sliced {
+    /// `pow_pos_slice` with this exponent (a number or a parameter-only value).
+    Pow(Val),
+    /// The function (not `abs` or `sign`), point by point in a loop of its own: the library call then
+    /// stays out of the loops around it, which vectorise.
+    Call(Func),
 }
 
 /// The calls of one map at the same arguments (every order ≤ 2 per argument), evaluated a block at a time by
@@ -59,11 +68,15 @@ pub(super) struct Split {
     loops: usize,
 }
 
-/// `b^q` with a varying base and a constant or parameter-only exponent, as (b, q).
-fn slice_pow(op: Op, is_param: &dyn Fn(Val) -> bool) -> Option<(Val, Val)> {
+/// `b^q` with a varying base and a constant or parameter-only exponent, as (b, q); `f(b)` of a
+/// transcendental function with a varying argument, as (b, f).
+fn slice_pow(op: Op, is_param: &dyn Fn(Val) -> bool) -> Option<(Val, Sliced)> {
     match op {
-        Op::Powf(b, q) if !is_param(b) => Some((b, Val::Num(q))),
-        Op::PowVar(b, e) if !is_param(b) && is_param(e) => Some((b, e)),
+        Op::Powf(b, q) if !is_param(b) => Some((b, Sliced::Pow(Val::Num(q)))),
+        Op::PowVar(b, e) if !is_param(b) && is_param(e) => Some((b, Sliced::Pow(e))),
+        Op::Call(f, b) if !is_param(b) && !matches!(f, Func::Abs | Func::Sign) => {
+            Some((b, Sliced::Call(f)))
+        }
         _ => None,
     }
 }
@@ -126,14 +139,14 @@ impl Split {
                 continue;
             }
             level[i] = match slice_pow(op, is_param) {
-                Some((base, exponent)) => {
+                Some((base, what)) => {
                     let l = of(base) + 1;
                     if live[i] {
                         pows.push(SlicePow {
                             op: i,
                             level: l,
                             base,
-                            exponent,
+                            what,
                         });
                     }
                     l
@@ -221,9 +234,14 @@ impl Split {
         out
     }
 
-    /// Does this function have powers to take a block at a time?
+    /// Does this function have powers to take a block at a time (by `pow_pos_slice`)?
     pub(super) fn has_powers(&self) -> bool {
-        !self.pows.is_empty()
+        self.pows.iter().any(|p| matches!(p.what, Sliced::Pow(_)))
+    }
+
+    /// Does it have calls of transcendental functions in loops of their own?
+    fn has_calls(&self) -> bool {
+        self.pows.iter().any(|p| matches!(p.what, Sliced::Call(_)))
     }
 
     /// Does this function have map calls to take a block at a time?
@@ -718,14 +736,50 @@ impl<'a> Kernel<'a> {
         reads
     }
 
-    /// `pow_pos_slice` for power `j` after loop `lv`.
+    /// `pow_pos_slice` for power `j` after loop `lv`, or the loop of its function call (the same call as
+    /// the per-point code's, so the same number).
     fn power(&self, j: usize, p: &SlicePow, lv: usize) -> TokenStream {
+        // A base that is itself taken a block at a time is an earlier entry of the same buffer (numbered
+        // by level): the buffer is split there, so that one part is read while the other is written.
+        let earlier = match p.base {
+            Val::Loc(i) if self.power_of.contains_key(&i) && self.plan.given(i, lv) => {
+                Some(self.power_of[&i])
+            }
+            _ => None,
+        };
+        if let Some(m) = earlier {
+            let (m, at) = (lit(m), lit(j));
+            let inner = self.power_with(p, quote!(&done[#m][..len]), quote!(rest[0]));
+            return quote! {
+                {
+                    let (done, rest) = power.split_at_mut(#at);
+                    #inner
+                }
+            };
+        }
         let source = self.source(p.base, lv);
-        let atoms = Atoms::new(self.g, self.k_names);
-        let exponent = atoms.tokens(p.exponent);
-        self.uses_p.set(self.uses_p.get() || atoms.uses_p());
         let j = lit(j);
-        quote!(pow_pos_slice(#source, #exponent, &mut power[#j][..len]);)
+        self.power_with(p, source, quote!(power[#j]))
+    }
+
+    /// [`Kernel::power`] from `source` into the buffer `target`.
+    fn power_with(&self, p: &SlicePow, source: TokenStream, target: TokenStream) -> TokenStream {
+        match p.what {
+            Sliced::Pow(exponent) => {
+                let atoms = Atoms::new(self.g, self.k_names);
+                let exponent = atoms.tokens(exponent);
+                self.uses_p.set(self.uses_p.get() || atoms.uses_p());
+                quote!(pow_pos_slice(#source, #exponent, &mut #target[..len]);)
+            }
+            Sliced::Call(f) => {
+                let f = format_ident!("{}", emit::method(f));
+                quote! {
+                    for (v, b) in #target[..len].iter_mut().zip(#source) {
+                        *v = b.#f();
+                    }
+                }
+            }
+        }
     }
 
     /// The column arguments and the block's slices of them (after the loops, which record what is read).
@@ -869,6 +923,9 @@ impl<'a> Kernel<'a> {
         if self.plan.has_powers() {
             at_once.push("the fractional powers of a block at once, by [`pow_pos_slice`] (within 1 ulp of `powf`)");
         }
+        if self.plan.has_calls() {
+            at_once.push("the calls of transcendental functions in loops of their own");
+        }
         if self.plan.has_maps() {
             at_once.push("the map calls of a block at once, by `Map::partials2_batch` or, where only the value is read, `Map::values_batch` (bit for bit `partials2`)");
         }
@@ -997,22 +1054,37 @@ mod tests {
     }
 
     #[test]
-    fn nested_powers_take_two_levels_and_keep_the_shared_call() {
+    fn nested_powers_and_a_shared_call_take_a_level_each() {
         let (p, arena) = plan_of("(2 + (1 + exp(-v))^0.3)^0.7 + exp(-v)", &[]);
-        assert_eq!((levels(&p), p.loops), (vec![1, 2], 3));
-        // exp(−v) is computed in loop 0 (for the inner base) and read from a buffer in the last loop.
-        assert_eq!(p.kept.len(), 1);
-        let (i, l) = p.kept[0];
-        assert_eq!(l, 0);
-        assert!(matches!(arena.ops()[i], Op::Call(Func::Exp, _)));
-        assert!(p.given(i, 2) && !p.given(i, 0));
+        assert_eq!((levels(&p), p.loops, p.kept.len()), (vec![1, 2, 3], 4, 0));
+        // exp(−v) is taken in a loop of its own after loop 0 (which computes −v) and read from its buffer by
+        // the inner base's loop and the last.
+        let call = p.pows[0].op;
+        assert!(matches!(arena.ops()[call], Op::Call(Func::Exp, _)));
+        assert!(p.given(call, 1) && p.given(call, 3) && !p.given(call, 0));
+        assert!(p.has_powers() && p.has_calls());
+    }
+
+    #[test]
+    fn calls_take_a_loop_of_their_own() {
+        let (p, arena) = plan_of("tanh(2*v) + v", &[]);
+        assert_eq!((levels(&p), p.loops), (vec![1], 2));
+        assert!(matches!(p.pows[0].what, Sliced::Call(Func::Tanh)));
+        // Loop 0 computes the argument 2v; the last reads tanh from its buffer.
+        assert_eq!(p.roots(0, &[]).len(), 1);
+        assert!(p.given(p.pows[0].op, 1) && matches!(arena.ops()[p.pows[0].op], Op::Call(..)));
+        assert!(!p.has_powers() && p.has_calls());
+        // A call of an input needs no argument loop; abs and sign stay point by point.
+        let (p, _) = plan_of("exp(v) + abs(s)", &[]);
+        assert_eq!((levels(&p), p.loops), (vec![1], 2));
+        assert!(p.roots(0, &[]).is_empty());
     }
 
     #[test]
     fn parameter_exponents_are_taken_a_block_at_a_time_varying_ones_are_not() {
         let (p, _) = plan_of("(1 + v^2)^(g - 1)", &["g"]);
         assert_eq!(levels(&p), vec![1]);
-        assert!(matches!(p.pows[0].exponent, Val::Inv(_)));
+        assert!(matches!(p.pows[0].what, Sliced::Pow(Val::Inv(_))));
         let (p, _) = plan_of("(1 + v^2)^s", &[]);
         assert!(!p.has_powers());
         assert_eq!(p.loops, 1);
@@ -1020,12 +1092,13 @@ mod tests {
 
     #[test]
     fn a_kept_value_can_be_a_base() {
-        let (p, arena) = plan_of("cosh(v)^0.3 + cosh(v)", &[]);
+        let (p, arena) = plan_of("(v^s)^0.3 + v^s", &[]);
         assert_eq!((levels(&p), p.kept.len()), (vec![1], 1));
-        // cosh(v) is computed once, in loop 0, as a kept value (and not also as a base).
+        // v^s (a varying exponent: not taken a block at a time) is computed once, in loop 0, as a kept value
+        // (and not also as a base).
         let roots = p.roots(0, &[]);
         assert_eq!(roots.len(), 1);
-        assert!(matches!(arena.ops()[p.kept[0].0], Op::Call(Func::Cosh, _)));
+        assert!(matches!(arena.ops()[p.kept[0].0], Op::PowVar(..)));
     }
 
     #[test]

@@ -1727,7 +1727,7 @@ pub mod si_engine {
         }
         /// [`Precomputed::invert`] at many points, stored column-wise: ξ_i at point k is `xi[i][k]`, η_j is `eta[j][k]`, y^(r) is `yr[k]`; x_s is written to `x[s][k]` and u to `u[k]`.
         ///
-        /// Block by block ([`BLOCK`] points): the fractional powers of a block at once, by [`pow_pos_slice`] (within 1 ulp of `powf`), everything else point by point in loops that vectorise.
+        /// Block by block ([`BLOCK`] points): the fractional powers of a block at once, by [`pow_pos_slice`] (within 1 ulp of `powf`); the calls of transcendental functions in loops of their own, everything else point by point in loops that vectorise.
         ///
         /// # Panics
         ///
@@ -1740,8 +1740,8 @@ pub mod si_engine {
             mut x: [&mut [f64]; N],
             u: &mut [f64],
         ) {
-            let mut base = [[0.0; BLOCK]; 1];
-            let mut power = [[0.0; BLOCK]; 1];
+            let mut base = [[0.0; BLOCK]; 2];
+            let mut power = [[0.0; BLOCK]; 2];
             let mut states = [[0.0; BLOCK]; N];
             let mut input = [0.0; BLOCK];
             for start in (0..yr.len()).step_by(BLOCK) {
@@ -1752,13 +1752,17 @@ pub mod si_engine {
                 for k in 0..len {
                     let [xi1, _] = xi.map(|c| c[k]);
                     base[0][k] = self.k2 + self.k3 * (xi1 * xi1);
+                    base[1][k] = self.k7 * xi1;
                 }
                 pow_pos_slice(&base[0][..len], 0.1, &mut power[0][..len]);
+                for (v, b) in power[1][..len].iter_mut().zip(&base[1][..len]) {
+                    *v = b.tanh();
+                }
                 for k in 0..len {
                     let [xi1, xi2] = xi.map(|c| c[k]);
                     let yr = yr[k];
                     let t0 = power[0][k];
-                    let t1 = (self.k7 * xi1).tanh();
+                    let t1 = power[1][k];
                     let t2 = 2.0 * xi2
                         + self.k11
                             * (self.k0 * (xi1 * xi1)
@@ -1824,7 +1828,7 @@ pub mod si_engine {
         }
         /// [`Precomputed::sensitivity`] at many points, stored column-wise: x_s at point k is `x[s][k]`, the input `m_at[k]`; entry e is written to `out[e][k]`, the entries that depend on no point (parameter-only) only where `invariant` is true.
         ///
-        /// Block by block (100 points, the body's own `BLOCK`): the fractional powers of a block at once, by [`pow_pos_slice`] (within 1 ulp of `powf`), everything else point by point in loops that vectorise.
+        /// Block by block (100 points, the body's own `BLOCK`): the fractional powers of a block at once, by [`pow_pos_slice`] (within 1 ulp of `powf`); the calls of transcendental functions in loops of their own, everything else point by point in loops that vectorise.
         ///
         /// # Panics
         ///
@@ -1838,8 +1842,8 @@ pub mod si_engine {
         ) {
             const BLOCK: usize = 100;
             let p = &self.params;
-            let mut base = [[0.0; BLOCK]; 1];
-            let mut power = [[0.0; BLOCK]; 1];
+            let mut base = [[0.0; BLOCK]; 2];
+            let mut power = [[0.0; BLOCK]; 2];
             let mut values = [[0.0; BLOCK]; 79];
             for start in (0..m_at.len()).step_by(BLOCK) {
                 let len = BLOCK.min(m_at.len() - start);
@@ -1849,14 +1853,18 @@ pub mod si_engine {
                 for k in 0..len {
                     let [v, _] = x.map(|c| c[k]);
                     base[0][k] = self.k2 + self.k3 * (v * v);
+                    base[1][k] = self.k7 * v;
                 }
                 pow_pos_slice(&base[0][..len], 0.1, &mut power[0][..len]);
+                for (v, b) in power[1][..len].iter_mut().zip(&base[1][..len]) {
+                    *v = b.tanh();
+                }
                 for k in 0..len {
                     let [v, p_i] = x.map(|c| c[k]);
                     let m_at = m_at[k];
                     let t0 = v * v;
                     let t1 = power[0][k];
-                    let t2 = (self.k7 * v).tanh();
+                    let t2 = power[1][k];
                     let t3 = t2 * t2 - 1.0;
                     let t4 = self.k0 * v + self.k15 * v / t1 - self.k16 * t3;
                     let t5 = p.y_i - p.s_i * p_i;
