@@ -71,7 +71,8 @@ fn search_from_s0(
     x0: &[f64],
 ) -> Result<(Outcome, usize, Option<Outcome>), ModalError> {
     let mut runs = 1;
-    let first = run.run(S0, x0)?;
+    let (first, mut ahead) = first_runs(run, x0);
+    let first = first?;
     if first.delta_soc().abs() <= tol {
         let other = run.run(1.05 * S0, x0)?;
         return Ok((first, runs, Some(other)));
@@ -90,7 +91,10 @@ fn search_from_s0(
             (near.s / factor).max(limit)
         };
         factor *= factor;
-        let o = run.run(s, x0)?;
+        let o = match ahead.take() {
+            Some(o) if s == S0 * FIRST_WIDENING => o?,
+            _ => run.run(s, x0)?,
+        };
         runs += 1;
         if o.delta_soc().abs() <= tol {
             return Ok((o, runs, Some(near)));
@@ -105,6 +109,34 @@ fn search_from_s0(
         return Err(unreachable(&near, tol));
     };
     narrow(run, (near, far), (tol, x0), runs)
+}
+
+/// The run at s₀ and, on another core where there is one to spare, the run at s₀ · 1.25 beside it: the
+/// widening's first step where ΔSOC(s₀) < 0, the usual case (the shipped hybrids' s lies above s₀), so the
+/// search waits for one run fewer; where it is not needed it is dropped. Inside a sweep (whose variants keep
+/// every core busy) and on one core the runs stay one after the other. Both are the runs the sequential
+/// search makes, so the outcome is the same.
+fn first_runs(
+    run: &Ecms<'_, '_, '_>,
+    x0: &[f64],
+) -> (
+    Result<Outcome, ModalError>,
+    Option<Result<Outcome, ModalError>>,
+) {
+    let spare_core = rayon::current_thread_index().is_none()
+        && std::thread::available_parallelism().is_ok_and(|n| n.get() > 1);
+    if !spare_core {
+        return (run.run(S0, x0), None);
+    }
+    std::thread::scope(|scope| {
+        let ahead = scope.spawn(|| run.run(S0 * FIRST_WIDENING, x0));
+        let first = run.run(S0, x0);
+        // A panic of the run beside is the same panic as the sequential search's run would raise.
+        let ahead = ahead
+            .join()
+            .unwrap_or_else(|p| std::panic::resume_unwind(p));
+        (first, Some(ahead))
+    })
 }
 
 /// How the bracket's runs are reconciled instead of narrowing s: at one sample ([`relax_at`]), at every
