@@ -40,9 +40,35 @@ pub(super) fn fixed(
     s: f64,
     x0: &[f64],
 ) -> Result<(Outcome, usize, Option<Outcome>), ModalError> {
-    let best = run.run(s, x0)?;
-    let other = run.run(1.05 * s, x0)?;
-    Ok((best, 1, Some(other)))
+    let (best, other) = beside(spare_core(), || run.run(s, x0), || run.run(1.05 * s, x0));
+    Ok((best?, 1, Some(other?)))
+}
+
+/// Is there a core to spare for a second run beside the first? Not inside a sweep (whose variants keep every
+/// core busy), nor on one core.
+fn spare_core() -> bool {
+    rayon::current_thread_index().is_none()
+        && std::thread::available_parallelism().is_ok_and(|n| n.get() > 1)
+}
+
+/// `a()` and `b()`, side by side on two threads where `parallel`, else one after the other.
+fn beside<A: Send, B: Send>(
+    parallel: bool,
+    a: impl FnOnce() -> A + Send,
+    b: impl FnOnce() -> B + Send,
+) -> (A, B) {
+    if !parallel {
+        return (a(), b());
+    }
+    std::thread::scope(|scope| {
+        let second = scope.spawn(b);
+        let first = a();
+        // A panic of the run beside is the same panic the sequential order would raise.
+        let second = second
+            .join()
+            .unwrap_or_else(|p| std::panic::resume_unwind(p));
+        (first, second)
+    })
 }
 
 /// The charge-sustaining run: (run, runs taken, the bracket's other end). Where none is found in a model with
@@ -111,11 +137,10 @@ fn search_from_s0(
     narrow(run, (near, far), (tol, x0), runs)
 }
 
-/// The run at s₀ and, on another core where there is one to spare, the run at s₀ · 1.25 beside it: the
-/// widening's first step where ΔSOC(s₀) < 0, the usual case (the shipped hybrids' s lies above s₀), so the
-/// search waits for one run fewer; where it is not needed it is dropped. Inside a sweep (whose variants keep
-/// every core busy) and on one core the runs stay one after the other. Both are the runs the sequential
-/// search makes, so the outcome is the same.
+/// The run at s₀ and, on a spare core ([`spare_core`]), the run at s₀ · 1.25 beside it: the widening's first
+/// step where ΔSOC(s₀) < 0, the usual case (the shipped hybrids' s lies near or above s₀), so the search waits
+/// for one run fewer; where it is not needed it is dropped. Both are runs the sequential search makes, so the
+/// outcome is the same.
 fn first_runs(
     run: &Ecms<'_, '_, '_>,
     x0: &[f64],
@@ -123,20 +148,15 @@ fn first_runs(
     Result<Outcome, ModalError>,
     Option<Result<Outcome, ModalError>>,
 ) {
-    let spare_core = rayon::current_thread_index().is_none()
-        && std::thread::available_parallelism().is_ok_and(|n| n.get() > 1);
-    if !spare_core {
+    if !spare_core() {
         return (run.run(S0, x0), None);
     }
-    std::thread::scope(|scope| {
-        let ahead = scope.spawn(|| run.run(S0 * FIRST_WIDENING, x0));
-        let first = run.run(S0, x0);
-        // A panic of the run beside is the same panic as the sequential search's run would raise.
-        let ahead = ahead
-            .join()
-            .unwrap_or_else(|p| std::panic::resume_unwind(p));
-        (first, Some(ahead))
-    })
+    let (first, ahead) = beside(
+        true,
+        || run.run(S0, x0),
+        || run.run(S0 * FIRST_WIDENING, x0),
+    );
+    (first, Some(ahead))
 }
 
 /// How the bracket's runs are reconciled instead of narrowing s: at one sample ([`relax_at`]), at every
