@@ -371,44 +371,45 @@ pub trait InverseModel: Send + Sync {
         (out, invariant): (&mut [&mut [f64]], bool),
     ) -> Result<(), (usize, ModelError)> {
         let _ = invariant;
-        let mut x_k = vec![0.0; x.len()];
-        let mut w_k = vec![0.0; w.len()];
-        let mut s_k = vec![0.0; out.len()];
-        for k in 0..u.len() {
-            for (v, c) in x_k.iter_mut().zip(x) {
-                *v = c[k];
-            }
-            for (v, c) in w_k.iter_mut().zip(w) {
-                *v = c[k];
-            }
-            self.sensitivity(&x_k, &w_k, u[k], &mut s_k)
-                .map_err(|e| (k, e))?;
-            for (c, &v) in out.iter_mut().zip(&s_k) {
-                c[k] = v;
-            }
-        }
-        Ok(())
+        columns_pointwise((x, w, u), out, |x, w, u, s| self.sensitivity(x, w, u, s))
     }
 
     /// The extra outputs at many points, column-wise: `x[s][k]`, `w[l][k]`, `u[k]` in, `out[o][k]` out. The
     /// default calls [`InverseModel::outputs`] point by point.
     fn outputs_batch(&self, x: &[&[f64]], w: &[&[f64]], u: &[f64], out: &mut [&mut [f64]]) {
-        let mut x_k = vec![0.0; x.len()];
-        let mut w_k = vec![0.0; w.len()];
-        let mut o_k = vec![0.0; out.len()];
-        for k in 0..u.len() {
-            for (v, c) in x_k.iter_mut().zip(x) {
-                *v = c[k];
-            }
-            for (v, c) in w_k.iter_mut().zip(w) {
-                *v = c[k];
-            }
-            self.outputs(&x_k, &w_k, u[k], &mut o_k);
-            for (c, &v) in out.iter_mut().zip(&o_k) {
-                c[k] = v;
-            }
+        let each = columns_pointwise((x, w, u), out, |x, w, u, o| {
+            self.outputs(x, w, u, o);
+            Ok::<(), std::convert::Infallible>(())
+        });
+        if let Err((_, never)) = each {
+            match never {}
         }
     }
+}
+
+/// A batch method point by point: point k of the columns `x`, `w` and `u` handed to `f` with a buffer for
+/// `out.len()` results, which go to `out[·][k]`; the first failing point's index with its error.
+fn columns_pointwise<E>(
+    (x, w, u): (&[&[f64]], &[&[f64]], &[f64]),
+    out: &mut [&mut [f64]],
+    mut f: impl FnMut(&[f64], &[f64], f64, &mut [f64]) -> Result<(), E>,
+) -> Result<(), (usize, E)> {
+    let mut x_k = vec![0.0; x.len()];
+    let mut w_k = vec![0.0; w.len()];
+    let mut o_k = vec![0.0; out.len()];
+    for (k, &u_k) in u.iter().enumerate() {
+        for (v, c) in x_k.iter_mut().zip(x) {
+            *v = c[k];
+        }
+        for (v, c) in w_k.iter_mut().zip(w) {
+            *v = c[k];
+        }
+        f(&x_k, &w_k, u_k, &mut o_k).map_err(|e| (k, e))?;
+        for (c, &v) in out.iter_mut().zip(&o_k) {
+            c[k] = v;
+        }
+    }
+    Ok(())
 }
 
 /// Look up a parameter index by name, with an error listing the known names.
