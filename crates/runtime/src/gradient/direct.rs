@@ -21,7 +21,7 @@ use super::pass::{Along, Wanted};
 use super::point::invert;
 use super::sample::Block;
 use crate::error::RunError;
-use crate::inverse::SimulateError;
+use crate::inverse::{invert_chained, SimulateError};
 
 /// Samples per block of the reference's columns (the run's block size, so the inverse's Newton guesses,
 /// where ψ⁻¹ is numeric, chain as the run's do).
@@ -129,29 +129,16 @@ impl Columns {
         let r = block.yd.len() - 1;
         let xi: Vec<&[f64]> = block.yd[..r].iter().map(|c| &c[..len]).collect();
         let w: Vec<&[f64]> = block.w.iter().map(|c| &c[..len]).collect();
-        for (c, &v) in self.x.iter_mut().zip(&self.x_last) {
-            c[0] = v;
-        }
-        self.u[0] = self.u_last;
         let mut x: Vec<&mut [f64]> = self.x.iter_mut().map(|c| &mut c[..len]).collect();
-        model
-            .invert_batch(
-                &xi,
-                &[],
-                &w,
-                &block.yd[r][..len],
-                &mut x,
-                &mut self.u[..len],
-            )
-            .map_err(|(i, source)| RunError::Model {
+        let columns = (&xi[..], &[][..], &w[..], &block.yd[r][..len]);
+        let last = (&mut self.x_last[..], &mut self.u_last);
+        invert_chained(model, columns, (&mut x, &mut self.u[..len]), last).map_err(|(i, source)| {
+            RunError::Model {
                 t: block.time[i],
                 source,
-            })?;
-        for (v, c) in self.x_last.iter_mut().zip(&self.x) {
-            *v = c[len - 1];
-        }
-        self.u_last = self.u[len - 1];
-        Ok(())
+            }
+            .into()
+        })
     }
 
     /// The partial derivatives at samples s0 … s0 + sl − 1 of the block into `sens[e][0 … sl − 1]`, and

@@ -101,25 +101,40 @@ impl<'a, M: InverseModel + ?Sized> Inverter<'a, M> {
     /// Every sample independent: [`InverseModel::invert_batch`] on the whole block.
     fn batch(&mut self, b: &mut Block<'_, '_>) -> Result<(), SimulateError> {
         let r = b.yd.len() - 1;
-        let len = b.time.len();
         let xi: Vec<&[f64]> = b.yd[..r].iter().map(|c| &**c).collect();
         let etas: Vec<&[f64]> = b.eta.iter().map(|c| &**c).collect();
-        for (c, &v) in b.x.iter_mut().zip(&self.x) {
-            c[0] = v; // the guess for a numerically solved ψ⁻¹
-        }
-        if let Some(u0) = b.u.first_mut() {
-            *u0 = self.u; // and for an input solved by Newton's method
-        }
         let time = b.time;
-        self.model
-            .invert_batch(&xi, &etas, b.w, b.yd[r], b.x, b.u)
-            .map_err(|(i, source)| RunError::Model { t: time[i], source })?;
-        for (v, c) in self.x.iter_mut().zip(b.x.iter()) {
-            *v = c[len - 1];
-        }
-        self.u = b.u[len - 1];
-        Ok(())
+        let last = (&mut self.x[..], &mut self.u);
+        invert_chained(self.model, (&xi, &etas, b.w, b.yd[r]), (b.x, b.u), last)
+            .map_err(|(i, source)| RunError::Model { t: time[i], source }.into())
     }
+}
+
+/// A block's columns for [`InverseModel::invert_batch`]: ξ, η, the signals and y^(r).
+pub(crate) type InverseColumns<'a> = (&'a [&'a [f64]], &'a [&'a [f64]], &'a [&'a [f64]], &'a [f64]);
+
+/// [`InverseModel::invert_batch`] on a block whose first sample starts from `last` (the previous block's last
+/// state and input: the guesses of a numerically solved ψ⁻¹ and of an input solved by Newton's method), then
+/// `last` set to this block's last sample: blocks chained as one run (the run's and the gradient's pass).
+pub(crate) fn invert_chained<M: InverseModel + ?Sized>(
+    model: &M,
+    (xi, eta, w, yr): InverseColumns<'_>,
+    (x, u): (&mut [&mut [f64]], &mut [f64]),
+    (x_last, u_last): (&mut [f64], &mut f64),
+) -> Result<(), (usize, invsim_model_api::ModelError)> {
+    for (c, &v) in x.iter_mut().zip(x_last.iter()) {
+        c[0] = v;
+    }
+    if let Some(u0) = u.first_mut() {
+        *u0 = *u_last;
+    }
+    model.invert_batch(xi, eta, w, yr, x, u)?;
+    let len = u.len();
+    for (v, c) in x_last.iter_mut().zip(x.iter()) {
+        *v = c[len - 1];
+    }
+    *u_last = u[len - 1];
+    Ok(())
 }
 
 /// The causal run over a block: η integrated from sample to sample, then the inverse at each.

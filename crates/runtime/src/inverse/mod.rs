@@ -37,6 +37,7 @@ use crate::cycle::Cycle;
 pub use causal::ETA_BLOWUP;
 pub use checks::{DISTANCE_WARNING, MAX_LOOKAHEAD_FRACTION, MIN_LOOKAHEAD_PER_DT};
 pub use error::SimulateError;
+pub(crate) use inverter::invert_chained;
 pub use options::{
     SimulationOptions, SimulationOptionsBuilder, DEFAULT_ATOL, DEFAULT_DT, DEFAULT_LOOKAHEAD,
     DEFAULT_MAX_PRE_ACTUATION, DEFAULT_RTOL, DEFAULT_STABILITY_CHECK_INTERVAL, DEFAULT_STABLE_TOL,
