@@ -19,7 +19,7 @@ use invsim_model_api::{InverseModel, SensitivityLayout};
 
 use super::pass::{Along, Wanted};
 use super::point::invert;
-use super::sample::Block;
+use super::sample::{Block, Sums};
 use crate::error::RunError;
 use crate::inverse::{invert_chained, SimulateError};
 
@@ -46,7 +46,8 @@ pub(crate) fn integral_gradients<M: InverseModel + ?Sized>(
     let samples = grid.samples();
     let mut block = Block::new(BLOCK.min(samples), r, nw);
     let mut cols = Columns::new(layout, BLOCK.min(samples));
-    let mut sums = Trapezoids::new(wanted.accumulate.len(), wanted.params.len(), 0.5 * grid.dt);
+    let mut sums = Sums::new(wanted.accumulate.len(), wanted.params.len());
+    let half = 0.5 * grid.dt;
     let mut k0 = 0;
     while k0 < samples {
         let len = (k0 + BLOCK).min(samples) - k0;
@@ -56,7 +57,7 @@ pub(crate) fn integral_gradients<M: InverseModel + ?Sized>(
         while s0 < len {
             let sl = SUB.min(len - s0);
             cols.partials(model, &block, (s0, sl))?;
-            cols.chain_rule(wanted, sl, &mut sums);
+            cols.chain_rule(wanted, sl, (&mut sums, half, k0 + s0 == 0));
             s0 += sl;
         }
         k0 += len;
@@ -180,12 +181,12 @@ impl Columns {
 
     /// dq/dp_c of every accumulated output and wanted parameter at the sub-block's `sl` samples, each column
     /// handed to the trapezoids (the module doc's formulas, in [`super::point::Point::row_jacobians`]'
-    /// order).
+    /// order); `opens`: the sub-block starts the grid.
     fn chain_rule<M: InverseModel + ?Sized>(
         &mut self,
         wanted: &Wanted<'_, M>,
         sl: usize,
-        sums: &mut Trapezoids,
+        (sums, half, opens): (&mut Sums, f64, bool),
     ) {
         let Columns {
             layout: l,
@@ -231,76 +232,8 @@ impl Columns {
                         *v -= m * psi;
                     }
                 }
-                sums.add(a * wanted.params.len() + c, dq);
+                sums.column(a * wanted.params.len() + c, dq, (half, opens));
             }
         }
-        sums.next(sl);
-    }
-}
-
-/// The trapezoidal sums Σ_k (dt/2)·(d_(k−1) + d_k) of every (output, parameter) pair, fed a sub-block's
-/// column at a time (the first sample of the grid opens the sums without a term).
-struct Trapezoids {
-    acc: Vec<f64>,
-    prev: Vec<f64>,
-    outputs: usize,
-    params: usize,
-    half: f64,
-    /// Samples seen before the current sub-block.
-    seen: usize,
-}
-
-impl Trapezoids {
-    fn new(outputs: usize, params: usize, half: f64) -> Trapezoids {
-        Trapezoids {
-            acc: vec![0.0; outputs * params],
-            prev: vec![0.0; outputs * params],
-            outputs,
-            params,
-            half,
-            seen: 0,
-        }
-    }
-
-    /// Pair i's derivative at the current sub-block's samples: the sub-block's terms d_(k−1) + d_k summed in
-    /// four interleaved partial sums (independent additions that vectorise, not one chain), times dt/2.
-    fn add(&mut self, i: usize, d: &[f64]) {
-        let (Some(&first), Some(&last)) = (d.first(), d.last()) else {
-            return;
-        };
-        // The first term pairs the last sub-block's last sample with this one's first (none at the grid's
-        // first sample); the others pair neighbours within the sub-block.
-        let mut sum = if self.seen == 0 {
-            0.0
-        } else {
-            self.prev[i] + first
-        };
-        let mut parts = [0.0; 4];
-        let (a, b) = (&d[..d.len() - 1], &d[1..]);
-        let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
-        let (ra, rb) = (ca.remainder(), cb.remainder());
-        for (a, b) in ca.zip(cb) {
-            for q in 0..4 {
-                parts[q] += a[q] + b[q];
-            }
-        }
-        for (a, b) in ra.iter().zip(rb) {
-            sum += a + b;
-        }
-        sum += (parts[0] + parts[1]) + (parts[2] + parts[3]);
-        self.acc[i] += self.half * sum;
-        self.prev[i] = last;
-    }
-
-    /// The current sub-block's `sl` samples are summed.
-    fn next(&mut self, sl: usize) {
-        self.seen += sl;
-    }
-
-    /// ∫ do_a/dp_c dt, `[a][c]`.
-    fn integrals(&self) -> Vec<Vec<f64>> {
-        (0..self.outputs)
-            .map(|a| self.acc[a * self.params..(a + 1) * self.params].to_vec())
-            .collect()
     }
 }

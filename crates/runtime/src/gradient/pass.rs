@@ -76,6 +76,7 @@ pub(crate) fn integral_gradients<M: InverseModel + ?Sized>(
 ) -> Result<Vec<Vec<f64>>, SimulateError> {
     Ok(sweep(wanted, along, eta0, opts, &mut |_, _| ())?
         .samples
+        .sums
         .integrals())
 }
 

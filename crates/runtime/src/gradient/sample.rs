@@ -21,13 +21,8 @@ pub(super) struct Samples {
     pub(super) x: Vec<f64>,
     pub(super) u_prev: f64,
     buf: Buffers,
-    /// ∫ do_a/dp_c dt so far, at a·P + c ([`Samples::integrals`]).
-    acc: Vec<f64>,
-    /// do_a/dp_c at the last sample, at a·P + c.
-    prev: Vec<f64>,
-    /// P, the parameters' count, and the accumulated outputs'.
-    params: usize,
-    outputs: usize,
+    /// ∫ do_a/dp_c dt so far.
+    pub(super) sums: Sums,
     /// The accumulated outputs' ∂o/∂η (na × ne) and ∂o/∂p (na × P) at the sample, column-major.
     o_eta: Vec<f64>,
     o_p: Vec<f64>,
@@ -43,10 +38,7 @@ impl Samples {
             x: vec![0.0; n_states],
             u_prev: f64::NAN,
             buf: Buffers::default(),
-            acc: vec![0.0; accumulated * params],
-            prev: vec![0.0; accumulated * params],
-            params,
-            outputs: accumulated,
+            sums: Sums::new(accumulated, params),
             o_eta: Vec::new(),
             o_p: vec![0.0; accumulated * params],
             rows: Vec::new(),
@@ -108,7 +100,8 @@ impl Samples {
                     .enumerate()
                     .map(|(j, v)| o_eta[j * na + a] * v)
                     .sum();
-                self.add((a, c), o_p + through_eta, half);
+                self.sums
+                    .term(a * self.sums.params + c, o_p + through_eta, half);
             }
         }
         (self.o_eta, self.o_p) = (o_eta, o_p);
@@ -118,15 +111,62 @@ impl Samples {
     pub(super) fn recycle(&mut self, point: Point) {
         self.buf = point.into_buffer();
     }
+}
 
-    /// do_a/dp_c = `v` at this sample: the trapezoid's term `half`·(do at the last sample + v) added
-    /// (`half` = dt/2; `None` at the first sample, which has no interval before it).
-    pub(super) fn add(&mut self, (a, c): (usize, usize), v: f64, half: Option<f64>) {
-        let i = a * self.params + c;
+/// The trapezoidal sums ∫ do_a/dp_c dt ≈ Σ_k (dt/2)·(d_(k−1) + d_k) of every accumulated output a and
+/// parameter c, pair i = a·P + c, fed a sample ([`Sums::term`]) or a column of samples ([`Sums::column`]) at a
+/// time.
+pub(super) struct Sums {
+    acc: Vec<f64>,
+    /// Each pair's derivative at the last sample.
+    prev: Vec<f64>,
+    outputs: usize,
+    /// P, the parameters' count.
+    pub(super) params: usize,
+}
+
+impl Sums {
+    pub(super) fn new(outputs: usize, params: usize) -> Sums {
+        Sums {
+            acc: vec![0.0; outputs * params],
+            prev: vec![0.0; outputs * params],
+            outputs,
+            params,
+        }
+    }
+
+    /// Pair i's derivative `v` at this sample: the term `half`·(d at the last sample + v) added (`half` = dt/2;
+    /// `None` at the first sample, which has no interval before it).
+    pub(super) fn term(&mut self, i: usize, v: f64, half: Option<f64>) {
         if let Some(h) = half {
             self.acc[i] += h * (self.prev[i] + v);
         }
         self.prev[i] = v;
+    }
+
+    /// Pair i's derivative at consecutive samples `d`: their terms summed in four interleaved partial sums
+    /// (independent additions that vectorise, not one chain), times `half` = dt/2; `opens`: d's first sample
+    /// is the first (no term pairs it with an earlier one).
+    pub(super) fn column(&mut self, i: usize, d: &[f64], (half, opens): (f64, bool)) {
+        let (Some(&first), Some(&last)) = (d.first(), d.last()) else {
+            return;
+        };
+        let mut sum = if opens { 0.0 } else { self.prev[i] + first };
+        let mut parts = [0.0; 4];
+        let (a, b) = (&d[..d.len() - 1], &d[1..]);
+        let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
+        let (ra, rb) = (ca.remainder(), cb.remainder());
+        for (a, b) in ca.zip(cb) {
+            for q in 0..4 {
+                parts[q] += a[q] + b[q];
+            }
+        }
+        for (a, b) in ra.iter().zip(rb) {
+            sum += a + b;
+        }
+        sum += (parts[0] + parts[1]) + (parts[2] + parts[3]);
+        self.acc[i] += half * sum;
+        self.prev[i] = last;
     }
 
     /// ∫ do_a/dp_c dt, `[a][c]`.

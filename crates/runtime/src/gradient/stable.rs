@@ -84,7 +84,7 @@ pub(crate) fn integral_gradients<M: InverseModel + ?Sized>(
         }
         k0 += len;
     }
-    Ok(acc.samples.integrals())
+    Ok(acc.samples.sums.integrals())
 }
 
 /// ∂q/∂η (`a`, m × m row-major) and ∂q/∂p (`b`, m × P row-major) at one point, total through x = ψ⁻¹(ξ, η)
