@@ -36,6 +36,7 @@ use serde::Serialize;
 pub use error::GradientError;
 pub use figures::Figures;
 pub(crate) use figures::{figures, Integrals, Wrt};
+pub(crate) use gauss::{Gauss, Singular, NODES};
 pub use grid_columns::GridColumns;
 pub use grid_values::{GridValue, MAX_GRID_VALUES};
 pub use modal::{resolve_modal, resolve_modal_with_maps, GearParameters, ModalParam, ModalWrt};

@@ -52,6 +52,9 @@ pub(crate) struct Buffers {
     work: Vec<f64>,
 }
 
+/// The outputs of [`Point::jacobians`]: A, B and (where asked) the reference's columns.
+type Jacobians<'o> = (&'o mut [f64], &'o mut [f64], Option<&'o mut [f64]>);
+
 /// A direction of change at a point: dx and du.
 pub(crate) struct Direction {
     pub dx: Vec<f64>,
@@ -221,6 +224,29 @@ impl Point {
         a: &mut [f64],
         b: &mut [f64],
     ) {
+        self.jacobians(rows, params.iter().map(|&k| Some(k)), (a, b, None));
+    }
+
+    /// [`Point::row_jacobians`] for parameters that may be missing from the model (`None`: a zero column of
+    /// B), and the rows' derivatives with respect to the reference, `reference` (m × (r + 1), column-major):
+    /// ∂q_i/∂ξ_l = m_i[l] for l < r and ∂q_i/∂y^(r) = ∂q_i/∂u / ∂φ/∂u, so that a move of the reference
+    /// (dξ, dy^(r)) and of p changes q_i by Σ_l m_i[l] dξ_l + (∂q_i/∂u / ∂φ/∂u) dy^(r) + B_i dp (the
+    /// directions of [`Point::moved_into`]).
+    pub(crate) fn moved_row_jacobians(
+        &self,
+        rows: &[usize],
+        params: &[Option<usize>],
+        (a, b): (&mut [f64], &mut [f64]),
+        reference: &mut [f64],
+    ) {
+        self.jacobians(rows, params.iter().copied(), (a, b, Some(reference)));
+    }
+
+    /// The formulas of [`Point::row_jacobians`] and [`Point::moved_row_jacobians`].
+    fn jacobians<I>(&self, rows: &[usize], params: I, (a, b, mut reference): Jacobians<'_>)
+    where
+        I: Iterator<Item = Option<usize>> + Clone,
+    {
         let l = &self.layout;
         let (n, r, ne, w) = (l.n, l.r, l.n_eta, l.width());
         let nr = rows.len();
@@ -243,16 +269,24 @@ impl Point {
             for (j, &mj) in m[r..r + ne].iter().enumerate() {
                 a[j * nr + i] = mj;
             }
-            for (c, &k) in params.iter().enumerate() {
-                b[c * nr + i] = if k < l.n_params {
-                    let col = l.param(k);
-                    let mut v = q[col] - ratio * phi[col];
-                    for (li, ml) in m[..r].iter().enumerate() {
-                        v -= ml * psi[li * w + col];
+            if let Some(reference) = reference.as_deref_mut() {
+                for (li, &ml) in m[..r].iter().enumerate() {
+                    reference[li * nr + i] = ml;
+                }
+                reference[r * nr + i] = ratio;
+            }
+            for (c, k) in params.clone().enumerate() {
+                b[c * nr + i] = match k {
+                    None => 0.0,
+                    Some(k) if k < l.n_params => {
+                        let col = l.param(k);
+                        let mut v = q[col] - ratio * phi[col];
+                        for (li, ml) in m[..r].iter().enumerate() {
+                            v -= ml * psi[li * w + col];
+                        }
+                        v
                     }
-                    v
-                } else {
-                    self.grid_b(row, k - l.n_params, (&m[..r], ratio))
+                    Some(k) => self.grid_b(row, k - l.n_params, (&m[..r], ratio)),
                 };
             }
         }

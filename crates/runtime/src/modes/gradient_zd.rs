@@ -1,31 +1,34 @@
 //! The sensitivities of a mode's zero dynamics over one output interval, for the gradient of a run with
-//! modes (`gradient.rs`): [η, S_1, …, S_P] integrated together by Dormand–Prince 5(4) at rtol 1e-10, atol
-//! 1e-12 (a hundred times tighter than the run's `zd_ode.rs`: the derivatives are compared with central
-//! differences of the run), S in the error norm too, from the η the run recorded at the interval's start:
+//! modes (`gradient.rs`), from the η the run recorded at the interval's start:
 //!
 //! ```text
-//! dη/dt  = q(ξ_ref(t), η, y_ref^(r)(t); p)
-//! dS_c/dt = ∂q/∂η S_c + ∂q/∂ξ dξ_ref,c(t) + ∂q/∂y^(r) dy_ref,c^(r)(t) + ∂q/∂p_c
+//! dη/dt = q(ξ_ref(t), η, y_ref^(r)(t); p)
+//! dS/dt = A(t) S + B(t),   A = ∂q/∂η,   B_c = ∂q/∂p_c + Σ_(l<r) ∂q/∂ξ_l de_c,l(t) + ∂q/∂y^(r) de_c,r(t)
 //! ```
 //!
-//! (Hairer, Nørsett & Wanner, *Solving ODEs I*, §I.14), each right-hand side by the chain rule of
-//! [`crate::gradient::Point`] at x = ψ⁻¹(ξ_ref, η), u the inverse's input. η here is the run's to the
-//! integrator's tolerance (the run integrates it by DOP853 on a sub-grid reference), and S the derivative of
-//! the exact η to the same tolerance; each interval starts again from the run's η.
+//! (Hairer, Nørsett & Wanner, *Solving ODEs I*, §I.14; de_c(t) the re-entry transition's derivative,
+//! `gradient_point.rs`). As in the single-mode pass (`crate::gradient::pass`, the staggered direct method of
+//! Caracotsios & Stewart 1985), η alone is integrated by Dormand–Prince 5(4) at the run's tolerances
+//! (`zd_ode.rs`), and after each accepted step [t, t + h] S is advanced over the same step by the 2-stage
+//! Gauss–Legendre method (order 4, A-stable; `crate::gradient::Gauss`), with A and B at its two nodes from η's
+//! continuous extension there: x = ψ⁻¹(ξ_ref, η), u the inverse's input, A, B and the reference's columns
+//! ∂q/∂(ξ, y^(r)) by one adjoint product per row ([`crate::gradient::Point::moved_row_jacobians`]). S's
+//! equations are linear with η's own linearisation A, so the steps that control η's error resolve S's time
+//! scales too; the stiff manifold modes need no error control of S (Gauss–Legendre is stable for any step).
+//! Each interval starts again from the run's η.
 
 use super::blend::Blend;
 use super::gradient_point::{moved_reference_into, point_into};
 use super::record::Ctx;
+use super::zd_ode::{ATOL, RTOL};
 use super::ModalError;
-use crate::gradient::{Buffers, Direction, GridColumns};
+use crate::gradient::{Buffers, Gauss, GridColumns, Singular, NODES};
 use crate::ode::{Dopri5, StepFailure};
 
-const RTOL: f64 = 1e-10;
-const ATOL: f64 = 1e-12;
-
-/// One integrator per mode (built at the mode's first interval), reused, and where the last interval ended.
+/// Per mode (built at the mode's first interval) its integrator and work space, and where the last interval
+/// ended.
 pub(super) struct ZdSensitivity {
-    ode: Vec<Option<Dopri5>>,
+    modes: Vec<Option<ModeZd>>,
     last: Option<(usize, f64)>,
 }
 
@@ -38,10 +41,33 @@ pub(super) type Along<'b> = (
     (&'b [Option<usize>], &'b GridColumns),
 );
 
+/// One mode's η integrator, S (ne × P, column-major) and the work space of a Gauss–Legendre step.
+struct ModeZd {
+    ode: Dopri5,
+    gauss: Gauss,
+    s: Vec<f64>,
+    nodes: Nodes,
+}
+
+/// A and B at a step's two Gauss nodes and the buffers of their evaluation.
+struct Nodes {
+    eta: Vec<f64>,
+    x: Vec<f64>,
+    yr: Vec<f64>,
+    w: Vec<f64>,
+    de: Vec<f64>,
+    /// ∂q/∂(ξ, y^(r)) (ne × (r + 1), column-major).
+    reference: Vec<f64>,
+    rows: Vec<usize>,
+    buf: Buffers,
+    a: [Vec<f64>; 2],
+    b: [Vec<f64>; 2],
+}
+
 impl ZdSensitivity {
     pub(super) fn new(modes: usize) -> ZdSensitivity {
         ZdSensitivity {
-            ode: (0..modes).map(|_| None).collect(),
+            modes: (0..modes).map(|_| None).collect(),
             last: None,
         }
     }
@@ -51,70 +77,137 @@ impl ZdSensitivity {
     pub(super) fn advance(
         &mut self,
         ctx: &Ctx<'_, '_>,
-        (m, blend, dblend, (cols, grid)): Along<'_>,
+        along: Along<'_>,
         (ta, tb): (f64, f64),
         (x0, u0): (&[f64], f64),
         deta: &mut [Vec<f64>],
     ) -> Result<(), ModalError> {
+        let m = along.0;
         let model = ctx.model(m);
         let info = model.info();
         let (r, ne, nw) = (info.relative_degree, info.n_eta, info.n_w());
         let np = deta.len();
-        let mut y = vec![0.0; ne * (1 + np)];
-        for (j, &s) in info.eta_states.iter().enumerate() {
-            y[j] = x0[s];
-        }
-        for (c, d) in deta.iter().enumerate() {
-            y[ne * (1 + c)..ne * (2 + c)].copy_from_slice(d);
-        }
-        let ode = self.ode[m].get_or_insert_with(|| Dopri5::new(y.len(), RTOL, ATOL, tb - ta));
+        let zd = self.modes[m].get_or_insert_with(|| ModeZd {
+            ode: Dopri5::new(ne, RTOL, ATOL, tb - ta),
+            gauss: Gauss::new(ne, np),
+            s: vec![0.0; ne * np],
+            nodes: Nodes::new(ctx, m, np),
+        });
         let h0 = match self.last {
             Some((lm, lt)) if lm == m && lt.to_bits() == ta.to_bits() => {
-                ode.step_size().min(tb - ta)
+                zd.ode.step_size().min(tb - ta)
             }
             _ => (tb - ta) / 4.0,
         };
         self.last = Some((m, tb));
-        ode.reset(h0);
-        let (mut yr, mut w, mut x) = (vec![0.0; ctx.r_max + 1], Vec::new(), x0.to_vec());
-        let mut dir = Direction {
-            dx: vec![0.0; ctx.n],
-            du: 0.0,
-        };
-        let (mut buf, mut de) = (Buffers::default(), vec![0.0; r + 1]);
-        let fail = |t: f64, reason: String| StepFailure { t, reason };
-        let mut f = |s: f64, v: &[f64], dv: &mut [f64]| -> Result<(), StepFailure> {
-            ctx.reference_into(m, s, blend, &mut yr[..=r]);
+        zd.ode.reset(h0);
+        for (c, d) in deta.iter().enumerate() {
+            zd.s[ne * c..ne * (c + 1)].copy_from_slice(d);
+        }
+        let mut eta: Vec<f64> = info.eta_states.iter().map(|&s| x0[s]).collect();
+        let (mut yr, mut w) = (vec![0.0; ctx.r_max + 1], Vec::new());
+        let mut q = |s: f64, v: &[f64], dv: &mut [f64]| -> Result<(), StepFailure> {
+            ctx.reference_into(m, s, along.1, &mut yr[..=r]);
             ctx.w_into(m, s, nw, &mut w);
-            let (xi, eta) = (&yr[..r], &v[..ne]);
-            model.zero_dynamics_from(xi, eta, &w, yr[r], u0, &mut dv[..ne]);
-            x.copy_from_slice(x0);
-            let u = model
-                .invert_from(xi, eta, &w, yr[r], &mut x, u0)
-                .map_err(|e| fail(s, e.to_string()))?;
-            let point = point_into(ctx, (m, grid), (s, &x, &w, u), std::mem::take(&mut buf))
-                .map_err(|e| fail(s, e.to_string()))?;
-            let l = *point.layout();
-            for c in 0..np {
-                moved_reference_into(dblend[c].as_ref(), s, &mut de);
-                let range = ne * (1 + c)..ne * (2 + c);
-                point.moved_into(&de[..r], de[r], &v[range.clone()], cols[c], &mut dir);
-                for (j, d) in dv[range].iter_mut().enumerate() {
-                    *d = point.row_change(l.eta(j), &dir, cols[c]);
-                }
-            }
-            buf = point.into_buffer();
+            model.zero_dynamics_from(&yr[..r], v, &w, yr[r], u0, dv);
             Ok(())
         };
-        ode.advance(ta, tb, &mut y, &mut f).map_err(|e| {
-            ctx.err(
-                m,
-                e.t,
-                format!("the zero dynamics' sensitivities failed: {}", e.reason),
-            )
-        })?;
+        let (nodes, gauss, s) = (&mut zd.nodes, &mut zd.gauss, &mut zd.s);
+        let mut each = |ode: &Dopri5, t: f64, t_new: f64| -> Result<(), StepFailure> {
+            let h = t_new - t;
+            for (i, c) in NODES.iter().enumerate() {
+                ode.dense(t + c * h, &mut nodes.eta);
+                nodes.jacobians_at(ctx, &along, (t + c * h, x0, u0), i)?;
+            }
+            let (a, b) = (&nodes.a, &nodes.b);
+            gauss
+                .step(h, [&a[0], &a[1]], [&b[0], &b[1]], s)
+                .map_err(|Singular| StepFailure {
+                    t,
+                    reason: "the Gauss–Legendre stage system is singular or not finite".to_string(),
+                })
+        };
+        zd.ode
+            .advance_each(ta, tb, &mut eta, &mut q, &mut each)
+            .map_err(|e: StepFailure| {
+                ctx.err(
+                    m,
+                    e.t,
+                    format!("the zero dynamics' sensitivities failed: {}", e.reason),
+                )
+            })?;
         for (c, d) in deta.iter_mut().enumerate() {
-            d.copy_from_slice(&y[ne * (1 + c)..ne * (2 + c)]);
+            d.copy_from_slice(&zd.s[ne * c..ne * (c + 1)]);
+        }
+        Ok(())
+    }
+}
+
+impl Nodes {
+    fn new(ctx: &Ctx<'_, '_>, m: usize, np: usize) -> Nodes {
+        let info = ctx.model(m).info();
+        let (r, ne) = (info.relative_degree, info.n_eta);
+        let layout = invsim_model_api::SensitivityLayout::of(info);
+        Nodes {
+            eta: vec![0.0; ne],
+            x: vec![0.0; ctx.n],
+            yr: vec![0.0; ctx.r_max + 1],
+            w: Vec::new(),
+            de: vec![0.0; r + 1],
+            reference: vec![0.0; ne * (r + 1)],
+            rows: (0..ne).map(|i| layout.eta(i)).collect(),
+            buf: Buffers::default(),
+            a: std::array::from_fn(|_| vec![0.0; ne * ne]),
+            b: std::array::from_fn(|_| vec![0.0; ne * np]),
+        }
+    }
+
+    /// A and B (with the transition's moves, the module doc's B_c) into node i's matrices at time s and the
+    /// interpolated η (`self.eta`): x = ψ⁻¹(ξ_ref, η) from the interval's start x0 as the guess, u from u0.
+    fn jacobians_at(
+        &mut self,
+        ctx: &Ctx<'_, '_>,
+        (m, blend, dblend, (cols, grid)): &Along<'_>,
+        (s, x0, u0): (f64, &[f64], f64),
+        i: usize,
+    ) -> Result<(), StepFailure> {
+        let m = *m;
+        let model = ctx.model(m);
+        let info = model.info();
+        let (r, ne, nw) = (info.relative_degree, info.n_eta, info.n_w());
+        let fail = |reason: String| StepFailure { t: s, reason };
+        ctx.reference_into(m, s, *blend, &mut self.yr[..=r]);
+        ctx.w_into(m, s, nw, &mut self.w);
+        self.x.copy_from_slice(x0);
+        let u = model
+            .invert_from(
+                &self.yr[..r],
+                &self.eta,
+                &self.w,
+                self.yr[r],
+                &mut self.x,
+                u0,
+            )
+            .map_err(|e| fail(e.to_string()))?;
+        let buf = std::mem::take(&mut self.buf);
+        let point = point_into(ctx, (m, grid), (s, &self.x, &self.w, u), buf)
+            .map_err(|e| fail(e.to_string()))?;
+        let (a, b) = (&mut self.a[i], &mut self.b[i]);
+        point.moved_row_jacobians(&self.rows, cols, (a, b), &mut self.reference);
+        self.buf = point.into_buffer();
+        // B_c += ∂q/∂(ξ, y^(r)) de_c(s): the transition's move of the reference.
+        for (c, d) in dblend.iter().enumerate() {
+            if d.is_none() {
+                continue;
+            }
+            moved_reference_into(d.as_ref(), s, &mut self.de);
+            let column = &mut b[c * ne..(c + 1) * ne];
+            for (l, &de) in self.de.iter().enumerate().filter(|(_, de)| **de != 0.0) {
+                let dq = &self.reference[l * ne..(l + 1) * ne];
+                for (bi, &g) in column.iter_mut().zip(dq) {
+                    *bi += g * de;
+                }
+            }
         }
         Ok(())
     }

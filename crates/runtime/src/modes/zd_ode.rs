@@ -17,8 +17,8 @@ use crate::ode::{Dop853, Dopri5, StepFailure};
 
 /// Output steps from which DOP853 is used, s.
 pub(super) const DOP853_FROM_DT: f64 = 0.05;
-const RTOL: f64 = 1e-8;
-const ATOL: f64 = 1e-10;
+pub(super) const RTOL: f64 = 1e-8;
+pub(super) const ATOL: f64 = 1e-10;
 
 /// One mode's zero-dynamics integrator.
 pub(super) enum ZdOde {
