@@ -23,17 +23,19 @@
 //! `summary.rs` sums them.
 
 use super::blend::Blend;
-use super::gradient_point::{moved_reference, point_at};
+use super::gradient_point::{moved_reference, point_at, OutputChanges};
 use super::gradient_zd::ZdSensitivity;
 use super::record::{Ctx, EntryLog, Record};
 use super::{ModalError, ModalSpec, ModalSummary};
 use crate::gradient::{figures, Direction, Gradient, Integrals, ModalWrt, Point, Wrt};
 use crate::grid::Grid;
+use crate::smoother::ZeroDynamicsReference;
 
-/// ∂(∫ o_a dt)/∂p_c for the model's accumulated outputs a, in their order (`[a][c]`).
+/// ∂(∫ o_a dt)/∂p_c for the model's accumulated outputs a, in their order (`[a][c]`), of the run `rec` on
+/// `grid` with the look-ahead and the zero dynamics' reference `reference`.
 pub(super) fn of_run(
     ctx: &Ctx<'_, '_>,
-    grid: &Grid,
+    (grid, reference): (&Grid, (f64, ZeroDynamicsReference)),
     rec: &Record,
     wrt: &ModalWrt,
 ) -> Result<Vec<Vec<f64>>, ModalError> {
@@ -41,7 +43,8 @@ pub(super) fn of_run(
     let accumulated: Vec<usize> = (0..ctx.spec.n_outputs)
         .filter(|&o| info.outputs[o].accumulate)
         .collect();
-    integral_gradients(ctx, grid, rec, wrt, &accumulated)
+    let zd = ZdSensitivity::new(ctx, grid, reference);
+    integral_gradients(ctx, (grid, zd), rec, wrt, &accumulated)
 }
 
 /// The summary's `gradient` block from the integrals' derivatives `d` ([`of_run`]) and the figures of
@@ -89,12 +92,12 @@ pub(super) fn figures_of(
 /// and every derivative c of `wrt`, over the recorded run `rec` on `grid`.
 fn integral_gradients(
     ctx: &Ctx<'_, '_>,
-    grid: &Grid,
+    (grid, zd): (&Grid, ZdSensitivity),
     rec: &Record,
     wrt: &ModalWrt,
     accumulated: &[usize],
 ) -> Result<Vec<Vec<f64>>, ModalError> {
-    let mut pass = Pass::start(ctx, rec, wrt, accumulated)?;
+    let mut pass = Pass::start(ctx, (rec, zd), wrt, accumulated)?;
     let mut entries = rec.entries.iter().peekable();
     let ns = rec.t.len();
     for k in 0..ns.saturating_sub(1) {
@@ -118,16 +121,18 @@ struct Pass<'p, 'a, 'm> {
     dblend: Vec<Option<Blend>>,
     /// ∂η/∂p_c of the mode in force, per c.
     deta: Vec<Vec<f64>>,
-    /// dx/dp_c of the continuous state at the last point, per c.
-    dx: Vec<Vec<f64>>,
     zd: ZdSensitivity,
     acc: Vec<Vec<f64>>,
     /// The state and input at the last point (where a switch leaves from).
     x: Vec<f64>,
     u: f64,
-    /// The output derivatives at the end of the last interval, where the next one starts from the same
-    /// point in the same mode (the run's next sample bit for bit, no switch between).
-    carried: Option<Vec<Vec<f64>>>,
+    outputs: OutputChanges,
+    /// The output derivatives at the start and the end of the interval in hand (entry (a, c) at c·na + a).
+    start: Vec<f64>,
+    end: Vec<f64>,
+    /// Whether `end` holds the last interval's end where the next one starts from the same point in the same
+    /// mode (the run's next sample bit for bit, no switch between).
+    carried: bool,
 }
 
 impl<'p, 'a, 'm> Pass<'p, 'a, 'm> {
@@ -135,7 +140,7 @@ impl<'p, 'a, 'm> Pass<'p, 'a, 'm> {
     /// zero dynamics' equilibrium, S = −(∂q/∂η)⁻¹ ∂q/∂p.
     fn start(
         ctx: &'p Ctx<'a, 'm>,
-        rec: &Record,
+        (rec, zd): (&Record, ZdSensitivity),
         wrt: &'p ModalWrt,
         accumulated: &'p [usize],
     ) -> Result<Self, ModalError> {
@@ -160,7 +165,7 @@ impl<'p, 'a, 'm> Pass<'p, 'a, 'm> {
         let point = point_at(ctx, (mode, &wrt.grids[mode]), (t0, &xs, &w, u))?;
         let deta = equilibrium_sensitivity(&point, &wrt.columns[mode]);
         let np = wrt.params.len();
-        let mut pass = Pass {
+        Ok(Pass {
             ctx,
             wrt,
             accumulated,
@@ -168,22 +173,15 @@ impl<'p, 'a, 'm> Pass<'p, 'a, 'm> {
             blend: None,
             dblend: vec![None; np],
             deta,
-            dx: vec![vec![0.0; ctx.n]; np],
-            zd: ZdSensitivity::new(ctx.spec.modes.len()),
+            zd,
             acc: vec![vec![0.0; np]; accumulated.len()],
             x: xs,
             u,
-            carried: None,
-        };
-        let mut dir = Direction {
-            dx: vec![0.0; ctx.n],
-            du: 0.0,
-        };
-        for c in 0..np {
-            pass.direction(&point, t0, c, &mut dir);
-            pass.dx[c].copy_from_slice(&dir.dx);
-        }
-        Ok(pass)
+            outputs: OutputChanges::default(),
+            start: Vec::new(),
+            end: Vec::new(),
+            carried: false,
+        })
     }
 
     /// The column of derivative c in mode m.
@@ -205,10 +203,29 @@ impl<'p, 'a, 'm> Pass<'p, 'a, 'm> {
         );
     }
 
+    /// dx/dp_c of the continuous state at the last point (x, u) at time t in the mode in force, per c.
+    fn state_changes(&self, t: f64) -> Result<Vec<Vec<f64>>, ModalError> {
+        let (ctx, m) = (self.ctx, self.mode);
+        let w = ctx.w(m, t);
+        let point = point_at(ctx, (m, &self.wrt.grids[m]), (t, &self.x, &w, self.u))?;
+        let mut dir = Direction {
+            dx: vec![0.0; ctx.n],
+            du: 0.0,
+        };
+        let np = self.wrt.params.len();
+        Ok((0..np)
+            .map(|c| {
+                self.direction(&point, t, c, &mut dir);
+                dir.dx.clone()
+            })
+            .collect())
+    }
+
     /// A committed entry at time t: the new mode's transition of de (from dx of the state it starts from)
     /// and its η's sensitivities (dx's components).
     fn enter(&mut self, e: &EntryLog, t: f64) -> Result<(), ModalError> {
         let ctx = self.ctx;
+        let dx = self.state_changes(t)?;
         let to = e.to;
         let model = ctx.model(to);
         let info = model.info();
@@ -218,12 +235,10 @@ impl<'p, 'a, 'm> Pass<'p, 'a, 'm> {
         let l = *point.layout();
         let np = self.wrt.params.len();
         let mut dblend = Vec::with_capacity(np);
-        for c in 0..np {
+        for (c, dx) in dx.into_iter().enumerate() {
             let before = moved_reference(self.dblend[c].as_ref(), t, r + 1);
-            let dir = Direction {
-                dx: self.dx[c].clone(),
-                du: 0.0,
-            };
+            self.deta[c] = info.eta_states.iter().map(|&s| dx[s]).collect();
+            let dir = Direction { dx, du: 0.0 };
             let col = self.column(to, c);
             let mut de: Vec<f64> = (0..r)
                 .map(|j| point.row_change(l.psi(j), &dir, col))
@@ -232,12 +247,11 @@ impl<'p, 'a, 'm> Pass<'p, 'a, 'm> {
                 de.push(before[r]);
             }
             dblend.push(Some(Blend::new(t, ctx.transition, &de)));
-            self.deta[c] = info.eta_states.iter().map(|&s| self.dx[c][s]).collect();
         }
         self.dblend = dblend;
         self.blend = e.blend.clone();
         self.mode = to;
-        self.carried = None;
+        self.carried = false;
         Ok(())
     }
 
@@ -247,10 +261,13 @@ impl<'p, 'a, 'm> Pass<'p, 'a, 'm> {
         let ctx = self.ctx;
         let m = self.mode;
         let (ta, tb) = (rec.t[k], rec.t[k + 1]);
-        let start = match self.carried.take() {
-            Some(d) => d,
-            None => self.outputs_at(ta, (&rec.states[k], rec.free[k]), false)?,
-        };
+        if self.carried {
+            std::mem::swap(&mut self.start, &mut self.end);
+        } else {
+            let mut start = std::mem::take(&mut self.start);
+            self.outputs_into((ta, &rec.states[k], rec.free[k]), &mut start)?;
+            self.start = start;
+        }
         let model = ctx.model(m);
         if model.info().n_eta > 0 {
             let cols = (&self.wrt.columns[m][..], &self.wrt.grids[m]);
@@ -263,51 +280,34 @@ impl<'p, 'a, 'm> Pass<'p, 'a, 'm> {
                 &mut self.deta,
             )?;
         }
-        let end = self.outputs_at(tb, (&rec.x_end[k], rec.u_end[k]), true)?;
-        for (a, (s, e)) in self.acc.iter_mut().zip(start.iter().zip(&end)) {
-            for (v, (vs, ve)) in a.iter_mut().zip(s.iter().zip(e)) {
-                *v += 0.5 * dt * (vs + ve);
+        let mut end = std::mem::take(&mut self.end);
+        self.outputs_into((tb, &rec.x_end[k], rec.u_end[k]), &mut end)?;
+        self.end = end;
+        let na = self.accumulated.len();
+        for (a, row) in self.acc.iter_mut().enumerate() {
+            for (c, v) in row.iter_mut().enumerate() {
+                *v += 0.5 * dt * (self.start[c * na + a] + self.end[c * na + a]);
             }
         }
-        self.x = rec.x_end[k].to_vec();
+        self.x.copy_from_slice(&rec.x_end[k]);
         self.u = rec.u_end[k];
         let same = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(p, q)| p.to_bits() == q.to_bits());
-        let continues = rec.mode.get(k + 1) == Some(&m)
+        self.carried = rec.mode.get(k + 1) == Some(&m)
             && rec.u_end[k].to_bits() == rec.free[k + 1].to_bits()
             && same(&rec.x_end[k], &rec.states[k + 1]);
-        self.carried = continues.then_some(end);
         Ok(())
     }
 
-    /// d o_a/d p_c of the accumulated outputs at (x, u) at time t in the mode in force (`[a][c]`); `keep`:
-    /// remember dx as the continuous state's (the end of an interval, where a switch may leave from).
-    fn outputs_at(
+    /// d o_a/d p_c of the accumulated outputs at (x, u) at time t in the mode in force into `out` (entry (a, c)
+    /// at c·na + a).
+    fn outputs_into(
         &mut self,
-        t: f64,
-        (x, u): (&[f64], f64),
-        keep: bool,
-    ) -> Result<Vec<Vec<f64>>, ModalError> {
-        let m = self.mode;
-        let w = self.ctx.w(m, t);
-        let point = point_at(self.ctx, (m, &self.wrt.grids[m]), (t, x, &w, u))?;
-        let l = *point.layout();
-        let np = self.wrt.params.len();
-        let mut out = vec![vec![0.0; np]; self.accumulated.len()];
-        let mut dir = Direction {
-            dx: vec![0.0; self.ctx.n],
-            du: 0.0,
-        };
-        for c in 0..np {
-            self.direction(&point, t, c, &mut dir);
-            let col = self.column(m, c);
-            for (row, &o) in out.iter_mut().zip(self.accumulated) {
-                row[c] = point.row_change(l.output(o), &dir, col);
-            }
-            if keep {
-                self.dx[c].copy_from_slice(&dir.dx);
-            }
-        }
-        Ok(out)
+        (t, x, u): (f64, &[f64], f64),
+        out: &mut Vec<f64>,
+    ) -> Result<(), ModalError> {
+        let at = ((self.mode, t), (x, u), (&self.deta[..], &self.dblend[..]));
+        let outputs = (self.wrt, self.accumulated);
+        self.outputs.at(self.ctx, outputs, at, out)
     }
 }
 

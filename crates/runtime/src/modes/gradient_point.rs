@@ -1,14 +1,14 @@
-//! The two pieces of a run with modes' gradient (`gradient.rs`, `gradient_zd.rs`) evaluated at a point: a
-//! mode's partial derivatives at (x, w, u) ([`crate::gradient::Point`]) and the derivative of the re-entry's
+//! The pieces of a run with modes' gradient (`gradient.rs`, `gradient_zd.rs`) evaluated at a point: a
+//! mode's partial derivatives at (x, w, u) ([`crate::gradient::Point`]), the derivative of the re-entry's
 //! transition, de^(j)(t) (`blend.rs`: the transition is linear in its initial deviations, so its derivative is
-//! the transition of theirs).
+//! the transition of theirs), and the accumulated outputs' derivatives there ([`OutputChanges`]).
 
 use invsim_model_api::InverseModel;
 
 use super::blend::Blend;
 use super::record::Ctx;
 use super::ModalError;
-use crate::gradient::{Buffers, GridColumns, Point};
+use crate::gradient::{Buffers, GridColumns, ModalWrt, Point};
 
 /// The model's partial derivatives of mode m at (x, w, u) at time t, with the mode's columns of the grid values
 /// differentiated by (`grid`).
@@ -44,5 +44,83 @@ pub(super) fn moved_reference_into(dblend: Option<&Blend>, t: f64, de: &mut [f64
     de.fill(0.0);
     if let Some(b) = dblend {
         b.add(t, de);
+    }
+}
+
+/// The accumulated outputs' derivatives at a point of a mode, with the buffers reused from point to point:
+/// by one adjoint product per output ([`Point::moved_row_jacobians`]) the rows' A = ∂o/∂η, B = ∂o/∂p and
+/// R = ∂o/∂(ξ, y^(r)), then per derivative c
+///
+/// ```text
+/// do_a/dp_c = B_ac + Σ_j A_aj S_jc + Σ_(l≤r) R_al de_c,l(t)
+/// ```
+///
+/// (S = ∂η/∂p of the mode, de_c the transition's derivative).
+#[derive(Default)]
+pub(super) struct OutputChanges {
+    buf: Buffers,
+    w: Vec<f64>,
+    rows: Vec<usize>,
+    a: Vec<f64>,
+    b: Vec<f64>,
+    reference: Vec<f64>,
+    de: Vec<f64>,
+}
+
+/// Where the outputs' derivatives are taken: mode m at time t, (x, u), with η's sensitivities per derivative
+/// and the transition's derivative per derivative.
+pub(super) type OutputsAt<'b> = (
+    (usize, f64),
+    (&'b [f64], f64),
+    (&'b [Vec<f64>], &'b [Option<Blend>]),
+);
+
+impl OutputChanges {
+    /// do_a/dp_c of the accumulated outputs `accumulated` into `out` (entry (a, c) at c·na + a).
+    pub(super) fn at(
+        &mut self,
+        ctx: &Ctx<'_, '_>,
+        (wrt, accumulated): (&ModalWrt, &[usize]),
+        ((m, t), (x, u), (deta, dblend)): OutputsAt<'_>,
+        out: &mut Vec<f64>,
+    ) -> Result<(), ModalError> {
+        let info = ctx.model(m).info();
+        ctx.w_into(m, t, info.n_w(), &mut self.w);
+        let buf = std::mem::take(&mut self.buf);
+        let point = point_into(ctx, (m, &wrt.grids[m]), (t, x, &self.w, u), buf)?;
+        let l = *point.layout();
+        let (na, ne, r, np) = (accumulated.len(), l.n_eta, l.r, deta.len());
+        self.rows.clear();
+        self.rows.extend(accumulated.iter().map(|&o| l.output(o)));
+        self.a.resize(na * ne, 0.0);
+        self.b.resize(na * np, 0.0);
+        self.reference.resize(na * (r + 1), 0.0);
+        self.de.resize(r + 1, 0.0);
+        let (a, b) = (&mut self.a[..], &mut self.b[..]);
+        point.moved_row_jacobians(&self.rows, &wrt.columns[m], (a, b), &mut self.reference);
+        self.buf = point.into_buffer();
+        out.clear();
+        out.extend_from_slice(&self.b);
+        for (c, col) in out.chunks_exact_mut(na.max(1)).take(np).enumerate() {
+            for (j, &s) in deta[c].iter().enumerate() {
+                add_scaled(col, &self.a[j * na..(j + 1) * na], s);
+            }
+            if dblend[c].is_some() {
+                moved_reference_into(dblend[c].as_ref(), t, &mut self.de);
+                for (li, &de) in self.de.iter().enumerate() {
+                    add_scaled(col, &self.reference[li * na..(li + 1) * na], de);
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// col += v·s (nothing for s = 0).
+fn add_scaled(col: &mut [f64], v: &[f64], s: f64) {
+    if s != 0.0 {
+        for (o, &g) in col.iter_mut().zip(v) {
+            *o += g * s;
+        }
     }
 }

@@ -15,7 +15,8 @@
 //! ∂q/∂(ξ, y^(r)) by one adjoint product per row ([`crate::gradient::Point::moved_row_jacobians`]). S's
 //! equations are linear with η's own linearisation A, so the steps that control η's error resolve S's time
 //! scales too; the stiff manifold modes need no error control of S (Gauss–Legendre is stable for any step).
-//! Each interval starts again from the run's η.
+//! Each interval starts again from the run's η, and the reference at the stage times and nodes is the run's
+//! (the sub-grid interpolant where the run used one: `crate::smoother::FineReference`).
 
 use super::blend::Blend;
 use super::gradient_point::{moved_reference_into, point_into};
@@ -23,13 +24,17 @@ use super::record::Ctx;
 use super::zd_ode::{ATOL, RTOL};
 use super::ModalError;
 use crate::gradient::{Buffers, Gauss, GridColumns, Singular, NODES};
+use crate::grid::Grid;
 use crate::ode::{Dopri5, StepFailure};
+use crate::smoother::{FineReference, ZeroDynamicsReference};
 
 /// Per mode (built at the mode's first interval) its integrator and work space, and where the last interval
 /// ended.
 pub(super) struct ZdSensitivity {
     modes: Vec<Option<ModeZd>>,
     last: Option<(usize, f64)>,
+    /// The reference's sub-grid read by η's stages (`None`: the smoother pointwise, as in the run).
+    fine: Option<FineReference>,
 }
 
 /// The mode, its transition and the transition's derivatives, and each derivative's column in the mode with
@@ -51,6 +56,8 @@ struct ModeZd {
 
 /// A and B at a step's two Gauss nodes and the buffers of their evaluation.
 struct Nodes {
+    /// A sub-grid of its own: the stages' is read in their order.
+    fine: Option<FineReference>,
     eta: Vec<f64>,
     x: Vec<f64>,
     yr: Vec<f64>,
@@ -65,10 +72,16 @@ struct Nodes {
 }
 
 impl ZdSensitivity {
-    pub(super) fn new(modes: usize) -> ZdSensitivity {
+    /// For the run on `grid` with its look-ahead and reference of the zero dynamics.
+    pub(super) fn new(
+        ctx: &Ctx<'_, '_>,
+        grid: &Grid,
+        reference: (f64, ZeroDynamicsReference),
+    ) -> ZdSensitivity {
         ZdSensitivity {
-            modes: (0..modes).map(|_| None).collect(),
+            modes: (0..ctx.spec.modes.len()).map(|_| None).collect(),
             last: None,
+            fine: ctx.fine_reference(grid, reference),
         }
     }
 
@@ -91,7 +104,7 @@ impl ZdSensitivity {
             ode: Dopri5::new(ne, RTOL, ATOL, tb - ta),
             gauss: Gauss::new(ne, np),
             s: vec![0.0; ne * np],
-            nodes: Nodes::new(ctx, m, np),
+            nodes: Nodes::new(ctx, m, np, self.fine.clone()),
         });
         let h0 = match self.last {
             Some((lm, lt)) if lm == m && lt.to_bits() == ta.to_bits() => {
@@ -106,9 +119,10 @@ impl ZdSensitivity {
         }
         let mut eta: Vec<f64> = info.eta_states.iter().map(|&s| x0[s]).collect();
         let (mut yr, mut w) = (vec![0.0; ctx.r_max + 1], Vec::new());
+        let fine = &mut self.fine;
         let mut q = |s: f64, v: &[f64], dv: &mut [f64]| -> Result<(), StepFailure> {
-            ctx.reference_into(m, s, along.1, &mut yr[..=r]);
-            ctx.w_into(m, s, nw, &mut w);
+            let at = (m, s, along.1);
+            ctx.stage_reference_into(at, fine.as_mut(), &mut yr[..=r], (&mut w, nw));
             model.zero_dynamics_from(&yr[..r], v, &w, yr[r], u0, dv);
             Ok(())
         };
@@ -144,11 +158,12 @@ impl ZdSensitivity {
 }
 
 impl Nodes {
-    fn new(ctx: &Ctx<'_, '_>, m: usize, np: usize) -> Nodes {
+    fn new(ctx: &Ctx<'_, '_>, m: usize, np: usize, fine: Option<FineReference>) -> Nodes {
         let info = ctx.model(m).info();
         let (r, ne) = (info.relative_degree, info.n_eta);
         let layout = invsim_model_api::SensitivityLayout::of(info);
         Nodes {
+            fine,
             eta: vec![0.0; ne],
             x: vec![0.0; ctx.n],
             yr: vec![0.0; ctx.r_max + 1],
@@ -176,8 +191,9 @@ impl Nodes {
         let info = model.info();
         let (r, ne, nw) = (info.relative_degree, info.n_eta, info.n_w());
         let fail = |reason: String| StepFailure { t: s, reason };
-        ctx.reference_into(m, s, *blend, &mut self.yr[..=r]);
-        ctx.w_into(m, s, nw, &mut self.w);
+        let at = (m, s, *blend);
+        let (y, w) = (&mut self.yr[..=r], (&mut self.w, nw));
+        ctx.stage_reference_into(at, self.fine.as_mut(), y, w);
         self.x.copy_from_slice(x0);
         let u = model
             .invert_from(

@@ -57,31 +57,13 @@ impl ZeroDynamics {
         lookahead: f64,
         how: ZeroDynamicsReference,
     ) -> ZeroDynamics {
-        // q: the highest relative degree of a mode with internal dynamics (none: nothing to integrate).
-        let q = ctx
-            .spec
-            .modes
-            .iter()
-            .map(|m| m.model.info())
-            .filter(|i| i.n_eta > 0)
-            .map(|i| i.relative_degree)
-            .max();
-        let fine = match (how, q) {
-            (ZeroDynamicsReference::SubGrid, Some(q)) => Some(FineReference::new(
-                &ctx.smoother,
-                (grid.time(0), grid.dt, grid.n),
-                lookahead,
-                q,
-            )),
-            _ => None,
-        };
         ZeroDynamics {
             ode: ctx.spec.modes.iter().map(|_| None).collect(),
             dt: grid.dt,
             y: vec![0.0; ctx.r_max + 1],
             w: Vec::new(),
             last: None,
-            fine,
+            fine: ctx.fine_reference(grid, (lookahead, how)),
         }
     }
 }
@@ -97,6 +79,61 @@ impl Ctx<'_, '_> {
         self.map_cycle(m, y);
         if let Some(b) = blend {
             b.add(t, y);
+        }
+    }
+
+    /// The sub-grid of the zero dynamics' reference on `grid` (`None`: evaluated pointwise, as `how` asks or
+    /// where no mode has internal dynamics), for the run's look-ahead.
+    pub(super) fn fine_reference(
+        &self,
+        grid: &Grid,
+        (lookahead, how): (f64, ZeroDynamicsReference),
+    ) -> Option<FineReference> {
+        // q: the highest relative degree of a mode with internal dynamics (none: nothing to integrate).
+        let q = self
+            .spec
+            .modes
+            .iter()
+            .map(|m| m.model.info())
+            .filter(|i| i.n_eta > 0)
+            .map(|i| i.relative_degree)
+            .max();
+        match (how, q) {
+            (ZeroDynamicsReference::SubGrid, Some(q)) => Some(FineReference::new(
+                &self.smoother,
+                (grid.time(0), grid.dt, grid.n),
+                lookahead,
+                q,
+            )),
+            _ => None,
+        }
+    }
+
+    /// y^(0 … r) of mode `m`'s reference (r = y.len() − 1) and its signals (`w`, of length n_w) at a stage
+    /// time t of its zero dynamics: y_c and the signals interpolated on the sub-grid `fine`, then the mode's
+    /// map and the blend as [`Ctx::reference_into`] applies them; without a sub-grid, the smoother pointwise.
+    pub(super) fn stage_reference_into(
+        &self,
+        (m, t, blend): (usize, f64, Option<&Blend>),
+        fine: Option<&mut FineReference>,
+        y: &mut [f64],
+        (w, n_w): (&mut Vec<f64>, usize),
+    ) {
+        match fine {
+            Some(fine) => {
+                w.resize(n_w, 0.0);
+                fine.eval(&self.smoother, t, y, &mut w[..n_w]);
+                self.map_cycle(m, y);
+                if let Some(b) = blend {
+                    b.add(t, y);
+                }
+            }
+            None => {
+                // y^(0 … r) only: the smoother evaluates each order on its own, so the values are those
+                // of a longer evaluation.
+                self.reference_into(m, t, blend, y);
+                self.w_into(m, t, n_w, w);
+            }
         }
     }
 
@@ -228,27 +265,9 @@ impl Ctx<'_, '_> {
         // look-ahead from any corner, no transition under way), the stage times take t0's values.
         let still = blend.is_none_or(|b| b.done(t0)) && self.smoother.still_on(t0, t1);
         let mut at = t0;
-        let map = model.reference();
         let mut f = |t: f64, e: &[f64], de: &mut [f64]| -> Result<(), StepFailure> {
             if !still && t.to_bits() != at.to_bits() {
-                if let Some(fine) = fine.as_mut() {
-                    // y_c^(0 … r) and the signals interpolated on the sub-grid, then the mode's map and the
-                    // blend as `reference_into` applies them.
-                    fine.eval(&self.smoother, t, &mut y[..=r], &mut w[..n_w]);
-                    // The mode's map, as `map_cycle` applies it.
-                    for v in y[..=r].iter_mut() {
-                        *v *= map.scale;
-                    }
-                    y[0] += map.offset;
-                    if let Some(b) = blend {
-                        b.add(t, &mut y[..=r]);
-                    }
-                } else {
-                    // y^(0 … r) only: the smoother evaluates each order on its own, so the values are those
-                    // of a longer evaluation.
-                    self.reference_into(m, t, blend, &mut y[..=r]);
-                    self.w_into(m, t, n_w, w);
-                }
+                self.stage_reference_into((m, t, blend), fine.as_mut(), &mut y[..=r], (w, n_w));
                 at = t;
             }
             model.zero_dynamics(&y[..r], e, w, y[r], de);
@@ -415,7 +434,7 @@ pub fn simulate_modes_differentiated(
         None
     };
     let derivatives = wrt
-        .map(|wrt| super::gradient::of_run(&ctx, &grid, &rec, wrt))
+        .map(|wrt| super::gradient::of_run(&ctx, (&grid, (opts.lookahead, zd)), &rec, wrt))
         .transpose()?;
     let mut result = super::summary::assemble(&ctx, cycle, opts, rec, verify);
     if let Some((wrt, d)) = wrt.zip(derivatives) {

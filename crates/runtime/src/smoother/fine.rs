@@ -40,6 +40,7 @@ const BLOCK: usize = 128;
 const BACK: usize = 8;
 
 /// The smoothed cycle and signals on the block of the sub-grid in hand.
+#[derive(Clone)]
 pub(crate) struct FineReference {
     t0: f64,
     h: f64,
