@@ -256,7 +256,7 @@ fn sensitivity_batch(m: &dyn InverseModel, c: &Columns, len: usize) -> Vec<Vec<f
 
 /// The magnitude of each column of the sensitivities' layout: the sampling box's largest |x_j| and |u|, each
 /// parameter's |value| (1 where 0), each map call's |value| at the arguments the interpreter's sensitivities
-/// `sens` give (1 where 0).
+/// `sens` give (1 where 0), each signal's nominal |value| (1 where 0).
 fn variable_scales(b: &Box_, m: &dyn InverseModel, sens: &[f64]) -> Vec<f64> {
     let big = |(lo, hi): (f64, f64)| f64::max(lo.abs(), hi.abs()).max(f64::MIN_POSITIVE);
     let one_if_zero = |v: f64| if v == 0.0 { 1.0 } else { v.abs() };
@@ -268,6 +268,8 @@ fn variable_scales(b: &Box_, m: &dyn InverseModel, sens: &[f64]) -> Vec<f64> {
         let at = l.arguments(c);
         one_if_zero(m.maps()[call.map].partial(&sens[at..at + 2], call.orders))
     }));
+    let (w, per) = (m.info().nominal_w(), m.info().relative_degree + 1);
+    s.extend((0..l.n_signals).map(|j| one_if_zero(w.get(j * per).copied().unwrap_or(0.0))));
     s
 }
 

@@ -163,6 +163,16 @@ fn runs_not_differentiated_are_refused_with_the_reason() {
             "m,no_such",
             "unknown parameter `no_such`",
         ),
+        (
+            "models/hev_p2.toml",
+            "m --strategy ecms --equivalence 3",
+            "runs with --equivalence are not differentiated yet",
+        ),
+        (
+            "models/hev_p2.toml",
+            "m --strategy rule-based",
+            "runs with dp or rules are not differentiated yet",
+        ),
         ("models/si_engine.toml", "m,m", "`m` is named twice"),
     ];
     for (model, names, why) in cases {

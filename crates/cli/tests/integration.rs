@@ -69,6 +69,7 @@ mod conveniences;
 mod derive_bad_model;
 mod forward;
 mod gradient;
+mod gradient_hybrid;
 mod gradient_modes;
 mod headline;
 mod hostile;

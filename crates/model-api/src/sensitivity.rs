@@ -10,7 +10,9 @@
 //! * every `[outputs]` entry o(x, w, u; p): ∂o/∂x, ∂o/∂u, ∂o/∂p;
 //! * for each of these rows E and each map call c = M_dIJ(a_c, b_c) the rows contain
 //!   ([`crate::ModelInfo::map_calls`]): ∂E/∂[c], the call treated as an independent symbol, and the calls'
-//!   arguments (a_c, b_c) at the point.
+//!   arguments (a_c, b_c) at the point;
+//! * for each of these rows E and each signal S_j of [`crate::ModelInfo::signals`]: ∂E/∂S_j, the signal's
+//!   value (its derivatives S_d1 … held): how a row moves with a decided input, which a mode takes as a signal.
 //!
 //! A map's value is linear in its grid values (M_dIJ(a, b) = Σ_ij v_ij Φ_i^(I)(a) Ψ_j^(J)(b), `crate::map`),
 //! so a grid value v_ij is a parameter like the others, with the column
@@ -30,7 +32,8 @@ pub struct MapCall {
 
 /// Where each partial derivative sits in the flat, row-major slice [`crate::InverseModel::sensitivity`]
 /// writes: [`SensitivityLayout::rows`] rows of [`SensitivityLayout::width`] columns, the columns ∂/∂x_1 …
-/// ∂/∂x_n, ∂/∂u, ∂/∂p_1 … ∂/∂p_P, ∂/∂[c_1] … ∂/∂[c_C] (the map calls); the rows ψ_1 … ψ_r, φ, F_η1 … F_η(n−r),
+/// ∂/∂x_n, ∂/∂u, ∂/∂p_1 … ∂/∂p_P, ∂/∂[c_1] … ∂/∂[c_C] (the map calls), ∂/∂S_1 … ∂/∂S_S (the signals' values);
+/// the rows ψ_1 … ψ_r, φ, F_η1 … F_η(n−r),
 /// o_1 … o_m (the ψ rows' ∂/∂u is 0); after the rows the calls' arguments a_1, b_1, …, a_C, b_C (b = 0 for a
 /// 1-D map).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -41,6 +44,7 @@ pub struct SensitivityLayout {
     pub n_outputs: usize,
     pub n_params: usize,
     pub n_calls: usize,
+    pub n_signals: usize,
 }
 
 impl SensitivityLayout {
@@ -53,12 +57,13 @@ impl SensitivityLayout {
             n_outputs: info.outputs.len(),
             n_params: info.parameters.len(),
             n_calls: info.map_calls.len(),
+            n_signals: info.signals.len(),
         }
     }
 
-    /// Columns per row: n + 1 + P + C.
+    /// Columns per row: n + 1 + P + C + S.
     pub fn width(&self) -> usize {
-        self.n + 1 + self.n_params + self.n_calls
+        self.n + 1 + self.n_params + self.n_calls + self.n_signals
     }
 
     /// Rows: r + 1 + (n − r) + m.
@@ -114,6 +119,11 @@ impl SensitivityLayout {
     /// Column of ∂/∂[c], map call c.
     pub fn call(&self, c: usize) -> usize {
         self.n + 1 + self.n_params + c
+    }
+
+    /// Column of ∂/∂S_j, the value of signal j.
+    pub fn signal(&self, j: usize) -> usize {
+        self.n + 1 + self.n_params + self.n_calls + j
     }
 
     /// Index of call c's first argument a_c in the flat slice (b_c follows).

@@ -58,7 +58,8 @@ pub fn modal_options(opts: &SimulationOptions) -> ModalOptions {
 
 /// One inverse run of the model with modes `p` on the gear schedule `gears` (resolved for `cycle`): the
 /// strategy's run ([`crate::modes::simulate_hybrid`]) where the options name one, else the mode sequence,
-/// with the gradient with respect to `wrt` ([`modal_gradient_params`]: none with a strategy).
+/// with the gradient with respect to `wrt` ([`modal_gradient_params`]; with a strategy, that of the
+/// charge-sustaining fuel).
 /// `invsim simulate` and every row of a sweep run through here, so their figures are the same bits.
 pub(crate) fn simulate_modal(
     p: &ModalPlant,
@@ -71,13 +72,13 @@ pub(crate) fn simulate_modal(
     let mut r = match &opts.strategy {
         Some(strategy) => {
             let modal = modal_options(opts);
-            crate::modes::simulate_hybrid(
+            crate::modes::simulate_hybrid_differentiated(
                 &spec,
                 p.hybrid(),
                 cycle,
                 &modal,
                 (strategy, &opts.initial),
-                &opts.signals,
+                (&opts.signals, wrt),
             )?
         }
         None => {
@@ -330,10 +331,24 @@ pub(crate) fn modal_gradient_params(
     opts: &SimulationOptions,
     names: &[String],
 ) -> Result<crate::gradient::ModalWrt, RunFailure> {
-    if opts.strategy.is_some() {
-        return Err(gradient_refused(
-            "runs with an energy-management strategy (--strategy)",
-        ));
+    if let Some(strategy) = &opts.strategy {
+        match strategy.method {
+            crate::modes::Method::Ecms if strategy.equivalence.is_none() => {}
+            crate::modes::Method::Ecms => {
+                return Err(gradient_refused(
+                    "runs with a given equivalence factor (--equivalence): the gradient of a strategy's run \
+                     is that of the charge-sustaining optimum, whose factor the search finds; runs with \
+                     --equivalence",
+                ))
+            }
+            _ => {
+                return Err(gradient_refused(
+                    "runs with --strategy dp or rule-based: the gradient of a strategy's run is that of \
+                     ECMS's charge-sustaining optimum (--strategy ecms without --equivalence); runs with \
+                     dp or rules",
+                ))
+            }
+        }
     }
     if opts.switching == Switching::QuasiStatic {
         return Err(gradient_refused("runs with quasi-static switching"));

@@ -16,7 +16,7 @@ pub enum GradientError {
     PerGear { name: String, gears: usize },
     #[error("`{name}`: the gearbox has gears 1 … {gears}")]
     NoSuchGear { name: String, gears: usize },
-    #[error("{what} are not differentiated yet (runs with re-entry switching of models without couplings, strategies or decided inputs are)")]
+    #[error("{what} are not differentiated yet")]
     ModalUnsupported { what: &'static str },
     #[error("`{name}` is not a grid value of its map: name one as {expected}")]
     BadGridValue { name: String, expected: String },

@@ -130,13 +130,16 @@ impl Point {
         self.sens[self.layout.at(row, column)]
     }
 
-    /// ∂row/∂p_k: a model parameter's column (k < P) or grid value k − P's.
+    /// ∂row/∂p_k: a model parameter's column (k < P), grid value k − P's (k < P + G), or else the value of
+    /// signal k − P − G (a decided input, moved like a parameter).
     fn dp(&self, row: usize, k: usize) -> f64 {
         let np = self.layout.n_params;
         if k < np {
             self.d(row, self.layout.param(k))
-        } else {
+        } else if k < np + self.n_grid {
             self.grid[row * self.n_grid + k - np]
+        } else {
+            self.d(row, self.layout.signal(k - np - self.n_grid))
         }
     }
 
@@ -286,7 +289,16 @@ impl Point {
                         }
                         v
                     }
-                    Some(k) => self.grid_b(row, k - l.n_params, (&m[..r], ratio)),
+                    Some(k) if k < l.n_params + self.n_grid => {
+                        self.grid_b(row, k - l.n_params, (&m[..r], ratio))
+                    }
+                    Some(k) => {
+                        let mut v = self.dp(row, k) - ratio * self.dp(l.phi(), k);
+                        for (li, ml) in m[..r].iter().enumerate() {
+                            v -= ml * self.dp(l.psi(li), k);
+                        }
+                        v
+                    }
                 };
             }
         }

@@ -20,6 +20,7 @@ use super::strategy::{Method, StrategyOptions};
 use super::verify::replay;
 use super::{charge_window, ModalError, ModalOptions, ModalResult, ModalSpec};
 use crate::cycle::Cycle;
+use crate::gradient::{Gradient, ModalWrt};
 use crate::grid::Grid;
 use crate::signals::SignalInput;
 use invsim_model_api::HybridSpec;
@@ -127,6 +128,19 @@ pub fn simulate_hybrid(
     (ecms, initial): (&StrategyOptions, &[(String, f64)]),
     signals: &[SignalInput],
 ) -> Result<ModalResult, ModalError> {
+    simulate_hybrid_differentiated(spec, config, cycle, opts, (ecms, initial), (signals, None))
+}
+
+/// [`simulate_hybrid`] with the gradient of the charge-sustaining fuel with respect to `wrt`
+/// (`super::gradient_strategy`: ECMS with its equivalence factor searched; the caller refuses the rest).
+pub fn simulate_hybrid_differentiated(
+    spec: &ModalSpec<'_>,
+    config: Option<&HybridSpec>,
+    cycle: &Cycle,
+    opts: &ModalOptions,
+    (ecms, initial): (&StrategyOptions, &[(String, f64)]),
+    (signals, wrt): (&[SignalInput], Option<&ModalWrt>),
+) -> Result<ModalResult, ModalError> {
     let Some(config) = config else {
         return Err(ModalError::Setup(format!(
             "{} needs the model's [hybrid] table (fuel_power, battery_power, soc)",
@@ -202,15 +216,35 @@ pub fn simulate_hybrid(
         }
     };
     charge_window::check_trace(&best.rec, h.soc, soc_name)?;
+    let gradient = wrt
+        .map(|wrt| -> Result<Gradient, ModalError> {
+            let d = super::gradient_strategy::of_ecms(&run, &best, wrt)?;
+            Ok(fuel_gradient(wrt, &d))
+        })
+        .transpose()?;
     // --verify: the chosen modes, free input and decided inputs replayed through the original equations.
     let verify = opts.verify.then(|| replay(&ctx, &best.rec)).transpose()?;
     block.soc_end_replayed = verify.as_ref().map(|v| v.x_end[h.soc]);
     let mut result = super::summary::assemble(&ctx, cycle, opts, best.rec, verify);
     result.summary.modes.switching = "strategy".into();
     result.summary.hybrid = Some(Box::new(block));
+    result.summary.gradient = gradient;
     add_engine_on(&mut result, &h.engine_on);
     record_signals(&mut result, resolved);
     Ok(result)
+}
+
+/// The summary's `gradient` block of a strategy's run: the charge-sustaining fuel energy's derivatives `d`
+/// (J per unit of each derivative of `wrt`), as the figure `fuel_energy_corrected_j`.
+fn fuel_gradient(wrt: &ModalWrt, d: &[f64]) -> Gradient {
+    let row = wrt
+        .params
+        .iter()
+        .map(|p| p.name.clone())
+        .zip(d.iter().copied());
+    let mut figures = crate::gradient::Figures::new();
+    figures.insert("fuel_energy_corrected_j".into(), row.collect());
+    Gradient { figures }
 }
 
 /// The last column, `engine_on`: 1 at a sample whose chosen mode runs the engine (its family is in

@@ -22,6 +22,7 @@ mod equivalence;
 pub mod gears;
 mod gradient;
 mod gradient_point;
+mod gradient_strategy;
 mod gradient_zd;
 pub mod hybrid;
 mod hybrid_block;
@@ -47,7 +48,7 @@ use thiserror::Error;
 
 pub use crate::smoother::ZeroDynamicsReference;
 pub use gears::{GearBox, GearSource};
-pub use hybrid::simulate_hybrid;
+pub use hybrid::{simulate_hybrid, simulate_hybrid_differentiated};
 pub use hybrid_block::{DpBlock, HybridBlock};
 pub use plant::{GearSchedule, ModalPlant, ModalPlantBuilder, ModeMeta};
 pub use record::{CouplingReset, Impulse, ModeTime, Transition};

@@ -3,7 +3,7 @@
 //! strategies, so that the minimiser's many evaluations per sample allocate nothing.
 
 /// Buffers of one evaluation: the reference, the signals, the internal states, the states at t_k and t_k+1,
-/// the outputs and the Runge–Kutta stages.
+/// the outputs, the Runge–Kutta stages and a stage's state.
 #[derive(Default)]
 pub(super) struct Scratch {
     pub(super) y: Vec<f64>,
@@ -14,6 +14,10 @@ pub(super) struct Scratch {
     pub(super) outs: Vec<f64>,
     pub(super) stages: [Vec<f64>; 4],
     pub(super) tmp: Vec<f64>,
+    /// The state at a Runge–Kutta stage, its right-hand side, and the battery's power at stages 2, 3, 4.
+    pub(super) xs: Vec<f64>,
+    pub(super) dx: Vec<f64>,
+    pub(super) batteries: [f64; 3],
 }
 
 /// A candidate's values at one instant: the free input, its signed margin to its bounds (a fraction of its
