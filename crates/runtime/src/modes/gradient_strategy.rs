@@ -96,7 +96,7 @@ fn choice(rec: &Record, k: usize) -> (usize, f64) {
 
 /// An interval's energies' derivatives per derivative: the fuel's trapezoid h/2 (dP_fuel(t_k) +
 /// dP_fuel(t_k+1)) and the battery's Runge–Kutta quadrature h/6 (dP₁ + 2dP₂ + 2dP₃ + dP₄) (the run's price of
-/// it, `interval_cost.rs` `stage_batteries`).
+/// it, `interval_cost.rs` `advance_in`).
 struct Terms {
     fuel: Vec<f64>,
     battery: Vec<f64>,
