@@ -7,33 +7,14 @@
 use crate::common;
 use common::*;
 
-use invsim_loader::{load, EngineChoice, Loaded};
-use invsim_runtime::gradient::{resolve_modal, ModalWrt};
+use invsim_loader::EngineChoice;
+use invsim_runtime::gradient::ModalWrt;
 use invsim_runtime::modes::{
     simulate_hybrid_differentiated, ModalOptions, ModalPlant, ModalSummary, StrategyOptions,
 };
 use invsim_runtime::Cycle;
-use std::path::Path;
 
 const MODEL: &str = "models/hev_p2.toml";
-
-fn plant(model: &str, engine: EngineChoice) -> ModalPlant {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../..")
-        .join(model);
-    match load(&path, engine).unwrap_or_else(|e| panic!("{model}: {e}")) {
-        Loaded::Modal(m) => m.plant,
-        Loaded::Single(_) => panic!("{model} has modes"),
-    }
-}
-
-fn wrt(p: &ModalPlant, names: &[&str]) -> ModalWrt {
-    let parameters = p.parameters();
-    let names: Vec<String> = names.iter().map(|n| n.to_string()).collect();
-    let params = resolve_modal(&parameters, p.gear_parameters(), &names).expect("known names");
-    let modes = p.metas().map(|m| (m.gear, &m.own_parameters[..]));
-    ModalWrt::new(params, &parameters, modes)
-}
 
 /// The charge-sustaining ECMS run at dt = 1 s (the equivalence factor searched).
 fn run(p: &ModalPlant, cycle: &Cycle, wrt: Option<&ModalWrt>) -> ModalSummary {
@@ -75,8 +56,8 @@ const FIGURE: &str = "fuel_energy_corrected_j";
 /// 1 % apart; this test fails then.
 fn check(model: &str, cycle: &str, names: &[&str]) {
     let cycle = Cycle::builtin(cycle).expect("built in");
-    let comp = plant(model, EngineChoice::Compiled);
-    let wrt = wrt(&comp, names);
+    let comp = modal_plant(model, EngineChoice::Compiled);
+    let wrt = modal_wrt(&comp, names);
     let base = run(&comp, &cycle, Some(&wrt));
     let g = &base.gradient.as_ref().expect("a gradient").figures[FIGURE];
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
@@ -85,15 +66,10 @@ fn check(model: &str, cycle: &str, names: &[&str]) {
         for chunk in indices.chunks(indices.len().div_ceil(threads).max(1)) {
             let (wrt, cycle) = (&wrt, &cycle);
             scope.spawn(move || {
-                let mut p = plant(model, EngineChoice::Compiled);
+                let mut p = modal_plant(model, EngineChoice::Compiled);
                 for &c in chunk {
                     let name = &wrt.params[c].name;
-                    let value = p
-                        .models()
-                        .zip(&wrt.columns)
-                        .find(|(_, col)| col[c].is_some())
-                        .map(|(m, _)| m.params()[wrt.params[c].param])
-                        .expect("a mode that takes it");
+                    let value = moved_value(&p, wrt, c);
                     let mut at = |v: f64| {
                         p.set_as_moved(wrt, c, v).expect("settable");
                         corrected(&run(&p, cycle, None))
@@ -154,10 +130,10 @@ fn hev_p2_gradient_compiled_equals_interpreted() {
     let cycle = Cycle::builtin("udds").expect("built in");
     let names = ["m", "C_d", "i_g[2]"];
     let (comp, interp) = (
-        plant(MODEL, EngineChoice::Compiled),
-        plant(MODEL, EngineChoice::Interpreted),
+        modal_plant(MODEL, EngineChoice::Compiled),
+        modal_plant(MODEL, EngineChoice::Interpreted),
     );
-    let (wc, wi) = (wrt(&comp, &names), wrt(&interp, &names));
+    let (wc, wi) = (modal_wrt(&comp, &names), modal_wrt(&interp, &names));
     let (sc, si) = (
         run(&comp, &cycle, Some(&wc)),
         run(&interp, &cycle, Some(&wi)),
@@ -168,12 +144,7 @@ fn hev_p2_gradient_compiled_equals_interpreted() {
         &si.gradient.as_ref().expect("a gradient").figures[FIGURE],
     );
     for (c, name) in names.iter().enumerate() {
-        let value = comp
-            .models()
-            .zip(&wc.columns)
-            .find(|(_, col)| col[c].is_some())
-            .map(|(m, _)| m.params()[wc.params[c].param])
-            .expect("a mode that takes it");
+        let value = moved_value(&comp, &wc, c);
         assert!(
             (gc[*name] - gi[*name]).abs() * value.abs() <= 1e-7 * f,
             "d/d{name}: compiled {:e} interpreted {:e}",

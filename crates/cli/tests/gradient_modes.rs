@@ -6,35 +6,12 @@
 use crate::common;
 use common::*;
 
-use invsim_loader::{load, EngineChoice, Loaded};
+use invsim_loader::EngineChoice;
 use invsim_runtime::gradient::{resolve_modal, resolve_modal_with_maps, ModalWrt};
 use invsim_runtime::modes::{
     simulate_modes_differentiated, ModalOptions, ModalPlant, ModalSummary, ZeroDynamicsReference,
 };
 use invsim_runtime::Cycle;
-use std::path::Path;
-
-fn plant(model: &str, engine: EngineChoice) -> ModalPlant {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../..")
-        .join(model);
-    match load(&path, engine).unwrap_or_else(|e| panic!("{model}: {e}")) {
-        Loaded::Modal(m) => m.plant,
-        Loaded::Single(_) => panic!("{model} has modes"),
-    }
-}
-
-/// The derivatives `names` of the plant's parameters (`all`: every one, each gearbox parameter per gear).
-fn wrt(p: &ModalPlant, names: &[&str]) -> ModalWrt {
-    let parameters = p.parameters();
-    let names: Vec<String> = names.iter().map(|n| n.to_string()).collect();
-    let all = resolve_modal(&parameters, p.gear_parameters(), &names).expect("known names");
-    ModalWrt::new(
-        all,
-        &parameters,
-        p.metas().map(|m| (m.gear, &m.own_parameters[..])),
-    )
-}
 
 fn run(p: &ModalPlant, (cycle, dt): (&Cycle, f64), wrt: Option<&ModalWrt>) -> ModalSummary {
     let gears = p.gear_source(cycle, None).expect("a speed schedule");
@@ -79,13 +56,7 @@ fn central(
     base: &ModalSummary,
     g: f64,
 ) -> (f64, f64, bool) {
-    let k = wrt.params[c].param;
-    let value = p
-        .models()
-        .zip(&wrt.columns)
-        .find(|(_, col)| col[c].is_some())
-        .map(|(m, _)| m.params()[k])
-        .expect("a mode that takes it");
+    let value = moved_value(p, wrt, c);
     let h = if value == 0.0 {
         1e-4
     } else {
@@ -130,9 +101,9 @@ fn check(model: &str) {
 fn check_on(model: &str, (cycles, dt): (&[&str], f64), names: &[&str]) {
     for cycle in cycles {
         let cycle = Cycle::builtin(cycle).expect("built in");
-        let comp = plant(model, EngineChoice::Compiled);
-        let interp = plant(model, EngineChoice::Interpreted);
-        let wrt = wrt(&comp, names);
+        let comp = modal_plant(model, EngineChoice::Compiled);
+        let interp = modal_plant(model, EngineChoice::Interpreted);
+        let wrt = modal_wrt(&comp, names);
         let (sc, si) = std::thread::scope(|scope| {
             let i = scope.spawn(|| run(&interp, (&cycle, dt), Some(&wrt)));
             (
@@ -151,15 +122,11 @@ fn check_on(model: &str, (cycles, dt): (&[&str], f64), names: &[&str]) {
             for chunk in indices.chunks(indices.len().div_ceil(threads).max(1)) {
                 let (wrt, cycle, sc, gc, gi) = (&wrt, &cycle, &sc, gc, gi);
                 scope.spawn(move || {
-                    let mut p = plant(model, EngineChoice::Compiled);
+                    let mut p = modal_plant(model, EngineChoice::Compiled);
                     for &c in chunk {
                         let name = &wrt.params[c].name;
                         let g = gc["fuel"][name];
-                        let value = p
-                            .models()
-                            .zip(&wrt.columns)
-                            .find(|(_, col)| col[c].is_some())
-                            .map_or(0.0, |(m, _)| m.params()[wrt.params[c].param]);
+                        let value = moved_value(&p, wrt, c);
                         let scale = value.abs().max(f64::MIN_POSITIVE);
                         assert!(
                             (g - gi["fuel"][name]).abs() * scale <= 1e-7 * f0.max(g.abs() * scale),
@@ -225,8 +192,8 @@ fn fusion_6speed_map_values_against_finite_differences() {
         ModalWrt::new(params, &parameters, modes).with_grid(parameters.len(), &grid, p.mode_maps())
     };
     let (mut comp, interp) = (
-        plant(model, EngineChoice::Compiled),
-        plant(model, EngineChoice::Interpreted),
+        modal_plant(model, EngineChoice::Compiled),
+        modal_plant(model, EngineChoice::Interpreted),
     );
     let (gc, gi) = (
         run(&comp, (&cycle, 1.0), Some(&wrt_of(&comp)))
@@ -295,7 +262,7 @@ fn simulate_of_a_model_with_modes_as_a_user_meets_it() {
         let row = g[f].as_object().unwrap_or_else(|| panic!("a row {f}"));
         assert_eq!(row.len(), 3, "{f}");
     }
-    let p = plant(model, EngineChoice::Compiled);
+    let p = modal_plant(model, EngineChoice::Compiled);
     let parameters = p.parameters();
     let names: Vec<String> = ["m", "i_g[3]", "i_f"].map(String::from).to_vec();
     let params = resolve_modal(&parameters, p.gear_parameters(), &names).expect("known");

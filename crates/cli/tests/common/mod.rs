@@ -1,5 +1,6 @@
 //! Helpers shared by the command-line tests: running the `invsim` binary from the repository root, temporary
-//! files, and the optional reference material in `../shared`.
+//! files, the optional reference material in `../shared`, and a model with modes loaded as the library's
+//! plant with derivatives of its parameters.
 #![allow(dead_code)] // each test binary uses a different subset
 
 use serde_json::Value;
@@ -98,4 +99,43 @@ pub fn simulate_with(args: &[&str], tag: &str) -> (Value, Vec<String>, Vec<Vec<S
     let (summary, _) = simulate_summary(&all, tag);
     let (header, rows) = read_csv(&csv);
     (summary, header, rows)
+}
+
+/// The model with modes at `model` (a path from the repository root) as the library's plant.
+pub fn modal_plant(
+    model: &str,
+    engine: invsim_loader::EngineChoice,
+) -> invsim_runtime::modes::ModalPlant {
+    match invsim_loader::load(&root().join(model), engine)
+        .unwrap_or_else(|e| panic!("{model}: {e}"))
+    {
+        invsim_loader::Loaded::Modal(m) => m.plant,
+        invsim_loader::Loaded::Single(_) => panic!("{model} has modes"),
+    }
+}
+
+/// The derivatives `names` of the plant's parameters (`all`: every one, each gearbox parameter per gear).
+pub fn modal_wrt(
+    p: &invsim_runtime::modes::ModalPlant,
+    names: &[&str],
+) -> invsim_runtime::gradient::ModalWrt {
+    let parameters = p.parameters();
+    let names: Vec<String> = names.iter().map(|n| n.to_string()).collect();
+    let params = invsim_runtime::gradient::resolve_modal(&parameters, p.gear_parameters(), &names)
+        .expect("known names");
+    let modes = p.metas().map(|m| (m.gear, &m.own_parameters[..]));
+    invsim_runtime::gradient::ModalWrt::new(params, &parameters, modes)
+}
+
+/// The value of derivative c of `wrt` in the plant: the parameter's in the first mode that takes it.
+pub fn moved_value(
+    p: &invsim_runtime::modes::ModalPlant,
+    wrt: &invsim_runtime::gradient::ModalWrt,
+    c: usize,
+) -> f64 {
+    p.models()
+        .zip(&wrt.columns)
+        .find(|(_, col)| col[c].is_some())
+        .map(|(m, _)| m.params()[wrt.params[c].param])
+        .expect("a mode that takes it")
 }

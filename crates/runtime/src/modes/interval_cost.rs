@@ -81,30 +81,20 @@ impl Ecms<'_, '_, '_> {
         self.signals_into(m, self.samples.signals_at(k), d, &mut sc.w);
         sc.eta.clear();
         sc.eta.extend(info.eta_states.iter().map(|&j| sc.x[j]));
-        self.end_after_point((m, k), d, sc)
-    }
-
-    /// [`Ecms::end_after_point`] with the battery's power at the Runge–Kutta step's stages 2, 3 and 4 into
-    /// `sc.batteries` ([`Ecms::advance_in`]).
-    fn end_and_batteries(
-        &self,
-        (m, k): (usize, usize),
-        d: f64,
-        sc: &mut Scratch,
-    ) -> Result<Point, String> {
-        self.advance_in((m, k), d, sc, true)?;
-        self.finish_in((m, k), d, sc)
+        self.end_after_point((m, k), d, sc, false)
     }
 
     /// [`Ecms::end_in`] right after [`Ecms::point_in`] of the same candidate, whose signals at t_k and η
-    /// (those of `sc.x`: ψ⁻¹ keeps the internal states it is given) `sc` holds already.
+    /// (those of `sc.x`: ψ⁻¹ keeps the internal states it is given) `sc` holds already; `batteries`: with the
+    /// battery's power at the Runge–Kutta step's stages 2, 3 and 4 into `sc.batteries` ([`Ecms::advance_in`]).
     fn end_after_point(
         &self,
         (m, k): (usize, usize),
         d: f64,
         sc: &mut Scratch,
+        batteries: bool,
     ) -> Result<Point, String> {
-        self.advance_in((m, k), d, sc, false)?;
+        self.advance_in((m, k), d, sc, batteries)?;
         self.finish_in((m, k), d, sc)
     }
 
@@ -265,7 +255,7 @@ impl Ecms<'_, '_, '_> {
             let cost = self.dt * (at.p_fuel + s * at.p_batt) + penalty;
             return Some((cost, at.margin, at, None));
         }
-        let end = self.end_and_batteries((m, k), d, sc).ok()?;
+        let end = self.end_after_point((m, k), d, sc, true).ok()?;
         let h = self.samples.t[k + 1] - self.samples.t[k];
         let fuel = 0.5 * h * (at.p_fuel + end.p_fuel);
         let [b2, b3, b4] = sc.batteries;
