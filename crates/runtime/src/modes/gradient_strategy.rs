@@ -111,10 +111,10 @@ struct Interval {
     dd: Vec<f64>,
 }
 
-/// The derivatives of one point per column: the powers', the free input's and the state's.
+/// The derivatives of one point per column: the fuel power's, the free input's and the state's (the battery's
+/// power enters through the Runge–Kutta stages, [`Held::step`]).
 struct Changes {
     fuel: Vec<f64>,
-    battery: Vec<f64>,
     du: Vec<f64>,
     dx: Vec<Vec<f64>>,
 }
@@ -181,17 +181,15 @@ impl<'h, 'c, 'a, 'm> Held<'h, 'c, 'a, 'm> {
     /// The changes at `point` of mode m along each column of `cols` with η's changes `deta[i]`.
     fn changes(&self, point: &Point, cols: &[Option<usize>], deta: &[Vec<f64>]) -> Changes {
         let l = *point.layout();
-        let (fuel, battery) = (l.output(self.run.h.fuel), l.output(self.run.h.battery));
+        let fuel = l.output(self.run.h.fuel);
         let mut out = Changes {
             fuel: Vec::with_capacity(cols.len()),
-            battery: Vec::with_capacity(cols.len()),
             du: Vec::with_capacity(cols.len()),
             dx: Vec::with_capacity(cols.len()),
         };
         for (&col, de) in cols.iter().zip(deta) {
             let dir = point.direction(de, col);
             out.fuel.push(point.row_change(fuel, &dir, col));
-            out.battery.push(point.row_change(battery, &dir, col));
             out.du.push(dir.du);
             out.dx.push(dir.dx);
         }
