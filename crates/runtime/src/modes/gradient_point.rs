@@ -105,14 +105,30 @@ impl OutputChanges {
             for (j, &s) in deta[c].iter().enumerate() {
                 add_scaled(col, &self.a[j * na..(j + 1) * na], s);
             }
-            if dblend[c].is_some() {
-                moved_reference_into(dblend[c].as_ref(), t, &mut self.de);
-                for (li, &de) in self.de.iter().enumerate() {
-                    add_scaled(col, &self.reference[li * na..(li + 1) * na], de);
-                }
-            }
         }
+        let moves = (&self.reference[..], dblend, t);
+        add_transition_moves((&mut out[..], na), moves, &mut self.de);
         Ok(())
+    }
+}
+
+/// Each derivative c's column of `cols` (`rows` entries each, column-major) += Σ_l R_l de_c,l(t): the rows'
+/// columns R = ∂/∂(ξ, y^(r)) (`reference`, rows × (r + 1), [`Point::moved_row_jacobians`]) along the re-entry
+/// transition's derivative de_c(t) (`dblend[c]`, nothing without one); `de` of length r + 1 the buffer.
+pub(super) fn add_transition_moves(
+    (cols, rows): (&mut [f64], usize),
+    (reference, dblend, t): (&[f64], &[Option<Blend>], f64),
+    de: &mut [f64],
+) {
+    for (c, d) in dblend.iter().enumerate() {
+        if d.is_none() {
+            continue;
+        }
+        moved_reference_into(d.as_ref(), t, de);
+        let col = &mut cols[c * rows..(c + 1) * rows];
+        for (l, &v) in de.iter().enumerate() {
+            add_scaled(col, &reference[l * rows..(l + 1) * rows], v);
+        }
     }
 }
 

@@ -19,7 +19,7 @@
 //! (the sub-grid interpolant where the run used one: `crate::smoother::FineReference`).
 
 use super::blend::Blend;
-use super::gradient_point::{moved_reference_into, point_into};
+use super::gradient_point::{add_transition_moves, point_into};
 use super::record::Ctx;
 use super::zd_ode::{ATOL, RTOL};
 use super::ModalError;
@@ -212,19 +212,7 @@ impl Nodes {
         point.moved_row_jacobians(&self.rows, cols, (a, b), &mut self.reference);
         self.buf = point.into_buffer();
         // B_c += ∂q/∂(ξ, y^(r)) de_c(s): the transition's move of the reference.
-        for (c, d) in dblend.iter().enumerate() {
-            if d.is_none() {
-                continue;
-            }
-            moved_reference_into(d.as_ref(), s, &mut self.de);
-            let column = &mut b[c * ne..(c + 1) * ne];
-            for (l, &de) in self.de.iter().enumerate().filter(|(_, de)| **de != 0.0) {
-                let dq = &self.reference[l * ne..(l + 1) * ne];
-                for (bi, &g) in column.iter_mut().zip(dq) {
-                    *bi += g * de;
-                }
-            }
-        }
+        add_transition_moves((b, ne), (&self.reference, dblend, s), &mut self.de);
         Ok(())
     }
 }
