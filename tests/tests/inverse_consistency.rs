@@ -13,7 +13,7 @@ fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
 }
 
-fn run<M: InverseModel + ?Sized>(model: &M, dt: f64, engine: &str) -> SimulationResult {
+fn run(model: &dyn InverseModel, dt: f64, engine: &str) -> SimulationResult {
     let cycle = Cycle::builtin("nedc").unwrap();
     let opts = SimulationOptions {
         dt,

@@ -124,8 +124,8 @@ impl ForwardResult {
 }
 
 /// Simulate `model` forward along the raw `cycle`, closed by the PI driver (see the module docs).
-pub fn forward<M: InverseModel + ?Sized>(
-    model: &M,
+pub fn forward(
+    model: &dyn InverseModel,
     cycle: &Cycle,
     opts: &ForwardOptions,
 ) -> Result<ForwardResult, ForwardError> {

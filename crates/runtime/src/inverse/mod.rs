@@ -51,8 +51,8 @@ pub use summary::{InputBeforeStart, StableInversionStats, Summary};
 ///
 /// Accumulated outputs are integrated over the output grid with the trapezoidal rule,
 /// ∫ o dt ≈ Σ_k dt·(o_k + o_{k+1})/2; input-bound violations are reported, never clipped.
-pub fn simulate<M: InverseModel + ?Sized>(
-    model: &M,
+pub fn simulate(
+    model: &dyn InverseModel,
     cycle: &Cycle,
     opts: &SimulationOptions,
 ) -> Result<SimulationResult, SimulateError> {
@@ -62,8 +62,8 @@ pub fn simulate<M: InverseModel + ?Sized>(
 /// [`simulate`], reusing the column buffers of an earlier result: for repeated runs (parameter sweeps,
 /// benchmarks) this saves allocating and first touching fresh memory, which costs about as much as the whole
 /// inversion of a cheap model.
-pub fn simulate_reusing<M: InverseModel + ?Sized>(
-    model: &M,
+pub fn simulate_reusing(
+    model: &dyn InverseModel,
     cycle: &Cycle,
     opts: &SimulationOptions,
     previous: SimulationResult,
@@ -73,8 +73,8 @@ pub fn simulate_reusing<M: InverseModel + ?Sized>(
 
 /// The smoothed reference of `cycle` for models like `model` (its relative degree and reference map) with
 /// `opts`' look-ahead and dt, computed once to be shared by many runs ([`simulate_shared`]).
-pub fn reference<M: InverseModel + ?Sized>(
-    model: &M,
+pub fn reference(
+    model: &dyn InverseModel,
     cycle: &Cycle,
     opts: &SimulationOptions,
 ) -> Result<Reference, SimulateError> {
@@ -87,8 +87,8 @@ pub fn reference<M: InverseModel + ?Sized>(
 /// evaluated. The numbers are bit for bit those of [`simulate`]. A reference that does not fit (another
 /// cycle, look-ahead, dt, relative degree or reference map — a parameter can move the map) is ignored and the
 /// run smooths the cycle itself. `spare` are column buffers to reuse (an earlier result's `data`, or empty).
-pub fn simulate_shared<M: InverseModel + ?Sized>(
-    model: &M,
+pub fn simulate_shared(
+    model: &dyn InverseModel,
     cycle: &Cycle,
     reference: &Reference,
     opts: &SimulationOptions,
