@@ -27,6 +27,7 @@
 //!   zero dynamics, ECMS (pricing the interval) opens it, DP refuses the manifold state.
 //! - `hybrid_plot`: `simulate --strategy --plot` of hev_p2: the SOC panel and the engine on/off band against
 //!   the CSV, `--plot-vars` naming them; the CSV's `engine_on` against the modes and `engine_on_s`.
+//! - `hybrid_prices`: ECMS's prices kept across the equivalence factor's search (`crates/runtime/src/modes/price_cache.rs`)
 //! - `hybrid_series`: the series hybrid under ECMS, DP and rules on UDDS, HWFET and WLTC 3b: ordered,
 //!   charge-sustaining, plausible fuel, the genset on its best-efficiency line.
 //! - `hybrid_signals`: a strategy's run with `[signals]` (grade, auxiliary load): constant signals equal the
@@ -79,6 +80,7 @@ mod hybrid_dp;
 mod hybrid_fastsim;
 mod hybrid_mvem;
 mod hybrid_plot;
+mod hybrid_prices;
 mod hybrid_series;
 mod hybrid_signals;
 mod hybrid_sweep;

@@ -68,6 +68,7 @@ pub fn model_info(d: &Derivation) -> ModelInfo {
         state_initial: m.states.iter().map(|s| s.initial).collect(),
         eta_states: d.eta_states.clone(),
         map_calls: d.map_calls.clone(),
+        eta_free: d.eta_free(),
         signals: m
             .signals
             .iter()

@@ -5,6 +5,7 @@
 //! - `classify`: Classification of the zero dynamics at the nominal point (`Derivation::classify`) and its fields in the JSON,
 //! - `coordinates_scale`: The choice of η scales polynomially with the number of states (greedy rank test, at most n + 1 rank tests)
 //! - `derive_messages`: Nonsense that used to derive silently is refused with a located, typed error: constant subexpressions that
+//! - `eta_free`: Which results of the inverse are free of the internal states η (`Derivation::eta_free`, the
 //! - `fuzz_regressions`: Replays the fuzz regressions of the model reader, the expression parser and the derive pipeline
 //! - `maps`: Models with lookup maps: CSV and inline maps alike, Lie derivatives against finite differences, a map in h
 //!   solved by Newton, the JSON `maps` object, the interpreter.
@@ -19,6 +20,7 @@ mod budgets;
 mod classify;
 mod coordinates_scale;
 mod derive_messages;
+mod eta_free;
 mod fuzz_regressions;
 mod maps;
 mod model_file;

@@ -74,6 +74,30 @@ pub struct ModelInfo {
     /// The map calls of [`InverseModel::sensitivity`]'s rows, in the order of their columns (none for a model
     /// without maps): what the derivatives with respect to a map's grid values are built from.
     pub map_calls: Vec<MapCall>,
+    /// Which results of the inverse do not depend on the internal states η (found from the derived
+    /// expressions; the default, for a model that does not say, takes every result to depend on them).
+    pub eta_free: EtaFree,
+}
+
+/// Which results of the inverse at a point are functions of (ξ, w, y^(r)) alone, whatever the internal
+/// states η: the free input u (u = (y^(r) − α)/β with α, β free of η, or the input's closed-form solution
+/// free of η) and each extra output o(x, w, u) along x = ψ⁻¹(ξ, η) (its states' closed forms and u free of
+/// η). A state ψ⁻¹ solves by Newton's method (from a start the caller gives) makes every result depend.
+/// Strategies use it to reuse a candidate's price across runs whose charge differs (a battery with constant
+/// open-circuit voltage and resistance: `modes/price_cache.rs` in the runtime).
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct EtaFree {
+    /// The free input u.
+    pub input: bool,
+    /// Each extra output, in [`ModelInfo::outputs`] order (empty: none known free).
+    pub outputs: Vec<bool>,
+}
+
+impl EtaFree {
+    /// Is extra output `i` free of η?
+    pub fn output(&self, i: usize) -> bool {
+        self.outputs.get(i).copied().unwrap_or(false)
+    }
 }
 
 impl ModelInfo {

@@ -567,6 +567,7 @@ fn model_info(g: &Gen<'_>) -> TokenStream {
     } else {
         quote!(Vec::from([#(#calls),*]))
     };
+    let eta_free = eta_free_info(&g.d.eta_free());
     quote! {
         /// The model's static description (names, sizes, bounds), as the interpreter reports it.
         pub fn model_info() -> ModelInfo {
@@ -592,10 +593,18 @@ fn model_info(g: &Gen<'_>) -> TokenStream {
                 state_initial: Vec::from([#(#state_initial),*]),
                 eta_states: Vec::from([#(#eta_states),*]),
                 map_calls: #map_calls,
+                eta_free: #eta_free,
             }
         }
 
     }
+}
+
+/// `ModelInfo::eta_free`: which of u and the extra outputs are free of η.
+fn eta_free_info(free: &invsim_model_api::EtaFree) -> TokenStream {
+    let input = free.input;
+    let outputs = &free.outputs;
+    quote!(invsim_model_api::EtaFree { input: #input, outputs: Vec::from([#(#outputs),*]) })
 }
 
 /// `ModelInfo::headline`: the model file's `[headline]`, `None` without one.

@@ -2256,6 +2256,10 @@ pub mod si_engine {
             state_initial: Vec::from([None, None]),
             eta_states: Vec::from([]),
             map_calls: Vec::new(),
+            eta_free: invsim_model_api::EtaFree {
+                input: true,
+                outputs: Vec::from([true, true, true, true]),
+            },
         }
     }
     /// The compiled model behind the runtime's [`InverseModel`] trait.

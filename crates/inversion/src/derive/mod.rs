@@ -14,14 +14,16 @@
 //! Where each step lives (one file per concept): the Lie derivative in `lie.rs`, the relative degree in
 //! `relative_degree.rs`, the generic rank test in `rank.rs`, the greedy choice of ξ and η in
 //! `coordinates.rs`, ψ⁻¹ (isolation or Newton) in `psi_inv.rs`, α, β and the zero dynamics in
-//! `normal_form.rs`, the singular set and the domain conditions in `domain.rs`; this file composes them.
+//! `normal_form.rs`, the singular set and the domain conditions in `domain.rs`, which results are free of η
+//! in `eta_free.rs`; this file composes them.
 //! Constant subexpressions that are not finite are refused first (`model/finite.rs`, which the reader
 //! already runs with positions). Imports go one way: lie ←
 //! relative_degree ← this file; rank ← coordinates ← this file; psi_inv, normal_form and domain
-//! import only the model and are imported here.
+//! import only the model and are imported here; eta_free reads the finished [`Derivation`].
 
 mod coordinates;
 mod domain;
+mod eta_free;
 mod lie;
 mod map_calls;
 mod non_affine;

@@ -20,6 +20,7 @@
 //! reference at once, as `--switching quasi-static` does).
 
 use super::minimise::minimise_probed;
+use super::price_cache::PriceCache;
 use super::record::{Ctx, Record, Solved, Transition};
 use super::rows::Rows;
 use super::scratch::{Point, Scratch};
@@ -164,6 +165,8 @@ pub(super) struct Ecms<'c, 'a, 'm> {
     pub(super) h: &'c Resolved,
     pub(super) samples: &'c Samples,
     pub(super) dt: f64,
+    /// ECMS's grid points' prices kept across the search's runs where they do not depend on the state.
+    pub(super) prices: PriceCache,
 }
 
 impl Ecms<'_, '_, '_> {
@@ -272,16 +275,51 @@ impl Ecms<'_, '_, '_> {
         sc: &mut Scratch,
     ) -> Result<Eval, ModalError> {
         let start = if on { 0.0 } else { self.h.start_penalty };
-        let chosen = match self.candidates_at((k, x), (s, start), (only, true), sc) {
+        self.select((k, x), (s, start), only, sc)
+            .and_then(|(m, d)| self.priced((m, k), x, d, (s, start), sc))
+            .ok_or_else(|| self.no_candidate(k))
+    }
+
+    /// [`Ecms::choose`]'s candidate (m, d) at sample k from state x, before it is priced for the run.
+    fn select(
+        &self,
+        (k, x): (usize, &[f64]),
+        (s, start): (f64, f64),
+        only: Option<usize>,
+        sc: &mut Scratch,
+    ) -> Option<Choice> {
+        match self.candidates_at((k, x), (s, start), (only, true), sc) {
             (Some(best), _) => Some(best),
             _ => {
                 let (best, nearest) = self.candidates_at((k, x), (s, start), (only, false), sc);
                 best.or(nearest)
             }
-        };
-        chosen
-            .and_then(|(m, d)| self.priced((m, k), x, d, (s, start), sc))
-            .ok_or_else(|| self.no_candidate(k))
+        }
+    }
+
+    /// Every sample's candidate at s, chosen beforehand and side by side on the cores, where no choice
+    /// depends on the run: every candidate's price free of the state ([`PriceCache::state_free`]) and no
+    /// start penalty (which would depend on the previous choice). `shares`' samples take their own modes.
+    /// `None` where a choice may depend on the run; the run then chooses as it goes.
+    fn selected_ahead(&self, s: f64, x0: &[f64], shares: &[Share]) -> Option<Vec<Option<Choice>>> {
+        use rayon::prelude::*;
+        let free = self
+            .samples
+            .candidates
+            .iter()
+            .flatten()
+            .all(|&m| self.prices.state_free(m));
+        if !free || self.h.start_penalty != 0.0 {
+            return None;
+        }
+        let picks = (0..self.samples.t.len())
+            .into_par_iter()
+            .map_init(Scratch::default, |sc, k| {
+                let own = shares.iter().find(|sh| sh.k == k).and_then(|sh| sh.own);
+                self.select((k, x0), (s, 0.0), own, sc)
+            })
+            .collect();
+        Some(picks)
     }
 
     /// The error where no candidate mode of sample k has an inverse (named by its first candidate).
@@ -316,15 +354,15 @@ impl Ecms<'_, '_, '_> {
                 best = Some((cost, m, d));
             }
         };
-        let price = |m: usize, d: f64, lazy: bool, sc: &mut Scratch| {
-            self.price((m, k), x, d, (s, start), lazy, sc)
-                .map(|(c, e, _, _)| (c, e))
+        let price = |(m, d): Choice, bounds: Option<(f64, f64)>, lazy: bool, sc: &mut Scratch| {
+            self.parts((m, k), x, (d, bounds), lazy, sc)
+                .map(|p| self.cost(m, p, (s, start)))
         };
         let modes = self.samples.candidates[k].iter().copied();
         for m in modes.filter(|&m| only.is_none_or(|o| o == m)) {
             match self.ctx.decided[m].first() {
                 None => {
-                    if let Some(p) = price(m, 0.0, false, sc) {
+                    if let Some(p) = price((m, 0.0), None, false, sc) {
                         consider(p, (m, 0.0), true);
                     }
                 }
@@ -332,7 +370,7 @@ impl Ecms<'_, '_, '_> {
                     let input = &self.ctx.spec.inputs[i];
                     let bounds = (input.min.unwrap_or(0.0), input.max.unwrap_or(0.0));
                     // (J where feasible, else +∞; the margin less the feasibility's 10⁻⁹).
-                    let mut f = |d: f64| match price(m, d, lazy, sc) {
+                    let mut f = |d: f64| match price((m, d), Some(bounds), lazy, sc) {
                         Some((c, e)) => {
                             consider((c, e), (m, d), false);
                             (if e <= 1e-9 { c } else { f64::INFINITY }, e - 1e-9)
@@ -340,7 +378,7 @@ impl Ecms<'_, '_, '_> {
                         None => (f64::INFINITY, f64::NAN),
                     };
                     if let Some((d, _)) = minimise_probed(&mut f, bounds, self.h.grid) {
-                        if let Some(p) = price(m, d, false, sc) {
+                        if let Some(p) = price((m, d), Some(bounds), false, sc) {
                             consider(p, (m, d), true);
                         }
                     }
@@ -390,9 +428,15 @@ impl Ecms<'_, '_, '_> {
     ) -> Result<Outcome, ModalError> {
         // One set of buffers for every evaluation of the run.
         let mut sc = Scratch::default();
-        self.run_policy(s, x0, shares, &mut |k, x, on| {
-            let own = shares.iter().find(|sh| sh.k == k).and_then(|sh| sh.own);
-            self.choose((k, x), (s, on), own, &mut sc)
+        let ahead = self.selected_ahead(s, x0, shares);
+        self.run_policy(s, x0, shares, &mut |k, x, on| match &ahead {
+            Some(picks) => picks[k]
+                .and_then(|(m, d)| self.priced((m, k), x, d, (s, 0.0), &mut sc))
+                .ok_or_else(|| self.no_candidate(k)),
+            None => {
+                let own = shares.iter().find(|sh| sh.k == k).and_then(|sh| sh.own);
+                self.choose((k, x), (s, on), own, &mut sc)
+            }
         })
     }
 

@@ -11,6 +11,7 @@ use super::ecms::{candidates, Ecms, Outcome, Resolved, Samples};
 use super::equivalence::{correction, fixed, search};
 use super::gears::GearBox;
 use super::hybrid_block::{DpBlock, HybridBlock};
+use super::price_cache::PriceCache;
 use super::record::{decided_slots, Ctx};
 use super::rows::Rows;
 use super::rule_based::rule_based;
@@ -180,11 +181,18 @@ pub fn simulate_hybrid_differentiated(
     charge_window::check_start(x0[h.soc], soc_name)?;
     crate::grid::check_record(grid.samples(), 2 * ctx.n + r_max + 8, opts.dt)?;
     let samples = samples(&ctx, &grid);
+    // The search's runs share their grid points' prices where the state enters none (ECMS alone: DP and the
+    // rules make one run, or evaluate on grids of their own).
+    let prices = match ecms.method {
+        Method::Ecms => PriceCache::new(&ctx, &samples.candidates, h.grid, (h.fuel, h.battery)),
+        _ => PriceCache::default(),
+    };
     let run = Ecms {
         ctx: &ctx,
         h: &h,
         samples: &samples,
         dt: opts.dt,
+        prices,
     };
     let (best, mut block) = match &ecms.method {
         Method::Ecms => ecms_run(&run, ecms, &x0)?,

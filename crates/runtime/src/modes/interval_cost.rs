@@ -5,6 +5,7 @@
 //! and the rules reach it through [`Ecms::eval`] and [`Ecms::interval`].
 
 use super::ecms::Ecms;
+use super::price_cache::Parts;
 use super::scratch::{Point, Scratch};
 
 impl Ecms<'_, '_, '_> {
@@ -246,14 +247,32 @@ impl Ecms<'_, '_, '_> {
         lazy: bool,
         sc: &mut Scratch,
     ) -> Option<(f64, f64, Point, Option<Point>)> {
+        let (parts, at, end) = self.evaluate((m, k), x, d, lazy, sc)?;
+        let (cost, margin) = self.cost(m, parts, (s, start));
+        Some((cost, margin, at, end))
+    }
+
+    /// The parts of [`Ecms::price`] that do not depend on s: the interval's energies and the margins, with
+    /// the points at t_k and t_k+1.
+    pub(super) fn evaluate(
+        &self,
+        (m, k): (usize, usize),
+        x: &[f64],
+        d: f64,
+        lazy: bool,
+        sc: &mut Scratch,
+    ) -> Option<(Parts, Point, Option<Point>)> {
         let at = self.point_in((m, k), x, d, sc)?;
         if lazy && at.margin > 1e-9 {
-            return Some((f64::INFINITY, at.margin, at, None));
+            return Some((Parts::Beyond { margin: at.margin }, at, None));
         }
-        let penalty = if self.h.engine_on[m] { start } else { 0.0 };
         if k + 1 == self.samples.t.len() {
-            let cost = self.dt * (at.p_fuel + s * at.p_batt) + penalty;
-            return Some((cost, at.margin, at, None));
+            let parts = Parts::Last {
+                p_fuel: at.p_fuel,
+                p_batt: at.p_batt,
+                margin: at.margin,
+            };
+            return Some((parts, at, None));
         }
         let end = self.end_after_point((m, k), d, sc, true).ok()?;
         let h = self.samples.t[k + 1] - self.samples.t[k];
@@ -263,7 +282,61 @@ impl Ecms<'_, '_, '_> {
         if !(fuel.is_finite() && battery.is_finite()) {
             return None;
         }
-        let cost = fuel + s * battery + penalty;
-        Some((cost, at.margin.max(end.margin), at, Some(end)))
+        let parts = Parts::Interval {
+            fuel,
+            battery,
+            margin: at.margin.max(end.margin),
+            margin_at: at.margin,
+        };
+        Some((parts, at, Some(end)))
+    }
+
+    /// [`Ecms::price`]'s (cost, margin) of mode m's candidate from its `parts`, at s with E_start `start`.
+    pub(super) fn cost(&self, m: usize, parts: Parts, (s, start): (f64, f64)) -> (f64, f64) {
+        let penalty = if self.h.engine_on[m] { start } else { 0.0 };
+        match parts {
+            Parts::Beyond { margin } => (f64::INFINITY, margin),
+            Parts::Last {
+                p_fuel,
+                p_batt,
+                margin,
+            } => (self.dt * (p_fuel + s * p_batt) + penalty, margin),
+            Parts::Interval {
+                fuel,
+                battery,
+                margin,
+                ..
+            } => (fuel + s * battery + penalty, margin),
+        }
+    }
+
+    /// [`Ecms::evaluate`]'s parts of candidate (m, d) at sample k from state x, kept in the cache where
+    /// they are free of the state and d is a grid point of `bounds` (`None`: m decides no input). Kept parts
+    /// serve a request only where they are what it would compute: a full price serves a lazy one as
+    /// [`Parts::lazily`]; a lazy price beyond the bounds, or a full one that failed (a lazy one might have
+    /// stopped before the failure), is computed afresh for the other kind.
+    pub(super) fn parts(
+        &self,
+        (m, k): (usize, usize),
+        x: &[f64],
+        (d, bounds): (f64, Option<(f64, f64)>),
+        lazy: bool,
+        sc: &mut Scratch,
+    ) -> Option<Parts> {
+        let fresh = |sc: &mut Scratch| self.evaluate((m, k), x, d, lazy, sc).map(|(p, _, _)| p);
+        let Some(slot) = self
+            .prices
+            .slot(&self.samples.candidates[k], (m, k), d, bounds)
+        else {
+            return fresh(sc);
+        };
+        let kept = *self.prices.kept(slot).get_or_init(|| (fresh(sc), lazy));
+        match (kept, lazy) {
+            ((Some(p), _), true) => Some(p.lazily()),
+            ((None, false), true) => fresh(sc),
+            ((Some(Parts::Beyond { .. }), true), false) => fresh(sc),
+            ((p, _), false) => p,
+            ((None, true), true) => None,
+        }
     }
 }

@@ -51,8 +51,7 @@ pub(crate) fn minimise_probed(
     (lo, hi): (f64, f64),
     n: usize,
 ) -> Option<(f64, f64)> {
-    let step = (hi - lo) / (n - 1) as f64;
-    let at = |i: usize| if i + 1 == n { hi } else { lo + step * i as f64 };
+    let at = |i: usize| grid_point((lo, hi), n, i);
     let mut best: Option<(usize, f64)> = None;
     let mut probes = Vec::with_capacity(n);
     for i in 0..n {
@@ -87,6 +86,27 @@ pub(crate) fn minimise_probed(
         (a, (at(i), fx), b)
     };
     Some(refine(f, a, x, b, tol))
+}
+
+/// Point i of the grid of `n` ≥ 2 evenly spaced points over [lo, hi] that [`minimise_probed`] evaluates
+/// first (the last exactly hi).
+pub(crate) fn grid_point((lo, hi): (f64, f64), n: usize, i: usize) -> f64 {
+    if i + 1 == n {
+        hi
+    } else {
+        lo + (hi - lo) / (n - 1) as f64 * i as f64
+    }
+}
+
+/// The index of `d` in that grid where d is one of its points (bit for bit), else `None`.
+pub(crate) fn grid_index(bounds: (f64, f64), n: usize, d: f64) -> Option<usize> {
+    let (lo, hi) = bounds;
+    let i = ((d - lo) / (hi - lo) * (n - 1) as f64).round();
+    if !(i >= 0.0 && i < n as f64) {
+        return None;
+    }
+    let i = i as usize;
+    (grid_point(bounds, n, i).to_bits() == d.to_bits()).then_some(i)
 }
 
 /// The feasible edge g(d) = 0 between `inside` (d, g ≤ 0, its cost) and `outside` (d, g > 0) by regula falsi

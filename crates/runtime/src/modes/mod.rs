@@ -29,6 +29,7 @@ mod hybrid_block;
 mod interval_cost;
 mod minimise;
 pub mod plant;
+mod price_cache;
 mod record;
 mod rows;
 mod rule_based;
