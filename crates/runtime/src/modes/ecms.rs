@@ -20,7 +20,7 @@
 //! reference at once, as `--switching quasi-static` does).
 
 use super::minimise::minimise_probed;
-use super::price_cache::PriceCache;
+use super::price_cache::{Parts, PriceCache};
 use super::record::{Ctx, Record, Solved, Transition};
 use super::rows::Rows;
 use super::scratch::{Point, Scratch};
@@ -354,31 +354,45 @@ impl Ecms<'_, '_, '_> {
                 best = Some((cost, m, d));
             }
         };
-        let price = |(m, d): Choice, bounds: Option<(f64, f64)>, lazy: bool, sc: &mut Scratch| {
+        let parts = |(m, d): Choice, bounds: Option<(f64, f64)>, lazy: bool, sc: &mut Scratch| {
             self.parts((m, k), x, (d, bounds), lazy, sc)
-                .map(|p| self.cost(m, p, (s, start)))
         };
+        let price = |m: usize, p: Option<Parts>| p.map(|p| self.cost(m, p, (s, start)));
+        // The minimiser's evaluations, (d, parts): its best point is one of them, whose full price needs no
+        // evaluation again unless it was left beyond its bounds at t_k (a lazy price).
+        let mut seen: Vec<(f64, Option<Parts>)> = Vec::new();
         let modes = self.samples.candidates[k].iter().copied();
         for m in modes.filter(|&m| only.is_none_or(|o| o == m)) {
             match self.ctx.decided[m].first() {
                 None => {
-                    if let Some(p) = price((m, 0.0), None, false, sc) {
+                    if let Some(p) = price(m, parts((m, 0.0), None, false, sc)) {
                         consider(p, (m, 0.0), true);
                     }
                 }
                 Some(&(i, _)) => {
                     let input = &self.ctx.spec.inputs[i];
                     let bounds = (input.min.unwrap_or(0.0), input.max.unwrap_or(0.0));
+                    seen.clear();
                     // (J where feasible, else +∞; the margin less the feasibility's 10⁻⁹).
-                    let mut f = |d: f64| match price((m, d), Some(bounds), lazy, sc) {
-                        Some((c, e)) => {
-                            consider((c, e), (m, d), false);
-                            (if e <= 1e-9 { c } else { f64::INFINITY }, e - 1e-9)
+                    let mut f = |d: f64| {
+                        let p = parts((m, d), Some(bounds), lazy, sc);
+                        seen.push((d, p));
+                        match price(m, p) {
+                            Some((c, e)) => {
+                                consider((c, e), (m, d), false);
+                                (if e <= 1e-9 { c } else { f64::INFINITY }, e - 1e-9)
+                            }
+                            None => (f64::INFINITY, f64::NAN),
                         }
-                        None => (f64::INFINITY, f64::NAN),
                     };
                     if let Some((d, _)) = minimise_probed(&mut f, bounds, self.h.grid) {
-                        if let Some(p) = price((m, d), Some(bounds), false, sc) {
+                        let known = seen
+                            .iter()
+                            .find(|(e, _)| e.to_bits() == d.to_bits())
+                            .map(|&(_, p)| p)
+                            .filter(|p| !matches!(p, Some(Parts::Beyond { .. })));
+                        let p = known.unwrap_or_else(|| parts((m, d), Some(bounds), false, sc));
+                        if let Some(p) = price(m, p) {
                             consider(p, (m, d), true);
                         }
                     }
