@@ -6,6 +6,8 @@
 
 use super::ecms::Ecms;
 use super::price_cache::Parts;
+#[cfg(doc)]
+use super::price_cache::PriceCache;
 use super::scratch::{Point, Scratch};
 
 impl Ecms<'_, '_, '_> {
@@ -267,28 +269,48 @@ impl Ecms<'_, '_, '_> {
             return Some((Parts::Beyond { margin: at.margin }, at, None));
         }
         if k + 1 == self.samples.t.len() {
-            let parts = Parts::Last {
-                p_fuel: at.p_fuel,
-                p_batt: at.p_batt,
-                margin: at.margin,
-            };
-            return Some((parts, at, None));
+            return Some((Parts::last(&at), at, None));
         }
         let end = self.end_after_point((m, k), d, sc, true).ok()?;
         let h = self.samples.t[k + 1] - self.samples.t[k];
-        let fuel = 0.5 * h * (at.p_fuel + end.p_fuel);
-        let [b2, b3, b4] = sc.batteries;
-        let battery = h / 6.0 * (at.p_batt + 2.0 * b2 + 2.0 * b3 + b4);
-        if !(fuel.is_finite() && battery.is_finite()) {
-            return None;
-        }
-        let parts = Parts::Interval {
-            fuel,
-            battery,
-            margin: at.margin.max(end.margin),
-            margin_at: at.margin,
-        };
+        let parts = Parts::interval(h, &at, sc.batteries, &end)?;
         Some((parts, at, Some(end)))
+    }
+
+    /// [`Ecms::evaluate`]'s parts where mode m's price is free of the state ([`PriceCache::state_free`]):
+    /// the battery's power at the Runge–Kutta step's stages does not depend on their η, so stages 2 and 3
+    /// share one inverse at the midpoint, stage 4's is the interval's end, and the charge is not advanced —
+    /// three inverses instead of five, the same numbers bit for bit.
+    fn evaluate_free(
+        &self,
+        (m, k): (usize, usize),
+        x: &[f64],
+        d: f64,
+        lazy: bool,
+        sc: &mut Scratch,
+    ) -> Option<Parts> {
+        let at = self.point_in((m, k), x, d, sc)?;
+        if lazy && at.margin > 1e-9 {
+            return Some(Parts::Beyond { margin: at.margin });
+        }
+        if k + 1 == self.samples.t.len() {
+            return Some(Parts::last(&at));
+        }
+        let model = self.ctx.spec.modes[m].model;
+        let r = model.info().relative_degree;
+        self.signals_again(m, self.samples.signals_mid_at(k), d, &mut sc.w);
+        self.reference_into(m, &self.samples.mid[k], &mut sc.y);
+        sc.xs.clear();
+        sc.xs.extend_from_slice(&sc.x);
+        let u = model
+            .invert(&sc.y[..r], &sc.eta, &sc.w, sc.y[r], &mut sc.xs)
+            .ok()?;
+        sc.outs.resize(model.info().outputs.len(), 0.0);
+        model.outputs(&sc.xs, &sc.w, u, &mut sc.outs);
+        let mid = sc.outs[self.h.battery];
+        let end = self.finish_in((m, k), d, sc).ok()?;
+        let h = self.samples.t[k + 1] - self.samples.t[k];
+        Parts::interval(h, &at, [mid, mid, end.p_batt], &end)
     }
 
     /// [`Ecms::price`]'s (cost, margin) of mode m's candidate from its `parts`, at s with E_start `start`.
@@ -323,7 +345,13 @@ impl Ecms<'_, '_, '_> {
         lazy: bool,
         sc: &mut Scratch,
     ) -> Option<Parts> {
-        let fresh = |sc: &mut Scratch| self.evaluate((m, k), x, d, lazy, sc).map(|(p, _, _)| p);
+        let fresh = |sc: &mut Scratch| {
+            if self.prices.state_free(m) {
+                self.evaluate_free((m, k), x, d, lazy, sc)
+            } else {
+                self.evaluate((m, k), x, d, lazy, sc).map(|(p, _, _)| p)
+            }
+        };
         let Some(slot) = self
             .prices
             .slot(&self.samples.candidates[k], (m, k), d, bounds)

@@ -18,6 +18,7 @@ use std::sync::OnceLock;
 
 use super::minimise::grid_index;
 use super::record::Ctx;
+use super::scratch::Point;
 
 /// Most kept prices (samples × candidates × grid points): about 40 bytes each.
 const MAX_SLOTS: usize = 2_000_000;
@@ -131,6 +132,38 @@ pub(super) enum Parts {
 }
 
 impl Parts {
+    /// At the last sample: the powers and the margin at t_k (`at`).
+    pub(super) fn last(at: &Point) -> Parts {
+        Parts::Last {
+            p_fuel: at.p_fuel,
+            p_batt: at.p_batt,
+            margin: at.margin,
+        }
+    }
+
+    /// Over an interval of length h from the points at its ends (`at`, `end`) and the battery's power at
+    /// the Runge–Kutta step's stages 2, 3 and 4: the fuel's trapezoid h/2 (P_fuel,1 + P_fuel,4), the
+    /// battery's quadrature h/6 (P_batt,1 + 2 P_batt,2 + 2 P_batt,3 + P_batt,4), the larger margin; `None`
+    /// where an energy is not finite.
+    pub(super) fn interval(
+        h: f64,
+        at: &Point,
+        [b2, b3, b4]: [f64; 3],
+        end: &Point,
+    ) -> Option<Parts> {
+        let fuel = 0.5 * h * (at.p_fuel + end.p_fuel);
+        let battery = h / 6.0 * (at.p_batt + 2.0 * b2 + 2.0 * b3 + b4);
+        if !(fuel.is_finite() && battery.is_finite()) {
+            return None;
+        }
+        Some(Parts::Interval {
+            fuel,
+            battery,
+            margin: at.margin.max(end.margin),
+            margin_at: at.margin,
+        })
+    }
+
     /// The parts a lazy price would have found: beyond the bounds at t_k, the interval left.
     pub(super) fn lazily(self) -> Parts {
         match self {
