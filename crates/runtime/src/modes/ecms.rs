@@ -354,15 +354,20 @@ impl Ecms<'_, '_, '_> {
                 best = Some((cost, m, d));
             }
         };
+        let candidates = &self.samples.candidates[k];
         let parts = |(m, d): Choice, bounds: Option<(f64, f64)>, lazy: bool, sc: &mut Scratch| {
-            self.parts((m, k), x, (d, bounds), lazy, sc)
+            let row = self.prices.row(candidates, (m, k));
+            self.parts((m, k), x, (d, bounds, row), lazy, sc)
         };
         let price = |m: usize, p: Option<Parts>| p.map(|p| self.cost(m, p, (s, start)));
         // The minimiser's evaluations, (d, parts): its best point is one of them, whose full price needs no
         // evaluation again unless it was left beyond its bounds at t_k (a lazy price).
         let mut seen: Vec<(f64, Option<Parts>)> = Vec::new();
-        let modes = self.samples.candidates[k].iter().copied();
-        for m in modes.filter(|&m| only.is_none_or(|o| o == m)) {
+        for m in candidates
+            .iter()
+            .copied()
+            .filter(|&m| only.is_none_or(|o| o == m))
+        {
             match self.ctx.decided[m].first() {
                 None => {
                     if let Some(p) = price(m, parts((m, 0.0), None, false, sc)) {

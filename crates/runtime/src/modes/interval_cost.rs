@@ -333,15 +333,16 @@ impl Ecms<'_, '_, '_> {
     }
 
     /// [`Ecms::evaluate`]'s parts of candidate (m, d) at sample k from state x, kept in the cache where
-    /// they are free of the state and d is a grid point of `bounds` (`None`: m decides no input). Kept parts
-    /// serve a request only where they are what it would compute: a full price serves a lazy one as
-    /// [`Parts::lazily`]; a lazy price beyond the bounds, or a full one that failed (a lazy one might have
-    /// stopped before the failure), is computed afresh for the other kind.
+    /// they are free of the state and d is a grid point of `bounds` (`None`: m decides no input), `row`
+    /// the candidate's row in the cache ([`PriceCache::row`], `None`: not kept). Kept parts serve a request
+    /// only where they are what it would compute: a full price serves a lazy one as [`Parts::lazily`]; a
+    /// lazy price beyond the bounds, or a full one that failed (a lazy one might have stopped before the
+    /// failure), is computed afresh for the other kind.
     pub(super) fn parts(
         &self,
         (m, k): (usize, usize),
         x: &[f64],
-        (d, bounds): (f64, Option<(f64, f64)>),
+        (d, bounds, row): (f64, Option<(f64, f64)>, Option<usize>),
         lazy: bool,
         sc: &mut Scratch,
     ) -> Option<Parts> {
@@ -352,10 +353,7 @@ impl Ecms<'_, '_, '_> {
                 self.evaluate((m, k), x, d, lazy, sc).map(|(p, _, _)| p)
             }
         };
-        let Some(slot) = self
-            .prices
-            .slot(&self.samples.candidates[k], (m, k), d, bounds)
-        else {
+        let Some(slot) = row.and_then(|row| self.prices.slot(row, d, bounds)) else {
             return fresh(sc);
         };
         let kept = *self.prices.kept(slot).get_or_init(|| (fresh(sc), lazy));

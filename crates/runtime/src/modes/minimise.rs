@@ -101,11 +101,12 @@ pub(crate) fn grid_point((lo, hi): (f64, f64), n: usize, i: usize) -> f64 {
 /// The index of `d` in that grid where d is one of its points (bit for bit), else `None`.
 pub(crate) fn grid_index(bounds: (f64, f64), n: usize, d: f64) -> Option<usize> {
     let (lo, hi) = bounds;
-    let i = ((d - lo) / (hi - lo) * (n - 1) as f64).round();
-    if !(i >= 0.0 && i < n as f64) {
+    let f = (d - lo) / (hi - lo) * (n - 1) as f64;
+    if !(f > -0.5 && f < n as f64 - 0.5) {
         return None;
     }
-    let i = i as usize;
+    // The nearest index (f + 0.5 ≥ 0 truncated), then the point itself decides.
+    let i = (f + 0.5) as usize;
     (grid_point(bounds, n, i).to_bits() == d.to_bits()).then_some(i)
 }
 
@@ -241,7 +242,7 @@ fn vertex((a, fa): (f64, f64), (x, fx): (f64, f64), (b, fb): (f64, f64)) -> Opti
 
 #[cfg(test)]
 mod tests {
-    use super::{minimise, minimise_probed};
+    use super::{grid_index, grid_point, minimise, minimise_probed};
 
     #[test]
     fn a_parabola_is_minimised_exactly() {
@@ -271,6 +272,23 @@ mod tests {
         assert!((x - 0.5).abs() < 1e-9, "{x}");
         let mut none = |_x: f64| f64::INFINITY;
         assert!(minimise(&mut none, (0.0, 1.0), 5).is_none());
+    }
+
+    #[test]
+    fn grid_points_are_found_by_their_bits_and_nothing_else() {
+        for (bounds, n) in [((-200.0, 200.0), 11), ((0.0, 1.0), 41), ((-0.3, 7.7), 2)] {
+            for i in 0..n {
+                let d = grid_point(bounds, n, i);
+                assert_eq!(grid_index(bounds, n, d), Some(i), "{bounds:?} {n} {i}");
+                let beside = f64::from_bits(d.to_bits() + 1);
+                assert_eq!(grid_index(bounds, n, beside), None, "{bounds:?} {n} {i}");
+            }
+            let (lo, hi) = bounds;
+            for d in [lo - (hi - lo), hi + (hi - lo), f64::NAN, f64::INFINITY] {
+                assert_eq!(grid_index(bounds, n, d), None);
+            }
+        }
+        assert_eq!(grid_point((-200.0, 200.0), 11, 10), 200.0);
     }
 
     #[test]

@@ -88,25 +88,24 @@ impl PriceCache {
         &self.slots[slot]
     }
 
-    /// The slot of candidate (m, d) at sample k, whose candidate modes are `candidates`: where m's price is
-    /// free of the state and d a point of the grid over `bounds` (a mode without a decided input: its one
-    /// value, slot 0).
-    pub(super) fn slot(
-        &self,
-        candidates: &[usize],
-        (m, k): (usize, usize),
-        d: f64,
-        bounds: Option<(f64, f64)>,
-    ) -> Option<usize> {
-        if !self.state_free(m) {
+    /// The first slot of mode m's candidates at sample k, whose candidate modes are `candidates`: where m's
+    /// price is free of the state and kept. Its decided input's grid point i is slot row + i (a mode without
+    /// a decided input: its one value, slot row).
+    pub(super) fn row(&self, candidates: &[usize], (m, k): (usize, usize)) -> Option<usize> {
+        if !self.state_free(m) || self.slots.is_empty() {
             return None;
         }
         let c = candidates.iter().position(|&c| c == m)?;
-        let i = match bounds {
-            None => 0,
-            Some(b) => grid_index(b, self.grid, d)?,
-        };
-        Some(self.first[k] + c * self.grid + i)
+        Some(self.first[k] + c * self.grid)
+    }
+
+    /// The slot of decided value d in `row` ([`PriceCache::row`]), d on the grid over `bounds` (`None`: a
+    /// mode without a decided input).
+    pub(super) fn slot(&self, row: usize, d: f64, bounds: Option<(f64, f64)>) -> Option<usize> {
+        match bounds {
+            None => Some(row),
+            Some(b) => grid_index(b, self.grid, d).map(|i| row + i),
+        }
     }
 }
 
