@@ -264,17 +264,35 @@ impl Ecms<'_, '_, '_> {
         lazy: bool,
         sc: &mut Scratch,
     ) -> Option<(Parts, Point, Option<Point>)> {
-        let at = self.point_in((m, k), x, d, sc)?;
-        if lazy && at.margin > 1e-9 {
-            return Some((Parts::Beyond { margin: at.margin }, at, None));
-        }
-        if k + 1 == self.samples.t.len() {
-            return Some((Parts::last(&at), at, None));
+        let (at, done) = self.opening((m, k), x, d, lazy, sc)?;
+        if let Some(parts) = done {
+            return Some((parts, at, None));
         }
         let end = self.end_after_point((m, k), d, sc, true).ok()?;
         let h = self.samples.t[k + 1] - self.samples.t[k];
         let parts = Parts::interval(h, &at, sc.batteries, &end)?;
         Some((parts, at, Some(end)))
+    }
+
+    /// A price's point at t_k ([`Ecms::point_in`]) and, where the price ends there, its parts: beyond the
+    /// bounds at t_k in a lazy price, or at the last sample (no interval).
+    fn opening(
+        &self,
+        (m, k): (usize, usize),
+        x: &[f64],
+        d: f64,
+        lazy: bool,
+        sc: &mut Scratch,
+    ) -> Option<(Point, Option<Parts>)> {
+        let at = self.point_in((m, k), x, d, sc)?;
+        let done = if lazy && at.margin > 1e-9 {
+            Some(Parts::Beyond { margin: at.margin })
+        } else if k + 1 == self.samples.t.len() {
+            Some(Parts::last(&at))
+        } else {
+            None
+        };
+        Some((at, done))
     }
 
     /// [`Ecms::evaluate`]'s parts where mode m's price is free of the state ([`PriceCache::state_free`]):
@@ -289,12 +307,9 @@ impl Ecms<'_, '_, '_> {
         lazy: bool,
         sc: &mut Scratch,
     ) -> Option<Parts> {
-        let at = self.point_in((m, k), x, d, sc)?;
-        if lazy && at.margin > 1e-9 {
-            return Some(Parts::Beyond { margin: at.margin });
-        }
-        if k + 1 == self.samples.t.len() {
-            return Some(Parts::last(&at));
+        let (at, done) = self.opening((m, k), x, d, lazy, sc)?;
+        if done.is_some() {
+            return done;
         }
         let model = self.ctx.spec.modes[m].model;
         let r = model.info().relative_degree;
