@@ -20,8 +20,9 @@ use super::minimise::grid_index;
 use super::record::Ctx;
 use super::scratch::Point;
 
-/// Most kept prices (samples × candidates × grid points): about 40 bytes each.
-const MAX_SLOTS: usize = 2_000_000;
+/// Most kept prices (samples × candidates × grid points): 56 bytes each, 56 MB at most (WLTC 3b at dt 1 s
+/// with hev_p2's grid of 11: about 60 000). A run beyond it keeps none and prices every candidate afresh.
+const MAX_SLOTS: usize = 1_000_000;
 
 /// The kept grid points' parts, by sample, candidate and grid point; empty where no candidate's price is
 /// free of the state, or beyond [`MAX_SLOTS`].
