@@ -355,8 +355,8 @@ impl Ecms<'_, '_, '_> {
             }
         };
         let candidates = &self.samples.candidates[k];
-        let parts = |(m, d): Choice, bounds: Option<(f64, f64)>, lazy: bool, sc: &mut Scratch| {
-            let row = self.prices.row(candidates, (m, k));
+        // `row`: the candidate's kept prices (found once per mode and sample).
+        let parts = |(m, d): Choice, (bounds, row), lazy: bool, sc: &mut Scratch| {
             self.parts((m, k), x, (d, bounds, row), lazy, sc)
         };
         let price = |m: usize, p: Option<Parts>| p.map(|p| self.cost(m, p, (s, start)));
@@ -368,9 +368,10 @@ impl Ecms<'_, '_, '_> {
             .copied()
             .filter(|&m| only.is_none_or(|o| o == m))
         {
+            let row = self.prices.row(candidates, (m, k));
             match self.ctx.decided[m].first() {
                 None => {
-                    if let Some(p) = price(m, parts((m, 0.0), None, false, sc)) {
+                    if let Some(p) = price(m, parts((m, 0.0), (None, row), false, sc)) {
                         consider(p, (m, 0.0), true);
                     }
                 }
@@ -380,7 +381,7 @@ impl Ecms<'_, '_, '_> {
                     seen.clear();
                     // (J where feasible, else +∞; the margin less the feasibility's 10⁻⁹).
                     let mut f = |d: f64| {
-                        let p = parts((m, d), Some(bounds), lazy, sc);
+                        let p = parts((m, d), (Some(bounds), row), lazy, sc);
                         seen.push((d, p));
                         match price(m, p) {
                             Some((c, e)) => {
@@ -396,7 +397,8 @@ impl Ecms<'_, '_, '_> {
                             .find(|(e, _)| e.to_bits() == d.to_bits())
                             .map(|&(_, p)| p)
                             .filter(|p| !matches!(p, Some(Parts::Beyond { .. })));
-                        let p = known.unwrap_or_else(|| parts((m, d), Some(bounds), false, sc));
+                        let p =
+                            known.unwrap_or_else(|| parts((m, d), (Some(bounds), row), false, sc));
                         if let Some(p) = price(m, p) {
                             consider(p, (m, d), true);
                         }

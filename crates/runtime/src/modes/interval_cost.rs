@@ -9,6 +9,7 @@ use super::price_cache::Parts;
 #[cfg(doc)]
 use super::price_cache::PriceCache;
 use super::scratch::{Point, Scratch};
+use invsim_model_api::{InverseModel, ModelError};
 
 impl Ecms<'_, '_, '_> {
     /// Mode m's signal values at one time into `w`: the exogenous signals from `row`, the run's
@@ -179,20 +180,15 @@ impl Ecms<'_, '_, '_> {
             }
             rest[0].fill(0.0);
             if batteries && i > 0 {
-                sc.xs.clear();
-                sc.xs.extend_from_slice(&sc.x);
-                let u = model
-                    .invert(&y[..r], &sc.tmp, &sc.w, y[r], &mut sc.xs)
+                let u = stage_inverse(model, y, (&sc.tmp, &sc.w), &sc.x, &mut sc.xs)
                     .map_err(|e| e.to_string())?;
                 sc.dx.resize(sc.xs.len(), 0.0);
                 model.rhs(&sc.xs, &sc.w, u, &mut sc.dx);
                 for (kj, &s) in rest[0].iter_mut().zip(&info.eta_states) {
                     *kj = sc.dx[s];
                 }
-                // Every output is written: the buffer is only sized, not cleared.
-                sc.outs.resize(info.outputs.len(), 0.0);
-                model.outputs(&sc.xs, &sc.w, u, &mut sc.outs);
-                sc.batteries[i - 1] = sc.outs[self.h.battery];
+                let outputs = (&sc.xs[..], &sc.w[..], u);
+                sc.batteries[i - 1] = self.battery(model, outputs, &mut sc.outs);
             } else {
                 model.zero_dynamics(&y[..r], &sc.tmp, &sc.w, y[r], &mut rest[0]);
             }
@@ -312,20 +308,26 @@ impl Ecms<'_, '_, '_> {
             return done;
         }
         let model = self.ctx.spec.modes[m].model;
-        let r = model.info().relative_degree;
         self.signals_again(m, self.samples.signals_mid_at(k), d, &mut sc.w);
         self.reference_into(m, &self.samples.mid[k], &mut sc.y);
-        sc.xs.clear();
-        sc.xs.extend_from_slice(&sc.x);
-        let u = model
-            .invert(&sc.y[..r], &sc.eta, &sc.w, sc.y[r], &mut sc.xs)
-            .ok()?;
-        sc.outs.resize(model.info().outputs.len(), 0.0);
-        model.outputs(&sc.xs, &sc.w, u, &mut sc.outs);
-        let mid = sc.outs[self.h.battery];
+        let u = stage_inverse(model, &sc.y, (&sc.eta, &sc.w), &sc.x, &mut sc.xs).ok()?;
+        let mid = self.battery(model, (&sc.xs, &sc.w, u), &mut sc.outs);
         let end = self.finish_in((m, k), d, sc).ok()?;
         let h = self.samples.t[k + 1] - self.samples.t[k];
         Parts::interval(h, &at, [mid, mid, end.p_batt], &end)
+    }
+
+    /// The battery's power of `model` at (x, w, u), through its outputs in `outs`.
+    fn battery(
+        &self,
+        model: &dyn InverseModel,
+        (x, w, u): (&[f64], &[f64], f64),
+        outs: &mut Vec<f64>,
+    ) -> f64 {
+        // Every output is written: the buffer is only sized, not cleared.
+        outs.resize(model.info().outputs.len(), 0.0);
+        model.outputs(x, w, u, outs);
+        outs[self.h.battery]
     }
 
     /// [`Ecms::price`]'s (cost, margin) of mode m's candidate from its `parts`, at s with E_start `start`.
@@ -380,4 +382,19 @@ impl Ecms<'_, '_, '_> {
             ((None, true), true) => None,
         }
     }
+}
+
+/// x = ψ⁻¹ at a Runge–Kutta stage of `model`: the reference `y` (y … y^(r)), the stage's η and signals, into
+/// `xs` from the interval's start state `x` (the states ψ⁻¹ does not set); the free input u.
+fn stage_inverse(
+    model: &dyn InverseModel,
+    y: &[f64],
+    (eta, w): (&[f64], &[f64]),
+    x: &[f64],
+    xs: &mut Vec<f64>,
+) -> Result<f64, ModelError> {
+    let r = model.info().relative_degree;
+    xs.clear();
+    xs.extend_from_slice(x);
+    model.invert(&y[..r], eta, w, y[r], xs)
 }
