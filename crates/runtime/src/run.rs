@@ -60,10 +60,11 @@ pub fn modal_options(opts: &SimulationOptions) -> ModalOptions {
 /// strategy's run ([`crate::modes::simulate_hybrid`]) where the options name one, else the mode sequence,
 /// with the gradient with respect to `wrt` ([`modal_gradient_params`]; with a strategy, that of the
 /// charge-sustaining fuel).
-/// `invsim simulate` and every row of a sweep run through here, so their figures are the same bits.
+/// `invsim simulate` and every row of a sweep run through here, so their figures are the same bits (a sweep
+/// passes `kept`, where its runs on the cycle keep the smoothed cycle they read).
 pub(crate) fn simulate_modal(
     p: &ModalPlant,
-    gears: GearSource,
+    (gears, kept): (GearSource, Option<&crate::modes::ReferenceCell>),
     cycle: &Cycle,
     opts: &SimulationOptions,
     wrt: Option<&crate::gradient::ModalWrt>,
@@ -89,12 +90,13 @@ pub(crate) fn simulate_modal(
                 )));
             }
             let how = (opts.zero_dynamics_reference, wrt);
-            crate::modes::simulate_modes_differentiated(
+            crate::modes::simulate_modes_kept(
                 &spec,
                 cycle,
                 &modal_options(opts),
                 &opts.signals,
                 how,
+                kept,
             )?
         }
     };
@@ -139,7 +141,7 @@ impl Plant {
                     .map(|names| modal_gradient_params(p, opts, names))
                     .transpose()?;
                 let gears = p.gear_source(cycle, file).map_err(RunFailure::Gears)?;
-                let r = simulate_modal(p, gears.clone(), cycle, opts, wrt.as_ref())?;
+                let r = simulate_modal(p, (gears.clone(), None), cycle, opts, wrt.as_ref())?;
                 Ok(RunResult::Modal(Box::new(r), gears))
             }
         }

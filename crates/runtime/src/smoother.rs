@@ -41,8 +41,8 @@ mod fine;
 mod grid;
 mod signals;
 
-pub(crate) use fine::FineReference;
 pub use fine::ZeroDynamicsReference;
+pub(crate) use fine::{FineReference, FineTable};
 
 use crate::cycle::{Cycle, CycleError};
 use crate::kernel::Kernel;

@@ -1,6 +1,9 @@
 //! The smoothed cycle y_c^(0 … m) at the run's samples, evaluated on the grid block by block with
 //! [`Smoother::eval_grid`] (corner by corner, the kernel terms from the grid's table: the same values as a
-//! pointwise [`Smoother::eval`] to rounding, at a fraction of its cost), and read sample by sample.
+//! pointwise [`Smoother::eval`] to rounding, at a fraction of its cost), each block once when first needed,
+//! kept in a [`SampleTable`] that every run on the same reference reads (a sweep's runs on one cycle).
+
+use std::sync::{Arc, OnceLock};
 
 use crate::grid::Grid;
 use crate::smoother::Smoother;
@@ -8,46 +11,74 @@ use crate::smoother::Smoother;
 /// Samples per block: enough to spread the per-block set-up, small enough to stay in cache.
 const BLOCK: usize = 512;
 
-/// The smoothed cycle on the samples of the block in hand.
-pub(super) struct Bases {
-    /// Index of the block's first sample.
-    start: usize,
-    /// Samples in the block (0 before the first).
-    len: usize,
-    times: Vec<f64>,
-    /// `cols[j][i]` = y_c^(j)(t_{start + i}).
-    cols: Vec<Vec<f64>>,
+/// The smoothed cycle at a grid's samples, block by block: block b holds samples b·BLOCK … (b + 1)·BLOCK − 1,
+/// `[j·len + i]` = y_c^(j) at its sample i (len its samples). The blocks lie at fixed places on the grid, so a
+/// value is the same bits whichever run computed it.
+pub(crate) struct SampleTable {
+    grid: Grid,
+    orders: usize,
+    blocks: Vec<OnceLock<Arc<[f64]>>>,
 }
 
-impl Bases {
-    /// Room for y_c^(0 … orders − 1).
-    pub(super) fn new(orders: usize) -> Bases {
+impl SampleTable {
+    /// The table of y_c^(0 … orders − 1) on `grid` (nothing evaluated yet).
+    pub(crate) fn new(grid: &Grid, orders: usize) -> SampleTable {
+        SampleTable {
+            grid: *grid,
+            orders,
+            blocks: (0..grid.samples().div_ceil(BLOCK))
+                .map(|_| OnceLock::new())
+                .collect(),
+        }
+    }
+
+    /// The orders held (y_c^(0 … orders − 1)).
+    pub(crate) fn orders(&self) -> usize {
+        self.orders
+    }
+
+    fn block(&self, smoother: &Smoother, b: usize) -> Arc<[f64]> {
+        self.blocks[b]
+            .get_or_init(|| self.evaluate(smoother, b))
+            .clone()
+    }
+
+    /// Evaluate block b.
+    fn evaluate(&self, smoother: &Smoother, b: usize) -> Arc<[f64]> {
+        let first = b * BLOCK;
+        let end = (first + BLOCK).min(self.grid.samples());
+        let times: Vec<f64> = (first..end).map(|i| self.grid.time(i)).collect();
+        let mut values = vec![0.0; times.len() * self.orders];
+        let mut cols: Vec<&mut [f64]> = values.chunks_exact_mut(times.len()).collect();
+        smoother.eval_grid(&times, Some(self.grid.dt), &mut cols);
+        values.into()
+    }
+}
+
+/// A run's reader of a [`SampleTable`], with the block in hand.
+pub(super) struct Bases<'a> {
+    table: &'a SampleTable,
+    /// Index of the block in hand (`usize::MAX`: none) and its values.
+    block: (usize, Arc<[f64]>),
+}
+
+impl<'a> Bases<'a> {
+    pub(super) fn new(table: &'a SampleTable) -> Bases<'a> {
         Bases {
-            start: 0,
-            len: 0,
-            times: Vec::with_capacity(BLOCK),
-            cols: vec![vec![0.0; BLOCK]; orders],
+            table,
+            block: (usize::MAX, Arc::new([])),
         }
     }
 
-    /// y_c^(0 … orders − 1) at sample k of `grid` into `base` (its length the number of orders).
-    pub(super) fn at(&mut self, smoother: &Smoother, grid: &Grid, k: usize, base: &mut [f64]) {
-        if !(self.start..self.start + self.len).contains(&k) {
-            self.fill(smoother, grid, k);
+    /// y_c^(0 … orders − 1) at sample k into `base` (its length the number of orders).
+    pub(super) fn at(&mut self, smoother: &Smoother, k: usize, base: &mut [f64]) {
+        let b = k / BLOCK;
+        if self.block.0 != b {
+            self.block = (b, self.table.block(smoother, b));
         }
-        let i = k - self.start;
-        for (b, col) in base.iter_mut().zip(&self.cols) {
-            *b = col[i];
+        let (first, len) = (b * BLOCK, self.block.1.len() / self.table.orders);
+        for (j, v) in base.iter_mut().enumerate() {
+            *v = self.block.1[j * len + k - first];
         }
-    }
-
-    /// Evaluate the block that starts at sample k.
-    fn fill(&mut self, smoother: &Smoother, grid: &Grid, k: usize) {
-        let end = (k + BLOCK).min(grid.samples());
-        self.times.clear();
-        self.times.extend((k..end).map(|i| grid.time(i)));
-        let mut cols: Vec<&mut [f64]> = self.cols.iter_mut().map(|c| &mut c[..]).collect();
-        smoother.eval_grid(&self.times, Some(grid.dt), &mut cols);
-        (self.start, self.len) = (k, end - k);
     }
 }

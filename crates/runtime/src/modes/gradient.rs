@@ -29,13 +29,12 @@ use super::record::{Ctx, EntryLog, Record};
 use super::{ModalError, ModalSpec, ModalSummary};
 use crate::gradient::{figures, Direction, Gradient, Integrals, ModalWrt, Point, Wrt};
 use crate::grid::Grid;
-use crate::smoother::ZeroDynamicsReference;
 
 /// ∂(∫ o_a dt)/∂p_c for the model's accumulated outputs a, in their order (`[a][c]`), of the run `rec` on
 /// `grid` with the look-ahead and the zero dynamics' reference `reference`.
 pub(super) fn of_run(
     ctx: &Ctx<'_, '_>,
-    (grid, reference): (&Grid, (f64, ZeroDynamicsReference)),
+    grid: &Grid,
     rec: &Record,
     wrt: &ModalWrt,
 ) -> Result<Vec<Vec<f64>>, ModalError> {
@@ -43,7 +42,7 @@ pub(super) fn of_run(
     let accumulated: Vec<usize> = (0..ctx.spec.n_outputs)
         .filter(|&o| info.outputs[o].accumulate)
         .collect();
-    let zd = ZdSensitivity::new(ctx, grid, reference);
+    let zd = ZdSensitivity::new(ctx);
     integral_gradients(ctx, (grid, zd), rec, wrt, &accumulated)
 }
 

@@ -24,9 +24,8 @@ use super::record::Ctx;
 use super::zd_ode::{ATOL, RTOL};
 use super::ModalError;
 use crate::gradient::{Buffers, Gauss, GridColumns, Singular, NODES};
-use crate::grid::Grid;
 use crate::ode::{Dopri5, StepFailure};
-use crate::smoother::{FineReference, ZeroDynamicsReference};
+use crate::smoother::FineReference;
 
 /// Per mode (built at the mode's first interval) its integrator and work space, and where the last interval
 /// ended.
@@ -72,16 +71,12 @@ struct Nodes {
 }
 
 impl ZdSensitivity {
-    /// For the run on `grid` with its look-ahead and reference of the zero dynamics.
-    pub(super) fn new(
-        ctx: &Ctx<'_, '_>,
-        grid: &Grid,
-        reference: (f64, ZeroDynamicsReference),
-    ) -> ZdSensitivity {
+    /// For the run of `ctx` (reading the zero dynamics' reference as the run does).
+    pub(super) fn new(ctx: &Ctx<'_, '_>) -> ZdSensitivity {
         ZdSensitivity {
             modes: (0..ctx.spec.modes.len()).map(|_| None).collect(),
             last: None,
-            fine: ctx.fine_reference(grid, reference),
+            fine: ctx.fine_reference(),
         }
     }
 

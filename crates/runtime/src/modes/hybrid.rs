@@ -13,10 +13,11 @@ use super::gears::GearBox;
 use super::hybrid_block::{DpBlock, HybridBlock};
 use super::price_cache::PriceCache;
 use super::record::{decided_slots, Ctx};
+use super::reference::ModalReference;
 use super::rows::Rows;
 use super::rule_based::rule_based;
 use super::rules::Rules;
-use super::signals::{record_signals, smoother_with_signals};
+use super::signals::record_signals;
 use super::strategy::{Method, StrategyOptions};
 use super::verify::replay;
 use super::{charge_window, ModalError, ModalOptions, ModalResult, ModalSpec};
@@ -24,6 +25,7 @@ use crate::cycle::Cycle;
 use crate::gradient::{Gradient, ModalWrt};
 use crate::grid::Grid;
 use crate::signals::SignalInput;
+use crate::smoother::ZeroDynamicsReference;
 use invsim_model_api::HybridSpec;
 
 /// `config` against the modes of `spec`.
@@ -165,12 +167,14 @@ pub fn simulate_hybrid_differentiated(
     let grid = Grid::new(cycle.time[0], cycle.duration(), opts.dt)?;
     crate::inverse::checks::check_lookahead(opts.lookahead, cycle.duration(), opts.dt)
         .map_err(|e| ModalError::Setup(e.to_string()))?;
-    let (smoother, resolved) = smoother_with_signals(spec, cycle, opts, signals)?;
+    // The strategies' steps read the smoothed cycle pointwise (no sub-grid).
+    let zd = ZeroDynamicsReference::Pointwise;
+    let reference = ModalReference::kept_or_new(None, spec, (cycle, &grid), opts, (signals, zd))?;
     let r_max = spec.r_max();
     let ctx = Ctx {
         spec,
         rules: Rules::new(spec),
-        smoother,
+        reference,
         r_max,
         n: spec.modes[0].model.info().n_states(),
         transition: opts.lookahead,
@@ -238,7 +242,7 @@ pub fn simulate_hybrid_differentiated(
     result.summary.hybrid = Some(Box::new(block));
     result.summary.gradient = gradient;
     add_engine_on(&mut result, &h.engine_on);
-    record_signals(&mut result, resolved);
+    record_signals(&mut result, ctx.reference.resolved.clone());
     Ok(result)
 }
 
@@ -356,14 +360,14 @@ fn samples(ctx: &Ctx<'_, '_>, grid: &Grid) -> Samples {
     let mut cands = Vec::with_capacity(ns);
     for k in 0..ns {
         let tk = grid.time(k);
-        ctx.smoother.eval(tk, &mut y);
+        ctx.reference.smoother.eval(tk, &mut y);
         base.push(&y);
         let gear = gearbox.gear(tk, y[0]);
         cands.push(candidates(ctx, gear, y[0]));
         t.push(tk);
         if k + 1 < ns {
             midpoints.push(0.5 * (tk + grid.time(k + 1)));
-            ctx.smoother.eval(midpoints[k], &mut y);
+            ctx.reference.smoother.eval(midpoints[k], &mut y);
             mid.push(&y);
         }
     }

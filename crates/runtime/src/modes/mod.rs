@@ -31,6 +31,7 @@ mod minimise;
 pub mod plant;
 mod price_cache;
 mod record;
+mod reference;
 mod rows;
 mod rule_based;
 pub(crate) mod rules;
@@ -53,8 +54,9 @@ pub use hybrid::{simulate_hybrid, simulate_hybrid_differentiated};
 pub use hybrid_block::{DpBlock, HybridBlock};
 pub use plant::{GearSchedule, ModalPlant, ModalPlantBuilder, ModeMeta};
 pub use record::{CouplingReset, Impulse, ModeTime, Transition};
+pub(crate) use reference::ReferenceCell;
 pub use rows::Rows;
-pub(crate) use runner::{decided_inputs_of, refuse_decided};
+pub(crate) use runner::{decided_inputs_of, refuse_decided, simulate_modes_kept};
 pub use runner::{
     simulate_modes, simulate_modes_differentiated, simulate_modes_with_reference,
     simulate_modes_with_signals,

@@ -7,7 +7,6 @@ use serde::Serialize;
 use super::rows::Rows;
 use super::rules::Rules;
 use super::ModalSpec;
-use crate::smoother::Smoother;
 
 /// Time spent in one mode.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -68,7 +67,8 @@ pub(super) struct Ctx<'a, 'm> {
     pub(super) spec: &'a ModalSpec<'m>,
     /// The sequence's rules of the spec (computed once).
     pub(super) rules: Rules<'a, 'm>,
-    pub(super) smoother: Smoother,
+    /// The smoothed cycle and signals (at the samples, on the zero dynamics' sub-grid, pointwise).
+    pub(super) reference: std::sync::Arc<super::reference::ModalReference>,
     /// Highest relative degree over the modes (yd columns 0 … r_max).
     pub(super) r_max: usize,
     pub(super) n: usize,

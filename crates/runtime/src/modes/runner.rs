@@ -8,9 +8,10 @@ use super::bases::Bases;
 use super::blend::Blend;
 use super::gears::GearBox;
 use super::record::{CouplingReset, Ctx, EntryLog, Impulse, Record, Solved, Transition};
+use super::reference::{ModalReference, ReferenceCell};
 use super::rules::Rules;
 use super::sequence::{decide, Moment, Place, Rung, Switcher};
-use super::signals::{record_signals, smoother_with_signals};
+use super::signals::record_signals;
 use super::verify::replay;
 use super::zd_ode::ZdOde;
 use super::{ModalError, ModalOptions, ModalResult, ModalSpec, Switching};
@@ -51,19 +52,14 @@ pub(super) struct ZeroDynamics {
 }
 
 impl ZeroDynamics {
-    fn new(
-        ctx: &Ctx<'_, '_>,
-        grid: &Grid,
-        lookahead: f64,
-        how: ZeroDynamicsReference,
-    ) -> ZeroDynamics {
+    fn new(ctx: &Ctx<'_, '_>, grid: &Grid) -> ZeroDynamics {
         ZeroDynamics {
             ode: ctx.spec.modes.iter().map(|_| None).collect(),
             dt: grid.dt,
             y: vec![0.0; ctx.r_max + 1],
             w: Vec::new(),
             last: None,
-            fine: ctx.fine_reference(grid, (lookahead, how)),
+            fine: ctx.fine_reference(),
         }
     }
 }
@@ -75,38 +71,17 @@ impl Ctx<'_, '_> {
 
     /// y^(0 … r_max) of mode `m`'s reference at t into `y`: its map of the smoothed cycle, plus the blend.
     pub(super) fn reference_into(&self, m: usize, t: f64, blend: Option<&Blend>, y: &mut [f64]) {
-        self.smoother.eval(t, y);
+        self.reference.smoother.eval(t, y);
         self.map_cycle(m, y);
         if let Some(b) = blend {
             b.add(t, y);
         }
     }
 
-    /// The sub-grid of the zero dynamics' reference on `grid` (`None`: evaluated pointwise, as `how` asks or
-    /// where no mode has internal dynamics), for the run's look-ahead.
-    pub(super) fn fine_reference(
-        &self,
-        grid: &Grid,
-        (lookahead, how): (f64, ZeroDynamicsReference),
-    ) -> Option<FineReference> {
-        // q: the highest relative degree of a mode with internal dynamics (none: nothing to integrate).
-        let q = self
-            .spec
-            .modes
-            .iter()
-            .map(|m| m.model.info())
-            .filter(|i| i.n_eta > 0)
-            .map(|i| i.relative_degree)
-            .max();
-        match (how, q) {
-            (ZeroDynamicsReference::SubGrid, Some(q)) => Some(FineReference::new(
-                &self.smoother,
-                (grid.time(0), grid.dt, grid.n),
-                lookahead,
-                q,
-            )),
-            _ => None,
-        }
+    /// A reader of the zero dynamics' sub-grid (`None`: evaluated pointwise, as the run's options ask or
+    /// where no mode has internal dynamics).
+    pub(super) fn fine_reference(&self) -> Option<FineReference> {
+        self.reference.fine.clone().map(FineReference::on)
     }
 
     /// y^(0 … r) of mode `m`'s reference (r = y.len() − 1) and its signals (`w`, of length n_w) at a stage
@@ -122,7 +97,7 @@ impl Ctx<'_, '_> {
         match fine {
             Some(fine) => {
                 w.resize(n_w, 0.0);
-                fine.eval(&self.smoother, t, y, &mut w[..n_w]);
+                fine.eval(&self.reference.smoother, t, y, &mut w[..n_w]);
                 self.map_cycle(m, y);
                 if let Some(b) = blend {
                     b.add(t, y);
@@ -263,7 +238,7 @@ impl Ctx<'_, '_> {
         self.w_into(m, t0, n_w, w);
         // Where the reference and the signals are constant on the interval (a standstill more than a
         // look-ahead from any corner, no transition under way), the stage times take t0's values.
-        let still = blend.is_none_or(|b| b.done(t0)) && self.smoother.still_on(t0, t1);
+        let still = blend.is_none_or(|b| b.done(t0)) && self.reference.smoother.still_on(t0, t1);
         let mut at = t0;
         let mut f = |t: f64, e: &[f64], de: &mut [f64]| -> Result<(), StepFailure> {
             if !still && t.to_bits() != at.to_bits() {
@@ -400,7 +375,20 @@ pub fn simulate_modes_differentiated(
     cycle: &Cycle,
     opts: &ModalOptions,
     signals: &[SignalInput],
+    how: (ZeroDynamicsReference, Option<&crate::gradient::ModalWrt>),
+) -> Result<ModalResult, ModalError> {
+    simulate_modes_kept(spec, cycle, opts, signals, how, None)
+}
+
+/// [`simulate_modes_differentiated`] reading the smoothed cycle kept in `kept` where it was made for this
+/// run (else made, and kept there if `kept` is empty): a sweep's runs on one cycle share it.
+pub(crate) fn simulate_modes_kept(
+    spec: &ModalSpec<'_>,
+    cycle: &Cycle,
+    opts: &ModalOptions,
+    signals: &[SignalInput],
     (zd, wrt): (ZeroDynamicsReference, Option<&crate::gradient::ModalWrt>),
+    kept: Option<&ReferenceCell>,
 ) -> Result<ModalResult, ModalError> {
     if spec.modes.is_empty() {
         return Err(ModalError::Setup("the model has no mode".into()));
@@ -409,7 +397,7 @@ pub fn simulate_modes_differentiated(
     let grid = Grid::new(cycle.time[0], cycle.duration(), opts.dt)?;
     crate::inverse::checks::check_lookahead(opts.lookahead, cycle.duration(), opts.dt)
         .map_err(|e| ModalError::Setup(e.to_string()))?;
-    let (smoother, resolved) = smoother_with_signals(spec, cycle, opts, signals)?;
+    let reference = ModalReference::kept_or_new(kept, spec, (cycle, &grid), opts, (signals, zd))?;
     let r_max = spec.r_max();
     let n = spec.modes[0].model.info().n_states();
     let transition = opts.transition_time.unwrap_or(opts.lookahead);
@@ -421,26 +409,26 @@ pub fn simulate_modes_differentiated(
     let ctx = Ctx {
         spec,
         rules: Rules::new(spec),
-        smoother,
+        reference,
         r_max,
         n,
         transition,
         decided: super::record::decided_slots(spec),
     };
-    let rec = run_sequence(&ctx, &grid, opts, zd)?;
+    let rec = run_sequence(&ctx, &grid, opts)?;
     let verify = if opts.verify {
         Some(replay(&ctx, &rec)?)
     } else {
         None
     };
     let derivatives = wrt
-        .map(|wrt| super::gradient::of_run(&ctx, (&grid, (opts.lookahead, zd)), &rec, wrt))
+        .map(|wrt| super::gradient::of_run(&ctx, &grid, &rec, wrt))
         .transpose()?;
     let mut result = super::summary::assemble(&ctx, cycle, opts, rec, verify);
     if let Some((wrt, d)) = wrt.zip(derivatives) {
         result.summary.gradient = Some(super::gradient::figures_of(spec, wrt, &result.summary, d));
     }
-    record_signals(&mut result, resolved);
+    record_signals(&mut result, ctx.reference.resolved.clone());
     Ok(result)
 }
 
@@ -469,20 +457,15 @@ pub(crate) fn refuse_decided(spec: &ModalSpec<'_>) -> Result<(), ModalError> {
     Ok(())
 }
 
-fn run_sequence(
-    ctx: &Ctx<'_, '_>,
-    grid: &Grid,
-    opts: &ModalOptions,
-    zd: ZeroDynamicsReference,
-) -> Result<Record, ModalError> {
+fn run_sequence(ctx: &Ctx<'_, '_>, grid: &Grid, opts: &ModalOptions) -> Result<Record, ModalError> {
     let spec = ctx.spec;
     let mut gearbox = GearBox::new(spec.gear_source.clone(), spec.gears);
     let t0 = grid.time(0);
     // The smoothed cycle at the sample, y_c^(0 … max(r_max, 1)) (what every mode's reference at a sample is
     // a map of), evaluated on the grid block by block.
-    let mut base = vec![0.0; ctx.r_max.max(1) + 1];
-    let mut bases = Bases::new(base.len());
-    bases.at(&ctx.smoother, grid, 0, &mut base);
+    let mut bases = Bases::new(&ctx.reference.samples);
+    let mut base = vec![0.0; ctx.reference.samples.orders()];
+    bases.at(&ctx.reference.smoother, 0, &mut base);
     let gear = gearbox.gear(t0, base[0]);
     let stand = base[0] < spec.sequence.standstill_below && ctx.rules.has_standstill;
     let rung = if stand {
@@ -509,7 +492,7 @@ fn run_sequence(
     let per_sample = 2 * ctx.n + ctx.r_max + 6;
     crate::grid::check_record(grid.samples(), per_sample, opts.dt)?;
     let mut rec = Record::new((t0, base[0]), mode, grid.samples(), (ctx.n, ctx.r_max + 1));
-    let mut zd = ZeroDynamics::new(ctx, grid, opts.lookahead, zd);
+    let mut zd = ZeroDynamics::new(ctx, grid);
     // Decide at t0 too (a start that needs another mode at once).
     let mut cur = step_sequence(
         ctx,
@@ -534,7 +517,7 @@ fn run_sequence(
             inner.blend.as_ref(),
             &mut zd,
         )?;
-        bases.at(&ctx.smoother, grid, k, &mut base);
+        bases.at(&ctx.reference.smoother, k, &mut base);
         let local = (&inner.eta[..], inner.blend.as_ref());
         ctx.solve_into(m, (tb, &base), local, &cur.x, &mut spare)?;
         rec.u_end.push(spare.u);

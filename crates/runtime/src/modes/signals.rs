@@ -1,6 +1,7 @@
 //! The exogenous signals (`[signals]`, contract §5) of a model with modes: resolved once for the run from the
 //! same sources as for a single-mode model (command line, cycle column, route/elevation, default;
-//! `crate::signals`), smoothed with the reference's kernel and look-ahead, and handed to each mode in the
+//! `crate::signals`; `reference.rs` resolves them with the run's reference), smoothed with the reference's
+//! kernel and look-ahead, and handed to each mode in the
 //! layout that mode's evaluation methods take: [S, S_d1, …, S_dr] per signal with r that mode's relative
 //! degree (modes may differ in r; the smoother evaluates every derivative order exactly, each mode takes the
 //! first r + 1 of them), then the inputs a strategy decides in the mode (`decided`: its model carries them as
@@ -8,70 +9,10 @@
 //! its samples and interval midpoints ([`Ctx::signal_rows`], R = r_max), and lays each mode's values out of
 //! those rows ([`Ctx::w_from_row`]).
 
-use invsim_model_api::{InverseModel, ModelInfo, SignalInfo};
-
 use super::record::Ctx;
 use super::rows::Rows;
-use super::{ModalError, ModalOptions, ModalResult, ModalSpec};
-use crate::cycle::Cycle;
-use crate::elevation::Along;
-use crate::signals::{resolve_declared, ResolvedSignal, SignalInput};
-use crate::smoother::Smoother;
-
-/// The exogenous signals a mode's model declares: its signals less the inputs a strategy decides, which the
-/// model carries as signals named like the input.
-pub(super) fn exogenous<'i>(spec: &ModalSpec<'_>, info: &'i ModelInfo) -> Vec<&'i SignalInfo> {
-    let is_input = |s: &SignalInfo| spec.inputs.iter().any(|i| i.name == s.name);
-    info.signals.iter().filter(|s| !is_input(s)).collect()
-}
-
-/// The signals of the run, from the first mode's declaration (every mode of a model file declares the same
-/// `[signals]`; a spec whose modes disagree is refused).
-pub(super) fn resolve_modal(
-    spec: &ModalSpec<'_>,
-    cycle: &Cycle,
-    given: &[SignalInput],
-    along: Along,
-) -> Result<Vec<ResolvedSignal>, ModalError> {
-    let Some(first) = spec.modes.first() else {
-        return Ok(Vec::new());
-    };
-    let names = |m: &dyn InverseModel| -> Vec<String> {
-        let exo = exogenous(spec, m.info());
-        exo.iter().map(|s| s.name.clone()).collect()
-    };
-    let declared = names(first.model);
-    if let Some(m) = spec.modes.iter().find(|m| names(m.model) != declared) {
-        return Err(ModalError::Setup(format!(
-            "mode `{}` declares other signals than mode `{}`",
-            m.name, first.name
-        )));
-    }
-    let declared: Vec<SignalInfo> = exogenous(spec, first.model.info())
-        .into_iter()
-        .cloned()
-        .collect();
-    resolve_declared(&declared, cycle, given, along).map_err(|e| ModalError::Run(e.into()))
-}
-
-/// The run's smoother: the smoothed cycle carrying the signals of `given` and the other sources
-/// ([`resolve_modal`], a route profile read along the smoothed reference's distance as in a single-mode
-/// inverse run), with the signals resolved.
-pub(super) fn smoother_with_signals(
-    spec: &ModalSpec<'_>,
-    cycle: &Cycle,
-    opts: &ModalOptions,
-    given: &[SignalInput],
-) -> Result<(Smoother, Vec<ResolvedSignal>), ModalError> {
-    let along = Along::Smoothed {
-        lookahead: opts.lookahead,
-    };
-    let resolved = resolve_modal(spec, cycle, given, along)?;
-    let smoother = Smoother::new(cycle, opts.lookahead)
-        .map_err(|e| ModalError::Setup(e.to_string()))?
-        .with_signals(crate::signals::smoothers(&resolved, opts.lookahead));
-    Ok((smoother, resolved))
-}
+use super::ModalResult;
+use crate::signals::ResolvedSignal;
 
 /// The signals a run used, into its result and its summary (smoothed).
 pub(super) fn record_signals(result: &mut ModalResult, resolved: Vec<ResolvedSignal>) {
@@ -96,19 +37,19 @@ impl Ctx<'_, '_> {
         }
         w.resize(n_w, 0.0);
         let per = self.spec.modes[m].model.info().relative_degree + 1;
-        let exogenous = self.smoother.signals().len() * per;
-        self.smoother.eval_signals(t, &mut w[..exogenous]);
+        let exogenous = self.reference.smoother.signals().len() * per;
+        self.reference.smoother.eval_signals(t, &mut w[..exogenous]);
     }
 
     /// [S, S_d1, …, S_dR] of every exogenous signal at each of `times`, R = r_max (no rows without
     /// signals): the values [`Ctx::w_into`] gives at those times, every order of them.
     pub(super) fn signal_rows(&self, times: &[f64]) -> Rows {
-        let n = self.smoother.signals().len() * (self.r_max + 1);
+        let n = self.reference.smoother.signals().len() * (self.r_max + 1);
         let mut rows = Rows::with_capacity(n, if n == 0 { 0 } else { times.len() });
         if n > 0 {
             let mut w = vec![0.0; n];
             for &t in times {
-                self.smoother.eval_signals(t, &mut w);
+                self.reference.smoother.eval_signals(t, &mut w);
                 rows.push(&w);
             }
         }

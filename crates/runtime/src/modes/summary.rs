@@ -112,7 +112,7 @@ fn columns(ctx: &Ctx<'_, '_>) -> Vec<(String, Option<String>)> {
         ("gear".into(), None),
     ];
     c.extend((0..=ctx.r_max).map(|k| (format!("yd_{k}"), None)));
-    for sig in super::signals::exogenous(spec, info) {
+    for sig in super::reference::exogenous(spec, info) {
         c.push((sig.name.clone(), sig.unit.clone()));
         c.extend((1..=ctx.r_max).map(|k| (format!("{}_d{k}", sig.name), None)));
     }

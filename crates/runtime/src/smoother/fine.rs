@@ -19,6 +19,8 @@
 //! built-in cycles. The adaptive integrator's stage times then cost a few multiply-adds each instead of a pointwise
 //! evaluation of every corner's kernel terms.
 
+use std::sync::{Arc, OnceLock};
+
 use crate::smoother::Smoother;
 
 /// Where the zero dynamics (a causal run's, a mode's with r < n) take the reference y^(0 … r) and the signals
@@ -35,13 +37,17 @@ pub enum ZeroDynamicsReference {
 
 /// The largest sub-grid step per second of look-ahead (0.02 s at a = 5 s).
 const H_MAX_PER_LOOKAHEAD: f64 = 0.004;
-/// Sub-grid intervals per block, and the intervals a block starts before the first one asked for.
+/// Sub-grid intervals per block: block b holds the points b·BLOCK … (b + 1)·BLOCK.
 const BLOCK: usize = 128;
-const BACK: usize = 8;
+/// The most values a table keeps (32 MB); a larger sub-grid (a short look-ahead on a long cycle) computes a
+/// block again whenever it is needed anew.
+const KEPT_MAX: usize = 1 << 22;
 
-/// The smoothed cycle and signals on the block of the sub-grid in hand.
-#[derive(Clone)]
-pub(crate) struct FineReference {
+/// The sub-grid of a run and its blocks, each evaluated once when first needed and kept (within
+/// [`KEPT_MAX`]) for every [`FineReference`] on the table: a run's stages, its gradient's, a sweep's runs on
+/// one cycle. The blocks lie at fixed places on the sub-grid, so a value is the same bits whichever run or
+/// order of evaluation computed it.
+pub(crate) struct FineTable {
     t0: f64,
     h: f64,
     inv_h: f64,
@@ -50,95 +56,141 @@ pub(crate) struct FineReference {
     /// Orders held per smoothed quantity (q + 3), and the quantities (the cycle, then each signal).
     orders: usize,
     quantities: usize,
-    /// Index of the block's first point and the number of its points (0 before the first).
-    start: usize,
-    len: usize,
-    times: Vec<f64>,
-    /// The block as `eval_grid` writes it: `cols[c·orders + j][i]` = order j of quantity c at point start + i.
-    cols: Vec<Vec<f64>>,
-    /// The same values point by point: `pts[i·stride + c·orders + j]`, stride = quantities·orders, so that an
-    /// interpolation reads two short runs of memory.
-    pts: Vec<f64>,
+    /// Per block, its values point by point: `[p·stride + c·orders + j]` = order j of quantity c at the
+    /// block's point p, stride = quantities·orders (an interpolation reads two short runs of memory).
+    /// `None`: over the budget, nothing kept.
+    kept: Option<Vec<OnceLock<Arc<[f64]>>>>,
 }
 
-impl FineReference {
+impl FineTable {
     /// The sub-grid of a run on t_0 + k·dt, k = 0 … n, with look-ahead `lookahead`, for relative degrees up
-    /// to `q`.
+    /// to `q` and the signals of `smoother`.
     pub(crate) fn new(
         smoother: &Smoother,
         (t0, dt, n): (f64, f64, usize),
         lookahead: f64,
         q: usize,
-    ) -> Self {
+    ) -> FineTable {
         let sub = (dt / (H_MAX_PER_LOOKAHEAD * lookahead)).ceil().max(1.0) as usize;
         let orders = q + 3;
         let quantities = 1 + smoother.signals().len();
         let h = dt / sub as f64;
-        FineReference {
+        let last = n.saturating_mul(sub);
+        let blocks = last / BLOCK + 1;
+        let values = blocks
+            .saturating_mul(BLOCK + 1)
+            .saturating_mul(quantities * orders);
+        FineTable {
             t0,
             h,
             inv_h: 1.0 / h,
-            last: n * sub,
+            last,
             orders,
             quantities,
-            start: 0,
-            len: 0,
-            times: Vec::with_capacity(BLOCK + 1),
-            cols: vec![vec![0.0; BLOCK + 1]; quantities * orders],
-            pts: vec![0.0; (BLOCK + 1) * quantities * orders],
+            kept: (values <= KEPT_MAX).then(|| (0..blocks).map(|_| OnceLock::new()).collect()),
+        }
+    }
+
+    /// Block b's values, kept or evaluated (`cols`: a buffer for [`FineTable::evaluate`]).
+    fn block(&self, smoother: &Smoother, b: usize, cols: &mut Vec<f64>) -> Arc<[f64]> {
+        match &self.kept {
+            Some(kept) => kept[b]
+                .get_or_init(|| self.evaluate(smoother, b, cols))
+                .clone(),
+            None => self.evaluate(smoother, b, cols),
+        }
+    }
+
+    /// Evaluate block b: the smoothed cycle and signals at its points by [`Smoother::eval_grid`], column by
+    /// column into `cols` (`cols[c·len + p]`, every value written), then point by point.
+    #[inline(never)]
+    fn evaluate(&self, smoother: &Smoother, b: usize, cols: &mut Vec<f64>) -> Arc<[f64]> {
+        let first = b * BLOCK;
+        let end = (first + BLOCK).min(self.last);
+        let times: Vec<f64> = (first..=end).map(|p| self.t0 + p as f64 * self.h).collect();
+        let (len, stride) = (times.len(), self.quantities * self.orders);
+        cols.resize(len * stride, 0.0);
+        let (reference, signals) = cols[..len * stride].split_at_mut(self.orders * len);
+        let mut refs: Vec<&mut [f64]> = reference.chunks_exact_mut(len).collect();
+        smoother.eval_grid(&times, Some(self.h), &mut refs);
+        let mut refs: Vec<&mut [f64]> = signals.chunks_exact_mut(len).collect();
+        smoother.eval_signals_grid(&times, Some(self.h), &mut refs);
+        let mut pts = Vec::with_capacity(len * stride);
+        for p in 0..len {
+            pts.extend(cols[p..len * stride].iter().step_by(len));
+        }
+        pts.into()
+    }
+}
+
+/// The smoothed cycle and signals at any time of a run, read from a [`FineTable`] with the two blocks read
+/// last in hand (a step's stage times are not in order — DOP853's c_7 = 0.25 follows c_6 = 1/3 — and a
+/// rejected step is retried from its start, so a step across a block's end reads both).
+#[derive(Clone)]
+pub(crate) struct FineReference {
+    table: Arc<FineTable>,
+    /// The blocks in hand, the latest first: (block, values); `usize::MAX`: none.
+    slots: [(usize, Arc<[f64]>); 2],
+    /// The buffer of a block's evaluation.
+    cols: Vec<f64>,
+}
+
+impl FineReference {
+    /// The sub-grid of a run on t_0 + k·dt, k = 0 … n, with look-ahead `lookahead`, for relative degrees up
+    /// to `q`, on a table of its own.
+    pub(crate) fn new(
+        smoother: &Smoother,
+        span: (f64, f64, usize),
+        lookahead: f64,
+        q: usize,
+    ) -> Self {
+        Self::on(Arc::new(FineTable::new(smoother, span, lookahead, q)))
+    }
+
+    /// Reading `table` (shared with every other reader of it).
+    pub(crate) fn on(table: Arc<FineTable>) -> Self {
+        let none: Arc<[f64]> = Arc::new([]);
+        FineReference {
+            table,
+            slots: [(usize::MAX, none.clone()), (usize::MAX, none)],
+            cols: Vec::new(),
         }
     }
 
     /// y_c^(0 … r) at t into `y` (r = y.len() − 1 ≤ q) and the signals in a mode's layout
     /// [S, S', …, S^(r)] per signal into `w` (empty without signals).
     pub(crate) fn eval(&mut self, smoother: &Smoother, t: f64, y: &mut [f64], w: &mut [f64]) {
+        let table = &*self.table;
         // i = ⌊(t − t_0)/h⌋ within 0 … last − 1 (the cast truncates, which is the floor of a positive number).
-        let pos = (t - self.t0) * self.inv_h;
+        let pos = (t - table.t0) * table.inv_h;
         let i = if pos > 0.0 {
-            (pos as usize).min(self.last.saturating_sub(1))
+            (pos as usize).min(table.last.saturating_sub(1))
         } else {
             0
         };
-        if !(i >= self.start && i + 1 < self.start + self.len) {
-            // A step's stage times are not in order (DOP853's c_7 = 0.25 follows c_6 = 1/3) and a rejected
-            // step is retried from its start: a block starting a few intervals before i keeps such steps
-            // from filling the block twice.
-            self.fill(smoother, i.saturating_sub(BACK));
+        let b = i / BLOCK;
+        if self.slots[0].0 != b {
+            if self.slots[1].0 == b {
+                self.slots.swap(0, 1);
+            } else {
+                let values = table.block(smoother, b, &mut self.cols);
+                self.slots[1] = std::mem::replace(&mut self.slots[0], (b, values));
+            }
         }
-        let k = i - self.start;
-        let b = hermite((t - self.times[k]) * self.inv_h, self.h);
-        let (orders, per, signals) = (self.orders, y.len(), self.quantities - 1);
-        let stride = self.quantities * orders;
-        let (p0, p1) = self.pts[k * stride..(k + 2) * stride].split_at(stride);
+        let k = i - b * BLOCK;
+        let ti = table.t0 + i as f64 * table.h;
+        let bw = hermite((t - ti) * table.inv_h, table.h);
+        let (orders, per, signals) = (table.orders, y.len(), table.quantities - 1);
+        let stride = table.quantities * orders;
+        let (p0, p1) = self.slots[0].1[k * stride..(k + 2) * stride].split_at(stride);
         // Order j of quantity c from orders j, j + 1, j + 2 at both ends (quantity c's orders start at
         // c·orders); signal c's r + 1 values (r + 1 = y.len()) go to w[(c − 1)·(r + 1) …] (what follows the
         // signals in w, a mode's decided inputs, is left as it is).
-        interpolate(&b, &p0[..orders], &p1[..orders], y);
+        interpolate(&bw, &p0[..orders], &p1[..orders], y);
         for (c, out) in w[..signals * per].chunks_exact_mut(per).enumerate() {
             let at = (c + 1) * orders;
-            interpolate(&b, &p0[at..at + orders], &p1[at..at + orders], out);
+            interpolate(&bw, &p0[at..at + orders], &p1[at..at + orders], out);
         }
-    }
-
-    /// Evaluate the block whose first interval is i.
-    #[inline(never)]
-    fn fill(&mut self, smoother: &Smoother, i: usize) {
-        let end = (i + BLOCK).min(self.last);
-        self.times.clear();
-        self.times
-            .extend((i..=end).map(|p| self.t0 + p as f64 * self.h));
-        let (reference, signals) = self.cols.split_at_mut(self.orders);
-        let mut cols: Vec<&mut [f64]> = reference.iter_mut().map(|c| &mut c[..]).collect();
-        smoother.eval_grid(&self.times, Some(self.h), &mut cols);
-        let mut cols: Vec<&mut [f64]> = signals.iter_mut().map(|c| &mut c[..]).collect();
-        smoother.eval_signals_grid(&self.times, Some(self.h), &mut cols);
-        let stride = self.quantities * self.orders;
-        for (c, col) in self.cols.iter().enumerate() {
-            for (p, &v) in col[..self.times.len()].iter().enumerate() {
-                self.pts[p * stride + c] = v;
-            }
-        }
-        (self.start, self.len) = (i, end + 1 - i);
     }
 }
 
@@ -233,6 +285,41 @@ mod tests {
             let rel = worst[k] / (1.0 + scale[k]);
             let name = &cycle.name;
             assert!(rel < 1e-11, "{name} a {a} dt {dt} column {k}: {rel:e}");
+        }
+    }
+
+    /// A value read from a table is the same bits whichever reader evaluated its block and in whatever order
+    /// the times came, kept or not: readers of one table (a sweep's runs) equal a run on its own.
+    #[test]
+    fn a_shared_table_reads_as_a_table_of_its_own() {
+        let cycle = Cycle::builtin("udds").expect("built-in");
+        let smoother = Smoother::new(&cycle, 2.0).expect("smoother");
+        let span = (
+            cycle.time[0],
+            0.5,
+            (cycle.duration() / 0.5).floor() as usize,
+        );
+        let shared = Arc::new(FineTable::new(&smoother, span, 2.0, 1));
+        let mut unkept = FineTable::new(&smoother, span, 2.0, 1);
+        assert!(shared.kept.is_some());
+        unkept.kept = None;
+        let (mut a, mut b) = (FineReference::on(shared.clone()), FineReference::on(shared));
+        let mut c = FineReference::on(Arc::new(unkept));
+        let mut own = FineReference::new(&smoother, span, 2.0, 1);
+        let times: Vec<f64> = (0..3000).map(|i| 0.4567 * i as f64).collect();
+        // b reads the blocks a evaluated, backwards; c evaluates every block anew, in a scattered order.
+        let read = |f: &mut FineReference, t: f64| {
+            let mut y = [0.0; 2];
+            f.eval(&smoother, t, &mut y, &mut []);
+            y.map(f64::to_bits)
+        };
+        let first: Vec<_> = times.iter().map(|&t| read(&mut a, t)).collect();
+        for (i, &t) in times.iter().enumerate().rev() {
+            assert_eq!(read(&mut b, t), first[i], "t = {t}");
+        }
+        for i in (0..times.len()).map(|i| (i * 7919) % times.len()) {
+            assert_eq!(read(&mut c, times[i]), first[i], "t = {}", times[i]);
+            assert_eq!(read(&mut own, times[i]), first[i], "t = {}", times[i]);
         }
     }
 

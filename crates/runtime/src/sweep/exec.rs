@@ -39,14 +39,14 @@ fn run_variant(
             *spare = result.data;
             Ok(Figures::from_summary(&result.summary, &sweep.integrals))
         }
-        (Plant::Modal(p), Shared::Gears(gears)) => {
+        (Plant::Modal(p), Shared::Gears(gears, kept)) => {
             let wrt = opts
                 .gradient
                 .as_deref()
                 .map(|names| crate::run::modal_gradient_params(p, opts, names))
                 .transpose()
                 .map_err(|e| e.to_string())?;
-            let result = simulate_modal(p, gears.clone(), cycle, opts, wrt.as_ref())
+            let result = simulate_modal(p, (gears.clone(), Some(kept)), cycle, opts, wrt.as_ref())
                 .map_err(|e| e.to_string())?;
             Ok(Figures::from_modal(&result.summary, &sweep.integrals))
         }

@@ -480,7 +480,7 @@ fn expand(design: &Design) -> Result<(Vec<String>, Vec<Vec<f64>>), SweepError> {
 }
 
 /// What every run of `model` on `cycle` (read from `file`, `None` for a built-in) shares: the smoothed
-/// reference of a model without modes, the gear schedule of one with modes.
+/// reference of a model without modes, the gear schedule and the smoothed cycle of one with modes.
 fn shared(
     model: &Plant,
     cycle: &Cycle,
@@ -496,7 +496,7 @@ fn shared(
             }),
         Plant::Modal(p) => p
             .gear_source(cycle, file)
-            .map(Shared::Gears)
+            .map(|gears| Shared::Gears(gears, crate::modes::ReferenceCell::new()))
             .map_err(|reason| SweepError::Gears {
                 cycle: cycle.name.clone(),
                 reason,
