@@ -22,11 +22,6 @@ const BASE: &str = "pt_type.HEV";
 const V_EPS: f64 = 0.1;
 /// The power scale of the smooth positive part (P + sqrt(P² + p_ε²))/2, W: within p_ε/2 of max(P, 0).
 const P_EPS: f64 = 1.0;
-/// The hybrid mode's share rho of the engine's power taken by the machine: at most 0.99 (the transmission's
-/// input (1 − rho) P_e stays positive: the mode drives the wheels), at least −1 (the machine adds as much as
-/// the engine).
-const RHO_MAX: f64 = 0.99;
-const RHO_MIN: f64 = -1.0;
 
 /// Emit the powertrain, its six modes and the `[hybrid]` table.
 pub fn emit(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<(), ImportError> {
@@ -91,11 +86,11 @@ fn engine(
     let curve = table(doc, &p("fc.eff_interp_from_pwr_out"))?;
     let eff = crate::efficiency::emit(model, "fc", &curve, "P_e/P_fc_max", "engine efficiency")?;
     let divisor = crate::fuel::divisor(&curve, &eff);
-    // The hybrid mode's engine power at its share rho is P_tx/(1 - rho), P_tx = P_w/eta_t while driving
-    // (F_t above); the heat sees it from the lagged wheel power, free of the inputs as a state's rhs must be.
+    // The hybrid mode's engine power is P_tx + P_c, P_tx = P_w/eta_t while driving (F_t above); the heat sees
+    // it from the lagged wheel power, free of the free input as a state's rhs must be (P_c is decided).
     // The engine starts warm: ECMS, pricing each interval alone, cannot warm a cold one (docs/hybrids.md).
     let coupling = crate::thermal::Coupling {
-        output_s: "c_on*P_w_pos_s/(eta_t*(1 - rho))",
+        output_s: "c_on*(P_w_pos_s/eta_t + P_c)",
         run_s: "c_on",
         fuel_s: "1",
         warm: true,
@@ -184,7 +179,7 @@ fn battery(doc: &Doc, model: &mut Model, warnings: &mut Vec<String>) -> Result<(
         model.field(name, doc.num(&p(f))?, "-", what, &p(f))?;
     }
     let table = crate::battery::efficiency(doc, model, &p("res.eff_interp"), warnings)?;
-    model.def("P_mach", "P_m - P_r - rho*P_e", "W", "machine shaft power: driving alone (P_m), regenerating (P_r), or the share -rho of the engine's power in the hybrid mode (charging for rho > 0, assisting for rho < 0)");
+    model.def("P_mach", "P_m - P_r - P_c - rho*P_e", "W", "machine shaft power: driving alone (P_m), regenerating (P_r), taking P_c of the engine's power in the hybrid mode (charging for P_c > 0, assisting for P_c < 0), or all of it in the charging modes (rho = 1)");
     model.def(
         "P_m_pos",
         "(P_mach + sqrt(P_mach^2 + p_eps^2))/2",
@@ -248,9 +243,9 @@ fn initial_soc(doc: &Doc) -> Result<(f64, String), ImportError> {
 fn forces(model: &mut Model) {
     let f_t = crate::model::Item {
         name: "F_t".to_string(),
-        expr: "(eta_t*((1 - rho)*P_e + P_m) - P_r/eta_t)/sqrt(v^2 + v_eps^2) - F_b".to_string(),
+        expr: "(eta_t*((1 - rho)*P_e - P_c + P_m) - P_r/eta_t)/sqrt(v^2 + v_eps^2) - F_b".to_string(),
         unit: "N".to_string(),
-        doc: "tractive force at the wheels: the transmission input power while driving (the engine's less the share rho the machine takes, and the machine's alone) times eta_t, less the regenerated power over eta_t and the friction brakes (FASTSim: P_w = eta_t P_tx driving, P_tx/eta_t braking); each input has one sign, so each mode's power flows one way".to_string(),
+        doc: "tractive force at the wheels: the transmission input power while driving (the engine's less what the machine takes of it, P_c in the hybrid mode or all with rho = 1, and the machine's alone) times eta_t, less the regenerated power over eta_t and the friction brakes (FASTSim: P_w = eta_t P_tx driving, P_tx/eta_t braking); each mode's power flows one way".to_string(),
         accumulate: None,
     };
     model.defs.insert(0, f_t);
@@ -267,9 +262,14 @@ fn rolling_at_standstill(model: &mut Model) {
     }
 }
 
-/// The inputs, each of one sign: the engine's power, the hybrid mode's share rho, the machine driving alone or
-/// regenerating, the friction brakes up to 1 g (a mode whose power could flow either way through the
-/// transmission with one efficiency would gain 1/eta_t^2 of the braking power).
+/// The inputs: the engine's power, the machine's power taken from the engine's in the hybrid mode (either
+/// sign: charging or assisting) and its switch to all of it in the charging modes, the machine driving alone
+/// or regenerating, the friction brakes up to 1 g. The engine's power is free in the hybrid mode, so its
+/// transmission input P_e − P_c is the wheels' demand, positive: the power flows one way (a mode whose power
+/// could flow either way through the transmission with one efficiency would gain 1/eta_t^2 of the braking
+/// power). The strategy decides P_c, held over a step as FASTSim's controller holds its powers; the engine
+/// follows the demand within the step (deciding a share of the engine's power instead, P_e = P_tx/(1 − share)
+/// multiplied the demand's change within a step by up to 1/(1 − share), 100 at a share of 0.99).
 fn inputs(doc: &Doc, model: &mut Model, fc: f64, em: f64) -> Result<(), ImportError> {
     let mass = doc.num("mass_kilograms")?;
     let input = |name: &str, min: f64, max: f64, unit: &str, doc: &str| Input {
@@ -281,7 +281,8 @@ fn inputs(doc: &Doc, model: &mut Model, fc: f64, em: f64) -> Result<(), ImportEr
     };
     model.inputs = vec![
         input("P_e", 0.0, fc, "W", "engine shaft power, up to its peak (FASTSim `fc.pwr_out_max_watts`)"),
-        input("rho", RHO_MIN, RHO_MAX, "-", "the share of the engine's power the machine takes in the hybrid mode: charging for rho > 0, assisting (adding -rho of the engine's power) for rho < 0; below 1, so that power flows to the wheels"),
+        input("P_c", -em, em, "W", "in the hybrid mode, the machine's shaft power taken from the engine's: charging for P_c > 0, assisting (adding -P_c) for P_c < 0, up to the machine's peak (FASTSim `em.pwr_out_max_watts`)"),
+        input("rho", 0.0, 1.0, "-", "1 in the charging modes at a standstill and while braking (the machine takes all the engine's power), 0 elsewhere"),
         input("P_m", 0.0, em, "W", "electric machine shaft power driving alone, up to its peak (FASTSim `em.pwr_out_max_watts`)"),
         input("P_r", 0.0, em, "W", "electric machine shaft power regenerating (braking), up to its peak (FASTSim `em.pwr_out_max_watts`)"),
         input("F_b", 0.0, mass * crate::chassis::GRAVITY, "N", "friction brake force, up to the vehicle's weight (1 g)"),
@@ -328,35 +329,35 @@ fn tail(rules: &crate::hev_rules::Rules, thermal: bool) -> String {
 standstill_below = 0.05
 standstill_above = 1.0
 
-[modes.hybrid]               # engine on: the machine's share rho decided by the strategy, the engine's power free
+[modes.hybrid]               # engine on: the machine's power from the engine's decided by the strategy, the engine's power free
 free = "P_e"
-decided = ["rho"]
-inputs = { P_m = 0.0, P_r = 0.0, F_b = 0.0 }
+decided = ["P_c"]
+inputs = { rho = 0.0, P_m = 0.0, P_r = 0.0, F_b = 0.0 }
 [modes.electric]             # engine off: the machine alone
 free = "P_m"
-inputs = { P_e = 0.0, rho = 0.0, P_r = 0.0, F_b = 0.0 }
+inputs = { P_e = 0.0, P_c = 0.0, rho = 0.0, P_r = 0.0, F_b = 0.0 }
 parameters = { c_on = 0.0 }
 [modes.brake]                # engine off: the machine regenerates as decided, the friction brakes take the rest
 free = "F_b"
 role = "brake"
 decided = ["P_r"]
-inputs = { P_e = 0.0, rho = 0.0, P_m = 0.0 }
+inputs = { P_e = 0.0, P_c = 0.0, rho = 0.0, P_m = 0.0 }
 parameters = { c_on = 0.0 }
 [modes.stop]                 # standstill, engine off: the auxiliaries on the battery
 free = "F_b"
 role = "standstill"
-inputs = { P_e = 0.0, rho = 0.0, P_m = 0.0, P_r = 0.0 }
+inputs = { P_e = 0.0, P_c = 0.0, rho = 0.0, P_m = 0.0, P_r = 0.0 }
 parameters = { c_on = 0.0 }
 [modes.stop_charge]          # standstill, engine on: its power (decided) charges the battery through the machine
 free = "F_b"
 role = "standstill"
 decided = ["P_e"]
-inputs = { rho = 1.0, P_m = 0.0, P_r = 0.0 }{heat}
+inputs = { P_c = 0.0, rho = 1.0, P_m = 0.0, P_r = 0.0 }{heat}
 [modes.brake_charge]         # braking, engine on: the machine takes the engine's power (decided) and brakes alone
 free = "P_r"
 role = "brake"
 decided = ["P_e"]
-inputs = { rho = 1.0, P_m = 0.0, F_b = 0.0 }{heat}
+inputs = { P_c = 0.0, rho = 1.0, P_m = 0.0, F_b = 0.0 }{heat}
 
 [hybrid]
 fuel_power = "fuel_energy"
