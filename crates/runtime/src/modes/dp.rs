@@ -17,7 +17,8 @@
 //!
 //! The forward pass starts at SOC(0) and, at every sample, minimises fuel_k + J_{k+1}(soc_{k+1}) at the
 //! run's own charge, the decided input refined between its grid values as ECMS refines it
-//! ([`super::minimise`]); it ends within a grid cell or so of SOC(0). The last samples that decide an input
+//! ([`super::minimise`], the feasible set's edge next to the best grid value found by regula falsi on the
+//! free input's excess over its bounds); it ends within a grid cell or so of SOC(0). The last samples that decide an input
 //! (scanning back from the end) then move their decided value, by bisection on the final charge, until
 //! |ΔSOC| ≤ the tolerance; a final charge this cannot reach is an error naming `--strategy dp`.
 //!
@@ -35,7 +36,7 @@
 use rayon::prelude::*;
 
 use super::ecms::{Ecms, Eval, Outcome};
-use super::minimise::minimise;
+use super::minimise::{minimise_probed, Probe};
 use super::strategy::DpOptions;
 use super::ModalError;
 
@@ -504,18 +505,29 @@ fn choose(
     (grid, split): (&SocGrid, usize),
 ) -> Result<Eval, ModalError> {
     let soc = run.h.soc;
-    let total = |e: &Eval| -> f64 {
-        match row {
-            None => e.p_fuel,
-            Some(next) => match run.interval(k, e) {
-                Ok(end) if run.excess(e.m, end.u) > 1e-9 => f64::INFINITY,
-                Ok(end) => {
-                    let h = run.samples.t[k + 1] - run.samples.t[k];
-                    0.5 * h * (e.p_fuel + end.p_fuel) + grid.interp(next, end.x[soc])
-                }
-                Err(_) => f64::INFINITY,
+    // (fuel_k + J_k+1, or +∞ beyond the free input's bounds at t_k or t_k+1; the signed margin of that
+    // feasibility, ≤ 0 within): the minimiser finds the feasible set's edge as ECMS's does (where the free
+    // input reaches a bound, a cost may drop: an engine at zero power burns its idle fuel only).
+    let probe = |e: &Eval| -> Probe {
+        let end = match row {
+            None => None,
+            Some(_) => match run.interval(k, e) {
+                Ok(end) => Some(end),
+                Err(_) => return (f64::INFINITY, f64::NAN),
             },
-        }
+        };
+        let excess = e
+            .excess
+            .max(end.as_ref().map_or(0.0, |end| run.excess(e.m, end.u)));
+        let cost = match (row, end) {
+            (Some(next), Some(end)) => {
+                let h = run.samples.t[k + 1] - run.samples.t[k];
+                0.5 * h * (e.p_fuel + end.p_fuel) + grid.interp(next, end.x[soc])
+            }
+            _ => e.p_fuel,
+        };
+        let cost = if excess <= 1e-9 { cost } else { f64::INFINITY };
+        (cost, excess - 1e-9)
     };
     let mut best: Option<(f64, Eval)> = None;
     let mut nearest: Option<Eval> = None;
@@ -532,21 +544,22 @@ fn choose(
             None => 0.0,
             Some(b) => {
                 let mut f = |d: f64| match run.eval((m, k), x, d) {
-                    Some(e) if e.excess <= 1e-9 => total(&e),
+                    Some(e) if e.excess <= 1e-9 => probe(&e),
                     Some(e) => {
+                        let margin = e.excess - 1e-9;
                         consider(e, f64::INFINITY);
-                        f64::INFINITY
+                        (f64::INFINITY, margin)
                     }
-                    None => f64::INFINITY,
+                    None => (f64::INFINITY, f64::NAN),
                 };
-                match minimise(&mut f, b, split.max(3)) {
+                match minimise_probed(&mut f, b, split.max(3)) {
                     Some((d, _)) => d,
                     None => continue,
                 }
             }
         };
         if let Some(e) = run.eval((m, k), x, d) {
-            let c = total(&e);
+            let c = probe(&e).0;
             consider(e, c);
         }
     }
