@@ -8,7 +8,7 @@
 
 use super::dp::dynamic_programming;
 use super::ecms::{candidates, Ecms, Outcome, Resolved, Samples};
-use super::equivalence::{correction, fixed, search};
+use super::equivalence::{correction, fixed, search, Narrowing};
 use super::gears::GearBox;
 use super::hybrid_block::{DpBlock, HybridBlock};
 use super::price_cache::PriceCache;
@@ -199,7 +199,7 @@ pub fn simulate_hybrid_differentiated(
         prices,
     };
     let (best, mut block) = match &ecms.method {
-        Method::Ecms => ecms_run(&run, ecms, &x0)?,
+        Method::Ecms => ecms_run(&run, (ecms, wrt.is_some()), &x0)?,
         Method::Dp(dp) => {
             let r = dynamic_programming(&run, dp, &x0, ecms.soc_tolerance)?;
             let dsoc = r.outcome.delta_soc();
@@ -285,12 +285,18 @@ pub const ENGINE_ON: &str = "engine_on";
 /// The ECMS run: s given or searched, the J1711 correction through the second run.
 fn ecms_run(
     run: &Ecms<'_, '_, '_>,
-    ecms: &StrategyOptions,
+    (ecms, gradient): (&StrategyOptions, bool),
     x0: &[f64],
 ) -> Result<(Outcome, HybridBlock), ModalError> {
+    // A gradient needs every decision at the flip's own price (`Narrowing::Multiplier`).
+    let narrowing = if gradient {
+        Narrowing::Multiplier
+    } else {
+        Narrowing::Figure
+    };
     let (best, runs, other) = match ecms.equivalence {
         Some(s) => fixed(run, s, x0)?,
-        None => search(run, ecms.soc_tolerance, x0)?,
+        None => search(run, (ecms.soc_tolerance, narrowing), x0)?,
     };
     let (corrected, slope) = correction(&best, &other);
     let mut block = block_of(run, &best, ecms.soc_tolerance);
