@@ -414,8 +414,9 @@ fn relax(
 
 /// The relaxed choice across a jump of ΔSOC(s) between lo and hi: with internal states besides the charge at
 /// every sample whose mode differs ([`relax_modes`]); else ([`relax_at`]) at the sample whose interval moves
-/// the two runs' charges apart the most, then at the first sample where they differ. Where none bridges it,
-/// the bracket is handed back with the runs used.
+/// the two runs' charges apart the most, then at the first sample where they differ, then at every sample
+/// whose mode differs (several flipping at one s). Where none bridges it, the bracket is handed back with the
+/// runs used.
 fn bridge(
     run: &Ecms<'_, '_, '_>,
     (lo, hi): (Outcome, Outcome),
@@ -446,6 +447,11 @@ fn bridge(
         if widest == first {
             break;
         }
+    }
+    // Several samples flipping at the same s (a cycle repeating a phase, as the NEDC its four urban
+    // segments, has the same demand, so the same tie, at each repeat): every differing mode at once.
+    if !run.other_internal_states() {
+        return relax_modes(run, (lo, hi), (tol, x0), runs);
     }
     Ok(Err((lo, hi, runs)))
 }
