@@ -43,17 +43,17 @@ type Key = (
 );
 
 impl ModalReference {
-    /// The reference of `spec`'s run on `cycle` over `grid` with `opts` and the `signals` given.
-    pub(super) fn new(
+    /// The reference of `spec`'s run on `cycle` over `grid` with `opts` and the `signals` given, for what
+    /// `made_for` says ([`key`]).
+    fn new(
         spec: &ModalSpec<'_>,
         (cycle, grid): (&Cycle, &Grid),
         opts: &ModalOptions,
         signals: &[SignalInput],
-        zd: ZeroDynamicsReference,
+        made_for: Key,
     ) -> Result<ModalReference, ModalError> {
         let (smoother, resolved) = smoother_with_signals(spec, cycle, opts, signals)?;
-        let made_for = key(spec, grid, opts, zd);
-        let fine = match (zd, made_for.6) {
+        let fine = match (made_for.4, made_for.6) {
             (ZeroDynamicsReference::SubGrid, Some(q)) => Some(Arc::new(FineTable::new(
                 &smoother,
                 (grid.time(0), grid.dt, grid.n),
@@ -86,7 +86,13 @@ impl ModalReference {
                 return Ok(kept.clone());
             }
         }
-        let new = Arc::new(ModalReference::new(spec, (cycle, grid), opts, signals, zd)?);
+        let new = Arc::new(ModalReference::new(
+            spec,
+            (cycle, grid),
+            opts,
+            signals,
+            made_for,
+        )?);
         if let Some(cell) = cell {
             let _ = cell.set(new.clone());
         }
