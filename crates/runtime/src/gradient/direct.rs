@@ -164,6 +164,10 @@ impl Columns {
             })?;
         let l = &self.layout;
         let n = l.n;
+        if n == 2 {
+            self.invert_two(sl);
+            return Ok(());
+        }
         for k in 0..sl {
             // ∂ψ/∂x: row i holds ψ_i's partials by x_j.
             for (e, v) in self.jac.iter_mut().enumerate() {
@@ -177,6 +181,25 @@ impl Columns {
             }
         }
         Ok(())
+    }
+
+    /// (∂ψ/∂x)⁻¹ at the sub-block's `sl` samples for n = 2, column by column: the closed form of
+    /// [`invert`] (the same numbers), NaN where it refuses.
+    fn invert_two(&mut self, sl: usize) {
+        let l = &self.layout;
+        let entry = |i: usize, j: usize| &self.sens[l.at(l.psi(i), l.x(j))][..sl];
+        let (a, b, c, d) = (entry(0, 0), entry(0, 1), entry(1, 0), entry(1, 1));
+        let [i00, i01, i10, i11] = &mut self.inverse[..4] else {
+            unreachable!("n = 2: four entries")
+        };
+        for k in 0..sl {
+            let det = a[k] * d[k] - b[k] * c[k];
+            let i = 1.0 / det;
+            let v = [d[k] * i, -b[k] * i, -c[k] * i, a[k] * i];
+            let ok = det != 0.0 && v.iter().all(|v| v.is_finite());
+            let [v00, v01, v10, v11] = if ok { v } else { [f64::NAN; 4] };
+            (i00[k], i01[k], i10[k], i11[k]) = (v00, v01, v10, v11);
+        }
     }
 
     /// dq/dp_c of every accumulated output and wanted parameter at the sub-block's `sl` samples, each column

@@ -69,7 +69,7 @@ impl Gauss {
     }
 
     /// S ← S(t + h) by one Gauss–Legendre step, `a[i]` = A(t + c_i h) (ne × ne), `b[i]` = B(t + c_i h)
-    /// (ne × P).
+    /// (ne × P). The common sizes are compiled each with ne a constant (the small loops unrolled).
     pub(crate) fn step(
         &mut self,
         h: f64,
@@ -77,17 +77,42 @@ impl Gauss {
         b: [&[f64]; 2],
         s: &mut [f64],
     ) -> Result<(), Singular> {
-        self.transition(h, a)?;
-        let ne = self.ne;
-        let (w, phi, x) = (&self.w, &self.phi, &mut self.x[..ne]);
-        for c in 0..self.np {
-            let sc = &mut s[c * ne..(c + 1) * ne];
+        match self.ne {
+            1 => self.step_sized(1, h, (a, b), s),
+            2 => self.step_sized(2, h, (a, b), s),
+            3 => self.step_sized(3, h, (a, b), s),
+            4 => self.step_sized(4, h, (a, b), s),
+            ne => self.step_sized(ne, h, (a, b), s),
+        }
+    }
+
+    /// [`Gauss::step`] for ne = `self.ne`, inlined into each of its arms.
+    #[inline(always)]
+    fn step_sized(
+        &mut self,
+        ne: usize,
+        h: f64,
+        (a, b): ([&[f64]; 2], [&[f64]; 2]),
+        s: &mut [f64],
+    ) -> Result<(), Singular> {
+        self.transition(ne, h, a)?;
+        let (w, phi, x) = (
+            &self.w[..2 * ne * ne],
+            &self.phi[..ne * ne],
+            &mut self.x[..ne],
+        );
+        let (b0, b1) = (&b[0][..self.np * ne], &b[1][..self.np * ne]);
+        for ((sc, b0), b1) in s[..self.np * ne]
+            .chunks_exact_mut(ne)
+            .zip(b0.chunks_exact(ne))
+            .zip(b1.chunks_exact(ne))
+        {
             for (row, v) in x.iter_mut().enumerate() {
                 let mut sum = 0.0;
                 for j in 0..ne {
                     sum += phi[j * ne + row] * sc[j]
-                        + w[j * ne + row] * b[0][c * ne + j]
-                        + w[(ne + j) * ne + row] * b[1][c * ne + j];
+                        + w[j * ne + row] * b0[j]
+                        + w[(ne + j) * ne + row] * b1[j];
                 }
                 *v = sum;
             }
@@ -98,37 +123,47 @@ impl Gauss {
 
     /// W = (h/2) [I I] M⁻¹ row by row (Mᵀ solves by the LU factors; b1 = b2 = 1/2) and
     /// Φ = I + W1 A1 + W2 A2.
-    fn transition(&mut self, h: f64, a: [&[f64]; 2]) -> Result<(), Singular> {
-        let (ne, n2) = (self.ne, 2 * self.ne);
-        for (idx, v) in self.m.iter_mut().enumerate() {
-            let (row, col) = (idx % n2, idx / n2);
-            let (i, j) = (row / ne, col / ne);
-            let unit = if row == col { 1.0 } else { 0.0 };
-            *v = unit - h * A[i][j] * a[i][(col % ne) * ne + row % ne];
+    #[inline(always)]
+    fn transition(&mut self, ne: usize, h: f64, a: [&[f64]; 2]) -> Result<(), Singular> {
+        let n2 = 2 * ne;
+        // Block (i, j) of M is δ_ij I − h a_ij A_i: entry (i·ne + k, j·ne + l) at (j·ne + l)·n2 + i·ne + k.
+        for (j, block_column) in self.m[..n2 * n2].chunks_exact_mut(ne * n2).enumerate() {
+            for (l, column) in block_column.chunks_exact_mut(n2).enumerate() {
+                for (i, (block, ai)) in column.chunks_exact_mut(ne).zip(a).enumerate() {
+                    let f = h * A[i][j];
+                    for ((v, &ak), k) in block.iter_mut().zip(&ai[l * ne..(l + 1) * ne]).zip(0..) {
+                        let unit = if i == j && k == l { 1.0 } else { 0.0 };
+                        *v = unit - f * ak;
+                    }
+                }
+            }
         }
-        factor(&mut self.m, n2, &mut self.piv)?;
-        for (j, d) in self.dinv.iter_mut().enumerate() {
+        factor(&mut self.m[..n2 * n2], n2, &mut self.piv[..n2])?;
+        for (j, d) in self.dinv[..n2].iter_mut().enumerate() {
             *d = 1.0 / self.m[j * n2 + j];
         }
         // Row r of W is (h/2)(e_r + e_(ne+r))ᵀ M⁻¹: Mᵀ y = (h/2)(e_r + e_(ne+r)), ne solves with Mᵀ.
+        let (m, piv, dinv) = (&self.m[..n2 * n2], &self.piv[..n2], &self.dinv[..n2]);
+        let (x, w) = (&mut self.x[..n2], &mut self.w[..n2 * ne]);
         for row in 0..ne {
-            self.x.fill(0.0);
-            self.x[row] = 0.5 * h;
-            self.x[ne + row] = 0.5 * h;
-            solve_transposed(&self.m, n2, (&self.piv, &self.dinv), &mut self.x);
-            for (k, &y) in self.x.iter().enumerate() {
-                self.w[k * ne + row] = y;
+            x.fill(0.0);
+            x[row] = 0.5 * h;
+            x[ne + row] = 0.5 * h;
+            solve_transposed(m, n2, (piv, dinv), x);
+            for (k, &y) in x.iter().enumerate() {
+                w[k * ne + row] = y;
             }
         }
-        for (idx, v) in self.phi.iter_mut().enumerate() {
-            let (row, col) = (idx % ne, idx / ne);
-            let mut sum = if row == col { 1.0 } else { 0.0 };
-            for (i, ai) in a.iter().enumerate() {
-                for l in 0..ne {
-                    sum += self.w[(i * ne + l) * ne + row] * ai[col * ne + l];
+        for (col, phi_column) in self.phi[..ne * ne].chunks_exact_mut(ne).enumerate() {
+            for (row, v) in phi_column.iter_mut().enumerate() {
+                let mut sum = if row == col { 1.0 } else { 0.0 };
+                for (i, ai) in a.iter().enumerate() {
+                    for l in 0..ne {
+                        sum += w[(i * ne + l) * ne + row] * ai[col * ne + l];
+                    }
                 }
+                *v = sum;
             }
-            *v = sum;
         }
         Ok(())
     }
@@ -137,6 +172,7 @@ impl Gauss {
 /// LU factorisation with partial pivoting of the n × n column-major `m` in place, PM = LU (L unit lower
 /// triangular below the diagonal, U on and above it; Golub & Van Loan, *Matrix Computations*, Alg. 3.4.1):
 /// `piv[j]` the row swapped with row j at step j.
+#[inline(always)]
 fn factor(m: &mut [f64], n: usize, piv: &mut [usize]) -> Result<(), Singular> {
     for j in 0..n {
         let column = &m[j * n..(j + 1) * n];
@@ -177,6 +213,7 @@ fn factor(m: &mut [f64], n: usize, piv: &mut [usize]) -> Result<(), Singular> {
 /// x ← M⁻ᵀ x from [`factor`]'s LU of M (PM = LU, so Mᵀ = Uᵀ Lᵀ P) and the reciprocals `dinv` of U's diagonal:
 /// Uᵀ w = x forward, Lᵀ v = w backward, x = Pᵀ v (the row swaps undone in reverse order). Each step is a dot
 /// product of a column of the factors, contiguous in the column-major `m`.
+#[inline(always)]
 fn solve_transposed(m: &[f64], n: usize, (piv, dinv): (&[usize], &[f64]), x: &mut [f64]) {
     for i in 0..n {
         let column = &m[i * n..i * n + i];

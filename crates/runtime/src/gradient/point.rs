@@ -84,21 +84,10 @@ impl Point {
         model.sensitivity(x, w, u, &mut sens)?;
         let maps = (model.maps(), info.map_calls.as_slice());
         columns.fill(maps, (&layout, &sens), &mut weights, &mut grid);
-        let (n, r) = (layout.n, layout.r);
-        // ∂ψ/∂x: the ξ rows' partials, then the unit rows η_j = x_(s_j).
-        jac.clear();
-        jac.resize(n * n, 0.0);
-        for (i, row) in jac.chunks_exact_mut(n).enumerate() {
-            if i < r {
-                for (j, v) in row.iter_mut().enumerate() {
-                    *v = sens[layout.at(layout.psi(i), layout.x(j))];
-                }
-            } else {
-                row[eta_states[i - r]] = 1.0;
-            }
-        }
+        let n = layout.n;
         inverse.resize(n * n, 0.0);
-        if !invert(n, &mut jac, &mut inverse) {
+        let psi = (&layout, &sens[..], eta_states);
+        if !invert_psi(psi, (&mut jac, &mut work), &mut inverse) {
             inverse.fill(f64::NAN);
         }
         work.resize(n, 0.0);
@@ -245,13 +234,36 @@ impl Point {
         self.jacobians(rows, params.iter().copied(), (a, b, Some(reference)));
     }
 
-    /// The formulas of [`Point::row_jacobians`] and [`Point::moved_row_jacobians`].
-    fn jacobians<I>(&self, rows: &[usize], params: I, (a, b, mut reference): Jacobians<'_>)
+    /// The formulas of [`Point::row_jacobians`] and [`Point::moved_row_jacobians`]; the common numbers of
+    /// states are compiled each with n a constant (the loops over the states unrolled).
+    fn jacobians<I>(&self, rows: &[usize], params: I, out: Jacobians<'_>)
     where
         I: Iterator<Item = Option<usize>> + Clone,
     {
+        match self.layout.n {
+            1 => self.jacobians_sized(1, rows, params, out),
+            2 => self.jacobians_sized(2, rows, params, out),
+            3 => self.jacobians_sized(3, rows, params, out),
+            4 => self.jacobians_sized(4, rows, params, out),
+            5 => self.jacobians_sized(5, rows, params, out),
+            6 => self.jacobians_sized(6, rows, params, out),
+            n => self.jacobians_sized(n, rows, params, out),
+        }
+    }
+
+    /// [`Point::jacobians`] for n = `self.layout.n`, inlined into each of its arms.
+    #[inline(always)]
+    fn jacobians_sized<I>(
+        &self,
+        n: usize,
+        rows: &[usize],
+        params: I,
+        (a, b, mut reference): Jacobians<'_>,
+    ) where
+        I: Iterator<Item = Option<usize>> + Clone,
+    {
         let l = &self.layout;
-        let (n, r, ne, w) = (l.n, l.r, l.n_eta, l.width());
+        let (r, ne, w) = (l.r, l.n_eta, l.width());
         let nr = rows.len();
         // The ψ rows are the slice's first r (`SensitivityLayout::psi`), φ's the next.
         let (psi, rest) = self.sens.split_at(r * w);
@@ -263,7 +275,7 @@ impl Point {
             let ratio = q[l.u()] / phi[l.u()];
             // m = (∂ψ/∂x)⁻ᵀ g, g_j = ∂q/∂x_j − ratio·∂φ/∂x_j (∂/∂x_j is column j).
             m.fill(0.0);
-            for (j, inverse_row) in self.inverse.chunks_exact(n).enumerate() {
+            for (j, inverse_row) in self.inverse[..n * n].chunks_exact(n).enumerate() {
                 let g = q[j] - ratio * phi[j];
                 for (mk, v) in m.iter_mut().zip(inverse_row) {
                     *mk += g * v;
@@ -320,14 +332,71 @@ impl Point {
     }
 }
 
+/// (∂ψ/∂x)⁻¹ into `inverse` (n × n, row-major: row s is state x_s's), from the block structure of ∂ψ/∂x: its
+/// η rows are the unit rows e_(s_j) (η_j = x_(s_j)), so with C the other r states (in order) and J_C, J_E the
+/// ξ rows' partial derivatives by them and by the η states, (∂ψ/∂x) dx = (b_ξ, b_η) is solved by
+///
+/// ```text
+/// dx_C = J_C⁻¹ (b_ξ − J_E b_η),   dx_(s_j) = b_η,j
+/// ```
+///
+/// and only the r × r matrix J_C is inverted ([`invert`]; for r = n it is ∂ψ/∂x itself). `jac` and `block`
+/// are buffers; false where J_C is singular or not finite.
+fn invert_psi(
+    (l, sens, eta_states): (&SensitivityLayout, &[f64], &[usize]),
+    (jac, block): (&mut Vec<f64>, &mut Vec<f64>),
+    inverse: &mut [f64],
+) -> bool {
+    let (n, r) = (l.n, l.r);
+    // The ξ-block's states C, in order (r of them: n = r + n_η).
+    let xi_states = || (0..n).filter(|s| !eta_states.contains(s)).take(r);
+    jac.clear();
+    jac.resize(r * r, 0.0);
+    for (a, column) in xi_states().enumerate() {
+        for i in 0..r {
+            jac[i * r + a] = sens[l.at(l.psi(i), l.x(column))];
+        }
+    }
+    block.clear();
+    block.resize(r * r, 0.0);
+    if !invert(r, jac, block) {
+        return false;
+    }
+    inverse.fill(0.0);
+    for (a, state) in xi_states().enumerate() {
+        let row = &mut inverse[state * n..(state + 1) * n];
+        row[..r].copy_from_slice(&block[a * r..(a + 1) * r]);
+        for (j, &e) in eta_states.iter().enumerate() {
+            let mut v = 0.0;
+            for (i, &b) in block[a * r..(a + 1) * r].iter().enumerate() {
+                v -= b * sens[l.at(l.psi(i), l.x(e))];
+            }
+            row[r + j] = v;
+        }
+    }
+    for (j, &e) in eta_states.iter().enumerate() {
+        inverse[e * n + r + j] = 1.0;
+    }
+    inverse.iter().all(|v| v.is_finite())
+}
+
 /// The inverse of the n × n matrix `a` (row-major, overwritten) into `inv` by Gauss–Jordan elimination with
 /// partial pivoting; false where a pivot is zero or not finite (n is the number of states: small, and no
-/// allocation per point). The common sizes are compiled each with its n a constant (the loops unrolled: a
-/// 2 × 2 inverse in a tenth of the instructions).
+/// allocation per point), or for n ≤ 2 in closed form. The other common sizes are compiled each with its n a
+/// constant (the loops unrolled).
 pub(super) fn invert(n: usize, a: &mut [f64], inv: &mut [f64]) -> bool {
     match n {
-        1 => invert_sized(1, a, inv),
-        2 => invert_sized(2, a, inv),
+        1 => {
+            inv[0] = 1.0 / a[0];
+            a[0] != 0.0 && inv[0].is_finite()
+        }
+        // [[a, b], [c, d]]⁻¹ = [[d, −b], [−c, a]]/(ad − bc) (Cramer's rule).
+        2 => {
+            let det = a[0] * a[3] - a[1] * a[2];
+            let i = 1.0 / det;
+            inv[..4].copy_from_slice(&[a[3] * i, -a[1] * i, -a[2] * i, a[0] * i]);
+            det != 0.0 && inv[..4].iter().all(|v| v.is_finite())
+        }
         3 => invert_sized(3, a, inv),
         4 => invert_sized(4, a, inv),
         5 => invert_sized(5, a, inv),

@@ -88,6 +88,81 @@ impl Blend {
     }
 }
 
+/// Transitions started together — the same t_s, T and number of deviations — with deviations e_c per column c
+/// (a run's derivatives of one re-entry, `gradient.rs`). e_c(τ) = Σ_j e_c,j b_j(τ) with the basis
+/// b_j(τ) = (1 − S(τ/T)) τ^j/j! (the [`Blend`] of the unit deviation j), so each b_j^(k)(t) is evaluated once
+/// for every column.
+#[derive(Debug, Clone)]
+pub struct Blends {
+    basis: Vec<Blend>,
+    /// e_c, per column c (each of the basis' length).
+    e: Vec<Vec<f64>>,
+}
+
+impl Blends {
+    /// The transitions of deviations `e` (one vector per column, all of one length) from `t_start` lasting
+    /// `duration` (> 0).
+    pub fn new(t_start: f64, duration: f64, e: Vec<Vec<f64>>) -> Blends {
+        let len = e.first().map_or(0, Vec::len);
+        debug_assert!(e.iter().all(|e| e.len() == len));
+        let basis = (0..len)
+            .map(|j| {
+                let unit: Vec<f64> = (0..len).map(|i| if i == j { 1.0 } else { 0.0 }).collect();
+                Blend::new(t_start, duration, &unit)
+            })
+            .collect();
+        Blends { basis, e }
+    }
+
+    /// The number of columns c.
+    pub fn columns(&self) -> usize {
+        self.e.len()
+    }
+
+    /// b_j^(k)(t) into `values` (entry j·orders + k, k < `orders`); false outside the transitions (or
+    /// without deviations), where every e_c^(k)(t) is 0.
+    pub fn basis_at(&self, t: f64, orders: usize, values: &mut Vec<f64>) -> bool {
+        let Some(first) = self.basis.first() else {
+            return false;
+        };
+        if !(0.0..first.duration).contains(&(t - first.t_start)) {
+            return false;
+        }
+        values.clear();
+        values.resize(self.basis.len() * orders, 0.0);
+        for (b, v) in self.basis.iter().zip(values.chunks_exact_mut(orders)) {
+            b.add(t, v);
+        }
+        true
+    }
+
+    /// e_c^(k)(t) = Σ_j e_c,j b_j^(k)(t) added to `out[k]` for k < out.len(), from [`Blends::basis_at`]'s
+    /// `values` (with orders = out.len()).
+    pub fn add_from(&self, c: usize, values: &[f64], out: &mut [f64]) {
+        let orders = out.len();
+        for (k, o) in out.iter_mut().enumerate() {
+            let mut sum = 0.0;
+            for (j, &ej) in self.e[c].iter().enumerate() {
+                sum += ej * values[j * orders + k];
+            }
+            *o += sum;
+        }
+    }
+
+    /// Whether column c's deviations are all 0 (its transition is 0 throughout).
+    pub fn is_zero(&self, c: usize) -> bool {
+        self.e[c].iter().all(|&v| v == 0.0)
+    }
+
+    /// e_c^(k)(t) added to `out[k]` for k < out.len() (nothing outside the transitions).
+    pub fn add(&self, c: usize, t: f64, out: &mut [f64]) {
+        let mut values = Vec::new();
+        if self.basis_at(t, out.len(), &mut values) {
+            self.add_from(c, &values, out);
+        }
+    }
+}
+
 /// The polynomial with coefficients `c` (ascending powers) and each of its derivatives down to the constant
 /// one: d/dτ Σ c_i τ^i = Σ_{i ≥ 1} i c_i τ^(i−1).
 fn derivatives(c: Vec<f64>) -> Vec<Vec<f64>> {
@@ -107,6 +182,36 @@ fn derivatives(c: Vec<f64>) -> Vec<Vec<f64>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A family's e_c^(k)(t) through the shared basis equals each column's own [`Blend`] (the same polynomial,
+    /// summed in another order: within 10⁻¹⁰ absolute, where the coefficients of the derivatives reach 10⁴
+    /// and the values cancel towards 0 at the end), inside the transition and 0 outside it.
+    #[test]
+    fn blends_equal_their_columns_own_blends() {
+        let e = vec![
+            vec![0.5, -0.2, 0.03],
+            vec![-1.5, 0.0, 2.0],
+            vec![0.0, 0.0, 0.0],
+        ];
+        let family = Blends::new(2.0, 3.0, e.clone());
+        assert_eq!(family.columns(), 3);
+        for t in [1.9, 2.0, 2.7, 4.1, 4.999, 5.0, 6.0] {
+            for (c, ec) in e.iter().enumerate() {
+                let (mut own, mut shared) = ([0.0; 4], [0.0; 4]);
+                Blend::new(2.0, 3.0, ec).add(t, &mut own);
+                family.add(c, t, &mut shared);
+                for (a, b) in own.iter().zip(&shared) {
+                    assert!(
+                        (a - b).abs() <= 1e-10 * (1.0 + a.abs()),
+                        "t {t} c {c}: {own:?} {shared:?}"
+                    );
+                }
+                if !(2.0..5.0).contains(&t) {
+                    assert_eq!(shared, [0.0; 4], "t {t}");
+                }
+            }
+        }
+    }
 
     #[test]
     fn smoothstep_ends() {

@@ -22,7 +22,7 @@
 //! are differentiated through the run's trapezoids, each interval's two ends in its own mode, exactly as
 //! `summary.rs` sums them.
 
-use super::blend::Blend;
+use super::blend::{Blend, Blends};
 use super::gradient_point::{moved_reference, point_at, OutputChanges};
 use super::gradient_zd::ZdSensitivity;
 use super::record::{Ctx, EntryLog, Record};
@@ -117,7 +117,7 @@ struct Pass<'p, 'a, 'm> {
     mode: usize,
     blend: Option<Blend>,
     /// de(t) of the transition, per derivative c (none before the first switch).
-    dblend: Vec<Option<Blend>>,
+    dblend: Option<Blends>,
     /// ∂η/∂p_c of the mode in force, per c.
     deta: Vec<Vec<f64>>,
     zd: ZdSensitivity,
@@ -170,7 +170,7 @@ impl<'p, 'a, 'm> Pass<'p, 'a, 'm> {
             accumulated,
             mode,
             blend: None,
-            dblend: vec![None; np],
+            dblend: None,
             deta,
             zd,
             acc: vec![vec![0.0; np]; accumulated.len()],
@@ -192,7 +192,7 @@ impl<'p, 'a, 'm> Pass<'p, 'a, 'm> {
     /// de(t) and the parameter.
     fn direction(&self, point: &Point, t: f64, c: usize, dir: &mut Direction) {
         let r = point.layout().r;
-        let de = moved_reference(self.dblend[c].as_ref(), t, r + 1);
+        let de = moved_reference(self.dblend.as_ref(), c, t, r + 1);
         point.moved_into(
             &de[..r],
             de[r],
@@ -233,9 +233,9 @@ impl<'p, 'a, 'm> Pass<'p, 'a, 'm> {
         let point = point_at(ctx, (to, &self.wrt.grids[to]), (t, &self.x, &w, self.u))?;
         let l = *point.layout();
         let np = self.wrt.params.len();
-        let mut dblend = Vec::with_capacity(np);
+        let mut deviations = Vec::with_capacity(np);
         for (c, dx) in dx.into_iter().enumerate() {
-            let before = moved_reference(self.dblend[c].as_ref(), t, r + 1);
+            let before = moved_reference(self.dblend.as_ref(), c, t, r + 1);
             self.deta[c] = info.eta_states.iter().map(|&s| dx[s]).collect();
             let dir = Direction { dx, du: 0.0 };
             let col = self.column(to, c);
@@ -245,9 +245,9 @@ impl<'p, 'a, 'm> Pass<'p, 'a, 'm> {
             if e.deviations > r {
                 de.push(before[r]);
             }
-            dblend.push(Some(Blend::new(t, ctx.transition, &de)));
+            deviations.push(de);
         }
-        self.dblend = dblend;
+        self.dblend = Some(Blends::new(t, ctx.transition, deviations));
         self.blend = e.blend.clone();
         self.mode = to;
         self.carried = false;
@@ -273,7 +273,7 @@ impl<'p, 'a, 'm> Pass<'p, 'a, 'm> {
             let guess = (&rec.states[k], rec.free[k]);
             self.zd.advance(
                 ctx,
-                (m, self.blend.as_ref(), &self.dblend, cols),
+                (m, self.blend.as_ref(), self.dblend.as_ref(), cols),
                 (ta, tb),
                 guess,
                 &mut self.deta,
@@ -304,7 +304,11 @@ impl<'p, 'a, 'm> Pass<'p, 'a, 'm> {
         (t, x, u): (f64, &[f64], f64),
         out: &mut Vec<f64>,
     ) -> Result<(), ModalError> {
-        let at = ((self.mode, t), (x, u), (&self.deta[..], &self.dblend[..]));
+        let at = (
+            (self.mode, t),
+            (x, u),
+            (&self.deta[..], self.dblend.as_ref()),
+        );
         let outputs = (self.wrt, self.accumulated);
         self.outputs.at(self.ctx, outputs, at, out)
     }

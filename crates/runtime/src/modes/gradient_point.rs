@@ -5,7 +5,7 @@
 
 use invsim_model_api::InverseModel;
 
-use super::blend::Blend;
+use super::blend::Blends;
 use super::record::Ctx;
 use super::ModalError;
 use crate::gradient::{Buffers, GridColumns, ModalWrt, Point};
@@ -33,18 +33,17 @@ pub(super) fn point_into(
 }
 
 /// The transition's derivative de^(0 … orders−1)(t) (zeros without one or outside it).
-pub(super) fn moved_reference(dblend: Option<&Blend>, t: f64, orders: usize) -> Vec<f64> {
+pub(super) fn moved_reference(
+    dblend: Option<&Blends>,
+    c: usize,
+    t: f64,
+    orders: usize,
+) -> Vec<f64> {
     let mut de = vec![0.0; orders];
-    moved_reference_into(dblend, t, &mut de);
-    de
-}
-
-/// [`moved_reference`] into `de` (its length the orders).
-pub(super) fn moved_reference_into(dblend: Option<&Blend>, t: f64, de: &mut [f64]) {
-    de.fill(0.0);
     if let Some(b) = dblend {
-        b.add(t, de);
+        b.add(c, t, &mut de);
     }
+    de
 }
 
 /// The accumulated outputs' derivatives at a point of a mode, with the buffers reused from point to point:
@@ -65,6 +64,7 @@ pub(super) struct OutputChanges {
     b: Vec<f64>,
     reference: Vec<f64>,
     de: Vec<f64>,
+    basis: Vec<f64>,
 }
 
 /// Where the outputs' derivatives are taken: mode m at time t, (x, u), with η's sensitivities per derivative
@@ -72,7 +72,7 @@ pub(super) struct OutputChanges {
 pub(super) type OutputsAt<'b> = (
     (usize, f64),
     (&'b [f64], f64),
-    (&'b [Vec<f64>], &'b [Option<Blend>]),
+    (&'b [Vec<f64>], Option<&'b Blends>),
 );
 
 impl OutputChanges {
@@ -107,25 +107,36 @@ impl OutputChanges {
             }
         }
         let moves = (&self.reference[..], dblend, t);
-        add_transition_moves((&mut out[..], na), moves, &mut self.de);
+        add_transition_moves((&mut out[..], na), moves, (&mut self.de, &mut self.basis));
         Ok(())
     }
 }
 
 /// Each derivative c's column of `cols` (`rows` entries each, column-major) += Σ_l R_l de_c,l(t): the rows'
 /// columns R = ∂/∂(ξ, y^(r)) (`reference`, rows × (r + 1), [`Point::moved_row_jacobians`]) along the re-entry
-/// transition's derivative de_c(t) (`dblend[c]`, nothing without one); `de` of length r + 1 the buffer.
+/// transition's derivative de_c(t) (`dblend`'s column c, nothing without one, its basis evaluated once);
+/// `de` of length r + 1 and `basis` the buffers.
 pub(super) fn add_transition_moves(
     (cols, rows): (&mut [f64], usize),
-    (reference, dblend, t): (&[f64], &[Option<Blend>], f64),
-    de: &mut [f64],
+    (reference, dblend, t): (&[f64], Option<&Blends>, f64),
+    (de, basis): (&mut [f64], &mut Vec<f64>),
 ) {
-    for (c, d) in dblend.iter().enumerate() {
-        if d.is_none() {
+    let Some(blends) = dblend else {
+        return;
+    };
+    if !blends.basis_at(t, de.len(), basis) {
+        return;
+    }
+    for (c, col) in cols
+        .chunks_exact_mut(rows.max(1))
+        .take(blends.columns())
+        .enumerate()
+    {
+        if blends.is_zero(c) {
             continue;
         }
-        moved_reference_into(d.as_ref(), t, de);
-        let col = &mut cols[c * rows..(c + 1) * rows];
+        de.fill(0.0);
+        blends.add_from(c, basis, de);
         for (l, &v) in de.iter().enumerate() {
             add_scaled(col, &reference[l * rows..(l + 1) * rows], v);
         }

@@ -18,7 +18,7 @@
 //! Each interval starts again from the run's η, and the reference at the stage times and nodes is the run's
 //! (the sub-grid interpolant where the run used one: `crate::smoother::FineReference`).
 
-use super::blend::Blend;
+use super::blend::{Blend, Blends};
 use super::gradient_point::{add_transition_moves, point_into};
 use super::record::Ctx;
 use super::zd_ode::{ATOL, RTOL};
@@ -41,7 +41,7 @@ pub(super) struct ZdSensitivity {
 pub(super) type Along<'b> = (
     usize,
     Option<&'b Blend>,
-    &'b [Option<Blend>],
+    Option<&'b Blends>,
     (&'b [Option<usize>], &'b GridColumns),
 );
 
@@ -62,6 +62,8 @@ struct Nodes {
     yr: Vec<f64>,
     w: Vec<f64>,
     de: Vec<f64>,
+    /// The transition's basis at a node ([`Blends::basis_at`]).
+    basis: Vec<f64>,
     /// ∂q/∂(ξ, y^(r)) (ne × (r + 1), column-major).
     reference: Vec<f64>,
     rows: Vec<usize>,
@@ -164,6 +166,7 @@ impl Nodes {
             yr: vec![0.0; ctx.r_max + 1],
             w: Vec::new(),
             de: vec![0.0; r + 1],
+            basis: Vec::new(),
             reference: vec![0.0; ne * (r + 1)],
             rows: (0..ne).map(|i| layout.eta(i)).collect(),
             buf: Buffers::default(),
@@ -207,7 +210,8 @@ impl Nodes {
         point.moved_row_jacobians(&self.rows, cols, (a, b), &mut self.reference);
         self.buf = point.into_buffer();
         // B_c += ∂q/∂(ξ, y^(r)) de_c(s): the transition's move of the reference.
-        add_transition_moves((b, ne), (&self.reference, dblend, s), &mut self.de);
+        let buffers = (&mut self.de[..], &mut self.basis);
+        add_transition_moves((b, ne), (&self.reference, *dblend, s), buffers);
         Ok(())
     }
 }
