@@ -289,12 +289,27 @@ impl Ecms<'_, '_, '_> {
         sc: &mut Scratch,
     ) -> Option<Choice> {
         match self.candidates_at((k, x), (s, start), (only, true), sc) {
-            (Some(best), _) => Some(best),
+            (Some((_, best)), _) => Some(best),
             _ => {
                 let (best, nearest) = self.candidates_at((k, x), (s, start), (only, false), sc);
-                best.or(nearest)
+                best.map(|(_, c)| c).or(nearest)
             }
         }
+    }
+
+    /// The tie at sample k of the run `out` between modes `ma` and `mb`: J_mb − J_ma, each mode's least cost at
+    /// the run's state there and its s, with the start penalty as the run had it (`equivalence.rs` finds the
+    /// flip's price by the secant through it). None where either mode has no feasible candidate.
+    pub(super) fn tie_gap(&self, out: &Outcome, k: usize, (ma, mb): (usize, usize)) -> Option<f64> {
+        let on = k > 0 && self.h.engine_on[out.rec.mode[k - 1]];
+        let start = if on { 0.0 } else { self.h.start_penalty };
+        let x = &out.rec.states[k];
+        let mut sc = Scratch::default();
+        let mut cost = |m: usize| {
+            let at = self.candidates_at((k, x), (out.s, start), (Some(m), false), &mut sc);
+            at.0.map(|(c, _)| c)
+        };
+        Some(cost(mb)? - cost(ma)?)
     }
 
     /// Every sample's candidate at s, chosen beforehand and side by side on the cores, where no choice
@@ -334,14 +349,15 @@ impl Ecms<'_, '_, '_> {
     /// Every candidate of sample k from state x at s (`start`: E_start where the engine would start), a
     /// decided input minimised over its bounds: (m, d) of the feasible one of least cost, and of the one
     /// nearest its bounds among every evaluation (by its excess, then its cost; `lazy` leaves points beyond
-    /// the bounds at t_k unfinished, and this one unreliable). `only`: the candidates of that mode alone.
+    /// the bounds at t_k unfinished, and this one unreliable), the first with its cost. `only`: the candidates
+    /// of that mode alone.
     fn candidates_at(
         &self,
         (k, x): (usize, &[f64]),
         (s, start): (f64, f64),
         (only, lazy): (Option<usize>, bool),
         sc: &mut Scratch,
-    ) -> (Option<Choice>, Option<Choice>) {
+    ) -> (Option<(f64, Choice)>, Option<Choice>) {
         // (cost, m, d) of the best feasible candidate; (excess, cost, m, d) of the one nearest its bounds.
         let mut best: Option<(f64, usize, f64)> = None;
         let mut nearest: Option<(f64, f64, usize, f64)> = None;
@@ -407,7 +423,7 @@ impl Ecms<'_, '_, '_> {
             }
         }
         (
-            best.map(|(_, m, d)| (m, d)),
+            best.map(|(c, m, d)| (c, (m, d))),
             nearest.map(|(_, _, m, d)| (m, d)),
         )
     }
