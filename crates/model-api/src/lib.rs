@@ -384,9 +384,10 @@ pub trait InverseModel: Send + Sync {
     /// [`InverseModel::sensitivity`] at many points, column-wise: `x[s][k]`, `w[l][k]`, `u[k]` in, entry e of
     /// point k (the layout of [`SensitivityLayout`]) to `out[e][k]`. Without `invariant`, the entries that
     /// depend on none of x, w and u (most are 0) may be left as they are: the caller has them from an earlier
-    /// call with the same parameters and at least as many points. Returns the index of the first point that
-    /// fails, with its error. The default calls [`InverseModel::sensitivity`] point by point (and writes
-    /// every entry).
+    /// call with the same parameters and at least as many points. An empty `out[e]` is an entry the caller
+    /// does not want: it is not written (a compiled model does not compute it). Returns the index of the
+    /// first point that fails, with its error. The default calls [`InverseModel::sensitivity`] point by point
+    /// (and writes every entry wanted).
     fn sensitivity_batch(
         &self,
         x: &[&[f64]],
@@ -429,7 +430,8 @@ fn columns_pointwise<E>(
             *v = c[k];
         }
         f(&x_k, &w_k, u_k, &mut o_k).map_err(|e| (k, e))?;
-        for (c, &v) in out.iter_mut().zip(&o_k) {
+        // An empty column is not wanted ([`InverseModel::sensitivity_batch`]).
+        for (c, &v) in out.iter_mut().zip(&o_k).filter(|(c, _)| !c.is_empty()) {
             c[k] = v;
         }
     }

@@ -10,7 +10,9 @@
 //! buffers and `pow_pos_slice` raises them, for l = 0, 1, …; the last loop computes the function's results
 //! from the inputs and the powers. Every loop is straight-line `f64` code per point that LLVM vectorises (the
 //! results go to block buffers on the stack, copied to the columns afterwards, so no loop writes memory that
-//! could alias its inputs). A later loop recomputes the cheap values it shares with an earlier one and reads
+//! could alias its inputs). `sensitivity_batch`, whose results are many and of which a caller wants a few,
+//! keeps the temporaries its results share in a block buffer instead and computes each result wanted in a
+//! loop of its own, straight into its column. A later loop recomputes the cheap values it shares with an earlier one and reads
 //! calls of transcendental functions (and powers with varying exponents) from a block buffer instead.
 
 use super::atoms::Atoms;
@@ -395,7 +397,7 @@ fn method(
         parts.tail,
     );
     // A kernel with its own block size shadows the module's `BLOCK` in its body.
-    let block = match kind.block(k.varying.len()) {
+    let block = match kind.block(k.buffered()) {
         Some(b) => {
             let b = lit(b);
             quote!(const BLOCK: usize = #b;)
@@ -420,6 +422,32 @@ fn method(
         }
     };
     (tokens, k.uses_sign.get())
+}
+
+/// The name bound by a `let NAME = …;` statement.
+fn let_name(stmt: &TokenStream) -> Option<Ident> {
+    match stmt.clone().into_iter().nth(1)? {
+        proc_macro2::TokenTree::Ident(id) => Some(id),
+        _ => None,
+    }
+}
+
+/// Every identifier in `ts`, at any depth.
+fn idents_in(ts: &TokenStream) -> HashSet<String> {
+    let mut out = HashSet::new();
+    let mut stack = vec![ts.clone()];
+    while let Some(ts) = stack.pop() {
+        for tt in ts {
+            match tt {
+                proc_macro2::TokenTree::Ident(id) => {
+                    out.insert(id.to_string());
+                }
+                proc_macro2::TokenTree::Group(g) => stack.push(g.stream()),
+                _ => {}
+            }
+        }
+    }
+    out
 }
 
 fn lit(i: usize) -> proc_macro2::Literal {
@@ -448,6 +476,8 @@ struct Kernel<'a> {
     /// The results computed per point: every one, except for `sensitivity_batch`, whose invariant results
     /// (parameter-only partial derivatives, most of them 0) are filled once per call.
     varying: Vec<usize>,
+    /// `sensitivity_batch`'s temporaries kept per block ([`Kernel::entry_loops`]), once its last loop is written.
+    temps: Cell<usize>,
 }
 
 /// What differs between `invert_batch` and `outputs_batch`.
@@ -516,6 +546,7 @@ impl<'a> Kernel<'a> {
             uses_sign: Cell::new(false),
             clamp_like: Cell::new(false),
             varying,
+            temps: Cell::new(0),
         }
     }
 
@@ -624,7 +655,7 @@ impl<'a> Kernel<'a> {
         } else {
             self.plan.roots(lv, &[])
         };
-        let block = emit::render_with(
+        let mut block = emit::render_with(
             &self.l.arena,
             &roots,
             &loc,
@@ -637,10 +668,11 @@ impl<'a> Kernel<'a> {
         self.clamp_like
             .set(self.clamp_like.get() || block.clamp_like);
         let lets = &block.lets;
-        let stores = if last {
-            self.results(block.roots)
-        } else {
-            self.stores(&roots, &block.roots)
+        let stores = match (last, self.kind) {
+            // Written by `entry_loops` below, result by result.
+            (true, Kind::Sensitivity) => TokenStream::new(),
+            (true, _) => self.results(std::mem::take(&mut block.roots)),
+            (false, _) => self.stores(&roots, &block.roots),
         };
         self.uses_p.set(self.uses_p.get() || atoms.uses_p());
         let mut used = atoms.used();
@@ -649,6 +681,9 @@ impl<'a> Kernel<'a> {
         }
         let reads = self.reads(&used);
         self.used_any.borrow_mut().extend(used.iter().copied());
+        if last && self.kind == Kind::Sensitivity {
+            return self.entry_loops((lets, &block.roots), &used);
+        }
         // A loop with nothing to compute (every base is a column or a buffer already) is left out.
         if stores.is_empty() {
             return quote!();
@@ -660,6 +695,76 @@ impl<'a> Kernel<'a> {
                 #stores
             }
         }
+    }
+
+    /// The results per point held in a block buffer: `sensitivity_batch`'s temporaries, or the results.
+    fn buffered(&self) -> usize {
+        match self.kind {
+            Kind::Sensitivity => self.temps.get(),
+            _ => self.varying.len(),
+        }
+    }
+
+    /// `sensitivity_batch`'s last loop: the temporaries the results share (`let`s) computed per point and kept
+    /// in the block buffer `temps`, then one loop per varying result e that reads the ones it uses and writes
+    /// `out[e]` directly — only where `out[e]` is not empty: an entry the caller does not want is neither
+    /// computed nor written (the chain rule reads a few rows and columns of the layout).
+    fn entry_loops(
+        &self,
+        (lets, roots): (&[TokenStream], &[Ex]),
+        used: &HashSet<Symbol>,
+    ) -> TokenStream {
+        // The inputs a piece of code reads, of those the loop reads.
+        let reads_of = |idents: &HashSet<String>| {
+            let own: HashSet<Symbol> = used
+                .iter()
+                .copied()
+                .filter(|s| idents.contains(&self.g.locals[s].to_string()))
+                .collect();
+            self.reads(&own)
+        };
+        let names: Vec<Ident> = lets.iter().filter_map(let_name).collect();
+        let reads = reads_of(&lets.iter().flat_map(idents_in).collect());
+        self.temps.set(names.len());
+        let keeps = names.iter().enumerate().map(|(j, n)| {
+            let j = lit(j);
+            quote!(temps[#j][k] = #n;)
+        });
+        let shared = if names.is_empty() {
+            quote!()
+        } else {
+            quote! {
+                for k in 0..len {
+                    #reads
+                    #(#lets)*
+                    #(#keeps)*
+                }
+            }
+        };
+        let entries = self.varying.iter().zip(roots).map(|(&e, root)| {
+            let expr = root.tokens(0);
+            let idents = idents_in(&expr);
+            let loads = names
+                .iter()
+                .enumerate()
+                .filter(|(_, n)| idents.contains(&n.to_string()))
+                .map(|(j, n)| {
+                    let j = lit(j);
+                    quote!(let #n = temps[#j][k];)
+                });
+            let reads = reads_of(&idents);
+            let e = lit(e);
+            quote! {
+                if !out[#e].is_empty() {
+                    for (k, slot) in out[#e][start..end].iter_mut().enumerate() {
+                        #reads
+                        #(#loads)*
+                        *slot = #expr;
+                    }
+                }
+            }
+        });
+        quote!(#shared #(#entries)*)
     }
 
     /// The last loop's stores: the states and the input, or the outputs.
@@ -878,27 +983,27 @@ impl<'a> Kernel<'a> {
             }
             Kind::Sensitivity => {
                 let u = &self.g.locals[&self.g.d.model.input.symbol];
-                let nv = lit(self.varying.len());
-                let entries = self.varying.iter().map(|&e| lit(e));
+                let temps = self.temps.get();
                 let atoms = Atoms::new(self.g, self.k_names);
                 let fills: Vec<TokenStream> = (0..self.l.roots.len())
                     .filter(|e| self.varying.binary_search(e).is_err())
                     .map(|e| {
                         let value = atoms.tokens(self.l.roots[e]);
                         let e = lit(e);
-                        quote!(out[#e][..points].fill(#value);)
+                        quote!(if !out[#e].is_empty() { out[#e][..points].fill(#value); })
                     })
                     .collect();
                 self.uses_p.set(self.uses_p.get() || atoms.uses_p());
                 Parts {
                     length: quote!(#u.len()),
                     outputs_params: quote!(out: [&mut [f64]; N_SENS], invariant: bool),
-                    buffers: quote!(let mut values = [[0.0; BLOCK]; #nv];),
-                    copies: quote! {
-                        for (e, buffer) in [#(#entries),*].into_iter().zip(&values) {
-                            out[e][start..end].copy_from_slice(&buffer[..len]);
-                        }
+                    buffers: if temps == 0 {
+                        quote!()
+                    } else {
+                        let temps = lit(temps);
+                        quote!(let mut temps = [[0.0; BLOCK]; #temps];)
                     },
+                    copies: quote!(),
                     tail: quote! {
                         if invariant {
                             let points = #u.len();
@@ -909,7 +1014,8 @@ impl<'a> Kernel<'a> {
                     doc: vec![format!(
                         "[`Precomputed::sensitivity`] at many points, stored column-wise: x_s at point k is \
                          `x[s][k]`, the input `{u}[k]`; entry e is written to `out[e][k]`, the entries that \
-                         depend on no point (parameter-only) only where `invariant` is true."
+                         depend on no point (parameter-only) only where `invariant` is true; an empty `out[e]` \
+                         is an entry not wanted, neither computed nor written."
                     )],
                 }
             }
@@ -929,7 +1035,7 @@ impl<'a> Kernel<'a> {
         if self.plan.has_maps() {
             at_once.push("the map calls of a block at once, by `Map::partials2_batch` or, where only the value is read, `Map::values_batch` (bit for bit `partials2`)");
         }
-        let block = match self.kind.block(self.varying.len()) {
+        let block = match self.kind.block(self.buffered()) {
             Some(b) => format!("{b} points, the body's own `BLOCK`"),
             None => "[`BLOCK`] points".to_string(),
         };

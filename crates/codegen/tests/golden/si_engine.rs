@@ -1826,9 +1826,9 @@ pub mod si_engine {
                 }
             }
         }
-        /// [`Precomputed::sensitivity`] at many points, stored column-wise: x_s at point k is `x[s][k]`, the input `m_at[k]`; entry e is written to `out[e][k]`, the entries that depend on no point (parameter-only) only where `invariant` is true.
+        /// [`Precomputed::sensitivity`] at many points, stored column-wise: x_s at point k is `x[s][k]`, the input `m_at[k]`; entry e is written to `out[e][k]`, the entries that depend on no point (parameter-only) only where `invariant` is true; an empty `out[e]` is an entry not wanted, neither computed nor written.
         ///
-        /// Block by block (100 points, the body's own `BLOCK`): the fractional powers of a block at once, by [`pow_pos_slice`] (within 1 ulp of `powf`); the calls of transcendental functions in loops of their own, everything else point by point in loops that vectorise.
+        /// Block by block (256 points, the body's own `BLOCK`): the fractional powers of a block at once, by [`pow_pos_slice`] (within 1 ulp of `powf`); the calls of transcendental functions in loops of their own, everything else point by point in loops that vectorise.
         ///
         /// # Panics
         ///
@@ -1840,11 +1840,11 @@ pub mod si_engine {
             out: [&mut [f64]; N_SENS],
             invariant: bool,
         ) {
-            const BLOCK: usize = 100;
+            const BLOCK: usize = 256;
             let p = &self.params;
             let mut base = [[0.0; BLOCK]; 2];
             let mut power = [[0.0; BLOCK]; 2];
-            let mut values = [[0.0; BLOCK]; 79];
+            let mut temps = [[0.0; BLOCK]; 19];
             for start in (0..m_at.len()).step_by(BLOCK) {
                 let len = BLOCK.min(m_at.len() - start);
                 let end = start + len;
@@ -1881,266 +1881,1073 @@ pub mod si_engine {
                     let t16 = v * v * v;
                     let t17 = 1.0 + sign(m_at);
                     let t18 = m_at.max(0.0);
-                    values[0][k] = -(self.k11 * t4);
-                    values[1][k] = t9 - self.k29 * t2;
-                    values[2][k] = self.k30 * t0;
-                    values[3][k] = self.k31 * t0;
-                    values[4][k] = -(self.k32 * t2);
-                    values[5][k] = self.k33 * t0;
-                    values[6][k] = -(self.k34 * t2);
-                    values[7][k] = self.k37 * t10 - self.k38 * t8;
-                    values[8][k] = self.k41 * t8 - self.k37 * t11;
-                    values[9][k] = self.k43 * t8 - self.k42 * t7;
-                    values[10][k] = self.k44 * t8;
-                    values[11][k] = self.k45 * t7;
-                    values[12][k] = self.k48 * t12;
-                    values[13][k] = self.k49 * t0 / t1;
-                    values[14][k] = self.k37 * t13;
-                    values[15][k] = self.k52 * t6;
-                    values[16][k] = self.k53 * t5;
-                    values[17][k] = self.k54 * t5;
-                    values[18][k] = self.k55 * t5;
-                    values[19][k] = self.k56 * t5;
-                    values[20][k] = self.k57 * t5;
-                    values[21][k] = self.k58 * t5;
-                    values[22][k] = self.k60 * p_i;
-                    values[23][k] = -(self.k62 * v * t3);
-                    values[24][k] = self.k63 * t14;
-                    values[25][k] = self.k64 * t5 + self.k65 * (t4 * t4)
-                        + t9
-                            * (self.k0 - self.k66 * t0 / t15 + self.k15 / t1
-                                + self.k67 * t3 * t2);
-                    values[26][k] = -(self.k68 * v + self.k69 * t4);
-                    values[27][k] = self.k74 * t4 * t2 - self.k70 * m_at
-                        - self.k71 * v * t5 - self.k72 * t4 * t8 - self.k73 * t8 * t3;
-                    values[28][k] = self.k75 * t0 * t4 + self.k75 * v * t8;
-                    values[29][k] = self.k76 * t0 * t4 + self.k76 * v * t8;
-                    values[30][k] = self.k78 * t4 * t2 - self.k77 * t8 * t3;
-                    values[31][k] = self.k79 * t0 * t4 + self.k79 * v * t8;
-                    values[32][k] = self.k81 * t4 * t2 - self.k80 * t8 * t3;
-                    values[33][k] = self.k82 * m_at - self.k83 * m_at + self.k84 * v * t5
-                        - self.k85 * v * t5 - self.k86 * t10 * t4
-                        + self.k89 * (self.k87 * t16 / t15 - self.k88 * v / t1) * t8
-                        + self.k90 * t4 * t8;
-                    values[34][k] = self.k92 * m_at - self.k91 * m_at - self.k93 * v * t5
-                        + self.k94 * v * t5 + self.k86 * t11 * t4
-                        - self.k89 * (self.k95 * t16 / t15 - self.k96 * v / t1) * t8
-                        - self.k97 * t4 * t8;
-                    values[35][k] = self.k99 * m_at - self.k98 * m_at
-                        - self.k100 * v * t5 + self.k101 * v * t5 + self.k102 * t7 * t4
-                        + self.k103 * v * t8 / t1 - self.k104 * t4 * t8;
-                    values[36][k] = -(self.k105 * m_at + self.k106 * v * t5
-                        + self.k107 * t4 * t8);
-                    values[37][k] = self.k108 * m_at + self.k109 * v * t5
-                        + self.k110 * t7 * t4 + self.k111 * v * t8 / t1;
-                    values[38][k] = self.k112 * m_at + self.k113 * v * t5
-                        + self.k114 * t12 * t4
-                        + self.k117 * (self.k115 * v / t1 - self.k116 * v / t1) * t8;
-                    values[39][k] = self.k118 * t0 * t4 / t1
-                        - self.k89 * (self.k119 * t16 / t15 - self.k120 * v / t1) * t8;
-                    values[40][k] = -(self.k121 * m_at + self.k122 * v * t5
-                        + self.k86 * t13 * t4
-                        + self.k125 * (self.k123 * v / t1 - self.k124 * v / t1) * t8);
-                    values[41][k] = self.k127 * v * t8 / t1 - self.k126 * t6 * t4;
-                    values[42][k] = self.k128 * m_at + self.k129 * v * t5
-                        + self.k130 * t5 * t4;
-                    values[43][k] = self.k131 * m_at + self.k132 * v * t5
-                        + self.k133 * t5 * t4;
-                    values[44][k] = -(self.k134 * m_at + self.k135 * v * t5
-                        + self.k136 * t5 * t4);
-                    values[45][k] = -(self.k137 * m_at + self.k138 * v * t5
-                        + self.k139 * t5 * t4);
-                    values[46][k] = self.k141 * m_at - self.k140 * m_at
-                        - self.k142 * v * t5 - self.k143 * t5 * t4;
-                    values[47][k] = self.k145 * m_at - self.k144 * m_at
-                        - self.k146 * v * t5 - self.k147 * t5 * t4;
-                    values[48][k] = -(self.k148 * m_at + self.k149 * v * t5);
-                    values[49][k] = self.k150 * t4;
-                    values[50][k] = self.k151 * m_at - self.k64 * p_i * v
-                        + self.k152 * v * t5 - self.k153 * p_i * t4;
-                    values[51][k] = self.k64 * v + self.k153 * t4;
-                    values[52][k] = t9 * (self.k154 * t3 - self.k155 * v * t3 * t2)
-                        + self.k156 * v * t4 * t3;
-                    values[53][k] = -(self.k157 * t14 * t4 + self.k158 * v * t8 / t15);
-                    values[54][k] = self.k159 * t17;
-                    values[55][k] = -(self.k160 * t18);
-                    values[56][k] = -(self.k161 * t18);
-                    values[57][k] = self.k162 * t17;
-                    values[58][k] = self.k163 * t18;
-                    values[59][k] = self.k164 * t18;
-                    values[60][k] = self.k165 * t18;
-                    values[61][k] = self.k166 * v;
-                    values[62][k] = self.k167 * v;
-                    values[63][k] = self.k168 * v / t1;
-                    values[64][k] = self.k170 * t0 / t1;
-                    values[65][k] = self.k171 * t0 / t1;
-                    values[66][k] = self.k172 * t7;
-                    values[67][k] = -(self.k173 * t6 + self.k174 * t7);
-                    values[68][k] = self.k175 * t0 / t1;
-                    values[69][k] = self.k176 * t6 + self.k177 * t7;
-                    values[70][k] = self.k178 * t6;
-                    values[71][k] = self.k179 * t5;
-                    values[72][k] = self.k180 * t5;
-                    values[73][k] = self.k181 * t5;
-                    values[74][k] = self.k182 * t5;
-                    values[75][k] = self.k183 * t5;
-                    values[76][k] = self.k184 * t5;
-                    values[77][k] = self.k185 * p_i;
-                    values[78][k] = self.k187 * t14;
+                    temps[0][k] = t0;
+                    temps[1][k] = t1;
+                    temps[2][k] = t2;
+                    temps[3][k] = t3;
+                    temps[4][k] = t4;
+                    temps[5][k] = t5;
+                    temps[6][k] = t6;
+                    temps[7][k] = t7;
+                    temps[8][k] = t8;
+                    temps[9][k] = t9;
+                    temps[10][k] = t10;
+                    temps[11][k] = t11;
+                    temps[12][k] = t12;
+                    temps[13][k] = t13;
+                    temps[14][k] = t14;
+                    temps[15][k] = t15;
+                    temps[16][k] = t16;
+                    temps[17][k] = t17;
+                    temps[18][k] = t18;
                 }
-                for (e, buffer) in [
-                    31, 34, 35, 36, 37, 38, 39, 40, 41, 42, 43, 44, 45, 46, 47, 48, 49,
-                    50, 51, 52, 53, 54, 57, 60, 61, 62, 63, 65, 66, 67, 68, 69, 70, 71,
-                    72, 73, 74, 75, 76, 77, 78, 79, 80, 81, 82, 83, 84, 85, 86, 87, 88,
-                    89, 91, 92, 95, 113, 114, 126, 144, 145, 152, 164, 165, 186, 195,
-                    196, 199, 200, 201, 202, 203, 204, 205, 206, 207, 208, 209, 212, 216,
-                ]
-                    .into_iter()
-                    .zip(&values)
-                {
-                    out[e][start..end].copy_from_slice(&buffer[..len]);
+                if !out[31].is_empty() {
+                    for (k, slot) in out[31][start..end].iter_mut().enumerate() {
+                        let t4 = temps[4][k];
+                        *slot = -(self.k11 * t4);
+                    }
+                }
+                if !out[34].is_empty() {
+                    for (k, slot) in out[34][start..end].iter_mut().enumerate() {
+                        let t2 = temps[2][k];
+                        let t9 = temps[9][k];
+                        *slot = t9 - self.k29 * t2;
+                    }
+                }
+                if !out[35].is_empty() {
+                    for (k, slot) in out[35][start..end].iter_mut().enumerate() {
+                        let t0 = temps[0][k];
+                        *slot = self.k30 * t0;
+                    }
+                }
+                if !out[36].is_empty() {
+                    for (k, slot) in out[36][start..end].iter_mut().enumerate() {
+                        let t0 = temps[0][k];
+                        *slot = self.k31 * t0;
+                    }
+                }
+                if !out[37].is_empty() {
+                    for (k, slot) in out[37][start..end].iter_mut().enumerate() {
+                        let t2 = temps[2][k];
+                        *slot = -(self.k32 * t2);
+                    }
+                }
+                if !out[38].is_empty() {
+                    for (k, slot) in out[38][start..end].iter_mut().enumerate() {
+                        let t0 = temps[0][k];
+                        *slot = self.k33 * t0;
+                    }
+                }
+                if !out[39].is_empty() {
+                    for (k, slot) in out[39][start..end].iter_mut().enumerate() {
+                        let t2 = temps[2][k];
+                        *slot = -(self.k34 * t2);
+                    }
+                }
+                if !out[40].is_empty() {
+                    for (k, slot) in out[40][start..end].iter_mut().enumerate() {
+                        let t8 = temps[8][k];
+                        let t10 = temps[10][k];
+                        *slot = self.k37 * t10 - self.k38 * t8;
+                    }
+                }
+                if !out[41].is_empty() {
+                    for (k, slot) in out[41][start..end].iter_mut().enumerate() {
+                        let t8 = temps[8][k];
+                        let t11 = temps[11][k];
+                        *slot = self.k41 * t8 - self.k37 * t11;
+                    }
+                }
+                if !out[42].is_empty() {
+                    for (k, slot) in out[42][start..end].iter_mut().enumerate() {
+                        let t7 = temps[7][k];
+                        let t8 = temps[8][k];
+                        *slot = self.k43 * t8 - self.k42 * t7;
+                    }
+                }
+                if !out[43].is_empty() {
+                    for (k, slot) in out[43][start..end].iter_mut().enumerate() {
+                        let t8 = temps[8][k];
+                        *slot = self.k44 * t8;
+                    }
+                }
+                if !out[44].is_empty() {
+                    for (k, slot) in out[44][start..end].iter_mut().enumerate() {
+                        let t7 = temps[7][k];
+                        *slot = self.k45 * t7;
+                    }
+                }
+                if !out[45].is_empty() {
+                    for (k, slot) in out[45][start..end].iter_mut().enumerate() {
+                        let t12 = temps[12][k];
+                        *slot = self.k48 * t12;
+                    }
+                }
+                if !out[46].is_empty() {
+                    for (k, slot) in out[46][start..end].iter_mut().enumerate() {
+                        let t0 = temps[0][k];
+                        let t1 = temps[1][k];
+                        *slot = self.k49 * t0 / t1;
+                    }
+                }
+                if !out[47].is_empty() {
+                    for (k, slot) in out[47][start..end].iter_mut().enumerate() {
+                        let t13 = temps[13][k];
+                        *slot = self.k37 * t13;
+                    }
+                }
+                if !out[48].is_empty() {
+                    for (k, slot) in out[48][start..end].iter_mut().enumerate() {
+                        let t6 = temps[6][k];
+                        *slot = self.k52 * t6;
+                    }
+                }
+                if !out[49].is_empty() {
+                    for (k, slot) in out[49][start..end].iter_mut().enumerate() {
+                        let t5 = temps[5][k];
+                        *slot = self.k53 * t5;
+                    }
+                }
+                if !out[50].is_empty() {
+                    for (k, slot) in out[50][start..end].iter_mut().enumerate() {
+                        let t5 = temps[5][k];
+                        *slot = self.k54 * t5;
+                    }
+                }
+                if !out[51].is_empty() {
+                    for (k, slot) in out[51][start..end].iter_mut().enumerate() {
+                        let t5 = temps[5][k];
+                        *slot = self.k55 * t5;
+                    }
+                }
+                if !out[52].is_empty() {
+                    for (k, slot) in out[52][start..end].iter_mut().enumerate() {
+                        let t5 = temps[5][k];
+                        *slot = self.k56 * t5;
+                    }
+                }
+                if !out[53].is_empty() {
+                    for (k, slot) in out[53][start..end].iter_mut().enumerate() {
+                        let t5 = temps[5][k];
+                        *slot = self.k57 * t5;
+                    }
+                }
+                if !out[54].is_empty() {
+                    for (k, slot) in out[54][start..end].iter_mut().enumerate() {
+                        let t5 = temps[5][k];
+                        *slot = self.k58 * t5;
+                    }
+                }
+                if !out[57].is_empty() {
+                    for (k, slot) in out[57][start..end].iter_mut().enumerate() {
+                        let [_, p_i] = x.map(|c| c[k]);
+                        *slot = self.k60 * p_i;
+                    }
+                }
+                if !out[60].is_empty() {
+                    for (k, slot) in out[60][start..end].iter_mut().enumerate() {
+                        let [v, _] = x.map(|c| c[k]);
+                        let t3 = temps[3][k];
+                        *slot = -(self.k62 * v * t3);
+                    }
+                }
+                if !out[61].is_empty() {
+                    for (k, slot) in out[61][start..end].iter_mut().enumerate() {
+                        let t14 = temps[14][k];
+                        *slot = self.k63 * t14;
+                    }
+                }
+                if !out[62].is_empty() {
+                    for (k, slot) in out[62][start..end].iter_mut().enumerate() {
+                        let t0 = temps[0][k];
+                        let t1 = temps[1][k];
+                        let t2 = temps[2][k];
+                        let t3 = temps[3][k];
+                        let t4 = temps[4][k];
+                        let t5 = temps[5][k];
+                        let t9 = temps[9][k];
+                        let t15 = temps[15][k];
+                        *slot = self.k64 * t5 + self.k65 * (t4 * t4)
+                            + t9
+                                * (self.k0 - self.k66 * t0 / t15 + self.k15 / t1
+                                    + self.k67 * t3 * t2);
+                    }
+                }
+                if !out[63].is_empty() {
+                    for (k, slot) in out[63][start..end].iter_mut().enumerate() {
+                        let [v, _] = x.map(|c| c[k]);
+                        let t4 = temps[4][k];
+                        *slot = -(self.k68 * v + self.k69 * t4);
+                    }
+                }
+                if !out[65].is_empty() {
+                    for (k, slot) in out[65][start..end].iter_mut().enumerate() {
+                        let [v, _] = x.map(|c| c[k]);
+                        let m_at = m_at[k];
+                        let t2 = temps[2][k];
+                        let t3 = temps[3][k];
+                        let t4 = temps[4][k];
+                        let t5 = temps[5][k];
+                        let t8 = temps[8][k];
+                        *slot = self.k74 * t4 * t2 - self.k70 * m_at - self.k71 * v * t5
+                            - self.k72 * t4 * t8 - self.k73 * t8 * t3;
+                    }
+                }
+                if !out[66].is_empty() {
+                    for (k, slot) in out[66][start..end].iter_mut().enumerate() {
+                        let [v, _] = x.map(|c| c[k]);
+                        let t0 = temps[0][k];
+                        let t4 = temps[4][k];
+                        let t8 = temps[8][k];
+                        *slot = self.k75 * t0 * t4 + self.k75 * v * t8;
+                    }
+                }
+                if !out[67].is_empty() {
+                    for (k, slot) in out[67][start..end].iter_mut().enumerate() {
+                        let [v, _] = x.map(|c| c[k]);
+                        let t0 = temps[0][k];
+                        let t4 = temps[4][k];
+                        let t8 = temps[8][k];
+                        *slot = self.k76 * t0 * t4 + self.k76 * v * t8;
+                    }
+                }
+                if !out[68].is_empty() {
+                    for (k, slot) in out[68][start..end].iter_mut().enumerate() {
+                        let t2 = temps[2][k];
+                        let t3 = temps[3][k];
+                        let t4 = temps[4][k];
+                        let t8 = temps[8][k];
+                        *slot = self.k78 * t4 * t2 - self.k77 * t8 * t3;
+                    }
+                }
+                if !out[69].is_empty() {
+                    for (k, slot) in out[69][start..end].iter_mut().enumerate() {
+                        let [v, _] = x.map(|c| c[k]);
+                        let t0 = temps[0][k];
+                        let t4 = temps[4][k];
+                        let t8 = temps[8][k];
+                        *slot = self.k79 * t0 * t4 + self.k79 * v * t8;
+                    }
+                }
+                if !out[70].is_empty() {
+                    for (k, slot) in out[70][start..end].iter_mut().enumerate() {
+                        let t2 = temps[2][k];
+                        let t3 = temps[3][k];
+                        let t4 = temps[4][k];
+                        let t8 = temps[8][k];
+                        *slot = self.k81 * t4 * t2 - self.k80 * t8 * t3;
+                    }
+                }
+                if !out[71].is_empty() {
+                    for (k, slot) in out[71][start..end].iter_mut().enumerate() {
+                        let [v, _] = x.map(|c| c[k]);
+                        let m_at = m_at[k];
+                        let t1 = temps[1][k];
+                        let t4 = temps[4][k];
+                        let t5 = temps[5][k];
+                        let t8 = temps[8][k];
+                        let t10 = temps[10][k];
+                        let t15 = temps[15][k];
+                        let t16 = temps[16][k];
+                        *slot = self.k82 * m_at - self.k83 * m_at + self.k84 * v * t5
+                            - self.k85 * v * t5 - self.k86 * t10 * t4
+                            + self.k89 * (self.k87 * t16 / t15 - self.k88 * v / t1) * t8
+                            + self.k90 * t4 * t8;
+                    }
+                }
+                if !out[72].is_empty() {
+                    for (k, slot) in out[72][start..end].iter_mut().enumerate() {
+                        let [v, _] = x.map(|c| c[k]);
+                        let m_at = m_at[k];
+                        let t1 = temps[1][k];
+                        let t4 = temps[4][k];
+                        let t5 = temps[5][k];
+                        let t8 = temps[8][k];
+                        let t11 = temps[11][k];
+                        let t15 = temps[15][k];
+                        let t16 = temps[16][k];
+                        *slot = self.k92 * m_at - self.k91 * m_at - self.k93 * v * t5
+                            + self.k94 * v * t5 + self.k86 * t11 * t4
+                            - self.k89 * (self.k95 * t16 / t15 - self.k96 * v / t1) * t8
+                            - self.k97 * t4 * t8;
+                    }
+                }
+                if !out[73].is_empty() {
+                    for (k, slot) in out[73][start..end].iter_mut().enumerate() {
+                        let [v, _] = x.map(|c| c[k]);
+                        let m_at = m_at[k];
+                        let t1 = temps[1][k];
+                        let t4 = temps[4][k];
+                        let t5 = temps[5][k];
+                        let t7 = temps[7][k];
+                        let t8 = temps[8][k];
+                        *slot = self.k99 * m_at - self.k98 * m_at - self.k100 * v * t5
+                            + self.k101 * v * t5 + self.k102 * t7 * t4
+                            + self.k103 * v * t8 / t1 - self.k104 * t4 * t8;
+                    }
+                }
+                if !out[74].is_empty() {
+                    for (k, slot) in out[74][start..end].iter_mut().enumerate() {
+                        let [v, _] = x.map(|c| c[k]);
+                        let m_at = m_at[k];
+                        let t4 = temps[4][k];
+                        let t5 = temps[5][k];
+                        let t8 = temps[8][k];
+                        *slot = -(self.k105 * m_at + self.k106 * v * t5
+                            + self.k107 * t4 * t8);
+                    }
+                }
+                if !out[75].is_empty() {
+                    for (k, slot) in out[75][start..end].iter_mut().enumerate() {
+                        let [v, _] = x.map(|c| c[k]);
+                        let m_at = m_at[k];
+                        let t1 = temps[1][k];
+                        let t4 = temps[4][k];
+                        let t5 = temps[5][k];
+                        let t7 = temps[7][k];
+                        let t8 = temps[8][k];
+                        *slot = self.k108 * m_at + self.k109 * v * t5
+                            + self.k110 * t7 * t4 + self.k111 * v * t8 / t1;
+                    }
+                }
+                if !out[76].is_empty() {
+                    for (k, slot) in out[76][start..end].iter_mut().enumerate() {
+                        let [v, _] = x.map(|c| c[k]);
+                        let m_at = m_at[k];
+                        let t1 = temps[1][k];
+                        let t4 = temps[4][k];
+                        let t5 = temps[5][k];
+                        let t8 = temps[8][k];
+                        let t12 = temps[12][k];
+                        *slot = self.k112 * m_at + self.k113 * v * t5
+                            + self.k114 * t12 * t4
+                            + self.k117 * (self.k115 * v / t1 - self.k116 * v / t1) * t8;
+                    }
+                }
+                if !out[77].is_empty() {
+                    for (k, slot) in out[77][start..end].iter_mut().enumerate() {
+                        let [v, _] = x.map(|c| c[k]);
+                        let t0 = temps[0][k];
+                        let t1 = temps[1][k];
+                        let t4 = temps[4][k];
+                        let t8 = temps[8][k];
+                        let t15 = temps[15][k];
+                        let t16 = temps[16][k];
+                        *slot = self.k118 * t0 * t4 / t1
+                            - self.k89 * (self.k119 * t16 / t15 - self.k120 * v / t1)
+                                * t8;
+                    }
+                }
+                if !out[78].is_empty() {
+                    for (k, slot) in out[78][start..end].iter_mut().enumerate() {
+                        let [v, _] = x.map(|c| c[k]);
+                        let m_at = m_at[k];
+                        let t1 = temps[1][k];
+                        let t4 = temps[4][k];
+                        let t5 = temps[5][k];
+                        let t8 = temps[8][k];
+                        let t13 = temps[13][k];
+                        *slot = -(self.k121 * m_at + self.k122 * v * t5
+                            + self.k86 * t13 * t4
+                            + self.k125 * (self.k123 * v / t1 - self.k124 * v / t1)
+                                * t8);
+                    }
+                }
+                if !out[79].is_empty() {
+                    for (k, slot) in out[79][start..end].iter_mut().enumerate() {
+                        let [v, _] = x.map(|c| c[k]);
+                        let t1 = temps[1][k];
+                        let t4 = temps[4][k];
+                        let t6 = temps[6][k];
+                        let t8 = temps[8][k];
+                        *slot = self.k127 * v * t8 / t1 - self.k126 * t6 * t4;
+                    }
+                }
+                if !out[80].is_empty() {
+                    for (k, slot) in out[80][start..end].iter_mut().enumerate() {
+                        let [v, _] = x.map(|c| c[k]);
+                        let m_at = m_at[k];
+                        let t4 = temps[4][k];
+                        let t5 = temps[5][k];
+                        *slot = self.k128 * m_at + self.k129 * v * t5
+                            + self.k130 * t5 * t4;
+                    }
+                }
+                if !out[81].is_empty() {
+                    for (k, slot) in out[81][start..end].iter_mut().enumerate() {
+                        let [v, _] = x.map(|c| c[k]);
+                        let m_at = m_at[k];
+                        let t4 = temps[4][k];
+                        let t5 = temps[5][k];
+                        *slot = self.k131 * m_at + self.k132 * v * t5
+                            + self.k133 * t5 * t4;
+                    }
+                }
+                if !out[82].is_empty() {
+                    for (k, slot) in out[82][start..end].iter_mut().enumerate() {
+                        let [v, _] = x.map(|c| c[k]);
+                        let m_at = m_at[k];
+                        let t4 = temps[4][k];
+                        let t5 = temps[5][k];
+                        *slot = -(self.k134 * m_at + self.k135 * v * t5
+                            + self.k136 * t5 * t4);
+                    }
+                }
+                if !out[83].is_empty() {
+                    for (k, slot) in out[83][start..end].iter_mut().enumerate() {
+                        let [v, _] = x.map(|c| c[k]);
+                        let m_at = m_at[k];
+                        let t4 = temps[4][k];
+                        let t5 = temps[5][k];
+                        *slot = -(self.k137 * m_at + self.k138 * v * t5
+                            + self.k139 * t5 * t4);
+                    }
+                }
+                if !out[84].is_empty() {
+                    for (k, slot) in out[84][start..end].iter_mut().enumerate() {
+                        let [v, _] = x.map(|c| c[k]);
+                        let m_at = m_at[k];
+                        let t4 = temps[4][k];
+                        let t5 = temps[5][k];
+                        *slot = self.k141 * m_at - self.k140 * m_at - self.k142 * v * t5
+                            - self.k143 * t5 * t4;
+                    }
+                }
+                if !out[85].is_empty() {
+                    for (k, slot) in out[85][start..end].iter_mut().enumerate() {
+                        let [v, _] = x.map(|c| c[k]);
+                        let m_at = m_at[k];
+                        let t4 = temps[4][k];
+                        let t5 = temps[5][k];
+                        *slot = self.k145 * m_at - self.k144 * m_at - self.k146 * v * t5
+                            - self.k147 * t5 * t4;
+                    }
+                }
+                if !out[86].is_empty() {
+                    for (k, slot) in out[86][start..end].iter_mut().enumerate() {
+                        let [v, _] = x.map(|c| c[k]);
+                        let m_at = m_at[k];
+                        let t5 = temps[5][k];
+                        *slot = -(self.k148 * m_at + self.k149 * v * t5);
+                    }
+                }
+                if !out[87].is_empty() {
+                    for (k, slot) in out[87][start..end].iter_mut().enumerate() {
+                        let t4 = temps[4][k];
+                        *slot = self.k150 * t4;
+                    }
+                }
+                if !out[88].is_empty() {
+                    for (k, slot) in out[88][start..end].iter_mut().enumerate() {
+                        let [v, p_i] = x.map(|c| c[k]);
+                        let m_at = m_at[k];
+                        let t4 = temps[4][k];
+                        let t5 = temps[5][k];
+                        *slot = self.k151 * m_at - self.k64 * p_i * v
+                            + self.k152 * v * t5 - self.k153 * p_i * t4;
+                    }
+                }
+                if !out[89].is_empty() {
+                    for (k, slot) in out[89][start..end].iter_mut().enumerate() {
+                        let [v, _] = x.map(|c| c[k]);
+                        let t4 = temps[4][k];
+                        *slot = self.k64 * v + self.k153 * t4;
+                    }
+                }
+                if !out[91].is_empty() {
+                    for (k, slot) in out[91][start..end].iter_mut().enumerate() {
+                        let [v, _] = x.map(|c| c[k]);
+                        let t2 = temps[2][k];
+                        let t3 = temps[3][k];
+                        let t4 = temps[4][k];
+                        let t9 = temps[9][k];
+                        *slot = t9 * (self.k154 * t3 - self.k155 * v * t3 * t2)
+                            + self.k156 * v * t4 * t3;
+                    }
+                }
+                if !out[92].is_empty() {
+                    for (k, slot) in out[92][start..end].iter_mut().enumerate() {
+                        let [v, _] = x.map(|c| c[k]);
+                        let t4 = temps[4][k];
+                        let t8 = temps[8][k];
+                        let t14 = temps[14][k];
+                        let t15 = temps[15][k];
+                        *slot = -(self.k157 * t14 * t4 + self.k158 * v * t8 / t15);
+                    }
+                }
+                if !out[95].is_empty() {
+                    for (k, slot) in out[95][start..end].iter_mut().enumerate() {
+                        let t17 = temps[17][k];
+                        *slot = self.k159 * t17;
+                    }
+                }
+                if !out[113].is_empty() {
+                    for (k, slot) in out[113][start..end].iter_mut().enumerate() {
+                        let t18 = temps[18][k];
+                        *slot = -(self.k160 * t18);
+                    }
+                }
+                if !out[114].is_empty() {
+                    for (k, slot) in out[114][start..end].iter_mut().enumerate() {
+                        let t18 = temps[18][k];
+                        *slot = -(self.k161 * t18);
+                    }
+                }
+                if !out[126].is_empty() {
+                    for (k, slot) in out[126][start..end].iter_mut().enumerate() {
+                        let t17 = temps[17][k];
+                        *slot = self.k162 * t17;
+                    }
+                }
+                if !out[144].is_empty() {
+                    for (k, slot) in out[144][start..end].iter_mut().enumerate() {
+                        let t18 = temps[18][k];
+                        *slot = self.k163 * t18;
+                    }
+                }
+                if !out[145].is_empty() {
+                    for (k, slot) in out[145][start..end].iter_mut().enumerate() {
+                        let t18 = temps[18][k];
+                        *slot = self.k164 * t18;
+                    }
+                }
+                if !out[152].is_empty() {
+                    for (k, slot) in out[152][start..end].iter_mut().enumerate() {
+                        let t18 = temps[18][k];
+                        *slot = self.k165 * t18;
+                    }
+                }
+                if !out[164].is_empty() {
+                    for (k, slot) in out[164][start..end].iter_mut().enumerate() {
+                        let [v, _] = x.map(|c| c[k]);
+                        *slot = self.k166 * v;
+                    }
+                }
+                if !out[165].is_empty() {
+                    for (k, slot) in out[165][start..end].iter_mut().enumerate() {
+                        let [v, _] = x.map(|c| c[k]);
+                        *slot = self.k167 * v;
+                    }
+                }
+                if !out[186].is_empty() {
+                    for (k, slot) in out[186][start..end].iter_mut().enumerate() {
+                        let [v, _] = x.map(|c| c[k]);
+                        let t1 = temps[1][k];
+                        *slot = self.k168 * v / t1;
+                    }
+                }
+                if !out[195].is_empty() {
+                    for (k, slot) in out[195][start..end].iter_mut().enumerate() {
+                        let t0 = temps[0][k];
+                        let t1 = temps[1][k];
+                        *slot = self.k170 * t0 / t1;
+                    }
+                }
+                if !out[196].is_empty() {
+                    for (k, slot) in out[196][start..end].iter_mut().enumerate() {
+                        let t0 = temps[0][k];
+                        let t1 = temps[1][k];
+                        *slot = self.k171 * t0 / t1;
+                    }
+                }
+                if !out[199].is_empty() {
+                    for (k, slot) in out[199][start..end].iter_mut().enumerate() {
+                        let t7 = temps[7][k];
+                        *slot = self.k172 * t7;
+                    }
+                }
+                if !out[200].is_empty() {
+                    for (k, slot) in out[200][start..end].iter_mut().enumerate() {
+                        let t6 = temps[6][k];
+                        let t7 = temps[7][k];
+                        *slot = -(self.k173 * t6 + self.k174 * t7);
+                    }
+                }
+                if !out[201].is_empty() {
+                    for (k, slot) in out[201][start..end].iter_mut().enumerate() {
+                        let t0 = temps[0][k];
+                        let t1 = temps[1][k];
+                        *slot = self.k175 * t0 / t1;
+                    }
+                }
+                if !out[202].is_empty() {
+                    for (k, slot) in out[202][start..end].iter_mut().enumerate() {
+                        let t6 = temps[6][k];
+                        let t7 = temps[7][k];
+                        *slot = self.k176 * t6 + self.k177 * t7;
+                    }
+                }
+                if !out[203].is_empty() {
+                    for (k, slot) in out[203][start..end].iter_mut().enumerate() {
+                        let t6 = temps[6][k];
+                        *slot = self.k178 * t6;
+                    }
+                }
+                if !out[204].is_empty() {
+                    for (k, slot) in out[204][start..end].iter_mut().enumerate() {
+                        let t5 = temps[5][k];
+                        *slot = self.k179 * t5;
+                    }
+                }
+                if !out[205].is_empty() {
+                    for (k, slot) in out[205][start..end].iter_mut().enumerate() {
+                        let t5 = temps[5][k];
+                        *slot = self.k180 * t5;
+                    }
+                }
+                if !out[206].is_empty() {
+                    for (k, slot) in out[206][start..end].iter_mut().enumerate() {
+                        let t5 = temps[5][k];
+                        *slot = self.k181 * t5;
+                    }
+                }
+                if !out[207].is_empty() {
+                    for (k, slot) in out[207][start..end].iter_mut().enumerate() {
+                        let t5 = temps[5][k];
+                        *slot = self.k182 * t5;
+                    }
+                }
+                if !out[208].is_empty() {
+                    for (k, slot) in out[208][start..end].iter_mut().enumerate() {
+                        let t5 = temps[5][k];
+                        *slot = self.k183 * t5;
+                    }
+                }
+                if !out[209].is_empty() {
+                    for (k, slot) in out[209][start..end].iter_mut().enumerate() {
+                        let t5 = temps[5][k];
+                        *slot = self.k184 * t5;
+                    }
+                }
+                if !out[212].is_empty() {
+                    for (k, slot) in out[212][start..end].iter_mut().enumerate() {
+                        let [_, p_i] = x.map(|c| c[k]);
+                        *slot = self.k185 * p_i;
+                    }
+                }
+                if !out[216].is_empty() {
+                    for (k, slot) in out[216][start..end].iter_mut().enumerate() {
+                        let t14 = temps[14][k];
+                        *slot = self.k187 * t14;
+                    }
                 }
             }
             if invariant {
                 let points = m_at.len();
-                out[0][..points].fill(1.0);
-                out[1][..points].fill(0.0);
-                out[2][..points].fill(0.0);
-                out[3][..points].fill(0.0);
-                out[4][..points].fill(0.0);
-                out[5][..points].fill(0.0);
-                out[6][..points].fill(0.0);
-                out[7][..points].fill(0.0);
-                out[8][..points].fill(0.0);
-                out[9][..points].fill(0.0);
-                out[10][..points].fill(0.0);
-                out[11][..points].fill(0.0);
-                out[12][..points].fill(0.0);
-                out[13][..points].fill(0.0);
-                out[14][..points].fill(0.0);
-                out[15][..points].fill(0.0);
-                out[16][..points].fill(0.0);
-                out[17][..points].fill(0.0);
-                out[18][..points].fill(0.0);
-                out[19][..points].fill(0.0);
-                out[20][..points].fill(0.0);
-                out[21][..points].fill(0.0);
-                out[22][..points].fill(0.0);
-                out[23][..points].fill(0.0);
-                out[24][..points].fill(0.0);
-                out[25][..points].fill(0.0);
-                out[26][..points].fill(0.0);
-                out[27][..points].fill(0.0);
-                out[28][..points].fill(0.0);
-                out[29][..points].fill(0.0);
-                out[30][..points].fill(0.0);
-                out[32][..points].fill(self.k25);
-                out[33][..points].fill(0.0);
-                out[55][..points].fill(0.0);
-                out[56][..points].fill(self.k59);
-                out[58][..points].fill(self.k61);
-                out[59][..points].fill(0.0);
-                out[64][..points].fill(self.k17);
-                out[90][..points].fill(0.0);
-                out[93][..points].fill(0.0);
-                out[94][..points].fill(0.0);
-                out[96][..points].fill(0.0);
-                out[97][..points].fill(0.0);
-                out[98][..points].fill(0.0);
-                out[99][..points].fill(0.0);
-                out[100][..points].fill(0.0);
-                out[101][..points].fill(0.0);
-                out[102][..points].fill(0.0);
-                out[103][..points].fill(0.0);
-                out[104][..points].fill(0.0);
-                out[105][..points].fill(0.0);
-                out[106][..points].fill(0.0);
-                out[107][..points].fill(0.0);
-                out[108][..points].fill(0.0);
-                out[109][..points].fill(0.0);
-                out[110][..points].fill(0.0);
-                out[111][..points].fill(0.0);
-                out[112][..points].fill(0.0);
-                out[115][..points].fill(0.0);
-                out[116][..points].fill(0.0);
-                out[117][..points].fill(0.0);
-                out[118][..points].fill(0.0);
-                out[119][..points].fill(0.0);
-                out[120][..points].fill(0.0);
-                out[121][..points].fill(0.0);
-                out[122][..points].fill(0.0);
-                out[123][..points].fill(0.0);
-                out[124][..points].fill(0.0);
-                out[125][..points].fill(0.0);
-                out[127][..points].fill(0.0);
-                out[128][..points].fill(0.0);
-                out[129][..points].fill(0.0);
-                out[130][..points].fill(0.0);
-                out[131][..points].fill(0.0);
-                out[132][..points].fill(0.0);
-                out[133][..points].fill(0.0);
-                out[134][..points].fill(0.0);
-                out[135][..points].fill(0.0);
-                out[136][..points].fill(0.0);
-                out[137][..points].fill(0.0);
-                out[138][..points].fill(0.0);
-                out[139][..points].fill(0.0);
-                out[140][..points].fill(0.0);
-                out[141][..points].fill(0.0);
-                out[142][..points].fill(0.0);
-                out[143][..points].fill(0.0);
-                out[146][..points].fill(0.0);
-                out[147][..points].fill(0.0);
-                out[148][..points].fill(0.0);
-                out[149][..points].fill(0.0);
-                out[150][..points].fill(0.0);
-                out[151][..points].fill(0.0);
-                out[153][..points].fill(0.0);
-                out[154][..points].fill(0.0);
-                out[155][..points].fill(self.k23);
-                out[156][..points].fill(0.0);
-                out[157][..points].fill(0.0);
-                out[158][..points].fill(0.0);
-                out[159][..points].fill(0.0);
-                out[160][..points].fill(0.0);
-                out[161][..points].fill(0.0);
-                out[162][..points].fill(0.0);
-                out[163][..points].fill(0.0);
-                out[166][..points].fill(0.0);
-                out[167][..points].fill(0.0);
-                out[168][..points].fill(0.0);
-                out[169][..points].fill(0.0);
-                out[170][..points].fill(0.0);
-                out[171][..points].fill(0.0);
-                out[172][..points].fill(0.0);
-                out[173][..points].fill(0.0);
-                out[174][..points].fill(0.0);
-                out[175][..points].fill(0.0);
-                out[176][..points].fill(0.0);
-                out[177][..points].fill(0.0);
-                out[178][..points].fill(0.0);
-                out[179][..points].fill(0.0);
-                out[180][..points].fill(0.0);
-                out[181][..points].fill(0.0);
-                out[182][..points].fill(0.0);
-                out[183][..points].fill(0.0);
-                out[184][..points].fill(0.0);
-                out[185][..points].fill(0.0);
-                out[187][..points].fill(self.k169);
-                out[188][..points].fill(0.0);
-                out[189][..points].fill(0.0);
-                out[190][..points].fill(0.0);
-                out[191][..points].fill(0.0);
-                out[192][..points].fill(0.0);
-                out[193][..points].fill(0.0);
-                out[194][..points].fill(0.0);
-                out[197][..points].fill(0.0);
-                out[198][..points].fill(0.0);
-                out[210][..points].fill(0.0);
-                out[211][..points].fill(self.k24);
-                out[213][..points].fill(self.k186);
-                out[214][..points].fill(0.0);
-                out[215][..points].fill(0.0);
+                if !out[0].is_empty() {
+                    out[0][..points].fill(1.0);
+                }
+                if !out[1].is_empty() {
+                    out[1][..points].fill(0.0);
+                }
+                if !out[2].is_empty() {
+                    out[2][..points].fill(0.0);
+                }
+                if !out[3].is_empty() {
+                    out[3][..points].fill(0.0);
+                }
+                if !out[4].is_empty() {
+                    out[4][..points].fill(0.0);
+                }
+                if !out[5].is_empty() {
+                    out[5][..points].fill(0.0);
+                }
+                if !out[6].is_empty() {
+                    out[6][..points].fill(0.0);
+                }
+                if !out[7].is_empty() {
+                    out[7][..points].fill(0.0);
+                }
+                if !out[8].is_empty() {
+                    out[8][..points].fill(0.0);
+                }
+                if !out[9].is_empty() {
+                    out[9][..points].fill(0.0);
+                }
+                if !out[10].is_empty() {
+                    out[10][..points].fill(0.0);
+                }
+                if !out[11].is_empty() {
+                    out[11][..points].fill(0.0);
+                }
+                if !out[12].is_empty() {
+                    out[12][..points].fill(0.0);
+                }
+                if !out[13].is_empty() {
+                    out[13][..points].fill(0.0);
+                }
+                if !out[14].is_empty() {
+                    out[14][..points].fill(0.0);
+                }
+                if !out[15].is_empty() {
+                    out[15][..points].fill(0.0);
+                }
+                if !out[16].is_empty() {
+                    out[16][..points].fill(0.0);
+                }
+                if !out[17].is_empty() {
+                    out[17][..points].fill(0.0);
+                }
+                if !out[18].is_empty() {
+                    out[18][..points].fill(0.0);
+                }
+                if !out[19].is_empty() {
+                    out[19][..points].fill(0.0);
+                }
+                if !out[20].is_empty() {
+                    out[20][..points].fill(0.0);
+                }
+                if !out[21].is_empty() {
+                    out[21][..points].fill(0.0);
+                }
+                if !out[22].is_empty() {
+                    out[22][..points].fill(0.0);
+                }
+                if !out[23].is_empty() {
+                    out[23][..points].fill(0.0);
+                }
+                if !out[24].is_empty() {
+                    out[24][..points].fill(0.0);
+                }
+                if !out[25].is_empty() {
+                    out[25][..points].fill(0.0);
+                }
+                if !out[26].is_empty() {
+                    out[26][..points].fill(0.0);
+                }
+                if !out[27].is_empty() {
+                    out[27][..points].fill(0.0);
+                }
+                if !out[28].is_empty() {
+                    out[28][..points].fill(0.0);
+                }
+                if !out[29].is_empty() {
+                    out[29][..points].fill(0.0);
+                }
+                if !out[30].is_empty() {
+                    out[30][..points].fill(0.0);
+                }
+                if !out[32].is_empty() {
+                    out[32][..points].fill(self.k25);
+                }
+                if !out[33].is_empty() {
+                    out[33][..points].fill(0.0);
+                }
+                if !out[55].is_empty() {
+                    out[55][..points].fill(0.0);
+                }
+                if !out[56].is_empty() {
+                    out[56][..points].fill(self.k59);
+                }
+                if !out[58].is_empty() {
+                    out[58][..points].fill(self.k61);
+                }
+                if !out[59].is_empty() {
+                    out[59][..points].fill(0.0);
+                }
+                if !out[64].is_empty() {
+                    out[64][..points].fill(self.k17);
+                }
+                if !out[90].is_empty() {
+                    out[90][..points].fill(0.0);
+                }
+                if !out[93].is_empty() {
+                    out[93][..points].fill(0.0);
+                }
+                if !out[94].is_empty() {
+                    out[94][..points].fill(0.0);
+                }
+                if !out[96].is_empty() {
+                    out[96][..points].fill(0.0);
+                }
+                if !out[97].is_empty() {
+                    out[97][..points].fill(0.0);
+                }
+                if !out[98].is_empty() {
+                    out[98][..points].fill(0.0);
+                }
+                if !out[99].is_empty() {
+                    out[99][..points].fill(0.0);
+                }
+                if !out[100].is_empty() {
+                    out[100][..points].fill(0.0);
+                }
+                if !out[101].is_empty() {
+                    out[101][..points].fill(0.0);
+                }
+                if !out[102].is_empty() {
+                    out[102][..points].fill(0.0);
+                }
+                if !out[103].is_empty() {
+                    out[103][..points].fill(0.0);
+                }
+                if !out[104].is_empty() {
+                    out[104][..points].fill(0.0);
+                }
+                if !out[105].is_empty() {
+                    out[105][..points].fill(0.0);
+                }
+                if !out[106].is_empty() {
+                    out[106][..points].fill(0.0);
+                }
+                if !out[107].is_empty() {
+                    out[107][..points].fill(0.0);
+                }
+                if !out[108].is_empty() {
+                    out[108][..points].fill(0.0);
+                }
+                if !out[109].is_empty() {
+                    out[109][..points].fill(0.0);
+                }
+                if !out[110].is_empty() {
+                    out[110][..points].fill(0.0);
+                }
+                if !out[111].is_empty() {
+                    out[111][..points].fill(0.0);
+                }
+                if !out[112].is_empty() {
+                    out[112][..points].fill(0.0);
+                }
+                if !out[115].is_empty() {
+                    out[115][..points].fill(0.0);
+                }
+                if !out[116].is_empty() {
+                    out[116][..points].fill(0.0);
+                }
+                if !out[117].is_empty() {
+                    out[117][..points].fill(0.0);
+                }
+                if !out[118].is_empty() {
+                    out[118][..points].fill(0.0);
+                }
+                if !out[119].is_empty() {
+                    out[119][..points].fill(0.0);
+                }
+                if !out[120].is_empty() {
+                    out[120][..points].fill(0.0);
+                }
+                if !out[121].is_empty() {
+                    out[121][..points].fill(0.0);
+                }
+                if !out[122].is_empty() {
+                    out[122][..points].fill(0.0);
+                }
+                if !out[123].is_empty() {
+                    out[123][..points].fill(0.0);
+                }
+                if !out[124].is_empty() {
+                    out[124][..points].fill(0.0);
+                }
+                if !out[125].is_empty() {
+                    out[125][..points].fill(0.0);
+                }
+                if !out[127].is_empty() {
+                    out[127][..points].fill(0.0);
+                }
+                if !out[128].is_empty() {
+                    out[128][..points].fill(0.0);
+                }
+                if !out[129].is_empty() {
+                    out[129][..points].fill(0.0);
+                }
+                if !out[130].is_empty() {
+                    out[130][..points].fill(0.0);
+                }
+                if !out[131].is_empty() {
+                    out[131][..points].fill(0.0);
+                }
+                if !out[132].is_empty() {
+                    out[132][..points].fill(0.0);
+                }
+                if !out[133].is_empty() {
+                    out[133][..points].fill(0.0);
+                }
+                if !out[134].is_empty() {
+                    out[134][..points].fill(0.0);
+                }
+                if !out[135].is_empty() {
+                    out[135][..points].fill(0.0);
+                }
+                if !out[136].is_empty() {
+                    out[136][..points].fill(0.0);
+                }
+                if !out[137].is_empty() {
+                    out[137][..points].fill(0.0);
+                }
+                if !out[138].is_empty() {
+                    out[138][..points].fill(0.0);
+                }
+                if !out[139].is_empty() {
+                    out[139][..points].fill(0.0);
+                }
+                if !out[140].is_empty() {
+                    out[140][..points].fill(0.0);
+                }
+                if !out[141].is_empty() {
+                    out[141][..points].fill(0.0);
+                }
+                if !out[142].is_empty() {
+                    out[142][..points].fill(0.0);
+                }
+                if !out[143].is_empty() {
+                    out[143][..points].fill(0.0);
+                }
+                if !out[146].is_empty() {
+                    out[146][..points].fill(0.0);
+                }
+                if !out[147].is_empty() {
+                    out[147][..points].fill(0.0);
+                }
+                if !out[148].is_empty() {
+                    out[148][..points].fill(0.0);
+                }
+                if !out[149].is_empty() {
+                    out[149][..points].fill(0.0);
+                }
+                if !out[150].is_empty() {
+                    out[150][..points].fill(0.0);
+                }
+                if !out[151].is_empty() {
+                    out[151][..points].fill(0.0);
+                }
+                if !out[153].is_empty() {
+                    out[153][..points].fill(0.0);
+                }
+                if !out[154].is_empty() {
+                    out[154][..points].fill(0.0);
+                }
+                if !out[155].is_empty() {
+                    out[155][..points].fill(self.k23);
+                }
+                if !out[156].is_empty() {
+                    out[156][..points].fill(0.0);
+                }
+                if !out[157].is_empty() {
+                    out[157][..points].fill(0.0);
+                }
+                if !out[158].is_empty() {
+                    out[158][..points].fill(0.0);
+                }
+                if !out[159].is_empty() {
+                    out[159][..points].fill(0.0);
+                }
+                if !out[160].is_empty() {
+                    out[160][..points].fill(0.0);
+                }
+                if !out[161].is_empty() {
+                    out[161][..points].fill(0.0);
+                }
+                if !out[162].is_empty() {
+                    out[162][..points].fill(0.0);
+                }
+                if !out[163].is_empty() {
+                    out[163][..points].fill(0.0);
+                }
+                if !out[166].is_empty() {
+                    out[166][..points].fill(0.0);
+                }
+                if !out[167].is_empty() {
+                    out[167][..points].fill(0.0);
+                }
+                if !out[168].is_empty() {
+                    out[168][..points].fill(0.0);
+                }
+                if !out[169].is_empty() {
+                    out[169][..points].fill(0.0);
+                }
+                if !out[170].is_empty() {
+                    out[170][..points].fill(0.0);
+                }
+                if !out[171].is_empty() {
+                    out[171][..points].fill(0.0);
+                }
+                if !out[172].is_empty() {
+                    out[172][..points].fill(0.0);
+                }
+                if !out[173].is_empty() {
+                    out[173][..points].fill(0.0);
+                }
+                if !out[174].is_empty() {
+                    out[174][..points].fill(0.0);
+                }
+                if !out[175].is_empty() {
+                    out[175][..points].fill(0.0);
+                }
+                if !out[176].is_empty() {
+                    out[176][..points].fill(0.0);
+                }
+                if !out[177].is_empty() {
+                    out[177][..points].fill(0.0);
+                }
+                if !out[178].is_empty() {
+                    out[178][..points].fill(0.0);
+                }
+                if !out[179].is_empty() {
+                    out[179][..points].fill(0.0);
+                }
+                if !out[180].is_empty() {
+                    out[180][..points].fill(0.0);
+                }
+                if !out[181].is_empty() {
+                    out[181][..points].fill(0.0);
+                }
+                if !out[182].is_empty() {
+                    out[182][..points].fill(0.0);
+                }
+                if !out[183].is_empty() {
+                    out[183][..points].fill(0.0);
+                }
+                if !out[184].is_empty() {
+                    out[184][..points].fill(0.0);
+                }
+                if !out[185].is_empty() {
+                    out[185][..points].fill(0.0);
+                }
+                if !out[187].is_empty() {
+                    out[187][..points].fill(self.k169);
+                }
+                if !out[188].is_empty() {
+                    out[188][..points].fill(0.0);
+                }
+                if !out[189].is_empty() {
+                    out[189][..points].fill(0.0);
+                }
+                if !out[190].is_empty() {
+                    out[190][..points].fill(0.0);
+                }
+                if !out[191].is_empty() {
+                    out[191][..points].fill(0.0);
+                }
+                if !out[192].is_empty() {
+                    out[192][..points].fill(0.0);
+                }
+                if !out[193].is_empty() {
+                    out[193][..points].fill(0.0);
+                }
+                if !out[194].is_empty() {
+                    out[194][..points].fill(0.0);
+                }
+                if !out[197].is_empty() {
+                    out[197][..points].fill(0.0);
+                }
+                if !out[198].is_empty() {
+                    out[198][..points].fill(0.0);
+                }
+                if !out[210].is_empty() {
+                    out[210][..points].fill(0.0);
+                }
+                if !out[211].is_empty() {
+                    out[211][..points].fill(self.k24);
+                }
+                if !out[213].is_empty() {
+                    out[213][..points].fill(self.k186);
+                }
+                if !out[214].is_empty() {
+                    out[214][..points].fill(0.0);
+                }
+                if !out[215].is_empty() {
+                    out[215][..points].fill(0.0);
+                }
             }
         }
     }

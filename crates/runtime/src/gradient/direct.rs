@@ -46,6 +46,7 @@ pub(crate) fn integral_gradients<M: InverseModel + ?Sized>(
     let samples = grid.samples();
     let mut block = Block::new(BLOCK.min(samples), r, nw);
     let mut cols = Columns::new(layout, BLOCK.min(samples));
+    cols.want(wanted);
     let mut sums = Sums::new(wanted.accumulate.len(), wanted.params.len());
     let half = 0.5 * grid.dt;
     let mut k0 = 0;
@@ -77,6 +78,9 @@ struct Columns {
     sens: Vec<Vec<f64>>,
     /// The parameter-only entries of `sens` are written (by the first sub-block's evaluation).
     invariant_written: bool,
+    /// The entries the chain rule reads: the rows of ψ, φ and the accumulated outputs, the columns of x, u
+    /// and the wanted parameters (the others are not asked of the model: an empty column).
+    wanted: Vec<bool>,
     /// (∂ψ/∂x)⁻¹ entry (j, l) at sample k of the sub-block: `inverse[j·n + l][k]`.
     inverse: Vec<Vec<f64>>,
     /// A sample's ∂ψ/∂x and its inverse (row-major), for [`invert`].
@@ -107,6 +111,7 @@ impl Columns {
             u_last: f64::NAN,
             sens: vec![vec![0.0; sub]; layout.len()],
             invariant_written: false,
+            wanted: vec![true; layout.len()],
             inverse: vec![vec![0.0; sub]; n * n],
             jac: vec![0.0; n * n],
             inv: vec![0.0; n * n],
@@ -116,6 +121,27 @@ impl Columns {
                 m: vec![vec![0.0; sub]; n],
                 dq: vec![0.0; sub],
             },
+        }
+    }
+
+    /// Asks the model for the entries of `wanted`'s chain rule alone ([`Columns::wanted`]).
+    fn want<M: InverseModel + ?Sized>(&mut self, wanted: &Wanted<'_, M>) {
+        let l = self.layout;
+        let rows: Vec<usize> = (0..l.r)
+            .map(|i| l.psi(i))
+            .chain([l.phi()])
+            .chain(wanted.accumulate.iter().map(|&o| l.output(o)))
+            .collect();
+        let columns: Vec<usize> = (0..l.n)
+            .map(|j| l.x(j))
+            .chain([l.u()])
+            .chain(wanted.params.iter().map(|&p| l.param(p)))
+            .collect();
+        self.wanted.fill(false);
+        for &row in &rows {
+            for &column in &columns {
+                self.wanted[l.at(row, column)] = true;
+            }
         }
     }
 
@@ -152,7 +178,10 @@ impl Columns {
     ) -> Result<(), SimulateError> {
         let x: Vec<&[f64]> = self.x.iter().map(|c| &c[s0..s0 + sl]).collect();
         let w: Vec<&[f64]> = block.w.iter().map(|c| &c[s0..s0 + sl]).collect();
-        let mut out: Vec<&mut [f64]> = self.sens.iter_mut().map(|c| &mut c[..sl]).collect();
+        let wanted = &self.wanted;
+        let mut out: Vec<&mut [f64]> = (self.sens.iter_mut().zip(wanted))
+            .map(|(c, &w)| if w { &mut c[..sl] } else { &mut [] })
+            .collect();
         // The parameter-only entries once: the first sub-block is the longest, and the parameters stay.
         let invariant = !self.invariant_written;
         self.invariant_written = true;
