@@ -18,7 +18,7 @@
 use invsim_model_api::{InverseModel, SensitivityLayout};
 
 use super::pass::{Along, Wanted};
-use super::point::invert;
+use super::point::{inverse_two, invert};
 use super::sample::{Block, Sums};
 use crate::error::RunError;
 use crate::inverse::{invert_chained, SimulateError};
@@ -212,8 +212,8 @@ impl Columns {
         Ok(())
     }
 
-    /// (∂ψ/∂x)⁻¹ at the sub-block's `sl` samples for n = 2, column by column: the closed form of
-    /// [`invert`] (the same numbers), NaN where it refuses.
+    /// (∂ψ/∂x)⁻¹ at the sub-block's `sl` samples for n = 2, column by column ([`inverse_two`], as
+    /// [`invert`] has it), NaN where it refuses.
     fn invert_two(&mut self, sl: usize) {
         let l = &self.layout;
         let entry = |i: usize, j: usize| &self.sens[l.at(l.psi(i), l.x(j))][..sl];
@@ -222,12 +222,8 @@ impl Columns {
             unreachable!("n = 2: four entries")
         };
         for k in 0..sl {
-            let det = a[k] * d[k] - b[k] * c[k];
-            let i = 1.0 / det;
-            let v = [d[k] * i, -b[k] * i, -c[k] * i, a[k] * i];
-            let ok = det != 0.0 && v.iter().all(|v| v.is_finite());
-            let [v00, v01, v10, v11] = if ok { v } else { [f64::NAN; 4] };
-            (i00[k], i01[k], i10[k], i11[k]) = (v00, v01, v10, v11);
+            let v = inverse_two([a[k], b[k], c[k], d[k]]).unwrap_or([f64::NAN; 4]);
+            (i00[k], i01[k], i10[k], i11[k]) = (v[0], v[1], v[2], v[3]);
         }
     }
 

@@ -390,19 +390,29 @@ pub(super) fn invert(n: usize, a: &mut [f64], inv: &mut [f64]) -> bool {
             inv[0] = 1.0 / a[0];
             a[0] != 0.0 && inv[0].is_finite()
         }
-        // [[a, b], [c, d]]⁻¹ = [[d, −b], [−c, a]]/(ad − bc) (Cramer's rule).
-        2 => {
-            let det = a[0] * a[3] - a[1] * a[2];
-            let i = 1.0 / det;
-            inv[..4].copy_from_slice(&[a[3] * i, -a[1] * i, -a[2] * i, a[0] * i]);
-            det != 0.0 && inv[..4].iter().all(|v| v.is_finite())
-        }
+        2 => match inverse_two([a[0], a[1], a[2], a[3]]) {
+            Some(v) => {
+                inv[..4].copy_from_slice(&v);
+                true
+            }
+            None => false,
+        },
         3 => invert_sized(3, a, inv),
         4 => invert_sized(4, a, inv),
         5 => invert_sized(5, a, inv),
         6 => invert_sized(6, a, inv),
         _ => invert_sized(n, a, inv),
     }
+}
+
+/// [[a, b], [c, d]]⁻¹ = [[d, −b], [−c, a]]/(ad − bc) (Cramer's rule), row-major; None where the matrix is
+/// singular or the inverse not finite.
+#[inline(always)]
+pub(super) fn inverse_two([a, b, c, d]: [f64; 4]) -> Option<[f64; 4]> {
+    let det = a * d - b * c;
+    let i = 1.0 / det;
+    let v = [d * i, -b * i, -c * i, a * i];
+    (det != 0.0 && v.iter().all(|v| v.is_finite())).then_some(v)
 }
 
 /// [`invert`]'s elimination, inlined into each of its arms.
