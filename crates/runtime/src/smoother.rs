@@ -240,6 +240,27 @@ impl Smoother {
     pub(crate) fn still_on(&self, t0: f64, t1: f64) -> bool {
         let a = self.lookahead();
         let i = self.corners.partition_point(|&c| c <= t0 - a);
+        self.still_after(i, t0, t1)
+    }
+
+    /// [`Smoother::still_on`] with the first corner past t0 − a found by a walk from `hint` (where the last
+    /// call found it; updated): the zero dynamics ask interval after interval, a corner or two apart.
+    pub(crate) fn still_on_from(&self, hint: &mut usize, t0: f64, t1: f64) -> bool {
+        let (a, corners) = (self.lookahead(), &self.corners);
+        let mut i = (*hint).min(corners.len());
+        while i > 0 && corners[i - 1] > t0 - a {
+            i -= 1;
+        }
+        while i < corners.len() && corners[i] <= t0 - a {
+            i += 1;
+        }
+        *hint = i;
+        self.still_after(i, t0, t1)
+    }
+
+    /// [`Smoother::still_on`] where corner i is the first past t0 − a.
+    fn still_after(&self, i: usize, t0: f64, t1: f64) -> bool {
+        let a = self.lookahead();
         let none_within = self.corners.get(i).is_none_or(|&c| c >= t1 + a);
         let slope = if i == 0 { 0.0 } else { self.slope_after[i - 1] };
         none_within && slope == 0.0 && self.signals.iter().all(|s| s.still_on(t0, t1))
@@ -494,6 +515,13 @@ mod tests {
             (80.0, 100.0, true),
         ] {
             assert_eq!(s.still_on(t0, t1), still, "[{t0}, {t1}]");
+            for mut hint in [0, 1, usize::MAX] {
+                assert_eq!(
+                    s.still_on_from(&mut hint, t0, t1),
+                    still,
+                    "[{t0}, {t1}] from {hint}"
+                );
+            }
             if still {
                 let (mut first, mut other) = ([0.0; 4], [0.0; 4]);
                 s.eval(t0, &mut first);

@@ -49,6 +49,8 @@ pub(super) struct ZeroDynamics {
     /// The reference at the stage times from the sub-grid ([`ZeroDynamicsReference::SubGrid`]), or `None`:
     /// the smoother evaluated pointwise.
     fine: Option<FineReference>,
+    /// Where the last interval found the first corner within the look-ahead ([`Smoother::still_on_from`]).
+    corner: usize,
 }
 
 impl ZeroDynamics {
@@ -60,6 +62,7 @@ impl ZeroDynamics {
             w: Vec::new(),
             last: None,
             fine: ctx.fine_reference(),
+            corner: 0,
         }
     }
 }
@@ -216,6 +219,7 @@ impl Ctx<'_, '_> {
             w,
             last,
             fine,
+            corner,
         } = zd;
         // No dense output: η is needed at the interval's end only.
         let ode = ode[m].get_or_insert_with(|| ZdOde::new(eta.len(), *dt, t1 - t0));
@@ -238,7 +242,8 @@ impl Ctx<'_, '_> {
         self.w_into(m, t0, n_w, w);
         // Where the reference and the signals are constant on the interval (a standstill more than a
         // look-ahead from any corner, no transition under way), the stage times take t0's values.
-        let still = blend.is_none_or(|b| b.done(t0)) && self.reference.smoother.still_on(t0, t1);
+        let still = blend.is_none_or(|b| b.done(t0))
+            && (self.reference.smoother).still_on_from(corner, t0, t1);
         let mut at = t0;
         let mut f = |t: f64, e: &[f64], de: &mut [f64]| -> Result<(), StepFailure> {
             if !still && t.to_bits() != at.to_bits() {
