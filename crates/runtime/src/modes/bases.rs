@@ -17,7 +17,8 @@ const BLOCK: usize = 512;
 pub(crate) struct SampleTable {
     grid: Grid,
     orders: usize,
-    blocks: Vec<OnceLock<Arc<[f64]>>>,
+    /// Each block's values as evaluated (an `Arc` of their `Vec`: no second allocation and copy).
+    blocks: Vec<OnceLock<Arc<Vec<f64>>>>,
 }
 
 impl SampleTable {
@@ -37,21 +38,21 @@ impl SampleTable {
         self.orders
     }
 
-    fn block(&self, smoother: &Smoother, b: usize) -> Arc<[f64]> {
+    fn block(&self, smoother: &Smoother, b: usize) -> Arc<Vec<f64>> {
         self.blocks[b]
             .get_or_init(|| self.evaluate(smoother, b))
             .clone()
     }
 
     /// Evaluate block b.
-    fn evaluate(&self, smoother: &Smoother, b: usize) -> Arc<[f64]> {
+    fn evaluate(&self, smoother: &Smoother, b: usize) -> Arc<Vec<f64>> {
         let first = b * BLOCK;
         let end = (first + BLOCK).min(self.grid.samples());
         let times: Vec<f64> = (first..end).map(|i| self.grid.time(i)).collect();
         let mut values = vec![0.0; times.len() * self.orders];
         let mut cols: Vec<&mut [f64]> = values.chunks_exact_mut(times.len()).collect();
         smoother.eval_grid(&times, Some(self.grid.dt), &mut cols);
-        values.into()
+        Arc::new(values)
     }
 }
 
@@ -59,14 +60,14 @@ impl SampleTable {
 pub(super) struct Bases<'a> {
     table: &'a SampleTable,
     /// Index of the block in hand (`usize::MAX`: none) and its values.
-    block: (usize, Arc<[f64]>),
+    block: (usize, Arc<Vec<f64>>),
 }
 
 impl<'a> Bases<'a> {
     pub(super) fn new(table: &'a SampleTable) -> Bases<'a> {
         Bases {
             table,
-            block: (usize::MAX, Arc::new([])),
+            block: (usize::MAX, Arc::new(Vec::new())),
         }
     }
 

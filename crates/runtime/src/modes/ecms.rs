@@ -568,7 +568,6 @@ impl Ecms<'_, '_, '_> {
             rec.t.push(self.samples.t[k + 1]);
             rec.speed.push(self.samples.base[k + 1][0]);
             rec.impulse.push(0.0);
-            rec.impulse_dir.push(Vec::new());
             rec.mode.push(next.m);
             self.push(&mut rec, k + 1, &next);
             cur = next;

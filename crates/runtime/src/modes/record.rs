@@ -119,7 +119,9 @@ pub(super) struct Record {
     pub(super) u_end: Vec<f64>,
     pub(super) x_end: Rows,
     pub(super) impulse: Vec<f64>,
-    pub(super) impulse_dir: Vec<Vec<f64>>,
+    /// The direction g of each sample's impulse, for the samples that have one (few): (sample, g) in order
+    /// ([`Record::set_impulse_dir`]).
+    pub(super) impulse_dir: Vec<(usize, Vec<f64>)>,
     pub(super) transitions: Vec<Transition>,
     pub(super) impulses: Vec<Impulse>,
     pub(super) resets: Vec<CouplingReset>,
@@ -156,12 +158,28 @@ impl Record {
             u_end: Vec::with_capacity(intervals),
             x_end: Rows::with_capacity(n, intervals),
             impulse: first(0.0, samples),
-            impulse_dir: first(Vec::new(), samples),
+            impulse_dir: Vec::new(),
             transitions: Vec::new(),
             impulses: Vec::new(),
             resets: Vec::new(),
             entries: Vec::new(),
             decided: Vec::new(),
+        }
+    }
+
+    /// The direction of sample k's impulse (a later impulse at the sample replaces it).
+    pub(super) fn set_impulse_dir(&mut self, k: usize, g: Vec<f64>) {
+        match self.impulse_dir.last_mut() {
+            Some((s, dir)) if *s == k => *dir = g,
+            _ => self.impulse_dir.push((k, g)),
+        }
+    }
+
+    /// The direction of sample k's impulse (empty where it has none).
+    pub(super) fn impulse_dir_at(&self, k: usize) -> &[f64] {
+        match self.impulse_dir.binary_search_by_key(&k, |(s, _)| *s) {
+            Ok(i) => &self.impulse_dir[i].1,
+            Err(_) => &[],
         }
     }
 

@@ -530,7 +530,6 @@ fn run_sequence(ctx: &Ctx<'_, '_>, grid: &Grid, opts: &ModalOptions) -> Result<R
         rec.t.push(tb);
         rec.speed.push(base[0]);
         rec.impulse.push(0.0);
-        rec.impulse_dir.push(Vec::new());
         if seq.modal.blend.as_ref().is_some_and(|b| b.done(tb)) {
             seq.modal.blend = None;
             seq.modal.open = None;
@@ -784,7 +783,7 @@ fn commit(ctx: &Ctx<'_, '_>, seq: &mut Inner, rec: &mut Record, e: Entry) -> Sol
     if let Some((imp, g)) = e.impulse {
         let k = rec.impulse.len() - 1;
         rec.impulse[k] += imp.amount;
-        rec.impulse_dir[k] = g;
+        rec.set_impulse_dir(k, g);
         rec.impulses.push(imp);
     }
     e.solved

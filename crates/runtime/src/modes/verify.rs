@@ -40,7 +40,7 @@ pub(super) fn replay(ctx: &Ctx<'_, '_>, rec: &Record) -> Result<Tracking, ModalE
             let _ = super::coupling::enter(ctx, m, rec.t[k], &mut x, rec.free[k]);
         }
         if rec.impulse[k] != 0.0 {
-            for (xi, gi) in x.iter_mut().zip(&rec.impulse_dir[k]) {
+            for (xi, gi) in x.iter_mut().zip(rec.impulse_dir_at(k)) {
                 *xi += rec.impulse[k] * gi;
             }
         }
