@@ -32,7 +32,8 @@ use crate::smoother::Smoother;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum ZeroDynamicsReference {
     /// The quintic Hermite interpolant of the smoothed cycle on a sub-grid of step ≤ a/250 (0.02 s at the
-    /// look-ahead a = 5 s; a/125 where no order above y' is interpolated) evaluated block by block (this file; within 10⁻¹¹ of the pointwise values).
+    /// look-ahead a = 5 s; a/125 where no order above y' is interpolated) evaluated block by block (this
+    /// file; within 10⁻¹¹ of the pointwise values).
     #[default]
     SubGrid,
     /// The smoother evaluated at every stage time (the reference the sub-grid is tested against).
