@@ -41,18 +41,22 @@ pub(super) fn model(
     };
     quote! {
         #model_info
+        /// [`model_info`], built once and shared by every instance (a model with modes builds several of
+        /// each mode's code, a sweep one per variant).
+        static INFO: std::sync::LazyLock<ModelInfo> = std::sync::LazyLock::new(model_info);
+
         /// The compiled model behind the runtime's [`InverseModel`] trait.
         #[derive(Debug, Clone)]
         pub struct Model {
             pre: Precomputed,
             values: [f64; N_PARAMS],
-            info: ModelInfo,
+            info: &'static ModelInfo,
         }
 
         impl Model {
             /// The model at parameters `params`.
             pub fn new(params: Params) -> Model {
-                Model { pre: Precomputed::new(&params), values: params.to_array(), info: model_info() }
+                Model { pre: Precomputed::new(&params), values: params.to_array(), info: &INFO }
             }
             /// The current parameters.
             pub fn parameters(&self) -> &Params {
@@ -78,7 +82,7 @@ pub(super) fn model(
 
         impl InverseModel for Model {
             fn info(&self) -> &ModelInfo {
-                &self.info
+                self.info
             }
             fn params(&self) -> &[f64] {
                 &self.values

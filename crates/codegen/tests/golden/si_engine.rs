@@ -3069,12 +3069,15 @@ pub mod si_engine {
             },
         }
     }
+    /// [`model_info`], built once and shared by every instance (a model with modes builds several of
+    /// each mode's code, a sweep one per variant).
+    static INFO: std::sync::LazyLock<ModelInfo> = std::sync::LazyLock::new(model_info);
     /// The compiled model behind the runtime's [`InverseModel`] trait.
     #[derive(Debug, Clone)]
     pub struct Model {
         pre: Precomputed,
         values: [f64; N_PARAMS],
-        info: ModelInfo,
+        info: &'static ModelInfo,
     }
     impl Model {
         /// The model at parameters `params`.
@@ -3082,7 +3085,7 @@ pub mod si_engine {
             Model {
                 pre: Precomputed::new(&params),
                 values: params.to_array(),
-                info: model_info(),
+                info: &INFO,
             }
         }
         /// The current parameters.
@@ -3107,7 +3110,7 @@ pub mod si_engine {
     }
     impl InverseModel for Model {
         fn info(&self) -> &ModelInfo {
-            &self.info
+            self.info
         }
         fn params(&self) -> &[f64] {
             &self.values
