@@ -343,23 +343,28 @@ fn source_hash(text: &str) -> String {
 /// A table starts at a line `[KEY]` or `[KEY.…]` at the line's start (a comment may follow); a row of a
 /// multi-line array is not one (it is not a key).
 fn modal_tables_only(text: &str) -> String {
-    let mut out = Vec::with_capacity(text.len());
+    let mut out = String::with_capacity(text.len());
     let mut keep = false;
     for line in text.split_inclusive('\n') {
         if let Some(key) = table_key(line) {
             keep = super::keys::TOP_MODAL.contains(&key);
         }
         if keep {
-            out.extend_from_slice(line.as_bytes());
+            out.push_str(line);
         } else {
             // One space per byte (a character of several bytes too: no byte of one is a line end), the
             // line ends kept: the offsets stay.
-            let blank = |b: u8| if b == b'\n' || b == b'\r' { b } else { b' ' };
+            let blank = |b: u8| {
+                if b == b'\n' || b == b'\r' {
+                    char::from(b)
+                } else {
+                    ' '
+                }
+            };
             out.extend(line.bytes().map(blank));
         }
     }
-    // Whole lines of the text, and ASCII spaces and line ends.
-    String::from_utf8(out).unwrap_or_default()
+    out
 }
 
 /// The top-level key of a table header line (`[gearbox]`, `[modes.drive]  # …` → `gearbox`, `modes`).
