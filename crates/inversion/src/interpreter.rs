@@ -111,6 +111,12 @@ struct Tapes {
     /// Non-affine models with an input solution: (ξ, η, w, yr) → u where ψ⁻¹ is closed-form, else
     /// (x, w, yr) → u; empty otherwise.
     solution: Tape,
+    /// (ξ, η, w, yr) → ∂(dη/dt)/∂(η, ξ, y^(r), p) (`Derivation::zero_dynamics_jacobian`); `None` where the
+    /// derivation has none.
+    zero_jacobian: Option<Tape>,
+    /// (x, w, u) → ∂o/∂(η, ξ, y^(r), p) (`Derivation::outputs_jacobian`); `None` where the derivation has
+    /// none.
+    outputs_jacobian: Option<Tape>,
 }
 
 impl Tapes {
@@ -126,7 +132,11 @@ impl Tapes {
             &mut self.sensitivity,
             &mut self.phi,
             &mut self.solution,
-        ] {
+        ]
+        .into_iter()
+        .chain(self.zero_jacobian.as_mut())
+        .chain(self.outputs_jacobian.as_mut())
+        {
             t.set_map(index, data.clone());
         }
     }
@@ -143,6 +153,8 @@ impl Tapes {
             sensitivity: self.sensitivity.specialize(p),
             phi: self.phi.specialize(p),
             solution: self.solution.specialize(p),
+            zero_jacobian: self.zero_jacobian.as_ref().map(|t| t.specialize(p)),
+            outputs_jacobian: self.outputs_jacobian.as_ref().map(|t| t.specialize(p)),
         }
     }
 }
@@ -292,7 +304,22 @@ impl Interpreter {
         let outputs = compile(d, "outputs", &outs, &x_u_p)?;
         let sensitivity = compile(d, "the sensitivities", &d.sensitivity, &x_u_p)?;
         let (phi, solution) = non_affine_tapes(d, &params)?;
+        let optional = |what: &'static str, e: &Option<Vec<Id>>, inputs: &[Symbol]| {
+            e.as_ref().map(|e| compile(d, what, e, inputs)).transpose()
+        };
+        let zero_jacobian = optional(
+            "the zero dynamics' partial derivatives",
+            &d.zero_dynamics_jacobian,
+            &cat(&[&d.xi, &d.eta, w, &[d.yr], &params]),
+        )?;
+        let outputs_jacobian = optional(
+            "the outputs' partial derivatives",
+            &d.outputs_jacobian,
+            &x_u_p,
+        )?;
         let generic = Tapes {
+            zero_jacobian,
+            outputs_jacobian,
             phi,
             solution,
             invert,
@@ -595,6 +622,31 @@ impl InverseModel for Interpreter {
     fn sensitivity(&self, x: &[f64], w: &[f64], u: f64, out: &mut [f64]) -> Result<(), ModelError> {
         self.special.sensitivity.eval_parts(&[x, w, &[u]], out);
         Ok(())
+    }
+    fn zero_dynamics_jacobian(
+        &self,
+        xi: &[f64],
+        eta: &[f64],
+        w: &[f64],
+        yr: f64,
+        out: &mut [f64],
+    ) -> bool {
+        match &self.special.zero_jacobian {
+            Some(tape) => {
+                tape.eval_parts(&[xi, eta, w, &[yr]], out);
+                true
+            }
+            None => false,
+        }
+    }
+    fn outputs_jacobian(&self, x: &[f64], w: &[f64], u: f64, out: &mut [f64]) -> bool {
+        match &self.special.outputs_jacobian {
+            Some(tape) => {
+                tape.eval_parts(&[x, w, &[u]], out);
+                true
+            }
+            None => false,
+        }
     }
     fn reference(&self) -> ReferenceMap {
         self.reference

@@ -311,6 +311,34 @@ pub trait InverseModel: Send + Sync {
         })
     }
 
+    /// The zero dynamics' partial derivatives ∂q/∂(η, ξ, y^(r), p) at (ξ, η, w, y^(r)), for dη/dt =
+    /// q(ξ, η, w, y^(r); p), written row-major into `out`: n_η rows (the internal states) of n_η + r + 1 + P
+    /// columns (η_1 … η_(n−r), ξ_1 … ξ_r, y^(r), then the parameters in [`ModelInfo::parameters`]' order).
+    /// They equal what the runtime assembles from [`InverseModel::sensitivity`] by the implicit function
+    /// theorem, in one evaluation. `false`, with `out` untouched, where the model has none (the default: ψ⁻¹
+    /// or the input solved numerically, a map in the zero dynamics, no internal states).
+    fn zero_dynamics_jacobian(
+        &self,
+        xi: &[f64],
+        eta: &[f64],
+        w: &[f64],
+        yr: f64,
+        out: &mut [f64],
+    ) -> bool {
+        let _ = (xi, eta, w, yr, out);
+        false
+    }
+
+    /// The extra outputs' partial derivatives ∂o/∂(η, ξ, y^(r), p) at the point (x, w, u), the outputs taken as
+    /// functions o(ψ⁻¹(ξ, η), w, u) of the normal-form coordinates with u = (y^(r) − α)/β, at ξ = ψ_ξ(x),
+    /// η = x_η, y^(r) = α + β·u: row-major, a row per output of n_η + r + 1 + P columns (as
+    /// [`InverseModel::zero_dynamics_jacobian`]'s). `false`, with `out` untouched, where the model has none
+    /// (the default: ψ⁻¹ or the input solved numerically, a map in an output, no extra outputs).
+    fn outputs_jacobian(&self, x: &[f64], w: &[f64], u: f64, out: &mut [f64]) -> bool {
+        let _ = (x, w, u, out);
+        false
+    }
+
     /// How a drive cycle defines this output's reference (default: y_d is the smoothed cycle itself).
     fn reference(&self) -> ReferenceMap {
         ReferenceMap::IDENTITY

@@ -155,11 +155,27 @@ fn closed(g: &Gen<'_>, lhs: &Lhs) -> Vec<Straight> {
         args.push(Arg::Scalar(d.yr));
         fs.push(Straight::new(
             FnKind::ZeroDynamics,
-            args,
+            args.clone(),
             d.zero_dynamics.clone(),
             Shape::array("N_ETA", d.eta.len()),
             doc,
         ));
+        if let Some(jacobian) = &d.zero_dynamics_jacobian {
+            let doc = vec![
+                "The partial derivatives of the zero dynamics dη/dt = q(ξ, η, y^(r)) with respect to η_1 … η_(n−r), \
+                 ξ_1 … ξ_r, y^(r) and every parameter, row-major (a row per internal state): the sensitivity \
+                 equations' matrices dS/dt = (∂q/∂η) S + ∂q/∂p of the runtime's gradient, and the reference's \
+                 columns. The equations are the derivatives of those `zero_dynamics` documents."
+                    .to_string(),
+            ];
+            fs.push(Straight::new(
+                FnKind::ZeroDynamicsJacobian,
+                args,
+                jacobian.clone(),
+                Shape::array("N_ZDJ", jacobian.len()),
+                doc,
+            ));
+        }
     }
     fs
 }
@@ -456,6 +472,22 @@ fn original(g: &Gen<'_>, lhs: &Lhs) -> Vec<Straight> {
         ));
     }
     fs.push(sensitivity(g, x_w_u()));
+    if let Some(jacobian) = &g.d.outputs_jacobian {
+        let doc = vec![
+            "The partial derivatives of the extra outputs o(ψ⁻¹(ξ, η), u), u = (y^(r) − α)/β, with respect to \
+             η_1 … η_(n−r), ξ_1 … ξ_r, y^(r) and every parameter, at ξ = ψ_ξ(x), η = x_η, y^(r) = α + β·u, \
+             row-major (a row per output): the outputs' parameter derivatives of the runtime's gradient. The \
+             equations are the derivatives of those `outputs` documents, in the normal-form coordinates."
+                .to_string(),
+        ];
+        fs.push(Straight::new(
+            FnKind::OutputsJacobian,
+            x_w_u(),
+            jacobian.clone(),
+            Shape::array("N_OJ", jacobian.len()),
+            doc,
+        ));
+    }
     fs
 }
 

@@ -33,6 +33,8 @@ pub(super) enum FnKind {
     Rhs,
     Outputs,
     Sensitivity,
+    ZeroDynamicsJacobian,
+    OutputsJacobian,
 }
 
 impl FnKind {
@@ -58,6 +60,8 @@ impl FnKind {
             FnKind::Rhs => "rhs",
             FnKind::Outputs => "outputs",
             FnKind::Sensitivity => "sensitivity",
+            FnKind::ZeroDynamicsJacobian => "zero_dynamics_jacobian",
+            FnKind::OutputsJacobian => "outputs_jacobian",
         }
     }
 
@@ -86,6 +90,12 @@ impl FnKind {
             FnKind::Outputs => "The extra outputs",
             FnKind::Sensitivity => {
                 "The partial derivatives the parameter sensitivities are built from"
+            }
+            FnKind::ZeroDynamicsJacobian => {
+                "The zero dynamics' partial derivatives by η, ξ, y^(r) and the parameters"
+            }
+            FnKind::OutputsJacobian => {
+                "The extra outputs' partial derivatives by η, ξ, y^(r) and the parameters"
             }
         }
     }

@@ -34,6 +34,22 @@ pub(super) fn constants(g: &Gen<'_>, source_name: &str, batch: bool) -> TokenStr
     } else {
         quote!()
     };
+    // Only a model whose zero dynamics or outputs have closed-form partial derivatives has their counts.
+    let count = |e: &Option<Vec<invsim_expr::Id>>| e.as_ref().map(|e| lit(e.len()));
+    let zdj_const = match count(&d.zero_dynamics_jacobian) {
+        Some(n) => quote! {
+            /// Number of partial derivatives `zero_dynamics_jacobian` returns: N_ETA·(N_ETA + R + 1 + N_PARAMS).
+            pub const N_ZDJ: usize = #n;
+        },
+        None => quote!(),
+    };
+    let oj_const = match count(&d.outputs_jacobian) {
+        Some(n) => quote! {
+            /// Number of partial derivatives `outputs_jacobian` returns: N_OUTPUTS·(N_ETA + R + 1 + N_PARAMS).
+            pub const N_OJ: usize = #n;
+        },
+        None => quote!(),
+    };
     // Only a model with signals has them (the code of every other model is unchanged).
     let signal_consts = if g.d.w.is_empty() {
         quote!()
@@ -83,6 +99,8 @@ pub(super) fn constants(g: &Gen<'_>, source_name: &str, batch: bool) -> TokenStr
         /// How a drive cycle defines the tracked output's reference: y_d = offset + scale · (smoothed cycle).
         pub const REFERENCE: ReferenceMap = ReferenceMap { offset: #ref_offset, scale: #ref_scale };
         #block_const
+        #zdj_const
+        #oj_const
         #signal_consts
     }
 }

@@ -20,10 +20,23 @@ pub(super) fn model(
     let outputs_impl = outputs_impl(has_outputs, &w);
     let invert_batch_impl = invert_batch_impl(invert_batch, !g.closed, &w);
     let sensitivity_batch_impl = sensitivity_batch_impl(sensitivity_batch, &w);
+    let outputs_jacobian_impl = if g.d.outputs_jacobian.is_some() {
+        let WTokens {
+            name: wn, arg: wa, ..
+        } = &w;
+        quote! {
+            fn outputs_jacobian(&self, x: &[f64], #wn: &[f64], u: f64, out: &mut [f64]) -> bool {
+                out.copy_from_slice(&self.pre.outputs_jacobian(arr(x) #wa, u));
+                true
+            }
+        }
+    } else {
+        quote!()
+    };
     let (psi_inv_impl, alpha_impl, beta_impl, zero_impl, invert_impl) = if g.closed && !g.affine {
         non_affine(ne, g.d.input_solution.is_some(), &w)
     } else if g.closed {
-        closed(ne, &w)
+        closed(ne, g.d.zero_dynamics_jacobian.is_some(), &w)
     } else if g.affine {
         numeric(ne, &w)
     } else {
@@ -114,6 +127,7 @@ pub(super) fn model(
                 Ok(())
             }
             #sensitivity_batch_impl
+            #outputs_jacobian_impl
             fn reference(&self) -> ReferenceMap {
                 REFERENCE
             }
@@ -184,8 +198,9 @@ type Impls = (
     TokenStream,
 );
 
-/// The trait's functions for a closed-form ψ⁻¹.
-fn closed(ne: usize, w: &WTokens) -> Impls {
+/// The trait's functions for a closed-form ψ⁻¹ (`zero_jacobian`: the zero dynamics' partial derivatives in the
+/// normal-form coordinates too).
+fn closed(ne: usize, zero_jacobian: bool, w: &WTokens) -> Impls {
     let WTokens {
         name: wn, arg: wa, ..
     } = w;
@@ -207,10 +222,21 @@ fn closed(ne: usize, w: &WTokens) -> Impls {
             }
         },
         if ne > 0 {
+            let jacobian = if zero_jacobian {
+                quote! {
+                    fn zero_dynamics_jacobian(&self, xi: &[f64], eta: &[f64], #wn: &[f64], yr: f64, out: &mut [f64]) -> bool {
+                        out.copy_from_slice(&self.pre.zero_dynamics_jacobian(arr(xi), arr(eta) #wa, yr));
+                        true
+                    }
+                }
+            } else {
+                quote!()
+            };
             quote! {
                 fn zero_dynamics(&self, xi: &[f64], eta: &[f64], #wn: &[f64], yr: f64, deta: &mut [f64]) {
                     deta.copy_from_slice(&self.pre.zero_dynamics(arr(xi), arr(eta) #wa, yr));
                 }
+                #jacobian
             }
         } else {
             quote! {
@@ -235,7 +261,7 @@ fn non_affine(ne: usize, isolated: bool, w: &WTokens) -> Impls {
     let WTokens {
         name: wn, arg: wa, ..
     } = w;
-    let psi_inv = closed(ne, w).0;
+    let psi_inv = closed(ne, false, w).0;
     // The zero dynamics take u: none where it is substituted by the input solution, else Newton's.
     let u = if isolated {
         quote!({

@@ -28,6 +28,7 @@ mod lie;
 mod map_calls;
 mod non_affine;
 mod normal_form;
+mod normal_form_jacobian;
 mod psi_inv;
 mod rank;
 mod relative_degree;
@@ -170,6 +171,13 @@ pub struct Derivation {
     pub sensitivity: Vec<Id>,
     /// The map calls of the sensitivity rows, in the order of their columns (`map_calls.rs`).
     pub map_calls: Vec<invsim_model_api::MapCall>,
+    /// ∂(dη/dt)/∂(η, ξ, y^(r), p) in (ξ, η, w, y^(r)), row-major, where ψ⁻¹ is closed-form, y^(r) affine in
+    /// the input and the zero dynamics call no map (`normal_form_jacobian.rs`); `None` otherwise.
+    pub zero_dynamics_jacobian: Option<Vec<Id>>,
+    /// ∂o/∂(η, ξ, y^(r), p) of the extra outputs o(ξ, η, w, y^(r)), row-major, written in (x, w, u) (at
+    /// ξ = ψ_ξ(x), η = x_η, y^(r) = α_x + β_x·u), on the same conditions (no output calls a map); `None`
+    /// otherwise.
+    pub outputs_jacobian: Option<Vec<Id>>,
 }
 
 /// `Err(NotFinite)` naming the first constant subexpression of f, g (the rhs of a non-affine state) or h that
@@ -430,6 +438,21 @@ impl Derivation {
             (alpha_x, beta_x, yr_affine),
             &eta_states,
         );
+        let closed_form = yr_affine && psi_inv.iter().all(|s| matches!(s, Solution::Closed(_)));
+        let (zero_dynamics_jacobian, outputs_jacobian) = if closed_form {
+            let normal = normal_form_jacobian::Normal {
+                xi: &xi,
+                eta: &eta,
+                yr,
+                psi_xi: &psi[..r],
+                eta_states: &eta_states,
+                phi: (alpha_x, beta_x),
+                zero_dynamics: &zero_dynamics,
+            };
+            normal_form_jacobian::jacobians(&mut model, &coords, &normal)
+        } else {
+            (None, None)
+        };
         Ok(Derivation {
             model,
             relative_degree: r,
@@ -461,6 +484,8 @@ impl Derivation {
             warnings,
             sensitivity,
             map_calls,
+            zero_dynamics_jacobian,
+            outputs_jacobian,
         })
     }
 

@@ -15,6 +15,7 @@
 //! through the run's own quadrature and formulas ([`figures`]). [`GradientError`] says why a run is not
 //! differentiated.
 
+mod closed_jacobian;
 mod direct;
 pub mod error;
 mod figures;
@@ -33,6 +34,7 @@ use invsim_model_api::map::Map;
 use invsim_model_api::{InverseModel, ModelInfo};
 use serde::Serialize;
 
+pub(crate) use closed_jacobian::{ClosedJacobian, Rows as ClosedRows};
 pub use error::GradientError;
 pub use figures::Figures;
 pub(crate) use figures::{figures, Integrals, Wrt};

@@ -36,6 +36,7 @@ use invsim_model_api::zero_dynamics::{default_starts, equilibrium};
 use invsim_model_api::InverseModel;
 use nalgebra::DMatrix;
 
+use super::closed_jacobian::{ClosedJacobian, Rows};
 use super::gauss::{Gauss, Singular, NODES};
 use super::grid_columns::GridColumns;
 use super::point::{Buffers, Point};
@@ -253,6 +254,10 @@ struct Nodes {
     a: [Vec<f64>; 2],
     b: [Vec<f64>; 2],
     gauss: Gauss,
+    /// The model's closed-form A and B, where it has them ([`ClosedJacobian`]); `columns`: `params` as B's
+    /// columns.
+    closed: ClosedJacobian,
+    columns: Vec<Option<usize>>,
 }
 
 impl Nodes {
@@ -266,6 +271,8 @@ impl Nodes {
             a: std::array::from_fn(|_| vec![0.0; ne * ne]),
             b: std::array::from_fn(|_| vec![0.0; ne * np]),
             gauss: Gauss::new(ne, np),
+            closed: ClosedJacobian::default(),
+            columns: Vec::new(),
         }
     }
 
@@ -305,6 +312,14 @@ impl Nodes {
         let info = model.info();
         let r = info.relative_degree;
         let (yd, w) = self.stages.at(smoother, (s, r));
+        // The closed form where the model has it (then neither x nor u is needed).
+        self.columns.clear();
+        self.columns.extend(wanted.params.iter().map(|&k| Some(k)));
+        let at = Rows::ZeroDynamics(&yd[..r], &self.eta, w, yd[r]);
+        let ab = (&mut self.a[i][..], &mut self.b[i][..], None);
+        if self.closed.eval(model, (at, &self.columns), ab) {
+            return Ok(());
+        }
         let model_err = |source| SimulateError::from(RunError::Model { t: s, source });
         let u = model
             .invert_from(&yd[..r], &self.eta, w, yd[r], &mut self.x, u_prev)

@@ -8,7 +8,7 @@ use invsim_model_api::InverseModel;
 use super::blend::Blends;
 use super::record::Ctx;
 use super::ModalError;
-use crate::gradient::{Buffers, GridColumns, ModalWrt, Point};
+use crate::gradient::{Buffers, ClosedJacobian, ClosedRows, GridColumns, ModalWrt, Point};
 
 /// The model's partial derivatives of mode m at (x, w, u) at time t, with the mode's columns of the grid values
 /// differentiated by (`grid`).
@@ -65,6 +65,8 @@ pub(super) struct OutputChanges {
     reference: Vec<f64>,
     de: Vec<f64>,
     basis: Vec<f64>,
+    /// The mode's closed-form partial derivatives at the point.
+    closed: ClosedJacobian,
 }
 
 /// Where the outputs' derivatives are taken: mode m at time t, (x, u), with η's sensitivities per derivative
@@ -84,21 +86,39 @@ impl OutputChanges {
         ((m, t), (x, u), (deta, dblend)): OutputsAt<'_>,
         out: &mut Vec<f64>,
     ) -> Result<(), ModalError> {
-        let info = ctx.model(m).info();
+        let model = ctx.model(m);
+        let info = model.info();
         ctx.w_into(m, t, info.n_w(), &mut self.w);
-        let buf = std::mem::take(&mut self.buf);
-        let point = point_into(ctx, (m, &wrt.grids[m]), (t, x, &self.w, u), buf)?;
-        let l = *point.layout();
-        let (na, ne, r, np) = (accumulated.len(), l.n_eta, l.r, deta.len());
-        self.rows.clear();
-        self.rows.extend(accumulated.iter().map(|&o| l.output(o)));
+        let (na, ne, r, np) = (
+            accumulated.len(),
+            info.n_eta,
+            info.relative_degree,
+            deta.len(),
+        );
         self.a.resize(na * ne, 0.0);
         self.b.resize(na * np, 0.0);
         self.reference.resize(na * (r + 1), 0.0);
         self.de.resize(r + 1, 0.0);
-        let (a, b) = (&mut self.a[..], &mut self.b[..]);
-        point.moved_row_jacobians(&self.rows, &wrt.columns[m], (a, b), &mut self.reference);
-        self.buf = point.into_buffer();
+        // The closed form where the mode has it, else the implicit function theorem at (x, u).
+        let rows = (
+            ClosedRows::Outputs(x, &self.w, u, accumulated),
+            &wrt.columns[m][..],
+        );
+        let matrices = (
+            &mut self.a[..],
+            &mut self.b[..],
+            Some(&mut self.reference[..]),
+        );
+        if !self.closed.eval(model, rows, matrices) {
+            let buf = std::mem::take(&mut self.buf);
+            let point = point_into(ctx, (m, &wrt.grids[m]), (t, x, &self.w, u), buf)?;
+            let l = *point.layout();
+            self.rows.clear();
+            self.rows.extend(accumulated.iter().map(|&o| l.output(o)));
+            let (a, b) = (&mut self.a[..], &mut self.b[..]);
+            point.moved_row_jacobians(&self.rows, &wrt.columns[m], (a, b), &mut self.reference);
+            self.buf = point.into_buffer();
+        }
         out.clear();
         out.extend_from_slice(&self.b);
         for (c, col) in out.chunks_exact_mut(na.max(1)).take(np).enumerate() {

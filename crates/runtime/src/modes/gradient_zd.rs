@@ -23,7 +23,9 @@ use super::gradient_point::{add_transition_moves, point_into};
 use super::record::Ctx;
 use super::zd_ode::{ATOL, RTOL};
 use super::ModalError;
-use crate::gradient::{Buffers, Gauss, GridColumns, Singular, NODES};
+use crate::gradient::{
+    Buffers, ClosedJacobian, ClosedRows as Rows, Gauss, GridColumns, Singular, NODES,
+};
 use crate::ode::{Dopri5, StepFailure};
 use crate::smoother::FineReference;
 
@@ -70,6 +72,8 @@ struct Nodes {
     buf: Buffers,
     a: [Vec<f64>; 2],
     b: [Vec<f64>; 2],
+    /// The mode's closed-form A, B and reference columns, where it has them ([`ClosedJacobian`]).
+    closed: ClosedJacobian,
 }
 
 impl ZdSensitivity {
@@ -172,11 +176,13 @@ impl Nodes {
             buf: Buffers::default(),
             a: std::array::from_fn(|_| vec![0.0; ne * ne]),
             b: std::array::from_fn(|_| vec![0.0; ne * np]),
+            closed: ClosedJacobian::default(),
         }
     }
 
     /// A and B (with the transition's moves, the module doc's B_c) into node i's matrices at time s and the
-    /// interpolated η (`self.eta`): x = ψ⁻¹(ξ_ref, η) from the interval's start x0 as the guess, u from u0.
+    /// interpolated η (`self.eta`): from the mode's closed form where it has one, else by the implicit
+    /// function theorem at x = ψ⁻¹(ξ_ref, η) ([`Nodes::solved_jacobians`]).
     fn jacobians_at(
         &mut self,
         ctx: &Ctx<'_, '_>,
@@ -188,10 +194,35 @@ impl Nodes {
         let model = ctx.model(m);
         let info = model.info();
         let (r, ne, nw) = (info.relative_degree, info.n_eta, info.n_w());
-        let fail = |reason: String| StepFailure { t: s, reason };
         let at = (m, s, *blend);
         let (y, w) = (&mut self.yr[..=r], (&mut self.w, nw));
         ctx.stage_reference_into(at, self.fine.as_mut(), y, w);
+        let (a, b) = (&mut self.a[i], &mut self.b[i]);
+        let point = Rows::ZeroDynamics(&self.yr[..r], &self.eta, &self.w, self.yr[r]);
+        if !self
+            .closed
+            .eval(model, (point, cols), (a, b, Some(&mut self.reference)))
+        {
+            self.solved_jacobians(ctx, (m, cols, grid), (s, x0, u0), i)?;
+        }
+        // B_c += ∂q/∂(ξ, y^(r)) de_c(s): the transition's move of the reference.
+        let buffers = (&mut self.de[..], &mut self.basis);
+        add_transition_moves((&mut self.b[i], ne), (&self.reference, *dblend, s), buffers);
+        Ok(())
+    }
+
+    /// A, B and the reference's columns into node i's matrices by the implicit function theorem at
+    /// x = ψ⁻¹(ξ_ref, η) (Newton's from the interval's start x0 where ψ⁻¹ is numeric), u from u0.
+    fn solved_jacobians(
+        &mut self,
+        ctx: &Ctx<'_, '_>,
+        (m, cols, grid): (usize, &[Option<usize>], &GridColumns),
+        (s, x0, u0): (f64, &[f64], f64),
+        i: usize,
+    ) -> Result<(), StepFailure> {
+        let model = ctx.model(m);
+        let r = model.info().relative_degree;
+        let fail = |reason: String| StepFailure { t: s, reason };
         self.x.copy_from_slice(x0);
         let u = model
             .invert_from(
@@ -209,9 +240,6 @@ impl Nodes {
         let (a, b) = (&mut self.a[i], &mut self.b[i]);
         point.moved_row_jacobians(&self.rows, cols, (a, b), &mut self.reference);
         self.buf = point.into_buffer();
-        // B_c += ∂q/∂(ξ, y^(r)) de_c(s): the transition's move of the reference.
-        let buffers = (&mut self.de[..], &mut self.basis);
-        add_transition_moves((b, ne), (&self.reference, *dblend, s), buffers);
         Ok(())
     }
 }
