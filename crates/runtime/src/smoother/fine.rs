@@ -206,8 +206,10 @@ impl FineReference {
         // c·orders); signal c's r + 1 values (r + 1 = y.len()) go to w[(c − 1)·(r + 1) …] (what follows the
         // signals in w, a mode's decided inputs, is left as it is).
         interpolate(&bw, &p0[..orders], &p1[..orders], y);
-        for (c, out) in w[..signals * per].chunks_exact_mut(per).enumerate() {
+        // By index rather than `chunks_exact_mut(per)`, whose count is a division per call.
+        for c in 0..signals {
             let at = (c + 1) * orders;
+            let out = &mut w[c * per..(c + 1) * per];
             interpolate(&bw, &p0[at..at + orders], &p1[at..at + orders], out);
         }
     }
