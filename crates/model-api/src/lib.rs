@@ -316,7 +316,7 @@ pub trait InverseModel: Send + Sync {
     /// columns (η_1 … η_(n−r), ξ_1 … ξ_r, y^(r), then the parameters in [`ModelInfo::parameters`]' order).
     /// They equal what the runtime assembles from [`InverseModel::sensitivity`] by the implicit function
     /// theorem, in one evaluation. `false`, with `out` untouched, where the model has none (the default: ψ⁻¹
-    /// or the input solved numerically, a map in the zero dynamics, no internal states).
+    /// or the input solved numerically, no internal states).
     fn zero_dynamics_jacobian(
         &self,
         xi: &[f64],
@@ -333,7 +333,7 @@ pub trait InverseModel: Send + Sync {
     /// functions o(ψ⁻¹(ξ, η), w, u) of the normal-form coordinates with u = (y^(r) − α)/β, at ξ = ψ_ξ(x),
     /// η = x_η, y^(r) = α + β·u: row-major, a row per output of n_η + r + 1 + P columns (as
     /// [`InverseModel::zero_dynamics_jacobian`]'s). `false`, with `out` untouched, where the model has none
-    /// (the default: ψ⁻¹ or the input solved numerically, a map in an output, no extra outputs).
+    /// (the default: ψ⁻¹ or the input solved numerically, no extra outputs).
     fn outputs_jacobian(&self, x: &[f64], w: &[f64], u: f64, out: &mut [f64]) -> bool {
         let _ = (x, w, u, out);
         false

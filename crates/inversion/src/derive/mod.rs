@@ -171,12 +171,11 @@ pub struct Derivation {
     pub sensitivity: Vec<Id>,
     /// The map calls of the sensitivity rows, in the order of their columns (`map_calls.rs`).
     pub map_calls: Vec<invsim_model_api::MapCall>,
-    /// ∂(dη/dt)/∂(η, ξ, y^(r), p) in (ξ, η, w, y^(r)), row-major, where ψ⁻¹ is closed-form, y^(r) affine in
-    /// the input and the zero dynamics call no map (`normal_form_jacobian.rs`); `None` otherwise.
+    /// ∂(dη/dt)/∂(η, ξ, y^(r), p) in (ξ, η, w, y^(r)), row-major, where ψ⁻¹ is closed-form and y^(r) affine
+    /// in the input (`normal_form_jacobian.rs`); `None` otherwise.
     pub zero_dynamics_jacobian: Option<Vec<Id>>,
     /// ∂o/∂(η, ξ, y^(r), p) of the extra outputs o(ξ, η, w, y^(r)), row-major, written in (x, w, u) (at
-    /// ξ = ψ_ξ(x), η = x_η, y^(r) = α_x + β_x·u), on the same conditions (no output calls a map); `None`
-    /// otherwise.
+    /// ξ = ψ_ξ(x), η = x_η, y^(r) = α_x + β_x·u), on the same conditions; `None` otherwise.
     pub outputs_jacobian: Option<Vec<Id>>,
 }
 

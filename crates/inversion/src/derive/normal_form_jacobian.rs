@@ -12,11 +12,11 @@
 //! do/dp = ∂o/∂p + ∂o/∂η S, and the columns of the reference ∂/∂ξ and ∂/∂y^(r) (a mode's re-entry transition
 //! moves the reference) are their symbolic partial derivatives — the numbers the runtime otherwise assembles at
 //! every point from the partial derivatives in the states by the implicit function theorem
-//! (`sensitivity.rs`). Rows that call a map are left to that route, which keeps the calls' columns for the
-//! derivatives with respect to a map's grid values. The outputs' partial derivatives are wanted at a sample's
+//! (`sensitivity.rs`). A map call is differentiated as everywhere (`M_dIJ` by its arguments); the derivatives
+//! with respect to a map's grid values stay with that route, which keeps the calls' columns. The outputs'
+//! partial derivatives are wanted at a sample's
 //! (x, u), so they are written back in the states ([`at_state`]): ξ = ψ_ξ(x), η = x_η, y^(r) = α_x + β_x·u.
 
-use super::map_calls::calls_in;
 use super::normal_form::ToCoordinates;
 use crate::model::Model;
 use invsim_expr::{Id, Pool, Symbol};
@@ -35,7 +35,7 @@ pub(super) struct Normal<'a> {
 }
 
 /// The zero dynamics' Jacobian in (ξ, η, w, y^(r)) and the outputs' at the states ([`at_state`]), each
-/// `None` where its rows call a map (or there are none).
+/// `None` where there are no such rows.
 pub(super) fn jacobians(
     model: &mut Model,
     coords: &ToCoordinates<'_>,
@@ -70,9 +70,9 @@ struct Columns<'a> {
     params: &'a [Symbol],
 }
 
-/// ∂row/∂(η, ξ, y^(r), p) of every row, row-major; `None` without rows or where a row calls a map.
+/// ∂row/∂(η, ξ, y^(r), p) of every row, row-major; `None` without rows.
 fn jacobian(pool: &mut Pool, rows: &[Id], columns: &Columns<'_>) -> Option<Vec<Id>> {
-    if rows.is_empty() || !calls_in(pool, rows).is_empty() {
+    if rows.is_empty() {
         return None;
     }
     let by: Vec<Symbol> = columns

@@ -9,8 +9,8 @@
 //!
 //! in one evaluation of generated (or interpreted) code — the numbers [`super::Point::row_jacobians`]
 //! assembles from the partial derivatives in the states by the implicit function theorem, which stays the
-//! route for a ψ⁻¹ or an input solved numerically, a map in the rows, and a derivative with respect to a
-//! map's grid value or a decided input (not a model parameter).
+//! route for a ψ⁻¹ or an input solved numerically and for a derivative with respect to a map's grid value or
+//! a decided input (not a model parameter).
 
 use invsim_model_api::InverseModel;
 
