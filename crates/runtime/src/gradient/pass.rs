@@ -46,16 +46,19 @@ use crate::grid::{Grid, MAX_DERIVATIVES};
 use crate::inverse::stage_reference::StageReference;
 use crate::inverse::{SimulateError, SimulationOptions};
 use crate::ode::{Dopri5, StepFailure};
-use crate::smoother::Smoother;
+use crate::smoother::{FineTable, Smoother};
+use std::sync::Arc;
 
 /// Samples per block of the reference's columns (the run's block size: the same numbers, bounded memory).
 const BLOCK: usize = 4096;
 
 /// What the pass runs along: the smoother and the grid (y_d … y_d^(r) and w evaluated on it block by block,
-/// as the run evaluates them).
+/// as the run evaluates them), and the run's sub-grid table of the zero dynamics' reference, if it has one
+/// (read again, not evaluated again).
 pub(crate) struct Along<'a> {
     pub smoother: &'a Smoother,
     pub grid: &'a Grid,
+    pub fine: Option<&'a Arc<FineTable>>,
 }
 
 /// The model, the parameters (indices into [`invsim_model_api::ModelInfo::parameters`], and P + g for the
@@ -134,14 +137,17 @@ impl Sweep {
     ) -> Sweep {
         let info = wanted.model.info();
         let (na, np) = (wanted.accumulate.len(), wanted.params.len());
-        let stages = || StageReference::new(along.smoother, along.grid, opts, info);
+        // Both readers of the reference at stage times share one table: the run's where it has one.
+        let stages = StageReference::sharing(along.smoother, along.grid, (opts, info), along.fine);
+        let nodes =
+            StageReference::sharing(along.smoother, along.grid, (opts, info), stages.table());
         Sweep {
             // The run's integrator (inverse/causal.rs): the same size, tolerances and first step.
             integrator: Dopri5::new(eta.len(), opts.rtol, opts.atol, opts.dt),
-            stages: stages(),
+            stages,
             eta,
             s,
-            nodes: Nodes::new(info, np, stages()),
+            nodes: Nodes::new(info, np, nodes),
             samples: Samples::new(info.n_states(), na, np),
         }
     }
@@ -376,6 +382,7 @@ mod tests {
         let along = Along {
             smoother: &smoother,
             grid: &grid,
+            fine: None,
         };
         let mut samples = 0;
         sweep(&wanted, &along, None, &opts, &mut |k, eta| {

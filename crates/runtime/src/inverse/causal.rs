@@ -78,6 +78,11 @@ impl Causal {
         })
     }
 
+    /// The sub-grid table its stage times read, if any (for the sensitivity pass to share).
+    pub(super) fn fine_table(&self) -> Option<&std::sync::Arc<crate::smoother::FineTable>> {
+        self.stages.table()
+    }
+
     /// η at grid sample k (time t, reference `yd` = y_d … y_d^(r) there): integrated from sample k − 1, checked
     /// for blow-up and (every `check_every` samples) for stability.
     pub(super) fn advance<M: InverseModel + ?Sized>(

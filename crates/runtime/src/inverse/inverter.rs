@@ -51,6 +51,14 @@ pub(super) struct Inverter<'a, M: ?Sized> {
 }
 
 impl<'a, M: InverseModel + ?Sized> Inverter<'a, M> {
+    /// The sub-grid table of a causal run's zero dynamics, if any (shared with its sensitivity pass).
+    pub(super) fn fine_table(&self) -> Option<&std::sync::Arc<crate::smoother::FineTable>> {
+        match &self.strategy {
+            Strategy::Causal(c) => c.fine_table(),
+            _ => None,
+        }
+    }
+
     /// The inverter for the zero-dynamics plan `zd`; a causal run starts here (from `eta0` or the equilibrium).
     pub(super) fn new(
         model: &'a M,

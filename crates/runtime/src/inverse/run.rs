@@ -634,7 +634,7 @@ pub(super) fn run<M: InverseModel + ?Sized>(
     let gradient = match &gradient_params {
         Some(params) => Some(run_gradient(
             model,
-            (smoother, &grid),
+            (smoother, &grid, inverter.fine_table()),
             params,
             (&tally, cycle.distance(), gradient_eta0),
             (
@@ -674,10 +674,14 @@ pub(super) fn run<M: InverseModel + ?Sized>(
 
 /// The gradient of the finished run (`tally`: its integrals; `stable`: its stable inversion and reported
 /// samples, if non-causal) with respect to `params` (parameters and grid values), along the reference on the
-/// run's grid ([`crate::gradient`]).
+/// run's grid ([`crate::gradient`]), its zero dynamics' stages reading the run's sub-grid table `fine`.
 fn run_gradient<M: InverseModel + ?Sized>(
     model: &M,
-    (smoother, grid): (&Smoother, &Grid),
+    (smoother, grid, fine): (
+        &Smoother,
+        &Grid,
+        Option<&std::sync::Arc<crate::smoother::FineTable>>,
+    ),
     params: &crate::gradient::Derivatives,
     (tally, distance_m, eta0): (&Tally<'_>, f64, Option<Vec<f64>>),
     (stable, opts): (
@@ -685,7 +689,11 @@ fn run_gradient<M: InverseModel + ?Sized>(
         &SimulationOptions,
     ),
 ) -> Result<crate::gradient::Gradient, SimulateError> {
-    let along = crate::gradient::Along { smoother, grid };
+    let along = crate::gradient::Along {
+        smoother,
+        grid,
+        fine,
+    };
     let figures = crate::gradient::RunFigures {
         accumulate: &tally.accumulate,
         integrals: &tally.integrals,

@@ -4,11 +4,13 @@
 //! smoother pointwise. The run and its sensitivity pass (`gradient/pass.rs`) both evaluate η̇ here, so that
 //! the pass integrates η bit for bit as the run does.
 
+use std::sync::Arc;
+
 use invsim_model_api::{InverseModel, ModelInfo};
 
 use super::options::SimulationOptions;
 use crate::grid::{Grid, MAX_DERIVATIVES};
-use crate::smoother::{FineReference, Smoother, ZeroDynamicsReference};
+use crate::smoother::{FineReference, FineTable, Smoother, ZeroDynamicsReference};
 
 /// The reference at stage times, with the last one read kept (a step's last two stages are both at its end).
 pub(crate) struct StageReference {
@@ -26,16 +28,36 @@ impl StageReference {
         opts: &SimulationOptions,
         info: &ModelInfo,
     ) -> StageReference {
-        let fine = (opts.zero_dynamics_reference == ZeroDynamicsReference::SubGrid).then(|| {
-            let span = (grid.t0, grid.dt, grid.n);
-            FineReference::new(smoother, span, opts.lookahead, info.relative_degree)
-        });
+        Self::sharing(smoother, grid, (opts, info), None)
+    }
+
+    /// [`StageReference::new`] reading the sub-grid table `table` where one is given (another reader's of the
+    /// same run: the run's, for its sensitivity pass), so that its blocks are evaluated once.
+    pub(crate) fn sharing(
+        smoother: &Smoother,
+        grid: &Grid,
+        (opts, info): (&SimulationOptions, &ModelInfo),
+        table: Option<&Arc<FineTable>>,
+    ) -> StageReference {
+        let fine =
+            (opts.zero_dynamics_reference == ZeroDynamicsReference::SubGrid).then(|| match table {
+                Some(table) => FineReference::on(table.clone()),
+                None => {
+                    let span = (grid.t0, grid.dt, grid.n);
+                    FineReference::new(smoother, span, opts.lookahead, info.relative_degree)
+                }
+            });
         StageReference {
             fine,
             yd: [0.0; MAX_DERIVATIVES],
             w: vec![0.0; info.n_w()],
             at: f64::NAN,
         }
+    }
+
+    /// The sub-grid table it reads, if any.
+    pub(crate) fn table(&self) -> Option<&Arc<FineTable>> {
+        self.fine.as_ref().map(FineReference::table)
     }
 
     /// y_d … y_d^(r) and the signals at time s.

@@ -166,6 +166,11 @@ impl FineReference {
         Self::on(Arc::new(FineTable::new(smoother, span, lookahead, q)))
     }
 
+    /// The table it reads (to share with another reader).
+    pub(crate) fn table(&self) -> &Arc<FineTable> {
+        &self.table
+    }
+
     /// Reading `table` (shared with every other reader of it).
     pub(crate) fn on(table: Arc<FineTable>) -> Self {
         let none: Block = Arc::new(Vec::new());
