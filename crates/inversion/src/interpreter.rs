@@ -225,6 +225,11 @@ fn non_affine_tapes(d: &Derivation, params: &[Symbol]) -> Result<(Tape, Tape), I
     ))
 }
 
+/// `tape` at the inputs `parts` into `out`, if there is a tape (an optional function of the model).
+fn evaluated(tape: Option<&Tape>, parts: &[&[f64]], out: &mut [f64]) -> bool {
+    tape.map(|t| t.eval_parts(parts, out)).is_some()
+}
+
 fn cat(parts: &[&[Symbol]]) -> Vec<Symbol> {
     parts.iter().flat_map(|p| p.iter().copied()).collect()
 }
@@ -631,22 +636,14 @@ impl InverseModel for Interpreter {
         yr: f64,
         out: &mut [f64],
     ) -> bool {
-        match &self.special.zero_jacobian {
-            Some(tape) => {
-                tape.eval_parts(&[xi, eta, w, &[yr]], out);
-                true
-            }
-            None => false,
-        }
+        evaluated(
+            self.special.zero_jacobian.as_ref(),
+            &[xi, eta, w, &[yr]],
+            out,
+        )
     }
     fn outputs_jacobian(&self, x: &[f64], w: &[f64], u: f64, out: &mut [f64]) -> bool {
-        match &self.special.outputs_jacobian {
-            Some(tape) => {
-                tape.eval_parts(&[x, w, &[u]], out);
-                true
-            }
-            None => false,
-        }
+        evaluated(self.special.outputs_jacobian.as_ref(), &[x, w, &[u]], out)
     }
     fn reference(&self) -> ReferenceMap {
         self.reference
