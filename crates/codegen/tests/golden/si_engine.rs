@@ -721,614 +721,426 @@ pub mod si_engine {
         k191: f64,
         /// `pi*V_i*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(R_a*T_i*V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
         k192: f64,
-        /// `V_d*i_t*y_i/(4*pi*R_a*T_i*r_w)`
+        /// `4000*R_a*T_i*V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi*V_i*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
         k193: f64,
-        /// `V_d*i_t/(4*pi*R_a*T_i*r_w)`
+        /// `1000*V_d^2*eta_trm*i_t^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi^2*V_i*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
         k194: f64,
-        /// `(0.5 + 0.01075*sqrt(0.075)*xi_aux/sqrt(B))*s_i*(m + J_e*eta_trm*i_t^2/r_w^2)/(R_a*T_i*eta_trm*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        /// `(0.5 + 0.01075*sqrt(0.075)*xi_aux/sqrt(B))*pi*V_i*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)/(R_a*T_i*V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
         k195: f64,
         /// `-1/(8000*AFs*lambda)`
         k196: f64,
         /// `4/(m + J_e*eta_trm*i_t^2/r_w^2)`
         k197: f64,
-        /// `(0.5 + 0.01075*sqrt(0.075)*xi_aux/sqrt(B))*pi*V_i*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)/(AFs*R_a*T_i*V_d*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        /// `1/(4000*AFs*lambda)`
         k198: f64,
-        /// `(2 + 0.043*sqrt(0.075)*xi_aux/sqrt(B))*pi*V_i*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)/(AFs*R_a*T_i*V_d*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        /// `1/(1000*AFs*lambda)`
         k199: f64,
-        /// `4000/(m + J_e*eta_trm*i_t^2/r_w^2)`
+        /// `pi*V_i*r_w*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(R_a*T_i*V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
         k200: f64,
-        /// `1000*V_d*i_t*y_i/(pi*R_a*T_i*r_w*(m + J_e*eta_trm*i_t^2/r_w^2))`
-        k201: f64,
-        /// `1000*V_d*i_t/(pi*R_a*T_i*r_w*(m + J_e*eta_trm*i_t^2/r_w^2))`
-        k202: f64,
-        /// `s_i*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(R_a*T_i*eta_trm*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k203: f64,
         /// `1000*V_d^2*eta_trm*i_t^2*y_i*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi^2*V_i*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k204: f64,
+        k201: f64,
         /// `4/(m + J_e*eta_trm*i_t^2/r_w^2)^3`
-        k205: f64,
+        k202: f64,
         /// `2*c_r*g_0/(m + J_e*eta_trm*i_t^2/r_w^2)`
-        k206: f64,
+        k203: f64,
         /// `4*c_r*g_0/(v_eps*(m + J_e*eta_trm*i_t^2/r_w^2)^2)`
-        k207: f64,
+        k204: f64,
         /// `1/(8000*AFs*lambda)`
-        k208: f64,
+        k205: f64,
         /// `A_f*V_d*i_t*rho_a*s_i/(pi*V_i*r_w*(m + J_e*eta_trm*i_t^2/r_w^2))`
-        k209: f64,
+        k206: f64,
         /// `4*A_f*rho_a/(m + J_e*eta_trm*i_t^2/r_w^2)^2`
-        k210: f64,
+        k207: f64,
         /// `C_d*V_d*i_t*rho_a*s_i/(pi*V_i*r_w*(m + J_e*eta_trm*i_t^2/r_w^2))`
-        k211: f64,
+        k208: f64,
         /// `4*C_d*rho_a/(m + J_e*eta_trm*i_t^2/r_w^2)^2`
-        k212: f64,
+        k209: f64,
         /// `2*g_0*m/(v_eps*(m + J_e*eta_trm*i_t^2/r_w^2)^2)`
-        k213: f64,
+        k210: f64,
         /// `V_d*g_0*i_t*m*s_i/(pi*V_i*r_w*(m + J_e*eta_trm*i_t^2/r_w^2))`
-        k214: f64,
+        k211: f64,
         /// `A_f*C_d*V_d*i_t*s_i/(pi*V_i*r_w*(m + J_e*eta_trm*i_t^2/r_w^2))`
-        k215: f64,
+        k212: f64,
         /// `4*A_f*C_d/(m + J_e*eta_trm*i_t^2/r_w^2)^2`
-        k216: f64,
+        k213: f64,
         /// `2*c_r*m/(v_eps*(m + J_e*eta_trm*i_t^2/r_w^2)^2)`
-        k217: f64,
+        k214: f64,
         /// `V_d*c_r*i_t*m*s_i/(pi*V_i*r_w*(m + J_e*eta_trm*i_t^2/r_w^2))`
-        k218: f64,
-        /// `4000/r_w`
-        k219: f64,
-        /// `1000*V_d*i_t*y_i/(pi*R_a*T_i*r_w^2)`
-        k220: f64,
-        /// `8000*J_e*eta_trm*i_t^2/(r_w^3*(m + J_e*eta_trm*i_t^2/r_w^2))`
-        k221: f64,
-        /// `2000*J_e*V_d*eta_trm*i_t^3*y_i/(pi*R_a*T_i*r_w^4*(m + J_e*eta_trm*i_t^2/r_w^2))`
-        k222: f64,
-        /// `1000*V_d*i_t/(pi*R_a*T_i*r_w^2)`
-        k223: f64,
-        /// `2000*J_e*V_d*eta_trm*i_t^3/(pi*R_a*T_i*r_w^4*(m + J_e*eta_trm*i_t^2/r_w^2))`
-        k224: f64,
-        /// `2*J_e*i_t^2*s_i*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(R_a*T_i*r_w^3*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k225: f64,
-        /// `s_i*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(R_a*T_i*eta_trm*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k226: f64,
+        k215: f64,
+        /// `2*pi*J_e*V_i*i_t*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(R_a*T_i*V_d*r_w^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k216: f64,
+        /// `pi*V_i*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(R_a*T_i*V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k217: f64,
         /// `2000*J_e*V_d^2*eta_trm^2*i_t^4*y_i*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi^2*V_i*r_w^5*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k227: f64,
+        k218: f64,
         /// `2000*V_d^2*eta_trm*i_t^2*y_i*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi^2*V_i*r_w^3*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k228: f64,
+        k219: f64,
         /// `2*V_d*i_t*s_i/(pi*V_i*r_w)`
-        k229: f64,
+        k220: f64,
         /// `V_d*i_t*s_i/(pi*V_i*r_w^2)`
-        k230: f64,
+        k221: f64,
         /// `518400/(m + J_e*eta_trm*i_t^2/r_w^2)^2`
-        k231: f64,
+        k222: f64,
         /// `8*J_e*eta_trm*i_t^2/(r_w^3*(m + J_e*eta_trm*i_t^2/r_w^2)^3)`
-        k232: f64,
-        /// `4000/i_t`
-        k233: f64,
-        /// `1000*V_d*y_i/(pi*R_a*T_i*r_w)`
-        k234: f64,
-        /// `8000*J_e*eta_trm*i_t/(r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2))`
-        k235: f64,
-        /// `2000*J_e*V_d*eta_trm*i_t^2*y_i/(pi*R_a*T_i*r_w^3*(m + J_e*eta_trm*i_t^2/r_w^2))`
-        k236: f64,
-        /// `1000*V_d/(pi*R_a*T_i*r_w)`
-        k237: f64,
-        /// `2000*J_e*V_d*eta_trm*i_t^2/(pi*R_a*T_i*r_w^3*(m + J_e*eta_trm*i_t^2/r_w^2))`
-        k238: f64,
-        /// `2*J_e*i_t*s_i*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(R_a*T_i*r_w^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k239: f64,
-        /// `s_i*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(R_a*T_i*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k240: f64,
+        k223: f64,
+        /// `2*pi*J_e*V_i*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(R_a*T_i*V_d*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k224: f64,
+        /// `pi*V_i*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(R_a*T_i*V_d*eta_trm*i_t^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k225: f64,
         /// `2000*J_e*V_d^2*eta_trm^2*i_t^3*y_i*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi^2*V_i*r_w^4*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k241: f64,
+        k226: f64,
         /// `2000*V_d^2*eta_trm*i_t*y_i*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi^2*V_i*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k242: f64,
+        k227: f64,
         /// `V_d*s_i/(pi*V_i*r_w)`
-        k243: f64,
+        k228: f64,
         /// `8*J_e*eta_trm*i_t/(r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)^3)`
+        k229: f64,
+        /// `pi*J_e*V_i*i_t*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(R_a*T_i*V_d*eta_trm*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k230: f64,
+        /// `pi*V_i*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(R_a*T_i*V_d*eta_trm^2*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k231: f64,
+        /// `1000*J_e*V_d^2*eta_trm*i_t^4*y_i*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi^2*V_i*r_w^4*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k232: f64,
+        /// `1000*V_d^2*i_t^2*y_i*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi^2*V_i*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k233: f64,
+        /// `1000*V_d*i_t/(pi*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k234: f64,
+        /// `J_e*i_t^2/(r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)^2)`
+        k235: f64,
+        /// `2592000*sqrt(0.075)*Pi_bl*S^2*V_d*i_t^3*xi_aux/(pi^3*sqrt(B)*r_w^3*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k236: f64,
+        /// `4*J_e*i_t^2/(r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)^3)`
+        k237: f64,
+        /// `pi*V_i*i_t*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(R_a*T_i*V_d*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k238: f64,
+        /// `1000*V_d^2*eta_trm^2*i_t^4*y_i*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi^2*V_i*r_w^4*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k239: f64,
+        /// `V_d*eta_trm*i_t^3*s_i/(pi*V_i*r_w^3*(m + J_e*eta_trm*i_t^2/r_w^2)^2)`
+        k240: f64,
+        /// `4*eta_trm*i_t^2/(r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)^3)`
+        k241: f64,
+        /// `pi*V_i*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(R_a*T_i*V_d^2*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k242: f64,
+        /// `2000*V_d*eta_trm*i_t^2*y_i*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi^2*V_i*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k243: f64,
+        /// `1000*V_d*eta_trm*i_t^2*s_i/(pi^2*V_i*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
         k244: f64,
-        /// `4000/eta_trm`
+        /// `i_t*s_i/(pi*V_i*r_w)`
         k245: f64,
-        /// `4000*J_e*i_t^2/(r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2))`
+        /// `2592000*sqrt(0.075)*Pi_bl*S^2*eta_trm*i_t^3*xi_aux/(pi^3*sqrt(B)*r_w^3*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
         k246: f64,
-        /// `1000*V_d*i_t/(pi*R_a*T_i*eta_trm*r_w)`
+        /// `43*sqrt(0.075)*pi*V_i*r_w*xi_aux*(m + J_e*eta_trm*i_t^2/r_w^2)/(B^1.5*R_a*T_i*V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
         k247: f64,
-        /// `1000*J_e*V_d*i_t^3/(pi*R_a*T_i*r_w^3*(m + J_e*eta_trm*i_t^2/r_w^2))`
+        /// `215*sqrt(0.075)*V_d^2*eta_trm*i_t^2*xi_aux*y_i*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi^2*B^1.5*V_i*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))^2)`
         k248: f64,
-        /// `1000*V_d*i_t*s_i/(pi*R_a*T_i*eta_trm*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        /// `5*V_d*i_t*s_i/(pi*V_i*r_w*(m + J_e*eta_trm*i_t^2/r_w^2))`
         k249: f64,
-        /// `J_e*i_t^2*s_i*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(R_a*T_i*eta_trm*r_w^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        /// `324/(m + J_e*eta_trm*i_t^2/r_w^2)^2`
         k250: f64,
-        /// `s_i*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(R_a*T_i*eta_trm^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        /// `200*pi*V_i*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(R_a*T_i*V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
         k251: f64,
-        /// `J_e*i_t^2*s_i*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(R_a*T_i*eta_trm*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k252: f64,
-        /// `2592000*sqrt(0.075)*Pi_bl*S^2*V_i*i_t^2*xi_aux/(pi^2*sqrt(B)*R_a*T_i*eta_trm*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k253: f64,
-        /// `4*pi*J_e*V_i*i_t*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(R_a*T_i*V_d*eta_trm*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k254: f64,
-        /// `4000*eta_trm*i_t^2/(r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2))`
-        k255: f64,
-        /// `1000*V_d*eta_trm*i_t^3/(pi*R_a*T_i*r_w^3*(m + J_e*eta_trm*i_t^2/r_w^2))`
-        k256: f64,
-        /// `i_t^2*s_i*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(R_a*T_i*r_w^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k257: f64,
-        /// `i_t^2*s_i*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(R_a*T_i*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k258: f64,
-        /// `4*pi*V_i*i_t*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(R_a*T_i*V_d*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k259: f64,
-        /// `4/V_d`
-        k260: f64,
-        /// `i_t*y_i/(pi*R_a*T_i*r_w)`
-        k261: f64,
-        /// `i_t/(pi*R_a*T_i*r_w)`
-        k262: f64,
-        /// `i_t*s_i/(pi*R_a*T_i*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k263: f64,
-        /// `2592*sqrt(0.075)*Pi_bl*S^2*V_i*i_t^2*xi_aux/(pi^2*sqrt(B)*R_a*T_i*V_d*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k264: f64,
-        /// `-1/(8*AFs*lambda)`
-        k265: f64,
-        /// `172000*sqrt(0.075)*xi_aux/(B^1.5*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k266: f64,
-        /// `43000*sqrt(0.075)*V_d*i_t*xi_aux/(pi*B^1.5*R_a*T_i*r_w*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k267: f64,
-        /// `80000*sqrt(0.075)*Pi_bl*V_d*i_t*s_i*xi_aux/(pi*B^1.5*R_a*T_i*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k268: f64,
-        /// `43000*sqrt(0.075)*V_d*i_t*s_i*xi_aux/(pi*B^1.5*R_a*T_i*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k269: f64,
-        /// `43*sqrt(0.075)*s_i*xi_aux*(m + J_e*eta_trm*i_t^2/r_w^2)/(B^1.5*R_a*T_i*eta_trm*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k270: f64,
-        /// `64800*pi*V_i*r_w*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(R_a*T_i*V_d*eta_trm*i_t*(m + J_e*eta_trm*i_t^2/r_w^2)*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k271: f64,
         /// `-1/(16000*AFs*lambda)`
-        k272: f64,
-        /// `5*sqrt(0.075)*Pi_bl*S*V_d*i_t^3*s_i*xi_aux/(pi^3*sqrt(B)*R_a*T_i*r_w^3*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k273: f64,
-        /// `2*pi*V_i*r_w*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(R_a*T_i*V_d*eta_trm*i_t*(m + J_e*eta_trm*i_t^2/r_w^2)*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k274: f64,
+        k252: f64,
         /// `5*sqrt(0.075)*Pi_bl*S*V_d^2*eta_trm*i_t^4*s_i*xi_aux/(pi^4*sqrt(B)*V_i*r_w^4*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k275: f64,
+        k253: f64,
         /// `2/(m + J_e*eta_trm*i_t^2/r_w^2)^2`
-        k276: f64,
+        k254: f64,
         /// `162/(5*AFs*lambda)`
-        k277: f64,
-        /// `172000*sqrt(0.075)/(sqrt(B)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k278: f64,
-        /// `43000*sqrt(0.075)*V_d*i_t/(pi*sqrt(B)*R_a*T_i*r_w*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k279: f64,
-        /// `80000*sqrt(0.075)*Pi_bl*V_d*i_t*s_i/(pi*sqrt(B)*R_a*T_i*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k280: f64,
-        /// `43000*sqrt(0.075)*V_d*i_t*s_i/(pi*sqrt(B)*R_a*T_i*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k281: f64,
-        /// `43*sqrt(0.075)*s_i/(sqrt(B)*R_a*T_i*eta_trm*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k282: f64,
-        /// `5*sqrt(0.075)*V_d*i_t*s_i*xi_aux/(pi*sqrt(B)*R_a*T_i*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k283: f64,
-        /// `162*sqrt(0.075)*S^2*V_i*i_t^2*xi_aux/(pi^2*sqrt(B)*R_a*T_i*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k284: f64,
+        k255: f64,
+        /// `43*sqrt(0.075)*pi*V_i*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)/(sqrt(B)*R_a*T_i*V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k256: f64,
+        /// `215*sqrt(0.075)*V_d^2*eta_trm*i_t^2*y_i*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi^2*sqrt(B)*V_i*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))^2)`
+        k257: f64,
         /// `5*sqrt(0.075)*V_d^2*eta_trm*i_t^2*s_i*xi_aux/(pi^2*sqrt(B)*V_i*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k285: f64,
+        k258: f64,
         /// `162*sqrt(0.075)*S^2*V_d*eta_trm*i_t^3*xi_aux/(pi^3*sqrt(B)*r_w^3*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k286: f64,
+        k259: f64,
         /// `-2/(AFs*lambda)`
-        k287: f64,
-        /// `Q_hv*s_i/(2*AFs^2*R_a*T_i*lambda^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k288: f64,
-        /// `Q_hv*V_d*i_t*s_i*y_i/(8*pi*AFs^2*R_a^2*T_i^2*lambda^2*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k289: f64,
-        /// `Q_hv*V_d*i_t*s_i/(8*pi*AFs^2*R_a^2*T_i^2*lambda^2*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k290: f64,
-        /// `(0.25 + 0.005375*sqrt(0.075)*xi_aux/sqrt(B))*Q_hv*s_i^2*(m + J_e*eta_trm*i_t^2/r_w^2)/(AFs^2*R_a^2*T_i^2*eta_trm*lambda^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
-        k291: f64,
-        /// `4000*R_a*T_i*V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi*V_i*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k292: f64,
-        /// `1000*V_d^2*eta_trm*i_t^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi^2*V_i*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k293: f64,
-        /// `(0.25 + 0.005375*sqrt(0.075)*xi_aux/sqrt(B))*pi*Q_hv*V_i*r_w*s_i*(m + J_e*eta_trm*i_t^2/r_w^2)/(AFs^2*R_a^2*T_i^2*V_d*eta_trm*i_t*lambda^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
-        k294: f64,
-        /// `eta_th*s_i/(2*AFs^2*R_a*T_i*lambda^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k295: f64,
-        /// `V_d*eta_th*i_t*s_i*y_i/(8*pi*AFs^2*R_a^2*T_i^2*lambda^2*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k296: f64,
-        /// `V_d*eta_th*i_t*s_i/(8*pi*AFs^2*R_a^2*T_i^2*lambda^2*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k297: f64,
-        /// `(0.25 + 0.005375*sqrt(0.075)*xi_aux/sqrt(B))*eta_th*s_i^2*(m + J_e*eta_trm*i_t^2/r_w^2)/(AFs^2*R_a^2*T_i^2*eta_trm*lambda^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
-        k298: f64,
-        /// `(0.25 + 0.005375*sqrt(0.075)*xi_aux/sqrt(B))*pi*V_i*eta_th*r_w*s_i*(m + J_e*eta_trm*i_t^2/r_w^2)/(AFs^2*R_a^2*T_i^2*V_d*eta_trm*i_t*lambda^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
-        k299: f64,
-        /// `Q_hv*eta_th*s_i/(2*AFs^2*R_a*T_i*lambda^3*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k300: f64,
-        /// `Q_hv*V_d*eta_th*i_t*s_i*y_i/(8*pi*AFs^2*R_a^2*T_i^2*lambda^3*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k301: f64,
-        /// `Q_hv*V_d*eta_th*i_t*s_i/(8*pi*AFs^2*R_a^2*T_i^2*lambda^3*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k302: f64,
-        /// `(0.25 + 0.005375*sqrt(0.075)*xi_aux/sqrt(B))*Q_hv*eta_th*s_i^2*(m + J_e*eta_trm*i_t^2/r_w^2)/(AFs^2*R_a^2*T_i^2*eta_trm*lambda^3*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
-        k303: f64,
-        /// `(0.25 + 0.005375*sqrt(0.075)*xi_aux/sqrt(B))*pi*Q_hv*V_i*eta_th*r_w*s_i*(m + J_e*eta_trm*i_t^2/r_w^2)/(AFs^2*R_a^2*T_i^2*V_d*eta_trm*i_t*lambda^3*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
-        k304: f64,
-        /// `Q_hv*eta_th*s_i/(2*AFs^3*R_a*T_i*lambda^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k305: f64,
-        /// `Q_hv*V_d*eta_th*i_t*s_i*y_i/(8*pi*AFs^3*R_a^2*T_i^2*lambda^2*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k306: f64,
-        /// `Q_hv*V_d*eta_th*i_t*s_i/(8*pi*AFs^3*R_a^2*T_i^2*lambda^2*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k307: f64,
-        /// `(0.25 + 0.005375*sqrt(0.075)*xi_aux/sqrt(B))*Q_hv*eta_th*s_i^2*(m + J_e*eta_trm*i_t^2/r_w^2)/(AFs^3*R_a^2*T_i^2*eta_trm*lambda^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
-        k308: f64,
-        /// `(0.25 + 0.005375*sqrt(0.075)*xi_aux/sqrt(B))*pi*Q_hv*V_i*eta_th*r_w*s_i*(m + J_e*eta_trm*i_t^2/r_w^2)/(AFs^3*R_a^2*T_i^2*V_d*eta_trm*i_t*lambda^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
-        k309: f64,
-        /// `4000/R_a`
-        k310: f64,
-        /// `1000*V_d*i_t*y_i/(pi*R_a^2*T_i*r_w)`
-        k311: f64,
-        /// `4000*Q_hv*eta_th*s_i/(AFs*R_a^2*T_i*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k312: f64,
-        /// `1000*Q_hv*V_d*eta_th*i_t*s_i*y_i/(pi*AFs*R_a^3*T_i^2*lambda*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k313: f64,
-        /// `1000*V_d*i_t/(pi*R_a^2*T_i*r_w)`
-        k314: f64,
-        /// `1000*Q_hv*V_d*eta_th*i_t*s_i/(pi*AFs*R_a^3*T_i^2*lambda*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k315: f64,
-        /// `Q_hv*eta_th*s_i^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs*R_a^3*T_i^2*eta_trm*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
-        k316: f64,
-        /// `s_i*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(R_a^2*T_i*eta_trm*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k317: f64,
-        /// `4000/T_i`
-        k318: f64,
-        /// `1000*V_d*i_t*y_i/(pi*R_a*T_i^2*r_w)`
-        k319: f64,
-        /// `4000*Q_hv*eta_th*s_i/(AFs*R_a*T_i^2*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k320: f64,
-        /// `1000*Q_hv*V_d*eta_th*i_t*s_i*y_i/(pi*AFs*R_a^2*T_i^3*lambda*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k321: f64,
-        /// `1000*V_d*i_t/(pi*R_a*T_i^2*r_w)`
-        k322: f64,
-        /// `1000*Q_hv*V_d*eta_th*i_t*s_i/(pi*AFs*R_a^2*T_i^3*lambda*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k323: f64,
-        /// `Q_hv*eta_th*s_i^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs*R_a^2*T_i^3*eta_trm*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
-        k324: f64,
-        /// `s_i*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(R_a*T_i^2*eta_trm*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k325: f64,
-        /// `4/V_i`
-        k326: f64,
-        /// `V_d*i_t/(pi*R_a*T_i*V_i*r_w)`
-        k327: f64,
-        /// `1/(8*AFs*lambda)`
-        k328: f64,
-        /// `V_d*i_t*s_i/(8*pi*AFs*R_a*T_i*lambda*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k329: f64,
-        /// `4000*Q_hv*eta_th/(AFs*R_a*T_i*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k330: f64,
-        /// `1000*Q_hv*V_d*eta_th*i_t/(pi*AFs*R_a^2*T_i^2*lambda*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k331: f64,
-        /// `Q_hv*eta_th*s_i*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs*R_a^2*T_i^2*eta_trm*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
-        k332: f64,
-        /// `(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(R_a*T_i*eta_trm*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k333: f64,
-        /// `V_d*i_t/(8*pi*AFs*R_a*T_i*lambda*r_w)`
-        k334: f64,
-        /// `Q_hv*V_d*eta_th*i_t*s_i/(8*pi*AFs^2*R_a^2*T_i^2*lambda^2*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k335: f64,
-        /// `Q_hv*V_d^2*eta_th*eta_trm*i_t^2*s_i/(pi^2*AFs*R_a*T_i*V_i*lambda*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k336: f64,
-        /// `V_d^2*eta_trm*i_t^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi^2*V_i*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k337: f64,
-        /// `(250 + 5.375*sqrt(0.075)*xi_aux/sqrt(B))*pi*V_i*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)/(AFs*R_a*T_i*V_d*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k338: f64,
-        /// `V_d*c_r*g_0*i_t*m*s_i/(pi*V_i*r_w*v_eps^2*(m + J_e*eta_trm*i_t^2/r_w^2))`
-        k339: f64,
-        /// `5*sqrt(0.075)*Pi_bl*V_d*i_t*s_i*xi_aux/(pi*sqrt(B)*R_a*T_i*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k340: f64,
-        /// `2*sqrt(0.075)*Pi_bl*S^2*S_eps*V_i*i_t^2*xi_aux/(pi^2*sqrt(B)*R_a*T_i*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k341: f64,
-        /// `5*sqrt(0.075)*Pi_bl*V_d^2*eta_trm*i_t^2*s_i*xi_aux/(pi^2*sqrt(B)*V_i*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k342: f64,
-        /// `2*sqrt(0.075)*Pi_bl*S^2*S_eps*V_d*eta_trm*i_t^3*xi_aux/(pi^3*sqrt(B)*r_w^3*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k343: f64,
-        /// `-162/(5*AFs*lambda)`
-        k344: f64,
-        /// `-1/(8*AFs*lambda*rho_f)`
-        k345: f64,
-        /// `1/(4*AFs*lambda*rho_f)`
-        k346: f64,
-        /// `1/(AFs*lambda*rho_f)`
-        k347: f64,
-        /// `1/(8*AFs*lambda*rho_f)`
-        k348: f64,
-        /// `-125/(AFs*lambda*rho_f)`
-        k349: f64,
-        /// `-1/(16*AFs*lambda*rho_f)`
-        k350: f64,
-        /// `32400/(AFs*lambda*rho_f)`
-        k351: f64,
-        /// `-2000/(AFs*lambda*rho_f)`
-        k352: f64,
-        /// `4000*Q_hv*s_i/(AFs*R_a*T_i*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k353: f64,
-        /// `1000*Q_hv*V_d*i_t*s_i*y_i/(pi*AFs*R_a^2*T_i^2*lambda*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k354: f64,
-        /// `1000*Q_hv*V_d*i_t*s_i/(pi*AFs*R_a^2*T_i^2*lambda*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k355: f64,
-        /// `Q_hv*s_i^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs*R_a^2*T_i^2*eta_trm*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
-        k356: f64,
+        k260: f64,
         /// `pi*Q_hv*V_i*r_w*s_i*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs*R_a^2*T_i^2*V_d*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
-        k357: f64,
-        /// `4000*eta_th*s_i/(AFs*R_a*T_i*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k358: f64,
-        /// `1000*V_d*eta_th*i_t*s_i*y_i/(pi*AFs*R_a^2*T_i^2*lambda*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k359: f64,
-        /// `1000*V_d*eta_th*i_t*s_i/(pi*AFs*R_a^2*T_i^2*lambda*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k360: f64,
-        /// `eta_th*s_i^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs*R_a^2*T_i^2*eta_trm*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
-        k361: f64,
+        k261: f64,
         /// `pi*V_i*eta_th*r_w*s_i*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs*R_a^2*T_i^2*V_d*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
-        k362: f64,
-        /// `4000*Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k363: f64,
-        /// `1000*Q_hv*V_d*eta_th*i_t*s_i*y_i/(pi*AFs*R_a^2*T_i^2*lambda^2*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k364: f64,
-        /// `1000*Q_hv*V_d*eta_th*i_t*s_i/(pi*AFs*R_a^2*T_i^2*lambda^2*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k365: f64,
-        /// `Q_hv*eta_th*s_i^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs*R_a^2*T_i^2*eta_trm*lambda^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
-        k366: f64,
+        k262: f64,
         /// `pi*Q_hv*V_i*eta_th*r_w*s_i*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs*R_a^2*T_i^2*V_d*eta_trm*i_t*lambda^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
-        k367: f64,
-        /// `1000/(AFs*lambda^2*rho_f)`
-        k368: f64,
-        /// `4000*Q_hv*eta_th*s_i/(AFs^2*R_a*T_i*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k369: f64,
-        /// `1000*Q_hv*V_d*eta_th*i_t*s_i*y_i/(pi*AFs^2*R_a^2*T_i^2*lambda*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k370: f64,
-        /// `1000*Q_hv*V_d*eta_th*i_t*s_i/(pi*AFs^2*R_a^2*T_i^2*lambda*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k371: f64,
-        /// `Q_hv*eta_th*s_i^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs^2*R_a^2*T_i^2*eta_trm*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
-        k372: f64,
+        k263: f64,
         /// `pi*Q_hv*V_i*eta_th*r_w*s_i*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs^2*R_a^2*T_i^2*V_d*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
-        k373: f64,
-        /// `1000/(AFs^2*lambda*rho_f)`
-        k374: f64,
-        /// `125/(AFs*lambda*rho_f)`
-        k375: f64,
+        k264: f64,
+        /// `pi*Q_hv*V_i*eta_th*r_w*s_i*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs*R_a^3*T_i^2*V_d*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
+        k265: f64,
+        /// `pi*V_i*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(R_a^2*T_i*V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k266: f64,
+        /// `pi*Q_hv*V_i*eta_th*r_w*s_i*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs*R_a^2*T_i^3*V_d*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
+        k267: f64,
+        /// `pi*V_i*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(R_a*T_i^2*V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k268: f64,
+        /// `1000*V_d^2*eta_trm*i_t^2*y_i*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi^2*V_i^2*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k269: f64,
+        /// `V_d*i_t*s_i/(pi*V_i^2*r_w)`
+        k270: f64,
+        /// `pi*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(R_a*T_i*V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k271: f64,
         /// `V_d*i_t*s_i/(pi*R_a*T_i*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k376: f64,
-        /// `V_d*i_t/(pi*R_a*T_i*r_w)`
-        k377: f64,
-        /// `Q_hv*V_d*eta_th*i_t*s_i/(pi*AFs*R_a^2*T_i^2*lambda*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k378: f64,
+        k272: f64,
+        /// `1/(8*AFs*lambda)`
+        k273: f64,
+        /// `1000*Q_hv*V_d^2*eta_th*eta_trm*i_t^2*y_i/(pi^2*AFs*R_a*T_i*V_i*lambda*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k274: f64,
+        /// `V_d*i_t/(pi*V_i*r_w)`
+        k275: f64,
+        /// `pi*Q_hv*V_i*eta_th*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs*R_a^2*T_i^2*V_d*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
+        k276: f64,
+        /// `Q_hv*V_d^2*eta_th*eta_trm*i_t^2*s_i/(pi^2*AFs*R_a*T_i*V_i*lambda*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k277: f64,
+        /// `V_d^2*eta_trm*i_t^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))/(pi^2*V_i*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k278: f64,
+        /// `V_d*c_r*g_0*i_t*m*s_i/(pi*V_i*r_w*v_eps^2*(m + J_e*eta_trm*i_t^2/r_w^2))`
+        k279: f64,
+        /// `-1/(4000*AFs*lambda)`
+        k280: f64,
+        /// `5*sqrt(0.075)*Pi_bl*V_d^2*eta_trm*i_t^2*s_i*xi_aux/(pi^2*sqrt(B)*V_i*r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k281: f64,
+        /// `2*sqrt(0.075)*Pi_bl*S^2*S_eps*V_d*eta_trm*i_t^3*xi_aux/(pi^3*sqrt(B)*r_w^3*(m + J_e*eta_trm*i_t^2/r_w^2)^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k282: f64,
+        /// `-162/(5*AFs*lambda)`
+        k283: f64,
+        /// `-1/(8*AFs*lambda*rho_f)`
+        k284: f64,
+        /// `1/(4*AFs*lambda*rho_f)`
+        k285: f64,
+        /// `1/(AFs*lambda*rho_f)`
+        k286: f64,
+        /// `1/(8*AFs*lambda*rho_f)`
+        k287: f64,
+        /// `-1/(16*AFs*lambda*rho_f)`
+        k288: f64,
+        /// `32400/(AFs*lambda*rho_f)`
+        k289: f64,
+        /// `-2000/(AFs*lambda*rho_f)`
+        k290: f64,
+        /// `1000/(AFs*lambda^2*rho_f)`
+        k291: f64,
+        /// `1000/(AFs^2*lambda*rho_f)`
+        k292: f64,
+        /// `125/(AFs*lambda*rho_f)`
+        k293: f64,
         /// `-1/(4*AFs*lambda*rho_f)`
-        k379: f64,
+        k294: f64,
         /// `-32400/(AFs*lambda*rho_f)`
-        k380: f64,
-        /// `648000*sqrt(0.075)*Pi_bl*S^2*V_d*i_t^2*xi_aux/(pi^3*sqrt(B)*r_w^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k381: f64,
-        /// `r_w/(eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k382: f64,
-        /// `Q_hv*eta_th*r_w*s_i/(AFs*R_a*T_i*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k383: f64,
-        /// `Q_hv*eta_th*r_w*s_i*(m + J_e*eta_trm*i_t^2/r_w^2)/(AFs*R_a*T_i*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k384: f64,
-        /// `r_w*(m + J_e*eta_trm*i_t^2/r_w^2)/(eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))) + Q_hv*eta_th*r_w*s_i*(m + J_e*eta_trm*i_t^2/r_w^2)/(AFs*R_a*T_i*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k385: f64,
-        /// `r_w/(2*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k386: f64,
-        /// `Q_hv*eta_th*r_w*s_i/(2*AFs*R_a*T_i*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k387: f64,
-        /// `r_w/(2*eta_trm*i_t*(m + J_e*eta_trm*i_t^2/r_w^2)*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k388: f64,
-        /// `(0.5*m + 0.5*J_e*eta_trm*i_t^2/r_w^2)*Q_hv*eta_th*r_w*s_i/(AFs*R_a*T_i*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k389: f64,
-        /// `c_r*g_0*r_w/(eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k390: f64,
-        /// `A_f*r_w*rho_a/(2*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k391: f64,
-        /// `A_f*Q_hv*eta_th*r_w*rho_a*s_i/(2*AFs*R_a*T_i*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k392: f64,
-        /// `C_d*r_w*rho_a/(2*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k393: f64,
-        /// `C_d*Q_hv*eta_th*r_w*rho_a*s_i/(2*AFs*R_a*T_i*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k394: f64,
-        /// `g_0*m*r_w/(eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k395: f64,
-        /// `Q_hv*eta_th*g_0*m*r_w*s_i/(AFs*R_a*T_i*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k396: f64,
-        /// `A_f*C_d*r_w/(2*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k397: f64,
-        /// `A_f*C_d*Q_hv*eta_th*r_w*s_i/(2*AFs*R_a*T_i*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k398: f64,
-        /// `c_r*m*r_w/(eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k399: f64,
-        /// `Q_hv*c_r*eta_th*m*r_w*s_i/(AFs*R_a*T_i*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k400: f64,
-        /// `500*r_w/(eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k401: f64,
-        /// `J_e*i_t/(r_w^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k402: f64,
-        /// `J_e*Q_hv*eta_th*i_t*s_i/(AFs*R_a*T_i*lambda*r_w^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k403: f64,
-        /// `1/(2*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k404: f64,
-        /// `Q_hv*eta_th*s_i/(2*AFs*R_a*T_i*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k405: f64,
-        /// `J_e*i_t/(r_w^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k406: f64,
-        /// `648000*sqrt(0.075)*Pi_bl*S^2*V_d*i_t*xi_aux/(pi^3*sqrt(B)*r_w^2*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k407: f64,
-        /// `J_e/(r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k408: f64,
-        /// `J_e*Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k409: f64,
-        /// `(0.5*m + 0.5*J_e*eta_trm*i_t^2/r_w^2)*Q_hv*eta_th*r_w*s_i/(AFs*R_a*T_i*eta_trm*i_t^2*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k410: f64,
-        /// `r_w/(2*eta_trm*i_t^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k411: f64,
-        /// `J_e/(r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k412: f64,
-        /// `500*V_d/(pi*eta_trm*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k413: f64,
-        /// `500*Q_hv*V_d*eta_th*s_i/(pi*AFs*R_a*T_i*eta_trm*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k414: f64,
-        /// `J_e*i_t/(2*eta_trm*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k415: f64,
-        /// `J_e*Q_hv*eta_th*i_t*s_i/(2*AFs*R_a*T_i*eta_trm*lambda*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k416: f64,
-        /// `(0.5*m + 0.5*J_e*eta_trm*i_t^2/r_w^2)*Q_hv*eta_th*r_w*s_i/(AFs*R_a*T_i*eta_trm^2*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k417: f64,
-        /// `r_w/(2*eta_trm^2*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k418: f64,
-        /// `J_e*i_t/(2*eta_trm*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k419: f64,
-        /// `J_e*Q_hv*eta_th*i_t*s_i/(2*AFs*R_a*T_i*eta_trm*lambda*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k420: f64,
-        /// `i_t/(2*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k421: f64,
-        /// `Q_hv*eta_th*i_t*s_i/(2*AFs*R_a*T_i*lambda*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k422: f64,
-        /// `i_t/(2*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k423: f64,
-        /// `Q_hv*eta_th*i_t*s_i/(2*AFs*R_a*T_i*lambda*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k424: f64,
-        /// `500/(pi*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k425: f64,
-        /// `500*Q_hv*eta_th*s_i/(pi*AFs*R_a*T_i*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k426: f64,
-        /// `1000*p_e`
-        k427: f64,
-        /// `80000*sqrt(0.075)*Pi_bl*xi_aux/sqrt(B)`
-        k428: f64,
-        /// `1000*y_i`
-        k429: f64,
-        /// `pi*r_w*s_i*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k430: f64,
+        k295: f64,
+        /// `648000*sqrt(0.075)*Pi_bl*S^2*i_t^2*xi_aux/(pi^2*sqrt(B)*r_w^2)`
+        k296: f64,
+        /// `pi*r_w*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k297: f64,
+        /// `pi*Q_hv*eta_th*r_w*s_i*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs*R_a*T_i*V_d*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k298: f64,
+        /// `V_d/(pi*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k299: f64,
         /// `pi*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k431: f64,
-        /// `1/(2*pi*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k432: f64,
-        /// `(0.5*m + 0.5*J_e*eta_trm*i_t^2/r_w^2)*Q_hv*eta_th*r_w*s_i/(AFs*R_a*T_i*V_d*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k433: f64,
-        /// `r_w/(2*V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k434: f64,
-        /// `80000*sqrt(0.075)*Pi_bl*xi_aux/B^1.5`
-        k435: f64,
-        /// `80000*sqrt(0.075)*Pi_bl*xi_aux/(B^1.5*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k436: f64,
-        /// `43000*sqrt(0.075)*xi_aux/(B^1.5*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k437: f64,
-        /// `80000*sqrt(0.075)*Pi_bl*s_i*xi_aux/(B^1.5*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k438: f64,
-        /// `43000*sqrt(0.075)*s_i*xi_aux/(B^1.5*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k439: f64,
-        /// `43*sqrt(0.075)*pi*r_w*s_i*xi_aux*(m + J_e*eta_trm*i_t^2/r_w^2)/(B^1.5*V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k440: f64,
-        /// `43*sqrt(0.075)*pi*r_w*xi_aux*(m + J_e*eta_trm*i_t^2/r_w^2)/(B^1.5*V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k441: f64,
-        /// `V_d/(4*pi*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k442: f64,
-        /// `43*sqrt(0.075)*V_d*xi_aux/(4*pi*B^1.5*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))^2)`
-        k443: f64,
-        /// `sqrt(0.075)*Pi_bl*S*i_t^2*xi_aux/(pi^2*sqrt(B)*r_w^2)`
-        k444: f64,
-        /// `sqrt(0.075)*Pi_bl*S*i_t^2*xi_aux/(pi^2*sqrt(B)*r_w^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k445: f64,
-        /// `sqrt(0.075)*Pi_bl*Q_hv*S*eta_th*i_t^2*s_i*xi_aux/(pi^2*AFs*sqrt(B)*R_a*T_i*lambda*r_w^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k446: f64,
-        /// `-648000*V_d/(pi*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k447: f64,
-        /// `43*sqrt(0.075)*V_d/(2*pi*sqrt(B)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))^2)`
-        k448: f64,
-        /// `80000*sqrt(0.075)*Pi_bl/sqrt(B)`
-        k449: f64,
-        /// `80000*sqrt(0.075)*Pi_bl/(sqrt(B)*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k450: f64,
-        /// `43000*sqrt(0.075)/(sqrt(B)*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k451: f64,
-        /// `80000*sqrt(0.075)*Pi_bl*s_i/(sqrt(B)*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k452: f64,
-        /// `43000*sqrt(0.075)*s_i/(sqrt(B)*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k453: f64,
-        /// `43*sqrt(0.075)*pi*r_w*s_i*(m + J_e*eta_trm*i_t^2/r_w^2)/(sqrt(B)*V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k454: f64,
-        /// `43*sqrt(0.075)*pi*r_w/(sqrt(B)*V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k455: f64,
+        k300: f64,
+        /// `V_d*(pi*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))) + pi*Q_hv*eta_th*r_w*s_i*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs*R_a*T_i*V_d*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))))/(pi*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k301: f64,
+        /// `pi*r_w*s_i*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k302: f64,
+        /// `pi*r_w*s_i*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k303: f64,
         /// `V_d/(2*pi*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k456: f64,
-        /// `sqrt(0.075)*xi_aux/sqrt(B)`
-        k457: f64,
-        /// `sqrt(0.075)*xi_aux/(sqrt(B)*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k458: f64,
-        /// `sqrt(0.075)*Q_hv*eta_th*s_i*xi_aux/(AFs*sqrt(B)*R_a*T_i*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k459: f64,
-        /// `40000*V_d/(pi*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k460: f64,
-        /// `Q_hv/(AFs*R_a*T_i*lambda)`
-        k461: f64,
-        /// `pi*Q_hv*r_w*s_i*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs*R_a*T_i*V_d*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
-        k462: f64,
-        /// `pi*Q_hv^2*eta_th*r_w*s_i^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs^2*R_a^2*T_i^2*V_d*eta_trm*i_t*lambda^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
-        k463: f64,
-        /// `1000*Q_hv*y_i/(AFs*R_a*T_i*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))) + 1000*Q_hv^2*eta_th*s_i*y_i/(AFs^2*R_a^2*T_i^2*lambda^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k464: f64,
-        /// `eta_th/(AFs*R_a*T_i*lambda)`
-        k465: f64,
-        /// `pi*eta_th*r_w*s_i*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs*R_a*T_i*V_d*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
-        k466: f64,
-        /// `pi*Q_hv*eta_th^2*r_w*s_i^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs^2*R_a^2*T_i^2*V_d*eta_trm*i_t*lambda^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
-        k467: f64,
-        /// `1000*eta_th*y_i/(AFs*R_a*T_i*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))) + 1000*Q_hv*eta_th^2*s_i*y_i/(AFs^2*R_a^2*T_i^2*lambda^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k468: f64,
-        /// `Q_hv*eta_th/(AFs*R_a*T_i*lambda^2)`
-        k469: f64,
-        /// `pi*Q_hv*eta_th*r_w*s_i*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs*R_a*T_i*V_d*eta_trm*i_t*lambda^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
-        k470: f64,
-        /// `pi*Q_hv^2*eta_th^2*r_w*s_i^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs^2*R_a^2*T_i^2*V_d*eta_trm*i_t*lambda^3*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
-        k471: f64,
-        /// `1000*Q_hv*eta_th*y_i/(AFs*R_a*T_i*lambda^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))) + 1000*Q_hv^2*eta_th^2*s_i*y_i/(AFs^2*R_a^2*T_i^2*lambda^3*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k472: f64,
+        k304: f64,
+        /// `pi*A_f*r_w*rho_a*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k305: f64,
+        /// `pi*A_f*Q_hv*eta_th*r_w*rho_a*s_i*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs*R_a*T_i*V_d*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k306: f64,
+        /// `pi*C_d*r_w*rho_a*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k307: f64,
+        /// `pi*C_d*Q_hv*eta_th*r_w*rho_a*s_i*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs*R_a*T_i*V_d*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k308: f64,
+        /// `pi*g_0*m*r_w*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k309: f64,
+        /// `pi*Q_hv*eta_th*g_0*m*r_w*s_i*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs*R_a*T_i*V_d*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k310: f64,
+        /// `pi*A_f*C_d*r_w*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k311: f64,
+        /// `pi*A_f*C_d*Q_hv*eta_th*r_w*s_i*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs*R_a*T_i*V_d*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k312: f64,
+        /// `pi*c_r*m*r_w*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k313: f64,
+        /// `pi*Q_hv*c_r*eta_th*m*r_w*s_i*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs*R_a*T_i*V_d*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k314: f64,
+        /// `1296000*sqrt(0.075)*Pi_bl*S^2*i_t^2*xi_aux/(pi^2*sqrt(B)*r_w^3)`
+        k315: f64,
+        /// `2*pi*r_w*s_i*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k316: f64,
+        /// `2*pi*J_e*i_t*s_i*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(V_d*r_w^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k317: f64,
+        /// `pi*s_i*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k318: f64,
+        /// `2*pi*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k319: f64,
+        /// `2*pi*J_e*i_t*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(V_d*r_w^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k320: f64,
+        /// `pi*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k321: f64,
+        /// `1296000*sqrt(0.075)*Pi_bl*S^2*i_t*xi_aux/(pi^2*sqrt(B)*r_w^2)`
+        k322: f64,
+        /// `2*pi*J_e*s_i*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(V_d*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k323: f64,
+        /// `pi*r_w*s_i*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(V_d*eta_trm*i_t^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k324: f64,
+        /// `2*pi*J_e*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(V_d*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k325: f64,
+        /// `pi*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(V_d*eta_trm*i_t^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k326: f64,
         /// `-V_d/(2*pi*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k473: f64,
+        k327: f64,
+        /// `pi*J_e*i_t*s_i*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(V_d*eta_trm*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k328: f64,
+        /// `pi*r_w*s_i*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(V_d*eta_trm^2*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k329: f64,
+        /// `pi*J_e*i_t*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(V_d*eta_trm*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k330: f64,
+        /// `pi*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(V_d*eta_trm^2*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k331: f64,
+        /// `pi*i_t*s_i*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(V_d*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k332: f64,
+        /// `pi*i_t*s_i*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(V_d*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k333: f64,
+        /// `pi*i_t*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(V_d*r_w*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k334: f64,
+        /// `pi*i_t*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(V_d*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k335: f64,
+        /// `1000/(V_d*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k336: f64,
+        /// `1000*s_i/(V_d*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k337: f64,
+        /// `pi*r_w*s_i*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(V_d^2*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k338: f64,
+        /// `pi*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(V_d^2*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k339: f64,
+        /// `1000*p_e`
+        k340: f64,
+        /// `80000*sqrt(0.075)*Pi_bl*xi_aux/sqrt(B)`
+        k341: f64,
+        /// `1000*y_i`
+        k342: f64,
+        /// `1/(2*pi*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k343: f64,
+        /// `80000*sqrt(0.075)*Pi_bl*xi_aux/B^1.5`
+        k344: f64,
+        /// `1000*pi*r_w*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k345: f64,
+        /// `1000*pi*r_w*s_i*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k346: f64,
+        /// `43*sqrt(0.075)*pi*r_w*s_i*xi_aux*(m + J_e*eta_trm*i_t^2/r_w^2)/(B^1.5*V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k347: f64,
+        /// `43*sqrt(0.075)*pi*r_w*xi_aux*(m + J_e*eta_trm*i_t^2/r_w^2)/(B^1.5*V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k348: f64,
+        /// `V_d/(4*pi*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k349: f64,
+        /// `43*sqrt(0.075)*V_d*xi_aux/(4*pi*B^1.5*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))^2)`
+        k350: f64,
+        /// `sqrt(0.075)*Pi_bl*S*i_t^2*xi_aux/(pi^2*sqrt(B)*r_w^2)`
+        k351: f64,
+        /// `sqrt(0.075)*Pi_bl*S*i_t^2*xi_aux/(pi^2*sqrt(B)*r_w^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k352: f64,
+        /// `sqrt(0.075)*Pi_bl*Q_hv*S*eta_th*i_t^2*s_i*xi_aux/(pi^2*AFs*sqrt(B)*R_a*T_i*lambda*r_w^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k353: f64,
+        /// `-648000*V_d/(pi*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k354: f64,
+        /// `80000*sqrt(0.075)*Pi_bl/sqrt(B)`
+        k355: f64,
+        /// `43*sqrt(0.075)*pi*r_w*s_i*(m + J_e*eta_trm*i_t^2/r_w^2)/(sqrt(B)*V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k356: f64,
+        /// `43*sqrt(0.075)*pi*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)/(sqrt(B)*V_d*eta_trm*i_t*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k357: f64,
+        /// `43*sqrt(0.075)*V_d/(2*pi*sqrt(B)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))^2)`
+        k358: f64,
+        /// `sqrt(0.075)*xi_aux/sqrt(B)`
+        k359: f64,
+        /// `sqrt(0.075)*xi_aux/(sqrt(B)*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k360: f64,
+        /// `sqrt(0.075)*Q_hv*eta_th*s_i*xi_aux/(AFs*sqrt(B)*R_a*T_i*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k361: f64,
+        /// `40000*V_d/(pi*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
+        k362: f64,
+        /// `1000*Q_hv*y_i/(AFs*R_a*T_i*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k363: f64,
+        /// `1000*Q_hv*s_i*y_i/(AFs*R_a*T_i*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k364: f64,
+        /// `pi*Q_hv*r_w*s_i^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs*R_a*T_i*V_d*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
+        k365: f64,
+        /// `Q_hv/(AFs*R_a*T_i*lambda)`
+        k366: f64,
+        /// `pi*Q_hv*r_w*s_i*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs*R_a*T_i*V_d*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
+        k367: f64,
+        /// `1000*eta_th*y_i/(AFs*R_a*T_i*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k368: f64,
+        /// `1000*eta_th*s_i*y_i/(AFs*R_a*T_i*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k369: f64,
+        /// `pi*eta_th*r_w*s_i^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs*R_a*T_i*V_d*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
+        k370: f64,
+        /// `eta_th/(AFs*R_a*T_i*lambda)`
+        k371: f64,
+        /// `pi*eta_th*r_w*s_i*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs*R_a*T_i*V_d*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
+        k372: f64,
+        /// `1000*Q_hv*eta_th*y_i/(AFs*R_a*T_i*lambda^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k373: f64,
+        /// `1000*Q_hv*eta_th*s_i*y_i/(AFs*R_a*T_i*lambda^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k374: f64,
+        /// `pi*Q_hv*eta_th*r_w*s_i^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs*R_a*T_i*V_d*eta_trm*i_t*lambda^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
+        k375: f64,
+        /// `Q_hv*eta_th/(AFs*R_a*T_i*lambda^2)`
+        k376: f64,
+        /// `pi*Q_hv*eta_th*r_w*s_i*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs*R_a*T_i*V_d*eta_trm*i_t*lambda^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
+        k377: f64,
+        /// `1000*Q_hv*eta_th*y_i/(AFs^2*R_a*T_i*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k378: f64,
+        /// `1000*Q_hv*eta_th*s_i*y_i/(AFs^2*R_a*T_i*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k379: f64,
+        /// `pi*Q_hv*eta_th*r_w*s_i^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs^2*R_a*T_i*V_d*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
+        k380: f64,
         /// `Q_hv*eta_th/(AFs^2*R_a*T_i*lambda)`
-        k474: f64,
+        k381: f64,
         /// `pi*Q_hv*eta_th*r_w*s_i*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs^2*R_a*T_i*V_d*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
-        k475: f64,
-        /// `pi*Q_hv^2*eta_th^2*r_w*s_i^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs^3*R_a^2*T_i^2*V_d*eta_trm*i_t*lambda^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
-        k476: f64,
-        /// `1000*Q_hv*eta_th*y_i/(AFs^2*R_a*T_i*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))) + 1000*Q_hv^2*eta_th^2*s_i*y_i/(AFs^3*R_a^2*T_i^2*lambda^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k477: f64,
+        k382: f64,
+        /// `1000*Q_hv*eta_th*y_i/(AFs*R_a^2*T_i*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k383: f64,
+        /// `1000*Q_hv*eta_th*s_i*y_i/(AFs*R_a^2*T_i*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k384: f64,
+        /// `pi*Q_hv*eta_th*r_w*s_i^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs*R_a^2*T_i*V_d*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
+        k385: f64,
         /// `Q_hv*eta_th/(AFs*R_a^2*T_i*lambda)`
-        k478: f64,
+        k386: f64,
         /// `pi*Q_hv*eta_th*r_w*s_i*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs*R_a^2*T_i*V_d*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
-        k479: f64,
-        /// `pi*Q_hv^2*eta_th^2*r_w*s_i^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs^2*R_a^3*T_i^2*V_d*eta_trm*i_t*lambda^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
-        k480: f64,
-        /// `1000*Q_hv*eta_th*y_i/(AFs*R_a^2*T_i*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))) + 1000*Q_hv^2*eta_th^2*s_i*y_i/(AFs^2*R_a^3*T_i^2*lambda^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k481: f64,
+        k387: f64,
+        /// `1000*Q_hv*eta_th*y_i/(AFs*R_a*T_i^2*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k388: f64,
+        /// `1000*Q_hv*eta_th*s_i*y_i/(AFs*R_a*T_i^2*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k389: f64,
+        /// `pi*Q_hv*eta_th*r_w*s_i^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs*R_a*T_i^2*V_d*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
+        k390: f64,
         /// `Q_hv*eta_th/(AFs*R_a*T_i^2*lambda)`
-        k482: f64,
+        k391: f64,
         /// `pi*Q_hv*eta_th*r_w*s_i*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs*R_a*T_i^2*V_d*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
-        k483: f64,
-        /// `pi*Q_hv^2*eta_th^2*r_w*s_i^2*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs^2*R_a^2*T_i^3*V_d*eta_trm*i_t*lambda^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
-        k484: f64,
-        /// `1000*Q_hv*eta_th*y_i/(AFs*R_a*T_i^2*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))) + 1000*Q_hv^2*eta_th^2*s_i*y_i/(AFs^2*R_a^2*T_i^3*lambda^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k485: f64,
+        k392: f64,
         /// `500*V_d*(-1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))) + 1/(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))/(pi*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k486: f64,
-        /// `(0.5*m + 0.5*J_e*eta_trm*i_t^2/r_w^2)*Q_hv^2*eta_th^2*r_w*s_i/(AFs^2*R_a^2*T_i^2*eta_trm*i_t*lambda^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
-        k487: f64,
-        /// `Q_hv*eta_th*r_w/(2*AFs*R_a*T_i*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
-        k488: f64,
-        /// `Q_hv*eta_th*r_w/(2*AFs*R_a*T_i*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k489: f64,
+        k393: f64,
+        /// `pi*Q_hv*eta_th*r_w*s_i*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs*R_a*T_i*V_d*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
+        k394: f64,
+        /// `pi*Q_hv*eta_th*r_w*(m + J_e*eta_trm*i_t^2/r_w^2)*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs*R_a*T_i*V_d*eta_trm*i_t*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))^2)`
+        k395: f64,
         /// `500*V_d*(Q_hv*eta_th/(AFs*R_a*T_i*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))) + Q_hv*eta_th*(-1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda))))/(AFs*R_a*T_i*lambda))/(pi*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k490: f64,
-        /// `c_r*g_0*m*r_w/(eta_trm*i_t*v_eps^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k491: f64,
-        /// `Q_hv*c_r*eta_th*g_0*m*r_w*s_i/(AFs*R_a*T_i*eta_trm*i_t*lambda*v_eps^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k492: f64,
+        k396: f64,
+        /// `pi*c_r*g_0*m*r_w*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(V_d*eta_trm*i_t*v_eps^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k397: f64,
+        /// `pi*Q_hv*c_r*eta_th*g_0*m*r_w*s_i*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B))/(AFs*R_a*T_i*V_d*eta_trm*i_t*lambda*v_eps^2*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
+        k398: f64,
         /// `sqrt(0.075)*Pi_bl*xi_aux/sqrt(B)`
-        k493: f64,
+        k399: f64,
         /// `sqrt(0.075)*Pi_bl*xi_aux/(sqrt(B)*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k494: f64,
+        k400: f64,
         /// `sqrt(0.075)*Pi_bl*Q_hv*eta_th*s_i*xi_aux/(AFs*sqrt(B)*R_a*T_i*lambda*(1 + Q_hv*eta_th*s_i/(AFs*R_a*T_i*lambda)))`
-        k495: f64,
+        k401: f64,
         /// `648000*V_d/(pi*(2000 + 43*sqrt(0.075)*xi_aux/sqrt(B)))`
-        k496: f64,
+        k402: f64,
     }
     impl Precomputed {
         /// Compute the parameter-only subexpressions for `p`.
@@ -1371,863 +1183,681 @@ pub mod si_engine {
             let t24 = 1.0 + t23 / t13;
             let k10 = p.p_e + t10 * p.y_i / t13;
             let k11 = 1.0 / t4;
-            let t25 = 0.001 * PI;
-            let t26 = p.V_d * p.eta_trm;
-            let t27 = t26 * p.i_t;
-            let t28 = t27 * t24;
-            let k12 = t25 * p.r_w * t4 * t9 / t28;
-            let t29 = p.V_d * p.V_d;
-            let t30 = 125.0 * t29;
-            let t31 = t30 * p.eta_trm * t0;
-            let t32 = t14 * p.V_i;
-            let t33 = t32 * t1;
-            let t34 = t33 * t4 * t9;
-            let k13 = t31 * p.y_i * t24 / t34;
-            let t35 = 0.125 * p.V_d;
-            let t36 = t35 * p.i_t;
-            let t37 = t36 * p.s_i;
-            let t38 = PI * p.V_i;
-            let t39 = t38 * p.r_w;
-            let k14 = t37 / t39;
-            let t40 = PI * PI * PI;
-            let t41 = p.i_t * p.i_t * p.i_t;
-            let t42 = p.r_w * p.r_w * p.r_w;
-            let t43 = 648000.0 * t6 * p.Pi_bl;
-            let t44 = t43 * t15 * p.V_d;
-            let t45 = t40 * t7;
-            let t46 = t45 * t42;
-            let t47 = t46 * t9;
-            let k15 = t44 * p.eta_trm * t41 * p.xi_aux / t47;
-            let t48 = p.c_r * p.g_0;
-            let t49 = t48 * p.m;
-            let k16 = t49 / p.v_eps;
-            let t50 = 500.0 * p.R_a;
-            let t51 = t50 * p.T_i;
-            let t52 = t51 * p.V_d;
-            let t53 = t52 * p.eta_trm;
-            let t54 = t53 * p.i_t * t24;
-            let t55 = t39 * t4;
-            let t56 = t55 * t9;
-            let k17 = t54 / t56;
+            let t25 = p.V_d * p.eta_trm;
+            let t26 = t25 * p.i_t;
+            let t27 = t26 * t24;
+            let k12 = 0.001 * PI * p.r_w * t4 * t9 / t27;
+            let t28 = p.V_d * p.V_d;
+            let t29 = 125.0 * t28;
+            let t30 = t29 * p.eta_trm * t0;
+            let t31 = t14 * p.V_i;
+            let t32 = t31 * t1;
+            let t33 = t32 * t4 * t9;
+            let k13 = t30 * p.y_i * t24 / t33;
+            let t34 = PI * p.V_i;
+            let t35 = t34 * p.r_w;
+            let k14 = 0.125 * p.V_d * p.i_t * p.s_i / t35;
+            let t36 = PI * PI * PI;
+            let t37 = p.i_t * p.i_t * p.i_t;
+            let t38 = p.r_w * p.r_w * p.r_w;
+            let t39 = 648000.0 * t6 * p.Pi_bl;
+            let t40 = t39 * t15;
+            let t41 = t40 * p.V_d;
+            let t42 = t36 * t7;
+            let t43 = t42 * t38;
+            let t44 = t43 * t9;
+            let k15 = t41 * p.eta_trm * t37 * p.xi_aux / t44;
+            let t45 = p.c_r * p.g_0;
+            let t46 = t45 * p.m;
+            let k16 = t46 / p.v_eps;
+            let t47 = 500.0 * p.R_a;
+            let t48 = t47 * p.T_i;
+            let t49 = t48 * p.V_d;
+            let t50 = t49 * p.eta_trm;
+            let t51 = t50 * p.i_t * t24;
+            let t52 = t35 * t4;
+            let t53 = t52 * t9;
+            let k17 = t51 / t53;
             let k18 = 1.0 / k17;
-            let t57 = p.R_a * p.T_i;
-            let k19 = t57 / p.V_i;
-            let t58 = 0.25 * p.V_d;
-            let t59 = t58 * p.i_t;
-            let k20 = t59 / t39;
-            let t60 = p.AFs * p.lambda;
-            let k21 = 1.0 / t60;
-            let t61 = t60 * p.rho_f;
-            let k22 = 1000.0 / t61;
+            let t54 = p.R_a * p.T_i;
+            let k19 = t54 / p.V_i;
+            let t55 = 0.25 * p.V_d;
+            let k20 = t55 * p.i_t / t35;
+            let t56 = p.AFs * p.lambda;
+            let k21 = 1.0 / t56;
+            let t57 = t56 * p.rho_f;
+            let k22 = 1000.0 / t57;
             let k23 = 30.0 * p.i_t / t19;
-            let t62 = -500.0 * p.V_d;
-            let t63 = PI * t9;
-            let k24 = t62 / t63;
-            let t64 = 500.0 * p.V_d;
-            let t65 = t64 * p.eta_trm * p.i_t;
-            let t66 = t65 * t24;
-            let t67 = t19 * t4 * t9;
-            let k25 = t66 / t67;
-            let t68 = t4 * t4;
+            let t58 = -500.0 * p.V_d;
+            let t59 = PI * t9;
+            let k24 = t58 / t59;
+            let t60 = 500.0 * p.V_d;
+            let t61 = t60 * p.eta_trm * p.i_t;
+            let t62 = t61 * t24;
+            let t63 = t19 * t4 * t9;
+            let k25 = t62 / t63;
+            let t64 = t4 * t4;
             let k26 = p.S_eps.powf(0.8);
             let k27 = 9.0 * (k26 * p.S_eps) - 580.0;
-            let k28 = 0.5 / t68;
-            let k29 = t48 / t4;
-            let t69 = -0.5 * p.A_f;
-            let k30 = t69 * p.rho_a / t4;
+            let k28 = 0.5 / t64;
+            let k29 = t45 / t4;
+            let t65 = -0.5 * p.A_f;
+            let k30 = t65 * p.rho_a / t4;
             let k31 = -0.5 * p.C_d * p.rho_a / t4;
-            let t70 = p.g_0 * p.m;
-            let k32 = t70 / t4;
-            let k33 = t69 * p.C_d / t4;
-            let t71 = p.c_r * p.m;
-            let k34 = t71 / t4;
-            let t72 = p.r_w.powi(4);
-            let t73 = 1296.0 * t6 * p.Pi_bl * t15 * p.V_d * p.eta_trm;
-            let t74 = t45 * t72 * t9;
-            let k35 = t73 * t41 * p.xi_aux / t74;
-            let t75 = PI * t1;
-            let k36 = t27 / (t75 * t9);
+            let t66 = p.g_0 * p.m;
+            let k32 = t66 / t4;
+            let k33 = t65 * p.C_d / t4;
+            let t67 = p.c_r * p.m;
+            let k34 = t67 / t4;
+            let t68 = p.r_w.powi(4);
+            let t69 = 1296.0 * t6 * p.Pi_bl * t15 * p.V_d * p.eta_trm;
+            let t70 = t42 * t68 * t9;
+            let k35 = t69 * t37 * p.xi_aux / t70;
+            let t71 = PI * t1;
+            let k36 = t26 / (t71 * t9);
             let k37 = 500.0 / t4;
-            let k38 = t3 / (t42 * t68);
-            let k39 = t73 * t0 * p.xi_aux / t47;
-            let k40 = t26 / t20;
-            let t76 = t1 * t68;
-            let k41 = t2 * p.i_t / t76;
-            let t77 = t64 * p.i_t;
-            let k42 = t77 / t67;
-            let t78 = 0.5 * p.J_e;
-            let k43 = t78 * t0 / t76;
-            let k44 = 0.5 * p.eta_trm * t0 / t76;
-            let k45 = -500.0 * p.eta_trm * p.i_t / t67;
-            let t79 = t7 * p.B;
-            let t80 = t16 * p.V_d * p.eta_trm * p.i_t;
-            let t81 = PI * t79;
-            let t82 = t81 * p.r_w;
-            let k46 = t80 * p.xi_aux / (t82 * t9);
-            let t83 = t9 * t9;
-            let t84 = t8 * p.V_d * p.eta_trm * p.i_t;
-            let k47 = t84 * p.xi_aux / (t82 * t83);
+            let k38 = t3 / (t38 * t64);
+            let k39 = t69 * t0 * p.xi_aux / t44;
+            let k40 = t25 / t20;
+            let t72 = t1 * t64;
+            let k41 = t2 * p.i_t / t72;
+            let t73 = t60 * p.i_t;
+            let k42 = t73 / t63;
+            let k43 = 0.5 * p.J_e * t0 / t72;
+            let k44 = 0.5 * p.eta_trm * t0 / t72;
+            let k45 = -500.0 * p.eta_trm * p.i_t / t63;
+            let t74 = t7 * p.B;
+            let t75 = t16 * p.V_d * p.eta_trm * p.i_t;
+            let t76 = PI * t74;
+            let t77 = t76 * p.r_w;
+            let k46 = t75 * p.xi_aux / (t77 * t9);
+            let t78 = t9 * t9;
+            let t79 = t8 * p.V_d * p.eta_trm * p.i_t;
+            let k47 = t79 * p.xi_aux / (t77 * t78);
             let k48 = -250.0 / t4;
-            let t85 = -648000.0 * t6 * p.Pi_bl;
-            let t86 = t85 * p.S * p.V_d;
-            let k49 = t86 * p.eta_trm * t41 * p.xi_aux / (t46 * t4 * t9);
-            let t87 = PI * t7;
-            let t88 = t87 * p.r_w;
-            let k50 = t80 / (t88 * t9);
-            let k51 = t84 / (t88 * t83);
-            let t89 = 40000.0 * t6;
-            let t90 = t89 * p.V_d;
-            let t91 = t90 * p.eta_trm * p.i_t * p.xi_aux;
-            let t92 = t88 * t4 * t9;
-            let k52 = t91 / t92;
-            let t93 = -500.0 * p.Q_hv * p.V_d;
-            let t94 = PI * p.AFs;
-            let t95 = t94 * p.R_a;
-            let t96 = t95 * p.T_i;
-            let t97 = t96 * p.lambda;
-            let t98 = t97 * p.r_w;
-            let t99 = t98 * t4 * t9;
-            let k53 = t93 * p.eta_trm * p.i_t / t99;
-            let t100 = t62 * p.eta_th;
-            let k54 = t100 * p.eta_trm * p.i_t / t99;
-            let t101 = p.lambda * p.lambda;
-            let t102 = 500.0 * p.Q_hv;
-            let t103 = t102 * p.V_d;
-            let t104 = t103 * p.eta_th;
-            let t105 = t104 * p.eta_trm * p.i_t;
-            let t106 = t96 * t101;
-            let t107 = t106 * p.r_w;
-            let k55 = t105 / (t107 * t4 * t9);
-            let t108 = p.AFs * p.AFs;
-            let t109 = PI * t108;
-            let t110 = t109 * p.R_a * p.T_i * p.lambda;
+            let t80 = -648000.0 * t6 * p.Pi_bl;
+            let t81 = t80 * p.S * p.V_d;
+            let k49 = t81 * p.eta_trm * t37 * p.xi_aux / (t43 * t4 * t9);
+            let t82 = PI * t7;
+            let t83 = t82 * p.r_w;
+            let k50 = t75 / (t83 * t9);
+            let k51 = t79 / (t83 * t78);
+            let t84 = 40000.0 * t6;
+            let t85 = t84 * p.V_d;
+            let t86 = t85 * p.eta_trm * p.i_t * p.xi_aux;
+            let t87 = t83 * t4 * t9;
+            let k52 = t86 / t87;
+            let t88 = -500.0 * p.Q_hv * p.V_d;
+            let t89 = PI * p.AFs;
+            let t90 = t89 * p.R_a;
+            let t91 = t90 * p.T_i;
+            let t92 = t91 * p.lambda;
+            let t93 = t92 * p.r_w;
+            let t94 = t93 * t4 * t9;
+            let k53 = t88 * p.eta_trm * p.i_t / t94;
+            let t95 = t58 * p.eta_th;
+            let k54 = t95 * p.eta_trm * p.i_t / t94;
+            let t96 = p.lambda * p.lambda;
+            let t97 = 500.0 * p.Q_hv * p.V_d;
+            let t98 = t97 * p.eta_th;
+            let t99 = t98 * p.eta_trm * p.i_t;
+            let t100 = t91 * t96;
+            let t101 = t100 * p.r_w;
+            let k55 = t99 / (t101 * t4 * t9);
+            let t102 = p.AFs * p.AFs;
+            let t103 = PI * t102;
+            let t104 = t103 * p.R_a * p.T_i * p.lambda;
+            let t105 = t104 * p.r_w;
+            let k56 = t99 / (t105 * t4 * t9);
+            let t106 = p.R_a * p.R_a;
+            let t107 = t89 * t106 * p.T_i * p.lambda;
+            let t108 = t107 * p.r_w;
+            let k57 = t99 / (t108 * t4 * t9);
+            let t109 = p.T_i * p.T_i;
+            let t110 = t90 * t109 * p.lambda;
             let t111 = t110 * p.r_w;
-            let k56 = t105 / (t111 * t4 * t9);
-            let t112 = p.R_a * p.R_a;
-            let t113 = t94 * t112;
-            let t114 = t113 * p.T_i * p.lambda;
-            let t115 = t114 * p.r_w;
-            let k57 = t105 / (t115 * t4 * t9);
-            let t116 = p.T_i * p.T_i;
-            let t117 = t95 * t116 * p.lambda;
-            let t118 = t117 * p.r_w;
-            let k58 = t105 / (t118 * t4 * t9);
-            let k59 = t62 * p.eta_trm * p.i_t / t67;
-            let k60 = t105 / t99;
-            let t119 = t93 * p.eta_th;
-            let k61 = t119 * p.eta_trm * p.i_t / t99;
-            let t120 = p.v_eps * p.v_eps;
-            let k62 = t49 / (t120 * t4);
-            let t121 = t43 * p.V_d;
-            let t122 = t121 * p.eta_trm * p.i_t * p.xi_aux;
-            let k63 = t122 / t92;
-            let t123 = t31 * t24;
-            let k64 = t123 / t34;
-            let k65 = 1.0 / t68;
-            let t124 = p.S.powi(4);
-            let t125 = p.i_t.powi(5);
-            let t126 = p.r_w.powi(5);
-            let t127 = PI.powi(5) * t7;
-            let t128 = t127 * t126 * t9;
-            let k66 = 129600.0 * t6 * p.Pi_bl * t124 * p.V_d * p.eta_trm * t125
-                * p.xi_aux / t128;
-            let k67 = k8 / t120;
-            let k68 = t31 * p.s_i * t24 / t34;
-            let t129 = t19 * t68 * t9;
-            let k69 = t66 / t129;
-            let k70 = t54 / (t39 * t68 * t9);
-            let t130 = t33 * t68 * t9;
-            let k71 = t123 / t130;
-            let t131 = t4 * t4 * t4;
-            let k72 = 1.0 / t131;
-            let t132 = 0.5 * p.c_r;
-            let t133 = p.v_eps * t68;
-            let k73 = t132 * p.g_0 / t133;
-            let k74 = t48 / t68;
-            let t134 = 0.5 * p.A_f;
-            let k75 = t134 * p.rho_a / t68;
-            let t135 = 0.5 * p.C_d;
-            let k76 = t135 * p.rho_a / t68;
-            let k77 = 0.5 * p.g_0 * p.m / t133;
-            let k78 = t70 / t68;
-            let t136 = t134 * p.C_d;
-            let k79 = t136 / t68;
-            let k80 = t132 * p.m / t133;
-            let k81 = t71 / t68;
-            let t137 = p.eta_trm * p.eta_trm;
-            let t138 = 1000.0 * p.J_e;
-            let t139 = t138 * p.R_a * p.T_i * p.V_d * t137;
-            let k82 = t139 * t41 * t24 / (t38 * t72 * t68 * t9);
-            let t140 = t38 * t1;
-            let k83 = t54 / (t140 * t4 * t9);
-            let t141 = p.i_t.powi(4);
-            let t142 = 250.0 * p.J_e * t29 * t137;
-            let t143 = t32 * t126 * t68 * t9;
-            let k84 = t142 * t141 * t24 / t143;
-            let t144 = 250.0 * t29 * p.eta_trm;
-            let t145 = t32 * t42 * t4 * t9;
-            let k85 = t144 * t0 * t24 / t145;
-            let k86 = 500.0 / t68;
-            let t146 = t6 * p.Pi_bl;
-            let t147 = t146 * t124 * p.V_d * p.eta_trm;
-            let k87 = t147 * t125 * p.xi_aux / (t127 * p.r_w.powi(6) * t9);
-            let t148 = 15.0 * t6 * p.Pi_bl * t15 * p.V_d * p.eta_trm;
-            let k88 = t148 * t41 * p.xi_aux / t74;
-            let k89 = 64800.0 / t68;
-            let t149 = 2.0 * p.J_e;
-            let t150 = t149 * p.eta_trm;
-            let t151 = t42 * t131;
-            let k90 = t150 * t0 / t151;
-            let t152 = t38 * t42 * t68 * t9;
-            let k91 = t139 * t0 * t24 / t152;
-            let k92 = t53 * t24 / t56;
-            let t153 = t32 * t72 * t68 * t9;
-            let k93 = t142 * t41 * t24 / t153;
-            let k94 = t144 * p.i_t * t24 / t34;
-            let k95 = t147 * t141 * p.xi_aux / t128;
-            let k96 = t148 * t0 * p.xi_aux / t47;
-            let t154 = t1 * t131;
-            let k97 = t150 * p.i_t / t154;
-            let k98 = 500.0 * p.J_e * p.R_a * p.T_i * p.V_d * p.eta_trm * t41 * t24
-                / t152;
-            let k99 = t52 * p.i_t * t24 / t56;
-            let k100 = 125.0 * p.J_e * t29 * p.eta_trm * t141 * t24 / t153;
-            let k101 = t30 * t0 * t24 / t34;
-            let k102 = t77 / t129;
-            let t155 = 324000.0 * t6;
-            let t156 = t155 * p.Pi_bl * t15;
-            let t157 = t46 * t68 * t9;
-            let k103 = t156 * p.V_d * t41 * p.xi_aux / t157;
-            let t158 = p.J_e * t0;
-            let k104 = t158 / t154;
-            let k105 = t52 * t137 * t41 * t24 / t152;
-            let k106 = t30 * t137 * t141 * t24 / t153;
-            let t159 = p.eta_trm * t0;
-            let k107 = t159 / t154;
-            let k108 = t51 * p.eta_trm * p.i_t * t24 / t56;
-            let k109 = 250.0 * p.V_d * p.eta_trm * t0 * t24 / t34;
-            let k110 = 500.0 * p.eta_trm * p.i_t / t129;
-            let k111 = t156 * p.eta_trm * t41 * p.xi_aux / t157;
-            let t160 = 10750.0 * t6;
-            let k112 = t160 * p.R_a * p.T_i * p.V_d * p.eta_trm * p.i_t * p.xi_aux * t24
-                / (t81 * p.V_i * p.r_w * t4 * t83);
-            let k113 = 2687.5 * t6 * t29 * p.eta_trm * t0 * p.xi_aux * t24
-                / (t14 * t79 * p.V_i * t1 * t4 * t83);
-            let k114 = 250.0 / t68;
-            let t161 = 129.0 * p.Pi_bl * t15 * p.V_d * p.eta_trm * t41;
-            let k115 = t161 * (p.xi_aux * p.xi_aux) / (t40 * (p.B * p.B) * t42 * t83);
-            let t162 = 40.0 * t6 * p.Pi_bl * t15 * p.V_d * p.eta_trm * t41;
-            let k116 = t162 * p.xi_aux / (t40 * t79 * t42 * t9);
-            let k117 = 4050.0 / t68;
-            let k118 = t43 * p.S * p.V_d * p.eta_trm * t41 * p.xi_aux / t157;
-            let k119 = t146 * (p.S * p.S * p.S) * p.V_d * p.eta_trm * t125 * p.xi_aux
-                / t128;
-            let k120 = 10.0 * t6 * p.Pi_bl * p.S * p.V_d * p.eta_trm * t41 * p.xi_aux
-                / t47;
-            let t163 = 21500.0 * t6;
-            let k121 = t163 * p.R_a * p.T_i * p.V_d * p.eta_trm * p.i_t * t24
-                / (t87 * p.V_i * p.r_w * t4 * t83);
-            let t164 = t14 * t7;
-            let t165 = t164 * p.V_i * t1 * t4;
-            let k122 = 5375.0 * t6 * t29 * p.eta_trm * t0 * t24 / (t165 * t83);
-            let k123 = t161 * p.xi_aux / (t40 * p.B * t42 * t83);
-            let k124 = t162 / t47;
-            let k125 = 8100.0 / t68;
-            let t166 = t88 * t68 * t9;
-            let k126 = t91 / t166;
-            let k127 = t155 * t15 * p.V_d * p.eta_trm * t41 * p.xi_aux / t157;
-            let t167 = t103 * p.eta_trm * p.i_t;
-            let t168 = t94 * p.V_i;
-            let t169 = t168 * p.lambda * p.r_w * t4 * t9;
-            let k128 = t167 * p.s_i / t169;
-            let t170 = 125.0 * p.Q_hv * t29;
-            let t171 = t14 * p.AFs;
-            let t172 = t171 * p.R_a;
-            let t173 = t172 * p.T_i * p.V_i;
-            let t174 = t173 * p.lambda * t1 * t4 * t9;
-            let k129 = t170 * p.eta_trm * t0 * p.s_i / t174;
-            let t175 = t98 * t68 * t9;
-            let k130 = t167 / t175;
-            let t176 = t64 * p.eta_th * p.eta_trm * p.i_t;
-            let k131 = t176 * p.s_i / t169;
-            let k132 = t30 * p.eta_th * p.eta_trm * t0 * p.s_i / t174;
-            let k133 = t176 / t175;
-            let t177 = t105 * p.s_i;
-            let k134 = t177 / (t168 * t101 * p.r_w * t4 * t9);
-            let t178 = t170 * p.eta_th * p.eta_trm * t0;
-            let t179 = t178 * p.s_i;
-            let k135 = t179 / (t173 * t101 * t1 * t4 * t9);
-            let k136 = t105 / (t107 * t68 * t9);
-            let k137 = t177 / (t109 * p.V_i * p.lambda * p.r_w * t4 * t9);
-            let k138 = t179
-                / (t14 * t108 * p.R_a * p.T_i * p.V_i * p.lambda * t1 * t4 * t9);
-            let k139 = t105 / (t111 * t68 * t9);
-            let k140 = t177 / (t95 * p.V_i * p.lambda * p.r_w * t4 * t9);
-            let k141 = 500.0 * p.T_i * p.V_d * p.eta_trm * p.i_t * t24 / t56;
-            let k142 = t179 / (t171 * t112 * p.T_i * p.V_i * p.lambda * t1 * t4 * t9);
-            let k143 = t105 / (t115 * t68 * t9);
-            let k144 = t177 / (t94 * p.T_i * p.V_i * p.lambda * p.r_w * t4 * t9);
-            let k145 = t50 * p.V_d * p.eta_trm * p.i_t * t24 / t56;
-            let k146 = t179 / (t172 * t116 * p.V_i * p.lambda * t1 * t4 * t9);
-            let k147 = t105 / (t118 * t68 * t9);
-            let t180 = p.V_i * p.V_i;
-            let k148 = t54 / (PI * t180 * p.r_w * t4 * t9);
-            let k149 = t123 / (t14 * t180 * t1 * t4 * t9);
-            let k150 = t65 / t129;
-            let k151 = t105 / t169;
-            let k152 = t178 / t174;
-            let k153 = t105 / t175;
-            let k154 = t49 / t120;
+            let k58 = t99 / (t111 * t4 * t9);
+            let k59 = t58 * p.eta_trm * p.i_t / t63;
+            let k60 = t99 / t94;
+            let t112 = t88 * p.eta_th;
+            let k61 = t112 * p.eta_trm * p.i_t / t94;
+            let t113 = p.v_eps * p.v_eps;
+            let k62 = t46 / (t113 * t4);
+            let t114 = t39 * p.V_d;
+            let t115 = t114 * p.eta_trm * p.i_t * p.xi_aux;
+            let k63 = t115 / t87;
+            let t116 = t30 * t24;
+            let k64 = t116 / t33;
+            let k65 = 1.0 / t64;
+            let t117 = p.S.powi(4);
+            let t118 = p.i_t.powi(5);
+            let t119 = p.r_w.powi(5);
+            let t120 = PI.powi(5) * t7;
+            let t121 = t120 * t119 * t9;
+            let k66 = 129600.0 * t6 * p.Pi_bl * t117 * p.V_d * p.eta_trm * t118
+                * p.xi_aux / t121;
+            let k67 = k8 / t113;
+            let k68 = t30 * p.s_i * t24 / t33;
+            let t122 = t19 * t64 * t9;
+            let k69 = t62 / t122;
+            let k70 = t51 / (t35 * t64 * t9);
+            let t123 = t32 * t64 * t9;
+            let k71 = t116 / t123;
+            let t124 = t4 * t4 * t4;
+            let k72 = 1.0 / t124;
+            let t125 = 0.5 * p.c_r;
+            let t126 = p.v_eps * t64;
+            let k73 = t125 * p.g_0 / t126;
+            let k74 = t45 / t64;
+            let t127 = 0.5 * p.A_f;
+            let k75 = t127 * p.rho_a / t64;
+            let k76 = 0.5 * p.C_d * p.rho_a / t64;
+            let k77 = 0.5 * p.g_0 * p.m / t126;
+            let k78 = t66 / t64;
+            let k79 = t127 * p.C_d / t64;
+            let k80 = t125 * p.m / t126;
+            let k81 = t67 / t64;
+            let t128 = p.eta_trm * p.eta_trm;
+            let t129 = 1000.0 * p.J_e;
+            let t130 = t129 * p.R_a * p.T_i * p.V_d * t128;
+            let k82 = t130 * t37 * t24 / (t34 * t68 * t64 * t9);
+            let t131 = t34 * t1;
+            let k83 = t51 / (t131 * t4 * t9);
+            let t132 = p.i_t.powi(4);
+            let t133 = 250.0 * p.J_e * t28 * t128;
+            let t134 = t31 * t119 * t64 * t9;
+            let k84 = t133 * t132 * t24 / t134;
+            let t135 = 250.0 * t28 * p.eta_trm;
+            let t136 = t31 * t38 * t4 * t9;
+            let k85 = t135 * t0 * t24 / t136;
+            let k86 = 500.0 / t64;
+            let t137 = t6 * p.Pi_bl;
+            let t138 = t137 * t117 * p.V_d * p.eta_trm;
+            let k87 = t138 * t118 * p.xi_aux / (t120 * p.r_w.powi(6) * t9);
+            let t139 = 15.0 * t6 * p.Pi_bl * t15 * p.V_d * p.eta_trm;
+            let k88 = t139 * t37 * p.xi_aux / t70;
+            let k89 = 64800.0 / t64;
+            let t140 = 2.0 * p.J_e * p.eta_trm;
+            let t141 = t38 * t124;
+            let k90 = t140 * t0 / t141;
+            let t142 = t34 * t38 * t64;
+            let t143 = t142 * t9;
+            let k91 = t130 * t0 * t24 / t143;
+            let k92 = t50 * t24 / t53;
+            let t144 = t31 * t68 * t64 * t9;
+            let k93 = t133 * t37 * t24 / t144;
+            let k94 = t135 * p.i_t * t24 / t33;
+            let k95 = t138 * t132 * p.xi_aux / t121;
+            let k96 = t139 * t0 * p.xi_aux / t44;
+            let t145 = t1 * t124;
+            let k97 = t140 * p.i_t / t145;
+            let k98 = 500.0 * p.J_e * p.R_a * p.T_i * p.V_d * p.eta_trm * t37 * t24
+                / t143;
+            let k99 = t49 * p.i_t * t24 / t53;
+            let k100 = 125.0 * p.J_e * t28 * p.eta_trm * t132 * t24 / t144;
+            let k101 = t29 * t0 * t24 / t33;
+            let k102 = t73 / t122;
+            let t146 = 324000.0 * t6;
+            let t147 = t146 * p.Pi_bl * t15;
+            let t148 = t43 * t64 * t9;
+            let k103 = t147 * p.V_d * t37 * p.xi_aux / t148;
+            let t149 = p.J_e * t0;
+            let k104 = t149 / t145;
+            let k105 = t49 * t128 * t37 * t24 / t143;
+            let k106 = t29 * t128 * t132 * t24 / t144;
+            let k107 = p.eta_trm * t0 / t145;
+            let k108 = t48 * p.eta_trm * p.i_t * t24 / t53;
+            let k109 = 250.0 * p.V_d * p.eta_trm * t0 * t24 / t33;
+            let k110 = 500.0 * p.eta_trm * p.i_t / t122;
+            let k111 = t147 * p.eta_trm * t37 * p.xi_aux / t148;
+            let t150 = 10750.0 * t6;
+            let k112 = t150 * p.R_a * p.T_i * p.V_d * p.eta_trm * p.i_t * p.xi_aux * t24
+                / (t76 * p.V_i * p.r_w * t4 * t78);
+            let t151 = t14 * t74 * p.V_i * t1 * t4 * t78;
+            let k113 = 2687.5 * t6 * t28 * p.eta_trm * t0 * p.xi_aux * t24 / t151;
+            let k114 = 250.0 / t64;
+            let t152 = 129.0 * p.Pi_bl * t15 * p.V_d * p.eta_trm * t37;
+            let k115 = t152 * (p.xi_aux * p.xi_aux) / (t36 * (p.B * p.B) * t38 * t78);
+            let t153 = 40.0 * t6 * p.Pi_bl * t15 * p.V_d * p.eta_trm * t37;
+            let k116 = t153 * p.xi_aux / (t36 * t74 * t38 * t9);
+            let k117 = 4050.0 / t64;
+            let k118 = t39 * p.S * p.V_d * p.eta_trm * t37 * p.xi_aux / t148;
+            let k119 = t137 * (p.S * p.S * p.S) * p.V_d * p.eta_trm * t118 * p.xi_aux
+                / t121;
+            let k120 = 10.0 * t6 * p.Pi_bl * p.S * p.V_d * p.eta_trm * t37 * p.xi_aux
+                / t44;
+            let t154 = 21500.0 * t6;
+            let k121 = t154 * p.R_a * p.T_i * p.V_d * p.eta_trm * p.i_t * t24
+                / (t82 * p.V_i * p.r_w * t4 * t78);
+            let t155 = t14 * t7;
+            let t156 = t155 * p.V_i * t1 * t4;
+            let t157 = t156 * t78;
+            let k122 = 5375.0 * t6 * t28 * p.eta_trm * t0 * t24 / t157;
+            let k123 = t152 * p.xi_aux / (t36 * p.B * t38 * t78);
+            let k124 = t153 / t44;
+            let k125 = 8100.0 / t64;
+            let t158 = t83 * t64 * t9;
+            let k126 = t86 / t158;
+            let k127 = t146 * t15 * p.V_d * p.eta_trm * t37 * p.xi_aux / t148;
+            let t159 = t97 * p.eta_trm * p.i_t;
+            let t160 = t89 * p.V_i;
+            let t161 = t160 * p.lambda * p.r_w * t4 * t9;
+            let k128 = t159 * p.s_i / t161;
+            let t162 = 125.0 * p.Q_hv * t28;
+            let t163 = t14 * p.AFs;
+            let t164 = t163 * p.R_a;
+            let t165 = t164 * p.T_i * p.V_i;
+            let t166 = t165 * p.lambda * t1 * t4 * t9;
+            let k129 = t162 * p.eta_trm * t0 * p.s_i / t166;
+            let t167 = t93 * t64 * t9;
+            let k130 = t159 / t167;
+            let t168 = t60 * p.eta_th * p.eta_trm * p.i_t;
+            let k131 = t168 * p.s_i / t161;
+            let k132 = t29 * p.eta_th * p.eta_trm * t0 * p.s_i / t166;
+            let k133 = t168 / t167;
+            let t169 = t99 * p.s_i;
+            let k134 = t169 / (t160 * t96 * p.r_w * t4 * t9);
+            let t170 = t162 * p.eta_th * p.eta_trm * t0;
+            let t171 = t170 * p.s_i;
+            let k135 = t171 / (t165 * t96 * t1 * t4 * t9);
+            let k136 = t99 / (t101 * t64 * t9);
+            let k137 = t169 / (t103 * p.V_i * p.lambda * p.r_w * t4 * t9);
+            let k138 = t171
+                / (t14 * t102 * p.R_a * p.T_i * p.V_i * p.lambda * t1 * t4 * t9);
+            let k139 = t99 / (t105 * t64 * t9);
+            let k140 = t169 / (t90 * p.V_i * p.lambda * p.r_w * t4 * t9);
+            let k141 = 500.0 * p.T_i * p.V_d * p.eta_trm * p.i_t * t24 / t53;
+            let k142 = t171 / (t163 * t106 * p.T_i * p.V_i * p.lambda * t1 * t4 * t9);
+            let k143 = t99 / (t108 * t64 * t9);
+            let k144 = t169 / (t89 * p.T_i * p.V_i * p.lambda * p.r_w * t4 * t9);
+            let k145 = t47 * p.V_d * p.eta_trm * p.i_t * t24 / t53;
+            let k146 = t171 / (t164 * t109 * p.V_i * p.lambda * t1 * t4 * t9);
+            let k147 = t99 / (t111 * t64 * t9);
+            let t172 = p.V_i * p.V_i;
+            let t173 = PI * t172 * p.r_w;
+            let k148 = t51 / (t173 * t4 * t9);
+            let t174 = t14 * t172 * t1 * t4 * t9;
+            let k149 = t116 / t174;
+            let k150 = t61 / t122;
+            let k151 = t99 / t161;
+            let k152 = t170 / t166;
+            let k153 = t99 / t167;
+            let k154 = t46 / t113;
             let k155 = k8 / (p.v_eps * p.v_eps * p.v_eps);
-            let k156 = t49 / (t120 * t68);
-            let k157 = t122 / t166;
-            let k158 = 64800.0 * t6 * p.Pi_bl * t15 * p.S_eps * p.V_d * p.eta_trm * t41
-                * p.xi_aux / t157;
-            let k159 = 0.5 / t60;
-            let t181 = p.AFs * t101;
-            let k160 = 1.0 / t181;
-            let t182 = t108 * p.lambda;
-            let k161 = 1.0 / t182;
-            let k162 = 500.0 / t61;
-            let t183 = t181 * p.rho_f;
-            let k163 = -1000.0 / t183;
-            let t184 = t182 * p.rho_f;
-            let k164 = -1000.0 / t184;
-            let k165 = -1000.0 / (t60 * (p.rho_f * p.rho_f));
-            let k166 = -30.0 * p.i_t / t75;
+            let k156 = t46 / (t113 * t64);
+            let k157 = t115 / t158;
+            let k158 = 64800.0 * t6 * p.Pi_bl * t15 * p.S_eps * p.V_d * p.eta_trm * t37
+                * p.xi_aux / t148;
+            let k159 = 0.5 / t56;
+            let t175 = p.AFs * t96;
+            let k160 = 1.0 / t175;
+            let t176 = t102 * p.lambda;
+            let k161 = 1.0 / t176;
+            let k162 = 500.0 / t57;
+            let t177 = t175 * p.rho_f;
+            let k163 = -1000.0 / t177;
+            let t178 = t176 * p.rho_f;
+            let k164 = -1000.0 / t178;
+            let k165 = -1000.0 / (t56 * (p.rho_f * p.rho_f));
+            let k166 = -30.0 * p.i_t / t71;
             let k167 = 30.0 / t19;
-            let t185 = t85 * t15 * p.V_d;
-            let t186 = t45 * t1 * t9;
-            let k168 = t185 * t0 * p.xi_aux / t186;
-            let k169 = t64 * t24 / t63;
-            let t187 = t44 * t0 * p.xi_aux;
-            let k170 = t187 / t47;
-            let k171 = t185 * p.i_t * p.xi_aux / t186;
-            let k172 = -500.0 / t63;
-            let k173 = 20000.0 * t6 * p.Pi_bl * p.V_d * p.xi_aux / (t81 * t9);
-            let t188 = t81 * t83;
-            let k174 = t160 * p.V_d * p.xi_aux / t188;
-            let k175 = t86 * t0 * p.xi_aux / t186;
-            let t189 = t87 * t9;
-            let k176 = t89 * p.Pi_bl * p.V_d / t189;
-            let t190 = t87 * t83;
-            let k177 = t163 * p.V_d / t190;
-            let k178 = t90 * p.xi_aux / t189;
-            let t191 = t97 * t9;
-            let k179 = t93 / t191;
-            let k180 = t100 / t191;
-            let k181 = t104 / (t106 * t9);
-            let k182 = t104 / (t110 * t9);
-            let k183 = t104 / (t114 * t9);
-            let k184 = t104 / (t117 * t9);
-            let k185 = t104 / t191;
-            let k186 = t119 / t191;
-            let k187 = t121 * p.xi_aux / t189;
-            let t192 = 1000.0 * t29 * p.eta_trm * t0;
-            let t193 = t192 * p.y_i * t24;
-            let k188 = t193 / t34;
-            let t194 = p.V_d * p.i_t;
-            let t195 = t194 * p.s_i;
-            let k189 = t195 / t39;
-            let t196 = 2.0 * p.V_d * p.i_t * p.s_i;
-            let k190 = t196 / t55;
-            let k191 = 4.0 / t68;
-            let t197 = t57 * p.V_d;
-            let t198 = t197 * p.eta_trm;
-            let t199 = t198 * p.i_t;
-            let k192 = t56 / (t199 * t24);
-            let t200 = PI * p.R_a;
-            let t201 = t200 * p.T_i;
-            let t202 = t201 * p.r_w;
-            let k193 = t59 * p.y_i / t202;
-            let k194 = t59 / t202;
-            let t203 = t57 * p.eta_trm;
-            let t204 = t203 * t24;
-            let k195 = 0.00025 * p.s_i * t4 * t9 / t204;
-            let k196 = -0.000125 / t60;
+            let t179 = t80 * t15 * p.V_d;
+            let t180 = t42 * t1 * t9;
+            let k168 = t179 * t0 * p.xi_aux / t180;
+            let k169 = t60 * t24 / t59;
+            let k170 = t41 * t0 * p.xi_aux / t44;
+            let k171 = t179 * p.i_t * p.xi_aux / t180;
+            let k172 = -500.0 / t59;
+            let k173 = 20000.0 * t6 * p.Pi_bl * p.V_d * p.xi_aux / (t76 * t9);
+            let t181 = t76 * t78;
+            let k174 = t150 * p.V_d * p.xi_aux / t181;
+            let k175 = t81 * t0 * p.xi_aux / t180;
+            let t182 = t82 * t9;
+            let k176 = t84 * p.Pi_bl * p.V_d / t182;
+            let t183 = t82 * t78;
+            let k177 = t154 * p.V_d / t183;
+            let k178 = t85 * p.xi_aux / t182;
+            let t184 = t92 * t9;
+            let k179 = t88 / t184;
+            let k180 = t95 / t184;
+            let k181 = t98 / (t100 * t9);
+            let k182 = t98 / (t104 * t9);
+            let k183 = t98 / (t107 * t9);
+            let k184 = t98 / (t110 * t9);
+            let k185 = t98 / t184;
+            let k186 = t112 / t184;
+            let k187 = t114 * p.xi_aux / t182;
+            let t185 = 1000.0 * t28;
+            let t186 = t185 * p.eta_trm * t0;
+            let t187 = t186 * p.y_i * t24;
+            let k188 = t187 / t33;
+            let t188 = p.V_d * p.i_t;
+            let t189 = t188 * p.s_i;
+            let k189 = t189 / t35;
+            let t190 = 2.0 * p.V_d * p.i_t * p.s_i;
+            let k190 = t190 / t52;
+            let k191 = 4.0 / t64;
+            let t191 = t54 * p.V_d;
+            let t192 = t191 * p.eta_trm;
+            let t193 = t192 * p.i_t * t24;
+            let k192 = t53 / t193;
+            let k193 = 4000.0 * p.R_a * p.T_i * p.V_d * p.eta_trm * p.i_t * t24 / t53;
+            let k194 = t186 * t24 / t33;
+            let k195 = 0.00025 * PI * p.V_i * p.r_w * t4 * t9 / t193;
+            let k196 = -0.000125 / t56;
             let k197 = 4.0 / t4;
-            let t205 = t12 * p.V_d * p.eta_trm * p.i_t;
-            let t206 = t205 * p.lambda;
-            let t207 = t206 * t24;
-            let k198 = 0.00025 * PI * p.V_i * p.r_w * t4 * t9 / t207;
-            let k199 = t25 * p.V_i * p.r_w * t4 * t9 / t207;
-            let k200 = 4000.0 / t4;
-            let t208 = t17 * p.i_t;
-            let t209 = t208 * p.y_i;
-            let t210 = t202 * t4;
-            let k201 = t209 / t210;
-            let k202 = t208 / t210;
-            let k203 = p.s_i * t9 / t204;
-            let k204 = t193 / t130;
-            let k205 = 4.0 / t131;
-            let k206 = t22 / t4;
-            let k207 = 4.0 * p.c_r * p.g_0 / t133;
-            let k208 = 0.000125 / t60;
-            let k209 = p.A_f * p.V_d * p.i_t * p.rho_a * p.s_i / t55;
-            let t211 = 4.0 * p.A_f;
-            let k210 = t211 * p.rho_a / t68;
-            let k211 = p.C_d * p.V_d * p.i_t * p.rho_a * p.s_i / t55;
-            let k212 = 4.0 * p.C_d * p.rho_a / t68;
-            let k213 = 2.0 * p.g_0 * p.m / t133;
-            let k214 = p.V_d * p.g_0 * p.i_t * p.m * p.s_i / t55;
-            let k215 = t5 * p.V_d * p.i_t * p.s_i / t55;
-            let k216 = t211 * p.C_d / t68;
-            let k217 = t21 * p.m / t133;
-            let t212 = p.V_d * p.c_r;
-            let k218 = t212 * p.i_t * p.m * p.s_i / t55;
-            let k219 = 4000.0 / p.r_w;
-            let t213 = t201 * t1;
-            let k220 = t209 / t213;
-            let t214 = 8000.0 * p.J_e * p.eta_trm;
-            let k221 = t214 * t0 / (t42 * t4);
-            let t215 = 2000.0 * p.J_e;
-            let t216 = t215 * p.V_d * p.eta_trm;
-            let t217 = t216 * t41;
-            let t218 = t201 * t72 * t4;
-            let k222 = t217 * p.y_i / t218;
-            let k223 = t208 / t213;
-            let k224 = t217 / t218;
-            let k225 = t149 * t0 * p.s_i * t9 / (t57 * t42 * t24);
-            let t219 = p.s_i * t4 * t9;
-            let k226 = t219 / (t203 * p.r_w * t24);
-            let t220 = t215 * t29 * t137;
-            let k227 = t220 * t141 * p.y_i * t24 / t143;
-            let t221 = 2000.0 * t29 * p.eta_trm;
-            let k228 = t221 * t0 * p.y_i * t24 / t145;
-            let k229 = t196 / t39;
-            let k230 = t195 / t140;
-            let k231 = 518400.0 / t68;
-            let t222 = 8.0 * p.J_e * p.eta_trm;
-            let k232 = t222 * t0 / t151;
-            let k233 = 4000.0 / p.i_t;
-            let k234 = t17 * p.y_i / t202;
-            let t223 = t1 * t4;
-            let k235 = t214 * p.i_t / t223;
-            let t224 = t216 * t0;
-            let t225 = t201 * t42 * t4;
-            let k236 = t224 * p.y_i / t225;
-            let k237 = t17 / t202;
-            let k238 = t224 / t225;
-            let t226 = t57 * t1;
+            let k198 = 0.00025 / t56;
+            let k199 = 0.001 / t56;
+            let k200 = t35 * t9 / t193;
+            let k201 = t187 / t123;
+            let k202 = 4.0 / t124;
+            let k203 = t22 / t4;
+            let k204 = 4.0 * p.c_r * p.g_0 / t126;
+            let k205 = 0.000125 / t56;
+            let k206 = p.A_f * p.V_d * p.i_t * p.rho_a * p.s_i / t52;
+            let t194 = 4.0 * p.A_f;
+            let k207 = t194 * p.rho_a / t64;
+            let k208 = p.C_d * p.V_d * p.i_t * p.rho_a * p.s_i / t52;
+            let k209 = 4.0 * p.C_d * p.rho_a / t64;
+            let k210 = 2.0 * p.g_0 * p.m / t126;
+            let k211 = p.V_d * p.g_0 * p.i_t * p.m * p.s_i / t52;
+            let k212 = t5 * p.V_d * p.i_t * p.s_i / t52;
+            let k213 = t194 * p.C_d / t64;
+            let k214 = t21 * p.m / t126;
+            let t195 = p.V_d * p.c_r;
+            let k215 = t195 * p.i_t * p.m * p.s_i / t52;
+            let t196 = 2.0 * PI;
+            let t197 = t196 * p.J_e;
+            let t198 = t197 * p.V_i;
+            let k216 = t198 * p.i_t * t9 / (t191 * t1 * t24);
+            let k217 = t34 * t4 * t9 / t193;
+            let t199 = 2000.0 * p.J_e * t28 * t128;
+            let k218 = t199 * t132 * p.y_i * t24 / t134;
+            let t200 = 2000.0 * t28 * p.eta_trm;
+            let k219 = t200 * t0 * p.y_i * t24 / t136;
+            let k220 = t190 / t35;
+            let k221 = t189 / t131;
+            let k222 = 518400.0 / t64;
+            let t201 = 8.0 * p.J_e * p.eta_trm;
+            let k223 = t201 * t0 / t141;
+            let t202 = t191 * p.r_w * t24;
+            let k224 = t198 * t9 / t202;
+            let k225 = t53 / (t192 * t0 * t24);
+            let k226 = t199 * t37 * p.y_i * t24 / t144;
+            let k227 = t200 * p.i_t * p.y_i * t24 / t33;
+            let k228 = p.V_d * p.s_i / t35;
+            let k229 = t201 * p.i_t / t145;
+            let t203 = PI * p.J_e;
+            let k230 = t203 * p.V_i * p.i_t * t9 / (t192 * p.r_w * t24);
+            let k231 = t53 / (t191 * t128 * p.i_t * t24);
+            let k232 = t129 * t28 * p.eta_trm * t132 * p.y_i * t24 / t144;
+            let k233 = t185 * t0 * p.y_i * t24 / t33;
+            let k234 = t17 * p.i_t / t63;
+            let k235 = t149 / t72;
+            let t204 = 2592000.0 * t6 * p.Pi_bl * t15;
+            let k236 = t204 * p.V_d * t37 * p.xi_aux / t148;
+            let k237 = 4.0 * p.J_e * t0 / t145;
+            let k238 = t34 * p.i_t * t9 / t202;
+            let k239 = t185 * t128 * t132 * p.y_i * t24 / t144;
+            let k240 = t25 * t37 * p.s_i / t142;
+            let k241 = 4.0 * p.eta_trm * t0 / t145;
+            let k242 = t53 / (t54 * t28 * p.eta_trm * p.i_t * t24);
+            let k243 = 2000.0 * p.V_d * p.eta_trm * t0 * p.y_i * t24 / t33;
+            let k244 = t18 * t0 * p.s_i / t33;
+            let k245 = p.i_t * p.s_i / t35;
+            let k246 = t204 * p.eta_trm * t37 * p.xi_aux / t148;
+            let t205 = t8 * PI;
+            let t206 = t205 * p.V_i * p.r_w;
+            let k247 = t206 * p.xi_aux * t4
+                / (t74 * p.R_a * p.T_i * p.V_d * p.eta_trm * p.i_t * t24);
+            let t207 = 215.0 * t6 * t28 * p.eta_trm * t0;
+            let k248 = t207 * p.xi_aux * p.y_i * t24 / t151;
+            let k249 = 5.0 * p.V_d * p.i_t * p.s_i / t52;
+            let k250 = 324.0 / t64;
+            let k251 = 200.0 * PI * p.V_i * p.r_w * t4 * t9 / t193;
+            let k252 = -6.25e-5 / t56;
+            let t208 = 5.0 * t6;
+            let t209 = t208 * p.Pi_bl;
+            let k253 = t209 * p.S * t28 * p.eta_trm * t132 * p.s_i * p.xi_aux
+                / (PI.powi(4) * t7 * p.V_i * t68 * t4 * t9);
+            let k254 = 2.0 / t64;
+            let k255 = 32.4 / t56;
+            let k256 = t206 * t4
+                / (t7 * p.R_a * p.T_i * p.V_d * p.eta_trm * p.i_t * t24);
+            let k257 = t207 * p.y_i * t24 / t157;
+            let t210 = t156 * t9;
+            let k258 = t208 * t28 * p.eta_trm * t0 * p.s_i * p.xi_aux / t210;
+            let k259 = 162.0 * t6 * t15 * p.V_d * p.eta_trm * t37 * p.xi_aux / t148;
+            let k260 = -2.0 / t56;
+            let t211 = t24 * t24;
+            let t212 = PI * p.Q_hv;
+            let t213 = t212 * p.V_i;
+            let t214 = p.AFs * t106;
+            let t215 = t214 * t109 * p.V_d * p.eta_trm * p.i_t;
+            let t216 = t215 * p.lambda * t211;
+            let k261 = t213 * p.r_w * p.s_i * t4 * t9 / t216;
+            let k262 = t34 * p.eta_th * p.r_w * p.s_i * t4 * t9 / t216;
+            let t217 = t213 * p.eta_th * p.r_w;
+            let t218 = t217 * p.s_i * t4 * t9;
+            let k263 = t218 / (t215 * t96 * t211);
+            let k264 = t218
+                / (t102 * t106 * t109 * p.V_d * p.eta_trm * p.i_t * p.lambda * t211);
+            let k265 = t218
+                / (p.AFs * (p.R_a * p.R_a * p.R_a) * t109 * p.V_d * p.eta_trm * p.i_t
+                    * p.lambda * t211);
+            let k266 = t53 / (t106 * p.T_i * p.V_d * p.eta_trm * p.i_t * t24);
+            let k267 = t218
+                / (t214 * (p.T_i * p.T_i * p.T_i) * p.V_d * p.eta_trm * p.i_t * p.lambda
+                    * t211);
+            let k268 = t53 / (p.R_a * t109 * p.V_d * p.eta_trm * p.i_t * t24);
+            let k269 = t187 / t174;
+            let k270 = t189 / t173;
+            let k271 = t63 / t193;
+            let k272 = t189 / (PI * p.R_a * p.T_i * p.r_w * t24);
+            let k273 = 0.125 / t56;
+            let t219 = 1000.0 * p.Q_hv;
+            let k274 = t219 * t28 * p.eta_th * p.eta_trm * t0 * p.y_i / t166;
+            let k275 = t188 / t35;
+            let k276 = t217 * t4 * t9 / t216;
+            let k277 = p.Q_hv * t28 * p.eta_th * p.eta_trm * t0 * p.s_i / t166;
+            let t220 = t28 * p.eta_trm;
+            let k278 = t220 * t0 * t24 / t33;
+            let k279 = t195 * p.g_0 * p.i_t * p.m * p.s_i / (t35 * t113 * t4);
+            let k280 = -0.00025 / t56;
+            let k281 = t209 * t28 * p.eta_trm * t0 * p.s_i * p.xi_aux / t210;
+            let k282 = 2.0 * t6 * p.Pi_bl * t15 * p.S_eps * p.V_d * p.eta_trm * t37
+                * p.xi_aux / t148;
+            let k283 = -32.4 / t56;
+            let k284 = -0.125 / t57;
+            let k285 = 0.25 / t57;
+            let k286 = 1.0 / t57;
+            let k287 = 0.125 / t57;
+            let k288 = -0.0625 / t57;
+            let k289 = 32400.0 / t57;
+            let k290 = -2000.0 / t57;
+            let k291 = 1000.0 / t177;
+            let k292 = 1000.0 / t178;
+            let k293 = 125.0 / t57;
+            let k294 = -0.25 / t57;
+            let k295 = -32400.0 / t57;
+            let t221 = t155 * t1;
+            let k296 = t40 * t0 * p.xi_aux / t221;
+            let k297 = t20 / t27;
+            let t222 = t212 * p.eta_th;
+            let t223 = t222 * p.r_w;
+            let t224 = t223 * p.s_i;
+            let t225 = t12 * p.V_d * p.eta_trm * p.i_t;
+            let t226 = t225 * p.lambda;
             let t227 = t226 * t24;
-            let k239 = t149 * p.i_t * p.s_i * t9 / t227;
-            let k240 = t219 / (t203 * p.i_t * t24);
-            let k241 = t220 * t41 * p.y_i * t24 / t153;
-            let k242 = t221 * p.i_t * p.y_i * t24 / t34;
-            let k243 = p.V_d * p.s_i / t39;
-            let k244 = t222 * p.i_t / t154;
-            let k245 = 4000.0 / p.eta_trm;
-            let k246 = 4000.0 * p.J_e * t0 / t223;
-            let t228 = t201 * p.eta_trm * p.r_w;
-            let k247 = t208 / t228;
-            let k248 = t138 * p.V_d * t41 / t225;
-            let k249 = t208 * p.s_i / (t228 * t24);
-            let t229 = t158 * p.s_i * t9;
-            let t230 = t203 * t1;
-            let k250 = t229 / (t230 * t24);
-            let k251 = t219 / (t57 * t137 * t24);
-            let k252 = t229 / (t230 * t4 * t24);
-            let t231 = t164 * p.R_a * p.T_i;
-            let k253 = 2592000.0 * t6 * p.Pi_bl * t15 * p.V_i * t0 * p.xi_aux
-                / (t231 * p.eta_trm * t1 * t4 * t24);
-            let t232 = 4.0 * PI;
-            let k254 = t232 * p.J_e * p.V_i * p.i_t * t9 / (t198 * p.r_w * t68 * t24);
-            let k255 = 4000.0 * p.eta_trm * t0 / t223;
-            let k256 = t18 * t41 / t225;
-            let t233 = t0 * p.s_i * t9;
-            let k257 = t233 / t227;
-            let k258 = t233 / (t226 * t4 * t24);
-            let k259 = t232 * p.V_i * p.i_t * t9 / (t197 * p.r_w * t68 * t24);
-            let k260 = 4.0 / p.V_d;
-            let k261 = p.i_t * p.y_i / t202;
-            let k262 = p.i_t / t202;
-            let t234 = t202 * t24;
-            let k263 = p.i_t * p.s_i / t234;
-            let k264 = 2592.0 * t6 * p.Pi_bl * t15 * p.V_i * t0 * p.xi_aux
-                / (t231 * p.V_d * t1 * t4 * t24);
-            let k265 = -0.125 / t60;
-            let t235 = 172000.0 * t6;
-            let k266 = t235 * p.xi_aux / (t79 * t9);
-            let t236 = 43000.0 * t6;
-            let t237 = t236 * p.V_d * p.i_t;
-            let t238 = t81 * p.R_a * p.T_i * p.r_w;
-            let k267 = t237 * p.xi_aux / (t238 * t9);
-            let t239 = 80000.0 * t6 * p.Pi_bl;
-            let t240 = t239 * p.V_d * p.i_t * p.s_i;
-            let t241 = t238 * t24;
-            let k268 = t240 * p.xi_aux / t241;
-            let t242 = t237 * p.s_i;
-            let k269 = t242 * p.xi_aux / (t241 * t9);
-            let t243 = t8 * p.s_i;
-            let k270 = t243 * p.xi_aux * t4 / (t79 * p.R_a * p.T_i * p.eta_trm * t24);
-            let t244 = t199 * t4 * t24;
-            let k271 = 64800.0 * PI * p.V_i * p.r_w * t9 / t244;
-            let k272 = -6.25e-5 / t60;
-            let t245 = 5.0 * t6;
-            let t246 = t245 * p.Pi_bl;
-            let t247 = t246 * p.S;
-            let k273 = t247 * p.V_d * t41 * p.s_i * p.xi_aux
-                / (t45 * p.R_a * p.T_i * t42 * t24);
-            let k274 = 2.0 * PI * p.V_i * p.r_w * t9 / t244;
-            let k275 = t247 * t29 * p.eta_trm * t141 * p.s_i * p.xi_aux
-                / (PI.powi(4) * t7 * p.V_i * t72 * t4 * t9);
-            let k276 = 2.0 / t68;
-            let k277 = 32.4 / t60;
-            let k278 = t235 / (t7 * t9);
-            let t248 = t87 * p.R_a * p.T_i * p.r_w;
-            let k279 = t237 / (t248 * t9);
-            let t249 = t248 * t24;
-            let k280 = t240 / t249;
-            let k281 = t242 / (t249 * t9);
-            let k282 = t243 / (t7 * p.R_a * p.T_i * p.eta_trm * t24);
-            let k283 = t245 * p.V_d * p.i_t * p.s_i * p.xi_aux / t249;
-            let t250 = 162.0 * t6 * t15;
-            let t251 = t231 * t1 * t4 * t24;
-            let k284 = t250 * p.V_i * t0 * p.xi_aux / t251;
-            let t252 = t165 * t9;
-            let k285 = t245 * t29 * p.eta_trm * t0 * p.s_i * p.xi_aux / t252;
-            let k286 = t250 * p.V_d * p.eta_trm * t41 * p.xi_aux / t157;
-            let k287 = -2.0 / t60;
-            let t253 = 0.5 * p.Q_hv;
-            let t254 = t108 * p.R_a * p.T_i;
-            let t255 = t254 * t101 * t24;
-            let k288 = t253 * p.s_i / t255;
-            let t256 = 0.125 * p.Q_hv * p.V_d;
-            let t257 = t256 * p.i_t * p.s_i;
-            let t258 = t109 * t112 * t116;
-            let t259 = t258 * t101 * p.r_w * t24;
-            let k289 = t257 * p.y_i / t259;
-            let k290 = t257 / t259;
-            let t260 = p.s_i * p.s_i;
-            let t261 = t24 * t24;
-            let t262 = 0.000125 * p.Q_hv;
-            let t263 = t108 * t112;
-            let t264 = t263 * t116;
-            let t265 = t264 * p.eta_trm;
-            let t266 = t265 * t101 * t261;
-            let k291 = t262 * t260 * t4 * t9 / t266;
-            let k292 = 4000.0 * p.R_a * p.T_i * p.V_d * p.eta_trm * p.i_t * t24 / t56;
-            let k293 = t192 * t24 / t34;
-            let t267 = 0.000125 * PI;
-            let t268 = t267 * p.Q_hv * p.V_i;
-            let t269 = t264 * p.V_d * p.eta_trm * p.i_t;
-            let t270 = t269 * t101 * t261;
-            let k294 = t268 * p.r_w * p.s_i * t4 * t9 / t270;
-            let k295 = 0.5 * p.eta_th * p.s_i / t255;
-            let t271 = t35 * p.eta_th * p.i_t * p.s_i;
-            let k296 = t271 * p.y_i / t259;
-            let k297 = t271 / t259;
-            let k298 = 0.000125 * p.eta_th * t260 * t4 * t9 / t266;
-            let k299 = t267 * p.V_i * p.eta_th * p.r_w * p.s_i * t4 * t9 / t270;
-            let t272 = p.lambda * p.lambda * p.lambda;
-            let t273 = t253 * p.eta_th;
-            let t274 = t273 * p.s_i;
-            let k300 = t274 / (t254 * t272 * t24);
-            let t275 = t256 * p.eta_th * p.i_t * p.s_i;
-            let t276 = t275 * p.y_i;
-            let t277 = t258 * t272 * p.r_w * t24;
-            let k301 = t276 / t277;
-            let k302 = t275 / t277;
-            let t278 = t262 * p.eta_th * t260 * t4 * t9;
-            let k303 = t278 / (t265 * t272 * t261);
-            let t279 = t268 * p.eta_th * p.r_w * p.s_i * t4 * t9;
-            let t280 = t269 * t272 * t261;
-            let k304 = t279 / t280;
-            let t281 = p.AFs * p.AFs * p.AFs;
-            let k305 = t274 / (t281 * p.R_a * p.T_i * t101 * t24);
-            let t282 = PI * t281 * t112 * t116 * t101 * p.r_w * t24;
-            let k306 = t276 / t282;
-            let k307 = t275 / t282;
-            let t283 = t281 * t112 * t116;
-            let k308 = t278 / (t283 * p.eta_trm * t101 * t261);
-            let t284 = t283 * p.V_d * p.eta_trm * p.i_t * t101 * t261;
-            let k309 = t279 / t284;
-            let k310 = 4000.0 / p.R_a;
-            let t285 = PI * t112 * p.T_i * p.r_w;
-            let k311 = t209 / t285;
-            let t286 = 4000.0 * p.Q_hv;
-            let t287 = t286 * p.eta_th;
-            let t288 = t287 * p.s_i;
-            let t289 = p.AFs * t112;
-            let t290 = t289 * p.T_i;
-            let t291 = t290 * p.lambda;
-            let t292 = t291 * t24;
-            let k312 = t288 / t292;
-            let t293 = p.R_a * p.R_a * p.R_a;
-            let t294 = 1000.0 * p.Q_hv;
-            let t295 = t294 * p.V_d;
-            let t296 = t295 * p.eta_th * p.i_t;
-            let t297 = t296 * p.s_i;
-            let t298 = t297 * p.y_i;
-            let t299 = t94 * t293 * t116 * p.lambda * p.r_w * t24;
-            let k313 = t298 / t299;
-            let k314 = t208 / t285;
-            let k315 = t297 / t299;
-            let t300 = t10 * t260 * t4 * t9;
-            let k316 = t300 / (p.AFs * t293 * t116 * p.eta_trm * p.lambda * t261);
-            let k317 = t219 / (t112 * p.T_i * p.eta_trm * t24);
-            let k318 = 4000.0 / p.T_i;
-            let t301 = t200 * t116 * p.r_w;
-            let k319 = t209 / t301;
-            let t302 = t11 * t116;
-            let t303 = t302 * p.lambda;
-            let t304 = t303 * t24;
-            let k320 = t288 / t304;
-            let t305 = p.T_i * p.T_i * p.T_i;
-            let t306 = t113 * t305 * p.lambda * p.r_w * t24;
-            let k321 = t298 / t306;
-            let k322 = t208 / t301;
-            let k323 = t297 / t306;
-            let k324 = t300 / (t289 * t305 * p.eta_trm * p.lambda * t261);
-            let k325 = t219 / (p.R_a * t116 * p.eta_trm * t24);
-            let k326 = 4.0 / p.V_i;
-            let k327 = t194 / (t201 * p.V_i * p.r_w);
-            let k328 = 0.125 / t60;
-            let k329 = t37 / (t98 * t24);
-            let t307 = t13 * t24;
-            let k330 = t287 / t307;
-            let t308 = t113 * t116;
-            let t309 = t308 * p.lambda * p.r_w * t24;
-            let k331 = t296 / t309;
-            let t310 = t289 * t116;
-            let t311 = t310 * p.eta_trm;
-            let t312 = t311 * p.lambda * t261;
-            let k332 = t23 * t4 * t9 / t312;
-            let k333 = t4 * t9 / t204;
-            let k334 = t36 / t98;
-            let k335 = t275 / t259;
-            let k336 = p.Q_hv * t29 * p.eta_th * p.eta_trm * t0 * p.s_i / t174;
-            let k337 = t29 * p.eta_trm * t0 * t24 / t34;
-            let k338 = 0.125 * PI * p.V_i * p.r_w * t4 * t9 / t207;
-            let k339 = t212 * p.g_0 * p.i_t * p.m * p.s_i / (t39 * t120 * t4);
-            let k340 = t246 * p.V_d * p.i_t * p.s_i * p.xi_aux / t249;
-            let t313 = 2.0 * t6 * p.Pi_bl * t15 * p.S_eps;
-            let k341 = t313 * p.V_i * t0 * p.xi_aux / t251;
-            let k342 = t246 * t29 * p.eta_trm * t0 * p.s_i * p.xi_aux / t252;
-            let k343 = t313 * p.V_d * p.eta_trm * t41 * p.xi_aux / t157;
-            let k344 = -32.4 / t60;
-            let k345 = -0.125 / t61;
-            let k346 = 0.25 / t61;
-            let k347 = 1.0 / t61;
-            let k348 = 0.125 / t61;
-            let k349 = -125.0 / t61;
-            let k350 = -0.0625 / t61;
-            let k351 = 32400.0 / t61;
-            let k352 = -2000.0 / t61;
-            let k353 = t286 * p.s_i / t307;
-            let t314 = t295 * p.i_t * p.s_i;
-            let k354 = t314 * p.y_i / t309;
-            let k355 = t314 / t309;
-            let k356 = p.Q_hv * t260 * t4 * t9 / t312;
-            let t315 = PI * p.Q_hv;
-            let t316 = t315 * p.V_i;
-            let t317 = t310 * p.V_d * p.eta_trm * p.i_t;
-            let t318 = t317 * p.lambda * t261;
-            let k357 = t316 * p.r_w * p.s_i * t4 * t9 / t318;
-            let k358 = 4000.0 * p.eta_th * p.s_i / t307;
-            let t319 = t17 * p.eta_th * p.i_t * p.s_i;
-            let k359 = t319 * p.y_i / t309;
-            let k360 = t319 / t309;
-            let k361 = p.eta_th * t260 * t4 * t9 / t312;
-            let k362 = t38 * p.eta_th * p.r_w * p.s_i * t4 * t9 / t318;
-            let t320 = t12 * t101;
-            let t321 = t320 * t24;
-            let k363 = t288 / t321;
-            let t322 = t308 * t101 * p.r_w * t24;
-            let k364 = t298 / t322;
-            let k365 = t297 / t322;
-            let k366 = t300 / (t311 * t101 * t261);
-            let t323 = t316 * p.eta_th * p.r_w * p.s_i * t4 * t9;
-            let k367 = t323 / (t317 * t101 * t261);
-            let k368 = 1000.0 / t183;
-            let t324 = t254 * p.lambda;
-            let t325 = t324 * t24;
-            let k369 = t288 / t325;
-            let t326 = t258 * p.lambda * p.r_w * t24;
-            let k370 = t298 / t326;
-            let k371 = t297 / t326;
-            let k372 = t300 / (t265 * p.lambda * t261);
-            let k373 = t323 / (t269 * p.lambda * t261);
-            let k374 = 1000.0 / t184;
-            let k375 = 125.0 / t61;
-            let k376 = t195 / t234;
-            let k377 = t194 / t202;
-            let k378 = p.Q_hv * p.V_d * p.eta_th * p.i_t * p.s_i / t309;
-            let k379 = -0.25 / t61;
-            let k380 = -32400.0 / t61;
-            let k381 = t187 / t186;
-            let t327 = p.eta_trm * p.i_t;
-            let t328 = t327 * t24;
-            let k382 = p.r_w / t328;
-            let t329 = t10 * p.r_w * p.s_i;
-            let t330 = t12 * p.eta_trm;
-            let t331 = t330 * p.i_t * p.lambda;
-            let t332 = t331 * t24;
-            let k383 = t329 / t332;
-            let t333 = p.r_w * t4;
-            let k384 = t329 * t4 / t332;
-            let k385 = t333 / t328 + k384;
-            let t334 = 0.5 * p.r_w;
-            let k386 = t334 / t328;
-            let t335 = t273 * p.r_w;
-            let t336 = t335 * p.s_i;
-            let k387 = t336 / t332;
-            let k388 = t334 / (t327 * t4 * t24);
-            let t337 = t336 * t4;
-            let k389 = t337 / t332;
-            let k390 = t48 * p.r_w / t328;
-            let k391 = t134 * p.r_w * p.rho_a / t328;
-            let k392 = t134 * p.Q_hv * p.eta_th * p.r_w * p.rho_a * p.s_i / t332;
-            let k393 = t135 * p.r_w * p.rho_a / t328;
-            let k394 = t135 * p.Q_hv * p.eta_th * p.r_w * p.rho_a * p.s_i / t332;
-            let k395 = t70 * p.r_w / t328;
-            let k396 = t10 * p.g_0 * p.m * p.r_w * p.s_i / t332;
-            let k397 = t136 * p.r_w / t328;
-            let k398 = t136 * p.Q_hv * p.eta_th * p.r_w * p.s_i / t332;
-            let k399 = t71 * p.r_w / t328;
-            let t338 = p.Q_hv * p.c_r * p.eta_th;
-            let k400 = t338 * p.m * p.r_w * p.s_i / t332;
-            let k401 = 500.0 * p.r_w / t328;
-            let t339 = p.J_e * p.i_t;
-            let k402 = t339 / (t1 * t24);
-            let t340 = p.J_e * p.Q_hv * p.eta_th;
-            let k403 = t340 * p.i_t * p.s_i / (t13 * t1 * t24);
-            let k404 = 0.5 / t328;
-            let k405 = t274 / t332;
-            let k406 = t339 / (t223 * t24);
-            let k407 = t44 * p.i_t * p.xi_aux / t186;
-            let t341 = p.r_w * t24;
-            let k408 = p.J_e / t341;
-            let t342 = t13 * p.r_w;
-            let t343 = t342 * t24;
-            let k409 = t340 * p.s_i / t343;
-            let k410 = t337 / (t330 * t0 * p.lambda * t24);
-            let k411 = t334 / (t159 * t24);
-            let t344 = t333 * t24;
-            let k412 = p.J_e / t344;
-            let k413 = t64 / (PI * p.eta_trm * t24 * t9);
-            let k414 = t104 * p.s_i / (t96 * p.eta_trm * p.lambda * t24 * t9);
-            let t345 = t78 * p.i_t;
-            let t346 = p.eta_trm * p.r_w;
-            let k415 = t345 / (t346 * t24);
-            let t347 = t78 * p.Q_hv * p.eta_th * p.i_t * p.s_i;
-            let t348 = t330 * p.lambda * p.r_w;
-            let k416 = t347 / (t348 * t24);
-            let k417 = t337 / (t12 * t137 * p.i_t * p.lambda * t24);
-            let k418 = t334 / (t137 * p.i_t * t24);
-            let k419 = t345 / (t346 * t4 * t24);
-            let k420 = t347 / (t348 * t4 * t24);
-            let t349 = 0.5 * p.i_t;
-            let k421 = t349 / t341;
-            let t350 = t273 * p.i_t * p.s_i;
-            let k422 = t350 / t343;
-            let k423 = t349 / t344;
-            let k424 = t350 / (t342 * t4 * t24);
-            let k425 = 500.0 / (PI * t24 * t9);
-            let k426 = t102 * p.eta_th * p.s_i / (t97 * t24 * t9);
-            let k427 = 1000.0 * p.p_e;
-            let t351 = t239 * p.xi_aux;
-            let k428 = t351 / t7;
-            let k429 = 1000.0 * p.y_i;
-            let k430 = t19 * p.s_i * t4 * t9 / t28;
-            let k431 = t67 / t28;
-            let k432 = 0.5 / t63;
-            let k433 = t337 / t207;
-            let k434 = t334 / t28;
-            let k435 = t351 / t79;
-            let t352 = t79 * t24;
-            let k436 = t351 / t352;
-            let t353 = t352 * t9;
-            let k437 = t236 * p.xi_aux / t353;
-            let t354 = t239 * p.s_i;
-            let k438 = t354 * p.xi_aux / t352;
-            let t355 = t236 * p.s_i;
-            let k439 = t355 * p.xi_aux / t353;
-            let t356 = t8 * PI * p.r_w;
-            let t357 = t356 * p.s_i;
-            let t358 = t79 * p.V_d * p.eta_trm * p.i_t * t24;
-            let k440 = t357 * p.xi_aux * t4 / t358;
-            let k441 = t356 * p.xi_aux * t4 / t358;
-            let k442 = t58 / t63;
-            let k443 = 10.75 * t6 * p.V_d * p.xi_aux / t188;
-            let t359 = t146 * p.S * t0 * p.xi_aux;
-            let t360 = t164 * t1;
-            let k444 = t359 / t360;
-            let k445 = t359 / (t360 * t24);
-            let t361 = t146 * p.Q_hv;
-            let k446 = t361 * p.S * p.eta_th * t0 * p.s_i * p.xi_aux
-                / (t171 * t7 * p.R_a * p.T_i * p.lambda * t1 * t24);
-            let k447 = -648000.0 * p.V_d / t63;
-            let k448 = 21.5 * t6 * p.V_d / t190;
-            let k449 = t239 / t7;
-            let t362 = t7 * t24;
-            let k450 = t239 / t362;
-            let t363 = t362 * t9;
-            let k451 = t236 / t363;
-            let k452 = t354 / t362;
-            let k453 = t355 / t363;
-            let t364 = t7 * p.V_d * p.eta_trm * p.i_t * t24;
-            let k454 = t357 * t4 / t364;
-            let k455 = t356 / t364;
-            let k456 = 0.5 * p.V_d / t63;
-            let t365 = t6 * p.xi_aux;
-            let k457 = t365 / t7;
-            let k458 = t365 / t362;
-            let t366 = p.AFs * t7 * p.R_a * p.T_i * p.lambda * t24;
-            let k459 = t6 * p.Q_hv * p.eta_th * p.s_i * p.xi_aux / t366;
-            let k460 = 40000.0 * p.V_d / t63;
-            let t367 = p.Q_hv * p.Q_hv;
-            let t368 = 1000.0 * t367;
-            let t369 = t264 * t101 * t24;
-            let k461 = p.Q_hv / t13;
-            let t370 = t206 * t261;
-            let k462 = t315 * p.r_w * p.s_i * t4 * t9 / t370;
-            let t371 = PI * t367;
-            let k463 = t371 * p.eta_th * p.r_w * t260 * t4 * t9 / t270;
-            let k464 = t294 * p.y_i / t307 + t368 * p.eta_th * p.s_i * p.y_i / t369;
-            let t372 = p.eta_th * p.eta_th;
-            let k465 = p.eta_th / t13;
-            let k466 = PI * p.eta_th * p.r_w * p.s_i * t4 * t9 / t370;
-            let k467 = t315 * t372 * p.r_w * t260 * t4 * t9 / t270;
-            let k468 = 1000.0 * p.eta_th * p.y_i / t307
-                + t294 * t372 * p.s_i * p.y_i / t369;
-            let t373 = t294 * p.eta_th * p.y_i;
-            let t374 = t368 * t372 * p.s_i * p.y_i;
-            let k469 = t10 / t320;
-            let t375 = t315 * p.eta_th * p.r_w * p.s_i * t4 * t9;
-            let k470 = t375 / (t205 * t101 * t261);
-            let t376 = t371 * t372 * p.r_w * t260 * t4 * t9;
-            let k471 = t376 / t280;
-            let k472 = t373 / t321 + t374 / (t264 * t272 * t24);
-            let k473 = -0.5 * p.V_d / t63;
-            let k474 = t10 / t324;
-            let k475 = t375 / (t254 * p.V_d * p.eta_trm * p.i_t * p.lambda * t261);
-            let k476 = t376 / t284;
-            let k477 = t373 / t325 + t374 / (t283 * t101 * t24);
-            let t377 = t108 * t293 * t116;
-            let k478 = t10 / t291;
-            let k479 = t375 / (t290 * p.V_d * p.eta_trm * p.i_t * p.lambda * t261);
-            let k480 = t376 / (t377 * p.V_d * p.eta_trm * p.i_t * t101 * t261);
-            let k481 = t373 / t292 + t374 / (t377 * t101 * t24);
-            let t378 = t263 * t305;
-            let k482 = t10 / t303;
-            let k483 = t375 / (t302 * p.V_d * p.eta_trm * p.i_t * p.lambda * t261);
-            let k484 = t376 / (t378 * p.V_d * p.eta_trm * p.i_t * t101 * t261);
-            let k485 = t373 / t304 + t374 / (t378 * t101 * t24);
-            let t379 = t23 / t307 - 1.0;
-            let k486 = t64 * (t379 + 1.0 / t24) / t63;
-            let k487 = 0.5 * t367 * t372 * p.r_w * p.s_i * t4
-                / (t265 * p.i_t * t101 * t261);
-            let k488 = t335 / (t331 * t261);
-            let k489 = t335 / t332;
-            let k490 = t64 * (t10 / t307 + t10 * t379 / t13) / t63;
-            let k491 = t49 * p.r_w / (t327 * t120 * t24);
-            let k492 = t338 * p.g_0 * p.m * p.r_w * p.s_i / (t331 * t120 * t24);
-            let t380 = t146 * p.xi_aux;
-            let k493 = t380 / t7;
-            let k494 = t380 / t362;
-            let k495 = t361 * p.eta_th * p.s_i * p.xi_aux / t366;
-            let k496 = 648000.0 * p.V_d / t63;
+            let k298 = t224 * t9 / t227;
+            let k299 = p.V_d / t59;
+            let k300 = t63 / t27;
+            let t228 = t224 * t4 * t9;
+            let k301 = p.V_d * (k300 + t228 / t227) / t59;
+            let t229 = t19 * p.s_i;
+            let k302 = t229 * t9 / t27;
+            let t230 = t229 * t4 * t9;
+            let k303 = t230 / t27;
+            let k304 = 0.5 * p.V_d / t59;
+            let t231 = PI * p.A_f;
+            let k305 = t231 * p.r_w * p.rho_a * t9 / t27;
+            let k306 = t231 * p.Q_hv * p.eta_th * p.r_w * p.rho_a * p.s_i * t9 / t227;
+            let t232 = PI * p.C_d;
+            let k307 = t232 * p.r_w * p.rho_a * t9 / t27;
+            let k308 = t232 * p.Q_hv * p.eta_th * p.r_w * p.rho_a * p.s_i * t9 / t227;
+            let k309 = PI * p.g_0 * p.m * p.r_w * t9 / t27;
+            let k310 = t222 * p.g_0 * p.m * p.r_w * p.s_i * t9 / t227;
+            let t233 = t231 * p.C_d;
+            let k311 = t233 * p.r_w * t9 / t27;
+            let k312 = t233 * p.Q_hv * p.eta_th * p.r_w * p.s_i * t9 / t227;
+            let t234 = PI * p.c_r;
+            let k313 = t234 * p.m * p.r_w * t9 / t27;
+            let t235 = t212 * p.c_r * p.eta_th;
+            let k314 = t235 * p.m * p.r_w * p.s_i * t9 / t227;
+            let t236 = 1296000.0 * t6 * p.Pi_bl * t15;
+            let k315 = t236 * t0 * p.xi_aux / (t155 * t38);
+            let t237 = t196 * p.r_w;
+            let k316 = t237 * p.s_i * t4 * t9 / t27;
+            let t238 = t197 * p.i_t;
+            let t239 = p.V_d * t1 * t24;
+            let k317 = t238 * p.s_i * t9 / t239;
+            let k318 = PI * p.s_i * t4 * t9 / t27;
+            let k319 = t237 * t4 * t9 / t27;
+            let k320 = t238 * t9 / t239;
+            let k321 = PI * t4 * t9 / t27;
+            let k322 = t236 * p.i_t * p.xi_aux / t221;
+            let t240 = p.V_d * p.r_w;
+            let t241 = t240 * t24;
+            let k323 = t197 * p.s_i * t9 / t241;
+            let t242 = t25 * t0 * t24;
+            let k324 = t230 / t242;
+            let k325 = t197 * t9 / t241;
+            let k326 = t63 / t242;
+            let k327 = -0.5 * p.V_d / t59;
+            let t243 = t203 * p.i_t;
+            let t244 = t25 * p.r_w * t24;
+            let k328 = t243 * p.s_i * t9 / t244;
+            let t245 = p.V_d * t128 * p.i_t * t24;
+            let k329 = t230 / t245;
+            let k330 = t243 * t9 / t244;
+            let k331 = t63 / t245;
+            let t246 = PI * p.i_t;
+            let t247 = t246 * p.s_i * t9;
+            let k332 = t247 / t241;
+            let t248 = t240 * t4 * t24;
+            let k333 = t247 / t248;
+            let t249 = t246 * t9;
+            let k334 = t249 / t241;
+            let k335 = t249 / t248;
+            let t250 = p.V_d * t24;
+            let k336 = 1000.0 / t250;
+            let k337 = 1000.0 * p.s_i / t250;
+            let t251 = t220 * p.i_t * t24;
+            let k338 = t230 / t251;
+            let k339 = t63 / t251;
+            let k340 = 1000.0 * p.p_e;
+            let t252 = 80000.0 * t6 * p.Pi_bl;
+            let t253 = t252 * p.xi_aux;
+            let k341 = t253 / t7;
+            let k342 = 1000.0 * p.y_i;
+            let k343 = 0.5 / t59;
+            let k344 = t253 / t74;
+            let t254 = 1000.0 * PI * p.r_w;
+            let k345 = t254 * t9 / t27;
+            let k346 = t254 * p.s_i * t9 / t27;
+            let t255 = t205 * p.r_w;
+            let t256 = t255 * p.s_i;
+            let t257 = t74 * p.V_d * p.eta_trm * p.i_t * t24;
+            let k347 = t256 * p.xi_aux * t4 / t257;
+            let k348 = t255 * p.xi_aux * t4 / t257;
+            let k349 = t55 / t59;
+            let k350 = 10.75 * t6 * p.V_d * p.xi_aux / t181;
+            let t258 = t137 * p.S * t0 * p.xi_aux;
+            let k351 = t258 / t221;
+            let k352 = t258 / (t221 * t24);
+            let t259 = t137 * p.Q_hv;
+            let k353 = t259 * p.S * p.eta_th * t0 * p.s_i * p.xi_aux
+                / (t163 * t7 * p.R_a * p.T_i * p.lambda * t1 * t24);
+            let k354 = -648000.0 * p.V_d / t59;
+            let k355 = t252 / t7;
+            let t260 = t7 * p.V_d * p.eta_trm * p.i_t * t24;
+            let k356 = t256 * t4 / t260;
+            let k357 = t255 * t4 / t260;
+            let k358 = 21.5 * t6 * p.V_d / t183;
+            let t261 = t6 * p.xi_aux;
+            let k359 = t261 / t7;
+            let t262 = t7 * t24;
+            let k360 = t261 / t262;
+            let t263 = p.AFs * t7 * p.R_a * p.T_i * p.lambda * t24;
+            let k361 = t6 * p.Q_hv * p.eta_th * p.s_i * p.xi_aux / t263;
+            let k362 = 40000.0 * p.V_d / t59;
+            let t264 = t13 * t24;
+            let k363 = t219 * p.y_i / t264;
+            let k364 = t219 * p.s_i * p.y_i / t264;
+            let t265 = p.s_i * p.s_i;
+            let t266 = t212 * p.r_w;
+            let t267 = t226 * t211;
+            let k365 = t266 * t265 * t4 * t9 / t267;
+            let k366 = p.Q_hv / t13;
+            let k367 = t266 * p.s_i * t4 * t9 / t267;
+            let t268 = 1000.0 * p.eta_th;
+            let k368 = t268 * p.y_i / t264;
+            let k369 = t268 * p.s_i * p.y_i / t264;
+            let t269 = PI * p.eta_th * p.r_w;
+            let k370 = t269 * t265 * t4 * t9 / t267;
+            let k371 = p.eta_th / t13;
+            let k372 = t269 * p.s_i * t4 * t9 / t267;
+            let t270 = t219 * p.eta_th;
+            let t271 = t270 * p.y_i;
+            let t272 = t12 * t96;
+            let t273 = t272 * t24;
+            let k373 = t271 / t273;
+            let t274 = t270 * p.s_i * p.y_i;
+            let k374 = t274 / t273;
+            let t275 = t223 * t265 * t4 * t9;
+            let t276 = t225 * t96 * t211;
+            let k375 = t275 / t276;
+            let k376 = t10 / t272;
+            let k377 = t228 / t276;
+            let t277 = t102 * p.R_a * p.T_i;
+            let t278 = t277 * p.lambda;
+            let t279 = t278 * t24;
+            let k378 = t271 / t279;
+            let k379 = t274 / t279;
+            let t280 = t277 * p.V_d * p.eta_trm * p.i_t * p.lambda * t211;
+            let k380 = t275 / t280;
+            let k381 = t10 / t278;
+            let k382 = t228 / t280;
+            let t281 = t214 * p.T_i;
+            let t282 = t281 * p.lambda;
+            let t283 = t282 * t24;
+            let k383 = t271 / t283;
+            let k384 = t274 / t283;
+            let t284 = t281 * p.V_d * p.eta_trm * p.i_t * p.lambda * t211;
+            let k385 = t275 / t284;
+            let k386 = t10 / t282;
+            let k387 = t228 / t284;
+            let t285 = t11 * t109;
+            let t286 = t285 * p.lambda;
+            let t287 = t286 * t24;
+            let k388 = t271 / t287;
+            let k389 = t274 / t287;
+            let t288 = t285 * p.V_d * p.eta_trm * p.i_t * p.lambda * t211;
+            let k390 = t275 / t288;
+            let k391 = t10 / t286;
+            let k392 = t228 / t288;
+            let t289 = t23 / t264 - 1.0;
+            let k393 = t60 * (t289 + 1.0 / t24) / t59;
+            let k394 = t228 / t267;
+            let k395 = t223 * t4 * t9 / t267;
+            let k396 = t60 * (t10 / t264 + t10 * t289 / t13) / t59;
+            let k397 = t234 * p.g_0 * p.m * p.r_w * t9 / (t26 * t113 * t24);
+            let k398 = t235 * p.g_0 * p.m * p.r_w * p.s_i * t9 / (t226 * t113 * t24);
+            let t290 = t137 * p.xi_aux;
+            let k399 = t290 / t7;
+            let k400 = t290 / t262;
+            let k401 = t259 * p.eta_th * p.s_i * p.xi_aux / t263;
+            let k402 = 648000.0 * p.V_d / t59;
             Precomputed {
                 params: *p,
                 k0,
@@ -2633,100 +2263,6 @@ pub mod si_engine {
                 k400,
                 k401,
                 k402,
-                k403,
-                k404,
-                k405,
-                k406,
-                k407,
-                k408,
-                k409,
-                k410,
-                k411,
-                k412,
-                k413,
-                k414,
-                k415,
-                k416,
-                k417,
-                k418,
-                k419,
-                k420,
-                k421,
-                k422,
-                k423,
-                k424,
-                k425,
-                k426,
-                k427,
-                k428,
-                k429,
-                k430,
-                k431,
-                k432,
-                k433,
-                k434,
-                k435,
-                k436,
-                k437,
-                k438,
-                k439,
-                k440,
-                k441,
-                k442,
-                k443,
-                k444,
-                k445,
-                k446,
-                k447,
-                k448,
-                k449,
-                k450,
-                k451,
-                k452,
-                k453,
-                k454,
-                k455,
-                k456,
-                k457,
-                k458,
-                k459,
-                k460,
-                k461,
-                k462,
-                k463,
-                k464,
-                k465,
-                k466,
-                k467,
-                k468,
-                k469,
-                k470,
-                k471,
-                k472,
-                k473,
-                k474,
-                k475,
-                k476,
-                k477,
-                k478,
-                k479,
-                k480,
-                k481,
-                k482,
-                k483,
-                k484,
-                k485,
-                k486,
-                k487,
-                k488,
-                k489,
-                k490,
-                k491,
-                k492,
-                k493,
-                k494,
-                k495,
-                k496,
             }
         }
         /// The parameters.
@@ -3221,181 +2757,176 @@ pub mod si_engine {
                     + self.k191 * t11
                         * (self.k0 - self.k66 * t0 / t15 + self.k15 / t3
                             + self.k67 * t13 * t7));
-            let t17 = m_at - self.k193 * v + self.k194 * v * t10 + self.k195 * v * t12;
-            let t18 = sign(t17);
-            let t19 = t16 + t16 * t18;
-            let t20 = self.k189 * v;
-            let t21 = t20 + self.k197 * t14;
-            let t22 = self.k198 * t21;
-            let t23 = self.k65 * t9 - self.k206 * t7;
-            let t24 = self.k200 * m_at - self.k201 * v + self.k202 * v * t10
-                + self.k203 * v * t12
+            let t17 = self.k189 * v;
+            let t18 = self.k193 * m_at - self.k188 * v + self.k194 * v * t10 + t17 * t12;
+            let t19 = self.k195 * t18;
+            let t20 = sign(t19);
+            let t21 = t16 + t16 * t20;
+            let t22 = self.k192 * (t17 + self.k197 * t14);
+            let t23 = t22 + t22 * t20;
+            let t24 = self.k192 + self.k192 * t20;
+            let t25 = self.k65 * t9 - self.k203 * t7;
+            let t26 = self.k200 * t18
                 + self.k192
-                    * (self.k204 * v + self.k205 * t14 * t11 - t20 * t23
-                        + self.k207 * t11 * t13);
-            let t25 = t24 + t24 * t18;
-            let t26 = v * v * v;
-            let t27 = self.k192 * (self.k209 * t26 - self.k210 * v * t11);
-            let t28 = t27 + t27 * t18;
-            let t29 = self.k192 * (self.k211 * t26 - self.k212 * v * t11);
-            let t30 = t29 + t29 * t18;
-            let t31 = self.k213 * t11 * t13 + self.k214 * v * t7;
-            let t32 = self.k198 * t31;
-            let t33 = self.k192 * (self.k215 * t26 - self.k216 * v * t11);
-            let t34 = t33 + t33 * t18;
-            let t35 = self.k217 * t11 * t13 + self.k218 * v * t7;
-            let t36 = self.k198 * t35;
-            let t37 = self.k35 * t0 / t3 + self.k36 * t6;
-            let t38 = self.k37 * t37 - self.k38 * t9;
-            let t39 = self.k229 * v;
-            let t40 = self.k219 * m_at - self.k220 * v - self.k221 * m_at + self.k222 * v
-                + self.k223 * v * t10 - self.k224 * v * t10 - self.k225 * v * t12
-                + self.k226 * v * t12
-                - self.k192
-                    * (self.k227 * v - self.k228 * v + t39 * t38 + self.k230 * v * t12
-                        + self.k231 * (self.k87 * t26 / t15 - self.k88 * v / t3) * t11
-                        + self.k232 * t14 * t11);
-            let t41 = t40 + t40 * t18;
-            let t42 = self.k39 * t0 / t3 + self.k40 * t6;
-            let t43 = self.k37 * t42 - self.k41 * t9;
-            let t44 = self.k233 * m_at - self.k234 * v - self.k235 * m_at + self.k236 * v
-                + self.k237 * v * t10 - self.k238 * v * t10 - self.k239 * v * t12
-                + self.k240 * v * t12
-                - self.k192
-                    * (self.k241 * v - self.k242 * v + t39 * t43 + self.k243 * v * t12
-                        + self.k231 * (self.k95 * t26 / t15 - self.k96 * v / t3) * t11
-                        + self.k244 * t14 * t11);
-            let t45 = t44 + t44 * t18;
-            let t46 = self.k245 * m_at - self.k246 * m_at + self.k247 * v * t10
-                - self.k248 * v * t10 - self.k249 * v * t6 - self.k250 * v * t12
-                + self.k251 * v * t12 + self.k252 * v * t9 + self.k253 * v * t11 / t3
-                - self.k254 * t14 * t11;
-            let t47 = t46 + t46 * t18;
-            let t48 = self.k255 * m_at + self.k256 * v * t10 + self.k257 * v * t12
-                - self.k258 * v * t9 + self.k259 * t14 * t11;
-            let t49 = t48 + t48 * t18;
-            let t50 = self.k260 * m_at + self.k261 * v + self.k262 * v * t10
-                - self.k263 * v * t6 + self.k264 * v * t11 / t3;
-            let t51 = t50 + t50 * t18;
-            let t52 = self.k266 * m_at + self.k267 * v * t10 - self.k268 * v * t4
-                - self.k269 * v * t6 + self.k270 * v * t12
-                + self.k271 * (self.k115 * v / t3 - self.k116 * v / t3) * t11;
-            let t53 = t52 + t52 * t18;
-            let t54 = self.k119 * t26 / t15 - self.k120 * v / t3;
-            let t55 = self.k273 * t26 / t3 + self.k274 * t54 * t11
-                + self.k192 * (self.k275 * t26 / t3 + self.k276 * t54 * t11) * t18;
-            let t56 = self.k282 * v;
-            let t57 = self.k278 * m_at + self.k279 * v * t10 - self.k280 * v * t4
-                - self.k281 * v * t6 + t56 * t9 - t56 * t11
-                + self.k271 * (self.k123 * v / t3 - self.k124 * v / t3) * t11;
-            let t58 = t57 + t57 * t18;
-            let t59 = self.k283 * v * t4 + self.k284 * v * t11 / t3
-                + self.k192 * (self.k285 * v * t4 + self.k286 * v * t11 / t3) * t18;
-            let t60 = self.k292 * m_at - self.k188 * v + self.k293 * v * t10 + t20 * t12;
-            let t61 = t17.max(0.0);
-            let t62 = self.k310 * m_at - self.k311 * v - self.k312 * m_at + self.k313 * v
-                + self.k314 * v * t10 - self.k315 * v * t10 - self.k316 * v * t12
-                + self.k317 * v * t12;
-            let t63 = t62 + t62 * t18;
-            let t64 = self.k318 * m_at - self.k319 * v - self.k320 * m_at + self.k321 * v
-                + self.k322 * v * t10 - self.k323 * v * t10 - self.k324 * v * t12
-                + self.k325 * v * t12;
-            let t65 = t64 + t64 * t18;
-            let t66 = self.k326 * m_at + self.k327 * v * t10;
-            let t67 = t66 + t66 * t18;
-            let t68 = self.k329 * v;
-            let t69 = self.k330 * m_at + self.k331 * v * t10 + self.k332 * v * t12
-                - self.k333 * v * t12;
-            let t70 = t69 + t69 * t18;
-            let t71 = self.k336 * v - self.k337 * v;
-            let t72 = self.k276 * t11 * (self.k154 * t13 - self.k155 * v * t13 * t7)
-                - self.k339 * t0 * t13;
-            let t73 = self.k198 * t72;
-            let t74 = self.k26 - p.S_eps / t3;
-            let t75 = self.k340 * v * t74 - self.k341 * v * t11 / t15
-                + self.k192 * (self.k342 * v * t74 - self.k343 * v * t11 / t15) * t18;
-            let t76 = self.k192 * t21;
-            let t77 = self.k192 * t31;
-            let t78 = self.k192 * t35;
-            let t79 = self.k376 * v;
-            let t80 = self.k192 * t72;
-            let t81 = self.k429 - self.k430 * t12;
-            let t82 = self.k427 - self.k428 * t4 + self.k1 * t81 - self.k431 * t12;
+                    * (self.k201 * v + self.k202 * t14 * t11 - t17 * t25
+                        + self.k204 * t11 * t13);
+            let t27 = t26 + t26 * t20;
+            let t28 = v * v * v;
+            let t29 = self.k192 * (self.k206 * t28 - self.k207 * v * t11);
+            let t30 = t29 + t29 * t20;
+            let t31 = self.k192 * (self.k208 * t28 - self.k209 * v * t11);
+            let t32 = t31 + t31 * t20;
+            let t33 = self.k192 * (self.k210 * t11 * t13 + self.k211 * v * t7);
+            let t34 = t33 + t33 * t20;
+            let t35 = self.k192 * (self.k212 * t28 - self.k213 * v * t11);
+            let t36 = t35 + t35 * t20;
+            let t37 = self.k192 * (self.k214 * t11 * t13 + self.k215 * v * t7);
+            let t38 = t37 + t37 * t20;
+            let t39 = self.k37 * (self.k35 * t0 / t3 + self.k36 * t6) - self.k38 * t9;
+            let t40 = self.k220 * v;
+            let t41 = self.k216 * t18 - self.k217 * t18
+                + self.k192
+                    * (self.k218 * v - self.k219 * v + t40 * t39 + self.k221 * v * t12
+                        + self.k222 * (self.k87 * t28 / t15 - self.k88 * v / t3) * t11
+                        + self.k223 * t14 * t11);
+            let t42 = t41 + t41 * t20;
+            let t43 = self.k37 * (self.k39 * t0 / t3 + self.k40 * t6) - self.k41 * t9;
+            let t44 = self.k224 * t18 - self.k225 * t18
+                + self.k192
+                    * (self.k226 * v - self.k227 * v + t40 * t43 + self.k228 * v * t12
+                        + self.k222 * (self.k95 * t28 / t15 - self.k96 * v / t3) * t11
+                        + self.k229 * t14 * t11);
+            let t45 = t44 + t44 * t20;
+            let t46 = self.k234 * t6 - self.k235 * t9;
+            let t47 = self.k230 * t18 - self.k231 * t18
+                + self.k192
+                    * (self.k232 * v - self.k233 * v + t17 * t46
+                        - self.k236 * v * t11 / t3 + self.k237 * t14 * t11);
+            let t48 = t47 + t47 * t20;
+            let t49 = self.k238 * t18
+                + self.k192
+                    * (self.k239 * v - self.k240 * v * t9 + self.k241 * t14 * t11);
+            let t50 = t49 + t49 * t20;
+            let t51 = self.k242 * t18
+                + self.k192
+                    * (self.k243 * v - self.k244 * v * t6 - self.k245 * v * t12
+                        + self.k246 * v * t11 / t3);
+            let t52 = t51 + t51 * t20;
+            let t53 = self.k46 * t4 + self.k47 * t6;
+            let t54 = self.k249 * v;
+            let t55 = self.k247 * t18
+                + self.k251
+                    * (self.k248 * v - t54 * t53
+                        + self.k250 * (self.k115 * v / t3 - self.k116 * v / t3) * t11);
+            let t56 = t55 + t55 * t20;
+            let t57 = self.k192
+                * (self.k253 * t28 / t3
+                    + self.k254 * (self.k119 * t28 / t15 - self.k120 * v / t3) * t11);
+            let t58 = t57 + t57 * t20;
+            let t59 = self.k50 * t4 + self.k51 * t6;
+            let t60 = self.k256 * t18
+                + self.k251
+                    * (self.k257 * v - t54 * t59
+                        + self.k250 * (self.k123 * v / t3 - self.k124 * v / t3) * t11);
+            let t61 = t60 + t60 * t20;
+            let t62 = self.k192 * (self.k258 * v * t4 + self.k259 * v * t11 / t3);
+            let t63 = t62 + t62 * t20;
+            let t64 = self.k261 * t18;
+            let t65 = t64 + t64 * t20;
+            let t66 = self.k262 * t18;
+            let t67 = t66 + t66 * t20;
+            let t68 = self.k263 * t18;
+            let t69 = t68 + t68 * t20;
+            let t70 = t19.max(0.0);
+            let t71 = self.k264 * t18;
+            let t72 = t71 + t71 * t20;
+            let t73 = self.k265 * t18 - self.k266 * t18;
+            let t74 = t73 + t73 * t20;
+            let t75 = self.k267 * t18 - self.k268 * t18;
+            let t76 = t75 + t75 * t20;
+            let t77 = self.k192 * (self.k269 * v - self.k270 * v * t12)
+                + self.k271 * t18;
+            let t78 = t77 + t77 * t20;
+            let t79 = self.k272 * v;
+            let t80 = t79 + t79 * t20;
+            let t81 = self.k192 * (self.k274 * v - self.k275 * v * t12)
+                + self.k276 * t18;
+            let t82 = t81 + t81 * t20;
+            let t83 = self.k192 * (self.k277 * v - self.k278 * v);
+            let t84 = t83 + t83 * t20;
+            let t85 = self.k192
+                * (self.k254 * t11 * (self.k154 * t13 - self.k155 * v * t13 * t7)
+                    - self.k279 * t0 * t13);
+            let t86 = t85 + t85 * t20;
+            let t87 = self.k26 - p.S_eps / t3;
+            let t88 = self.k192 * (self.k281 * v * t87 - self.k282 * v * t11 / t15);
+            let t89 = t88 + t88 * t20;
+            let t90 = self.k342 - self.k303 * t12;
+            let t91 = self.k300 * t12;
+            let t92 = self.k340 - self.k341 * t4 + self.k1 * t90 - t91;
             [
-                self.k196 * t19,
-                t22 + t22 * t18,
-                self.k199 + self.k199 * t18,
-                self.k208 * t25,
-                self.k208 * t28,
-                self.k208 * t30,
-                t32 + t32 * t18,
-                self.k208 * t34,
-                t36 + t36 * t18,
-                self.k208 * t41,
-                self.k196 * t45,
-                self.k196 * t47,
-                self.k208 * t49,
-                self.k265 * t51,
-                self.k272 * t53,
-                self.k277 * t55,
-                self.k208 * t58,
-                self.k287 * t59,
-                self.k289 * v - self.k288 * m_at - self.k290 * v * t10
-                    - self.k291 * v * t12 - self.k294 * t60 * t18,
-                self.k296 * v - self.k295 * m_at - self.k297 * v * t10
-                    - self.k298 * v * t12 - self.k299 * t60 * t18,
-                self.k300 * m_at - self.k301 * v + self.k302 * v * t10
-                    + self.k303 * v * t12 + self.k304 * t60 * t18 - self.k160 * t61,
-                self.k305 * m_at - self.k306 * v + self.k307 * v * t10
-                    + self.k308 * v * t12 + self.k309 * t60 * t18 - self.k161 * t61,
-                self.k196 * t63,
+                self.k196 * t21,
+                self.k198 * t23,
+                self.k199 * t24,
+                self.k205 * t27,
+                self.k205 * t30,
+                self.k205 * t32,
+                self.k198 * t34,
+                self.k205 * t36,
+                self.k198 * t38,
+                self.k196 * t42,
+                self.k205 * t45,
+                self.k205 * t48,
+                self.k205 * t50,
+                self.k196 * t52,
+                self.k252 * t56,
+                self.k255 * t58,
+                self.k205 * t61,
+                self.k260 * t63,
                 self.k196 * t65,
-                self.k328 * t67,
-                t68 + t68 * t18,
-                self.k196 * t70,
-                self.k335 * v - self.k334 * v + self.k338 * t71 * t18,
+                self.k196 * t67,
+                self.k205 * t69 - self.k160 * t70,
+                self.k205 * t72 - self.k161 * t70,
+                self.k205 * t74,
+                self.k205 * t76,
+                self.k205 * t78,
+                self.k273 * t80,
+                self.k196 * t82,
+                self.k273 * t84,
                 0.0,
-                -(t73 + t73 * t18),
-                self.k344 * t75,
-                self.k345 * t19,
-                self.k346 * (t76 + t76 * t18),
-                self.k347 * (self.k192 + self.k192 * t18),
-                self.k348 * t25,
-                self.k348 * t28,
-                self.k348 * t30,
-                self.k346 * (t77 + t77 * t18),
-                self.k348 * t34,
-                self.k346 * (t78 + t78 * t18),
-                self.k348 * t41,
-                self.k345 * t45,
-                self.k345 * t47,
-                self.k348 * t49,
-                self.k349 * t51,
-                self.k350 * t53,
-                self.k351 * t55,
-                self.k348 * t58,
-                self.k352 * t59,
-                self.k345
-                    * (self.k353 * m_at - self.k354 * v + self.k355 * v * t10
-                        + self.k356 * v * t12 + self.k357 * t60 * t18),
-                self.k345
-                    * (self.k358 * m_at - self.k359 * v + self.k360 * v * t10
-                        + self.k361 * v * t12 + self.k362 * t60 * t18),
-                self.k348
-                    * (self.k363 * m_at - self.k364 * v + self.k365 * v * t10
-                        + self.k366 * v * t12 + self.k367 * t60 * t18) - self.k368 * t61,
-                self.k348
-                    * (self.k369 * m_at - self.k370 * v + self.k371 * v * t10
-                        + self.k372 * v * t12 + self.k373 * t60 * t18) - self.k374 * t61,
-                self.k345 * t63,
-                self.k345 * t65,
-                self.k375 * t67,
-                self.k375 * (t79 + t79 * t18),
-                self.k345 * t70,
-                self.k349 * (self.k377 * v - self.k378 * v - self.k192 * t71 * t18),
-                self.k165 * t61,
-                self.k379 * (t80 + t80 * t18),
-                self.k380 * t75,
+                self.k280 * t86,
+                self.k283 * t89,
+                self.k284 * t21,
+                self.k285 * t23,
+                self.k286 * t24,
+                self.k287 * t27,
+                self.k287 * t30,
+                self.k287 * t32,
+                self.k285 * t34,
+                self.k287 * t36,
+                self.k285 * t38,
+                self.k284 * t42,
+                self.k287 * t45,
+                self.k287 * t48,
+                self.k287 * t50,
+                self.k284 * t52,
+                self.k288 * t56,
+                self.k289 * t58,
+                self.k287 * t61,
+                self.k290 * t63,
+                self.k284 * t65,
+                self.k284 * t67,
+                self.k287 * t69 - self.k291 * t70,
+                self.k287 * t72 - self.k292 * t70,
+                self.k287 * t74,
+                self.k287 * t76,
+                self.k287 * t78,
+                self.k293 * t80,
+                self.k284 * t82,
+                self.k293 * t84,
+                self.k165 * t70,
+                self.k294 * t86,
+                self.k295 * t89,
                 self.k23,
                 0.0,
                 0.0,
@@ -3427,61 +2958,70 @@ pub mod si_engine {
                 0.0,
                 0.0,
                 0.0,
-                self.k382 * t14 - self.k381 * v / t3 + self.k383 * t14,
-                self.k385,
+                -(self.k299 * (self.k296 * v / t3 - self.k297 * t14 - self.k298 * t14)),
+                self.k301,
                 0.0,
-                self.k386 * t12 + self.k387 * t12 - self.k388 * t9 - self.k389 * t23
-                    + self.k390 * t7,
-                self.k391 * t0 + self.k392 * t0,
-                self.k393 * t0 + self.k394 * t0,
-                self.k395 * t7 + self.k396 * t7,
-                self.k397 * t0 + self.k398 * t0,
-                self.k399 * t7 + self.k400 * t7,
-                self.k170 * t0 / t3 - self.k401 * t37 - self.k384 * t38 - self.k402 * t12
-                    - self.k403 * t12 + self.k404 * t9 + self.k405 * t9 + self.k406 * t9
-                    - self.k404 * t11 - self.k405 * t11,
-                self.k401 * t42 - self.k407 * t0 / t3 + self.k384 * t43 + self.k408 * t12
-                    + self.k409 * t12 - self.k410 * t12 - self.k411 * t9 - self.k412 * t9
-                    + self.k411 * t11,
-                self.k413 * t6 + self.k414 * t6 + self.k415 * t12 + self.k416 * t12
-                    - self.k417 * t12 - self.k418 * t9 - self.k419 * t9 - self.k420 * t9
-                    + self.k418 * t11,
-                self.k421 * t12 + self.k422 * t12 - self.k423 * t9 - self.k424 * t9,
-                self.k425 * t6 + self.k426 * t6 - self.k432 * t82 - self.k433 * t12
-                    - self.k434 * t9 + self.k434 * t11,
-                -(self.k442
-                    * (self.k435 * t4 - self.k436 * t4 - self.k437 * t6
-                        - self.k1 * (self.k438 * t4 + self.k439 * t6 - self.k440 * t12)
-                        + self.k441 * t12) + self.k443 * t82),
-                self.k447
-                    * (self.k444 * t0 / t3 - self.k445 * t0 / t3 - self.k446 * t0 / t3),
-                self.k448 * t82
-                    + self.k456
-                        * (self.k449 * t4 - self.k450 * t4 - self.k451 * t6
-                            - self.k1
-                                * (self.k452 * t4 + self.k453 * t6 - self.k454 * t12)
-                            + self.k455 * t9 - self.k455 * t11),
-                self.k460 * (self.k457 * t4 - self.k458 * t4 - self.k459 * t4),
-                self.k456
-                    * (self.k464 - self.k461 * t81 - self.k462 * t12 - self.k463 * t12),
-                self.k456
-                    * (self.k468 - self.k465 * t81 - self.k466 * t12 - self.k467 * t12),
-                self.k473
-                    * (self.k472 - self.k469 * t81 - self.k470 * t12 - self.k471 * t12),
-                self.k473
-                    * (self.k477 - self.k474 * t81 - self.k475 * t12 - self.k476 * t12),
-                self.k473
-                    * (self.k481 - self.k478 * t81 - self.k479 * t12 - self.k480 * t12),
-                self.k473
-                    * (self.k485 - self.k482 * t81 - self.k483 * t12 - self.k484 * t12),
+                self.k304
+                    * (self.k297 * t12 + self.k1 * (self.k302 * t12 - self.k303 * t25)
+                        - self.k300 * t25),
+                self.k304 * (self.k305 * t0 + self.k306 * t0),
+                self.k304 * (self.k307 * t0 + self.k308 * t0),
+                self.k299 * (self.k309 * t7 + self.k310 * t7),
+                self.k304 * (self.k311 * t0 + self.k312 * t0),
+                self.k299 * (self.k313 * t7 + self.k314 * t7),
+                self.k304
+                    * (self.k315 * t0 / t3
+                        - self.k1 * (self.k316 * t39 + self.k317 * t12 - self.k318 * t12)
+                        - self.k319 * t39 - self.k320 * t12 + self.k321 * t12),
+                self.k327
+                    * (self.k322 * t0 / t3
+                        - self.k1 * (self.k316 * t43 + self.k323 * t12 - self.k324 * t12)
+                        - self.k319 * t43 - self.k325 * t12 + self.k326 * t12),
+                self.k304
+                    * (self.k1 * (self.k303 * t46 + self.k328 * t12 - self.k329 * t12)
+                        + self.k300 * t46 + self.k330 * t12 - self.k331 * t12),
+                self.k304
+                    * (self.k1 * (self.k332 * t12 - self.k333 * t9) + self.k334 * t12
+                        - self.k335 * t9),
+                self.k304
+                    * (self.k336 * t6 + self.k1 * (self.k337 * t6 - self.k338 * t12)
+                        - self.k339 * t12) - self.k343 * t92,
+                -(self.k349
+                    * (self.k344 * t4 - self.k345 * t53
+                        - self.k1 * (self.k346 * t53 - self.k347 * t12)
+                        + self.k348 * t12) + self.k350 * t92),
+                self.k354
+                    * (self.k351 * t0 / t3 - self.k352 * t0 / t3 - self.k353 * t0 / t3),
+                self.k304
+                    * (self.k355 * t4 - self.k345 * t59
+                        - self.k1 * (self.k346 * t59 - self.k356 * t12)
+                        + self.k357 * t12) + self.k358 * t92,
+                self.k362 * (self.k359 * t4 - self.k360 * t4 - self.k361 * t4),
+                self.k304
+                    * (self.k363 + self.k1 * (self.k364 - self.k365 * t12)
+                        - self.k366 * t90 - self.k367 * t12),
+                self.k304
+                    * (self.k368 + self.k1 * (self.k369 - self.k370 * t12)
+                        - self.k371 * t90 - self.k372 * t12),
+                self.k327
+                    * (self.k373 + self.k1 * (self.k374 - self.k375 * t12)
+                        - self.k376 * t90 - self.k377 * t12),
+                self.k327
+                    * (self.k378 + self.k1 * (self.k379 - self.k380 * t12)
+                        - self.k381 * t90 - self.k382 * t12),
+                self.k327
+                    * (self.k383 + self.k1 * (self.k384 - self.k385 * t12)
+                        - self.k386 * t90 - self.k387 * t12),
+                self.k327
+                    * (self.k388 + self.k1 * (self.k389 - self.k390 * t12)
+                        - self.k391 * t90 - self.k392 * t12),
                 0.0,
-                self.k486,
-                self.k489 * t9 - self.k487 * t12 - self.k488 * t9 + self.k488 * t11
-                    - self.k489 * t11,
-                self.k490,
+                self.k393,
+                self.k327 * (self.k1 * (self.k394 * t12 - t91) + self.k395 * t12),
+                self.k396,
                 0.0,
-                self.k491 * v * t13 + self.k492 * v * t13,
-                self.k496 * (self.k493 * t74 - self.k494 * t74 - self.k495 * t74),
+                self.k299 * (self.k397 * v * t13 + self.k398 * v * t13),
+                self.k402 * (self.k399 * t87 - self.k400 * t87 - self.k401 * t87),
             ]
         }
         /// [`Precomputed::invert`] at many points, stored column-wise: ξ_i at point k is `xi[i][k]`, η_j is `eta[j][k]`, y^(r) is `yr[k]`; x_s is written to `x[s][k]` and u to `u[k]`.

@@ -111,12 +111,9 @@ fn at_state(
         map.insert(e, x);
     }
     map.insert(yr, yr_x);
-    rows.iter()
-        .map(|&e| {
-            let e = pool.substitute(e, &map);
-            pool.tidy(e)
-        })
-        .collect()
+    // Substituted only: a tidy pass over every entry (it orders terms by their printed form) costs seconds for
+    // a model with modes and changes nothing the code generation's own simplification would not.
+    rows.iter().map(|&e| pool.substitute(e, &map)).collect()
 }
 
 /// The outputs `outputs` (in the states and the input u) in (ξ, η, w, y^(r)): u = (y^(r) − α_x)/β_x, then
