@@ -147,7 +147,7 @@ impl Sweep {
             stages,
             eta,
             s,
-            nodes: Nodes::new(info, np, nodes),
+            nodes: Nodes::new(info, wanted.params, nodes),
             samples: Samples::new(info.n_states(), na, np),
         }
     }
@@ -260,15 +260,16 @@ struct Nodes {
     a: [Vec<f64>; 2],
     b: [Vec<f64>; 2],
     gauss: Gauss,
-    /// The model's closed-form A and B, where it has them ([`ClosedJacobian`]); `columns`: `params` as B's
-    /// columns.
+    /// The model's closed-form A and B, where it has them ([`ClosedJacobian`]); `columns`: the wanted
+    /// parameters as B's columns.
     closed: ClosedJacobian,
     columns: Vec<Option<usize>>,
 }
 
 impl Nodes {
-    fn new(info: &invsim_model_api::ModelInfo, np: usize, stages: StageReference) -> Nodes {
-        let ne = info.n_eta;
+    /// For the model `info`, the parameters `params` (B's columns) and the reference at the nodes `stages`.
+    fn new(info: &invsim_model_api::ModelInfo, params: &[usize], stages: StageReference) -> Nodes {
+        let (ne, np) = (info.n_eta, params.len());
         Nodes {
             x: vec![0.0; info.n_states()],
             stages,
@@ -278,7 +279,7 @@ impl Nodes {
             b: std::array::from_fn(|_| vec![0.0; ne * np]),
             gauss: Gauss::new(ne, np),
             closed: ClosedJacobian::default(),
-            columns: Vec::new(),
+            columns: params.iter().map(|&k| Some(k)).collect(),
         }
     }
 
@@ -319,8 +320,6 @@ impl Nodes {
         let r = info.relative_degree;
         let (yd, w) = self.stages.at(smoother, (s, r));
         // The closed form where the model has it (then neither x nor u is needed).
-        self.columns.clear();
-        self.columns.extend(wanted.params.iter().map(|&k| Some(k)));
         let at = Rows::ZeroDynamics(&yd[..r], &self.eta, w, yd[r]);
         let ab = (&mut self.a[i][..], &mut self.b[i][..], None);
         if self.closed.eval(model, (at, &self.columns), ab) {
