@@ -94,9 +94,9 @@ mod tests {
     use super::*;
     use crate::gradient::{GridColumns, Point};
 
-    /// At points off the equilibrium, A, B and R from the closed form equal those the implicit function
-    /// theorem assembles from the partial derivatives in the states, every parameter's column, compiled and
-    /// interpreted.
+    /// At points off the equilibrium, A, B and R of the zero dynamics and of the extra outputs from the closed
+    /// form equal those the implicit function theorem assembles from the partial derivatives in the states,
+    /// every parameter's column, compiled and interpreted.
     #[test]
     fn the_closed_form_equals_the_implicit_function_theorem() {
         let compiled = invsim_models::builtin("driveline").expect("built in");
@@ -123,28 +123,46 @@ mod tests {
                 let at = (&info.eta_states[..], &GridColumns::default());
                 let point =
                     Point::new(model, (&xs, &[], u), at, Default::default()).expect("a point");
-                let params: Vec<usize> = (0..np).collect();
-                let (mut a0, mut b0) = (vec![0.0; ne * ne], vec![0.0; ne * np]);
-                point.eta_jacobians(&params, &mut a0, &mut b0);
-                let columns: Vec<Option<usize>> = params.iter().map(|&k| Some(k)).collect();
-                let (mut a1, mut b1) = (vec![0.0; ne * ne], vec![0.0; ne * np]);
-                let mut closed = ClosedJacobian::default();
-                let ab = (&mut a1[..], &mut b1[..], None);
-                let rows = Rows::ZeroDynamics(&xi, &eta, &[], yr);
-                assert!(closed.eval(model, (rows, &columns), ab));
-                // Column by column (each parameter its own unit), within 1e-9 of the column's largest entry.
-                let columns0 = a0.chunks_exact(ne).chain(b0.chunks_exact(ne));
-                for (c, (c0, c1)) in columns0
-                    .zip(a1.chunks_exact(ne).chain(b1.chunks_exact(ne)))
-                    .enumerate()
-                {
-                    let scale = c0.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-                    for (v0, v1) in c0.iter().zip(c1) {
-                        assert!(
-                            (v0 - v1).abs() <= 1e-9 * scale,
-                            "{} column {c}: {v0:e} against {v1:e} (scale {scale:e})",
-                            info.name
-                        );
+                let columns: Vec<Option<usize>> = (0..np).map(Some).collect();
+                let l = point.layout();
+                let eta_rows: Vec<usize> = (0..ne).map(|i| l.eta(i)).collect();
+                let output_rows: Vec<usize> =
+                    (0..info.outputs.len()).map(|o| l.output(o)).collect();
+                let outputs: Vec<usize> = (0..info.outputs.len()).collect();
+                for (rows, closed_rows) in [
+                    (&eta_rows, Rows::ZeroDynamics(&xi, &eta, &[], yr)),
+                    (&output_rows, Rows::Outputs(&xs, &[], u, &outputs)),
+                ] {
+                    // A, B and R by the implicit function theorem, then by the closed form.
+                    let m = rows.len();
+                    let sizes = [m * ne, m * np, m * (r + 1)];
+                    let mut ifp: Vec<Vec<f64>> = sizes.iter().map(|&k| vec![0.0; k]).collect();
+                    let [a0, b0, r0] = &mut ifp[..] else {
+                        unreachable!()
+                    };
+                    point.moved_row_jacobians(rows, &columns, (a0, b0), r0);
+                    let mut cf: Vec<Vec<f64>> = sizes.iter().map(|&k| vec![0.0; k]).collect();
+                    let [a1, b1, r1] = &mut cf[..] else {
+                        unreachable!()
+                    };
+                    let mut closed = ClosedJacobian::default();
+                    let abr = (&mut a1[..], &mut b1[..], Some(&mut r1[..]));
+                    assert!(closed.eval(model, (closed_rows, &columns), abr));
+                    // Column by column (each its own unit), within 1e-9 of the column's largest entry.
+                    let all = |v: &[Vec<f64>]| -> Vec<Vec<f64>> {
+                        v.iter()
+                            .flat_map(|c| c.chunks_exact(m).map(<[f64]>::to_vec))
+                            .collect()
+                    };
+                    for (c, (c0, c1)) in all(&ifp).iter().zip(all(&cf)).enumerate() {
+                        let scale = c0.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                        for (v0, v1) in c0.iter().zip(&c1) {
+                            assert!(
+                                (v0 - v1).abs() <= 1e-9 * scale,
+                                "{} rows {rows:?} column {c}: {v0:e} against {v1:e} (scale {scale:e})",
+                                info.name
+                            );
+                        }
                     }
                 }
             }
