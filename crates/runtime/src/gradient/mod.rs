@@ -16,6 +16,7 @@
 //! differentiated.
 
 mod closed_jacobian;
+mod derivatives;
 mod direct;
 pub mod error;
 mod figures;
@@ -35,6 +36,7 @@ use invsim_model_api::{InverseModel, ModelInfo};
 use serde::Serialize;
 
 pub(crate) use closed_jacobian::{ClosedJacobian, Rows as ClosedRows};
+pub use derivatives::Derivatives;
 pub use error::GradientError;
 pub use figures::Figures;
 pub(crate) use figures::{figures, Integrals, Wrt};
@@ -42,35 +44,11 @@ pub(crate) use gauss::{Gauss, Singular, NODES};
 pub use grid_columns::GridColumns;
 pub use grid_values::{GridValue, MAX_GRID_VALUES};
 pub use modal::{resolve_modal, resolve_modal_with_maps, GearParameters, ModalParam, ModalWrt};
-pub(crate) use pass::{integral_gradients, Along, Wanted};
+pub(crate) use pass::{Along, Sensitivities, Wanted};
 pub(crate) use point::{Buffers, Direction, Point};
 pub(crate) use stable::StableFigures;
 
 use crate::report::fmt_sig;
-
-/// What a run is differentiated by: model parameters (indices, in the model's order) and grid values.
-#[derive(Debug, Clone, PartialEq, Default)]
-pub struct Derivatives {
-    pub params: Vec<usize>,
-    pub grid: Vec<GridValue>,
-}
-
-impl Derivatives {
-    /// Every derivative's column in the chain rule ([`point`]): the parameters', then grid value g's at
-    /// P + g (P the model's number of parameters).
-    pub(crate) fn columns(&self, n_params: usize) -> Vec<usize> {
-        let grid = (0..self.grid.len()).map(|g| n_params + g);
-        self.params.iter().copied().chain(grid).collect()
-    }
-
-    /// Every derivative's name, in [`Derivatives::columns`]' order.
-    pub(crate) fn names(&self, info: &ModelInfo) -> Vec<String> {
-        let params = self.params.iter().map(|&k| info.parameters[k].clone());
-        params
-            .chain(self.grid.iter().map(|g| g.name.clone()))
-            .collect()
-    }
-}
 
 /// The derivatives `names` asks for: `all` parameters, or those named (in the model's order, each once), and
 /// the grid values of `maps` named ([`grid_values`]; `all` does not include them).
@@ -159,7 +137,8 @@ pub(crate) struct RunFigures<'a> {
     pub accumulate: &'a [usize],
     pub integrals: &'a [f64],
     pub distance_m: f64,
-    pub eta0: Option<Vec<f64>>,
+    /// The integrals' derivatives a causal run summed as it went ([`Sensitivities`]).
+    pub along_run: Option<Vec<Vec<f64>>>,
     /// The stable inversion of a non-causal run and its reported samples.
     pub stable: Option<StableFigures<'a>>,
 }
@@ -181,12 +160,13 @@ pub(crate) fn of_run<M: InverseModel + ?Sized>(
         grid: &grid,
         accumulate: run.accumulate,
     };
-    let derivatives = match run.stable {
-        Some(st) => stable::integral_gradients(&wanted, along, st)?,
+    let derivatives = match (run.stable, run.along_run) {
+        (Some(st), _) => stable::integral_gradients(&wanted, along, st)?,
+        (None, Some(summed)) => summed,
         // Without internal states every sample is independent: block by block (grid values, whose columns
         // are built from the map calls at every point, go point by point).
-        None if info.n_eta == 0 && grid.is_empty() => direct::integral_gradients(&wanted, along)?,
-        None => integral_gradients(&wanted, along, run.eta0, opts)?,
+        (None, None) if grid.is_empty() => direct::integral_gradients(&wanted, along)?,
+        (None, None) => pass::pointwise_integrals(model, (wrt, along), opts)?,
     };
     let integrals = Integrals {
         accumulate: run.accumulate,

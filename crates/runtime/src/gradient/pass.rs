@@ -1,6 +1,7 @@
-//! The sensitivity pass of a causal (or r = n) run: the run's grid sample by sample, η integrated exactly as
-//! the run integrates it, its sensitivities S = ∂η/∂p alongside by an A-stable method, and the derivatives of
-//! the accumulated outputs' integrals by the run's own quadrature.
+//! The sensitivities of a causal run, carried along the run's own integration of η: after each of its
+//! accepted steps S = ∂η/∂p is advanced over the same step by an A-stable method, and at each grid sample the
+//! derivatives of the accumulated outputs' integrals are summed by the run's own quadrature (one pass: η is
+//! integrated once, by the run).
 //!
 //! Sensitivity equations of the zero dynamics η̇ = q(ξ(t), η, y_d^(r)(t); p) (Hairer, Nørsett & Wanner,
 //! *Solving Ordinary Differential Equations I*, §I.14):
@@ -12,11 +13,10 @@
 //!
 //! They are solved by the staggered direct method (Caracotsios & Stewart, *Sensitivity analysis of initial
 //! value problems with mixed ODEs and algebraic equations*, Comput. Chem. Eng. 9, 1985): η alone is
-//! integrated by the run's adaptive Dormand–Prince 5(4) method with its tolerances and its right-hand side,
-//! from the same start between the same grid samples, so η is the run's bit for bit; after each accepted
+//! integrated by the run's adaptive Dormand–Prince 5(4) method (`inverse/causal.rs`); after each accepted
 //! step [t, t + h] S is advanced over the same step by the 2-stage Gauss–Legendre method ([`super::gauss`],
 //! order 4, A-stable; Hairer & Wanner, *Solving ODEs II*, §IV.5), with A and B at its two nodes t + c_i h
-//! from η's continuous extension there ([`Point::eta_jacobians`]). S's equations are linear with η's own
+//! from η's continuous extension there ([`Sensitivities::step`]). S's equations are linear with η's own
 //! linearisation A, so the steps that control η's error resolve S's time scales too and S needs no error
 //! control of its own; on the stiff modes, where the steps are held at DOPRI5's stability border
 //! hλ ≈ −3.3, the method damps by |R(hλ)| ≈ 0.07 per step (R the (2, 2) Padé approximation of e^z).
@@ -29,36 +29,32 @@
 //!
 //! The integrals ∫ o dt ≈ Σ_k dt·(o_k + o_{k+1})/2 are differentiated term by term:
 //! ∂/∂p Σ = Σ_k dt·(do_k/dp + do_{k+1}/dp)/2, with do/dp = ∂o/∂x·dx/dp + ∂o/∂u·du/dp + ∂o/∂p
-//! ([`super::point`]). The reference is evaluated block by block on the grid, as the run evaluates it, so that
-//! the pass stores no column of the whole run.
+//! ([`super::point`], [`Sensitivities::sample`]).
 
-use invsim_model_api::zero_dynamics::{default_starts, equilibrium};
 use invsim_model_api::InverseModel;
 use nalgebra::DMatrix;
 
 use super::closed_jacobian::{ClosedJacobian, Rows};
+use super::derivatives::Derivatives;
 use super::gauss::{Gauss, Singular, NODES};
 use super::grid_columns::GridColumns;
 use super::point::{Buffers, Point};
 use super::sample::{Block, Samples};
 use crate::error::RunError;
-use crate::grid::{Grid, MAX_DERIVATIVES};
+use crate::grid::Grid;
 use crate::inverse::stage_reference::StageReference;
 use crate::inverse::{SimulateError, SimulationOptions};
 use crate::ode::{Dopri5, StepFailure};
-use crate::smoother::{FineTable, Smoother};
-use std::sync::Arc;
+use crate::smoother::Smoother;
 
 /// Samples per block of the reference's columns (the run's block size: the same numbers, bounded memory).
 const BLOCK: usize = 4096;
 
-/// What the pass runs along: the smoother and the grid (y_d … y_d^(r) and w evaluated on it block by block,
-/// as the run evaluates them), and the run's sub-grid table of the zero dynamics' reference, if it has one
-/// (read again, not evaluated again).
+/// What a pass runs along: the smoother (y_d … y_d^(r) and w evaluated on the grid block by block, as the run
+/// evaluates them) and the grid.
 pub(crate) struct Along<'a> {
     pub smoother: &'a Smoother,
     pub grid: &'a Grid,
-    pub fine: Option<&'a Arc<FineTable>>,
 }
 
 /// The model, the parameters (indices into [`invsim_model_api::ModelInfo::parameters`], and P + g for the
@@ -70,173 +66,162 @@ pub(crate) struct Wanted<'a, M: ?Sized> {
     pub accumulate: &'a [usize],
 }
 
-/// ∂(∫ o_a dt)/∂p_c for every accumulated output a and wanted parameter c (`[a][c]`), over the whole grid
-/// (a causal run reports every sample). `eta0`: the run's given η(t_0) (`None`: the equilibrium start).
-pub(crate) fn integral_gradients<M: InverseModel + ?Sized>(
-    wanted: &Wanted<'_, M>,
-    along: &Along<'_>,
-    eta0: Option<Vec<f64>>,
-    opts: &SimulationOptions,
-) -> Result<Vec<Vec<f64>>, SimulateError> {
-    Ok(sweep(wanted, along, eta0, opts, &mut |_, _| ())?
-        .samples
-        .sums
-        .integrals())
-}
-
-/// The pass over the whole grid; `seen(k, η)` after each sample k.
-fn sweep<M: InverseModel + ?Sized>(
-    wanted: &Wanted<'_, M>,
-    along: &Along<'_>,
-    eta0: Option<Vec<f64>>,
-    opts: &SimulationOptions,
-    seen: &mut dyn FnMut(usize, &[f64]),
-) -> Result<Sweep, SimulateError> {
-    let info = wanted.model.info();
-    let (r, nw) = (info.relative_degree, info.n_w());
-    let grid = along.grid;
-    let samples = grid.samples();
-    let (eta, s) = if info.n_eta > 0 {
-        start(wanted, along, eta0)?
-    } else {
-        (Vec::new(), Vec::new())
-    };
-    let mut sweep = Sweep::new(wanted, along, (eta, s), opts);
-    let mut block = Block::new(BLOCK.min(samples), r, nw);
-    let mut k0 = 0;
-    while k0 < samples {
-        let len = (k0 + BLOCK).min(samples) - k0;
-        block.fill(along.smoother, grid, (k0, len));
-        for i in 0..len {
-            sweep.sample(wanted, along, (k0 + i, &block.yd, &block.w, i))?;
-            seen(k0 + i, &sweep.eta);
-        }
-        k0 += len;
-    }
-    Ok(sweep)
-}
-
-/// The pass's state from sample to sample: η and its integrator, S (ne × P column-major, column c = ∂η/∂p_c),
-/// and what every pass carries ([`Samples`]: the last sample's state and input, the integrals' derivatives).
-struct Sweep {
-    eta: Vec<f64>,
+/// The sensitivities a causal run carries: what is differentiated, S (ne × P column-major, column c =
+/// ∂η/∂p_c), the Gauss nodes' matrices, and what every pass carries from sample to sample ([`Samples`]: the
+/// last sample's state and input, the integrals' derivatives).
+pub(crate) struct Sensitivities {
+    params: Vec<usize>,
+    grid: GridColumns,
+    accumulate: Vec<usize>,
     s: Vec<f64>,
-    integrator: Dopri5,
-    /// The reference at η's stage times, read as the run reads it (`inverse/stage_reference.rs`).
-    stages: StageReference,
     nodes: Nodes,
     samples: Samples,
+    /// dt/2, the trapezoids' weight; whether a sample has been summed yet.
+    half: f64,
+    started: bool,
 }
 
-impl Sweep {
-    fn new<M: InverseModel + ?Sized>(
-        wanted: &Wanted<'_, M>,
-        along: &Along<'_>,
-        (eta, s): (Vec<f64>, Vec<f64>),
-        opts: &SimulationOptions,
-    ) -> Sweep {
-        let info = wanted.model.info();
-        let (na, np) = (wanted.accumulate.len(), wanted.params.len());
-        // Both readers of the reference at stage times share one table: the run's where it has one.
-        let stages = StageReference::sharing(along.smoother, along.grid, (opts, info), along.fine);
-        let nodes =
-            StageReference::sharing(along.smoother, along.grid, (opts, info), stages.table());
-        Sweep {
-            // The run's integrator (inverse/causal.rs): the same size, tolerances and first step.
-            integrator: Dopri5::new(eta.len(), opts.rtol, opts.atol, opts.dt),
-            stages,
-            eta,
+impl Sensitivities {
+    /// For the run of `model` on `grid` by `wrt`, starting from η(t_0) = `eta` (`given`: set by the user,
+    /// else the zero dynamics' equilibrium there); `stages`: the reference at the Gauss nodes (reading the
+    /// run's sub-grid table).
+    pub(crate) fn start<M: InverseModel + ?Sized>(
+        model: &M,
+        (wrt, along): (&Derivatives, &Along<'_>),
+        (eta, given): (&[f64], bool),
+        stages: StageReference,
+    ) -> Result<Sensitivities, SimulateError> {
+        let info = model.info();
+        let params = wrt.columns(info.parameters.len());
+        let grid = GridColumns::new(model.maps(), &wrt.grid);
+        let accumulate: Vec<usize> = (0..info.outputs.len())
+            .filter(|&i| info.outputs[i].accumulate)
+            .collect();
+        let wanted = Wanted {
+            model,
+            params: &params,
+            grid: &grid,
+            accumulate: &accumulate,
+        };
+        let s = if given {
+            vec![0.0; info.n_eta * params.len()]
+        } else {
+            equilibrium_sensitivity(&wanted, along, eta)?
+        };
+        Ok(Sensitivities {
+            nodes: Nodes::new(info, &params, stages),
+            samples: Samples::new(info.n_states(), accumulate.len(), params.len()),
+            half: 0.5 * along.grid.dt,
+            started: false,
             s,
-            nodes: Nodes::new(info, wanted.params, nodes),
-            samples: Samples::new(info.n_states(), na, np),
-        }
+            params,
+            grid,
+            accumulate,
+        })
     }
 
-    /// Grid sample k (column index i of the block's `yd` and `w`): η and S advanced from sample k − 1, the
-    /// inverse, the outputs' derivatives, and the trapezoidal rule's term dt·(do_(k−1) + do_k)/2.
-    fn sample<M: InverseModel + ?Sized>(
+    /// S over η's accepted step [t, t_new] (`ode` interpolating in it).
+    pub(crate) fn step<M: InverseModel + ?Sized>(
         &mut self,
-        wanted: &Wanted<'_, M>,
-        along: &Along<'_>,
-        (k, yd, w, i): (usize, &[Vec<f64>], &[Vec<f64>], usize),
+        model: &M,
+        smoother: &Smoother,
+        (ode, t, t_new): (&Dopri5, f64, f64),
     ) -> Result<(), SimulateError> {
-        let model = wanted.model;
-        let info = model.info();
-        let ne = info.n_eta;
-        let grid = along.grid;
-        let t = grid.time(k);
-        if k > 0 && ne > 0 {
-            self.advance(wanted, along.smoother, (grid.time(k - 1), t))?;
-        }
+        let wanted = Wanted {
+            model,
+            params: &self.params,
+            grid: &self.grid,
+            accumulate: &self.accumulate,
+        };
+        let u_prev = self.samples.u_prev;
+        (self.nodes).step(&wanted, smoother, (ode, t, t_new - t, u_prev), &mut self.s)
+    }
+
+    /// The grid sample at t with the reference y_d … y_d^(r) `yd`, the signals `w` and the run's η there: the
+    /// inverse, the outputs' derivatives, and the trapezoidal rule's term dt·(do_(k−1) + do_k)/2.
+    pub(crate) fn sample<M: InverseModel + ?Sized>(
+        &mut self,
+        model: &M,
+        (t, yd, w): (f64, &[f64], &[f64]),
+        eta: &[f64],
+    ) -> Result<(), SimulateError> {
+        let ne = model.info().n_eta;
         let point = self
             .samples
-            .point((model, wanted.grid), (t, yd, w, i), &self.eta)?;
-        let half = (k > 0).then_some(0.5 * grid.dt);
-        self.samples.add_outputs(
-            &point,
-            (wanted.params, wanted.accumulate),
-            &self.s[..ne * wanted.params.len()],
-            half,
-        );
+            .point_at((model, &self.grid), (t, yd, w), eta)?;
+        let half = self.started.then_some(self.half);
+        let (params, accumulate) = (&self.params[..], &self.accumulate[..]);
+        let s = &self.s[..ne * params.len()];
+        self.samples
+            .add_outputs(&point, (params, accumulate), s, half);
         self.samples.recycle(point);
+        self.started = true;
+        // The guess of a numerically solved ψ⁻¹ at the next interval's nodes: this sample's state.
+        self.nodes.x.copy_from_slice(&self.samples.x);
         Ok(())
     }
 
-    /// η from `t0` to `t1` exactly as the run integrates it (inverse/causal.rs `integrate`: the same
-    /// right-hand side, the last sample's input as Newton's start), and S over each of its accepted steps.
-    fn advance<M: InverseModel + ?Sized>(
-        &mut self,
-        wanted: &Wanted<'_, M>,
-        smoother: &Smoother,
-        (t0, t1): (f64, f64),
-    ) -> Result<(), SimulateError> {
-        let model = wanted.model;
-        let r = model.info().relative_degree;
-        let u_prev = self.samples.u_prev;
-        let stages = &mut self.stages;
-        let mut q = |s: f64, e: &[f64], de: &mut [f64]| {
-            stages.zero_dynamics(model, smoother, (s, r), (e, u_prev), de);
-            Ok(())
-        };
-        self.nodes.x.copy_from_slice(&self.samples.x);
-        let (nodes, s) = (&mut self.nodes, &mut self.s);
-        let mut each = |ode: &Dopri5, ta: f64, tb: f64| {
-            nodes.step(wanted, smoother, (ode, ta, tb - ta, u_prev), s)
-        };
-        self.integrator
-            .advance_each(t0, t1, &mut self.eta, &mut q, &mut each)
+    /// ∂(∫ o_a dt)/∂p_c for every accumulated output a and wanted parameter c (`[a][c]`), over the samples so
+    /// far.
+    pub(crate) fn integrals(&self) -> Vec<Vec<f64>> {
+        self.samples.sums.integrals()
     }
 }
 
-/// η(t_0) and S(t_0) (ne × P, column-major): the given η with S = 0, or the run's equilibrium q(ξ(t_0), η, y_d^(r)(t_0)) = 0
-/// (the same Newton from the same starts) with S = −(∂q/∂η)⁻¹ ∂q/∂p there (implicit function theorem).
-fn start<M: InverseModel + ?Sized>(
+/// ∂(∫ o_a dt)/∂p_c for every accumulated output a and wanted parameter c (`[a][c]`) of a run without
+/// internal states, sample by sample (where grid values are wanted: their columns come from the map calls at
+/// each point), the reference read block by block as the run reads it.
+pub(crate) fn pointwise_integrals<M: InverseModel + ?Sized>(
+    model: &M,
+    (wrt, along): (&Derivatives, &Along<'_>),
+    opts: &SimulationOptions,
+) -> Result<Vec<Vec<f64>>, SimulateError> {
+    let info = model.info();
+    let (r, nw) = (info.relative_degree, info.n_w());
+    debug_assert_eq!(info.n_eta, 0);
+    let stages = StageReference::new(along.smoother, along.grid, opts, info);
+    let mut sens = Sensitivities::start(model, (wrt, along), (&[], true), stages)?;
+    let samples = along.grid.samples();
+    let mut block = Block::new(BLOCK.min(samples), r, nw);
+    let (mut yd, mut w) = ([0.0_f64; crate::grid::MAX_DERIVATIVES], vec![0.0; nw]);
+    let mut k0 = 0;
+    while k0 < samples {
+        let len = (k0 + BLOCK).min(samples) - k0;
+        block.fill(along.smoother, along.grid, (k0, len));
+        for i in 0..len {
+            for (v, c) in yd[..=r].iter_mut().zip(&block.yd) {
+                *v = c[i];
+            }
+            for (v, c) in w.iter_mut().zip(&block.w) {
+                *v = c[i];
+            }
+            sens.sample(model, (block.time[i], &yd[..=r], &w), &[])?;
+        }
+        k0 += len;
+    }
+    Ok(sens.integrals())
+}
+
+/// S(t_0) = −(∂q/∂η)⁻¹ ∂q/∂p (ne × P, column-major) at the equilibrium `eta` of q(ξ(t_0), η, y_d^(r)(t_0)) = 0
+/// (implicit function theorem).
+fn equilibrium_sensitivity<M: InverseModel + ?Sized>(
     wanted: &Wanted<'_, M>,
     along: &Along<'_>,
-    eta0: Option<Vec<f64>>,
-) -> Result<(Vec<f64>, Vec<f64>), SimulateError> {
+    eta: &[f64],
+) -> Result<Vec<f64>, SimulateError> {
     let model = wanted.model;
     let info = model.info();
     let (r, ne, np) = (info.relative_degree, info.n_eta, wanted.params.len());
     let t0 = along.grid.t0;
-    let mut yd = [0.0_f64; MAX_DERIVATIVES];
+    let mut yd = [0.0_f64; crate::grid::MAX_DERIVATIVES];
     along.smoother.eval(t0, &mut yd[..=r]);
     let mut w = vec![0.0; info.n_w()];
     along.smoother.eval_signals(t0, &mut w);
     let (xi, yr) = (&yd[..r], yd[r]);
-    if let Some(e) = eta0 {
-        return Ok((e, vec![0.0; ne * np]));
-    }
-    let eta = equilibrium(model, xi, &w, yr, None, &default_starts(xi[0])).map_err(|f| {
-        SimulateError::ZeroDynamicsEquilibrium {
-            t: t0,
-            reason: f.to_string(),
-        }
-    })?;
     let mut x = vec![0.0; info.n_states()];
     let model_err = |source| SimulateError::from(RunError::Model { t: t0, source });
     let u = model
-        .invert_from(xi, &eta, &w, yr, &mut x, f64::NAN)
+        .invert_from(xi, eta, &w, yr, &mut x, f64::NAN)
         .map_err(model_err)?;
     let at = (&info.eta_states[..], wanted.grid);
     let point = Point::new(model, (&x, &w, u), at, Default::default()).map_err(model_err)?;
@@ -246,7 +231,7 @@ fn start<M: InverseModel + ?Sized>(
         .lu()
         .solve(&(-DMatrix::from_vec(ne, np, q_p)))
         .unwrap_or_else(|| DMatrix::from_element(ne, np, f64::NAN));
-    Ok((eta, s.as_slice().to_vec()))
+    Ok(s.as_slice().to_vec())
 }
 
 /// A and B (column-major) at the Gauss nodes of one step, the buffers of their evaluation and the method's.
@@ -340,65 +325,43 @@ impl Nodes {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
     use crate::cycle::Cycle;
+    use crate::inverse::SimulationOptions;
 
-    /// The pass integrates η exactly as the run does (the same integrator, right-hand side and steps): on
-    /// driveline's NEDC run (stiff zero dynamics, η at DOPRI5's stability limit) its η equals the run's
-    /// `eta` columns bit for bit at every sample.
+    /// Carrying the sensitivities along does not move the run: on driveline's NEDC run (stiff zero dynamics,
+    /// η at DOPRI5's stability limit) every column and every integral is the same bits with and without the
+    /// gradient, and the gradient block is there.
     #[test]
-    fn eta_is_the_runs_bit_for_bit() {
+    fn a_differentiated_run_is_the_same_run_bit_for_bit() {
         let model = invsim_models::builtin("driveline").expect("built in");
-        let info = model.info();
-        assert!(info.signals.is_empty() && info.n_eta == 3);
+        assert_eq!(model.info().n_eta, 3);
         let cycle = Cycle::builtin("nedc").expect("built in");
-        let opts = SimulationOptions::builder()
-            .keep_series(true)
-            .build()
-            .expect("valid");
-        let run = crate::simulate(model.as_ref(), &cycle, &opts).expect("runs");
-        let columns: Vec<&[f64]> = (1..=info.n_eta)
-            .map(|j| {
-                let name = format!("eta{j}");
-                let c = run.columns.iter().position(|c| *c == name).expect("eta");
-                run.data[c].as_slice()
-            })
-            .collect();
-        let smoother = Smoother::new(&cycle, opts.lookahead)
-            .expect("smooths")
-            .with_reference(model.reference());
-        let grid = Grid::new(cycle.time[0], cycle.duration(), opts.dt).expect("a grid");
-        let params: Vec<usize> = ["k_s", "c_s"]
+        let run = |gradient: Option<Vec<String>>| {
+            let opts = SimulationOptions::builder()
+                .keep_series(true)
+                .gradient(gradient)
+                .build()
+                .expect("valid");
+            crate::simulate(model.as_ref(), &cycle, &opts).expect("runs")
+        };
+        let plain = run(None);
+        let differentiated = run(Some(vec!["k_s".into(), "c_s".into(), "m".into()]));
+        assert_eq!(plain.columns, differentiated.columns);
+        for (name, (a, b)) in plain
+            .columns
             .iter()
-            .map(|p| info.parameters.iter().position(|q| q == p).expect(p))
-            .collect();
-        let wanted = Wanted {
-            model: model.as_ref(),
-            params: &params,
-            grid: &GridColumns::default(),
-            accumulate: &[0],
-        };
-        let along = Along {
-            smoother: &smoother,
-            grid: &grid,
-            fine: None,
-        };
-        let mut samples = 0;
-        sweep(&wanted, &along, None, &opts, &mut |k, eta| {
-            for (j, c) in columns.iter().enumerate() {
-                assert_eq!(
-                    eta[j].to_bits(),
-                    c[k].to_bits(),
-                    "eta{} at sample {k}",
-                    j + 1
-                );
-            }
-            samples += 1;
-        })
-        .expect("the pass runs");
-        assert_eq!(
-            (samples, columns[0].len()),
-            (grid.samples(), grid.samples())
+            .zip(plain.data.iter().zip(&differentiated.data))
+        {
+            let same = a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
+            assert!(same && a.len() == b.len(), "column {name}");
+        }
+        let (a, b) = (
+            &plain.summary.totals.integrals,
+            &differentiated.summary.totals.integrals,
         );
+        assert_eq!(a, b);
+        assert!(plain.summary.gradient.is_none());
+        let gradient = differentiated.summary.gradient.expect("a gradient block");
+        assert!(!gradient.figures.is_empty());
     }
 }

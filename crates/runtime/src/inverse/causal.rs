@@ -13,6 +13,7 @@ use super::error::SimulateError;
 use super::options::SimulationOptions;
 use super::stage_reference::StageReference;
 use crate::error::RunError;
+use crate::gradient::{Along, Derivatives, Sensitivities};
 use crate::grid::{Grid, MAX_DERIVATIVES};
 use crate::ode::Dopri5;
 use crate::report::fmt_sig;
@@ -35,16 +36,19 @@ pub(super) struct Causal {
     u: f64,
     /// The reference at the integrator's stage times.
     stages: StageReference,
+    /// The sensitivities carried along, where the run is differentiated.
+    track: Option<Box<Sensitivities>>,
 }
 
 impl Causal {
     /// Start at t_0 from `eta0`, else from the equilibrium q(ξ(t_0), η, y_d^(r)(t_0)) = 0 (Newton from several
-    /// starting points: internal states in physical units are rarely near 0), checked for stability.
+    /// starting points: internal states in physical units are rarely near 0), checked for stability; with
+    /// `wrt`, the run carries the sensitivities by those derivatives along.
     pub(super) fn start<M: InverseModel + ?Sized>(
         model: &M,
-        smoother: &Smoother,
-        grid: &Grid,
+        (smoother, grid): (&Smoother, &Grid),
         eta0: Option<Vec<f64>>,
+        wrt: Option<&Derivatives>,
         opts: &SimulationOptions,
     ) -> Result<Causal, SimulateError> {
         let t0 = grid.t0;
@@ -55,6 +59,7 @@ impl Causal {
         let mut w = vec![0.0; info.n_w()];
         smoother.eval_signals(t0, &mut w);
         let (xi, yr) = (&yd[..r], yd[r]);
+        let given = eta0.is_some();
         let eta = match eta0 {
             Some(e) => e,
             None => equilibrium(model, xi, &w, yr, None, &default_starts(xi[0])).map_err(|f| {
@@ -66,6 +71,17 @@ impl Causal {
         };
         let mut ws = JacobianWork::new(ne);
         check_stability(model, t0, (xi, &w), &eta, yr, &mut ws)?;
+        let stages = StageReference::new(smoother, grid, opts, info);
+        let track = match wrt {
+            Some(wrt) => {
+                // The Gauss nodes read the run's sub-grid table.
+                let nodes = StageReference::sharing(smoother, grid, (opts, info), stages.table());
+                let along = Along { smoother, grid };
+                let start = Sensitivities::start(model, (wrt, &along), (&eta, given), nodes)?;
+                Some(Box::new(start))
+            }
+            None => None,
+        };
         Ok(Causal {
             w,
             eta,
@@ -74,13 +90,14 @@ impl Causal {
             check_every: ((opts.stability_check_interval / opts.dt).round() as usize).max(1),
             yd,
             u: f64::NAN,
-            stages: StageReference::new(smoother, grid, opts, info),
+            stages,
+            track,
         })
     }
 
-    /// The sub-grid table its stage times read, if any (for the sensitivity pass to share).
-    pub(super) fn fine_table(&self) -> Option<&std::sync::Arc<crate::smoother::FineTable>> {
-        self.stages.table()
+    /// The integrals' derivatives summed so far, where the run is differentiated.
+    pub(super) fn gradient_integrals(&self) -> Option<Vec<Vec<f64>>> {
+        self.track.as_ref().map(|t| t.integrals())
     }
 
     /// η at grid sample k (time t, reference `yd` = y_d … y_d^(r) there): integrated from sample k − 1, checked
@@ -139,7 +156,15 @@ impl Causal {
             stages.zero_dynamics(model, smoother, (s, r), (e, u_prev), de);
             Ok(())
         };
-        let Err(err) = self.integrator.advance(t_prev, t, &mut self.eta, &mut q) else {
+        // Where the run is differentiated, S follows each accepted step (the same steps, bit for bit). One
+        // call of the integrator either way, so that its step is compiled once, into the run's loop.
+        let mut track = self.track.as_deref_mut();
+        let mut each = |ode: &Dopri5, ta: f64, tb: f64| match track.as_mut() {
+            Some(track) => track.step(model, smoother, (ode, ta, tb)),
+            None => Ok(()),
+        };
+        let advanced = (self.integrator).advance_each(t_prev, t, &mut self.eta, &mut q, &mut each);
+        let Err(err) = advanced else {
             return Ok(());
         };
         let (t_fail, eta_fail) = (self.integrator.t_fail, &self.integrator.y_fail);
@@ -167,7 +192,8 @@ impl Causal {
 
     /// x = ψ⁻¹(ξ, η) (the previous x as the guess) and u = (y_d^(r) − α)/β (paper eq. 26) at time t (the
     /// signal values of the last [`Causal::advance`], at the same sample); a u solved by Newton's method
-    /// starts from the previous sample's.
+    /// starts from the previous sample's. Where the run is differentiated, the sample's term of the
+    /// integrals' derivatives follows.
     pub(super) fn invert<M: InverseModel + ?Sized>(
         &mut self,
         model: &M,
@@ -180,6 +206,9 @@ impl Causal {
             .invert_from(&yd[..r], &self.eta, &self.w, yd[r], x, self.u)
             .map_err(|source| RunError::Model { t, source })?;
         self.u = u;
+        if let Some(track) = self.track.as_deref_mut() {
+            track.sample(model, (t, yd, &self.w), &self.eta)?;
+        }
         Ok(u)
     }
 }

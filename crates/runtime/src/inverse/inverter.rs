@@ -5,6 +5,7 @@
 use invsim_model_api::InverseModel;
 
 use super::causal::Causal;
+use super::chained::invert_chained;
 use super::error::SimulateError;
 use super::options::SimulationOptions;
 use crate::error::RunError;
@@ -51,28 +52,31 @@ pub(super) struct Inverter<'a, M: ?Sized> {
 }
 
 impl<'a, M: InverseModel + ?Sized> Inverter<'a, M> {
-    /// The sub-grid table of a causal run's zero dynamics, if any (shared with its sensitivity pass).
-    pub(super) fn fine_table(&self) -> Option<&std::sync::Arc<crate::smoother::FineTable>> {
+    /// The integrals' derivatives a causal run summed as it went (where it is differentiated).
+    pub(super) fn gradient_integrals(&self) -> Option<Vec<Vec<f64>>> {
         match &self.strategy {
-            Strategy::Causal(c) => c.fine_table(),
+            Strategy::Causal(c) => c.gradient_integrals(),
             _ => None,
         }
     }
 
-    /// The inverter for the zero-dynamics plan `zd`; a causal run starts here (from `eta0` or the equilibrium).
+    /// The inverter for the zero-dynamics plan `zd`; a causal run starts here (from `eta0` or the equilibrium),
+    /// carrying the sensitivities by `wrt` along where they are asked for.
     pub(super) fn new(
         model: &'a M,
-        smoother: &'a Smoother,
-        grid: Grid,
+        (smoother, grid): (&'a Smoother, Grid),
         zd: &'a ZeroDynamicsPlan,
-        eta0: Option<Vec<f64>>,
+        (eta0, wrt): (Option<Vec<f64>>, Option<&crate::gradient::Derivatives>),
         opts: &SimulationOptions,
     ) -> Result<Self, SimulateError> {
         let info = model.info();
         let strategy = match &zd.stable {
             Some(st) => Strategy::Stable(st),
             None if info.n_eta == 0 => Strategy::Direct,
-            None => Strategy::Causal(Box::new(Causal::start(model, smoother, &grid, eta0, opts)?)),
+            None => {
+                let causal = Causal::start(model, (smoother, &grid), eta0, wrt, opts)?;
+                Strategy::Causal(Box::new(causal))
+            }
         };
         Ok(Inverter {
             model,
@@ -116,33 +120,6 @@ impl<'a, M: InverseModel + ?Sized> Inverter<'a, M> {
         invert_chained(self.model, (&xi, &etas, b.w, b.yd[r]), (b.x, b.u), last)
             .map_err(|(i, source)| RunError::Model { t: time[i], source }.into())
     }
-}
-
-/// A block's columns for [`InverseModel::invert_batch`]: ξ, η, the signals and y^(r).
-pub(crate) type InverseColumns<'a> = (&'a [&'a [f64]], &'a [&'a [f64]], &'a [&'a [f64]], &'a [f64]);
-
-/// [`InverseModel::invert_batch`] on a block whose first sample starts from `last` (the previous block's last
-/// state and input: the guesses of a numerically solved ψ⁻¹ and of an input solved by Newton's method), then
-/// `last` set to this block's last sample: blocks chained as one run (the run's and the gradient's pass).
-pub(crate) fn invert_chained<M: InverseModel + ?Sized>(
-    model: &M,
-    (xi, eta, w, yr): InverseColumns<'_>,
-    (x, u): (&mut [&mut [f64]], &mut [f64]),
-    (x_last, u_last): (&mut [f64], &mut f64),
-) -> Result<(), (usize, invsim_model_api::ModelError)> {
-    for (c, &v) in x.iter_mut().zip(x_last.iter()) {
-        c[0] = v;
-    }
-    if let Some(u0) = u.first_mut() {
-        *u0 = *u_last;
-    }
-    model.invert_batch(xi, eta, w, yr, x, u)?;
-    let len = u.len();
-    for (v, c) in x_last.iter_mut().zip(x.iter()) {
-        *v = c[len - 1];
-    }
-    *u_last = u[len - 1];
-    Ok(())
 }
 
 /// The causal run over a block: η integrated from sample to sample, then the inverse at each.

@@ -18,6 +18,7 @@
 //! which then stops with [`SimulateError::UnstableZeroDynamics`].
 
 mod causal;
+mod chained;
 pub(crate) mod checks;
 mod error;
 mod inverter;
@@ -35,9 +36,9 @@ use invsim_model_api::InverseModel;
 use crate::cycle::Cycle;
 
 pub use causal::ETA_BLOWUP;
+pub(crate) use chained::invert_chained;
 pub use checks::{DISTANCE_WARNING, MAX_LOOKAHEAD_FRACTION, MIN_LOOKAHEAD_PER_DT};
 pub use error::SimulateError;
-pub(crate) use inverter::invert_chained;
 pub use options::{
     SimulationOptions, SimulationOptionsBuilder, DEFAULT_ATOL, DEFAULT_DT, DEFAULT_LOOKAHEAD,
     DEFAULT_MAX_PRE_ACTUATION, DEFAULT_RTOL, DEFAULT_STABILITY_CHECK_INTERVAL, DEFAULT_STABLE_TOL,

@@ -626,17 +626,17 @@ pub(super) fn run<M: InverseModel + ?Sized>(
     let stored = if keep { grid.samples() } else { 0 };
     crate::grid::check_record(stored, columns.len(), opts.dt)?;
     let mut data = allocate(spare, columns.len(), stored, &grid);
-    let gradient_eta0 = eta0.clone();
-    let mut inverter = Inverter::new(model, smoother, grid, &zd, eta0, opts)?;
+    let wrt = gradient_params.as_ref();
+    let mut inverter = Inverter::new(model, (smoother, grid), &zd, (eta0, wrt), opts)?;
     let mut tally = Tally::new(model, (cycle, steps), &grid, window, opts.progress.clone());
     let yd = (smoother, shared.and_then(|s| s.columns_for(&grid)));
     run_blocks(model, yd, &grid, &mut inverter, &mut tally, &mut data, keep)?;
     let gradient = match &gradient_params {
         Some(params) => Some(run_gradient(
             model,
-            (smoother, &grid, inverter.fine_table()),
+            (smoother, &grid),
             params,
-            (&tally, cycle.distance(), gradient_eta0),
+            (&tally, cycle.distance(), inverter.gradient_integrals()),
             (
                 zd.stable
                     .as_ref()
@@ -672,33 +672,25 @@ pub(super) fn run<M: InverseModel + ?Sized>(
     })
 }
 
-/// The gradient of the finished run (`tally`: its integrals; `stable`: its stable inversion and reported
-/// samples, if non-causal) with respect to `params` (parameters and grid values), along the reference on the
-/// run's grid ([`crate::gradient`]), its zero dynamics' stages reading the run's sub-grid table `fine`.
+/// The gradient of the finished run (`tally`: its integrals; `along_run`: their derivatives a causal run
+/// summed as it went; `stable`: its stable inversion and reported samples, if non-causal) with respect to
+/// `params` (parameters and grid values), along the reference on the run's grid ([`crate::gradient`]).
 fn run_gradient<M: InverseModel + ?Sized>(
     model: &M,
-    (smoother, grid, fine): (
-        &Smoother,
-        &Grid,
-        Option<&std::sync::Arc<crate::smoother::FineTable>>,
-    ),
+    (smoother, grid): (&Smoother, &Grid),
     params: &crate::gradient::Derivatives,
-    (tally, distance_m, eta0): (&Tally<'_>, f64, Option<Vec<f64>>),
+    (tally, distance_m, along_run): (&Tally<'_>, f64, Option<Vec<Vec<f64>>>),
     (stable, opts): (
         Option<crate::gradient::StableFigures<'_>>,
         &SimulationOptions,
     ),
 ) -> Result<crate::gradient::Gradient, SimulateError> {
-    let along = crate::gradient::Along {
-        smoother,
-        grid,
-        fine,
-    };
+    let along = crate::gradient::Along { smoother, grid };
     let figures = crate::gradient::RunFigures {
         accumulate: &tally.accumulate,
         integrals: &tally.integrals,
         distance_m,
-        eta0,
+        along_run,
         stable,
     };
     crate::gradient::of_run(model, params, &along, figures, opts)

@@ -1,8 +1,8 @@
 //! The reference y_d … y_d^(r) and the signals at the zero-dynamics integrator's stage times of a causal run:
 //! the sub-grid interpolant of `smoother/fine.rs` (within 10⁻¹¹ of the smoother's pointwise values, at a few
 //! multiply-adds a stage instead of every corner's kernel terms) or, where the options ask for it, the
-//! smoother pointwise. The run and its sensitivity pass (`gradient/pass.rs`) both evaluate η̇ here, so that
-//! the pass integrates η bit for bit as the run does.
+//! smoother pointwise. The run evaluates η̇ here, and the sensitivities it carries (`gradient/pass.rs`) read
+//! A and B at their Gauss nodes from a second reader of the same table.
 
 use std::sync::Arc;
 
