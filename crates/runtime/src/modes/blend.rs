@@ -29,8 +29,11 @@ pub struct Blend {
     pub t_start: f64,
     pub duration: f64,
     /// e(τ) and each of its derivatives e^(j)(τ), in ascending powers of τ (all computed once, at the
-    /// switch: the run evaluates the blend at every stage of every step of the transition).
-    derivatives: Vec<Vec<f64>>,
+    /// switch: the run evaluates the blend at every stage of every step of the transition), one after the
+    /// other: e^(j) has n − j coefficients (n those of e) from `offset(j)`.
+    derivatives: Vec<f64>,
+    /// n, the number of coefficients of e.
+    terms: usize,
 }
 
 impl Blend {
@@ -67,8 +70,14 @@ impl Blend {
         Blend {
             t_start,
             duration,
+            terms: coeffs.len(),
             derivatives: derivatives(coeffs),
         }
+    }
+
+    /// Where e^(j)'s coefficients start: after e^(0 … j−1)'s n + (n − 1) + … + (n − j + 1).
+    fn offset(&self, j: usize) -> usize {
+        j * self.terms - j * j.saturating_sub(1) / 2
     }
 
     /// Whether the transition is over at `t`.
@@ -82,7 +91,8 @@ impl Blend {
         if !(0.0..self.duration).contains(&tau) {
             return;
         }
-        for (o, c) in out.iter_mut().zip(&self.derivatives) {
+        for (j, o) in out.iter_mut().enumerate().take(self.terms) {
+            let c = &self.derivatives[self.offset(j)..self.offset(j) + self.terms - j];
             *o += c.iter().rev().fold(0.0, |acc, &ci| acc * tau + ci);
         }
     }
@@ -149,32 +159,25 @@ impl Blends {
         }
     }
 
-    /// Whether column c's deviations are all 0 (its transition is 0 throughout).
-    pub fn is_zero(&self, c: usize) -> bool {
-        self.e[c].iter().all(|&v| v == 0.0)
-    }
-
-    /// e_c^(k)(t) added to `out[k]` for k < out.len() (nothing outside the transitions).
-    pub fn add(&self, c: usize, t: f64, out: &mut [f64]) {
-        let mut values = Vec::new();
-        if self.basis_at(t, out.len(), &mut values) {
-            self.add_from(c, &values, out);
-        }
+    /// Column c's deviations e_c,j (the coefficients of its transition in the basis).
+    pub fn deviations(&self, c: usize) -> &[f64] {
+        &self.e[c]
     }
 }
 
 /// The polynomial with coefficients `c` (ascending powers) and each of its derivatives down to the constant
-/// one: d/dτ Σ c_i τ^i = Σ_{i ≥ 1} i c_i τ^(i−1).
-fn derivatives(c: Vec<f64>) -> Vec<Vec<f64>> {
-    let mut out = vec![c];
-    while let Some(last) = out.last().filter(|c| c.len() > 1) {
-        let next: Vec<f64> = last
-            .iter()
-            .enumerate()
-            .skip(1)
-            .map(|(i, ci)| ci * i as f64)
-            .collect();
-        out.push(next);
+/// one, one after the other: d/dτ Σ c_i τ^i = Σ_{i ≥ 1} i c_i τ^(i−1).
+fn derivatives(c: Vec<f64>) -> Vec<f64> {
+    let n = c.len();
+    let mut out = c;
+    out.reserve(n * n.saturating_sub(1) / 2);
+    let mut start = 0;
+    for len in (1..n).rev() {
+        // The last polynomial's n − j + 1 coefficients at start … start + len + 1.
+        for i in 1..=len {
+            out.push(out[start + i] * i as f64);
+        }
+        start += len + 1;
     }
     out
 }
@@ -197,9 +200,11 @@ mod tests {
         assert_eq!(family.columns(), 3);
         for t in [1.9, 2.0, 2.7, 4.1, 4.999, 5.0, 6.0] {
             for (c, ec) in e.iter().enumerate() {
-                let (mut own, mut shared) = ([0.0; 4], [0.0; 4]);
+                let (mut own, mut shared, mut basis) = ([0.0; 4], [0.0; 4], Vec::new());
                 Blend::new(2.0, 3.0, ec).add(t, &mut own);
-                family.add(c, t, &mut shared);
+                if family.basis_at(t, 4, &mut basis) {
+                    family.add_from(c, &basis, &mut shared);
+                }
                 for (a, b) in own.iter().zip(&shared) {
                     assert!(
                         (a - b).abs() <= 1e-10 * (1.0 + a.abs()),

@@ -23,11 +23,11 @@
 //! `summary.rs` sums them.
 
 use super::blend::{Blend, Blends};
-use super::gradient_point::{moved_reference, point_at, OutputChanges};
+use super::gradient_point::{moved_references, point_at, point_into, OutputChanges};
 use super::gradient_zd::ZdSensitivity;
 use super::record::{Ctx, EntryLog, Record};
 use super::{ModalError, ModalSpec, ModalSummary};
-use crate::gradient::{figures, Direction, Gradient, Integrals, ModalWrt, Point, Wrt};
+use crate::gradient::{figures, Buffers, Direction, Gradient, Integrals, ModalWrt, Point, Wrt};
 use crate::grid::Grid;
 
 /// ∂(∫ o_a dt)/∂p_c for the model's accumulated outputs a, in their order (`[a][c]`), of the run `rec` on
@@ -125,6 +125,14 @@ struct Pass<'p, 'a, 'm> {
     /// The state and input at the last point (where a switch leaves from).
     x: Vec<f64>,
     u: f64,
+    /// Buffers of a switch: the signals, a point's, dx/dp_c per c, a direction's dx, the transition's
+    /// basis and its moves de_c (per c, r + 1 each).
+    w: Vec<f64>,
+    buf: Buffers,
+    dx: Vec<Vec<f64>>,
+    dir: Vec<f64>,
+    basis: Vec<f64>,
+    de: Vec<f64>,
     outputs: OutputChanges,
     /// The output derivatives at the start and the end of the interval in hand (entry (a, c) at c·na + a).
     start: Vec<f64>,
@@ -176,6 +184,12 @@ impl<'p, 'a, 'm> Pass<'p, 'a, 'm> {
             acc: vec![vec![0.0; np]; accumulated.len()],
             x: xs,
             u,
+            w: Vec::new(),
+            buf: Buffers::default(),
+            dx: Vec::new(),
+            dir: Vec::new(),
+            basis: Vec::new(),
+            de: Vec::new(),
             outputs: OutputChanges::default(),
             start: Vec::new(),
             end: Vec::new(),
@@ -188,65 +202,97 @@ impl<'p, 'a, 'm> Pass<'p, 'a, 'm> {
         self.wrt.columns[m][c]
     }
 
-    /// dx, du of derivative c at `point` (of the mode in force) at time t: η's sensitivity, the transition's
-    /// de(t) and the parameter.
-    fn direction(&self, point: &Point, t: f64, c: usize, dir: &mut Direction) {
-        let r = point.layout().r;
-        let de = moved_reference(self.dblend.as_ref(), c, t, r + 1);
-        point.moved_into(
-            &de[..r],
-            de[r],
-            &self.deta[c],
-            self.column(self.mode, c),
-            dir,
-        );
-    }
-
-    /// dx/dp_c of the continuous state at the last point (x, u) at time t in the mode in force, per c.
-    fn state_changes(&self, t: f64) -> Result<Vec<Vec<f64>>, ModalError> {
+    /// dx/dp_c of the continuous state at the last point (x, u) at time t in the mode in force, per c, into
+    /// `self.dx` (dx = ∂x/∂(ξ, η) (dξ, dη) with dξ the transition's de_c(t), dη = S_c, and the parameter's
+    /// own column).
+    fn state_changes(&mut self, t: f64) -> Result<(), ModalError> {
         let (ctx, m) = (self.ctx, self.mode);
-        let w = ctx.w(m, t);
-        let point = point_at(ctx, (m, &self.wrt.grids[m]), (t, &self.x, &w, self.u))?;
+        ctx.w_into(m, t, ctx.model(m).info().n_w(), &mut self.w);
+        let buf = std::mem::take(&mut self.buf);
+        let point = point_into(
+            ctx,
+            (m, &self.wrt.grids[m]),
+            (t, &self.x, &self.w, self.u),
+            buf,
+        )?;
+        let orders = point.layout().r + 1;
+        let np = self.wrt.params.len();
+        moved_references(
+            self.dblend.as_ref(),
+            (np, t, orders),
+            &mut self.basis,
+            &mut self.de,
+        );
         let mut dir = Direction {
-            dx: vec![0.0; ctx.n],
+            dx: std::mem::take(&mut self.dir),
             du: 0.0,
         };
-        let np = self.wrt.params.len();
-        Ok((0..np)
-            .map(|c| {
-                self.direction(&point, t, c, &mut dir);
-                dir.dx.clone()
-            })
-            .collect())
+        dir.dx.resize(ctx.n, 0.0);
+        self.dx.resize_with(np, Vec::new);
+        for c in 0..np {
+            let de = &self.de[c * orders..(c + 1) * orders];
+            let col = self.column(m, c);
+            point.moved_into(
+                &de[..orders - 1],
+                de[orders - 1],
+                &self.deta[c],
+                col,
+                &mut dir,
+            );
+            self.dx[c].clear();
+            self.dx[c].extend_from_slice(&dir.dx);
+        }
+        self.dir = dir.dx;
+        self.buf = point.into_buffer();
+        Ok(())
     }
 
     /// A committed entry at time t: the new mode's transition of de (from dx of the state it starts from)
     /// and its η's sensitivities (dx's components).
     fn enter(&mut self, e: &EntryLog, t: f64) -> Result<(), ModalError> {
         let ctx = self.ctx;
-        let dx = self.state_changes(t)?;
+        self.state_changes(t)?;
         let to = e.to;
         let model = ctx.model(to);
         let info = model.info();
         let r = info.relative_degree;
-        let w = ctx.w(to, t);
-        let point = point_at(ctx, (to, &self.wrt.grids[to]), (t, &self.x, &w, self.u))?;
-        let l = *point.layout();
         let np = self.wrt.params.len();
+        // The old transition's move of y^(r) at t, per c (the new mode's r-th deviation carries it on).
+        moved_references(
+            self.dblend.as_ref(),
+            (np, t, r + 1),
+            &mut self.basis,
+            &mut self.de,
+        );
+        ctx.w_into(to, t, info.n_w(), &mut self.w);
+        let buf = std::mem::take(&mut self.buf);
+        let point = point_into(
+            ctx,
+            (to, &self.wrt.grids[to]),
+            (t, &self.x, &self.w, self.u),
+            buf,
+        )?;
+        let l = *point.layout();
         let mut deviations = Vec::with_capacity(np);
-        for (c, dx) in dx.into_iter().enumerate() {
-            let before = moved_reference(self.dblend.as_ref(), c, t, r + 1);
-            self.deta[c] = info.eta_states.iter().map(|&s| dx[s]).collect();
-            let dir = Direction { dx, du: 0.0 };
+        let mut dir = Direction {
+            dx: Vec::new(),
+            du: 0.0,
+        };
+        for c in 0..np {
+            let deta = &mut self.deta[c];
+            deta.clear();
+            deta.extend(info.eta_states.iter().map(|&s| self.dx[c][s]));
+            dir.dx = std::mem::take(&mut self.dx[c]);
             let col = self.column(to, c);
-            let mut de: Vec<f64> = (0..r)
-                .map(|j| point.row_change(l.psi(j), &dir, col))
-                .collect();
+            let mut de: Vec<f64> = Vec::with_capacity(r + 1);
+            de.extend((0..r).map(|j| point.row_change(l.psi(j), &dir, col)));
             if e.deviations > r {
-                de.push(before[r]);
+                de.push(self.de[c * (r + 1) + r]);
             }
             deviations.push(de);
+            self.dx[c] = std::mem::take(&mut dir.dx);
         }
+        self.buf = point.into_buffer();
         self.dblend = Some(Blends::new(t, ctx.transition, deviations));
         self.blend = e.blend.clone();
         self.mode = to;

@@ -32,18 +32,28 @@ pub(super) fn point_into(
         .map_err(|e| ctx.err(m, t, e.to_string()))
 }
 
-/// The transition's derivative de^(0 … orders−1)(t) (zeros without one or outside it).
-pub(super) fn moved_reference(
+/// The transition's derivative de_c^(0 … orders−1)(t) of every derivative c < np into `out` (entry c·orders + k;
+/// zeros without one or outside it), its basis evaluated once into `basis`.
+pub(super) fn moved_references(
     dblend: Option<&Blends>,
-    c: usize,
-    t: f64,
-    orders: usize,
-) -> Vec<f64> {
-    let mut de = vec![0.0; orders];
-    if let Some(b) = dblend {
-        b.add(c, t, &mut de);
+    (np, t, orders): (usize, f64, usize),
+    basis: &mut Vec<f64>,
+    out: &mut Vec<f64>,
+) {
+    out.clear();
+    out.resize(np * orders, 0.0);
+    let Some(b) = dblend else {
+        return;
+    };
+    if b.basis_at(t, orders, basis) {
+        for (c, de) in out
+            .chunks_exact_mut(orders.max(1))
+            .take(b.columns())
+            .enumerate()
+        {
+            b.add_from(c, basis, de);
+        }
     }
-    de
 }
 
 /// The accumulated outputs' derivatives at a point of a mode, with the buffers reused from point to point:
@@ -63,8 +73,8 @@ pub(super) struct OutputChanges {
     a: Vec<f64>,
     b: Vec<f64>,
     reference: Vec<f64>,
-    de: Vec<f64>,
     basis: Vec<f64>,
+    moved: Vec<f64>,
     /// The mode's closed-form partial derivatives at the point.
     closed: ClosedJacobian,
 }
@@ -98,7 +108,6 @@ impl OutputChanges {
         self.a.resize(na * ne, 0.0);
         self.b.resize(na * np, 0.0);
         self.reference.resize(na * (r + 1), 0.0);
-        self.de.resize(r + 1, 0.0);
         // The closed form where the mode has it, else the implicit function theorem at (x, u).
         let rows = (
             ClosedRows::Outputs(x, &self.w, u, accumulated),
@@ -127,38 +136,50 @@ impl OutputChanges {
             }
         }
         let moves = (&self.reference[..], dblend, t);
-        add_transition_moves((&mut out[..], na), moves, (&mut self.de, &mut self.basis));
+        let buffers = (r + 1, &mut self.basis, &mut self.moved);
+        add_transition_moves((&mut out[..], na), moves, buffers);
         Ok(())
     }
 }
 
 /// Each derivative c's column of `cols` (`rows` entries each, column-major) += Σ_l R_l de_c,l(t): the rows'
 /// columns R = ∂/∂(ξ, y^(r)) (`reference`, rows × (r + 1), [`Point::moved_row_jacobians`]) along the re-entry
-/// transition's derivative de_c(t) (`dblend`'s column c, nothing without one, its basis evaluated once);
-/// `de` of length r + 1 and `basis` the buffers.
+/// transition's derivative de_c(t) (`dblend`'s column c, nothing without one). With de_c,l = Σ_j e_c,j b_j^(l)
+/// ([`Blends`]) the sum is Σ_j e_c,j v_j, v_j = Σ_l R_l b_j^(l)(t): the basis and the v_j are formed once
+/// for every column c. `orders` = r + 1; `basis` and `moved` are buffers.
 pub(super) fn add_transition_moves(
     (cols, rows): (&mut [f64], usize),
     (reference, dblend, t): (&[f64], Option<&Blends>, f64),
-    (de, basis): (&mut [f64], &mut Vec<f64>),
+    (orders, basis, moved): (usize, &mut Vec<f64>, &mut Vec<f64>),
 ) {
     let Some(blends) = dblend else {
         return;
     };
-    if !blends.basis_at(t, de.len(), basis) {
+    let moving = |c: &usize| blends.deviations(*c).iter().any(|&e| e != 0.0);
+    let Some(first) = (0..blends.columns()).find(moving) else {
+        return;
+    };
+    if rows == 0 || !blends.basis_at(t, orders, basis) {
         return;
     }
-    for (c, col) in cols
-        .chunks_exact_mut(rows.max(1))
-        .take(blends.columns())
-        .enumerate()
-    {
-        if blends.is_zero(c) {
-            continue;
+    // v_j = Σ_l R_l b_j^(l), j over the basis (rows entries each).
+    let len = basis.len() / orders;
+    moved.clear();
+    moved.resize(len * rows, 0.0);
+    for j in 0..len {
+        let v = &mut moved[j * rows..(j + 1) * rows];
+        for l in 0..orders {
+            add_scaled(
+                v,
+                &reference[l * rows..(l + 1) * rows],
+                basis[j * orders + l],
+            );
         }
-        de.fill(0.0);
-        blends.add_from(c, basis, de);
-        for (l, &v) in de.iter().enumerate() {
-            add_scaled(col, &reference[l * rows..(l + 1) * rows], v);
+    }
+    for c in (first..blends.columns().min(cols.len() / rows)).filter(moving) {
+        let col = &mut cols[c * rows..(c + 1) * rows];
+        for (j, &e) in blends.deviations(c).iter().enumerate() {
+            add_scaled(col, &moved[j * rows..(j + 1) * rows], e);
         }
     }
 }

@@ -63,9 +63,9 @@ struct Nodes {
     x: Vec<f64>,
     yr: Vec<f64>,
     w: Vec<f64>,
-    de: Vec<f64>,
-    /// The transition's basis at a node ([`Blends::basis_at`]).
+    /// The transition's basis at a node ([`Blends::basis_at`]) and its moves of the reference.
     basis: Vec<f64>,
+    moved: Vec<f64>,
     /// ∂q/∂(ξ, y^(r)) (ne × (r + 1), column-major).
     reference: Vec<f64>,
     rows: Vec<usize>,
@@ -169,8 +169,8 @@ impl Nodes {
             x: vec![0.0; ctx.n],
             yr: vec![0.0; ctx.r_max + 1],
             w: Vec::new(),
-            de: vec![0.0; r + 1],
             basis: Vec::new(),
+            moved: Vec::new(),
             reference: vec![0.0; ne * (r + 1)],
             rows: (0..ne).map(|i| layout.eta(i)).collect(),
             buf: Buffers::default(),
@@ -206,7 +206,7 @@ impl Nodes {
             self.solved_jacobians(ctx, (m, cols, grid), (s, x0, u0), i)?;
         }
         // B_c += ∂q/∂(ξ, y^(r)) de_c(s): the transition's move of the reference.
-        let buffers = (&mut self.de[..], &mut self.basis);
+        let buffers = (r + 1, &mut self.basis, &mut self.moved);
         add_transition_moves((&mut self.b[i], ne), (&self.reference, *dblend, s), buffers);
         Ok(())
     }
