@@ -1,7 +1,8 @@
-//! The sensitivity pass of a run without internal states (r = n), a block of samples at a time: every sample
-//! is independent, so the inverse comes from the block kernel the run uses (`invert_batch`), the model's
-//! partial derivatives from `sensitivity_batch`, and the chain rule of [`super::point`] is applied column by
-//! column (loops over the samples that vectorise) instead of point by point.
+//! The sensitivities of a run without internal states (r = n), carried along the run a block of samples at a
+//! time: every sample is independent, so the run's block (its reference, x and u from `invert_batch`) is
+//! differentiated as it is solved, the model's partial derivatives from `sensitivity_batch`, and the chain
+//! rule of [`super::point`] is applied column by column (loops over the samples that vectorise) instead of
+//! point by point.
 //!
 //! With r = n, ψ(x; p) = ξ and φ(x, u; p) = y^(r) (φ affine in u or not). For an accumulated output's row
 //! q(x, u; p) at one sample (implicit function theorem, as in [`super::point`]):
@@ -17,63 +18,86 @@
 
 use invsim_model_api::{InverseModel, SensitivityLayout};
 
-use super::pass::{Along, Wanted};
+use super::derivatives::Derivatives;
 use super::point::{inverse_two, invert};
-use super::sample::{Block, Sums};
+use super::sample::Sums;
 use crate::error::RunError;
-use crate::inverse::{invert_chained, SimulateError};
-
-/// Samples per block of the reference's columns (the run's block size, so the inverse's Newton guesses,
-/// where ψ⁻¹ is numeric, chain as the run's do).
-const BLOCK: usize = 4096;
+use crate::inverse::SimulateError;
 
 /// Samples per evaluation of the partial derivatives: their columns (every entry of the layout) are held
 /// for this many samples at a time.
 const SUB: usize = 256;
 
-/// ∂(∫ o_a dt)/∂p_c for every accumulated output a and wanted parameter c (`[a][c]`) over the whole grid of
-/// a run without internal states (`wanted.model`'s `n_eta` = 0, no grid values asked for).
-pub(crate) fn integral_gradients<M: InverseModel + ?Sized>(
-    wanted: &Wanted<'_, M>,
-    along: &Along<'_>,
-) -> Result<Vec<Vec<f64>>, SimulateError> {
-    let model = wanted.model;
-    let info = model.info();
-    let layout = SensitivityLayout::of(info);
-    let (r, nw) = (layout.r, info.n_w());
-    debug_assert!(layout.n_eta == 0 && layout.n == r && wanted.grid.is_empty());
-    let grid = along.grid;
-    let samples = grid.samples();
-    let mut block = Block::new(BLOCK.min(samples), r, nw);
-    let mut cols = Columns::new(layout, BLOCK.min(samples));
-    cols.want(wanted);
-    let mut sums = Sums::new(wanted.accumulate.len(), wanted.params.len());
-    let half = 0.5 * grid.dt;
-    let mut k0 = 0;
-    while k0 < samples {
-        let len = (k0 + BLOCK).min(samples) - k0;
-        block.fill(along.smoother, grid, (k0, len));
-        cols.invert(model, &block, len)?;
+/// A block of the run: its times, signals' columns, states' columns and inputs (r = n: no η).
+pub(crate) type RunBlock<'a> = (&'a [f64], &'a [&'a [f64]], &'a [&'a [f64]], &'a [f64]);
+
+/// ∂(∫ o_a dt)/∂p_c for every accumulated output a and wanted parameter c of a run without internal states
+/// (no grid values asked for), summed block by block as the run solves them ([`DirectSensitivities::block`]).
+pub(crate) struct DirectSensitivities {
+    params: Vec<usize>,
+    accumulate: Vec<usize>,
+    cols: Columns,
+    sums: Sums,
+    half: f64,
+    /// The next block is the grid's first.
+    opens: bool,
+}
+
+impl DirectSensitivities {
+    /// For the run of `model` (`n_eta` = 0) by the parameters of `wrt` (no grid values) on a grid of step `dt`.
+    pub(crate) fn new<M: InverseModel + ?Sized>(
+        model: &M,
+        wrt: &Derivatives,
+        dt: f64,
+    ) -> DirectSensitivities {
+        let info = model.info();
+        let layout = SensitivityLayout::of(info);
+        debug_assert!(layout.n_eta == 0 && layout.n == layout.r && wrt.grid.is_empty());
+        let params = wrt.columns(info.parameters.len());
+        let accumulate: Vec<usize> = (0..info.outputs.len())
+            .filter(|&i| info.outputs[i].accumulate)
+            .collect();
+        let mut cols = Columns::new(layout);
+        cols.want(&params, &accumulate);
+        DirectSensitivities {
+            sums: Sums::new(accumulate.len(), params.len()),
+            half: 0.5 * dt,
+            opens: true,
+            params,
+            accumulate,
+            cols,
+        }
+    }
+
+    /// The run's block `b` (times, signals, x and u): its samples' terms of the integrals' derivatives.
+    pub(crate) fn block<M: InverseModel + ?Sized>(
+        &mut self,
+        model: &M,
+        b: RunBlock<'_>,
+    ) -> Result<(), SimulateError> {
+        let len = b.0.len();
         let mut s0 = 0;
         while s0 < len {
             let sl = SUB.min(len - s0);
-            cols.partials(model, &block, (s0, sl))?;
-            cols.chain_rule(wanted, sl, (&mut sums, half, k0 + s0 == 0));
+            self.cols.partials(model, b, (s0, sl))?;
+            let opens = self.opens && s0 == 0;
+            let wanted = (&self.params[..], &self.accumulate[..]);
+            (self.cols).chain_rule(wanted, sl, (&mut self.sums, self.half, opens));
             s0 += sl;
         }
-        k0 += len;
+        self.opens = false;
+        Ok(())
     }
-    Ok(sums.integrals())
+
+    /// ∂(∫ o_a dt)/∂p_c, `[a][c]`, over the blocks so far.
+    pub(crate) fn integrals(&self) -> Vec<Vec<f64>> {
+        self.sums.integrals()
+    }
 }
 
-/// The block's columns: the inverse, the partial derivatives of a sub-block and the chain rule's work.
+/// The partial derivatives of a sub-block and the chain rule's work.
 struct Columns {
     layout: SensitivityLayout,
-    x: Vec<Vec<f64>>,
-    u: Vec<f64>,
-    /// The last sample's state and input: the next block's guesses.
-    x_last: Vec<f64>,
-    u_last: f64,
     /// Entry e of the layout at sample k of the sub-block: `sens[e][k]`.
     sens: Vec<Vec<f64>>,
     /// The parameter-only entries of `sens` are written (by the first sub-block's evaluation).
@@ -99,16 +123,12 @@ struct Work {
 }
 
 impl Columns {
-    /// For blocks of `width` samples.
-    fn new(layout: SensitivityLayout, width: usize) -> Columns {
+    /// For sub-blocks of up to [`SUB`] samples.
+    fn new(layout: SensitivityLayout) -> Columns {
         let n = layout.n;
-        let sub = SUB.min(width);
+        let sub = SUB;
         Columns {
             layout,
-            x: vec![vec![0.0; width]; n],
-            u: vec![0.0; width],
-            x_last: vec![0.0; n],
-            u_last: f64::NAN,
             sens: vec![vec![0.0; sub]; layout.len()],
             invariant_written: false,
             wanted: vec![true; layout.len()],
@@ -124,18 +144,19 @@ impl Columns {
         }
     }
 
-    /// Asks the model for the entries of `wanted`'s chain rule alone ([`Columns::wanted`]).
-    fn want<M: InverseModel + ?Sized>(&mut self, wanted: &Wanted<'_, M>) {
+    /// Asks the model for the entries of the chain rule of `params` and the outputs `accumulate` alone
+    /// ([`Columns::wanted`]).
+    fn want(&mut self, params: &[usize], accumulate: &[usize]) {
         let l = self.layout;
         let rows: Vec<usize> = (0..l.r)
             .map(|i| l.psi(i))
             .chain([l.phi()])
-            .chain(wanted.accumulate.iter().map(|&o| l.output(o)))
+            .chain(accumulate.iter().map(|&o| l.output(o)))
             .collect();
         let columns: Vec<usize> = (0..l.n)
             .map(|j| l.x(j))
             .chain([l.u()])
-            .chain(wanted.params.iter().map(|&p| l.param(p)))
+            .chain(params.iter().map(|&p| l.param(p)))
             .collect();
         self.wanted.fill(false);
         for &row in &rows {
@@ -145,39 +166,16 @@ impl Columns {
         }
     }
 
-    /// x and u at the block's first `len` samples by the run's kernel, each block's first Newton guess the
-    /// last block's last sample (as the run's `Inverter` chains them).
-    fn invert<M: InverseModel + ?Sized>(
-        &mut self,
-        model: &M,
-        block: &Block,
-        len: usize,
-    ) -> Result<(), SimulateError> {
-        let r = block.yd.len() - 1;
-        let xi: Vec<&[f64]> = block.yd[..r].iter().map(|c| &c[..len]).collect();
-        let w: Vec<&[f64]> = block.w.iter().map(|c| &c[..len]).collect();
-        let mut x: Vec<&mut [f64]> = self.x.iter_mut().map(|c| &mut c[..len]).collect();
-        let columns = (&xi[..], &[][..], &w[..], &block.yd[r][..len]);
-        let last = (&mut self.x_last[..], &mut self.u_last);
-        invert_chained(model, columns, (&mut x, &mut self.u[..len]), last).map_err(|(i, source)| {
-            RunError::Model {
-                t: block.time[i],
-                source,
-            }
-            .into()
-        })
-    }
-
     /// The partial derivatives at samples s0 … s0 + sl − 1 of the block into `sens[e][0 … sl − 1]`, and
     /// (∂ψ/∂x)⁻¹ at each of them (NaN where it is singular, as [`super::point::Point`] has it).
     fn partials<M: InverseModel + ?Sized>(
         &mut self,
         model: &M,
-        block: &Block,
+        (time, w, x, u): RunBlock<'_>,
         (s0, sl): (usize, usize),
     ) -> Result<(), SimulateError> {
-        let x: Vec<&[f64]> = self.x.iter().map(|c| &c[s0..s0 + sl]).collect();
-        let w: Vec<&[f64]> = block.w.iter().map(|c| &c[s0..s0 + sl]).collect();
+        let x: Vec<&[f64]> = x.iter().map(|c| &c[s0..s0 + sl]).collect();
+        let w: Vec<&[f64]> = w.iter().map(|c| &c[s0..s0 + sl]).collect();
         let wanted = &self.wanted;
         let mut out: Vec<&mut [f64]> = (self.sens.iter_mut().zip(wanted))
             .map(|(c, &w)| if w { &mut c[..sl] } else { &mut [] })
@@ -186,9 +184,9 @@ impl Columns {
         let invariant = !self.invariant_written;
         self.invariant_written = true;
         model
-            .sensitivity_batch(&x, &w, &self.u[s0..s0 + sl], (&mut out, invariant))
+            .sensitivity_batch(&x, &w, &u[s0..s0 + sl], (&mut out, invariant))
             .map_err(|(i, source)| RunError::Model {
-                t: block.time[s0 + i],
+                t: time[s0 + i],
                 source,
             })?;
         let l = &self.layout;
@@ -230,9 +228,9 @@ impl Columns {
     /// dq/dp_c of every accumulated output and wanted parameter at the sub-block's `sl` samples, each column
     /// handed to the trapezoids (the module doc's formulas, in [`super::point::Point::row_jacobians`]'
     /// order); `opens`: the sub-block starts the grid.
-    fn chain_rule<M: InverseModel + ?Sized>(
+    fn chain_rule(
         &mut self,
-        wanted: &Wanted<'_, M>,
+        (params, accumulate): (&[usize], &[usize]),
         sl: usize,
         (sums, half, opens): (&mut Sums, f64, bool),
     ) {
@@ -248,7 +246,7 @@ impl Columns {
         let phi = l.phi();
         let Work { ratio, g, m, dq } = work;
         let (ratio, dq) = (&mut ratio[..sl], &mut dq[..sl]);
-        for (a, &o) in wanted.accumulate.iter().enumerate() {
+        for (a, &o) in accumulate.iter().enumerate() {
             let q = l.output(o);
             for ((v, qu), pu) in ratio.iter_mut().zip(col(q, l.u())).zip(col(phi, l.u())) {
                 *v = qu / pu;
@@ -269,7 +267,7 @@ impl Columns {
                     }
                 }
             }
-            for (c, &p) in wanted.params.iter().enumerate() {
+            for (c, &p) in params.iter().enumerate() {
                 let column = l.param(p);
                 let (qp, pp) = (col(q, column), col(phi, column));
                 for (((v, qp), pp), ratio) in dq.iter_mut().zip(qp).zip(pp).zip(&*ratio) {
@@ -280,7 +278,7 @@ impl Columns {
                         *v -= m * psi;
                     }
                 }
-                sums.column(a * wanted.params.len() + c, dq, (half, opens));
+                sums.column(a * params.len() + c, dq, (half, opens));
             }
         }
     }

@@ -37,6 +37,7 @@ use serde::Serialize;
 
 pub(crate) use closed_jacobian::{ClosedJacobian, Rows as ClosedRows};
 pub use derivatives::Derivatives;
+pub(crate) use direct::DirectSensitivities;
 pub use error::GradientError;
 pub use figures::Figures;
 pub(crate) use figures::{figures, Integrals, Wrt};
@@ -163,9 +164,8 @@ pub(crate) fn of_run<M: InverseModel + ?Sized>(
     let derivatives = match (run.stable, run.along_run) {
         (Some(st), _) => stable::integral_gradients(&wanted, along, st)?,
         (None, Some(summed)) => summed,
-        // Without internal states every sample is independent: block by block (grid values, whose columns
-        // are built from the map calls at every point, go point by point).
-        (None, None) if grid.is_empty() => direct::integral_gradients(&wanted, along)?,
+        // Grid values of a run without internal states, whose columns are built from the map calls at every
+        // point: point by point.
         (None, None) => pass::pointwise_integrals(model, (wrt, along), opts)?,
     };
     let integrals = Integrals {

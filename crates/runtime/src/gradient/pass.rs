@@ -329,39 +329,35 @@ mod tests {
     use crate::inverse::SimulationOptions;
 
     /// Carrying the sensitivities along does not move the run: on driveline's NEDC run (stiff zero dynamics,
-    /// η at DOPRI5's stability limit) every column and every integral is the same bits with and without the
-    /// gradient, and the gradient block is there.
+    /// η at DOPRI5's stability limit; `Sensitivities`) and si_engine's (r = n, `DirectSensitivities`) every
+    /// column and every integral is the same bits with and without the gradient, and the gradient block is
+    /// there.
     #[test]
     fn a_differentiated_run_is_the_same_run_bit_for_bit() {
-        let model = invsim_models::builtin("driveline").expect("built in");
-        assert_eq!(model.info().n_eta, 3);
         let cycle = Cycle::builtin("nedc").expect("built in");
-        let run = |gradient: Option<Vec<String>>| {
-            let opts = SimulationOptions::builder()
-                .keep_series(true)
-                .gradient(gradient)
-                .build()
-                .expect("valid");
-            crate::simulate(model.as_ref(), &cycle, &opts).expect("runs")
-        };
-        let plain = run(None);
-        let differentiated = run(Some(vec!["k_s".into(), "c_s".into(), "m".into()]));
-        assert_eq!(plain.columns, differentiated.columns);
-        for (name, (a, b)) in plain
-            .columns
-            .iter()
-            .zip(plain.data.iter().zip(&differentiated.data))
-        {
-            let same = a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
-            assert!(same && a.len() == b.len(), "column {name}");
+        for (name, n_eta) in [("driveline", 3), ("si_engine", 0)] {
+            let model = invsim_models::builtin(name).expect("built in");
+            assert_eq!(model.info().n_eta, n_eta);
+            let run = |gradient: Option<Vec<String>>| {
+                let opts = SimulationOptions::builder()
+                    .keep_series(true)
+                    .gradient(gradient)
+                    .build()
+                    .expect("valid");
+                crate::simulate(model.as_ref(), &cycle, &opts).expect("runs")
+            };
+            let plain = run(None);
+            let differentiated = run(Some(vec!["m".into(), "eta_trm".into()]));
+            assert_eq!(plain.columns, differentiated.columns);
+            for (c, (a, b)) in plain.data.iter().zip(&differentiated.data).enumerate() {
+                let same = a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
+                assert!(same && a.len() == b.len(), "{name}: {}", plain.columns[c]);
+            }
+            let (a, b) = (&plain.summary.totals, &differentiated.summary.totals);
+            assert_eq!(a.integrals, b.integrals, "{name}");
+            assert!(plain.summary.gradient.is_none());
+            let gradient = differentiated.summary.gradient.expect("a gradient block");
+            assert!(!gradient.figures.is_empty(), "{name}");
         }
-        let (a, b) = (
-            &plain.summary.totals.integrals,
-            &differentiated.summary.totals.integrals,
-        );
-        assert_eq!(a, b);
-        assert!(plain.summary.gradient.is_none());
-        let gradient = differentiated.summary.gradient.expect("a gradient block");
-        assert!(!gradient.figures.is_empty());
     }
 }

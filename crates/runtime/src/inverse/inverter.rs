@@ -5,7 +5,6 @@
 use invsim_model_api::InverseModel;
 
 use super::causal::Causal;
-use super::chained::invert_chained;
 use super::error::SimulateError;
 use super::options::SimulationOptions;
 use crate::error::RunError;
@@ -120,6 +119,33 @@ impl<'a, M: InverseModel + ?Sized> Inverter<'a, M> {
         invert_chained(self.model, (&xi, &etas, b.w, b.yd[r]), (b.x, b.u), last)
             .map_err(|(i, source)| RunError::Model { t: time[i], source }.into())
     }
+}
+
+/// A block's columns for [`InverseModel::invert_batch`]: ξ, η, the signals and y^(r).
+type InverseColumns<'a> = (&'a [&'a [f64]], &'a [&'a [f64]], &'a [&'a [f64]], &'a [f64]);
+
+/// [`InverseModel::invert_batch`] on a block whose first sample starts from `last` (the previous block's last
+/// state and input: the guesses of a numerically solved ψ⁻¹ and of an input solved by Newton's method), then
+/// `last` set to this block's last sample: blocks chained as one run.
+fn invert_chained<M: InverseModel + ?Sized>(
+    model: &M,
+    (xi, eta, w, yr): InverseColumns<'_>,
+    (x, u): (&mut [&mut [f64]], &mut [f64]),
+    (x_last, u_last): (&mut [f64], &mut f64),
+) -> Result<(), (usize, invsim_model_api::ModelError)> {
+    for (c, &v) in x.iter_mut().zip(x_last.iter()) {
+        c[0] = v;
+    }
+    if let Some(u0) = u.first_mut() {
+        *u0 = *u_last;
+    }
+    model.invert_batch(xi, eta, w, yr, x, u)?;
+    let len = u.len();
+    for (v, c) in x_last.iter_mut().zip(x.iter()) {
+        *v = c[len - 1];
+    }
+    *u_last = u[len - 1];
+    Ok(())
 }
 
 /// The causal run over a block: η integrated from sample to sample, then the inverse at each.

@@ -18,7 +18,6 @@
 //! which then stops with [`SimulateError::UnstableZeroDynamics`].
 
 mod causal;
-mod chained;
 pub(crate) mod checks;
 mod error;
 mod inverter;
@@ -36,7 +35,6 @@ use invsim_model_api::InverseModel;
 use crate::cycle::Cycle;
 
 pub use causal::ETA_BLOWUP;
-pub(crate) use chained::invert_chained;
 pub use checks::{DISTANCE_WARNING, MAX_LOOKAHEAD_FRACTION, MIN_LOOKAHEAD_PER_DT};
 pub use error::SimulateError;
 pub use options::{

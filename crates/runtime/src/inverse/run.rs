@@ -12,6 +12,7 @@ use super::summary::{InputBeforeStart, StableInversionStats, Summary};
 use super::verify::verify_forward;
 use crate::cycle::Cycle;
 use crate::error::RunError;
+use crate::gradient::DirectSensitivities;
 use crate::grid::{check_samples, Grid, MAX_DERIVATIVES};
 use crate::headline::Headline;
 use crate::operating_points::OperatingPointTally;
@@ -302,11 +303,12 @@ fn run_blocks<M: InverseModel + ?Sized>(
     model: &M,
     (smoother, shared): (&Smoother, Option<super::reference::SharedColumns<'_>>),
     grid: &Grid,
-    inverter: &mut Inverter<'_, M>,
+    (inverter, direct): (&mut Inverter<'_, M>, Option<&mut DirectSensitivities>),
     tally: &mut Tally<'_>,
     data: &mut [Vec<f64>],
     keep: bool,
 ) -> Result<(), SimulateError> {
+    let mut direct = direct;
     let info = model.info();
     let samples = grid.samples();
     let mut scratch = if keep {
@@ -361,6 +363,9 @@ fn run_blocks<M: InverseModel + ?Sized>(
         {
             let xs: Vec<&[f64]> = b.x.iter().map(|c| &**c).collect();
             model.outputs_batch(&xs, b.w, b.u, b.out);
+            if let Some(d) = direct.as_deref_mut() {
+                d.block(model, (b.time, b.w, &xs, b.u))?;
+            }
         }
         check_finite(model, &b)?;
         super::map_check::check(model, &b)?;
@@ -628,15 +633,21 @@ pub(super) fn run<M: InverseModel + ?Sized>(
     let mut data = allocate(spare, columns.len(), stored, &grid);
     let wrt = gradient_params.as_ref();
     let mut inverter = Inverter::new(model, (smoother, grid), &zd, (eta0, wrt), opts)?;
+    // Without internal states (and grid values) the run's blocks are differentiated as they are solved.
+    let mut direct = wrt
+        .filter(|w| zd.stable.is_none() && info.n_eta == 0 && w.grid.is_empty())
+        .map(|w| DirectSensitivities::new(model, w, grid.dt));
     let mut tally = Tally::new(model, (cycle, steps), &grid, window, opts.progress.clone());
     let yd = (smoother, shared.and_then(|s| s.columns_for(&grid)));
-    run_blocks(model, yd, &grid, &mut inverter, &mut tally, &mut data, keep)?;
+    let solvers = (&mut inverter, direct.as_mut());
+    run_blocks(model, yd, &grid, solvers, &mut tally, &mut data, keep)?;
+    let along_run = (inverter.gradient_integrals()).or_else(|| direct.map(|d| d.integrals()));
     let gradient = match &gradient_params {
         Some(params) => Some(run_gradient(
             model,
             (smoother, &grid),
             params,
-            (&tally, cycle.distance(), inverter.gradient_integrals()),
+            (&tally, cycle.distance(), along_run),
             (
                 zd.stable
                     .as_ref()
