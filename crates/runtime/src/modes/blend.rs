@@ -8,6 +8,8 @@
 //! y^(r)(t_s) = y_c^(r)(t_s) (the input stays finite), and e has a zero of order r + 2 at τ = T: the
 //! reference is C^(r+1) where it joins the cycle. e is a polynomial, so its derivatives are exact.
 
+use std::sync::Arc;
+
 /// Binomial coefficient as a float (small arguments).
 fn binomial(n: usize, k: usize) -> f64 {
     (0..k).fold(1.0, |acc, i| acc * (n - i) as f64 / (i + 1) as f64)
@@ -104,7 +106,9 @@ impl Blend {
 /// for every column.
 #[derive(Debug, Clone)]
 pub struct Blends {
-    basis: Vec<Blend>,
+    t_start: f64,
+    /// The unit transitions b_j, started at τ = 0 (shared by every family of one length and duration).
+    basis: Arc<[Blend]>,
     /// e_c, per column c (each of the basis' length).
     e: Vec<Vec<f64>>,
 }
@@ -114,14 +118,23 @@ impl Blends {
     /// `duration` (> 0).
     pub fn new(t_start: f64, duration: f64, e: Vec<Vec<f64>>) -> Blends {
         let len = e.first().map_or(0, Vec::len);
-        debug_assert!(e.iter().all(|e| e.len() == len));
-        let basis = (0..len)
+        Blends::on(Blends::basis(len, duration), t_start, e)
+    }
+
+    /// The basis b_0 … b_(len−1) of transitions lasting `duration`, started at τ = 0.
+    pub fn basis(len: usize, duration: f64) -> Arc<[Blend]> {
+        (0..len)
             .map(|j| {
                 let unit: Vec<f64> = (0..len).map(|i| if i == j { 1.0 } else { 0.0 }).collect();
-                Blend::new(t_start, duration, &unit)
+                Blend::new(0.0, duration, &unit)
             })
-            .collect();
-        Blends { basis, e }
+            .collect()
+    }
+
+    /// [`Blends::new`] on a basis of [`Blends::basis`] (of the deviations' length).
+    pub fn on(basis: Arc<[Blend]>, t_start: f64, e: Vec<Vec<f64>>) -> Blends {
+        debug_assert!(e.iter().all(|e| e.len() == basis.len()));
+        Blends { t_start, basis, e }
     }
 
     /// The number of columns c.
@@ -135,13 +148,14 @@ impl Blends {
         let Some(first) = self.basis.first() else {
             return false;
         };
-        if !(0.0..first.duration).contains(&(t - first.t_start)) {
+        let tau = t - self.t_start;
+        if !(0.0..first.duration).contains(&tau) {
             return false;
         }
         values.clear();
         values.resize(self.basis.len() * orders, 0.0);
         for (b, v) in self.basis.iter().zip(values.chunks_exact_mut(orders)) {
-            b.add(t, v);
+            b.add(tau, v);
         }
         true
     }

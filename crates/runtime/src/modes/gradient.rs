@@ -133,6 +133,8 @@ struct Pass<'p, 'a, 'm> {
     dir: Vec<f64>,
     basis: Vec<f64>,
     de: Vec<f64>,
+    /// The transitions' bases made so far, one per number of deviations ([`Blends::basis`]).
+    bases: Vec<std::sync::Arc<[Blend]>>,
     outputs: OutputChanges,
     /// The output derivatives at the start and the end of the interval in hand (entry (a, c) at c·na + a).
     start: Vec<f64>,
@@ -190,6 +192,7 @@ impl<'p, 'a, 'm> Pass<'p, 'a, 'm> {
             dir: Vec::new(),
             basis: Vec::new(),
             de: Vec::new(),
+            bases: Vec::new(),
             outputs: OutputChanges::default(),
             start: Vec::new(),
             end: Vec::new(),
@@ -293,7 +296,16 @@ impl<'p, 'a, 'm> Pass<'p, 'a, 'm> {
             self.dx[c] = std::mem::take(&mut dir.dx);
         }
         self.buf = point.into_buffer();
-        self.dblend = Some(Blends::new(t, ctx.transition, deviations));
+        let len = deviations.first().map_or(0, Vec::len);
+        let basis = match self.bases.iter().find(|b| b.len() == len) {
+            Some(b) => b.clone(),
+            None => {
+                let b = Blends::basis(len, ctx.transition);
+                self.bases.push(b.clone());
+                b
+            }
+        };
+        self.dblend = Some(Blends::on(basis, t, deviations));
         self.blend = e.blend.clone();
         self.mode = to;
         self.carried = false;

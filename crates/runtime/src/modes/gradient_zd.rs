@@ -36,6 +36,8 @@ pub(super) struct ZdSensitivity {
     last: Option<(usize, f64)>,
     /// The reference's sub-grid read by η's stages (`None`: the smoother pointwise, as in the run).
     fine: Option<FineReference>,
+    /// Where the last interval found the first corner within the look-ahead ([`Smoother::still_on_from`]).
+    corner: usize,
 }
 
 /// The mode, its transition and the transition's derivatives, and each derivative's column in the mode with
@@ -83,6 +85,7 @@ impl ZdSensitivity {
             modes: (0..ctx.spec.modes.len()).map(|_| None).collect(),
             last: None,
             fine: ctx.fine_reference(),
+            corner: 0,
         }
     }
 
@@ -121,18 +124,38 @@ impl ZdSensitivity {
         let mut eta: Vec<f64> = info.eta_states.iter().map(|&s| x0[s]).collect();
         let (mut yr, mut w) = (vec![0.0; ctx.r_max + 1], Vec::new());
         let fine = &mut self.fine;
+        // The reference at ta; where it is constant on the interval (a standstill more than a look-ahead from
+        // any corner, no transition under way: as the run has it) every stage and node takes it.
+        ctx.stage_reference_into((m, ta, along.1), fine.as_mut(), &mut yr[..=r], (&mut w, nw));
+        let smoother = &ctx.reference.smoother;
+        let still =
+            along.1.is_none_or(|b| b.done(ta)) && smoother.still_on_from(&mut self.corner, ta, tb);
+        let nodes = &mut zd.nodes;
+        if still {
+            nodes.yr.clone_from(&yr);
+            nodes.w.clone_from(&w);
+        }
+        let mut at = ta;
         let mut q = |s: f64, v: &[f64], dv: &mut [f64]| -> Result<(), StepFailure> {
-            let at = (m, s, along.1);
-            ctx.stage_reference_into(at, fine.as_mut(), &mut yr[..=r], (&mut w, nw));
+            // A step's last two stages are both at its end: evaluated once.
+            if !still && s.to_bits() != at.to_bits() {
+                ctx.stage_reference_into(
+                    (m, s, along.1),
+                    fine.as_mut(),
+                    &mut yr[..=r],
+                    (&mut w, nw),
+                );
+                at = s;
+            }
             model.zero_dynamics_from(&yr[..r], v, &w, yr[r], u0, dv);
             Ok(())
         };
-        let (nodes, gauss, s) = (&mut zd.nodes, &mut zd.gauss, &mut zd.s);
+        let (gauss, s) = (&mut zd.gauss, &mut zd.s);
         let mut each = |ode: &Dopri5, t: f64, t_new: f64| -> Result<(), StepFailure> {
             let h = t_new - t;
             for (i, c) in NODES.iter().enumerate() {
                 ode.dense(t + c * h, &mut nodes.eta);
-                nodes.jacobians_at(ctx, &along, (t + c * h, x0, u0), i)?;
+                nodes.jacobians_at(ctx, &along, (t + c * h, x0, u0, still), i)?;
             }
             let (a, b) = (&nodes.a, &nodes.b);
             gauss
@@ -181,22 +204,25 @@ impl Nodes {
     }
 
     /// A and B (with the transition's moves, the module doc's B_c) into node i's matrices at time s and the
-    /// interpolated η (`self.eta`): from the mode's closed form where it has one, else by the implicit
+    /// interpolated η (`self.eta`), the reference at s (`still`: the interval's constant one, in `yr` and `w`
+    /// already): from the mode's closed form where it has one, else by the implicit
     /// function theorem at x = ψ⁻¹(ξ_ref, η) ([`Nodes::solved_jacobians`]).
     fn jacobians_at(
         &mut self,
         ctx: &Ctx<'_, '_>,
         (m, blend, dblend, (cols, grid)): &Along<'_>,
-        (s, x0, u0): (f64, &[f64], f64),
+        (s, x0, u0, still): (f64, &[f64], f64, bool),
         i: usize,
     ) -> Result<(), StepFailure> {
         let m = *m;
         let model = ctx.model(m);
         let info = model.info();
         let (r, ne, nw) = (info.relative_degree, info.n_eta, info.n_w());
-        let at = (m, s, *blend);
-        let (y, w) = (&mut self.yr[..=r], (&mut self.w, nw));
-        ctx.stage_reference_into(at, self.fine.as_mut(), y, w);
+        if !still {
+            let at = (m, s, *blend);
+            let (y, w) = (&mut self.yr[..=r], (&mut self.w, nw));
+            ctx.stage_reference_into(at, self.fine.as_mut(), y, w);
+        }
         let (a, b) = (&mut self.a[i], &mut self.b[i]);
         let point = Rows::ZeroDynamics(&self.yr[..r], &self.eta, &self.w, self.yr[r]);
         if !self
