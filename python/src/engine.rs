@@ -29,10 +29,15 @@ impl Loaded {
     /// Load the model file `path` given as `bytes`, with the requested engine: a bad file gives the same error
     /// whichever engine was asked for.
     pub fn new(path: &Path, bytes: &[u8], choice: EngineChoice) -> Result<Loaded, Failure> {
-        let kind = invsim_loader::load_source(path, bytes, choice).map_err(|e| failure(e, path))?;
+        // A model of Python's may be differentiated by any of its runs: derived with the gradient's
+        // closed-form Jacobians.
+        let extent = invsim_loader::Extent::Full;
+        let kind = invsim_loader::load_source(path, bytes, (choice, extent))
+            .map_err(|e| failure(e, path))?;
         let (units, json) = match &kind {
             Kind::Single(_) => {
-                let d = Derivation::new(Model::from_bytes(path, bytes)?)
+                let model = Model::from_bytes(path, bytes)?;
+                let d = Derivation::to(model, invsim_loader::Extent::Run)
                     .map_err(invsim_inversion::Error::from)?;
                 let json =
                     serde_json::to_string(&d.to_json()).map_err(|e| Failure::msg(e.to_string()));
@@ -55,7 +60,9 @@ impl Loaded {
             };
             let modes = std::mem::take(&mut m.modes);
             let inputs: Vec<String> = m.inputs.iter().map(|i| i.name.clone()).collect();
-            let ds = invsim_loader::derive_modes(modes, &inputs).map_err(|e| failure(e, path))?;
+            let run = invsim_loader::Extent::Run;
+            let ds =
+                invsim_loader::derive_modes(modes, &inputs, run).map_err(|e| failure(e, path))?;
             let v = invsim_loader::modal_derive_json(&m, &ds);
             serde_json::to_string(&v).map_err(|e| Failure::msg(e.to_string()))
         });

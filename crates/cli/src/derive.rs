@@ -47,7 +47,9 @@ fn derive_modal(
     warnings: Warnings,
 ) -> Result<(), Failure> {
     let inputs: Vec<String> = m.inputs.iter().map(|i| i.name.clone()).collect();
-    let ds = invsim_loader::derive_modes(std::mem::take(&mut m.modes), &inputs)
+    // What `derive` prints does not include the gradient's normal-form Jacobians.
+    let modes = std::mem::take(&mut m.modes);
+    let ds = invsim_loader::derive_modes(modes, &inputs, invsim_loader::Extent::Run)
         .map_err(|e| Failure::user(e.to_string()))?;
     let each: Vec<String> = ds
         .iter()

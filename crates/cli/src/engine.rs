@@ -31,11 +31,17 @@ impl From<EngineChoice> for invsim_loader::EngineChoice {
     }
 }
 
-/// Load `path` with the requested engine (`invsim_loader::load`: compiled code for a file that is byte for
-/// byte a built-in model's, without deriving it; any other file read and derived first, so a bad file gives
-/// the same error whichever engine was asked for).
-pub fn load(path: &Path, choice: EngineChoice) -> Result<Loaded, Failure> {
-    invsim_loader::load(path, choice.into()).map_err(|e| match e {
+/// Load `path` with the requested engine (`invsim_loader::load_to`: compiled code for a file that is byte for
+/// byte a built-in model's, without deriving it; any other file read and derived first, with the gradient's
+/// closed-form Jacobians where the run is `differentiated`, so a bad file gives the same error whichever
+/// engine was asked for).
+pub fn load(path: &Path, choice: EngineChoice, differentiated: bool) -> Result<Loaded, Failure> {
+    let extent = if differentiated {
+        invsim_loader::Extent::Full
+    } else {
+        invsim_loader::Extent::Run
+    };
+    invsim_loader::load_to(path, choice.into(), extent).map_err(|e| match e {
         e @ invsim_loader::LoadError::NotBuiltIn { .. } => Failure::user(format!(
             "{e}; use --engine interpreted, or --engine auto to fall back to the interpreter"
         )),
@@ -87,7 +93,7 @@ fn load_run(req: &RunRequest<'_>) -> Result<((Cycle, Vec<String>), Loaded), Fail
         .map(|s| parse_set(s))
         .collect::<Result<_, _>>()?;
     let cycle = load_cycle(req.cycle, req.max_cycle_bytes, req.warnings)?;
-    let mut model = load(req.model, req.engine)?;
+    let mut model = load(req.model, req.engine, req.differentiated)?;
     for (name, value) in &sets {
         model.set_param(name, *value).map_err(set_failure)?;
     }
@@ -99,6 +105,8 @@ fn load_run(req: &RunRequest<'_>) -> Result<((Cycle, Vec<String>), Loaded), Fail
 pub struct RunRequest<'a> {
     pub model: &'a Path,
     pub engine: EngineChoice,
+    /// The run is differentiated (`--gradient`): the model is derived with the gradient's Jacobians.
+    pub differentiated: bool,
     pub cycle: &'a str,
     pub max_cycle_bytes: u64,
     pub set: &'a [String],

@@ -133,6 +133,7 @@ pub fn run(args: &ForwardArgs, warnings: crate::error::Warnings) -> Result<(), F
     let (outputs, mut cycle, model, data) = prepare_run(&RunRequest {
         model: &args.model,
         engine: args.engine,
+        differentiated: false,
         cycle: &args.cycle,
         max_cycle_bytes: args.max_cycle_bytes,
         set: &args.set,

@@ -92,6 +92,7 @@ pub fn run(args: &SimulateArgs, warnings: crate::error::Warnings) -> Result<(), 
     let (outputs, mut cycle, model, data) = prepare_run(&RunRequest {
         model: &args.model,
         engine: args.engine,
+        differentiated: args.gradient.is_some(),
         cycle: &args.cycle,
         max_cycle_bytes: args.max_cycle_bytes,
         set: &args.set,

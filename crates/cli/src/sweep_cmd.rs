@@ -362,7 +362,7 @@ pub fn run(args: &SweepArgs, warnings: Warnings) -> Result<(), Failure> {
     check_not_set(&sets, &swept, "--grid")?;
     let outputs = plan_outputs(args)?;
     let cycles = cycles(args, warnings)?;
-    let model = load(&args.model, args.engine)?;
+    let model = load(&args.model, args.engine, args.gradient.is_some())?;
     let gearbox = match &model {
         Loaded::Modal(m) => Some(m.plant.gear_parameters()),
         _ => None,

@@ -18,7 +18,7 @@ pub mod render;
 
 pub use classify::{Classification, ZeroDynamicsClass};
 pub use decided::check_decided;
-pub use derive::{isolate, lie_derivative, Derivation, DeriveError, Solution};
+pub use derive::{isolate, lie_derivative, Derivation, DeriveError, Extent, Solution};
 pub use interpreter::{model_info, InterpretError, Interpreter};
 pub use model::*;
 

@@ -21,6 +21,7 @@ use invsim_inversion::ModelFile;
 
 pub use choice::EngineChoice;
 pub use error::LoadError;
+pub use invsim_inversion::Extent;
 pub use map_files::map_files;
 pub use modal::{derive_modes, modal_derive_json, DerivedMode, LoadedModal};
 pub use single::SingleModel;
@@ -99,25 +100,37 @@ impl Loaded {
     }
 }
 
+/// Load the model file at `path` with the engine `choice` asks for, for runs without a gradient
+/// ([`load_to`] with [`Extent::Run`]).
+pub fn load(path: &Path, choice: EngineChoice) -> Result<Loaded, LoadError> {
+    load_to(path, choice, Extent::Run)
+}
+
 /// Load the model file at `path` with the engine `choice` asks for. A file whose bytes are a built-in model's
 /// runs its compiled code (with `auto` or `compiled`) without being derived: it is byte for byte the file the
 /// code was generated from, so its derivation succeeds and the compiled model carries everything the run
-/// needs. Any other file is derived first, so a bad file gives the same error whichever engine was asked
-/// for. The file is read once, through the reader's cap, so a pipe (`<(cat m.toml)`) serves both.
-pub fn load(path: &Path, choice: EngineChoice) -> Result<Loaded, LoadError> {
+/// needs. Any other file is derived first (as far as `extent` asks: [`Extent::Full`] where a run will be
+/// differentiated, for the closed-form Jacobians of the gradient), so a bad file gives the same error
+/// whichever engine was asked for. The file is read once, through the reader's cap, so a pipe
+/// (`<(cat m.toml)`) serves both.
+pub fn load_to(path: &Path, choice: EngineChoice, extent: Extent) -> Result<Loaded, LoadError> {
     let bytes = invsim_inversion::read_model_file(path)?;
-    load_source(path, &bytes, choice)
+    load_source(path, &bytes, (choice, extent))
 }
 
-/// [`load`] of a model file given as its bytes (`path` names it in messages).
-pub fn load_source(path: &Path, bytes: &[u8], choice: EngineChoice) -> Result<Loaded, LoadError> {
+/// [`load_to`] of a model file given as its bytes (`path` names it in messages).
+pub fn load_source(
+    path: &Path,
+    bytes: &[u8],
+    (choice, extent): (EngineChoice, Extent),
+) -> Result<Loaded, LoadError> {
     if choice != EngineChoice::Interpreted {
         if let Some(m) = compiled(path, bytes)? {
             return Ok(m);
         }
     }
     let file = ModelFile::from_bytes(path, bytes)?;
-    from_file(file, path, choice)
+    from_file(file, path, (choice, extent))
 }
 
 /// The compiled code made from a file with exactly these bytes, with or without modes, if any.
@@ -128,10 +141,63 @@ fn compiled(path: &Path, bytes: &[u8]) -> Result<Option<Loaded>, LoadError> {
     Ok(modal::read_compiled(path, bytes)?.map(|m| Loaded::Modal(Box::new(m))))
 }
 
-/// The model file `file` (read from `path`) run by the engine `choice` asks for.
-fn from_file(file: ModelFile, path: &Path, choice: EngineChoice) -> Result<Loaded, LoadError> {
+/// The model file `file` (read from `path`) derived as far as `extent` asks, run by the engine `choice` asks
+/// for.
+fn from_file(
+    file: ModelFile,
+    path: &Path,
+    (choice, extent): (EngineChoice, Extent),
+) -> Result<Loaded, LoadError> {
     match file {
-        ModelFile::Single(model) => single::from_model(*model, path, choice).map(Loaded::Single),
-        ModelFile::Modal(m) => modal::from_model(*m, choice).map(|m| Loaded::Modal(Box::new(m))),
+        ModelFile::Single(model) => {
+            single::from_model(*model, path, (choice, extent)).map(Loaded::Single)
+        }
+        ModelFile::Modal(m) => {
+            modal::from_model(*m, choice, extent).map(|m| Loaded::Modal(Box::new(m)))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use invsim_runtime::{Cycle, RunResult, SimulationOptions};
+
+    /// An interpreted model loaded for runs ([`Extent::Run`]) has no closed-form Jacobians (a gradient takes
+    /// the implicit function theorem's route); loaded for gradients ([`Extent::Full`]) every mode with internal
+    /// dynamics has them; the two run the same run bit for bit.
+    #[test]
+    fn a_model_loaded_for_runs_runs_as_one_loaded_for_gradients() {
+        let path = Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../models/si_engine_5speed.toml"
+        ));
+        let cycle = Cycle::builtin("udds").expect("built in");
+        let opts = SimulationOptions::builder().dt(1.0).build().expect("valid");
+        let mut data = Vec::new();
+        for (extent, closed) in [(Extent::Run, false), (Extent::Full, true)] {
+            let Loaded::Modal(m) = load_to(path, EngineChoice::Interpreted, extent).expect("loads")
+            else {
+                panic!("a model with modes")
+            };
+            for model in m.plant.models() {
+                let info = model.info();
+                let (r, ne) = (info.relative_degree, info.n_eta);
+                let width = ne * (ne + r + 1 + info.parameters.len());
+                let mut out = vec![0.0; width];
+                let w = vec![0.0; info.n_w()];
+                let (xi, eta) = (vec![5.0; r], vec![4.0e4; ne]);
+                let has = model.zero_dynamics_jacobian(&xi, &eta, &w, 0.1, &mut out);
+                assert_eq!(has, closed && ne > 0, "{extent:?}: mode {}", info.name);
+            }
+            let run = Loaded::Modal(m).into_plant().simulate(&cycle, None, &opts);
+            let Ok(RunResult::Modal(result, _)) = run else {
+                panic!("a run with modes")
+            };
+            data.push(result.data);
+        }
+        let same = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
+        assert!(data[0].iter().zip(&data[1]).all(|(a, b)| same(a, b)));
+        assert!(!data[0].is_empty());
     }
 }

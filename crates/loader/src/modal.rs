@@ -6,8 +6,8 @@ use std::cell::RefCell;
 use std::path::Path;
 
 use invsim_inversion::{
-    coupling_name, Derivation, Interpreter, ModalFacts, ModalModel, Mode, ModeHeader, ModeRole,
-    ModelFile, Schedule,
+    coupling_name, Derivation, Extent, Interpreter, ModalFacts, ModalModel, Mode, ModeHeader,
+    ModeRole, ModelFile, Schedule,
 };
 use invsim_model_api::InverseModel;
 use invsim_runtime::modes::{GearSchedule, InputSpec, ModalPlant, ModeMeta, Role, SequenceParams};
@@ -78,7 +78,11 @@ pub struct DerivedMode {
 /// The derivation of each of `modes` (`inputs`: the model's input names); an error names the mode. A decided
 /// input that enters D^k h below the relative degree is refused where it is written
 /// ([`invsim_inversion::check_decided`]).
-pub fn derive_modes(modes: Vec<Mode>, inputs: &[String]) -> Result<Vec<DerivedMode>, LoadError> {
+pub fn derive_modes(
+    modes: Vec<Mode>,
+    inputs: &[String],
+    extent: Extent,
+) -> Result<Vec<DerivedMode>, LoadError> {
     modes
         .into_iter()
         .map(|mode| {
@@ -94,7 +98,7 @@ pub fn derive_modes(modes: Vec<Mode>, inputs: &[String]) -> Result<Vec<DerivedMo
                 .map(|(i, at)| (inputs[*i].clone(), *at))
                 .collect();
             let (header, model) = mode.into_parts();
-            let d = Derivation::new(model).map_err(|e| at(e.into()))?;
+            let d = Derivation::to(model, extent).map_err(|e| at(e.into()))?;
             invsim_inversion::check_decided(&name, &decided, &d)
                 .map_err(|e| LoadError::Model(Box::new(e.into())))?;
             d.check_printable()
@@ -180,10 +184,11 @@ pub(crate) fn read_compiled(file: &Path, bytes: &[u8]) -> Result<Option<LoadedMo
     }
 }
 
-/// Every mode of `m` run by the engine `choice` asks for.
+/// Every mode of `m` run by the engine `choice` asks for (an interpreted mode derived as far as `extent` asks).
 pub(crate) fn from_model(
     mut m: ModalModel,
     choice: EngineChoice,
+    extent: Extent,
 ) -> Result<LoadedModal, LoadError> {
     let compiled = match choice {
         EngineChoice::Interpreted => None,
@@ -209,7 +214,7 @@ pub(crate) fn from_model(
     let mut headers = Vec::with_capacity(modes.len());
     let mut prototypes = Vec::with_capacity(modes.len());
     let names: Vec<String> = m.inputs.iter().map(|i| i.name.clone()).collect();
-    for DerivedMode { header, d } in derive_modes(modes, &names)? {
+    for DerivedMode { header, d } in derive_modes(modes, &names, extent)? {
         prototypes.push(Interpreter::new(&d)?);
         headers.push(header);
     }

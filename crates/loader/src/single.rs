@@ -6,7 +6,7 @@
 
 use std::path::Path;
 
-use invsim_inversion::{Derivation, Interpreter, Model};
+use invsim_inversion::{Derivation, Extent, Interpreter, Model};
 use invsim_model_api::InverseModel;
 
 use crate::{EngineChoice, LoadError};
@@ -69,13 +69,13 @@ pub(crate) fn builtin_of(bytes: &[u8]) -> Option<Box<dyn InverseModel>> {
     invsim_models::by_source(bytes)
 }
 
-/// `model` (read from `path`) derived, run by the engine `choice` asks for.
+/// `model` (read from `path`) derived as far as `extent` asks, run by the engine `choice` asks for.
 pub(crate) fn from_model(
     model: Model,
     path: &Path,
-    choice: EngineChoice,
+    (choice, extent): (EngineChoice, Extent),
 ) -> Result<SingleModel, LoadError> {
-    let d = Derivation::new(model)?;
+    let d = Derivation::to(model, extent)?;
     let hash = &d.model.source_hash;
     match (choice, invsim_models::by_hash(hash)) {
         (EngineChoice::Auto | EngineChoice::Compiled, Some(m)) => Ok(SingleModel::Compiled(m)),

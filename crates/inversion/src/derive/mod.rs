@@ -337,9 +337,26 @@ fn singular_warnings(singular: &[String], affine: bool, input: &str) -> Vec<Stri
     warnings
 }
 
+/// What a derivation computes besides the normal form, the inverse and the partial derivatives of
+/// `sensitivity`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Extent {
+    /// Everything, the normal-form Jacobians of the gradient too (generated code, `invsim derive`).
+    Full,
+    /// Without the normal-form Jacobians (`zero_dynamics_jacobian`, `outputs_jacobian`: `None`): a run
+    /// without a gradient does not read them, and a gradient takes the implicit function theorem's route
+    /// without them. Symbolically they are most of a model with modes' derivation.
+    Run,
+}
+
 impl Derivation {
-    /// Derive the normal form of a loaded model.
+    /// Derive the normal form of a loaded model ([`Extent::Full`]).
     pub fn new(model: Model) -> Result<Derivation, DeriveError> {
+        Derivation::to(model, Extent::Full)
+    }
+
+    /// Derive the normal form of a loaded model as far as `extent` asks.
+    pub fn to(model: Model, extent: Extent) -> Result<Derivation, DeriveError> {
         let mut model = model;
         let n = model.states.len();
         let nominal = model.nominal();
@@ -438,7 +455,7 @@ impl Derivation {
             &eta_states,
         );
         let closed_form = yr_affine && psi_inv.iter().all(|s| matches!(s, Solution::Closed(_)));
-        let (zero_dynamics_jacobian, outputs_jacobian) = if closed_form {
+        let (zero_dynamics_jacobian, outputs_jacobian) = if closed_form && extent == Extent::Full {
             let normal = normal_form_jacobian::Normal {
                 xi: &xi,
                 eta: &eta,
