@@ -69,6 +69,21 @@ impl ClosedJacobian {
             Rows::ZeroDynamics(..) => ne,
             Rows::Outputs(.., o) => o.len(),
         };
+        if m == 1 {
+            // One row (one internal state, one accumulated output): the matrices are the row's pieces.
+            let row = &self.buf[picked(0) * width..(picked(0) + 1) * width];
+            a[..ne].copy_from_slice(&row[..ne]);
+            for (v, k) in b.iter_mut().zip(params) {
+                *v = match *k {
+                    Some(k) => row[ne + r + 1 + k],
+                    None => 0.0,
+                };
+            }
+            if let Some(reference) = reference {
+                reference[..=r].copy_from_slice(&row[ne..=ne + r]);
+            }
+            return true;
+        }
         let mut reference = reference;
         for i in 0..m {
             // ∂q_i/∂(η, ξ, y^(r), p).
