@@ -205,19 +205,21 @@ impl<'p, 'a, 'm> Pass<'p, 'a, 'm> {
         self.wrt.columns[m][c]
     }
 
+    /// Mode m's partial derivatives at the last point (x, u) at time t, in the buffers of the last such point.
+    fn point_here(&mut self, m: usize, t: f64) -> Result<Point, ModalError> {
+        let ctx = self.ctx;
+        ctx.w_into(m, t, ctx.model(m).info().n_w(), &mut self.w);
+        let buf = std::mem::take(&mut self.buf);
+        let at = (t, &self.x[..], &self.w[..], self.u);
+        point_into(ctx, (m, &self.wrt.grids[m]), at, buf)
+    }
+
     /// dx/dp_c of the continuous state at the last point (x, u) at time t in the mode in force, per c, into
     /// `self.dx` (dx = ∂x/∂(ξ, η) (dξ, dη) with dξ the transition's de_c(t), dη = S_c, and the parameter's
     /// own column).
     fn state_changes(&mut self, t: f64) -> Result<(), ModalError> {
         let (ctx, m) = (self.ctx, self.mode);
-        ctx.w_into(m, t, ctx.model(m).info().n_w(), &mut self.w);
-        let buf = std::mem::take(&mut self.buf);
-        let point = point_into(
-            ctx,
-            (m, &self.wrt.grids[m]),
-            (t, &self.x, &self.w, self.u),
-            buf,
-        )?;
+        let point = self.point_here(m, t)?;
         let orders = point.layout().r + 1;
         let np = self.wrt.params.len();
         moved_references(
@@ -267,14 +269,7 @@ impl<'p, 'a, 'm> Pass<'p, 'a, 'm> {
             &mut self.basis,
             &mut self.de,
         );
-        ctx.w_into(to, t, info.n_w(), &mut self.w);
-        let buf = std::mem::take(&mut self.buf);
-        let point = point_into(
-            ctx,
-            (to, &self.wrt.grids[to]),
-            (t, &self.x, &self.w, self.u),
-            buf,
-        )?;
+        let point = self.point_here(to, t)?;
         let l = *point.layout();
         let mut deviations = Vec::with_capacity(np);
         let mut dir = Direction {
