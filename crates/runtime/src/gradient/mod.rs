@@ -7,9 +7,10 @@
 //!
 //! For r = n the input and the states are closed-form (or implicitly defined) functions of the smoothed cycle
 //! and the parameters, so their derivatives follow from the model's symbolic partial derivatives by the chain
-//! rule at every sample ([`point`]; a block of samples at a time where there are no internal states,
-//! [`direct`]); for r < n the internal states' sensitivities ∂η/∂p are advanced over
-//! each of the run's integrator steps of η by the Gauss–Legendre method ([`pass`], [`gauss`]), or, where
+//! rule at every sample ([`point`]; each of the run's blocks as the run solves it where there are no internal
+//! states, [`direct`]); for r < n the internal states' sensitivities ∂η/∂p are advanced over
+//! each of the run's integrator steps of η as the run takes them, by the Gauss–Legendre method ([`pass`],
+//! [`gauss`]), or, where
 //! unstable zero dynamics are inverted stably (non-causally), the bounded solution of the collocation
 //! equations is differentiated by the implicit function theorem ([`stable`]); the figures are differentiated
 //! through the run's own quadrature and formulas ([`figures`]). [`GradientError`] says why a run is not
