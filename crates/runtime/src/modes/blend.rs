@@ -32,7 +32,7 @@ pub struct Blend {
     pub duration: f64,
     /// e(τ) and each of its derivatives e^(j)(τ), in ascending powers of τ (all computed once, at the
     /// switch: the run evaluates the blend at every stage of every step of the transition), one after the
-    /// other: e^(j) has n − j coefficients (n those of e) from `offset(j)`.
+    /// other: e^(j) has n − j coefficients (n those of e), after those of e^(0 … j − 1).
     derivatives: Vec<f64>,
     /// n, the number of coefficients of e.
     terms: usize,
@@ -77,11 +77,6 @@ impl Blend {
         }
     }
 
-    /// Where e^(j)'s coefficients start: after e^(0 … j−1)'s n + (n − 1) + … + (n − j + 1).
-    fn offset(&self, j: usize) -> usize {
-        j * self.terms - j * j.saturating_sub(1) / 2
-    }
-
     /// Whether the transition is over at `t`.
     pub fn done(&self, t: f64) -> bool {
         t >= self.t_start + self.duration
@@ -90,12 +85,20 @@ impl Blend {
     /// Adds e^(j)(t) to `out[j]` for j = 0 … out.len() − 1 (nothing outside [t_s, t_s + T]).
     pub fn add(&self, t: f64, out: &mut [f64]) {
         let tau = t - self.t_start;
-        if !(0.0..self.duration).contains(&tau) {
-            return;
+        if (0.0..self.duration).contains(&tau) {
+            self.add_at(tau, out);
         }
+    }
+
+    /// Adds e^(j)(τ) to `out[j]` for j = 0 … out.len() − 1, τ in [0, T] (Horner's scheme on each derivative's
+    /// coefficients, which lie one after the other).
+    fn add_at(&self, tau: f64, out: &mut [f64]) {
+        let mut start = 0;
         for (j, o) in out.iter_mut().enumerate().take(self.terms) {
-            let c = &self.derivatives[self.offset(j)..self.offset(j) + self.terms - j];
+            let end = start + self.terms - j;
+            let c = &self.derivatives[start..end];
             *o += c.iter().rev().fold(0.0, |acc, &ci| acc * tau + ci);
+            start = end;
         }
     }
 }
@@ -155,7 +158,7 @@ impl Blends {
         values.clear();
         values.resize(self.basis.len() * orders, 0.0);
         for (b, v) in self.basis.iter().zip(values.chunks_exact_mut(orders)) {
-            b.add(tau, v);
+            b.add_at(tau, v);
         }
         true
     }
