@@ -137,18 +137,16 @@ impl Sensitivities {
         (self.nodes).step(&wanted, smoother, (ode, t, t_new - t, u_prev), &mut self.s)
     }
 
-    /// The grid sample at t with the reference y_d … y_d^(r) `yd`, the signals `w` and the run's η there: the
-    /// inverse, the outputs' derivatives, and the trapezoidal rule's term dt·(do_(k−1) + do_k)/2.
+    /// The grid sample at t, with the signals `w` there, as the run solved it (state `x`, input `u`): the
+    /// outputs' derivatives and the trapezoidal rule's term dt·(do_(k−1) + do_k)/2.
     pub(crate) fn sample<M: InverseModel + ?Sized>(
         &mut self,
         model: &M,
-        (t, yd, w): (f64, &[f64], &[f64]),
-        eta: &[f64],
+        (t, w): (f64, &[f64]),
+        (x, u): (&[f64], f64),
     ) -> Result<(), SimulateError> {
         let ne = model.info().n_eta;
-        let point = self
-            .samples
-            .point_at((model, &self.grid), (t, yd, w), eta)?;
+        let point = (self.samples).point_of((model, &self.grid), (t, w), (x, u))?;
         let half = self.started.then_some(self.half);
         let (params, accumulate) = (&self.params[..], &self.accumulate[..]);
         let s = &self.s[..ne * params.len()];
@@ -157,7 +155,7 @@ impl Sensitivities {
         self.samples.recycle(point);
         self.started = true;
         // The guess of a numerically solved ψ⁻¹ at the next interval's nodes: this sample's state.
-        self.nodes.x.copy_from_slice(&self.samples.x);
+        self.nodes.x.copy_from_slice(x);
         Ok(())
     }
 
@@ -184,6 +182,7 @@ pub(crate) fn pointwise_integrals<M: InverseModel + ?Sized>(
     let samples = along.grid.samples();
     let mut block = Block::new(BLOCK.min(samples), r, nw);
     let (mut yd, mut w) = ([0.0_f64; crate::grid::MAX_DERIVATIVES], vec![0.0; nw]);
+    let (mut x, mut u) = (vec![0.0; info.n_states()], f64::NAN);
     let mut k0 = 0;
     while k0 < samples {
         let len = (k0 + BLOCK).min(samples) - k0;
@@ -195,7 +194,12 @@ pub(crate) fn pointwise_integrals<M: InverseModel + ?Sized>(
             for (v, c) in w.iter_mut().zip(&block.w) {
                 *v = c[i];
             }
-            sens.sample(model, (block.time[i], &yd[..=r], &w), &[])?;
+            let t = block.time[i];
+            // The inverse as the run solves it: the last sample's state and input as the guesses.
+            u = model
+                .invert_from(&yd[..r], &[], &w, yd[r], &mut x, u)
+                .map_err(|source| SimulateError::from(RunError::Model { t, source }))?;
+            sens.sample(model, (t, &w), (&x, u))?;
         }
         k0 += len;
     }

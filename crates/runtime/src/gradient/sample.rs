@@ -54,36 +54,38 @@ impl Samples {
         (t, yd, w, i): At<'_>,
         eta: &[f64],
     ) -> Result<Point, SimulateError> {
-        let r = model.info().relative_degree;
+        let info = model.info();
+        let r = info.relative_degree;
         let mut ydk = [0.0_f64; MAX_DERIVATIVES];
         for (v, c) in ydk[..=r].iter_mut().zip(yd) {
             *v = c[i];
         }
-        let mut ws = std::mem::take(&mut self.w);
-        ws.clear();
-        ws.extend(w.iter().map(|c| c[i]));
-        let point = self.point_at((model, grid), (t, &ydk[..=r], &ws), eta);
-        self.w = ws;
-        point
-    }
-
-    /// [`Samples::point`] at a sample given by its values: y_d … y_d^(r) `yd` and the signals `w` at t.
-    pub(super) fn point_at<M: InverseModel + ?Sized>(
-        &mut self,
-        (model, grid): (&M, &GridColumns),
-        (t, yd, w): (f64, &[f64], &[f64]),
-        eta: &[f64],
-    ) -> Result<Point, SimulateError> {
-        let info = model.info();
-        let r = info.relative_degree;
+        self.w.clear();
+        self.w.extend(w.iter().map(|c| c[i]));
         let model_err = |source| SimulateError::from(RunError::Model { t, source });
         let u = model
-            .invert_from(&yd[..r], eta, w, yd[r], &mut self.x, self.u_prev)
+            .invert_from(&ydk[..r], eta, &self.w, ydk[r], &mut self.x, self.u_prev)
             .map_err(model_err)?;
         self.u_prev = u;
         let buf = std::mem::take(&mut self.buf);
         let with = (&info.eta_states[..], grid);
-        Point::new(model, (&self.x, w, u), with, buf).map_err(model_err)
+        Point::new(model, (&self.x, &self.w, u), with, buf).map_err(model_err)
+    }
+
+    /// The partials at a sample the run has solved: state `x`, input `u` and signals `w` at t (they become the
+    /// last sample's).
+    pub(super) fn point_of<M: InverseModel + ?Sized>(
+        &mut self,
+        (model, grid): (&M, &GridColumns),
+        (t, w): (f64, &[f64]),
+        (x, u): (&[f64], f64),
+    ) -> Result<Point, SimulateError> {
+        self.x.copy_from_slice(x);
+        self.u_prev = u;
+        let buf = std::mem::take(&mut self.buf);
+        let with = (&model.info().eta_states[..], grid);
+        Point::new(model, (x, w, u), with, buf)
+            .map_err(|source| SimulateError::from(RunError::Model { t, source }))
     }
 
     /// The trapezoids' terms of every accumulated output and wanted parameter at `point`, whose internal

@@ -207,7 +207,7 @@ impl Causal {
             .map_err(|source| RunError::Model { t, source })?;
         self.u = u;
         if let Some(track) = self.track.as_deref_mut() {
-            track.sample(model, (t, yd, &self.w), &self.eta)?;
+            track.sample(model, (t, &self.w), (x, u))?;
         }
         Ok(u)
     }
