@@ -139,7 +139,8 @@ pub(crate) struct RunFigures<'a> {
     pub accumulate: &'a [usize],
     pub integrals: &'a [f64],
     pub distance_m: f64,
-    /// The integrals' derivatives a causal run summed as it went ([`Sensitivities`]).
+    /// The integrals' derivatives the run summed as it went ([`Sensitivities`] of a causal run,
+    /// [`DirectSensitivities`] of one without internal states).
     pub along_run: Option<Vec<Vec<f64>>>,
     /// The stable inversion of a non-causal run and its reported samples.
     pub stable: Option<StableFigures<'a>>,

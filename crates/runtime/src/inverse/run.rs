@@ -303,12 +303,11 @@ fn run_blocks<M: InverseModel + ?Sized>(
     model: &M,
     (smoother, shared): (&Smoother, Option<super::reference::SharedColumns<'_>>),
     grid: &Grid,
-    (inverter, direct): (&mut Inverter<'_, M>, Option<&mut DirectSensitivities>),
+    (inverter, mut direct): (&mut Inverter<'_, M>, Option<&mut DirectSensitivities>),
     tally: &mut Tally<'_>,
     data: &mut [Vec<f64>],
     keep: bool,
 ) -> Result<(), SimulateError> {
-    let mut direct = direct;
     let info = model.info();
     let samples = grid.samples();
     let mut scratch = if keep {
@@ -683,8 +682,8 @@ pub(super) fn run<M: InverseModel + ?Sized>(
     })
 }
 
-/// The gradient of the finished run (`tally`: its integrals; `along_run`: their derivatives a causal run
-/// summed as it went; `stable`: its stable inversion and reported samples, if non-causal) with respect to
+/// The gradient of the finished run (`tally`: its integrals; `along_run`: their derivatives the run summed as
+/// it went, causal or without internal states; `stable`: its stable inversion and reported samples, if non-causal) with respect to
 /// `params` (parameters and grid values), along the reference on the run's grid ([`crate::gradient`]).
 fn run_gradient<M: InverseModel + ?Sized>(
     model: &M,
