@@ -172,6 +172,33 @@ fn fusion_6speed_transitions_into_internal_dynamics_against_finite_differences()
     );
 }
 
+/// The zero dynamics' sensitivities follow the run's own steps (`modes/gradient_zd.rs`): DOP853's with the
+/// 4-stage Gauss–Legendre method from dt = 0.05 s (the tests above), DOPRI5's with the 2-stage one below it.
+/// At dt = 0.02 s on NEDC si_engine_5speed's derivatives by the intake manifold's volume (V_i, which acts
+/// through η alone), the mass and a gear's ratio against central differences; and the differentiated run is
+/// the plain run bit for bit (its integrator keeps its continuous extension for the gradient and takes the same
+/// steps), at both integrators.
+#[test]
+fn the_sensitivities_follow_the_run_s_steps_at_both_integrators() {
+    let model = "models/si_engine_5speed.toml";
+    check_on(model, (&["nedc"], 0.02), &["V_i", "m", "i_g[2]"]);
+    let cycle = Cycle::builtin("nedc").expect("built in");
+    let p = modal_plant(model, EngineChoice::Compiled);
+    let wrt = modal_wrt(&p, &["V_i"]);
+    for dt in [1.0, 0.02] {
+        let (plain, differentiated) = (
+            run(&p, (&cycle, dt), None),
+            run(&p, (&cycle, dt), Some(&wrt)),
+        );
+        assert_eq!(
+            plain.totals.integrals, differentiated.totals.integrals,
+            "dt {dt}"
+        );
+        assert_eq!(sequence(&plain), sequence(&differentiated), "dt {dt}");
+        assert!(plain.gradient.is_none() && differentiated.gradient.is_some());
+    }
+}
+
 /// A map's grid values in a run with modes: the 6-speed Fusion's fc_map (FASTSim's efficiency curve, plain
 /// linear, read by the drive modes' comparison output fuel_fastsim_map) on NEDC. d fuel_fastsim_map/d fc_map[4]
 /// (a load the run drives at) against the central difference of the map's value in every mode (the figure is

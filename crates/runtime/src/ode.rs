@@ -6,8 +6,9 @@
 //!   the code DOPRI5) and the code's stiffness test (§IV.2 of Hairer & Wanner, *Solving ODEs II*: the
 //!   estimate h·ρ ≈ h‖k7 − k6‖/‖y₁ − ŷ₆‖ of the step size times the dominant eigenvalue, compared with the
 //!   border 3.25 of the stability region);
-//! * [`Dop853`] (`ode/dop853.rs`): the explicit Prince–Dormand 8(5,3) pair of the code DOP853, without dense
-//!   output, for the zero dynamics of modes at tight tolerances (far fewer evaluations than [`Dopri5`] there);
+//! * [`Dop853`] (`ode/dop853.rs`): the explicit Prince–Dormand 8(5,3) pair of the code DOP853, with its
+//!   optional continuous extension of order 7, for the zero dynamics of modes at tight tolerances (far fewer
+//!   evaluations than [`Dopri5`] there);
 //! * [`Rosenbrock23`]: the linearly implicit, L-stable Rosenbrock (W-)method of order 2 with a 3rd-order error
 //!   estimate and a continuous extension, of Shampine & Reichelt (*The MATLAB ODE suite*, SIAM J. Sci.
 //!   Comput. 18, 1997, §3; MATLAB's `ode23s`), for stiff problems (Hairer & Wanner II, §IV.7).
@@ -19,7 +20,9 @@
 
 use nalgebra::{DMatrix, DVector};
 
+mod dense;
 mod dop853;
+pub use dense::{LoggedStep, StepLog};
 pub use dop853::Dop853;
 
 /// An integration failure: where, and why (a phrase).
@@ -451,6 +454,16 @@ impl Dopri5 {
         for (i, o) in out.iter_mut().enumerate() {
             *o = r1[i] + theta * (r2[i] + theta1 * (r3[i] + theta * (r4[i] + theta1 * r5[i])));
         }
+    }
+
+    /// The last accepted step's start, size and continuous extension r1 … r5 (NaN-free only with dense
+    /// output).
+    pub fn continuous_extension(&self) -> (f64, f64, [&[f64]; 5]) {
+        (
+            self.t_old,
+            self.h_old,
+            self.rcont.each_ref().map(Vec::as_slice),
+        )
     }
 
     /// One step of size h from (t, y) with k1 = f(t, y) in k[0]; fills ŷ (5th order) and k[1..7], returns the

@@ -1,30 +1,85 @@
-//! One step of the 2-stage Gauss–Legendre method (order 4, A-stable) for the linear, time-varying system
-//! Ṡ = A(t) S + B(t), S of ne rows and P columns: the sensitivity equations of the zero dynamics
-//! ([`super::pass`]).
+//! One step of the s-stage Gauss–Legendre method (s = 2: order 4; s = 4: order 8; A-stable) for the linear,
+//! time-varying system Ṡ = A(t) S + B(t), S of ne rows and P columns: the sensitivity equations of the zero
+//! dynamics ([`super::pass`], and a run with modes over DOP853's steps).
 //!
-//! The collocation method of Hairer & Wanner, *Solving Ordinary Differential Equations II*, §IV.5
-//! (s = 2): nodes c = 1/2 ∓ √3/6, a = [[1/4, 1/4 − √3/6], [1/4 + √3/6, 1/4]], weights b = [1/2, 1/2]. For a
-//! linear right-hand side the stages K_i = A_i (S + h Σ_j a_ij K_j) + B_i (A_i = A(t + c_i h), likewise B_i)
-//! are the linear system
+//! The collocation method of Hairer & Wanner, *Solving Ordinary Differential Equations II*, §IV.5: nodes c_i
+//! the zeros of the shifted Legendre polynomial of degree s, a_ij = ∫₀^(c_i) ℓ_j, b_j = ∫₀¹ ℓ_j (ℓ_j the
+//! Lagrange polynomials on the nodes); for s = 2 c = 1/2 ∓ √3/6, a = [[1/4, 1/4 − √3/6], [1/4 + √3/6, 1/4]],
+//! b = [1/2, 1/2]. For a linear right-hand side the stages K_i = A_i (S + h Σ_j a_ij K_j) + B_i
+//! (A_i = A(t + c_i h), likewise B_i) are the linear system (s = 2 written out)
 //!
 //! ```text
 //! [ I − h a11 A1     −h a12 A1  ] [K1]   [A1 S + B1]
-//! [   −h a21 A2    I − h a22 A2 ] [K2] = [A2 S + B2],        S(t + h) = S + h (b1 K1 + b2 K2)
+//! [   −h a21 A2    I − h a22 A2 ] [K2] = [A2 S + B2],        S(t + h) = S + h Σ_i b_i K_i
 //! ```
 //!
-//! factorised once per step for all P columns ([`Gauss`]). Its stability function is the (2, 2) Padé
-//! approximation of e^z, R(z) = (1 + z/2 + z²/12)/(1 − z/2 + z²/12), |R(z)| < 1 on the whole open left
+//! factorised once per step for all P columns ([`Gauss`]). Its stability function is the (s, s) Padé
+//! approximation of e^z (s = 2: R(z) = (1 + z/2 + z²/12)/(1 − z/2 + z²/12)), |R(z)| < 1 on the whole open left
 //! half-plane (A-stable; Hairer & Wanner II, §IV.3–IV.4), so no step size is too large for a stable A; it is
-//! not L-stable (|R(z)| → 1 as z → −∞): beyond hλ ≈ −3.5, where |R| is smallest (0.07), a stiff component is
-//! damped less and less.
+//! not L-stable (|R(z)| → 1 as z → −∞): beyond hλ ≈ −3.5 (s = 2), where |R| is smallest (0.07), a stiff
+//! component is damped less and less.
 
 const SQRT3_6: f64 = 0.288_675_134_594_812_9; // √3/6
 
-/// The nodes c_1, c_2 in [0, 1] where A and B are evaluated.
+/// The nodes c_1, c_2 in [0, 1] where A and B are evaluated (s = 2).
 pub(crate) const NODES: [f64; 2] = [0.5 - SQRT3_6, 0.5 + SQRT3_6];
 
-/// The Butcher matrix a_ij.
-const A: [[f64; 2]; 2] = [[0.25, 0.25 - SQRT3_6], [0.25 + SQRT3_6, 0.25]];
+/// The most stages.
+const S_MAX: usize = 4;
+
+/// The Butcher tableau of the s-stage method (entries beyond s unused).
+#[derive(Debug, Clone, Copy)]
+struct Tableau {
+    s: usize,
+    c: [f64; S_MAX],
+    a: [[f64; S_MAX]; S_MAX],
+    b: [f64; S_MAX],
+}
+
+impl Tableau {
+    /// s = 2, with its closed-form entries (module docs).
+    fn two() -> Tableau {
+        let mut t = Tableau {
+            s: 2,
+            c: [0.0; S_MAX],
+            a: [[0.0; S_MAX]; S_MAX],
+            b: [0.0; S_MAX],
+        };
+        t.c[..2].copy_from_slice(&NODES);
+        t.a[0][..2].copy_from_slice(&[0.25, 0.25 - SQRT3_6]);
+        t.a[1][..2].copy_from_slice(&[0.25 + SQRT3_6, 0.25]);
+        t.b[..2].copy_from_slice(&[0.5, 0.5]);
+        t
+    }
+
+    /// s = 4: the Gauss points ±√(3/7 ∓ (2/7)√(6/5)) of [−1, 1] mapped to [0, 1], weights (18 ± √30)/72, and
+    /// a_ij = ∫₀^(c_i) ℓ_j = c_i Σ_q b_q ℓ_j(c_i c_q) (the rule is exact for ℓ_j, of degree 3).
+    fn four() -> Tableau {
+        let inner = (3.0 / 7.0 - 2.0 / 7.0 * (6.0f64 / 5.0).sqrt()).sqrt();
+        let outer = (3.0 / 7.0 + 2.0 / 7.0 * (6.0f64 / 5.0).sqrt()).sqrt();
+        let c = [
+            0.5 * (1.0 - outer),
+            0.5 * (1.0 - inner),
+            0.5 * (1.0 + inner),
+            0.5 * (1.0 + outer),
+        ];
+        let (wo, wi) = ((18.0 - 30f64.sqrt()) / 72.0, (18.0 + 30f64.sqrt()) / 72.0);
+        let b = [wo, wi, wi, wo];
+        let lagrange = |j: usize, x: f64| -> f64 {
+            (0..4)
+                .filter(|&m| m != j)
+                .map(|m| (x - c[m]) / (c[j] - c[m]))
+                .product()
+        };
+        let mut a = [[0.0; S_MAX]; S_MAX];
+        for (i, row) in a.iter_mut().enumerate() {
+            for (j, v) in row.iter_mut().enumerate() {
+                *v = c[i] * (0..4).map(|q| b[q] * lagrange(j, c[i] * c[q])).sum::<f64>();
+            }
+        }
+        Tableau { s: 4, c, a, b }
+    }
+}
 
 /// The stage system is singular or not finite: h·A has an eigenvalue at a pole of the stability function
 /// (only possible for an A with eigenvalues in the right half-plane), or A is not finite.
@@ -34,85 +89,107 @@ pub(crate) struct Singular;
 /// The stage system's matrix and the step's transition matrices, reused from step to step. Every matrix is
 /// column-major: entry (i, j) of a matrix of m rows at j·m + i.
 ///
-/// With W = (h/2) [I I] M⁻¹ = [W1 W2] (M the stage matrix of the module doc) the step is
-/// S(t + h) = S + W [A1 S + B1; A2 S + B2] = Φ S + W1 B1 + W2 B2 with Φ = I + W1 A1 + W2 A2: M is factorised once
-/// and W found by ne solves with Mᵀ (one per row), and each of the P columns then costs three ne × ne products. (Plain loops rather than
-/// nalgebra's generic LU and products: the matrices are small and the generic code's overhead dominated in
-/// unoptimised builds.)
+/// With W = h [b_1 I … b_s I] M⁻¹ = [W1 … Ws] (M the stage matrix of the module doc) the step is
+/// S(t + h) = S + W [A1 S + B1; …; As S + Bs] = Φ S + Σ_i W_i B_i with Φ = I + Σ_i W_i A_i: M is factorised once
+/// and W found by ne solves with Mᵀ (one per row), and each of the P columns then costs s + 1 ne × ne products.
+/// (Plain loops rather than nalgebra's generic LU and products: the matrices are small and the generic code's
+/// overhead dominated in unoptimised builds.)
 pub(crate) struct Gauss {
     ne: usize,
     np: usize,
+    tableau: Tableau,
     m: Vec<f64>,
     piv: Vec<usize>,
     /// 1/U_jj (a product where the backward substitution would divide).
     dinv: Vec<f64>,
-    /// W (ne × 2ne), Φ (ne × ne) and a column of length 2ne.
+    /// W (ne × s·ne), Φ (ne × ne) and a column of length s·ne.
     w: Vec<f64>,
     phi: Vec<f64>,
     x: Vec<f64>,
 }
 
 impl Gauss {
-    /// For S of `ne` rows and `np` columns.
+    /// The 2-stage method for S of `ne` rows and `np` columns.
     pub(crate) fn new(ne: usize, np: usize) -> Gauss {
-        let n2 = 2 * ne;
+        Gauss::with_stages(ne, np, 2)
+    }
+
+    /// The `stages`-stage method (2 or 4; any other number is taken as 4) for S of `ne` rows and `np`
+    /// columns.
+    pub(crate) fn with_stages(ne: usize, np: usize, stages: usize) -> Gauss {
+        let tableau = if stages == 2 {
+            Tableau::two()
+        } else {
+            Tableau::four()
+        };
+        let ns = tableau.s * ne;
         Gauss {
             ne,
             np,
-            m: vec![0.0; n2 * n2],
-            piv: vec![0; n2],
-            dinv: vec![0.0; n2],
-            w: vec![0.0; ne * n2],
+            tableau,
+            m: vec![0.0; ns * ns],
+            piv: vec![0; ns],
+            dinv: vec![0.0; ns],
+            w: vec![0.0; ne * ns],
             phi: vec![0.0; ne * ne],
-            x: vec![0.0; n2],
+            x: vec![0.0; ns],
         }
+    }
+
+    /// The nodes c_1 … c_s in [0, 1] where A and B are wanted.
+    pub(crate) fn nodes(&self) -> &[f64] {
+        &self.tableau.c[..self.tableau.s]
     }
 
     /// S ← S(t + h) by one Gauss–Legendre step, `a[i]` = A(t + c_i h) (ne × ne), `b[i]` = B(t + c_i h)
-    /// (ne × P). The common sizes are compiled each with ne a constant (the small loops unrolled).
+    /// (ne × P), i < s. The common sizes are compiled each with ne and s constants (the small loops unrolled).
     pub(crate) fn step(
         &mut self,
         h: f64,
-        a: [&[f64]; 2],
-        b: [&[f64]; 2],
+        a: &[&[f64]],
+        b: &[&[f64]],
         s: &mut [f64],
     ) -> Result<(), Singular> {
-        match self.ne {
-            1 => self.step_sized(1, h, (a, b), s),
-            2 => self.step_sized(2, h, (a, b), s),
-            3 => self.step_sized(3, h, (a, b), s),
-            4 => self.step_sized(4, h, (a, b), s),
-            ne => self.step_sized(ne, h, (a, b), s),
+        match (self.tableau.s, self.ne) {
+            (2, 1) => self.step_sized::<2>(1, h, (a, b), s),
+            (2, 2) => self.step_sized::<2>(2, h, (a, b), s),
+            (2, 3) => self.step_sized::<2>(3, h, (a, b), s),
+            (2, 4) => self.step_sized::<2>(4, h, (a, b), s),
+            (2, ne) => self.step_sized::<2>(ne, h, (a, b), s),
+            (_, 1) => self.step_sized::<4>(1, h, (a, b), s),
+            (_, 2) => self.step_sized::<4>(2, h, (a, b), s),
+            (_, ne) => self.step_sized::<4>(ne, h, (a, b), s),
         }
     }
 
-    /// [`Gauss::step`] for ne = `self.ne`, inlined into each of its arms.
+    /// [`Gauss::step`] for ne = `self.ne` and s = `S` stages, inlined into each of its arms.
     #[inline(always)]
-    fn step_sized(
+    fn step_sized<const S: usize>(
         &mut self,
         ne: usize,
         h: f64,
-        (a, b): ([&[f64]; 2], [&[f64]; 2]),
+        (a, b): (&[&[f64]], &[&[f64]]),
         s: &mut [f64],
     ) -> Result<(), Singular> {
-        self.transition(ne, h, a)?;
+        let (a, b): ([&[f64]; S], [&[f64]; S]) =
+            (std::array::from_fn(|i| a[i]), std::array::from_fn(|i| b[i]));
+        self.transition::<S>(ne, h, &a)?;
         let (w, phi, x) = (
-            &self.w[..2 * ne * ne],
+            &self.w[..S * ne * ne],
             &self.phi[..ne * ne],
             &mut self.x[..ne],
         );
-        let (b0, b1) = (&b[0][..self.np * ne], &b[1][..self.np * ne]);
-        for ((sc, b0), b1) in s[..self.np * ne]
-            .chunks_exact_mut(ne)
-            .zip(b0.chunks_exact(ne))
-            .zip(b1.chunks_exact(ne))
-        {
+        let np = self.np;
+        for (c, sc) in s[..np * ne].chunks_exact_mut(ne).enumerate() {
             for (row, v) in x.iter_mut().enumerate() {
                 let mut sum = 0.0;
                 for j in 0..ne {
-                    sum += phi[j * ne + row] * sc[j]
-                        + w[j * ne + row] * b0[j]
-                        + w[(ne + j) * ne + row] * b1[j];
+                    // Φ S + Σ_i W_i B_i, the terms of one j together (as the 2-stage form always summed).
+                    let mut term = phi[j * ne + row] * sc[j];
+                    for (i, bi) in b.iter().enumerate() {
+                        term += w[(i * ne + j) * ne + row] * bi[c * ne + j];
+                    }
+                    sum += term;
                 }
                 *v = sum;
             }
@@ -121,16 +198,21 @@ impl Gauss {
         Ok(())
     }
 
-    /// W = (h/2) [I I] M⁻¹ row by row (Mᵀ solves by the LU factors; b1 = b2 = 1/2) and
-    /// Φ = I + W1 A1 + W2 A2.
+    /// W = h [b_1 I … b_s I] M⁻¹ row by row (Mᵀ solves by the LU factors) and Φ = I + Σ_i W_i A_i.
     #[inline(always)]
-    fn transition(&mut self, ne: usize, h: f64, a: [&[f64]; 2]) -> Result<(), Singular> {
-        let n2 = 2 * ne;
-        // Block (i, j) of M is δ_ij I − h a_ij A_i: entry (i·ne + k, j·ne + l) at (j·ne + l)·n2 + i·ne + k.
-        for (j, block_column) in self.m[..n2 * n2].chunks_exact_mut(ne * n2).enumerate() {
-            for (l, column) in block_column.chunks_exact_mut(n2).enumerate() {
+    fn transition<const S: usize>(
+        &mut self,
+        ne: usize,
+        h: f64,
+        a: &[&[f64]; S],
+    ) -> Result<(), Singular> {
+        let ns = S * ne;
+        let tab = &self.tableau;
+        // Block (i, j) of M is δ_ij I − h a_ij A_i: entry (i·ne + k, j·ne + l) at (j·ne + l)·ns + i·ne + k.
+        for (j, block_column) in self.m[..ns * ns].chunks_exact_mut(ne * ns).enumerate() {
+            for (l, column) in block_column.chunks_exact_mut(ns).enumerate() {
                 for (i, (block, ai)) in column.chunks_exact_mut(ne).zip(a).enumerate() {
-                    let f = h * A[i][j];
+                    let f = h * tab.a[i][j];
                     for ((v, &ak), k) in block.iter_mut().zip(&ai[l * ne..(l + 1) * ne]).zip(0..) {
                         let unit = if i == j && k == l { 1.0 } else { 0.0 };
                         *v = unit - f * ak;
@@ -138,18 +220,19 @@ impl Gauss {
                 }
             }
         }
-        factor(&mut self.m[..n2 * n2], n2, &mut self.piv[..n2])?;
-        for (j, d) in self.dinv[..n2].iter_mut().enumerate() {
-            *d = 1.0 / self.m[j * n2 + j];
+        factor(&mut self.m[..ns * ns], ns, &mut self.piv[..ns])?;
+        for (j, d) in self.dinv[..ns].iter_mut().enumerate() {
+            *d = 1.0 / self.m[j * ns + j];
         }
-        // Row r of W is (h/2)(e_r + e_(ne+r))ᵀ M⁻¹: Mᵀ y = (h/2)(e_r + e_(ne+r)), ne solves with Mᵀ.
-        let (m, piv, dinv) = (&self.m[..n2 * n2], &self.piv[..n2], &self.dinv[..n2]);
-        let (x, w) = (&mut self.x[..n2], &mut self.w[..n2 * ne]);
+        // Row r of W is h Σ_i b_i e_(i·ne+r)ᵀ M⁻¹: Mᵀ y = h Σ_i b_i e_(i·ne+r), ne solves with Mᵀ.
+        let (m, piv, dinv) = (&self.m[..ns * ns], &self.piv[..ns], &self.dinv[..ns]);
+        let (x, w) = (&mut self.x[..ns], &mut self.w[..ns * ne]);
         for row in 0..ne {
             x.fill(0.0);
-            x[row] = 0.5 * h;
-            x[ne + row] = 0.5 * h;
-            solve_transposed(m, n2, (piv, dinv), x);
+            for i in 0..S {
+                x[i * ne + row] = tab.b[i] * h;
+            }
+            solve_transposed(m, ns, (piv, dinv), x);
             for (k, &y) in x.iter().enumerate() {
                 w[k * ne + row] = y;
             }
@@ -258,26 +341,82 @@ mod tests {
         }
     }
 
-    /// n steps of h from S(0) = s0 for Ṡ = A(t) S + B(t).
+    /// n steps of h from S(0) = s0 for Ṡ = A(t) S + B(t) by the 2-stage method.
     fn integrate(
         a: impl Fn(f64) -> DMatrix<f64>,
         b: impl Fn(f64) -> DMatrix<f64>,
         s0: DMatrix<f64>,
         (h, n): (f64, usize),
     ) -> DMatrix<f64> {
+        integrate_with(2, a, b, s0, (h, n))
+    }
+
+    /// n steps of h from S(0) = s0 for Ṡ = A(t) S + B(t) by the `stages`-stage method.
+    fn integrate_with(
+        stages: usize,
+        a: impl Fn(f64) -> DMatrix<f64>,
+        b: impl Fn(f64) -> DMatrix<f64>,
+        s0: DMatrix<f64>,
+        (h, n): (f64, usize),
+    ) -> DMatrix<f64> {
         let mut s = s0;
-        let mut gauss = Gauss::new(s.nrows(), s.ncols());
+        let mut gauss = Gauss::with_stages(s.nrows(), s.ncols(), stages);
+        let nodes = gauss.nodes().to_vec();
         for k in 0..n {
             let t = k as f64 * h;
-            let (a1, a2) = (a(t + NODES[0] * h), a(t + NODES[1] * h));
-            let (b1, b2) = (b(t + NODES[0] * h), b(t + NODES[1] * h));
-            let (a, b) = (
-                [a1.as_slice(), a2.as_slice()],
-                [b1.as_slice(), b2.as_slice()],
-            );
-            gauss.step(h, a, b, s.as_mut_slice()).expect("regular");
+            let am: Vec<DMatrix<f64>> = nodes.iter().map(|c| a(t + c * h)).collect();
+            let bm: Vec<DMatrix<f64>> = nodes.iter().map(|c| b(t + c * h)).collect();
+            let a: Vec<&[f64]> = am.iter().map(|m| m.as_slice()).collect();
+            let b: Vec<&[f64]> = bm.iter().map(|m| m.as_slice()).collect();
+            gauss.step(h, &a, &b, s.as_mut_slice()).expect("regular");
         }
         s
+    }
+
+    /// The 4-stage tableau satisfies the collocation conditions it is built from, checked independently:
+    /// Σ_j a_ij c_j^(q−1) = c_i^q/q and Σ_j b_j c_j^(q−1) = 1/q for q = 1 … 4 (Hairer & Wanner II, §IV.5,
+    /// C(4) and B(8): the weights integrate degree 7 exactly, here q up to 8).
+    #[test]
+    fn the_four_stage_tableau_is_the_collocation_method() {
+        let t = Tableau::four();
+        for q in 1..=4 {
+            for i in 0..4 {
+                let lhs: f64 = (0..4).map(|j| t.a[i][j] * t.c[j].powi(q - 1)).sum();
+                let rhs = t.c[i].powi(q) / q as f64;
+                assert!((lhs - rhs).abs() < 1e-15, "C({q}) row {i}: {lhs} vs {rhs}");
+            }
+        }
+        for q in 1..=8 {
+            let lhs: f64 = (0..4).map(|j| t.b[j] * t.c[j].powi(q - 1)).sum();
+            assert!((lhs - 1.0 / q as f64).abs() < 1e-15, "B({q}): {lhs}");
+        }
+    }
+
+    /// Order 8: on Ṡ = λS + cos t (λ = −3, t ∈ [0, 1]) halving h divides the 4-stage method's error by
+    /// 2⁸ = 256 (the second halving reaches rounding and is not checked); and the stiff case at hλ = −30 is
+    /// stable and accurate.
+    #[test]
+    fn the_four_stage_method_converges_with_order_eight() {
+        let run = |lambda: f64, (h, n): (f64, usize)| {
+            let sp = |t: f64| (t.sin() - lambda * t.cos()) / (lambda * lambda + 1.0);
+            let t = h * n as f64;
+            let exact = (1.0 - sp(0.0)) * (lambda * t).exp() + sp(t);
+            let s = integrate_with(
+                4,
+                |_| DMatrix::from_element(1, 1, lambda),
+                |t| DMatrix::from_element(1, 1, t.cos()),
+                DMatrix::from_element(1, 1, 1.0),
+                (h, n),
+            );
+            (s[(0, 0)] - exact).abs()
+        };
+        let (e1, e2) = (run(-3.0, (0.5, 2)), run(-3.0, (0.25, 4)));
+        let order = (e1 / e2).log2();
+        assert!(
+            (7.5..8.7).contains(&order),
+            "order {order} ({e1:e}, {e2:e})"
+        );
+        assert!(run(-300.0, (0.1, 100)) < 1e-9);
     }
 
     /// Ṡ = λS + cos t, S(0) = 1: S(t) = (1 − S_p(0)) e^{λt} + S_p(t) with the particular solution

@@ -42,7 +42,7 @@ pub(crate) use direct::DirectSensitivities;
 pub use error::GradientError;
 pub use figures::Figures;
 pub(crate) use figures::{figures, Integrals, Wrt};
-pub(crate) use gauss::{Gauss, Singular, NODES};
+pub(crate) use gauss::{Gauss, Singular};
 pub use grid_columns::GridColumns;
 pub use grid_values::{GridValue, MAX_GRID_VALUES};
 pub use modal::{resolve_modal, resolve_modal_with_maps, GearParameters, ModalParam, ModalWrt};

@@ -285,7 +285,7 @@ impl Nodes {
             self.jacobians_at(wanted, smoother, (t + c * h, u_prev), i)?;
         }
         let (a, b) = (&self.a, &self.b);
-        let stages = self.gauss.step(h, [&a[0], &a[1]], [&b[0], &b[1]], s);
+        let stages = self.gauss.step(h, &[&a[0], &a[1]], &[&b[0], &b[1]], s);
         stages.map_err(|Singular| {
             SimulateError::from(StepFailure {
                 t,

@@ -324,9 +324,13 @@ impl<'p, 'a, 'm> Pass<'p, 'a, 'm> {
         if model.info().n_eta > 0 {
             let cols = (&self.wrt.columns[m][..], &self.wrt.grids[m]);
             let guess = (&rec.states[k], rec.free[k]);
+            let steps = rec.zd_steps.as_ref().ok_or_else(|| {
+                ModalError::Setup("the run kept no steps of its zero dynamics".into())
+            })?;
             self.zd.advance(
                 ctx,
                 (m, self.blend.as_ref(), self.dblend.as_ref(), cols),
+                (k, steps),
                 (ta, tb),
                 guess,
                 &mut self.deta,

@@ -1,5 +1,5 @@
 //! The sensitivities of a mode's zero dynamics over one output interval, for the gradient of a run with
-//! modes (`gradient.rs`), from the η the run recorded at the interval's start:
+//! modes (`gradient.rs`), along the steps the run took over it:
 //!
 //! ```text
 //! dη/dt = q(ξ_ref(t), η, y_ref^(r)(t); p)
@@ -8,33 +8,33 @@
 //!
 //! (Hairer, Nørsett & Wanner, *Solving ODEs I*, §I.14; de_c(t) the re-entry transition's derivative,
 //! `gradient_point.rs`). As in the single-mode pass (`crate::gradient::pass`, the staggered direct method of
-//! Caracotsios & Stewart 1985), η alone is integrated by Dormand–Prince 5(4) at the run's tolerances
-//! (`zd_ode.rs`), and after each accepted step [t, t + h] S is advanced over the same step by the 2-stage
-//! Gauss–Legendre method (order 4, A-stable; `crate::gradient::Gauss`), with A and B at its two nodes from η's
-//! continuous extension there: x = ψ⁻¹(ξ_ref, η), u the inverse's input, A, B and the reference's columns
-//! ∂q/∂(ξ, y^(r)) by one adjoint product per row ([`crate::gradient::Point::moved_row_jacobians`]). S's
+//! Caracotsios & Stewart 1985), η is the run's: a differentiated run logs each accepted step of its
+//! integrator with the step's continuous extension (`zd_ode.rs`, [`crate::ode::StepLog`]), and S is advanced
+//! over the same step by the Gauss–Legendre method of the extension's order (`crate::gradient::Gauss`; both
+//! A-stable): 4 stages (order 8) over DOP853's steps with its extension of order 7, 2 stages (order 4) over
+//! DOPRI5's with its extension of order 4. A and B are taken at the method's nodes from η's extension there:
+//! x = ψ⁻¹(ξ_ref, η), u the inverse's input, A, B and the reference's columns ∂q/∂(ξ, y^(r)) by one adjoint
+//! product per row ([`crate::gradient::Point::moved_row_jacobians`]), or the mode's closed form. S's
 //! equations are linear with η's own linearisation A, so the steps that control η's error resolve S's time
 //! scales too; the stiff manifold modes need no error control of S (Gauss–Legendre is stable for any step).
-//! Each interval starts again from the run's η, and the reference at the stage times and nodes is the run's
-//! (the sub-grid interpolant where the run used one: `crate::smoother::FineReference`).
+//! The reference at the nodes is the run's (the sub-grid interpolant where the run used one:
+//! `crate::smoother::FineReference`).
 
 use super::blend::{Blend, Blends};
 use super::gradient_point::{add_transition_moves, point_into};
-use super::record::Ctx;
-use super::zd_ode::{ATOL, RTOL};
+use super::record::{Ctx, ZdSteps};
 use super::ModalError;
-use crate::gradient::{
-    Buffers, ClosedJacobian, ClosedRows as Rows, Gauss, GridColumns, Singular, NODES,
-};
-use crate::ode::{Dopri5, StepFailure};
+use crate::gradient::{Buffers, ClosedJacobian, ClosedRows as Rows, Gauss, GridColumns, Singular};
+use crate::ode::StepFailure;
 use crate::smoother::FineReference;
 
-/// Per mode (built at the mode's first interval) its integrator and work space, and where the last interval
-/// ended.
+/// The most nodes of a step (the 4-stage method's).
+const NODES_MAX: usize = 4;
+
+/// Per mode (built at the mode's first interval) its Gauss–Legendre method and work space.
 pub(super) struct ZdSensitivity {
     modes: Vec<Option<ModeZd>>,
-    last: Option<(usize, f64)>,
-    /// The reference's sub-grid read by η's stages (`None`: the smoother pointwise, as in the run).
+    /// The reference's sub-grid read at the nodes (`None`: the smoother pointwise, as in the run).
     fine: Option<FineReference>,
     /// Where the last interval found the first corner within the look-ahead ([`Smoother::still_on_from`]).
     corner: usize,
@@ -49,17 +49,15 @@ pub(super) type Along<'b> = (
     (&'b [Option<usize>], &'b GridColumns),
 );
 
-/// One mode's η integrator, S (ne × P, column-major) and the work space of a Gauss–Legendre step.
+/// One mode's Gauss–Legendre method, S (ne × P, column-major) and the buffers of its nodes.
 struct ModeZd {
-    ode: Dopri5,
     gauss: Gauss,
     s: Vec<f64>,
     nodes: Nodes,
 }
 
-/// A and B at a step's two Gauss nodes and the buffers of their evaluation.
+/// A and B at a step's nodes and the buffers of their evaluation.
 struct Nodes {
-    /// A sub-grid of its own: the stages' is read in their order.
     fine: Option<FineReference>,
     eta: Vec<f64>,
     x: Vec<f64>,
@@ -72,10 +70,19 @@ struct Nodes {
     reference: Vec<f64>,
     rows: Vec<usize>,
     buf: Buffers,
-    a: [Vec<f64>; 2],
-    b: [Vec<f64>; 2],
+    a: [Vec<f64>; NODES_MAX],
+    b: [Vec<f64>; NODES_MAX],
     /// The mode's closed-form A, B and reference columns, where it has them ([`ClosedJacobian`]).
     closed: ClosedJacobian,
+}
+
+/// The Gauss–Legendre stages for a logged step: 4 over DOP853's (order 8), 2 over DOPRI5's.
+fn stages_for(order: usize) -> usize {
+    if order >= 8 {
+        4
+    } else {
+        2
+    }
 }
 
 impl ZdSensitivity {
@@ -83,99 +90,81 @@ impl ZdSensitivity {
     pub(super) fn new(ctx: &Ctx<'_, '_>) -> ZdSensitivity {
         ZdSensitivity {
             modes: (0..ctx.spec.modes.len()).map(|_| None).collect(),
-            last: None,
             fine: ctx.fine_reference(),
             corner: 0,
         }
     }
 
-    /// Advance S (`deta`, per derivative) of mode m over [ta, tb] from the run's state and input at ta
-    /// (`start`: η's start and the guesses of the inverse).
+    /// Advance S (`deta`, per derivative) of mode m over interval k, [ta, tb], along the run's logged steps
+    /// (`steps`) from the run's state and input at ta (`start`: the guesses of the inverse).
     pub(super) fn advance(
         &mut self,
         ctx: &Ctx<'_, '_>,
         along: Along<'_>,
+        (k, steps): (usize, &ZdSteps),
         (ta, tb): (f64, f64),
         (x0, u0): (&[f64], f64),
         deta: &mut [Vec<f64>],
     ) -> Result<(), ModalError> {
         let m = along.0;
-        let model = ctx.model(m);
-        let info = model.info();
+        let info = ctx.model(m).info();
         let (r, ne, nw) = (info.relative_degree, info.n_eta, info.n_w());
         let np = deta.len();
+        let range = steps.of_interval(k);
+        let Some(first) = range.clone().next().map(|i| steps.log.step(i)) else {
+            return Ok(());
+        };
+        let stages = stages_for(first.order());
         let zd = self.modes[m].get_or_insert_with(|| ModeZd {
-            ode: Dopri5::new(ne, RTOL, ATOL, tb - ta),
-            gauss: Gauss::new(ne, np),
+            gauss: Gauss::with_stages(ne, np, stages),
             s: vec![0.0; ne * np],
             nodes: Nodes::new(ctx, m, np, self.fine.clone()),
         });
-        let h0 = match self.last {
-            Some((lm, lt)) if lm == m && lt.to_bits() == ta.to_bits() => {
-                zd.ode.step_size().min(tb - ta)
-            }
-            _ => (tb - ta) / 4.0,
-        };
-        self.last = Some((m, tb));
-        zd.ode.reset(h0);
         for (c, d) in deta.iter().enumerate() {
             zd.s[ne * c..ne * (c + 1)].copy_from_slice(d);
         }
-        let mut eta: Vec<f64> = info.eta_states.iter().map(|&s| x0[s]).collect();
-        let (mut yr, mut w) = (vec![0.0; ctx.r_max + 1], Vec::new());
-        let fine = &mut self.fine;
-        // The reference at ta; where it is constant on the interval (a standstill more than a look-ahead from
-        // any corner, no transition under way: as the run has it) every stage and node takes it.
-        ctx.stage_reference_into((m, ta, along.1), fine.as_mut(), &mut yr[..=r], (&mut w, nw));
+        // Where the reference is constant on the interval (a standstill more than a look-ahead from any
+        // corner, no transition under way: as the run has it) every node takes ta's.
         let smoother = &ctx.reference.smoother;
         let still =
             along.1.is_none_or(|b| b.done(ta)) && smoother.still_on_from(&mut self.corner, ta, tb);
-        let nodes = &mut zd.nodes;
+        let ModeZd { gauss, s, nodes } = zd;
         if still {
-            nodes.yr.clone_from(&yr);
-            nodes.w.clone_from(&w);
+            let (y, w) = (&mut nodes.yr[..=r], (&mut nodes.w, nw));
+            ctx.stage_reference_into((m, ta, along.1), nodes.fine.as_mut(), y, w);
         }
-        let mut at = ta;
-        let mut q = |s: f64, v: &[f64], dv: &mut [f64]| -> Result<(), StepFailure> {
-            // A step's last two stages are both at its end: evaluated once.
-            if !still && s.to_bits() != at.to_bits() {
-                ctx.stage_reference_into(
-                    (m, s, along.1),
-                    fine.as_mut(),
-                    &mut yr[..=r],
-                    (&mut w, nw),
-                );
-                at = s;
-            }
-            model.zero_dynamics_from(&yr[..r], v, &w, yr[r], u0, dv);
-            Ok(())
+        let fail = |e: StepFailure| {
+            let reason = format!("the zero dynamics' sensitivities failed: {}", e.reason);
+            ctx.err(m, e.t, reason)
         };
-        let (gauss, s) = (&mut zd.gauss, &mut zd.s);
-        let mut each = |ode: &Dopri5, t: f64, t_new: f64| -> Result<(), StepFailure> {
-            let h = t_new - t;
-            for (i, c) in NODES.iter().enumerate() {
-                ode.dense(t + c * h, &mut nodes.eta);
-                nodes.jacobians_at(ctx, &along, (t + c * h, x0, u0, still), i)?;
+        for i in range {
+            let step = steps.log.step(i);
+            let stages = stages_for(step.order());
+            if gauss.nodes().len() != stages {
+                *gauss = Gauss::with_stages(ne, np, stages);
             }
-            let (a, b) = (&nodes.a, &nodes.b);
+            let mut c = [0.0; NODES_MAX];
+            c[..stages].copy_from_slice(gauss.nodes());
+            for (j, c) in c[..stages].iter().enumerate() {
+                let at = step.t + c * step.h;
+                steps.log.eval(&step, at, &mut nodes.eta);
+                nodes
+                    .jacobians_at(ctx, &along, (at, x0, u0, still), j)
+                    .map_err(fail)?;
+            }
+            let a: [&[f64]; NODES_MAX] = std::array::from_fn(|j| &nodes.a[j][..]);
+            let b: [&[f64]; NODES_MAX] = std::array::from_fn(|j| &nodes.b[j][..]);
             gauss
-                .step(h, [&a[0], &a[1]], [&b[0], &b[1]], s)
-                .map_err(|Singular| StepFailure {
-                    t,
-                    reason: "the Gauss–Legendre stage system is singular or not finite".to_string(),
-                })
-        };
-        zd.ode
-            .advance_each(ta, tb, &mut eta, &mut q, &mut each)
-            .map_err(|e: StepFailure| {
-                ctx.err(
-                    m,
-                    e.t,
-                    format!("the zero dynamics' sensitivities failed: {}", e.reason),
-                )
-            })?;
+                .step(step.h, &a[..stages], &b[..stages], s)
+                .map_err(|Singular| {
+                    fail(StepFailure {
+                        t: step.t,
+                        reason: "the Gauss–Legendre stage system is singular or not finite".into(),
+                    })
+                })?;
+        }
         for (c, d) in deta.iter_mut().enumerate() {
-            d.copy_from_slice(&zd.s[ne * c..ne * (c + 1)]);
+            d.copy_from_slice(&s[ne * c..ne * (c + 1)]);
         }
         Ok(())
     }

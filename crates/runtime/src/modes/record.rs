@@ -97,6 +97,31 @@ pub(super) fn decided_slots(spec: &ModalSpec<'_>) -> Vec<Vec<(usize, usize)>> {
         .collect()
 }
 
+/// The zero dynamics' accepted steps over the run with their continuous extensions, kept where the run is
+/// differentiated: the gradient's pass reads η between them (`gradient_zd.rs`) instead of integrating again.
+pub(super) struct ZdSteps {
+    pub(super) log: crate::ode::StepLog,
+    /// Interval k's steps are `starts[k] .. starts[k + 1]` of the log (none for a mode without η).
+    pub(super) starts: Vec<usize>,
+}
+
+impl ZdSteps {
+    /// The most values the log keeps (128 MB): a run whose steps need more is refused its gradient.
+    const VALUES_MAX: usize = 1 << 24;
+
+    pub(super) fn new() -> ZdSteps {
+        ZdSteps {
+            log: crate::ode::StepLog::new(Self::VALUES_MAX),
+            starts: vec![0],
+        }
+    }
+
+    /// The steps of interval k.
+    pub(super) fn of_interval(&self, k: usize) -> std::ops::Range<usize> {
+        self.starts[k]..self.starts[k + 1]
+    }
+}
+
 /// One solved sample of a mode.
 #[derive(Debug, Clone)]
 pub(super) struct Solved {
@@ -130,6 +155,8 @@ pub(super) struct Record {
     /// The decided inputs' values at each sample (held over its interval), in the mode's order of
     /// [`Ctx::decided`]; empty for a run without a strategy.
     pub(super) decided: Vec<Vec<f64>>,
+    /// The zero dynamics' steps (a differentiated run's).
+    pub(super) zd_steps: Option<ZdSteps>,
 }
 
 impl Record {
@@ -164,6 +191,7 @@ impl Record {
             resets: Vec::new(),
             entries: Vec::new(),
             decided: Vec::new(),
+            zd_steps: None,
         }
     }
 

@@ -7,7 +7,7 @@ use invsim_model_api::InverseModel;
 use super::bases::Bases;
 use super::blend::Blend;
 use super::gears::GearBox;
-use super::record::{CouplingReset, Ctx, EntryLog, Impulse, Record, Solved, Transition};
+use super::record::{CouplingReset, Ctx, EntryLog, Impulse, Record, Solved, Transition, ZdSteps};
 use super::reference::{ModalReference, ReferenceCell};
 use super::rules::Rules;
 use super::sequence::{decide, Moment, Place, Rung, Switcher};
@@ -51,10 +51,12 @@ pub(super) struct ZeroDynamics {
     fine: Option<FineReference>,
     /// Where the last interval found the first corner within the look-ahead ([`Smoother::still_on_from`]).
     corner: usize,
+    /// The accepted steps with their continuous extensions (a differentiated run's).
+    steps: Option<ZdSteps>,
 }
 
 impl ZeroDynamics {
-    fn new(ctx: &Ctx<'_, '_>, grid: &Grid) -> ZeroDynamics {
+    fn new(ctx: &Ctx<'_, '_>, grid: &Grid, logged: bool) -> ZeroDynamics {
         ZeroDynamics {
             ode: ctx.spec.modes.iter().map(|_| None).collect(),
             dt: grid.dt,
@@ -63,6 +65,7 @@ impl ZeroDynamics {
             last: None,
             fine: ctx.fine_reference(),
             corner: 0,
+            steps: logged.then(ZdSteps::new),
         }
     }
 }
@@ -220,9 +223,11 @@ impl Ctx<'_, '_> {
             last,
             fine,
             corner,
+            steps,
         } = zd;
-        // No dense output: η is needed at the interval's end only.
-        let ode = ode[m].get_or_insert_with(|| ZdOde::new(eta.len(), *dt, t1 - t0));
+        // Dense output only where the steps are logged: else η is needed at the interval's end only.
+        let logged = steps.is_some();
+        let ode = ode[m].get_or_insert_with(|| ZdOde::new(eta.len(), *dt, t1 - t0, logged));
         let h0 = match *last {
             Some((lm, lt)) if lm == m && lt.to_bits() == t0.to_bits() => {
                 ode.step_size().min(t1 - t0)
@@ -253,9 +258,11 @@ impl Ctx<'_, '_> {
             model.zero_dynamics(&y[..r], e, w, y[r], de);
             Ok(())
         };
-        ode.advance(t0, t1, eta, &mut f).map_err(|e: StepFailure| {
-            self.err(m, t1, format!("the zero dynamics failed: {}", e.reason))
-        })
+        let log = steps.as_mut().map(|s| &mut s.log);
+        ode.advance(t0, t1, eta, &mut f, log)
+            .map_err(|e: StepFailure| {
+                self.err(m, t1, format!("the zero dynamics failed: {}", e.reason))
+            })
     }
 
     /// η at the start: the zero dynamics' equilibrium for the reference at t (Newton, differences). A state
@@ -420,7 +427,7 @@ pub(crate) fn simulate_modes_kept(
         transition,
         decided: super::record::decided_slots(spec),
     };
-    let rec = run_sequence(&ctx, &grid, opts)?;
+    let rec = run_sequence(&ctx, &grid, opts, wrt.is_some())?;
     let verify = if opts.verify {
         Some(replay(&ctx, &rec)?)
     } else {
@@ -462,7 +469,13 @@ pub(crate) fn refuse_decided(spec: &ModalSpec<'_>) -> Result<(), ModalError> {
     Ok(())
 }
 
-fn run_sequence(ctx: &Ctx<'_, '_>, grid: &Grid, opts: &ModalOptions) -> Result<Record, ModalError> {
+/// The run's record; with the zero dynamics' steps where `logged` (a differentiated run).
+fn run_sequence(
+    ctx: &Ctx<'_, '_>,
+    grid: &Grid,
+    opts: &ModalOptions,
+    logged: bool,
+) -> Result<Record, ModalError> {
     let spec = ctx.spec;
     let mut gearbox = GearBox::new(spec.gear_source.clone(), spec.gears);
     let t0 = grid.time(0);
@@ -497,7 +510,7 @@ fn run_sequence(ctx: &Ctx<'_, '_>, grid: &Grid, opts: &ModalOptions) -> Result<R
     let per_sample = 2 * ctx.n + ctx.r_max + 6;
     crate::grid::check_record(grid.samples(), per_sample, opts.dt)?;
     let mut rec = Record::new((t0, base[0]), mode, grid.samples(), (ctx.n, ctx.r_max + 1));
-    let mut zd = ZeroDynamics::new(ctx, grid);
+    let mut zd = ZeroDynamics::new(ctx, grid, logged);
     // Decide at t0 too (a start that needs another mode at once).
     let mut cur = step_sequence(
         ctx,
@@ -522,6 +535,9 @@ fn run_sequence(ctx: &Ctx<'_, '_>, grid: &Grid, opts: &ModalOptions) -> Result<R
             inner.blend.as_ref(),
             &mut zd,
         )?;
+        if let Some(steps) = zd.steps.as_mut() {
+            steps.starts.push(steps.log.len());
+        }
         bases.at(&ctx.reference.smoother, k, &mut base);
         let local = (&inner.eta[..], inner.blend.as_ref());
         ctx.solve_into(m, (tb, &base), local, &cur.x, &mut spare)?;
@@ -548,6 +564,7 @@ fn run_sequence(ctx: &Ctx<'_, '_>, grid: &Grid, opts: &ModalOptions) -> Result<R
         rec.push_solved(&next);
         spare = std::mem::replace(&mut cur, next);
     }
+    rec.zd_steps = zd.steps.take();
     Ok(rec)
 }
 

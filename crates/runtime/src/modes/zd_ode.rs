@@ -13,7 +13,7 @@
 //! `the_tolerance_keeps_the_stiff_zero_dynamics_within_1e_9` (below) checks the bound on an exact solution.
 //! On UDDS with `si_engine_5speed` DOPRI5 takes about 5 steps per 0.1 s interval and one per 0.01 s interval.
 
-use crate::ode::{Dop853, Dopri5, StepFailure};
+use crate::ode::{Dop853, Dopri5, StepFailure, StepLog};
 
 /// Output steps from which DOP853 is used, s.
 pub(super) const DOP853_FROM_DT: f64 = 0.05;
@@ -28,14 +28,16 @@ pub(super) enum ZdOde {
 }
 
 impl ZdOde {
-    /// The integrator for `n` internal states on intervals of `dt`, starting with step `h0`.
-    pub(super) fn new(n: usize, dt: f64, h0: f64) -> ZdOde {
-        if dt >= DOP853_FROM_DT {
-            ZdOde::Dop853(Dop853::new(n, RTOL, ATOL, h0))
-        } else {
-            ZdOde::Dopri5(Box::new(
+    /// The integrator for `n` internal states on intervals of `dt`, starting with step `h0`; with its
+    /// continuous extension where `dense` (a differentiated run logs its steps with it: the same steps).
+    pub(super) fn new(n: usize, dt: f64, h0: f64, dense: bool) -> ZdOde {
+        match (dt >= DOP853_FROM_DT, dense) {
+            (true, false) => ZdOde::Dop853(Dop853::new(n, RTOL, ATOL, h0)),
+            (true, true) => ZdOde::Dop853(Dop853::new(n, RTOL, ATOL, h0).with_dense_output()),
+            (false, false) => ZdOde::Dopri5(Box::new(
                 Dopri5::new(n, RTOL, ATOL, h0).without_dense_output(),
-            ))
+            )),
+            (false, true) => ZdOde::Dopri5(Box::new(Dopri5::new(n, RTOL, ATOL, h0))),
         }
     }
 
@@ -55,20 +57,51 @@ impl ZdOde {
         }
     }
 
-    /// Integrate y from `t0` to `t1` in place.
+    /// Integrate y from `t0` to `t1` in place, each accepted step with its continuous extension into `log`
+    /// where there is one (the integrator built with it, [`ZdOde::new`]).
+    #[inline(always)]
     pub(super) fn advance<F>(
         &mut self,
         t0: f64,
         t1: f64,
         y: &mut [f64],
         f: &mut F,
+        log: Option<&mut StepLog>,
     ) -> Result<(), StepFailure>
     where
         F: FnMut(f64, &[f64], &mut [f64]) -> Result<(), StepFailure>,
     {
+        match (self, log) {
+            (ZdOde::Dopri5(o), None) => o.advance(t0, t1, y, f),
+            (ZdOde::Dop853(o), None) => o.advance(t0, t1, y, f),
+            (ode, Some(log)) => ode.advance_logged((t0, t1), y, f, log),
+        }
+    }
+
+    /// [`ZdOde::advance`] with a log. Out of line, and stepping through its own instance of the step (`g`, a
+    /// closure of another type), so that the plain run's step keeps the one call site it is inlined at.
+    #[inline(never)]
+    fn advance_logged<F>(
+        &mut self,
+        (t0, t1): (f64, f64),
+        y: &mut [f64],
+        f: &mut F,
+        log: &mut StepLog,
+    ) -> Result<(), StepFailure>
+    where
+        F: FnMut(f64, &[f64], &mut [f64]) -> Result<(), StepFailure>,
+    {
+        let n = y.len();
+        let mut g = |t: f64, y: &[f64], d: &mut [f64]| f(t, y, d);
         match self {
-            ZdOde::Dopri5(o) => o.advance(t0, t1, y, f),
-            ZdOde::Dop853(o) => o.advance(t0, t1, y, f),
+            ZdOde::Dopri5(o) => o.advance_each(t0, t1, y, &mut g, &mut |o: &Dopri5, _, _| {
+                let (t, h, r) = o.continuous_extension();
+                log.push((t, h), n, &r)
+            }),
+            ZdOde::Dop853(o) => o.advance_each(t0, t1, y, &mut g, &mut |o: &Dop853, _, _| {
+                let (t, h, r) = o.continuous_extension();
+                log.push((t, h), n, &[r])
+            }),
         }
     }
 }
@@ -92,7 +125,7 @@ mod tests {
             Ok(())
         };
         for dt in [1.0, 0.1] {
-            let mut ode = ZdOde::new(1, dt, dt / 4.0);
+            let mut ode = ZdOde::new(1, dt, dt / 4.0, false);
             let mut eta = [eta0];
             let mut worst = 0.0f64;
             for k in 0..(20.0 / dt) as usize {
@@ -103,7 +136,8 @@ mod tests {
                     ode.step_size().min(dt)
                 };
                 ode.reset(h0);
-                ode.advance(t0, t1, &mut eta, &mut f).expect("integrates");
+                ode.advance(t0, t1, &mut eta, &mut f, None)
+                    .expect("integrates");
                 worst = worst.max((eta[0] - exact(t1)).abs());
             }
             let rel = worst / 2.5e4;
