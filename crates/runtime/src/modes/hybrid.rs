@@ -179,6 +179,7 @@ pub fn simulate_hybrid_differentiated(
         n: spec.modes[0].model.info().n_states(),
         transition: opts.lookahead,
         decided,
+        maps: super::record::reference_maps(spec),
     };
     let x0 = start_state(spec, initial)?;
     let soc_name = &spec.modes[0].model.info().states[h.soc];

@@ -75,6 +75,13 @@ pub(super) struct Ctx<'a, 'm> {
     pub(super) transition: f64,
     /// Per mode, the decided inputs (`decided`) as (input index, slot in the mode's signal values `w`).
     pub(super) decided: Vec<Vec<(usize, usize)>>,
+    /// Per mode, its map of the smoothed cycle (asked of the model once: the stages read it often).
+    pub(super) maps: Vec<invsim_model_api::ReferenceMap>,
+}
+
+/// Per mode of `spec`, its map of the smoothed cycle (`InverseModel::reference`).
+pub(super) fn reference_maps(spec: &ModalSpec<'_>) -> Vec<invsim_model_api::ReferenceMap> {
+    spec.modes.iter().map(|m| m.model.reference()).collect()
 }
 
 /// Per mode of `spec`, its decided inputs: the signals of its model named like an input, as (input index,

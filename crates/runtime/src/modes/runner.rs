@@ -120,7 +120,7 @@ impl Ctx<'_, '_> {
 
     /// Mode `m`'s map y = offset + scale · y_c (derivatives scaled) of the smoothed cycle in `y`, in place.
     fn map_cycle(&self, m: usize, y: &mut [f64]) {
-        let map = self.model(m).reference();
+        let map = self.maps[m];
         for v in y.iter_mut() {
             *v *= map.scale;
         }
@@ -426,6 +426,7 @@ pub(crate) fn simulate_modes_kept(
         n,
         transition,
         decided: super::record::decided_slots(spec),
+        maps: super::record::reference_maps(spec),
     };
     let rec = run_sequence(&ctx, &grid, opts, wrt.is_some())?;
     let verify = if opts.verify {

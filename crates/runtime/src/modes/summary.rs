@@ -247,7 +247,6 @@ fn walk(ctx: &Ctx<'_, '_>, cycle: &Cycle, opts: &ModalOptions, rec: &Record) -> 
             model.outputs(x, &w, u, &mut outs);
         }
         ready = false;
-        tally.deviation.push(cycle, rec.t[k], rec.speed[k]);
         if let Some(op) = tally.operating.as_mut() {
             op.push(|i| outs[i]);
         }
@@ -297,6 +296,8 @@ fn walk(ctx: &Ctx<'_, '_>, cycle: &Cycle, opts: &ModalOptions, rec: &Record) -> 
             }
         }
     }
+    // The reference's deviation, the samples as a block (the same operations as sample by sample).
+    tally.deviation.push_block(cycle, &rec.t, &rec.speed);
     tally
 }
 
