@@ -54,7 +54,7 @@ pub struct StepLog {
 }
 
 impl StepLog {
-    /// An empty log that holds at most `limit` coefficient values.
+    /// An empty log that holds at most `limit` values (its steps' coefficients, and five per step).
     pub fn new(limit: usize) -> StepLog {
         StepLog {
             steps: Vec::new(),
@@ -86,11 +86,14 @@ impl StepLog {
         parts: &[&[f64]],
     ) -> Result<(), StepFailure> {
         let len: usize = parts.iter().map(|p| p.len()).sum();
-        if self.values.len() + len > self.limit {
+        // A step's own record counts as five values (its time, size, place, terms and n).
+        let used = self.values.len() + 5 * self.steps.len();
+        if used + len + 5 > self.limit {
             return Err(StepFailure {
                 t,
                 reason: format!(
-                    "the run's integrator steps need more than {} values to be kept for its gradient",
+                    "the run's integrator steps need more than {} values to be kept for its gradient \
+                     (a shorter cycle or a larger output step needs fewer)",
                     self.limit
                 ),
             });
@@ -108,5 +111,50 @@ impl StepLog {
     pub fn eval(&self, step: &LoggedStep, s: f64, out: &mut [f64]) {
         let r = &self.values[step.at..step.at + step.terms * step.n];
         nested(r, step.n, (s - step.t) / step.h, out);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The nested form is the polynomial it abbreviates: with r = (1, 2, 3, 4, 5) at θ = 0.3,
+    /// 1 + θ(2 + θ'(3 + θ(4 + 5θ'))) written out; a logged step reads its own coefficients (two components, a
+    /// second step after it), and the log refuses a step beyond its budget with the time of the step.
+    #[test]
+    fn a_logged_step_evaluates_its_extension_and_the_log_keeps_its_budget() {
+        let (th, th1) = (0.3, 0.7);
+        let expected = 1.0 + th * (2.0 + th1 * (3.0 + th * (4.0 + th1 * 5.0)));
+        let mut out = [0.0];
+        nested(&[1.0, 2.0, 3.0, 4.0, 5.0], 1, th, &mut out);
+        assert_eq!(out[0], expected);
+        let mut log = StepLog::new(40);
+        let first: Vec<f64> = (1..=10).map(f64::from).collect();
+        log.push((2.0, 0.5), 2, &[&first])
+            .expect("within the budget");
+        let second = [7.0; 10];
+        log.push((2.5, 0.5), 2, &[&second[..4], &second[4..]])
+            .expect("within the budget");
+        assert_eq!((log.len(), log.step(1).order(), log.step(0).t), (2, 5, 2.0));
+        let mut y = [0.0; 2];
+        log.eval(&log.step(0), 2.15, &mut y);
+        let (a, b) = (
+            1.0 + th * (3.0 + th1 * (5.0 + th * (7.0 + th1 * 9.0))),
+            2.0 + th * (4.0 + th1 * (6.0 + th * (8.0 + th1 * 10.0))),
+        );
+        assert!(
+            (y[0] - a).abs() < 1e-14 && (y[1] - b).abs() < 1e-14,
+            "{y:?}"
+        );
+        let refused = log
+            .push((3.0, 0.5), 2, &[&first])
+            .expect_err("over the budget");
+        assert_eq!(refused.t, 3.0);
+        assert!(
+            refused.reason.contains("more than 40 values"),
+            "{}",
+            refused.reason
+        );
+        assert_eq!(log.len(), 2);
     }
 }
