@@ -61,6 +61,8 @@ struct Model {
     path: String,
     source: Vec<u8>,
     engine_choice: String,
+    /// What its runs on one cycle share, kept from run to run (`invsim_runtime::RunKeep`).
+    keep: invsim_runtime::RunKeep,
 }
 
 impl Model {
@@ -76,6 +78,7 @@ impl Model {
             path,
             source,
             engine_choice: engine,
+            keep: invsim_runtime::RunKeep::new(),
         })
     }
 }
@@ -195,8 +198,8 @@ impl Model {
             gradient,
             strategy: strategy.unwrap_or_default().into(),
         };
-        let out =
-            py.allow_threads(|| simulate_any(&self.loaded, &self.path, &cycle, &params, &opts));
+        let model = (&self.loaded, &self.path[..], &self.keep);
+        let out = py.allow_threads(|| simulate_any(model, &cycle, &params, &opts));
         Ok(to_python(py, to_py(py, out)?))
     }
 

@@ -281,8 +281,7 @@ fn resolve_remembered(
 
 /// One inverse run of `model` with `params` set on `cycle_spec`, as `invsim simulate` runs it.
 pub fn simulate_any(
-    model: &Loaded,
-    model_path: &str,
+    (model, model_path, keep): (&Loaded, &str, &invsim_runtime::RunKeep),
     cycle_spec: &str,
     params: &[(String, f64)],
     opts: &RunOptions,
@@ -294,7 +293,7 @@ pub fn simulate_any(
     let plant = model.plant(params)?;
     let file = cycle_file(cycle_spec);
     let mut result = plant
-        .simulate(&cycle, file, &sim_opts)
+        .simulate_keeping(&cycle, file, &sim_opts, Some(keep))
         .map_err(|e| match e {
             RunFailure::Gears(e) => Failure::in_file(format!("{model_path}: {e}"), model_path),
             e => stopped(model_path, &cycle.name, e),

@@ -48,6 +48,9 @@
 //! - `plot`: `--plot` and `--plot-vars` of `simulate` and `forward`: SVG and PNG by the extension, the chosen panels,
 //! - `plot_options`: `--size`, `--dpi`, `--window` and what every figure shows: scales from the data, one
 //!   cumulative-fuel panel, raw and smoothed apart, the headline result, the engine's operating points.
+//! - `run_keep`: a run through `Plant::simulate_keeping` (the Python package's runs) reads the smoothed cycle the
+//!   previous run kept and gives the figures of a run on its own, bit for bit, as cycles, options and
+//!   parameters change.
 //! - `schema`: Every shipped model's `simulate` and `forward` summaries and `sweep` rows validate against
 //!   `docs/summary.schema.json`, checked by a small validator of the part of JSON Schema the schema uses.
 //! - `stable`: `invsim` with unstable zero dynamics: the classification in `derive`, stable (non-causal) inversion selected
@@ -93,6 +96,7 @@ mod modes_sweep;
 mod outputs;
 mod plot;
 mod plot_options;
+mod run_keep;
 mod schema;
 mod stable;
 mod start_up;

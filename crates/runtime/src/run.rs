@@ -12,11 +12,14 @@ use thiserror::Error;
 use crate::cycle::Cycle;
 use crate::forward::ModalForwardResult;
 use crate::forward::{forward, forward_modes, ForwardError, ForwardOptions, ForwardResult};
-use crate::inverse::{simulate, SimulateError, SimulationOptions, SimulationResult};
+use crate::inverse::{
+    simulate, simulate_shared, SimulateError, SimulationOptions, SimulationResult,
+};
 use crate::modes::{GearSource, ModalError, ModalOptions, ModalPlant, ModalResult, Switching};
 use crate::plant::Plant;
 use crate::plot::{self, Figure, PlotError};
 use crate::provenance::Provenance;
+use crate::run_keep::{RunKeep, Shared, SharedError};
 
 /// Why a run could not start or had to stop.
 #[derive(Debug, Error)]
@@ -30,6 +33,15 @@ pub enum RunFailure {
     /// The gearbox's schedule does not exist for the cycle.
     #[error("{0}")]
     Gears(String),
+}
+
+impl From<SharedError> for RunFailure {
+    fn from(e: SharedError) -> RunFailure {
+        match e {
+            SharedError::Reference(e) => RunFailure::Inverse(e),
+            SharedError::Gears(reason) => RunFailure::Gears(reason),
+        }
+    }
 }
 
 /// The result of one run.
@@ -113,10 +125,22 @@ impl Plant {
         file: Option<&Path>,
         opts: &SimulationOptions,
     ) -> Result<RunResult, RunFailure> {
+        self.simulate_keeping(cycle, file, opts, None)
+    }
+
+    /// [`Plant::simulate`], reading what runs on the cycle share from `keep` (and keeping it there for the
+    /// next run; the same figures, bit for bit, [`RunKeep`]).
+    pub fn simulate_keeping(
+        &self,
+        cycle: &Cycle,
+        file: Option<&Path>,
+        opts: &SimulationOptions,
+        keep: Option<&RunKeep>,
+    ) -> Result<RunResult, RunFailure> {
         opts.validate()?;
         if opts.lookahead_auto {
             let (fixed, choice) = crate::lookahead::resolve(opts, cycle)?;
-            let mut result = self.simulate(cycle, file, &fixed)?;
+            let mut result = self.simulate_keeping(cycle, file, &fixed, keep)?;
             if let Some(choice) = choice {
                 result.set_lookahead_choice(choice);
             }
@@ -129,19 +153,28 @@ impl Plant {
                     opts.strategy.as_ref().map_or("--strategy", |s| s.method.flag())
                 ))))
             }
-            Plant::Single(m) => Ok(RunResult::Single(Box::new(simulate(
-                m.as_ref(),
-                cycle,
-                opts,
-            )?))),
+            Plant::Single(m) => {
+                let shared = keep.map(|k| k.shared(self, cycle, file, opts)).transpose()?;
+                let r = match shared.as_deref() {
+                    Some(Shared::Reference(reference)) => {
+                        simulate_shared(m.as_ref(), cycle, reference, opts, Vec::new())?
+                    }
+                    _ => simulate(m.as_ref(), cycle, opts)?,
+                };
+                Ok(RunResult::Single(Box::new(r)))
+            }
             Plant::Modal(p) => {
                 let wrt = opts
                     .gradient
                     .as_deref()
                     .map(|names| modal_gradient_params(p, opts, names))
                     .transpose()?;
-                let gears = p.gear_source(cycle, file).map_err(RunFailure::Gears)?;
-                let r = simulate_modal(p, (gears.clone(), None), cycle, opts, wrt.as_ref())?;
+                let shared = keep.map(|k| k.shared(self, cycle, file, opts)).transpose()?;
+                let (gears, kept) = match shared.as_deref() {
+                    Some(Shared::Gears(gears, kept)) => (gears.clone(), Some(kept)),
+                    _ => (p.gear_source(cycle, file).map_err(RunFailure::Gears)?, None),
+                };
+                let r = simulate_modal(p, (gears.clone(), kept), cycle, opts, wrt.as_ref())?;
                 Ok(RunResult::Modal(Box::new(r), gears))
             }
         }

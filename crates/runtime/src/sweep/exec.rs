@@ -4,12 +4,13 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use rayon::prelude::*;
 
-use super::plan::{Shared, Sweep};
+use super::plan::Sweep;
 use super::rows::{Figures, SweepResult, SweepRow};
 use crate::cycle::Cycle;
 use crate::inverse::{simulate_shared, SimulationOptions};
 use crate::plant::Plant;
 use crate::run::simulate_modal;
+use crate::run_keep::Shared;
 
 /// A worker's model and the column buffers its runs reuse.
 struct Worker {

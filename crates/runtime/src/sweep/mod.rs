@@ -39,7 +39,7 @@ use thiserror::Error;
 use crate::cycle::Cycle;
 use crate::inverse::{SimulateError, SimulationOptions};
 use crate::plant::Plant;
-use plan::Shared;
+use crate::run_keep::{Shared, SharedError};
 
 pub use hybrid_columns::{Cell, HybridColumn, HYBRID_COLUMNS};
 pub use plan::{ModelFactory, Sweep};
@@ -487,21 +487,16 @@ fn shared(
     file: Option<&std::path::Path>,
     opts: &SimulationOptions,
 ) -> Result<Shared, SweepError> {
-    match model {
-        Plant::Single(m) => crate::inverse::reference(m.as_ref(), cycle, opts)
-            .map(|r| Shared::Reference(Arc::new(r)))
-            .map_err(|source| SweepError::Reference {
-                cycle: cycle.name.clone(),
-                source: Box::new(source),
-            }),
-        Plant::Modal(p) => p
-            .gear_source(cycle, file)
-            .map(|gears| Shared::Gears(gears, crate::modes::ReferenceCell::new()))
-            .map_err(|reason| SweepError::Gears {
-                cycle: cycle.name.clone(),
-                reason,
-            }),
-    }
+    Shared::new(model, cycle, file, opts).map_err(|e| match e {
+        SharedError::Reference(source) => SweepError::Reference {
+            cycle: cycle.name.clone(),
+            source: Box::new(source),
+        },
+        SharedError::Gears(reason) => SweepError::Gears {
+            cycle: cycle.name.clone(),
+            reason,
+        },
+    })
 }
 
 /// A strategy's sweep needs a hybrid (a model with modes and a `[hybrid]` table), refused here once rather

@@ -4,22 +4,13 @@
 use std::sync::Arc;
 
 use crate::cycle::Cycle;
-use crate::inverse::{Reference, SimulationOptions};
-use crate::modes::{GearSource, ReferenceCell};
+use crate::inverse::SimulationOptions;
 use crate::plant::Plant;
+use crate::run_keep::Shared;
 
 /// Makes a fresh copy of the swept model at its base parameters (called once per worker thread), or says why
 /// it cannot.
 pub type ModelFactory = Arc<dyn Fn() -> Result<Plant, String> + Send + Sync>;
-
-/// What every run on one cycle shares, made once when the sweep is built.
-pub(super) enum Shared {
-    /// A model without modes: the smoothed reference.
-    Reference(Arc<Reference>),
-    /// A model with modes: the gear schedule resolved for the cycle, and the smoothed cycle its runs read
-    /// (made by the first run, read by every other).
-    Gears(GearSource, ReferenceCell),
-}
 
 /// A checked sweep: the model, the variants, the cycles with their shared data; [`Sweep::run`] runs it.
 pub struct Sweep {
