@@ -1,7 +1,7 @@
 //! `Plant::simulate_keeping` (what the Python package's `Model` runs through): a run that reads the smoothed
-//! cycle kept from the previous run gives the figures of a run on its own, bit for bit, for a model without
-//! modes and one with modes, when the cycle changes in between, and with other options (`keep_series`) or
-//! another parameter value.
+//! cycle kept from the previous run gives the figures of a run on its own, bit for bit, for models without
+//! modes (r = n, a stable inversion of unstable internal dynamics) and with modes, when the cycle changes in between, and
+//! with other options (`keep_series`) or another parameter value.
 
 use crate::common;
 use common::*;
@@ -33,10 +33,16 @@ fn a_run_through_the_keep_is_a_run_on_its_own() {
         Cycle::builtin("udds").expect("built in"),
         Cycle::builtin("nedc").expect("built in"),
     );
-    for (model, dt) in [
-        ("models/si_engine.toml", 0.1),
-        ("models/si_engine_5speed.toml", 1.0),
-        ("models/ford_fusion_2012_dynamic_6speed.toml", 0.1),
+    // r = n; unstable internal dynamics solved non-causally; two with modes.
+    for (model, dt, (name, value)) in [
+        ("models/si_engine.toml", 0.1, ("m", 1600.0)),
+        ("models/diesel_gasflow.toml", 1.0, ("V_im", 0.025)),
+        ("models/si_engine_5speed.toml", 1.0, ("m", 1600.0)),
+        (
+            "models/ford_fusion_2012_dynamic_6speed.toml",
+            0.1,
+            ("m", 1600.0),
+        ),
     ] {
         let mut p = plant(model);
         let opts = |keep_series: bool| {
@@ -72,16 +78,16 @@ fn a_run_through_the_keep_is_a_run_on_its_own() {
             );
         }
         // Another parameter value reads the same kept cycle and gives its own figures.
-        p.set_param("m", 1600.0).expect("a parameter");
+        p.set_param(name, value).expect("a parameter");
         let (a, b) = (
             kept(&p, &udds, &opts(false)),
             alone(&p, &udds, &opts(false)),
         );
-        assert_eq!(a, b, "{model} with m = 1600");
+        assert_eq!(a, b, "{model} with {name} = {value}");
         assert_ne!(
             a,
             kept(&plant(model), &udds, &opts(false)),
-            "{model}: m moves the run"
+            "{model}: {name} moves the run"
         );
     }
 }
