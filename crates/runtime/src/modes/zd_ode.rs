@@ -12,6 +12,10 @@
 //! evaluations at dt = 1 s and 30 % fewer at dt = 0.1 s than rtol 1e-10. The test
 //! `the_tolerance_keeps_the_stiff_zero_dynamics_within_1e_9` (below) checks the bound on an exact solution.
 //! On UDDS with `si_engine_5speed` DOPRI5 takes about 5 steps per 0.1 s interval and one per 0.01 s interval.
+//!
+//! A differentiated run logs each accepted step with its continuous extension (`crate::ode::StepLog`; DOP853's
+//! costs three more evaluations a step, DOPRI5's none), and the gradient's sensitivities follow those steps
+//! (`gradient_zd.rs`): the plain run's steps and values are the same.
 
 use crate::ode::{Dop853, Dopri5, StepFailure, StepLog};
 
