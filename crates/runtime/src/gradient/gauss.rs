@@ -27,6 +27,12 @@ pub(crate) const NODES: [f64; 2] = [0.5 - SQRT3_6, 0.5 + SQRT3_6];
 /// The most stages.
 const S_MAX: usize = 4;
 
+/// An s-stage tableau's a and b.
+type Coefficients<const S: usize> = ([[f64; S]; S], [f64; S]);
+
+/// The 2-stage tableau's a and b as constants (module docs).
+const TWO: Coefficients<2> = ([[0.25, 0.25 - SQRT3_6], [0.25 + SQRT3_6, 0.25]], [0.5, 0.5]);
+
 /// The Butcher tableau of the s-stage method (entries beyond s unused).
 #[derive(Debug, Clone, Copy)]
 struct Tableau {
@@ -46,9 +52,9 @@ impl Tableau {
             b: [0.0; S_MAX],
         };
         t.c[..2].copy_from_slice(&NODES);
-        t.a[0][..2].copy_from_slice(&[0.25, 0.25 - SQRT3_6]);
-        t.a[1][..2].copy_from_slice(&[0.25 + SQRT3_6, 0.25]);
-        t.b[..2].copy_from_slice(&[0.5, 0.5]);
+        t.a[0][..2].copy_from_slice(&TWO.0[0]);
+        t.a[1][..2].copy_from_slice(&TWO.0[1]);
+        t.b[..2].copy_from_slice(&TWO.1);
         t
     }
 
@@ -142,7 +148,9 @@ impl Gauss {
     }
 
     /// S ← S(t + h) by one Gauss–Legendre step, `a[i]` = A(t + c_i h) (ne × ne), `b[i]` = B(t + c_i h)
-    /// (ne × P), i < s. The common sizes are compiled each with ne and s constants (the small loops unrolled).
+    /// (ne × P), i < s. The common sizes are compiled each with ne a constant (the small loops unrolled); the
+    /// 2-stage method (the single-mode pass's, at every step of a stiff run) with its coefficients as
+    /// constants.
     pub(crate) fn step(
         &mut self,
         h: f64,
@@ -150,30 +158,87 @@ impl Gauss {
         b: &[&[f64]],
         s: &mut [f64],
     ) -> Result<(), Singular> {
-        match (self.tableau.s, self.ne) {
-            (2, 1) => self.step_sized::<2>(1, h, (a, b), s),
-            (2, 2) => self.step_sized::<2>(2, h, (a, b), s),
-            (2, 3) => self.step_sized::<2>(3, h, (a, b), s),
-            (2, 4) => self.step_sized::<2>(4, h, (a, b), s),
-            (2, ne) => self.step_sized::<2>(ne, h, (a, b), s),
-            (_, 1) => self.step_sized::<4>(1, h, (a, b), s),
-            (_, 2) => self.step_sized::<4>(2, h, (a, b), s),
-            (_, ne) => self.step_sized::<4>(ne, h, (a, b), s),
+        if self.tableau.s == 2 {
+            let (a, b) = ([a[0], a[1]], [b[0], b[1]]);
+            return match self.ne {
+                1 => self.step_two(1, h, (a, b), s),
+                2 => self.step_two(2, h, (a, b), s),
+                3 => self.step_two(3, h, (a, b), s),
+                4 => self.step_two(4, h, (a, b), s),
+                ne => self.step_two(ne, h, (a, b), s),
+            };
+        }
+        self.step_four(h, (a, b), s)
+    }
+
+    /// [`Gauss::step`] of the 4-stage method, out of line (the 2-stage arms above stay as small as they were).
+    #[inline(never)]
+    fn step_four(
+        &mut self,
+        h: f64,
+        (a, b): (&[&[f64]], &[&[f64]]),
+        s: &mut [f64],
+    ) -> Result<(), Singular> {
+        let (a, b): ([&[f64]; S_MAX], [&[f64]; S_MAX]) =
+            (std::array::from_fn(|i| a[i]), std::array::from_fn(|i| b[i]));
+        match self.ne {
+            1 => self.step_sized::<S_MAX>(1, h, (&a, &b), s),
+            2 => self.step_sized::<S_MAX>(2, h, (&a, &b), s),
+            ne => self.step_sized::<S_MAX>(ne, h, (&a, &b), s),
         }
     }
 
-    /// [`Gauss::step`] for ne = `self.ne` and s = `S` stages, inlined into each of its arms.
+    /// [`Gauss::step`] of the 2-stage method for ne = `self.ne`, inlined into each of its arms: b = (1/2, 1/2)
+    /// and a as constants ([`TWO`]), the columns walked in chunks (no index checks in the loops).
+    #[inline(always)]
+    fn step_two(
+        &mut self,
+        ne: usize,
+        h: f64,
+        (a, b): ([&[f64]; 2], [&[f64]; 2]),
+        s: &mut [f64],
+    ) -> Result<(), Singular> {
+        self.transition::<2>(ne, h, (a, TWO))?;
+        let (w, phi, x) = (
+            &self.w[..2 * ne * ne],
+            &self.phi[..ne * ne],
+            &mut self.x[..ne],
+        );
+        let (b0, b1) = (&b[0][..self.np * ne], &b[1][..self.np * ne]);
+        for ((sc, b0), b1) in s[..self.np * ne]
+            .chunks_exact_mut(ne)
+            .zip(b0.chunks_exact(ne))
+            .zip(b1.chunks_exact(ne))
+        {
+            for (row, v) in x.iter_mut().enumerate() {
+                let mut sum = 0.0;
+                for j in 0..ne {
+                    sum += phi[j * ne + row] * sc[j]
+                        + w[j * ne + row] * b0[j]
+                        + w[(ne + j) * ne + row] * b1[j];
+                }
+                *v = sum;
+            }
+            sc.copy_from_slice(x);
+        }
+        Ok(())
+    }
+
+    /// [`Gauss::step`] for ne = `self.ne` and s = `S` stages with the tableau's coefficients.
     #[inline(always)]
     fn step_sized<const S: usize>(
         &mut self,
         ne: usize,
         h: f64,
-        (a, b): (&[&[f64]], &[&[f64]]),
+        (a, b): (&[&[f64]; S], &[&[f64]; S]),
         s: &mut [f64],
     ) -> Result<(), Singular> {
-        let (a, b): ([&[f64]; S], [&[f64]; S]) =
-            (std::array::from_fn(|i| a[i]), std::array::from_fn(|i| b[i]));
-        self.transition::<S>(ne, h, &a)?;
+        let tab = self.tableau;
+        let coefficients: Coefficients<S> = (
+            std::array::from_fn(|i| std::array::from_fn(|j| tab.a[i][j])),
+            std::array::from_fn(|i| tab.b[i]),
+        );
+        self.transition::<S>(ne, h, (*a, coefficients))?;
         let (w, phi, x) = (
             &self.w[..S * ne * ne],
             &self.phi[..ne * ne],
@@ -184,7 +249,6 @@ impl Gauss {
             for (row, v) in x.iter_mut().enumerate() {
                 let mut sum = 0.0;
                 for j in 0..ne {
-                    // Φ S + Σ_i W_i B_i, the terms of one j together (as the 2-stage form always summed).
                     let mut term = phi[j * ne + row] * sc[j];
                     for (i, bi) in b.iter().enumerate() {
                         term += w[(i * ne + j) * ne + row] * bi[c * ne + j];
@@ -204,15 +268,14 @@ impl Gauss {
         &mut self,
         ne: usize,
         h: f64,
-        a: &[&[f64]; S],
+        (a, (ca, cb)): ([&[f64]; S], Coefficients<S>),
     ) -> Result<(), Singular> {
         let ns = S * ne;
-        let tab = &self.tableau;
         // Block (i, j) of M is δ_ij I − h a_ij A_i: entry (i·ne + k, j·ne + l) at (j·ne + l)·ns + i·ne + k.
         for (j, block_column) in self.m[..ns * ns].chunks_exact_mut(ne * ns).enumerate() {
             for (l, column) in block_column.chunks_exact_mut(ns).enumerate() {
                 for (i, (block, ai)) in column.chunks_exact_mut(ne).zip(a).enumerate() {
-                    let f = h * tab.a[i][j];
+                    let f = h * ca[i][j];
                     for ((v, &ak), k) in block.iter_mut().zip(&ai[l * ne..(l + 1) * ne]).zip(0..) {
                         let unit = if i == j && k == l { 1.0 } else { 0.0 };
                         *v = unit - f * ak;
@@ -229,8 +292,8 @@ impl Gauss {
         let (x, w) = (&mut self.x[..ns], &mut self.w[..ns * ne]);
         for row in 0..ne {
             x.fill(0.0);
-            for i in 0..S {
-                x[i * ne + row] = tab.b[i] * h;
+            for (i, bi) in cb.iter().enumerate() {
+                x[i * ne + row] = bi * h;
             }
             solve_transposed(m, ns, (piv, dinv), x);
             for (k, &y) in x.iter().enumerate() {
