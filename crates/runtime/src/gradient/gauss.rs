@@ -460,18 +460,9 @@ mod tests {
     /// stable and accurate.
     #[test]
     fn the_four_stage_method_converges_with_order_eight() {
-        let run = |lambda: f64, (h, n): (f64, usize)| {
-            let sp = |t: f64| (t.sin() - lambda * t.cos()) / (lambda * lambda + 1.0);
-            let t = h * n as f64;
-            let exact = (1.0 - sp(0.0)) * (lambda * t).exp() + sp(t);
-            let s = integrate_with(
-                4,
-                |_| DMatrix::from_element(1, 1, lambda),
-                |t| DMatrix::from_element(1, 1, t.cos()),
-                DMatrix::from_element(1, 1, 1.0),
-                (h, n),
-            );
-            (s[(0, 0)] - exact).abs()
+        let run = |lambda: f64, hn: (f64, usize)| {
+            let (s, exact) = scalar_with(4, lambda, hn);
+            (s - exact).abs()
         };
         let (e1, e2) = (run(-3.0, (0.5, 2)), run(-3.0, (0.25, 4)));
         let order = (e1 / e2).log2();
@@ -484,11 +475,17 @@ mod tests {
 
     /// Ṡ = λS + cos t, S(0) = 1: S(t) = (1 − S_p(0)) e^{λt} + S_p(t) with the particular solution
     /// S_p(t) = (sin t − λ cos t)/(λ² + 1) (substitute: Ṡ_p − λ S_p = cos t).
-    fn scalar(lambda: f64, (h, n): (f64, usize)) -> (f64, f64) {
+    fn scalar(lambda: f64, hn: (f64, usize)) -> (f64, f64) {
+        scalar_with(2, lambda, hn)
+    }
+
+    /// [`scalar`] by the `stages`-stage method.
+    fn scalar_with(stages: usize, lambda: f64, (h, n): (f64, usize)) -> (f64, f64) {
         let sp = |t: f64| (t.sin() - lambda * t.cos()) / (lambda * lambda + 1.0);
         let t = h * n as f64;
         let exact = (1.0 - sp(0.0)) * (lambda * t).exp() + sp(t);
-        let s = integrate(
+        let s = integrate_with(
+            stages,
             |_| DMatrix::from_element(1, 1, lambda),
             |t| DMatrix::from_element(1, 1, t.cos()),
             DMatrix::from_element(1, 1, 1.0),
