@@ -173,10 +173,9 @@ impl Ecms<'_, '_, '_> {
     /// y^(0 … r_max) of mode m's reference from the smoothed cycle `base` into `y` (its map: offset + scale · y_c,
     /// the offset on y only).
     pub(super) fn reference_into(&self, m: usize, base: &[f64], y: &mut Vec<f64>) {
-        let map = self.ctx.spec.modes[m].model.reference();
         y.clear();
-        y.extend(base.iter().map(|v| v * map.scale));
-        y[0] += map.offset;
+        y.extend_from_slice(base);
+        self.ctx.map_cycle(m, y);
     }
 
     /// The inverse of mode m at sample k from the state `x` (its η) with decided value d.

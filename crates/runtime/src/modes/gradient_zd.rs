@@ -34,8 +34,6 @@ const NODES_MAX: usize = 4;
 /// Per mode (built at the mode's first interval) its Gauss–Legendre method and work space.
 pub(super) struct ZdSensitivity {
     modes: Vec<Option<ModeZd>>,
-    /// The reference's sub-grid read at the nodes (`None`: the smoother pointwise, as in the run).
-    fine: Option<FineReference>,
     /// Where the last interval found the first corner within the look-ahead ([`Smoother::still_on_from`]).
     corner: usize,
 }
@@ -58,6 +56,7 @@ struct ModeZd {
 
 /// A and B at a step's nodes and the buffers of their evaluation.
 struct Nodes {
+    /// The mode's reader of the reference's sub-grid (`None`: the smoother pointwise, as in the run).
     fine: Option<FineReference>,
     eta: Vec<f64>,
     x: Vec<f64>,
@@ -90,7 +89,6 @@ impl ZdSensitivity {
     pub(super) fn new(ctx: &Ctx<'_, '_>) -> ZdSensitivity {
         ZdSensitivity {
             modes: (0..ctx.spec.modes.len()).map(|_| None).collect(),
-            fine: ctx.fine_reference(),
             corner: 0,
         }
     }
@@ -118,7 +116,7 @@ impl ZdSensitivity {
         let zd = self.modes[m].get_or_insert_with(|| ModeZd {
             gauss: Gauss::with_stages(ne, np, stages),
             s: vec![0.0; ne * np],
-            nodes: Nodes::new(ctx, m, np, self.fine.clone()),
+            nodes: Nodes::new(ctx, m, np),
         });
         for (c, d) in deta.iter().enumerate() {
             zd.s[ne * c..ne * (c + 1)].copy_from_slice(d);
@@ -171,12 +169,12 @@ impl ZdSensitivity {
 }
 
 impl Nodes {
-    fn new(ctx: &Ctx<'_, '_>, m: usize, np: usize, fine: Option<FineReference>) -> Nodes {
+    fn new(ctx: &Ctx<'_, '_>, m: usize, np: usize) -> Nodes {
         let info = ctx.model(m).info();
         let (r, ne) = (info.relative_degree, info.n_eta);
         let layout = invsim_model_api::SensitivityLayout::of(info);
         Nodes {
-            fine,
+            fine: ctx.fine_reference(),
             eta: vec![0.0; ne],
             x: vec![0.0; ctx.n],
             yr: vec![0.0; ctx.r_max + 1],

@@ -119,7 +119,7 @@ impl Ctx<'_, '_> {
     }
 
     /// Mode `m`'s map y = offset + scale · y_c (derivatives scaled) of the smoothed cycle in `y`, in place.
-    fn map_cycle(&self, m: usize, y: &mut [f64]) {
+    pub(super) fn map_cycle(&self, m: usize, y: &mut [f64]) {
         let map = self.maps[m];
         for v in y.iter_mut() {
             *v *= map.scale;
@@ -572,7 +572,7 @@ fn run_sequence(
 /// The largest deviation of the transition in progress (`base`: the sample's smoothed cycle).
 fn track_deviation(ctx: &Ctx<'_, '_>, seq: &Seq, base: &[f64], cur: &Solved, rec: &mut Record) {
     if let Some(i) = seq.modal.open {
-        let map = ctx.model(seq.place.mode).reference();
+        let map = ctx.maps[seq.place.mode];
         // y_c = offset + scale · base[0], as `map_cycle` computes it.
         let yc = base[0] * map.scale + map.offset;
         let d = (cur.yref[0] - yc).abs();
@@ -754,7 +754,7 @@ fn deviations(
 ) -> Vec<f64> {
     let r = xi.len();
     let mut e: Vec<f64> = (0..r).map(|j| xi[j] - yc[j]).collect();
-    let same_map = ctx.model(from).reference() == ctx.model(target).reference();
+    let same_map = ctx.maps[from] == ctx.maps[target];
     let same_value = xi
         .first()
         .is_some_and(|x0| (x0 - prev.yref[0]).abs() <= 1e-9 * (1.0 + x0.abs()));

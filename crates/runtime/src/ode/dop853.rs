@@ -363,9 +363,7 @@ impl Dop853 {
     {
         let steps = steps_until(t0, t1, |t| -> Result<f64, E> {
             let t_new = self.step_to(t, t1, y, f)?;
-            if self.ext.is_some() {
-                self.prepare_dense(f)?;
-            }
+            self.prepare_dense(f)?;
             each(self, t, t_new)?;
             Ok(t_new)
         })?;
@@ -394,7 +392,7 @@ impl Dop853 {
 
     /// The continuous extension of the step [t, t + h] just accepted ([`Dop853::step_to`] left its y₀ and k₁
     /// in r1 and r2, y₁ in `y_new` and k₂ … k₁₃ in place): stages 14 … 16 and r1 … r8 (module docs). Out of
-    /// line: a plain run's step stays as small as it was.
+    /// line: a plain run's step stays as small as it was. Nothing without the extension.
     #[inline(never)]
     fn prepare_dense<F, E>(&mut self, f: &mut F) -> Result<(), E>
     where
