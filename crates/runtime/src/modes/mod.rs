@@ -42,6 +42,7 @@ mod signals;
 mod strategy;
 mod strategy_request;
 mod summary;
+mod tally;
 mod verify;
 mod zd_ode;
 

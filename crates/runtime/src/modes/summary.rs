@@ -6,16 +6,15 @@ use std::fmt::Write as _;
 
 use serde::Serialize;
 
-use super::record::{set_decided, Ctx, Impulse, ModeTime, Record, Transition};
-use super::rows::Rows;
-use super::rules::ModeRule;
+use super::record::{Ctx, Impulse, ModeTime, Record, Transition};
+use super::tally::{walk, Excursion, Tally};
 use super::verify::Tracking;
 use super::{ModalOptions, ModalResult};
 use crate::cycle::Cycle;
 use crate::headline::Headline;
-use crate::operating_points::{OperatingPointTally, OperatingPoints};
+use crate::operating_points::OperatingPoints;
 use crate::provenance::Provenance;
-use crate::reference_deviation::{DeviationTally, ReferenceDeviation};
+use crate::reference_deviation::ReferenceDeviation;
 use crate::report::{
     first_sentence, fmt_sig, integral_unit, unit_suffix, write_input_range, Column, CycleInfo,
     InputRange, Totals,
@@ -129,176 +128,6 @@ fn columns(ctx: &Ctx<'_, '_>) -> Vec<(String, Option<String>)> {
             .map(|o| (o.name.clone(), o.unit.clone())),
     );
     c
-}
-
-/// The value of every input at a sample of mode m, into `row`.
-fn input_values(ctx: &Ctx<'_, '_>, m: usize, u: f64, outs: &[f64], row: &mut Vec<f64>) {
-    let mode = &ctx.spec.modes[m];
-    row.clear();
-    row.extend((0..ctx.spec.inputs.len()).map(|i| {
-        if i == mode.free_input {
-            u
-        } else {
-            mode.fixed_outputs
-                .iter()
-                .find(|(j, _)| *j == i)
-                .map_or(f64::NAN, |(_, o)| outs[*o])
-        }
-    }));
-}
-
-/// What one pass over the samples gathers: the table's columns, the integrals (trapezoids of each interval
-/// in its own mode), the time per mode, the bound violations, the reference's deviation and the engine's
-/// operating points.
-struct Tally {
-    /// Every input and the model's `[outputs]` at each sample (empty without `keep_series`), and each
-    /// input's range (NaN where a mode neither frees nor reports it is skipped).
-    inputs: Rows,
-    outputs: Rows,
-    ranges: Vec<[f64; 2]>,
-    integrals: Vec<f64>,
-    time: Vec<f64>,
-    violations: Vec<[f64; 2]>,
-    /// The sample whose free input lies farthest beyond its bounds.
-    farthest: Option<Excursion>,
-    deviation: DeviationTally,
-    operating: Option<OperatingPointTally>,
-}
-
-/// A sample whose free input lies beyond its bounds: where, in which mode, the value and the bound it
-/// crosses, the smoothed cycle's speed there (for the warning).
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct Excursion {
-    t: f64,
-    mode: usize,
-    u: f64,
-    bound: f64,
-    /// The mode's bounds of its free input.
-    bounds: (Option<f64>, Option<f64>),
-    speed: f64,
-}
-
-/// Whether two slices hold the same numbers bit for bit (so that a function of them gives the same value).
-fn same_bits(a: &[f64], b: &[f64]) -> bool {
-    a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
-}
-
-/// Whether samples k and k + 1 hold the same decided values bit for bit (a run without a strategy has none).
-fn same_decided(rec: &Record, k: usize) -> bool {
-    match (rec.decided.get(k), rec.decided.get(k + 1)) {
-        (Some(a), Some(b)) => same_bits(a, b),
-        (a, b) => a.is_none() && b.is_none(),
-    }
-}
-
-/// The pass over the samples. The outputs at the end of an interval are those of the next sample where
-/// the run stayed in its mode (the same state, input, decided inputs and time): evaluated once for both. The
-/// decided inputs matter where the free input does not depend on them (a series hybrid's generator power,
-/// which enters only the battery's and the fuel's equations): the end of an interval holds the interval's
-/// value, the next sample its own.
-fn walk(ctx: &Ctx<'_, '_>, cycle: &Cycle, opts: &ModalOptions, rec: &Record) -> Tally {
-    let spec = ctx.spec;
-    let ns = rec.t.len();
-    let no = spec.n_outputs;
-    let info0 = spec.modes[0].model.info();
-    let kept = if opts.keep_series { ns } else { 0 };
-    let mut tally = Tally {
-        inputs: Rows::with_capacity(spec.inputs.len(), kept),
-        outputs: Rows::with_capacity(no, kept),
-        ranges: vec![[f64::INFINITY, f64::NEG_INFINITY]; spec.inputs.len()],
-        integrals: vec![0.0; no],
-        time: vec![0.0; spec.modes.len()],
-        violations: Vec::new(),
-        farthest: None,
-        deviation: DeviationTally::new(
-            invsim_model_api::ReferenceMap::IDENTITY,
-            opts.dt,
-            cycle.tolerance,
-        ),
-        // The engine's outputs are among those every mode shares (the first n_outputs).
-        operating: OperatingPointTally::new(info0, ns).filter(|_| {
-            info0
-                .engine
-                .as_ref()
-                .is_some_and(|e| e.speed.max(e.torque) < no)
-        }),
-    };
-    let mut outside = false;
-    // Each mode's number of outputs and of signal values, and the accumulated outputs (asked once).
-    let sizes: Vec<(usize, usize)> = spec
-        .modes
-        .iter()
-        .map(|m| (m.model.info().outputs.len(), m.model.info().n_w()))
-        .collect();
-    let accumulated: Vec<usize> = (0..no).filter(|&i| info0.outputs[i].accumulate).collect();
-    // Buffers of one sample, reused: the outputs at the sample and at the end of its interval, the signals,
-    // the inputs; `ready`: the outputs of this sample are in `outs` already.
-    let (mut outs, mut end, mut w, mut row) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-    let mut ready = false;
-    for k in 0..ns {
-        let (m, x, u) = (rec.mode[k], &rec.states[k], rec.free[k]);
-        let model = spec.modes[m].model;
-        let (n_out, n_w) = sizes[m];
-        if !ready {
-            outs.clear();
-            outs.resize(n_out, 0.0);
-            ctx.w_into(m, rec.t[k], n_w, &mut w);
-            set_decided(ctx, rec, (m, k), &mut w);
-            model.outputs(x, &w, u, &mut outs);
-        }
-        ready = false;
-        if let Some(op) = tally.operating.as_mut() {
-            op.push(|i| outs[i]);
-        }
-        input_values(ctx, m, u, &outs, &mut row);
-        if let Some(values) = rec.decided.get(k) {
-            for (&(i, _), &v) in ctx.decided[m].iter().zip(values) {
-                row[i] = v;
-            }
-        }
-        for (r, &v) in tally.ranges.iter_mut().zip(&row) {
-            *r = [r[0].min(v), r[1].max(v)];
-        }
-        if opts.keep_series {
-            tally.inputs.push(&row);
-            tally.outputs.push(&outs[..no]);
-        }
-        let rule = &ctx.rules.modes[m];
-        outside = track_violation(rule, (rec.t[k], u), outside, &mut tally.violations);
-        if outside {
-            let here = Excursion {
-                t: rec.t[k],
-                mode: m,
-                u,
-                bound: crossed_bound(rule, u),
-                bounds: (rule.input_min, rule.input_max),
-                speed: rec.speed[k],
-            };
-            tally.farthest = Some(farther(tally.farthest, here));
-        }
-        if k + 1 < ns {
-            end.clear();
-            end.resize(n_out, 0.0);
-            ctx.w_into(m, rec.t[k + 1], n_w, &mut w);
-            set_decided(ctx, rec, (m, k), &mut w);
-            model.outputs(&rec.x_end[k], &w, rec.u_end[k], &mut end);
-            let dt = rec.t[k + 1] - rec.t[k];
-            for &i in &accumulated {
-                tally.integrals[i] += 0.5 * dt * (outs[i] + end[i]);
-            }
-            tally.time[m] += dt;
-            ready = rec.mode[k + 1] == m
-                && rec.u_end[k].to_bits() == rec.free[k + 1].to_bits()
-                && same_bits(&rec.x_end[k], &rec.states[k + 1])
-                && same_decided(rec, k);
-            if ready {
-                std::mem::swap(&mut outs, &mut end);
-            }
-        }
-    }
-    // The reference's deviation, the samples as a block (the same operations as sample by sample).
-    tally.deviation.push_block(cycle, &rec.t, &rec.speed);
-    tally
 }
 
 /// The table's columns (see [`columns`]): t, mode, gear, y_d^(0 … R), the smoothed signals with their
@@ -452,46 +281,6 @@ pub(super) fn assemble(
         yref: rec.yref,
         impulse: rec.impulse,
         signals: Vec::new(),
-    }
-}
-
-/// Whether the free input `u` at t is outside its bounds (up to the mode's tolerance, 1e-9 of its range);
-/// an interval of `violations` opens or extends there (`outside`: whether the previous sample was).
-fn track_violation(
-    rule: &ModeRule,
-    (t, u): (f64, f64),
-    outside: bool,
-    violations: &mut Vec<[f64; 2]>,
-) -> bool {
-    let tol = rule.tolerance;
-    let out = rule.input_min.is_some_and(|lo| u < lo - tol)
-        || rule.input_max.is_some_and(|hi| u > hi + tol);
-    match (out, outside) {
-        (true, false) => violations.push([t, t]),
-        (true, true) => {
-            if let Some(v) = violations.last_mut() {
-                v[1] = t;
-            }
-        }
-        _ => {}
-    }
-    out
-}
-
-/// The bound of `rule` that `u` lies beyond (the lower one below it, else the upper one).
-fn crossed_bound(rule: &ModeRule, u: f64) -> f64 {
-    match (rule.input_min, rule.input_max) {
-        (Some(lo), _) if u < lo => lo,
-        (_, Some(hi)) => hi,
-        (lo, None) => lo.unwrap_or(u),
-    }
-}
-
-/// Of the excursion so far and `here`, the one farther beyond its bound.
-fn farther(so_far: Option<Excursion>, here: Excursion) -> Excursion {
-    match so_far {
-        Some(e) if (e.u - e.bound).abs() >= (here.u - here.bound).abs() => e,
-        _ => here,
     }
 }
 
