@@ -131,12 +131,12 @@ impl FineTable {
         smoother.eval_grid(&times, Some(self.h), &mut refs);
         let mut refs: Vec<&mut [f64]> = signals.chunks_exact_mut(len).collect();
         smoother.eval_signals_grid(&times, Some(self.h), &mut refs);
-        // Point by point: [p·stride + c] = column c at point p, written in order (no zeroing first: a block
-        // is fresh memory, which a zeroing pass would touch twice).
-        let columns = &cols[..len * stride];
-        let mut pts = Vec::with_capacity(len * stride);
-        for p in 0..len {
-            pts.extend(columns[p..].iter().step_by(len).take(stride));
+        // Point by point: [p·stride + c] = column c at point p.
+        let mut pts = vec![0.0; len * stride];
+        for (c, col) in cols[..len * stride].chunks_exact(len).enumerate() {
+            for (v, &x) in pts[c..].iter_mut().step_by(stride).zip(col) {
+                *v = x;
+            }
         }
         Arc::new(pts)
     }
