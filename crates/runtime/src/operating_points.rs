@@ -70,10 +70,10 @@ impl OperatingPointTally {
     }
 
     /// Consecutive samples given as columns: every extra output's values (`columns[o][i]`) for `range`.
-    pub(crate) fn extend(&mut self, columns: &[&mut [f64]], range: std::ops::Range<usize>) {
+    pub(crate) fn extend<C: AsRef<[f64]>>(&mut self, columns: &[C], range: std::ops::Range<usize>) {
         let (w, t) = (
-            &columns[self.engine.speed][range.clone()],
-            &columns[self.engine.torque][range],
+            &columns[self.engine.speed].as_ref()[range.clone()],
+            &columns[self.engine.torque].as_ref()[range],
         );
         self.extend_columns(w, t);
     }

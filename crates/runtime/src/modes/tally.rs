@@ -202,8 +202,7 @@ pub(super) fn walk(ctx: &Ctx<'_, '_>, cycle: &Cycle, opts: &ModalOptions, rec: &
         let state = (&mut tally, &mut outside, opts.keep_series);
         samples(ctx, rec, (m, k0, len), &mut stretch, state);
         if let Some(op) = tally.operating.as_mut() {
-            let columns: Vec<&mut [f64]> = stretch.out.iter_mut().map(|c| &mut c[..]).collect();
-            op.extend(&columns, 0..len);
+            op.extend(&stretch.out, 0..len);
         }
         // The intervals k0 … k1 − 1 (the last one only where a sample follows): each ends at the next
         // sample's outputs but the last, which ends on its own.
