@@ -22,6 +22,19 @@
 //! largest magnitude is 6·10⁻¹² for y'' at a/250, and 4.5·10⁻¹² for y' at a/125 (a/100 would give
 //! 1.2·10⁻¹¹). The adaptive integrator's stage times then cost a few multiply-adds each instead of a
 //! pointwise evaluation of every corner's kernel terms.
+//!
+//! A block keeps each cell's interpolant in monomial form, computed once when the block is evaluated: with
+//! a = f_i, b = h f'_i, c = h² f''_i, d = f_{i+1}, e = h f'_{i+1}, g = h² f''_{i+1} the sum above is
+//!
+//! ```text
+//! f(t) ≈ c₀ + s(c₁ + s(c₂ + s(c₃ + s(c₄ + s c₅)))),   c₀ = a,  c₁ = b,  c₂ = c/2,
+//! c₃ = 10(d − a) − 6b − 4e − (3c − g)/2,   c₄ = 15(a − d) + 8b + 7e + (3c − 2g)/2,
+//! c₅ = 6(d − a) − 3(b + e) − (c − g)/2,
+//! ```
+//!
+//! so that a stage time costs Horner's five multiply-adds per order and no weights (about 125 instructions
+//! against 183 with the weights): the runs that share a table (a sweep's, a model's repeated runs) pay the
+//! conversion once.
 
 use std::sync::{Arc, OnceLock};
 
@@ -72,9 +85,9 @@ pub(crate) struct FineTable {
     /// Orders held per smoothed quantity (q + 3), and the quantities (the cycle, then each signal).
     orders: usize,
     quantities: usize,
-    /// Per block, its values point by point: `[p·stride + c·orders + j]` = order j of quantity c at the
-    /// block's point p, stride = quantities·orders (an interpolation reads two short runs of memory).
-    /// `None`: over the budget, nothing kept.
+    /// Per block, its cells' interpolants (module docs): `[p·cell + (c·(q + 1) + j)·6 + m]` = c_m of order j
+    /// of quantity c on the block's cell p, cell = quantities·(q + 1)·6 (an interpolation reads one short run
+    /// of memory). `None`: over the budget, nothing kept.
     kept: Option<Vec<OnceLock<Block>>>,
 }
 
@@ -94,8 +107,8 @@ impl FineTable {
         let last = n.saturating_mul(sub);
         let blocks = last / BLOCK + 1;
         let values = blocks
-            .saturating_mul(BLOCK + 1)
-            .saturating_mul(quantities * orders);
+            .saturating_mul(BLOCK)
+            .saturating_mul(quantities * (q + 1) * 6);
         FineTable {
             t0,
             h,
@@ -131,14 +144,27 @@ impl FineTable {
         smoother.eval_grid(&times, Some(self.h), &mut refs);
         let mut refs: Vec<&mut [f64]> = signals.chunks_exact_mut(len).collect();
         smoother.eval_signals_grid(&times, Some(self.h), &mut refs);
-        // Point by point: [p·stride + c] = column c at point p.
-        let mut pts = vec![0.0; len * stride];
-        for (c, col) in cols[..len * stride].chunks_exact(len).enumerate() {
-            for (v, &x) in pts[c..].iter_mut().step_by(stride).zip(col) {
-                *v = x;
+        // Cell p (from point p to p + 1), group g = c·(q + 1) + j: order j of quantity c from its orders j, j + 1,
+        // j + 2 at both points (columns c·orders + j + 0 … 2, entries p and p + 1).
+        let (interpolated, cell) = (self.orders - 2, self.cell());
+        let mut coefficients = vec![0.0; (len - 1) * cell];
+        let (h, h2) = (self.h, self.h * self.h);
+        for g in 0..self.quantities * interpolated {
+            let first = (g / interpolated * self.orders + g % interpolated) * len;
+            let (f, rest) = cols[first..first + 3 * len].split_at(len);
+            let (d1, d2) = rest.split_at(len);
+            for (p, out) in coefficients.chunks_exact_mut(cell).enumerate() {
+                let at = (f[p], h * d1[p], h2 * d2[p]);
+                let end = (f[p + 1], h * d1[p + 1], h2 * d2[p + 1]);
+                out[6 * g..6 * g + 6].copy_from_slice(&monomial(at, end));
             }
         }
-        Arc::new(pts)
+        Arc::new(coefficients)
+    }
+
+    /// Values per cell: quantities·(q + 1)·6.
+    fn cell(&self) -> usize {
+        self.quantities * (self.orders - 2) * 6
     }
 }
 
@@ -203,69 +229,62 @@ impl FineReference {
         }
         let k = i - b * BLOCK;
         let ti = table.t0 + i as f64 * table.h;
-        let bw = hermite((t - ti) * table.inv_h, table.h);
-        let (orders, per, signals) = (table.orders, y.len(), table.quantities - 1);
-        let stride = table.quantities * orders;
-        let (p0, p1) = self.slots[0].1[k * stride..(k + 2) * stride].split_at(stride);
-        // Order j of quantity c from orders j, j + 1, j + 2 at both ends (quantity c's orders start at
-        // c·orders); signal c's r + 1 values (r + 1 = y.len()) go to w[(c − 1)·(r + 1) …] (what follows the
-        // signals in w, a mode's decided inputs, is left as it is).
-        interpolate(&bw, &p0[..orders], &p1[..orders], y);
-        // By index rather than `chunks_exact_mut(per)`, whose count is a division per call.
+        let x = (t - ti) * table.inv_h;
+        let (groups, signals) = (6 * (table.orders - 2), table.quantities - 1);
+        let cell = &self.slots[0].1[k * table.cell()..(k + 1) * table.cell()];
+        // Order j of quantity c from its group of six (quantity c's groups start at c·(q + 1)); signal c's r + 1
+        // values (r + 1 = y.len()) go to w[(c − 1)·(r + 1) …] (what follows the signals in w, a mode's decided
+        // inputs, is left as it is).
+        horner(x, cell, y);
+        let per = y.len();
         for c in 0..signals {
-            let at = (c + 1) * orders;
             let out = &mut w[c * per..(c + 1) * per];
-            interpolate(&bw, &p0[at..at + orders], &p1[at..at + orders], out);
+            horner(x, &cell[(c + 1) * groups..], out);
         }
     }
 }
 
-/// out[j] = the quintic Hermite interpolant of order j from orders j, j + 1, j + 2 of one quantity at the
-/// interval's two ends (`p0`, `p1`), with the weights `b` of [`hermite`]. The usual lengths (relative degrees
-/// 0 … 3) get loops of a fixed length, which the compiler unrolls.
+/// out[j] = c₀ + s(c₁ + … + s c₅) of order j's group of six coefficients in `cell` (module docs). The usual
+/// lengths (relative degrees 0 … 3) get loops of a fixed length, which the compiler unrolls.
 #[inline(always)]
-fn interpolate(b: &[f64; 6], p0: &[f64], p1: &[f64], out: &mut [f64]) {
+fn horner(s: f64, cell: &[f64], out: &mut [f64]) {
     match out.len() {
-        1 => interpolate_n::<1>(b, p0, p1, out),
-        2 => interpolate_n::<2>(b, p0, p1, out),
-        3 => interpolate_n::<3>(b, p0, p1, out),
-        4 => interpolate_n::<4>(b, p0, p1, out),
+        1 => horner_n::<1>(s, cell, out),
+        2 => horner_n::<2>(s, cell, out),
+        3 => horner_n::<3>(s, cell, out),
+        4 => horner_n::<4>(s, cell, out),
         _ => {
-            for (j, v) in out.iter_mut().enumerate() {
-                *v = hermite_sum(b, &p0[j..j + 3], &p1[j..j + 3]);
+            for (v, c) in out.iter_mut().zip(cell.chunks_exact(6)) {
+                *v = horner_one(s, c);
             }
         }
     }
 }
 
 #[inline(always)]
-fn interpolate_n<const N: usize>(b: &[f64; 6], p0: &[f64], p1: &[f64], out: &mut [f64]) {
-    let (p0, p1, out) = (&p0[..N + 2], &p1[..N + 2], &mut out[..N]);
+fn horner_n<const N: usize>(s: f64, cell: &[f64], out: &mut [f64]) {
+    let (cell, out) = (&cell[..6 * N], &mut out[..N]);
     for j in 0..N {
-        out[j] = hermite_sum(b, &p0[j..j + 3], &p1[j..j + 3]);
+        out[j] = horner_one(s, &cell[6 * j..6 * j + 6]);
     }
 }
 
 #[inline(always)]
-fn hermite_sum(b: &[f64; 6], f0: &[f64], f1: &[f64]) -> f64 {
-    b[0] * f0[0] + b[1] * f0[1] + b[2] * f0[2] + b[3] * f1[0] + b[4] * f1[1] + b[5] * f1[2]
+fn horner_one(s: f64, c: &[f64]) -> f64 {
+    c[0] + s * (c[1] + s * (c[2] + s * (c[3] + s * (c[4] + s * c[5]))))
 }
 
-/// H_0(s), h H_1(s), h² H_2(s), H_3(s), h H_4(s), h² H_5(s) (module docs).
-fn hermite(s: f64, h: f64) -> [f64; 6] {
-    // In Horner form: H_3 = s³(10 − 15s + 6s²), H_1 = s(1 − s²(6 − 8s + 3s²)), H_2 = s²(1 − s(3 − 3s + s²))/2,
-    // H_4 = −s³(4 − 7s + 3s²), H_5 = s³(1 − 2s + s²)/2.
-    let s2 = s * s;
-    let s3 = s2 * s;
-    let h3 = s3 * (10.0 + s * (6.0 * s - 15.0));
-    let hh = 0.5 * h * h;
+/// The monomial coefficients c₀ … c₅ in s = (t − t_i)/h of the quintic Hermite interpolant from
+/// (a, b, c) = (f, h f', h² f'') at the cell's start and (d, e, g) at its end (module docs).
+#[inline(always)]
+fn monomial((a, b, c): (f64, f64, f64), (d, e, g): (f64, f64, f64)) -> [f64; 6] {
     [
-        1.0 - h3,
-        h * s * (1.0 - s2 * (6.0 + s * (3.0 * s - 8.0))),
-        hh * s2 * (1.0 - s * (3.0 + s * (s - 3.0))),
-        h3,
-        -h * s3 * (4.0 + s * (3.0 * s - 7.0)),
-        hh * s3 * (1.0 + s * (s - 2.0)),
+        a,
+        b,
+        0.5 * c,
+        10.0 * (d - a) - 6.0 * b - 4.0 * e - 0.5 * (3.0 * c - g),
+        15.0 * (a - d) + 8.0 * b + 7.0 * e + 0.5 * (3.0 * c - 2.0 * g),
+        6.0 * (d - a) - 3.0 * (b + e) - 0.5 * (c - g),
     ]
 }
 
@@ -311,6 +330,45 @@ mod tests {
             let rel = worst[k] / (1.0 + scale[k]);
             let name = &cycle.name;
             assert!(rel < 1e-11, "{name} a {a} dt {dt} column {k}: {rel:e}");
+        }
+    }
+
+    /// The monomial form is the quintic Hermite interpolant (module docs): at s = 0 and 1 it takes f, f', f''
+    /// of both ends (the derivatives by s divided by h, h²), and in between it equals the weighted sum
+    /// f_i H_0 + h f'_i H_1 + h² f''_i H_2 + f_{i+1} H_3 + h f'_{i+1} H_4 + h² f''_{i+1} H_5 written out.
+    #[test]
+    fn the_monomial_form_is_the_hermite_interpolant() {
+        let (f0, f1, h) = ([1.3, -0.7, 2.9], [0.4, 1.1, -3.2], 0.04);
+        let c = monomial(
+            (f0[0], h * f0[1], h * h * f0[2]),
+            (f1[0], h * f1[1], h * h * f1[2]),
+        );
+        let p = |s: f64| horner_one(s, &c);
+        let dp =
+            |s: f64| c[1] + s * (2.0 * c[2] + s * (3.0 * c[3] + s * (4.0 * c[4] + s * 5.0 * c[5])));
+        let ddp = |s: f64| 2.0 * c[2] + s * (6.0 * c[3] + s * (12.0 * c[4] + s * 20.0 * c[5]));
+        for (s, f) in [(0.0, f0), (1.0, f1)] {
+            let got = [p(s), dp(s) / h, ddp(s) / (h * h)];
+            for (g, e) in got.iter().zip(f) {
+                assert!(
+                    (g - e).abs() < 1e-10 * (1.0 + e.abs()),
+                    "s = {s}: {got:?} against {f:?}"
+                );
+            }
+        }
+        for s in [0.1f64, 0.37, 0.5, 0.81] {
+            let (s2, s3, s4, s5) = (s * s, s * s * s, s.powi(4), s.powi(5));
+            let hermite = f0[0] * (1.0 - 10.0 * s3 + 15.0 * s4 - 6.0 * s5)
+                + h * f0[1] * (s - 6.0 * s3 + 8.0 * s4 - 3.0 * s5)
+                + h * h * f0[2] * (s2 - 3.0 * s3 + 3.0 * s4 - s5) / 2.0
+                + f1[0] * (10.0 * s3 - 15.0 * s4 + 6.0 * s5)
+                + h * f1[1] * (-4.0 * s3 + 7.0 * s4 - 3.0 * s5)
+                + h * h * f1[2] * (s3 - 2.0 * s4 + s5) / 2.0;
+            assert!(
+                (p(s) - hermite).abs() < 1e-14,
+                "s = {s}: {} against {hermite}",
+                p(s)
+            );
         }
     }
 
