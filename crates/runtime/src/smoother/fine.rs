@@ -64,9 +64,10 @@ fn h_max_per_lookahead(q: usize) -> f64 {
 }
 /// Sub-grid intervals per block: block b holds the points b·BLOCK … (b + 1)·BLOCK.
 const BLOCK: usize = 128;
-/// The most values a table keeps (32 MB); a larger sub-grid (a short look-ahead on a long cycle) computes a
-/// block again whenever it is needed anew.
-const KEPT_MAX: usize = 1 << 22;
+/// The most values a table keeps (64 MB, allocated block by block as runs need them: a UDDS or WLTC class 3b
+/// at a one-second look-ahead, relative degree 2 and no signal, six coefficients per order and cell, fits); a larger
+/// sub-grid (a shorter look-ahead on a longer cycle) computes a block again whenever it is needed anew.
+const KEPT_MAX: usize = 1 << 23;
 
 /// A block's values, shared by the table and its readers (an `Arc` of the `Vec` the block was evaluated
 /// into: no second allocation and copy).
