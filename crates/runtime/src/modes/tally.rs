@@ -114,11 +114,7 @@ impl Stretch {
         if len < BATCH_FROM {
             for j in 0..len {
                 let k = k0 + j;
-                ctx.w_into(m, rec.t[k], n_w, &mut self.w_one);
-                set_decided(ctx, rec, (m, k), &mut self.w_one);
-                self.end.clear();
-                self.end.resize(n_out, 0.0);
-                model.outputs(&rec.states[k], &self.w_one, rec.free[k], &mut self.end);
+                self.pointwise(ctx, rec, m, (&rec.states[k], rec.t[k], rec.free[k], k));
                 for (c, v) in self.out.iter_mut().zip(&self.end) {
                     c[j] = *v;
                 }
@@ -149,13 +145,24 @@ impl Stretch {
     /// Mode m's outputs at the end of interval k (x_end, u_end, the signals at t_{k+1} with the interval's
     /// decided inputs) into `end`.
     fn end_outputs(&mut self, ctx: &Ctx<'_, '_>, rec: &Record, (m, k): (usize, usize)) {
+        self.pointwise(ctx, rec, m, (&rec.x_end[k], rec.t[k + 1], rec.u_end[k], k));
+    }
+
+    /// Mode m's outputs at state x, time t and input u, with sample k's decided inputs, into `end`.
+    fn pointwise(
+        &mut self,
+        ctx: &Ctx<'_, '_>,
+        rec: &Record,
+        m: usize,
+        (x, t, u, k): (&[f64], f64, f64, usize),
+    ) {
         let model = ctx.model(m);
         let (n_out, n_w) = (model.info().outputs.len(), model.info().n_w());
         self.end.clear();
         self.end.resize(n_out, 0.0);
-        ctx.w_into(m, rec.t[k + 1], n_w, &mut self.w_one);
+        ctx.w_into(m, t, n_w, &mut self.w_one);
         set_decided(ctx, rec, (m, k), &mut self.w_one);
-        model.outputs(&rec.x_end[k], &self.w_one, rec.u_end[k], &mut self.end);
+        model.outputs(x, &self.w_one, u, &mut self.end);
     }
 }
 
