@@ -1,7 +1,7 @@
 //! `Plant::simulate_keeping` (what the Python package's `Model` runs through): a run that reads the smoothed
 //! cycle kept from the previous run gives the figures of a run on its own, bit for bit, for models without
-//! modes (r = n, a stable inversion of unstable internal dynamics) and with modes, when the cycle changes in between, and
-//! with other options (`keep_series`) or another parameter value.
+//! modes (r = n, a stable inversion of unstable internal dynamics) and with modes, when the cycle changes in
+//! between, and with other options (`keep_series`) or another parameter value.
 
 use crate::common;
 use common::*;

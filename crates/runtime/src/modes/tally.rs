@@ -5,10 +5,12 @@
 //!
 //! A run of samples k₀ … k₁ − 1 is a stretch where the run stayed in one mode m with the state, the free
 //! input and the decided inputs continuous: the end of interval k (x_end, u_end) is the next sample bit for
-//! bit. The model's `[outputs]` at its samples are then one batch ([`InverseModel::outputs_batch`]), and each
-//! interval's end within it takes the next sample's outputs; only the last interval of the stretch, which
-//! ends where the run switched or jumped, evaluates its end on its own. The trapezoid of interval k,
-//! ½ (t_{k+1} − t_k)(o_k + o_end,k), is added in the order of the intervals, as sample by sample.
+//! bit. The model's `[outputs]` at its samples are then one batch ([`InverseModel::outputs_batch`]) where
+//! the stretch is long enough to pay for a batch's set-up ([`BATCH_FROM`]), and each interval's end within it
+//! takes the next sample's outputs; only the last interval of the stretch, which ends where the run switched
+//! or jumped (or where a stretch longer than [`STRETCH_MAX`] is cut), evaluates its end on its own. The
+//! trapezoid of interval k, ½ (t_{k+1} − t_k)(o_k + o_end,k), is added in the order of the intervals, as
+//! sample by sample.
 
 use super::record::{set_decided, Ctx, Record};
 use super::rows::Rows;
@@ -84,7 +86,8 @@ struct Stretch {
     w: Vec<Vec<f64>>,
     out: Vec<Vec<f64>>,
     end: Vec<f64>,
-    /// A sample's signals and decided inputs, and the values of its inputs.
+    /// A sample's signals and decided inputs (and, for the table with `keep_series`, its row of outputs),
+    /// and the values of its inputs.
     w_one: Vec<f64>,
     row: Vec<f64>,
 }

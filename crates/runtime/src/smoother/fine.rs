@@ -64,9 +64,10 @@ fn h_max_per_lookahead(q: usize) -> f64 {
 }
 /// Sub-grid intervals per block: block b holds the points b·BLOCK … (b + 1)·BLOCK.
 const BLOCK: usize = 128;
-/// The most values a table keeps (64 MB, allocated block by block as runs need them: a UDDS or WLTC class 3b
-/// at a one-second look-ahead, relative degree 2 and no signal, six coefficients per order and cell, fits); a larger
-/// sub-grid (a shorter look-ahead on a longer cycle) computes a block again whenever it is needed anew.
+/// The most values a table keeps (64 MB, allocated block by block as runs need them: a UDDS or WLTC class
+/// 3b at a one-second look-ahead, relative degree 2 and no signal, six coefficients per order and cell,
+/// fits); a larger sub-grid (a shorter look-ahead on a longer cycle) computes a block again whenever it is
+/// needed anew.
 const KEPT_MAX: usize = 1 << 23;
 
 /// A block's values, shared by the table and its readers (an `Arc` of the `Vec` the block was evaluated
@@ -145,8 +146,8 @@ impl FineTable {
         smoother.eval_grid(&times, Some(self.h), &mut refs);
         let mut refs: Vec<&mut [f64]> = signals.chunks_exact_mut(len).collect();
         smoother.eval_signals_grid(&times, Some(self.h), &mut refs);
-        // Cell p (from point p to p + 1), group g = c·(q + 1) + j: order j of quantity c from its orders j, j + 1,
-        // j + 2 at both points (columns c·orders + j + 0 … 2, entries p and p + 1).
+        // Cell p (from point p to p + 1), group g = c·(q + 1) + j: order j of quantity c from its orders j,
+        // j + 1, j + 2 at both points (columns c·orders + j + 0 … 2, entries p and p + 1).
         let (interpolated, cell) = (self.orders - 2, self.cell());
         let mut coefficients = vec![0.0; (len - 1) * cell];
         let (h, h2) = (self.h, self.h * self.h);
@@ -233,9 +234,9 @@ impl FineReference {
         let x = (t - ti) * table.inv_h;
         let (groups, signals) = (6 * (table.orders - 2), table.quantities - 1);
         let cell = &self.slots[0].1[k * table.cell()..(k + 1) * table.cell()];
-        // Order j of quantity c from its group of six (quantity c's groups start at c·(q + 1)); signal c's r + 1
-        // values (r + 1 = y.len()) go to w[(c − 1)·(r + 1) …] (what follows the signals in w, a mode's decided
-        // inputs, is left as it is).
+        // Order j of quantity c from its group of six (quantity c's groups start at c·(q + 1)); signal c's
+        // r + 1 values (r + 1 = y.len()) go to w[(c − 1)·(r + 1) …] (what follows the signals in w, a mode's
+        // decided inputs, is left as it is).
         horner(x, cell, y);
         let per = y.len();
         for c in 0..signals {
