@@ -23,6 +23,9 @@ pub struct Loaded {
     /// Unit of each column of an inverse run's series of a model without modes, by column name (empty for a
     /// model with modes: its runs carry their units).
     pub units: Vec<(String, Option<String>)>,
+    /// The model as the runtime runs it at the file's parameters, made once: the runs without parameters to
+    /// set (most of a script's) share it instead of building every mode's constants and maps again.
+    kept: Plant,
 }
 
 impl Loaded {
@@ -45,11 +48,26 @@ impl Loaded {
             }
             Kind::Modal(_) => (Vec::new(), OnceLock::new()),
         };
+        let kept = plant_of(&kind, &[])?;
         Ok(Loaded {
             kind,
             derive_json: json,
             units,
+            kept,
         })
+    }
+
+    /// `f` of the model with `params` set: the plant kept from loading where there are none (the same
+    /// parameters, so the same numbers), else a fresh copy.
+    pub fn with_plant<R>(
+        &self,
+        params: &[(String, f64)],
+        f: impl FnOnce(&Plant) -> Result<R, Failure>,
+    ) -> Result<R, Failure> {
+        if params.is_empty() {
+            return f(&self.kept);
+        }
+        f(&self.plant(params)?)
     }
 
     /// The derivation as JSON (of every mode, for a model with modes), from the file's `bytes`.
@@ -91,39 +109,50 @@ impl Loaded {
 
     /// A fresh copy of the model with `params` set, as the runtime runs it.
     pub fn plant(&self, params: &[(String, f64)]) -> Result<Plant, Failure> {
-        match &self.kind {
-            Kind::Single(_) => self.single(params).map(Plant::Single),
-            Kind::Modal(_) => self.modal(params).map(Plant::Modal),
-        }
+        plant_of(&self.kind, params)
     }
 
     /// A fresh instance of a model without modes with `params` set (in order), each value finite.
     pub fn single(&self, params: &[(String, f64)]) -> Result<Box<dyn InverseModel>, Failure> {
-        let Kind::Single(m) = &self.kind else {
-            return Err(Failure::msg("the model has operating modes"));
-        };
-        let mut m = m.fresh().map_err(|e| Failure::msg(e.to_string()))?;
-        for (name, value) in params {
-            check_finite(name, *value)?;
-            m.set_param(name, *value)
-                .map_err(|e| Failure::msg(format!("parameter {name}: {e}")))?;
-        }
-        Ok(m)
+        single_of(&self.kind, params)
     }
 
-    /// A fresh copy of a model with modes with `params` set (in every mode), each value finite.
-    pub fn modal(&self, params: &[(String, f64)]) -> Result<ModalPlant, Failure> {
-        let Kind::Modal(m) = &self.kind else {
-            return Err(Failure::msg("the model has no operating modes"));
-        };
-        let mut p = m.fresh().map_err(|e| Failure::msg(e.to_string()))?;
-        for (name, value) in params {
-            check_finite(name, *value)?;
-            p.set_param(name, *value)
-                .map_err(|e| Failure::msg(format!("parameter {name}: {e}")))?;
-        }
-        Ok(p)
+}
+
+/// A fresh copy of the model `kind` with `params` set, as the runtime runs it.
+fn plant_of(kind: &Kind, params: &[(String, f64)]) -> Result<Plant, Failure> {
+    match kind {
+        Kind::Single(_) => single_of(kind, params).map(Plant::Single),
+        Kind::Modal(_) => modal_of(kind, params).map(Plant::Modal),
     }
+}
+
+/// A fresh instance of a model without modes with `params` set (in order), each value finite.
+fn single_of(kind: &Kind, params: &[(String, f64)]) -> Result<Box<dyn InverseModel>, Failure> {
+    let Kind::Single(m) = kind else {
+        return Err(Failure::msg("the model has operating modes"));
+    };
+    let mut m = m.fresh().map_err(|e| Failure::msg(e.to_string()))?;
+    for (name, value) in params {
+        check_finite(name, *value)?;
+        m.set_param(name, *value)
+            .map_err(|e| Failure::msg(format!("parameter {name}: {e}")))?;
+    }
+    Ok(m)
+}
+
+/// A fresh copy of a model with modes with `params` set (in every mode), each value finite.
+fn modal_of(kind: &Kind, params: &[(String, f64)]) -> Result<ModalPlant, Failure> {
+    let Kind::Modal(m) = kind else {
+        return Err(Failure::msg("the model has no operating modes"));
+    };
+    let mut p = m.fresh().map_err(|e| Failure::msg(e.to_string()))?;
+    for (name, value) in params {
+        check_finite(name, *value)?;
+        p.set_param(name, *value)
+            .map_err(|e| Failure::msg(format!("parameter {name}: {e}")))?;
+    }
+    Ok(p)
 }
 
 /// A parameter value must be finite (as `--set NAME=VALUE`).

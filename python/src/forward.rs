@@ -97,11 +97,12 @@ pub fn forward_one(
         ))
     };
     let opts = req.options(model.engine_name(), &stopped)?;
-    let plant = model.plant(params)?;
     let file = cycle_file(cycle_spec);
-    let mut result = plant.forward(&cycle, file, &opts).map_err(|e| match e {
-        RunFailure::Gears(e) => Failure::in_file(format!("{model_path}: {e}"), model_path),
-        e => stopped(e.to_string()),
+    let mut result = model.with_plant(params, |plant| {
+        plant.forward(&cycle, file, &opts).map_err(|e| match e {
+            RunFailure::Gears(e) => Failure::in_file(format!("{model_path}: {e}"), model_path),
+            e => stopped(e.to_string()),
+        })
     })?;
     result.warnings_mut().splice(0..0, cycle_warnings);
     let units = result

@@ -290,14 +290,15 @@ pub fn simulate_any(
     let sim_opts = opts.build(model.engine_name(), model_path, &cycle.name)?;
     let (sim_opts, choice) =
         resolve_remembered(&sim_opts, &cycle).map_err(|e| stopped(model_path, &cycle.name, e))?;
-    let plant = model.plant(params)?;
     let file = cycle_file(cycle_spec);
-    let mut result = plant
-        .simulate_keeping(&cycle, file, &sim_opts, Some(keep))
-        .map_err(|e| match e {
-            RunFailure::Gears(e) => Failure::in_file(format!("{model_path}: {e}"), model_path),
-            e => stopped(model_path, &cycle.name, e),
-        })?;
+    let mut result = model.with_plant(params, |plant| {
+        plant
+            .simulate_keeping(&cycle, file, &sim_opts, Some(keep))
+            .map_err(|e| match e {
+                RunFailure::Gears(e) => Failure::in_file(format!("{model_path}: {e}"), model_path),
+                e => stopped(model_path, &cycle.name, e),
+            })
+    })?;
     if let Some(choice) = choice {
         result.set_lookahead_choice(choice);
     }
