@@ -116,7 +116,6 @@ impl Loaded {
     pub fn single(&self, params: &[(String, f64)]) -> Result<Box<dyn InverseModel>, Failure> {
         single_of(&self.kind, params)
     }
-
 }
 
 /// A fresh copy of the model `kind` with `params` set, as the runtime runs it.

@@ -249,8 +249,8 @@ pub(super) fn walk(ctx: &Ctx<'_, '_>, cycle: &Cycle, opts: &ModalOptions, rec: &
     tally
 }
 
-/// Each sample of the stretch of mode m from k0 (its outputs in `stretch.out`): every input's value and
-/// range, the table's rows (`keep`: with `keep_series`), the free input's bound violations.
+/// Each sample of the stretch of mode m from k0 (its outputs in `stretch.out`): every input's range, the
+/// table's rows (`keep`: with `keep_series`), the free input's bound violations.
 fn samples(
     ctx: &Ctx<'_, '_>,
     rec: &Record,
@@ -258,41 +258,14 @@ fn samples(
     stretch: &mut Stretch,
     (tally, outside, keep): (&mut Tally, &mut bool, bool),
 ) {
-    let spec = ctx.spec;
-    let mode = &spec.modes[m];
     let rule = &ctx.rules.modes[m];
-    for j in 0..len {
-        let k = k0 + j;
+    if keep {
+        rows(ctx, rec, (m, k0, len), stretch, tally);
+    } else {
+        ranges(ctx, rec, (m, k0, len), &stretch.out, &mut tally.ranges);
+    }
+    for k in k0..k0 + len {
         let u = rec.free[k];
-        // The value of every input: the free one, those the mode fixes (from its outputs), the decided ones.
-        let row = &mut stretch.row;
-        row.clear();
-        row.extend((0..spec.inputs.len()).map(|i| {
-            if i == mode.free_input {
-                u
-            } else {
-                mode.fixed_outputs
-                    .iter()
-                    .find(|(input, _)| *input == i)
-                    .map_or(f64::NAN, |(_, o)| stretch.out[*o][j])
-            }
-        }));
-        if let Some(values) = rec.decided.get(k) {
-            for (&(i, _), &v) in ctx.decided[m].iter().zip(values) {
-                row[i] = v;
-            }
-        }
-        for (r, &v) in tally.ranges.iter_mut().zip(row.iter()) {
-            *r = [r[0].min(v), r[1].max(v)];
-        }
-        if keep {
-            tally.inputs.push(row);
-            stretch.w_one.clear();
-            stretch
-                .w_one
-                .extend(stretch.out[..spec.n_outputs].iter().map(|c| c[j]));
-            tally.outputs.push(&stretch.w_one);
-        }
         *outside = track_violation(rule, (rec.t[k], u), *outside, &mut tally.violations);
         if *outside {
             let here = Excursion {
@@ -305,6 +278,89 @@ fn samples(
             };
             tally.farthest = Some(farther(tally.farthest, here));
         }
+    }
+}
+
+/// The value of input i at sample k of mode m (`out`: the mode's outputs at the stretch's samples, k0 its
+/// first): a decided input's value, else the free input, else the output the mode fixes it to, else NaN
+/// (the mode neither frees nor reports it).
+fn input_value(
+    ctx: &Ctx<'_, '_>,
+    rec: &Record,
+    (m, k0, k): (usize, usize, usize),
+    out: &[Vec<f64>],
+    i: usize,
+) -> f64 {
+    let decided = rec.decided.get(k).and_then(|values| {
+        let j = ctx.decided[m].iter().position(|&(input, _)| input == i)?;
+        values.get(j).copied()
+    });
+    let mode = &ctx.spec.modes[m];
+    decided.unwrap_or_else(|| {
+        if i == mode.free_input {
+            rec.free[k]
+        } else {
+            mode.fixed_outputs
+                .iter()
+                .find(|(input, _)| *input == i)
+                .map_or(f64::NAN, |(_, o)| out[*o][k - k0])
+        }
+    })
+}
+
+/// Each input's range over the stretch, input by input and sample by sample in order: the same folds as the
+/// table's rows give (NaN, an input the mode neither frees nor reports, leaves a range as it is). Without
+/// decided inputs the free input's and the fixed ones' columns are read as they are.
+fn ranges(
+    ctx: &Ctx<'_, '_>,
+    rec: &Record,
+    (m, k0, len): (usize, usize, usize),
+    out: &[Vec<f64>],
+    ranges: &mut [[f64; 2]],
+) {
+    let mode = &ctx.spec.modes[m];
+    let fold = |r: &mut [f64; 2], values: &[f64]| {
+        for &v in values {
+            *r = [r[0].min(v), r[1].max(v)];
+        }
+    };
+    for (i, r) in ranges.iter_mut().enumerate() {
+        if !rec.decided.is_empty() {
+            for k in k0..k0 + len {
+                fold(r, &[input_value(ctx, rec, (m, k0, k), out, i)]);
+            }
+        } else if i == mode.free_input {
+            fold(r, &rec.free[k0..k0 + len]);
+        } else if let Some(&(_, o)) = mode.fixed_outputs.iter().find(|(input, _)| *input == i) {
+            fold(r, &out[o][..len]);
+        }
+    }
+}
+
+/// The table's rows of the stretch (with `keep_series`): every input's value (and its range) and the model's
+/// `[outputs]`, sample by sample.
+fn rows(
+    ctx: &Ctx<'_, '_>,
+    rec: &Record,
+    (m, k0, len): (usize, usize, usize),
+    stretch: &mut Stretch,
+    tally: &mut Tally,
+) {
+    let n_in = ctx.spec.inputs.len();
+    for k in k0..k0 + len {
+        let row = &mut stretch.row;
+        row.clear();
+        row.extend((0..n_in).map(|i| input_value(ctx, rec, (m, k0, k), &stretch.out, i)));
+        for (r, &v) in tally.ranges.iter_mut().zip(row.iter()) {
+            *r = [r[0].min(v), r[1].max(v)];
+        }
+        tally.inputs.push(row);
+        stretch.w_one.clear();
+        let j = k - k0;
+        stretch
+            .w_one
+            .extend(stretch.out[..ctx.spec.n_outputs].iter().map(|c| c[j]));
+        tally.outputs.push(&stretch.w_one);
     }
 }
 
