@@ -65,6 +65,7 @@ pub fn modal_options(opts: &SimulationOptions) -> ModalOptions {
         transition_time: opts.transition_time,
         verify: opts.verify,
         keep_series: opts.keep_series,
+        operating_points: opts.operating_points,
     }
 }
 

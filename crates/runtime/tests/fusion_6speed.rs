@@ -146,6 +146,7 @@ fn fusion_6speed_satisfies_every_mode_tracks_and_burns_plausible_fuel() {
             transition_time: None,
             verify: true,
             keep_series: true,
+            operating_points: true,
         };
         let res = simulate_modes(&s, &cycle, &opts).expect("the run succeeds");
         let (mut worst1, mut worst2) = (0.0f64, 0.0f64);

@@ -23,6 +23,7 @@ fn run(l: &Loaded, cycle: &Cycle, dt: f64, switching: Switching, verify: bool) -
         transition_time: None,
         verify,
         keep_series: true,
+        operating_points: true,
     };
     simulate_modes(&spec(l, speed_schedule(l)), cycle, &opts).expect("the run succeeds")
 }
@@ -204,6 +205,7 @@ fn gain_switch_run(switching: Switching) -> (ModalResult, Cycle) {
         transition_time: None,
         verify: true,
         keep_series: true,
+        operating_points: true,
     };
     let res = simulate_modes(
         &spec(&l, GearSource::Table(vec![(0.0, 1), (T_S, 2)])),
@@ -318,6 +320,7 @@ fn five_speed_follows_the_regulation_gears_on_the_nedc() {
         transition_time: None,
         verify: false,
         keep_series: true,
+        operating_points: true,
     };
     let res = simulate_modes(&spec(&l, GearSource::Table(table)), &cycle, &opts)
         .expect("the run succeeds");

@@ -50,6 +50,7 @@ fn options(dt: f64) -> ModalOptions {
         transition_time: None,
         verify: true,
         keep_series: true,
+        operating_points: true,
     }
 }
 

@@ -17,6 +17,7 @@ fn inverse(l: &Loaded, cycle: &Cycle, dt: f64) -> ModalResult {
         transition_time: None,
         verify: false,
         keep_series: true,
+        operating_points: true,
     };
     simulate_modes(&spec(l, speed_schedule(l)), cycle, &opts).expect("the inverse run succeeds")
 }

@@ -37,6 +37,7 @@ fn opts(dt: f64, verify: bool) -> ModalOptions {
         transition_time: None,
         verify,
         keep_series: true,
+        operating_points: true,
     }
 }
 

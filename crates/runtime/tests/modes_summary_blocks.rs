@@ -20,6 +20,7 @@ fn five_speed_summary_has_the_reference_deviation_and_the_engine_operating_point
         transition_time: None,
         verify: false,
         keep_series: true,
+        operating_points: true,
     };
     let res =
         simulate_modes(&spec(&l, speed_schedule(&l)), &cycle, &opts).expect("the run succeeds");

@@ -52,6 +52,9 @@ pub struct SimulationOptions {
     /// columns): enough for the summary of `invsim simulate` without `--out`/`--plot`, and it saves the memory
     /// traffic of the columns. `verify` needs the series and keeps it regardless.
     pub keep_series: bool,
+    /// Tally the engine's operating points (the summary's `engine_operating_points`, models with an
+    /// `[engine]`; default `true`). A sweep turns it off: its rows do not report them.
+    pub operating_points: bool,
     /// Integrate the zero dynamics forward even when they are unstable (the run then stops with
     /// [`SimulateError::UnstableZeroDynamics`]). Default `false`: unstable zero dynamics are inverted stably
     /// (non-causally, [`crate::stable`]). A given `eta0` also selects causal integration (an initial state is a
@@ -104,6 +107,7 @@ impl Default for SimulationOptions {
             stability_check_interval: DEFAULT_STABILITY_CHECK_INTERVAL,
             verify: false,
             keep_series: true,
+            operating_points: true,
             causal: false,
             stable_tol: DEFAULT_STABLE_TOL,
             max_pre_actuation: DEFAULT_MAX_PRE_ACTUATION,
@@ -195,6 +199,8 @@ setters! {
     verify: bool,
     /// Keep the time series.
     keep_series: bool,
+    /// Tally the engine's operating points.
+    operating_points: bool,
     /// Integrate the zero dynamics forward even when unstable.
     causal: bool,
     /// Tolerance of the stable inversion.

@@ -143,7 +143,7 @@ impl<'c> Tally<'c> {
         (cycle, steps): (&'c Cycle, usize),
         grid: &Grid,
         window: (usize, usize),
-        progress: Progress,
+        opts: &SimulationOptions,
     ) -> Tally<'c> {
         let info = model.info();
         let no = info.outputs.len();
@@ -164,8 +164,9 @@ impl<'c> Tally<'c> {
             cycle_end: grid.k0 + steps,
             cycle,
             deviation: DeviationTally::new(model.reference(), grid.dt, cycle.tolerance),
-            operating: OperatingPointTally::new(info, window.1 - window.0 + 1),
-            progress,
+            operating: OperatingPointTally::new(info, window.1 - window.0 + 1)
+                .filter(|_| opts.operating_points),
+            progress: opts.progress.clone(),
         }
     }
 
@@ -636,7 +637,7 @@ pub(super) fn run<M: InverseModel + ?Sized>(
     let mut direct = wrt
         .filter(|w| zd.stable.is_none() && info.n_eta == 0 && w.grid.is_empty())
         .map(|w| DirectSensitivities::new(model, w, grid.dt));
-    let mut tally = Tally::new(model, (cycle, steps), &grid, window, opts.progress.clone());
+    let mut tally = Tally::new(model, (cycle, steps), &grid, window, opts);
     let yd = (smoother, shared.and_then(|s| s.columns_for(&grid)));
     let solvers = (&mut inverter, direct.as_mut());
     run_blocks(model, yd, &grid, solvers, &mut tally, &mut data, keep)?;

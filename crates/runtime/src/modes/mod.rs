@@ -39,6 +39,7 @@ mod runner;
 mod scratch;
 pub(crate) mod sequence;
 mod signals;
+mod still;
 mod strategy;
 mod strategy_request;
 mod summary;
@@ -195,6 +196,8 @@ pub struct ModalOptions {
     /// Keep the time series (default true); `false` (a sweep) tallies the summary without building the
     /// table of every column at every sample.
     pub keep_series: bool,
+    /// Tally the engine's operating points (default true; a sweep's rows do not report them).
+    pub operating_points: bool,
 }
 
 impl Default for ModalOptions {
@@ -206,6 +209,7 @@ impl Default for ModalOptions {
             transition_time: None,
             verify: false,
             keep_series: true,
+            operating_points: true,
         }
     }
 }

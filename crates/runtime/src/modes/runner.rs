@@ -12,6 +12,7 @@ use super::reference::{ModalReference, ReferenceCell};
 use super::rules::Rules;
 use super::sequence::{decide, Moment, Place, Rung, Switcher};
 use super::signals::record_signals;
+use super::still::StillStep;
 use super::verify::replay;
 use super::zd_ode::ZdOde;
 use super::{ModalError, ModalOptions, ModalResult, ModalSpec, Switching};
@@ -53,6 +54,8 @@ pub(super) struct ZeroDynamics {
     corner: usize,
     /// The accepted steps with their continuous extensions (a differentiated run's).
     steps: Option<ZdSteps>,
+    /// The last interval on a still reference crossed in one step (`still.rs`).
+    still: StillStep,
 }
 
 impl ZeroDynamics {
@@ -66,6 +69,7 @@ impl ZeroDynamics {
             fine: ctx.fine_reference(),
             corner: 0,
             steps: logged.then(ZdSteps::new),
+            still: StillStep::default(),
         }
     }
 }
@@ -224,6 +228,7 @@ impl Ctx<'_, '_> {
             fine,
             corner,
             steps,
+            still: memo,
         } = zd;
         // Dense output only where the steps are logged: else η is needed at the interval's end only.
         let logged = steps.is_some();
@@ -249,6 +254,18 @@ impl Ctx<'_, '_> {
         // look-ahead from any corner, no transition under way), the stage times take t0's values.
         let still = blend.is_none_or(|b| b.done(t0))
             && (self.reference.smoother).still_on_from(corner, t0, t1);
+        // A still interval that repeats the last one bit for bit has its result (`still.rs`; a
+        // differentiated run logs every step, so it integrates each).
+        let remembered = still && steps.is_none();
+        if remembered {
+            memo.key(m, eta, (&y[..=r], &w[..n_w]), (t1 - t0, h0));
+            if let Some((end, h)) = memo.recall() {
+                eta.copy_from_slice(end);
+                ode.reset(h);
+                return Ok(());
+            }
+        }
+        let taken = ode.steps_taken();
         let mut at = t0;
         let mut f = |t: f64, e: &[f64], de: &mut [f64]| -> Result<(), StepFailure> {
             if !still && t.to_bits() != at.to_bits() {
@@ -262,7 +279,13 @@ impl Ctx<'_, '_> {
         ode.advance(t0, t1, eta, &mut f, log)
             .map_err(|e: StepFailure| {
                 self.err(m, t1, format!("the zero dynamics failed: {}", e.reason))
-            })
+            })?;
+        let (accepted, rejected) = ode.steps_taken();
+        match remembered && (accepted, rejected) == (taken.0 + 1, taken.1) {
+            true => memo.remember(eta, ode.step_size()),
+            false => memo.forget(),
+        }
+        Ok(())
     }
 
     /// η at the start: the zero dynamics' equilibrium for the reference at t (Newton, differences). A state

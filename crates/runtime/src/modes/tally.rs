@@ -194,10 +194,11 @@ pub(super) fn walk(ctx: &Ctx<'_, '_>, cycle: &Cycle, opts: &ModalOptions, rec: &
         ),
         // The engine's outputs are among those every mode shares (the first n_outputs).
         operating: OperatingPointTally::new(info0, ns).filter(|_| {
-            info0
-                .engine
-                .as_ref()
-                .is_some_and(|e| e.speed.max(e.torque) < no)
+            opts.operating_points
+                && info0
+                    .engine
+                    .as_ref()
+                    .is_some_and(|e| e.speed.max(e.torque) < no)
         }),
     };
     let accumulated: Vec<usize> = (0..no).filter(|&i| info0.outputs[i].accumulate).collect();

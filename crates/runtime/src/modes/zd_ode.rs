@@ -53,6 +53,15 @@ impl ZdOde {
         }
     }
 
+    /// Steps accepted and rejected so far.
+    pub(super) fn steps_taken(&self) -> (usize, usize) {
+        let stats = match self {
+            ZdOde::Dopri5(o) => &o.stats,
+            ZdOde::Dop853(o) => &o.stats,
+        };
+        (stats.accepted, stats.rejected)
+    }
+
     /// Forget the FSAL stage and start with step `h0`.
     pub(super) fn reset(&mut self, h0: f64) {
         match self {

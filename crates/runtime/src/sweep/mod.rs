@@ -326,6 +326,8 @@ impl SweepBuilder {
         let mut opts = self.opts.clone();
         opts.verify = self.verify;
         opts.keep_series = false;
+        // A row reports the figures, not the engine's operating points.
+        opts.operating_points = false;
         opts.validate()?;
         count_runs(
             &design_sizes(&self.design),
