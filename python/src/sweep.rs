@@ -3,12 +3,14 @@
 //!
 //! [`run_sweep`] is the one function the Python side calls. Like the runtime's `Sweep`, it smooths each cycle
 //! once ([`invsim_runtime::inverse::reference`]) and runs every variant on that shared reference
-//! ([`invsim_runtime::inverse::simulate_shared`]), so a row's summary is bit for bit that of a single run of
-//! the same variant; unlike `Sweep`, each row keeps the whole summary (the JSON `--summary-json` writes).
+//! ([`invsim_runtime::inverse::simulate_shared`]); a model with modes keeps what its runs on a cycle share
+//! (the smoothed cycle, the gear schedule, the zero dynamics' sub-grid) in a [`RunKeep`] per cycle. So a
+//! row's summary is bit for bit that of a single run of the same variant; unlike `Sweep`, each row keeps the
+//! whole summary (the JSON `--summary-json` writes).
 
 use invsim_runtime::inverse::{reference, Reference};
 use invsim_runtime::Plant;
-use invsim_runtime::{Cycle, SimulationOptions};
+use invsim_runtime::{Cycle, RunKeep, SimulationOptions};
 use rayon::prelude::*;
 
 use crate::engine::{Kind, Loaded};
@@ -77,6 +79,9 @@ pub fn run_sweep(
         Kind::Single(_) => shared_references(model, cycles, base, &resolved),
         Kind::Modal(_) => Vec::new(),
     };
+    // A model with modes: what the runs on a cycle share (its smoothed cycle and gear schedule, the zero
+    // dynamics' sub-grid), kept per cycle as the command line's sweep keeps it.
+    let keeps: Vec<RunKeep> = cycles.iter().map(|_| RunKeep::default()).collect();
     let one = |job: usize| {
         let (i, c) = (job / cycles.len(), job % cycles.len());
         let params = variants.params(base, i);
@@ -92,7 +97,7 @@ pub fn run_sweep(
             None => modal_row(
                 model,
                 model_path,
-                (&cycles[c], &specs[c]),
+                (&cycles[c], &specs[c], &keeps[c]),
                 &params,
                 (opts, choice),
             ),
@@ -140,12 +145,12 @@ fn single_row(
     (values, summary)
 }
 
-/// One row of a model with modes (`simulate` of its variant on `cycle`, read from `spec`): every
-/// parameter's value (the first mode's) and the summary JSON.
+/// One row of a model with modes (`simulate` of its variant on `cycle`, read from `spec`, with what the
+/// cycle's runs share in `keep`): every parameter's value (the first mode's) and the summary JSON.
 fn modal_row(
     model: &Loaded,
     model_path: &str,
-    (cycle, spec): (&Cycle, &str),
+    (cycle, spec, keep): (&Cycle, &str, &RunKeep),
     params: &[(String, f64)],
     (opts, choice): (&SimulationOptions, &Option<LookaheadChoice>),
 ) -> (Vec<f64>, Result<String, Failure>) {
@@ -158,7 +163,7 @@ fn modal_row(
     let summary = plant.and_then(|p| {
         let file = cycle_file(spec);
         let mut r = p
-            .simulate(cycle, file, opts)
+            .simulate_keeping(cycle, file, opts, Some(keep))
             .map_err(|e| run_failure(model_path, &cycle.name, e))?;
         if let Some(c) = choice {
             r.set_lookahead_choice(c.clone());
