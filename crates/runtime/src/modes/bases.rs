@@ -12,8 +12,8 @@ use crate::smoother::Smoother;
 const BLOCK: usize = 512;
 
 /// The smoothed cycle at a grid's samples, block by block: block b holds samples b·BLOCK … (b + 1)·BLOCK − 1,
-/// `[j·len + i]` = y_c^(j) at its sample i (len its samples). The blocks lie at fixed places on the grid, so a
-/// value is the same bits whichever run computed it.
+/// `[i·orders + j]` = y_c^(j) at its sample i (a sample's orders side by side: one short copy per sample).
+/// The blocks lie at fixed places on the grid, so a value is the same bits whichever run computed it.
 pub(crate) struct SampleTable {
     grid: Grid,
     orders: usize,
@@ -49,9 +49,15 @@ impl SampleTable {
         let first = b * BLOCK;
         let end = (first + BLOCK).min(self.grid.samples());
         let times: Vec<f64> = (first..end).map(|i| self.grid.time(i)).collect();
-        let mut values = vec![0.0; times.len() * self.orders];
-        let mut cols: Vec<&mut [f64]> = values.chunks_exact_mut(times.len()).collect();
+        let mut columns = vec![0.0; times.len() * self.orders];
+        let mut cols: Vec<&mut [f64]> = columns.chunks_exact_mut(times.len()).collect();
         smoother.eval_grid(&times, Some(self.grid.dt), &mut cols);
+        let mut values = vec![0.0; columns.len()];
+        for (j, column) in columns.chunks_exact(times.len()).enumerate() {
+            for (i, &v) in column.iter().enumerate() {
+                values[i * self.orders + j] = v;
+            }
+        }
         Arc::new(values)
     }
 }
@@ -77,9 +83,8 @@ impl<'a> Bases<'a> {
         if self.block.0 != b {
             self.block = (b, self.table.block(smoother, b));
         }
-        let (first, len) = (b * BLOCK, self.block.1.len() / self.table.orders);
-        for (j, v) in base.iter_mut().enumerate() {
-            *v = self.block.1[j * len + k - first];
-        }
+        let orders = self.table.orders;
+        let i = k - b * BLOCK;
+        base.copy_from_slice(&self.block.1[i * orders..(i + 1) * orders]);
     }
 }
