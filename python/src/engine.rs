@@ -132,11 +132,9 @@ fn single_of(kind: &Kind, params: &[(String, f64)]) -> Result<Box<dyn InverseMod
         return Err(Failure::msg("the model has operating modes"));
     };
     let mut m = m.fresh().map_err(|e| Failure::msg(e.to_string()))?;
-    for (name, value) in params {
-        check_finite(name, *value)?;
-        m.set_param(name, *value)
-            .map_err(|e| Failure::msg(format!("parameter {name}: {e}")))?;
-    }
+    set_each(params, |name, v| {
+        m.set_param(name, v).map_err(|e| e.to_string())
+    })?;
     Ok(m)
 }
 
@@ -146,12 +144,22 @@ fn modal_of(kind: &Kind, params: &[(String, f64)]) -> Result<ModalPlant, Failure
         return Err(Failure::msg("the model has no operating modes"));
     };
     let mut p = m.fresh().map_err(|e| Failure::msg(e.to_string()))?;
+    set_each(params, |name, v| {
+        p.set_param(name, v).map_err(|e| e.to_string())
+    })?;
+    Ok(p)
+}
+
+/// `set` each of `params` in order, each value finite; an error names the parameter.
+fn set_each(
+    params: &[(String, f64)],
+    mut set: impl FnMut(&str, f64) -> Result<(), String>,
+) -> Result<(), Failure> {
     for (name, value) in params {
         check_finite(name, *value)?;
-        p.set_param(name, *value)
-            .map_err(|e| Failure::msg(format!("parameter {name}: {e}")))?;
+        set(name, *value).map_err(|e| Failure::msg(format!("parameter {name}: {e}")))?;
     }
-    Ok(p)
+    Ok(())
 }
 
 /// A parameter value must be finite (as `--set NAME=VALUE`).
