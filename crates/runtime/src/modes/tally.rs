@@ -320,22 +320,22 @@ fn ranges(
     ranges: &mut [[f64; 2]],
 ) {
     let mode = &ctx.spec.modes[m];
-    let fold = |r: &mut [f64; 2], values: &[f64]| {
-        for &v in values {
-            *r = [r[0].min(v), r[1].max(v)];
-        }
-    };
     for (i, r) in ranges.iter_mut().enumerate() {
         if !rec.decided.is_empty() {
             for k in k0..k0 + len {
-                fold(r, &[input_value(ctx, rec, (m, k0, k), out, i)]);
+                widen(r, input_value(ctx, rec, (m, k0, k), out, i));
             }
         } else if i == mode.free_input {
-            fold(r, &rec.free[k0..k0 + len]);
+            rec.free[k0..k0 + len].iter().for_each(|&v| widen(r, v));
         } else if let Some(&(_, o)) = mode.fixed_outputs.iter().find(|(input, _)| *input == i) {
-            fold(r, &out[o][..len]);
+            out[o][..len].iter().for_each(|&v| widen(r, v));
         }
     }
+}
+
+/// A range [lo, hi] widened by `v` (NaN leaves it as it is).
+fn widen(r: &mut [f64; 2], v: f64) {
+    *r = [r[0].min(v), r[1].max(v)];
 }
 
 /// The table's rows of the stretch (with `keep_series`): every input's value (and its range) and the model's
@@ -353,7 +353,7 @@ fn rows(
         row.clear();
         row.extend((0..n_in).map(|i| input_value(ctx, rec, (m, k0, k), &stretch.out, i)));
         for (r, &v) in tally.ranges.iter_mut().zip(row.iter()) {
-            *r = [r[0].min(v), r[1].max(v)];
+            widen(r, v);
         }
         tally.inputs.push(row);
         stretch.w_one.clear();
