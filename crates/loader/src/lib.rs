@@ -13,6 +13,7 @@ mod choice;
 mod error;
 mod map_files;
 mod modal;
+mod params;
 mod single;
 
 use std::path::Path;

@@ -47,19 +47,7 @@ impl LoadedModal {
             Source::Interpreted(prototypes) => interpreters(prototypes),
         };
         for (fresh, now) in models.iter_mut().zip(self.plant.models()) {
-            let info = now.info();
-            let made: Vec<f64> = fresh.params().to_vec();
-            // Only the values that differ from the fresh model's: setting one recomputes every constant the
-            // parameters make (a value set to itself would give the same bits, at that cost).
-            for ((name, &v), was) in info.parameters.iter().zip(now.params()).zip(made) {
-                if v.to_bits() == was.to_bits() {
-                    continue;
-                }
-                fresh.set_param(name, v).map_err(|e| LoadError::Parameter {
-                    name: name.clone(),
-                    reason: e.to_string(),
-                })?;
-            }
+            crate::params::copy_parameters(now, fresh.as_mut())?;
         }
         self.plant
             .with_models(models)

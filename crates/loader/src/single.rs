@@ -52,17 +52,7 @@ impl SingleModel {
                 let mut fresh = invsim_models::by_hash(&hash).ok_or_else(|| {
                     LoadError::Setup(format!("no built-in model has the hash {hash}"))
                 })?;
-                let made: Vec<f64> = fresh.params().to_vec();
-                // Only the values that differ from the fresh model's (each set recomputes its constants).
-                for ((name, &v), was) in info.parameters.iter().zip(m.params()).zip(made) {
-                    if v.to_bits() == was.to_bits() {
-                        continue;
-                    }
-                    fresh.set_param(name, v).map_err(|e| LoadError::Parameter {
-                        name: name.clone(),
-                        reason: e.to_string(),
-                    })?;
-                }
+                crate::params::copy_parameters(m.as_ref(), fresh.as_mut())?;
                 Ok(fresh)
             }
         }

@@ -151,7 +151,7 @@ impl FineTable {
         smoother.eval_signals_grid(&times, Some(self.h), &mut refs);
         // Cell p (from point p to p + 1), group g = c·(q + 1) + j: order j of quantity c from its orders j,
         // j + 1, j + 2 at both points (columns c·orders + j + 0 … 2, entries p and p + 1).
-        let (interpolated, cell) = (self.orders - 2, self.cell());
+        let (interpolated, cell) = (self.interpolated(), self.cell());
         let mut coefficients = vec![0.0; (len - 1) * cell];
         let (h, h2) = (self.h, self.h * self.h);
         for g in 0..self.quantities * interpolated {
@@ -167,9 +167,14 @@ impl FineTable {
         Arc::new(coefficients)
     }
 
+    /// Orders interpolated per quantity, q + 1 (the table holds q + 3: each needs the next two).
+    fn interpolated(&self) -> usize {
+        self.orders - 2
+    }
+
     /// Values per cell: quantities·(q + 1)·6.
     fn cell(&self) -> usize {
-        self.quantities * (self.orders - 2) * 6
+        self.quantities * self.interpolated() * 6
     }
 }
 
@@ -235,7 +240,7 @@ impl FineReference {
         let k = i - b * BLOCK;
         let ti = table.t0 + i as f64 * table.h;
         let x = (t - ti) * table.inv_h;
-        let (groups, signals) = (6 * (table.orders - 2), table.quantities - 1);
+        let (groups, signals) = (6 * table.interpolated(), table.quantities - 1);
         let cell = &self.slots[0].1[k * table.cell()..(k + 1) * table.cell()];
         // Order j of quantity c from its group of six (quantity c's groups start at c·(q + 1)); signal c's
         // r + 1 values (r + 1 = y.len()) go to w[(c − 1)·(r + 1) …] (what follows the signals in w, a mode's
