@@ -31,26 +31,30 @@ pub(super) fn contract_2d(
             [v[k][0][i], v[k][1][i], v[k][2][i]] = [row[0], row[1], row[2]];
         }
     }
+    // t[k][q][i] = Σ_l v_kl Ψ_l^(q) (from 0), then each result row res[3p + q] = Σ_k Φ_k^(p) t[k][q] (from 0) in
+    // a loop of its own: one store stream per loop over local arrays, which vectorises across the points (nine
+    // rows written in one loop do not: the vectoriser cannot tell them apart from its inputs).
     let (phi, psi) = (&x.phi, &y.phi);
-    for i in 0..CHUNK {
-        let mut sum = [[0.0; 3]; 3];
-        for k in 0..3 {
-            let mut t = [0.0; 3];
-            for l in 0..3 {
-                for q in 0..3 {
-                    t[q] += v[k][l][i] * psi[l][q][i];
+    let mut t = [[[0.0; CHUNK]; 3]; 3];
+    for k in 0..3 {
+        for q in 0..3 {
+            for i in 0..CHUNK {
+                let mut s = 0.0;
+                for l in 0..3 {
+                    s += v[k][l][i] * psi[l][q][i];
                 }
-            }
-            for p in 0..3 {
-                for q in 0..3 {
-                    sum[p][q] += phi[k][p][i] * t[q];
-                }
+                t[k][q][i] = s;
             }
         }
-        for p in 0..3 {
-            for q in 0..3 {
-                res[3 * p + q][i] = sum[p][q];
+    }
+    for (pq, row) in res.into_iter().enumerate() {
+        let (p, q) = (pq / 3, pq % 3);
+        for i in 0..CHUNK {
+            let mut s = 0.0;
+            for k in 0..3 {
+                s += phi[k][p][i] * t[k][q][i];
             }
+            row[i] = s;
         }
     }
 }
