@@ -73,9 +73,9 @@ const BLOCK: usize = 128;
 /// needed anew.
 const KEPT_MAX: usize = 1 << 23;
 
-/// A block's values, shared by the table and its readers (an `Arc` of the `Vec` the block was evaluated
-/// into: no second allocation and copy).
-type Block = Arc<Vec<f64>>;
+/// A block's values, shared by the table and its readers (the values behind the `Arc`'s counts: a read
+/// follows one pointer, not two, at the price of one copy when the block is evaluated).
+type Block = Arc<[f64]>;
 
 /// The sub-grid of a run and its blocks, each evaluated once when first needed and kept (within
 /// [`KEPT_MAX`]) for every [`FineReference`] on the table: a run's stages, its gradient's, a sweep's runs on
@@ -87,6 +87,10 @@ pub(crate) struct FineTable {
     inv_h: f64,
     /// Sub-grid intervals of the run (points 0 … last).
     last: usize,
+    /// The last cell a time reads, last − 1 (0 for a run of one point).
+    last_cell: usize,
+    /// Values per cell, quantities·(q + 1)·6 ([`FineTable::cell`]), kept for the reads.
+    cell_len: usize,
     /// Orders held per smoothed quantity (q + 3), and the quantities (the cycle, then each signal).
     orders: usize,
     quantities: usize,
@@ -119,6 +123,8 @@ impl FineTable {
             h,
             inv_h: 1.0 / h,
             last,
+            last_cell: last.saturating_sub(1),
+            cell_len: quantities * (q + 1) * 6,
             orders,
             quantities,
             kept: (values <= KEPT_MAX).then(|| (0..blocks).map(|_| OnceLock::new()).collect()),
@@ -164,7 +170,7 @@ impl FineTable {
                 out[6 * g..6 * g + 6].copy_from_slice(&monomial(at, end));
             }
         }
-        Arc::new(coefficients)
+        Arc::from(coefficients)
     }
 
     /// Orders interpolated per quantity, q + 1 (the table holds q + 3: each needs the next two).
@@ -209,7 +215,7 @@ impl FineReference {
 
     /// Reading `table` (shared with every other reader of it).
     pub(crate) fn on(table: Arc<FineTable>) -> Self {
-        let none: Block = Arc::new(Vec::new());
+        let none: Block = Arc::from(Vec::new());
         FineReference {
             table,
             slots: [(usize::MAX, none.clone()), (usize::MAX, none)],
@@ -221,35 +227,38 @@ impl FineReference {
     /// [S, S', …, S^(r)] per signal into `w` (empty without signals).
     pub(crate) fn eval(&mut self, smoother: &Smoother, t: f64, y: &mut [f64], w: &mut [f64]) {
         let table = &*self.table;
-        // i = ⌊(t − t_0)/h⌋ within 0 … last − 1 (the cast truncates, which is the floor of a positive number).
+        // i = ⌊(t − t_0)/h⌋ within 0 … last − 1 (the cast truncates, which is the floor of a positive number;
+        // through i64, a single conversion each way).
         let pos = (t - table.t0) * table.inv_h;
-        let i = if pos > 0.0 {
-            (pos as usize).min(table.last.saturating_sub(1))
-        } else {
-            0
-        };
-        let b = i / BLOCK;
+        let i = (pos as i64).clamp(0, table.last_cell as i64);
+        let x = (t - (table.t0 + i as f64 * table.h)) * table.inv_h;
+        let i = i as usize;
+        let (b, k) = (i / BLOCK, i % BLOCK);
         if self.slots[0].0 != b {
-            if self.slots[1].0 == b {
-                self.slots.swap(0, 1);
-            } else {
-                let values = table.block(smoother, b, &mut self.cols);
-                self.slots[1] = std::mem::replace(&mut self.slots[0], (b, values));
-            }
+            self.take_block(smoother, b);
         }
-        let k = i - b * BLOCK;
-        let ti = table.t0 + i as f64 * table.h;
-        let x = (t - ti) * table.inv_h;
-        let (groups, signals) = (6 * table.interpolated(), table.quantities - 1);
-        let cell = &self.slots[0].1[k * table.cell()..(k + 1) * table.cell()];
+        let len = self.table.cell_len;
+        let cell = &self.slots[0].1[k * len..][..len];
+        quintic(x, cell, y);
         // Order j of quantity c from its group of six (quantity c's groups start at c·(q + 1)); signal c's
         // r + 1 values (r + 1 = y.len()) go to w[(c − 1)·(r + 1) …] (what follows the signals in w, a mode's
         // decided inputs, is left as it is).
-        quintic(x, cell, y);
         let per = y.len();
-        for c in 0..signals {
-            let out = &mut w[c * per..(c + 1) * per];
-            quintic(x, &cell[(c + 1) * groups..], out);
+        let groups = 6 * self.table.interpolated();
+        for c in 1..self.table.quantities {
+            quintic(x, &cell[c * groups..], &mut w[(c - 1) * per..c * per]);
+        }
+    }
+
+    /// Block b in hand as the latest: the other one kept if it is b, else b's values from the table.
+    #[cold]
+    #[inline(never)]
+    fn take_block(&mut self, smoother: &Smoother, b: usize) {
+        if self.slots[1].0 == b {
+            self.slots.swap(0, 1);
+        } else {
+            let values = self.table.block(smoother, b, &mut self.cols);
+            self.slots[1] = std::mem::replace(&mut self.slots[0], (b, values));
         }
     }
 }
