@@ -105,7 +105,9 @@ impl Grid {
 
     /// t_k.
     pub fn time(&self, k: usize) -> f64 {
-        let k = k as f64 - self.k0 as f64;
+        // k − k0 as a signed integer, then one conversion: the same number as k as f64 − k0 as f64 (both below
+        // MAX_SAMPLES < 2^53, so exact), without two unsigned conversions on the way to every t_k.
+        let k = (k as i64 - self.k0 as i64) as f64;
         match self.per_second {
             Some(m) => self.t0 + k / m,
             None => self.t0 + k * self.dt,

@@ -548,8 +548,10 @@ fn run_sequence(
     rec.push_solved(&cur);
     // The buffers of the next solution (the previous one's, once it is recorded).
     let mut spare = cur.clone();
+    let mut tb = t0;
     for k in 1..=grid.n {
-        let (ta, tb) = (grid.time(k - 1), grid.time(k));
+        let ta = tb;
+        tb = grid.time(k);
         let (m, inner) = (seq.place.mode, &mut seq.modal);
         ctx.advance_eta(
             m,
