@@ -22,6 +22,9 @@ use crate::ode::StepFailure;
 use crate::signals::SignalInput;
 use crate::smoother::{FineReference, ZeroDynamicsReference};
 
+/// Signal values a sample's inverse keeps on the stack (more go to the heap).
+const W_ON_STACK: usize = 16;
+
 /// The sequence's state between samples.
 struct Seq {
     place: Place,
@@ -176,10 +179,20 @@ impl Ctx<'_, '_> {
         }
         out.x.clear();
         out.x.extend(x_guess.iter().copied());
-        let w = self.w(m, t);
+        // The signals on the stack where they fit (the usual few), else in a vector of their own.
+        let n_w = model.info().n_w();
+        let (mut near, far);
+        let w: &[f64] = if n_w <= W_ON_STACK {
+            near = [0.0; W_ON_STACK];
+            self.w_fill(m, t, &mut near[..n_w]);
+            &near[..n_w]
+        } else {
+            far = self.w(m, t);
+            &far
+        };
         let (x, yref) = (&mut out.x, &out.yref);
         out.u = model
-            .invert(&yref[..r], eta, &w, yref[r], x)
+            .invert(&yref[..r], eta, w, yref[r], x)
             .map_err(|e| self.err(m, t, e.to_string()))?;
         if !(out.u.is_finite() && x.iter().all(|v| v.is_finite())) {
             return Err(self.err(

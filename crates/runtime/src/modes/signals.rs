@@ -36,6 +36,11 @@ impl Ctx<'_, '_> {
             return;
         }
         w.resize(n_w, 0.0);
+        self.w_fill(m, t, w);
+    }
+
+    /// [`Ctx::w`] into `w` of mode `m`'s length n_w, its decided inputs' slots already 0.
+    pub(super) fn w_fill(&self, m: usize, t: f64, w: &mut [f64]) {
         let per = self.spec.modes[m].model.info().relative_degree + 1;
         let exogenous = self.reference.smoother.signals().len() * per;
         self.reference.smoother.eval_signals(t, &mut w[..exogenous]);
