@@ -184,7 +184,9 @@ impl Ctx<'_, '_> {
         let (mut near, far);
         let w: &[f64] = if n_w <= W_ON_STACK {
             near = [0.0; W_ON_STACK];
-            self.w_fill(m, t, &mut near[..n_w]);
+            if n_w > 0 {
+                self.w_fill(m, t, &mut near[..n_w]);
+            }
             &near[..n_w]
         } else {
             far = self.w(m, t);
