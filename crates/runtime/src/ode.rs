@@ -22,6 +22,7 @@ use nalgebra::{DMatrix, DVector};
 
 mod dense;
 mod dop853;
+mod start;
 pub use dense::{LoggedStep, StepLog};
 pub use dop853::Dop853;
 
@@ -278,6 +279,22 @@ impl Dopri5 {
     pub fn reset(&mut self, h0: f64) {
         self.fsal = false;
         self.h = h0;
+    }
+
+    /// Start afresh from (t, y): f(t, y) as the first stage, and the starting step of `start.rs` (at most
+    /// `h_max`) as the step size; one more evaluation.
+    pub fn start<F, E>(&mut self, t: f64, y: &[f64], h_max: f64, f: &mut F) -> Result<(), E>
+    where
+        F: FnMut(f64, &[f64], &mut [f64]) -> Result<(), E>,
+    {
+        f(t, y, &mut self.k[0])?;
+        let [f0, f1, ..] = &mut self.k;
+        let bufs = (&mut self.y_stage[..], &mut f1[..]);
+        let tol = (self.rtol, self.atol);
+        self.h = start::starting_step((t, y, f0), tol, 5, h_max, bufs, f)?;
+        self.stats.evaluations += 2;
+        self.fsal = true;
+        Ok(())
     }
 
     /// Forget the FSAL stage but keep the step size (after a jump in the right-hand side, e.g. at a corner of

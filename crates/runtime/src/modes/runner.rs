@@ -217,7 +217,8 @@ impl Ctx<'_, '_> {
     /// Advance η of mode `m` over [t0, t1] by its zero dynamics along the (blended) reference, with the
     /// integrator and buffers of `zd`. Every interval starts without an FSAL stage (η may have been set by a
     /// switch); its first step is the one the step-size controller proposed at the end of the previous
-    /// interval where that was the same mode's, up to t1 − t0, else (t1 − t0)/4.
+    /// interval where that was the same mode's, up to t1 − t0, else the starting step of `ode/start.rs` (from
+    /// the zero dynamics at t0 and one more evaluation), up to (t1 − t0)/4.
     /// `base0`: the smoothed cycle at the sample t0 (the run's `Bases`).
     fn advance_eta(
         &self,
@@ -248,11 +249,13 @@ impl Ctx<'_, '_> {
         // Dense output only where the steps are logged: else η is needed at the interval's end only.
         let logged = steps.is_some();
         let ode = ode[m].get_or_insert_with(|| ZdOde::new(eta.len(), *dt, t1 - t0, logged));
-        let h0 = match *last {
-            Some((lm, lt)) if lm == m && lt.to_bits() == t0.to_bits() => {
-                ode.step_size().min(t1 - t0)
-            }
-            _ => (t1 - t0) / 4.0,
+        // An interval that does not continue the last one starts from the starting step of `ode/start.rs`
+        // (at most a quarter of it): its key in the still memo marks that with h0 = −1.
+        let fresh = !matches!(*last, Some((lm, lt)) if lm == m && lt.to_bits() == t0.to_bits());
+        let h0 = if fresh {
+            -1.0
+        } else {
+            ode.step_size().min(t1 - t0)
         };
         *last = Some((m, t1));
         ode.reset(h0);
@@ -290,6 +293,12 @@ impl Ctx<'_, '_> {
             model.zero_dynamics(&y[..r], e, w, y[r], de);
             Ok(())
         };
+        if fresh {
+            ode.start(t0, eta, t1 - t0, &mut f)
+                .map_err(|e: StepFailure| {
+                    self.err(m, t0, format!("the zero dynamics failed: {}", e.reason))
+                })?;
+        }
         let log = steps.as_mut().map(|s| &mut s.log);
         ode.advance(t0, t1, eta, &mut f, log)
             .map_err(|e: StepFailure| {

@@ -62,6 +62,24 @@ impl ZdOde {
         (stats.accepted, stats.rejected)
     }
 
+    /// Start afresh from (t, y) with the first stage evaluated and the starting step of `ode/start.rs` (at most
+    /// `h_max`): where nothing is known of the step the solution allows (a mode just entered).
+    pub(super) fn start<F>(
+        &mut self,
+        t: f64,
+        y: &[f64],
+        h_max: f64,
+        f: &mut F,
+    ) -> Result<(), StepFailure>
+    where
+        F: FnMut(f64, &[f64], &mut [f64]) -> Result<(), StepFailure>,
+    {
+        match self {
+            ZdOde::Dopri5(o) => o.start(t, y, h_max, f),
+            ZdOde::Dop853(o) => o.start(t, y, h_max, f),
+        }
+    }
+
     /// Forget the FSAL stage and start with step `h0`.
     pub(super) fn reset(&mut self, h0: f64) {
         match self {

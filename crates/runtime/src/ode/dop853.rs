@@ -329,6 +329,23 @@ impl Dop853 {
         self.h = h0;
     }
 
+    /// Start afresh from (t, y): f(t, y) as the first stage (FSAL), and the starting step of `start.rs` (at
+    /// most `h_max`) as the step size; one more evaluation.
+    pub fn start<F, E>(&mut self, t: f64, y: &[f64], h_max: f64, f: &mut F) -> Result<(), E>
+    where
+        F: FnMut(f64, &[f64], &mut [f64]) -> Result<(), E>,
+    {
+        let n = self.n;
+        let (f0, rest) = self.k.split_at_mut(n);
+        f(t, y, f0)?;
+        let bufs = (&mut self.y_stage[..], &mut rest[..n]);
+        let tol = (self.rtol, self.atol);
+        self.h = super::start::starting_step((t, y, f0), tol, 8, h_max, bufs, f)?;
+        self.stats.evaluations += 2;
+        self.fsal = true;
+        Ok(())
+    }
+
     /// The step size the controller proposes for the next step.
     pub fn step_size(&self) -> f64 {
         self.h
