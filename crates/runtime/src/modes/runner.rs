@@ -218,7 +218,7 @@ impl Ctx<'_, '_> {
     /// integrator and buffers of `zd`. Every interval starts without an FSAL stage (η may have been set by a
     /// switch); its first step is the one the step-size controller proposed at the end of the previous
     /// interval where that was the same mode's, up to t1 − t0, else the starting step of `ode/start.rs` (from
-    /// the zero dynamics at t0 and one more evaluation), up to (t1 − t0)/4.
+    /// the zero dynamics at t0 and one more evaluation), up to t1 − t0.
     /// `base0`: the smoothed cycle at the sample t0 (the run's `Bases`).
     fn advance_eta(
         &self,
@@ -250,7 +250,7 @@ impl Ctx<'_, '_> {
         let logged = steps.is_some();
         let ode = ode[m].get_or_insert_with(|| ZdOde::new(eta.len(), *dt, t1 - t0, logged));
         // An interval that does not continue the last one starts from the starting step of `ode/start.rs`
-        // (at most a quarter of it): its key in the still memo marks that with h0 = −1.
+        // (at most the interval): its key in the still memo marks that with h0 = −1.
         let fresh = !matches!(*last, Some((lm, lt)) if lm == m && lt.to_bits() == t0.to_bits());
         let h0 = if fresh {
             -1.0
