@@ -260,8 +260,9 @@ impl Ctx<'_, '_> {
         *last = Some((m, t1));
         ode.reset(h0);
         // The reference and the signals depend on t alone: the two last stages of a step (DOPRI5's 6th and
-        // 7th, DOP853's 12th and 13th) are both at t + h, so they are evaluated once for both (the same values), and the first stage at
-        // t0 is the sample's reference, mapped from `base0` as `reference_into` maps the smoother's values.
+        // 7th, DOP853's 12th and 13th) are both at t + h, so they are evaluated once for both (the same
+        // values), and the first stage at t0 is the sample's reference, mapped from `base0` as `reference_into`
+        // maps the smoother's values.
         y[..=r].copy_from_slice(&base0[..=r]);
         self.map_cycle(m, &mut y[..=r]);
         if let Some(b) = blend {
@@ -293,17 +294,14 @@ impl Ctx<'_, '_> {
             model.zero_dynamics(&y[..r], e, w, y[r], de);
             Ok(())
         };
+        let failed = |t: f64| {
+            move |e: StepFailure| self.err(m, t, format!("the zero dynamics failed: {}", e.reason))
+        };
         if fresh {
-            ode.start(t0, eta, t1 - t0, &mut f)
-                .map_err(|e: StepFailure| {
-                    self.err(m, t0, format!("the zero dynamics failed: {}", e.reason))
-                })?;
+            ode.start(t0, eta, t1 - t0, &mut f).map_err(failed(t0))?;
         }
         let log = steps.as_mut().map(|s| &mut s.log);
-        ode.advance(t0, t1, eta, &mut f, log)
-            .map_err(|e: StepFailure| {
-                self.err(m, t1, format!("the zero dynamics failed: {}", e.reason))
-            })?;
+        ode.advance(t0, t1, eta, &mut f, log).map_err(failed(t1))?;
         let (accepted, rejected) = ode.steps_taken();
         match remembered && (accepted, rejected) == (taken.0 + 1, taken.1) {
             true => memo.remember(eta, ode.step_size()),

@@ -12,13 +12,14 @@
 //! p the order of the method's error estimate: the step whose local error h^(p+1) times the solution's
 //! derivatives is about 1 % of the tolerance. One change from the codes: where y₀ or f(t₀, y₀) is negligible
 //! (a state at rest, d₀ or d₁ below 10⁻⁵), h₀ is a probe for d₂ and says nothing of the step, so it does not
-//! bound h (the codes' 100 h₀ = 10⁻⁴ would start a resting state's interval with a hundred-microsecond step),
-//! and where max(d₁, d₂) ≤ 10⁻¹⁵ (nothing moves) the step is h_max/4. A mode just entered starts its zero dynamics off their
-//! equilibrium (the intake manifold filling or emptying with a time constant of a few hundredths of a
-//! second): a fixed first step of a quarter of a one-second interval is mostly rejected there, once or twice,
-//! twelve evaluations each, where this estimate costs one. The 6-speed Fusion on UDDS at dt = 1 s: about 235
-//! rejected steps a run (175 of them first steps), 70 from the starting step, with as many accepted steps:
-//! 9 % fewer evaluations of the zero dynamics.
+//! bound h (the codes' 100 h₀ = 10⁻⁴ would start a resting state's interval with a hundred-microsecond
+//! step), and where max(d₁, d₂) ≤ 10⁻¹⁵ (nothing moves) the step is h_max/4.
+//!
+//! A mode just entered starts its zero dynamics off their equilibrium (the intake manifold filling or emptying
+//! with a time constant of a few hundredths of a second): a fixed first step of a quarter of a one-second
+//! interval is mostly rejected there, once or twice, twelve evaluations each, where this estimate costs one.
+//! The 6-speed Fusion on UDDS at dt = 1 s: about 235 rejected steps a run (175 of them first steps), 70 from
+//! the starting step, with as many accepted steps: 9 % fewer evaluations of the zero dynamics.
 
 /// The starting step from (t₀, y₀) with f₀ = f(t₀, y₀) in hand (module docs), at most `h_max`; `y1` and `f1`
 /// are buffers of y's length. `order` is p + 1.

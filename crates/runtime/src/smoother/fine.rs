@@ -89,7 +89,7 @@ pub(crate) struct FineTable {
     last: usize,
     /// The last cell a time reads, last − 1 (0 for a run of one point).
     last_cell: usize,
-    /// Values per cell, quantities·(q + 1)·6 ([`FineTable::cell`]), kept for the reads.
+    /// Values per cell, quantities·(q + 1)·6.
     cell_len: usize,
     /// Orders held per smoothed quantity (q + 3), and the quantities (the cycle, then each signal).
     orders: usize,
@@ -115,16 +115,15 @@ impl FineTable {
         let h = dt / sub as f64;
         let last = n.saturating_mul(sub);
         let blocks = last / BLOCK + 1;
-        let values = blocks
-            .saturating_mul(BLOCK)
-            .saturating_mul(quantities * (q + 1) * 6);
+        let cell_len = quantities * (q + 1) * 6;
+        let values = blocks.saturating_mul(BLOCK).saturating_mul(cell_len);
         FineTable {
             t0,
             h,
             inv_h: 1.0 / h,
             last,
             last_cell: last.saturating_sub(1),
-            cell_len: quantities * (q + 1) * 6,
+            cell_len,
             orders,
             quantities,
             kept: (values <= KEPT_MAX).then(|| (0..blocks).map(|_| OnceLock::new()).collect()),
@@ -157,7 +156,7 @@ impl FineTable {
         smoother.eval_signals_grid(&times, Some(self.h), &mut refs);
         // Cell p (from point p to p + 1), group g = c·(q + 1) + j: order j of quantity c from its orders j,
         // j + 1, j + 2 at both points (columns c·orders + j + 0 … 2, entries p and p + 1).
-        let (interpolated, cell) = (self.interpolated(), self.cell());
+        let (interpolated, cell) = (self.interpolated(), self.cell_len);
         let mut coefficients = vec![0.0; (len - 1) * cell];
         let (h, h2) = (self.h, self.h * self.h);
         for g in 0..self.quantities * interpolated {
@@ -176,11 +175,6 @@ impl FineTable {
     /// Orders interpolated per quantity, q + 1 (the table holds q + 3: each needs the next two).
     fn interpolated(&self) -> usize {
         self.orders - 2
-    }
-
-    /// Values per cell: quantities·(q + 1)·6.
-    fn cell(&self) -> usize {
-        self.quantities * self.interpolated() * 6
     }
 }
 
