@@ -177,7 +177,7 @@ pub(crate) fn pointwise_integrals<M: InverseModel + ?Sized>(
     let info = model.info();
     let (r, nw) = (info.relative_degree, info.n_w());
     debug_assert_eq!(info.n_eta, 0);
-    let stages = StageReference::new(along.smoother, along.grid, opts, info);
+    let stages = StageReference::new(along.smoother, along.grid, (opts, info), false);
     let mut sens = Sensitivities::start(model, (wrt, along), (&[], true), stages)?;
     let samples = along.grid.samples();
     let mut block = Block::new(BLOCK.min(samples), r, nw);

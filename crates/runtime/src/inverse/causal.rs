@@ -71,11 +71,11 @@ impl Causal {
         };
         let mut ws = JacobianWork::new(ne);
         check_stability(model, t0, (xi, &w), &eta, yr, &mut ws)?;
-        let stages = StageReference::new(smoother, grid, opts, info);
+        let stages = StageReference::new(smoother, grid, (opts, info), wrt.is_some());
         let track = match wrt {
             Some(wrt) => {
                 // The Gauss nodes read the run's sub-grid table.
-                let nodes = StageReference::sharing(smoother, grid, (opts, info), stages.table());
+                let nodes = StageReference::sharing(&stages, info);
                 let along = Along { smoother, grid };
                 let start = Sensitivities::start(model, (wrt, &along), (&eta, given), nodes)?;
                 Some(Box::new(start))

@@ -4,13 +4,11 @@
 //! smoother pointwise. The run evaluates η̇ here, and the sensitivities it carries (`gradient/pass.rs`) read
 //! A and B at their Gauss nodes from a second reader of the same table.
 
-use std::sync::Arc;
-
 use invsim_model_api::{InverseModel, ModelInfo};
 
 use super::options::SimulationOptions;
 use crate::grid::{Grid, MAX_DERIVATIVES};
-use crate::smoother::{FineReference, FineTable, Smoother, ZeroDynamicsReference};
+use crate::smoother::{FineReference, Smoother, ZeroDynamicsReference};
 
 /// The reference at stage times, with the last one read kept (a step's last two stages are both at its end).
 pub(crate) struct StageReference {
@@ -21,43 +19,43 @@ pub(crate) struct StageReference {
 }
 
 impl StageReference {
-    /// For a run of the model `info` on `grid` with `opts`.
+    /// For a run of the model `info` on `grid` with `opts`, on a sub-grid table of its own (its blocks kept
+    /// where `shared`: a second reader, [`StageReference::sharing`], reads them too).
     pub(crate) fn new(
         smoother: &Smoother,
         grid: &Grid,
-        opts: &SimulationOptions,
-        info: &ModelInfo,
+        (opts, info): (&SimulationOptions, &ModelInfo),
+        shared: bool,
     ) -> StageReference {
-        Self::sharing(smoother, grid, (opts, info), None)
+        let fine = (opts.zero_dynamics_reference == ZeroDynamicsReference::SubGrid).then(|| {
+            let span = (grid.t0, grid.dt, grid.n);
+            FineReference::new(
+                smoother,
+                span,
+                (opts.lookahead, info.relative_degree),
+                shared,
+            )
+        });
+        Self::reading(fine, info)
     }
 
-    /// [`StageReference::new`] reading the sub-grid table `table` where one is given (another reader's of the
-    /// same run: the run's, for its sensitivity pass), so that its blocks are evaluated once.
-    pub(crate) fn sharing(
-        smoother: &Smoother,
-        grid: &Grid,
-        (opts, info): (&SimulationOptions, &ModelInfo),
-        table: Option<&Arc<FineTable>>,
-    ) -> StageReference {
-        let fine =
-            (opts.zero_dynamics_reference == ZeroDynamicsReference::SubGrid).then(|| match table {
-                Some(table) => FineReference::on(table.clone()),
-                None => {
-                    let span = (grid.t0, grid.dt, grid.n);
-                    FineReference::new(smoother, span, opts.lookahead, info.relative_degree)
-                }
-            });
+    /// Another reader of `stages`' sub-grid table (the run's, for its sensitivity pass), so that its blocks
+    /// are evaluated once; pointwise where `stages` reads the smoother pointwise.
+    pub(crate) fn sharing(stages: &StageReference, info: &ModelInfo) -> StageReference {
+        let fine = stages
+            .fine
+            .as_ref()
+            .map(|f| FineReference::on(f.table().clone()));
+        Self::reading(fine, info)
+    }
+
+    fn reading(fine: Option<FineReference>, info: &ModelInfo) -> StageReference {
         StageReference {
             fine,
             yd: [0.0; MAX_DERIVATIVES],
             w: vec![0.0; info.n_w()],
             at: f64::NAN,
         }
-    }
-
-    /// The sub-grid table it reads, if any.
-    pub(crate) fn table(&self) -> Option<&Arc<FineTable>> {
-        self.fine.as_ref().map(FineReference::table)
     }
 
     /// y_d … y_d^(r) and the signals at time s.

@@ -169,7 +169,8 @@ pub fn simulate_hybrid_differentiated(
         .map_err(|e| ModalError::Setup(e.to_string()))?;
     // The strategies' steps read the smoothed cycle pointwise (no sub-grid).
     let zd = ZeroDynamicsReference::Pointwise;
-    let reference = ModalReference::kept_or_new(None, spec, (cycle, &grid), opts, (signals, zd))?;
+    let reference =
+        ModalReference::kept_or_new((None, false), spec, (cycle, &grid), opts, (signals, zd))?;
     let r_max = spec.r_max();
     let ctx = Ctx {
         spec,

@@ -50,15 +50,15 @@ impl ModalReference {
         (cycle, grid): (&Cycle, &Grid),
         opts: &ModalOptions,
         signals: &[SignalInput],
-        made_for: Key,
+        (made_for, shared): (Key, bool),
     ) -> Result<ModalReference, ModalError> {
         let (smoother, resolved) = smoother_with_signals(spec, cycle, opts, signals)?;
         let fine = match (made_for.4, made_for.6) {
             (ZeroDynamicsReference::SubGrid, Some(q)) => Some(Arc::new(FineTable::new(
                 &smoother,
                 (grid.time(0), grid.dt, grid.n),
-                opts.lookahead,
-                q,
+                (opts.lookahead, q),
+                shared,
             ))),
             _ => None,
         };
@@ -72,9 +72,10 @@ impl ModalReference {
     }
 
     /// The reference kept in `cell` where it was made for this run, else a new one (kept in `cell` if that
-    /// is empty).
+    /// is empty). `rereads`: the run reads its sub-grid again (a replay, a gradient's pass), which keeps the
+    /// sub-grid's blocks as a cell does.
     pub(super) fn kept_or_new(
-        cell: Option<&ReferenceCell>,
+        (cell, rereads): (Option<&ReferenceCell>, bool),
         spec: &ModalSpec<'_>,
         (cycle, grid): (&Cycle, &Grid),
         opts: &ModalOptions,
@@ -91,7 +92,7 @@ impl ModalReference {
             (cycle, grid),
             opts,
             signals,
-            made_for,
+            (made_for, rereads || cell.is_some()),
         )?);
         if let Some(cell) = cell {
             let _ = cell.set(new.clone());

@@ -454,7 +454,9 @@ pub(crate) fn simulate_modes_kept(
     let grid = Grid::new(cycle.time[0], cycle.duration(), opts.dt)?;
     crate::inverse::checks::check_lookahead(opts.lookahead, cycle.duration(), opts.dt)
         .map_err(|e| ModalError::Setup(e.to_string()))?;
-    let reference = ModalReference::kept_or_new(kept, spec, (cycle, &grid), opts, (signals, zd))?;
+    let rereads = opts.verify || wrt.is_some();
+    let reference =
+        ModalReference::kept_or_new((kept, rereads), spec, (cycle, &grid), opts, (signals, zd))?;
     let r_max = spec.r_max();
     let n = spec.modes[0].model.info().n_states();
     let transition = opts.transition_time.unwrap_or(opts.lookahead);

@@ -70,11 +70,12 @@ const BLOCK: usize = 128;
 /// The most values a table keeps (64 MB, allocated block by block as runs need them: a UDDS or WLTC class
 /// 3b at a one-second look-ahead, relative degree 2 and no signal, six coefficients per order and cell,
 /// fits); a larger sub-grid (a shorter look-ahead on a longer cycle) computes a block again whenever it is
-/// needed anew.
+/// needed anew, as does a table made for one reader (a single run: its integrator moves forward, and a
+/// block kept would be written to fresh memory and read once).
 const KEPT_MAX: usize = 1 << 23;
 
 /// A block's values, shared by the table and its readers (the values behind the `Arc`'s counts: a read
-/// follows one pointer, not two, at the price of one copy when the block is evaluated).
+/// follows one pointer, not two; [`writable`] makes one in place).
 type Block = Arc<[f64]>;
 
 /// The sub-grid of a run and its blocks, each evaluated once when first needed and kept (within
@@ -96,18 +97,19 @@ pub(crate) struct FineTable {
     quantities: usize,
     /// Per block, its cells' interpolants (module docs): `[p·cell + (c·(q + 1) + j)·6 + m]` = c_m of order j
     /// of quantity c on the block's cell p, cell = quantities·(q + 1)·6 (an interpolation reads one short run
-    /// of memory). `None`: over the budget, nothing kept.
+    /// of memory). `None`: made for one reader, or over the budget: nothing kept.
     kept: Option<Vec<OnceLock<Block>>>,
 }
 
 impl FineTable {
     /// The sub-grid of a run on t_0 + k·dt, k = 0 … n, with look-ahead `lookahead`, for relative degrees up
-    /// to `q` and the signals of `smoother`.
+    /// to `q` and the signals of `smoother`; its blocks kept where `shared` (more than one reader, or a
+    /// reader that comes back: a sweep's runs, a gradient's pass, a replay).
     pub(crate) fn new(
         smoother: &Smoother,
         (t0, dt, n): (f64, f64, usize),
-        lookahead: f64,
-        q: usize,
+        (lookahead, q): (f64, usize),
+        shared: bool,
     ) -> FineTable {
         let sub = (dt / (h_max_per_lookahead(q) * lookahead)).ceil().max(1.0) as usize;
         let orders = q + 3;
@@ -126,24 +128,33 @@ impl FineTable {
             cell_len,
             orders,
             quantities,
-            kept: (values <= KEPT_MAX).then(|| (0..blocks).map(|_| OnceLock::new()).collect()),
+            kept: (shared && values <= KEPT_MAX)
+                .then(|| (0..blocks).map(|_| OnceLock::new()).collect()),
         }
     }
 
-    /// Block b's values, kept or evaluated (`cols`: a buffer for [`FineTable::evaluate`]).
-    fn block(&self, smoother: &Smoother, b: usize, cols: &mut Vec<f64>) -> Block {
+    /// Block b's values, kept or evaluated (`cols`: a buffer for [`FineTable::evaluate`]; `spare`: a block
+    /// its reader no longer needs, written over where the table keeps nothing and no one else holds it).
+    fn block(&self, smoother: &Smoother, b: usize, cols: &mut Vec<f64>, spare: Block) -> Block {
         match &self.kept {
             Some(kept) => kept[b]
-                .get_or_init(|| self.evaluate(smoother, b, cols))
+                .get_or_init(|| self.evaluate(smoother, b, cols, None))
                 .clone(),
-            None => self.evaluate(smoother, b, cols),
+            None => self.evaluate(smoother, b, cols, Some(spare)),
         }
     }
 
     /// Evaluate block b: the smoothed cycle and signals at its points by [`Smoother::eval_grid`], column by
-    /// column into `cols` (`cols[c·len + p]`, every value written), then point by point.
+    /// column into `cols` (`cols[c·len + p]`, every value written), then point by point into `spare` where it
+    /// can be written over, else into a new block.
     #[inline(never)]
-    fn evaluate(&self, smoother: &Smoother, b: usize, cols: &mut Vec<f64>) -> Block {
+    fn evaluate(
+        &self,
+        smoother: &Smoother,
+        b: usize,
+        cols: &mut Vec<f64>,
+        spare: Option<Block>,
+    ) -> Block {
         let first = b * BLOCK;
         let end = (first + BLOCK).min(self.last);
         let times: Vec<f64> = (first..=end).map(|p| self.t0 + p as f64 * self.h).collect();
@@ -157,7 +168,10 @@ impl FineTable {
         // Cell p (from point p to p + 1), group g = c·(q + 1) + j: order j of quantity c from its orders j,
         // j + 1, j + 2 at both points (columns c·orders + j + 0 … 2, entries p and p + 1).
         let (interpolated, cell) = (self.interpolated(), self.cell_len);
-        let mut coefficients = vec![0.0; (len - 1) * cell];
+        let mut block = writable(spare, (len - 1) * cell);
+        let Some(coefficients) = Arc::get_mut(&mut block) else {
+            return block;
+        };
         let (h, h2) = (self.h, self.h * self.h);
         for g in 0..self.quantities * interpolated {
             let first = (g / interpolated * self.orders + g % interpolated) * len;
@@ -169,13 +183,24 @@ impl FineTable {
                 out[6 * g..6 * g + 6].copy_from_slice(&monomial(at, end));
             }
         }
-        Arc::from(coefficients)
+        block
     }
 
     /// Orders interpolated per quantity, q + 1 (the table holds q + 3: each needs the next two).
     fn interpolated(&self) -> usize {
         self.orders - 2
     }
+}
+
+/// `spare` where it has `size` values and no other holder, else a new block of `size` zeros (written in place:
+/// no copy from a vector).
+fn writable(spare: Option<Block>, size: usize) -> Block {
+    if let Some(mut s) = spare {
+        if s.len() == size && Arc::get_mut(&mut s).is_some() {
+            return s;
+        }
+    }
+    (0..size).map(|_| 0.0).collect()
 }
 
 /// The smoothed cycle and signals at any time of a run, read from a [`FineTable`] with the two blocks read
@@ -192,14 +217,19 @@ pub(crate) struct FineReference {
 
 impl FineReference {
     /// The sub-grid of a run on t_0 + k·dt, k = 0 … n, with look-ahead `lookahead`, for relative degrees up
-    /// to `q`, on a table of its own.
+    /// to `q`, on a table of its own (its blocks kept where `shared`: [`FineTable::new`]).
     pub(crate) fn new(
         smoother: &Smoother,
         span: (f64, f64, usize),
-        lookahead: f64,
-        q: usize,
+        lookahead_q: (f64, usize),
+        shared: bool,
     ) -> Self {
-        Self::on(Arc::new(FineTable::new(smoother, span, lookahead, q)))
+        Self::on(Arc::new(FineTable::new(
+            smoother,
+            span,
+            lookahead_q,
+            shared,
+        )))
     }
 
     /// The table it reads (to share with another reader).
@@ -251,7 +281,8 @@ impl FineReference {
         if self.slots[1].0 == b {
             self.slots.swap(0, 1);
         } else {
-            let values = self.table.block(smoother, b, &mut self.cols);
+            let spare = std::mem::take(&mut self.slots[1].1);
+            let values = self.table.block(smoother, b, &mut self.cols, spare);
             self.slots[1] = std::mem::replace(&mut self.slots[0], (b, values));
         }
     }
@@ -324,7 +355,7 @@ mod tests {
             .with_signals(vec![signal]);
         let (t0, span) = (cycle.time[0], cycle.duration());
         let n = (span / dt).floor() as usize;
-        let mut fine = FineReference::new(&smoother, (t0, dt, n), a, q);
+        let mut fine = FineReference::new(&smoother, (t0, dt, n), (a, q), false);
         let points = 20_000;
         let (mut worst, mut scale) = ([0.0f64; 6], [0.0f64; 6]);
         for i in 0..points {
@@ -398,13 +429,12 @@ mod tests {
             0.5,
             (cycle.duration() / 0.5).floor() as usize,
         );
-        let shared = Arc::new(FineTable::new(&smoother, span, 2.0, 1));
-        let mut unkept = FineTable::new(&smoother, span, 2.0, 1);
-        assert!(shared.kept.is_some());
-        unkept.kept = None;
+        let shared = Arc::new(FineTable::new(&smoother, span, (2.0, 1), true));
+        let unkept = FineTable::new(&smoother, span, (2.0, 1), false);
+        assert!(shared.kept.is_some() && unkept.kept.is_none());
         let (mut a, mut b) = (FineReference::on(shared.clone()), FineReference::on(shared));
         let mut c = FineReference::on(Arc::new(unkept));
-        let mut own = FineReference::new(&smoother, span, 2.0, 1);
+        let mut own = FineReference::new(&smoother, span, (2.0, 1), true);
         let times: Vec<f64> = (0..3000).map(|i| 0.4567 * i as f64).collect();
         // b reads the blocks a evaluated, backwards; c evaluates every block anew, in a scattered order.
         let read = |f: &mut FineReference, t: f64| {
