@@ -69,6 +69,7 @@ pub fn model_info(d: &Derivation) -> ModelInfo {
         eta_states: d.eta_states.clone(),
         map_calls: d.map_calls.clone(),
         eta_free: d.eta_free(),
+        zero_dynamics_affine: d.zero_dynamics_affine,
         signals: m
             .signals
             .iter()

@@ -13,6 +13,7 @@
 //! - `properties`: Property tests of the derivation against independent numerical references: L_f h computed symbolically
 //! - `read_limits`: Model files are read through a size cap ([`MAX_MODEL_FILE_BYTES`]): devices, endless streams and huge
 //! - `textbook`: Known-answer tests of relative degree and normal form from the textbooks (Khalil, *Nonlinear Systems*,
+//! - `zd_affine`: Whether the zero dynamics are affine in η (`Derivation::zero_dynamics_affine`, the
 
 mod acceptance;
 mod boundary_equilibria;
@@ -27,3 +28,4 @@ mod model_file;
 mod properties;
 mod read_limits;
 mod textbook;
+mod zd_affine;

@@ -77,6 +77,10 @@ pub struct ModelInfo {
     /// Which results of the inverse do not depend on the internal states η (found from the derived
     /// expressions; the default, for a model that does not say, takes every result to depend on them).
     pub eta_free: EtaFree,
+    /// The zero dynamics dη/dt = q(ξ, η, w, y^(r)) are affine in η: q = A(ξ, w, y^(r)) η + b(ξ, w, y^(r))
+    /// (found from the derived expressions; false for a model that does not say). A runtime may then
+    /// integrate them by the variation of constants.
+    pub zero_dynamics_affine: bool,
 }
 
 /// Which results of the inverse at a point are functions of (ξ, w, y^(r)) alone, whatever the internal

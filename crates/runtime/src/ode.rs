@@ -20,9 +20,11 @@
 
 use nalgebra::{DMatrix, DVector};
 
+mod affine;
 mod dense;
 mod dop853;
 mod start;
+pub(crate) use affine::AffineScalar;
 pub use dense::{LoggedStep, StepLog};
 pub use dop853::Dop853;
 

@@ -29,6 +29,11 @@ pub struct Loaded {
 }
 
 pub fn load(file: &Path, text: &str) -> Loaded {
+    load_edited(file, text, |_| ())
+}
+
+/// [`load`] with each mode's derivation changed by `edit` before it is interpreted.
+pub fn load_edited(file: &Path, text: &str, edit: impl Fn(&mut Derivation)) -> Loaded {
     let ModelFile::Modal(m) = ModelFile::from_str(file, text).expect("the model reads") else {
         panic!("a model with modes")
     };
@@ -46,7 +51,8 @@ pub fn load(file: &Path, text: &str) -> Loaded {
             fixed,
             mode.coupled.iter().map(|(s, _)| *s).collect(),
         ));
-        let d = Derivation::new(mode.model).expect("the mode derives");
+        let mut d = Derivation::new(mode.model).expect("the mode derives");
+        edit(&mut d);
         interps.push(Interpreter::new(&d).expect("the interpreter builds"));
     }
     Loaded {

@@ -598,6 +598,7 @@ fn model_info(g: &Gen<'_>) -> TokenStream {
         quote!(Vec::from([#(#calls),*]))
     };
     let eta_free = eta_free_info(&g.d.eta_free());
+    let zero_dynamics_affine = g.d.zero_dynamics_affine;
     quote! {
         /// The model's static description (names, sizes, bounds), as the interpreter reports it.
         pub fn model_info() -> ModelInfo {
@@ -624,6 +625,7 @@ fn model_info(g: &Gen<'_>) -> TokenStream {
                 eta_states: Vec::from([#(#eta_states),*]),
                 map_calls: #map_calls,
                 eta_free: #eta_free,
+                zero_dynamics_affine: #zero_dynamics_affine,
             }
         }
 

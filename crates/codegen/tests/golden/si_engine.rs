@@ -4371,6 +4371,7 @@ pub mod si_engine {
                 input: true,
                 outputs: Vec::from([true, true, true, true]),
             },
+            zero_dynamics_affine: false,
         }
     }
     /// [`model_info`], built once and shared by every instance (a model with modes builds several of

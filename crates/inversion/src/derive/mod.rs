@@ -15,10 +15,10 @@
 //! `relative_degree.rs`, the generic rank test in `rank.rs`, the greedy choice of ξ and η in
 //! `coordinates.rs`, ψ⁻¹ (isolation or Newton) in `psi_inv.rs`, α, β and the zero dynamics in
 //! `normal_form.rs`, the singular set and the domain conditions in `domain.rs`, which results are free of η
-//! in `eta_free.rs`; this file composes them.
+//! in `eta_free.rs`, whether the zero dynamics are affine in η in `zd_affine.rs`; this file composes them.
 //! Constant subexpressions that are not finite are refused first (`model/finite.rs`, which the reader
 //! already runs with positions). Imports go one way: lie ←
-//! relative_degree ← this file; rank ← coordinates ← this file; psi_inv, normal_form and domain
+//! relative_degree ← this file; rank ← coordinates ← this file; psi_inv, normal_form, domain and zd_affine
 //! import only the model and are imported here; eta_free reads the finished [`Derivation`].
 
 mod coordinates;
@@ -34,6 +34,7 @@ mod rank;
 mod relative_degree;
 mod sensitivity;
 mod total_derivative;
+mod zd_affine;
 
 pub use lie::lie_derivative;
 pub use psi_inv::{isolate, Solution};
@@ -141,6 +142,8 @@ pub struct Derivation {
     pub zero_dynamics: Vec<Id>,
     /// dη_j/dt in (x, yr).
     pub zero_dynamics_x: Vec<Id>,
+    /// The zero dynamics are affine in η, written in (ξ, η, w, yr) and the parameters alone (`zd_affine.rs`).
+    pub zero_dynamics_affine: bool,
     /// The symbol `yr` (= y^(r)).
     pub yr: Symbol,
     /// Every right-hand side is affine in the input (contract §5). Otherwise `lie[r]` = y^(r) = φ(x, w, u),
@@ -454,6 +457,7 @@ impl Derivation {
             (alpha_x, beta_x, yr_affine),
             &eta_states,
         );
+        let zero_dynamics_affine = zd_affine::affine_in_eta(&mut model, &zero_dynamics, &eta);
         let closed_form = yr_affine && psi_inv.iter().all(|s| matches!(s, Solution::Closed(_)));
         let (zero_dynamics_jacobian, outputs_jacobian) = if closed_form && extent == Extent::Full {
             let normal = normal_form_jacobian::Normal {
@@ -488,6 +492,7 @@ impl Derivation {
             beta_x,
             zero_dynamics,
             zero_dynamics_x,
+            zero_dynamics_affine,
             yr,
             affine,
             yr_affine,

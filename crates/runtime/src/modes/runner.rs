@@ -248,7 +248,9 @@ impl Ctx<'_, '_> {
         } = zd;
         // Dense output only where the steps are logged: else η is needed at the interval's end only.
         let logged = steps.is_some();
-        let ode = ode[m].get_or_insert_with(|| ZdOde::new(eta.len(), *dt, t1 - t0, logged));
+        let affine = model.info().zero_dynamics_affine;
+        let ode =
+            ode[m].get_or_insert_with(|| ZdOde::new(eta.len(), *dt, t1 - t0, (logged, affine)));
         // An interval that does not continue the last one starts from the starting step of `ode/start.rs`
         // (at most the interval): its key in the still memo marks that with h0 = −1.
         let fresh = !matches!(*last, Some((lm, lt)) if lm == m && lt.to_bits() == t0.to_bits());

@@ -1,0 +1,372 @@
+//! One state with affine dynamics, η' = a(t) η + b(t), integrated by the variation of constants (Hairer,
+//! Nørsett & Wanner, *Solving ODEs I*, §I.3), so that the stiffness of a costs nothing: a mode's zero
+//! dynamics where the derivation found them affine in η (`ModelInfo::zero_dynamics_affine`; an intake
+//! manifold's filling, a ≈ −25 1/s, which bounds an explicit method's step by stability).
+//!
+//! Over a sub-interval [τ, τ + H], with x = (s − τ)/H and A(s) = ∫_τ^s a,
+//!
+//! ```text
+//! η(τ + H) = e^(A(τ+H)) η(τ) + H ∫_0^1 e^(A(τ+H) − A(τ+xH)) b(τ + xH) dx.
+//! ```
+//!
+//! a and b are taken at the m Gauss–Legendre nodes x_i (a_i, b_i). With the mean ā = Σ w_i a_i (Gauss's
+//! quadrature of A(τ + H)/H, exact for a of degree 2m − 1), z = āH and the remainder
+//! D(x) = A(τ+H) − A(τ+xH) − z(1 − x) = H ∫_x^1 (a − ā), the exponent splits into the stiff linear part and
+//! a smooth one: D_i = H Σ_j T_ij (a_j − ā), T_ij = ∫_(x_i)^1 ℓ_j (ℓ_j the Lagrange basis of the nodes), and
+//! with g(x) = e^(D(x)) b(τ + xH) interpolated at the nodes in Legendre polynomials,
+//! g ≈ Σ_k ĝ_k P_k(2x − 1), ĝ_k = (2k + 1) Σ_i w_i P_k(2x_i − 1) g_i (Gauss's discrete orthogonality),
+//!
+//! ```text
+//! η(τ + H) ≈ e^z η(τ) + H Σ_k ĝ_k μ_k(z),   μ_k(z) = ∫_0^1 e^(z(1−x)) P_k(2x − 1) dx
+//!          = Σ_j (−1)^(k+j) C(k, j) C(k+j, j) j! φ_(j+1)(z),   φ_j(z) = Σ_(i≥0) z^i/(i + j)!
+//! ```
+//!
+//! (∫_0^1 e^(z(1−x)) x^j dx = j! φ_(j+1)(z), the φ-functions of exponential integrators: Hochbruck &
+//! Ostermann, *Exponential integrators*, Acta Numerica 2010, §2). The only approximation is the interpolation
+//! of the smooth g (and of a inside D); the error estimate is the last Legendre term's share,
+//! H |ĝ_(m−1) μ_(m−1)| + H |â_(m−1)| |I|/(2m + 1) (I the integral, â the coefficients of a: D_i's error is
+//! at most H |â_m|/(2m + 1), since |∫_x^1 P_m(2s − 1) ds| ≤ 1/(2m + 1)), held within 10⁻⁹·|η| + 10⁻¹² like
+//! an adaptive code's (the sub-interval shrunk or grown by 0.9·ratio^(−1/(m−1)), the estimate falling at
+//! least as H^(m−1); at most [`MAX_SUB_STEPS`] a call). e^z is exact however stiff a is: an interval of
+//! DOP853 steps bounded by e^(hλ) (about six 12-stage steps a second at λ = −25) becomes one to four
+//! sub-intervals of m nodes, each node two evaluations of η' (at η = 0 and η = s: b and a) at one time.
+
+use super::{OdeStats, StepFailure};
+
+/// The most nodes a sub-interval has.
+pub(crate) const NODES_MAX: usize = 8;
+/// Sub-intervals one call may take (accepted or rejected).
+const MAX_SUB_STEPS: usize = 100_000;
+/// The error the estimate is held within: RTOL·max(|η(τ)|, |η(τ + H)|) + ATOL.
+const RTOL: f64 = 1e-9;
+const ATOL: f64 = 1e-12;
+
+/// The integrator of η' = a(t) η + b(t) (module docs), with its node tables and the sub-interval it proposes.
+pub(crate) struct AffineScalar {
+    m: usize,
+    /// Nodes and weights on [0, 1].
+    x: [f64; NODES_MAX],
+    w: [f64; NODES_MAX],
+    /// `legendre[k][i]` = (2k + 1) w_i P_k(2x_i − 1): ĝ_k = Σ_i legendre[k][i] g_i.
+    legendre: [[f64; NODES_MAX]; NODES_MAX],
+    /// `tail[i][j]` = ∫_(x_i)^1 ℓ_j.
+    tail: [[f64; NODES_MAX]; NODES_MAX],
+    /// `moments[k][j]` = (−1)^(k+j) C(k, j) C(k+j, j) j!: μ_k = Σ_j moments[k][j] φ_(j+1).
+    moments: [[f64; NODES_MAX]; NODES_MAX],
+    /// The sub-interval the next call starts with (∞: the whole interval).
+    h: f64,
+    pub(crate) stats: OdeStats,
+}
+
+impl AffineScalar {
+    /// With `m` Gauss–Legendre nodes a sub-interval (2 … [`NODES_MAX`]).
+    pub(crate) fn new(m: usize) -> AffineScalar {
+        let m = m.clamp(2, NODES_MAX);
+        let (x, w) = gauss_legendre(m);
+        let mut s = AffineScalar {
+            m,
+            x,
+            w,
+            legendre: [[0.0; NODES_MAX]; NODES_MAX],
+            tail: [[0.0; NODES_MAX]; NODES_MAX],
+            moments: [[0.0; NODES_MAX]; NODES_MAX],
+            h: f64::INFINITY,
+            stats: OdeStats::default(),
+        };
+        for (i, (&xi, &wi)) in x.iter().zip(&w).take(m).enumerate() {
+            let p = legendre_values(2.0 * xi - 1.0, m + 1);
+            for (k, (row, pk)) in s.legendre.iter_mut().zip(p).take(m).enumerate() {
+                row[i] = (2 * k + 1) as f64 * wi * pk;
+            }
+        }
+        // ∫_(x_i)^1 P_k(2x − 1) dx: (1 − x_i) for k = 0, else −(P_(k+1) − P_(k−1))(2x_i − 1)/(2(2k + 1)).
+        for (i, &xi) in x.iter().take(m).enumerate() {
+            let p = legendre_values(2.0 * xi - 1.0, m + 1);
+            let integral = |k: usize| match k {
+                0 => 1.0 - xi,
+                _ => -(p[k + 1] - p[k - 1]) / (2 * (2 * k + 1)) as f64,
+            };
+            let row: [f64; NODES_MAX] =
+                std::array::from_fn(|j| (0..m).map(|k| s.legendre[k][j] * integral(k)).sum());
+            s.tail[i] = row;
+        }
+        for k in 0..m {
+            for j in 0..=k {
+                let sign = if (k + j) % 2 == 0 { 1.0 } else { -1.0 };
+                s.moments[k][j] = sign * binomial(k, j) * binomial(k + j, j) * factorial(j);
+            }
+        }
+        s
+    }
+
+    /// The sub-interval the next call starts with.
+    pub(crate) fn step_size(&self) -> f64 {
+        self.h
+    }
+
+    /// Start the next call with sub-interval `h` (≤ 0 or not finite: the whole interval).
+    pub(crate) fn reset(&mut self, h: f64) {
+        self.h = if h > 0.0 && h.is_finite() {
+            h
+        } else {
+            f64::INFINITY
+        };
+    }
+
+    /// η from t0 to t1 in place, `ab(t)` giving (a(t), b(t)).
+    pub(crate) fn advance<F>(
+        &mut self,
+        (t0, t1): (f64, f64),
+        eta: &mut f64,
+        ab: &mut F,
+    ) -> Result<(), StepFailure>
+    where
+        F: FnMut(f64) -> Result<(f64, f64), StepFailure>,
+    {
+        let mut t = t0;
+        let mut h = self.h.min(t1 - t0);
+        for _ in 0..MAX_SUB_STEPS {
+            if t >= t1 {
+                return Ok(());
+            }
+            // The last sub-interval ends at t1 exactly (and one barely short of it is stretched to it).
+            let last = t + 1.01 * h >= t1;
+            let hs = if last { t1 - t } else { h };
+            let (next, ratio) = self.sub_step((t, hs), *eta, ab)?;
+            let factor = (0.9 * ratio.powf(-1.0 / (self.m - 1) as f64)).clamp(0.2, 4.0);
+            if ratio <= 1.0 {
+                self.stats.accepted += 1;
+                *eta = next;
+                t = if last { t1 } else { t + hs };
+                h = hs * factor;
+                // The proposal for the next call: the step that served (not the remainder of this interval).
+                self.h = if last { h.max(hs) } else { h };
+            } else {
+                self.stats.rejected += 1;
+                h = hs * factor.min(0.9);
+                if h <= super::h_min(t) {
+                    return Err(StepFailure {
+                        t,
+                        reason: format!(
+                            "step size too small ({h:e} s) for the affine zero dynamics"
+                        ),
+                    });
+                }
+            }
+        }
+        Err(StepFailure {
+            t,
+            reason: format!("more than {MAX_SUB_STEPS} sub-intervals for the affine zero dynamics"),
+        })
+    }
+
+    /// η(τ + H) from η(τ) (module docs) and the ratio of the error estimate to the tolerance.
+    fn sub_step<F>(
+        &mut self,
+        (tau, h): (f64, f64),
+        eta: f64,
+        ab: &mut F,
+    ) -> Result<(f64, f64), StepFailure>
+    where
+        F: FnMut(f64) -> Result<(f64, f64), StepFailure>,
+    {
+        let m = self.m;
+        let (mut a, mut b) = ([0.0; NODES_MAX], [0.0; NODES_MAX]);
+        for i in 0..m {
+            (a[i], b[i]) = ab(tau + self.x[i] * h)?;
+        }
+        self.stats.evaluations += 2 * m;
+        let abar: f64 = (0..m).map(|i| self.w[i] * a[i]).sum();
+        let z = abar * h;
+        let mut g = [0.0; NODES_MAX];
+        for i in 0..m {
+            let d: f64 = (0..m).map(|j| self.tail[i][j] * (a[j] - abar)).sum();
+            g[i] = (h * d).exp() * b[i];
+        }
+        let coefficient = |row: &[f64; NODES_MAX], v: &[f64; NODES_MAX]| -> f64 {
+            (0..m).map(|i| row[i] * v[i]).sum()
+        };
+        let phi = phi_functions(z, m);
+        let mut terms = [0.0; NODES_MAX];
+        for (k, (term, (moments, legendre))) in terms
+            .iter_mut()
+            .zip(self.moments.iter().zip(&self.legendre))
+            .take(m)
+            .enumerate()
+        {
+            let mu: f64 = (0..=k).map(|j| moments[j] * phi[j + 1]).sum();
+            *term = coefficient(legendre, &g) * mu;
+        }
+        let integral = h * terms[..m].iter().sum::<f64>();
+        let next = z.exp() * eta + integral;
+        if !next.is_finite() {
+            return Err(StepFailure {
+                t: tau,
+                reason: format!(
+                    "the affine zero dynamics are not finite (a = {abar:e} 1/s over {h:e} s)"
+                ),
+            });
+        }
+        let a_tail = coefficient(&self.legendre[m - 1], &a).abs();
+        let estimate = h * terms[m - 1].abs() + h * a_tail * integral.abs() / (2 * m + 1) as f64;
+        Ok((next, estimate / (ATOL + RTOL * eta.abs().max(next.abs()))))
+    }
+}
+
+/// Gauss–Legendre nodes and weights of `m` points on [0, 1] (Newton's method on P_m from Tricomi's
+/// estimate cos(π(i + 3/4)/(m + 1/2)); the weights 2/((1 − ξ²) P_m'(ξ)²), halved).
+fn gauss_legendre(m: usize) -> ([f64; NODES_MAX], [f64; NODES_MAX]) {
+    let (mut x, mut w) = ([0.0; NODES_MAX], [0.0; NODES_MAX]);
+    for i in 0..m {
+        let mut xi = (std::f64::consts::PI * (i as f64 + 0.75) / (m as f64 + 0.5)).cos();
+        let mut dp = 1.0;
+        for _ in 0..100 {
+            let p = legendre_values(xi, m);
+            // P_m' = m (ξ P_m − P_(m−1))/(ξ² − 1)
+            dp = m as f64 * (xi * p[m] - p[m - 1]) / (xi * xi - 1.0);
+            let dx = p[m] / dp;
+            xi -= dx;
+            if dx.abs() < 1e-16 {
+                break;
+            }
+        }
+        // Increasing on [0, 1]: the estimate runs from the largest root down.
+        x[m - 1 - i] = 0.5 * (1.0 + xi);
+        w[m - 1 - i] = 1.0 / ((1.0 - xi * xi) * dp * dp);
+    }
+    (x, w)
+}
+
+/// P_0(ξ) … P_n(ξ) by Bonnet's recurrence (k + 1) P_(k+1) = (2k + 1) ξ P_k − k P_(k−1).
+fn legendre_values(xi: f64, n: usize) -> [f64; NODES_MAX + 2] {
+    let mut p = [0.0; NODES_MAX + 2];
+    p[0] = 1.0;
+    if n >= 1 {
+        p[1] = xi;
+    }
+    for k in 1..n {
+        p[k + 1] = ((2 * k + 1) as f64 * xi * p[k] - k as f64 * p[k - 1]) / (k + 1) as f64;
+    }
+    p
+}
+
+/// φ_0(z) … φ_m(z): for |z| ≤ 2 φ_m by its series and φ_(k) = z φ_(k+1) + 1/k! downwards (stable there);
+/// else φ_1 = (e^z − 1)/z and φ_(k+1) = (φ_k − 1/k!)/z upwards (each step divides the rounding by |z| > 2).
+fn phi_functions(z: f64, m: usize) -> [f64; NODES_MAX + 1] {
+    let mut phi = [0.0; NODES_MAX + 1];
+    phi[0] = z.exp();
+    if z.abs() <= 2.0 {
+        // Σ_(i≥0) z^i/(i + m)!: 2^i/(i + m)! < 10⁻¹⁸ by i = 25.
+        let (mut term, mut sum) = (1.0 / factorial(m), 0.0);
+        for i in 0..26 {
+            sum += term;
+            term *= z / (i + m + 1) as f64;
+        }
+        phi[m] = sum;
+        for k in (1..m).rev() {
+            phi[k] = z * phi[k + 1] + 1.0 / factorial(k);
+        }
+    } else {
+        phi[1] = z.exp_m1() / z;
+        for k in 1..m {
+            phi[k + 1] = (phi[k] - 1.0 / factorial(k)) / z;
+        }
+    }
+    phi
+}
+
+fn factorial(k: usize) -> f64 {
+    (1..=k).map(|i| i as f64).product()
+}
+
+fn binomial(n: usize, k: usize) -> f64 {
+    (0..k).map(|i| (n - i) as f64 / (i + 1) as f64).product()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// ∫_0^1 of x^p by the nodes is exact up to p = 2m − 1, and the tail matrix integrates x^p (p < m)
+    /// from each node to 1 exactly.
+    #[test]
+    fn the_node_tables_integrate_polynomials() {
+        for m in 2..=NODES_MAX {
+            let s = AffineScalar::new(m);
+            for p in 0..2 * m {
+                let q: f64 = (0..m).map(|i| s.w[i] * s.x[i].powi(p as i32)).sum();
+                assert!((q - 1.0 / (p + 1) as f64).abs() < 1e-14, "m {m} p {p}: {q}");
+            }
+            for p in 0..m {
+                for i in 0..m {
+                    let q: f64 = (0..m).map(|j| s.tail[i][j] * s.x[j].powi(p as i32)).sum();
+                    let exact = (1.0 - s.x[i].powi(p as i32 + 1)) / (p + 1) as f64;
+                    assert!(
+                        (q - exact).abs() < 1e-13,
+                        "m {m} p {p} node {i}: {q} against {exact}"
+                    );
+                }
+            }
+        }
+    }
+
+    /// μ_k(z) = ∫_0^1 e^(z(1−x)) P_k(2x − 1) dx from the φ-functions against composite Gauss quadrature
+    /// (400 panels of 8 nodes), from a stiff decay to a growth: within 10⁻¹⁰ of μ_0's size. The sums of the
+    /// highest μ_k cancel digits (at z = −3, μ_7 ≈ 2·10⁻⁶ from terms up to 10³: 1.4·10⁻¹¹ of μ_0), harmless
+    /// where they serve: μ_k multiplies ĝ_k, the smooth g's small Legendre coefficient.
+    #[test]
+    fn the_moments_equal_their_integrals() {
+        let s = AffineScalar::new(NODES_MAX);
+        let fine = AffineScalar::new(NODES_MAX);
+        for z in [
+            -400.0, -60.0, -25.0, -3.0, -2.0, -1.0, -1e-3, 0.0, 0.5, 2.5, 8.0,
+        ] {
+            let phi = phi_functions(z, NODES_MAX);
+            for k in 0..NODES_MAX {
+                let mu: f64 = (0..=k).map(|j| s.moments[k][j] * phi[j + 1]).sum();
+                let panels = 400;
+                let mut q = 0.0;
+                for p in 0..panels {
+                    for i in 0..NODES_MAX {
+                        let x = (p as f64 + fine.x[i]) / panels as f64;
+                        let pk = legendre_values(2.0 * x - 1.0, k)[k];
+                        q += fine.w[i] / panels as f64 * (z * (1.0 - x)).exp() * pk;
+                    }
+                }
+                let scale = 1.0f64.max(z.exp()) / (1.0 + z.abs());
+                assert!(
+                    (mu - q).abs() < 1e-10 * scale,
+                    "z {z} k {k}: {mu:e} against {q:e}"
+                );
+            }
+        }
+    }
+
+    /// η' = a(t) η + b(t) with a = −λ − 3 sin(0.7 t), b = g' − a g has η = g + (η₀ − g(0)) e^(A(t)),
+    /// A = ∫_0^t a; started off g, over 20 s in intervals of 1, 0.1 and 0.01 s, at the manifold's stiffness
+    /// (λ = 25) and without it (λ = 0.2), and for a = 0 (η' = b): within 10⁻⁹ of η's largest value.
+    #[test]
+    fn stiff_affine_dynamics_follow_their_exact_solution() {
+        let g = |t: f64| 2e4 + 3e3 * (0.7 * t).sin() + 1e3 * (2.1 * t).cos();
+        let dg = |t: f64| 2.1e3 * (0.7 * t).cos() - 2.1e3 * (2.1 * t).sin();
+        for (lambda, wobble) in [(25.0, 3.0), (0.2, 0.1), (0.0, 0.0)] {
+            let a = |t: f64| -lambda - wobble * (0.7 * t).sin();
+            let big_a = |t: f64| -lambda * t + wobble / 0.7 * ((0.7 * t).cos() - 1.0);
+            let eta0 = g(0.0) + 5e3;
+            let exact = |t: f64| g(t) + (eta0 - g(0.0)) * big_a(t).exp();
+            let mut ab = |t: f64| Ok((a(t), dg(t) - a(t) * g(t)));
+            for (dt, m) in [(1.0f64, 8), (0.1, 4), (0.01, 4)] {
+                let mut s = AffineScalar::new(m);
+                let mut eta = eta0;
+                let mut worst = 0.0f64;
+                for k in 0..(20.0 / dt).round() as usize {
+                    let (t0, t1) = (k as f64 * dt, (k + 1) as f64 * dt);
+                    s.advance((t0, t1), &mut eta, &mut ab).expect("integrates");
+                    worst = worst.max((eta - exact(t1)).abs());
+                }
+                let rel = worst / 2.6e4;
+                assert!(rel < 1e-9, "λ {lambda} dt {dt}: {rel:e}");
+            }
+        }
+    }
+}
