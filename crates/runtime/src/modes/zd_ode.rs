@@ -16,13 +16,13 @@
 //! Dynamics affine in their one internal state (`ModelInfo::zero_dynamics_affine`: the manifold's filling in
 //! the brake, coast, overrun and idle modes of the shipped cars) on output steps of 0.5 s and more are
 //! integrated by the variation of constants (`crate::ode::AffineScalar`, `ode/affine.rs`), whose error does
-//! not grow with the stiffness: a 1 s interval takes one to four sub-intervals of 8 Gauss nodes, each node
-//! the reference read once and η' evaluated twice, against about six DOP853 steps of 12 stages (the 6-speed
-//! Fusion on the UDDS at dt = 1 s: 678 sub-intervals, 198 of them rejected, 5 424 nodes, for about 27 000
-//! stages; a run 31 % shorter). Against DOP853 at rtol 1e-13 (the 6-speed Fusion and si_engine_5speed on the
-//! UDDS, NEDC and WLTC 3b at dt = 1 s) every column is within 1.3·10⁻¹⁰ of its largest value (si_engine_5speed's
-//! manifold pressure on the NEDC; 1.6·10⁻¹¹ elsewhere), where DOP853 at rtol 1e-8 is within 3.5·10⁻¹⁰. Below
-//! 0.5 s one DOP853 step spans an interval already (measured at 0.1 s: 8 nodes of two evaluations cost more).
+//! not grow with the stiffness: a 1 s interval takes one sub-interval of 12 Gauss nodes, each node the
+//! reference read once and η' evaluated twice, against about six DOP853 steps of 12 stages (the 6-speed
+//! Fusion on the UDDS at dt = 1 s: 287 sub-intervals, none rejected, 3 444 nodes, for about 27 000 stages).
+//! Against DOP853 at rtol 1e-13 (the 6-speed Fusion and si_engine_5speed on the UDDS, NEDC and WLTC 3b at
+//! dt = 1 s) every column is within 3.5·10⁻¹³ of its largest value and the fuel within 10⁻¹⁵, where DOP853 at
+//! rtol 1e-8 is within 3.5·10⁻¹⁰ (and at dt = 0.5 s 4.4·10⁻⁸ of a sample's manifold pressure). Below 0.5 s
+//! one DOP853 step spans an interval already (measured at 0.1 s: the nodes' two evaluations each cost more).
 //!
 //! A differentiated run logs each accepted step with its continuous extension (`crate::ode::StepLog`; DOP853's
 //! costs three more evaluations a step, DOPRI5's none), and the gradient's sensitivities follow those steps
@@ -37,18 +37,18 @@ pub(super) const RTOL: f64 = 1e-8;
 pub(super) const ATOL: f64 = 1e-10;
 
 /// Output steps from which dynamics affine in one state are integrated by the variation of constants, and
-/// the nodes of its sub-intervals (module docs).
+/// the nodes of its sub-intervals (module docs; with 8 and 6 nodes the 6-speed Fusion at dt = 1 s took 1.1
+/// and 1.3 times as long a run).
 pub(super) const AFFINE_FROM_DT: f64 = 0.5;
-const AFFINE_NODES: usize = 8;
+const AFFINE_NODES: usize = 12;
 
 /// One mode's zero-dynamics integrator.
 pub(super) enum ZdOde {
     /// Boxed: its seven stage vectors make it three times DOP853's size (one buffer).
     Dopri5(Box<Dopri5>),
     Dop853(Dop853),
-    /// One internal state with dynamics affine in it (`ode/affine.rs`): a run that logs no steps. Boxed: its
-    /// node tables are 1.5 kB.
-    Affine(Box<AffineScalar>),
+    /// One internal state with dynamics affine in it (`ode/affine.rs`): a run that logs no steps.
+    Affine(AffineScalar),
 }
 
 impl ZdOde {
@@ -57,7 +57,7 @@ impl ZdOde {
     /// the variation of constants where the dynamics are `affine` in one state and no step is logged.
     pub(super) fn new(n: usize, dt: f64, h0: f64, (dense, affine): (bool, bool)) -> ZdOde {
         if affine && n == 1 && !dense && dt >= AFFINE_FROM_DT {
-            let mut o = Box::new(AffineScalar::new(AFFINE_NODES));
+            let mut o = AffineScalar::new(AFFINE_NODES);
             o.reset(h0);
             return ZdOde::Affine(o);
         }
