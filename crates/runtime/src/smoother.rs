@@ -290,6 +290,13 @@ impl Smoother {
             higher.fill(f64::NAN);
             return;
         }
+        if self.corners.is_empty() {
+            // A constant (a signal left at its default): the same numbers as the sums below, without them.
+            *value = self.first_value;
+            higher.fill(0.0);
+            self.map_reference(out);
+            return;
+        }
         let a = self.kernel.half_width();
         // Corners with |t − t_j| < a: an O(1) bucket look-up for the first, then a scan that also finds
         // the last corner at or before t (for y_c).

@@ -150,33 +150,26 @@ impl AffineScalar {
     {
         let n = self.nodes;
         let m = n.m;
+        // Every loop runs over NODES_MAX: the tables of m < NODES_MAX nodes are zero beyond m, as are a and b,
+        // so the sums are the same and the loops have a length the compiler knows.
         let (mut a, mut b) = ([0.0; NODES_MAX], [0.0; NODES_MAX]);
         for i in 0..m {
             (a[i], b[i]) = ab(tau + n.x[i] * h)?;
         }
         self.stats.evaluations += 2 * m;
-        let abar: f64 = (0..m).map(|i| n.w[i] * a[i]).sum();
-        let z = abar * h;
-        let mut g = [0.0; NODES_MAX];
-        for i in 0..m {
-            let d: f64 = (0..m).map(|j| n.tail[i][j] * (a[j] - abar)).sum();
-            g[i] = (h * d).exp() * b[i];
-        }
-        let coefficient = |row: &[f64; NODES_MAX], v: &[f64; NODES_MAX]| -> f64 {
-            (0..m).map(|i| row[i] * v[i]).sum()
+        let dot = |row: &[f64; NODES_MAX], v: &[f64; NODES_MAX]| -> f64 {
+            row.iter().zip(v).map(|(r, v)| r * v).sum()
         };
-        let phi = phi_functions(z, m);
-        let mut terms = [0.0; NODES_MAX];
-        for (k, (term, (moments, legendre))) in terms
-            .iter_mut()
-            .zip(n.moments.iter().zip(&n.legendre))
-            .take(m)
-            .enumerate()
-        {
-            let mu: f64 = (0..=k).map(|j| moments[j] * phi[j + 1]).sum();
-            *term = coefficient(legendre, &g) * mu;
-        }
-        let integral = h * terms[..m].iter().sum::<f64>();
+        let abar = dot(&n.w, &a);
+        let z = abar * h;
+        let deviation: [f64; NODES_MAX] = std::array::from_fn(|j| a[j] - abar);
+        let g: [f64; NODES_MAX] =
+            std::array::from_fn(|i| (h * dot(&n.tail[i], &deviation)).exp() * b[i]);
+        let phi = phi_functions(z, NODES_MAX);
+        let phi_next: [f64; NODES_MAX] = std::array::from_fn(|j| phi[j + 1]);
+        let terms: [f64; NODES_MAX] =
+            std::array::from_fn(|k| dot(&n.legendre[k], &g) * dot(&n.moments[k], &phi_next));
+        let integral = h * terms.iter().sum::<f64>();
         let next = z.exp() * eta + integral;
         if !next.is_finite() {
             return Err(StepFailure {
@@ -186,8 +179,8 @@ impl AffineScalar {
                 ),
             });
         }
-        let a_tail = coefficient(&n.legendre[m - 1], &a).abs();
-        let g_tail = coefficient(&n.legendre[m - 1], &g).abs();
+        let a_tail = dot(&n.legendre[m - 1], &a).abs();
+        let g_tail = dot(&n.legendre[m - 1], &g).abs();
         let mu_bound = mu_bound(z, m - 1, (&n.moments[m - 1], &phi));
         let estimate = h * g_tail * mu_bound + h * a_tail * integral.abs() / (2 * m + 1) as f64;
         Ok((next, estimate / (ATOL + RTOL * eta.abs().max(next.abs()))))
