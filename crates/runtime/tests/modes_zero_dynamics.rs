@@ -44,6 +44,15 @@ fn deviation(a: &ModalResult, b: &ModalResult) -> (f64, f64) {
     (states, integrals)
 }
 
+/// The states' deviation within `states_bound` and the integrals' within 1e-9 (`at`: the run, for the
+/// message); the deviation, for what else the caller checks.
+fn assert_close(at: &str, (states, integrals): (f64, f64), states_bound: f64) -> (f64, f64) {
+    eprintln!("{at}: states {states:e}, integrals {integrals:e}");
+    assert!(states < states_bound, "{at}: states {states:e}");
+    assert!(integrals < 1e-9, "{at}: integrals {integrals:e}");
+    (states, integrals)
+}
+
 #[test]
 fn sub_grid_zero_dynamics_equal_the_pointwise_ones() {
     for file in [
@@ -63,21 +72,8 @@ fn sub_grid_zero_dynamics_equal_the_pointwise_ones() {
                 let run = |zd| simulate_modes_with_reference(&s, &cycle, &opts, &[], zd);
                 let fine = run(ZeroDynamicsReference::SubGrid).expect("sub-grid run");
                 let pointwise = run(ZeroDynamicsReference::Pointwise).expect("pointwise run");
-                let (states, integrals) = deviation(&fine, &pointwise);
-                eprintln!(
-                    "{file} {} dt {dt}: states {states:e}, integrals {integrals:e}",
-                    cycle.name
-                );
-                assert!(
-                    states < 1e-9,
-                    "{file} {} dt {dt}: states {states:e}",
-                    cycle.name
-                );
-                assert!(
-                    integrals < 1e-9,
-                    "{file} {} dt {dt}: integrals {integrals:e}",
-                    cycle.name
-                );
+                let at = format!("{file} {} dt {dt}", cycle.name);
+                assert_close(&at, deviation(&fine, &pointwise), 1e-9);
             }
         }
     }
@@ -119,22 +115,9 @@ fn affine_zero_dynamics_on_long_steps_equal_the_adaptive_ones() {
                 let run = |s| simulate_modes_with_reference(s, &cycle, &opts, &[], zd);
                 let by_variation = run(&a).expect("affine run");
                 let by_dop853 = run(&b).expect("adaptive run");
-                let (states, integrals) = deviation(&by_variation, &by_dop853);
-                eprintln!(
-                    "{file} {} dt {dt}: states {states:e}, integrals {integrals:e}",
-                    cycle.name
-                );
-                assert!(
-                    states < 1e-7,
-                    "{file} {} dt {dt}: states {states:e}",
-                    cycle.name
-                );
-                assert!(
-                    integrals < 1e-9,
-                    "{file} {} dt {dt}: integrals {integrals:e}",
-                    cycle.name
-                );
-                assert!(states > 0.0, "{file}: the two integrators differ somewhere");
+                let at = format!("{file} {} dt {dt}", cycle.name);
+                let (states, _) = assert_close(&at, deviation(&by_variation, &by_dop853), 1e-7);
+                assert!(states > 0.0, "{at}: the two integrators differ somewhere");
             }
         }
     }
