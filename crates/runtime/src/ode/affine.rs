@@ -65,6 +65,8 @@ struct Nodes {
     tail: [[f64; NODES_MAX]; NODES_MAX],
     /// `moments[k][j]` = (−1)^(k+j) C(k, j) C(k+j, j) j!: μ_k = Σ_j moments[k][j] φ_(j+1).
     moments: [[f64; NODES_MAX]; NODES_MAX],
+    /// 1/k! for k = 0 … NODES_MAX (the φ-functions' recurrences).
+    inv_factorial: [f64; NODES_MAX + 1],
 }
 
 impl AffineScalar {
@@ -165,12 +167,12 @@ impl AffineScalar {
         let deviation: [f64; NODES_MAX] = std::array::from_fn(|j| a[j] - abar);
         let g: [f64; NODES_MAX] =
             std::array::from_fn(|i| (h * dot(&n.tail[i], &deviation)).exp() * b[i]);
-        let phi = phi_functions(z, NODES_MAX);
+        let phi = phi_functions(z, NODES_MAX, &n.inv_factorial);
         let phi_next: [f64; NODES_MAX] = std::array::from_fn(|j| phi[j + 1]);
         let terms: [f64; NODES_MAX] =
             std::array::from_fn(|k| dot(&n.legendre[k], &g) * dot(&n.moments[k], &phi_next));
         let integral = h * terms.iter().sum::<f64>();
-        let next = z.exp() * eta + integral;
+        let next = phi[0] * eta + integral;
         if !next.is_finite() {
             return Err(StepFailure {
                 t: tau,
@@ -205,6 +207,7 @@ impl Nodes {
             legendre: [[0.0; NODES_MAX]; NODES_MAX],
             tail: [[0.0; NODES_MAX]; NODES_MAX],
             moments: [[0.0; NODES_MAX]; NODES_MAX],
+            inv_factorial: std::array::from_fn(|k| 1.0 / factorial(k)),
         };
         for (i, (&xi, &wi)) in x.iter().zip(&w).take(m).enumerate() {
             let p = legendre_values(2.0 * xi - 1.0, m + 1);
@@ -299,24 +302,24 @@ fn legendre_values(xi: f64, n: usize) -> [f64; NODES_MAX + 2] {
 
 /// φ_0(z) … φ_m(z): for |z| ≤ 2 φ_m by its series and φ_(k) = z φ_(k+1) + 1/k! downwards (stable there);
 /// else φ_1 = (e^z − 1)/z and φ_(k+1) = (φ_k − 1/k!)/z upwards (each step divides the rounding by |z| > 2).
-fn phi_functions(z: f64, m: usize) -> [f64; NODES_MAX + 1] {
+fn phi_functions(z: f64, m: usize, inv_factorial: &[f64; NODES_MAX + 1]) -> [f64; NODES_MAX + 1] {
     let mut phi = [0.0; NODES_MAX + 1];
     phi[0] = z.exp();
     if z.abs() <= 2.0 {
         // Σ_(i≥0) z^i/(i + m)!: 2^i/(i + m)! < 10⁻¹⁸ by i = 25.
-        let (mut term, mut sum) = (1.0 / factorial(m), 0.0);
+        let (mut term, mut sum) = (inv_factorial[m], 0.0);
         for i in 0..26 {
             sum += term;
             term *= z / (i + m + 1) as f64;
         }
         phi[m] = sum;
         for k in (1..m).rev() {
-            phi[k] = z * phi[k + 1] + 1.0 / factorial(k);
+            phi[k] = z * phi[k + 1] + inv_factorial[k];
         }
     } else {
         phi[1] = z.exp_m1() / z;
         for k in 1..m {
-            phi[k + 1] = (phi[k] - 1.0 / factorial(k)) / z;
+            phi[k + 1] = (phi[k] - inv_factorial[k]) / z;
         }
     }
     phi
@@ -368,7 +371,7 @@ mod tests {
         for z in [
             -400.0, -60.0, -25.0, -3.0, -2.0, -1.0, -1e-3, 0.0, 0.5, 2.5, 8.0,
         ] {
-            let phi = phi_functions(z, NODES_MAX);
+            let phi = phi_functions(z, NODES_MAX, &s.inv_factorial);
             for k in 0..NODES_MAX {
                 let terms = (0..=k).map(|j| s.moments[k][j] * phi[j + 1]);
                 let (mu, size): (f64, f64) =
