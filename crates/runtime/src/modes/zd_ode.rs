@@ -14,20 +14,26 @@
 //! On UDDS with `si_engine_5speed` DOPRI5 takes about 5 steps per 0.1 s interval and one per 0.01 s interval.
 //!
 //! Dynamics affine in their one internal state (`ModelInfo::zero_dynamics_affine`: the manifold's filling in
-//! the brake, coast, overrun and idle modes of the shipped cars) on output steps of 0.5 s and more are
+//! the brake, coast, overrun and idle modes of the shipped cars) on output steps of 0.05 s and more are
 //! integrated by the variation of constants (`crate::ode::AffineScalar`, `ode/affine.rs`), whose error does
 //! not grow with the stiffness: a 1 s interval takes one sub-interval of 12 Gauss nodes, each node the
 //! reference read once and η' evaluated twice, against about six DOP853 steps of 12 stages (the 6-speed
 //! Fusion on the UDDS at dt = 1 s: 287 sub-intervals, none rejected, 3 444 nodes, for about 27 000 stages).
 //! Against DOP853 at rtol 1e-13 (the 6-speed Fusion and si_engine_5speed on the UDDS, NEDC and WLTC 3b at
 //! dt = 1 s) every column is within 3.5·10⁻¹³ of its largest value and the fuel within 10⁻¹⁵, where DOP853 at
-//! rtol 1e-8 is within 3.5·10⁻¹⁰ (and at dt = 0.5 s 4.4·10⁻⁸ of a sample's manifold pressure). Below 0.5 s
-//! one DOP853 step spans an interval already (measured at 0.1 s: the nodes' two evaluations each cost more).
+//! rtol 1e-8 is within 3.5·10⁻¹⁰ (and at dt = 0.5 s 4.4·10⁻⁸ of a sample's manifold pressure). Steps below
+//! 0.5 s take 5 nodes (one DOP853 step of 12 stages spans such an interval; the sums over 5 nodes unrolled):
+//! at dt = 0.1 s, against DOP853 at rtol 1e-13 on the UDDS and WLTC 3b, both cars' speed and manifold
+//! pressure are within 1.0·10⁻¹¹ at every sample (relative), the brake force 2.8·10⁻¹¹ and the fuel
+//! 3.2·10⁻¹², where DOP853 at rtol 1e-8 is 5.4·10⁻⁹, 8.3·10⁻⁸ and 2.7·10⁻⁹ off; si_engine_5speed's run
+//! (summary only) takes 0.89 of the time (4 nodes: 0.92; 6 nodes as 5; 3 nodes 2.9×, its estimate rejecting
+//! sub-intervals). Below 0.05 s DOPRI5 crosses an interval in one step of 6 evaluations.
 //!
 //! A differentiated run logs each accepted step with its continuous extension (`crate::ode::StepLog`; DOP853's
 //! costs three more evaluations a step, DOPRI5's none), and the gradient's sensitivities follow those steps
-//! (`gradient_zd.rs`): the plain run's steps and values are the same, and it keeps DOP853 where the plain run
-//! takes the variation of constants (the two agree within the figures above).
+//! (`gradient_zd.rs`): the plain run's steps and values are the same. Where the plain run takes the variation
+//! of constants, so does the differentiated one (the same η, bit for bit), with DOP853 beside it started from
+//! that η at every interval for the logged steps (within the figures above of it).
 
 use crate::ode::{AffineScalar, Dop853, Dopri5, StepFailure, StepLog};
 
@@ -41,6 +47,8 @@ pub(super) const ATOL: f64 = 1e-10;
 /// and 1.3 times as long a run).
 pub(super) const AFFINE_FROM_DT: f64 = 0.5;
 const AFFINE_NODES: usize = 12;
+pub(super) const AFFINE_SHORT_FROM_DT: f64 = 0.05;
+const AFFINE_SHORT_NODES: usize = 5;
 
 /// One mode's zero-dynamics integrator.
 pub(super) enum ZdOde {
@@ -49,6 +57,10 @@ pub(super) enum ZdOde {
     Dop853(Dop853),
     /// One internal state with dynamics affine in it (`ode/affine.rs`): a run that logs no steps.
     Affine(AffineScalar),
+    /// The same where the run logs its steps: the variation of constants gives the run's η, and DOP853,
+    /// started from it at every interval, the logged steps the gradient's sensitivities follow (boxed: the
+    /// two integrators).
+    AffineLogged(Box<(AffineScalar, Dop853)>),
 }
 
 impl ZdOde {
@@ -56,10 +68,21 @@ impl ZdOde {
     /// continuous extension where `dense` (a differentiated run logs its steps with it: the same steps); by
     /// the variation of constants where the dynamics are `affine` in one state and no step is logged.
     pub(super) fn new(n: usize, dt: f64, h0: f64, (dense, affine): (bool, bool)) -> ZdOde {
-        if affine && n == 1 && !dense && dt >= AFFINE_FROM_DT {
-            let mut o = AffineScalar::new(AFFINE_NODES);
+        if affine && n == 1 && dt >= AFFINE_SHORT_FROM_DT {
+            let nodes = if dt >= AFFINE_FROM_DT {
+                AFFINE_NODES
+            } else {
+                AFFINE_SHORT_NODES
+            };
+            let mut o = AffineScalar::new(nodes);
             o.reset(h0);
-            return ZdOde::Affine(o);
+            return match dense {
+                false => ZdOde::Affine(o),
+                true => ZdOde::AffineLogged(Box::new((
+                    o,
+                    Dop853::new(n, RTOL, ATOL, h0).with_dense_output(),
+                ))),
+            };
         }
         match (dt >= DOP853_FROM_DT, dense) {
             (true, false) => ZdOde::Dop853(Dop853::new(n, RTOL, ATOL, h0)),
@@ -77,6 +100,7 @@ impl ZdOde {
             ZdOde::Dopri5(o) => o.step_size(),
             ZdOde::Dop853(o) => o.step_size(),
             ZdOde::Affine(o) => o.step_size(),
+            ZdOde::AffineLogged(o) => o.0.step_size(),
         }
     }
 
@@ -86,6 +110,7 @@ impl ZdOde {
             ZdOde::Dopri5(o) => &o.stats,
             ZdOde::Dop853(o) => &o.stats,
             ZdOde::Affine(o) => &o.stats,
+            ZdOde::AffineLogged(o) => &o.0.stats,
         };
         (stats.accepted, stats.rejected)
     }
@@ -107,6 +132,7 @@ impl ZdOde {
             ZdOde::Dop853(o) => o.start(t, y, h_max, f),
             // Its first sub-interval is the whole interval, shortened where the estimate asks.
             ZdOde::Affine(_) => Ok(()),
+            ZdOde::AffineLogged(o) => o.1.start(t, y, h_max, f),
         }
     }
 
@@ -116,6 +142,16 @@ impl ZdOde {
             ZdOde::Dopri5(o) => o.reset(h0),
             ZdOde::Dop853(o) => o.reset(h0),
             ZdOde::Affine(o) => o.reset(h0),
+            // DOP853 beside it continues with its own step (h0 < 0: a start, [`ZdOde::start`]).
+            ZdOde::AffineLogged(o) => {
+                let h = if h0 < 0.0 {
+                    h0
+                } else {
+                    o.1.step_size().min(h0)
+                };
+                o.0.reset(h0);
+                o.1.reset(h);
+            }
         }
     }
 
@@ -137,6 +173,7 @@ impl ZdOde {
             (ZdOde::Dopri5(o), None) => o.advance(t0, t1, y, f),
             (ZdOde::Dop853(o), None) => o.advance(t0, t1, y, f),
             (ZdOde::Affine(o), None) => advance_affine(o, (t0, t1), y, f),
+            (ZdOde::AffineLogged(o), None) => advance_affine(&mut o.0, (t0, t1), y, f),
             (ode, Some(log)) => ode.advance_logged((t0, t1), y, f, log),
         }
     }
@@ -165,6 +202,15 @@ impl ZdOde {
                 let (t, h, r) = o.continuous_extension();
                 log.push((t, h), n, &[r])
             }),
+            ZdOde::AffineLogged(o) => {
+                let (affine, logged) = &mut **o;
+                let mut shadow = [y[0]];
+                logged.advance_each(t0, t1, &mut shadow, &mut g, &mut |o: &Dop853, _, _| {
+                    let (t, h, r) = o.continuous_extension();
+                    log.push((t, h), n, &[r])
+                })?;
+                advance_affine(affine, (t0, t1), y, &mut g)
+            }
             // Never built for a run that logs (`ZdOde::new`).
             ZdOde::Affine(_) => Err(StepFailure {
                 t: t0,
@@ -271,7 +317,7 @@ mod tests {
         }
         // A short interval, a state that is not alone or a logged run keep DOP853 and DOPRI5.
         assert!(!matches!(
-            ZdOde::new(1, 0.1, 0.1, (false, true)),
+            ZdOde::new(1, 0.01, 0.01, (false, true)),
             ZdOde::Affine(_)
         ));
         assert!(!matches!(

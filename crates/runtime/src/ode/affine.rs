@@ -140,53 +140,75 @@ impl AffineScalar {
         })
     }
 
-    /// η(τ + H) from η(τ) (module docs) and the ratio of the error estimate to the tolerance.
+    /// η(τ + H) from η(τ) (module docs) and the ratio of the error estimate to the tolerance: the sums
+    /// over M = m nodes where m is one of the sizes served (a loop the compiler unrolls), else over
+    /// [`NODES_MAX`] (the tables are zero beyond m, as are a and b: the same sums).
     fn sub_step<F>(
         &mut self,
-        (tau, h): (f64, f64),
+        span: (f64, f64),
         eta: f64,
         ab: &mut F,
     ) -> Result<(f64, f64), StepFailure>
     where
         F: FnMut(f64) -> Result<(f64, f64), StepFailure>,
     {
-        let n = self.nodes;
-        let m = n.m;
-        // Every loop runs over NODES_MAX: the tables of m < NODES_MAX nodes are zero beyond m, as are a and b,
-        // so the sums are the same and the loops have a length the compiler knows.
-        let (mut a, mut b) = ([0.0; NODES_MAX], [0.0; NODES_MAX]);
-        for i in 0..m {
-            (a[i], b[i]) = ab(tau + n.x[i] * h)?;
+        self.stats.evaluations += 2 * self.nodes.m;
+        match self.nodes.m {
+            5 => sub_step_of::<5, F>(self.nodes, span, eta, ab),
+            _ => sub_step_of::<NODES_MAX, F>(self.nodes, span, eta, ab),
         }
-        self.stats.evaluations += 2 * m;
-        let dot = |row: &[f64; NODES_MAX], v: &[f64; NODES_MAX]| -> f64 {
-            row.iter().zip(v).map(|(r, v)| r * v).sum()
-        };
-        let abar = dot(&n.w, &a);
-        let z = abar * h;
-        let deviation: [f64; NODES_MAX] = std::array::from_fn(|j| a[j] - abar);
-        let g: [f64; NODES_MAX] =
-            std::array::from_fn(|i| (h * dot(&n.tail[i], &deviation)).exp() * b[i]);
-        let phi = phi_functions(z, NODES_MAX, &n.inv_factorial);
-        let phi_next: [f64; NODES_MAX] = std::array::from_fn(|j| phi[j + 1]);
-        let terms: [f64; NODES_MAX] =
-            std::array::from_fn(|k| dot(&n.legendre[k], &g) * dot(&n.moments[k], &phi_next));
-        let integral = h * terms.iter().sum::<f64>();
-        let next = phi[0] * eta + integral;
-        if !next.is_finite() {
-            return Err(StepFailure {
-                t: tau,
-                reason: format!(
-                    "the affine zero dynamics are not finite (a = {abar:e} 1/s over {h:e} s)"
-                ),
-            });
-        }
-        let a_tail = dot(&n.legendre[m - 1], &a).abs();
-        let g_tail = dot(&n.legendre[m - 1], &g).abs();
-        let mu_bound = mu_bound(z, m - 1, (&n.moments[m - 1], &phi));
-        let estimate = h * g_tail * mu_bound + h * a_tail * integral.abs() / (2 * m + 1) as f64;
-        Ok((next, estimate / (ATOL + RTOL * eta.abs().max(next.abs()))))
     }
+}
+
+/// [`AffineScalar::sub_step`] with its sums over the first M nodes (M ≥ m).
+#[inline(always)]
+fn sub_step_of<const M: usize, F>(
+    n: &Nodes,
+    (tau, h): (f64, f64),
+    eta: f64,
+    ab: &mut F,
+) -> Result<(f64, f64), StepFailure>
+where
+    F: FnMut(f64) -> Result<(f64, f64), StepFailure>,
+{
+    let m = n.m;
+    let (mut a, mut b) = ([0.0; M], [0.0; M]);
+    for i in 0..m {
+        (a[i], b[i]) = ab(tau + n.x[i] * h)?;
+    }
+    let dot = |row: &[f64; NODES_MAX], v: &[f64; M]| -> f64 {
+        row[..M].iter().zip(v).map(|(r, v)| r * v).sum()
+    };
+    let abar = dot(&n.w, &a);
+    let z = abar * h;
+    let deviation: [f64; M] = std::array::from_fn(|j| a[j] - abar);
+    let g: [f64; M] = std::array::from_fn(|i| (h * dot(&n.tail[i], &deviation)).exp() * b[i]);
+    let phi = phi_functions(z, M, &n.inv_factorial);
+    let phi_next: [f64; M] = std::array::from_fn(|j| phi[j + 1]);
+    let terms: [f64; M] = std::array::from_fn(|k| {
+        let moments: &[f64; NODES_MAX] = &n.moments[k];
+        dot(&n.legendre[k], &g)
+            * moments[..M]
+                .iter()
+                .zip(&phi_next)
+                .map(|(r, v)| r * v)
+                .sum::<f64>()
+    });
+    let integral = h * terms.iter().sum::<f64>();
+    let next = phi[0] * eta + integral;
+    if !next.is_finite() {
+        return Err(StepFailure {
+            t: tau,
+            reason: format!(
+                "the affine zero dynamics are not finite (a = {abar:e} 1/s over {h:e} s)"
+            ),
+        });
+    }
+    let a_tail = dot(&n.legendre[m - 1], &a).abs();
+    let g_tail = dot(&n.legendre[m - 1], &g).abs();
+    let mu_bound = mu_bound(z, m - 1, (&n.moments[m - 1], &phi));
+    let estimate = h * g_tail * mu_bound + h * a_tail * integral.abs() / (2 * m + 1) as f64;
+    Ok((next, estimate / (ATOL + RTOL * eta.abs().max(next.abs()))))
 }
 
 impl Nodes {
