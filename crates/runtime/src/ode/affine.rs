@@ -67,6 +67,9 @@ struct Nodes {
     moments: [[f64; NODES_MAX]; NODES_MAX],
     /// 1/k! for k = 0 … NODES_MAX (the φ-functions' recurrences).
     inv_factorial: [f64; NODES_MAX + 1],
+    /// Half the largest ratio of estimate to tolerance at which a sub-interval grows by the most (×4:
+    /// 0.9·ratio^(−1/(m−1)) ≥ 4), the half a margin for powf's rounding.
+    grow_most_below: f64,
 }
 
 impl AffineScalar {
@@ -113,7 +116,11 @@ impl AffineScalar {
             let last = t + 1.01 * h >= t1;
             let hs = if last { t1 - t } else { h };
             let (next, ratio) = self.sub_step((t, hs), *eta, ab)?;
-            let factor = (0.9 * ratio.powf(-1.0 / (self.nodes.m - 1) as f64)).clamp(0.2, 4.0);
+            let factor = if ratio <= self.nodes.grow_most_below {
+                4.0
+            } else {
+                (0.9 * ratio.powf(-1.0 / (self.nodes.m - 1) as f64)).clamp(0.2, 4.0)
+            };
             if ratio <= 1.0 {
                 self.stats.accepted += 1;
                 *eta = next;
@@ -206,9 +213,18 @@ where
     }
     let a_tail = dot(&n.legendre[m - 1], &a).abs();
     let g_tail = dot(&n.legendre[m - 1], &g).abs();
-    let mu_bound = mu_bound(z, m - 1, (&n.moments[m - 1], &phi));
-    let estimate = h * g_tail * mu_bound + h * a_tail * integral.abs() / (2 * m + 1) as f64;
-    Ok((next, estimate / (ATOL + RTOL * eta.abs().max(next.abs()))))
+    let tolerance = ATOL + RTOL * eta.abs().max(next.abs());
+    let rest = h * a_tail * integral.abs() / (2 * m + 1) as f64;
+    // The bound of |μ_(m−1)| without its series first: where the estimate with it is so small that the next
+    // sub-interval grows by the most anyway, the series (which can only lower it) would change nothing.
+    let cheap = mu_bound_cheap(m - 1, (&n.moments[m - 1], &phi));
+    let ratio = (h * g_tail * cheap + rest) / tolerance;
+    if ratio <= n.grow_most_below {
+        return Ok((next, ratio));
+    }
+    let mu_bound = mu_series_bound(z, m - 1, cheap);
+    let estimate = h * g_tail * mu_bound + rest;
+    Ok((next, estimate / tolerance))
 }
 
 impl Nodes {
@@ -230,6 +246,7 @@ impl Nodes {
             tail: [[0.0; NODES_MAX]; NODES_MAX],
             moments: [[0.0; NODES_MAX]; NODES_MAX],
             inv_factorial: std::array::from_fn(|k| 1.0 / factorial(k)),
+            grow_most_below: 0.5 * (0.9f64 / 4.0).powi(m as i32 - 1),
         };
         for (i, (&xi, &wi)) in x.iter().zip(&w).take(m).enumerate() {
             let p = legendre_values(2.0 * xi - 1.0, m + 1);
@@ -262,11 +279,22 @@ impl Nodes {
 /// least of φ_1(z) (|P_k| ≤ 1), the computed sum plus 10⁻¹³ of its terms' size (rounding), and, where |z| < 12
 /// (the sum's terms there far above μ_k), Σ_(i≥k) |z|^i i!/((i−k)!(i+k+1)!), the absolute series of
 /// μ_k(z) = (−1)^k Σ_(i≥k) z^i i!/((i−k)!(i+k+1)!) (∫_0^1 y^i P_k(2y − 1) dy = i!²/((i−k)!(i+k+1)!)).
+#[cfg(test)]
 fn mu_bound(z: f64, k: usize, (row, phi): (&[f64; NODES_MAX], &[f64; NODES_MAX + 1])) -> f64 {
+    mu_series_bound(z, k, mu_bound_cheap(k, (row, phi)))
+}
+
+/// The first two of [`mu_bound`]'s bounds: the least of φ_1(z) and the computed sum plus 10⁻¹³ of its terms'
+/// size.
+fn mu_bound_cheap(k: usize, (row, phi): (&[f64; NODES_MAX], &[f64; NODES_MAX + 1])) -> f64 {
     let (sum, size) = (0..=k)
         .map(|j| row[j] * phi[j + 1])
         .fold((0.0, 0.0), |(s, a), t| (s + t, a + t.abs()));
-    let mut bound = phi[1].min(sum.abs() + 1e-13 * size);
+    phi[1].min(sum.abs() + 1e-13 * size)
+}
+
+/// `bound` lowered to [`mu_bound`]'s absolute series where that converges below it (|z| < 12).
+fn mu_series_bound(z: f64, k: usize, mut bound: f64) -> f64 {
     if z.abs() < 12.0 {
         let mut term = z.abs().powi(k as i32) * factorial(k) / factorial(2 * k + 1);
         let mut series = 0.0;
