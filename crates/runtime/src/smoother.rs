@@ -234,6 +234,12 @@ impl Smoother {
         (&self.corners, &self.jumps)
     }
 
+    /// Whether it is a constant (no corner: a signal left at its default), the same value and zero
+    /// derivatives at every time.
+    pub(crate) fn is_constant(&self) -> bool {
+        self.corners.is_empty()
+    }
+
     /// Whether `y_d` and every smoothed signal are constant on [t0, t1]: no corner within the kernel's reach
     /// (t0 − a, t1 + a) and a flat stretch there (`y_d = y_c` wherever the cycle is linear on [t − a, t + a];
     /// see the module docs), so every derivative is exactly 0 there.

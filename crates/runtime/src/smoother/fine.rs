@@ -90,14 +90,18 @@ pub(crate) struct FineTable {
     last: usize,
     /// The last cell a time reads, last − 1 (0 for a run of one point).
     last_cell: usize,
-    /// Values per cell, quantities·(q + 1)·6.
+    /// Values per cell, stored·(q + 1)·6.
     cell_len: usize,
     /// Orders held per smoothed quantity (q + 3), and the quantities (the cycle, then each signal).
     orders: usize,
     quantities: usize,
-    /// Per block, its cells' interpolants (module docs): `[p·cell + (c·(q + 1) + j)·6 + m]` = c_m of order j
-    /// of quantity c on the block's cell p, cell = quantities·(q + 1)·6 (an interpolation reads one short run
-    /// of memory). `None`: made for one reader, or over the budget: nothing kept.
+    /// The quantities the cells hold, in order: the cycle (0) and each signal c (c ≥ 1) that is not a
+    /// constant; a constant signal's values (c, [S, 0, …, 0] in the orders 0 … q) are written as they are.
+    stored: Vec<usize>,
+    constants: Vec<(usize, Vec<f64>)>,
+    /// Per block, its cells' interpolants (module docs): `[p·cell + (i·(q + 1) + j)·6 + m]` = c_m of order j
+    /// of the i-th quantity stored on the block's cell p, cell = stored·(q + 1)·6 (an interpolation reads one
+    /// short run of memory). `None`: made for one reader, or over the budget: nothing kept.
     kept: Option<Vec<OnceLock<Block>>>,
 }
 
@@ -114,10 +118,20 @@ impl FineTable {
         let sub = (dt / (h_max_per_lookahead(q) * lookahead)).ceil().max(1.0) as usize;
         let orders = q + 3;
         let quantities = 1 + smoother.signals().len();
+        let (mut stored, mut constants) = (vec![0], Vec::new());
+        for (i, signal) in smoother.signals().iter().enumerate() {
+            if signal.is_constant() {
+                let mut values = vec![0.0; q + 1];
+                signal.eval(t0, &mut values);
+                constants.push((i + 1, values));
+            } else {
+                stored.push(i + 1);
+            }
+        }
         let h = dt / sub as f64;
         let last = n.saturating_mul(sub);
         let blocks = last / BLOCK + 1;
-        let cell_len = quantities * (q + 1) * 6;
+        let cell_len = stored.len() * (q + 1) * 6;
         let values = blocks.saturating_mul(BLOCK).saturating_mul(cell_len);
         FineTable {
             t0,
@@ -128,6 +142,8 @@ impl FineTable {
             cell_len,
             orders,
             quantities,
+            stored,
+            constants,
             kept: (shared && values <= KEPT_MAX)
                 .then(|| (0..blocks).map(|_| OnceLock::new()).collect()),
         }
@@ -163,8 +179,13 @@ impl FineTable {
         let (reference, signals) = cols[..len * stride].split_at_mut(self.orders * len);
         let mut refs: Vec<&mut [f64]> = reference.chunks_exact_mut(len).collect();
         smoother.eval_grid(&times, Some(self.h), &mut refs);
-        let mut refs: Vec<&mut [f64]> = signals.chunks_exact_mut(len).collect();
-        smoother.eval_signals_grid(&times, Some(self.h), &mut refs);
+        // The signals the cells hold (a constant's columns are not read).
+        for (i, columns) in signals.chunks_exact_mut(self.orders * len).enumerate() {
+            if self.stored.contains(&(i + 1)) {
+                let mut refs: Vec<&mut [f64]> = columns.chunks_exact_mut(len).collect();
+                smoother.signals()[i].eval_grid(&times, Some(self.h), &mut refs);
+            }
+        }
         // Cell p (from point p to p + 1), group g = c·(q + 1) + j: order j of quantity c from its orders j,
         // j + 1, j + 2 at both points (columns c·orders + j + 0 … 2, entries p and p + 1).
         let (interpolated, cell) = (self.interpolated(), self.cell_len);
@@ -173,8 +194,9 @@ impl FineTable {
             return block;
         };
         let (h, h2) = (self.h, self.h * self.h);
-        for g in 0..self.quantities * interpolated {
-            let first = (g / interpolated * self.orders + g % interpolated) * len;
+        for g in 0..self.stored.len() * interpolated {
+            let c = self.stored[g / interpolated];
+            let first = (c * self.orders + g % interpolated) * len;
             let (f, rest) = cols[first..first + 3 * len].split_at(len);
             let (d1, d2) = rest.split_at(len);
             for (p, out) in coefficients.chunks_exact_mut(cell).enumerate() {
@@ -264,13 +286,16 @@ impl FineReference {
         let len = self.table.cell_len;
         let cell = &self.slots[0].1[k * len..][..len];
         quintic(x, cell, y);
-        // Order j of quantity c from its group of six (quantity c's groups start at c·(q + 1)); signal c's
-        // r + 1 values (r + 1 = y.len()) go to w[(c − 1)·(r + 1) …] (what follows the signals in w, a mode's
-        // decided inputs, is left as it is).
+        // Order j of the i-th quantity stored from its group of six (its groups start at i·(q + 1)); signal
+        // c's r + 1 values (r + 1 = y.len()) go to w[(c − 1)·(r + 1) …] (what follows the signals in w, a
+        // mode's decided inputs, is left as it is).
         let per = y.len();
         let groups = 6 * self.table.interpolated();
-        for c in 1..self.table.quantities {
-            quintic(x, &cell[c * groups..], &mut w[(c - 1) * per..c * per]);
+        for (i, &c) in self.table.stored.iter().enumerate().skip(1) {
+            quintic(x, &cell[i * groups..], &mut w[(c - 1) * per..c * per]);
+        }
+        for (c, values) in &self.table.constants {
+            w[(c - 1) * per..c * per].copy_from_slice(&values[..per]);
         }
     }
 
@@ -341,7 +366,8 @@ mod tests {
 
     /// The interpolant against the pointwise smoother (cycle and a grade signal, orders 0 … q) at 20 000
     /// times spread over the cycle, on the sub-grid of a run with step `dt` and look-ahead `a` for relative
-    /// degrees up to q (≤ 2): the largest deviation of each order relative to 1 + its largest magnitude.
+    /// degrees up to q (≤ 2): the largest deviation of each order relative to 1 + its largest magnitude; and a
+    /// constant signal before the grade (which the cells do not hold) equal to the pointwise one bit for bit.
     fn check(cycle: &Cycle, a: f64, dt: f64, q: usize) {
         let golden = 0.5 * (5f64.sqrt() - 1.0);
         let grade: Vec<f64> = cycle
@@ -350,9 +376,11 @@ mod tests {
             .map(|t| 0.02 * (std::f64::consts::TAU * t / 60.0).sin())
             .collect();
         let signal = Smoother::from_samples(&cycle.time, &grade, a);
+        let constant = Smoother::from_samples(&cycle.time, &vec![0.013; grade.len()], a);
         let smoother = Smoother::new(cycle, a)
             .expect("smoother")
-            .with_signals(vec![signal]);
+            .with_signals(vec![constant, signal]);
+        assert!(smoother.signals()[0].is_constant() && !smoother.signals()[1].is_constant());
         let (t0, span) = (cycle.time[0], cycle.duration());
         let n = (span / dt).floor() as usize;
         let mut fine = FineReference::new(&smoother, (t0, dt, n), (a, q), false);
@@ -360,16 +388,19 @@ mod tests {
         let (mut worst, mut scale) = ([0.0f64; 6], [0.0f64; 6]);
         for i in 0..points {
             let t = t0 + n as f64 * dt * (i as f64 + golden) / points as f64;
-            let (mut y, mut w) = ([0.0; 3], [0.0; 3]);
-            fine.eval(&smoother, t, &mut y[..=q], &mut w[..=q]);
-            let (mut ye, mut we) = ([0.0; 3], [0.0; 3]);
-            smoother.eval(t, &mut ye);
-            smoother.eval_signals(t, &mut we);
-            for k in 0..3 {
+            let (mut y, mut w) = ([0.0; 3], [0.0; 6]);
+            fine.eval(&smoother, t, &mut y[..=q], &mut w[..2 * (q + 1)]);
+            let (mut ye, mut we) = ([0.0; 3], [0.0; 6]);
+            smoother.eval(t, &mut ye[..=q]);
+            smoother.eval_signals(t, &mut we[..2 * (q + 1)]);
+            assert_eq!(w[..=q], we[..=q], "the constant signal at t = {t}");
+            assert_eq!((we[0], we[q]), (0.013, 0.0));
+            for k in 0..=q {
                 worst[k] = worst[k].max((y[k] - ye[k]).abs());
                 scale[k] = scale[k].max(ye[k].abs());
-                worst[3 + k] = worst[3 + k].max((w[k] - we[k]).abs());
-                scale[3 + k] = scale[3 + k].max(we[k].abs());
+                let (g, e) = (w[q + 1 + k], we[q + 1 + k]);
+                worst[3 + k] = worst[3 + k].max((g - e).abs());
+                scale[3 + k] = scale[3 + k].max(e.abs());
             }
         }
         for k in (0..6).filter(|k| k % 3 <= q) {
