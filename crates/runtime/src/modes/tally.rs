@@ -240,9 +240,12 @@ pub(super) fn walk(ctx: &Ctx<'_, '_>, cycle: &Cycle, opts: &ModalOptions, rec: &
             }
             tally.integrals[i] = total;
         }
+        // Summed in a local (the same additions in the same order), not through memory at every sample.
+        let mut time = tally.time[m];
         for j in 0..last {
-            tally.time[m] += rec.t[k0 + j + 1] - rec.t[k0 + j];
+            time += rec.t[k0 + j + 1] - rec.t[k0 + j];
         }
+        tally.time[m] = time;
         k0 = k1;
     }
     // The reference's deviation, the samples as a block (the same operations as sample by sample).
