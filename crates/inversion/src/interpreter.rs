@@ -69,7 +69,7 @@ pub fn model_info(d: &Derivation) -> ModelInfo {
         eta_states: d.eta_states.clone(),
         map_calls: d.map_calls.clone(),
         eta_free: d.eta_free(),
-        zero_dynamics_affine: d.zero_dynamics_affine,
+        zero_dynamics_affine: d.zero_dynamics_affine.is_some(),
         signals: m
             .signals
             .iter()
@@ -115,6 +115,9 @@ struct Tapes {
     /// (ξ, η, w, yr) → ∂(dη/dt)/∂(η, ξ, y^(r), p) (`Derivation::zero_dynamics_jacobian`); `None` where the
     /// derivation has none.
     zero_jacobian: Option<Tape>,
+    /// (ξ, η, w, yr) → [∂q/∂η row-major, q] of zero dynamics affine in η (`Derivation::zero_dynamics_affine`;
+    /// at η = 0, A and b of q = A η + b); `None` where they are not affine.
+    zero_affine: Option<Tape>,
     /// (x, w, u) → ∂o/∂(η, ξ, y^(r), p) (`Derivation::outputs_jacobian`); `None` where the derivation has
     /// none.
     outputs_jacobian: Option<Tape>,
@@ -136,6 +139,7 @@ impl Tapes {
         ]
         .into_iter()
         .chain(self.zero_jacobian.as_mut())
+        .chain(self.zero_affine.as_mut())
         .chain(self.outputs_jacobian.as_mut())
         {
             t.set_map(index, data.clone());
@@ -155,6 +159,7 @@ impl Tapes {
             phi: self.phi.specialize(p),
             solution: self.solution.specialize(p),
             zero_jacobian: self.zero_jacobian.as_ref().map(|t| t.specialize(p)),
+            zero_affine: self.zero_affine.as_ref().map(|t| t.specialize(p)),
             outputs_jacobian: self.outputs_jacobian.as_ref().map(|t| t.specialize(p)),
         }
     }
@@ -318,6 +323,11 @@ impl Interpreter {
             &d.zero_dynamics_jacobian,
             &cat(&[&d.xi, &d.eta, w, &[d.yr], &params]),
         )?;
+        let zero_affine = optional(
+            "the affine zero dynamics' coefficients",
+            &d.zero_dynamics_affine,
+            &cat(&[&d.xi, &d.eta, w, &[d.yr], &params]),
+        )?;
         let outputs_jacobian = optional(
             "the outputs' partial derivatives",
             &d.outputs_jacobian,
@@ -325,6 +335,7 @@ impl Interpreter {
         )?;
         let generic = Tapes {
             zero_jacobian,
+            zero_affine,
             outputs_jacobian,
             phi,
             solution,
@@ -640,6 +651,24 @@ impl InverseModel for Interpreter {
         evaluated(
             self.special.zero_jacobian.as_ref(),
             &[xi, eta, w, &[yr]],
+            out,
+        )
+    }
+    fn zero_dynamics_affine(&self, xi: &[f64], w: &[f64], yr: f64, out: &mut [f64]) -> bool {
+        // At η = 0 (the coefficients of η are free of it).
+        const ON_STACK: usize = 8;
+        let n_eta = self.info.n_eta;
+        let (near, far);
+        let zeros: &[f64] = if n_eta <= ON_STACK {
+            near = [0.0; ON_STACK];
+            &near[..n_eta]
+        } else {
+            far = vec![0.0; n_eta];
+            &far
+        };
+        evaluated(
+            self.special.zero_affine.as_ref(),
+            &[xi, zeros, w, &[yr]],
             out,
         )
     }

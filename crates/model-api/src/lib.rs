@@ -333,6 +333,15 @@ pub trait InverseModel: Send + Sync {
         false
     }
 
+    /// Zero dynamics affine in η ([`ModelInfo::zero_dynamics_affine`]), q(ξ, η, w, y^(r)) = A η + b: A
+    /// row-major (n_η × n_η) then b, written into `out` (n_η (n_η + 1) values) from one evaluation at
+    /// (ξ, w, y^(r)). `false`, with `out` untouched, where the model has none (the default; the runtime then
+    /// takes b and A from [`InverseModel::zero_dynamics`] at η = 0 and at a second η).
+    fn zero_dynamics_affine(&self, xi: &[f64], w: &[f64], yr: f64, out: &mut [f64]) -> bool {
+        let _ = (xi, w, yr, out);
+        false
+    }
+
     /// The extra outputs' partial derivatives ∂o/∂(η, ξ, y^(r), p) at the point (x, w, u), the outputs taken as
     /// functions o(ψ⁻¹(ξ, η), w, u) of the normal-form coordinates with u = (y^(r) − α)/β, at ξ = ψ_ξ(x),
     /// η = x_η, y^(r) = α + β·u: row-major, a row per output of n_η + r + 1 + P columns (as

@@ -170,9 +170,24 @@ fn closed(g: &Gen<'_>, lhs: &Lhs) -> Vec<Straight> {
             ];
             fs.push(Straight::new(
                 FnKind::ZeroDynamicsJacobian,
-                args,
+                args.clone(),
                 jacobian.clone(),
                 Shape::array("N_ZDJ", jacobian.len()),
+                doc,
+            ));
+        }
+        if let Some(coefficients) = &d.zero_dynamics_affine {
+            let doc = vec![
+                "The zero dynamics dη/dt = q(ξ, η, y^(r)) are affine in η, q = A η + b: ∂q/∂η row-major (A, free \
+                 of η) then q, which at η = 0 are A and b (the runtime's variation of constants reads both from \
+                 one evaluation). The equations are the derivatives of those `zero_dynamics` documents."
+                    .to_string(),
+            ];
+            fs.push(Straight::new(
+                FnKind::ZeroDynamicsAffine,
+                args,
+                coefficients.clone(),
+                Shape::array("N_ZDA", coefficients.len()),
                 doc,
             ));
         }

@@ -34,6 +34,7 @@ pub(super) enum FnKind {
     Outputs,
     Sensitivity,
     ZeroDynamicsJacobian,
+    ZeroDynamicsAffine,
     OutputsJacobian,
 }
 
@@ -61,6 +62,7 @@ impl FnKind {
             FnKind::Outputs => "outputs",
             FnKind::Sensitivity => "sensitivity",
             FnKind::ZeroDynamicsJacobian => "zero_dynamics_jacobian",
+            FnKind::ZeroDynamicsAffine => "zero_dynamics_affine",
             FnKind::OutputsJacobian => "outputs_jacobian",
         }
     }
@@ -93,6 +95,9 @@ impl FnKind {
             }
             FnKind::ZeroDynamicsJacobian => {
                 "The zero dynamics' partial derivatives by η, ξ, y^(r) and the parameters"
+            }
+            FnKind::ZeroDynamicsAffine => {
+                "The coefficients A, b of affine zero dynamics dη/dt = A η + b"
             }
             FnKind::OutputsJacobian => {
                 "The extra outputs' partial derivatives by η, ξ, y^(r) and the parameters"

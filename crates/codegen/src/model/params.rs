@@ -43,6 +43,13 @@ pub(super) fn constants(g: &Gen<'_>, source_name: &str, batch: bool) -> TokenStr
         },
         None => quote!(),
     };
+    let zda_const = match count(&d.zero_dynamics_affine) {
+        Some(n) => quote! {
+            /// Number of values `zero_dynamics_affine` returns: N_ETA·(N_ETA + 1), A row-major then b.
+            pub const N_ZDA: usize = #n;
+        },
+        None => quote!(),
+    };
     let oj_const = match count(&d.outputs_jacobian) {
         Some(n) => quote! {
             /// Number of partial derivatives `outputs_jacobian` returns: N_OUTPUTS·(N_ETA + R + 1 + N_PARAMS).
@@ -100,6 +107,7 @@ pub(super) fn constants(g: &Gen<'_>, source_name: &str, batch: bool) -> TokenStr
         pub const REFERENCE: ReferenceMap = ReferenceMap { offset: #ref_offset, scale: #ref_scale };
         #block_const
         #zdj_const
+        #zda_const
         #oj_const
         #signal_consts
     }

@@ -36,7 +36,11 @@ pub(super) fn model(
     let (psi_inv_impl, alpha_impl, beta_impl, zero_impl, invert_impl) = if g.closed && !g.affine {
         non_affine(ne, g.d.input_solution.is_some(), &w)
     } else if g.closed {
-        closed(ne, g.d.zero_dynamics_jacobian.is_some(), &w)
+        let optional = (
+            g.d.zero_dynamics_jacobian.is_some(),
+            g.d.zero_dynamics_affine.is_some(),
+        );
+        closed(ne, optional, &w)
     } else if g.affine {
         numeric(ne, &w)
     } else {
@@ -199,8 +203,8 @@ type Impls = (
 );
 
 /// The trait's functions for a closed-form ψ⁻¹ (`zero_jacobian`: the zero dynamics' partial derivatives in the
-/// normal-form coordinates too).
-fn closed(ne: usize, zero_jacobian: bool, w: &WTokens) -> Impls {
+/// normal-form coordinates too; `zero_affine`: their coefficients A, b where they are affine in η).
+fn closed(ne: usize, (zero_jacobian, zero_affine): (bool, bool), w: &WTokens) -> Impls {
     let WTokens {
         name: wn, arg: wa, ..
     } = w;
@@ -232,11 +236,22 @@ fn closed(ne: usize, zero_jacobian: bool, w: &WTokens) -> Impls {
             } else {
                 quote!()
             };
+            let affine = if zero_affine {
+                quote! {
+                    fn zero_dynamics_affine(&self, xi: &[f64], #wn: &[f64], yr: f64, out: &mut [f64]) -> bool {
+                        out.copy_from_slice(&self.pre.zero_dynamics_affine(arr(xi), &[0.0; N_ETA] #wa, yr));
+                        true
+                    }
+                }
+            } else {
+                quote!()
+            };
             quote! {
                 fn zero_dynamics(&self, xi: &[f64], eta: &[f64], #wn: &[f64], yr: f64, deta: &mut [f64]) {
                     deta.copy_from_slice(&self.pre.zero_dynamics(arr(xi), arr(eta) #wa, yr));
                 }
                 #jacobian
+                #affine
             }
         } else {
             quote! {
@@ -261,7 +276,7 @@ fn non_affine(ne: usize, isolated: bool, w: &WTokens) -> Impls {
     let WTokens {
         name: wn, arg: wa, ..
     } = w;
-    let psi_inv = closed(ne, false, w).0;
+    let psi_inv = closed(ne, (false, false), w).0;
     // The zero dynamics take u: none where it is substituted by the input solution, else Newton's.
     let u = if isolated {
         quote!({
@@ -598,7 +613,7 @@ fn model_info(g: &Gen<'_>) -> TokenStream {
         quote!(Vec::from([#(#calls),*]))
     };
     let eta_free = eta_free_info(&g.d.eta_free());
-    let zero_dynamics_affine = g.d.zero_dynamics_affine;
+    let zero_dynamics_affine = g.d.zero_dynamics_affine.is_some();
     quote! {
         /// The model's static description (names, sizes, bounds), as the interpreter reports it.
         pub fn model_info() -> ModelInfo {

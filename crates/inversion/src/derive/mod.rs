@@ -142,8 +142,9 @@ pub struct Derivation {
     pub zero_dynamics: Vec<Id>,
     /// dη_j/dt in (x, yr).
     pub zero_dynamics_x: Vec<Id>,
-    /// The zero dynamics are affine in η, written in (ξ, η, w, yr) and the parameters alone (`zd_affine.rs`).
-    pub zero_dynamics_affine: bool,
+    /// Where the zero dynamics are affine in η, written in (ξ, η, w, yr) and the parameters alone
+    /// (`zd_affine.rs`): [∂q_i/∂η_j row-major, then q_i], at η = 0 the A and b of q = A η + b.
+    pub zero_dynamics_affine: Option<Vec<Id>>,
     /// The symbol `yr` (= y^(r)).
     pub yr: Symbol,
     /// Every right-hand side is affine in the input (contract §5). Otherwise `lie[r]` = y^(r) = φ(x, w, u),

@@ -14,9 +14,15 @@ use invsim_expr::{Id, Symbol};
 
 use crate::model::Model;
 
-/// True where every q in `zero_dynamics` reads no state and not the input of `model` (which ψ⁻¹ left to
-/// Newton's method, or a non-affine model's u) and is affine in `eta` (at least one η).
-pub(super) fn affine_in_eta(model: &mut Model, zero_dynamics: &[Id], eta: &[Symbol]) -> bool {
+/// Where every q in `zero_dynamics` reads no state and not the input of `model` (which ψ⁻¹ left to Newton's
+/// method, or a non-affine model's u) and is affine in `eta` (at least one η): the coefficients
+/// [∂q_i/∂η_j row-major, then q_i], which at η = 0 are A and b of q = A η + b (the runtime's variation of
+/// constants takes them from one evaluation); `None` otherwise.
+pub(super) fn affine_in_eta(
+    model: &mut Model,
+    zero_dynamics: &[Id],
+    eta: &[Symbol],
+) -> Option<Vec<Id>> {
     let mut excluded: Vec<Symbol> = model.states.iter().map(|s| s.symbol).collect();
     excluded.push(model.input.symbol);
     let pool = &mut model.pool;
@@ -25,12 +31,18 @@ pub(super) fn affine_in_eta(model: &mut Model, zero_dynamics: &[Id], eta: &[Symb
             .iter()
             .any(|&q| pool.depends_on_any(q, &excluded))
     {
-        return false;
+        return None;
     }
-    zero_dynamics.iter().all(|&q| {
-        eta.iter().all(|&e| {
+    let mut coefficients = Vec::with_capacity(zero_dynamics.len() * (eta.len() + 1));
+    for &q in zero_dynamics {
+        for &e in eta {
             let d = pool.diff(q, e);
-            !pool.depends_on_any(d, eta)
-        })
-    })
+            if pool.depends_on_any(d, eta) {
+                return None;
+            }
+            coefficients.push(d);
+        }
+    }
+    coefficients.extend_from_slice(zero_dynamics);
+    Some(coefficients)
 }

@@ -288,22 +288,39 @@ impl Ctx<'_, '_> {
         }
         let taken = ode.steps_taken();
         let mut at = t0;
-        let mut f = |t: f64, e: &[f64], de: &mut [f64]| -> Result<(), StepFailure> {
-            if !still && t.to_bits() != at.to_bits() {
-                self.stage_reference_into((m, t, blend), fine.as_mut(), &mut y[..=r], (w, n_w));
-                at = t;
-            }
-            model.zero_dynamics(&y[..r], e, w, y[r], de);
-            Ok(())
-        };
         let failed = |t: f64| {
             move |e: StepFailure| self.err(m, t, format!("the zero dynamics failed: {}", e.reason))
         };
-        if fresh {
-            ode.start(t0, eta, t1 - t0, &mut f).map_err(failed(t0))?;
+        // The variation of constants reads A and b of η' = A η + b (`zd_ode.rs`); every other integrator, and
+        // the DOP853 beside it in a logged run, η' itself.
+        let affine = ode.is_affine();
+        if !affine || logged {
+            let mut f = |t: f64, e: &[f64], de: &mut [f64]| -> Result<(), StepFailure> {
+                if !still && t.to_bits() != at.to_bits() {
+                    self.stage_reference_into((m, t, blend), fine.as_mut(), &mut y[..=r], (w, n_w));
+                    at = t;
+                }
+                model.zero_dynamics(&y[..r], e, w, y[r], de);
+                Ok(())
+            };
+            if fresh {
+                ode.start(t0, eta, t1 - t0, &mut f).map_err(failed(t0))?;
+            }
+            let log = steps.as_mut().map(|s| &mut s.log);
+            ode.advance(t0, t1, eta, &mut f, log).map_err(failed(t1))?;
         }
-        let log = steps.as_mut().map(|s| &mut s.log);
-        ode.advance(t0, t1, eta, &mut f, log).map_err(failed(t1))?;
+        if affine {
+            let mut coefficients = |t: f64, s: f64, ab: &mut [f64; 2]| -> Result<(), StepFailure> {
+                if !still && t.to_bits() != at.to_bits() {
+                    self.stage_reference_into((m, t, blend), fine.as_mut(), &mut y[..=r], (w, n_w));
+                    at = t;
+                }
+                zero_dynamics_coefficients(model, (&y[..r], &w[..n_w], y[r]), s, ab);
+                Ok(())
+            };
+            ode.advance_affine(t0, t1, eta, &mut coefficients)
+                .map_err(failed(t1))?;
+        }
         let (accepted, rejected) = ode.steps_taken();
         match remembered && (accepted, rejected) == (taken.0 + 1, taken.1) {
             true => memo.remember(eta, ode.step_size()),
@@ -618,6 +635,27 @@ fn run_sequence(
     }
     rec.zd_steps = zd.steps.take();
     Ok(rec)
+}
+
+/// (A, b) of one internal state's affine zero dynamics η' = A η + b at (ξ, w, y^(r)): from the model's one
+/// evaluation of them where it has it, else from η' at η = 0 (b) and at η = s (A = (η'(s) − b)/s; s = |η(t0)|,
+/// 1 where it is 0, so that near the balance A η ≈ −b the difference keeps b's relative precision).
+#[inline(always)]
+fn zero_dynamics_coefficients(
+    model: &dyn invsim_model_api::InverseModel,
+    (xi, w, yr): (&[f64], &[f64], f64),
+    s: f64,
+    ab: &mut [f64; 2],
+) {
+    let mut fused = [0.0; 2];
+    if model.zero_dynamics_affine(xi, w, yr, &mut fused) {
+        *ab = fused;
+        return;
+    }
+    let (mut q0, mut q1) = ([0.0], [0.0]);
+    model.zero_dynamics(xi, &[0.0], w, yr, &mut q0);
+    model.zero_dynamics(xi, &[s], w, yr, &mut q1);
+    *ab = [(q1[0] - q0[0]) / s, q0[0]];
 }
 
 /// The largest deviation of the transition in progress (`base`: the sample's smoothed cycle).

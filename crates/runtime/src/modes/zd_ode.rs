@@ -17,8 +17,10 @@
 //! the brake, coast, overrun and idle modes of the shipped cars) on output steps of 0.05 s and more are
 //! integrated by the variation of constants (`crate::ode::AffineScalar`, `ode/affine.rs`), whose error does
 //! not grow with the stiffness: a 1 s interval takes one sub-interval of 12 Gauss nodes, each node the
-//! reference read once and η' evaluated twice, against about six DOP853 steps of 12 stages (the 6-speed
-//! Fusion on the UDDS at dt = 1 s: 287 sub-intervals, none rejected, 3 444 nodes, for about 27 000 stages).
+//! reference read once and A, b of η' = A η + b evaluated once (`InverseModel::zero_dynamics_affine`: ∂q/∂η
+//! and q at η = 0, from codegen and the interpreter; a model without them gives b = η'(0) and A from η' at a
+//! second η), against about six DOP853 steps of 12 stages (the 6-speed Fusion on the UDDS at dt = 1 s: 287
+//! sub-intervals, none rejected, 3 444 nodes, for about 27 000 stages).
 //! Against DOP853 at rtol 1e-13 (the 6-speed Fusion and si_engine_5speed on the UDDS, NEDC and WLTC 3b at
 //! dt = 1 s) every column is within 3.5·10⁻¹³ of its largest value and the fuel within 10⁻¹⁵, where DOP853 at
 //! rtol 1e-8 is within 3.5·10⁻¹⁰ (and at dt = 0.5 s 4.4·10⁻⁸ of a sample's manifold pressure). Steps below
@@ -155,8 +157,48 @@ impl ZdOde {
         }
     }
 
+    /// Whether it is the variation of constants (which [`ZdOde::advance_affine`] advances; in a logged run
+    /// [`ZdOde::advance`] advances the DOP853 beside it and logs its steps, η left as it is).
+    pub(super) fn is_affine(&self) -> bool {
+        matches!(self, ZdOde::Affine(_) | ZdOde::AffineLogged(_))
+    }
+
+    /// The variation of constants' η from t0 to t1 in place, `ab(t, s, out)` writing [A, b] of η' = A η + b
+    /// at t (s = |η(t0)|, 1 where it is 0: the second η where A is taken from two evaluations of η').
+    #[inline(never)]
+    pub(super) fn advance_affine<A>(
+        &mut self,
+        t0: f64,
+        t1: f64,
+        y: &mut [f64],
+        ab: &mut A,
+    ) -> Result<(), StepFailure>
+    where
+        A: FnMut(f64, f64, &mut [f64; 2]) -> Result<(), StepFailure>,
+    {
+        let o = match self {
+            ZdOde::Affine(o) => o,
+            ZdOde::AffineLogged(o) => &mut o.0,
+            ZdOde::Dopri5(_) | ZdOde::Dop853(_) => {
+                return Err(StepFailure {
+                    t: t0,
+                    reason: "not the variation of constants".into(),
+                })
+            }
+        };
+        let s = if y[0] != 0.0 { y[0].abs() } else { 1.0 };
+        let mut coefficients = |t: f64| -> Result<(f64, f64), StepFailure> {
+            let mut c = [0.0; 2];
+            ab(t, s, &mut c)?;
+            Ok((c[0], c[1]))
+        };
+        o.advance((t0, t1), &mut y[0], &mut coefficients)
+    }
+
     /// Integrate y from `t0` to `t1` in place, each accepted step with its continuous extension into `log`
-    /// where there is one (the integrator built with it, [`ZdOde::new`]).
+    /// where there is one (the integrator built with it, [`ZdOde::new`]). The variation of constants takes A
+    /// and b from two evaluations of `f` here ([`ZdOde::advance_affine`] from the model's one); with a log it
+    /// advances only the DOP853 beside it.
     #[inline(always)]
     pub(super) fn advance<F>(
         &mut self,
@@ -202,14 +244,14 @@ impl ZdOde {
                 let (t, h, r) = o.continuous_extension();
                 log.push((t, h), n, &[r])
             }),
+            // The DOP853 beside the variation of constants, from the same η: its steps logged, η left as it
+            // is (the run's η comes from `advance_affine`).
             ZdOde::AffineLogged(o) => {
-                let (affine, logged) = &mut **o;
                 let mut shadow = [y[0]];
-                logged.advance_each(t0, t1, &mut shadow, &mut g, &mut |o: &Dop853, _, _| {
+                o.1.advance_each(t0, t1, &mut shadow, &mut g, &mut |o: &Dop853, _, _| {
                     let (t, h, r) = o.continuous_extension();
                     log.push((t, h), n, &[r])
-                })?;
-                advance_affine(affine, (t0, t1), y, &mut g)
+                })
             }
             // Never built for a run that logs (`ZdOde::new`).
             ZdOde::Affine(_) => Err(StepFailure {

@@ -31,7 +31,7 @@
 //! H^(m−1); at most [`MAX_SUB_STEPS`] a call). The bound is pessimistic: the results lie within 10⁻¹² of a
 //! DOP853 run at rtol 10⁻¹³ (`modes/zd_ode.rs`). e^z is exact however stiff a is: an interval of DOP853 steps
 //! bounded by e^(hλ) (about six 12-stage steps a second at λ = −25) becomes a sub-interval of m = 12 nodes,
-//! each node two evaluations of η' (at η = 0 and η = s: b and a) at one time.
+//! each node one evaluation of a and b (or two of η', at η = 0 and η = s: b and a) at one time.
 
 use std::sync::OnceLock;
 
