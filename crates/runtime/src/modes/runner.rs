@@ -638,11 +638,10 @@ fn run_sequence(
 }
 
 /// (A, b) of one internal state's affine zero dynamics η' = A η + b at (ξ, w, y^(r)): from the model's one
-/// evaluation of them where it has it, else from η' at η = 0 (b) and at η = s (A = (η'(s) − b)/s; s = |η(t0)|,
-/// 1 where it is 0, so that near the balance A η ≈ −b the difference keeps b's relative precision).
+/// evaluation of them where it has it, else from η' at η = 0 and at η = s (`zd_ode.rs`).
 #[inline(always)]
 fn zero_dynamics_coefficients(
-    model: &dyn invsim_model_api::InverseModel,
+    model: &dyn InverseModel,
     (xi, w, yr): (&[f64], &[f64], f64),
     s: f64,
     ab: &mut [f64; 2],
@@ -652,10 +651,11 @@ fn zero_dynamics_coefficients(
         *ab = fused;
         return;
     }
-    let (mut q0, mut q1) = ([0.0], [0.0]);
-    model.zero_dynamics(xi, &[0.0], w, yr, &mut q0);
-    model.zero_dynamics(xi, &[s], w, yr, &mut q1);
-    *ab = [(q1[0] - q0[0]) / s, q0[0]];
+    *ab = super::zd_ode::coefficients_from_two_states(s, |eta| {
+        let mut q = [0.0];
+        model.zero_dynamics(xi, &[eta], w, yr, &mut q);
+        q[0]
+    });
 }
 
 /// The largest deviation of the transition in progress (`base`: the sample's smoothed cycle).

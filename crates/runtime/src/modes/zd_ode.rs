@@ -68,7 +68,8 @@ pub(super) enum ZdOde {
 impl ZdOde {
     /// The integrator for `n` internal states on intervals of `dt`, starting with step `h0`; with its
     /// continuous extension where `dense` (a differentiated run logs its steps with it: the same steps); by
-    /// the variation of constants where the dynamics are `affine` in one state and no step is logged.
+    /// the variation of constants where the dynamics are `affine` in one state and dt ≥ 0.05 s (with DOP853
+    /// beside it for the logged steps where `dense`).
     pub(super) fn new(n: usize, dt: f64, h0: f64, (dense, affine): (bool, bool)) -> ZdOde {
         if affine && n == 1 && dt >= AFFINE_SHORT_FROM_DT {
             let nodes = if dt >= AFFINE_FROM_DT {
@@ -196,9 +197,8 @@ impl ZdOde {
     }
 
     /// Integrate y from `t0` to `t1` in place, each accepted step with its continuous extension into `log`
-    /// where there is one (the integrator built with it, [`ZdOde::new`]). The variation of constants takes A
-    /// and b from two evaluations of `f` here ([`ZdOde::advance_affine`] from the model's one); with a log it
-    /// advances only the DOP853 beside it.
+    /// where there is one (the integrator built with it, [`ZdOde::new`]). The variation of constants reads A
+    /// and b, not η' ([`ZdOde::advance_affine`]): with a log this advances only the DOP853 beside it.
     #[inline(always)]
     pub(super) fn advance<F>(
         &mut self,
@@ -214,8 +214,10 @@ impl ZdOde {
         match (self, log) {
             (ZdOde::Dopri5(o), None) => o.advance(t0, t1, y, f),
             (ZdOde::Dop853(o), None) => o.advance(t0, t1, y, f),
-            (ZdOde::Affine(o), None) => advance_affine(o, (t0, t1), y, f),
-            (ZdOde::AffineLogged(o), None) => advance_affine(&mut o.0, (t0, t1), y, f),
+            (ZdOde::Affine(_) | ZdOde::AffineLogged(_), None) => Err(StepFailure {
+                t: t0,
+                reason: "the variation of constants reads A and b (`advance_affine`)".into(),
+            }),
             (ode, Some(log)) => ode.advance_logged((t0, t1), y, f, log),
         }
     }
@@ -262,26 +264,12 @@ impl ZdOde {
     }
 }
 
-/// η from t0 to t1 by `o`, a(t) and b(t) from two evaluations of η' = f(t, η) at one time (the reference
-/// read once): b = f(t, 0), a = (f(t, s) − b)/s with s = |η(t0)| (1 where it is 0), so that near the
-/// balance a·η ≈ −b the difference keeps b's relative precision.
-fn advance_affine<F>(
-    o: &mut AffineScalar,
-    span: (f64, f64),
-    y: &mut [f64],
-    f: &mut F,
-) -> Result<(), StepFailure>
-where
-    F: FnMut(f64, &[f64], &mut [f64]) -> Result<(), StepFailure>,
-{
-    let s = if y[0] != 0.0 { y[0].abs() } else { 1.0 };
-    let (mut q0, mut q1) = ([0.0], [0.0]);
-    let mut ab = |t: f64| -> Result<(f64, f64), StepFailure> {
-        f(t, &[0.0], &mut q0)?;
-        f(t, &[s], &mut q1)?;
-        Ok(((q1[0] - q0[0]) / s, q0[0]))
-    };
-    o.advance(span, &mut y[0], &mut ab)
+/// A and b of η' = q(η) = A η + b from q at η = 0 (b) and at η = s (A = (q(s) − b)/s; s = |η(t0)|, 1 where it
+/// is 0, so that near the balance A η ≈ −b the difference keeps b's relative precision): for a model that
+/// does not give them from one evaluation (`InverseModel::zero_dynamics_affine`).
+pub(super) fn coefficients_from_two_states(s: f64, mut q: impl FnMut(f64) -> f64) -> [f64; 2] {
+    let b = q(0.0);
+    [(q(s) - b) / s, b]
 }
 
 #[cfg(test)]
@@ -339,8 +327,15 @@ mod tests {
         let big_a = |t: f64| -25.0 * t + 3.0 / 0.7 * ((0.7 * t).cos() - 1.0);
         let eta0 = g(0.0) + 5e3;
         let exact = |t: f64| g(t) + (eta0 - g(0.0)) * big_a(t).exp();
-        let mut f = |t: f64, e: &[f64], de: &mut [f64]| -> Result<(), StepFailure> {
+        let f = |t: f64, e: &[f64], de: &mut [f64]| -> Result<(), StepFailure> {
             de[0] = a(t) * (e[0] - g(t)) + dg(t);
+            Ok(())
+        };
+        let mut ab = |t: f64, s: f64, out: &mut [f64; 2]| -> Result<(), StepFailure> {
+            *out = coefficients_from_two_states(s, |e| {
+                let mut d = [0.0];
+                f(t, &[e], &mut d).map_or(f64::NAN, |()| d[0])
+            });
             Ok(())
         };
         for dt in [1.0, 0.5] {
@@ -350,7 +345,7 @@ mod tests {
             let mut worst = 0.0f64;
             for k in 0..(20.0 / dt) as usize {
                 let (t0, t1) = (k as f64 * dt, (k + 1) as f64 * dt);
-                ode.advance(t0, t1, &mut eta, &mut f, None)
+                ode.advance_affine(t0, t1, &mut eta, &mut ab)
                     .expect("integrates");
                 worst = worst.max((eta[0] - exact(t1)).abs());
             }
