@@ -11,6 +11,7 @@
 //! inverse simulation, using `stable`) and [`forward`](mod@forward) (the forward simulation); [`output`] and [`plot`]
 //! (writing results); [`sweep`] (parameter sweeps over many variants, on `inverse`).
 
+mod binomial;
 pub mod cycle;
 pub mod elevation;
 mod error;

@@ -181,8 +181,3 @@ impl<M: InverseModel + ?Sized> Loop<'_, M> {
         Ok(())
     }
 }
-
-/// The binomial coefficient C(n, k) as a float.
-pub(super) fn binomial(n: usize, k: usize) -> f64 {
-    (0..k).fold(1.0, |c, i| c * (n - i) as f64 / (i + 1) as f64)
-}

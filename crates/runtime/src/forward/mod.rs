@@ -57,6 +57,7 @@ mod trace;
 use invsim_model_api::map::take_violation;
 use invsim_model_api::{InverseModel, ModelInfo};
 
+use crate::binomial::binomial;
 use crate::cycle::Cycle;
 use crate::error::RunError;
 use crate::grid::Grid;
@@ -64,7 +65,7 @@ use crate::headline::Headline;
 use crate::ode::{Dopri5, OdeStats, Rosenbrock23};
 use crate::report::{columns_with_units, describe_intervals, CycleInfo, Totals};
 use budget::Budget;
-use driver::{binomial, Loop, RawCycle};
+use driver::{Loop, RawCycle};
 use integrator::Integrator;
 use invsim_model_api::zero_dynamics::{newton, EquilibriumFailure, EQUILIBRIUM_MAX_ITER};
 use record::{ForwardTally, Layout, Recorder};

@@ -10,10 +10,7 @@
 
 use std::sync::Arc;
 
-/// Binomial coefficient as a float (small arguments).
-fn binomial(n: usize, k: usize) -> f64 {
-    (0..k).fold(1.0, |acc, i| acc * (n - i) as f64 / (i + 1) as f64)
-}
+use crate::binomial::binomial;
 
 /// Coefficients (in ascending powers of s) of the smoothstep polynomial of order m.
 pub fn smoothstep(m: usize) -> Vec<f64> {

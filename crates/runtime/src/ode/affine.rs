@@ -36,6 +36,7 @@
 use std::sync::OnceLock;
 
 use super::{OdeStats, StepFailure};
+use crate::binomial::binomial;
 
 /// The most nodes a sub-interval has.
 pub(crate) const NODES_MAX: usize = 12;
@@ -159,7 +160,8 @@ impl AffineScalar {
     where
         F: FnMut(f64) -> Result<(f64, f64), StepFailure>,
     {
-        self.stats.evaluations += 2 * self.nodes.m;
+        // One evaluation of a and b a node (two of η' for a model without them: `modes/zd_ode.rs`).
+        self.stats.evaluations += self.nodes.m;
         match self.nodes.m {
             5 => sub_step_of::<5, F>(self.nodes, span, eta, ab),
             _ => sub_step_of::<NODES_MAX, F>(self.nodes, span, eta, ab),
@@ -377,10 +379,6 @@ fn phi_functions(z: f64, m: usize, inv_factorial: &[f64; NODES_MAX + 1]) -> [f64
 
 fn factorial(k: usize) -> f64 {
     (1..=k).map(|i| i as f64).product()
-}
-
-fn binomial(n: usize, k: usize) -> f64 {
-    (0..k).map(|i| (n - i) as f64 / (i + 1) as f64).product()
 }
 
 #[cfg(test)]

@@ -180,11 +180,11 @@ impl FineTable {
         let mut refs: Vec<&mut [f64]> = reference.chunks_exact_mut(len).collect();
         smoother.eval_grid(&times, Some(self.h), &mut refs);
         // The signals the cells hold (a constant's columns are not read).
-        for (i, columns) in signals.chunks_exact_mut(self.orders * len).enumerate() {
-            if self.stored.contains(&(i + 1)) {
-                let mut refs: Vec<&mut [f64]> = columns.chunks_exact_mut(len).collect();
-                smoother.signals()[i].eval_grid(&times, Some(self.h), &mut refs);
-            }
+        let per_signal = self.orders * len;
+        for &c in &self.stored[1..] {
+            let columns = &mut signals[(c - 1) * per_signal..c * per_signal];
+            let mut refs: Vec<&mut [f64]> = columns.chunks_exact_mut(len).collect();
+            smoother.signals()[c - 1].eval_grid(&times, Some(self.h), &mut refs);
         }
         // Cell p (from point p to p + 1), group g = c·(q + 1) + j: order j of quantity c from its orders j,
         // j + 1, j + 2 at both points (columns c·orders + j + 0 … 2, entries p and p + 1).
